@@ -1,0 +1,64 @@
+// armsig calibrate --model MODEL.yaml --poses POSES.csv [--params …] [--select N]
+//                  [--validate HOLDOUT.csv] [--json OUT.json]
+#include <iostream>
+
+#include "app/calibration_report.h"
+#include "app/command.h"
+#include "io/atomic_file.h"
+#include "io/model_yaml.h"
+#include "io/poses_csv.h"
+
+namespace armsig::app {
+
+struct CalibrateOptions {
+  std::string model;
+  std::string poses;
+  std::string validate;
+  std::string json;
+  CalibrateSettings settings;
+};
+
+int RunCalibrate(const CalibrateOptions& options, const GlobalOptions&) {
+  // Read and check every input before computing or writing anything.
+  const calibration::RobotModel model = io::LoadRobotModel(options.model);
+  const auto poses = io::ReadPosesCsv(options.poses, model.num_joints());
+  std::vector<MeasuredPose> holdout;
+  if (!options.validate.empty()) holdout = io::ReadPosesCsv(options.validate, model.num_joints());
+
+  const CalibrationRun run = RunCalibration(model, poses, holdout, options.settings);
+  std::cout << FormatCalibrationReport(model, run);
+  if (!options.json.empty()) {
+    io::WriteFileAtomically(options.json, CalibrationJson(model, run).dump(2) + "\n");
+  }
+  return run.estimate.status == calibration::EstimationStatus::kConverged ? kOk : kFailure;
+}
+
+void SetupCalibrateCommand(CLI::App& parent, const GlobalOptions& global, Runner& run) {
+  auto options = std::make_shared<CalibrateOptions>();
+  auto* sub = parent.add_subcommand(
+      "calibrate", "Fit the robot's error parameters to measured poses (paper eq. 8-15)");
+  sub->add_option("--model", options->model, "Robot model YAML")->required();
+  sub->add_option("--poses", options->poses, "Poses CSV: pose,q1_deg,...,x_mm,y_mm,z_mm")
+      ->required();
+  sub->add_option("--params", options->settings.params,
+                  "geometric | all | auto | list such as geometric,h3,h4")
+      ->capture_default_str();
+  sub->add_option("--select", options->settings.select,
+                  "Keep the N best-spread poses (D-optimal) for the fit, validate on the rest");
+  sub->add_option("--validate", options->validate, "Held-out poses CSV to validate on");
+  sub->add_option("--json", options->json, "Write the result as JSON");
+  sub->add_option("--robust", options->settings.robust_threshold_mm,
+                  "Huber threshold (mm) on each pose's error distance: blunder poses are "
+                  "down-weighted and reported");
+  sub->add_option("--alpha", options->settings.alpha,
+                  "Significance level of the F-tests of --params auto")
+      ->capture_default_str();
+  sub->add_option("--rank-tolerance", options->settings.rank_tolerance,
+                  "Relative pivot below which a scaled Jacobian column counts as dependent")
+      ->capture_default_str();
+  sub->callback([&run, &global, options] {
+    run = [&global, options] { return RunCalibrate(*options, global); };
+  });
+}
+
+}  // namespace armsig::app

@@ -1,0 +1,300 @@
+#include "app/calibration_report.h"
+
+#include <fmt/format.h>
+
+#include <algorithm>
+#include <cmath>
+#include <numeric>
+#include <stdexcept>
+
+#include "core/error.h"
+
+namespace armsig::app {
+
+using calibration::EstimationStatus;
+
+namespace {
+
+calibration::ErrorStats StatsOf(const std::vector<Eigen::Vector3d>& residuals) {
+  return calibration::Summarise(calibration::Distances(residuals));
+}
+
+}  // namespace
+
+CalibrationRun RunCalibration(const calibration::RobotModel& model,
+                              const std::vector<MeasuredPose>& poses,
+                              const std::vector<MeasuredPose>& holdout,
+                              const CalibrateSettings& settings) {
+  CalibrationRun run;
+  run.params_spec = settings.params;
+  calibration::EstimationOptions options;
+  options.robust_threshold_mm = settings.robust_threshold_mm;
+  options.identifiability.relative_tolerance = settings.rank_tolerance;
+  const bool auto_params = settings.params == "auto";
+  try {
+    options.parameters =
+        calibration::ParseParameterSpec(model, auto_params ? "all" : settings.params);
+  } catch (const std::invalid_argument& e) {
+    throw InputError({"--params", 0, 0, ""}, e.what());
+  }
+
+  std::vector<MeasuredPose> fit = poses, rest;
+  if (settings.select > 0) {
+    if (settings.select >= static_cast<int>(poses.size())) {
+      throw InputError({"--select", 0, 0, ""},
+                       "cannot keep " + std::to_string(settings.select) + " of " +
+                           std::to_string(poses.size()) +
+                           " poses and still validate on the rest (expected N < " +
+                           std::to_string(poses.size()) + ")");
+    }
+    // Selection on the parameters the whole candidate set can identify.
+    std::vector<Eigen::VectorXd> joints;
+    for (const auto& p : poses) joints.push_back(p.joints_rad);
+    const auto report = calibration::AnalyseJacobian(
+        calibration::StackedJacobian(model, Eigen::Isometry3d::Identity(),
+                                     Eigen::VectorXd::Zero(model.num_parameters()), joints),
+        options.parameters, options.identifiability);
+    calibration::SelectionOptions selection_options;
+    selection_options.count = settings.select;
+    run.selection = calibration::SelectConfigurations(model, joints, report.identified,
+                                                      selection_options);
+    run.selection_candidates = static_cast<int>(poses.size());
+    fit.clear();
+    std::vector<char> chosen(poses.size(), 0);
+    for (int i : run.selection->selected) chosen[i] = 1;
+    for (size_t i = 0; i < poses.size(); ++i) (chosen[i] ? fit : rest).push_back(poses[i]);
+  }
+
+  if (auto_params) {
+    run.auto_terms = calibration::SelectTermsByFTest(model, fit, options, settings.alpha);
+    options.parameters = run.auto_terms->parameters;
+    run.params_spec = "auto";
+  }
+
+  run.estimate = calibration::Estimate(model, fit, options);
+  if (run.estimate.status == EstimationStatus::kTooFewEquations ||
+      run.estimate.status == EstimationStatus::kDegenerateBase) {
+    throw InputError({"--poses", 0, 0, ""}, run.estimate.message);
+  }
+  for (const auto& p : fit) run.fit_pose_ids.push_back(p.id);
+
+  const std::vector<MeasuredPose>& validation = holdout.empty() ? rest : holdout;
+  for (const auto& p : validation) run.validation_pose_ids.push_back(p.id);
+  if (!validation.empty()) {
+    run.validation_residuals = calibration::Residuals(model, run.estimate.world_from_base,
+                                                      run.estimate.params, validation);
+    run.validation_nominal_residuals = calibration::Residuals(
+        model, run.estimate.world_from_base,
+        Eigen::VectorXd::Zero(model.num_parameters()), validation);
+  }
+  return run;
+}
+
+std::string FormatCalibrationReport(const calibration::RobotModel& model,
+                                    const CalibrationRun& run) {
+  const auto& est = run.estimate;
+  const int n = model.num_joints();
+  const auto names = model.ParameterNames();
+  std::vector<char> identified(model.num_parameters(), 0), asked(model.num_parameters(), 0);
+  for (int i : est.identifiability.identified) identified[i] = 1;
+  for (int i : est.identifiability.candidates) asked[i] = 1;
+
+  std::string out;
+  out += fmt::format("Arm signature of {}: {} of {} parameters identified (params: {})\n\n",
+                     model.name, est.identifiability.rank, est.identifiability.candidates.size(),
+                     run.params_spec);
+  auto table = [&](bool sigma) {
+    std::string t = fmt::format("{:<16}", sigma ? "sigma  i=" : "i=");
+    for (int i = 1; i <= n + 1; ++i) t += fmt::format("{:>10}", i);
+    t += "\n";
+    static const char* kRows[] = {"a_i (mm)", "b_i (mm)", "c_i (mm)",
+                                  "alpha_i (1e-3 rad)", "beta_i (1e-3 rad)", "gamma_i (1e-3 rad)"};
+    for (int r = 0; r < 6; ++r) {
+      t += fmt::format("{:<16}", kRows[r]);
+      if (std::string(kRows[r]).size() > 16) t += "\n" + std::string(16, ' ');
+      for (int i = 0; i <= n; ++i) {
+        int index = -1;
+        if (i < n) index = 6 * i + r;
+        else if (r < 3) index = 6 * n + r;
+        if (index < 0) {
+          t += fmt::format("{:>10}", "");
+          continue;
+        }
+        const double scale = r < 3 ? 1.0 : 1e3;
+        if (!asked[index]) {
+          t += fmt::format("{:>10}", "off");
+        } else if (!identified[index]) {
+          t += fmt::format("{:>10}", "—");
+        } else {
+          const double v = sigma ? est.sigmas(index) : est.params(index);
+          t += fmt::format("{:>10.3f}", v * scale);
+        }
+      }
+      t += "\n";
+    }
+    return t;
+  };
+  out += table(false);
+  const int g = model.num_geometric();
+  for (int k = g; k < model.num_parameters(); ++k) {
+    if (!asked[k]) continue;
+    if (identified[k]) {
+      out += fmt::format("{} = {:.3f} × 10⁻³ rad  (σ {:.3f})\n", names[k], est.params(k) * 1e3,
+                         est.sigmas(k) * 1e3);
+    } else {
+      out += fmt::format("{} = —  (not identifiable)\n", names[k]);
+    }
+  }
+  out += "— not identifiable from these data (kept at 0); off: not asked for (--params)\n\n";
+  out += table(true);
+  out += "\n";
+
+  // Identifiability.
+  const auto& id = est.identifiability;
+  if (id.structural_rank >= 0 && id.structural_rank != id.rank) {
+    out += fmt::format("warning: these data identify {} parameters, the model {} on well-spread "
+                       "configurations\n",
+                       id.rank, id.structural_rank);
+  }
+  for (const auto& frozen : id.frozen_joints) {
+    std::string affected;
+    for (int p : frozen.affected) affected += (affected.empty() ? "" : " ") + names[p];
+    out += fmt::format("warning: joint {} never moves in these data (range {:.4f} deg); its "
+                       "motion would separate: {}\n",
+                       frozen.joint + 1, frozen.range_rad * 180.0 / std::numbers::pi, affected);
+  }
+  if (!id.dependencies.empty()) {
+    out += "left out (depends on):";
+    int shown = 0;
+    for (const auto& dep : id.dependencies) {
+      out += fmt::format("{}{}", shown++ % 4 == 0 ? "\n  " : "; ", names[dep.parameter]);
+      std::string on;
+      for (size_t k = 0; k < std::min<size_t>(3, dep.on.size()); ++k) {
+        on += (k ? "," : "") + names[dep.on[k].first];
+      }
+      out += on.empty() ? " (no effect on the target)" : " (" + on + ")";
+    }
+    out += "\n";
+  }
+  out += fmt::format("condition number of the scaled Jacobian {:.3g}\n", id.condition_number);
+  if (run.selection) {
+    out += fmt::format("selection: {} of {} configurations, D-optimal (greedy + {} exchanges), "
+                       "log det {:.2f}, O1 {:.4g}, condition number {:.3g}\n",
+                       run.selection->selected.size(), run.selection_candidates,
+                       run.selection->exchanges, run.selection->log_det, run.selection->o1,
+                       run.selection->condition_number);
+  }
+  if (run.auto_terms) {
+    for (const auto& t : run.auto_terms->tests) {
+      out += fmt::format("F-test +{}: F({},{}) = {:.2f}, p = {:.3g} {}\n", t.added, t.df_added,
+                         t.df_residual, t.f, t.p_value, t.significant ? "significant" : "-");
+    }
+  }
+  if (!est.downweighted.empty()) {
+    std::string ids;
+    for (int i : est.downweighted) ids += (ids.empty() ? "" : " ") + run.fit_pose_ids[i];
+    out += fmt::format("blunder poses (robust loss down-weighted them): {}\n", ids);
+  }
+  out += fmt::format("fit: {} after {} iterations, sigma0 {:.4f} mm per coordinate, "
+                     "redundancy {}\n\n",
+                     est.status == EstimationStatus::kConverged ? "converged" : "NOT converged",
+                     est.iterations, est.sigma0_mm, est.redundancy);
+
+  out += fmt::format("{:<28}{:>8}{:>10}{:>10}{:>10}\n", "error distance (mm)", "poses", "mean",
+                     "max", "rms");
+  auto line = [&](const char* label, const calibration::ErrorStats& s) {
+    out += fmt::format("{:<28}{:>8}{:>10.3f}{:>10.3f}{:>10.3f}\n", label, s.poses, s.mean_mm,
+                       s.max_mm, s.rms_mm);
+  };
+  line("nominal, fit poses", est.nominal);
+  line("calibrated, fit poses", est.fit);
+  if (!run.validation_residuals.empty()) {
+    line("nominal, validation", StatsOf(run.validation_nominal_residuals));
+    line("calibrated, validation", StatsOf(run.validation_residuals));
+  }
+  return out;
+}
+
+nlohmann::json CalibrationJson(const calibration::RobotModel& model, const CalibrationRun& run) {
+  using nlohmann::json;
+  const auto& est = run.estimate;
+  const auto names = model.ParameterNames();
+  std::vector<char> identified(model.num_parameters(), 0);
+  for (int i : est.identifiability.identified) identified[i] = 1;
+  auto stats = [](const calibration::ErrorStats& s) {
+    return json{{"poses", s.poses}, {"mean_mm", s.mean_mm}, {"max_mm", s.max_mm},
+                {"rms_mm", s.rms_mm}};
+  };
+  json out;
+  out["model"] = model.name;
+  out["params"] = run.params_spec;
+  json params = json::array();
+  for (int k = 0; k < model.num_parameters(); ++k) {
+    const bool unit_mm = model.UnitOf(k) == calibration::ParameterUnit::kMm;
+    params.push_back({{"name", names[k]},
+                      {"value", est.params(k)},
+                      {"unit", unit_mm ? "mm" : "rad"},
+                      {"identified", static_cast<bool>(identified[k])},
+                      {"sigma", identified[k] ? json(est.sigmas(k)) : json(nullptr)}});
+  }
+  out["parameters"] = params;
+  out["rank"] = est.identifiability.rank;
+  out["structural_rank"] = est.identifiability.structural_rank;
+  out["poses_used"] = static_cast<int>(run.fit_pose_ids.size());
+  out["nominal"] = stats(est.nominal);
+  json fit = stats(est.fit);
+  fit["converged"] = est.status == EstimationStatus::kConverged;
+  fit["iterations"] = est.iterations;
+  fit["sigma0_mm"] = est.sigma0_mm;
+  fit["redundancy"] = est.redundancy;
+  fit["condition_number"] = est.identifiability.condition_number;
+  out["fit"] = fit;
+  json validation = stats(StatsOf(run.validation_residuals));
+  validation["nominal"] = stats(StatsOf(run.validation_nominal_residuals));
+  validation["pose_ids"] = run.validation_pose_ids;
+  out["validation"] = validation;
+  json base = json::array();
+  for (int r = 0; r < 4; ++r) {
+    base.push_back({est.world_from_base.matrix()(r, 0), est.world_from_base.matrix()(r, 1),
+                    est.world_from_base.matrix()(r, 2), est.world_from_base.matrix()(r, 3)});
+  }
+  out["base"] = base;
+  json deps = json::array();
+  for (const auto& dep : est.identifiability.dependencies) {
+    json on = json::array();
+    for (const auto& [p, c] : dep.on) on.push_back({{"name", names[p]}, {"coefficient", c}});
+    deps.push_back({{"name", names[dep.parameter]}, {"depends_on", on}});
+  }
+  out["unidentified"] = deps;
+  json frozen = json::array();
+  for (const auto& f : est.identifiability.frozen_joints) {
+    json affected = json::array();
+    for (int p : f.affected) affected.push_back(names[p]);
+    frozen.push_back({{"joint", f.joint + 1}, {"range_rad", f.range_rad}, {"affected", affected}});
+  }
+  out["frozen_joints"] = frozen;
+  if (run.selection) {
+    out["selection"] = {{"criterion", "D-optimal"},
+                        {"candidates", run.selection_candidates},
+                        {"selected", run.selection->selected.size()},
+                        {"log_det", run.selection->log_det},
+                        {"o1", run.selection->o1},
+                        {"condition_number", run.selection->condition_number},
+                        {"exchanges", run.selection->exchanges}};
+  }
+  if (run.auto_terms) {
+    json tests = json::array();
+    for (const auto& t : run.auto_terms->tests) {
+      tests.push_back({{"added", t.added}, {"f", t.f}, {"df1", t.df_added},
+                       {"df2", t.df_residual}, {"p_value", t.p_value},
+                       {"significant", t.significant}});
+    }
+    out["f_tests"] = tests;
+  }
+  json blunders = json::array();
+  for (int i : est.downweighted) blunders.push_back(run.fit_pose_ids[i]);
+  out["blunder_poses"] = blunders;
+  return out;
+}
+
+}  // namespace armsig::app

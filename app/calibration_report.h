@@ -1,0 +1,48 @@
+// Human and machine output of a calibration: the paper's Table 1–3 layout and the
+// SPEC's calibrate JSON.
+#pragma once
+
+#include <nlohmann/json.hpp>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "calibration/estimation.h"
+#include "calibration/selection.h"
+#include "core/types.h"
+
+namespace armsig::app {
+
+struct CalibrationRun {
+  std::string params_spec;
+  calibration::EstimationResult estimate;
+  std::vector<std::string> fit_pose_ids;
+  std::vector<std::string> validation_pose_ids;
+  std::vector<Eigen::Vector3d> validation_residuals, validation_nominal_residuals;
+  std::optional<calibration::SelectionResult> selection;
+  int selection_candidates = 0;
+  std::optional<calibration::AutoSelection> auto_terms;
+};
+
+// Runs the whole calibrate pipeline (selection, --params auto, estimation, validation).
+// Throws InputError for input problems (unknown parameter, too few poses, degenerate data).
+struct CalibrateSettings {
+  std::string params = "all";
+  int select = 0;
+  double robust_threshold_mm = 0.0;
+  double alpha = 0.01;
+  double rank_tolerance = 1e-7;
+};
+CalibrationRun RunCalibration(const calibration::RobotModel& model,
+                              const std::vector<MeasuredPose>& poses,
+                              const std::vector<MeasuredPose>& holdout,
+                              const CalibrateSettings& settings);
+
+// Parameter table in the paper's layout (a, b, c in mm; α, β, γ in 1e-3 rad), with
+// sigmas, then h-terms, identifiability and error distances.
+std::string FormatCalibrationReport(const calibration::RobotModel& model,
+                                    const CalibrationRun& run);
+
+nlohmann::json CalibrationJson(const calibration::RobotModel& model, const CalibrationRun& run);
+
+}  // namespace armsig::app

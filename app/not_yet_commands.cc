@@ -1,0 +1,44 @@
+// Commands whose capability is not built yet: present in --help, and saying so (exit 1).
+#include <iostream>
+
+#include "app/command.h"
+
+namespace armsig::app {
+
+namespace {
+
+void NotYet(CLI::App& parent, const std::string& name, const std::string& description,
+            const std::string& issue, Runner& run) {
+  auto* sub = parent.add_subcommand(name, description + " [not yet implemented]");
+  sub->allow_extras();
+  sub->callback([&run, name, issue] {
+    run = [name, issue] {
+      std::cerr << "armsig " << name << ": not yet implemented (tracked in issue " << issue
+                << "); nothing was done.\n";
+      return static_cast<int>(kFailure);
+    };
+  });
+}
+
+}  // namespace
+
+void SetupOrientCommand(CLI::App& parent, const GlobalOptions&, Runner& run) {
+  NotYet(parent, "orient", "Orient the stations (bundle adjustment)", "#4", run);
+}
+void SetupTriangulateCommand(CLI::App& parent, const GlobalOptions&, Runner& run) {
+  NotYet(parent, "triangulate", "Intersect the rays of every target point", "#4", run);
+}
+void SetupCaptureCommand(CLI::App& parent, const GlobalOptions&, Runner& run) {
+  NotYet(parent, "capture", "Run a capture session with the lab's instruments", "#6", run);
+}
+void SetupReduceCommand(CLI::App& parent, const GlobalOptions&, Runner& run) {
+  NotYet(parent, "reduce", "Reduce a session's raw observations in the database", "#4", run);
+}
+void SetupRecalibrateCommand(CLI::App& parent, const GlobalOptions&, Runner& run) {
+  NotYet(parent, "recalibrate", "The nightly recalibration job", "#7", run);
+}
+void SetupInstrumentCommand(CLI::App& parent, const GlobalOptions&, Runner& run) {
+  NotYet(parent, "instrument", "Talk to one instrument (probe | read)", "#5", run);
+}
+
+}  // namespace armsig::app

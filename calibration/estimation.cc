@@ -1,0 +1,342 @@
+#include "calibration/estimation.h"
+
+#include <Eigen/Cholesky>
+#include <Eigen/Geometry>
+#include <Eigen/SVD>
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <set>
+#include <sstream>
+#include <stdexcept>
+
+#include "calibration/statistics.h"
+
+namespace armsig::calibration {
+
+std::vector<int> ParseParameterSpec(const RobotModel& model, const std::string& spec) {
+  std::set<int> chosen;
+  const auto names = model.ParameterNames();
+  std::stringstream stream(spec);
+  std::string token;
+  bool any = false;
+  while (std::getline(stream, token, ',')) {
+    token.erase(0, token.find_first_not_of(" \t"));
+    token.erase(token.find_last_not_of(" \t") + 1);
+    if (token.empty()) continue;
+    any = true;
+    if (token == "geometric") {
+      for (int i = 0; i < model.num_geometric(); ++i) chosen.insert(i);
+    } else if (token == "all") {
+      for (int i = 0; i < model.num_parameters(); ++i) chosen.insert(i);
+    } else if (int index = model.IndexOf(token); index >= 0) {
+      chosen.insert(index);
+    } else {
+      std::string known = "geometric, all";
+      for (size_t i = model.num_geometric(); i < names.size(); ++i) known += ", " + names[i];
+      throw std::invalid_argument("unknown parameter '" + token + "' (expected geometric, all, " +
+                                  "a parameter name such as a1 … c" +
+                                  std::to_string(model.num_joints() + 1) + ", or one of: " +
+                                  known + ")");
+    }
+  }
+  if (!any) throw std::invalid_argument("empty parameter list");
+  return {chosen.begin(), chosen.end()};
+}
+
+ErrorStats Summarise(const std::vector<double>& distances_mm) {
+  ErrorStats s;
+  s.poses = static_cast<int>(distances_mm.size());
+  if (distances_mm.empty()) return s;
+  double sum = 0.0, sum_sq = 0.0;
+  for (double d : distances_mm) {
+    sum += d;
+    sum_sq += d * d;
+    s.max_mm = std::max(s.max_mm, d);
+  }
+  s.mean_mm = sum / s.poses;
+  s.rms_mm = std::sqrt(sum_sq / s.poses);
+  return s;
+}
+
+std::optional<Eigen::Isometry3d> AlignBase(const RobotModel& model,
+                                           const std::vector<MeasuredPose>& poses) {
+  const int m = static_cast<int>(poses.size());
+  if (m < 3) return std::nullopt;
+  Kinematics kin(model);
+  const Eigen::VectorXd zero = Eigen::VectorXd::Zero(model.num_parameters());
+  Eigen::Matrix3Xd nominal(3, m), measured(3, m);
+  for (int i = 0; i < m; ++i) {
+    nominal.col(i) = kin.Position(Eigen::Isometry3d::Identity(), zero, poses[i].joints_rad.data());
+    measured.col(i) = poses[i].target_in_world;
+  }
+  // Degenerate when the nominal points do not span a plane (second singular value ~ 0).
+  const Eigen::Matrix3Xd centred = nominal.colwise() - nominal.rowwise().mean();
+  Eigen::JacobiSVD<Eigen::Matrix3Xd> svd(centred);
+  const auto& s = svd.singularValues();
+  if (!(s(0) > 0.0) || s(1) < 1e-6 * s(0)) return std::nullopt;
+  Eigen::Isometry3d base = Eigen::Isometry3d::Identity();
+  base.matrix() = Eigen::umeyama(nominal, measured, /*with_scaling=*/false);
+  return base;
+}
+
+std::vector<Eigen::Vector3d> Residuals(const RobotModel& model,
+                                       const Eigen::Isometry3d& world_from_base,
+                                       const Eigen::VectorXd& params,
+                                       const std::vector<MeasuredPose>& poses) {
+  Kinematics kin(model);
+  std::vector<Eigen::Vector3d> out;
+  out.reserve(poses.size());
+  for (const auto& pose : poses) {
+    out.push_back(kin.Position(world_from_base, params, pose.joints_rad.data()) -
+                  pose.target_in_world);
+  }
+  return out;
+}
+
+std::vector<double> Distances(const std::vector<Eigen::Vector3d>& residuals) {
+  std::vector<double> d;
+  d.reserve(residuals.size());
+  for (const auto& r : residuals) d.push_back(r.norm());
+  return d;
+}
+
+void EstimationOptions::Check() const {
+  identifiability.Check();
+  if (max_iterations < 1) throw std::invalid_argument("max_iterations must be ≥ 1");
+  if (!(robust_threshold_mm >= 0.0)) throw std::invalid_argument("robust threshold must be ≥ 0");
+}
+
+namespace {
+
+// Per-pose weights of the Huber loss on the error distance (1 inside the threshold).
+void HuberWeights(const std::vector<Eigen::Vector3d>& residuals, double threshold,
+                  std::vector<double>& weights) {
+  weights.assign(residuals.size(), 1.0);
+  if (threshold <= 0.0) return;
+  for (size_t i = 0; i < residuals.size(); ++i) {
+    const double d = residuals[i].norm();
+    if (d > threshold) weights[i] = threshold / d;
+  }
+}
+
+// Huber cost: ρ(d) = d² inside, 2kd − k² outside.
+double RobustCost(const std::vector<Eigen::Vector3d>& residuals, double threshold) {
+  double cost = 0.0;
+  for (const auto& r : residuals) {
+    const double d2 = r.squaredNorm();
+    if (threshold > 0.0 && d2 > threshold * threshold) {
+      cost += 2.0 * threshold * std::sqrt(d2) - threshold * threshold;
+    } else {
+      cost += d2;
+    }
+  }
+  return cost;
+}
+
+}  // namespace
+
+EstimationResult Estimate(const RobotModel& model, const std::vector<MeasuredPose>& poses,
+                          const EstimationOptions& options) {
+  options.Check();
+  EstimationResult result;
+  const int np = model.num_parameters();
+  const int m = static_cast<int>(poses.size());
+  result.params = Eigen::VectorXd::Zero(np);
+  result.sigmas = Eigen::VectorXd::Constant(np, std::numeric_limits<double>::quiet_NaN());
+
+  // N1: given, or the rigid best fit of the nominal model (paper: "N1 has to be
+  // established before the estimation process begins").
+  if (model.base) {
+    result.world_from_base = *model.base;
+  } else if (auto base = AlignBase(model, poses)) {
+    result.world_from_base = *base;
+  } else {
+    result.status = EstimationStatus::kDegenerateBase;
+    result.message = "base: auto needs at least 3 poses whose nominal target positions are not on "
+                     "one line (got " + std::to_string(m) + ")";
+    return result;
+  }
+
+  std::vector<int> candidates = options.parameters;
+  if (candidates.empty()) {
+    for (int i = 0; i < np; ++i) candidates.push_back(i);
+  }
+  std::vector<Eigen::VectorXd> joints;
+  joints.reserve(m);
+  for (const auto& p : poses) joints.push_back(p.joints_rad);
+
+  // The identifiable subset is chosen once, at the nominal model, and kept: re-deciding
+  // it at every iteration makes Gauss–Newton wander on real data.
+  if (options.analyse_structure) {
+    result.identifiability = AnalyseIdentifiability(model, result.world_from_base, joints,
+                                                    candidates, options.identifiability);
+  } else {
+    const Eigen::MatrixXd j0 =
+        StackedJacobian(model, result.world_from_base, result.params, joints);
+    result.identifiability = AnalyseJacobian(j0, candidates, options.identifiability);
+  }
+  const std::vector<int>& subset = result.identifiability.identified;
+  const int k = static_cast<int>(subset.size());
+  const int needed = std::max(k, result.identifiability.structural_rank);
+  if (3 * m <= needed) {
+    result.status = EstimationStatus::kTooFewEquations;
+    result.message = std::to_string(m) + " poses give " + std::to_string(3 * m) +
+                     " equations; the model has " + std::to_string(needed) +
+                     " identifiable parameters and needs more equations than that: at least " +
+                     std::to_string(needed / 3 + 1) + " poses";
+    return result;
+  }
+
+  result.nominal_residuals = Residuals(model, result.world_from_base, result.params, poses);
+  result.nominal = Summarise(Distances(result.nominal_residuals));
+
+  // Levenberg–Marquardt on the subset with Marquardt's diagonal scaling.
+  Kinematics kin(model);
+  Eigen::Matrix<double, 3, Eigen::Dynamic> block(3, np);
+  Eigen::MatrixXd normal(k, k);
+  Eigen::VectorXd gradient(k);
+  std::vector<Eigen::Vector3d> residuals = result.nominal_residuals;
+  std::vector<double> weights;
+  const double threshold = options.robust_threshold_mm;
+  double cost = RobustCost(residuals, threshold);
+  double lambda = 1e-6;
+  Eigen::MatrixXd jk(3, k);
+
+  auto build_normal_equations = [&]() {
+    normal.setZero();
+    gradient.setZero();
+    HuberWeights(residuals, threshold, weights);
+    for (int i = 0; i < m; ++i) {
+      kin.PositionAndJacobian(result.world_from_base, result.params, poses[i].joints_rad.data(),
+                              block);
+      for (int c = 0; c < k; ++c) jk.col(c) = block.col(subset[c]);
+      normal.selfadjointView<Eigen::Lower>().rankUpdate(jk.transpose(), weights[i]);
+      gradient.noalias() += weights[i] * jk.transpose() * residuals[i];
+    }
+    normal.triangularView<Eigen::Upper>() = normal.transpose();
+  };
+
+  bool converged = false;
+  int iteration = 0;
+  for (; iteration < options.max_iterations && !converged; ++iteration) {
+    build_normal_equations();
+    const Eigen::VectorXd diag = normal.diagonal().cwiseMax(1e-30);
+    bool accepted = false;
+    for (int attempt = 0; attempt < 30 && !accepted; ++attempt) {
+      Eigen::MatrixXd damped = normal;
+      damped.diagonal() += lambda * diag;
+      const Eigen::VectorXd step = -damped.ldlt().solve(gradient);
+      Eigen::VectorXd trial = result.params;
+      for (int c = 0; c < k; ++c) trial(subset[c]) += step(c);
+      auto trial_residuals = Residuals(model, result.world_from_base, trial, poses);
+      const double trial_cost = RobustCost(trial_residuals, threshold);
+      if (std::isfinite(trial_cost) && trial_cost <= cost) {
+        const double relative_decrease = (cost - trial_cost) / std::max(cost, 1e-300);
+        const double relative_step =
+            step.norm() / (result.params.norm() + options.parameter_tolerance);
+        result.params = trial;
+        residuals = std::move(trial_residuals);
+        cost = trial_cost;
+        lambda = std::max(lambda / 10.0, 1e-12);
+        accepted = true;
+        if (relative_decrease < options.function_tolerance ||
+            relative_step < options.parameter_tolerance || cost == 0.0) {
+          converged = true;
+        }
+      } else {
+        lambda *= 10.0;
+      }
+    }
+    if (!accepted) {
+      converged = true;  // no step lowers the cost: at the minimum to working precision
+    }
+  }
+  result.iterations = iteration;
+  result.status = converged ? EstimationStatus::kConverged : EstimationStatus::kNoConvergence;
+  if (!converged) {
+    result.message = "no convergence after " + std::to_string(iteration) + " iterations";
+  }
+
+  // Covariance of the identified parameters: σ0² (Jᵀ W J)⁻¹ at the solution.
+  build_normal_equations();
+  result.cost = cost;
+  result.redundancy = 3 * m - k;
+  double weighted_sq = 0.0;
+  for (int i = 0; i < m; ++i) weighted_sq += weights[i] * residuals[i].squaredNorm();
+  result.sigma0_mm = std::sqrt(weighted_sq / result.redundancy);
+  if (k > 0) {
+    result.covariance = result.sigma0_mm * result.sigma0_mm *
+                        normal.ldlt().solve(Eigen::MatrixXd::Identity(k, k));
+    for (int c = 0; c < k; ++c) result.sigmas(subset[c]) = std::sqrt(result.covariance(c, c));
+  }
+  result.fit_residuals = std::move(residuals);
+  result.fit = Summarise(Distances(result.fit_residuals));
+  if (threshold > 0.0) {
+    for (int i = 0; i < m; ++i) {
+      if (result.fit_residuals[i].norm() > threshold) result.downweighted.push_back(i);
+    }
+  }
+  return result;
+}
+
+FTest CompareNested(const EstimationResult& reduced, const EstimationResult& full,
+                    const std::string& added, double alpha) {
+  FTest t;
+  t.added = added;
+  t.rss_reduced = reduced.cost;
+  t.rss_full = full.cost;
+  t.df_added = static_cast<int>(full.identifiability.identified.size()) -
+               static_cast<int>(reduced.identifiability.identified.size());
+  t.df_residual = full.redundancy;
+  if (t.df_added <= 0 || t.df_residual <= 0 || !(t.rss_full > 0.0)) {
+    t.f = 0.0;
+    t.p_value = 1.0;
+    t.significant = false;
+    return t;
+  }
+  t.f = ((t.rss_reduced - t.rss_full) / t.df_added) / (t.rss_full / t.df_residual);
+  t.p_value = FisherFSurvival(t.f, t.df_added, t.df_residual);
+  t.significant = t.p_value < alpha;
+  return t;
+}
+
+AutoSelection SelectTermsByFTest(const RobotModel& model, const std::vector<MeasuredPose>& poses,
+                                 const EstimationOptions& options, double alpha) {
+  AutoSelection selection;
+  EstimationOptions opts = options;
+  opts.analyse_structure = false;
+  for (int i = 0; i < model.num_geometric(); ++i) selection.parameters.push_back(i);
+  opts.parameters = selection.parameters;
+  EstimationResult current = Estimate(model, poses, opts);
+  std::vector<int> remaining;
+  for (int i = model.num_geometric(); i < model.num_parameters(); ++i) remaining.push_back(i);
+  const auto names = model.ParameterNames();
+  while (current.ok() && !remaining.empty()) {
+    int best = -1;
+    FTest best_test;
+    EstimationResult best_result;
+    for (int term : remaining) {
+      opts.parameters = selection.parameters;
+      opts.parameters.push_back(term);
+      std::sort(opts.parameters.begin(), opts.parameters.end());
+      EstimationResult trial = Estimate(model, poses, opts);
+      if (!trial.ok()) continue;
+      FTest test = CompareNested(current, trial, names[term], alpha);
+      selection.tests.push_back(test);
+      if (test.significant && (best < 0 || test.f > best_test.f)) {
+        best = term;
+        best_test = test;
+        best_result = std::move(trial);
+      }
+    }
+    if (best < 0) break;
+    selection.parameters.push_back(best);
+    std::sort(selection.parameters.begin(), selection.parameters.end());
+    remaining.erase(std::find(remaining.begin(), remaining.end(), best));
+    current = std::move(best_result);
+  }
+  return selection;
+}
+
+}  // namespace armsig::calibration

@@ -1,0 +1,111 @@
+// Estimation of the arm signature: paper eq. (8)–(15), the linearised least squares
+// A p − r = ε, iterated to convergence (Levenberg–Marquardt) on the identifiable
+// subset chosen once from the data at the nominal model.
+#pragma once
+
+#include <Eigen/Core>
+#include <Eigen/Geometry>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "calibration/identifiability.h"
+#include "calibration/model.h"
+#include "core/types.h"
+
+namespace armsig::calibration {
+
+// Parses a --params spec: "geometric", "all", or a comma list mixing "geometric",
+// "all" and parameter names ("geometric,h3,h4"). Returns ascending indices. Throws
+// std::invalid_argument naming an unknown parameter and listing the known ones.
+std::vector<int> ParseParameterSpec(const RobotModel& model, const std::string& spec);
+
+struct ErrorStats {
+  int poses = 0;
+  double mean_mm = 0.0;
+  double max_mm = 0.0;
+  double rms_mm = 0.0;
+};
+ErrorStats Summarise(const std::vector<double>& distances_mm);
+
+// N1 by a rigid best fit (Umeyama/Horn, no scale) of the nominal target positions to the
+// measured ones: works for any rotation and translation between the measuring frame
+// and the robot. nullopt when the nominal positions are degenerate (fewer than three
+// poses or all on one line).
+std::optional<Eigen::Isometry3d> AlignBase(const RobotModel& model,
+                                           const std::vector<MeasuredPose>& poses);
+
+// Error vectors (model − measured) and distances for `params`.
+std::vector<Eigen::Vector3d> Residuals(const RobotModel& model,
+                                       const Eigen::Isometry3d& world_from_base,
+                                       const Eigen::VectorXd& params,
+                                       const std::vector<MeasuredPose>& poses);
+std::vector<double> Distances(const std::vector<Eigen::Vector3d>& residuals);
+
+struct EstimationOptions {
+  std::vector<int> parameters;      // candidates (indices); empty = all of the model's
+  IdentifiabilityOptions identifiability;
+  int max_iterations = 50;
+  double function_tolerance = 1e-12;   // relative change of the cost
+  double parameter_tolerance = 1e-12;  // relative step
+  // > 0: Huber loss on each pose's error distance with this threshold (mm), so blunder
+  // poses are down-weighted (and reported) instead of pulling the fit.
+  double robust_threshold_mm = 0.0;
+  bool analyse_structure = true;    // structural rank and frozen joints (a little slower)
+  void Check() const;
+};
+
+enum class EstimationStatus {
+  kConverged,
+  kNoConvergence,      // iteration limit reached; result is the last accepted step
+  kTooFewEquations,    // 3m equations cannot determine the identifiable parameters
+  kDegenerateBase,     // base: auto with degenerate nominal positions
+};
+
+struct EstimationResult {
+  EstimationStatus status = EstimationStatus::kConverged;
+  std::string message;
+  int iterations = 0;
+  Eigen::Isometry3d world_from_base = Eigen::Isometry3d::Identity();
+  Eigen::VectorXd params;   // all parameters; unidentified stay exactly zero
+  Eigen::VectorXd sigmas;   // NaN for unidentified
+  Eigen::MatrixXd covariance;  // identified subset, in the order of identifiability.identified
+  IdentifiabilityReport identifiability;
+  double sigma0_mm = 0.0;   // a posteriori σ of one coordinate
+  int redundancy = 0;       // 3m − rank
+  double cost = 0.0;        // Σ weighted squared residuals (mm²)
+  std::vector<Eigen::Vector3d> nominal_residuals, fit_residuals;
+  ErrorStats nominal, fit;
+  std::vector<int> downweighted;  // poses the robust loss treated as blunders (indices)
+
+  bool ok() const {
+    return status == EstimationStatus::kConverged || status == EstimationStatus::kNoConvergence;
+  }
+};
+
+// Fits the model to the poses. world_from_base: N1 to use; nullopt = model.base, or
+// AlignBase when the model says auto.
+EstimationResult Estimate(const RobotModel& model, const std::vector<MeasuredPose>& poses,
+                          const EstimationOptions& options);
+
+// Nested-model F-test: does adding terms improve the fit significantly?
+struct FTest {
+  std::string added;        // names of the added terms
+  double rss_reduced = 0.0, rss_full = 0.0;
+  int df_added = 0, df_residual = 0;
+  double f = 0.0, p_value = 1.0;
+  bool significant = false;
+};
+FTest CompareNested(const EstimationResult& reduced, const EstimationResult& full,
+                    const std::string& added, double alpha);
+
+// --params auto: start from the geometric model and add non-geometric terms one at a
+// time, each time the one with the best significant F-test, until none is significant.
+struct AutoSelection {
+  std::vector<int> parameters;
+  std::vector<FTest> tests;  // every test made, in order
+};
+AutoSelection SelectTermsByFTest(const RobotModel& model, const std::vector<MeasuredPose>& poses,
+                                 const EstimationOptions& options, double alpha = 0.01);
+
+}  // namespace armsig::calibration

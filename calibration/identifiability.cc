@@ -1,0 +1,187 @@
+#include "calibration/identifiability.h"
+
+#include <Eigen/QR>
+#include <Eigen/SVD>
+#include <algorithm>
+#include <cmath>
+#include <numbers>
+#include <random>
+#include <stdexcept>
+
+namespace armsig::calibration {
+
+void IdentifiabilityOptions::Check() const {
+  if (!(relative_tolerance > 0.0 && relative_tolerance < 1.0)) {
+    throw std::invalid_argument("identifiability tolerance must be in (0, 1)");
+  }
+}
+
+Eigen::MatrixXd StackedJacobian(const RobotModel& model, const Eigen::Isometry3d& world_from_base,
+                                const Eigen::VectorXd& params,
+                                const std::vector<Eigen::VectorXd>& joints_rad) {
+  Kinematics kin(model);
+  Eigen::MatrixXd j(3 * joints_rad.size(), model.num_parameters());
+  Eigen::Matrix<double, 3, Eigen::Dynamic> block(3, model.num_parameters());
+  for (size_t i = 0; i < joints_rad.size(); ++i) {
+    kin.PositionAndJacobian(world_from_base, params, joints_rad[i].data(), block);
+    j.middleRows(3 * i, 3) = block;
+  }
+  return j;
+}
+
+namespace {
+
+constexpr double kNegligibleColumn = 1e-10;
+
+// Columns of `jacobian` for `candidates`, each scaled to unit norm (zero columns stay zero).
+Eigen::MatrixXd ScaledColumns(const Eigen::MatrixXd& jacobian, const std::vector<int>& candidates) {
+  Eigen::MatrixXd a(jacobian.rows(), candidates.size());
+  double largest = 0.0;
+  for (size_t k = 0; k < candidates.size(); ++k) {
+    largest = std::max(largest, jacobian.col(candidates[k]).norm());
+  }
+  for (size_t k = 0; k < candidates.size(); ++k) {
+    a.col(k) = jacobian.col(candidates[k]);
+    const double norm = a.col(k).norm();
+    // A column that is rounding noise against the largest one (γ6 with the target on the
+    // joint-6 axis: 1e-14 instead of 0) is zero; scaling it to unit norm would turn
+    // noise into a spurious "identifiable" parameter.
+    if (norm > kNegligibleColumn * largest) {
+      a.col(k) /= norm;
+    } else {
+      a.col(k).setZero();
+    }
+  }
+  return a;
+}
+
+// Orthonormal basis of the numerical null space of `a` (columns).
+Eigen::MatrixXd NullSpace(const Eigen::MatrixXd& a, double tolerance) {
+  Eigen::JacobiSVD<Eigen::MatrixXd> svd(a, Eigen::ComputeFullV);
+  const Eigen::VectorXd& s = svd.singularValues();
+  const double limit = s.size() > 0 ? s(0) * tolerance : 0.0;
+  int rank = 0;
+  while (rank < s.size() && s(rank) > limit) ++rank;
+  return svd.matrixV().rightCols(a.cols() - rank);
+}
+
+}  // namespace
+
+IdentifiabilityReport AnalyseJacobian(const Eigen::MatrixXd& jacobian,
+                                      const std::vector<int>& candidates,
+                                      const IdentifiabilityOptions& options) {
+  options.Check();
+  IdentifiabilityReport report;
+  report.candidates = candidates;
+  if (candidates.empty() || jacobian.rows() == 0) {
+    report.unidentified = candidates;
+    return report;
+  }
+  const Eigen::MatrixXd a = ScaledColumns(jacobian, candidates);
+  Eigen::ColPivHouseholderQR<Eigen::MatrixXd> qr(a);
+  qr.setThreshold(options.relative_tolerance);
+  report.rank = static_cast<int>(qr.rank());
+  const auto& perm = qr.colsPermutation().indices();
+  std::vector<int> chosen, dropped;  // positions in `candidates`
+  for (int k = 0; k < perm.size(); ++k) (k < report.rank ? chosen : dropped).push_back(perm(k));
+  std::sort(chosen.begin(), chosen.end());
+  std::sort(dropped.begin(), dropped.end());
+  for (int k : chosen) report.identified.push_back(candidates[k]);
+  for (int k : dropped) report.unidentified.push_back(candidates[k]);
+
+  Eigen::MatrixXd kept(a.rows(), chosen.size());
+  for (size_t k = 0; k < chosen.size(); ++k) kept.col(k) = a.col(chosen[k]);
+  if (!chosen.empty()) {
+    Eigen::JacobiSVD<Eigen::MatrixXd> svd(kept);
+    const auto& s = svd.singularValues();
+    report.condition_number = s(s.size() - 1) > 0 ? s(0) / s(s.size() - 1) : INFINITY;
+    // Each left-out column as a combination of the kept ones (scaled units).
+    Eigen::ColPivHouseholderQR<Eigen::MatrixXd> kept_qr(kept);
+    for (int k : dropped) {
+      Dependency dep;
+      dep.parameter = candidates[k];
+      const Eigen::VectorXd c = kept_qr.solve(a.col(k));
+      dep.residual = (kept * c - a.col(k)).norm();
+      const double largest = c.cwiseAbs().maxCoeff();
+      for (int i = 0; i < c.size(); ++i) {
+        if (std::abs(c(i)) > 0.05 * largest && std::abs(c(i)) > 1e-9) {
+          dep.on.push_back({candidates[chosen[i]], c(i)});
+        }
+      }
+      std::sort(dep.on.begin(), dep.on.end(), [](const auto& x, const auto& y) {
+        return std::abs(x.second) > std::abs(y.second);
+      });
+      report.dependencies.push_back(std::move(dep));
+    }
+  }
+  return report;
+}
+
+std::vector<Eigen::VectorXd> SpreadConfigurations(const RobotModel& model, int count,
+                                                  unsigned seed) {
+  std::mt19937 rng(seed);
+  const int n = model.num_joints();
+  std::vector<Eigen::VectorXd> out;
+  out.reserve(count);
+  for (int m = 0; m < count; ++m) {
+    Eigen::VectorXd q(n);
+    for (int i = 0; i < n; ++i) {
+      double lo = -std::numbers::pi, hi = std::numbers::pi;
+      if (static_cast<int>(model.joint_min_rad.size()) == n) {
+        lo = model.joint_min_rad[i];
+        hi = model.joint_max_rad[i];
+      }
+      q(i) = std::uniform_real_distribution<double>(lo, hi)(rng);
+    }
+    out.push_back(q);
+  }
+  return out;
+}
+
+IdentifiabilityReport AnalyseIdentifiability(const RobotModel& model,
+                                             const Eigen::Isometry3d& world_from_base,
+                                             const std::vector<Eigen::VectorXd>& joints_rad,
+                                             const std::vector<int>& candidates,
+                                             const IdentifiabilityOptions& options) {
+  const Eigen::VectorXd zero = Eigen::VectorXd::Zero(model.num_parameters());
+  const Eigen::MatrixXd jacobian = StackedJacobian(model, world_from_base, zero, joints_rad);
+  IdentifiabilityReport report = AnalyseJacobian(jacobian, candidates, options);
+
+  const int spread_count = std::max(20, 2 * static_cast<int>(candidates.size()));
+  const auto spread = SpreadConfigurations(model, spread_count);
+  const Eigen::MatrixXd spread_jacobian = StackedJacobian(model, world_from_base, zero, spread);
+  report.structural_rank = AnalyseJacobian(spread_jacobian, candidates, options).rank;
+
+  // A joint whose encoder angle never changes cannot separate the parameters around it.
+  const int n = model.num_joints();
+  if (joints_rad.empty()) return report;
+  const Eigen::MatrixXd structural_null =
+      NullSpace(ScaledColumns(spread_jacobian, candidates), options.relative_tolerance);
+  for (int j = 0; j < n; ++j) {
+    double lo = joints_rad[0](j), hi = lo;
+    for (const auto& q : joints_rad) {
+      lo = std::min(lo, q(j));
+      hi = std::max(hi, q(j));
+    }
+    if (hi - lo > 1e-6) continue;
+    FrozenJoint frozen;
+    frozen.joint = j;
+    frozen.range_rad = hi - lo;
+    // Null-space directions of the data that are not null directions of the model:
+    // the parameters with weight in them are the ones this joint's motion would separate.
+    const Eigen::MatrixXd data_null =
+        NullSpace(ScaledColumns(jacobian, candidates), options.relative_tolerance);
+    Eigen::MatrixXd extra = data_null;
+    if (structural_null.cols() > 0) {
+      extra -= structural_null * (structural_null.transpose() * data_null);
+    }
+    const Eigen::VectorXd weight = extra.rowwise().norm();
+    for (int k = 0; k < weight.size(); ++k) {
+      if (weight(k) > 0.1) frozen.affected.push_back(candidates[k]);
+    }
+    report.frozen_joints.push_back(std::move(frozen));
+  }
+  return report;
+}
+
+}  // namespace armsig::calibration

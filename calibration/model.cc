@@ -1,0 +1,183 @@
+#include "calibration/model.h"
+
+#include <cmath>
+#include <stdexcept>
+#include <string>
+
+namespace armsig::calibration {
+
+double NongeometricTerm::Evaluate(const double* joints_rad) const {
+  double sum = 0.0;
+  for (int j : of) sum += joints_rad[j];
+  const double c = std::cos(sum);
+  if (basis == Basis::kCos) return c;
+  // Paper eq. (7): SIGN[x] = x/|x|; at exactly zero the backlash side is undefined, take 0.
+  return c > 0.0 ? 1.0 : (c < 0.0 ? -1.0 : 0.0);
+}
+
+std::vector<std::string> RobotModel::ParameterNames() const {
+  static const char* kPerJoint[] = {"a", "b", "c", "alpha", "beta", "gamma"};
+  std::vector<std::string> names;
+  names.reserve(num_parameters());
+  const int n = num_joints();
+  for (int i = 1; i <= n; ++i) {
+    for (const char* p : kPerJoint) names.push_back(std::string(p) + std::to_string(i));
+  }
+  for (const char* p : {"a", "b", "c"}) names.push_back(std::string(p) + std::to_string(n + 1));
+  for (const auto& term : nongeometric) names.push_back(term.name);
+  return names;
+}
+
+ParameterUnit RobotModel::UnitOf(int parameter) const {
+  if (parameter >= num_geometric()) return ParameterUnit::kRad;
+  if (parameter >= 6 * num_joints()) return ParameterUnit::kMm;
+  return (parameter % 6) < 3 ? ParameterUnit::kMm : ParameterUnit::kRad;
+}
+
+int RobotModel::IndexOf(const std::string& name) const {
+  const auto names = ParameterNames();
+  for (size_t i = 0; i < names.size(); ++i) {
+    if (names[i] == name) return static_cast<int>(i);
+  }
+  return -1;
+}
+
+Eigen::Isometry3d ErrorTransform(double a, double b, double c, double alpha, double beta,
+                                 double gamma) {
+  Eigen::Isometry3d h = Eigen::Isometry3d::Identity();
+  h.translation() = Eigen::Vector3d(a, b, c);
+  h.linear() = (Eigen::AngleAxisd(alpha, Eigen::Vector3d::UnitX()) *
+                Eigen::AngleAxisd(beta, Eigen::Vector3d::UnitY()) *
+                Eigen::AngleAxisd(gamma, Eigen::Vector3d::UnitZ()))
+                   .toRotationMatrix();
+  return h;
+}
+
+Eigen::Isometry3d JointRotation(double theta_rad) {
+  Eigen::Isometry3d r = Eigen::Isometry3d::Identity();
+  r.linear() = Eigen::AngleAxisd(theta_rad, Eigen::Vector3d::UnitZ()).toRotationMatrix();
+  return r;
+}
+
+namespace {
+
+Eigen::Matrix3d Rx(double a) {
+  const double c = std::cos(a), s = std::sin(a);
+  Eigen::Matrix3d m;
+  m << 1, 0, 0, 0, c, -s, 0, s, c;
+  return m;
+}
+Eigen::Matrix3d Ry(double a) {
+  const double c = std::cos(a), s = std::sin(a);
+  Eigen::Matrix3d m;
+  m << c, 0, s, 0, 1, 0, -s, 0, c;
+  return m;
+}
+Eigen::Matrix3d Rz(double a) {
+  const double c = std::cos(a), s = std::sin(a);
+  Eigen::Matrix3d m;
+  m << c, -s, 0, s, c, 0, 0, 0, 1;
+  return m;
+}
+
+}  // namespace
+
+Kinematics::Kinematics(const RobotModel& model) : model_(model) {
+  const int n = model.num_joints();
+  f_rot_.resize(n);
+  g_rot_.resize(n);
+  h_origin_.resize(n);
+  alpha_axis_.resize(n);
+  beta_axis_.resize(n);
+  true_angles_.resize(n);
+  h_rot_.resize(n);
+}
+
+void Kinematics::TrueJointAngles(const Eigen::VectorXd& params, const double* joints_rad,
+                                 double* true_rad) const {
+  const int n = model_.num_joints();
+  for (int i = 0; i < n; ++i) true_rad[i] = joints_rad[i];
+  const int g = model_.num_geometric();
+  for (size_t k = 0; k < model_.nongeometric.size(); ++k) {
+    const auto& term = model_.nongeometric[k];
+    true_rad[term.joint] += params[g + static_cast<int>(k)] * term.Evaluate(joints_rad);
+  }
+}
+
+void Kinematics::Forward(const Eigen::Isometry3d& world_from_base, const Eigen::VectorXd& params,
+                         const double* joints_rad) {
+  const int n = model_.num_joints();
+  if (params.size() != model_.num_parameters()) {
+    throw std::invalid_argument("parameter vector has " + std::to_string(params.size()) +
+                                " entries, model " + model_.name + " has " +
+                                std::to_string(model_.num_parameters()));
+  }
+  TrueJointAngles(params, joints_rad, true_angles_.data());
+  // Running transform (R, t): world from the current frame.
+  Eigen::Matrix3d rot = world_from_base.linear();
+  Eigen::Vector3d pos = world_from_base.translation();
+  for (int i = 0; i < n; ++i) {
+    if (i > 0) {
+      const Eigen::Isometry3d& link = model_.links[i - 1];
+      pos += rot * link.translation();
+      rot = rot * link.linear();
+    }
+    const double* p = params.data() + 6 * i;
+    f_rot_[i] = rot;  // frame before H_i
+    pos += rot * Eigen::Vector3d(p[0], p[1], p[2]);
+    h_origin_[i] = pos;  // origin of the rotations α, β, γ, θ of joint i
+    const Eigen::Matrix3d rx = Rx(p[3]);
+    const Eigen::Matrix3d rxy = rx * Ry(p[4]);
+    alpha_axis_[i] = rot.col(0);
+    beta_axis_[i] = rot * rx.col(1);
+    rot = rot * (rxy * Rz(p[5]));
+    g_rot_[i] = rot;  // frame after H_i, before Θ_i: its z is the joint axis
+    rot = rot * Rz(true_angles_[i]);
+  }
+  last_rot_ = rot;
+  const double* tool = params.data() + 6 * n;
+  x_ = pos + rot * (model_.tool_mm + Eigen::Vector3d(tool[0], tool[1], tool[2]));
+}
+
+Eigen::Vector3d Kinematics::Position(const Eigen::Isometry3d& world_from_base,
+                                     const Eigen::VectorXd& params, const double* joints_rad) {
+  Forward(world_from_base, params, joints_rad);
+  return x_;
+}
+
+Eigen::Vector3d Kinematics::PositionAndJacobian(
+    const Eigen::Isometry3d& world_from_base, const Eigen::VectorXd& params,
+    const double* joints_rad, Eigen::Ref<Eigen::Matrix<double, 3, Eigen::Dynamic>> jacobian) {
+  Forward(world_from_base, params, joints_rad);
+  const int n = model_.num_joints();
+  // Every derivative is taken in the world frame: a translation along axis u moves the
+  // target by u; a rotation about axis u through point o moves it by u × (x − o).
+  for (int i = 0; i < n; ++i) {
+    const Eigen::Vector3d lever = x_ - h_origin_[i];
+    jacobian.col(6 * i + 0) = f_rot_[i].col(0);
+    jacobian.col(6 * i + 1) = f_rot_[i].col(1);
+    jacobian.col(6 * i + 2) = f_rot_[i].col(2);
+    jacobian.col(6 * i + 3) = alpha_axis_[i].cross(lever);
+    jacobian.col(6 * i + 4) = beta_axis_[i].cross(lever);
+    // γ_i and θ_i turn about the same axis (the joint axis, z of G_i).
+    jacobian.col(6 * i + 5) = g_rot_[i].col(2).cross(lever);
+  }
+  jacobian.middleCols(6 * n, 3) = last_rot_;
+  const int g = model_.num_geometric();
+  for (size_t k = 0; k < model_.nongeometric.size(); ++k) {
+    const auto& term = model_.nongeometric[k];
+    // Paper eq. (6)–(7): ∂x/∂h = ∂x/∂θ_joint · f(θ̄).
+    jacobian.col(g + static_cast<int>(k)) =
+        jacobian.col(6 * term.joint + 5) * term.Evaluate(joints_rad);
+  }
+  return x_;
+}
+
+Eigen::Matrix<double, 3, Eigen::Dynamic> Kinematics::JointJacobian() const {
+  const int n = model_.num_joints();
+  Eigen::Matrix<double, 3, Eigen::Dynamic> j(3, n);
+  for (int i = 0; i < n; ++i) j.col(i) = g_rot_[i].col(2).cross(x_ - h_origin_[i]);
+  return j;
+}
+
+}  // namespace armsig::calibration

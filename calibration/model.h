@@ -1,0 +1,149 @@
+// The robot error model of Chen & Chao, paper eq. (2)–(7):
+//   x = (N1 H1 Θ1)(N2 H2 Θ2)…(Nn Hn Θn)(x̄ + [a_{n+1} b_{n+1} c_{n+1} 0]ᵀ)
+// with H_i = Trans(a_i, b_i, c_i)·Rx(α_i)·Ry(β_i)·Rz(γ_i) and Θ_i a rotation about z
+// by the true joint angle θ_i = θ̄_i + Σ h_k f_k(θ̄) (non-geometric terms).
+//
+// RobotModel is immutable and shared; Kinematics evaluates it with its own scratch
+// space (one per thread), Pinocchio-style.
+#pragma once
+
+#include <Eigen/Core>
+#include <Eigen/Geometry>
+#include <optional>
+#include <string>
+#include <vector>
+
+namespace armsig::calibration {
+
+// A term added to a true joint angle: h · f(Σ θ̄_j for j in `of`).
+struct NongeometricTerm {
+  enum class Basis { kCos, kSignCos };
+  std::string name;
+  int joint = 0;        // 0-based joint whose true angle it corrects
+  Basis basis = Basis::kCos;
+  std::vector<int> of;  // 0-based joints whose encoder angles are summed
+
+  // Paper eq. (6)–(7): cos(Σθ̄) or SIGN[cos(Σθ̄)].
+  double Evaluate(const double* joints_rad) const;
+};
+
+enum class ParameterUnit { kMm, kRad };
+
+struct RobotModel {
+  std::string name;
+  // N1: measurement frame from robot base. nullopt = "auto" (rigid best fit to the data).
+  std::optional<Eigen::Isometry3d> base;
+  std::vector<Eigen::Isometry3d> links;  // N2…Nn
+  Eigen::Vector3d tool_mm = Eigen::Vector3d::Zero();  // x̄, in the last link frame
+  std::vector<NongeometricTerm> nongeometric;
+  // Optional joint limits (rad); empty when unknown.
+  std::vector<double> joint_min_rad, joint_max_rad;
+
+  int num_joints() const { return static_cast<int>(links.size()) + 1; }
+  int num_geometric() const { return 6 * num_joints() + 3; }
+  int num_parameters() const { return num_geometric() + static_cast<int>(nongeometric.size()); }
+
+  // a1 b1 c1 alpha1 beta1 gamma1 … gamma{n} a{n+1} b{n+1} c{n+1}, then the h-terms.
+  std::vector<std::string> ParameterNames() const;
+  ParameterUnit UnitOf(int parameter) const;
+  // Index of a parameter name, or -1.
+  int IndexOf(const std::string& name) const;
+};
+
+// Homogeneous transforms of paper eq. (2) and (3).
+Eigen::Isometry3d ErrorTransform(double a, double b, double c, double alpha, double beta,
+                                 double gamma);
+Eigen::Isometry3d JointRotation(double theta_rad);
+
+// Evaluates the model; owns the scratch space, so use one per thread.
+class Kinematics {
+ public:
+  explicit Kinematics(const RobotModel& model);
+
+  // Target position in the measurement frame for encoder angles `joints_rad`.
+  Eigen::Vector3d Position(const Eigen::Isometry3d& world_from_base, const Eigen::VectorXd& params,
+                           const double* joints_rad);
+
+  // Position and its analytic derivative with respect to every parameter
+  // (3 × num_parameters, written into `jacobian`).
+  Eigen::Vector3d PositionAndJacobian(const Eigen::Isometry3d& world_from_base,
+                                      const Eigen::VectorXd& params, const double* joints_rad,
+                                      Eigen::Ref<Eigen::Matrix<double, 3, Eigen::Dynamic>> jacobian);
+
+  // ∂x/∂θ_i with respect to the true joint angles (3 × n), from the last evaluation.
+  // Used by compensation (inverse kinematics on the calibrated model).
+  Eigen::Matrix<double, 3, Eigen::Dynamic> JointJacobian() const;
+
+  // True joint angles for the encoder angles under the model's h-terms.
+  void TrueJointAngles(const Eigen::VectorXd& params, const double* joints_rad,
+                       double* true_rad) const;
+
+  const RobotModel& model() const { return model_; }
+
+ private:
+  void Forward(const Eigen::Isometry3d& world_from_base, const Eigen::VectorXd& params,
+               const double* joints_rad);
+
+  const RobotModel& model_;
+  // Scratch, per joint i: frame before H_i (F), after H_i (G), axes for α, β.
+  std::vector<Eigen::Matrix3d> f_rot_, g_rot_;
+  std::vector<Eigen::Vector3d> h_origin_, alpha_axis_, beta_axis_;
+  std::vector<double> true_angles_;
+  std::vector<Eigen::Matrix3d> h_rot_;
+  Eigen::Vector3d x_ = Eigen::Vector3d::Zero();
+  Eigen::Matrix3d last_rot_ = Eigen::Matrix3d::Identity();
+};
+
+// The same model templated on the scalar type (for automatic differentiation with
+// ceres::Jet and as an independent check of the analytic Jacobian).
+template <typename T>
+Eigen::Matrix<T, 3, 1> TargetPosition(const RobotModel& model,
+                                      const Eigen::Isometry3d& world_from_base, const T* params,
+                                      const double* joints_rad) {
+  using Mat4 = Eigen::Matrix<T, 4, 4>;
+  const int n = model.num_joints();
+  std::vector<T> theta(n);
+  for (int i = 0; i < n; ++i) theta[i] = T(joints_rad[i]);
+  for (size_t k = 0; k < model.nongeometric.size(); ++k) {
+    const auto& term = model.nongeometric[k];
+    theta[term.joint] += params[model.num_geometric() + k] * term.Evaluate(joints_rad);
+  }
+  auto rx = [](const T& a) {
+    Mat4 m = Mat4::Identity();
+    using std::cos;
+    using std::sin;
+    m(1, 1) = cos(a); m(1, 2) = -sin(a); m(2, 1) = sin(a); m(2, 2) = cos(a);
+    return m;
+  };
+  auto ry = [](const T& a) {
+    Mat4 m = Mat4::Identity();
+    using std::cos;
+    using std::sin;
+    m(0, 0) = cos(a); m(0, 2) = sin(a); m(2, 0) = -sin(a); m(2, 2) = cos(a);
+    return m;
+  };
+  auto rz = [](const T& a) {
+    Mat4 m = Mat4::Identity();
+    using std::cos;
+    using std::sin;
+    m(0, 0) = cos(a); m(0, 1) = -sin(a); m(1, 0) = sin(a); m(1, 1) = cos(a);
+    return m;
+  };
+  Mat4 chain = world_from_base.matrix().template cast<T>();
+  for (int i = 0; i < n; ++i) {
+    if (i > 0) chain = chain * model.links[i - 1].matrix().template cast<T>();
+    const T* p = params + 6 * i;
+    Mat4 translation = Mat4::Identity();
+    translation(0, 3) = p[0];
+    translation(1, 3) = p[1];
+    translation(2, 3) = p[2];
+    chain = chain * translation * rx(p[3]) * ry(p[4]) * rz(p[5]) * rz(theta[i]);
+  }
+  Eigen::Matrix<T, 4, 1> point;
+  const T* tool = params + 6 * n;
+  point << T(model.tool_mm.x()) + tool[0], T(model.tool_mm.y()) + tool[1],
+      T(model.tool_mm.z()) + tool[2], T(1.0);
+  return (chain * point).template head<3>();
+}
+
+}  // namespace armsig::calibration

@@ -1,0 +1,174 @@
+#include "calibration/selection.h"
+
+#include <Eigen/Cholesky>
+#include <Eigen/LU>
+#include <Eigen/SVD>
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <stdexcept>
+#include <string>
+
+namespace armsig::calibration {
+
+void SelectionOptions::Check(int candidates) const {
+  if (count < 1) throw std::invalid_argument("--select needs a positive count");
+  if (count > candidates) {
+    throw std::invalid_argument("cannot select " + std::to_string(count) + " of " +
+                                std::to_string(candidates) + " configurations");
+  }
+  if (exchange_passes < 0) throw std::invalid_argument("exchange passes must be ≥ 0");
+  if (!(ridge > 0.0)) throw std::invalid_argument("ridge must be > 0");
+}
+
+namespace {
+
+// Scaled 3 × L Jacobian blocks of every candidate (identity base: D-optimality does not
+// depend on where the measuring frame is).
+std::vector<Eigen::MatrixXd> ScaledBlocks(const RobotModel& model,
+                                          const std::vector<Eigen::VectorXd>& configurations,
+                                          const std::vector<int>& parameters,
+                                          const Eigen::VectorXd* scale_in,
+                                          Eigen::VectorXd* scale_out) {
+  const int l = static_cast<int>(parameters.size());
+  Kinematics kin(model);
+  const Eigen::VectorXd zero = Eigen::VectorXd::Zero(model.num_parameters());
+  Eigen::Matrix<double, 3, Eigen::Dynamic> full(3, model.num_parameters());
+  std::vector<Eigen::MatrixXd> blocks(configurations.size(), Eigen::MatrixXd(3, l));
+  Eigen::VectorXd sum_sq = Eigen::VectorXd::Zero(l);
+  for (size_t i = 0; i < configurations.size(); ++i) {
+    kin.PositionAndJacobian(Eigen::Isometry3d::Identity(), zero, configurations[i].data(), full);
+    for (int c = 0; c < l; ++c) blocks[i].col(c) = full.col(parameters[c]);
+    sum_sq += blocks[i].colwise().squaredNorm().transpose();
+  }
+  Eigen::VectorXd scale = scale_in ? *scale_in
+                                   : (sum_sq / std::max<size_t>(1, configurations.size())).cwiseSqrt();
+  for (int c = 0; c < l; ++c) {
+    if (!(scale(c) > 0.0)) scale(c) = 1.0;
+  }
+  for (auto& b : blocks) b = b * scale.cwiseInverse().asDiagonal();
+  if (scale_out) *scale_out = scale;
+  return blocks;
+}
+
+Observability Measure(const std::vector<Eigen::MatrixXd>& blocks, const std::vector<int>& subset) {
+  Observability o;
+  if (subset.empty()) return o;
+  const int l = static_cast<int>(blocks[0].cols());
+  Eigen::MatrixXd j(3 * subset.size(), l);
+  for (size_t i = 0; i < subset.size(); ++i) j.middleRows(3 * i, 3) = blocks[subset[i]];
+  Eigen::JacobiSVD<Eigen::MatrixXd> svd(j);
+  const auto& s = svd.singularValues();
+  const double smallest = s(s.size() - 1);
+  o.condition_number = smallest > 0 ? s(0) / smallest : std::numeric_limits<double>::infinity();
+  double log_sum = 0.0;
+  for (int i = 0; i < s.size(); ++i) log_sum += std::log(std::max(s(i), 1e-300));
+  o.log_det = 2.0 * log_sum;
+  o.o1 = std::exp(log_sum / s.size()) / std::sqrt(static_cast<double>(subset.size()));
+  return o;
+}
+
+}  // namespace
+
+Eigen::VectorXd ColumnScale(const RobotModel& model,
+                            const std::vector<Eigen::VectorXd>& configurations_rad,
+                            const std::vector<int>& parameters) {
+  Eigen::VectorXd scale;
+  ScaledBlocks(model, configurations_rad, parameters, nullptr, &scale);
+  return scale;
+}
+
+Observability MeasureObservability(const RobotModel& model,
+                                   const std::vector<Eigen::VectorXd>& configurations_rad,
+                                   const std::vector<int>& parameters,
+                                   const Eigen::VectorXd& column_scale) {
+  const auto blocks = ScaledBlocks(model, configurations_rad, parameters, &column_scale, nullptr);
+  std::vector<int> all(configurations_rad.size());
+  for (size_t i = 0; i < all.size(); ++i) all[i] = static_cast<int>(i);
+  return Measure(blocks, all);
+}
+
+SelectionResult SelectConfigurations(const RobotModel& model,
+                                     const std::vector<Eigen::VectorXd>& candidates_rad,
+                                     const std::vector<int>& parameters,
+                                     const SelectionOptions& options) {
+  const int m = static_cast<int>(candidates_rad.size());
+  options.Check(m);
+  const int l = static_cast<int>(parameters.size());
+  const auto blocks = ScaledBlocks(model, candidates_rad, parameters, nullptr, nullptr);
+
+  // Information M = ridge·I + Σ JᵢᵀJᵢ; keep M⁻¹ and, for every candidate, Sᵢ = Jᵢ M⁻¹ Jᵢᵀ.
+  // Adding i multiplies det M by det(I + Sᵢ); removing it by det(I − Sᵢ).
+  Eigen::MatrixXd m_inv = Eigen::MatrixXd::Identity(l, l) / options.ridge;
+  std::vector<Eigen::Matrix3d> s(m);
+  for (int i = 0; i < m; ++i) s[i] = blocks[i] * m_inv * blocks[i].transpose();
+  std::vector<char> in(m, 0);
+
+  // Rank-3 update of M⁻¹ and every Sᵢ for adding (sign +1) or removing (−1) candidate k.
+  Eigen::MatrixXd u(l, 3);
+  Eigen::MatrixXd projected(3, 3);
+  auto apply = [&](int k, double sign) {
+    u.noalias() = m_inv * blocks[k].transpose();                  // M⁻¹ Jₖᵀ (l × 3)
+    const Eigen::Matrix3d c = Eigen::Matrix3d::Identity() + sign * s[k];
+    const Eigen::Matrix3d c_inv = c.inverse();
+    // Woodbury: (M ± JₖᵀJₖ)⁻¹ = M⁻¹ ∓ U C⁻¹ Uᵀ.
+    m_inv.noalias() -= sign * (u * c_inv * u.transpose());
+    for (int i = 0; i < m; ++i) {
+      const Eigen::Matrix3d w = blocks[i] * u;                     // Jᵢ M⁻¹ Jₖᵀ
+      s[i].noalias() -= sign * (w * c_inv * w.transpose());
+    }
+  };
+
+  const int count = options.count;
+  for (int step = 0; step < count; ++step) {
+    int best = -1;
+    double best_gain = -std::numeric_limits<double>::infinity();
+    for (int i = 0; i < m; ++i) {
+      if (in[i]) continue;
+      const double gain = (Eigen::Matrix3d::Identity() + s[i]).determinant();
+      if (gain > best_gain) {
+        best_gain = gain;
+        best = i;
+      }
+    }
+    in[best] = 1;
+    apply(best, +1.0);
+  }
+
+  // Exchange: take each selected configuration out in turn and put back the best one.
+  SelectionResult result;
+  for (int pass = 0; pass < options.exchange_passes; ++pass) {
+    int swaps = 0;
+    for (int k = 0; k < m; ++k) {
+      if (!in[k]) continue;
+      in[k] = 0;
+      apply(k, -1.0);
+      int best = k;
+      double best_gain = (Eigen::Matrix3d::Identity() + s[k]).determinant();
+      for (int i = 0; i < m; ++i) {
+        if (in[i]) continue;
+        const double gain = (Eigen::Matrix3d::Identity() + s[i]).determinant();
+        if (gain > best_gain * (1.0 + 1e-9)) {
+          best_gain = gain;
+          best = i;
+        }
+      }
+      in[best] = 1;
+      apply(best, +1.0);
+      if (best != k) ++swaps;
+    }
+    result.exchanges += swaps;
+    if (swaps == 0) break;
+  }
+
+  for (int i = 0; i < m; ++i) {
+    if (in[i]) result.selected.push_back(i);
+  }
+  const Observability o = Measure(blocks, result.selected);
+  result.log_det = o.log_det;
+  result.condition_number = o.condition_number;
+  result.o1 = o.o1;
+  return result;
+}
+
+}  // namespace armsig::calibration

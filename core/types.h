@@ -1,0 +1,34 @@
+// Value types shared by several modules. Eigen only.
+#pragma once
+
+#include <Eigen/Core>
+#include <Eigen/Geometry>
+#include <string>
+#include <vector>
+
+namespace armsig {
+
+// One theodolite reading, as observed (face I or II), SPEC "Theodolite frame".
+struct AngleReading {
+  double hz_rad = 0.0;  // clockwise from circle zero
+  double v_rad = 0.0;   // zenith angle
+  int face = 1;         // 1 or 2
+};
+
+// A robot configuration with its measured target position (measurement frame).
+struct MeasuredPose {
+  std::string id;
+  Eigen::VectorXd joints_rad;       // encoder angles θ̄, zero at the null configuration
+  Eigen::Vector3d target_in_world;  // measured target position, mm
+};
+
+// Station pose: world point = position + R · instrument point (SPEC "Station pose").
+struct StationPose {
+  std::string id;
+  Eigen::Vector3d position_mm = Eigen::Vector3d::Zero();
+  Eigen::Matrix3d world_from_station = Eigen::Matrix3d::Identity();
+  bool levelled = true;
+  double azimuth_rad = 0.0;  // meaningful when levelled
+};
+
+}  // namespace armsig

@@ -1,0 +1,172 @@
+#include "db/schema.h"
+
+#include <array>
+
+namespace armsig::db {
+
+namespace {
+
+// Schema v1: the whole mission. Angles in rad, lengths in mm, times ISO-8601 UTC.
+constexpr std::string_view kSchemaV1 = R"sql(
+CREATE TABLE robots (
+  id           INTEGER PRIMARY KEY,
+  name         TEXT NOT NULL UNIQUE,
+  model_name   TEXT NOT NULL,
+  model_yaml   TEXT NOT NULL,              -- the robot model file as loaded
+  created_at   TEXT NOT NULL DEFAULT (strftime('%Y-%m-%dT%H:%M:%fZ','now'))
+);
+
+CREATE TABLE instruments (
+  id                 INTEGER PRIMARY KEY,
+  name               TEXT NOT NULL UNIQUE,
+  kind               TEXT NOT NULL CHECK (kind IN ('theodolite','total_station','laser_tracker','robot_controller','encoder_box')),
+  protocol           TEXT NOT NULL,          -- geocom, gsi, val, as, counter_box, ...
+  port               TEXT,
+  serial_number      TEXT,
+  firmware           TEXT,
+  sigma_hz_arcsec    REAL,
+  sigma_v_arcsec     REAL,
+  sigma_distance_mm  REAL,
+  created_at         TEXT NOT NULL DEFAULT (strftime('%Y-%m-%dT%H:%M:%fZ','now'))
+);
+
+CREATE TABLE stations (
+  id             INTEGER PRIMARY KEY,
+  code           TEXT NOT NULL UNIQUE,       -- station id used in observation files
+  instrument_id  INTEGER REFERENCES instruments(id),
+  description    TEXT
+);
+
+CREATE TABLE sessions (
+  id           INTEGER PRIMARY KEY,
+  robot_id     INTEGER NOT NULL REFERENCES robots(id),
+  lab_yaml     TEXT,
+  plan_json    TEXT,                        -- the configurations to measure, in order
+  state        TEXT NOT NULL DEFAULT 'running' CHECK (state IN ('running','paused','completed','aborted')),
+  note         TEXT,
+  started_at   TEXT NOT NULL DEFAULT (strftime('%Y-%m-%dT%H:%M:%fZ','now')),
+  finished_at  TEXT
+);
+
+-- Orientation results: one set-up per station and session (or standalone, session NULL).
+CREATE TABLE station_setups (
+  id            INTEGER PRIMARY KEY,
+  station_id    INTEGER NOT NULL REFERENCES stations(id),
+  session_id    INTEGER REFERENCES sessions(id),
+  x_mm REAL NOT NULL, y_mm REAL NOT NULL, z_mm REAL NOT NULL,
+  levelled      INTEGER NOT NULL CHECK (levelled IN (0,1)),
+  azimuth_rad   REAL,                         -- levelled stations
+  rotation_json TEXT,                         -- 3x3 row-major world_from_station otherwise
+  sx_mm REAL, sy_mm REAL, sz_mm REAL, s_azimuth_rad REAL,
+  sigma0        REAL,
+  dof           INTEGER,
+  method        TEXT,                         -- mutual+scale_bar, control, fixed
+  created_at    TEXT NOT NULL DEFAULT (strftime('%Y-%m-%dT%H:%M:%fZ','now'))
+);
+
+-- Joint readings, one row per measured (or skipped) configuration of a session.
+CREATE TABLE poses (
+  id            INTEGER PRIMARY KEY,
+  session_id    INTEGER NOT NULL REFERENCES sessions(id),
+  seq           INTEGER NOT NULL,             -- index in the session's plan
+  label         TEXT NOT NULL,                -- pose id in files
+  joints_json   TEXT,                         -- encoder angles, rad, JSON array; NULL when skipped
+  status        TEXT NOT NULL CHECK (status IN ('measured','skipped')),
+  attempts      INTEGER NOT NULL DEFAULT 1,
+  captured_at   TEXT NOT NULL DEFAULT (strftime('%Y-%m-%dT%H:%M:%fZ','now')),
+  UNIQUE (session_id, seq)
+);
+
+-- Raw instrument readings exactly as observed.
+CREATE TABLE observations (
+  id                 INTEGER PRIMARY KEY,
+  session_id         INTEGER REFERENCES sessions(id),
+  pose_id            INTEGER REFERENCES poses(id),
+  point              TEXT NOT NULL,           -- target point id (or a station id: mutual pointing)
+  station_id         INTEGER NOT NULL REFERENCES stations(id),
+  instrument_id      INTEGER REFERENCES instruments(id),
+  hz_rad             REAL NOT NULL,
+  v_rad              REAL NOT NULL,
+  distance_mm        REAL,
+  face               INTEGER NOT NULL DEFAULT 1 CHECK (face IN (1,2)),
+  sigma_hz_arcsec    REAL,
+  sigma_v_arcsec     REAL,
+  sigma_distance_mm  REAL,
+  return_code        INTEGER NOT NULL DEFAULT 0,  -- instrument return code (GeoCOM RC, 0 = OK)
+  measured_at        TEXT NOT NULL DEFAULT (strftime('%Y-%m-%dT%H:%M:%fZ','now'))
+);
+CREATE INDEX observations_by_session ON observations(session_id, pose_id);
+
+-- Reduced target coordinates with their precision.
+CREATE TABLE points (
+  id            INTEGER PRIMARY KEY,
+  session_id    INTEGER REFERENCES sessions(id),
+  pose_id       INTEGER REFERENCES poses(id),
+  point         TEXT NOT NULL,
+  x_mm REAL, y_mm REAL, z_mm REAL,              -- NULL when the point could not be reduced
+  sx_mm REAL, sy_mm REAL, sz_mm REAL,
+  covariance_json TEXT,                         -- 3x3 row-major, mm^2
+  rays          INTEGER NOT NULL,
+  rejected_rays INTEGER NOT NULL DEFAULT 0,
+  sigma0        REAL,
+  miss_mm       REAL,                           -- largest ray miss distance
+  flags         TEXT NOT NULL DEFAULT '',       -- e.g. blunder_rejected, one_ray, parallel_rays
+  reduced_at    TEXT NOT NULL DEFAULT (strftime('%Y-%m-%dT%H:%M:%fZ','now')),
+  UNIQUE (session_id, pose_id, point)
+);
+
+-- Fitted parameter sets, versioned per robot.
+CREATE TABLE calibrations (
+  id               INTEGER PRIMARY KEY,
+  robot_id         INTEGER NOT NULL REFERENCES robots(id),
+  version          INTEGER NOT NULL,
+  active           INTEGER NOT NULL DEFAULT 0 CHECK (active IN (0,1)),
+  params_spec      TEXT NOT NULL,              -- geometric | all | list
+  inputs_json      TEXT NOT NULL,              -- sources, pose counts, selection
+  options_json     TEXT NOT NULL,
+  rank             INTEGER NOT NULL,
+  poses_fit        INTEGER NOT NULL,
+  poses_validation INTEGER NOT NULL DEFAULT 0,
+  nominal_mean_mm REAL, nominal_max_mm REAL, nominal_rms_mm REAL,
+  fit_mean_mm REAL, fit_max_mm REAL, fit_rms_mm REAL,
+  validation_mean_mm REAL, validation_max_mm REAL, validation_rms_mm REAL,
+  report_json      TEXT,
+  created_at       TEXT NOT NULL DEFAULT (strftime('%Y-%m-%dT%H:%M:%fZ','now')),
+  UNIQUE (robot_id, version)
+);
+
+CREATE TABLE calibration_parameters (
+  calibration_id  INTEGER NOT NULL REFERENCES calibrations(id) ON DELETE CASCADE,
+  name            TEXT NOT NULL,
+  value           REAL NOT NULL,              -- mm or rad
+  unit            TEXT NOT NULL CHECK (unit IN ('mm','rad')),
+  identified      INTEGER NOT NULL CHECK (identified IN (0,1)),
+  sigma           REAL,
+  PRIMARY KEY (calibration_id, name)
+);
+
+CREATE TABLE validation_residuals (
+  id              INTEGER PRIMARY KEY,
+  calibration_id  INTEGER NOT NULL REFERENCES calibrations(id) ON DELETE CASCADE,
+  pose_id         INTEGER REFERENCES poses(id),
+  pose_label      TEXT NOT NULL,
+  role            TEXT NOT NULL CHECK (role IN ('fit','validation')),
+  dx_mm REAL NOT NULL, dy_mm REAL NOT NULL, dz_mm REAL NOT NULL,
+  distance_mm     REAL NOT NULL,
+  nominal_distance_mm REAL
+);
+)sql";
+
+constexpr std::array<std::string_view, 1> kMigrations = {kSchemaV1};
+
+constexpr std::array<std::string_view, 11> kTables = {
+    "robots",       "instruments", "stations",     "sessions",
+    "station_setups", "poses",     "observations", "points",
+    "calibrations", "calibration_parameters", "validation_residuals"};
+
+}  // namespace
+
+std::span<const std::string_view> Migrations() { return kMigrations; }
+std::span<const std::string_view> TableNames() { return kTables; }
+
+}  // namespace armsig::db

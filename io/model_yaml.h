@@ -1,0 +1,17 @@
+// Robot model files (SPEC "Robot model (YAML)"). Two ways to give the links:
+//   links: [4x4 row-major, …]            N2…Nn, the paper's form
+//   dh: [{d_mm, a_mm, alpha_deg|_rad|_gon}, …]   standard Denavit–Hartenberg, one row per
+//       joint, mapped as N(i+1) = Tz(d_i)·Tx(a_i)·Rx(α_i) and the last row folded into x̄.
+#pragma once
+
+#include <string>
+
+#include "calibration/model.h"
+
+namespace armsig::io {
+
+// Throws InputError with file, line and column of the offending node.
+calibration::RobotModel LoadRobotModel(const std::string& path);
+calibration::RobotModel ParseRobotModel(const std::string& yaml_text, const std::string& source);
+
+}  // namespace armsig::io

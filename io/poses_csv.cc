@@ -1,0 +1,105 @@
+#include "io/poses_csv.h"
+
+#include <cstdio>
+#include <set>
+
+#include "core/error.h"
+#include "io/csv.h"
+
+namespace armsig::io {
+
+std::vector<MeasuredPose> ReadPosesCsv(const std::string& path, int num_joints) {
+  const CsvTable table = ReadCsvFile(path);
+  const int id_col = table.Column("pose");
+  std::vector<AngleColumn> q;
+  for (int i = 1; i <= num_joints; ++i) q.push_back(table.AngleColumnOf("q" + std::to_string(i)));
+  const int x = table.Column("x_mm"), y = table.Column("y_mm"), z = table.Column("z_mm");
+  if (table.FindAngleColumn("q" + std::to_string(num_joints + 1))) {
+    throw InputError({path, 1, 0, ""}, "has a column q" + std::to_string(num_joints + 1) +
+                                           " but the robot model has " +
+                                           std::to_string(num_joints) + " joints");
+  }
+  std::vector<MeasuredPose> poses;
+  std::set<std::string> ids;
+  for (const CsvRow& row : table.rows()) {
+    MeasuredPose pose;
+    pose.id = table.Text(row, id_col);
+    if (pose.id.empty()) throw InputError(table.Where(row, id_col), "expected a pose id");
+    if (!ids.insert(pose.id).second) {
+      throw InputError(table.Where(row, id_col), "duplicate pose id '" + pose.id + "'");
+    }
+    pose.joints_rad.resize(num_joints);
+    for (int i = 0; i < num_joints; ++i) pose.joints_rad(i) = table.AngleRad(row, q[i]);
+    pose.target_in_world = {table.Number(row, x), table.Number(row, y), table.Number(row, z)};
+    poses.push_back(std::move(pose));
+  }
+  if (poses.empty()) throw InputError({path, 0, 0, ""}, "no poses (expected data rows after the header)");
+  return poses;
+}
+
+std::string FormatPosesCsv(const std::vector<MeasuredPose>& poses) {
+  std::string out = "pose";
+  const int n = poses.empty() ? 0 : static_cast<int>(poses[0].joints_rad.size());
+  for (int i = 1; i <= n; ++i) out += ",q" + std::to_string(i) + "_deg";
+  out += ",x_mm,y_mm,z_mm\n";
+  char buffer[64];
+  for (const auto& pose : poses) {
+    out += CsvEscape(pose.id);
+    for (int i = 0; i < n; ++i) {
+      std::snprintf(buffer, sizeof buffer, ",%.12g", FromRad(pose.joints_rad(i), AngleUnit::kDeg));
+      out += buffer;
+    }
+    for (int k = 0; k < 3; ++k) {
+      std::snprintf(buffer, sizeof buffer, ",%.9g", pose.target_in_world(k));
+      out += buffer;
+    }
+    out += '\n';
+  }
+  return out;
+}
+
+PoseImportOptions PoseImportOptions::UrIpa() {
+  PoseImportOptions o;
+  o.delimiter = ';';
+  o.decimal_comma = true;
+  o.joint_columns = {"shoulder_pan_joint", "shoulder_lift_joint", "elbow_joint",
+                     "wrist_1_joint",      "wrist_2_joint",       "wrist_3_joint"};
+  o.joint_unit = AngleUnit::kRad;
+  o.xyz_columns = {"measurement_x", "measurement_y", "measurement_z"};
+  return o;
+}
+
+std::vector<MeasuredPose> ImportPoses(const std::string& path, const PoseImportOptions& options) {
+  if (options.joint_columns.empty()) throw InputError("no joint columns given (--joints)");
+  if (options.xyz_columns.size() != 3) throw InputError("expected three position columns (--xyz)");
+  CsvOptions csv;
+  csv.delimiter = options.delimiter;
+  csv.decimal_comma = options.decimal_comma;
+  const CsvTable table = ReadCsvFile(path, csv);
+  std::vector<int> q;
+  for (const auto& name : options.joint_columns) q.push_back(table.Column(name));
+  int xyz[3];
+  for (int k = 0; k < 3; ++k) xyz[k] = table.Column(options.xyz_columns[k]);
+  const int id_col = options.id_column.empty() ? -1 : table.Column(options.id_column);
+  std::vector<MeasuredPose> poses;
+  std::set<std::string> ids;
+  for (const CsvRow& row : table.rows()) {
+    MeasuredPose pose;
+    pose.id = id_col >= 0 ? table.Text(row, id_col) : std::to_string(poses.size() + 1);
+    if (!ids.insert(pose.id).second) {
+      throw InputError(table.Where(row, id_col), "duplicate pose id '" + pose.id + "'");
+    }
+    pose.joints_rad.resize(q.size());
+    for (size_t i = 0; i < q.size(); ++i) {
+      pose.joints_rad(i) = ToRad(table.Number(row, q[i]), options.joint_unit);
+    }
+    for (int k = 0; k < 3; ++k) {
+      pose.target_in_world(k) = table.Number(row, xyz[k]) * options.length_scale_to_mm;
+    }
+    poses.push_back(std::move(pose));
+  }
+  if (poses.empty()) throw InputError({path, 0, 0, ""}, "no data rows");
+  return poses;
+}
+
+}  // namespace armsig::io

@@ -1,0 +1,35 @@
+// Poses (SPEC "Poses (CSV)"): pose,q1_deg,…,qn_deg,x_mm,y_mm,z_mm (any angle unit
+// suffix, extra columns ignored), and the import of foreign pose tables such as the
+// IPA UR10 laser-tracker files (';', decimal comma, named columns).
+#pragma once
+
+#include <string>
+#include <vector>
+
+#include "core/types.h"
+#include "core/units.h"
+
+namespace armsig::io {
+
+// Reads poses for a robot of `num_joints` joints. Throws InputError (file, line,
+// column) for a missing column, a malformed number, a duplicate pose id, or no rows.
+std::vector<MeasuredPose> ReadPosesCsv(const std::string& path, int num_joints);
+
+// Writes the SPEC's poses CSV (angles in degrees, full precision).
+std::string FormatPosesCsv(const std::vector<MeasuredPose>& poses);
+
+struct PoseImportOptions {
+  char delimiter = '\0';          // '\0' = guess
+  bool decimal_comma = false;
+  std::vector<std::string> joint_columns;  // in joint order
+  AngleUnit joint_unit = AngleUnit::kRad;
+  std::vector<std::string> xyz_columns;    // measured target x, y, z
+  double length_scale_to_mm = 1.0;         // e.g. 1000 for metres
+  std::string id_column;                   // empty = row number
+  // Preset for the IPA UR10 laser-tracker CSVs (../shared/data/ur10-ipa).
+  static PoseImportOptions UrIpa();
+};
+
+std::vector<MeasuredPose> ImportPoses(const std::string& path, const PoseImportOptions& options);
+
+}  // namespace armsig::io

@@ -1,0 +1,136 @@
+#include <gtest/gtest.h>
+
+#include <filesystem>
+#include <nlohmann/json.hpp>
+#include <random>
+
+#include "calibration/simulation.h"
+#include "io/poses_csv.h"
+#include "test_support.h"
+
+namespace armsig::testing {
+namespace {
+
+class CalibrateCommand : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    const auto model = Puma();
+    std::mt19937 rng(31);
+    Eigen::Isometry3d base = Eigen::Isometry3d::Identity();
+    base.translation() << 1800, -2200, 400;
+    base.rotate(Eigen::AngleAxisd(-1.2, Eigen::Vector3d::UnitZ()));
+    const auto truth = calibration::PaperTable3Parameters();
+    poses_ = calibration::SimulatePoses(
+        model, base, truth, calibration::RandomConfigurations(model, 160, rng), 0.02, rng);
+    holdout_ = calibration::SimulatePoses(
+        model, base, truth, calibration::RandomConfigurations(model, 50, rng), 0.02, rng);
+    WriteText(dir_.File("poses.csv"), io::FormatPosesCsv(poses_));
+    WriteText(dir_.File("holdout.csv"), io::FormatPosesCsv(holdout_));
+  }
+
+  std::string Model() const { return "--model '" + SourcePath("models/puma760.yaml") + "' "; }
+
+  TempDir dir_;
+  std::vector<MeasuredPose> poses_, holdout_;
+};
+
+}  // namespace
+
+TEST_F(CalibrateCommand, FitsSelectsValidatesAndWritesJson) {
+  const auto r = RunArmsig("calibrate " + Model() + "--poses '" + dir_.File("poses.csv") +
+                           "' --select 80 --json '" + dir_.File("out.json") + "'");
+  ASSERT_EQ(r.exit_code, 0) << r.err << r.out;
+  EXPECT_NE(r.out.find("alpha_i (1e-3 rad)"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("calibrated, validation"), std::string::npos);
+  const auto j = nlohmann::json::parse(ReadText(dir_.File("out.json")));
+  EXPECT_EQ(j["rank"], 29);
+  EXPECT_EQ(j["poses_used"], 80);
+  EXPECT_EQ(j["validation"]["poses"], 80);
+  EXPECT_EQ(j["parameters"].size(), 43u);
+  EXPECT_EQ(j["parameters"][0]["name"], "a1");
+  EXPECT_EQ(j["parameters"][0]["unit"], "mm");
+  EXPECT_EQ(j["parameters"][3]["unit"], "rad");
+  EXPECT_GT(j["nominal"]["mean_mm"].get<double>(), 1.0);
+  EXPECT_LT(j["validation"]["mean_mm"].get<double>(), 0.05);
+  EXPECT_EQ(j["selection"]["criterion"], "D-optimal");
+  int identified = 0;
+  for (const auto& p : j["parameters"]) {
+    identified += p["identified"].get<bool>();
+    if (!p["identified"].get<bool>()) {
+      EXPECT_TRUE(p["sigma"].is_null());
+    }
+  }
+  EXPECT_EQ(identified, 29);
+}
+
+TEST_F(CalibrateCommand, ValidatesOnAHoldoutFileAndHonoursParams) {
+  const auto r = RunArmsig("calibrate " + Model() + "--poses '" + dir_.File("poses.csv") +
+                           "' --validate '" + dir_.File("holdout.csv") +
+                           "' --params geometric,h3,h4 --json '" + dir_.File("o.json") + "'");
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  const auto j = nlohmann::json::parse(ReadText(dir_.File("o.json")));
+  EXPECT_EQ(j["rank"], 27);
+  EXPECT_EQ(j["validation"]["poses"], 50);
+  EXPECT_FALSE(j["parameters"][39]["identified"].get<bool>());  // h1 not asked for
+}
+
+TEST_F(CalibrateCommand, MalformedPosesNameFileLineAndColumnAndWriteNothing) {
+  std::string text = io::FormatPosesCsv(poses_);
+  // Break line 5 (4th data row): replace its x value with garbage.
+  size_t pos = 0;
+  for (int line = 1; line < 5; ++line) pos = text.find('\n', pos) + 1;
+  const size_t end = text.find('\n', pos);
+  std::string row = text.substr(pos, end - pos);
+  const size_t comma = row.rfind(',', row.rfind(',') - 1);
+  const size_t comma2 = row.rfind(',', comma - 1);
+  row = row.substr(0, comma2 + 1) + "12.5.3" + row.substr(comma);
+  text.replace(pos, end - pos, row);
+  WriteText(dir_.File("bad.csv"), text);
+  const auto r = RunArmsig("calibrate " + Model() + "--poses '" + dir_.File("bad.csv") +
+                           "' --json '" + dir_.File("bad.json") + "'");
+  EXPECT_EQ(r.exit_code, 2);
+  EXPECT_NE(r.err.find("bad.csv:5:8 (x_mm)"), std::string::npos) << r.err;
+  EXPECT_FALSE(std::filesystem::exists(dir_.File("bad.json")));
+}
+
+TEST_F(CalibrateCommand, NanIsRejected) {
+  WriteText(dir_.File("nan.csv"), "pose,q1_deg,q2_deg,q3_deg,q4_deg,q5_deg,q6_deg,x_mm,y_mm,z_mm\n"
+                                  "A,1,2,3,4,5,6,nan,0,0\n");
+  const auto r = RunArmsig("calibrate " + Model() + "--poses '" + dir_.File("nan.csv") + "'");
+  EXPECT_EQ(r.exit_code, 2);
+  EXPECT_NE(r.err.find("nan.csv:2:8"), std::string::npos) << r.err;
+}
+
+TEST_F(CalibrateCommand, UnknownParameterNameIsAnInputError) {
+  const auto r = RunArmsig("calibrate " + Model() + "--poses '" + dir_.File("poses.csv") +
+                           "' --params geometric,h7 --json '" + dir_.File("x.json") + "'");
+  EXPECT_EQ(r.exit_code, 2);
+  EXPECT_NE(r.err.find("unknown parameter 'h7'"), std::string::npos) << r.err;
+  EXPECT_FALSE(std::filesystem::exists(dir_.File("x.json")));
+}
+
+TEST_F(CalibrateCommand, TooFewPosesIsAnInputError) {
+  std::vector<MeasuredPose> few(poses_.begin(), poses_.begin() + 8);
+  WriteText(dir_.File("few.csv"), io::FormatPosesCsv(few));
+  const auto r = RunArmsig("calibrate " + Model() + "--poses '" + dir_.File("few.csv") +
+                           "' --json '" + dir_.File("few.json") + "'");
+  EXPECT_EQ(r.exit_code, 2);
+  EXPECT_NE(r.err.find("24 equations"), std::string::npos) << r.err;
+  EXPECT_FALSE(std::filesystem::exists(dir_.File("few.json")));
+}
+
+TEST_F(CalibrateCommand, MalformedModelNamesItsLine) {
+  WriteText(dir_.File("m.yaml"), "name: x\nlinks:\n  - [[1,0,0,0],[0,1,0,0]]\n");
+  const auto r = RunArmsig("calibrate --model '" + dir_.File("m.yaml") + "' --poses '" +
+                           dir_.File("poses.csv") + "'");
+  EXPECT_EQ(r.exit_code, 2);
+  EXPECT_NE(r.err.find("m.yaml:3"), std::string::npos) << r.err;
+}
+
+TEST_F(CalibrateCommand, MissingFileIsAnInputError) {
+  const auto r = RunArmsig("calibrate " + Model() + "--poses /nonexistent/poses.csv");
+  EXPECT_EQ(r.exit_code, 2);
+  EXPECT_NE(r.err.find("/nonexistent/poses.csv"), std::string::npos);
+}
+
+}  // namespace armsig::testing

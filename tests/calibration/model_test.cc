@@ -1,0 +1,138 @@
+#include "calibration/model.h"
+
+#include <ceres/jet.h>
+#include <gtest/gtest.h>
+
+#include <random>
+
+#include "calibration/simulation.h"
+#include "test_support.h"
+
+namespace armsig::calibration {
+namespace {
+
+Eigen::Isometry3d SomeBase() {
+  Eigen::Isometry3d base = Eigen::Isometry3d::Identity();
+  base.rotate(Eigen::AngleAxisd(2.1, Eigen::Vector3d(0.3, -0.5, 0.8).normalized()));
+  base.translation() << 2500.0, -1300.0, 800.0;
+  return base;
+}
+
+// Central finite differences of the position with respect to every parameter.
+Eigen::MatrixXd NumericJacobian(const RobotModel& model, const Eigen::Isometry3d& base,
+                                const Eigen::VectorXd& params, const Eigen::VectorXd& q) {
+  Kinematics kin(model);
+  Eigen::MatrixXd j(3, model.num_parameters());
+  for (int k = 0; k < model.num_parameters(); ++k) {
+    // Steps balance truncation (h²) against rounding of ~3 m coordinates (ε·3000/h).
+    const double h = model.UnitOf(k) == ParameterUnit::kMm ? 1e-3 : 1e-6;
+    Eigen::VectorXd plus = params, minus = params;
+    plus(k) += h;
+    minus(k) -= h;
+    j.col(k) = (kin.Position(base, plus, q.data()) - kin.Position(base, minus, q.data())) / (2 * h);
+  }
+  return j;
+}
+
+}  // namespace
+
+TEST(ErrorTransform, MatchesPaperEquation2) {
+  const double a = 0.3, b = -0.2, c = 0.7, al = 0.011, be = -0.023, ga = 0.037;
+  const double ca = std::cos(al), sa = std::sin(al), cb = std::cos(be), sb = std::sin(be),
+               cg = std::cos(ga), sg = std::sin(ga);
+  Eigen::Matrix4d paper;
+  paper << cb * cg, -cb * sg, sb, a,                                    //
+      ca * sg + sa * sb * cg, ca * cg - sa * sb * sg, -sa * cb, b,      //
+      sa * sg - ca * sb * cg, sa * cg + ca * sb * sg, ca * cb, c,       //
+      0, 0, 0, 1;
+  EXPECT_LT((ErrorTransform(a, b, c, al, be, ga).matrix() - paper).norm(), 1e-15);
+}
+
+TEST(Kinematics, PumaNullConfigurationFollowsTheDrawings) {
+  // Paper eq. (16) at θ = 0 with N1 = I, composed by hand from N2…N6: frame 2 at
+  // (0, 164, 0) with z2 = −y1; N3 adds 650 along x and 50 along z2 (−y1); N4 adds 550
+  // along x; N5 adds 50 along z4 = +x1; N6 adds 125 along x5 = +x1.
+  // Stretched arm: x = 650 + 550 + 50 + 125 = 1375, y = 164 − 50 = 114, z = 0.
+  const auto model = testing::Puma();
+  Kinematics kin(model);
+  const Eigen::VectorXd q = Eigen::VectorXd::Zero(6);
+  const Eigen::Vector3d x =
+      kin.Position(Eigen::Isometry3d::Identity(), Eigen::VectorXd::Zero(43), q.data());
+  EXPECT_LT((x - Eigen::Vector3d(1375.0, 114.0, 0.0)).norm(), 1e-12) << x.transpose();
+}
+
+TEST(Kinematics, Ur10DhMatchesUniversalRobotsForwardKinematics) {
+  // Standard UR forward kinematics at all joints zero: flange at (a2 + a3, −(d4 + d6),
+  // d1 − d5) with its z axis along −y; the probe sits 109 mm further along it.
+  const auto model = testing::Ur10();
+  Kinematics kin(model);
+  const Eigen::VectorXd q = Eigen::VectorXd::Zero(6);
+  const Eigen::Vector3d x =
+      kin.Position(Eigen::Isometry3d::Identity(), Eigen::VectorXd::Zero(model.num_parameters()), q.data());
+  EXPECT_NEAR(x.x(), -612.0 - 572.3, 1e-9);
+  EXPECT_NEAR(x.y(), -(163.941 + 92.2 + 109.0), 1e-9);
+  EXPECT_NEAR(x.z(), 127.3 - 115.7, 1e-9);
+  // Shoulder lift by −90°: upper arm and forearm point straight up, and the wrist
+  // offset d5 (downwards at zero) turns horizontal: z = d1 + |a2| + |a3|.
+  Eigen::VectorXd up = q;
+  up(1) = -M_PI / 2;
+  const Eigen::Vector3d y =
+      kin.Position(Eigen::Isometry3d::Identity(), Eigen::VectorXd::Zero(model.num_parameters()), up.data());
+  EXPECT_NEAR(y.z(), 127.3 + 612.0 + 572.3, 1e-9);
+}
+
+TEST(Kinematics, AnalyticJacobianMatchesCentralDifferences) {
+  std::mt19937 rng(7);
+  for (const auto& model : {testing::Puma(), testing::Ur10()}) {
+    for (int trial = 0; trial < 20; ++trial) {
+      const Eigen::VectorXd params = RandomParameters(model, 2.0, 5e-3, 3e-3, rng);
+      const Eigen::VectorXd q = RandomConfigurations(model, 1, rng, 3.0)[0];
+      Kinematics kin(model);
+      Eigen::Matrix<double, 3, Eigen::Dynamic> analytic(3, model.num_parameters());
+      kin.PositionAndJacobian(SomeBase(), params, q.data(), analytic);
+      const Eigen::MatrixXd numeric = NumericJacobian(model, SomeBase(), params, q);
+      for (int k = 0; k < model.num_parameters(); ++k) {
+        EXPECT_LT((analytic.col(k) - numeric.col(k)).norm(),
+                  1e-6 * std::max(1.0, numeric.col(k).norm()))
+            << model.name << " parameter " << model.ParameterNames()[k];
+      }
+    }
+  }
+}
+
+TEST(Kinematics, TemplatedModelRunsOnJetsAndAgreesWithAnalyticJacobian) {
+  using Jet = ceres::Jet<double, 43>;
+  const auto model = testing::Puma();
+  std::mt19937 rng(11);
+  const Eigen::VectorXd params = RandomParameters(model, 1.0, 2e-3, 2e-3, rng);
+  const Eigen::VectorXd q = RandomConfigurations(model, 1, rng)[0];
+  std::vector<Jet> p(43);
+  for (int k = 0; k < 43; ++k) p[k] = Jet(params(k), k);
+  const Eigen::Matrix<Jet, 3, 1> x = TargetPosition(model, SomeBase(), p.data(), q.data());
+  Kinematics kin(model);
+  Eigen::Matrix<double, 3, Eigen::Dynamic> analytic(3, 43);
+  const Eigen::Vector3d value = kin.PositionAndJacobian(SomeBase(), params, q.data(), analytic);
+  for (int r = 0; r < 3; ++r) {
+    EXPECT_NEAR(x(r).a, value(r), 1e-9);
+    EXPECT_LT((x(r).v.transpose() - analytic.row(r)).norm(), 1e-9);
+  }
+}
+
+TEST(Kinematics, NongeometricTermsFollowPaperEquations6And7) {
+  const auto model = testing::Puma();
+  Kinematics kin(model);
+  Eigen::VectorXd params = Eigen::VectorXd::Zero(43);
+  params(39) = 1e-3;  // h1
+  params(40) = 2e-3;  // h2
+  params(41) = 3e-3;  // h3
+  params(42) = 4e-3;  // h4
+  const double q[6] = {0.1, 0.4, 1.9, 0.0, 0.0, 0.0};
+  double t[6];
+  kin.TrueJointAngles(params, q, t);
+  const double c23 = std::cos(0.4 + 1.9);  // negative: SIGN = −1
+  EXPECT_NEAR(t[1], 0.4 + 1e-3 * c23 + 2e-3 * std::cos(0.4), 1e-15);
+  EXPECT_NEAR(t[2], 1.9 + 3e-3 * c23 - 4e-3, 1e-15);
+  EXPECT_EQ(t[0], 0.1);
+}
+
+}  // namespace armsig::calibration

@@ -1,0 +1,140 @@
+#include "db/database.h"
+
+#include <gtest/gtest.h>
+#include <signal.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <thread>
+
+#include "core/error.h"
+#include "db/schema.h"
+#include "test_support.h"
+
+namespace armsig::db {
+
+TEST(Database, CreatesLatestSchemaWithWalAndForeignKeys) {
+  testing::TempDir dir;
+  Database db(dir.File("lab.db"));
+  EXPECT_EQ(db.SchemaVersion(), LatestSchemaVersion());
+  EXPECT_EQ(db.sql().execAndGet("PRAGMA journal_mode").getString(), "wal");
+  EXPECT_EQ(db.sql().execAndGet("PRAGMA foreign_keys").getInt(), 1);
+  for (const auto& count : db.RowCounts()) EXPECT_EQ(count.rows, 0) << count.table;
+  EXPECT_EQ(db.RowCounts().size(), TableNames().size());
+}
+
+TEST(Database, ReopeningDoesNotMigrateAgainAndKeepsRows) {
+  testing::TempDir dir;
+  {
+    Database db(dir.File("lab.db"));
+    db.sql().exec("INSERT INTO robots(name, model_name, model_yaml) VALUES ('r1','puma760','x')");
+  }
+  Database db(dir.File("lab.db"));
+  EXPECT_EQ(db.sql().execAndGet("SELECT count(*) FROM robots").getInt(), 1);
+}
+
+TEST(Database, RefusesNewerSchema) {
+  testing::TempDir dir;
+  {
+    Database db(dir.File("lab.db"));
+    db.sql().exec("PRAGMA user_version=" + std::to_string(LatestSchemaVersion() + 1));
+  }
+  EXPECT_THROW(Database(dir.File("lab.db")), InputError);
+}
+
+TEST(Database, RefusesAFileThatIsNotADatabase) {
+  testing::TempDir dir;
+  testing::WriteText(dir.File("junk.db"), std::string(4096, 'x'));
+  EXPECT_THROW(Database(dir.File("junk.db")), InputError);
+}
+
+TEST(Database, ForeignKeysAreEnforced) {
+  testing::TempDir dir;
+  Database db(dir.File("lab.db"));
+  EXPECT_THROW(db.sql().exec("INSERT INTO sessions(robot_id) VALUES (42)"), SQLite::Exception);
+}
+
+TEST(Database, ExportsTablesAsCsvAndRejectsUnknownTables) {
+  testing::TempDir dir;
+  Database db(dir.File("lab.db"));
+  db.sql().exec("INSERT INTO robots(name, model_name, model_yaml) VALUES ('r,1','puma760','a\"b')");
+  const std::string csv = db.ExportCsv("robots");
+  EXPECT_NE(csv.find("id,name,model_name,model_yaml,created_at\n"), std::string::npos);
+  EXPECT_NE(csv.find("\"r,1\""), std::string::npos);
+  EXPECT_NE(csv.find("\"a\"\"b\""), std::string::npos);
+  EXPECT_THROW(db.ExportCsv("robots; DROP TABLE robots"), InputError);
+}
+
+// A writer killed with SIGKILL in the middle of a transaction: the reopened file is
+// consistent and holds every committed row, and none of the uncommitted ones.
+TEST(Database, SurvivesSigkillMidTransaction) {
+  testing::TempDir dir;
+  const std::string path = dir.File("lab.db");
+  {
+    Database db(path);
+    db.sql().exec("INSERT INTO robots(name, model_name, model_yaml) VALUES ('r','puma760','')");
+    db.sql().exec("INSERT INTO sessions(robot_id) VALUES (1)");
+  }
+  int pipe_fd[2];
+  ASSERT_EQ(::pipe(pipe_fd), 0);
+  const pid_t child = ::fork();
+  ASSERT_GE(child, 0);
+  if (child == 0) {
+    ::close(pipe_fd[0]);
+    Database db(path);
+    // 50 committed transactions of 3 poses each, then one left open forever.
+    for (int t = 0; t < 50; ++t) {
+      SQLite::Transaction tx(db.sql());
+      for (int k = 0; k < 3; ++k) {
+        db.sql().exec("INSERT INTO poses(session_id, seq, label, joints_json, status) VALUES (1, " +
+                      std::to_string(3 * t + k) + ", 'p', '[0,0,0,0,0,0]', 'measured')");
+      }
+      tx.commit();
+    }
+    SQLite::Transaction open_tx(db.sql());
+    for (int k = 0; k < 1000; ++k) {
+      db.sql().exec("INSERT INTO poses(session_id, seq, label, joints_json, status) VALUES (1, " +
+                    std::to_string(1000 + k) + ", 'uncommitted', NULL, 'skipped')");
+    }
+    const char ready = 'r';
+    if (::write(pipe_fd[1], &ready, 1) != 1) _exit(3);
+    for (;;) ::pause();  // killed here, transaction open
+  }
+  ::close(pipe_fd[1]);
+  char ready = 0;
+  ASSERT_EQ(::read(pipe_fd[0], &ready, 1), 1);
+  ::close(pipe_fd[0]);
+  ASSERT_EQ(::kill(child, SIGKILL), 0);
+  int status = 0;
+  ::waitpid(child, &status, 0);
+  ASSERT_TRUE(WIFSIGNALED(status));
+
+  Database db(path);
+  EXPECT_EQ(db.sql().execAndGet("PRAGMA integrity_check").getString(), "ok");
+  EXPECT_EQ(db.sql().execAndGet("SELECT count(*) FROM poses").getInt(), 150);
+  EXPECT_EQ(db.sql().execAndGet("SELECT count(*) FROM poses WHERE label='uncommitted'").getInt(), 0);
+  EXPECT_EQ(db.sql().execAndGet("SELECT max(seq) FROM poses").getInt(), 149);
+}
+
+// Two writers at once: the busy timeout makes the second wait instead of failing.
+TEST(Database, ConcurrentWritersWaitForEachOther) {
+  testing::TempDir dir;
+  const std::string path = dir.File("lab.db");
+  { Database db(path); }
+  auto writer = [&](int offset) {
+    Database db(path);
+    for (int i = 0; i < 100; ++i) {
+      SQLite::Transaction tx(db.sql());
+      db.sql().exec("INSERT INTO instruments(name, kind, protocol) VALUES ('i" +
+                    std::to_string(offset + i) + "', 'theodolite', 'geocom')");
+      tx.commit();
+    }
+  };
+  std::thread a(writer, 0), b(writer, 1000);
+  a.join();
+  b.join();
+  Database db(path);
+  EXPECT_EQ(db.sql().execAndGet("SELECT count(*) FROM instruments").getInt(), 200);
+}
+
+}  // namespace armsig::db

@@ -1,0 +1,98 @@
+#include "io/csv.h"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+
+#include "core/error.h"
+#include "test_support.h"
+
+namespace armsig::io {
+
+TEST(Csv, ReadsQuotedFieldsCrlfAndBom) {
+  const auto t = ParseCsv("\xEF\xBB\xBFpoint,note,x_mm\r\n"
+                          "P1,\"a, b\",1.5\r\n"
+                          "\"P2\",\"say \"\"hi\"\"\",-2e-3\r\n",
+                          "mem.csv");
+  ASSERT_EQ(t.rows().size(), 2u);
+  EXPECT_EQ(t.header()[0], "point");
+  EXPECT_EQ(t.Text(t.rows()[0], 1), "a, b");
+  EXPECT_EQ(t.Text(t.rows()[1], 1), "say \"hi\"");
+  EXPECT_DOUBLE_EQ(t.Number(t.rows()[1], t.Column("x_mm")), -2e-3);
+  EXPECT_EQ(t.rows()[1].line, 3);
+}
+
+TEST(Csv, QuotedFieldMaySpanLinesAndLineNumbersFollow) {
+  const auto t = ParseCsv("a,b\n1,\"two\nlines\"\n3,4\n", "mem.csv");
+  ASSERT_EQ(t.rows().size(), 2u);
+  EXPECT_EQ(t.Text(t.rows()[0], 1), "two\nlines");
+  EXPECT_EQ(t.rows()[1].line, 4);
+}
+
+TEST(Csv, FindsAngleColumnsByAnySuffix) {
+  const auto t = ParseCsv("point,hz_gon,v_deg,q1_rad\nA,100,90,0.5\n", "mem.csv");
+  const AngleColumn hz = t.AngleColumnOf("hz");
+  EXPECT_NEAR(t.AngleRad(t.rows()[0], hz), M_PI / 2, 1e-15);
+  EXPECT_NEAR(t.AngleRad(t.rows()[0], t.AngleColumnOf("v")), M_PI / 2, 1e-15);
+  EXPECT_NEAR(t.AngleRad(t.rows()[0], t.AngleColumnOf("q1")), 0.5, 1e-15);
+}
+
+TEST(Csv, SemicolonsAndDecimalCommas) {
+  CsvOptions options;
+  options.delimiter = '\0';
+  options.decimal_comma = true;
+  const auto t = ParseCsv("a;b\n1,5;-2,25E-1\n", "mem.csv", options);
+  EXPECT_DOUBLE_EQ(t.Number(t.rows()[0], 0), 1.5);
+  EXPECT_DOUBLE_EQ(t.Number(t.rows()[0], 1), -0.225);
+}
+
+TEST(Csv, BadNumberNamesFileLineColumn) {
+  const auto t = ParseCsv("pose,x_mm\nP1,1.0\nP2,abc\n", "poses.csv");
+  try {
+    t.Number(t.rows()[1], 1);
+    FAIL() << "expected InputError";
+  } catch (const InputError& e) {
+    EXPECT_EQ(e.where().file, "poses.csv");
+    EXPECT_EQ(e.where().line, 3);
+    EXPECT_EQ(e.where().column, 2);
+    EXPECT_EQ(e.where().column_name, "x_mm");
+    EXPECT_NE(std::string(e.what()).find("'abc'"), std::string::npos);
+  }
+}
+
+TEST(Csv, RejectsNanInfinityAndPartialNumbers) {
+  EXPECT_FALSE(ParseNumber("nan").has_value());
+  EXPECT_FALSE(ParseNumber("inf").has_value());
+  EXPECT_FALSE(ParseNumber("1.5mm").has_value());
+  EXPECT_FALSE(ParseNumber("").has_value());
+  EXPECT_EQ(ParseNumber(" +2.5 ").value(), 2.5);
+}
+
+TEST(Csv, WrongFieldCountNamesTheLine) {
+  try {
+    ParseCsv("a,b\n1,2\n3\n", "f.csv");
+    FAIL();
+  } catch (const InputError& e) {
+    EXPECT_EQ(e.where().line, 3);
+  }
+}
+
+TEST(Csv, UnterminatedQuoteIsAnError) {
+  EXPECT_THROW(ParseCsv("a,b\n1,\"open\n", "f.csv"), InputError);
+}
+
+TEST(Csv, MissingColumnIsNamed) {
+  const auto t = ParseCsv("a,b\n1,2\n", "f.csv");
+  try {
+    t.AngleColumnOf("q1");
+    FAIL();
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("q1_deg"), std::string::npos);
+  }
+}
+
+TEST(Csv, MissingFileIsAnInputError) {
+  EXPECT_THROW(ReadCsvFile("/nonexistent/file.csv"), InputError);
+}
+
+}  // namespace armsig::io

@@ -1,0 +1,75 @@
+// Shared fixtures: a temporary directory, the shipped models, running the CLI.
+#pragma once
+
+#include <gtest/gtest.h>
+
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <random>
+#include <sstream>
+#include <string>
+
+#include "calibration/model.h"
+#include "io/model_yaml.h"
+
+namespace armsig::testing {
+
+class TempDir {
+ public:
+  TempDir() {
+    std::random_device rd;
+    path_ = std::filesystem::temp_directory_path() /
+            ("armsig-test-" + std::to_string(::getpid()) + "-" + std::to_string(rd()));
+    std::filesystem::create_directories(path_);
+  }
+  ~TempDir() { std::filesystem::remove_all(path_); }
+  std::string File(const std::string& name) const { return (path_ / name).string(); }
+  const std::filesystem::path& path() const { return path_; }
+
+ private:
+  std::filesystem::path path_;
+};
+
+inline void WriteText(const std::string& path, const std::string& text) {
+  std::ofstream out(path, std::ios::binary);
+  out << text;
+}
+
+inline std::string ReadText(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  std::stringstream s;
+  s << in.rdbuf();
+  return s.str();
+}
+
+inline std::string SourcePath(const std::string& relative) {
+  return std::string(ARMSIG_SOURCE_DIR) + "/" + relative;
+}
+inline std::string DataPath(const std::string& relative) {
+  return std::string(ARMSIG_TEST_DATA) + "/" + relative;
+}
+
+inline calibration::RobotModel Puma() { return io::LoadRobotModel(SourcePath("models/puma760.yaml")); }
+inline calibration::RobotModel Ur10() { return io::LoadRobotModel(SourcePath("models/ur10.yaml")); }
+
+struct CommandResult {
+  int exit_code = -1;
+  std::string out, err;
+};
+
+// Runs build/armsig with `args` (a shell-quoted string) in `cwd`.
+inline CommandResult RunArmsig(const std::string& args, const std::string& cwd = ".") {
+  TempDir capture;
+  const std::string out = capture.File("out"), err = capture.File("err");
+  const std::string command = "cd '" + cwd + "' && '" + std::string(ARMSIG_BINARY) + "' " + args +
+                              " >'" + out + "' 2>'" + err + "'";
+  const int status = std::system(command.c_str());
+  CommandResult result;
+  result.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+  result.out = ReadText(out);
+  result.err = ReadText(err);
+  return result;
+}
+
+}  // namespace armsig::testing
