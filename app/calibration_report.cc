@@ -56,8 +56,8 @@ CalibrationRun RunCalibration(const calibration::RobotModel& model,
         options.parameters, options.identifiability);
     calibration::SelectionOptions selection_options;
     selection_options.count = settings.select;
-    run.selection = calibration::SelectConfigurations(model, joints, report.identified,
-                                                      selection_options);
+    run.selection =
+        calibration::SelectConfigurations(model, joints, report.identified, selection_options);
     run.selection_candidates = static_cast<int>(poses.size());
     fit.clear();
     std::vector<char> chosen(poses.size(), 0);
@@ -83,9 +83,9 @@ CalibrationRun RunCalibration(const calibration::RobotModel& model,
   if (!validation.empty()) {
     run.validation_residuals = calibration::Residuals(model, run.estimate.world_from_base,
                                                       run.estimate.params, validation);
-    run.validation_nominal_residuals = calibration::Residuals(
-        model, run.estimate.world_from_base,
-        Eigen::VectorXd::Zero(model.num_parameters()), validation);
+    run.validation_nominal_residuals =
+        calibration::Residuals(model, run.estimate.world_from_base,
+                               Eigen::VectorXd::Zero(model.num_parameters()), validation);
   }
   return run;
 }
@@ -107,15 +107,17 @@ std::string FormatCalibrationReport(const calibration::RobotModel& model,
     std::string t = fmt::format("{:<16}", sigma ? "sigma  i=" : "i=");
     for (int i = 1; i <= n + 1; ++i) t += fmt::format("{:>10}", i);
     t += "\n";
-    static const char* kRows[] = {"a_i (mm)", "b_i (mm)", "c_i (mm)",
+    static const char* kRows[] = {"a_i (mm)",           "b_i (mm)",          "c_i (mm)",
                                   "alpha_i (1e-3 rad)", "beta_i (1e-3 rad)", "gamma_i (1e-3 rad)"};
     for (int r = 0; r < 6; ++r) {
       t += fmt::format("{:<16}", kRows[r]);
       if (std::string(kRows[r]).size() > 16) t += "\n" + std::string(16, ' ');
       for (int i = 0; i <= n; ++i) {
         int index = -1;
-        if (i < n) index = 6 * i + r;
-        else if (r < 3) index = 6 * n + r;
+        if (i < n)
+          index = 6 * i + r;
+        else if (r < 3)
+          index = 6 * n + r;
         if (index < 0) {
           t += fmt::format("{:>10}", "");
           continue;
@@ -152,16 +154,18 @@ std::string FormatCalibrationReport(const calibration::RobotModel& model,
   // Identifiability.
   const auto& id = est.identifiability;
   if (id.structural_rank >= 0 && id.structural_rank != id.rank) {
-    out += fmt::format("warning: these data identify {} parameters, the model {} on well-spread "
-                       "configurations\n",
-                       id.rank, id.structural_rank);
+    out += fmt::format(
+        "warning: these data identify {} parameters, the model {} on well-spread "
+        "configurations\n",
+        id.rank, id.structural_rank);
   }
   for (const auto& frozen : id.frozen_joints) {
     std::string affected;
     for (int p : frozen.affected) affected += (affected.empty() ? "" : " ") + names[p];
-    out += fmt::format("warning: joint {} never moves in these data (range {:.4f} deg); its "
-                       "motion would separate: {}\n",
-                       frozen.joint + 1, frozen.range_rad * 180.0 / std::numbers::pi, affected);
+    out += fmt::format(
+        "warning: joint {} never moves in these data (range {:.4f} deg); its "
+        "motion would separate: {}\n",
+        frozen.joint + 1, frozen.range_rad * 180.0 / std::numbers::pi, affected);
   }
   if (!id.dependencies.empty()) {
     out += "left out (depends on):";
@@ -178,11 +182,11 @@ std::string FormatCalibrationReport(const calibration::RobotModel& model,
   }
   out += fmt::format("condition number of the scaled Jacobian {:.3g}\n", id.condition_number);
   if (run.selection) {
-    out += fmt::format("selection: {} of {} configurations, D-optimal (greedy + {} exchanges), "
-                       "log det {:.2f}, O1 {:.4g}, condition number {:.3g}\n",
-                       run.selection->selected.size(), run.selection_candidates,
-                       run.selection->exchanges, run.selection->log_det, run.selection->o1,
-                       run.selection->condition_number);
+    out += fmt::format(
+        "selection: {} of {} configurations, D-optimal (greedy + {} exchanges), "
+        "log det {:.2f}, O1 {:.4g}, condition number {:.3g}\n",
+        run.selection->selected.size(), run.selection_candidates, run.selection->exchanges,
+        run.selection->log_det, run.selection->o1, run.selection->condition_number);
   }
   if (run.auto_terms) {
     for (const auto& t : run.auto_terms->tests) {
@@ -195,10 +199,11 @@ std::string FormatCalibrationReport(const calibration::RobotModel& model,
     for (int i : est.downweighted) ids += (ids.empty() ? "" : " ") + run.fit_pose_ids[i];
     out += fmt::format("blunder poses (robust loss down-weighted them): {}\n", ids);
   }
-  out += fmt::format("fit: {} after {} iterations, sigma0 {:.4f} mm per coordinate, "
-                     "redundancy {}\n\n",
-                     est.status == EstimationStatus::kConverged ? "converged" : "NOT converged",
-                     est.iterations, est.sigma0_mm, est.redundancy);
+  out += fmt::format(
+      "fit: {} after {} iterations, sigma0 {:.4f} mm per coordinate, "
+      "redundancy {}\n\n",
+      est.status == EstimationStatus::kConverged ? "converged" : "NOT converged", est.iterations,
+      est.sigma0_mm, est.redundancy);
 
   out += fmt::format("{:<28}{:>8}{:>10}{:>10}{:>10}\n", "error distance (mm)", "poses", "mean",
                      "max", "rms");
@@ -222,8 +227,8 @@ nlohmann::json CalibrationJson(const calibration::RobotModel& model, const Calib
   std::vector<char> identified(model.num_parameters(), 0);
   for (int i : est.identifiability.identified) identified[i] = 1;
   auto stats = [](const calibration::ErrorStats& s) {
-    return json{{"poses", s.poses}, {"mean_mm", s.mean_mm}, {"max_mm", s.max_mm},
-                {"rms_mm", s.rms_mm}};
+    return json{
+        {"poses", s.poses}, {"mean_mm", s.mean_mm}, {"max_mm", s.max_mm}, {"rms_mm", s.rms_mm}};
   };
   json out;
   out["model"] = model.name;
@@ -285,8 +290,11 @@ nlohmann::json CalibrationJson(const calibration::RobotModel& model, const Calib
   if (run.auto_terms) {
     json tests = json::array();
     for (const auto& t : run.auto_terms->tests) {
-      tests.push_back({{"added", t.added}, {"f", t.f}, {"df1", t.df_added},
-                       {"df2", t.df_residual}, {"p_value", t.p_value},
+      tests.push_back({{"added", t.added},
+                       {"f", t.f},
+                       {"df1", t.df_added},
+                       {"df2", t.df_residual},
+                       {"p_value", t.p_value},
                        {"significant", t.significant}});
     }
     out["f_tests"] = tests;

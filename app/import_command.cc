@@ -35,8 +35,8 @@ int RunImportPoses(const ImportPosesOptions& options) {
   if (options.preset == "ur-ipa") {
     import = io::PoseImportOptions::UrIpa();
   } else if (!options.preset.empty()) {
-    throw InputError({"--preset", 0, 0, ""}, "unknown preset '" + options.preset +
-                                                 "' (expected ur-ipa)");
+    throw InputError({"--preset", 0, 0, ""},
+                     "unknown preset '" + options.preset + "' (expected ur-ipa)");
   }
   if (!options.joints.empty()) import.joint_columns = SplitList(options.joints);
   if (!options.xyz.empty()) import.xyz_columns = SplitList(options.xyz);
@@ -52,16 +52,20 @@ int RunImportPoses(const ImportPosesOptions& options) {
   }
   if (options.decimal_comma) import.decimal_comma = true;
   if (options.preset.empty() || options.joint_unit != "rad") {
-    if (options.joint_unit == "deg") import.joint_unit = AngleUnit::kDeg;
-    else if (options.joint_unit == "gon") import.joint_unit = AngleUnit::kGon;
-    else if (options.joint_unit == "rad") import.joint_unit = AngleUnit::kRad;
-    else throw InputError({"--joint-unit", 0, 0, ""}, "expected deg, gon or rad");
+    if (options.joint_unit == "deg")
+      import.joint_unit = AngleUnit::kDeg;
+    else if (options.joint_unit == "gon")
+      import.joint_unit = AngleUnit::kGon;
+    else if (options.joint_unit == "rad")
+      import.joint_unit = AngleUnit::kRad;
+    else
+      throw InputError({"--joint-unit", 0, 0, ""}, "expected deg, gon or rad");
   }
   if (options.length_scale != 1.0) import.length_scale_to_mm = options.length_scale;
   const auto poses = io::ImportPoses(options.file, import);
   io::WriteFileAtomically(options.out, io::FormatPosesCsv(poses));
-  std::cerr << "armsig import poses: " << poses.size() << " poses from " << options.file
-            << " to " << options.out << "\n";
+  std::cerr << "armsig import poses: " << poses.size() << " poses from " << options.file << " to "
+            << options.out << "\n";
   return kOk;
 }
 
@@ -71,8 +75,9 @@ void SetupImportCommand(CLI::App& parent, const GlobalOptions&, Runner& run) {
 
   auto poses = std::make_shared<ImportPosesOptions>();
   auto* p = sub->add_subcommand(
-      "poses", "A pose table with named columns (e.g. the IPA UR10 laser-tracker CSVs) to the "
-               "SPEC poses CSV");
+      "poses",
+      "A pose table with named columns (e.g. the IPA UR10 laser-tracker CSVs) to the "
+      "SPEC poses CSV");
   p->add_option("file", poses->file, "Input CSV")->required();
   p->add_option("--out", poses->out, "Output poses CSV")->required();
   p->add_option("--preset", poses->preset,
@@ -87,8 +92,9 @@ void SetupImportCommand(CLI::App& parent, const GlobalOptions&, Runner& run) {
   p->add_flag("--decimal-comma", poses->decimal_comma, "Numbers use a decimal comma");
   p->callback([&run, poses] { run = [poses] { return RunImportPoses(*poses); }; });
 
-  auto* gsi = sub->add_subcommand("gsi", "A Leica GSI-8/GSI-16 file to angle observations "
-                                         "[not yet implemented]");
+  auto* gsi = sub->add_subcommand("gsi",
+                                  "A Leica GSI-8/GSI-16 file to angle observations "
+                                  "[not yet implemented]");
   gsi->allow_extras();
   gsi->callback([&run] {
     run = [] {

@@ -29,8 +29,10 @@ RobotModel Puma() {
              link({0, 0, -1, 0, 0, 1, 0, 0, 1, 0, 0, 50, 0, 0, 0, 1}),
              link({0, 0, 1, 125, 0, 1, 0, 0, -1, 0, 0, 0, 0, 0, 0, 1})};
   using B = NongeometricTerm::Basis;
-  m.nongeometric = {{"h1", 1, B::kCos, {1, 2}}, {"h2", 1, B::kCos, {1}},
-                    {"h3", 2, B::kCos, {1, 2}}, {"h4", 2, B::kSignCos, {1, 2}}};
+  m.nongeometric = {{"h1", 1, B::kCos, {1, 2}},
+                    {"h2", 1, B::kCos, {1}},
+                    {"h3", 2, B::kCos, {1, 2}},
+                    {"h4", 2, B::kSignCos, {1, 2}}};
   return m;
 }
 
@@ -46,7 +48,6 @@ void BM_Fit43(benchmark::State& state) {
   const RobotModel model = Puma();
   const auto poses = Poses(model, static_cast<int>(state.range(0)));
   EstimationOptions options;
-  options.analyse_structure = false;
   for (auto _ : state) {
     auto r = Estimate(model, poses, options);
     benchmark::DoNotOptimize(r.params.data());
@@ -54,17 +55,6 @@ void BM_Fit43(benchmark::State& state) {
   state.SetItemsProcessed(state.iterations() * state.range(0));
 }
 BENCHMARK(BM_Fit43)->Arg(80)->Arg(10000)->Unit(benchmark::kMillisecond);
-
-void BM_Fit43WithStructureAnalysis(benchmark::State& state) {
-  const RobotModel model = Puma();
-  const auto poses = Poses(model, static_cast<int>(state.range(0)));
-  EstimationOptions options;
-  for (auto _ : state) {
-    auto r = Estimate(model, poses, options);
-    benchmark::DoNotOptimize(r.params.data());
-  }
-}
-BENCHMARK(BM_Fit43WithStructureAnalysis)->Arg(80)->Unit(benchmark::kMillisecond);
 
 void BM_Select80Of(benchmark::State& state) {
   const RobotModel model = Puma();

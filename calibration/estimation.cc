@@ -36,8 +36,8 @@ std::vector<int> ParseParameterSpec(const RobotModel& model, const std::string& 
       for (size_t i = model.num_geometric(); i < names.size(); ++i) known += ", " + names[i];
       throw std::invalid_argument("unknown parameter '" + token + "' (expected geometric, all, " +
                                   "a parameter name such as a1 … c" +
-                                  std::to_string(model.num_joints() + 1) + ", or one of: " +
-                                  known + ")");
+                                  std::to_string(model.num_joints() + 1) + ", or one of: " + known +
+                                  ")");
     }
   }
   if (!any) throw std::invalid_argument("empty parameter list");
@@ -153,8 +153,10 @@ EstimationResult Estimate(const RobotModel& model, const std::vector<MeasuredPos
     result.world_from_base = *base;
   } else {
     result.status = EstimationStatus::kDegenerateBase;
-    result.message = "base: auto needs at least 3 poses whose nominal target positions are not on "
-                     "one line (got " + std::to_string(m) + ")";
+    result.message =
+        "base: auto needs at least 3 poses whose nominal target positions are not on "
+        "one line (got " +
+        std::to_string(m) + ")";
     return result;
   }
 
@@ -168,14 +170,8 @@ EstimationResult Estimate(const RobotModel& model, const std::vector<MeasuredPos
 
   // The identifiable subset is chosen once, at the nominal model, and kept: re-deciding
   // it at every iteration makes Gauss–Newton wander on real data.
-  if (options.analyse_structure) {
-    result.identifiability = AnalyseIdentifiability(model, result.world_from_base, joints,
-                                                    candidates, options.identifiability);
-  } else {
-    const Eigen::MatrixXd j0 =
-        StackedJacobian(model, result.world_from_base, result.params, joints);
-    result.identifiability = AnalyseJacobian(j0, candidates, options.identifiability);
-  }
+  result.identifiability = AnalyseIdentifiability(model, result.world_from_base, joints, candidates,
+                                                  options.identifiability);
   const std::vector<int>& subset = result.identifiability.identified;
   const int k = static_cast<int>(subset.size());
   const int needed = std::max(k, result.identifiability.structural_rank);
@@ -188,60 +184,81 @@ EstimationResult Estimate(const RobotModel& model, const std::vector<MeasuredPos
     return result;
   }
 
-  result.nominal_residuals = Residuals(model, result.world_from_base, result.params, poses);
-  result.nominal = Summarise(Distances(result.nominal_residuals));
-
-  // Levenberg–Marquardt on the subset with Marquardt's diagonal scaling.
+  // Levenberg–Marquardt on the subset with Marquardt's diagonal scaling. One stacked
+  // Jacobian per evaluation; the trial point's Jacobian is reused when it is accepted.
+  struct Evaluation {
+    Eigen::MatrixXd jacobian;  // 3m × k, columns of the identified subset
+    Eigen::VectorXd residual;  // 3m, model − measured
+    double cost = 0.0;
+  };
   Kinematics kin(model);
   Eigen::Matrix<double, 3, Eigen::Dynamic> block(3, np);
-  Eigen::MatrixXd normal(k, k);
-  Eigen::VectorXd gradient(k);
-  std::vector<Eigen::Vector3d> residuals = result.nominal_residuals;
-  std::vector<double> weights;
   const double threshold = options.robust_threshold_mm;
-  double cost = RobustCost(residuals, threshold);
-  double lambda = 1e-6;
-  Eigen::MatrixXd jk(3, k);
-
-  auto build_normal_equations = [&]() {
-    normal.setZero();
-    gradient.setZero();
-    HuberWeights(residuals, threshold, weights);
+  auto evaluate = [&](const Eigen::VectorXd& params, Evaluation& e) {
+    e.jacobian.resize(3 * m, k);
+    e.residual.resize(3 * m);
     for (int i = 0; i < m; ++i) {
-      kin.PositionAndJacobian(result.world_from_base, result.params, poses[i].joints_rad.data(),
-                              block);
-      for (int c = 0; c < k; ++c) jk.col(c) = block.col(subset[c]);
-      normal.selfadjointView<Eigen::Lower>().rankUpdate(jk.transpose(), weights[i]);
-      gradient.noalias() += weights[i] * jk.transpose() * residuals[i];
+      const Eigen::Vector3d x = kin.PositionAndJacobian(result.world_from_base, params,
+                                                        poses[i].joints_rad.data(), block);
+      e.residual.segment<3>(3 * i) = x - poses[i].target_in_world;
+      for (int c = 0; c < k; ++c) e.jacobian.block<3, 1>(3 * i, c) = block.col(subset[c]);
     }
-    normal.triangularView<Eigen::Upper>() = normal.transpose();
+    std::vector<Eigen::Vector3d> r(m);
+    for (int i = 0; i < m; ++i) r[i] = e.residual.segment<3>(3 * i);
+    e.cost = RobustCost(r, threshold);
+  };
+  auto residual_vectors = [&](const Evaluation& e) {
+    std::vector<Eigen::Vector3d> r(m);
+    for (int i = 0; i < m; ++i) r[i] = e.residual.segment<3>(3 * i);
+    return r;
   };
 
+  Evaluation current, trial;
+  evaluate(result.params, current);
+  result.nominal_residuals = residual_vectors(current);
+  result.nominal = Summarise(Distances(result.nominal_residuals));
+
+  Eigen::MatrixXd normal(k, k), weighted(3 * m, k);
+  Eigen::VectorXd gradient(k);
+  std::vector<double> weights;
+  auto build_normal_equations = [&](const Evaluation& e) {
+    HuberWeights(residual_vectors(e), threshold, weights);
+    for (int i = 0; i < m; ++i) {
+      weighted.middleRows<3>(3 * i) = std::sqrt(weights[i]) * e.jacobian.middleRows<3>(3 * i);
+    }
+    normal.setZero();
+    normal.selfadjointView<Eigen::Lower>().rankUpdate(weighted.transpose());
+    normal.triangularView<Eigen::Upper>() = normal.transpose();
+    Eigen::VectorXd wr = e.residual;
+    for (int i = 0; i < m; ++i) wr.segment<3>(3 * i) *= weights[i];
+    gradient.noalias() = e.jacobian.transpose() * wr;
+  };
+
+  double lambda = 1e-6;
   bool converged = false;
   int iteration = 0;
   for (; iteration < options.max_iterations && !converged; ++iteration) {
-    build_normal_equations();
+    build_normal_equations(current);
     const Eigen::VectorXd diag = normal.diagonal().cwiseMax(1e-30);
     bool accepted = false;
     for (int attempt = 0; attempt < 30 && !accepted; ++attempt) {
       Eigen::MatrixXd damped = normal;
       damped.diagonal() += lambda * diag;
-      const Eigen::VectorXd step = -damped.ldlt().solve(gradient);
-      Eigen::VectorXd trial = result.params;
-      for (int c = 0; c < k; ++c) trial(subset[c]) += step(c);
-      auto trial_residuals = Residuals(model, result.world_from_base, trial, poses);
-      const double trial_cost = RobustCost(trial_residuals, threshold);
-      if (std::isfinite(trial_cost) && trial_cost <= cost) {
-        const double relative_decrease = (cost - trial_cost) / std::max(cost, 1e-300);
+      const Eigen::VectorXd step = -damped.llt().solve(gradient);
+      Eigen::VectorXd trial_params = result.params;
+      for (int c = 0; c < k; ++c) trial_params(subset[c]) += step(c);
+      evaluate(trial_params, trial);
+      if (std::isfinite(trial.cost) && trial.cost <= current.cost) {
+        const double relative_decrease =
+            (current.cost - trial.cost) / std::max(current.cost, 1e-300);
         const double relative_step =
             step.norm() / (result.params.norm() + options.parameter_tolerance);
-        result.params = trial;
-        residuals = std::move(trial_residuals);
-        cost = trial_cost;
+        result.params = trial_params;
+        std::swap(current, trial);
         lambda = std::max(lambda / 10.0, 1e-12);
         accepted = true;
         if (relative_decrease < options.function_tolerance ||
-            relative_step < options.parameter_tolerance || cost == 0.0) {
+            relative_step < options.parameter_tolerance || current.cost == 0.0) {
           converged = true;
         }
       } else {
@@ -259,18 +276,18 @@ EstimationResult Estimate(const RobotModel& model, const std::vector<MeasuredPos
   }
 
   // Covariance of the identified parameters: σ0² (Jᵀ W J)⁻¹ at the solution.
-  build_normal_equations();
-  result.cost = cost;
+  build_normal_equations(current);
+  result.cost = current.cost;
   result.redundancy = 3 * m - k;
+  result.fit_residuals = residual_vectors(current);
   double weighted_sq = 0.0;
-  for (int i = 0; i < m; ++i) weighted_sq += weights[i] * residuals[i].squaredNorm();
+  for (int i = 0; i < m; ++i) weighted_sq += weights[i] * result.fit_residuals[i].squaredNorm();
   result.sigma0_mm = std::sqrt(weighted_sq / result.redundancy);
   if (k > 0) {
-    result.covariance = result.sigma0_mm * result.sigma0_mm *
-                        normal.ldlt().solve(Eigen::MatrixXd::Identity(k, k));
+    result.covariance =
+        result.sigma0_mm * result.sigma0_mm * normal.ldlt().solve(Eigen::MatrixXd::Identity(k, k));
     for (int c = 0; c < k; ++c) result.sigmas(subset[c]) = std::sqrt(result.covariance(c, c));
   }
-  result.fit_residuals = std::move(residuals);
   result.fit = Summarise(Distances(result.fit_residuals));
   if (threshold > 0.0) {
     for (int i = 0; i < m; ++i) {
@@ -305,7 +322,6 @@ AutoSelection SelectTermsByFTest(const RobotModel& model, const std::vector<Meas
                                  const EstimationOptions& options, double alpha) {
   AutoSelection selection;
   EstimationOptions opts = options;
-  opts.analyse_structure = false;
   for (int i = 0; i < model.num_geometric(); ++i) selection.parameters.push_back(i);
   opts.parameters = selection.parameters;
   EstimationResult current = Estimate(model, poses, opts);

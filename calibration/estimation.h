@@ -43,7 +43,7 @@ std::vector<Eigen::Vector3d> Residuals(const RobotModel& model,
 std::vector<double> Distances(const std::vector<Eigen::Vector3d>& residuals);
 
 struct EstimationOptions {
-  std::vector<int> parameters;      // candidates (indices); empty = all of the model's
+  std::vector<int> parameters;  // candidates (indices); empty = all of the model's
   IdentifiabilityOptions identifiability;
   int max_iterations = 50;
   double function_tolerance = 1e-12;   // relative change of the cost
@@ -51,15 +51,14 @@ struct EstimationOptions {
   // > 0: Huber loss on each pose's error distance with this threshold (mm), so blunder
   // poses are down-weighted (and reported) instead of pulling the fit.
   double robust_threshold_mm = 0.0;
-  bool analyse_structure = true;    // structural rank and frozen joints (a little slower)
   void Check() const;
 };
 
 enum class EstimationStatus {
   kConverged,
-  kNoConvergence,      // iteration limit reached; result is the last accepted step
-  kTooFewEquations,    // 3m equations cannot determine the identifiable parameters
-  kDegenerateBase,     // base: auto with degenerate nominal positions
+  kNoConvergence,    // iteration limit reached; result is the last accepted step
+  kTooFewEquations,  // 3m equations cannot determine the identifiable parameters
+  kDegenerateBase,   // base: auto with degenerate nominal positions
 };
 
 struct EstimationResult {
@@ -67,13 +66,13 @@ struct EstimationResult {
   std::string message;
   int iterations = 0;
   Eigen::Isometry3d world_from_base = Eigen::Isometry3d::Identity();
-  Eigen::VectorXd params;   // all parameters; unidentified stay exactly zero
-  Eigen::VectorXd sigmas;   // NaN for unidentified
+  Eigen::VectorXd params;      // all parameters; unidentified stay exactly zero
+  Eigen::VectorXd sigmas;      // NaN for unidentified
   Eigen::MatrixXd covariance;  // identified subset, in the order of identifiability.identified
   IdentifiabilityReport identifiability;
-  double sigma0_mm = 0.0;   // a posteriori σ of one coordinate
-  int redundancy = 0;       // 3m − rank
-  double cost = 0.0;        // Σ weighted squared residuals (mm²)
+  double sigma0_mm = 0.0;  // a posteriori σ of one coordinate
+  int redundancy = 0;      // 3m − rank
+  double cost = 0.0;       // Σ weighted squared residuals (mm²)
   std::vector<Eigen::Vector3d> nominal_residuals, fit_residuals;
   ErrorStats nominal, fit;
   std::vector<int> downweighted;  // poses the robust loss treated as blunders (indices)
@@ -90,7 +89,7 @@ EstimationResult Estimate(const RobotModel& model, const std::vector<MeasuredPos
 
 // Nested-model F-test: does adding terms improve the fit significantly?
 struct FTest {
-  std::string added;        // names of the added terms
+  std::string added;  // names of the added terms
   double rss_reduced = 0.0, rss_full = 0.0;
   int df_added = 0, df_residual = 0;
   double f = 0.0, p_value = 1.0;

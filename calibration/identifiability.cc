@@ -1,5 +1,6 @@
 #include "calibration/identifiability.h"
 
+#include <Eigen/Eigenvalues>
 #include <Eigen/QR>
 #include <Eigen/SVD>
 #include <algorithm>
@@ -89,29 +90,45 @@ IdentifiabilityReport AnalyseJacobian(const Eigen::MatrixXd& jacobian,
   for (int k : chosen) report.identified.push_back(candidates[k]);
   for (int k : dropped) report.unidentified.push_back(candidates[k]);
 
-  Eigen::MatrixXd kept(a.rows(), chosen.size());
-  for (size_t k = 0; k < chosen.size(); ++k) kept.col(k) = a.col(chosen[k]);
-  if (!chosen.empty()) {
-    Eigen::JacobiSVD<Eigen::MatrixXd> svd(kept);
-    const auto& s = svd.singularValues();
-    report.condition_number = s(s.size() - 1) > 0 ? s(0) / s(s.size() - 1) : INFINITY;
-    // Each left-out column as a combination of the kept ones (scaled units).
-    Eigen::ColPivHouseholderQR<Eigen::MatrixXd> kept_qr(kept);
-    for (int k : dropped) {
-      Dependency dep;
-      dep.parameter = candidates[k];
-      const Eigen::VectorXd c = kept_qr.solve(a.col(k));
-      dep.residual = (kept * c - a.col(k)).norm();
-      const double largest = c.cwiseAbs().maxCoeff();
-      for (int i = 0; i < c.size(); ++i) {
-        if (std::abs(c(i)) > 0.05 * largest && std::abs(c(i)) > 1e-9) {
-          dep.on.push_back({candidates[chosen[i]], c(i)});
+  const int r = report.rank;
+  if (r > 0) {
+    // A·P = Q·[R11 R12; 0 R22]: the kept columns are Q1·R11, so their singular values are
+    // those of R11 (r × r), and each left-out column is kept·(R11⁻¹ R12) + Q2·R22.
+    const Eigen::MatrixXd rr =
+        qr.matrixR()
+            .topLeftCorner(std::min<Eigen::Index>(a.rows(), a.cols()), a.cols())
+            .template triangularView<Eigen::Upper>();
+    const Eigen::MatrixXd r11 = rr.topLeftCorner(r, r);
+    // Singular values of R11 from the eigenvalues of R11ᵀR11 (r × r, cheap; the squared
+    // condition is harmless for a figure reported to three digits).
+    const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eigen(r11.transpose() * r11,
+                                                               Eigen::EigenvaluesOnly);
+    const Eigen::VectorXd& ev = eigen.eigenvalues();  // ascending
+    report.condition_number = ev(0) > 0 ? std::sqrt(ev(ev.size() - 1) / ev(0)) : INFINITY;
+    const int dropped_count = static_cast<int>(a.cols()) - r;
+    if (dropped_count > 0) {
+      const Eigen::MatrixXd r12 = rr.block(0, r, r, dropped_count);
+      const Eigen::MatrixXd coefficients =
+          r11.triangularView<Eigen::Upper>().solve(r12);  // r × dropped, in pivot order
+      for (int d = 0; d < dropped_count; ++d) {
+        Dependency dep;
+        const int column = perm(r + d);
+        dep.parameter = candidates[column];
+        dep.residual = rr.rows() > r ? rr.block(r, r + d, rr.rows() - r, 1).norm() : 0.0;
+        const Eigen::VectorXd c = coefficients.col(d);
+        const double largest = c.size() ? c.cwiseAbs().maxCoeff() : 0.0;
+        for (int i = 0; i < c.size(); ++i) {
+          if (std::abs(c(i)) > 0.05 * largest && std::abs(c(i)) > 1e-9) {
+            dep.on.push_back({candidates[perm(i)], c(i)});
+          }
         }
+        std::sort(dep.on.begin(), dep.on.end(), [](const auto& x, const auto& y) {
+          return std::abs(x.second) > std::abs(y.second);
+        });
+        report.dependencies.push_back(std::move(dep));
       }
-      std::sort(dep.on.begin(), dep.on.end(), [](const auto& x, const auto& y) {
-        return std::abs(x.second) > std::abs(y.second);
-      });
-      report.dependencies.push_back(std::move(dep));
+      std::sort(report.dependencies.begin(), report.dependencies.end(),
+                [](const Dependency& x, const Dependency& y) { return x.parameter < y.parameter; });
     }
   }
   return report;
@@ -144,19 +161,36 @@ IdentifiabilityReport AnalyseIdentifiability(const RobotModel& model,
                                              const std::vector<int>& candidates,
                                              const IdentifiabilityOptions& options) {
   const Eigen::VectorXd zero = Eigen::VectorXd::Zero(model.num_parameters());
-  const Eigen::MatrixXd jacobian = StackedJacobian(model, world_from_base, zero, joints_rad);
-  IdentifiabilityReport report = AnalyseJacobian(jacobian, candidates, options);
-
-  const int spread_count = std::max(20, 2 * static_cast<int>(candidates.size()));
+  const int spread_count = std::max(20, static_cast<int>(candidates.size()));
   const auto spread = SpreadConfigurations(model, spread_count);
   const Eigen::MatrixXd spread_jacobian = StackedJacobian(model, world_from_base, zero, spread);
-  report.structural_rank = AnalyseJacobian(spread_jacobian, candidates, options).rank;
+  const int structural_rank = AnalyseJacobian(spread_jacobian, candidates, options).rank;
+
+  // Large data: decide on an evenly spaced subsample first. Data can never identify more
+  // than the model's structural rank, so a subsample that reaches it decides exactly;
+  // otherwise the whole Jacobian is factorised.
+  IdentifiabilityReport report;
+  const size_t kSubsample = 1000;
+  bool decided = false;
+  if (joints_rad.size() > 2 * kSubsample) {
+    std::vector<Eigen::VectorXd> subset;
+    const double stride = static_cast<double>(joints_rad.size()) / kSubsample;
+    for (size_t i = 0; i < kSubsample; ++i)
+      subset.push_back(joints_rad[static_cast<size_t>(i * stride)]);
+    report =
+        AnalyseJacobian(StackedJacobian(model, world_from_base, zero, subset), candidates, options);
+    decided = report.rank == structural_rank;
+  }
+  Eigen::MatrixXd jacobian;
+  if (!decided) {
+    jacobian = StackedJacobian(model, world_from_base, zero, joints_rad);
+    report = AnalyseJacobian(jacobian, candidates, options);
+  }
+  report.structural_rank = structural_rank;
 
   // A joint whose encoder angle never changes cannot separate the parameters around it.
   const int n = model.num_joints();
   if (joints_rad.empty()) return report;
-  const Eigen::MatrixXd structural_null =
-      NullSpace(ScaledColumns(spread_jacobian, candidates), options.relative_tolerance);
   for (int j = 0; j < n; ++j) {
     double lo = joints_rad[0](j), hi = lo;
     for (const auto& q : joints_rad) {
@@ -167,8 +201,11 @@ IdentifiabilityReport AnalyseIdentifiability(const RobotModel& model,
     FrozenJoint frozen;
     frozen.joint = j;
     frozen.range_rad = hi - lo;
+    if (jacobian.size() == 0) jacobian = StackedJacobian(model, world_from_base, zero, joints_rad);
     // Null-space directions of the data that are not null directions of the model:
     // the parameters with weight in them are the ones this joint's motion would separate.
+    const Eigen::MatrixXd structural_null =
+        NullSpace(ScaledColumns(spread_jacobian, candidates), options.relative_tolerance);
     const Eigen::MatrixXd data_null =
         NullSpace(ScaledColumns(jacobian, candidates), options.relative_tolerance);
     Eigen::MatrixXd extra = data_null;

@@ -18,24 +18,24 @@ struct IdentifiabilityOptions {
 };
 
 struct Dependency {
-  int parameter = -1;                           // a parameter left out
-  std::vector<std::pair<int, double>> on;       // identified parameters and coefficients
-  double residual = 0.0;                        // how exact the dependency is (scaled)
+  int parameter = -1;                      // a parameter left out
+  std::vector<std::pair<int, double>> on;  // identified parameters and coefficients
+  double residual = 0.0;                   // how exact the dependency is (scaled)
 };
 
 struct FrozenJoint {
-  int joint = -1;                  // 0-based
-  double range_rad = 0.0;          // spread of its encoder angles in the data
-  std::vector<int> affected;       // parameters in the dependencies it creates
+  int joint = -1;             // 0-based
+  double range_rad = 0.0;     // spread of its encoder angles in the data
+  std::vector<int> affected;  // parameters in the dependencies it creates
 };
 
 struct IdentifiabilityReport {
-  std::vector<int> candidates;     // parameters asked for
-  std::vector<int> identified;     // chosen subset, ascending parameter index
-  std::vector<int> unidentified;   // kept at zero, ascending
+  std::vector<int> candidates;    // parameters asked for
+  std::vector<int> identified;    // chosen subset, ascending parameter index
+  std::vector<int> unidentified;  // kept at zero, ascending
   int rank = 0;
-  int structural_rank = -1;        // rank on well-spread configurations (-1: not computed)
-  double condition_number = 0.0;   // of the scaled Jacobian of the identified subset
+  int structural_rank = -1;       // rank on well-spread configurations (-1: not computed)
+  double condition_number = 0.0;  // of the scaled Jacobian of the identified subset
   std::vector<Dependency> dependencies;
   std::vector<FrozenJoint> frozen_joints;
 };

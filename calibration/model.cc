@@ -91,6 +91,18 @@ Kinematics::Kinematics(const RobotModel& model) : model_(model) {
   beta_axis_.resize(n);
   true_angles_.resize(n);
   h_rot_.resize(n);
+  hx_rot_.resize(n);
+}
+
+void Kinematics::PrepareParameters(const Eigen::VectorXd& params) {
+  if (prepared_params_.size() == params.size() && prepared_params_ == params) return;
+  const int n = model_.num_joints();
+  for (int i = 0; i < n; ++i) {
+    const double* p = params.data() + 6 * i;
+    hx_rot_[i] = Rx(p[3]);
+    h_rot_[i] = hx_rot_[i] * Ry(p[4]) * Rz(p[5]);
+  }
+  prepared_params_ = params;
 }
 
 void Kinematics::TrueJointAngles(const Eigen::VectorXd& params, const double* joints_rad,
@@ -112,6 +124,7 @@ void Kinematics::Forward(const Eigen::Isometry3d& world_from_base, const Eigen::
                                 " entries, model " + model_.name + " has " +
                                 std::to_string(model_.num_parameters()));
   }
+  PrepareParameters(params);
   TrueJointAngles(params, joints_rad, true_angles_.data());
   // Running transform (R, t): world from the current frame.
   Eigen::Matrix3d rot = world_from_base.linear();
@@ -126,13 +139,15 @@ void Kinematics::Forward(const Eigen::Isometry3d& world_from_base, const Eigen::
     f_rot_[i] = rot;  // frame before H_i
     pos += rot * Eigen::Vector3d(p[0], p[1], p[2]);
     h_origin_[i] = pos;  // origin of the rotations α, β, γ, θ of joint i
-    const Eigen::Matrix3d rx = Rx(p[3]);
-    const Eigen::Matrix3d rxy = rx * Ry(p[4]);
     alpha_axis_[i] = rot.col(0);
-    beta_axis_[i] = rot * rx.col(1);
-    rot = rot * (rxy * Rz(p[5]));
+    beta_axis_[i] = rot * hx_rot_[i].col(1);
+    rot = rot * h_rot_[i];
     g_rot_[i] = rot;  // frame after H_i, before Θ_i: its z is the joint axis
-    rot = rot * Rz(true_angles_[i]);
+    // Θ_i: only the first two columns change (rotation about z).
+    const double c = std::cos(true_angles_[i]), s = std::sin(true_angles_[i]);
+    const Eigen::Vector3d x_axis = c * rot.col(0) + s * rot.col(1);
+    rot.col(1) = c * rot.col(1) - s * rot.col(0);
+    rot.col(0) = x_axis;
   }
   last_rot_ = rot;
   const double* tool = params.data() + 6 * n;

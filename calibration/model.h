@@ -19,7 +19,7 @@ namespace armsig::calibration {
 struct NongeometricTerm {
   enum class Basis { kCos, kSignCos };
   std::string name;
-  int joint = 0;        // 0-based joint whose true angle it corrects
+  int joint = 0;  // 0-based joint whose true angle it corrects
   Basis basis = Basis::kCos;
   std::vector<int> of;  // 0-based joints whose encoder angles are summed
 
@@ -33,7 +33,7 @@ struct RobotModel {
   std::string name;
   // N1: measurement frame from robot base. nullopt = "auto" (rigid best fit to the data).
   std::optional<Eigen::Isometry3d> base;
-  std::vector<Eigen::Isometry3d> links;  // N2…Nn
+  std::vector<Eigen::Isometry3d> links;               // N2…Nn
   Eigen::Vector3d tool_mm = Eigen::Vector3d::Zero();  // x̄, in the last link frame
   std::vector<NongeometricTerm> nongeometric;
   // Optional joint limits (rad); empty when unknown.
@@ -66,9 +66,9 @@ class Kinematics {
 
   // Position and its analytic derivative with respect to every parameter
   // (3 × num_parameters, written into `jacobian`).
-  Eigen::Vector3d PositionAndJacobian(const Eigen::Isometry3d& world_from_base,
-                                      const Eigen::VectorXd& params, const double* joints_rad,
-                                      Eigen::Ref<Eigen::Matrix<double, 3, Eigen::Dynamic>> jacobian);
+  Eigen::Vector3d PositionAndJacobian(
+      const Eigen::Isometry3d& world_from_base, const Eigen::VectorXd& params,
+      const double* joints_rad, Eigen::Ref<Eigen::Matrix<double, 3, Eigen::Dynamic>> jacobian);
 
   // ∂x/∂θ_i with respect to the true joint angles (3 × n), from the last evaluation.
   // Used by compensation (inverse kinematics on the calibrated model).
@@ -83,13 +83,16 @@ class Kinematics {
  private:
   void Forward(const Eigen::Isometry3d& world_from_base, const Eigen::VectorXd& params,
                const double* joints_rad);
+  // H_i rotations do not depend on the pose: recomputed only when the parameters change.
+  void PrepareParameters(const Eigen::VectorXd& params);
 
   const RobotModel& model_;
   // Scratch, per joint i: frame before H_i (F), after H_i (G), axes for α, β.
   std::vector<Eigen::Matrix3d> f_rot_, g_rot_;
   std::vector<Eigen::Vector3d> h_origin_, alpha_axis_, beta_axis_;
   std::vector<double> true_angles_;
-  std::vector<Eigen::Matrix3d> h_rot_;
+  std::vector<Eigen::Matrix3d> h_rot_, hx_rot_;  // Rx·Ry·Rz and Rx of every H_i
+  Eigen::VectorXd prepared_params_;
   Eigen::Vector3d x_ = Eigen::Vector3d::Zero();
   Eigen::Matrix3d last_rot_ = Eigen::Matrix3d::Identity();
 };
@@ -112,21 +115,30 @@ Eigen::Matrix<T, 3, 1> TargetPosition(const RobotModel& model,
     Mat4 m = Mat4::Identity();
     using std::cos;
     using std::sin;
-    m(1, 1) = cos(a); m(1, 2) = -sin(a); m(2, 1) = sin(a); m(2, 2) = cos(a);
+    m(1, 1) = cos(a);
+    m(1, 2) = -sin(a);
+    m(2, 1) = sin(a);
+    m(2, 2) = cos(a);
     return m;
   };
   auto ry = [](const T& a) {
     Mat4 m = Mat4::Identity();
     using std::cos;
     using std::sin;
-    m(0, 0) = cos(a); m(0, 2) = sin(a); m(2, 0) = -sin(a); m(2, 2) = cos(a);
+    m(0, 0) = cos(a);
+    m(0, 2) = sin(a);
+    m(2, 0) = -sin(a);
+    m(2, 2) = cos(a);
     return m;
   };
   auto rz = [](const T& a) {
     Mat4 m = Mat4::Identity();
     using std::cos;
     using std::sin;
-    m(0, 0) = cos(a); m(0, 1) = -sin(a); m(1, 0) = sin(a); m(1, 1) = cos(a);
+    m(0, 0) = cos(a);
+    m(0, 1) = -sin(a);
+    m(1, 0) = sin(a);
+    m(1, 1) = cos(a);
     return m;
   };
   Mat4 chain = world_from_base.matrix().template cast<T>();

@@ -41,8 +41,8 @@ std::vector<Eigen::MatrixXd> ScaledBlocks(const RobotModel& model,
     for (int c = 0; c < l; ++c) blocks[i].col(c) = full.col(parameters[c]);
     sum_sq += blocks[i].colwise().squaredNorm().transpose();
   }
-  Eigen::VectorXd scale = scale_in ? *scale_in
-                                   : (sum_sq / std::max<size_t>(1, configurations.size())).cwiseSqrt();
+  Eigen::VectorXd scale =
+      scale_in ? *scale_in : (sum_sq / std::max<size_t>(1, configurations.size())).cwiseSqrt();
   for (int c = 0; c < l; ++c) {
     if (!(scale(c) > 0.0)) scale(c) = 1.0;
   }
@@ -108,13 +108,13 @@ SelectionResult SelectConfigurations(const RobotModel& model,
   Eigen::MatrixXd u(l, 3);
   Eigen::MatrixXd projected(3, 3);
   auto apply = [&](int k, double sign) {
-    u.noalias() = m_inv * blocks[k].transpose();                  // M⁻¹ Jₖᵀ (l × 3)
+    u.noalias() = m_inv * blocks[k].transpose();  // M⁻¹ Jₖᵀ (l × 3)
     const Eigen::Matrix3d c = Eigen::Matrix3d::Identity() + sign * s[k];
     const Eigen::Matrix3d c_inv = c.inverse();
     // Woodbury: (M ± JₖᵀJₖ)⁻¹ = M⁻¹ ∓ U C⁻¹ Uᵀ.
     m_inv.noalias() -= sign * (u * c_inv * u.transpose());
     for (int i = 0; i < m; ++i) {
-      const Eigen::Matrix3d w = blocks[i] * u;                     // Jᵢ M⁻¹ Jₖᵀ
+      const Eigen::Matrix3d w = blocks[i] * u;  // Jᵢ M⁻¹ Jₖᵀ
       s[i].noalias() -= sign * (w * c_inv * w.transpose());
     }
   };

@@ -12,8 +12,8 @@
 namespace armsig::calibration {
 
 struct SelectionOptions {
-  int count = 80;             // configurations to keep
-  int exchange_passes = 2;    // 0 = greedy only
+  int count = 80;           // configurations to keep
+  int exchange_passes = 2;  // 0 = greedy only
   // Regularisation of the start (scaled units): keeps the greedy step well defined
   // before the selected set reaches full rank.
   double ridge = 1e-6;
@@ -21,11 +21,11 @@ struct SelectionOptions {
 };
 
 struct SelectionResult {
-  std::vector<int> selected;   // indices into the candidates, ascending
-  double log_det = 0.0;        // log det(JᵀJ) of the selected set, scaled columns
+  std::vector<int> selected;      // indices into the candidates, ascending
+  double log_det = 0.0;           // log det(JᵀJ) of the selected set, scaled columns
   double condition_number = 0.0;  // of the selected scaled Jacobian
-  double o1 = 0.0;             // Borm & Menq O1: (σ1…σL)^(1/L) / √m
-  int exchanges = 0;           // swaps made by the exchange passes
+  double o1 = 0.0;                // Borm & Menq O1: (σ1…σL)^(1/L) / √m
+  int exchanges = 0;              // swaps made by the exchange passes
 };
 
 // Observability figures of a set of configurations (same scaling as the selection).

@@ -34,9 +34,9 @@ Eigen::VectorXd RandomParameters(const RobotModel& model, double sigma_mm, doubl
   std::normal_distribution<double> normal(0.0, 1.0);
   Eigen::VectorXd p(model.num_parameters());
   for (int k = 0; k < model.num_parameters(); ++k) {
-    const double s = k >= model.num_geometric()                       ? sigma_h_rad
+    const double s = k >= model.num_geometric()              ? sigma_h_rad
                      : model.UnitOf(k) == ParameterUnit::kMm ? sigma_mm
-                                                                      : sigma_rad;
+                                                             : sigma_rad;
     p(k) = s * normal(rng);
   }
   return p;

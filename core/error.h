@@ -8,9 +8,9 @@
 namespace armsig {
 
 struct SourceLocation {
-  std::string file;  // empty when the input is not a file (a port, a command option)
-  int line = 0;      // 1-based; 0 = whole file
-  int column = 0;    // 1-based; 0 = whole line
+  std::string file;         // empty when the input is not a file (a port, a command option)
+  int line = 0;             // 1-based; 0 = whole file
+  int column = 0;           // 1-based; 0 = whole line
   std::string column_name;  // CSV column or YAML key, when known
 };
 

@@ -53,14 +53,13 @@ Database::Database(const std::string& path, OpenOptions options)
     db_.exec("PRAGMA synchronous=FULL");
     db_.exec("PRAGMA foreign_keys=ON");
   } catch (const SQLite::Exception& e) {
-    throw InputError({path, 0, 0, ""}, std::string("not a usable SQLite database (") + e.what() + ")");
+    throw InputError({path, 0, 0, ""},
+                     std::string("not a usable SQLite database (") + e.what() + ")");
   }
   if (options.migrate) Migrate();
 }
 
-int Database::SchemaVersion() {
-  return db_.execAndGet("PRAGMA user_version").getInt();
-}
+int Database::SchemaVersion() { return db_.execAndGet("PRAGMA user_version").getInt(); }
 
 void Database::Migrate() {
   const int current = SchemaVersion();

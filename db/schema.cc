@@ -159,10 +159,17 @@ CREATE TABLE validation_residuals (
 
 constexpr std::array<std::string_view, 1> kMigrations = {kSchemaV1};
 
-constexpr std::array<std::string_view, 11> kTables = {
-    "robots",       "instruments", "stations",     "sessions",
-    "station_setups", "poses",     "observations", "points",
-    "calibrations", "calibration_parameters", "validation_residuals"};
+constexpr std::array<std::string_view, 11> kTables = {"robots",
+                                                      "instruments",
+                                                      "stations",
+                                                      "sessions",
+                                                      "station_setups",
+                                                      "poses",
+                                                      "observations",
+                                                      "points",
+                                                      "calibrations",
+                                                      "calibration_parameters",
+                                                      "validation_residuals"};
 
 }  // namespace
 

@@ -155,9 +155,9 @@ CsvTable ParseCsv(std::string_view text, std::string source, CsvOptions options)
   }
   for (const CsvRow& row : records) {
     if (row.fields.size() != header.size()) {
-      throw InputError({source, row.line, 0, ""},
-                       "expected " + std::to_string(header.size()) + " fields as in the header, found " +
-                           std::to_string(row.fields.size()));
+      throw InputError({source, row.line, 0, ""}, "expected " + std::to_string(header.size()) +
+                                                      " fields as in the header, found " +
+                                                      std::to_string(row.fields.size()));
     }
   }
   options.delimiter = delimiter == '\0' ? ',' : delimiter;
@@ -202,8 +202,8 @@ std::optional<AngleColumn> CsvTable::FindAngleColumn(std::string_view base) cons
 AngleColumn CsvTable::AngleColumnOf(std::string_view base) const {
   if (auto c = FindAngleColumn(base)) return *c;
   const std::string b(base);
-  throw InputError({source_, 1, 0, ""},
-                   "missing column '" + b + "_deg', '" + b + "_gon' or '" + b + "_rad' in the header");
+  throw InputError({source_, 1, 0, ""}, "missing column '" + b + "_deg', '" + b + "_gon' or '" + b +
+                                            "_rad' in the header");
 }
 
 SourceLocation CsvTable::Where(const CsvRow& row, int column) const {
@@ -213,9 +213,9 @@ SourceLocation CsvTable::Where(const CsvRow& row, int column) const {
 double CsvTable::Number(const CsvRow& row, int column) const {
   const std::string& field = row.fields.at(column);
   if (auto v = ParseNumber(field, options_.decimal_comma)) return *v;
-  throw InputError(Where(row, column),
-                   field.empty() ? "expected a number, the field is empty"
-                                 : "expected a finite number, got '" + field + "'");
+  throw InputError(Where(row, column), field.empty()
+                                           ? "expected a number, the field is empty"
+                                           : "expected a finite number, got '" + field + "'");
 }
 
 std::optional<double> CsvTable::OptionalNumber(const CsvRow& row, int column) const {

@@ -14,8 +14,8 @@
 namespace armsig::io {
 
 struct CsvOptions {
-  char delimiter = ',';       // '\0' = guess from the header line (',', ';' or tab)
-  bool decimal_comma = false; // "1,5" is 1.5 (needs a delimiter other than ',')
+  char delimiter = ',';            // '\0' = guess from the header line (',', ';' or tab)
+  bool decimal_comma = false;      // "1,5" is 1.5 (needs a delimiter other than ',')
   bool skip_comment_lines = true;  // lines starting with '#'
 };
 

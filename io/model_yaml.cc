@@ -166,8 +166,10 @@ class Parser {
         Fail(limits, "joint_limits_deg", "expected " + std::to_string(n) + " [min, max] pairs");
       }
       for (const YAML::Node& pair : limits) {
-        if (!pair.IsSequence() || pair.size() != 2) Fail(pair, "joint_limits_deg", "expected [min, max]");
-        const double lo = Number(pair[0], "joint_limits_deg"), hi = Number(pair[1], "joint_limits_deg");
+        if (!pair.IsSequence() || pair.size() != 2)
+          Fail(pair, "joint_limits_deg", "expected [min, max]");
+        const double lo = Number(pair[0], "joint_limits_deg"),
+                     hi = Number(pair[1], "joint_limits_deg");
         if (!(lo < hi)) Fail(pair, "joint_limits_deg", "expected min < max");
         model.joint_min_rad.push_back(ToRad(lo, AngleUnit::kDeg));
         model.joint_max_rad.push_back(ToRad(hi, AngleUnit::kDeg));
@@ -187,8 +189,7 @@ calibration::RobotModel ParseRobotModel(const std::string& yaml_text, const std:
   try {
     root = YAML::Load(yaml_text);
   } catch (const YAML::Exception& e) {
-    throw InputError({source, e.mark.line + 1, e.mark.column + 1, ""},
-                     "malformed YAML: " + e.msg);
+    throw InputError({source, e.mark.line + 1, e.mark.column + 1, ""}, "malformed YAML: " + e.msg);
   }
   return Parser(source).Parse(root);
 }

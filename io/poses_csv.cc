@@ -33,7 +33,8 @@ std::vector<MeasuredPose> ReadPosesCsv(const std::string& path, int num_joints) 
     pose.target_in_world = {table.Number(row, x), table.Number(row, y), table.Number(row, z)};
     poses.push_back(std::move(pose));
   }
-  if (poses.empty()) throw InputError({path, 0, 0, ""}, "no poses (expected data rows after the header)");
+  if (poses.empty())
+    throw InputError({path, 0, 0, ""}, "no poses (expected data rows after the header)");
   return poses;
 }
 

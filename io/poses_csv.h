@@ -19,13 +19,13 @@ std::vector<MeasuredPose> ReadPosesCsv(const std::string& path, int num_joints);
 std::string FormatPosesCsv(const std::vector<MeasuredPose>& poses);
 
 struct PoseImportOptions {
-  char delimiter = '\0';          // '\0' = guess
+  char delimiter = '\0';  // '\0' = guess
   bool decimal_comma = false;
   std::vector<std::string> joint_columns;  // in joint order
   AngleUnit joint_unit = AngleUnit::kRad;
-  std::vector<std::string> xyz_columns;    // measured target x, y, z
-  double length_scale_to_mm = 1.0;         // e.g. 1000 for metres
-  std::string id_column;                   // empty = row number
+  std::vector<std::string> xyz_columns;  // measured target x, y, z
+  double length_scale_to_mm = 1.0;       // e.g. 1000 for metres
+  std::string id_column;                 // empty = row number
   // Preset for the IPA UR10 laser-tracker CSVs (../shared/data/ur10-ipa).
   static PoseImportOptions UrIpa();
 };

@@ -50,7 +50,9 @@ inline std::string DataPath(const std::string& relative) {
   return std::string(ARMSIG_TEST_DATA) + "/" + relative;
 }
 
-inline calibration::RobotModel Puma() { return io::LoadRobotModel(SourcePath("models/puma760.yaml")); }
+inline calibration::RobotModel Puma() {
+  return io::LoadRobotModel(SourcePath("models/puma760.yaml"));
+}
 inline calibration::RobotModel Ur10() { return io::LoadRobotModel(SourcePath("models/ur10.yaml")); }
 
 struct CommandResult {

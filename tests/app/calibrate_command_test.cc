@@ -94,8 +94,9 @@ TEST_F(CalibrateCommand, MalformedPosesNameFileLineAndColumnAndWriteNothing) {
 }
 
 TEST_F(CalibrateCommand, NanIsRejected) {
-  WriteText(dir_.File("nan.csv"), "pose,q1_deg,q2_deg,q3_deg,q4_deg,q5_deg,q6_deg,x_mm,y_mm,z_mm\n"
-                                  "A,1,2,3,4,5,6,nan,0,0\n");
+  WriteText(dir_.File("nan.csv"),
+            "pose,q1_deg,q2_deg,q3_deg,q4_deg,q5_deg,q6_deg,x_mm,y_mm,z_mm\n"
+            "A,1,2,3,4,5,6,nan,0,0\n");
   const auto r = RunArmsig("calibrate " + Model() + "--poses '" + dir_.File("nan.csv") + "'");
   EXPECT_EQ(r.exit_code, 2);
   EXPECT_NE(r.err.find("nan.csv:2:8"), std::string::npos) << r.err;

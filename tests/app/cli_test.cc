@@ -18,7 +18,7 @@ TEST(Cli, HelpListsEveryCommandOfTheSpec) {
 
 TEST(Cli, VersionAndUsageErrors) {
   EXPECT_EQ(RunArmsig("--version").exit_code, 0);
-  EXPECT_EQ(RunArmsig("").exit_code, 2);              // a command is required
+  EXPECT_EQ(RunArmsig("").exit_code, 2);  // a command is required
   EXPECT_EQ(RunArmsig("no-such-command").exit_code, 2);
   EXPECT_EQ(RunArmsig("calibrate --model").exit_code, 2);
 }

@@ -29,8 +29,8 @@ struct Lab {
 Lab MakeLab(int fit_count, double noise_mm, unsigned seed, Eigen::Isometry3d base = LabBase()) {
   Lab lab;
   std::mt19937 rng(seed);
-  lab.fit = SimulatePoses(lab.model, base, lab.truth, RandomConfigurations(lab.model, fit_count, rng),
-                          noise_mm, rng);
+  lab.fit = SimulatePoses(lab.model, base, lab.truth,
+                          RandomConfigurations(lab.model, fit_count, rng), noise_mm, rng);
   lab.validation = SimulatePoses(lab.model, base, lab.truth,
                                  RandomConfigurations(lab.model, 200, rng), noise_mm, rng);
   return lab;
@@ -78,7 +78,7 @@ TEST(Estimation, NoiseFreeDataIsReproducedExactly) {
   const auto r = Estimate(lab.model, lab.fit, With(lab.model, "all"));
   ASSERT_EQ(r.status, EstimationStatus::kConverged) << r.message;
   EXPECT_LT(r.fit.max_mm, 1e-6);
-  EXPECT_GT(r.nominal.mean_mm, 1.0);  // the hidden errors are millimetres
+  EXPECT_GT(r.nominal.mean_mm, 1.0);         // the hidden errors are millimetres
   EXPECT_LT(Validate(lab, r).max_mm, 1e-6);  // and so are new poses: the model is complete
   EXPECT_EQ(r.identifiability.rank, 29);
   // Unidentified parameters stay exactly zero, as in the paper.
@@ -128,7 +128,6 @@ TEST(Estimation, ParameterSigmasAreHonest) {
   for (int trial = 0; trial < 40; ++trial) {
     const auto poses = SimulatePoses(model, LabBase(), truth, joints, kNoiseMm, rng);
     EstimationOptions o = With(model, "all");
-    o.analyse_structure = false;
     const auto r = Estimate(model, poses, o);
     ASSERT_TRUE(r.ok());
     Kinematics kin(model);
@@ -206,8 +205,8 @@ TEST(FTest, AutoAddsOnlyTheTermsTheRobotHas) {
   lab.truth(39) = 0.0;
   lab.truth(40) = 0.0;
   std::mt19937 rng(9);
-  lab.fit = SimulatePoses(lab.model, LabBase(), lab.truth,
-                          RandomConfigurations(lab.model, 80, rng), kNoiseMm, rng);
+  lab.fit = SimulatePoses(lab.model, LabBase(), lab.truth, RandomConfigurations(lab.model, 80, rng),
+                          kNoiseMm, rng);
   EstimationOptions o;
   const auto selection = SelectTermsByFTest(lab.model, lab.fit, o, 0.001);
   std::vector<int> added(selection.parameters.begin() + 39, selection.parameters.end());

@@ -41,9 +41,9 @@ TEST(ErrorTransform, MatchesPaperEquation2) {
   const double ca = std::cos(al), sa = std::sin(al), cb = std::cos(be), sb = std::sin(be),
                cg = std::cos(ga), sg = std::sin(ga);
   Eigen::Matrix4d paper;
-  paper << cb * cg, -cb * sg, sb, a,                                    //
-      ca * sg + sa * sb * cg, ca * cg - sa * sb * sg, -sa * cb, b,      //
-      sa * sg - ca * sb * cg, sa * cg + ca * sb * sg, ca * cb, c,       //
+  paper << cb * cg, -cb * sg, sb, a,                                //
+      ca * sg + sa * sb * cg, ca * cg - sa * sb * sg, -sa * cb, b,  //
+      sa * sg - ca * sb * cg, sa * cg + ca * sb * sg, ca * cb, c,   //
       0, 0, 0, 1;
   EXPECT_LT((ErrorTransform(a, b, c, al, be, ga).matrix() - paper).norm(), 1e-15);
 }
@@ -67,8 +67,8 @@ TEST(Kinematics, Ur10DhMatchesUniversalRobotsForwardKinematics) {
   const auto model = testing::Ur10();
   Kinematics kin(model);
   const Eigen::VectorXd q = Eigen::VectorXd::Zero(6);
-  const Eigen::Vector3d x =
-      kin.Position(Eigen::Isometry3d::Identity(), Eigen::VectorXd::Zero(model.num_parameters()), q.data());
+  const Eigen::Vector3d x = kin.Position(Eigen::Isometry3d::Identity(),
+                                         Eigen::VectorXd::Zero(model.num_parameters()), q.data());
   EXPECT_NEAR(x.x(), -612.0 - 572.3, 1e-9);
   EXPECT_NEAR(x.y(), -(163.941 + 92.2 + 109.0), 1e-9);
   EXPECT_NEAR(x.z(), 127.3 - 115.7, 1e-9);
@@ -76,8 +76,8 @@ TEST(Kinematics, Ur10DhMatchesUniversalRobotsForwardKinematics) {
   // offset d5 (downwards at zero) turns horizontal: z = d1 + |a2| + |a3|.
   Eigen::VectorXd up = q;
   up(1) = -M_PI / 2;
-  const Eigen::Vector3d y =
-      kin.Position(Eigen::Isometry3d::Identity(), Eigen::VectorXd::Zero(model.num_parameters()), up.data());
+  const Eigen::Vector3d y = kin.Position(Eigen::Isometry3d::Identity(),
+                                         Eigen::VectorXd::Zero(model.num_parameters()), up.data());
   EXPECT_NEAR(y.z(), 127.3 + 612.0 + 572.3, 1e-9);
 }
 

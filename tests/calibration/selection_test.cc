@@ -30,10 +30,9 @@ TEST(Selection, BeatsRandomChoice) {
   for (const auto& p : candidates) joints.push_back(p.joints_rad);
   EstimationOptions o;
   o.parameters = ParseParameterSpec(model, "all");
-  o.analyse_structure = false;
-  const auto id = AnalyseJacobian(StackedJacobian(model, Eigen::Isometry3d::Identity(),
-                                                  Eigen::VectorXd::Zero(43), joints),
-                                  o.parameters);
+  const auto id = AnalyseJacobian(
+      StackedJacobian(model, Eigen::Isometry3d::Identity(), Eigen::VectorXd::Zero(43), joints),
+      o.parameters);
   const int n = 80;
   SelectionOptions so;
   so.count = n;
@@ -71,9 +70,9 @@ TEST(Selection, ExchangeNeverLowersTheCriterion) {
   const auto joints = RandomConfigurations(model, 300, rng);
   std::vector<int> params;
   for (int i = 0; i < 43; ++i) params.push_back(i);
-  const auto id = AnalyseJacobian(StackedJacobian(model, Eigen::Isometry3d::Identity(),
-                                                  Eigen::VectorXd::Zero(43), joints),
-                                  params);
+  const auto id = AnalyseJacobian(
+      StackedJacobian(model, Eigen::Isometry3d::Identity(), Eigen::VectorXd::Zero(43), joints),
+      params);
   SelectionOptions greedy;
   greedy.count = 40;
   greedy.exchange_passes = 0;

@@ -11,9 +11,9 @@ namespace armsig::calibration {
 
 TEST(Ur10RealData, GeometricModelValidatesBelowHalfAMillimetre) {
   const auto model = testing::Ur10();
-  const auto poses = io::ImportPoses(
-      testing::DataPath("ur10-ipa/series_C-measurements_random_poses.csv"),
-      io::PoseImportOptions::UrIpa());
+  const auto poses =
+      io::ImportPoses(testing::DataPath("ur10-ipa/series_C-measurements_random_poses.csv"),
+                      io::PoseImportOptions::UrIpa());
   // Fit on every second pose, validate on the others (independent of the selection code).
   std::vector<MeasuredPose> fit, validation;
   for (size_t i = 0; i < poses.size(); ++i) (i % 2 ? validation : fit).push_back(poses[i]);
@@ -21,8 +21,8 @@ TEST(Ur10RealData, GeometricModelValidatesBelowHalfAMillimetre) {
   o.parameters = ParseParameterSpec(model, "geometric");
   const auto r = Estimate(model, fit, o);
   ASSERT_EQ(r.status, EstimationStatus::kConverged) << r.message;
-  const auto nominal = Summarise(Distances(
-      Residuals(model, r.world_from_base, Eigen::VectorXd::Zero(model.num_parameters()), validation)));
+  const auto nominal = Summarise(Distances(Residuals(
+      model, r.world_from_base, Eigen::VectorXd::Zero(model.num_parameters()), validation)));
   const auto calibrated =
       Summarise(Distances(Residuals(model, r.world_from_base, r.params, validation)));
   // Reference figures: about 5.2 mm nominal, about 0.44 mm after a 39-parameter fit.

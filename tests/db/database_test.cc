@@ -112,7 +112,8 @@ TEST(Database, SurvivesSigkillMidTransaction) {
   Database db(path);
   EXPECT_EQ(db.sql().execAndGet("PRAGMA integrity_check").getString(), "ok");
   EXPECT_EQ(db.sql().execAndGet("SELECT count(*) FROM poses").getInt(), 150);
-  EXPECT_EQ(db.sql().execAndGet("SELECT count(*) FROM poses WHERE label='uncommitted'").getInt(), 0);
+  EXPECT_EQ(db.sql().execAndGet("SELECT count(*) FROM poses WHERE label='uncommitted'").getInt(),
+            0);
   EXPECT_EQ(db.sql().execAndGet("SELECT max(seq) FROM poses").getInt(), 149);
 }
 

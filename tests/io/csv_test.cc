@@ -10,10 +10,11 @@
 namespace armsig::io {
 
 TEST(Csv, ReadsQuotedFieldsCrlfAndBom) {
-  const auto t = ParseCsv("\xEF\xBB\xBFpoint,note,x_mm\r\n"
-                          "P1,\"a, b\",1.5\r\n"
-                          "\"P2\",\"say \"\"hi\"\"\",-2e-3\r\n",
-                          "mem.csv");
+  const auto t = ParseCsv(
+      "\xEF\xBB\xBFpoint,note,x_mm\r\n"
+      "P1,\"a, b\",1.5\r\n"
+      "\"P2\",\"say \"\"hi\"\"\",-2e-3\r\n",
+      "mem.csv");
   ASSERT_EQ(t.rows().size(), 2u);
   EXPECT_EQ(t.header()[0], "point");
   EXPECT_EQ(t.Text(t.rows()[0], 1), "a, b");

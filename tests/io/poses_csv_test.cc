@@ -45,10 +45,12 @@ TEST(PosesCsv, RejectsDuplicatesMissingJointsAndTooManyJoints) {
 
 TEST(PosesCsv, ImportsTheRealUr10FileAsItIs) {
   // ../shared/data/ur10-ipa (MIT): ';', decimal comma, named columns, rad, mm.
-  const auto poses = ImportPoses(testing::DataPath("ur10-ipa/series_C-measurements_random_poses.csv"),
-                                 PoseImportOptions::UrIpa());
+  const auto poses =
+      ImportPoses(testing::DataPath("ur10-ipa/series_C-measurements_random_poses.csv"),
+                  PoseImportOptions::UrIpa());
   EXPECT_EQ(poses.size(), 2773u);
-  // First data row: joints -3,14159;-1,5708;0;-1,5708;0;0, measurement 383,97123;-3240,7562;201,72621.
+  // First data row: joints -3,14159;-1,5708;0;-1,5708;0;0, measurement
+  // 383,97123;-3240,7562;201,72621.
   EXPECT_NEAR(poses[0].joints_rad(0), -3.14159, 1e-12);
   EXPECT_NEAR(poses[0].joints_rad(1), -1.5708, 1e-12);
   EXPECT_NEAR(poses[0].target_in_world.x(), 383.97123, 1e-9);

@@ -7,7 +7,8 @@
 namespace armsig::reduction {
 
 TEST(Observation, HzOneHundredGonPointsAlongX) {
-  const Eigen::Vector3d d = DirectionInStation({ToRad(100, AngleUnit::kGon), ToRad(100, AngleUnit::kGon), 1});
+  const Eigen::Vector3d d =
+      DirectionInStation({ToRad(100, AngleUnit::kGon), ToRad(100, AngleUnit::kGon), 1});
   EXPECT_LT((d - Eigen::Vector3d::UnitX()).norm(), 1e-15);
   const Eigen::Vector3d up = DirectionInStation({0.3, 0.0, 1});
   EXPECT_LT((up - Eigen::Vector3d::UnitZ()).norm(), 1e-15);
