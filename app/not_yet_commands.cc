@@ -22,12 +22,6 @@ void NotYet(CLI::App& parent, const std::string& name, const std::string& descri
 
 }  // namespace
 
-void SetupOrientCommand(CLI::App& parent, const GlobalOptions&, Runner& run) {
-  NotYet(parent, "orient", "Orient the stations (bundle adjustment)", "#4", run);
-}
-void SetupTriangulateCommand(CLI::App& parent, const GlobalOptions&, Runner& run) {
-  NotYet(parent, "triangulate", "Intersect the rays of every target point", "#4", run);
-}
 void SetupCaptureCommand(CLI::App& parent, const GlobalOptions&, Runner& run) {
   NotYet(parent, "capture", "Run a capture session with the lab's instruments", "#6", run);
 }

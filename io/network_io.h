@@ -1,0 +1,37 @@
+// Network files (SPEC "Files"): angle observations CSV, stations YAML, control points
+// CSV, scale bars ("A:B=LEN_MM"). Readers throw InputError with file, line and column.
+#pragma once
+
+#include <string>
+#include <vector>
+
+#include "reduction/intersection.h"
+#include "reduction/network.h"
+#include "reduction/orientation.h"
+
+namespace armsig::io {
+
+// point,station,hz_*,v_*[,face,distance_mm,sigma_hz_arcsec,sigma_v_arcsec,sigma_distance_mm].
+// V > 200 gon without a face column is face II (SPEC).
+std::vector<reduction::Observation> ReadObservationsCsv(const std::string& path);
+
+// stations: [{id, position_mm, azimuth_* | rotation, sigma_hz_arcsec?, sigma_v_arcsec?}]
+std::vector<reduction::Station> ReadStationsYaml(const std::string& path);
+std::string FormatStationsYaml(const std::vector<reduction::Station>& stations,
+                               const std::string& header_comment);
+
+// point,x_mm,y_mm,z_mm[,sx_mm,sy_mm,sz_mm] (sigmas make the point weighted, else fixed).
+std::vector<reduction::ControlPoint> ReadControlCsv(const std::string& path);
+
+// "A:B=1720.0" (sigma from the caller).
+reduction::ScaleBar ParseScaleBar(const std::string& text, double sigma_mm);
+
+// One intersected point per row of POINTS.csv.
+struct TriangulatedPoint {
+  std::string id;
+  reduction::IntersectionResult result;
+  std::vector<int> observations;  // indices into the observation list, in ray order
+};
+std::string FormatPointsCsv(const std::vector<TriangulatedPoint>& points);
+
+}  // namespace armsig::io
