@@ -13,6 +13,7 @@
 #include "io/atomic_file.h"
 #include "io/csv.h"
 #include "io/network_io.h"
+#include "reduction/instrument_errors.h"
 #include "reduction/intersection.h"
 #include "reduction/orientation.h"
 
@@ -22,15 +23,34 @@ struct OrientOptions {
   std::string observations, control, out, points_out, datum_station;
   std::vector<std::string> scale_bars, unlevelled;
   double scale_bar_sigma_mm = 0.01;
+  bool no_instrument_errors = false;
 };
 
 struct TriangulateOptions {
   std::string stations, observations, out;
   bool no_reject = false;
   double critical_w = 3.29;
+  bool no_instrument_errors = false;
 };
 
 namespace {
+
+// Two-face reduction: estimate each station's axis errors and correct its readings.
+void ReduceFaces(std::vector<reduction::Observation>& observations, bool enabled) {
+  if (!enabled) return;
+  const auto errors = reduction::ReduceTwoFace(observations, reduction::InstrumentDefaults{});
+  for (const auto& [station, e] : errors) {
+    std::cout << fmt::format(
+        "station {}: {} two-face pairs: collimation {:.2f}\" ± {:.2f}, trunnion {}, vertical index "
+        "{:.2f}\" ± {:.2f} (applied to all its readings)\n",
+        station, e.pairs, e.collimation_rad / kRadPerArcsec, e.sigma_collimation_rad / kRadPerArcsec,
+        e.trunnion_determined
+            ? fmt::format("{:.2f}\" ± {:.2f}", e.trunnion_rad / kRadPerArcsec,
+                          e.sigma_trunnion_rad / kRadPerArcsec)
+            : std::string("not determinable (zenith angles too alike)"),
+        e.index_rad / kRadPerArcsec, e.sigma_index_rad / kRadPerArcsec);
+  }
+}
 
 std::string Describe(const reduction::ResidualReport& r) {
   static const char* kKinds[] = {"Hz", "V", "distance", "scale bar", "control"};
@@ -46,6 +66,7 @@ std::string Describe(const reduction::ResidualReport& r) {
 int RunOrient(const OrientOptions& options) {
   reduction::OrientationProblem problem;
   problem.observations = io::ReadObservationsCsv(options.observations);
+  ReduceFaces(problem.observations, !options.no_instrument_errors);
   for (const auto& text : options.scale_bars) {
     problem.scale_bars.push_back(io::ParseScaleBar(text, options.scale_bar_sigma_mm));
   }
@@ -139,7 +160,8 @@ int RunOrient(const OrientOptions& options) {
 
 int RunTriangulate(const TriangulateOptions& options) {
   const auto stations = io::ReadStationsYaml(options.stations);
-  const auto observations = io::ReadObservationsCsv(options.observations);
+  auto observations = io::ReadObservationsCsv(options.observations);
+  ReduceFaces(observations, !options.no_instrument_errors);
   std::map<std::string, const reduction::Station*> by_id;
   for (const auto& s : stations) by_id[s.pose.id] = &s;
   reduction::InstrumentDefaults defaults;
@@ -217,6 +239,8 @@ void SetupOrientCommand(CLI::App& parent, const GlobalOptions&, Runner& run) {
   sub->add_option("--datum-station", o->datum_station, "Station at the origin (default: the first)");
   sub->add_option("--out", o->out, "Stations YAML to write")->required();
   sub->add_option("--points", o->points_out, "Also write the adjusted target points (CSV)");
+  sub->add_flag("--no-instrument-errors", o->no_instrument_errors,
+                "Do not estimate and apply axis errors from two-face readings");
   sub->callback([&run, o] { run = [o] { return RunOrient(*o); }; });
 }
 
@@ -227,6 +251,8 @@ void SetupTriangulateCommand(CLI::App& parent, const GlobalOptions&, Runner& run
   sub->add_option("--observations", o->observations, "Angle observations CSV")->required();
   sub->add_option("--out", o->out, "Points CSV to write")->required();
   sub->add_flag("--no-reject", o->no_reject, "Report blunders but keep every ray");
+  sub->add_flag("--no-instrument-errors", o->no_instrument_errors,
+                "Do not estimate and apply axis errors from two-face readings");
   sub->add_option("--critical-w", o->critical_w, "Critical standardised residual")
       ->capture_default_str();
   sub->callback([&run, o] { run = [o] { return RunTriangulate(*o); }; });

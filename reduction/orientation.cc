@@ -579,23 +579,6 @@ OrientationResult Orient(const OrientationProblem& problem, const OrientationOpt
     }
   }
 
-  // Degenerate geometry: every target point on one line.
-  {
-    std::vector<Eigen::Vector3d> pts;
-    for (const auto& [id, x] : known) pts.push_back(x);
-    for (const auto& s : st) pts.push_back(s.position);
-    Eigen::Vector3d mean = Eigen::Vector3d::Zero();
-    for (const auto& p : pts) mean += p;
-    mean /= pts.size();
-    Eigen::Matrix3d scatter = Eigen::Matrix3d::Zero();
-    for (const auto& p : pts) scatter += (p - mean) * (p - mean).transpose();
-    Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> eig(scatter);
-    if (eig.eigenvalues()(1) < 1e-10 * eig.eigenvalues()(2)) {
-      refuse("all stations and target points lie on one line: the network has no shape");
-      return result;
-    }
-  }
-
   // --- The bundle. Coordinates are shifted to the first station's start so that large
   // coordinates (1e7 mm) keep their precision; shifted back at the end.
   const Eigen::Vector3d offset = st[0].position;
@@ -749,10 +732,37 @@ OrientationResult Orient(const OrientationProblem& problem, const OrientationOpt
   }
   const Eigen::SparseMatrix<double> normal = Eigen::SparseMatrix<double>(j.transpose()) * j;
   Eigen::SimplicialLDLT<Eigen::SparseMatrix<double>> ldlt(normal);
-  if (ldlt.info() != Eigen::Success) {
-    refuse("the adjusted network is singular: its datum or scale is not determined by the "
-           "observations");
-    return result;
+  // Singularity test on the column-scaled normal matrix (units differ: mm and rad).
+  {
+    // Adjusted target points all on one line: the likely cause, named in the message.
+    bool targets_collinear = false;
+    std::vector<Eigen::Vector3d> pts;
+    for (size_t k = 0; k < point_ids.size(); ++k) {
+      if (!control.count(point_ids[k])) pts.push_back(point_pos[k]);
+    }
+    if (pts.size() >= 2) {
+      Eigen::Vector3d mean = Eigen::Vector3d::Zero();
+      for (const auto& p : pts) mean += p;
+      mean /= pts.size();
+      Eigen::Matrix3d scatter = Eigen::Matrix3d::Zero();
+      for (const auto& p : pts) scatter += (p - mean) * (p - mean).transpose();
+      Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> eig(scatter);
+      targets_collinear = eig.eigenvalues()(1) < 1e-6 * eig.eigenvalues()(2);
+    }
+    Eigen::VectorXd scale = normal.diagonal().cwiseMax(1e-300).cwiseSqrt().cwiseInverse();
+    const Eigen::SparseMatrix<double> scaled = scale.asDiagonal() * normal * scale.asDiagonal();
+    Eigen::SimplicialLDLT<Eigen::SparseMatrix<double>> check(scaled);
+    const bool singular = check.info() != Eigen::Success || ldlt.info() != Eigen::Success ||
+                          check.vectorD().minCoeff() < 1e-8;  // healthy networks: ~1e-3
+    if (singular) {
+      refuse(targets_collinear
+                 ? "all target points lie on one line: the stations can turn about it, the "
+                   "network has no unique shape (add targets off the line, distances or mutual "
+                   "pointings)"
+                 : "the network is singular: its shape, datum or scale is not determined by "
+                   "the observations");
+      return result;
+    }
   }
   const Eigen::MatrixXd q = ldlt.solve(Eigen::MatrixXd::Identity(columns, columns));
 
