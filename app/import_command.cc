@@ -4,6 +4,7 @@
 #include <sstream>
 
 #include "app/command.h"
+#include "app/reduce_command.h"
 #include "core/error.h"
 #include "io/atomic_file.h"
 #include "io/poses_csv.h"
@@ -69,9 +70,10 @@ int RunImportPoses(const ImportPosesOptions& options) {
   return kOk;
 }
 
-void SetupImportCommand(CLI::App& parent, const GlobalOptions&, Runner& run) {
+void SetupImportCommand(CLI::App& parent, const GlobalOptions& global, Runner& run) {
   auto* sub = parent.add_subcommand("import", "Import foreign files into armsig formats");
   sub->require_subcommand(1);
+  SetupImportObservations(*sub, global, run);
 
   auto poses = std::make_shared<ImportPosesOptions>();
   auto* p = sub->add_subcommand(

@@ -25,9 +25,6 @@ void NotYet(CLI::App& parent, const std::string& name, const std::string& descri
 void SetupCaptureCommand(CLI::App& parent, const GlobalOptions&, Runner& run) {
   NotYet(parent, "capture", "Run a capture session with the lab's instruments", "#6", run);
 }
-void SetupReduceCommand(CLI::App& parent, const GlobalOptions&, Runner& run) {
-  NotYet(parent, "reduce", "Reduce a session's raw observations in the database", "#4", run);
-}
 void SetupRecalibrateCommand(CLI::App& parent, const GlobalOptions&, Runner& run) {
   NotYet(parent, "recalibrate", "The nightly recalibration job", "#7", run);
 }

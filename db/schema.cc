@@ -60,7 +60,9 @@ CREATE TABLE station_setups (
   sx_mm REAL, sy_mm REAL, sz_mm REAL, s_azimuth_rad REAL,
   sigma0        REAL,
   dof           INTEGER,
-  method        TEXT,                         -- mutual+scale_bar, control, fixed
+  method        TEXT,                         -- mutual+scale_bar, control, file
+  sigma_hz_rad  REAL,                         -- the station's a-priori reading sigmas
+  sigma_v_rad   REAL,
   created_at    TEXT NOT NULL DEFAULT (strftime('%Y-%m-%dT%H:%M:%fZ','now'))
 );
 
@@ -95,7 +97,7 @@ CREATE TABLE observations (
   return_code        INTEGER NOT NULL DEFAULT 0,  -- instrument return code (GeoCOM RC, 0 = OK)
   measured_at        TEXT NOT NULL DEFAULT (strftime('%Y-%m-%dT%H:%M:%fZ','now'))
 );
-CREATE INDEX observations_by_session ON observations(session_id, pose_id);
+CREATE INDEX observations_by_session ON observations(session_id, pose_id, point);
 
 -- Reduced target coordinates with their precision.
 CREATE TABLE points (

@@ -154,67 +154,69 @@ void Intersect(std::span<const Ray> rays, const IntersectionOptions& options,
     x = m.ldlt().solve(b);
   }
 
-  RayRows rows;
+  RayRows rows[64];
   Eigen::Matrix3d normal;
   for (int round = 0; round <= n; ++round) {
-    // Gauss–Newton on the active rays.
+    // Gauss–Newton on the active rays. The last iteration's rows also serve the
+    // statistics: its step is below a nanometre, so its Jacobian is the solution's and
+    // the residuals follow linearly (r + A·δ, exact to second order).
     bool converged = false;
     int it = 0;
+    Eigen::Vector3d step = Eigen::Vector3d::Zero();
+    Eigen::Matrix3d q;
     for (; it < options.max_iterations && !converged; ++it) {
       normal.setZero();
       Eigen::Vector3d g = Eigen::Vector3d::Zero();
       for (int k = 0; k < n; ++k) {
         if (!active[k]) continue;
-        Linearise(rays[k], hz[k], v[k], x, rows);
-        normal.noalias() += rows.a.transpose() * rows.a;
-        g.noalias() += rows.a.transpose() * rows.r;
+        Linearise(rays[k], hz[k], v[k], x, rows[k]);
+        normal.noalias() += rows[k].a.transpose() * rows[k].a;
+        g.noalias() += rows[k].a.transpose() * rows[k].r;
       }
-      const Eigen::Vector3d step = -normal.ldlt().solve(g);
+      q = normal.inverse();
+      step = -q * g;
       x += step;
-      converged = step.norm() < 1e-9;
+      converged = step.squaredNorm() < 1e-12;  // 1 nm
     }
     result.iterations += it;
-    if (!converged) {
+    if (!converged || !x.allFinite()) {
       fail(IntersectionStatus::kNoConvergence, "no convergence");
       return;
     }
 
-    // Statistics at the solution.
-    normal.setZero();
-    int observations = 0;
-    for (int k = 0; k < n; ++k) {
-      if (!active[k]) continue;
-      Linearise(rays[k], hz[k], v[k], x, rows);
-      normal.noalias() += rows.a.transpose() * rows.a;
-      observations += rows.count;
-    }
-    const Eigen::Matrix3d q = normal.inverse();
     result.covariance_mm2 = q;
-    result.dof = observations - 3;
+    int observations = 0;
     double vtpv = 0.0;
     int worst = -1;
     double worst_w = 0.0;
     result.max_miss_mm = 0.0;
     for (int k = 0; k < n; ++k) {
-      Linearise(rays[k], hz[k], v[k], x, rows);
+      RayRows& row = rows[k];
+      if (active[k]) {
+        row.r.noalias() += row.a * step;
+      } else {
+        Linearise(rays[k], hz[k], v[k], x, row);
+      }
       RayResult& rr = out[k];
-      rr.hz_arcsec = rows.r(0) * rays[k].sigma_hz_rad * kArcsecPerRad;
-      rr.v_arcsec = rows.r(1) * rays[k].sigma_v_rad * kArcsecPerRad;
-      rr.distance_mm = rows.count == 3 ? rows.r(2) * rays[k].sigma_distance_mm
-                                       : std::numeric_limits<double>::quiet_NaN();
+      rr.hz_arcsec = row.r(0) * rays[k].sigma_hz_rad * kArcsecPerRad;
+      rr.v_arcsec = row.r(1) * rays[k].sigma_v_rad * kArcsecPerRad;
+      rr.distance_mm = row.count == 3 ? row.r(2) * rays[k].sigma_distance_mm
+                                      : std::numeric_limits<double>::quiet_NaN();
       const Eigen::Vector3d to_point = x - rays[k].station_mm;
       rr.miss_mm = (to_point - to_point.dot(u[k]) * u[k]).norm();
       if (!active[k]) continue;
+      observations += row.count;
       result.max_miss_mm = std::max(result.max_miss_mm, rr.miss_mm);
       double w[3] = {0, 0, 0};
-      for (int i = 0; i < rows.count; ++i) {
-        vtpv += rows.r(i) * rows.r(i);
+      for (int i = 0; i < row.count; ++i) {
+        vtpv += row.r(i) * row.r(i);
         // Redundancy number r_i = 1 − a_i Q a_iᵀ (whitened).
-        const double redundancy = 1.0 - rows.a.row(i) * q * rows.a.row(i).transpose();
+        const double redundancy = 1.0 - row.a.row(i) * q * row.a.row(i).transpose();
         const double safe = std::max(redundancy, 1e-12);
-        w[i] = redundancy > 1e-6 ? rows.r(i) / std::sqrt(safe) : 0.0;
-        if (i == 0) rr.mdb_hz_arcsec = rays[k].sigma_hz_rad * options.delta0 / std::sqrt(safe) * kArcsecPerRad;
-        if (i == 1) rr.mdb_v_arcsec = rays[k].sigma_v_rad * options.delta0 / std::sqrt(safe) * kArcsecPerRad;
+        const double inv_sqrt = 1.0 / std::sqrt(safe);
+        w[i] = redundancy > 1e-6 ? row.r(i) * inv_sqrt : 0.0;
+        if (i == 0) rr.mdb_hz_arcsec = rays[k].sigma_hz_rad * options.delta0 * inv_sqrt * kArcsecPerRad;
+        if (i == 1) rr.mdb_v_arcsec = rays[k].sigma_v_rad * options.delta0 * inv_sqrt * kArcsecPerRad;
         if (std::abs(w[i]) > worst_w) {
           worst_w = std::abs(w[i]);
           worst = k;
@@ -224,21 +226,16 @@ void Intersect(std::span<const Ray> rays, const IntersectionOptions& options,
       rr.w_v = w[1];
       rr.w_distance = w[2];
     }
+    result.dof = observations - 3;
     result.sigma0 = result.dof > 0 ? std::sqrt(vtpv / result.dof) : 0.0;
     result.position_mm = x;
     int used = 0;
-    bool distance_left = false;
-    for (int k = 0; k < n; ++k) {
-      if (!active[k]) continue;
-      ++used;
-      distance_left |= std::isfinite(rays[k].distance_mm);
-    }
+    for (int k = 0; k < n; ++k) used += active[k];
     result.rays_used = used;
     if (worst < 0 || worst_w <= options.critical_w) break;
     // Reject the worst ray only if what remains still has redundancy to check itself.
     const bool worst_has_distance = std::isfinite(rays[worst].distance_mm);
-    const int remaining_observations =
-        observations - (worst_has_distance ? 3 : 2);
+    const int remaining_observations = observations - (worst_has_distance ? 3 : 2);
     if (!options.reject_blunders || remaining_observations - 3 < 1) {
       result.blunder_suspected = true;
       break;
