@@ -1,13 +1,14 @@
 // armsig reduce [--session ID]: batch reduction of stored raw observations into reduced
 // points, one transaction per session, idempotent (a rerun replaces the points).
 // armsig import observations OBS.csv --stations STATIONS.yaml: a file into a new session.
+#include "app/reduce_command.h"
+
 #include <fmt/format.h>
 
 #include <iostream>
 #include <map>
 
 #include "app/command.h"
-#include "app/reduce_command.h"
 #include "core/error.h"
 #include "db/database.h"
 #include "db/store.h"
@@ -77,7 +78,8 @@ ReduceSummary ReduceSession(db::Database& database, int64_t session_id,
       row.rejected_rays = result.rejected;
       row.sigma0 = result.dof > 0 ? result.sigma0 : std::numeric_limits<double>::quiet_NaN();
       row.miss_mm = result.max_miss_mm;
-      row.flags = result.rejected ? "blunder_rejected" : (result.blunder_suspected ? "blunder_suspected" : "");
+      row.flags = result.rejected ? "blunder_rejected"
+                                  : (result.blunder_suspected ? "blunder_suspected" : "");
       ++summary.reduced;
       summary.rejected_rays += result.rejected;
     } else {
@@ -114,9 +116,10 @@ int RunReduce(const ReduceOptions& options, const GlobalOptions& global) {
   intersection.reject_blunders = !options.no_reject;
   for (int64_t id : sessions) {
     const auto s = ReduceSession(database, id, intersection);
-    std::cout << fmt::format("session {}: {} observations -> {} points reduced, {} not ({} rays "
-                             "rejected as blunders)\n",
-                             id, s.observations, s.reduced, s.failed, s.rejected_rays);
+    std::cout << fmt::format(
+        "session {}: {} observations -> {} points reduced, {} not ({} rays "
+        "rejected as blunders)\n",
+        id, s.observations, s.reduced, s.failed, s.rejected_rays);
   }
   if (sessions.empty()) std::cout << "no sessions in " << database.path() << "\n";
   return kOk;
@@ -143,8 +146,9 @@ int RunImportObservations(const ImportObservationsOptions& options, const Global
   db::Database database(global.DbPath());
   SQLite::Transaction tx(database.sql());
   const int64_t robot = db::EnsureRobot(database, options.robot, "", "");
-  const int64_t session = db::CreateSession(database, robot, "", "", "completed",
-                                            options.note.empty() ? "imported from " + options.file : options.note);
+  const int64_t session =
+      db::CreateSession(database, robot, "", "", "completed",
+                        options.note.empty() ? "imported from " + options.file : options.note);
   for (const auto& s : stations) {
     db::StationSetupRow row;
     row.station = s.pose.id;
@@ -166,8 +170,11 @@ int RunImportObservations(const ImportObservationsOptions& options, const Global
       const std::string& label = table.Text(table.rows()[k], *pose_column);
       auto it = pose_ids.find(label);
       if (it == pose_ids.end()) {
-        it = pose_ids.emplace(label, db::InsertPose(database, session, static_cast<int>(pose_ids.size()),
-                                                    label, std::nullopt, "measured", 1)).first;
+        it =
+            pose_ids
+                .emplace(label, db::InsertPose(database, session, static_cast<int>(pose_ids.size()),
+                                               label, std::nullopt, "measured", 1))
+                .first;
       }
       r.pose_id = it->second;
     }
@@ -199,15 +206,15 @@ void SetupReduceCommand(CLI::App& parent, const GlobalOptions& global, Runner& r
 void SetupImportObservations(CLI::App& import, const GlobalOptions& global, Runner& run) {
   auto o = std::make_shared<ImportObservationsOptions>();
   auto* sub = import.add_subcommand(
-      "observations", "Angle observations CSV (optional 'pose' column) into a new session, with "
-                      "the stations' set-ups");
+      "observations",
+      "Angle observations CSV (optional 'pose' column) into a new session, with "
+      "the stations' set-ups");
   sub->add_option("file", o->file, "Observations CSV")->required();
   sub->add_option("--stations", o->stations, "Stations YAML")->required();
   sub->add_option("--robot", o->robot, "Robot name")->capture_default_str();
   sub->add_option("--note", o->note, "Session note");
-  sub->callback([&run, &global, o] {
-    run = [&global, o] { return RunImportObservations(*o, global); };
-  });
+  sub->callback(
+      [&run, &global, o] { run = [&global, o] { return RunImportObservations(*o, global); }; });
 }
 
 }  // namespace armsig::app

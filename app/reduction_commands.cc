@@ -24,6 +24,8 @@ struct OrientOptions {
   std::vector<std::string> scale_bars, unlevelled;
   double scale_bar_sigma_mm = 0.01;
   bool no_instrument_errors = false;
+  bool free_datum = false;
+  std::vector<std::string> datum_points;
 };
 
 struct TriangulateOptions {
@@ -43,11 +45,11 @@ void ReduceFaces(std::vector<reduction::Observation>& observations, bool enabled
     std::cout << fmt::format(
         "station {}: {} two-face pairs: collimation {:.2f}\" ± {:.2f}, trunnion {}, vertical index "
         "{:.2f}\" ± {:.2f} (applied to all its readings)\n",
-        station, e.pairs, e.collimation_rad / kRadPerArcsec, e.sigma_collimation_rad / kRadPerArcsec,
-        e.trunnion_determined
-            ? fmt::format("{:.2f}\" ± {:.2f}", e.trunnion_rad / kRadPerArcsec,
-                          e.sigma_trunnion_rad / kRadPerArcsec)
-            : std::string("not determinable (zenith angles too alike)"),
+        station, e.pairs, e.collimation_rad / kRadPerArcsec,
+        e.sigma_collimation_rad / kRadPerArcsec,
+        e.trunnion_determined ? fmt::format("{:.2f}\" ± {:.2f}", e.trunnion_rad / kRadPerArcsec,
+                                            e.sigma_trunnion_rad / kRadPerArcsec)
+                              : std::string("not determinable (zenith angles too alike)"),
         e.index_rad / kRadPerArcsec, e.sigma_index_rad / kRadPerArcsec);
   }
 }
@@ -84,9 +86,9 @@ int RunOrient(const OrientOptions& options) {
     bool observed = false;
     for (const auto& o : problem.observations) observed |= o.station == options.datum_station;
     if (!observed) {
-      throw InputError({"--datum-station", 0, 0, ""},
-                       "station '" + options.datum_station + "' has no observations in " +
-                           options.observations);
+      throw InputError(
+          {"--datum-station", 0, 0, ""},
+          "station '" + options.datum_station + "' has no observations in " + options.observations);
     }
   }
   for (const auto& id : options.unlevelled) {
@@ -96,6 +98,8 @@ int RunOrient(const OrientOptions& options) {
     problem.unlevelled.insert(id);
   }
 
+  problem.free_datum = options.free_datum || !options.datum_points.empty();
+  problem.datum_points.insert(options.datum_points.begin(), options.datum_points.end());
   const reduction::OrientationResult result = reduction::Orient(problem);
   if (!result.ok) {
     std::string why;
@@ -106,10 +110,11 @@ int RunOrient(const OrientOptions& options) {
 
   std::cout << fmt::format("Orientation of {} stations, {} target points ({})\n",
                            result.stations.size(), result.points.size(), result.datum);
-  std::cout << fmt::format("sigma0 a posteriori {:.4f} (a priori 1), {} observations, {} unknowns, "
-                           "{} degrees of freedom, {} iterations{}\n\n",
-                           result.sigma0, result.observations, result.unknowns, result.dof,
-                           result.iterations, result.converged ? "" : " (NOT converged)");
+  std::cout << fmt::format(
+      "sigma0 a posteriori {:.4f} (a priori 1), {} observations, {} unknowns, "
+      "{} degrees of freedom, {} iterations{}\n\n",
+      result.sigma0, result.observations, result.unknowns, result.dof, result.iterations,
+      result.converged ? "" : " (NOT converged)");
   std::cout << fmt::format("{:<10}{:>14}{:>14}{:>14}{:>16}{:>10}{:>10}{:>10}{:>12}\n", "station",
                            "x_mm", "y_mm", "z_mm", "azimuth_gon", "sx_mm", "sy_mm", "sz_mm",
                            "s_az_\"");
@@ -144,13 +149,17 @@ int RunOrient(const OrientOptions& options) {
       result.stations.size(), options.observations, result.datum, result.sigma0, result.dof);
   std::string points_csv;
   if (!options.points_out.empty()) {
-    points_csv = "point,x_mm,y_mm,z_mm,sx_mm,sy_mm,sz_mm,rays,control\n";
+    points_csv =
+        "point,x_mm,y_mm,z_mm,sx_mm,sy_mm,sz_mm,ellipsoid95_a_mm,ellipsoid95_b_mm,"
+        "ellipsoid95_c_mm,rays,control\n";
     for (const auto& p : result.points) {
-      points_csv += fmt::format("{},{:.6f},{:.6f},{:.6f},{:.6f},{:.6f},{:.6f},{},{}\n",
-                                io::CsvEscape(p.id), p.position_mm.x(), p.position_mm.y(),
-                                p.position_mm.z(), std::sqrt(p.covariance_mm2(0, 0)),
-                                std::sqrt(p.covariance_mm2(1, 1)),
-                                std::sqrt(p.covariance_mm2(2, 2)), p.rays, p.control ? 1 : 0);
+      const auto e = reduction::EllipsoidOf(p.covariance_mm2);
+      points_csv +=
+          fmt::format("{},{:.6f},{:.6f},{:.6f},{:.6f},{:.6f},{:.6f},{:.6f},{:.6f},{:.6f},{},{}\n",
+                      io::CsvEscape(p.id), p.position_mm.x(), p.position_mm.y(), p.position_mm.z(),
+                      std::sqrt(p.covariance_mm2(0, 0)), std::sqrt(p.covariance_mm2(1, 1)),
+                      std::sqrt(p.covariance_mm2(2, 2)), e.semi_axes_mm(0), e.semi_axes_mm(1),
+                      e.semi_axes_mm(2), p.rays, p.control ? 1 : 0);
     }
   }
   io::WriteFileAtomically(options.out, io::FormatStationsYaml(result.stations, header));
@@ -206,10 +215,11 @@ int RunTriangulate(const TriangulateOptions& options) {
       for (size_t k = 0; k < r.rays.size(); ++k) {
         if (r.rays[k].rejected) {
           const auto& o = observations[points[p].observations[k]];
-          std::cerr << fmt::format("armsig triangulate: point {}: ray from station {} ({}:{}) is "
-                                   "a blunder (w = {:.1f}), rejected\n",
-                                   points[p].id, o.station, options.observations, o.source_line,
-                                   std::max(std::abs(r.rays[k].w_hz), std::abs(r.rays[k].w_v)));
+          std::cerr << fmt::format(
+              "armsig triangulate: point {}: ray from station {} ({}:{}) is "
+              "a blunder (w = {:.1f}), rejected\n",
+              points[p].id, o.station, options.observations, o.source_line,
+              std::max(std::abs(r.rays[k].w_hz), std::abs(r.rays[k].w_v)));
         }
       }
       if (r.blunder_suspected) {
@@ -236,7 +246,13 @@ void SetupOrientCommand(CLI::App& parent, const GlobalOptions&, Runner& run) {
       ->capture_default_str();
   sub->add_option("--control", o->control, "Control points CSV: point,x_mm,y_mm,z_mm[,sx_mm,...]");
   sub->add_option("--unlevelled", o->unlevelled, "Stations whose rotation is free (not levelled)");
-  sub->add_option("--datum-station", o->datum_station, "Station at the origin (default: the first)");
+  sub->add_option("--datum-station", o->datum_station,
+                  "Station at the origin (default: the first)");
+  sub->add_flag("--free-datum", o->free_datum,
+                "Free network: precisions by inner constraints (minimum trace) over all points");
+  sub->add_option("--datum-points", o->datum_points,
+                  "Free network over these points and stations only (implies --free-datum)")
+      ->delimiter(',');
   sub->add_option("--out", o->out, "Stations YAML to write")->required();
   sub->add_option("--points", o->points_out, "Also write the adjusted target points (CSV)");
   sub->add_flag("--no-instrument-errors", o->no_instrument_errors,

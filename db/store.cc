@@ -8,8 +8,10 @@ namespace armsig::db {
 namespace {
 
 void BindOptional(SQLite::Statement& s, int index, double value) {
-  if (std::isfinite(value)) s.bind(index, value);
-  else s.bind(index);
+  if (std::isfinite(value))
+    s.bind(index, value);
+  else
+    s.bind(index);
 }
 
 std::string JsonArray(const double* v, int n) {
@@ -55,8 +57,9 @@ int64_t EnsureStation(Database& db, const std::string& code) {
 int64_t CreateSession(Database& db, int64_t robot_id, const std::string& lab_yaml,
                       const std::string& plan_json, const std::string& state,
                       const std::string& note) {
-  SQLite::Statement s(db.sql(),
-                      "INSERT INTO sessions(robot_id, lab_yaml, plan_json, state, note) VALUES (?,?,?,?,?)");
+  SQLite::Statement s(
+      db.sql(),
+      "INSERT INTO sessions(robot_id, lab_yaml, plan_json, state, note) VALUES (?,?,?,?,?)");
   s.bind(1, robot_id);
   s.bind(2, lab_yaml);
   s.bind(3, plan_json);
@@ -67,9 +70,10 @@ int64_t CreateSession(Database& db, int64_t robot_id, const std::string& lab_yam
 }
 
 void SetSessionState(Database& db, int64_t session_id, const std::string& state) {
-  SQLite::Statement s(db.sql(),
-                      "UPDATE sessions SET state = ?, finished_at = CASE WHEN ? IN ('completed','aborted') "
-                      "THEN strftime('%Y-%m-%dT%H:%M:%fZ','now') END WHERE id = ?");
+  SQLite::Statement s(
+      db.sql(),
+      "UPDATE sessions SET state = ?, finished_at = CASE WHEN ? IN ('completed','aborted') "
+      "THEN strftime('%Y-%m-%dT%H:%M:%fZ','now') END WHERE id = ?");
   s.bind(1, state);
   s.bind(2, state);
   s.bind(3, session_id);
@@ -92,13 +96,16 @@ bool SessionExists(Database& db, int64_t session_id) {
 int64_t InsertStationSetup(Database& db, std::optional<int64_t> session_id,
                            const StationSetupRow& setup) {
   const int64_t station_id = EnsureStation(db, setup.station);
-  SQLite::Statement s(db.sql(),
-                      "INSERT INTO station_setups(station_id, session_id, x_mm, y_mm, z_mm, levelled, "
-                      "azimuth_rad, rotation_json, sx_mm, sy_mm, sz_mm, s_azimuth_rad, sigma0, dof, method, "
-                      "sigma_hz_rad, sigma_v_rad) VALUES (?,?,?,?,?,?,?,?,?,?,?,?,?,?,?,?,?)");
+  SQLite::Statement s(
+      db.sql(),
+      "INSERT INTO station_setups(station_id, session_id, x_mm, y_mm, z_mm, levelled, "
+      "azimuth_rad, rotation_json, sx_mm, sy_mm, sz_mm, s_azimuth_rad, sigma0, dof, method, "
+      "sigma_hz_rad, sigma_v_rad) VALUES (?,?,?,?,?,?,?,?,?,?,?,?,?,?,?,?,?)");
   s.bind(1, station_id);
-  if (session_id) s.bind(2, *session_id);
-  else s.bind(2);
+  if (session_id)
+    s.bind(2, *session_id);
+  else
+    s.bind(2);
   for (int k = 0; k < 3; ++k) s.bind(3 + k, setup.pose.position_mm(k));
   s.bind(6, setup.pose.levelled ? 1 : 0);
   if (setup.pose.levelled) {
@@ -123,18 +130,20 @@ int64_t InsertStationSetup(Database& db, std::optional<int64_t> session_id,
 std::map<std::string, StationSetupRow> LatestStationSetups(Database& db, int64_t session_id) {
   std::map<std::string, StationSetupRow> out;
   // Session-less set-ups first, then the session's own: later rows overwrite earlier.
-  SQLite::Statement s(db.sql(),
-                      "SELECT st.code, x_mm, y_mm, z_mm, levelled, azimuth_rad, rotation_json, sx_mm, sy_mm, "
-                      "sz_mm, s_azimuth_rad, sigma0, dof, method, sigma_hz_rad, sigma_v_rad "
-                      "FROM station_setups su JOIN stations st ON st.id = su.station_id "
-                      "WHERE su.session_id = ? OR su.session_id IS NULL "
-                      "ORDER BY (su.session_id IS NOT NULL), su.id");
+  SQLite::Statement s(
+      db.sql(),
+      "SELECT st.code, x_mm, y_mm, z_mm, levelled, azimuth_rad, rotation_json, sx_mm, sy_mm, "
+      "sz_mm, s_azimuth_rad, sigma0, dof, method, sigma_hz_rad, sigma_v_rad "
+      "FROM station_setups su JOIN stations st ON st.id = su.station_id "
+      "WHERE su.session_id = ? OR su.session_id IS NULL "
+      "ORDER BY (su.session_id IS NOT NULL), su.id");
   s.bind(1, session_id);
   while (s.executeStep()) {
     StationSetupRow r;
     r.station = s.getColumn(0).getString();
     r.pose.id = r.station;
-    r.pose.position_mm = {s.getColumn(1).getDouble(), s.getColumn(2).getDouble(), s.getColumn(3).getDouble()};
+    r.pose.position_mm = {s.getColumn(1).getDouble(), s.getColumn(2).getDouble(),
+                          s.getColumn(3).getDouble()};
     r.pose.levelled = s.getColumn(4).getInt() != 0;
     if (r.pose.levelled) {
       r.pose.azimuth_rad = s.getColumn(5).getDouble();
@@ -149,7 +158,8 @@ std::map<std::string, StationSetupRow> LatestStationSetups(Database& db, int64_t
       }
       r.pose.world_from_station = Eigen::Map<Eigen::Matrix<double, 3, 3, Eigen::RowMajor>>(m);
     }
-    r.sigma_position_mm = {s.getColumn(7).getDouble(), s.getColumn(8).getDouble(), s.getColumn(9).getDouble()};
+    r.sigma_position_mm = {s.getColumn(7).getDouble(), s.getColumn(8).getDouble(),
+                           s.getColumn(9).getDouble()};
     r.sigma_azimuth_rad = s.getColumn(10).getDouble();
     r.sigma0 = s.getColumn(11).isNull() ? NAN : s.getColumn(11).getDouble();
     r.dof = s.getColumn(12).getInt();
@@ -165,12 +175,15 @@ int64_t InsertPose(Database& db, int64_t session_id, int seq, const std::string&
                    const std::optional<Eigen::VectorXd>& joints_rad, const std::string& status,
                    int attempts) {
   SQLite::Statement s(db.sql(),
-                      "INSERT INTO poses(session_id, seq, label, joints_json, status, attempts) VALUES (?,?,?,?,?,?)");
+                      "INSERT INTO poses(session_id, seq, label, joints_json, status, attempts) "
+                      "VALUES (?,?,?,?,?,?)");
   s.bind(1, session_id);
   s.bind(2, seq);
   s.bind(3, label);
-  if (joints_rad) s.bind(4, JsonArray(joints_rad->data(), static_cast<int>(joints_rad->size())));
-  else s.bind(4);
+  if (joints_rad)
+    s.bind(4, JsonArray(joints_rad->data(), static_cast<int>(joints_rad->size())));
+  else
+    s.bind(4);
   s.bind(5, status);
   s.bind(6, attempts);
   s.exec();
@@ -179,24 +192,30 @@ int64_t InsertPose(Database& db, int64_t session_id, int seq, const std::string&
 
 void InsertObservations(Database& db, int64_t session_id, const std::vector<ObservationRow>& rows) {
   std::map<std::string, int64_t> station_ids;
-  SQLite::Statement s(db.sql(),
-                      "INSERT INTO observations(session_id, pose_id, point, station_id, hz_rad, v_rad, "
-                      "distance_mm, face, sigma_hz_arcsec, sigma_v_arcsec, sigma_distance_mm, return_code) "
-                      "VALUES (?,?,?,?,?,?,?,?,?,?,?,?)");
+  SQLite::Statement s(
+      db.sql(),
+      "INSERT INTO observations(session_id, pose_id, point, station_id, hz_rad, v_rad, "
+      "distance_mm, face, sigma_hz_arcsec, sigma_v_arcsec, sigma_distance_mm, return_code) "
+      "VALUES (?,?,?,?,?,?,?,?,?,?,?,?)");
   constexpr double kArcsecPerRad = 180.0 * 3600.0 / 3.14159265358979323846;
   for (const auto& r : rows) {
     auto it = station_ids.find(r.station);
-    if (it == station_ids.end()) it = station_ids.emplace(r.station, EnsureStation(db, r.station)).first;
+    if (it == station_ids.end())
+      it = station_ids.emplace(r.station, EnsureStation(db, r.station)).first;
     s.reset();
     s.bind(1, session_id);
-    if (r.pose_id) s.bind(2, *r.pose_id);
-    else s.bind(2);
+    if (r.pose_id)
+      s.bind(2, *r.pose_id);
+    else
+      s.bind(2);
     s.bind(3, r.point);
     s.bind(4, it->second);
     s.bind(5, r.reading.hz_rad);
     s.bind(6, r.reading.v_rad);
-    if (r.distance_mm) s.bind(7, *r.distance_mm);
-    else s.bind(7);
+    if (r.distance_mm)
+      s.bind(7, *r.distance_mm);
+    else
+      s.bind(7);
     s.bind(8, r.reading.face);
     BindOptional(s, 9, r.sigma_hz_rad * kArcsecPerRad);
     BindOptional(s, 10, r.sigma_v_rad * kArcsecPerRad);
@@ -209,11 +228,12 @@ void InsertObservations(Database& db, int64_t session_id, const std::vector<Obse
 std::vector<ObservationRow> LoadObservations(Database& db, int64_t session_id) {
   std::vector<ObservationRow> out;
   constexpr double kRadPerArcsec = 3.14159265358979323846 / (180.0 * 3600.0);
-  SQLite::Statement s(db.sql(),
-                      "SELECT o.pose_id, o.point, st.code, o.hz_rad, o.v_rad, o.distance_mm, o.face, "
-                      "o.sigma_hz_arcsec, o.sigma_v_arcsec, o.sigma_distance_mm, o.return_code "
-                      "FROM observations o JOIN stations st ON st.id = o.station_id "
-                      "WHERE o.session_id = ? ORDER BY o.pose_id, o.point, o.id");
+  SQLite::Statement s(
+      db.sql(),
+      "SELECT o.pose_id, o.point, st.code, o.hz_rad, o.v_rad, o.distance_mm, o.face, "
+      "o.sigma_hz_arcsec, o.sigma_v_arcsec, o.sigma_distance_mm, o.return_code "
+      "FROM observations o JOIN stations st ON st.id = o.station_id "
+      "WHERE o.session_id = ? ORDER BY o.pose_id, o.point, o.id");
   s.bind(1, session_id);
   while (s.executeStep()) {
     ObservationRow r;
@@ -235,15 +255,18 @@ void ReplacePoints(Database& db, int64_t session_id, const std::vector<PointRow>
   SQLite::Statement del(db.sql(), "DELETE FROM points WHERE session_id = ?");
   del.bind(1, session_id);
   del.exec();
-  SQLite::Statement s(db.sql(),
-                      "INSERT INTO points(session_id, pose_id, point, x_mm, y_mm, z_mm, sx_mm, sy_mm, sz_mm, "
-                      "covariance_json, rays, rejected_rays, sigma0, miss_mm, flags) "
-                      "VALUES (?,?,?,?,?,?,?,?,?,?,?,?,?,?,?)");
+  SQLite::Statement s(
+      db.sql(),
+      "INSERT INTO points(session_id, pose_id, point, x_mm, y_mm, z_mm, sx_mm, sy_mm, sz_mm, "
+      "covariance_json, rays, rejected_rays, sigma0, miss_mm, flags) "
+      "VALUES (?,?,?,?,?,?,?,?,?,?,?,?,?,?,?)");
   for (const auto& p : points) {
     s.reset();
     s.bind(1, session_id);
-    if (p.pose_id) s.bind(2, *p.pose_id);
-    else s.bind(2);
+    if (p.pose_id)
+      s.bind(2, *p.pose_id);
+    else
+      s.bind(2);
     s.bind(3, p.point);
     if (p.position_mm) {
       for (int k = 0; k < 3; ++k) s.bind(4 + k, (*p.position_mm)(k));

@@ -35,7 +35,8 @@ struct StationSetupRow {
   int dof = 0;
   std::string method;
 };
-int64_t InsertStationSetup(Database& db, std::optional<int64_t> session_id, const StationSetupRow& setup);
+int64_t InsertStationSetup(Database& db, std::optional<int64_t> session_id,
+                           const StationSetupRow& setup);
 // The latest set-up of every station for a session (falling back to set-ups stored
 // without a session), by station code.
 std::map<std::string, StationSetupRow> LatestStationSetups(Database& db, int64_t session_id);

@@ -117,7 +117,8 @@ std::vector<reduction::Station> ReadStationsYaml(const std::string& path) {
       }
     }
     if (const YAML::Node r = node["rotation"]) {
-      if (oriented) throw InputError(Where(path, r, "rotation"), "give azimuth or rotation, not both");
+      if (oriented)
+        throw InputError(Where(path, r, "rotation"), "give azimuth or rotation, not both");
       if (!r.IsSequence() || r.size() != 3) {
         throw InputError(Where(path, r, "rotation"), "expected a 3x3 row-major matrix");
       }
@@ -125,7 +126,8 @@ std::vector<reduction::Station> ReadStationsYaml(const std::string& path) {
         if (!r[i].IsSequence() || r[i].size() != 3) {
           throw InputError(Where(path, r[i], "rotation"), "expected a row of 3 numbers");
         }
-        for (int j = 0; j < 3; ++j) s.pose.world_from_station(i, j) = YamlNumber(path, r[i][j], "rotation");
+        for (int j = 0; j < 3; ++j)
+          s.pose.world_from_station(i, j) = YamlNumber(path, r[i][j], "rotation");
       }
       const Eigen::Matrix3d& m = s.pose.world_from_station;
       if ((m.transpose() * m - Eigen::Matrix3d::Identity()).norm() > 1e-6 || m.determinant() < 0) {
@@ -138,8 +140,10 @@ std::vector<reduction::Station> ReadStationsYaml(const std::string& path) {
       throw InputError(Where(path, node, "azimuth_gon"),
                        "station " + s.pose.id + ": expected azimuth_gon/_deg/_rad or rotation");
     }
-    if (node["sigma_hz_arcsec"]) s.sigma_hz_rad = YamlNumber(path, node["sigma_hz_arcsec"], "sigma_hz_arcsec") * kRadPerArcsec;
-    if (node["sigma_v_arcsec"]) s.sigma_v_rad = YamlNumber(path, node["sigma_v_arcsec"], "sigma_v_arcsec") * kRadPerArcsec;
+    if (node["sigma_hz_arcsec"])
+      s.sigma_hz_rad = YamlNumber(path, node["sigma_hz_arcsec"], "sigma_hz_arcsec") * kRadPerArcsec;
+    if (node["sigma_v_arcsec"])
+      s.sigma_v_rad = YamlNumber(path, node["sigma_v_arcsec"], "sigma_v_arcsec") * kRadPerArcsec;
     out.push_back(std::move(s));
   }
   if (out.empty()) throw InputError({path, 1, 0, "stations"}, "no stations");
@@ -169,12 +173,15 @@ std::string FormatStationsYaml(const std::vector<reduction::Station>& stations,
       const auto& r = s.pose.world_from_station;
       out += "    rotation: [";
       for (int i = 0; i < 3; ++i) {
-        out += fmt::format("{}[{:.12f}, {:.12f}, {:.12f}]", i ? ", " : "", r(i, 0), r(i, 1), r(i, 2));
+        out +=
+            fmt::format("{}[{:.12f}, {:.12f}, {:.12f}]", i ? ", " : "", r(i, 0), r(i, 1), r(i, 2));
       }
       out += "]\n";
     }
-    if (std::isfinite(s.sigma_hz_rad)) out += fmt::format("    sigma_hz_arcsec: {:.4f}\n", s.sigma_hz_rad / kRadPerArcsec);
-    if (std::isfinite(s.sigma_v_rad)) out += fmt::format("    sigma_v_arcsec: {:.4f}\n", s.sigma_v_rad / kRadPerArcsec);
+    if (std::isfinite(s.sigma_hz_rad))
+      out += fmt::format("    sigma_hz_arcsec: {:.4f}\n", s.sigma_hz_rad / kRadPerArcsec);
+    if (std::isfinite(s.sigma_v_rad))
+      out += fmt::format("    sigma_v_arcsec: {:.4f}\n", s.sigma_v_rad / kRadPerArcsec);
     out += fmt::format("    sigma_position_mm: [{:.6f}, {:.6f}, {:.6f}]\n", s.sigma_position_mm.x(),
                        s.sigma_position_mm.y(), s.sigma_position_mm.z());
     if (s.pose.levelled) {
@@ -205,7 +212,8 @@ std::vector<reduction::ControlPoint> ReadControlCsv(const std::string& path) {
     c.position_mm = {t.Number(row, x), t.Number(row, y), t.Number(row, z)};
     if (sx && sy && sz && !t.Text(row, *sx).empty()) {
       c.sigma_mm = Eigen::Vector3d(t.Number(row, *sx), t.Number(row, *sy), t.Number(row, *sz));
-      if (!(c.sigma_mm->minCoeff() > 0)) throw InputError(t.Where(row, *sx), "expected positive sigmas");
+      if (!(c.sigma_mm->minCoeff() > 0))
+        throw InputError(t.Where(row, *sx), "expected positive sigmas");
     }
     out.push_back(std::move(c));
   }
@@ -250,10 +258,12 @@ std::string FormatPointsCsv(const std::vector<TriangulatedPoint>& points) {
     for (const auto& ray : r.rays) {
       max_w = std::max({max_w, std::abs(ray.w_hz), std::abs(ray.w_v)});
       if (!residuals.empty()) residuals += ' ';
-      residuals += fmt::format("{:.2f}/{:.2f}{}", ray.hz_arcsec, ray.v_arcsec, ray.rejected ? "!" : "");
+      residuals +=
+          fmt::format("{:.2f}/{:.2f}{}", ray.hz_arcsec, ray.v_arcsec, ray.rejected ? "!" : "");
     }
     out += fmt::format(
-        ",{:.6f},{:.6f},{:.6f},{},{:.6f},{:.6f},{:.6f},{:.4f},{},{},{:.6f},{:.6f},{:.6f},{:.6f},{:.2f},{},{}\n",
+        ",{:.6f},{:.6f},{:.6f},{},{:.6f},{:.6f},{:.6f},{:.4f},{},{},{:.6f},{:.6f},{:.6f},{:.6f},{:."
+        "2f},{},{}\n",
         r.position_mm.x(), r.position_mm.y(), r.position_mm.z(), r.rays_used,
         std::sqrt(r.covariance_mm2(0, 0)), std::sqrt(r.covariance_mm2(1, 1)),
         std::sqrt(r.covariance_mm2(2, 2)), r.sigma0, r.dof, r.rejected, r.max_miss_mm,

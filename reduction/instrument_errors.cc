@@ -59,7 +59,7 @@ InstrumentErrors EstimateInstrumentErrors(std::span<const TwoFacePair> pairs, do
     max_cot = std::max(max_cot, a(k, 1));
   }
   e.trunnion_determined = n >= 2 && (max_cot - min_cot) > 0.05;  // ≈ 3 gon of spread in V
-  const double s = sigma_hz_rad / std::sqrt(2.0);  // σ of half a face difference
+  const double s = sigma_hz_rad / std::sqrt(2.0);                // σ of half a face difference
   if (e.trunnion_determined) {
     const Eigen::Matrix2d normal = a.transpose() * a;
     const Eigen::Vector2d x = normal.ldlt().solve(a.transpose() * b);
@@ -104,7 +104,8 @@ std::map<std::string, InstrumentErrors> ReduceTwoFace(std::vector<Observation>& 
     out[station] = EstimateInstrumentErrors(list, sigmas[station].hz_rad, sigmas[station].v_rad);
   }
   for (auto& o : observations) {
-    if (auto it = out.find(o.station); it != out.end()) o.reading = CorrectReading(o.reading, it->second);
+    if (auto it = out.find(o.station); it != out.end())
+      o.reading = CorrectReading(o.reading, it->second);
   }
   return out;
 }

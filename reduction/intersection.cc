@@ -215,8 +215,10 @@ void Intersect(std::span<const Ray> rays, const IntersectionOptions& options,
         const double safe = std::max(redundancy, 1e-12);
         const double inv_sqrt = 1.0 / std::sqrt(safe);
         w[i] = redundancy > 1e-6 ? row.r(i) * inv_sqrt : 0.0;
-        if (i == 0) rr.mdb_hz_arcsec = rays[k].sigma_hz_rad * options.delta0 * inv_sqrt * kArcsecPerRad;
-        if (i == 1) rr.mdb_v_arcsec = rays[k].sigma_v_rad * options.delta0 * inv_sqrt * kArcsecPerRad;
+        if (i == 0)
+          rr.mdb_hz_arcsec = rays[k].sigma_hz_rad * options.delta0 * inv_sqrt * kArcsecPerRad;
+        if (i == 1)
+          rr.mdb_v_arcsec = rays[k].sigma_v_rad * options.delta0 * inv_sqrt * kArcsecPerRad;
         if (std::abs(w[i]) > worst_w) {
           worst_w = std::abs(w[i]);
           worst = k;

@@ -26,8 +26,8 @@ struct Ray {
 
 struct IntersectionOptions {
   bool reject_blunders = true;
-  double critical_w = 3.29;         // |w| beyond this is a blunder (α0 = 0.1 %, two-sided)
-  double delta0 = 4.13;             // non-centrality for the MDB (α0 = 0.1 %, β0 = 80 %)
+  double critical_w = 3.29;            // |w| beyond this is a blunder (α0 = 0.1 %, two-sided)
+  double delta0 = 4.13;                // non-centrality for the MDB (α0 = 0.1 %, β0 = 80 %)
   double min_ray_angle_rad = 3.49e-3;  // 0.2°: rays closer than this are "nearly parallel"
   int max_iterations = 10;
   void Check() const;
@@ -35,8 +35,8 @@ struct IntersectionOptions {
 
 enum class IntersectionStatus {
   kOk,
-  kOneRay,         // a single ray without distance: no point
-  kParallelRays,   // every pair of rays closer than min_ray_angle
+  kOneRay,        // a single ray without distance: no point
+  kParallelRays,  // every pair of rays closer than min_ray_angle
   kNoConvergence,
 };
 const char* ToString(IntersectionStatus status);
@@ -54,15 +54,15 @@ struct IntersectionResult {
   IntersectionStatus status = IntersectionStatus::kOk;
   Eigen::Vector3d position_mm = Eigen::Vector3d::Zero();
   Eigen::Matrix3d covariance_mm2 = Eigen::Matrix3d::Zero();  // a priori (σ0 = 1)
-  double sigma0 = 0.0;       // a posteriori, unit weight
+  double sigma0 = 0.0;                                       // a posteriori, unit weight
   int dof = 0;
   int iterations = 0;
   int rays_used = 0;
   int rejected = 0;
   bool blunder_suspected = false;  // a ray fails the test but cannot be rejected
   double max_miss_mm = 0.0;
-  std::vector<RayResult> rays;     // one per input ray, in order
-  std::string reason;              // why status is not kOk
+  std::vector<RayResult> rays;  // one per input ray, in order
+  std::string reason;           // why status is not kOk
 };
 
 // Reuses `result`'s storage, so a loop over many points does not allocate.

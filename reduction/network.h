@@ -25,7 +25,7 @@ struct Observation {
 };
 
 struct Station {
-  StationPose pose;          // id, position, world_from_station, levelled, azimuth
+  StationPose pose;  // id, position, world_from_station, levelled, azimuth
   double sigma_hz_rad = std::numeric_limits<double>::quiet_NaN();
   double sigma_v_rad = std::numeric_limits<double>::quiet_NaN();
   // Precision after orientation (zero when fixed / given).
@@ -67,7 +67,7 @@ inline constexpr double kEllipsoid95Scale = 2.7954834829151074;
 
 struct ErrorEllipsoid {
   Eigen::Vector3d semi_axes_mm = Eigen::Vector3d::Zero();  // 95 %, descending
-  Eigen::Matrix3d axes = Eigen::Matrix3d::Identity();       // columns: directions
+  Eigen::Matrix3d axes = Eigen::Matrix3d::Identity();      // columns: directions
 };
 ErrorEllipsoid EllipsoidOf(const Eigen::Matrix3d& covariance_mm2);
 

@@ -89,7 +89,8 @@ struct ControlResidual {
     return true;
   }
   static ceres::CostFunction* Create(const Eigen::Vector3d& known, const Eigen::Vector3d& sigma) {
-    return new ceres::AutoDiffCostFunction<ControlResidual, 3, 3>(new ControlResidual(known, sigma));
+    return new ceres::AutoDiffCostFunction<ControlResidual, 3, 3>(
+        new ControlResidual(known, sigma));
   }
   Eigen::Vector3d known, sigma;
 };
@@ -122,8 +123,10 @@ double BestAzimuth(const std::function<double(double)>& cost) {
   const double phi = (std::sqrt(5.0) - 1.0) / 2.0;
   for (int it = 0; it < 60; ++it) {
     const double a = hi - phi * (hi - lo), b = lo + phi * (hi - lo);
-    if (cost(a) < cost(b)) hi = b;
-    else lo = a;
+    if (cost(a) < cost(b))
+      hi = b;
+    else
+      lo = a;
   }
   return WrapTwoPi(0.5 * (lo + hi));
 }
@@ -213,7 +216,8 @@ OrientationResult Orient(const OrientationProblem& problem, const OrientationOpt
   // --- Index stations, points and observations.
   std::vector<std::string> station_ids = problem.station_ids;
   std::map<std::string, int> station_index;
-  for (const auto& id : station_ids) station_index.emplace(id, static_cast<int>(station_index.size()));
+  for (const auto& id : station_ids)
+    station_index.emplace(id, static_cast<int>(station_index.size()));
   for (const auto& obs : problem.observations) {
     if (!station_index.count(obs.station)) {
       station_index.emplace(obs.station, static_cast<int>(station_ids.size()));
@@ -283,8 +287,9 @@ OrientationResult Orient(const OrientationProblem& problem, const OrientationOpt
   for (const auto& o : obs) has_distance |= std::isfinite(o.distance);
   const bool use_control = problem.control.size() >= 2;
   if (problem.scale_bars.empty() && !has_distance && !use_control) {
-    refuse("no scale: give a scale bar (--scale-bar A:B=LEN_MM), distances, or control points "
-           "(--control)");
+    refuse(
+        "no scale: give a scale bar (--scale-bar A:B=LEN_MM), distances, or control points "
+        "(--control)");
   }
   for (const auto& bar : problem.scale_bars) {
     for (const auto* end : {&bar.from, &bar.to}) {
@@ -300,8 +305,10 @@ OrientationResult Orient(const OrientationProblem& problem, const OrientationOpt
     int tie = 0;
     for (const auto& o : obs) {
       if (o.station == i) {
-        if (o.target_station >= 0) ++tie;
-        else if (stations_of_point[o.point].size() >= 2 || control.count(o.point)) ++tie;
+        if (o.target_station >= 0)
+          ++tie;
+        else if (stations_of_point[o.point].size() >= 2 || control.count(o.point))
+          ++tie;
       } else if (o.target_station == i) {
         ++tie;
       }
@@ -346,7 +353,8 @@ OrientationResult Orient(const OrientationProblem& problem, const OrientationOpt
       } else if (origins.size() >= 2) {
         bool spread = false;
         for (size_t a = 0; a < dirs.size() && !spread; ++a)
-          for (size_t b = a + 1; b < dirs.size(); ++b) spread |= dirs[a].cross(dirs[b]).norm() > 1e-3;
+          for (size_t b = a + 1; b < dirs.size(); ++b)
+            spread |= dirs[a].cross(dirs[b]).norm() > 1e-3;
         if (spread) known[point] = ClosestPointOfLines(origins, dirs, nullptr);
       }
     }
@@ -408,8 +416,10 @@ OrientationResult Orient(const OrientationProblem& problem, const OrientationOpt
       }
     }
     double length = 1000.0;
-    if (ij && std::isfinite(ij->distance)) length = ij->distance;
-    else if (ji && std::isfinite(ji->distance)) length = ji->distance;
+    if (ij && std::isfinite(ij->distance))
+      length = ij->distance;
+    else if (ji && std::isfinite(ji->distance))
+      length = ji->distance;
 
     double az = 0.0;
     Eigen::Vector3d baseline;
@@ -566,8 +576,9 @@ OrientationResult Orient(const OrientationProblem& problem, const OrientationOpt
     }
     for (const auto& o : obs) {
       if (!std::isfinite(o.distance)) continue;
-      const Eigen::Vector3d target =
-          o.target_station >= 0 ? st[o.target_station].position : known.count(o.point) ? known.at(o.point) : st[o.station].position;
+      const Eigen::Vector3d target = o.target_station >= 0  ? st[o.target_station].position
+                                     : known.count(o.point) ? known.at(o.point)
+                                                            : st[o.station].position;
       const double current = (target - st[o.station].position).norm();
       if (current > 0) factors.push_back(o.distance / current);
     }
@@ -611,7 +622,7 @@ OrientationResult Orient(const OrientationProblem& problem, const OrientationOpt
     ResidualReport::Kind kind;
     int source;
     std::string label;
-    double sigma;  // in report units
+    double sigma;      // in report units
     double to_report;  // whitened residual × this = report unit
     std::string group;
   };
@@ -619,28 +630,29 @@ OrientationResult Orient(const OrientationProblem& problem, const OrientationOpt
   std::vector<std::vector<Row>> block_rows;
   for (const auto& o : obs) {
     double* point = nullptr;
-    if (o.target_station >= 0) point = station_pos[o.target_station].data();
-    else if (auto it = point_index.find(o.point); it != point_index.end()) point = point_pos[it->second].data();
-    else continue;  // one-ray point: reported, not adjusted
+    if (o.target_station >= 0)
+      point = station_pos[o.target_station].data();
+    else if (auto it = point_index.find(o.point); it != point_index.end())
+      point = point_pos[it->second].data();
+    else
+      continue;  // one-ray point: reported, not adjusted
     ceres::CostFunction* cost =
-        st[o.station].levelled
-            ? AngleResidual<1>::Create(o.hz, o.v, o.sigma.hz_rad, o.sigma.v_rad)
-            : AngleResidual<3>::Create(o.hz, o.v, o.sigma.hz_rad, o.sigma.v_rad);
+        st[o.station].levelled ? AngleResidual<1>::Create(o.hz, o.v, o.sigma.hz_rad, o.sigma.v_rad)
+                               : AngleResidual<3>::Create(o.hz, o.v, o.sigma.hz_rad, o.sigma.v_rad);
     blocks.push_back(bundle.AddResidualBlock(cost, nullptr, station_pos[o.station].data(),
                                              station_rot[o.station].data(), point));
     const std::string label = station_ids[o.station] + "->" + o.point;
     const std::string group = o.target_station >= 0 ? "mutual pointings" : "angles";
-    block_rows.push_back(
-        {{ResidualReport::Kind::kHz, o.source, label, o.sigma.hz_rad * kArcsecPerRad,
-          o.sigma.hz_rad * kArcsecPerRad, group},
-         {ResidualReport::Kind::kV, o.source, label, o.sigma.v_rad * kArcsecPerRad,
-          o.sigma.v_rad * kArcsecPerRad, group}});
+    block_rows.push_back({{ResidualReport::Kind::kHz, o.source, label,
+                           o.sigma.hz_rad * kArcsecPerRad, o.sigma.hz_rad * kArcsecPerRad, group},
+                          {ResidualReport::Kind::kV, o.source, label, o.sigma.v_rad * kArcsecPerRad,
+                           o.sigma.v_rad * kArcsecPerRad, group}});
     if (std::isfinite(o.distance)) {
-      blocks.push_back(bundle.AddResidualBlock(
-          LengthResidual::Create(o.distance, o.sigma.distance_mm), nullptr,
-          station_pos[o.station].data(), point));
-      block_rows.push_back({{ResidualReport::Kind::kDistance, o.source, label,
-                             o.sigma.distance_mm, o.sigma.distance_mm, "distances"}});
+      blocks.push_back(
+          bundle.AddResidualBlock(LengthResidual::Create(o.distance, o.sigma.distance_mm), nullptr,
+                                  station_pos[o.station].data(), point));
+      block_rows.push_back({{ResidualReport::Kind::kDistance, o.source, label, o.sigma.distance_mm,
+                             o.sigma.distance_mm, "distances"}});
     }
   }
   for (size_t b = 0; b < problem.scale_bars.size(); ++b) {
@@ -764,7 +776,7 @@ OrientationResult Orient(const OrientationProblem& problem, const OrientationOpt
       return result;
     }
   }
-  const Eigen::MatrixXd q = ldlt.solve(Eigen::MatrixXd::Identity(columns, columns));
+  Eigen::MatrixXd q = ldlt.solve(Eigen::MatrixXd::Identity(columns, columns));
 
   result.observations = crs.num_rows;
   result.unknowns = columns;
@@ -809,6 +821,81 @@ OrientationResult Orient(const OrientationProblem& problem, const OrientationOpt
     result.groups.push_back(g);
   }
 
+  // --- Free network: S-transformation of the covariance to the inner-constraint datum.
+  if (problem.free_datum && !use_control) {
+    struct Block {
+      double* data;
+      int size;
+      int kind;  // 0 position, 1 azimuth, 2 angle-axis
+      std::string id;
+    };
+    std::vector<Block> all;
+    for (int i = 0; i < ns; ++i) {
+      all.push_back({station_pos[i].data(), 3, 0, station_ids[i]});
+      all.push_back(
+          {station_rot[i].data(), st[i].levelled ? 1 : 3, st[i].levelled ? 1 : 2, station_ids[i]});
+    }
+    for (size_t k = 0; k < point_ids.size(); ++k)
+      all.push_back({point_pos[k].data(), 3, 0, point_ids[k]});
+    std::map<const double*, int> full_of;
+    int nf = 0;
+    for (const auto& b : all) {
+      full_of[b.data] = nf;
+      nf += b.size;
+    }
+    Eigen::MatrixXd qf = Eigen::MatrixXd::Zero(nf, nf);
+    for (const auto& a : all) {
+      auto ia = column_of.find(a.data);
+      if (ia == column_of.end()) continue;
+      for (const auto& b : all) {
+        auto ib = column_of.find(b.data);
+        if (ib == column_of.end()) continue;
+        qf.block(full_of[a.data], full_of[b.data], a.size, b.size) =
+            q.block(ia->second, ib->second, a.size, b.size);
+      }
+    }
+    auto in_datum = [&](const Block& b) {
+      return b.kind == 0 && (problem.datum_points.empty() || problem.datum_points.count(b.id));
+    };
+    Eigen::Vector3d centroid = Eigen::Vector3d::Zero();
+    int count = 0;
+    for (const auto& b : all) {
+      if (in_datum(b)) {
+        centroid += Eigen::Map<Eigen::Vector3d>(b.data);
+        ++count;
+      }
+    }
+    if (count >= 2) {
+      centroid /= count;
+      // G: how a translation (x, y, z) and a rotation about z move every unknown.
+      Eigen::MatrixXd g = Eigen::MatrixXd::Zero(nf, 4);
+      Eigen::VectorXd e = Eigen::VectorXd::Zero(nf);
+      for (const auto& b : all) {
+        const int i = full_of[b.data];
+        if (b.kind == 0) {
+          const Eigen::Vector3d x = Eigen::Map<Eigen::Vector3d>(b.data) - centroid;
+          g.block<3, 3>(i, 0).setIdentity();
+          g(i, 3) = -x.y();
+          g(i + 1, 3) = x.x();
+          if (in_datum(b)) e.segment<3>(i).setOnes();
+        } else if (b.kind == 1) {
+          g(i, 3) = -1.0;  // turning the frame by ω about z lowers every azimuth by ω
+        } else {
+          g(i + 2, 3) = 1.0;  // small-angle approximation for a free rotation
+        }
+      }
+      const Eigen::MatrixXd ge = e.asDiagonal() * g;
+      const Eigen::Matrix4d m = g.transpose() * ge;
+      const Eigen::MatrixXd sm =
+          Eigen::MatrixXd::Identity(nf, nf) - g * m.ldlt().solve(ge.transpose());
+      q = sm * qf * sm.transpose();
+      column_of = full_of;
+      result.datum += "; covariance by inner constraints over " +
+                      (problem.datum_points.empty() ? std::string("all points and stations")
+                                                    : std::to_string(count) + " datum points");
+    }
+  }
+
   // --- Results back in the input frame.
   for (int i = 0; i < ns; ++i) {
     Station s = station_info[i];
@@ -823,12 +910,15 @@ OrientationResult Orient(const OrientationProblem& problem, const OrientationOpt
       s.pose.world_from_station = Eigen::Map<Eigen::Matrix3d>(r);
     }
     if (auto it = column_of.find(station_pos[i].data()); it != column_of.end()) {
-      for (int k = 0; k < 3; ++k) s.sigma_position_mm(k) = std::sqrt(q(it->second + k, it->second + k));
+      for (int k = 0; k < 3; ++k)
+        s.sigma_position_mm(k) = std::sqrt(q(it->second + k, it->second + k));
     }
     if (auto it = column_of.find(station_rot[i].data()); it != column_of.end()) {
-      if (st[i].levelled) s.sigma_azimuth_rad = std::sqrt(q(it->second, it->second));
+      if (st[i].levelled)
+        s.sigma_azimuth_rad = std::sqrt(q(it->second, it->second));
       else
-        for (int k = 0; k < 3; ++k) s.sigma_rotation_rad(k) = std::sqrt(q(it->second + k, it->second + k));
+        for (int k = 0; k < 3; ++k)
+          s.sigma_rotation_rad(k) = std::sqrt(q(it->second + k, it->second + k));
     }
     result.stations.push_back(s);
   }

@@ -16,13 +16,19 @@
 namespace armsig::reduction {
 
 struct OrientationProblem {
-  std::vector<std::string> station_ids;     // in datum order (first = datum station)
-  std::set<std::string> unlevelled;          // stations whose rotation is free
+  std::vector<std::string> station_ids;  // in datum order (first = datum station)
+  std::set<std::string> unlevelled;      // stations whose rotation is free
   std::map<std::string, double> sigma_hz_rad, sigma_v_rad;  // per-station sigmas (optional)
   std::vector<Observation> observations;
   std::vector<ScaleBar> scale_bars;
   std::vector<ControlPoint> control;
   InstrumentDefaults defaults;
+  // Free network: give the covariance in the minimum-trace datum over these points and
+  // stations (inner constraints: 3 translations + rotation about z). Empty with
+  // free_datum = every point and station. Coordinates stay in the SPEC frame (they
+  // differ only by that 4-parameter transformation).
+  bool free_datum = false;
+  std::set<std::string> datum_points;
 };
 
 struct OrientationOptions {

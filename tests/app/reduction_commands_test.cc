@@ -39,7 +39,8 @@ TEST(OrientCommand, UnsolvableNetworkIsRefusedAndNothingWritten) {
   const auto table = io::ReadCsvFile(DataPath("networks/k06/observations.csv"));
   std::string angles = "point,station,hz_gon,v_gon\n";
   for (const auto& row : table.rows()) {
-    angles += row.fields[0] + "," + row.fields[1] + "," + row.fields[2] + "," + row.fields[3] + "\n";
+    angles +=
+        row.fields[0] + "," + row.fields[1] + "," + row.fields[2] + "," + row.fields[3] + "\n";
   }
   WriteText(dir.File("angles.csv"), angles);
   const auto r = RunArmsig("orient --observations '" + dir.File("angles.csv") + "' --out '" +
@@ -65,8 +66,9 @@ TEST(OrientCommand, BadScaleBarAndUnknownStationAreInputErrors) {
 TEST(TriangulateCommand, ObservationFromAnUnknownStationNamesTheLine) {
   TempDir dir;
   WriteText(dir.File("obs.csv"), "point,station,hz_gon,v_gon\nP,1,10,100\nP,9,20,100\n");
-  const auto r = RunArmsig("triangulate --stations " + Net("k06/stations.yaml") +
-                           " --observations '" + dir.File("obs.csv") + "' --out '" + dir.File("p.csv") + "'");
+  const auto r =
+      RunArmsig("triangulate --stations " + Net("k06/stations.yaml") + " --observations '" +
+                dir.File("obs.csv") + "' --out '" + dir.File("p.csv") + "'");
   EXPECT_EQ(r.exit_code, 2);
   EXPECT_NE(r.err.find("obs.csv:3"), std::string::npos) << r.err;
   EXPECT_FALSE(std::filesystem::exists(dir.File("p.csv")));
@@ -75,8 +77,9 @@ TEST(TriangulateCommand, ObservationFromAnUnknownStationNamesTheLine) {
 TEST(TriangulateCommand, OneRayPointsAreReportedNotInvented) {
   TempDir dir;
   WriteText(dir.File("obs.csv"), "point,station,hz_gon,v_gon\nLONE,1,10,100\n");
-  const auto r = RunArmsig("triangulate --stations " + Net("k06/stations.yaml") +
-                           " --observations '" + dir.File("obs.csv") + "' --out '" + dir.File("p.csv") + "'");
+  const auto r =
+      RunArmsig("triangulate --stations " + Net("k06/stations.yaml") + " --observations '" +
+                dir.File("obs.csv") + "' --out '" + dir.File("p.csv") + "'");
   EXPECT_EQ(r.exit_code, 0);
   EXPECT_NE(r.err.find("point LONE not intersected: one ray"), std::string::npos) << r.err;
   const auto table = io::ReadCsvFile(dir.File("p.csv"));
@@ -88,8 +91,9 @@ TEST(TriangulateCommand, OneRayPointsAreReportedNotInvented) {
 TEST(TriangulateCommand, MalformedAngleNamesLineAndColumn) {
   TempDir dir;
   WriteText(dir.File("obs.csv"), "point,station,hz_gon,v_gon\nP,1,10,100\nP,2,2O,100\n");
-  const auto r = RunArmsig("triangulate --stations " + Net("k06/stations.yaml") +
-                           " --observations '" + dir.File("obs.csv") + "' --out '" + dir.File("p.csv") + "'");
+  const auto r =
+      RunArmsig("triangulate --stations " + Net("k06/stations.yaml") + " --observations '" +
+                dir.File("obs.csv") + "' --out '" + dir.File("p.csv") + "'");
   EXPECT_EQ(r.exit_code, 2);
   EXPECT_NE(r.err.find("obs.csv:3:3 (hz_gon)"), std::string::npos) << r.err;
 }
@@ -98,7 +102,9 @@ TEST(ReduceCommand, ReducesASessionIdempotentlyAndMatchesTriangulate) {
   TempDir dir;
   const std::string db = "--db '" + dir.File("lab.db") + "' ";
   ASSERT_EQ(RunArmsig(db + "import observations " + Net("barta-phase_1-2TK/observations.csv") +
-                      " --stations " + Net("barta-phase_1-2TK/stations.yaml")).exit_code, 0);
+                      " --stations " + Net("barta-phase_1-2TK/stations.yaml"))
+                .exit_code,
+            0);
   for (int run = 0; run < 2; ++run) {
     const auto r = RunArmsig(db + "reduce --no-reject");
     ASSERT_EQ(r.exit_code, 0) << r.err;
@@ -107,7 +113,8 @@ TEST(ReduceCommand, ReducesASessionIdempotentlyAndMatchesTriangulate) {
   db::Database database(dir.File("lab.db"));
   EXPECT_EQ(database.sql().execAndGet("SELECT count(*) FROM points").getInt(), 18);  // not 36
   // Point 25 as published (GNU Gama), through the database path.
-  SQLite::Statement q(database.sql(), "SELECT x_mm, y_mm, z_mm, sx_mm FROM points WHERE point = '25'");
+  SQLite::Statement q(database.sql(),
+                      "SELECT x_mm, y_mm, z_mm, sx_mm FROM points WHERE point = '25'");
   ASSERT_TRUE(q.executeStep());
   const auto expected = io::ReadCsvFile(DataPath("networks/barta-phase_1-2TK/expected.csv"));
   for (const auto& row : expected.rows()) {

@@ -15,7 +15,8 @@ TEST(InstrumentErrors, TwoFaceDataRecoverPlantedAxisErrors) {
   planted.index_rad = -10.0 * kRadPerArcsec;
   std::mt19937 rng(3);
   std::normal_distribution<double> noise(0.0, 0.5 * kRadPerArcsec);
-  std::uniform_real_distribution<double> hz(0, 2 * kPi), v(ToRad(60, AngleUnit::kGon), ToRad(140, AngleUnit::kGon));
+  std::uniform_real_distribution<double> hz(0, 2 * kPi),
+      v(ToRad(60, AngleUnit::kGon), ToRad(140, AngleUnit::kGon));
   std::vector<TwoFacePair> pairs;
   for (int k = 0; k < 40; ++k) {
     const AngleReading truth{hz(rng), v(rng), 1};
@@ -55,7 +56,8 @@ TEST(InstrumentErrors, HorizontalSightsCannotSeparateTheTrunnionError) {
   planted.collimation_rad = 10 * kRadPerArcsec;
   for (int k = 0; k < 10; ++k) {
     const AngleReading truth{0.3 * k, ToRad(100.0 + 0.01 * k, AngleUnit::kGon), 1};
-    pairs.push_back({ApplyInstrumentErrors(truth, 1, planted), ApplyInstrumentErrors(truth, 2, planted)});
+    pairs.push_back(
+        {ApplyInstrumentErrors(truth, 1, planted), ApplyInstrumentErrors(truth, 2, planted)});
   }
   const auto e = EstimateInstrumentErrors(pairs, kRadPerArcsec, kRadPerArcsec);
   EXPECT_FALSE(e.trunnion_determined);

@@ -2,8 +2,8 @@
 
 #include <gtest/gtest.h>
 
-#include "reduction/sim_lab.h"
 #include "reduction/intersection.h"
+#include "reduction/sim_lab.h"
 
 namespace armsig::reduction {
 
@@ -20,7 +20,9 @@ struct DatumFrame {
       : origin(first.pose.position_mm),
         datum_from_world(first.pose.world_from_station.transpose()),
         azimuth(first.pose.azimuth_rad) {}
-  Eigen::Vector3d operator()(const Eigen::Vector3d& x) const { return datum_from_world * (x - origin); }
+  Eigen::Vector3d operator()(const Eigen::Vector3d& x) const {
+    return datum_from_world * (x - origin);
+  }
 };
 
 // A lab where every station sights every other (mutual pointings) and 30 targets, and
@@ -31,13 +33,16 @@ OrientationProblem MutualLab(SimLab& lab, std::vector<Eigen::Vector3d>& bar_ends
   const int ns = static_cast<int>(lab.stations.size());
   for (int i = 0; i < ns; ++i) {
     for (int j = 0; j < ns; ++j) {
-      if (i != j) p.observations.push_back(lab.ObserveTo(i, lab.stations[j].pose.id, lab.stations[j].pose.position_mm));
+      if (i != j)
+        p.observations.push_back(
+            lab.ObserveTo(i, lab.stations[j].pose.id, lab.stations[j].pose.position_mm));
     }
   }
   for (int k = 0; k < 30; ++k) {
     const Eigen::Vector3d t = lab.RandomTarget();
     lab.targets.push_back(t);
-    for (int i = 0; i < ns; ++i) p.observations.push_back(lab.ObserveTo(i, "T" + std::to_string(k), t));
+    for (int i = 0; i < ns; ++i)
+      p.observations.push_back(lab.ObserveTo(i, "T" + std::to_string(k), t));
   }
   for (int b = 0; b < 4; ++b) {
     const Eigen::Vector3d a = lab.RandomTarget();
@@ -70,10 +75,12 @@ TEST(Orientation, MutualPointingsAndScaleBarReproduceTheStationsWithinTheirPreci
     for (int s = 1; s < 3; ++s) {
       const Eigen::Vector3d truth = datum(lab.stations[s].pose.position_mm);
       for (int k = 0; k < 3; ++k) {
-        const double z = (r.stations[s].pose.position_mm(k) - truth(k)) / r.stations[s].sigma_position_mm(k);
+        const double z =
+            (r.stations[s].pose.position_mm(k) - truth(k)) / r.stations[s].sigma_position_mm(k);
         worst = std::max(worst, std::abs(z));
       }
-      const double az = WrapPi(r.stations[s].pose.azimuth_rad - (lab.stations[s].pose.azimuth_rad - datum.azimuth));
+      const double az = WrapPi(r.stations[s].pose.azimuth_rad -
+                               (lab.stations[s].pose.azimuth_rad - datum.azimuth));
       worst = std::max(worst, std::abs(az / r.stations[s].sigma_azimuth_rad));
     }
     EXPECT_NEAR(r.sigma0, 1.0, 0.25);
@@ -92,9 +99,10 @@ TEST(Orientation, UnlevelledStationRotationIsRecovered) {
   // Station 3 tilted by about 2.5°: its rotation is free.
   Station& tilted = lab.stations[2];
   tilted.pose.levelled = false;
-  tilted.pose.world_from_station =
-      (Eigen::AngleAxisd(0.03, Eigen::Vector3d::UnitX()) * Eigen::AngleAxisd(-0.025, Eigen::Vector3d::UnitY()))
-          .toRotationMatrix() * tilted.pose.world_from_station;
+  tilted.pose.world_from_station = (Eigen::AngleAxisd(0.03, Eigen::Vector3d::UnitX()) *
+                                    Eigen::AngleAxisd(-0.025, Eigen::Vector3d::UnitY()))
+                                       .toRotationMatrix() *
+                                   tilted.pose.world_from_station;
   std::vector<Eigen::Vector3d> bars;
   auto problem = MutualLab(lab, bars);
   problem.unlevelled.insert(tilted.pose.id);
@@ -192,7 +200,8 @@ TEST(Orientation, RefusesTargetsAllOnOneLine) {
   for (const auto& s : lab.stations) p.station_ids.push_back(s.pose.id);
   for (int k = 0; k < 6; ++k) {
     const Eigen::Vector3d t(100.0, -50.0, 300.0 * k);
-    for (int i = 0; i < 3; ++i) p.observations.push_back(lab.ObserveTo(i, "P" + std::to_string(k), t));
+    for (int i = 0; i < 3; ++i)
+      p.observations.push_back(lab.ObserveTo(i, "P" + std::to_string(k), t));
   }
   p.scale_bars.push_back({"P0", "P5", 1500.0, 0.01});
   const auto r = Orient(p);

@@ -25,8 +25,10 @@ std::map<std::string, Expected> ReadExpected(const std::string& network) {
   std::map<std::string, Expected> out;
   for (const auto& row : t.rows()) {
     Expected e;
-    e.x = {t.Number(row, t.Column("x_mm")), t.Number(row, t.Column("y_mm")), t.Number(row, t.Column("z_mm"))};
-    e.sigma = {t.Number(row, t.Column("sx_mm")), t.Number(row, t.Column("sy_mm")), t.Number(row, t.Column("sz_mm"))};
+    e.x = {t.Number(row, t.Column("x_mm")), t.Number(row, t.Column("y_mm")),
+           t.Number(row, t.Column("z_mm"))};
+    e.sigma = {t.Number(row, t.Column("sx_mm")), t.Number(row, t.Column("sy_mm")),
+               t.Number(row, t.Column("sz_mm"))};
     out[t.Text(row, t.Column("point"))] = e;
   }
   return out;
@@ -38,7 +40,8 @@ std::vector<Observation> Observations(const std::string& network) {
 
 // Intersects every target from the published stations.
 std::map<std::string, IntersectionResult> TriangulateAll(const std::string& network) {
-  const auto stations = io::ReadStationsYaml(testing::DataPath("networks/" + network + "/stations.yaml"));
+  const auto stations =
+      io::ReadStationsYaml(testing::DataPath("networks/" + network + "/stations.yaml"));
   std::map<std::string, const Station*> by_id;
   for (const auto& s : stations) by_id[s.pose.id] = &s;
   std::map<std::string, std::vector<Ray>> rays;
@@ -90,7 +93,8 @@ Fit4 FitFour(const std::vector<Eigen::Vector3d>& from, const std::vector<Eigen::
   // Re-estimate the translation with the normalised rotation.
   Eigen::Vector3d mean = Eigen::Vector3d::Zero();
   for (size_t k = 0; k < from.size(); ++k) {
-    mean += to[k] - Eigen::Vector3d(f.c * from[k].x() - f.s * from[k].y(), f.s * from[k].x() + f.c * from[k].y(), from[k].z());
+    mean += to[k] - Eigen::Vector3d(f.c * from[k].x() - f.s * from[k].y(),
+                                    f.s * from[k].x() + f.c * from[k].y(), from[k].z());
   }
   f.t = mean / from.size();
   return f;
@@ -147,7 +151,8 @@ TEST(RealNetworks, K06OrientationMatchesComp3D) {
   OrientationProblem p;
   p.observations = Observations("k06");
   std::ifstream bars(testing::DataPath("networks/k06/scale_bars.txt"));
-  for (std::string line; std::getline(bars, line);) p.scale_bars.push_back(io::ParseScaleBar(line, 0.005));
+  for (std::string line; std::getline(bars, line);)
+    p.scale_bars.push_back(io::ParseScaleBar(line, 0.005));
   const auto r = Orient(p);
   ASSERT_TRUE(r.ok) << (r.refusals.empty() ? "" : r.refusals[0]);
   // Published flat-frame equivalent: σ0 1.16307 with 185 degrees of freedom.
@@ -183,9 +188,11 @@ TEST(RealNetworks, BartaOrientationWithControlMatchesGnuGama) {
   int compared = 0;
   for (const auto& pt : r.points) {
     if (pt.control || !expected.count(pt.id)) continue;
-    EXPECT_LT((pt.position_mm - expected.at(pt.id).x).norm(), 0.0001) << pt.id;  // published 0.08 µm
+    EXPECT_LT((pt.position_mm - expected.at(pt.id).x).norm(), 0.0001)
+        << pt.id;  // published 0.08 µm
     for (int k = 0; k < 3; ++k) {
-      EXPECT_NEAR(std::sqrt(pt.covariance_mm2(k, k)), expected.at(pt.id).sigma(k), 5e-5) << pt.id;
+      EXPECT_NEAR(std::sqrt(pt.covariance_mm2(k, k)), expected.at(pt.id).sigma(k), 2e-5)
+          << pt.id;  // 0.013 µm measured
     }
     ++compared;
   }
@@ -215,7 +222,39 @@ TEST(RealNetworks, Local3dFreeNetworkMatchesGnuGama) {
     to.push_back(expected.at(s.pose.id).x);
   }
   const Fit4 fit = FitFour(from, to);
-  for (size_t k = 0; k < from.size(); ++k) EXPECT_LT((fit(from[k]) - to[k]).norm(), 0.0005);
+  for (size_t k = 0; k < from.size(); ++k)
+    EXPECT_LT((fit(from[k]) - to[k]).norm(), 0.0002);  // 0.13 µm measured
+}
+
+// GNU Gama's free-network datum: minimum norm over stations 141 and 142. With the same
+// inner constraints, armsig's sigmas match the published ones (rotated into their frame).
+TEST(RealNetworks, Local3dFreeNetworkSigmasByInnerConstraints) {
+  OrientationProblem p;
+  p.observations = Observations("local_3d");
+  p.free_datum = true;
+  p.datum_points = {"141", "142"};
+  const auto r = Orient(p);
+  ASSERT_TRUE(r.ok);
+  const auto expected = ReadExpected("local_3d");
+  std::vector<Eigen::Vector3d> from, to;
+  for (const auto& pt : r.points) {
+    from.push_back(pt.position_mm);
+    to.push_back(expected.at(pt.id).x);
+  }
+  const Fit4 fit = FitFour(from, to);
+  Eigen::Matrix3d rot = Eigen::Matrix3d::Identity();
+  rot.topLeftCorner<2, 2>() << fit.c, -fit.s, fit.s, fit.c;
+  int compared = 0;
+  for (const auto& pt : r.points) {
+    const Eigen::Matrix3d c = rot * pt.covariance_mm2 * rot.transpose();
+    for (int k = 0; k < 3; ++k) {
+      EXPECT_NEAR(std::sqrt(c(k, k)), expected.at(pt.id).sigma(k), 6e-5) << pt.id << " axis " << k;
+    }
+    ++compared;
+  }
+  EXPECT_EQ(compared, 5);
+  // And the stations, which the fixed datum would report as exact.
+  EXPECT_GT(r.stations[0].sigma_position_mm.norm(), 0.0);
 }
 
 }  // namespace armsig::reduction

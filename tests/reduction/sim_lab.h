@@ -27,7 +27,8 @@ struct SimLab {
       st.pose.id = "S" + std::to_string(s + 1);
       const double angle = 2.0 * kPi * s / station_count + 0.3 * unit(rng);
       const double radius = 3000.0 + 1000.0 * unit(rng);
-      st.pose.position_mm = {radius * std::sin(angle), radius * std::cos(angle), 1400.0 + 300.0 * unit(rng)};
+      st.pose.position_mm = {radius * std::sin(angle), radius * std::cos(angle),
+                             1400.0 + 300.0 * unit(rng)};
       st.pose.azimuth_rad = 2.0 * kPi * unit(rng);
       st.pose.world_from_station = reduction::LevelledRotation(st.pose.azimuth_rad);
       st.sigma_hz_rad = kSigmaAngle;
