@@ -7,6 +7,7 @@
 #include "app/reduce_command.h"
 #include "core/error.h"
 #include "io/atomic_file.h"
+#include "io/gsi_import.h"
 #include "io/poses_csv.h"
 
 namespace armsig::app {
@@ -70,6 +71,19 @@ int RunImportPoses(const ImportPosesOptions& options) {
   return kOk;
 }
 
+struct ImportGsiOptions {
+  std::string file, station, out;
+};
+
+int RunImportGsi(const ImportGsiOptions& options) {
+  const auto imported = io::ImportGsi(options.file, options.station);
+  io::WriteFileAtomically(options.out, io::FormatObservationsCsv(imported.observations));
+  std::cerr << "armsig import gsi: " << imported.observations.size() << " observations from "
+            << imported.blocks << " blocks (" << imported.skipped_blocks
+            << " without Hz and V skipped) -> " << options.out << "\n";
+  return kOk;
+}
+
 void SetupImportCommand(CLI::App& parent, const GlobalOptions& global, Runner& run) {
   auto* sub = parent.add_subcommand("import", "Import foreign files into armsig formats");
   sub->require_subcommand(1);
@@ -94,17 +108,13 @@ void SetupImportCommand(CLI::App& parent, const GlobalOptions& global, Runner& r
   p->add_flag("--decimal-comma", poses->decimal_comma, "Numbers use a decimal comma");
   p->callback([&run, poses] { run = [poses] { return RunImportPoses(*poses); }; });
 
-  auto* gsi = sub->add_subcommand("gsi",
-                                  "A Leica GSI-8/GSI-16 file to angle observations "
-                                  "[not yet implemented]");
-  gsi->allow_extras();
-  gsi->callback([&run] {
-    run = [] {
-      std::cerr << "armsig import gsi: not yet implemented (tracked in issue #5); nothing was "
-                   "done.\n";
-      return static_cast<int>(kFailure);
-    };
-  });
+  auto gsi = std::make_shared<ImportGsiOptions>();
+  auto* g = sub->add_subcommand(
+      "gsi", "A Leica GSI-8/GSI-16 file to angle observations (words 11, 21, 22, 31)");
+  g->add_option("file", gsi->file, "GSI file")->required();
+  g->add_option("--station", gsi->station, "Station id for every observation")->required();
+  g->add_option("--out", gsi->out, "Observations CSV to write")->required();
+  g->callback([&run, gsi] { run = [gsi] { return RunImportGsi(*gsi); }; });
 }
 
 }  // namespace armsig::app

@@ -28,8 +28,5 @@ void SetupCaptureCommand(CLI::App& parent, const GlobalOptions&, Runner& run) {
 void SetupRecalibrateCommand(CLI::App& parent, const GlobalOptions&, Runner& run) {
   NotYet(parent, "recalibrate", "The nightly recalibration job", "#7", run);
 }
-void SetupInstrumentCommand(CLI::App& parent, const GlobalOptions&, Runner& run) {
-  NotYet(parent, "instrument", "Talk to one instrument (probe | read)", "#5", run);
-}
 
 }  // namespace armsig::app

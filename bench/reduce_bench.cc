@@ -16,8 +16,9 @@ namespace armsig {
 namespace {
 
 std::string MakeDatabase(int64_t observations) {
-  const std::string path =
-      (std::filesystem::temp_directory_path() / ("armsig-reduce-bench-" + std::to_string(::getpid()) + ".db")).string();
+  const std::string path = (std::filesystem::temp_directory_path() /
+                            ("armsig-reduce-bench-" + std::to_string(::getpid()) + ".db"))
+                               .string();
   std::filesystem::remove(path);
   db::Database database(path);
   SQLite::Transaction tx(database.sql());
@@ -46,7 +47,8 @@ std::string MakeDatabase(int64_t observations) {
       db::ObservationRow r;
       r.point = "P" + std::to_string(p);
       r.station = "S" + std::to_string(s + 1);
-      r.reading = reduction::PredictReading(positions[s], reduction::LevelledRotation(azimuths[s]), x);
+      r.reading =
+          reduction::PredictReading(positions[s], reduction::LevelledRotation(azimuths[s]), x);
       r.reading.hz_rad += noise(rng);
       r.reading.v_rad += noise(rng);
       rows.push_back(r);

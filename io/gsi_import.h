@@ -1,0 +1,23 @@
+// Leica GSI files to angle observations (SPEC `armsig import gsi`): word 11 point, 21 Hz,
+// 22 V, 31 slope distance, every unit the format defines.
+#pragma once
+
+#include <string>
+#include <vector>
+
+#include "reduction/network.h"
+
+namespace armsig::io {
+
+struct GsiImport {
+  std::vector<reduction::Observation> observations;
+  int blocks = 0;
+  int skipped_blocks = 0;  // blocks without Hz and V (coordinates, codes, levelling)
+};
+
+// Throws InputError naming the file, line and column of a malformed word.
+GsiImport ImportGsi(const std::string& path, const std::string& station);
+
+std::string FormatObservationsCsv(const std::vector<reduction::Observation>& observations);
+
+}  // namespace armsig::io

@@ -1,0 +1,90 @@
+#include "simulation/virtual_lab.h"
+
+#include <stdexcept>
+
+#include "core/units.h"
+#include "reduction/intersection.h"
+
+namespace armsig::simulation {
+
+VirtualLab::VirtualLab(calibration::RobotModel model, Eigen::VectorXd true_params,
+                       Eigen::Isometry3d world_from_base, unsigned seed)
+    : model_(std::move(model)),
+      true_params_(std::move(true_params)),
+      world_from_base_(world_from_base),
+      joints_(Eigen::VectorXd::Zero(model_.num_joints())),
+      rng_(seed) {}
+
+int VirtualLab::AddStation(const VirtualStation& station) {
+  std::lock_guard lock(mutex_);
+  stations_.push_back(station);
+  aim_.push_back("robot");
+  face_.push_back(1);
+  return static_cast<int>(stations_.size()) - 1;
+}
+
+void VirtualLab::AddPoint(const std::string& id, const Eigen::Vector3d& position_mm) {
+  std::lock_guard lock(mutex_);
+  points_[id] = position_mm;
+}
+
+void VirtualLab::Aim(int station, const std::string& target) {
+  std::lock_guard lock(mutex_);
+  aim_.at(station) = target;
+}
+
+void VirtualLab::SetFace(int station, int face) {
+  std::lock_guard lock(mutex_);
+  face_.at(station) = face;
+}
+
+int VirtualLab::Face(int station) const {
+  std::lock_guard lock(mutex_);
+  return face_.at(station);
+}
+
+void VirtualLab::SetJoints(const Eigen::VectorXd& joints_rad) {
+  std::lock_guard lock(mutex_);
+  joints_ = joints_rad;
+}
+
+Eigen::VectorXd VirtualLab::Joints() const {
+  std::lock_guard lock(mutex_);
+  return joints_;
+}
+
+Eigen::Vector3d VirtualLab::TruePositionLocked(const std::string& target) const {
+  if (target == "robot") {
+    calibration::Kinematics kin(model_);
+    return kin.Position(world_from_base_, true_params_, joints_.data());
+  }
+  if (auto it = points_.find(target); it != points_.end()) return it->second;
+  for (const auto& s : stations_) {
+    if (s.pose.id == target) return s.pose.position_mm;
+  }
+  throw std::invalid_argument("virtual lab: unknown target '" + target + "'");
+}
+
+Eigen::Vector3d VirtualLab::TruePosition(const std::string& target) const {
+  std::lock_guard lock(mutex_);
+  return TruePositionLocked(target);
+}
+
+AngleReading VirtualLab::Read(int station, double* distance_mm) {
+  std::lock_guard lock(mutex_);
+  const VirtualStation& s = stations_.at(station);
+  const Eigen::Vector3d x = TruePositionLocked(aim_.at(station));
+  const AngleReading truth =
+      reduction::PredictReading(s.pose.position_mm, s.pose.world_from_station, x);
+  AngleReading r = reduction::ApplyInstrumentErrors(truth, face_.at(station), s.errors);
+  std::normal_distribution<double> angle(0.0, s.sigma_angle_rad);
+  r.hz_rad = WrapTwoPi(r.hz_rad + angle(rng_));
+  r.v_rad += angle(rng_);
+  if (distance_mm) {
+    std::normal_distribution<double> d(0.0, s.sigma_distance_mm);
+    *distance_mm = (x - s.pose.position_mm).norm() + d(rng_);
+  }
+  return r;
+}
+
+}  // namespace armsig::simulation
