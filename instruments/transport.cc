@@ -1,8 +1,9 @@
 #include "instruments/transport.h"
 
+// Boost 1.74 Asio uses std::exchange without including <utility> (C++20): keep first.
 #include <boost/asio.hpp>
 #include <optional>
-#include <utility>  // before Asio: Boost 1.74 awaitable.hpp uses std::exchange
+#include <utility>
 
 namespace armsig::instruments {
 

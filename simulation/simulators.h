@@ -5,6 +5,7 @@
 // master; drivers open the slave by path like any serial port.
 #pragma once
 
+// Boost 1.74 Asio uses std::exchange without including <utility> (C++20): keep first.
 #include <atomic>
 #include <boost/asio.hpp>
 #include <chrono>
@@ -14,7 +15,7 @@
 #include <optional>
 #include <string>
 #include <thread>
-#include <utility>  // before Asio: Boost 1.74 awaitable.hpp uses std::exchange
+#include <utility>
 
 #include "instruments/robot_codec.h"
 #include "simulation/virtual_lab.h"
