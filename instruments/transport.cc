@@ -1,9 +1,10 @@
 #include "instruments/transport.h"
 
-// Boost 1.74 Asio uses std::exchange without including <utility> (C++20): keep first.
+// clang-format off
+#include <utility>  // first: Boost 1.74 Asio uses std::exchange without including it (C++20)
 #include <boost/asio.hpp>
+// clang-format on
 #include <optional>
-#include <utility>
 
 namespace armsig::instruments {
 

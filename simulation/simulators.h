@@ -5,9 +5,11 @@
 // master; drivers open the slave by path like any serial port.
 #pragma once
 
-// Boost 1.74 Asio uses std::exchange without including <utility> (C++20): keep first.
 #include <atomic>
+// clang-format off
+#include <utility>  // first: Boost 1.74 Asio uses std::exchange without including it (C++20)
 #include <boost/asio.hpp>
+// clang-format on
 #include <chrono>
 #include <deque>
 #include <memory>
@@ -15,7 +17,6 @@
 #include <optional>
 #include <string>
 #include <thread>
-#include <utility>
 
 #include "instruments/robot_codec.h"
 #include "simulation/virtual_lab.h"
