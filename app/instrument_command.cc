@@ -8,6 +8,7 @@
 #include <nlohmann/json.hpp>
 #include <thread>
 
+#include "app/builtin_models.h"
 #include "app/command.h"
 #include "calibration/simulation.h"
 #include "core/error.h"
@@ -36,8 +37,8 @@ std::unique_ptr<instruments::LineTransport> OpenTransport(const InstrumentOption
   if (!o.tcp.empty()) {
     const size_t colon = o.tcp.rfind(':');
     if (colon == std::string::npos) throw InputError({"--tcp", 0, 0, ""}, "expected HOST:PORT");
-    return instruments::MakeTcpTransport(o.tcp.substr(0, colon),
-                                         static_cast<unsigned short>(std::stoi(o.tcp.substr(colon + 1))));
+    return instruments::MakeTcpTransport(
+        o.tcp.substr(0, colon), static_cast<unsigned short>(std::stoi(o.tcp.substr(colon + 1))));
   }
   if (o.port.empty()) throw InputError({"--port", 0, 0, ""}, "give --port PATH or --tcp HOST:PORT");
   instruments::SerialSettings s;
@@ -62,7 +63,8 @@ int RunInstrument(const InstrumentOptions& o) {
   instruments::RetryPolicy policy;
   policy.timeout = std::chrono::milliseconds(o.timeout_ms);
   if (o.protocol != "geocom" && o.protocol != "gsi" && o.protocol != "val" && o.protocol != "as") {
-    throw InputError({"--protocol", 0, 0, ""}, "unknown protocol '" + o.protocol + "' (expected geocom, gsi, val or as)");
+    throw InputError({"--protocol", 0, 0, ""},
+                     "unknown protocol '" + o.protocol + "' (expected geocom, gsi, val or as)");
   }
   try {
     if (o.protocol == "val" || o.protocol == "as") {
@@ -70,7 +72,8 @@ int RunInstrument(const InstrumentOptions& o) {
       const Eigen::VectorXd q = robot.ReadJointsRad();
       if (o.json) {
         std::vector<double> joints(q.data(), q.data() + q.size());
-        std::cout << nlohmann::json{{"controller", robot.name()}, {"joints_rad", joints}}.dump() << "\n";
+        std::cout << nlohmann::json{{"controller", robot.name()}, {"joints_rad", joints}}.dump()
+                  << "\n";
       } else {
         std::cout << robot.name() << ": " << q.size() << " joints (deg):";
         for (int i = 0; i < q.size(); ++i) std::cout << fmt::format(" {:.3f}", q(i) * 180.0 / kPi);
@@ -79,15 +82,22 @@ int RunInstrument(const InstrumentOptions& o) {
       return kOk;
     }
     std::unique_ptr<instruments::DistanceInstrument> device;
-    if (o.protocol == "geocom") device = std::make_unique<instruments::GeoComDevice>(OpenTransport(o), policy, o.crc);
-    else device = std::make_unique<instruments::GsiOnlineDevice>(OpenTransport(o), policy);
+    if (o.protocol == "geocom")
+      device = std::make_unique<instruments::GeoComDevice>(OpenTransport(o), policy, o.crc);
+    else
+      device = std::make_unique<instruments::GsiOnlineDevice>(OpenTransport(o), policy);
     if (o.action == "probe") {
       const auto info = device->Identify();
       if (o.json) {
-        std::cout << nlohmann::json{{"port", device->name()}, {"name", info.name}, {"serial", info.serial},
-                                    {"firmware", info.firmware}}.dump() << "\n";
+        std::cout << nlohmann::json{{"port", device->name()},
+                                    {"name", info.name},
+                                    {"serial", info.serial},
+                                    {"firmware", info.firmware}}
+                         .dump()
+                  << "\n";
       } else {
-        std::cout << fmt::format("{}: {} serial {} firmware {}\n", device->name(), info.name, info.serial, info.firmware);
+        std::cout << fmt::format("{}: {} serial {} firmware {}\n", device->name(), info.name,
+                                 info.serial, info.firmware);
       }
       return kOk;
     }
@@ -95,10 +105,11 @@ int RunInstrument(const InstrumentOptions& o) {
     if (o.json) {
       std::cout << ReadingJson(r, device->name()).dump() << "\n";
     } else {
-      std::cout << fmt::format("{}: Hz {:.5f} gon  V {:.5f} gon  face {}{}{}\n", device->name(),
-                               FromRad(r.angles.hz_rad, AngleUnit::kGon), FromRad(r.angles.v_rad, AngleUnit::kGon),
-                               r.angles.face, r.distance_mm ? fmt::format("  distance {:.3f} mm", *r.distance_mm) : "",
-                               r.note.empty() ? "" : "  (" + r.note + ")");
+      std::cout << fmt::format(
+          "{}: Hz {:.5f} gon  V {:.5f} gon  face {}{}{}\n", device->name(),
+          FromRad(r.angles.hz_rad, AngleUnit::kGon), FromRad(r.angles.v_rad, AngleUnit::kGon),
+          r.angles.face, r.distance_mm ? fmt::format("  distance {:.3f} mm", *r.distance_mm) : "",
+          r.note.empty() ? "" : "  (" + r.note + ")");
     }
     return kOk;
   } catch (const instruments::InstrumentError& e) {
@@ -109,15 +120,9 @@ int RunInstrument(const InstrumentOptions& o) {
 
 int RunSimulate(const InstrumentOptions& o) {
   // A virtual PUMA 760 with the paper's Table 3 errors, one station 3 m away.
-  auto model = io::ParseRobotModel(
-      "name: puma760\nbase: auto\nlinks:\n"
-      "  - [[1,0,0,0],[0,0,-1,164],[0,1,0,0],[0,0,0,1]]\n  - [[1,0,0,650],[0,1,0,0],[0,0,1,50],[0,0,0,1]]\n"
-      "  - [[0,0,1,550],[0,1,0,0],[-1,0,0,0],[0,0,0,1]]\n  - [[0,0,-1,0],[0,1,0,0],[1,0,0,50],[0,0,0,1]]\n"
-      "  - [[0,0,1,125],[0,1,0,0],[-1,0,0,0],[0,0,0,1]]\ntool_mm: [0, 0, 0]\n"
-      "nongeometric:\n  - {name: h1, joint: 2, basis: cos, of: [2, 3]}\n  - {name: h2, joint: 2, basis: cos, of: [2]}\n"
-      "  - {name: h3, joint: 3, basis: cos, of: [2, 3]}\n  - {name: h4, joint: 3, basis: sign_cos, of: [2, 3]}\n",
-      "built-in PUMA 760");
-  simulation::VirtualLab lab(model, calibration::PaperTable3Parameters(), Eigen::Isometry3d::Identity());
+  auto model = io::ParseRobotModel(kPuma760Yaml, "built-in PUMA 760");
+  simulation::VirtualLab lab(model, calibration::PaperTable3Parameters(),
+                             Eigen::Isometry3d::Identity());
   simulation::VirtualStation st;
   st.pose.id = "T1";
   st.pose.position_mm = {3000, 0, 1000};
@@ -130,17 +135,27 @@ int RunSimulate(const InstrumentOptions& o) {
   q << 0.2, -0.6, 1.2, 0.3, -0.4, 0.5;
   lab.SetJoints(q);
   std::unique_ptr<simulation::LineSimulator> sim;
-  if (o.protocol == "geocom") sim = std::make_unique<simulation::GeoComSimulator>(lab, 0, o.link);
-  else if (o.protocol == "gsi") sim = std::make_unique<simulation::GsiOnlineSimulator>(lab, 0, o.link);
-  else if (o.protocol == "val") sim = std::make_unique<simulation::ValSimulator>(lab, o.link, simulation::ValSimulator::Layout::kValII);
-  else if (o.protocol == "as") sim = std::make_unique<simulation::ValSimulator>(lab, o.link, simulation::ValSimulator::Layout::kKawasakiAs);
-  else throw InputError({"--protocol", 0, 0, ""}, "unknown protocol '" + o.protocol + "' (expected geocom, gsi, val or as)");
+  if (o.protocol == "geocom")
+    sim = std::make_unique<simulation::GeoComSimulator>(lab, 0, o.link);
+  else if (o.protocol == "gsi")
+    sim = std::make_unique<simulation::GsiOnlineSimulator>(lab, 0, o.link);
+  else if (o.protocol == "val")
+    sim = std::make_unique<simulation::ValSimulator>(lab, o.link,
+                                                     simulation::ValSimulator::Layout::kValII);
+  else if (o.protocol == "as")
+    sim = std::make_unique<simulation::ValSimulator>(lab, o.link,
+                                                     simulation::ValSimulator::Layout::kKawasakiAs);
+  else
+    throw InputError({"--protocol", 0, 0, ""},
+                     "unknown protocol '" + o.protocol + "' (expected geocom, gsi, val or as)");
   sim->Start();
   std::cout << "virtual " << o.protocol << " instrument on " << sim->path()
-            << (o.seconds > 0 ? fmt::format(" for {} s", o.seconds) : std::string(" until Ctrl-C")) << std::endl;
+            << (o.seconds > 0 ? fmt::format(" for {} s", o.seconds) : std::string(" until Ctrl-C"))
+            << std::endl;
   std::signal(SIGINT, [](int) { g_stop = true; });
   std::signal(SIGTERM, [](int) { g_stop = true; });
-  const auto end = std::chrono::steady_clock::now() + std::chrono::milliseconds(static_cast<long>(o.seconds * 1000));
+  const auto end = std::chrono::steady_clock::now() +
+                   std::chrono::milliseconds(static_cast<long>(o.seconds * 1000));
   while (!g_stop && (o.seconds <= 0 || std::chrono::steady_clock::now() < end)) {
     std::this_thread::sleep_for(std::chrono::milliseconds(50));
   }
@@ -150,7 +165,8 @@ int RunSimulate(const InstrumentOptions& o) {
 }
 
 void SetupInstrumentCommand(CLI::App& parent, const GlobalOptions&, Runner& run) {
-  auto* sub = parent.add_subcommand("instrument", "Talk to one instrument (probe | read), or simulate one");
+  auto* sub =
+      parent.add_subcommand("instrument", "Talk to one instrument (probe | read), or simulate one");
   sub->require_subcommand(1);
   for (const char* action : {"probe", "read"}) {
     auto o = std::make_shared<InstrumentOptions>();
@@ -169,9 +185,11 @@ void SetupInstrumentCommand(CLI::App& parent, const GlobalOptions&, Runner& run)
     a->callback([&run, o] { run = [o] { return RunInstrument(*o); }; });
   }
   auto o = std::make_shared<InstrumentOptions>();
-  auto* s = sub->add_subcommand("simulate", "Start a virtual instrument on a pseudo-terminal for manual trials");
+  auto* s = sub->add_subcommand(
+      "simulate", "Start a virtual instrument on a pseudo-terminal for manual trials");
   s->add_option("--protocol", o->protocol, "geocom | gsi | val | as")->capture_default_str();
-  s->add_option("--link", o->link, "Path of the port to create (a symlink to the pty)")->capture_default_str();
+  s->add_option("--link", o->link, "Path of the port to create (a symlink to the pty)")
+      ->capture_default_str();
   s->add_option("--seconds", o->seconds, "Stop after this many seconds (default: Ctrl-C)");
   s->callback([&run, o] { run = [o] { return RunSimulate(*o); }; });
 }

@@ -22,9 +22,6 @@ void NotYet(CLI::App& parent, const std::string& name, const std::string& descri
 
 }  // namespace
 
-void SetupCaptureCommand(CLI::App& parent, const GlobalOptions&, Runner& run) {
-  NotYet(parent, "capture", "Run a capture session with the lab's instruments", "#6", run);
-}
 void SetupRecalibrateCommand(CLI::App& parent, const GlobalOptions&, Runner& run) {
   NotYet(parent, "recalibrate", "The nightly recalibration job", "#7", run);
 }

@@ -286,3 +286,98 @@ void ReplacePoints(Database& db, int64_t session_id, const std::vector<PointRow>
 }
 
 }  // namespace armsig::db
+
+namespace armsig::db {
+
+std::optional<SessionRow> LoadSession(Database& db, int64_t session_id) {
+  SQLite::Statement s(db.sql(),
+                      "SELECT s.id, r.name, coalesce(s.lab_yaml,''), coalesce(s.plan_json,''), "
+                      "s.state, coalesce(s.note,'') "
+                      "FROM sessions s JOIN robots r ON r.id = s.robot_id WHERE s.id = ?");
+  s.bind(1, session_id);
+  if (!s.executeStep()) return std::nullopt;
+  return SessionRow{s.getColumn(0).getInt64(),  s.getColumn(1).getString(),
+                    s.getColumn(2).getString(), s.getColumn(3).getString(),
+                    s.getColumn(4).getString(), s.getColumn(5).getString()};
+}
+
+std::vector<int> StoredSeqs(Database& db, int64_t session_id) {
+  std::vector<int> out;
+  SQLite::Statement s(db.sql(), "SELECT seq FROM poses WHERE session_id = ? ORDER BY seq");
+  s.bind(1, session_id);
+  while (s.executeStep()) out.push_back(s.getColumn(0).getInt());
+  return out;
+}
+
+}  // namespace armsig::db
+
+namespace armsig::db {
+
+std::pair<int64_t, int> InsertCalibration(Database& db, const CalibrationRecord& c) {
+  SQLite::Statement next(
+      db.sql(), "SELECT coalesce(max(version), 0) + 1 FROM calibrations WHERE robot_id = ?");
+  next.bind(1, c.robot_id);
+  next.executeStep();
+  const int version = next.getColumn(0).getInt();
+  if (c.active) {
+    SQLite::Statement off(db.sql(), "UPDATE calibrations SET active = 0 WHERE robot_id = ?");
+    off.bind(1, c.robot_id);
+    off.exec();
+  }
+  SQLite::Statement s(
+      db.sql(),
+      "INSERT INTO calibrations(robot_id, version, active, params_spec, inputs_json, options_json, "
+      "rank, "
+      "poses_fit, poses_validation, nominal_mean_mm, nominal_max_mm, nominal_rms_mm, fit_mean_mm, "
+      "fit_max_mm, fit_rms_mm, validation_mean_mm, validation_max_mm, validation_rms_mm, "
+      "report_json) "
+      "VALUES (?,?,?,?,?,?,?,?,?,?,?,?,?,?,?,?,?,?,?)");
+  s.bind(1, c.robot_id);
+  s.bind(2, version);
+  s.bind(3, c.active ? 1 : 0);
+  s.bind(4, c.params_spec);
+  s.bind(5, c.inputs_json);
+  s.bind(6, c.options_json);
+  s.bind(7, c.rank);
+  s.bind(8, c.poses_fit);
+  s.bind(9, c.poses_validation);
+  const double stats[9] = {c.nominal_mean_mm,    c.nominal_max_mm,    c.nominal_rms_mm,
+                           c.fit_mean_mm,        c.fit_max_mm,        c.fit_rms_mm,
+                           c.validation_mean_mm, c.validation_max_mm, c.validation_rms_mm};
+  for (int k = 0; k < 9; ++k) BindOptional(s, 10 + k, stats[k]);
+  s.bind(19, c.report_json);
+  s.exec();
+  const int64_t id = db.sql().getLastInsertRowid();
+  SQLite::Statement p(db.sql(),
+                      "INSERT INTO calibration_parameters(calibration_id, name, value, unit, "
+                      "identified, sigma) VALUES (?,?,?,?,?,?)");
+  for (const auto& param : c.parameters) {
+    p.reset();
+    p.bind(1, id);
+    p.bind(2, param.name);
+    p.bind(3, param.value);
+    p.bind(4, param.unit);
+    p.bind(5, param.identified ? 1 : 0);
+    BindOptional(p, 6, param.sigma);
+    p.exec();
+  }
+  SQLite::Statement r(db.sql(),
+                      "INSERT INTO validation_residuals(calibration_id, pose_label, role, dx_mm, "
+                      "dy_mm, dz_mm, distance_mm, "
+                      "nominal_distance_mm) VALUES (?,?,?,?,?,?,?,?)");
+  for (const auto& res : c.residuals) {
+    r.reset();
+    r.bind(1, id);
+    r.bind(2, res.pose_label);
+    r.bind(3, res.role);
+    r.bind(4, res.error_mm.x());
+    r.bind(5, res.error_mm.y());
+    r.bind(6, res.error_mm.z());
+    r.bind(7, res.error_mm.norm());
+    BindOptional(r, 8, res.nominal_distance_mm);
+    r.exec();
+  }
+  return {id, version};
+}
+
+}  // namespace armsig::db

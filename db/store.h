@@ -76,3 +76,46 @@ struct PointRow {
 void ReplacePoints(Database& db, int64_t session_id, const std::vector<PointRow>& points);
 
 }  // namespace armsig::db
+
+namespace armsig::db {
+
+struct SessionRow {
+  int64_t id = 0;
+  std::string robot;
+  std::string lab_yaml, plan_json, state, note;
+};
+std::optional<SessionRow> LoadSession(Database& db, int64_t session_id);
+// Plan indices already stored (measured or skipped) for a session.
+std::vector<int> StoredSeqs(Database& db, int64_t session_id);
+
+}  // namespace armsig::db
+
+namespace armsig::db {
+
+struct CalibrationRecord {
+  int64_t robot_id = 0;
+  std::string params_spec, inputs_json, options_json, report_json;
+  int rank = 0, poses_fit = 0, poses_validation = 0;
+  double nominal_mean_mm = NAN, nominal_max_mm = NAN, nominal_rms_mm = NAN;
+  double fit_mean_mm = NAN, fit_max_mm = NAN, fit_rms_mm = NAN;
+  double validation_mean_mm = NAN, validation_max_mm = NAN, validation_rms_mm = NAN;
+  bool active = false;
+  struct Parameter {
+    std::string name, unit;
+    double value = 0.0, sigma = NAN;
+    bool identified = false;
+  };
+  std::vector<Parameter> parameters;
+  struct Residual {
+    std::string pose_label, role;  // fit | validation
+    Eigen::Vector3d error_mm = Eigen::Vector3d::Zero();
+    double nominal_distance_mm = NAN;
+  };
+  std::vector<Residual> residuals;
+};
+
+// Stores a calibration as the robot's next version (one transaction by the caller);
+// `active` makes it the robot's only active set. Returns {id, version}.
+std::pair<int64_t, int> InsertCalibration(Database& db, const CalibrationRecord& record);
+
+}  // namespace armsig::db

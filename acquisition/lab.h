@@ -1,0 +1,68 @@
+// The lab configuration (YAML): the robot and its controller or encoder box, the
+// instruments and the stations they stand on, the tolerances of a capture session.
+#pragma once
+
+#include <memory>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "calibration/model.h"
+#include "instruments/device.h"
+#include "instruments/robot_codec.h"
+#include "instruments/transport.h"
+#include "reduction/network.h"
+
+namespace armsig::acquisition {
+
+struct InstrumentConfig {
+  std::string station;   // station id (matches the stations file / orientation)
+  std::string protocol;  // geocom | gsi
+  std::string port;      // serial path, or empty with tcp
+  std::string tcp;       // HOST:PORT
+  unsigned baud = 19200;
+  bool crc = false;
+  bool distance = false;  // measure distances (laser tracker / total station)
+  double sigma_hz_arcsec = 0.5, sigma_v_arcsec = 0.5, sigma_distance_mm = 0.5;
+};
+
+struct ControllerConfig {
+  std::string protocol;  // val | as | counter
+  std::string port;
+  unsigned baud = 9600;
+  bool can_move = false;                   // armsig commands the moves (else the operator does)
+  std::vector<std::string> counter_ports;  // counter: one per joint
+  instruments::EncoderCalibration encoders;
+};
+
+struct Tolerances {
+  double max_miss_mm = 0.2;     // largest ray miss distance of an accepted point
+  double max_repeat_mm = 0.05;  // agreement of repeated readings
+  int readings = 1;             // readings per configuration (≥ 2 checks repeatability)
+  int max_remeasure = 3;        // automatic re-measurements before giving up
+  int settle_ms = 300;          // wait after a move
+  int fault_retries = 2;        // session-level retries of a failing instrument
+  bool two_face = false;        // measure in both faces
+};
+
+struct LabConfig {
+  std::string source;  // file it came from
+  std::string text;    // the YAML as read (stored with the session)
+  std::string robot_model_path;
+  calibration::RobotModel model;
+  ControllerConfig controller;
+  std::vector<InstrumentConfig> instruments;
+  std::vector<reduction::Station> stations;  // oriented stations (from the stations file)
+  Tolerances tolerances;
+  instruments::RetryPolicy policy;
+};
+
+// Throws InputError with file, line and column.
+LabConfig LoadLab(const std::string& path);
+LabConfig ParseLab(const std::string& text, const std::string& source);
+
+// Opens the devices the configuration names.
+std::vector<std::unique_ptr<instruments::DistanceInstrument>> OpenInstruments(const LabConfig& lab);
+std::unique_ptr<instruments::RobotController> OpenController(const LabConfig& lab);
+
+}  // namespace armsig::acquisition

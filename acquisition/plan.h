@@ -1,0 +1,38 @@
+// Capture plans: the joint configurations to measure, in order.
+#pragma once
+
+#include <Eigen/Core>
+#include <string>
+#include <vector>
+
+#include "calibration/model.h"
+
+namespace armsig::acquisition {
+
+struct PlannedConfiguration {
+  std::string label;
+  Eigen::VectorXd joints_rad;
+};
+using Plan = std::vector<PlannedConfiguration>;
+
+// "pose,q1_deg,…,qn_deg" (any angle unit suffix). Throws InputError with line numbers.
+Plan ReadPlanCsv(const std::string& path, int num_joints);
+std::string FormatPlanCsv(const Plan& plan);
+
+// `count` well-spread configurations within the joint limits: the D-optimal choice
+// (calibration selection) among `candidates` random ones.
+Plan WellSpreadPlan(const calibration::RobotModel& model, int count, int candidates, unsigned seed);
+
+// The paper's single-joint rotation test: joint `joint` (0-based) swept in `steps`
+// from the `start` posture over [lo, hi].
+Plan SingleJointPlan(const Eigen::VectorXd& start, int joint, double lo_rad, double hi_rad,
+                     int steps);
+
+// "FILE.csv", "auto:N" or "single-joint:J:STEPS" (J 1-based; sweep ±150° or the limits).
+Plan MakePlan(const std::string& spec, const calibration::RobotModel& model);
+
+// JSON array of {label, joints_rad} (stored with the session so it can be resumed).
+std::string PlanToJson(const Plan& plan);
+Plan PlanFromJson(const std::string& json);
+
+}  // namespace armsig::acquisition

@@ -1,0 +1,56 @@
+// A capture session: for every planned configuration, move the robot (or have the
+// operator move it), let it settle, read the joints and trigger every instrument at
+// once, intersect on the spot, check the miss distance and the repeatability, re-measure
+// when needed, and commit the configuration's joint readings, raw readings and reduced
+// point in one transaction. A session survives anything: resuming continues at the first
+// configuration not stored, and nothing committed is lost or duplicated.
+#pragma once
+
+#include <atomic>
+#include <functional>
+#include <memory>
+#include <string>
+
+#include "acquisition/lab.h"
+#include "acquisition/plan.h"
+#include "db/database.h"
+
+namespace armsig::acquisition {
+
+struct Progress {
+  int done = 0, total = 0, skipped = 0, remeasured = 0;
+  std::string label;
+  double last_miss_mm = 0.0, mean_miss_mm = 0.0, max_miss_mm = 0.0;
+  double elapsed_s = 0.0, eta_s = 0.0;
+};
+
+struct CaptureOptions {
+  bool skip_on_fault = false;               // else pause the session
+  const std::atomic<bool>* stop = nullptr;  // Ctrl-C: stop between configurations
+  std::function<void(const Progress&)> progress;
+  // Called when the controller cannot be commanded: the operator moves the robot.
+  std::function<void(const PlannedConfiguration&)> prompt_move;
+};
+
+struct CaptureSummary {
+  int64_t session = 0;
+  int total = 0, measured = 0, skipped = 0, remeasured = 0, already = 0;
+  bool completed = false, paused = false, stopped = false;
+  std::string pause_reason;
+  double mean_miss_mm = 0.0, max_miss_mm = 0.0;
+  double seconds = 0.0;
+  double mean_cycle_ms = 0.0;     // per configuration, measurement only
+  double mean_overhead_ms = 0.0;  // software time beyond the slowest device call
+};
+
+// A new session: the robot (created if new), the lab text, the plan and the stations'
+// set-ups, in one transaction. Returns its id.
+int64_t CreateSession(db::Database& db, const LabConfig& lab, const std::string& robot,
+                      const Plan& plan);
+
+CaptureSummary RunCapture(
+    db::Database& db, const LabConfig& lab, int64_t session,
+    std::vector<std::unique_ptr<instruments::DistanceInstrument>>& instruments,
+    instruments::RobotController& controller, const CaptureOptions& options);
+
+}  // namespace armsig::acquisition
