@@ -24,7 +24,7 @@ TEST(Cli, VersionAndUsageErrors) {
 }
 
 TEST(Cli, CommandsNotBuiltYetSaySoAndExitOne) {
-  const auto r = RunArmsig("capture --lab x.yaml");
+  const auto r = RunArmsig("recalibrate --robot r1");
   EXPECT_EQ(r.exit_code, 1);
   EXPECT_NE(r.err.find("not yet implemented"), std::string::npos);
 }
