@@ -42,6 +42,7 @@ struct Tolerances {
   int max_remeasure = 3;        // automatic re-measurements before giving up
   int settle_ms = 300;          // wait after a move
   int fault_retries = 2;        // session-level retries of a failing instrument
+  int fault_retry_delay_ms = 500;  // wait before each retry (a port coming back, an operator)
   bool two_face = false;        // measure in both faces
 };
 

@@ -161,6 +161,7 @@ CaptureSummary RunCapture(db::Database& db, const LabConfig& lab, int64_t sessio
     int attempts = 0;
     std::string fault;
     for (int fault_try = 0; fault_try <= lab.tolerances.fault_retries && !accepted; ++fault_try) {
+      if (fault_try > 0) std::this_thread::sleep_for(std::chrono::milliseconds(lab.tolerances.fault_retry_delay_ms));
       try {
         if (controller.CanMove())
           controller.MoveTo(target.joints_rad);

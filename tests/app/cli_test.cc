@@ -69,3 +69,13 @@ TEST(Cli, DbThatIsNotADatabaseIsAnInputError) {
 }
 
 }  // namespace armsig::testing
+
+#include "app/builtin_models.h"
+
+namespace armsig::testing {
+
+TEST(BuiltinModels, DemoPumaIsTheShippedModelFile) {
+  EXPECT_EQ(std::string(app::kPuma760Yaml), ReadText(SourcePath("models/puma760.yaml")));
+}
+
+}  // namespace armsig::testing
