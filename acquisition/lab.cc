@@ -110,6 +110,12 @@ LabConfig ParseLab(const std::string& text, const std::string& source) {
                        "cannot read robot model " + lab.robot_model_path);
   }
   lab.model = io::LoadRobotModel(lab.robot_model_path);
+  {
+    std::ifstream in(lab.robot_model_path);
+    std::stringstream text_stream;
+    text_stream << in.rdbuf();
+    lab.model_yaml = text_stream.str();
+  }
   const YAML::Node controller = robot["controller"];
   if (!controller)
     r.Fail(robot, "controller", "missing 'controller' (protocol val, as or counter)");

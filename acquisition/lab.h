@@ -50,6 +50,7 @@ struct LabConfig {
   std::string source;  // file it came from
   std::string text;    // the YAML as read (stored with the session)
   std::string robot_model_path;
+  std::string model_yaml;         // the robot model file's text (stored with the robot)
   calibration::RobotModel model;
   ControllerConfig controller;
   std::vector<InstrumentConfig> instruments;

@@ -19,7 +19,7 @@ using Clock = std::chrono::steady_clock;
 int64_t CreateSession(db::Database& db, const LabConfig& lab, const std::string& robot,
                       const Plan& plan) {
   SQLite::Transaction tx(db.sql());
-  const int64_t robot_id = db::EnsureRobot(db, robot, lab.model.name, lab.text);
+  const int64_t robot_id = db::EnsureRobot(db, robot, lab.model.name, lab.model_yaml);
   const int64_t session = db::CreateSession(db, robot_id, lab.text, PlanToJson(plan), "running",
                                             "capture from " + lab.source);
   for (const auto& s : lab.stations) {

@@ -30,6 +30,7 @@ void SetupRecalibrateCommand(CLI::App& parent, const GlobalOptions& global, Runn
 void SetupImportCommand(CLI::App& parent, const GlobalOptions& global, Runner& run);
 void SetupInstrumentCommand(CLI::App& parent, const GlobalOptions& global, Runner& run);
 void SetupDbCommand(CLI::App& parent, const GlobalOptions& global, Runner& run);
+void SetupSignatureCommands(CLI::App& parent, const GlobalOptions& global, Runner& run);
 
 // Builds the whole CLI (used by main and by tests).
 void SetupAll(CLI::App& app, GlobalOptions& global, Runner& run);

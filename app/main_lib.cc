@@ -32,6 +32,7 @@ void SetupAll(CLI::App& app, GlobalOptions& global, Runner& run) {
   SetupImportCommand(app, global, run);
   SetupInstrumentCommand(app, global, run);
   SetupDbCommand(app, global, run);
+  SetupSignatureCommands(app, global, run);
 }
 
 int Main(int argc, const char* const* argv) {

@@ -112,7 +112,8 @@ void Kinematics::TrueJointAngles(const Eigen::VectorXd& params, const double* jo
   const int g = model_.num_geometric();
   for (size_t k = 0; k < model_.nongeometric.size(); ++k) {
     const auto& term = model_.nongeometric[k];
-    true_rad[term.joint] += params[g + static_cast<int>(k)] * term.Evaluate(joints_rad);
+    true_rad[term.joint] +=
+        (params[g + static_cast<int>(k)] + term.fixed_rad) * term.Evaluate(joints_rad);
   }
 }
 

@@ -21,7 +21,8 @@ struct NongeometricTerm {
   std::string name;
   int joint = 0;  // 0-based joint whose true angle it corrects
   Basis basis = Basis::kCos;
-  std::vector<int> of;  // 0-based joints whose encoder angles are summed
+  std::vector<int> of;     // 0-based joints whose encoder angles are summed
+  double fixed_rad = 0.0;  // a correction already known (exported models); the parameter adds to it
 
   // Paper eq. (6)–(7): cos(Σθ̄) or SIGN[cos(Σθ̄)].
   double Evaluate(const double* joints_rad) const;
@@ -59,6 +60,8 @@ Eigen::Isometry3d JointRotation(double theta_rad);
 class Kinematics {
  public:
   explicit Kinematics(const RobotModel& model);
+  // The model is referenced, not copied: a temporary would dangle.
+  explicit Kinematics(RobotModel&&) = delete;
 
   // Target position in the measurement frame for encoder angles `joints_rad`.
   Eigen::Vector3d Position(const Eigen::Isometry3d& world_from_base, const Eigen::VectorXd& params,
@@ -109,7 +112,8 @@ Eigen::Matrix<T, 3, 1> TargetPosition(const RobotModel& model,
   for (int i = 0; i < n; ++i) theta[i] = T(joints_rad[i]);
   for (size_t k = 0; k < model.nongeometric.size(); ++k) {
     const auto& term = model.nongeometric[k];
-    theta[term.joint] += params[model.num_geometric() + k] * term.Evaluate(joints_rad);
+    theta[term.joint] +=
+        (params[model.num_geometric() + k] + T(term.fixed_rad)) * term.Evaluate(joints_rad);
   }
   auto rx = [](const T& a) {
     Mat4 m = Mat4::Identity();

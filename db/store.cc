@@ -381,3 +381,88 @@ std::pair<int64_t, int> InsertCalibration(Database& db, const CalibrationRecord&
 }
 
 }  // namespace armsig::db
+
+#include <nlohmann/json.hpp>
+
+namespace armsig::db {
+
+std::vector<MeasuredPose> LoadRobotPoses(Database& db, int64_t robot_id, const std::string& since,
+                                         int64_t* max_pose_row) {
+  SQLite::Statement q(
+      db.sql(),
+      "SELECT s.id, p.label, p.joints_json, pt.x_mm, pt.y_mm, pt.z_mm, p.id FROM poses p "
+      "JOIN sessions s ON s.id = p.session_id JOIN points pt ON pt.pose_id = p.id "
+      "WHERE s.robot_id = ? AND p.status = 'measured' AND pt.x_mm IS NOT NULL "
+      "AND p.joints_json IS NOT NULL AND (? = '' OR s.started_at >= ?) ORDER BY p.id");
+  q.bind(1, robot_id);
+  q.bind(2, since);
+  q.bind(3, since);
+  std::vector<MeasuredPose> out;
+  int64_t newest = 0;
+  while (q.executeStep()) {
+    MeasuredPose pose;
+    pose.id = std::to_string(q.getColumn(0).getInt64()) + ":" + q.getColumn(1).getString();
+    const auto joints =
+        nlohmann::json::parse(q.getColumn(2).getString()).get<std::vector<double>>();
+    pose.joints_rad = Eigen::Map<const Eigen::VectorXd>(joints.data(), joints.size());
+    pose.target_in_world = {q.getColumn(3).getDouble(), q.getColumn(4).getDouble(),
+                            q.getColumn(5).getDouble()};
+    newest = std::max<int64_t>(newest, q.getColumn(6).getInt64());
+    out.push_back(std::move(pose));
+  }
+  if (max_pose_row) *max_pose_row = newest;
+  return out;
+}
+
+std::vector<StoredCalibration> CalibrationHistory(Database& db, int64_t robot_id) {
+  std::vector<StoredCalibration> out;
+  SQLite::Statement q(
+      db.sql(),
+      "SELECT id, version, active, created_at, params_spec, inputs_json, coalesce(report_json,''), "
+      "validation_mean_mm, validation_max_mm FROM calibrations WHERE robot_id = ? ORDER BY "
+      "version");
+  q.bind(1, robot_id);
+  while (q.executeStep()) {
+    StoredCalibration c;
+    c.id = q.getColumn(0).getInt64();
+    c.version = q.getColumn(1).getInt();
+    c.active = q.getColumn(2).getInt() != 0;
+    c.created_at = q.getColumn(3).getString();
+    c.params_spec = q.getColumn(4).getString();
+    c.inputs_json = q.getColumn(5).getString();
+    c.report_json = q.getColumn(6).getString();
+    if (!q.getColumn(7).isNull()) c.validation_mean_mm = q.getColumn(7).getDouble();
+    if (!q.getColumn(8).isNull()) c.validation_max_mm = q.getColumn(8).getDouble();
+    SQLite::Statement p(db.sql(),
+                        "SELECT name, value, unit, identified, sigma FROM calibration_parameters "
+                        "WHERE calibration_id = ? "
+                        "ORDER BY rowid");
+    p.bind(1, c.id);
+    while (p.executeStep()) {
+      CalibrationRecord::Parameter param;
+      param.name = p.getColumn(0).getString();
+      param.value = p.getColumn(1).getDouble();
+      param.unit = p.getColumn(2).getString();
+      param.identified = p.getColumn(3).getInt() != 0;
+      param.sigma = p.getColumn(4).isNull() ? NAN : p.getColumn(4).getDouble();
+      c.parameters.push_back(param);
+    }
+    out.push_back(std::move(c));
+  }
+  return out;
+}
+
+std::optional<StoredCalibration> ActiveCalibration(Database& db, int64_t robot_id) {
+  for (auto& c : CalibrationHistory(db, robot_id)) {
+    if (c.active) return c;
+  }
+  return std::nullopt;
+}
+
+std::string RobotModelYaml(Database& db, int64_t robot_id) {
+  SQLite::Statement q(db.sql(), "SELECT model_yaml FROM robots WHERE id = ?");
+  q.bind(1, robot_id);
+  return q.executeStep() ? q.getColumn(0).getString() : std::string();
+}
+
+}  // namespace armsig::db

@@ -119,3 +119,25 @@ struct CalibrationRecord {
 std::pair<int64_t, int> InsertCalibration(Database& db, const CalibrationRecord& record);
 
 }  // namespace armsig::db
+
+namespace armsig::db {
+
+// Every measured configuration of the robot with a reduced point: joints + target.
+// Pose ids are "<session>:<label>". `since`: ISO date/time lower bound on the session
+// start (empty = all). `max_pose_row` receives the newest pose row id (for idempotence).
+std::vector<MeasuredPose> LoadRobotPoses(Database& db, int64_t robot_id, const std::string& since,
+                                         int64_t* max_pose_row = nullptr);
+
+struct StoredCalibration {
+  int64_t id = 0;
+  int version = 0;
+  bool active = false;
+  std::string created_at, params_spec, inputs_json, report_json;
+  double validation_mean_mm = NAN, validation_max_mm = NAN;
+  std::vector<CalibrationRecord::Parameter> parameters;
+};
+std::vector<StoredCalibration> CalibrationHistory(Database& db, int64_t robot_id);  // by version
+std::optional<StoredCalibration> ActiveCalibration(Database& db, int64_t robot_id);
+std::string RobotModelYaml(Database& db, int64_t robot_id);
+
+}  // namespace armsig::db

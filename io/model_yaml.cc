@@ -157,6 +157,7 @@ class Parser {
           if (k < 1 || k > n) Fail(j, "of", "expected a joint number 1…" + std::to_string(n));
           term.of.push_back(k - 1);
         }
+        if (node["value_rad"]) term.fixed_rad = Number(node["value_rad"], "value_rad");
         model.nongeometric.push_back(std::move(term));
       }
     }

@@ -23,12 +23,6 @@ TEST(Cli, VersionAndUsageErrors) {
   EXPECT_EQ(RunArmsig("calibrate --model").exit_code, 2);
 }
 
-TEST(Cli, CommandsNotBuiltYetSaySoAndExitOne) {
-  const auto r = RunArmsig("recalibrate --robot r1");
-  EXPECT_EQ(r.exit_code, 1);
-  EXPECT_NE(r.err.find("not yet implemented"), std::string::npos);
-}
-
 TEST(Cli, DbInfoCreatesTheFileAndReportsTheSchema) {
   TempDir dir;
   const auto r = RunArmsig("--db '" + dir.File("lab.db") + "' db info");

@@ -1,0 +1,125 @@
+#include "calibration/compensation.h"
+
+#include <Eigen/Cholesky>
+#include <Eigen/SVD>
+#include <cmath>
+#include <stdexcept>
+
+namespace armsig::calibration {
+
+std::optional<Eigen::Isometry3d> AlignBaseWithParams(const RobotModel& model,
+                                                     const Eigen::VectorXd& params,
+                                                     const std::vector<MeasuredPose>& poses) {
+  const int m = static_cast<int>(poses.size());
+  if (m < 3) return std::nullopt;
+  Kinematics kin(model);
+  Eigen::Matrix3Xd from(3, m), to(3, m);
+  for (int i = 0; i < m; ++i) {
+    from.col(i) = kin.Position(Eigen::Isometry3d::Identity(), params, poses[i].joints_rad.data());
+    to.col(i) = poses[i].target_in_world;
+  }
+  const Eigen::Matrix3Xd centred = from.colwise() - from.rowwise().mean();
+  Eigen::JacobiSVD<Eigen::Matrix3Xd> svd(centred);
+  if (svd.singularValues()(1) < 1e-6 * svd.singularValues()(0)) return std::nullopt;
+  Eigen::Isometry3d base = Eigen::Isometry3d::Identity();
+  base.matrix() = Eigen::umeyama(from, to, false);
+  return base;
+}
+
+void JointSolveOptions::Check() const {
+  if (!(tolerance_mm > 0) || max_iterations < 1 || !(damping_mm >= 0) || !(max_step_rad > 0)) {
+    throw std::invalid_argument("invalid joint solver options");
+  }
+}
+
+JointSolution SolveJoints(const RobotModel& model, const Eigen::Isometry3d& world_from_base,
+                          const Eigen::VectorXd& params, const Eigen::Vector3d& target_mm,
+                          const Eigen::VectorXd& seed_rad, const JointSolveOptions& options) {
+  options.Check();
+  const int n = model.num_joints();
+  Kinematics kin(model);
+  JointSolution s;
+  s.joints_rad = seed_rad;
+  Eigen::Matrix<double, 3, Eigen::Dynamic> jp(3, model.num_parameters());
+  double best = INFINITY;
+  int stalled = 0;
+  for (; s.iterations < options.max_iterations; ++s.iterations) {
+    const Eigen::Vector3d x =
+        kin.PositionAndJacobian(world_from_base, params, s.joints_rad.data(), jp);
+    const Eigen::Vector3d e = target_mm - x;
+    s.residual_mm = e.norm();
+    if (s.residual_mm < options.tolerance_mm) break;
+    // ∂x/∂θ̄ (encoder angles): the joint Jacobian, plus the h-terms' dependence is second
+    // order (h · sin) and left to the iteration.
+    const Eigen::MatrixXd j = kin.JointJacobian();
+    const double lambda = options.damping_mm * std::min(1.0, s.residual_mm / 10.0);
+    const Eigen::Matrix3d jjt = j * j.transpose() + lambda * lambda * Eigen::Matrix3d::Identity();
+    Eigen::VectorXd step = j.transpose() * jjt.ldlt().solve(e);
+    const double largest = step.cwiseAbs().maxCoeff();
+    if (largest > options.max_step_rad) step *= options.max_step_rad / largest;
+    s.joints_rad += step;
+    if (s.residual_mm < best * 0.999) {
+      best = s.residual_mm;
+      stalled = 0;
+    } else if (++stalled > 20) {
+      break;
+    }
+  }
+  s.residual_mm = (target_mm - kin.Position(world_from_base, params, s.joints_rad.data())).norm();
+  if (s.residual_mm > options.tolerance_mm * 10) {
+    s.status = JointSolveStatus::kUnreachable;
+    s.reason =
+        "no joint angles reach the target (closest " + std::to_string(s.residual_mm) + " mm)";
+    return s;
+  }
+  if (static_cast<int>(model.joint_min_rad.size()) == n) {
+    for (int i = 0; i < n; ++i) {
+      if (s.joints_rad(i) < model.joint_min_rad[i] || s.joints_rad(i) > model.joint_max_rad[i]) {
+        s.status = JointSolveStatus::kOutsideLimits;
+        s.reason = "joint " + std::to_string(i + 1) + " outside its limits";
+        return s;
+      }
+    }
+  }
+  return s;
+}
+
+RobotModel CorrectedModel(const RobotModel& model, const Eigen::VectorXd& params,
+                          const std::optional<Eigen::Isometry3d>& world_from_base) {
+  RobotModel out = model;
+  const int n = model.num_joints();
+  auto h = [&](int i) {
+    const double* p = params.data() + 6 * i;
+    return ErrorTransform(p[0], p[1], p[2], p[3], p[4], p[5]);
+  };
+  const Eigen::Isometry3d base =
+      world_from_base.value_or(model.base.value_or(Eigen::Isometry3d::Identity()));
+  out.base = base * h(0);
+  for (int i = 1; i < n; ++i) out.links[i - 1] = model.links[i - 1] * h(i);
+  out.tool_mm = model.tool_mm + params.segment<3>(6 * n);
+  for (size_t k = 0; k < out.nongeometric.size(); ++k) {
+    out.nongeometric[k].fixed_rad += params(model.num_geometric() + static_cast<int>(k));
+  }
+  out.name = model.name + "-calibrated";
+  return out;
+}
+
+std::vector<ParameterChange> CompareParameters(const Eigen::VectorXd& old_params,
+                                               const Eigen::VectorXd& old_sigmas,
+                                               const Eigen::VectorXd& new_params,
+                                               const Eigen::VectorXd& new_sigmas) {
+  std::vector<ParameterChange> out;
+  for (int k = 0; k < old_params.size(); ++k) {
+    ParameterChange c;
+    c.parameter = k;
+    c.change = new_params(k) - old_params(k);
+    const double so = std::isfinite(old_sigmas(k)) ? old_sigmas(k) : 0.0;
+    const double sn = std::isfinite(new_sigmas(k)) ? new_sigmas(k) : 0.0;
+    const double s = std::sqrt(so * so + sn * sn);
+    c.z = s > 0 ? c.change / s : 0.0;
+    out.push_back(c);
+  }
+  return out;
+}
+
+}  // namespace armsig::calibration
