@@ -214,7 +214,9 @@ LabConfig ParseLab(const std::string& text, const std::string& source) {
     if (t["settle_ms"]) tol.settle_ms = static_cast<int>(r.Number(t["settle_ms"], "settle_ms"));
     if (t["fault_retries"])
       tol.fault_retries = static_cast<int>(r.Number(t["fault_retries"], "fault_retries"));
-    if (t["fault_retry_delay_ms"]) tol.fault_retry_delay_ms = static_cast<int>(r.Number(t["fault_retry_delay_ms"], "fault_retry_delay_ms"));
+    if (t["fault_retry_delay_ms"])
+      tol.fault_retry_delay_ms =
+          static_cast<int>(r.Number(t["fault_retry_delay_ms"], "fault_retry_delay_ms"));
     if (t["two_face"]) tol.two_face = r.Flag(t["two_face"], "two_face");
     if (t["timeout_ms"])
       lab.policy.timeout =

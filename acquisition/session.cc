@@ -161,7 +161,8 @@ CaptureSummary RunCapture(db::Database& db, const LabConfig& lab, int64_t sessio
     int attempts = 0;
     std::string fault;
     for (int fault_try = 0; fault_try <= lab.tolerances.fault_retries && !accepted; ++fault_try) {
-      if (fault_try > 0) std::this_thread::sleep_for(std::chrono::milliseconds(lab.tolerances.fault_retry_delay_ms));
+      if (fault_try > 0)
+        std::this_thread::sleep_for(std::chrono::milliseconds(lab.tolerances.fault_retry_delay_ms));
       try {
         if (controller.CanMove())
           controller.MoveTo(target.joints_rad);
@@ -276,34 +277,7 @@ CaptureSummary RunCapture(db::Database& db, const LabConfig& lab, int64_t sessio
         point.flags = reduction::ToString(m.point.status);
       }
       // Append this configuration's point (other sessions' points are untouched).
-      SQLite::Statement ins(
-          db.sql(),
-          "INSERT INTO points(session_id, pose_id, point, x_mm, y_mm, z_mm, sx_mm, sy_mm, sz_mm, "
-          "rays, rejected_rays, sigma0, miss_mm, flags) VALUES (?,?,?,?,?,?,?,?,?,?,?,?,?,?)");
-      ins.bind(1, session);
-      ins.bind(2, pose);
-      ins.bind(3, point.point);
-      for (int k = 0; k < 3; ++k) {
-        if (point.position_mm) {
-          ins.bind(4 + k, (*point.position_mm)(k));
-          ins.bind(7 + k, std::sqrt(point.covariance_mm2(k, k)));
-        } else {
-          ins.bind(4 + k);
-          ins.bind(7 + k);
-        }
-      }
-      ins.bind(10, point.rays);
-      ins.bind(11, point.rejected_rays);
-      if (std::isfinite(point.sigma0))
-        ins.bind(12, point.sigma0);
-      else
-        ins.bind(12);
-      if (std::isfinite(point.miss_mm))
-        ins.bind(13, point.miss_mm);
-      else
-        ins.bind(13);
-      ins.bind(14, point.flags);
-      ins.exec();
+      db::InsertPoint(db, session, point);
       tx.commit();
       ++summary.measured;
     }

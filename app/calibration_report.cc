@@ -305,4 +305,50 @@ nlohmann::json CalibrationJson(const calibration::RobotModel& model, const Calib
   return out;
 }
 
+db::CalibrationRecord CalibrationRecordOf(const calibration::RobotModel& model,
+                                          const CalibrationRun& run, int64_t robot_id,
+                                          const nlohmann::json& inputs,
+                                          const nlohmann::json& options, bool active) {
+  const auto& e = run.estimate;
+  const auto v = StatsOf(run.validation_residuals);
+  db::CalibrationRecord c;
+  c.robot_id = robot_id;
+  c.params_spec = run.params_spec;
+  c.inputs_json = inputs.dump();
+  c.options_json = options.dump();
+  c.report_json = CalibrationJson(model, run).dump();
+  c.rank = e.identifiability.rank;
+  c.poses_fit = static_cast<int>(run.fit_pose_ids.size());
+  c.poses_validation = static_cast<int>(run.validation_pose_ids.size());
+  c.nominal_mean_mm = e.nominal.mean_mm;
+  c.nominal_max_mm = e.nominal.max_mm;
+  c.nominal_rms_mm = e.nominal.rms_mm;
+  c.fit_mean_mm = e.fit.mean_mm;
+  c.fit_max_mm = e.fit.max_mm;
+  c.fit_rms_mm = e.fit.rms_mm;
+  if (v.poses > 0) {
+    c.validation_mean_mm = v.mean_mm;
+    c.validation_max_mm = v.max_mm;
+    c.validation_rms_mm = v.rms_mm;
+  }
+  c.active = active;
+  const auto names = model.ParameterNames();
+  std::vector<char> identified(model.num_parameters(), 0);
+  for (int k : e.identifiability.identified) identified[k] = 1;
+  for (int k = 0; k < model.num_parameters(); ++k) {
+    c.parameters.push_back({names[k],
+                            model.UnitOf(k) == calibration::ParameterUnit::kMm ? "mm" : "rad",
+                            e.params(k), identified[k] ? e.sigmas(k) : NAN, identified[k] != 0});
+  }
+  for (size_t i = 0; i < run.fit_pose_ids.size(); ++i) {
+    c.residuals.push_back(
+        {run.fit_pose_ids[i], "fit", e.fit_residuals[i], e.nominal_residuals[i].norm()});
+  }
+  for (size_t i = 0; i < run.validation_pose_ids.size(); ++i) {
+    c.residuals.push_back({run.validation_pose_ids[i], "validation", run.validation_residuals[i],
+                           run.validation_nominal_residuals[i].norm()});
+  }
+  return c;
+}
+
 }  // namespace armsig::app

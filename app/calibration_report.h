@@ -10,6 +10,7 @@
 #include "calibration/estimation.h"
 #include "calibration/selection.h"
 #include "core/types.h"
+#include "db/store.h"
 
 namespace armsig::app {
 
@@ -44,5 +45,11 @@ std::string FormatCalibrationReport(const calibration::RobotModel& model,
                                     const CalibrationRun& run);
 
 nlohmann::json CalibrationJson(const calibration::RobotModel& model, const CalibrationRun& run);
+
+// The database record of a calibration run (parameters, statistics, residuals).
+db::CalibrationRecord CalibrationRecordOf(const calibration::RobotModel& model,
+                                          const CalibrationRun& run, int64_t robot_id,
+                                          const nlohmann::json& inputs,
+                                          const nlohmann::json& options, bool active);
 
 }  // namespace armsig::app

@@ -53,50 +53,6 @@ calibration::ErrorStats ValidationStats(const CalibrationRun& run) {
   return calibration::Summarise(calibration::Distances(run.validation_residuals));
 }
 
-db::CalibrationRecord ToRecord(const calibration::RobotModel& model, const CalibrationRun& run,
-                               int64_t robot, int64_t session) {
-  db::CalibrationRecord c;
-  const auto& e = run.estimate;
-  c.robot_id = robot;
-  c.params_spec = run.params_spec;
-  c.inputs_json = nlohmann::json{{"session", session},
-                                 {"poses_fit", run.fit_pose_ids.size()},
-                                 {"poses_validation", run.validation_pose_ids.size()}}
-                      .dump();
-  c.options_json = nlohmann::json{{"params", run.params_spec}, {"selection", "D-optimal"}}.dump();
-  c.rank = e.identifiability.rank;
-  c.poses_fit = static_cast<int>(run.fit_pose_ids.size());
-  c.poses_validation = static_cast<int>(run.validation_pose_ids.size());
-  c.nominal_mean_mm = e.nominal.mean_mm;
-  c.nominal_max_mm = e.nominal.max_mm;
-  c.nominal_rms_mm = e.nominal.rms_mm;
-  c.fit_mean_mm = e.fit.mean_mm;
-  c.fit_max_mm = e.fit.max_mm;
-  c.fit_rms_mm = e.fit.rms_mm;
-  const auto v = ValidationStats(run);
-  c.validation_mean_mm = v.mean_mm;
-  c.validation_max_mm = v.max_mm;
-  c.validation_rms_mm = v.rms_mm;
-  c.report_json = CalibrationJson(model, run).dump();
-  const auto names = model.ParameterNames();
-  std::vector<char> identified(model.num_parameters(), 0);
-  for (int k : e.identifiability.identified) identified[k] = 1;
-  for (int k = 0; k < model.num_parameters(); ++k) {
-    c.parameters.push_back({names[k],
-                            model.UnitOf(k) == calibration::ParameterUnit::kMm ? "mm" : "rad",
-                            e.params(k), identified[k] ? e.sigmas(k) : NAN, identified[k] != 0});
-  }
-  for (size_t i = 0; i < run.fit_pose_ids.size(); ++i) {
-    c.residuals.push_back(
-        {run.fit_pose_ids[i], "fit", e.fit_residuals[i], e.nominal_residuals[i].norm()});
-  }
-  for (size_t i = 0; i < run.validation_pose_ids.size(); ++i) {
-    c.residuals.push_back({run.validation_pose_ids[i], "validation", run.validation_residuals[i],
-                           run.validation_nominal_residuals[i].norm()});
-  }
-  return c;
-}
-
 }  // namespace
 
 int RunDemo(const DemoOptions& options, const GlobalOptions& global) {
@@ -255,30 +211,12 @@ int RunDemo(const DemoOptions& options, const GlobalOptions& global) {
 
   // --- Reduction in the database, then the poses for calibration.
   const auto reduced = ReduceSession(database, session, reduction::IntersectionOptions{});
-  std::vector<MeasuredPose> poses;
+  std::vector<Eigen::Matrix3d> covariances;
+  const std::vector<MeasuredPose> poses = db::LoadSessionPoses(database, session, &covariances);
   double noise_floor = 0.0;
-  {
-    SQLite::Statement q(
-        database.sql(),
-        "SELECT p.label, p.joints_json, pt.x_mm, pt.y_mm, pt.z_mm, pt.covariance_json FROM poses p "
-        "JOIN points pt ON pt.pose_id = p.id WHERE p.session_id = ? AND pt.x_mm IS NOT NULL ORDER "
-        "BY p.seq");
-    q.bind(1, session);
-    while (q.executeStep()) {
-      MeasuredPose pose;
-      pose.id = q.getColumn(0).getString();
-      const auto joints =
-          nlohmann::json::parse(q.getColumn(1).getString()).get<std::vector<double>>();
-      pose.joints_rad = Eigen::Map<const Eigen::VectorXd>(joints.data(), joints.size());
-      pose.target_in_world = {q.getColumn(2).getDouble(), q.getColumn(3).getDouble(),
-                              q.getColumn(4).getDouble()};
-      const auto cov = nlohmann::json::parse(q.getColumn(5).getString()).get<std::vector<double>>();
-      // Mean length of a 3-D normal error with this covariance ≈ 0.921·√trace (isotropic).
-      noise_floor += 0.921 * std::sqrt(cov[0] + cov[4] + cov[8]);
-      poses.push_back(std::move(pose));
-    }
-    noise_floor /= std::max<size_t>(1, poses.size());
-  }
+  // Mean length of a 3-D normal error with these covariances ≈ 0.921·√trace (isotropic).
+  for (const auto& c : covariances)
+    noise_floor += 0.921 * std::sqrt(c.trace()) / covariances.size();
   std::cout << fmt::format(
       "3. reduced {} observations into {} points ({} rays rejected); point precision: mean "
       "3-D error {:.4f} mm\n",
@@ -320,7 +258,9 @@ int RunDemo(const DemoOptions& options, const GlobalOptions& global) {
     stage["params"] = spec;
     stages.push_back(stage);
     SQLite::Transaction tx(database.sql());
-    db::InsertCalibration(database, ToRecord(model, run, robot_id, session));
+    db::InsertCalibration(
+        database, CalibrationRecordOf(model, run, robot_id, {{"session", session}},
+                                      {{"params", spec}, {"selection", "D-optimal"}}, false));
     tx.commit();
     runs.push_back(std::move(run));
   }

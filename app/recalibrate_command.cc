@@ -241,50 +241,15 @@ int RunRecalibrate(const RecalibrateOptions& o, const GlobalOptions& global) {
   int version = 0;
   std::string decision;
   if (pass) {
-    db::CalibrationRecord record;
-    record.robot_id = *robot_id;
-    record.params_spec = run.params_spec;
-    record.inputs_json = inputs.dump();
-    record.options_json = nlohmann::json{{"select", settings.select},
-                                         {"params", o.params},
-                                         {"gates",
-                                          {{"max_mean_mm", gates.max_mean_mm},
-                                           {"max_max_mm", gates.max_max_mm},
-                                           {"tolerance_mm", gates.tolerance_mm},
-                                           {"drift_sigma", gates.drift_sigma}}}}
-                              .dump();
-    record.report_json = CalibrationJson(model, run).dump();
-    record.rank = run.estimate.identifiability.rank;
-    record.poses_fit = static_cast<int>(run.fit_pose_ids.size());
-    record.poses_validation = static_cast<int>(run.validation_pose_ids.size());
-    record.nominal_mean_mm = run.estimate.nominal.mean_mm;
-    record.nominal_max_mm = run.estimate.nominal.max_mm;
-    record.nominal_rms_mm = run.estimate.nominal.rms_mm;
-    record.fit_mean_mm = run.estimate.fit.mean_mm;
-    record.fit_max_mm = run.estimate.fit.max_mm;
-    record.fit_rms_mm = run.estimate.fit.rms_mm;
-    record.validation_mean_mm = new_validation.mean_mm;
-    record.validation_max_mm = new_validation.max_mm;
-    record.validation_rms_mm = new_validation.rms_mm;
-    record.active = true;
-    const auto names = model.ParameterNames();
-    std::vector<char> identified(model.num_parameters(), 0);
-    for (int k : run.estimate.identifiability.identified) identified[k] = 1;
-    for (int k = 0; k < model.num_parameters(); ++k) {
-      record.parameters.push_back(
-          {names[k], model.UnitOf(k) == calibration::ParameterUnit::kMm ? "mm" : "rad",
-           run.estimate.params(k), identified[k] ? run.estimate.sigmas(k) : NAN,
-           identified[k] != 0});
-    }
-    for (size_t i = 0; i < run.fit_pose_ids.size(); ++i) {
-      record.residuals.push_back({run.fit_pose_ids[i], "fit", run.estimate.fit_residuals[i],
-                                  run.estimate.nominal_residuals[i].norm()});
-    }
-    for (size_t i = 0; i < run.validation_pose_ids.size(); ++i) {
-      record.residuals.push_back({run.validation_pose_ids[i], "validation",
-                                  run.validation_residuals[i],
-                                  run.validation_nominal_residuals[i].norm()});
-    }
+    const nlohmann::json options = {{"select", settings.select},
+                                    {"params", o.params},
+                                    {"gates",
+                                     {{"max_mean_mm", gates.max_mean_mm},
+                                      {"max_max_mm", gates.max_max_mm},
+                                      {"tolerance_mm", gates.tolerance_mm},
+                                      {"drift_sigma", gates.drift_sigma}}}};
+    const db::CalibrationRecord record =
+        CalibrationRecordOf(model, run, *robot_id, inputs, options, true);
     SQLite::Transaction tx(database.sql());
     version = db::InsertCalibration(database, record).second;
     tx.commit();

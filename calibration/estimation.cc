@@ -10,6 +10,7 @@
 #include <sstream>
 #include <stdexcept>
 
+#include "calibration/compensation.h"
 #include "calibration/statistics.h"
 
 namespace armsig::calibration {
@@ -61,23 +62,7 @@ ErrorStats Summarise(const std::vector<double>& distances_mm) {
 
 std::optional<Eigen::Isometry3d> AlignBase(const RobotModel& model,
                                            const std::vector<MeasuredPose>& poses) {
-  const int m = static_cast<int>(poses.size());
-  if (m < 3) return std::nullopt;
-  Kinematics kin(model);
-  const Eigen::VectorXd zero = Eigen::VectorXd::Zero(model.num_parameters());
-  Eigen::Matrix3Xd nominal(3, m), measured(3, m);
-  for (int i = 0; i < m; ++i) {
-    nominal.col(i) = kin.Position(Eigen::Isometry3d::Identity(), zero, poses[i].joints_rad.data());
-    measured.col(i) = poses[i].target_in_world;
-  }
-  // Degenerate when the nominal points do not span a plane (second singular value ~ 0).
-  const Eigen::Matrix3Xd centred = nominal.colwise() - nominal.rowwise().mean();
-  Eigen::JacobiSVD<Eigen::Matrix3Xd> svd(centred);
-  const auto& s = svd.singularValues();
-  if (!(s(0) > 0.0) || s(1) < 1e-6 * s(0)) return std::nullopt;
-  Eigen::Isometry3d base = Eigen::Isometry3d::Identity();
-  base.matrix() = Eigen::umeyama(nominal, measured, /*with_scaling=*/false);
-  return base;
+  return AlignBaseWithParams(model, Eigen::VectorXd::Zero(model.num_parameters()), poses);
 }
 
 std::vector<Eigen::Vector3d> Residuals(const RobotModel& model,

@@ -2,6 +2,7 @@
 
 #include <cmath>
 #include <cstdio>
+#include <nlohmann/json.hpp>
 
 namespace armsig::db {
 
@@ -251,38 +252,39 @@ std::vector<ObservationRow> LoadObservations(Database& db, int64_t session_id) {
   return out;
 }
 
+void InsertPoint(Database& db, int64_t session_id, const PointRow& p) {
+  SQLite::Statement s(
+      db.sql(),
+      "INSERT INTO points(session_id, pose_id, point, x_mm, y_mm, z_mm, sx_mm, sy_mm, "
+      "sz_mm, covariance_json, rays, rejected_rays, sigma0, miss_mm, flags) "
+      "VALUES (?,?,?,?,?,?,?,?,?,?,?,?,?,?,?)");
+  s.bind(1, session_id);
+  if (p.pose_id)
+    s.bind(2, *p.pose_id);
+  else
+    s.bind(2);
+  s.bind(3, p.point);
+  if (p.position_mm) {
+    for (int k = 0; k < 3; ++k) s.bind(4 + k, (*p.position_mm)(k));
+    for (int k = 0; k < 3; ++k) s.bind(7 + k, std::sqrt(p.covariance_mm2(k, k)));
+    const Eigen::Matrix<double, 3, 3, Eigen::RowMajor> c = p.covariance_mm2;
+    s.bind(10, JsonArray(c.data(), 9));
+  } else {
+    for (int k = 4; k <= 10; ++k) s.bind(k);
+  }
+  s.bind(11, p.rays);
+  s.bind(12, p.rejected_rays);
+  BindOptional(s, 13, p.sigma0);
+  BindOptional(s, 14, p.miss_mm);
+  s.bind(15, p.flags);
+  s.exec();
+}
+
 void ReplacePoints(Database& db, int64_t session_id, const std::vector<PointRow>& points) {
   SQLite::Statement del(db.sql(), "DELETE FROM points WHERE session_id = ?");
   del.bind(1, session_id);
   del.exec();
-  SQLite::Statement s(
-      db.sql(),
-      "INSERT INTO points(session_id, pose_id, point, x_mm, y_mm, z_mm, sx_mm, sy_mm, sz_mm, "
-      "covariance_json, rays, rejected_rays, sigma0, miss_mm, flags) "
-      "VALUES (?,?,?,?,?,?,?,?,?,?,?,?,?,?,?)");
-  for (const auto& p : points) {
-    s.reset();
-    s.bind(1, session_id);
-    if (p.pose_id)
-      s.bind(2, *p.pose_id);
-    else
-      s.bind(2);
-    s.bind(3, p.point);
-    if (p.position_mm) {
-      for (int k = 0; k < 3; ++k) s.bind(4 + k, (*p.position_mm)(k));
-      for (int k = 0; k < 3; ++k) s.bind(7 + k, std::sqrt(p.covariance_mm2(k, k)));
-      const Eigen::Matrix<double, 3, 3, Eigen::RowMajor> c = p.covariance_mm2;
-      s.bind(10, JsonArray(c.data(), 9));
-    } else {
-      for (int k = 4; k <= 10; ++k) s.bind(k);
-    }
-    s.bind(11, p.rays);
-    s.bind(12, p.rejected_rays);
-    BindOptional(s, 13, p.sigma0);
-    BindOptional(s, 14, p.miss_mm);
-    s.bind(15, p.flags);
-    s.exec();
-  }
+  for (const auto& p : points) InsertPoint(db, session_id, p);
 }
 
 }  // namespace armsig::db
@@ -382,8 +384,6 @@ std::pair<int64_t, int> InsertCalibration(Database& db, const CalibrationRecord&
 
 }  // namespace armsig::db
 
-#include <nlohmann/json.hpp>
-
 namespace armsig::db {
 
 std::vector<MeasuredPose> LoadRobotPoses(Database& db, int64_t robot_id, const std::string& since,
@@ -457,6 +457,38 @@ std::optional<StoredCalibration> ActiveCalibration(Database& db, int64_t robot_i
     if (c.active) return c;
   }
   return std::nullopt;
+}
+
+std::vector<MeasuredPose> LoadSessionPoses(Database& db, int64_t session_id,
+                                           std::vector<Eigen::Matrix3d>* covariances) {
+  SQLite::Statement q(
+      db.sql(),
+      "SELECT p.label, p.joints_json, pt.x_mm, pt.y_mm, pt.z_mm, "
+      "coalesce(pt.covariance_json, '') FROM poses p JOIN points pt ON pt.pose_id = p.id "
+      "WHERE p.session_id = ? AND pt.x_mm IS NOT NULL AND p.joints_json IS NOT NULL "
+      "ORDER BY p.seq");
+  q.bind(1, session_id);
+  std::vector<MeasuredPose> out;
+  while (q.executeStep()) {
+    MeasuredPose pose;
+    pose.id = q.getColumn(0).getString();
+    const auto joints =
+        nlohmann::json::parse(q.getColumn(1).getString()).get<std::vector<double>>();
+    pose.joints_rad = Eigen::Map<const Eigen::VectorXd>(joints.data(), joints.size());
+    pose.target_in_world = {q.getColumn(2).getDouble(), q.getColumn(3).getDouble(),
+                            q.getColumn(4).getDouble()};
+    if (covariances) {
+      Eigen::Matrix3d c = Eigen::Matrix3d::Constant(NAN);
+      const std::string text = q.getColumn(5).getString();
+      if (!text.empty()) {
+        const auto v = nlohmann::json::parse(text).get<std::vector<double>>();
+        c = Eigen::Map<const Eigen::Matrix<double, 3, 3, Eigen::RowMajor>>(v.data());
+      }
+      covariances->push_back(c);
+    }
+    out.push_back(std::move(pose));
+  }
+  return out;
 }
 
 std::string RobotModelYaml(Database& db, int64_t robot_id) {

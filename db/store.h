@@ -72,6 +72,8 @@ struct PointRow {
   double miss_mm = std::numeric_limits<double>::quiet_NaN();
   std::string flags;
 };
+// Adds one reduced point (call inside the configuration's transaction).
+void InsertPoint(Database& db, int64_t session_id, const PointRow& point);
 // Replaces the session's reduced points (call inside a transaction).
 void ReplacePoints(Database& db, int64_t session_id, const std::vector<PointRow>& points);
 
@@ -139,5 +141,10 @@ struct StoredCalibration {
 std::vector<StoredCalibration> CalibrationHistory(Database& db, int64_t robot_id);  // by version
 std::optional<StoredCalibration> ActiveCalibration(Database& db, int64_t robot_id);
 std::string RobotModelYaml(Database& db, int64_t robot_id);
+
+// A session's measured configurations with their reduced points, in plan order, and
+// each point's covariance (mm²).
+std::vector<MeasuredPose> LoadSessionPoses(Database& db, int64_t session_id,
+                                           std::vector<Eigen::Matrix3d>* covariances = nullptr);
 
 }  // namespace armsig::db
