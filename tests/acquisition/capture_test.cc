@@ -1,7 +1,7 @@
 // Capture sessions against simulators on real pseudo-terminals.
+#include <fcntl.h>
 #include <gtest/gtest.h>
 #include <signal.h>
-#include <fcntl.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
@@ -36,8 +36,8 @@ namespace {
 class VirtualLabFixture : public ::testing::Test {
  protected:
   void Start(std::array<int, 3> latency_ms = {10, 10, 10}) {
-    lab_ = std::make_unique<simulation::VirtualLab>(testing::Puma(), calibration::PaperTable3Parameters(),
-                                                    Eigen::Isometry3d::Identity(), 3);
+    lab_ = std::make_unique<simulation::VirtualLab>(
+        testing::Puma(), calibration::PaperTable3Parameters(), Eigen::Isometry3d::Identity(), 3);
     std::vector<reduction::Station> stations;
     for (int s = 0; s < 3; ++s) {
       simulation::VirtualStation st;
@@ -54,23 +54,27 @@ class VirtualLabFixture : public ::testing::Test {
       simulation::SimulatorOptions o;
       o.angle_latency = std::chrono::milliseconds(latency_ms[s]);
       o.motion_latency = 5ms;
-      sims_.push_back(std::make_unique<simulation::GeoComSimulator>(*lab_, s, dir_.File("T" + std::to_string(s + 1)), o));
+      sims_.push_back(std::make_unique<simulation::GeoComSimulator>(
+          *lab_, s, dir_.File("T" + std::to_string(s + 1)), o));
       sims_.back()->Start();
     }
     simulation::SimulatorOptions o;
     o.angle_latency = 2ms;
     o.motion_latency = 5ms;
-    robot_ = std::make_unique<simulation::ValSimulator>(*lab_, dir_.File("robot"), simulation::ValSimulator::Layout::kKawasakiAs, o);
+    robot_ = std::make_unique<simulation::ValSimulator>(
+        *lab_, dir_.File("robot"), simulation::ValSimulator::Layout::kKawasakiAs, o);
     robot_->Start();
     testing::WriteText(dir_.File("stations.yaml"), io::FormatStationsYaml(stations, "truth"));
     std::string yaml = "robot:\n  model: '" + testing::SourcePath("models/puma760.yaml") +
-                       "'\n  controller: {protocol: as, port: '" + robot_->path() + "', can_move: true}\ninstruments:\n";
+                       "'\n  controller: {protocol: as, port: '" + robot_->path() +
+                       "', can_move: true}\ninstruments:\n";
     for (int s = 0; s < 3; ++s) {
-      yaml += "  - {station: T" + std::to_string(s + 1) + ", protocol: geocom, port: '" + sims_[s]->path() +
-              "', sigma_hz_arcsec: 0.5, sigma_v_arcsec: 0.5}\n";
+      yaml += "  - {station: T" + std::to_string(s + 1) + ", protocol: geocom, port: '" +
+              sims_[s]->path() + "', sigma_hz_arcsec: 0.5, sigma_v_arcsec: 0.5}\n";
     }
-    yaml += "stations: stations.yaml\ntolerances: {max_miss_mm: 0.1, settle_ms: 0, timeout_ms: 300, "
-            "fault_retries: 2, fault_retry_delay_ms: 200}\n";
+    yaml +=
+        "stations: stations.yaml\ntolerances: {max_miss_mm: 0.1, settle_ms: 0, timeout_ms: 300, "
+        "fault_retries: 2, fault_retry_delay_ms: 200}\n";
     testing::WriteText(dir_.File("lab.yaml"), yaml);
   }
 
@@ -98,12 +102,17 @@ TEST_F(VirtualLabFixture, FullSessionStoresEveryConfigurationOnceAndReducesTheTr
   EXPECT_EQ(Count(db, "SELECT count(*) FROM points WHERE x_mm IS NOT NULL"), 30);
   EXPECT_EQ(db.sql().execAndGet("SELECT state FROM sessions").getString(), "completed");
   // Every reduced point is where the true robot put its target.
-  SQLite::Statement q(db.sql(), "SELECT p.joints_json, pt.x_mm, pt.y_mm, pt.z_mm FROM poses p JOIN points pt ON pt.pose_id = p.id");
+  SQLite::Statement q(db.sql(),
+                      "SELECT p.joints_json, pt.x_mm, pt.y_mm, pt.z_mm FROM poses p JOIN points pt "
+                      "ON pt.pose_id = p.id");
   calibration::Kinematics kin(lab_->model());
   while (q.executeStep()) {
-    const auto joints = nlohmann::json::parse(q.getColumn(0).getString()).get<std::vector<double>>();
-    const Eigen::Vector3d truth = kin.Position(lab_->world_from_base(), lab_->true_params(), joints.data());
-    const Eigen::Vector3d measured(q.getColumn(1).getDouble(), q.getColumn(2).getDouble(), q.getColumn(3).getDouble());
+    const auto joints =
+        nlohmann::json::parse(q.getColumn(0).getString()).get<std::vector<double>>();
+    const Eigen::Vector3d truth =
+        kin.Position(lab_->world_from_base(), lab_->true_params(), joints.data());
+    const Eigen::Vector3d measured(q.getColumn(1).getDouble(), q.getColumn(2).getDouble(),
+                                   q.getColumn(3).getDouble());
     EXPECT_LT((measured - truth).norm(), 0.06);  // 0.5″ at 3.5 m: ~0.01 mm per ray
   }
 }
@@ -118,13 +127,16 @@ TEST_F(VirtualLabFixture, ConcurrentTriggeringCostsTheSlowestInstrument) {
     for (auto& s : sims_) {
       instruments::SerialSettings port;
       port.path = s->path();
-      devices.push_back(std::make_unique<instruments::GeoComDevice>(instruments::MakeSerialTransport(port)));
+      devices.push_back(
+          std::make_unique<instruments::GeoComDevice>(instruments::MakeSerialTransport(port)));
       devices.back()->Face();
     }
     const auto t0 = std::chrono::steady_clock::now();
     for (int k = 0; k < 3; ++k)
       for (auto& d : devices) d->MeasureAngles();
-    sequential_ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count() / 3;
+    sequential_ms =
+        std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count() /
+        3;
   }
   const LabConfig lab = LoadLab(dir_.File("lab.yaml"));
   db::Database db(Db());
@@ -154,7 +166,8 @@ TEST_F(VirtualLabFixture, KillNineAtRandomMomentsThenResume) {
       db::Database db(Db());
       have_session = Count(db, "SELECT count(*) FROM sessions") > 0;
     }
-    std::vector<std::string> args = {binary, "--db", Db(), "capture", "--lab", dir_.File("lab.yaml")};
+    std::vector<std::string> args = {binary,    "--db",  Db(),
+                                     "capture", "--lab", dir_.File("lab.yaml")};
     if (have_session) {
       args.insert(args.end(), {"--resume", "1"});
     } else {
@@ -189,21 +202,27 @@ TEST_F(VirtualLabFixture, KillNineAtRandomMomentsThenResume) {
       ++kills;
     } else if (WIFEXITED(status) && WEXITSTATUS(status) == 0) {
       db::Database db(Db());
-      if (db.sql().execAndGet("SELECT state FROM sessions WHERE id = 1").getString() == "completed") break;
+      if (db.sql().execAndGet("SELECT state FROM sessions WHERE id = 1").getString() == "completed")
+        break;
     }
   }
   EXPECT_GE(kills, 20);
   // Finish the session.
-  const auto last = testing::RunArmsig("--db '" + Db() + "' capture --lab '" + dir_.File("lab.yaml") + "' --resume 1");
+  const auto last = testing::RunArmsig("--db '" + Db() + "' capture --lab '" +
+                                       dir_.File("lab.yaml") + "' --resume 1");
   ASSERT_EQ(last.exit_code, 0) << last.err;
   db::Database db(Db());
   EXPECT_EQ(db.sql().execAndGet("PRAGMA integrity_check").getString(), "ok");
-  EXPECT_EQ(db.sql().execAndGet("SELECT state FROM sessions WHERE id = 1").getString(), "completed");
+  EXPECT_EQ(db.sql().execAndGet("SELECT state FROM sessions WHERE id = 1").getString(),
+            "completed");
   EXPECT_EQ(Count(db, "SELECT count(*) FROM poses WHERE session_id = 1"), 100);
   EXPECT_EQ(Count(db, "SELECT count(DISTINCT seq) FROM poses WHERE session_id = 1"), 100);
   EXPECT_EQ(Count(db, "SELECT max(seq) FROM poses WHERE session_id = 1"), 99);
   // Exactly three rays and one point per configuration: nothing half-written, nothing twice.
-  EXPECT_EQ(Count(db, "SELECT count(*) FROM (SELECT pose_id, count(*) c FROM observations GROUP BY pose_id) WHERE c != 3"), 0);
+  EXPECT_EQ(Count(db,
+                  "SELECT count(*) FROM (SELECT pose_id, count(*) c FROM observations GROUP BY "
+                  "pose_id) WHERE c != 3"),
+            0);
   EXPECT_EQ(Count(db, "SELECT count(*) FROM observations"), 300);
   EXPECT_EQ(Count(db, "SELECT count(*) FROM points WHERE session_id = 1"), 100);
 }
@@ -251,7 +270,8 @@ TEST_F(VirtualLabFixture, SkipOnFaultRecordsTheConfigurationAsSkipped) {
   EXPECT_TRUE(s.completed);
   EXPECT_EQ(s.skipped, 1);
   EXPECT_EQ(s.measured, 4);
-  EXPECT_EQ(Count(db, "SELECT count(*) FROM poses WHERE status = 'skipped' AND joints_json IS NULL"), 1);
+  EXPECT_EQ(
+      Count(db, "SELECT count(*) FROM poses WHERE status = 'skipped' AND joints_json IS NULL"), 1);
   EXPECT_EQ(Count(db, "SELECT count(*) FROM observations"), 12);  // none from the skipped one
 }
 
@@ -270,7 +290,7 @@ TEST_F(VirtualLabFixture, PortThatVanishesAndReturnsMidSession) {
       outage = std::async(std::launch::async, [&] {
         sims_[2]->Disappear();  // the USB adapter is pulled …
         std::this_thread::sleep_for(250ms);
-        sims_[2]->Reappear();   // … and plugged back in
+        sims_[2]->Reappear();  // … and plugged back in
       });
     }
   };
@@ -281,10 +301,33 @@ TEST_F(VirtualLabFixture, PortThatVanishesAndReturnsMidSession) {
   EXPECT_EQ(Count(db, "SELECT count(*) FROM observations"), 30);
 }
 
+// Two-face sets: every configuration read in face I, the telescopes turned, read in face
+// II, turned back; both faces are stored and intersect to the same point.
+TEST_F(VirtualLabFixture, TwoFaceSetsStoreBothFaces) {
+  Start();
+  std::string yaml = testing::ReadText(dir_.File("lab.yaml"));
+  yaml.replace(yaml.find("settle_ms: 0"), 12, "settle_ms: 0, two_face: true");
+  testing::WriteText(dir_.File("lab2.yaml"), yaml);
+  const LabConfig lab = LoadLab(dir_.File("lab2.yaml"));
+  ASSERT_TRUE(lab.tolerances.two_face);
+  db::Database db(Db());
+  const int64_t session = CreateSession(db, lab, "puma", WellSpreadPlan(lab.model, 4, 300, 5));
+  auto devices = OpenInstruments(lab);
+  auto controller = OpenController(lab);
+  const auto s = RunCapture(db, lab, session, devices, *controller, {});
+  ASSERT_TRUE(s.completed) << s.pause_reason;
+  EXPECT_EQ(Count(db, "SELECT count(*) FROM observations WHERE face = 1"), 12);
+  EXPECT_EQ(Count(db, "SELECT count(*) FROM observations WHERE face = 2"), 12);
+  EXPECT_EQ(Count(db, "SELECT count(*) FROM points WHERE rays = 6 AND x_mm IS NOT NULL"), 4);
+  EXPECT_LT(s.max_miss_mm, 0.1);
+  for (int k = 0; k < 3; ++k) EXPECT_EQ(lab_->Face(k), 1);  // turned back to face I
+}
+
 TEST(Lab, MalformedLabFileNamesLineAndColumn) {
   testing::TempDir dir;
-  testing::WriteText(dir.File("lab.yaml"), "robot:\n  model: '" + testing::SourcePath("models/puma760.yaml") +
-                                               "'\n  controller: {protocol: fanuc, port: /dev/null}\ninstruments: []\n");
+  testing::WriteText(dir.File("lab.yaml"),
+                     "robot:\n  model: '" + testing::SourcePath("models/puma760.yaml") +
+                         "'\n  controller: {protocol: fanuc, port: /dev/null}\ninstruments: []\n");
   try {
     LoadLab(dir.File("lab.yaml"));
     FAIL();
@@ -298,7 +341,8 @@ TEST(Lab, MalformedLabFileNamesLineAndColumn) {
 // simulated noise floor, and geometric-only leaves a clearly larger error.
 TEST(Demo, RunsEndToEndAndReachesTheNoiseFloor) {
   testing::TempDir dir;
-  const auto r = testing::RunArmsig("--db '" + dir.File("demo.db") + "' demo --json '" + dir.File("demo.json") + "'");
+  const auto r = testing::RunArmsig("--db '" + dir.File("demo.db") + "' demo --json '" +
+                                    dir.File("demo.json") + "'");
   ASSERT_EQ(r.exit_code, 0) << r.err << r.out;
   const auto j = nlohmann::json::parse(testing::ReadText(dir.File("demo.json")));
   EXPECT_EQ(j["session"]["poses"], 200);
@@ -311,7 +355,7 @@ TEST(Demo, RunsEndToEndAndReachesTheNoiseFloor) {
   const double all = j["stages"][2]["validation"]["mean_mm"];
   const double geometric = j["stages"][0]["validation"]["mean_mm"];
   EXPECT_GT(j["stages"][2]["nominal"]["mean_mm"].get<double>(), 3.0);
-  EXPECT_LT(all, 1.6 * floor);        // validation points carry their own noise too
+  EXPECT_LT(all, 1.6 * floor);  // validation points carry their own noise too
   EXPECT_GT(geometric, 10.0 * all);
   db::Database db(dir.File("demo.db"));
   EXPECT_EQ(db.sql().execAndGet("SELECT count(*) FROM calibrations WHERE active = 1").getInt(), 1);
