@@ -301,6 +301,54 @@ TEST_F(VirtualLabFixture, PortThatVanishesAndReturnsMidSession) {
   EXPECT_EQ(Count(db, "SELECT count(*) FROM observations"), 30);
 }
 
+// Ctrl-C stops between configurations: the session is paused with every finished
+// configuration stored, and --resume completes it.
+TEST_F(VirtualLabFixture, CtrlCStopsCleanlyAndResumeCompletes) {
+  Start({15, 15, 15});
+  const std::string binary = ARMSIG_BINARY;
+  std::vector<std::string> args = {
+      binary,   "--db",    Db(),      "capture", "--lab", dir_.File("lab.yaml"),
+      "--plan", "auto:60", "--robot", "puma"};
+  const pid_t child = ::fork();
+  ASSERT_GE(child, 0);
+  if (child == 0) {
+    std::vector<char*> argv;
+    for (auto& a : args) argv.push_back(a.data());
+    argv.push_back(nullptr);
+    const int null = ::open("/dev/null", O_WRONLY);
+    ::dup2(null, 1);
+    ::dup2(null, 2);
+    ::execv(argv[0], argv.data());
+    _exit(127);
+  }
+  // Interrupt once some configurations are stored.
+  for (int wait = 0; wait < 1000; ++wait) {
+    std::this_thread::sleep_for(10ms);
+    if (!std::filesystem::exists(Db())) continue;
+    db::Database db(Db());
+    if (Count(db, "SELECT count(*) FROM poses") >= 5) break;
+  }
+  ::kill(child, SIGINT);
+  int status = 0;
+  ::waitpid(child, &status, 0);
+  ASSERT_TRUE(WIFEXITED(status));
+  EXPECT_EQ(WEXITSTATUS(status), 1);
+  {
+    db::Database db(Db());
+    EXPECT_EQ(db.sql().execAndGet("SELECT state FROM sessions").getString(), "paused");
+    const int stored = Count(db, "SELECT count(*) FROM poses");
+    EXPECT_GE(stored, 5);
+    EXPECT_LT(stored, 60);
+    EXPECT_EQ(Count(db, "SELECT count(*) FROM observations"), 3 * stored);
+  }
+  const auto r = testing::RunArmsig("--db '" + Db() + "' capture --lab '" + dir_.File("lab.yaml") +
+                                    "' --resume 1");
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  db::Database db(Db());
+  EXPECT_EQ(Count(db, "SELECT count(*) FROM poses"), 60);
+  EXPECT_EQ(db.sql().execAndGet("SELECT state FROM sessions").getString(), "completed");
+}
+
 // Two-face sets: every configuration read in face I, the telescopes turned, read in face
 // II, turned back; both faces are stored and intersect to the same point.
 TEST_F(VirtualLabFixture, TwoFaceSetsStoreBothFaces) {
