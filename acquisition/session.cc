@@ -91,7 +91,6 @@ CaptureSummary RunCapture(db::Database& db, const LabConfig& lab, int64_t sessio
 
   // One parallel round: joints (optional) and every instrument at once.
   auto round = [&](bool with_joints, Measurement& m) {
-    const auto t0 = Clock::now();
     std::future<Eigen::VectorXd> joints;
     std::vector<std::future<std::pair<instruments::Reading, double>>> futures;
     auto timed = [](auto&& f) {
@@ -128,7 +127,6 @@ CaptureSummary RunCapture(db::Database& db, const LabConfig& lab, int64_t sessio
       }
     }
     if (failure) std::rethrow_exception(failure);
-    (void)t0;
     m.device_ms += slowest;
   };
 

@@ -13,13 +13,9 @@ namespace armsig::app {
 
 using calibration::EstimationStatus;
 
-namespace {
-
 calibration::ErrorStats StatsOf(const std::vector<Eigen::Vector3d>& residuals) {
   return calibration::Summarise(calibration::Distances(residuals));
 }
-
-}  // namespace
 
 CalibrationRun RunCalibration(const calibration::RobotModel& model,
                               const std::vector<MeasuredPose>& poses,

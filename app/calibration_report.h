@@ -44,6 +44,9 @@ CalibrationRun RunCalibration(const calibration::RobotModel& model,
 std::string FormatCalibrationReport(const calibration::RobotModel& model,
                                     const CalibrationRun& run);
 
+// Error statistics of a set of residual vectors.
+calibration::ErrorStats StatsOf(const std::vector<Eigen::Vector3d>& residuals);
+
 nlohmann::json CalibrationJson(const calibration::RobotModel& model, const CalibrationRun& run);
 
 // The database record of a calibration run (parameters, statistics, residuals).

@@ -48,11 +48,6 @@ namespace {
 
 constexpr double kSigmaArcsec = 0.5;
 
-// Error distances of a calibration run on its validation poses.
-calibration::ErrorStats ValidationStats(const CalibrationRun& run) {
-  return calibration::Summarise(calibration::Distances(run.validation_residuals));
-}
-
 }  // namespace
 
 int RunDemo(const DemoOptions& options, const GlobalOptions& global) {
@@ -291,7 +286,7 @@ int RunDemo(const DemoOptions& options, const GlobalOptions& global) {
   const char* paper[3] = {"1 (2)", "0.5 (1)", "0.27 (0.6)"};
   for (size_t k = 0; k < runs.size(); ++k) {
     const auto& e = runs[k].estimate;
-    const auto v = ValidationStats(runs[k]);
+    const auto v = StatsOf(runs[k].validation_residuals);
     std::cout << fmt::format(
         "  {:<18}{:>12}{:>22}{:>26}{:>18}\n", runs[k].params_spec,
         fmt::format("{} of {}", e.identifiability.rank, e.identifiability.candidates.size()),

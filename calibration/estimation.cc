@@ -94,27 +94,26 @@ void EstimationOptions::Check() const {
 
 namespace {
 
-// Per-pose weights of the Huber loss on the error distance (1 inside the threshold).
-void HuberWeights(const std::vector<Eigen::Vector3d>& residuals, double threshold,
-                  std::vector<double>& weights) {
-  weights.assign(residuals.size(), 1.0);
+// Per-pose weights of the Huber loss on the error distance (1 inside the threshold), from
+// the stacked residual vector (3 per pose).
+void HuberWeights(const Eigen::VectorXd& residual, double threshold, std::vector<double>& weights) {
+  const int m = static_cast<int>(residual.size() / 3);
+  weights.assign(m, 1.0);
   if (threshold <= 0.0) return;
-  for (size_t i = 0; i < residuals.size(); ++i) {
-    const double d = residuals[i].norm();
+  for (int i = 0; i < m; ++i) {
+    const double d = residual.segment<3>(3 * i).norm();
     if (d > threshold) weights[i] = threshold / d;
   }
 }
 
 // Huber cost: ρ(d) = d² inside, 2kd − k² outside.
-double RobustCost(const std::vector<Eigen::Vector3d>& residuals, double threshold) {
+double RobustCost(const Eigen::VectorXd& residual, double threshold) {
+  if (threshold <= 0.0) return residual.squaredNorm();
   double cost = 0.0;
-  for (const auto& r : residuals) {
-    const double d2 = r.squaredNorm();
-    if (threshold > 0.0 && d2 > threshold * threshold) {
-      cost += 2.0 * threshold * std::sqrt(d2) - threshold * threshold;
-    } else {
-      cost += d2;
-    }
+  for (Eigen::Index i = 0; i + 2 < residual.size(); i += 3) {
+    const double d2 = residual.segment<3>(i).squaredNorm();
+    cost +=
+        d2 > threshold * threshold ? 2.0 * threshold * std::sqrt(d2) - threshold * threshold : d2;
   }
   return cost;
 }
@@ -188,9 +187,7 @@ EstimationResult Estimate(const RobotModel& model, const std::vector<MeasuredPos
       e.residual.segment<3>(3 * i) = x - poses[i].target_in_world;
       for (int c = 0; c < k; ++c) e.jacobian.block<3, 1>(3 * i, c) = block.col(subset[c]);
     }
-    std::vector<Eigen::Vector3d> r(m);
-    for (int i = 0; i < m; ++i) r[i] = e.residual.segment<3>(3 * i);
-    e.cost = RobustCost(r, threshold);
+    e.cost = RobustCost(e.residual, threshold);
   };
   auto residual_vectors = [&](const Evaluation& e) {
     std::vector<Eigen::Vector3d> r(m);
@@ -207,7 +204,7 @@ EstimationResult Estimate(const RobotModel& model, const std::vector<MeasuredPos
   Eigen::VectorXd gradient(k);
   std::vector<double> weights;
   auto build_normal_equations = [&](const Evaluation& e) {
-    HuberWeights(residual_vectors(e), threshold, weights);
+    HuberWeights(e.residual, threshold, weights);
     for (int i = 0; i < m; ++i) {
       weighted.middleRows<3>(3 * i) = std::sqrt(weights[i]) * e.jacobian.middleRows<3>(3 * i);
     }

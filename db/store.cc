@@ -4,6 +4,8 @@
 #include <cstdio>
 #include <nlohmann/json.hpp>
 
+#include "core/units.h"
+
 namespace armsig::db {
 
 namespace {
@@ -198,7 +200,6 @@ void InsertObservations(Database& db, int64_t session_id, const std::vector<Obse
       "INSERT INTO observations(session_id, pose_id, point, station_id, hz_rad, v_rad, "
       "distance_mm, face, sigma_hz_arcsec, sigma_v_arcsec, sigma_distance_mm, return_code) "
       "VALUES (?,?,?,?,?,?,?,?,?,?,?,?)");
-  constexpr double kArcsecPerRad = 180.0 * 3600.0 / 3.14159265358979323846;
   for (const auto& r : rows) {
     auto it = station_ids.find(r.station);
     if (it == station_ids.end())
@@ -218,8 +219,8 @@ void InsertObservations(Database& db, int64_t session_id, const std::vector<Obse
     else
       s.bind(7);
     s.bind(8, r.reading.face);
-    BindOptional(s, 9, r.sigma_hz_rad * kArcsecPerRad);
-    BindOptional(s, 10, r.sigma_v_rad * kArcsecPerRad);
+    BindOptional(s, 9, r.sigma_hz_rad / kRadPerArcsec);
+    BindOptional(s, 10, r.sigma_v_rad / kRadPerArcsec);
     BindOptional(s, 11, r.sigma_distance_mm);
     s.bind(12, r.return_code);
     s.exec();
@@ -228,7 +229,6 @@ void InsertObservations(Database& db, int64_t session_id, const std::vector<Obse
 
 std::vector<ObservationRow> LoadObservations(Database& db, int64_t session_id) {
   std::vector<ObservationRow> out;
-  constexpr double kRadPerArcsec = 3.14159265358979323846 / (180.0 * 3600.0);
   SQLite::Statement s(
       db.sql(),
       "SELECT o.pose_id, o.point, st.code, o.hz_rad, o.v_rad, o.distance_mm, o.face, "

@@ -130,28 +130,48 @@ std::string EncodeReply(const Reply& reply, bool with_crc) {
   return frame + body + "\r\n";
 }
 
+namespace {
+
+// Terminator stripped, frame found, header fields and CRC checked.
+struct Frame {
+  std::optional<Header> header;
+  std::optional<ParseError> error;
+  bool had_crc = false;
+};
+
+Frame ParseFrame(std::string_view line, std::string_view prefix) {
+  while (!line.empty() && (line.back() == '\r' || line.back() == '\n' || line.back() == ' ')) {
+    line.remove_suffix(1);
+  }
+  Frame f;
+  auto h = ParseHeader(line, prefix, 2);
+  if (!h) {
+    f.error = ParseError::kNotAFrame;
+  } else if (h->fields.empty() || h->fields[0] < 0) {
+    f.error = ParseError::kMalformed;
+  } else {
+    f.had_crc = h->had_crc;
+    if (!h->crc_ok)
+      f.error = ParseError::kBadCrc;
+    else
+      f.header = std::move(h);
+  }
+  return f;
+}
+
+}  // namespace
+
 ParsedReply ParseReply(std::string_view line) {
   ParsedReply out;
-  while (!line.empty() && (line.back() == '\r' || line.back() == '\n' || line.back() == ' '))
-    line.remove_suffix(1);
-  auto h = ParseHeader(line, "%R1P,", 2);
-  if (!h) {
-    out.error = ParseError::kNotAFrame;
-    return out;
-  }
-  if (h->fields.empty() || h->fields[0] < 0 || h->fields.size() < 1) {
-    out.error = ParseError::kMalformed;
-    return out;
-  }
-  out.had_crc = h->had_crc;
-  if (!h->crc_ok) {
-    out.error = ParseError::kBadCrc;
-    return out;
-  }
+  Frame f = ParseFrame(line, "%R1P,");
+  out.had_crc = f.had_crc;
+  out.error = f.error;
+  if (f.error) return out;
+  const Header& h = *f.header;
   Reply r;
-  r.rc_com = h->fields[0];
-  r.trid = h->fields.size() > 1 ? h->fields[1] : 0;
-  auto values = SplitValues(h->body);
+  r.rc_com = h.fields[0];
+  r.trid = h.fields.size() > 1 ? h.fields[1] : 0;
+  auto values = SplitValues(h.body);
   if (values.empty()) {
     // A communication error may carry no RPC return code.
     if (r.rc_com == 0) {
@@ -174,25 +194,14 @@ ParsedReply ParseReply(std::string_view line) {
 
 ParsedRequest ParseRequest(std::string_view line) {
   ParsedRequest out;
-  while (!line.empty() && (line.back() == '\r' || line.back() == '\n')) line.remove_suffix(1);
-  auto h = ParseHeader(line, "%R1Q,", 2);
-  if (!h) {
-    out.error = ParseError::kNotAFrame;
-    return out;
-  }
-  if (h->fields.empty() || h->fields[0] < 0) {
-    out.error = ParseError::kMalformed;
-    return out;
-  }
-  out.had_crc = h->had_crc;
-  if (!h->crc_ok) {
-    out.error = ParseError::kBadCrc;
-    return out;
-  }
+  Frame f = ParseFrame(line, "%R1Q,");
+  out.had_crc = f.had_crc;
+  out.error = f.error;
+  if (f.error) return out;
   Request r;
-  r.rpc = h->fields[0];
-  if (h->fields.size() > 1) r.trid = h->fields[1];
-  r.params = SplitValues(h->body);
+  r.rpc = f.header->fields[0];
+  if (f.header->fields.size() > 1) r.trid = f.header->fields[1];
+  r.params = SplitValues(f.header->body);
   out.request = std::move(r);
   return out;
 }

@@ -622,8 +622,7 @@ OrientationResult Orient(const OrientationProblem& problem, const OrientationOpt
     ResidualReport::Kind kind;
     int source;
     std::string label;
-    double sigma;      // in report units
-    double to_report;  // whitened residual × this = report unit
+    double sigma;  // a priori, report units (arcsec or mm): whitened residual × sigma = residual
     std::string group;
   };
   std::vector<ceres::ResidualBlockId> blocks;
@@ -643,16 +642,15 @@ OrientationResult Orient(const OrientationProblem& problem, const OrientationOpt
                                              station_rot[o.station].data(), point));
     const std::string label = station_ids[o.station] + "->" + o.point;
     const std::string group = o.target_station >= 0 ? "mutual pointings" : "angles";
-    block_rows.push_back({{ResidualReport::Kind::kHz, o.source, label,
-                           o.sigma.hz_rad * kArcsecPerRad, o.sigma.hz_rad * kArcsecPerRad, group},
-                          {ResidualReport::Kind::kV, o.source, label, o.sigma.v_rad * kArcsecPerRad,
-                           o.sigma.v_rad * kArcsecPerRad, group}});
+    block_rows.push_back(
+        {{ResidualReport::Kind::kHz, o.source, label, o.sigma.hz_rad * kArcsecPerRad, group},
+         {ResidualReport::Kind::kV, o.source, label, o.sigma.v_rad * kArcsecPerRad, group}});
     if (std::isfinite(o.distance)) {
       blocks.push_back(
           bundle.AddResidualBlock(LengthResidual::Create(o.distance, o.sigma.distance_mm), nullptr,
                                   station_pos[o.station].data(), point));
-      block_rows.push_back({{ResidualReport::Kind::kDistance, o.source, label, o.sigma.distance_mm,
-                             o.sigma.distance_mm, "distances"}});
+      block_rows.push_back(
+          {{ResidualReport::Kind::kDistance, o.source, label, o.sigma.distance_mm, "distances"}});
     }
   }
   for (size_t b = 0; b < problem.scale_bars.size(); ++b) {
@@ -661,7 +659,7 @@ OrientationResult Orient(const OrientationProblem& problem, const OrientationOpt
                                              nullptr, point_pos[point_index.at(bar.from)].data(),
                                              point_pos[point_index.at(bar.to)].data()));
     block_rows.push_back({{ResidualReport::Kind::kScaleBar, static_cast<int>(b),
-                           bar.from + ":" + bar.to, bar.sigma_mm, bar.sigma_mm, "scale bars"}});
+                           bar.from + ":" + bar.to, bar.sigma_mm, "scale bars"}});
   }
   std::string datum;
   for (size_t c = 0; c < problem.control.size(); ++c) {
@@ -675,7 +673,7 @@ OrientationResult Orient(const OrientationProblem& problem, const OrientationOpt
       std::vector<Row> rows;
       for (int i = 0; i < 3; ++i) {
         rows.push_back({ResidualReport::Kind::kControl, static_cast<int>(c), cp.id,
-                        (*cp.sigma_mm)(i), (*cp.sigma_mm)(i), "control"});
+                        (*cp.sigma_mm)(i), "control"});
       }
       block_rows.push_back(rows);
     } else {
@@ -802,7 +800,7 @@ OrientationResult Orient(const OrientationProblem& problem, const OrientationOpt
       rep.kind = meta.kind;
       rep.observation = meta.source;
       rep.label = meta.label;
-      rep.residual = residuals[row] * meta.to_report;
+      rep.residual = residuals[row] * meta.sigma;
       rep.sigma = meta.sigma;
       rep.redundancy = redundancy;
       rep.w = redundancy > 1e-6 ? residuals[row] / std::sqrt(redundancy) : 0.0;

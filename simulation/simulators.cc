@@ -254,9 +254,6 @@ std::optional<LineSimulator::Response> GeoComSimulator::Handle(const std::string
     const size_t last_comma = bytes.rfind(',', colon);
     bytes[last_comma + 1] = bytes[last_comma + 1] == '1' ? '2' : '1';
   }
-  if (r.rc_com == 0 && q.rpc == geocom::rpc::kGetAngleComplete) {
-    // fine
-  }
   return Response{bytes, latency};
 }
 

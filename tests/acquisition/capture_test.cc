@@ -88,6 +88,22 @@ class VirtualLabFixture : public ::testing::Test {
 
 int Count(db::Database& db, const std::string& sql) { return db.sql().execAndGet(sql).getInt(); }
 
+// Starts args[0] with args, output to /dev/null; returns its pid (−1 on failure).
+pid_t SpawnQuietly(std::vector<std::string> args) {
+  const pid_t child = ::fork();
+  if (child == 0) {
+    std::vector<char*> argv;
+    for (auto& a : args) argv.push_back(a.data());
+    argv.push_back(nullptr);
+    const int null = ::open("/dev/null", O_WRONLY);
+    ::dup2(null, 1);
+    ::dup2(null, 2);
+    ::execv(argv[0], argv.data());
+    _exit(127);
+  }
+  return child;
+}
+
 }  // namespace
 
 TEST_F(VirtualLabFixture, FullSessionStoresEveryConfigurationOnceAndReducesTheTruth) {
@@ -173,18 +189,8 @@ TEST_F(VirtualLabFixture, KillNineAtRandomMomentsThenResume) {
     } else {
       args.insert(args.end(), {"--plan", "auto:100", "--robot", "puma"});
     }
-    const pid_t child = ::fork();
+    const pid_t child = SpawnQuietly(args);
     ASSERT_GE(child, 0);
-    if (child == 0) {
-      std::vector<char*> argv;
-      for (auto& a : args) argv.push_back(a.data());
-      argv.push_back(nullptr);
-      const int null = ::open("/dev/null", O_WRONLY);
-      ::dup2(null, 1);
-      ::dup2(null, 2);
-      ::execv(argv[0], argv.data());
-      _exit(127);
-    }
     if (!have_session) {
       // Planning takes a moment; start killing once the session exists.
       for (int wait = 0; wait < 1000; ++wait) {
@@ -309,18 +315,8 @@ TEST_F(VirtualLabFixture, CtrlCStopsCleanlyAndResumeCompletes) {
   std::vector<std::string> args = {
       binary,   "--db",    Db(),      "capture", "--lab", dir_.File("lab.yaml"),
       "--plan", "auto:60", "--robot", "puma"};
-  const pid_t child = ::fork();
+  const pid_t child = SpawnQuietly(args);
   ASSERT_GE(child, 0);
-  if (child == 0) {
-    std::vector<char*> argv;
-    for (auto& a : args) argv.push_back(a.data());
-    argv.push_back(nullptr);
-    const int null = ::open("/dev/null", O_WRONLY);
-    ::dup2(null, 1);
-    ::dup2(null, 2);
-    ::execv(argv[0], argv.data());
-    _exit(127);
-  }
   // Interrupt once some configurations are stored.
   for (int wait = 0; wait < 1000; ++wait) {
     std::this_thread::sleep_for(10ms);
