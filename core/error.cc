@@ -19,6 +19,18 @@ std::string Compose(const SourceLocation& where, const std::string& message) {
 }
 }  // namespace
 
+const char* ToString(SolveCode code) {
+  switch (code) {
+    case SolveCode::kOk: return "ok";
+    case SolveCode::kNotConverged: return "not_converged";
+    case SolveCode::kTooFewObservations: return "too_few_observations";
+    case SolveCode::kDegenerate: return "degenerate";
+    case SolveCode::kOutOfRange: return "out_of_range";
+    case SolveCode::kNonFinite: return "non_finite";
+  }
+  return "unknown";
+}
+
 InputError::InputError(SourceLocation where, const std::string& message)
     : std::runtime_error(Compose(where, message)), where_(std::move(where)), message_(message) {}
 

@@ -1,5 +1,18 @@
-// Input errors carry their context (file, line, column, what was expected). They are
-// thrown at the edges and turned into exit code 2 in one place (app/main.cc).
+// armsig's error policy, one rule per layer:
+//
+// - Pure math (calibration/, reduction/) never throws for a property of the data. A solve
+//   returns its result with a `SolveStatus` the caller must look at (`status.ok()`), and
+//   never reports kOk when any estimate is non-finite. Programming errors (a size mismatch
+//   between arguments) may throw std::invalid_argument / std::logic_error.
+// - Edges that read what a user wrote (files, command options, stored YAML, serial
+//   replies turned into readings) throw `InputError` carrying the file (or option or
+//   device), line, column and what was expected. `app/` turns it into exit code 2 in one
+//   place (app/main_lib.cc). Library parse failures (std::stoi, yaml-cpp, nlohmann) are
+//   caught at the edge and re-thrown as InputError with the location: a user never
+//   reads "stoi".
+// - A quality gate that fails after the work ran throws `QualityGateError` (exit code 3).
+// - Transport and database failures (a port that vanished, SQLite's own errors) are
+//   std::runtime_error / SQLite::Exception: exit code 1.
 #pragma once
 
 #include <stdexcept>
@@ -35,5 +48,23 @@ class QualityGateError : public std::runtime_error {
 };
 
 std::string FormatLocation(const SourceLocation& where);
+
+// The outcome of a numerical solve (Ceres-style Summary status): the one status type of
+// calibration/ and reduction/. `message` says why when not ok.
+enum class SolveCode {
+  kOk,
+  kNotConverged,        // iterations ran out or the solver failed
+  kTooFewObservations,  // fewer equations than unknowns (one ray, too few poses)
+  kDegenerate,          // the geometry does not determine the unknowns (parallel rays, …)
+  kOutOfRange,          // the solution lies outside the admissible domain (joint limits)
+  kNonFinite,           // an input or estimate is not a finite number
+};
+const char* ToString(SolveCode code);
+
+struct SolveStatus {
+  SolveCode code = SolveCode::kOk;
+  std::string message;  // why, when not ok
+  bool ok() const { return code == SolveCode::kOk; }
+};
 
 }  // namespace armsig
