@@ -2,7 +2,7 @@
 //                  [--validate HOLDOUT.csv] [--json OUT.json]
 #include <iostream>
 
-#include "app/calibration_report.h"
+#include "workflows/calibration_run.h"
 #include "app/command.h"
 #include "io/atomic_file.h"
 #include "io/model_yaml.h"
@@ -15,7 +15,7 @@ struct CalibrateOptions {
   std::string poses;
   std::string validate;
   std::string json;
-  CalibrateSettings settings;
+  workflows::CalibrateSettings settings;
 };
 
 int RunCalibrate(const CalibrateOptions& options, const GlobalOptions&) {
@@ -25,10 +25,10 @@ int RunCalibrate(const CalibrateOptions& options, const GlobalOptions&) {
   std::vector<MeasuredPose> holdout;
   if (!options.validate.empty()) holdout = io::ReadPosesCsv(options.validate, model.num_joints());
 
-  const CalibrationRun run = RunCalibration(model, poses, holdout, options.settings);
-  std::cout << FormatCalibrationReport(model, run);
+  const workflows::CalibrationRun run = workflows::RunCalibration(model, poses, holdout, options.settings);
+  std::cout << workflows::FormatCalibrationReport(model, run);
   if (!options.json.empty()) {
-    io::WriteFileAtomically(options.json, CalibrationJson(model, run).dump(2) + "\n");
+    io::WriteFileAtomically(options.json, workflows::CalibrationJson(model, run).dump(2) + "\n");
   }
   return run.estimate.status == calibration::EstimationStatus::kConverged ? kOk : kFailure;
 }

@@ -16,8 +16,8 @@
 
 #include "acquisition/lab.h"
 #include "acquisition/session.h"
-#include "app/builtin_models.h"
-#include "app/calibration_report.h"
+#include "workflows/builtin_models.h"
+#include "workflows/calibration_run.h"
 #include "app/command.h"
 #include "app/reduce_command.h"
 #include "calibration/identifiability.h"
@@ -53,7 +53,7 @@ constexpr double kSigmaArcsec = 0.5;
 int RunDemo(const DemoOptions& options, const GlobalOptions& global) {
   using namespace std::chrono_literals;
   const auto started = std::chrono::steady_clock::now();
-  const calibration::RobotModel model = io::ParseRobotModel(kPuma760Yaml, "built-in PUMA 760");
+  const calibration::RobotModel model = io::ParseRobotModel(workflows::kPuma760Yaml, "built-in PUMA 760");
   const std::filesystem::path work =
       std::filesystem::temp_directory_path() / ("armsig-demo-" + std::to_string(::getpid()));
   std::filesystem::create_directories(work);
@@ -154,7 +154,7 @@ int RunDemo(const DemoOptions& options, const GlobalOptions& global) {
   }
 
   // --- The lab file a technician would write, and the capture session.
-  io::WriteFileAtomically((work / "puma760.yaml").string(), kPuma760Yaml);
+  io::WriteFileAtomically((work / "puma760.yaml").string(), workflows::kPuma760Yaml);
   io::WriteFileAtomically((work / "stations.yaml").string(),
                           io::FormatStationsYaml(oriented.stations, "armsig demo"));
   std::string lab_yaml = fmt::format(
@@ -242,19 +242,19 @@ int RunDemo(const DemoOptions& options, const GlobalOptions& global) {
       fit.size(), poses.size(), selected.condition_number, validation.size());
 
   nlohmann::json stages = nlohmann::json::array();
-  std::vector<CalibrationRun> runs;
+  std::vector<workflows::CalibrationRun> runs;
   const int64_t robot_id = *db::FindRobot(database, "puma760-demo");
   for (const std::string spec : {"geometric", "geometric,h3,h4", "all"}) {
-    CalibrateSettings settings;
+    workflows::CalibrateSettings settings;
     settings.params = spec;
-    CalibrationRun run = RunCalibration(model, fit, validation, settings);
-    std::cout << "--- params: " << spec << "\n" << FormatCalibrationReport(model, run) << "\n";
-    nlohmann::json stage = CalibrationJson(model, run);
+    workflows::CalibrationRun run = workflows::RunCalibration(model, fit, validation, settings);
+    std::cout << "--- params: " << spec << "\n" << workflows::FormatCalibrationReport(model, run) << "\n";
+    nlohmann::json stage = workflows::CalibrationJson(model, run);
     stage["params"] = spec;
     stages.push_back(stage);
     SQLite::Transaction tx(database.sql());
     db::InsertCalibration(
-        database, CalibrationRecordOf(model, run, robot_id, {{"session", session}},
+        database, workflows::CalibrationRecordOf(model, run, robot_id, {{"session", session}},
                                       {{"params", spec}, {"selection", "D-optimal"}}, false));
     tx.commit();
     runs.push_back(std::move(run));
@@ -286,7 +286,7 @@ int RunDemo(const DemoOptions& options, const GlobalOptions& global) {
   const char* paper[3] = {"1 (2)", "0.5 (1)", "0.27 (0.6)"};
   for (size_t k = 0; k < runs.size(); ++k) {
     const auto& e = runs[k].estimate;
-    const auto v = StatsOf(runs[k].validation_residuals);
+    const auto v = workflows::StatsOf(runs[k].validation_residuals);
     std::cout << fmt::format(
         "  {:<18}{:>12}{:>22}{:>26}{:>18}\n", runs[k].params_spec,
         fmt::format("{} of {}", e.identifiability.rank, e.identifiability.candidates.size()),

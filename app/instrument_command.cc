@@ -8,7 +8,7 @@
 #include <nlohmann/json.hpp>
 #include <thread>
 
-#include "app/builtin_models.h"
+#include "workflows/builtin_models.h"
 #include "app/command.h"
 #include "calibration/simulation.h"
 #include "core/error.h"
@@ -120,7 +120,7 @@ int RunInstrument(const InstrumentOptions& o) {
 
 int RunSimulate(const InstrumentOptions& o) {
   // A virtual PUMA 760 with the paper's Table 3 errors, one station 3 m away.
-  auto model = io::ParseRobotModel(kPuma760Yaml, "built-in PUMA 760");
+  auto model = io::ParseRobotModel(workflows::kPuma760Yaml, "built-in PUMA 760");
   simulation::VirtualLab lab(model, calibration::PaperTable3Parameters(),
                              Eigen::Isometry3d::Identity());
   simulation::VirtualStation st;

@@ -159,7 +159,15 @@ CREATE TABLE validation_residuals (
 );
 )sql";
 
-constexpr std::array<std::string_view, 1> kMigrations = {kSchemaV1};
+// Schema v2: a parameter set's measuring frame in its own column (it lived inside
+// report_json's "base"); existing sets get it from there.
+constexpr std::string_view kSchemaV2 = R"sql(
+ALTER TABLE calibrations ADD COLUMN world_from_base_json TEXT;  -- 4x4 row-major, world from robot base
+UPDATE calibrations SET world_from_base_json = json_extract(report_json, '$.base')
+  WHERE json_valid(report_json) AND json_type(report_json, '$.base') = 'array';
+)sql";
+
+constexpr std::array<std::string_view, 2> kMigrations = {kSchemaV1, kSchemaV2};
 
 constexpr std::array<std::string_view, 11> kTables = {"robots",
                                                       "instruments",

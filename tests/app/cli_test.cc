@@ -64,12 +64,12 @@ TEST(Cli, DbThatIsNotADatabaseIsAnInputError) {
 
 }  // namespace armsig::testing
 
-#include "app/builtin_models.h"
+#include "workflows/builtin_models.h"
 
 namespace armsig::testing {
 
 TEST(BuiltinModels, DemoPumaIsTheShippedModelFile) {
-  EXPECT_EQ(std::string(app::kPuma760Yaml), ReadText(SourcePath("models/puma760.yaml")));
+  EXPECT_EQ(std::string(workflows::kPuma760Yaml), ReadText(SourcePath("models/puma760.yaml")));
 }
 
 }  // namespace armsig::testing

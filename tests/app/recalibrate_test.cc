@@ -316,35 +316,4 @@ TEST(Export, UrdfChainMatchesTheModel) {
   }
 }
 
-// The report opens in a real browser (headless Chromium) and shows all its figures.
-TEST(Report, RendersItsFiguresInHeadlessChromium) {
-  if (std::system("command -v chromium > /dev/null 2>&1") != 0) {
-    GTEST_SKIP() << "chromium is not installed (scripts/setup.sh installs it)";
-  }
-  TempDir dir;
-  const std::string path = dir.File("lab.db");
-  {
-    db::Database database(path);
-    AddSession(database, calibration::PaperTable3Parameters(), 150, 12);
-  }
-  ASSERT_EQ(RunArmsig("--db '" + path + "' recalibrate --robot puma --report '" +
-                      dir.File("report") + "'")
-                .exit_code,
-            0);
-  const std::string html = dir.File("report/index.html");
-  ASSERT_TRUE(std::filesystem::exists(html));
-  const std::string dom = dir.File("dom.html");
-  const std::string chromium =
-      "timeout 120 chromium --headless --no-sandbox --disable-gpu --disable-quic --no-first-run "
-      "--disable-background-networking --disable-component-update --disable-sync "
-      "--user-data-dir='" +
-      dir.File("profile") + "' --virtual-time-budget=10000 --dump-dom 'file://" + html + "' > '" +
-      dom + "' 2>/dev/null";
-  ASSERT_EQ(std::system(chromium.c_str()), 0);
-  const std::string rendered = ReadText(dom);
-  EXPECT_NE(rendered.find("data-figures-loaded=\"4\""), std::string::npos)
-      << rendered.substr(0, 300);
-  EXPECT_NE(rendered.find("Arm signature of puma"), std::string::npos);
-}
-
 }  // namespace armsig::testing

@@ -12,7 +12,7 @@
 #include "core/types.h"
 #include "db/store.h"
 
-namespace armsig::app {
+namespace armsig::workflows {
 
 struct CalibrationRun {
   std::string params_spec;
@@ -55,4 +55,4 @@ db::CalibrationRecord CalibrationRecordOf(const calibration::RobotModel& model,
                                           const nlohmann::json& inputs,
                                           const nlohmann::json& options, bool active);
 
-}  // namespace armsig::app
+}  // namespace armsig::workflows

@@ -1,4 +1,4 @@
-#include "app/calibration_report.h"
+#include "workflows/calibration_run.h"
 
 #include <fmt/format.h>
 
@@ -9,7 +9,7 @@
 
 #include "core/error.h"
 
-namespace armsig::app {
+namespace armsig::workflows {
 
 using calibration::EstimationStatus;
 
@@ -328,6 +328,7 @@ db::CalibrationRecord CalibrationRecordOf(const calibration::RobotModel& model,
     c.validation_rms_mm = v.rms_mm;
   }
   c.active = active;
+  c.world_from_base = e.world_from_base;
   const auto names = model.ParameterNames();
   std::vector<char> identified(model.num_parameters(), 0);
   for (int k : e.identifiability.identified) identified[k] = 1;
@@ -347,4 +348,4 @@ db::CalibrationRecord CalibrationRecordOf(const calibration::RobotModel& model,
   return c;
 }
 
-}  // namespace armsig::app
+}  // namespace armsig::workflows

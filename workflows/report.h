@@ -5,10 +5,10 @@
 #include <string>
 #include <vector>
 
-#include "app/calibration_report.h"
+#include "workflows/calibration_run.h"
 #include "calibration/compensation.h"
 
-namespace armsig::app {
+namespace armsig::workflows {
 
 struct ReportHistoryPoint {
   int version = 0;
@@ -32,4 +32,4 @@ struct ReportInput {
 // Writes DIR/index.html and DIR/*.png; returns the HTML path. Throws on I/O failure.
 std::string WriteReport(const std::string& dir, const ReportInput& input);
 
-}  // namespace armsig::app
+}  // namespace armsig::workflows

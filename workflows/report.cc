@@ -1,4 +1,4 @@
-#include "app/report.h"
+#include "workflows/report.h"
 
 #include <fmt/format.h>
 
@@ -11,7 +11,7 @@
 
 #include "io/atomic_file.h"
 
-namespace armsig::app {
+namespace armsig::workflows {
 
 namespace {
 
@@ -42,6 +42,10 @@ std::string Html(const std::string& text) {
       out += "&gt;";
     else if (c == '&')
       out += "&amp;";
+    else if (c == '"')
+      out += "&quot;";
+    else if (c == '\'')
+      out += "&#39;";
     else
       out += c;
   }
@@ -301,9 +305,9 @@ std::string WriteReport(const std::string& dir, const ReportInput& in) {
   html += "</table>\n";
   for (int k = model.num_geometric(); k < model.num_parameters(); ++k) {
     html += identified[k]
-                ? fmt::format("<p>{} = {:.3f} ± {:.3f} × 10<sup>-3</sup> rad</p>\n", names[k],
+                ? fmt::format("<p>{} = {:.3f} ± {:.3f} × 10<sup>-3</sup> rad</p>\n", Html(names[k]),
                               run.estimate.params(k) * 1e3, run.estimate.sigmas(k) * 1e3)
-                : "<p>" + names[k] + ": not identified</p>\n";
+                : "<p>" + Html(names[k]) + ": not identified</p>\n";
   }
   if (!in.changes.empty()) {
     html += std::string("<h2>Change against the previous version") +
@@ -313,23 +317,15 @@ std::string WriteReport(const std::string& dir, const ReportInput& in) {
       if (c.z == 0.0) continue;
       const bool mm = model.UnitOf(c.parameter) == calibration::ParameterUnit::kMm;
       html += fmt::format("<tr><td>{}</td><td>{:.4f} {}</td><td class=\"{}\">{:.1f}</td></tr>\n",
-                          names[c.parameter], mm ? c.change : c.change * 1e3, mm ? "mm" : "mrad",
+                          Html(names[c.parameter]), mm ? c.change : c.change * 1e3, mm ? "mm" : "mrad",
                           std::abs(c.z) > 5 ? "bad" : "", c.z);
     }
     html += "</table>\n";
   }
-  html +=
-      "<script>\n(function(){var imgs=document.querySelectorAll('img.figure');var n=0,done=0;"
-      "function "
-      "check(){if(done===imgs.length){document.body.setAttribute('data-figures-loaded',String(n));}"
-      "}"
-      "imgs.forEach(function(i){function f(){done++;if(i.naturalWidth>0)n++;check();}"
-      "if(i.complete){f();}else{i.addEventListener('load',f);i.addEventListener('error',f);}});})()"
-      ";\n</script>\n";
   html += "</body></html>\n";
   const std::string path = dir + "/index.html";
   io::WriteFileAtomically(path, html);
   return path;
 }
 
-}  // namespace armsig::app
+}  // namespace armsig::workflows

@@ -1,0 +1,165 @@
+#include "db/calibrations.h"
+
+#include <cmath>
+#include <nlohmann/json.hpp>
+#include <stdexcept>
+
+#include "db/sql_util.h"
+
+namespace armsig::db {
+
+namespace {
+
+std::string MatrixJson(const Eigen::Isometry3d& t) {
+  nlohmann::json rows = nlohmann::json::array();
+  for (int r = 0; r < 4; ++r)
+    rows.push_back({t.matrix()(r, 0), t.matrix()(r, 1), t.matrix()(r, 2), t.matrix()(r, 3)});
+  return rows.dump();
+}
+
+Eigen::Isometry3d MatrixFromJson(const std::string& text, int64_t calibration_id) {
+  const auto rows = nlohmann::json::parse(text, nullptr, false);
+  if (!rows.is_array() || rows.size() != 4)
+    throw std::runtime_error("calibration " + std::to_string(calibration_id) +
+                             ": world_from_base is not a 4x4 matrix");
+  Eigen::Isometry3d t = Eigen::Isometry3d::Identity();
+  for (int r = 0; r < 4; ++r) {
+    if (!rows[r].is_array() || rows[r].size() != 4)
+      throw std::runtime_error("calibration " + std::to_string(calibration_id) +
+                               ": world_from_base is not a 4x4 matrix");
+    for (int c = 0; c < 4; ++c) t.matrix()(r, c) = rows[r][c].get<double>();
+  }
+  return t;
+}
+
+}  // namespace
+
+std::pair<int64_t, int> InsertCalibration(Database& db, const CalibrationRecord& c) {
+  SQLite::Statement next(
+      db.sql(), "SELECT coalesce(max(version), 0) + 1 FROM calibrations WHERE robot_id = ?");
+  next.bind(1, c.robot_id);
+  next.executeStep();
+  const int version = next.getColumn(0).getInt();
+  if (c.active) {
+    SQLite::Statement off(db.sql(), "UPDATE calibrations SET active = 0 WHERE robot_id = ?");
+    off.bind(1, c.robot_id);
+    off.exec();
+  }
+  SQLite::Statement s(
+      db.sql(),
+      "INSERT INTO calibrations(robot_id, version, active, params_spec, inputs_json, options_json, "
+      "rank, "
+      "poses_fit, poses_validation, nominal_mean_mm, nominal_max_mm, nominal_rms_mm, fit_mean_mm, "
+      "fit_max_mm, fit_rms_mm, validation_mean_mm, validation_max_mm, validation_rms_mm, "
+      "report_json, world_from_base_json) "
+      "VALUES (?,?,?,?,?,?,?,?,?,?,?,?,?,?,?,?,?,?,?,?)");
+  s.bind(1, c.robot_id);
+  s.bind(2, version);
+  s.bind(3, c.active ? 1 : 0);
+  s.bind(4, c.params_spec);
+  s.bind(5, c.inputs_json);
+  s.bind(6, c.options_json);
+  s.bind(7, c.rank);
+  s.bind(8, c.poses_fit);
+  s.bind(9, c.poses_validation);
+  const double stats[9] = {c.nominal_mean_mm,    c.nominal_max_mm,    c.nominal_rms_mm,
+                           c.fit_mean_mm,        c.fit_max_mm,        c.fit_rms_mm,
+                           c.validation_mean_mm, c.validation_max_mm, c.validation_rms_mm};
+  for (int k = 0; k < 9; ++k) BindOptional(s, 10 + k, stats[k]);
+  s.bind(19, c.report_json);
+  s.bind(20, MatrixJson(c.world_from_base));
+  s.exec();
+  const int64_t id = db.sql().getLastInsertRowid();
+  SQLite::Statement p(db.sql(),
+                      "INSERT INTO calibration_parameters(calibration_id, name, value, unit, "
+                      "identified, sigma) VALUES (?,?,?,?,?,?)");
+  for (const auto& param : c.parameters) {
+    p.reset();
+    p.bind(1, id);
+    p.bind(2, param.name);
+    p.bind(3, param.value);
+    p.bind(4, param.unit);
+    p.bind(5, param.identified ? 1 : 0);
+    BindOptional(p, 6, param.sigma);
+    p.exec();
+  }
+  SQLite::Statement r(db.sql(),
+                      "INSERT INTO validation_residuals(calibration_id, pose_label, role, dx_mm, "
+                      "dy_mm, dz_mm, distance_mm, "
+                      "nominal_distance_mm) VALUES (?,?,?,?,?,?,?,?)");
+  for (const auto& res : c.residuals) {
+    r.reset();
+    r.bind(1, id);
+    r.bind(2, res.pose_label);
+    r.bind(3, res.role);
+    r.bind(4, res.error_mm.x());
+    r.bind(5, res.error_mm.y());
+    r.bind(6, res.error_mm.z());
+    r.bind(7, res.error_mm.norm());
+    BindOptional(r, 8, res.nominal_distance_mm);
+    r.exec();
+  }
+  return {id, version};
+}
+
+std::vector<StoredCalibration> CalibrationHistory(Database& db, int64_t robot_id) {
+  std::vector<StoredCalibration> out;
+  SQLite::Statement q(
+      db.sql(),
+      "SELECT id, version, active, created_at, params_spec, inputs_json, coalesce(report_json,''), "
+      "validation_mean_mm, validation_max_mm, world_from_base_json FROM calibrations WHERE robot_id = ? ORDER BY "
+      "version");
+  q.bind(1, robot_id);
+  while (q.executeStep()) {
+    StoredCalibration c;
+    c.id = q.getColumn(0).getInt64();
+    c.version = q.getColumn(1).getInt();
+    c.active = q.getColumn(2).getInt() != 0;
+    c.created_at = q.getColumn(3).getString();
+    c.params_spec = q.getColumn(4).getString();
+    c.inputs_json = q.getColumn(5).getString();
+    c.report_json = q.getColumn(6).getString();
+    if (!q.getColumn(7).isNull()) c.validation_mean_mm = q.getColumn(7).getDouble();
+    if (!q.getColumn(8).isNull()) c.validation_max_mm = q.getColumn(8).getDouble();
+    if (!q.getColumn(9).isNull()) c.world_from_base = MatrixFromJson(q.getColumn(9).getString(), c.id);
+    SQLite::Statement p(db.sql(),
+                        "SELECT name, value, unit, identified, sigma FROM calibration_parameters "
+                        "WHERE calibration_id = ? "
+                        "ORDER BY rowid");
+    p.bind(1, c.id);
+    while (p.executeStep()) {
+      CalibrationRecord::Parameter param;
+      param.name = p.getColumn(0).getString();
+      param.value = p.getColumn(1).getDouble();
+      param.unit = p.getColumn(2).getString();
+      param.identified = p.getColumn(3).getInt() != 0;
+      param.sigma = p.getColumn(4).isNull() ? NAN : p.getColumn(4).getDouble();
+      c.parameters.push_back(param);
+    }
+    out.push_back(std::move(c));
+  }
+  return out;
+}
+
+std::optional<StoredCalibration> ActiveCalibration(Database& db, int64_t robot_id) {
+  for (auto& c : CalibrationHistory(db, robot_id)) {
+    if (c.active) return c;
+  }
+  return std::nullopt;
+}
+
+bool SetActiveVersion(Database& db, int64_t robot_id, int version) {
+  SQLite::Statement exists(db.sql(),
+                           "SELECT 1 FROM calibrations WHERE robot_id = ? AND version = ?");
+  exists.bind(1, robot_id);
+  exists.bind(2, version);
+  if (!exists.executeStep()) return false;
+  SQLite::Statement s(db.sql(),
+                      "UPDATE calibrations SET active = (version = ?) WHERE robot_id = ?");
+  s.bind(1, version);
+  s.bind(2, robot_id);
+  s.exec();
+  return true;
+}
+
+}  // namespace armsig::db

@@ -1,0 +1,61 @@
+// Parameter sets (arm signatures), versioned per robot; one may be active.
+#pragma once
+
+#include <Eigen/Core>
+#include <Eigen/Geometry>
+#include <cmath>
+#include <cstdint>
+#include <optional>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include "db/database.h"
+
+namespace armsig::db {
+
+struct CalibrationRecord {
+  int64_t robot_id = 0;
+  std::string params_spec, inputs_json, options_json, report_json;
+  int rank = 0, poses_fit = 0, poses_validation = 0;
+  double nominal_mean_mm = NAN, nominal_max_mm = NAN, nominal_rms_mm = NAN;
+  double fit_mean_mm = NAN, fit_max_mm = NAN, fit_rms_mm = NAN;
+  double validation_mean_mm = NAN, validation_max_mm = NAN, validation_rms_mm = NAN;
+  bool active = false;
+  // The measuring frame of the data the set was fitted on (world from the robot base).
+  Eigen::Isometry3d world_from_base = Eigen::Isometry3d::Identity();
+  struct Parameter {
+    std::string name, unit;
+    double value = 0.0, sigma = NAN;
+    bool identified = false;
+  };
+  std::vector<Parameter> parameters;
+  struct Residual {
+    std::string pose_label, role;  // fit | validation
+    Eigen::Vector3d error_mm = Eigen::Vector3d::Zero();
+    double nominal_distance_mm = NAN;
+  };
+  std::vector<Residual> residuals;
+};
+
+// Stores a calibration as the robot's next version (one transaction by the caller);
+// `active` makes it the robot's only active set. Returns {id, version}.
+std::pair<int64_t, int> InsertCalibration(Database& db, const CalibrationRecord& record);
+
+struct StoredCalibration {
+  int64_t id = 0;
+  int version = 0;
+  bool active = false;
+  std::string created_at, params_spec, inputs_json, report_json;
+  double validation_mean_mm = NAN, validation_max_mm = NAN;
+  std::optional<Eigen::Isometry3d> world_from_base;  // absent in sets stored before schema v2
+  std::vector<CalibrationRecord::Parameter> parameters;
+};
+std::vector<StoredCalibration> CalibrationHistory(Database& db, int64_t robot_id);  // by version
+std::optional<StoredCalibration> ActiveCalibration(Database& db, int64_t robot_id);
+
+// Makes `version` the robot's only active set. Returns false (nothing changed) when the
+// robot has no such version. Call inside a transaction.
+bool SetActiveVersion(Database& db, int64_t robot_id, int version);
+
+}  // namespace armsig::db

@@ -1,0 +1,67 @@
+// The nightly recalibration: fit the robot's stored measurements, validate on the
+// configurations not used in the fit, compare with the active set on the same data,
+// and store a new active parameter set only when every gate passes.
+#pragma once
+
+#include <nlohmann/json.hpp>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "calibration/estimation.h"
+
+namespace armsig::workflows {
+
+struct RecalibrateOptions {
+  std::string db_path;
+  std::string robot;
+  std::string since;         // ISO date/time lower bound on the sessions used ("" = all)
+  std::string params = "all";
+  int select = 0;            // configurations to fit (0: 60 %, at most 80)
+  // Gates; unset = the lab file's `recalibration:` block, else the defaults below.
+  std::optional<double> max_validation_mean_mm, max_validation_max_mm, tolerance_mm,
+      drift_sigma;
+  std::string report_dir;    // write the HTML report here ("" = none)
+  int lock_wait_s = 600;
+  bool force = false;        // refit even when the active set already uses these inputs
+};
+
+struct Gate {
+  std::string name;
+  double value_mm = 0.0, limit_mm = 0.0;
+  bool passed = false;
+};
+
+struct DriftedParameter {
+  std::string name;
+  double change = 0.0;  // mm or rad
+  double sigmas = 0.0;
+};
+
+struct RecalibrationDecision {
+  enum class Outcome { kUpToDate, kStored, kRejected };
+  Outcome outcome = Outcome::kRejected;
+  std::string robot;
+  int version = 0;                      // stored version, or the active one when up to date
+  std::optional<int> previous_version;  // the set active before this run
+  int poses = 0;
+  int rank = 0;
+  calibration::ErrorStats nominal, fit, validation;
+  std::optional<calibration::ErrorStats> previous_on_same_data;
+  std::vector<Gate> gates;
+  bool drift = false;
+  double max_abs_sigmas = 0.0;
+  std::vector<DriftedParameter> drifted;
+  std::string report_path;  // "" when no report was written
+
+  bool passed() const { return outcome != Outcome::kRejected; }
+  // "stored as version 4 (active)" / "rejected: a gate failed; version 3 stays active" / …
+  std::string Describe() const;
+  nlohmann::json ToJson() const;
+};
+
+// Throws InputError for an unknown robot, too few measurements or a malformed stored
+// lab file; std::runtime_error when another recalibration holds the lock too long.
+RecalibrationDecision Recalibrate(const RecalibrateOptions& options);
+
+}  // namespace armsig::workflows

@@ -1,0 +1,59 @@
+// A robot's stored arm signature, in the model's parameter order.
+#pragma once
+
+#include <Eigen/Core>
+#include <Eigen/Geometry>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "calibration/model.h"
+#include "db/database.h"
+#include "db/store.h"
+
+namespace armsig::workflows {
+
+struct Signature {
+  int version = 0;
+  Eigen::VectorXd params, sigmas;
+  std::optional<Eigen::Isometry3d> world_from_base;  // the measuring frame of its data
+};
+
+Signature SignatureOf(const calibration::RobotModel& model, const db::StoredCalibration& stored);
+
+struct ActiveSignature {
+  calibration::RobotModel model;
+  Signature signature;
+};
+// Throws InputError naming the robot when it is unknown or has no active set.
+ActiveSignature LoadActiveSignature(db::Database& database, const std::string& robot);
+
+// The frame positions are given in: "robot" (its aligned base, N1 = I) or "measurement"
+// (the measuring frame of the data the set was fitted on). Throws InputError otherwise.
+Eigen::Isometry3d FrameOf(const ActiveSignature& active, const std::string& frame);
+
+// armsig predict: calibrated and nominal target positions for every row of a joints CSV
+// (pose,q1_deg,…). Returns the positions CSV.
+std::string PredictCsv(const ActiveSignature& active, const Eigen::Isometry3d& frame,
+                       const std::string& joints_csv);
+
+// armsig compensate: joints that make the calibrated robot reach each target of a CSV
+// (point,x_mm,y_mm,z_mm[,q1_deg,… the nominal program]).
+struct CompensationResult {
+  std::string csv;  // point,q…_deg,nominal_q…_deg,residual_mm,status
+  int targets = 0;
+  std::vector<std::string> unreachable;  // one message per target that could not be reached
+};
+CompensationResult Compensate(const ActiveSignature& active, const Eigen::Isometry3d& frame,
+                              const std::string& targets_csv,
+                              const std::optional<Eigen::VectorXd>& seed_rad);
+
+// armsig export: the active set as json | model (corrected model YAML) | urdf.
+struct ExportResult {
+  std::string text;
+  std::string warning;  // what a URDF cannot carry
+};
+ExportResult ExportSignature(const ActiveSignature& active, const std::string& robot,
+                             const std::string& format, const std::string& frame_name);
+
+}  // namespace armsig::workflows
