@@ -1,6 +1,7 @@
 // armsig capture --lab LAB.yaml --plan PLAN --robot NAME [--skip-on-fault]
 // armsig capture --lab LAB.yaml --resume SESSION
 #include <fmt/format.h>
+#include <spdlog/spdlog.h>
 #include <unistd.h>
 
 #include <atomic>
@@ -72,8 +73,7 @@ int RunCaptureCommand(const CaptureCommandOptions& o, const GlobalOptions& globa
     }
     const acquisition::Plan plan = acquisition::MakePlan(o.plan, lab.model);
     session = acquisition::CreateSession(database, lab, o.robot, plan);
-    std::cerr << "armsig capture: session " << session << ", " << plan.size()
-              << " configurations\n";
+    spdlog::info("capture: session {}, {} configurations", session, plan.size());
   }
   auto devices = acquisition::OpenInstruments(lab);
   auto controller = acquisition::OpenController(lab);
@@ -108,14 +108,14 @@ int RunCaptureCommand(const CaptureCommandOptions& o, const GlobalOptions& globa
       s.session, s.already + s.measured + s.skipped, s.total, s.measured, s.already, s.skipped,
       s.remeasured, s.mean_miss_mm, s.max_miss_mm, s.seconds, s.mean_cycle_ms, s.mean_overhead_ms);
   if (s.paused) {
-    std::cerr << "armsig capture: session " << s.session << " paused: " << s.pause_reason
-              << "\nfix it, then resume with: armsig capture --lab " << o.lab << " --resume "
-              << s.session << "\n";
+    spdlog::error("capture: session {} paused: {}", s.session, s.pause_reason);
+    spdlog::info("fix it, then resume with: armsig --db {} capture --lab {} --resume {}",
+                 database.path(), o.lab, s.session);
     return kFailure;
   }
   if (s.stopped) {
-    std::cerr << "armsig capture: stopped; resume with: armsig capture --lab " << o.lab
-              << " --resume " << s.session << "\n";
+    spdlog::warn("capture: stopped; resume with: armsig --db {} capture --lab {} --resume {}",
+                 database.path(), o.lab, s.session);
     return kFailure;
   }
   return kOk;

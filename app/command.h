@@ -14,7 +14,8 @@ enum ExitCode : int { kOk = 0, kFailure = 1, kInputError = 2, kQualityGate = 3 }
 
 struct GlobalOptions {
   std::string db_path;  // --db; empty = $ARMSIG_DB, else ./armsig.db
-  int verbosity = 0;
+  int verbosity = 0;  // -v: debug, -vv: trace
+  bool quiet = false;  // -q: warnings and errors only
   std::string DbPath() const;
 };
 

@@ -1,5 +1,7 @@
 // armsig import poses FILE (--preset ur-ipa | --joints … --xyz …) --out POSES.csv
 // armsig import gsi FILE --station ID --out OBS.csv
+#include <spdlog/spdlog.h>
+
 #include <iostream>
 #include <sstream>
 
@@ -66,8 +68,7 @@ int RunImportPoses(const ImportPosesOptions& options) {
   if (options.length_scale != 1.0) import.length_scale_to_mm = options.length_scale;
   const auto poses = io::ImportPoses(options.file, import);
   io::WriteFileAtomically(options.out, io::FormatPosesCsv(poses));
-  std::cerr << "armsig import poses: " << poses.size() << " poses from " << options.file << " to "
-            << options.out << "\n";
+  spdlog::info("import poses: {} poses from {} to {}", poses.size(), options.file, options.out);
   return kOk;
 }
 
@@ -78,9 +79,9 @@ struct ImportGsiOptions {
 int RunImportGsi(const ImportGsiOptions& options) {
   const auto imported = io::ImportGsi(options.file, options.station);
   io::WriteFileAtomically(options.out, io::FormatObservationsCsv(imported.observations));
-  std::cerr << "armsig import gsi: " << imported.observations.size() << " observations from "
-            << imported.blocks << " blocks (" << imported.skipped_blocks
-            << " without Hz and V skipped) -> " << options.out << "\n";
+  spdlog::info("import gsi: {} observations from {} blocks ({} without Hz and V skipped) -> {}",
+               imported.observations.size(), imported.blocks, imported.skipped_blocks,
+               options.out);
   return kOk;
 }
 

@@ -1,6 +1,7 @@
 // armsig instrument probe|read --port PATH|--tcp HOST:PORT --protocol geocom|gsi|val|as [--json]
 // armsig instrument simulate --protocol P [--link PATH] [--seconds N]
 #include <fmt/format.h>
+#include <spdlog/spdlog.h>
 
 #include <atomic>
 #include <csignal>
@@ -113,7 +114,7 @@ int RunInstrument(const InstrumentOptions& o) {
     }
     return kOk;
   } catch (const instruments::InstrumentError& e) {
-    std::cerr << "armsig instrument: " << e.what() << " (code " << e.code() << ")\n";
+    spdlog::error("instrument: {} (code {})", e.what(), e.code());
     return kFailure;
   }
 }

@@ -22,6 +22,7 @@ void SetupAll(CLI::App& app, GlobalOptions& global, Runner& run) {
   app.add_option("--db", global.db_path,
                  "SQLite database file (default: $ARMSIG_DB, else ./armsig.db)");
   app.add_flag("-v,--verbose", global.verbosity, "More log output on stderr (repeat for more)");
+  app.add_flag("-q,--quiet", global.quiet, "Only warnings and errors on stderr");
   SetupDemoCommand(app, global, run);
   SetupOrientCommand(app, global, run);
   SetupTriangulateCommand(app, global, run);
@@ -52,23 +53,24 @@ int Main(int argc, const char* const* argv) {
   auto logger = spdlog::stderr_color_st("armsig");
   spdlog::set_default_logger(logger);
   spdlog::set_pattern("armsig: %^%l%$: %v");
-  spdlog::set_level(global.verbosity >= 2   ? spdlog::level::debug
-                    : global.verbosity == 1 ? spdlog::level::info
-                                            : spdlog::level::warn);
+  // Progress and decisions (info) by default; -q keeps warnings, -v adds the details.
+  spdlog::set_level(global.quiet            ? spdlog::level::warn
+                    : global.verbosity >= 2 ? spdlog::level::trace
+                    : global.verbosity == 1 ? spdlog::level::debug
+                                            : spdlog::level::info);
   try {
     return run ? run() : kInputError;
   } catch (const InputError& e) {
-    std::cerr << "armsig: error: " << e.what() << "\n";
+    spdlog::error("{}", e.what());
     return kInputError;
   } catch (const QualityGateError& e) {
-    std::cerr << "armsig: quality gate failed: " << e.what() << "\n";
+    spdlog::error("quality gate failed: {}", e.what());
     return kQualityGate;
   } catch (const SQLite::Exception& e) {
-    std::cerr << "armsig: database error: " << e.what() << " (SQLite code " << e.getErrorCode()
-              << ")\n";
+    spdlog::error("database error: {} (SQLite code {})", e.what(), e.getErrorCode());
     return kFailure;
   } catch (const std::exception& e) {
-    std::cerr << "armsig: failed: " << e.what() << "\n";
+    spdlog::error("failed: {}", e.what());
     return kFailure;
   }
 }

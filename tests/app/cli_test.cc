@@ -27,7 +27,7 @@ TEST(Cli, DbInfoCreatesTheFileAndReportsTheSchema) {
   TempDir dir;
   const auto r = RunArmsig("--db '" + dir.File("lab.db") + "' db info");
   EXPECT_EQ(r.exit_code, 0) << r.err;
-  EXPECT_NE(r.out.find("schema        v1"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("schema        v2"), std::string::npos) << r.out;
   EXPECT_NE(r.out.find("calibration_parameters"), std::string::npos);
   EXPECT_TRUE(std::filesystem::exists(dir.File("lab.db")));
 }
