@@ -45,8 +45,8 @@ unsigned Baud(const YamlValue& value) { return static_cast<unsigned>(value.Integ
 
 ControllerConfig ControllerFrom(const YamlValue& value, const std::string& source,
                                 SourceLocation* ports_where) {
-  const YamlMap map = value.Map({"protocol", "port", "baud", "can_move", "ports",
-                                 "counts_per_deg", "offset_deg", "coupling"});
+  const YamlMap map = value.Map({"protocol", "port", "baud", "can_move", "ports", "counts_per_deg",
+                                 "offset_deg", "coupling"});
   ControllerConfig c;
   c.protocol = Choice(map.Required("protocol", "val, as or counter"), {"val", "as", "counter"});
   if (const auto baud = map.Find("baud")) c.baud = Baud(*baud);
@@ -94,9 +94,8 @@ ControllerConfig ControllerFrom(const YamlValue& value, const std::string& sourc
 
 InstrumentConfig InstrumentFrom(const YamlValue& value, const std::string& source,
                                 SourceLocation* station_where) {
-  const YamlMap map =
-      value.Map({"station", "protocol", "port", "tcp", "baud", "crc", "distance",
-                 "sigma_hz_arcsec", "sigma_v_arcsec", "sigma_distance_mm"});
+  const YamlMap map = value.Map({"station", "protocol", "port", "tcp", "baud", "crc", "distance",
+                                 "sigma_hz_arcsec", "sigma_v_arcsec", "sigma_distance_mm"});
   InstrumentConfig c;
   const YamlValue station = map.Required("station", "the id of the station it stands on");
   c.station = station.Text();
@@ -127,9 +126,9 @@ InstrumentConfig InstrumentFrom(const YamlValue& value, const std::string& sourc
 }
 
 void TolerancesFrom(const YamlValue& value, Tolerances& tol, instruments::RetryPolicy& policy) {
-  const YamlMap map = value.Map({"max_miss_mm", "max_repeat_mm", "readings", "max_remeasure",
-                                 "settle_ms", "fault_retries", "fault_retry_delay_ms",
-                                 "two_face", "timeout_ms"});
+  const YamlMap map =
+      value.Map({"max_miss_mm", "max_repeat_mm", "readings", "max_remeasure", "settle_ms",
+                 "fault_retries", "fault_retry_delay_ms", "two_face", "timeout_ms"});
   if (const auto v = map.Find("max_miss_mm")) tol.max_miss_mm = v->PositiveNumber();
   if (const auto v = map.Find("max_repeat_mm")) tol.max_repeat_mm = v->PositiveNumber();
   if (const auto v = map.Find("readings")) tol.readings = v->Integer(1, kMaxInt);
@@ -146,11 +145,13 @@ void TolerancesFrom(const YamlValue& value, Tolerances& tol, instruments::RetryP
 }
 
 RecalibrationSettings RecalibrationFrom(const YamlValue& value) {
-  const YamlMap map = value.Map(
-      {"max_validation_mean_mm", "max_validation_max_mm", "tolerance_mm", "drift_sigma"});
+  const YamlMap map =
+      value.Map({"max_validation_mean_mm", "max_validation_max_mm", "tolerance_mm", "drift_sigma"});
   RecalibrationSettings r;
-  if (const auto v = map.Find("max_validation_mean_mm")) r.max_validation_mean_mm = v->PositiveNumber();
-  if (const auto v = map.Find("max_validation_max_mm")) r.max_validation_max_mm = v->PositiveNumber();
+  if (const auto v = map.Find("max_validation_mean_mm"))
+    r.max_validation_mean_mm = v->PositiveNumber();
+  if (const auto v = map.Find("max_validation_max_mm"))
+    r.max_validation_max_mm = v->PositiveNumber();
   if (const auto v = map.Find("tolerance_mm")) r.tolerance_mm = v->NonNegativeNumber();
   if (const auto v = map.Find("drift_sigma")) r.drift_sigma = v->PositiveNumber();
   return r;
@@ -189,9 +190,9 @@ ParsedLab Parse(const std::string& text, const std::string& source) {
   const YamlValue model = robot.Required("model", "the robot model file");
   lab.robot_model_path = Resolve(source, model.Text());
   parsed.model_where = model.Where();
-  lab.controller = ControllerFrom(
-      robot.Required("controller", "{protocol: val | as | counter, port, …}"), source,
-      &parsed.ports_where);
+  lab.controller =
+      ControllerFrom(robot.Required("controller", "{protocol: val | as | counter, port, …}"),
+                     source, &parsed.ports_where);
 
   for (const YamlValue& item : root.Required("instruments", "a list of instruments").List(1)) {
     lab.instruments.push_back(
@@ -247,11 +248,10 @@ LabConfig ParseLab(const std::string& text, const std::string& source) {
   lab.controller = settings.controller;
   if (lab.controller.protocol == "counter" &&
       static_cast<int>(lab.controller.counter_ports.size()) != lab.model.num_joints()) {
-    throw InputError(parsed.ports_where,
-                     "counter: the controller gives " +
-                         std::to_string(lab.controller.counter_ports.size()) +
-                         " ports, the robot model has " + std::to_string(lab.model.num_joints()) +
-                         " joints");
+    throw InputError(parsed.ports_where, "counter: the controller gives " +
+                                             std::to_string(lab.controller.counter_ports.size()) +
+                                             " ports, the robot model has " +
+                                             std::to_string(lab.model.num_joints()) + " joints");
   }
   lab.instruments = settings.instruments;
   if (!settings.stations_path.empty()) {

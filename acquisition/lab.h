@@ -36,14 +36,14 @@ struct ControllerConfig {
 };
 
 struct Tolerances {
-  double max_miss_mm = 0.2;     // largest ray miss distance of an accepted point
-  double max_repeat_mm = 0.05;  // agreement of repeated readings
-  int readings = 1;             // readings per configuration (≥ 2 checks repeatability)
-  int max_remeasure = 3;        // automatic re-measurements before giving up
-  int settle_ms = 300;          // wait after a move
-  int fault_retries = 2;        // session-level retries of a failing instrument
+  double max_miss_mm = 0.2;        // largest ray miss distance of an accepted point
+  double max_repeat_mm = 0.05;     // agreement of repeated readings
+  int readings = 1;                // readings per configuration (≥ 2 checks repeatability)
+  int max_remeasure = 3;           // automatic re-measurements before giving up
+  int settle_ms = 300;             // wait after a move
+  int fault_retries = 2;           // session-level retries of a failing instrument
   int fault_retry_delay_ms = 500;  // wait before each retry (a port coming back, an operator)
-  bool two_face = false;        // measure in both faces
+  bool two_face = false;           // measure in both faces
 };
 
 // The lab file's `recalibration:` block: gates of the nightly job. An absent key is
@@ -73,7 +73,7 @@ struct LabConfig {
   std::string source;  // file it came from
   std::string text;    // the YAML as read (stored with the session)
   std::string robot_model_path;
-  std::string model_yaml;         // the robot model file's text (stored with the robot)
+  std::string model_yaml;  // the robot model file's text (stored with the robot)
   calibration::RobotModel model;
   ControllerConfig controller;
   std::vector<InstrumentConfig> instruments;

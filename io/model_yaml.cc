@@ -77,7 +77,8 @@ RobotModel Parse(const YamlValue& root_value) {
   RobotModel model;
   model.name = root.Has("name") ? root.Find("name")->Text() : "robot";
 
-  if (const auto base = root.Find("base"); base && !(base->IsScalar() && base->node().Scalar() == "auto")) {
+  if (const auto base = root.Find("base");
+      base && !(base->IsScalar() && base->node().Scalar() == "auto")) {
     if (!base->IsList()) base->Fail("expected 'auto' or a 4x4 matrix, got " + base->Describe());
     model.base = Transform(*base);
   }

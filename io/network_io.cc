@@ -72,10 +72,10 @@ constexpr double kRotationTolerance = 1e-6;
 
 // One station; `ids` holds the ids of the stations before it (duplicates are refused).
 reduction::Station StationFrom(const YamlValue& value, std::set<std::string>& ids) {
-  const YamlMap map = value.Map({"id", "position_mm", "azimuth_gon", "azimuth_deg", "azimuth_rad",
-                                 "rotation", "sigma_hz_arcsec", "sigma_v_arcsec",
-                                 "sigma_position_mm", "sigma_azimuth_arcsec",
-                                 "sigma_rotation_arcsec"});
+  const YamlMap map =
+      value.Map({"id", "position_mm", "azimuth_gon", "azimuth_deg", "azimuth_rad", "rotation",
+                 "sigma_hz_arcsec", "sigma_v_arcsec", "sigma_position_mm", "sigma_azimuth_arcsec",
+                 "sigma_rotation_arcsec"});
   reduction::Station s;
   const YamlValue id = map.Required("id", "the station id");
   s.pose.id = id.Text();
@@ -87,7 +87,8 @@ reduction::Station StationFrom(const YamlValue& value, std::set<std::string>& id
     const std::string key = "azimuth" + std::string(AngleUnitSuffix(unit));
     if (const auto azimuth = map.Find(key)) {
       if (orientation) {
-        azimuth->Fail("station " + s.pose.id + ": give one of azimuth_gon, azimuth_deg, azimuth_rad");
+        azimuth->Fail("station " + s.pose.id +
+                      ": give one of azimuth_gon, azimuth_deg, azimuth_rad");
       }
       s.pose.levelled = true;
       s.pose.azimuth_rad = ToRad(azimuth->Number(), unit);
@@ -109,11 +110,14 @@ reduction::Station StationFrom(const YamlValue& value, std::set<std::string>& id
     orientation = rotation;
   }
   if (!orientation) {
-    map.Fail("station " + s.pose.id + ": expected azimuth_gon, azimuth_deg, azimuth_rad or rotation");
+    map.Fail("station " + s.pose.id +
+             ": expected azimuth_gon, azimuth_deg, azimuth_rad or rotation");
   }
 
-  if (const auto v = map.Find("sigma_hz_arcsec")) s.sigma_hz_rad = v->PositiveNumber() * kRadPerArcsec;
-  if (const auto v = map.Find("sigma_v_arcsec")) s.sigma_v_rad = v->PositiveNumber() * kRadPerArcsec;
+  if (const auto v = map.Find("sigma_hz_arcsec"))
+    s.sigma_hz_rad = v->PositiveNumber() * kRadPerArcsec;
+  if (const auto v = map.Find("sigma_v_arcsec"))
+    s.sigma_v_rad = v->PositiveNumber() * kRadPerArcsec;
   // The precision an orientation reported (FormatStationsYaml writes it).
   if (const auto v = map.Find("sigma_position_mm")) {
     s.sigma_position_mm = v->Vector3();
@@ -173,10 +177,12 @@ std::string FormatStationsYaml(const std::vector<reduction::Station>& stations,
       out << YAML::EndSeq;
     }
     if (std::isfinite(s.sigma_hz_rad)) {
-      out << YAML::Key << "sigma_hz_arcsec" << YAML::Value << YamlNumber(s.sigma_hz_rad / kRadPerArcsec);
+      out << YAML::Key << "sigma_hz_arcsec" << YAML::Value
+          << YamlNumber(s.sigma_hz_rad / kRadPerArcsec);
     }
     if (std::isfinite(s.sigma_v_rad)) {
-      out << YAML::Key << "sigma_v_arcsec" << YAML::Value << YamlNumber(s.sigma_v_rad / kRadPerArcsec);
+      out << YAML::Key << "sigma_v_arcsec" << YAML::Value
+          << YamlNumber(s.sigma_v_rad / kRadPerArcsec);
     }
     out << YAML::Key << "sigma_position_mm" << YAML::Value;
     vector(s.sigma_position_mm, 1.0);

@@ -190,7 +190,9 @@ YamlDocument YamlDocument::Parse(const std::string& text, const std::string& sou
   }
 }
 
-YamlDocument YamlDocument::Load(const std::string& path) { return Parse(ReadWholeFile(path), path); }
+YamlDocument YamlDocument::Load(const std::string& path) {
+  return Parse(ReadWholeFile(path), path);
+}
 
 YamlValue YamlDocument::Root() const {
   return YamlValue(root_, source_, "", YAML::Mark::null_mark());

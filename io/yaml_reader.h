@@ -44,12 +44,12 @@ class YamlValue {
   bool IsMap() const { return node_.IsMap(); }
 
   // Scalars.
-  std::string Text() const;            // a non-empty scalar
-  double Number() const;               // finite
-  double PositiveNumber() const;       // finite, > 0
-  double NonNegativeNumber() const;    // finite, ≥ 0
+  std::string Text() const;             // a non-empty scalar
+  double Number() const;                // finite
+  double PositiveNumber() const;        // finite, > 0
+  double NonNegativeNumber() const;     // finite, ≥ 0
   int Integer(int min, int max) const;  // an integer within [min, max]
-  bool Flag() const;                   // true / false (yaml-cpp's yes/no/on/off too)
+  bool Flag() const;                    // true / false (yaml-cpp's yes/no/on/off too)
 
   // A list; refused when not a list or shorter than `min_size`.
   std::vector<YamlValue> List(size_t min_size = 0) const;

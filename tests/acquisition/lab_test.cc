@@ -20,7 +20,9 @@ class LabFile : public ::testing::Test {
 
   std::string Lab(const std::string& stations_line, const std::string& extra = "") const {
     return "robot:\n"
-           "  model: '" + testing::SourcePath("models/puma760.yaml") + "'\n"
+           "  model: '" +
+           testing::SourcePath("models/puma760.yaml") +
+           "'\n"
            "  controller: {protocol: as, port: /dev/ttyS0, can_move: true}\n"
            "instruments:\n"
            "  - {station: T1, protocol: geocom, port: /dev/ttyUSB0, sigma_hz_arcsec: 0.3}\n"
@@ -93,12 +95,12 @@ TEST_F(LabFile, InlineStationsAreReadLikeAStationsFile) {
 
 TEST_F(LabFile, MisspeltKeysAreRefusedWithLineAndSuggestion) {
   // Line 7 is the first line after the instruments.
-  EXPECT_STREQ(LabRefusal(Lab("tolerance: {max_miss_mm: 0.1}\n")).what(),
-               (Path("lab.yaml") + ":7:1: unknown key 'tolerance' (did you mean 'tolerances'?)")
-                   .c_str());
-  EXPECT_STREQ(LabRefusal(Lab("tolerances:\n  max_mis_mm: 0.1\n")).what(),
-               (Path("lab.yaml") + ":8:3: unknown key 'max_mis_mm' (did you mean 'max_miss_mm'?)")
-                   .c_str());
+  EXPECT_STREQ(
+      LabRefusal(Lab("tolerance: {max_miss_mm: 0.1}\n")).what(),
+      (Path("lab.yaml") + ":7:1: unknown key 'tolerance' (did you mean 'tolerances'?)").c_str());
+  EXPECT_STREQ(
+      LabRefusal(Lab("tolerances:\n  max_mis_mm: 0.1\n")).what(),
+      (Path("lab.yaml") + ":8:3: unknown key 'max_mis_mm' (did you mean 'max_miss_mm'?)").c_str());
   EXPECT_STREQ(
       LabRefusal(Lab("recalibration:\n  drift_sigma: 4\n  tolerance: 0.02\n")).what(),
       (Path("lab.yaml") + ":9:3: unknown key 'tolerance' (did you mean 'tolerance_mm'?)").c_str());
@@ -145,7 +147,8 @@ TEST_F(LabFile, WrongShapesNamePositionAndWhatWasExpected) {
     EXPECT_EQ(e.message(), "expected a stations file name or a list of stations, got a mapping");
   }
   {
-    const InputError e = LabRefusal(robot + "instruments:\n  - {station: T1, protocol: gsi, tcp: host}\n");
+    const InputError e =
+        LabRefusal(robot + "instruments:\n  - {station: T1, protocol: gsi, tcp: host}\n");
     EXPECT_EQ(e.message(), "expected HOST:PORT with a port from 1 to 65535, got 'host'");
   }
   {

@@ -93,8 +93,8 @@ TEST(ModelYaml, MisspeltKeyIsRefusedWithLineAndSuggestion) {
 }
 
 TEST(ModelYaml, MisspeltKeyInsideAListItemIsRefused) {
-  const InputError term = ModelRefusal(std::string(kOneLink) +
-                                       "nongeometric:\n  - {name: h1, joint: 1, bases: cos, of: [1]}\n");
+  const InputError term = ModelRefusal(
+      std::string(kOneLink) + "nongeometric:\n  - {name: h1, joint: 1, bases: cos, of: [1]}\n");
   EXPECT_STREQ(term.what(), "m.yaml:4:26: unknown key 'bases' (did you mean 'basis'?)");
   const InputError dh = ModelRefusal("dh:\n  - {d_mm: 1, a_mm: 0, alpha_dg: 90}\n");
   EXPECT_STREQ(dh.what(), "m.yaml:2:24: unknown key 'alpha_dg' (did you mean 'alpha_deg'?)");
@@ -107,8 +107,8 @@ TEST(ModelYaml, WrongShapeNamesPositionAndWhatWasExpected) {
   const InputError link = ModelRefusal("links:\n  - 42\n");
   EXPECT_STREQ(link.what(),
                "m.yaml:2:5 (links): expected a 4x4 matrix as a list of 4 rows, got '42'");
-  const InputError joint = ModelRefusal(std::string(kOneLink) +
-                                        "nongeometric:\n  - {name: h1, joint: 1.5, basis: cos, of: [1]}\n");
+  const InputError joint = ModelRefusal(
+      std::string(kOneLink) + "nongeometric:\n  - {name: h1, joint: 1.5, basis: cos, of: [1]}\n");
   EXPECT_EQ(joint.where().line, 4);
   EXPECT_EQ(joint.message(), "expected an integer from 1 to 2, got '1.5'");
   const InputError base = ModelRefusal(std::string(kOneLink) + "base: identity\n");

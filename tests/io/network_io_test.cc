@@ -96,13 +96,15 @@ TEST(StationsYaml, MisspeltKeyIsRefusedWithLineAndSuggestion) {
 TEST(StationsYaml, RefusesWhatIsNotAStationSetUp) {
   const std::string head = "stations:\n  - {id: A, position_mm: [0, 0, 0], azimuth_gon: 1}\n";
   {
-    const InputError e = StationsRefusal(head + "  - {id: A, position_mm: [1, 0, 0], azimuth_gon: 2}\n");
+    const InputError e =
+        StationsRefusal(head + "  - {id: A, position_mm: [1, 0, 0], azimuth_gon: 2}\n");
     EXPECT_EQ(e.where().line, 3);
     EXPECT_EQ(e.message(), "duplicate station id 'A'");
   }
   {
     const InputError e = StationsRefusal(
-        head + "  - {id: B, position_mm: [1, 0, 0], rotation: [[1, 0, 0], [0, 1, 0], [0, 0, 2]]}\n");
+        head +
+        "  - {id: B, position_mm: [1, 0, 0], rotation: [[1, 0, 0], [0, 1, 0], [0, 0, 2]]}\n");
     EXPECT_EQ(e.where().line, 3);
     EXPECT_EQ(e.message(), "station B: expected a rotation (orthonormal, det +1)");
   }
@@ -114,12 +116,13 @@ TEST(StationsYaml, RefusesWhatIsNotAStationSetUp) {
     EXPECT_EQ(e.message(), "station B: give azimuth or rotation, not both");
   }
   {
-    const InputError e =
-        StationsRefusal(head + "  - {id: B, position_mm: [1, 0, 0], azimuth_gon: 3, azimuth_deg: 3}\n");
+    const InputError e = StationsRefusal(
+        head + "  - {id: B, position_mm: [1, 0, 0], azimuth_gon: 3, azimuth_deg: 3}\n");
     EXPECT_EQ(e.message(), "station B: give one of azimuth_gon, azimuth_deg, azimuth_rad");
   }
   {
-    const InputError e = StationsRefusal(head + "  - {id: B, position_mm: [1, 0], azimuth_gon: 3}\n");
+    const InputError e =
+        StationsRefusal(head + "  - {id: B, position_mm: [1, 0], azimuth_gon: 3}\n");
     EXPECT_EQ(e.where().line, 3);
     EXPECT_EQ(e.where().column, 26);  // the '['
     EXPECT_EQ(e.where().column_name, "position_mm");
@@ -129,7 +132,8 @@ TEST(StationsYaml, RefusesWhatIsNotAStationSetUp) {
     const InputError e = StationsRefusal(head + "  - {id: B, position_mm: [1, 0, 0]}\n");
     EXPECT_EQ(e.message(), "station B: expected azimuth_gon, azimuth_deg, azimuth_rad or rotation");
   }
-  EXPECT_EQ(StationsRefusal("stations: []\n").message(), "expected a non-empty list, got a list of 0");
+  EXPECT_EQ(StationsRefusal("stations: []\n").message(),
+            "expected a non-empty list, got a list of 0");
   EXPECT_EQ(StationsRefusal("stations: {id: A}\n").message(), "expected a list, got a mapping");
   EXPECT_EQ(StationsRefusal("# nothing\n").message(),
             "expected a mapping with stations, got nothing");

@@ -86,8 +86,8 @@ TEST(YamlReader, ListWhereAMappingIsExpected) {
 }
 
 TEST(YamlReader, ScalarItemWhereAListIsExpected) {
-  const InputError e = Refusal(
-      [] { RootOf("m: [[1, 2], 3]\n").Map({"m"}).Required("m", "").Matrix(2, 2); });
+  const InputError e =
+      Refusal([] { RootOf("m: [[1, 2], 3]\n").Map({"m"}).Required("m", "").Matrix(2, 2); });
   EXPECT_EQ(e.where().line, 1);
   EXPECT_EQ(e.where().column, 13);  // the '3'
   EXPECT_EQ(e.message(), "expected a row of 2 numbers, got '3'");
@@ -108,28 +108,35 @@ TEST(YamlReader, WrongLengthIsRefused) {
 }
 
 TEST(YamlReader, EmptyValueIsReportedAtItsKey) {
-  const InputError e = Refusal([] { RootOf("a: 1\nb:\n").Map({"a", "b"}).Required("b", "").Text(); });
+  const InputError e = Refusal([] {
+    RootOf("a: 1\nb:\n").Map({"a", "b"}).Required("b", "").Text();
+  });
   EXPECT_EQ(e.where().line, 2);
   EXPECT_EQ(e.where().column, 1);
   EXPECT_EQ(e.message(), "expected a text value, got nothing");
 }
 
 TEST(YamlReader, MissingKeyIsReportedAtItsMapping) {
-  const InputError e = Refusal(
-      [] { RootOf("x: 0\nrobot: {model: m}\n").Map({"x", "robot"}).Required("robot", "").Map({"model", "controller"}).Required("controller", "a controller"); });
+  const InputError e = Refusal([] {
+    RootOf("x: 0\nrobot: {model: m}\n")
+        .Map({"x", "robot"})
+        .Required("robot", "")
+        .Map({"model", "controller"})
+        .Required("controller", "a controller");
+  });
   EXPECT_EQ(e.where().line, 2);
   EXPECT_EQ(e.where().column, 8);
   EXPECT_EQ(e.message(), "missing 'controller' (expected a controller)");
 }
 
 TEST(YamlReader, IntegersAndFlags) {
-  const YamlMap map = RootOf("n: 3\nf: 2.5\nb: yes\nc: maybe\nbig: 99999999999\n")
-                          .Map({"n", "f", "b", "c", "big"});
+  const YamlMap map =
+      RootOf("n: 3\nf: 2.5\nb: yes\nc: maybe\nbig: 99999999999\n").Map({"n", "f", "b", "c", "big"});
   EXPECT_EQ(map.Required("n", "").Integer(1, 10), 3);
   EXPECT_THROW(map.Required("n", "").Integer(4, 10), InputError);
-  EXPECT_EQ(Refusal([&] { map.Required("f", "").Integer(0, std::numeric_limits<int>::max()); })
-                .message(),
-            "expected an integer ≥ 0, got '2.5'");
+  EXPECT_EQ(
+      Refusal([&] { map.Required("f", "").Integer(0, std::numeric_limits<int>::max()); }).message(),
+      "expected an integer ≥ 0, got '2.5'");
   EXPECT_THROW(map.Required("big", "").Integer(0, std::numeric_limits<int>::max()), InputError);
   EXPECT_TRUE(map.Required("b", "").Flag());
   EXPECT_EQ(Refusal([&] { map.Required("c", "").Flag(); }).message(),
@@ -149,8 +156,8 @@ TEST(YamlReader, UnreadableFileIsAnInputError) {
 }
 
 TEST(YamlNumber, EmitsTheShortestTextThatReadsBackExactly) {
-  const std::vector<double> values = {0.1,  1.0 / 3.0, 1e-7,  -0.5, 650.0, 1e16,
-                                      -0.0, M_PI,      10000144.31191, 4.84813681109536e-6};
+  const std::vector<double> values = {0.1,  1.0 / 3.0, 1e-7, -0.5,           650.0,
+                                      1e16, -0.0,      M_PI, 10000144.31191, 4.84813681109536e-6};
   YAML::Emitter out;
   out << YAML::Flow << YAML::BeginSeq;
   for (double v : values) out << YamlNumber(v);
