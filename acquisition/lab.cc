@@ -1,6 +1,7 @@
 #include "acquisition/lab.h"
 
 #include <algorithm>
+#include <charconv>
 #include <filesystem>
 #include <fstream>
 #include <limits>
@@ -40,6 +41,25 @@ std::string Choice(const YamlValue& value, const std::vector<std::string>& choic
 }
 
 constexpr int kMaxInt = std::numeric_limits<int>::max();
+
+struct HostPort {
+  std::string host;
+  unsigned short port = 0;
+};
+
+// "HOST:PORT" with a port from 1 to 65535, else nullopt.
+std::optional<HostPort> SplitHostPort(const std::string& text) {
+  const size_t colon = text.rfind(':');
+  if (colon == std::string::npos || colon == 0) return std::nullopt;
+  const char* first = text.data() + colon + 1;
+  const char* last = text.data() + text.size();
+  unsigned port = 0;
+  const auto [end, error] = std::from_chars(first, last, port);
+  if (error != std::errc() || end != last || first == last || port < 1 || port > 65535) {
+    return std::nullopt;
+  }
+  return HostPort{text.substr(0, colon), static_cast<unsigned short>(port)};
+}
 
 unsigned Baud(const YamlValue& value) { return static_cast<unsigned>(value.Integer(1, kMaxInt)); }
 
@@ -107,11 +127,7 @@ InstrumentConfig InstrumentFrom(const YamlValue& value, const std::string& sourc
   if (port) c.port = Resolve(source, port->Text());
   if (tcp) {
     c.tcp = tcp->Text();
-    const size_t colon = c.tcp.rfind(':');
-    int number = 0;
-    if (colon == std::string::npos || colon == 0 ||
-        !YAML::convert<int>::decode(YAML::Node(c.tcp.substr(colon + 1)), number) || number < 1 ||
-        number > 65535) {
+    if (!SplitHostPort(c.tcp)) {
       tcp->Fail("expected HOST:PORT with a port from 1 to 65535, got '" + c.tcp + "'");
     }
   }
@@ -274,9 +290,9 @@ namespace {
 std::unique_ptr<instruments::LineTransport> Transport(const std::string& port,
                                                       const std::string& tcp, unsigned baud) {
   if (!tcp.empty()) {
-    const size_t colon = tcp.rfind(':');
-    return instruments::MakeTcpTransport(
-        tcp.substr(0, colon), static_cast<unsigned short>(std::stoi(tcp.substr(colon + 1))));
+    const auto address = SplitHostPort(tcp);  // ParseLab checked it
+    if (!address) throw InputError({"tcp", 0, 0, ""}, "'" + tcp + "': expected HOST:PORT");
+    return instruments::MakeTcpTransport(address->host, address->port);
   }
   instruments::SerialSettings s;
   s.path = port;

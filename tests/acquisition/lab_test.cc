@@ -151,6 +151,12 @@ TEST_F(LabFile, WrongShapesNamePositionAndWhatWasExpected) {
         LabRefusal(robot + "instruments:\n  - {station: T1, protocol: gsi, tcp: host}\n");
     EXPECT_EQ(e.message(), "expected HOST:PORT with a port from 1 to 65535, got 'host'");
   }
+  for (const std::string bad : {"host:70000", "host:12ab", ":1212", "host:"}) {
+    const InputError e =
+        LabRefusal(robot + "instruments:\n  - {station: T1, protocol: gsi, tcp: '" + bad + "'}\n");
+    EXPECT_EQ(e.where().line, 5) << bad;
+    EXPECT_EQ(e.where().column_name, "tcp") << bad;
+  }
   {
     const InputError e =
         LabRefusal("robot:\n  model: m.yaml\n  controller: {protocol: as, port: p, ports: [a]}\n");
