@@ -1,247 +1,298 @@
 #include "acquisition/lab.h"
 
-#include <yaml-cpp/yaml.h>
-
-#include <cmath>
+#include <algorithm>
+#include <charconv>
 #include <filesystem>
 #include <fstream>
+#include <limits>
 #include <sstream>
 
 #include "core/error.h"
 #include "core/units.h"
 #include "instruments/geocom_device.h"
 #include "instruments/other_devices.h"
+#include "io/atomic_file.h"
 #include "io/model_yaml.h"
-#include "reduction/observation.h"
+#include "io/network_io.h"
+#include "io/yaml_reader.h"
 
 namespace armsig::acquisition {
 
 namespace {
 
-class Reader {
- public:
-  explicit Reader(std::string source) : source_(std::move(source)) {}
-  SourceLocation Where(const YAML::Node& n, const std::string& key) const {
-    return {source_, n.Mark().line + 1, n.Mark().column + 1, key};
-  }
-  [[noreturn]] void Fail(const YAML::Node& n, const std::string& key, const std::string& m) const {
-    throw InputError(Where(n, key), m);
-  }
-  double Number(const YAML::Node& n, const std::string& key) const {
-    double v = 0;
-    if (!n || !n.IsScalar() || !YAML::convert<double>::decode(n, v) || !std::isfinite(v))
-      Fail(n, key, "expected a number");
-    return v;
-  }
-  std::string Text(const YAML::Node& n, const std::string& key) const {
-    if (!n || !n.IsScalar()) Fail(n, key, "expected a text value for '" + key + "'");
-    return n.Scalar();
-  }
-  bool Flag(const YAML::Node& n, const std::string& key) const {
-    bool v = false;
-    if (!n || !YAML::convert<bool>::decode(n, v)) Fail(n, key, "expected true or false");
-    return v;
-  }
-  std::string Resolve(const std::string& path) const {
-    if (path.empty() || path[0] == '/') return path;
-    return (std::filesystem::path(source_).parent_path() / path).string();
-  }
-  const std::string& source() const { return source_; }
+using io::YamlMap;
+using io::YamlValue;
 
- private:
-  std::string source_;
+// A path in the lab file is relative to the lab file's folder.
+std::string Resolve(const std::string& source, const std::string& path) {
+  if (path.empty() || path[0] == '/') return path;
+  return (std::filesystem::path(source).parent_path() / path).string();
+}
+
+// One of `choices`, refused as "expected a, b or c, got 'x'".
+std::string Choice(const YamlValue& value, const std::vector<std::string>& choices) {
+  const std::string text = value.Text();
+  if (std::find(choices.begin(), choices.end(), text) != choices.end()) return text;
+  std::string list;
+  for (size_t i = 0; i < choices.size(); ++i) {
+    list += (i == 0 ? "" : i + 1 == choices.size() ? " or " : ", ") + choices[i];
+  }
+  value.Fail("expected " + list + ", got '" + text + "'");
+}
+
+constexpr int kMaxInt = std::numeric_limits<int>::max();
+
+struct HostPort {
+  std::string host;
+  unsigned short port = 0;
 };
 
-std::vector<reduction::Station> StationsFrom(const YAML::Node& list, const Reader& r) {
-  std::vector<reduction::Station> out;
-  for (const YAML::Node& node : list) {
-    reduction::Station s;
-    s.pose.id = r.Text(node["id"], "id");
-    const YAML::Node p = node["position_mm"];
-    if (!p || !p.IsSequence() || p.size() != 3)
-      r.Fail(node, "position_mm", "expected [x, y, z] in mm");
-    for (int k = 0; k < 3; ++k) s.pose.position_mm(k) = r.Number(p[k], "position_mm");
-    bool oriented = false;
-    for (AngleUnit unit : {AngleUnit::kGon, AngleUnit::kDeg, AngleUnit::kRad}) {
-      const std::string key = "azimuth" + std::string(AngleUnitSuffix(unit));
-      if (node[key]) {
-        s.pose.azimuth_rad = ToRad(r.Number(node[key], key), unit);
-        s.pose.world_from_station = reduction::LevelledRotation(s.pose.azimuth_rad);
-        oriented = true;
+// "HOST:PORT" with a port from 1 to 65535, else nullopt.
+std::optional<HostPort> SplitHostPort(const std::string& text) {
+  const size_t colon = text.rfind(':');
+  if (colon == std::string::npos || colon == 0) return std::nullopt;
+  const char* first = text.data() + colon + 1;
+  const char* last = text.data() + text.size();
+  unsigned port = 0;
+  const auto [end, error] = std::from_chars(first, last, port);
+  if (error != std::errc() || end != last || first == last || port < 1 || port > 65535) {
+    return std::nullopt;
+  }
+  return HostPort{text.substr(0, colon), static_cast<unsigned short>(port)};
+}
+
+unsigned Baud(const YamlValue& value) { return static_cast<unsigned>(value.Integer(1, kMaxInt)); }
+
+ControllerConfig ControllerFrom(const YamlValue& value, const std::string& source,
+                                SourceLocation* ports_where) {
+  const YamlMap map = value.Map({"protocol", "port", "baud", "can_move", "ports", "counts_per_deg",
+                                 "offset_deg", "coupling"});
+  ControllerConfig c;
+  c.protocol = Choice(map.Required("protocol", "val, as or counter"), {"val", "as", "counter"});
+  if (const auto baud = map.Find("baud")) c.baud = Baud(*baud);
+  if (const auto can_move = map.Find("can_move")) c.can_move = can_move->Flag();
+  if (c.protocol != "counter") {
+    for (const char* key : {"ports", "counts_per_deg", "offset_deg", "coupling"}) {
+      if (const auto v = map.Find(key)) {
+        v->Fail("'" + std::string(key) + "' belongs to protocol counter, not " + c.protocol);
       }
     }
-    if (node["rotation"]) {
-      for (int i = 0; i < 3; ++i)
-        for (int j = 0; j < 3; ++j)
-          s.pose.world_from_station(i, j) = r.Number(node["rotation"][i][j], "rotation");
-      s.pose.levelled = false;
-      oriented = true;
-    }
-    if (!oriented)
-      r.Fail(node, "azimuth_gon", "station " + s.pose.id + ": expected azimuth_* or rotation");
-    out.push_back(s);
+    c.port = Resolve(source, map.Required("port", "the controller's serial port").Text());
+    return c;
   }
-  return out;
+  if (const auto port = map.Find("port")) {
+    port->Fail("counter: give 'ports' (one per joint), not 'port'");
+  }
+  const YamlValue ports = map.Required("ports", "one serial port per joint");
+  *ports_where = ports.Where();
+  for (const YamlValue& p : ports.List(1)) {
+    c.counter_ports.push_back(Resolve(source, p.Text()));
+  }
+  const int n = static_cast<int>(c.counter_ports.size());
+  auto& e = c.encoders;
+  e.counts_per_rad.resize(n);
+  e.offset_rad = Eigen::VectorXd::Zero(n);
+  e.coupling = Eigen::MatrixXd::Identity(n, n);
+  const YamlValue scale = map.Required("counts_per_deg", "one counts_per_deg per joint");
+  for (int i = 0; const YamlValue& v : scale.List()) {
+    const double counts_per_deg = v.Number();
+    if (counts_per_deg == 0.0) v.Fail("expected a non-zero counts_per_deg");
+    if (i < n) e.counts_per_rad(i) = counts_per_deg / kRadPerDeg;
+    ++i;
+  }
+  if (static_cast<int>(scale.node().size()) != n) {
+    scale.Fail("expected " + std::to_string(n) + " counts_per_deg (one per port), got " +
+               scale.Describe());
+  }
+  if (const auto offset = map.Find("offset_deg")) {
+    const std::vector<double> deg = offset->Numbers(n);
+    for (int i = 0; i < n; ++i) e.offset_rad(i) = deg[i] * kRadPerDeg;
+  }
+  if (const auto coupling = map.Find("coupling")) e.coupling = coupling->Matrix(n, n);
+  return c;
+}
+
+InstrumentConfig InstrumentFrom(const YamlValue& value, const std::string& source,
+                                SourceLocation* station_where) {
+  const YamlMap map = value.Map({"station", "protocol", "port", "tcp", "baud", "crc", "distance",
+                                 "sigma_hz_arcsec", "sigma_v_arcsec", "sigma_distance_mm"});
+  InstrumentConfig c;
+  const YamlValue station = map.Required("station", "the id of the station it stands on");
+  c.station = station.Text();
+  *station_where = station.Where();
+  c.protocol = Choice(map.Required("protocol", "geocom or gsi"), {"geocom", "gsi"});
+  const auto port = map.Find("port");
+  const auto tcp = map.Find("tcp");
+  if (port && tcp) tcp->Fail("instrument " + c.station + ": give port or tcp, not both");
+  if (port) c.port = Resolve(source, port->Text());
+  if (tcp) {
+    c.tcp = tcp->Text();
+    if (!SplitHostPort(c.tcp)) {
+      tcp->Fail("expected HOST:PORT with a port from 1 to 65535, got '" + c.tcp + "'");
+    }
+  }
+  if (!port && !tcp) map.Fail("instrument " + c.station + ": missing 'port' or 'tcp'");
+  if (const auto v = map.Find("baud")) c.baud = Baud(*v);
+  if (const auto v = map.Find("crc")) c.crc = v->Flag();
+  if (const auto v = map.Find("distance")) c.distance = v->Flag();
+  if (const auto v = map.Find("sigma_hz_arcsec")) c.sigma_hz_arcsec = v->PositiveNumber();
+  if (const auto v = map.Find("sigma_v_arcsec")) c.sigma_v_arcsec = v->PositiveNumber();
+  if (const auto v = map.Find("sigma_distance_mm")) c.sigma_distance_mm = v->PositiveNumber();
+  return c;
+}
+
+void TolerancesFrom(const YamlValue& value, Tolerances& tol, instruments::RetryPolicy& policy) {
+  const YamlMap map =
+      value.Map({"max_miss_mm", "max_repeat_mm", "readings", "max_remeasure", "settle_ms",
+                 "fault_retries", "fault_retry_delay_ms", "two_face", "timeout_ms"});
+  if (const auto v = map.Find("max_miss_mm")) tol.max_miss_mm = v->PositiveNumber();
+  if (const auto v = map.Find("max_repeat_mm")) tol.max_repeat_mm = v->PositiveNumber();
+  if (const auto v = map.Find("readings")) tol.readings = v->Integer(1, kMaxInt);
+  if (const auto v = map.Find("max_remeasure")) tol.max_remeasure = v->Integer(0, kMaxInt);
+  if (const auto v = map.Find("settle_ms")) tol.settle_ms = v->Integer(0, kMaxInt);
+  if (const auto v = map.Find("fault_retries")) tol.fault_retries = v->Integer(0, kMaxInt);
+  if (const auto v = map.Find("fault_retry_delay_ms")) {
+    tol.fault_retry_delay_ms = v->Integer(0, kMaxInt);
+  }
+  if (const auto v = map.Find("two_face")) tol.two_face = v->Flag();
+  if (const auto v = map.Find("timeout_ms")) {
+    policy.timeout = std::chrono::milliseconds(v->Integer(1, kMaxInt));
+  }
+}
+
+RecalibrationSettings RecalibrationFrom(const YamlValue& value) {
+  const YamlMap map =
+      value.Map({"max_validation_mean_mm", "max_validation_max_mm", "tolerance_mm", "drift_sigma"});
+  RecalibrationSettings r;
+  if (const auto v = map.Find("max_validation_mean_mm"))
+    r.max_validation_mean_mm = v->PositiveNumber();
+  if (const auto v = map.Find("max_validation_max_mm"))
+    r.max_validation_max_mm = v->PositiveNumber();
+  if (const auto v = map.Find("tolerance_mm")) r.tolerance_mm = v->NonNegativeNumber();
+  if (const auto v = map.Find("drift_sigma")) r.drift_sigma = v->PositiveNumber();
+  return r;
+}
+
+// The settings and where the parts ParseLab still has to check stand in the text.
+struct ParsedLab {
+  LabSettings settings;
+  SourceLocation model_where, ports_where, stations_where;
+  std::vector<SourceLocation> instrument_station_where;  // per instrument
+};
+
+// Every instrument stands on a known station (when the lab gives stations at all).
+void CheckInstrumentStations(const ParsedLab& parsed,
+                             const std::vector<reduction::Station>& stations) {
+  if (stations.empty()) return;
+  for (size_t i = 0; i < parsed.settings.instruments.size(); ++i) {
+    const std::string& id = parsed.settings.instruments[i].station;
+    const bool found = std::any_of(stations.begin(), stations.end(),
+                                   [&](const auto& s) { return s.pose.id == id; });
+    if (!found) {
+      throw InputError(parsed.instrument_station_where[i],
+                       "instrument station '" + id + "' is not in the stations");
+    }
+  }
+}
+
+ParsedLab Parse(const std::string& text, const std::string& source) {
+  const io::YamlDocument doc = io::YamlDocument::Parse(text, source);
+  const YamlMap root =
+      doc.Root().Map({"robot", "instruments", "stations", "tolerances", "recalibration"});
+  ParsedLab parsed;
+  LabSettings& lab = parsed.settings;
+
+  const YamlMap robot = root.Required("robot", "model and controller").Map({"model", "controller"});
+  const YamlValue model = robot.Required("model", "the robot model file");
+  lab.robot_model_path = Resolve(source, model.Text());
+  parsed.model_where = model.Where();
+  lab.controller =
+      ControllerFrom(robot.Required("controller", "{protocol: val | as | counter, port, …}"),
+                     source, &parsed.ports_where);
+
+  for (const YamlValue& item : root.Required("instruments", "a list of instruments").List(1)) {
+    lab.instruments.push_back(
+        InstrumentFrom(item, source, &parsed.instrument_station_where.emplace_back()));
+  }
+
+  if (const auto stations = root.Find("stations")) {
+    parsed.stations_where = stations->Where();
+    if (stations->IsScalar()) {
+      lab.stations_path = Resolve(source, stations->Text());
+    } else if (stations->IsList()) {
+      lab.inline_stations = io::ParseStationsList(*stations);
+    } else {
+      stations->Fail("expected a stations file name or a list of stations, got " +
+                     stations->Describe());
+    }
+  }
+  if (const auto tolerances = root.Find("tolerances")) {
+    TolerancesFrom(*tolerances, lab.tolerances, lab.policy);
+  }
+  if (const auto recalibration = root.Find("recalibration")) {
+    lab.recalibration = RecalibrationFrom(*recalibration);
+  }
+  CheckInstrumentStations(parsed, lab.inline_stations);
+  return parsed;
+}
+
+// A file the lab names, refused at the lab file's key when it cannot be read.
+std::string ReadNamedFile(const std::string& path, const SourceLocation& where,
+                          const std::string& what) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) throw InputError(where, "cannot read " + what + " " + path);
+  std::ostringstream buffer;
+  buffer << in.rdbuf();
+  return buffer.str();
 }
 
 }  // namespace
 
+LabSettings ParseLabSettings(const std::string& text, const std::string& source) {
+  return Parse(text, source).settings;
+}
+
 LabConfig ParseLab(const std::string& text, const std::string& source) {
-  YAML::Node root;
-  try {
-    root = YAML::Load(text);
-  } catch (const YAML::Exception& e) {
-    throw InputError({source, e.mark.line + 1, e.mark.column + 1, ""}, "malformed YAML: " + e.msg);
-  }
-  const Reader r(source);
+  const ParsedLab parsed = Parse(text, source);
+  const LabSettings& settings = parsed.settings;
   LabConfig lab;
   lab.source = source;
   lab.text = text;
-  if (!root.IsMap())
-    r.Fail(root, "", "expected a mapping with robot, instruments, stations, tolerances");
-
-  const YAML::Node robot = root["robot"];
-  if (!robot) r.Fail(root, "robot", "missing 'robot' (model and controller)");
-  lab.robot_model_path = r.Resolve(r.Text(robot["model"], "model"));
-  {
-    std::ifstream in(lab.robot_model_path);
-    if (!in)
-      throw InputError(r.Where(robot["model"], "model"),
-                       "cannot read robot model " + lab.robot_model_path);
+  lab.robot_model_path = settings.robot_model_path;
+  lab.model_yaml = ReadNamedFile(settings.robot_model_path, parsed.model_where, "robot model");
+  lab.model = io::ParseRobotModel(lab.model_yaml, settings.robot_model_path);
+  lab.controller = settings.controller;
+  if (lab.controller.protocol == "counter" &&
+      static_cast<int>(lab.controller.counter_ports.size()) != lab.model.num_joints()) {
+    throw InputError(parsed.ports_where, "counter: the controller gives " +
+                                             std::to_string(lab.controller.counter_ports.size()) +
+                                             " ports, the robot model has " +
+                                             std::to_string(lab.model.num_joints()) + " joints");
   }
-  lab.model = io::LoadRobotModel(lab.robot_model_path);
-  {
-    std::ifstream in(lab.robot_model_path);
-    std::stringstream text_stream;
-    text_stream << in.rdbuf();
-    lab.model_yaml = text_stream.str();
+  lab.instruments = settings.instruments;
+  if (!settings.stations_path.empty()) {
+    lab.stations = io::ParseStationsYaml(
+        ReadNamedFile(settings.stations_path, parsed.stations_where, "stations file"),
+        settings.stations_path);
+    CheckInstrumentStations(parsed, lab.stations);
+  } else {
+    lab.stations = settings.inline_stations;
   }
-  const YAML::Node controller = robot["controller"];
-  if (!controller)
-    r.Fail(robot, "controller", "missing 'controller' (protocol val, as or counter)");
-  lab.controller.protocol = r.Text(controller["protocol"], "protocol");
-  if (lab.controller.protocol != "val" && lab.controller.protocol != "as" &&
-      lab.controller.protocol != "counter") {
-    r.Fail(controller["protocol"], "protocol", "expected val, as or counter");
-  }
-  if (controller["port"]) lab.controller.port = r.Resolve(r.Text(controller["port"], "port"));
-  if (controller["baud"])
-    lab.controller.baud = static_cast<unsigned>(r.Number(controller["baud"], "baud"));
-  if (controller["can_move"]) lab.controller.can_move = r.Flag(controller["can_move"], "can_move");
-  if (lab.controller.protocol == "counter") {
-    const YAML::Node ports = controller["ports"];
-    if (!ports || !ports.IsSequence())
-      r.Fail(controller, "ports", "counter: expected one port per joint");
-    for (const auto& p : ports)
-      lab.controller.counter_ports.push_back(r.Resolve(r.Text(p, "ports")));
-    const int n = static_cast<int>(lab.controller.counter_ports.size());
-    auto& e = lab.controller.encoders;
-    e.counts_per_rad.resize(n);
-    e.offset_rad = Eigen::VectorXd::Zero(n);
-    e.coupling = Eigen::MatrixXd::Identity(n, n);
-    const YAML::Node scale = controller["counts_per_deg"];
-    if (!scale || !scale.IsSequence() || static_cast<int>(scale.size()) != n) {
-      r.Fail(controller, "counts_per_deg", "counter: expected one counts_per_deg per joint");
-    }
-    for (int i = 0; i < n; ++i)
-      e.counts_per_rad(i) = r.Number(scale[i], "counts_per_deg") / kRadPerDeg;
-    if (const YAML::Node off = controller["offset_deg"]) {
-      for (int i = 0; i < n; ++i) e.offset_rad(i) = r.Number(off[i], "offset_deg") * kRadPerDeg;
-    }
-    if (const YAML::Node c = controller["coupling"]) {
-      for (int i = 0; i < n; ++i)
-        for (int j = 0; j < n; ++j) e.coupling(i, j) = r.Number(c[i][j], "coupling");
-    }
-  } else if (lab.controller.port.empty()) {
-    r.Fail(controller, "port", "missing controller port");
-  }
-
-  const YAML::Node instruments = root["instruments"];
-  if (!instruments || !instruments.IsSequence() || instruments.size() == 0) {
-    r.Fail(root, "instruments", "expected a list of instruments");
-  }
-  for (const YAML::Node& node : instruments) {
-    InstrumentConfig c;
-    c.station = r.Text(node["station"], "station");
-    c.protocol = r.Text(node["protocol"], "protocol");
-    if (c.protocol != "geocom" && c.protocol != "gsi")
-      r.Fail(node["protocol"], "protocol", "expected geocom or gsi");
-    if (node["port"]) c.port = r.Resolve(r.Text(node["port"], "port"));
-    if (node["tcp"]) c.tcp = r.Text(node["tcp"], "tcp");
-    if (c.port.empty() && c.tcp.empty())
-      r.Fail(node, "port", "instrument " + c.station + ": expected port or tcp");
-    if (node["baud"]) c.baud = static_cast<unsigned>(r.Number(node["baud"], "baud"));
-    if (node["crc"]) c.crc = r.Flag(node["crc"], "crc");
-    if (node["distance"]) c.distance = r.Flag(node["distance"], "distance");
-    if (node["sigma_hz_arcsec"])
-      c.sigma_hz_arcsec = r.Number(node["sigma_hz_arcsec"], "sigma_hz_arcsec");
-    if (node["sigma_v_arcsec"])
-      c.sigma_v_arcsec = r.Number(node["sigma_v_arcsec"], "sigma_v_arcsec");
-    if (node["sigma_distance_mm"])
-      c.sigma_distance_mm = r.Number(node["sigma_distance_mm"], "sigma_distance_mm");
-    lab.instruments.push_back(c);
-  }
-
-  if (const YAML::Node stations = root["stations"]) {
-    if (stations.IsScalar()) {
-      const std::string path = r.Resolve(stations.Scalar());
-      YAML::Node file;
-      try {
-        file = YAML::LoadFile(path);
-      } catch (const YAML::Exception& e) {
-        throw InputError({path, e.mark.line + 1, e.mark.column + 1, ""},
-                         "cannot read stations: " + e.msg);
-      }
-      lab.stations = StationsFrom(file["stations"], Reader(path));
-    } else {
-      lab.stations = StationsFrom(stations, r);
-    }
-  }
-  for (const auto& c : lab.instruments) {
-    bool found = lab.stations.empty();
-    for (const auto& s : lab.stations) found |= s.pose.id == c.station;
-    if (!found)
-      r.Fail(instruments, "station", "instrument station " + c.station + " is not in the stations");
-  }
-
-  if (const YAML::Node t = root["tolerances"]) {
-    auto& tol = lab.tolerances;
-    if (t["max_miss_mm"]) tol.max_miss_mm = r.Number(t["max_miss_mm"], "max_miss_mm");
-    if (t["max_repeat_mm"]) tol.max_repeat_mm = r.Number(t["max_repeat_mm"], "max_repeat_mm");
-    if (t["readings"]) tol.readings = static_cast<int>(r.Number(t["readings"], "readings"));
-    if (t["max_remeasure"])
-      tol.max_remeasure = static_cast<int>(r.Number(t["max_remeasure"], "max_remeasure"));
-    if (t["settle_ms"]) tol.settle_ms = static_cast<int>(r.Number(t["settle_ms"], "settle_ms"));
-    if (t["fault_retries"])
-      tol.fault_retries = static_cast<int>(r.Number(t["fault_retries"], "fault_retries"));
-    if (t["fault_retry_delay_ms"])
-      tol.fault_retry_delay_ms =
-          static_cast<int>(r.Number(t["fault_retry_delay_ms"], "fault_retry_delay_ms"));
-    if (t["two_face"]) tol.two_face = r.Flag(t["two_face"], "two_face");
-    if (t["timeout_ms"])
-      lab.policy.timeout =
-          std::chrono::milliseconds(static_cast<long>(r.Number(t["timeout_ms"], "timeout_ms")));
-    if (tol.readings < 1) r.Fail(t["readings"], "readings", "expected at least 1");
-  }
+  lab.tolerances = settings.tolerances;
+  lab.policy = settings.policy;
+  lab.recalibration = settings.recalibration;
   return lab;
 }
 
-LabConfig LoadLab(const std::string& path) {
-  std::ifstream in(path);
-  if (!in) throw InputError({path, 0, 0, ""}, "cannot open lab configuration");
-  std::stringstream buffer;
-  buffer << in.rdbuf();
-  LabConfig lab = ParseLab(buffer.str(), path);
-  return lab;
-}
+LabConfig LoadLab(const std::string& path) { return ParseLab(io::ReadWholeFile(path), path); }
 
 namespace {
 std::unique_ptr<instruments::LineTransport> Transport(const std::string& port,
                                                       const std::string& tcp, unsigned baud) {
   if (!tcp.empty()) {
-    const size_t colon = tcp.rfind(':');
-    return instruments::MakeTcpTransport(
-        tcp.substr(0, colon), static_cast<unsigned short>(std::stoi(tcp.substr(colon + 1))));
+    const auto address = SplitHostPort(tcp);  // ParseLab checked it
+    if (!address) throw InputError({"tcp", 0, 0, ""}, "'" + tcp + "': expected HOST:PORT");
+    return instruments::MakeTcpTransport(address->host, address->port);
   }
   instruments::SerialSettings s;
   s.path = port;

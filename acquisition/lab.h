@@ -36,32 +36,60 @@ struct ControllerConfig {
 };
 
 struct Tolerances {
-  double max_miss_mm = 0.2;     // largest ray miss distance of an accepted point
-  double max_repeat_mm = 0.05;  // agreement of repeated readings
-  int readings = 1;             // readings per configuration (≥ 2 checks repeatability)
-  int max_remeasure = 3;        // automatic re-measurements before giving up
-  int settle_ms = 300;          // wait after a move
-  int fault_retries = 2;        // session-level retries of a failing instrument
+  double max_miss_mm = 0.2;        // largest ray miss distance of an accepted point
+  double max_repeat_mm = 0.05;     // agreement of repeated readings
+  int readings = 1;                // readings per configuration (≥ 2 checks repeatability)
+  int max_remeasure = 3;           // automatic re-measurements before giving up
+  int settle_ms = 300;             // wait after a move
+  int fault_retries = 2;           // session-level retries of a failing instrument
   int fault_retry_delay_ms = 500;  // wait before each retry (a port coming back, an operator)
-  bool two_face = false;        // measure in both faces
+  bool two_face = false;           // measure in both faces
+};
+
+// The lab file's `recalibration:` block: gates of the nightly job. An absent key is
+// nullopt (the job then takes its option, else its default).
+struct RecalibrationSettings {
+  std::optional<double> max_validation_mean_mm;
+  std::optional<double> max_validation_max_mm;
+  std::optional<double> tolerance_mm;
+  std::optional<double> drift_sigma;
+};
+
+// What a lab text says, read without opening the files it names: works on the lab YAML a
+// session stored in the database even when its model or stations file is gone. The whole
+// text is checked (unknown keys refused everywhere), not only the parts returned.
+struct LabSettings {
+  std::string robot_model_path;  // resolved against the lab file's folder
+  ControllerConfig controller;
+  std::vector<InstrumentConfig> instruments;
+  std::string stations_path;                        // `stations: FILE` (resolved), else empty
+  std::vector<reduction::Station> inline_stations;  // `stations: [...]`
+  Tolerances tolerances;
+  instruments::RetryPolicy policy;  // timeout from tolerances.timeout_ms
+  std::optional<RecalibrationSettings> recalibration;
 };
 
 struct LabConfig {
   std::string source;  // file it came from
   std::string text;    // the YAML as read (stored with the session)
   std::string robot_model_path;
-  std::string model_yaml;         // the robot model file's text (stored with the robot)
+  std::string model_yaml;  // the robot model file's text (stored with the robot)
   calibration::RobotModel model;
   ControllerConfig controller;
   std::vector<InstrumentConfig> instruments;
   std::vector<reduction::Station> stations;  // oriented stations (from the stations file)
   Tolerances tolerances;
   instruments::RetryPolicy policy;
+  std::optional<RecalibrationSettings> recalibration;
 };
 
-// Throws InputError with file, line and column.
+// Throws InputError with file, line and column: malformed YAML, a wrong shape, an unknown
+// or misspelt key (naming the nearest valid one), a model or stations file that cannot be
+// read. Stations (from a file or inline) go through io::ParseStationsList.
 LabConfig LoadLab(const std::string& path);
 LabConfig ParseLab(const std::string& text, const std::string& source);
+// The same checks on the text alone; relative paths resolve against `source`'s folder.
+LabSettings ParseLabSettings(const std::string& text, const std::string& source);
 
 // Opens the devices the configuration names.
 std::vector<std::unique_ptr<instruments::DistanceInstrument>> OpenInstruments(const LabConfig& lab);

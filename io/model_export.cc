@@ -1,52 +1,72 @@
 #include "io/model_export.h"
 
 #include <fmt/format.h>
+#include <yaml-cpp/yaml.h>
 
 #include <cmath>
+
+#include "core/units.h"
+#include "io/yaml_reader.h"
 
 namespace armsig::io {
 
 namespace {
-std::string Matrix(const Eigen::Isometry3d& t) {
+void EmitMatrix(YAML::Emitter& out, const Eigen::Isometry3d& t) {
   const Eigen::Matrix4d& m = t.matrix();
-  std::string out = "[";
+  out << YAML::Flow << YAML::BeginSeq;
   for (int r = 0; r < 4; ++r) {
-    out += fmt::format("{}[{:.12g}, {:.12g}, {:.12g}, {:.12g}]", r ? ", " : "", m(r, 0), m(r, 1),
-                       m(r, 2), m(r, 3));
+    out << YAML::Flow << YAML::BeginSeq;
+    for (int c = 0; c < 4; ++c) out << YamlNumber(m(r, c));
+    out << YAML::EndSeq;
   }
-  return out + "]";
+  out << YAML::EndSeq;
 }
 }  // namespace
 
 std::string FormatRobotModelYaml(const calibration::RobotModel& model, const std::string& comment) {
-  std::string out;
-  if (!comment.empty()) out += "# " + comment + "\n";
-  out += "name: " + model.name + "\n";
-  out += "base: " + (model.base ? Matrix(*model.base) : std::string("auto")) + "\n";
-  out += "links:\n";
-  for (const auto& l : model.links) out += "  - " + Matrix(l) + "\n";
-  out += fmt::format("tool_mm: [{:.12g}, {:.12g}, {:.12g}]\n", model.tool_mm.x(), model.tool_mm.y(),
-                     model.tool_mm.z());
+  YAML::Emitter out;
+  if (!comment.empty()) out << YAML::Comment(comment);
+  out << YAML::BeginMap;
+  out << YAML::Key << "name" << YAML::Value << model.name;
+  out << YAML::Key << "base" << YAML::Value;
+  if (model.base) {
+    EmitMatrix(out, *model.base);
+  } else {
+    out << "auto";
+  }
+  out << YAML::Key << "links" << YAML::Value << YAML::BeginSeq;
+  for (const auto& l : model.links) EmitMatrix(out, l);
+  out << YAML::EndSeq;
+  out << YAML::Key << "tool_mm" << YAML::Value << YAML::Flow << YAML::BeginSeq
+      << YamlNumber(model.tool_mm.x()) << YamlNumber(model.tool_mm.y())
+      << YamlNumber(model.tool_mm.z()) << YAML::EndSeq;
   if (!model.nongeometric.empty()) {
-    out += "nongeometric:\n";
+    out << YAML::Key << "nongeometric" << YAML::Value << YAML::BeginSeq;
     for (const auto& t : model.nongeometric) {
-      std::string of;
-      for (size_t k = 0; k < t.of.size(); ++k) of += (k ? ", " : "") + std::to_string(t.of[k] + 1);
-      out += fmt::format("  - {{name: {}, joint: {}, basis: {}, of: [{}], value_rad: {:.12g}}}\n",
-                         t.name, t.joint + 1,
-                         t.basis == calibration::NongeometricTerm::Basis::kCos ? "cos" : "sign_cos",
-                         of, t.fixed_rad);
+      out << YAML::Flow << YAML::BeginMap;
+      out << YAML::Key << "name" << YAML::Value << t.name;
+      out << YAML::Key << "joint" << YAML::Value << t.joint + 1;
+      out << YAML::Key << "basis" << YAML::Value
+          << (t.basis == calibration::NongeometricTerm::Basis::kCos ? "cos" : "sign_cos");
+      out << YAML::Key << "of" << YAML::Value << YAML::Flow << YAML::BeginSeq;
+      for (int j : t.of) out << j + 1;
+      out << YAML::EndSeq;
+      out << YAML::Key << "value_rad" << YAML::Value << YamlNumber(t.fixed_rad);
+      out << YAML::EndMap;
     }
+    out << YAML::EndSeq;
   }
   if (model.joint_min_rad.size() == static_cast<size_t>(model.num_joints())) {
-    out += "joint_limits_deg: [";
+    out << YAML::Key << "joint_limits_deg" << YAML::Value << YAML::Flow << YAML::BeginSeq;
     for (int i = 0; i < model.num_joints(); ++i) {
-      out += fmt::format("{}[{:.6g}, {:.6g}]", i ? ", " : "", model.joint_min_rad[i] * 180 / M_PI,
-                         model.joint_max_rad[i] * 180 / M_PI);
+      out << YAML::Flow << YAML::BeginSeq
+          << YamlNumber(FromRad(model.joint_min_rad[i], AngleUnit::kDeg))
+          << YamlNumber(FromRad(model.joint_max_rad[i], AngleUnit::kDeg)) << YAML::EndSeq;
     }
-    out += "]\n";
+    out << YAML::EndSeq;
   }
-  return out;
+  out << YAML::EndMap;
+  return std::string(out.c_str()) + "\n";
 }
 
 std::string FormatUrdf(const calibration::RobotModel& model, std::string* warning) {

@@ -10,7 +10,8 @@
 
 namespace armsig::io {
 
-// Throws InputError with file, line and column of the offending node.
+// Throws InputError with file, line and column of the offending node; unknown keys are
+// refused at every level (naming the nearest valid key), so a misspelt tool_mm is an error.
 calibration::RobotModel LoadRobotModel(const std::string& path);
 calibration::RobotModel ParseRobotModel(const std::string& yaml_text, const std::string& source);
 

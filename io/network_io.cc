@@ -10,6 +10,7 @@
 #include "core/units.h"
 #include "io/atomic_file.h"
 #include "io/csv.h"
+#include "io/yaml_reader.h"
 #include "reduction/observation.h"
 
 namespace armsig::io {
@@ -66,134 +67,136 @@ std::vector<reduction::Observation> ReadObservationsCsv(const std::string& path)
 
 namespace {
 
-SourceLocation Where(const std::string& path, const YAML::Node& node, const std::string& key) {
-  return {path, node.Mark().line + 1, node.Mark().column + 1, key};
-}
+// Rotation matrices given in a file are accepted within this of orthonormal.
+constexpr double kRotationTolerance = 1e-6;
 
-double YamlNumber(const std::string& path, const YAML::Node& node, const std::string& key) {
-  double value = 0;
-  if (!node || !node.IsScalar() || !YAML::convert<double>::decode(node, value) ||
-      !std::isfinite(value)) {
-    throw InputError(Where(path, node, key), "expected a finite number");
+// One station; `ids` holds the ids of the stations before it (duplicates are refused).
+reduction::Station StationFrom(const YamlValue& value, std::set<std::string>& ids) {
+  const YamlMap map =
+      value.Map({"id", "position_mm", "azimuth_gon", "azimuth_deg", "azimuth_rad", "rotation",
+                 "sigma_hz_arcsec", "sigma_v_arcsec", "sigma_position_mm", "sigma_azimuth_arcsec",
+                 "sigma_rotation_arcsec"});
+  reduction::Station s;
+  const YamlValue id = map.Required("id", "the station id");
+  s.pose.id = id.Text();
+  if (!ids.insert(s.pose.id).second) id.Fail("duplicate station id '" + s.pose.id + "'");
+  s.pose.position_mm = map.Required("position_mm", "[x, y, z] in mm").Vector3();
+
+  std::optional<YamlValue> orientation;  // the key that oriented the station
+  for (AngleUnit unit : {AngleUnit::kGon, AngleUnit::kDeg, AngleUnit::kRad}) {
+    const std::string key = "azimuth" + std::string(AngleUnitSuffix(unit));
+    if (const auto azimuth = map.Find(key)) {
+      if (orientation) {
+        azimuth->Fail("station " + s.pose.id +
+                      ": give one of azimuth_gon, azimuth_deg, azimuth_rad");
+      }
+      s.pose.levelled = true;
+      s.pose.azimuth_rad = ToRad(azimuth->Number(), unit);
+      s.pose.world_from_station = reduction::LevelledRotation(s.pose.azimuth_rad);
+      orientation = azimuth;
+    }
   }
-  return value;
+  if (const auto rotation = map.Find("rotation")) {
+    if (orientation) {
+      rotation->Fail("station " + s.pose.id + ": give azimuth or rotation, not both");
+    }
+    const Eigen::Matrix3d m = rotation->Matrix(3, 3);
+    if ((m.transpose() * m - Eigen::Matrix3d::Identity()).norm() > kRotationTolerance ||
+        m.determinant() < 0) {
+      rotation->Fail("station " + s.pose.id + ": expected a rotation (orthonormal, det +1)");
+    }
+    s.pose.world_from_station = m;
+    s.pose.levelled = false;
+    orientation = rotation;
+  }
+  if (!orientation) {
+    map.Fail("station " + s.pose.id +
+             ": expected azimuth_gon, azimuth_deg, azimuth_rad or rotation");
+  }
+
+  if (const auto v = map.Find("sigma_hz_arcsec"))
+    s.sigma_hz_rad = v->PositiveNumber() * kRadPerArcsec;
+  if (const auto v = map.Find("sigma_v_arcsec"))
+    s.sigma_v_rad = v->PositiveNumber() * kRadPerArcsec;
+  // The precision an orientation reported (FormatStationsYaml writes it).
+  if (const auto v = map.Find("sigma_position_mm")) {
+    s.sigma_position_mm = v->Vector3();
+    if (!(s.sigma_position_mm.minCoeff() >= 0)) v->Fail("expected sigmas ≥ 0");
+  }
+  if (const auto v = map.Find("sigma_azimuth_arcsec")) {
+    s.sigma_azimuth_rad = v->NonNegativeNumber() * kRadPerArcsec;
+  }
+  if (const auto v = map.Find("sigma_rotation_arcsec")) {
+    s.sigma_rotation_rad = v->Vector3() * kRadPerArcsec;
+    if (!(s.sigma_rotation_rad.minCoeff() >= 0)) v->Fail("expected sigmas ≥ 0");
+  }
+  return s;
 }
 
 }  // namespace
 
-std::vector<reduction::Station> ReadStationsYaml(const std::string& path) {
-  YAML::Node root;
-  try {
-    root = YAML::Load(ReadWholeFile(path));
-  } catch (const YAML::Exception& e) {
-    throw InputError({path, e.mark.line + 1, e.mark.column + 1, ""}, "malformed YAML: " + e.msg);
-  }
-  const YAML::Node list = root["stations"];
-  if (!list || !list.IsSequence()) {
-    throw InputError({path, 1, 0, "stations"}, "expected 'stations:' with a list of stations");
-  }
+std::vector<reduction::Station> ParseStationsList(const YamlValue& list) {
   std::vector<reduction::Station> out;
   std::set<std::string> ids;
-  for (const YAML::Node& node : list) {
-    reduction::Station s;
-    if (!node["id"]) throw InputError(Where(path, node, "id"), "expected a station id");
-    s.pose.id = node["id"].as<std::string>();
-    if (!ids.insert(s.pose.id).second) {
-      throw InputError(Where(path, node["id"], "id"), "duplicate station id '" + s.pose.id + "'");
-    }
-    const YAML::Node p = node["position_mm"];
-    if (!p || !p.IsSequence() || p.size() != 3) {
-      throw InputError(Where(path, p ? p : node, "position_mm"), "expected [x, y, z] in mm");
-    }
-    for (int k = 0; k < 3; ++k) s.pose.position_mm(k) = YamlNumber(path, p[k], "position_mm");
-    bool oriented = false;
-    for (AngleUnit unit : {AngleUnit::kGon, AngleUnit::kDeg, AngleUnit::kRad}) {
-      const std::string key = "azimuth" + std::string(AngleUnitSuffix(unit));
-      if (node[key]) {
-        s.pose.levelled = true;
-        s.pose.azimuth_rad = ToRad(YamlNumber(path, node[key], key), unit);
-        s.pose.world_from_station = reduction::LevelledRotation(s.pose.azimuth_rad);
-        oriented = true;
-      }
-    }
-    if (const YAML::Node r = node["rotation"]) {
-      if (oriented)
-        throw InputError(Where(path, r, "rotation"), "give azimuth or rotation, not both");
-      if (!r.IsSequence() || r.size() != 3) {
-        throw InputError(Where(path, r, "rotation"), "expected a 3x3 row-major matrix");
-      }
-      for (int i = 0; i < 3; ++i) {
-        if (!r[i].IsSequence() || r[i].size() != 3) {
-          throw InputError(Where(path, r[i], "rotation"), "expected a row of 3 numbers");
-        }
-        for (int j = 0; j < 3; ++j)
-          s.pose.world_from_station(i, j) = YamlNumber(path, r[i][j], "rotation");
-      }
-      const Eigen::Matrix3d& m = s.pose.world_from_station;
-      if ((m.transpose() * m - Eigen::Matrix3d::Identity()).norm() > 1e-6 || m.determinant() < 0) {
-        throw InputError(Where(path, r, "rotation"), "expected a rotation (orthonormal, det +1)");
-      }
-      s.pose.levelled = false;
-      oriented = true;
-    }
-    if (!oriented) {
-      throw InputError(Where(path, node, "azimuth_gon"),
-                       "station " + s.pose.id + ": expected azimuth_gon/_deg/_rad or rotation");
-    }
-    if (node["sigma_hz_arcsec"])
-      s.sigma_hz_rad = YamlNumber(path, node["sigma_hz_arcsec"], "sigma_hz_arcsec") * kRadPerArcsec;
-    if (node["sigma_v_arcsec"])
-      s.sigma_v_rad = YamlNumber(path, node["sigma_v_arcsec"], "sigma_v_arcsec") * kRadPerArcsec;
-    out.push_back(std::move(s));
-  }
-  if (out.empty()) throw InputError({path, 1, 0, "stations"}, "no stations");
+  for (const YamlValue& item : list.List(1)) out.push_back(StationFrom(item, ids));
   return out;
+}
+
+std::vector<reduction::Station> ParseStationsYaml(const std::string& text,
+                                                  const std::string& source) {
+  const YamlDocument doc = YamlDocument::Parse(text, source);
+  return ParseStationsList(doc.Root().Map({"stations"}).Required("stations", "a list of stations"));
+}
+
+std::vector<reduction::Station> ReadStationsYaml(const std::string& path) {
+  return ParseStationsYaml(ReadWholeFile(path), path);
 }
 
 std::string FormatStationsYaml(const std::vector<reduction::Station>& stations,
                                const std::string& header_comment) {
-  std::string out;
-  if (!header_comment.empty()) {
-    size_t start = 0;
-    while (start < header_comment.size()) {
-      const size_t end = header_comment.find('\n', start);
-      out += "# " + header_comment.substr(start, end - start) + "\n";
-      if (end == std::string::npos) break;
-      start = end + 1;
-    }
-  }
-  out += "stations:\n";
+  YAML::Emitter out;
+  if (!header_comment.empty()) out << YAML::Comment(header_comment);
+  out << YAML::BeginMap << YAML::Key << "stations" << YAML::Value << YAML::BeginSeq;
+  auto vector = [&out](const Eigen::Vector3d& v, double scale) {
+    out << YAML::Flow << YAML::BeginSeq;
+    for (int k = 0; k < 3; ++k) out << YamlNumber(v(k) * scale);
+    out << YAML::EndSeq;
+  };
   for (const auto& s : stations) {
-    out += fmt::format("  - id: \"{}\"\n", s.pose.id);
-    out += fmt::format("    position_mm: [{:.6f}, {:.6f}, {:.6f}]\n", s.pose.position_mm.x(),
-                       s.pose.position_mm.y(), s.pose.position_mm.z());
+    out << YAML::BeginMap;
+    out << YAML::Key << "id" << YAML::Value << YAML::DoubleQuoted << s.pose.id;
+    out << YAML::Key << "position_mm" << YAML::Value;
+    vector(s.pose.position_mm, 1.0);
     if (s.pose.levelled) {
-      out += fmt::format("    azimuth_gon: {:.9f}\n", FromRad(s.pose.azimuth_rad, AngleUnit::kGon));
+      out << YAML::Key << "azimuth_gon" << YAML::Value
+          << YamlNumber(FromRad(s.pose.azimuth_rad, AngleUnit::kGon));
     } else {
-      const auto& r = s.pose.world_from_station;
-      out += "    rotation: [";
-      for (int i = 0; i < 3; ++i) {
-        out +=
-            fmt::format("{}[{:.12f}, {:.12f}, {:.12f}]", i ? ", " : "", r(i, 0), r(i, 1), r(i, 2));
-      }
-      out += "]\n";
+      const Eigen::Matrix3d& r = s.pose.world_from_station;
+      out << YAML::Key << "rotation" << YAML::Value << YAML::Flow << YAML::BeginSeq;
+      for (int i = 0; i < 3; ++i) vector(r.row(i).transpose(), 1.0);
+      out << YAML::EndSeq;
     }
-    if (std::isfinite(s.sigma_hz_rad))
-      out += fmt::format("    sigma_hz_arcsec: {:.4f}\n", s.sigma_hz_rad / kRadPerArcsec);
-    if (std::isfinite(s.sigma_v_rad))
-      out += fmt::format("    sigma_v_arcsec: {:.4f}\n", s.sigma_v_rad / kRadPerArcsec);
-    out += fmt::format("    sigma_position_mm: [{:.6f}, {:.6f}, {:.6f}]\n", s.sigma_position_mm.x(),
-                       s.sigma_position_mm.y(), s.sigma_position_mm.z());
+    if (std::isfinite(s.sigma_hz_rad)) {
+      out << YAML::Key << "sigma_hz_arcsec" << YAML::Value
+          << YamlNumber(s.sigma_hz_rad / kRadPerArcsec);
+    }
+    if (std::isfinite(s.sigma_v_rad)) {
+      out << YAML::Key << "sigma_v_arcsec" << YAML::Value
+          << YamlNumber(s.sigma_v_rad / kRadPerArcsec);
+    }
+    out << YAML::Key << "sigma_position_mm" << YAML::Value;
+    vector(s.sigma_position_mm, 1.0);
     if (s.pose.levelled) {
-      out += fmt::format("    sigma_azimuth_arcsec: {:.4f}\n", s.sigma_azimuth_rad / kRadPerArcsec);
+      out << YAML::Key << "sigma_azimuth_arcsec" << YAML::Value
+          << YamlNumber(s.sigma_azimuth_rad / kRadPerArcsec);
     } else {
-      out += fmt::format("    sigma_rotation_arcsec: [{:.4f}, {:.4f}, {:.4f}]\n",
-                         s.sigma_rotation_rad.x() / kRadPerArcsec,
-                         s.sigma_rotation_rad.y() / kRadPerArcsec,
-                         s.sigma_rotation_rad.z() / kRadPerArcsec);
+      out << YAML::Key << "sigma_rotation_arcsec" << YAML::Value;
+      vector(s.sigma_rotation_rad, 1.0 / kRadPerArcsec);
     }
+    out << YAML::EndMap;
   }
-  return out;
+  out << YAML::EndSeq << YAML::EndMap;
+  return std::string(out.c_str()) + "\n";
 }
 
 std::vector<reduction::ControlPoint> ReadControlCsv(const std::string& path) {

@@ -5,6 +5,7 @@
 #include <string>
 #include <vector>
 
+#include "io/yaml_reader.h"
 #include "reduction/intersection.h"
 #include "reduction/network.h"
 #include "reduction/orientation.h"
@@ -15,8 +16,16 @@ namespace armsig::io {
 // V > 200 gon without a face column is face II (SPEC).
 std::vector<reduction::Observation> ReadObservationsCsv(const std::string& path);
 
-// stations: [{id, position_mm, azimuth_* | rotation, sigma_hz_arcsec?, sigma_v_arcsec?}]
+// stations: [{id, position_mm, azimuth_* | rotation, sigma_hz_arcsec?, sigma_v_arcsec?,
+//             sigma_position_mm?, sigma_azimuth_arcsec? | sigma_rotation_arcsec?}]
+// The one stations reader: a stations file and a lab file's `stations:` go through
+// ParseStationsList, so both refuse the same things (unknown keys, duplicate ids, a
+// rotation that is not one, azimuth and rotation together, an empty list).
 std::vector<reduction::Station> ReadStationsYaml(const std::string& path);
+std::vector<reduction::Station> ParseStationsYaml(const std::string& text,
+                                                  const std::string& source);
+std::vector<reduction::Station> ParseStationsList(const YamlValue& list);
+// Written with YAML::Emitter; ReadStationsYaml reads it back to the same doubles.
 std::string FormatStationsYaml(const std::vector<reduction::Station>& stations,
                                const std::string& header_comment);
 

@@ -2,12 +2,12 @@
 
 #include <fmt/format.h>
 #include <spdlog/spdlog.h>
-#include <yaml-cpp/yaml.h>
 
 #include <algorithm>
 #include <cmath>
 #include <set>
 
+#include "acquisition/lab.h"
 #include "calibration/compensation.h"
 #include "core/error.h"
 #include "db/database.h"
@@ -29,19 +29,16 @@ struct Gates {
 // Gates from the latest session's lab file (`recalibration:` block), then the options.
 Gates LoadGates(db::Database& database, int64_t robot_id, const RecalibrateOptions& o) {
   Gates g;
+  // A malformed block is an input error (never a silent fall-back to the defaults).
   const std::string lab = db::LatestLabYaml(database, robot_id);
   if (!lab.empty()) {
-    try {
-      const YAML::Node r = YAML::Load(lab)["recalibration"];
-      if (r) {
-        if (r["max_validation_mean_mm"]) g.max_mean_mm = r["max_validation_mean_mm"].as<double>();
-        if (r["max_validation_max_mm"]) g.max_max_mm = r["max_validation_max_mm"].as<double>();
-        if (r["tolerance_mm"]) g.tolerance_mm = r["tolerance_mm"].as<double>();
-        if (r["drift_sigma"]) g.drift_sigma = r["drift_sigma"].as<double>();
-      }
-    } catch (const YAML::Exception& e) {
-      throw InputError({"lab file of robot " + o.robot, e.mark.line + 1, e.mark.column + 1, ""},
-                       "malformed recalibration block: " + e.msg);
+    const auto settings =
+        acquisition::ParseLabSettings(lab, "lab file stored with robot " + o.robot + "'s sessions");
+    if (const auto& r = settings.recalibration) {
+      g.max_mean_mm = r->max_validation_mean_mm.value_or(g.max_mean_mm);
+      g.max_max_mm = r->max_validation_max_mm.value_or(g.max_max_mm);
+      g.tolerance_mm = r->tolerance_mm.value_or(g.tolerance_mm);
+      g.drift_sigma = r->drift_sigma.value_or(g.drift_sigma);
     }
   }
   g.max_mean_mm = o.max_validation_mean_mm.value_or(g.max_mean_mm);

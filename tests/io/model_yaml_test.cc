@@ -2,10 +2,26 @@
 
 #include <gtest/gtest.h>
 
+#include <filesystem>
+
 #include "core/error.h"
+#include "io/model_export.h"
 #include "test_support.h"
 
 namespace armsig::io {
+
+namespace {
+InputError ModelRefusal(const std::string& text) {
+  try {
+    ParseRobotModel(text, "m.yaml");
+  } catch (const InputError& e) {
+    return e;
+  }
+  ADD_FAILURE() << "expected an InputError for\n" << text;
+  return InputError("none");
+}
+const char* kOneLink = "links:\n  - [[1,0,0,0],[0,1,0,0],[0,0,1,0],[0,0,0,1]]\n";
+}  // namespace
 
 TEST(ModelYaml, LoadsThePaperPuma) {
   const auto model = testing::Puma();
@@ -68,6 +84,80 @@ TEST(ModelYaml, RejectsNonRotationAndBadTerms) {
                                "m"),
                InputError);
   EXPECT_THROW(ParseRobotModel("name: nolinks\n", "m"), InputError);
+}
+
+// Today a typo in tool_mm would drop a 109 mm tool without a word: it is refused.
+TEST(ModelYaml, MisspeltKeyIsRefusedWithLineAndSuggestion) {
+  const InputError e = ModelRefusal(std::string("name: x\n") + kOneLink + "tool_m: [0, 0, 109]\n");
+  EXPECT_STREQ(e.what(), "m.yaml:4:1: unknown key 'tool_m' (did you mean 'tool_mm'?)");
+}
+
+TEST(ModelYaml, MisspeltKeyInsideAListItemIsRefused) {
+  const InputError term = ModelRefusal(
+      std::string(kOneLink) + "nongeometric:\n  - {name: h1, joint: 1, bases: cos, of: [1]}\n");
+  EXPECT_STREQ(term.what(), "m.yaml:4:26: unknown key 'bases' (did you mean 'basis'?)");
+  const InputError dh = ModelRefusal("dh:\n  - {d_mm: 1, a_mm: 0, alpha_dg: 90}\n");
+  EXPECT_STREQ(dh.what(), "m.yaml:2:24: unknown key 'alpha_dg' (did you mean 'alpha_deg'?)");
+}
+
+TEST(ModelYaml, WrongShapeNamesPositionAndWhatWasExpected) {
+  const InputError tool = ModelRefusal(std::string(kOneLink) + "tool_mm: {x: 1}\n");
+  EXPECT_STREQ(tool.what(),
+               "m.yaml:3:10 (tool_mm): expected a list of 3 numbers [x, y, z], got a mapping");
+  const InputError link = ModelRefusal("links:\n  - 42\n");
+  EXPECT_STREQ(link.what(),
+               "m.yaml:2:5 (links): expected a 4x4 matrix as a list of 4 rows, got '42'");
+  const InputError joint = ModelRefusal(
+      std::string(kOneLink) + "nongeometric:\n  - {name: h1, joint: 1.5, basis: cos, of: [1]}\n");
+  EXPECT_EQ(joint.where().line, 4);
+  EXPECT_EQ(joint.message(), "expected an integer from 1 to 2, got '1.5'");
+  const InputError base = ModelRefusal(std::string(kOneLink) + "base: identity\n");
+  EXPECT_EQ(base.message(), "expected 'auto' or a 4x4 matrix, got 'identity'");
+}
+
+TEST(ModelYaml, EveryShippedModelLoads) {
+  int models = 0;
+  for (const auto& entry : std::filesystem::directory_iterator(testing::SourcePath("models"))) {
+    if (entry.path().extension() != ".yaml") continue;
+    ++models;
+    EXPECT_EQ(LoadRobotModel(entry.path().string()).num_joints(), 6) << entry.path();
+  }
+  EXPECT_EQ(models, 2);
+}
+
+TEST(ModelExport, FormattedModelReadsBackToTheSameNumbers) {
+  calibration::RobotModel model = testing::Ur10();
+  Eigen::Isometry3d base = Eigen::Isometry3d::Identity();
+  base.rotate(Eigen::AngleAxisd(0.123, Eigen::Vector3d(0.3, -1, 2).normalized()));
+  base.translation() = Eigen::Vector3d(1500.0 / 7.0, -0.1, 2.5e-7);
+  model.base = base;
+  for (size_t k = 0; k < model.nongeometric.size(); ++k) {
+    model.nongeometric[k].fixed_rad = 1e-4 / static_cast<double>(k + 3);
+  }
+  const std::string text = FormatRobotModelYaml(model, "corrected ur10");
+  EXPECT_EQ(text.rfind("# corrected ur10\n", 0), 0u) << text;
+  const calibration::RobotModel back = ParseRobotModel(text, "export");
+  EXPECT_EQ(back.name, model.name);
+  ASSERT_TRUE(back.base.has_value());
+  EXPECT_EQ(back.base->matrix(), model.base->matrix());
+  ASSERT_EQ(back.links.size(), model.links.size());
+  for (size_t i = 0; i < model.links.size(); ++i) {
+    EXPECT_EQ(back.links[i].matrix(), model.links[i].matrix()) << "link " << i;
+  }
+  EXPECT_EQ(back.tool_mm, model.tool_mm);
+  ASSERT_EQ(back.nongeometric.size(), model.nongeometric.size());
+  for (size_t k = 0; k < model.nongeometric.size(); ++k) {
+    EXPECT_EQ(back.nongeometric[k].name, model.nongeometric[k].name);
+    EXPECT_EQ(back.nongeometric[k].joint, model.nongeometric[k].joint);
+    EXPECT_EQ(back.nongeometric[k].basis, model.nongeometric[k].basis);
+    EXPECT_EQ(back.nongeometric[k].of, model.nongeometric[k].of);
+    EXPECT_EQ(back.nongeometric[k].fixed_rad, model.nongeometric[k].fixed_rad);
+  }
+  ASSERT_EQ(back.joint_min_rad.size(), 6u);
+  for (int i = 0; i < 6; ++i) {
+    EXPECT_NEAR(back.joint_min_rad[i], model.joint_min_rad[i], 1e-14);  // via degrees
+    EXPECT_NEAR(back.joint_max_rad[i], model.joint_max_rad[i], 1e-14);
+  }
 }
 
 }  // namespace armsig::io

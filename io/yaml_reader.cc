@@ -1,0 +1,245 @@
+#include "io/yaml_reader.h"
+
+#include <fmt/format.h>
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <map>
+#include <numeric>
+
+#include "io/atomic_file.h"
+
+namespace armsig::io {
+
+namespace {
+
+bool HasPosition(const YAML::Mark& mark) { return mark.line >= 0; }
+
+std::string KeyList(const std::vector<std::string_view>& keys) {
+  std::string out;
+  for (const auto& key : keys) out += (out.empty() ? "" : ", ") + std::string(key);
+  return out;
+}
+
+}  // namespace
+
+// --- YamlValue
+
+YamlValue::YamlValue(YAML::Node node, std::string source, std::string key, YAML::Mark mark)
+    : node_(std::move(node)), source_(std::move(source)), key_(std::move(key)), mark_(mark) {
+  // A missing node has no position and an empty value's is past its key: keep the
+  // caller's (the key's or the enclosing mapping's) for those.
+  if (node_.IsDefined() && !node_.IsNull() && HasPosition(node_.Mark())) mark_ = node_.Mark();
+}
+
+SourceLocation YamlValue::Where() const {
+  return {source_, HasPosition(mark_) ? mark_.line + 1 : 0,
+          HasPosition(mark_) ? mark_.column + 1 : 0, key_};
+}
+
+void YamlValue::Fail(const std::string& message) const { throw InputError(Where(), message); }
+
+std::string YamlValue::Describe() const {
+  if (!node_.IsDefined() || node_.IsNull()) return "nothing";
+  if (node_.IsSequence()) return fmt::format("a list of {}", node_.size());
+  if (node_.IsMap()) return "a mapping";
+  return "'" + node_.Scalar() + "'";
+}
+
+void YamlValue::Expected(const std::string& what) const {
+  Fail("expected " + what + ", got " + Describe());
+}
+
+std::string YamlValue::Text() const {
+  if (!IsScalar() || node_.Scalar().empty()) Expected("a text value");
+  return node_.Scalar();
+}
+
+double YamlValue::Number() const {
+  double value = 0.0;
+  if (!IsScalar() || !YAML::convert<double>::decode(node_, value) || !std::isfinite(value)) {
+    Expected("a finite number");
+  }
+  return value;
+}
+
+double YamlValue::PositiveNumber() const {
+  const double value = Number();
+  if (!(value > 0)) Expected("a positive number");
+  return value;
+}
+
+double YamlValue::NonNegativeNumber() const {
+  const double value = Number();
+  if (!(value >= 0)) Expected("a number ≥ 0");
+  return value;
+}
+
+int YamlValue::Integer(int min, int max) const {
+  long long value = 0;
+  if (!IsScalar() || !YAML::convert<long long>::decode(node_, value) || value < min ||
+      value > max) {
+    Expected(max == std::numeric_limits<int>::max()
+                 ? fmt::format("an integer ≥ {}", min)
+                 : fmt::format("an integer from {} to {}", min, max));
+  }
+  return static_cast<int>(value);
+}
+
+bool YamlValue::Flag() const {
+  bool value = false;
+  if (!IsScalar() || !YAML::convert<bool>::decode(node_, value)) Expected("true or false");
+  return value;
+}
+
+std::vector<YamlValue> YamlValue::List(size_t min_size) const {
+  if (!IsList()) Expected("a list");
+  if (node_.size() < min_size) {
+    Expected(min_size == 1 ? std::string("a non-empty list")
+                           : fmt::format("a list of at least {}", min_size));
+  }
+  std::vector<YamlValue> items;
+  items.reserve(node_.size());
+  for (const YAML::Node& item : node_) items.emplace_back(item, source_, key_, mark_);
+  return items;
+}
+
+std::vector<double> YamlValue::Numbers(size_t size) const {
+  if (!IsList() || node_.size() != size) Expected(fmt::format("a list of {} numbers", size));
+  std::vector<double> out;
+  for (const YamlValue& item : List()) out.push_back(item.Number());
+  return out;
+}
+
+Eigen::Vector3d YamlValue::Vector3() const {
+  if (!IsList() || node_.size() != 3) Expected("a list of 3 numbers [x, y, z]");
+  const std::vector<double> v = Numbers(3);
+  return {v[0], v[1], v[2]};
+}
+
+Eigen::MatrixXd YamlValue::Matrix(int rows, int cols) const {
+  if (!IsList() || static_cast<int>(node_.size()) != rows) {
+    Expected(fmt::format("a {}x{} matrix as a list of {} rows", rows, cols, rows));
+  }
+  Eigen::MatrixXd m(rows, cols);
+  const std::vector<YamlValue> row_values = List();
+  for (int r = 0; r < rows; ++r) {
+    const YamlValue& row = row_values[r];
+    if (!row.IsList() || static_cast<int>(row.node().size()) != cols) {
+      row.Expected(fmt::format("a row of {} numbers", cols));
+    }
+    const std::vector<YamlValue> entries = row.List();
+    for (int c = 0; c < cols; ++c) m(r, c) = entries[c].Number();
+  }
+  return m;
+}
+
+YamlMap YamlValue::Map(std::initializer_list<std::string_view> allowed) const {
+  if (!IsMap()) Expected("a mapping with " + KeyList(allowed));
+  const std::vector<std::string_view> keys(allowed);
+  std::map<std::string, int, std::less<>> seen;  // key → its line
+  for (auto it = node_.begin(); it != node_.end(); ++it) {
+    const YamlValue key(it->first, source_, "", mark_);
+    if (!key.IsScalar()) key.Expected("a key (a text)");
+    const std::string& name = it->first.Scalar();
+    if (std::find(keys.begin(), keys.end(), name) == keys.end()) {
+      const auto nearest = NearestKey(name, keys);
+      key.Fail("unknown key '" + name + "' " +
+               (nearest ? "(did you mean '" + *nearest + "'?)"
+                        : "(expected one of: " + KeyList(keys) + ")"));
+    }
+    const auto [previous, inserted] = seen.emplace(name, key.Where().line);
+    if (!inserted) {
+      key.Fail(fmt::format("duplicate key '{}' (first given on line {})", name, previous->second));
+    }
+  }
+  return YamlMap(*this);
+}
+
+// --- YamlMap
+
+bool YamlMap::Has(std::string_view key) const { return Find(key).has_value(); }
+
+std::optional<YamlValue> YamlMap::Find(std::string_view key) const {
+  // Iterate rather than node[key]: the key node's position is the fallback for an empty value.
+  const YAML::Node& map = value_.node();
+  for (auto it = map.begin(); it != map.end(); ++it) {
+    if (it->first.Scalar() == key) {
+      return YamlValue(it->second, value_.source(), std::string(key), it->first.Mark());
+    }
+  }
+  return std::nullopt;
+}
+
+YamlValue YamlMap::Required(std::string_view key, const std::string& expected) const {
+  if (auto found = Find(key)) return *found;
+  YamlValue where(value_.node(), value_.source(), std::string(key), YAML::Mark::null_mark());
+  where.Fail("missing '" + std::string(key) + "' (expected " + expected + ")");
+}
+
+// --- YamlDocument
+
+YamlDocument YamlDocument::Parse(const std::string& text, const std::string& source) {
+  try {
+    return YamlDocument(YAML::Load(text), source);
+  } catch (const YAML::Exception& e) {
+    const bool at = HasPosition(e.mark);
+    throw InputError({source, at ? e.mark.line + 1 : 0, at ? e.mark.column + 1 : 0, ""},
+                     "malformed YAML: " + e.msg);
+  }
+}
+
+YamlDocument YamlDocument::Load(const std::string& path) {
+  return Parse(ReadWholeFile(path), path);
+}
+
+YamlValue YamlDocument::Root() const {
+  return YamlValue(root_, source_, "", YAML::Mark::null_mark());
+}
+
+// --- Key suggestions
+
+int EditDistance(std::string_view a, std::string_view b) {
+  // Wagner–Fischer, one row.
+  std::vector<int> row(b.size() + 1);
+  std::iota(row.begin(), row.end(), 0);
+  for (size_t i = 1; i <= a.size(); ++i) {
+    int diagonal = row[0];
+    row[0] = static_cast<int>(i);
+    for (size_t j = 1; j <= b.size(); ++j) {
+      const int substitution = diagonal + (a[i - 1] == b[j - 1] ? 0 : 1);
+      diagonal = row[j];
+      row[j] = std::min({row[j] + 1, row[j - 1] + 1, substitution});
+    }
+  }
+  return row[b.size()];
+}
+
+std::optional<std::string> NearestKey(std::string_view key,
+                                      const std::vector<std::string_view>& allowed) {
+  std::optional<std::string> best;
+  int best_distance = std::numeric_limits<int>::max();
+  for (const auto& candidate : allowed) {
+    const int d = EditDistance(key, candidate);
+    if (d < best_distance) {
+      best_distance = d;
+      best = std::string(candidate);
+    }
+  }
+  // A typo changes a few characters; beyond that the suggestion would be a guess.
+  const int limit = std::max<int>(2, static_cast<int>(key.size()) / 3);
+  if (best_distance > limit) return std::nullopt;
+  return best;
+}
+
+// --- Emitting
+
+YAML::Emitter& operator<<(YAML::Emitter& out, YamlNumber number) {
+  const double v = number.value();
+  if (std::isnan(v)) return out << ".nan";
+  if (std::isinf(v)) return out << (v > 0 ? ".inf" : "-.inf");
+  return out << fmt::format("{}", v);  // shortest round-trip form
+}
+
+}  // namespace armsig::io

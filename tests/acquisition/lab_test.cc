@@ -1,0 +1,272 @@
+#include "acquisition/lab.h"
+
+#include <gtest/gtest.h>
+
+#include "core/error.h"
+#include "core/units.h"
+#include "io/network_io.h"
+#include "test_support.h"
+
+namespace armsig::acquisition {
+namespace {
+
+// A lab folder: the shipped PUMA model, a stations file and a lab file naming both.
+class LabFile : public ::testing::Test {
+ protected:
+  static constexpr const char* kStations =
+      "stations:\n"
+      "  - {id: T1, position_mm: [0, 0, 0], azimuth_gon: 0}\n"
+      "  - {id: T2, position_mm: [3000, 0, 0], azimuth_gon: 100}\n";
+
+  std::string Lab(const std::string& stations_line, const std::string& extra = "") const {
+    return "robot:\n"
+           "  model: '" +
+           testing::SourcePath("models/puma760.yaml") +
+           "'\n"
+           "  controller: {protocol: as, port: /dev/ttyS0, can_move: true}\n"
+           "instruments:\n"
+           "  - {station: T1, protocol: geocom, port: /dev/ttyUSB0, sigma_hz_arcsec: 0.3}\n"
+           "  - {station: T2, protocol: gsi, tcp: '192.168.0.12:1212'}\n" +
+           stations_line + extra;
+  }
+
+  // Writes `text` as lab.yaml and returns the InputError LoadLab throws.
+  InputError LabRefusal(const std::string& text) const {
+    testing::WriteText(dir_.File("lab.yaml"), text);
+    try {
+      LoadLab(dir_.File("lab.yaml"));
+    } catch (const InputError& e) {
+      return e;
+    }
+    ADD_FAILURE() << "expected an InputError for\n" << text;
+    return InputError("none");
+  }
+
+  std::string Path(const std::string& name) const { return dir_.File(name); }
+
+  testing::TempDir dir_;
+};
+
+TEST_F(LabFile, LoadsEverythingItGives) {
+  testing::WriteText(Path("stations.yaml"), kStations);
+  testing::WriteText(Path("lab.yaml"),
+                     Lab("stations: stations.yaml\n",
+                         "tolerances: {max_miss_mm: 0.1, readings: 2, settle_ms: 0, two_face: "
+                         "true, timeout_ms: 2000}\n"
+                         "recalibration: {max_validation_mean_mm: 0.3, drift_sigma: 4}\n"));
+  const LabConfig lab = LoadLab(Path("lab.yaml"));
+  EXPECT_EQ(lab.model.num_joints(), 6);
+  EXPECT_EQ(lab.model_yaml, testing::ReadText(testing::SourcePath("models/puma760.yaml")));
+  EXPECT_EQ(lab.controller.protocol, "as");
+  EXPECT_EQ(lab.controller.port, "/dev/ttyS0");
+  EXPECT_TRUE(lab.controller.can_move);
+  ASSERT_EQ(lab.instruments.size(), 2u);
+  EXPECT_EQ(lab.instruments[0].sigma_hz_arcsec, 0.3);
+  EXPECT_EQ(lab.instruments[1].tcp, "192.168.0.12:1212");
+  ASSERT_EQ(lab.stations.size(), 2u);
+  EXPECT_EQ(lab.stations[1].pose.position_mm.x(), 3000.0);
+  EXPECT_DOUBLE_EQ(lab.stations[1].pose.azimuth_rad, kPi / 2);
+  EXPECT_EQ(lab.tolerances.max_miss_mm, 0.1);
+  EXPECT_EQ(lab.tolerances.readings, 2);
+  EXPECT_EQ(lab.tolerances.max_repeat_mm, Tolerances{}.max_repeat_mm);  // not given: default
+  EXPECT_TRUE(lab.tolerances.two_face);
+  EXPECT_EQ(lab.policy.timeout, std::chrono::milliseconds(2000));
+  ASSERT_TRUE(lab.recalibration.has_value());
+  EXPECT_EQ(lab.recalibration->max_validation_mean_mm, 0.3);
+  EXPECT_EQ(lab.recalibration->drift_sigma, 4.0);
+  EXPECT_FALSE(lab.recalibration->max_validation_max_mm.has_value());
+  EXPECT_FALSE(lab.recalibration->tolerance_mm.has_value());
+}
+
+TEST_F(LabFile, InlineStationsAreReadLikeAStationsFile) {
+  testing::WriteText(Path("stations.yaml"), kStations);
+  const std::string inline_list = std::string("stations:\n") +
+                                  "  - {id: T1, position_mm: [0, 0, 0], azimuth_gon: 0}\n"
+                                  "  - {id: T2, position_mm: [3000, 0, 0], azimuth_gon: 100}\n";
+  const LabConfig lab = ParseLab(Lab(inline_list), Path("lab.yaml"));
+  const auto file = io::ReadStationsYaml(Path("stations.yaml"));
+  ASSERT_EQ(lab.stations.size(), file.size());
+  for (size_t i = 0; i < file.size(); ++i) {
+    EXPECT_EQ(lab.stations[i].pose.id, file[i].pose.id);
+    EXPECT_EQ(lab.stations[i].pose.position_mm, file[i].pose.position_mm);
+    EXPECT_EQ(lab.stations[i].pose.world_from_station, file[i].pose.world_from_station);
+  }
+}
+
+TEST_F(LabFile, MisspeltKeysAreRefusedWithLineAndSuggestion) {
+  // Line 7 is the first line after the instruments.
+  EXPECT_STREQ(
+      LabRefusal(Lab("tolerance: {max_miss_mm: 0.1}\n")).what(),
+      (Path("lab.yaml") + ":7:1: unknown key 'tolerance' (did you mean 'tolerances'?)").c_str());
+  EXPECT_STREQ(
+      LabRefusal(Lab("tolerances:\n  max_mis_mm: 0.1\n")).what(),
+      (Path("lab.yaml") + ":8:3: unknown key 'max_mis_mm' (did you mean 'max_miss_mm'?)").c_str());
+  EXPECT_STREQ(
+      LabRefusal(Lab("recalibration:\n  drift_sigma: 4\n  tolerance: 0.02\n")).what(),
+      (Path("lab.yaml") + ":9:3: unknown key 'tolerance' (did you mean 'tolerance_mm'?)").c_str());
+  const InputError instrument = LabRefusal(
+      "robot:\n  model: m.yaml\n  controller: {protocol: as, port: p}\n"
+      "instruments:\n  - {station: T1, protocol: geocom, prot: /dev/ttyUSB0}\n");
+  EXPECT_EQ(instrument.where().line, 5);
+  EXPECT_EQ(instrument.message(), "unknown key 'prot' (did you mean 'port'?)");
+}
+
+TEST_F(LabFile, MisspeltKeyInTheModelItNamesIsRefusedInTheModelFile) {
+  std::string model = testing::ReadText(testing::SourcePath("models/ur10.yaml"));
+  model.replace(model.find("tool_mm:"), 8, "tool_m: ");
+  testing::WriteText(Path("ur10.yaml"), model);
+  std::string lab = Lab("");
+  lab.replace(lab.find("model: '"), lab.find("'\n") - lab.find("model: '") + 1, "model: ur10.yaml");
+  const InputError e = LabRefusal(lab);
+  EXPECT_EQ(e.where().file, Path("ur10.yaml"));
+  EXPECT_GT(e.where().line, 5);
+  EXPECT_EQ(e.message(), "unknown key 'tool_m' (did you mean 'tool_mm'?)");
+}
+
+TEST_F(LabFile, WrongShapesNamePositionAndWhatWasExpected) {
+  const std::string robot = "robot:\n  model: m.yaml\n  controller: {protocol: as, port: p}\n";
+  {
+    const InputError e = LabRefusal(robot + "instruments: {station: T1, protocol: gsi}\n");
+    EXPECT_EQ(e.where().line, 4);
+    EXPECT_EQ(e.where().column, 14);
+    EXPECT_EQ(e.where().column_name, "instruments");
+    EXPECT_EQ(e.message(), "expected a list, got a mapping");
+  }
+  {
+    const InputError e = LabRefusal(Lab("tolerances: {readings: 1.5}\n"));
+    EXPECT_EQ(e.where().line, 7);
+    EXPECT_EQ(e.where().column, 24);
+    EXPECT_EQ(e.message(), "expected an integer ≥ 1, got '1.5'");
+  }
+  {
+    const InputError e = LabRefusal(Lab("tolerances: [0.1]\n"));
+    EXPECT_EQ(e.message().rfind("expected a mapping with max_miss_mm, ", 0), 0u) << e.message();
+  }
+  {
+    const InputError e = LabRefusal(Lab("stations: {id: T1}\n"));
+    EXPECT_EQ(e.message(), "expected a stations file name or a list of stations, got a mapping");
+  }
+  {
+    const InputError e =
+        LabRefusal(robot + "instruments:\n  - {station: T1, protocol: gsi, tcp: host}\n");
+    EXPECT_EQ(e.message(), "expected HOST:PORT with a port from 1 to 65535, got 'host'");
+  }
+  for (const std::string bad : {"host:70000", "host:12ab", ":1212", "host:"}) {
+    const InputError e =
+        LabRefusal(robot + "instruments:\n  - {station: T1, protocol: gsi, tcp: '" + bad + "'}\n");
+    EXPECT_EQ(e.where().line, 5) << bad;
+    EXPECT_EQ(e.where().column_name, "tcp") << bad;
+  }
+  {
+    const InputError e =
+        LabRefusal("robot:\n  model: m.yaml\n  controller: {protocol: as, port: p, ports: [a]}\n");
+    EXPECT_EQ(e.message(), "'ports' belongs to protocol counter, not as");
+  }
+  {
+    const InputError e = LabRefusal(Lab("stations: nowhere.yaml\n"));
+    EXPECT_EQ(e.where().file, Path("lab.yaml"));
+    EXPECT_EQ(e.where().line, 7);
+    EXPECT_EQ(e.message(), "cannot read stations file " + Path("nowhere.yaml"));
+  }
+}
+
+// One stations reader: each refusal reads the same from a stations file, from a lab file
+// naming that file, and (at the lab file's own lines) from the lab file's inline list.
+TEST_F(LabFile, StationRefusalsAreTheSameAsFromAStationsFile) {
+  const std::vector<std::string> bad_lists = {
+      "  - {id: T1, position_mm: [0, 0, 0], azimuth_gon: 0}\n"
+      "  - {id: T1, position_mm: [1, 0, 0], azimuth_gon: 0}\n",
+      "  - {id: T1, position_mm: [0, 0, 0], rotation: [[1, 0, 0], [0, 1, 0], [0, 0.1, 1]]}\n",
+      "  - {id: T1, position_mm: [0, 0, 0], azimuth_gon: 0, rotation: [[1, 0, 0], [0, 1, 0], [0, "
+      "0, 1]]}\n",
+      "  - {id: T1, position_mm: [0, 0, 0], azimut_gon: 0}\n",
+      "  - {id: T1, position_mm: [0, 0], azimuth_gon: 0}\n",
+  };
+  for (const std::string& list : bad_lists) {
+    SCOPED_TRACE(list);
+    testing::WriteText(Path("stations.yaml"), "stations:\n" + list);
+    std::string from_file;
+    try {
+      io::ReadStationsYaml(Path("stations.yaml"));
+      ADD_FAILURE() << "ReadStationsYaml accepted it";
+    } catch (const InputError& e) {
+      from_file = e.what();
+      EXPECT_EQ(e.where().file, Path("stations.yaml"));
+    }
+    const InputError via_lab = LabRefusal(Lab("stations: stations.yaml\n"));
+    EXPECT_EQ(via_lab.what(), from_file);
+
+    const InputError in_lab = LabRefusal(Lab("stations:\n" + list));
+    const InputError in_file = [&] {
+      try {
+        io::ReadStationsYaml(Path("stations.yaml"));
+      } catch (const InputError& e) {
+        return e;
+      }
+      return InputError("none");
+    }();
+    EXPECT_EQ(in_lab.message(), in_file.message());
+    EXPECT_EQ(in_lab.where().file, Path("lab.yaml"));
+    EXPECT_EQ(in_lab.where().line, in_file.where().line + 6);  // the lab's 6 lines before
+    EXPECT_EQ(in_lab.where().column, in_file.where().column);
+  }
+}
+
+TEST_F(LabFile, InstrumentOnAnUnknownStationIsRefusedAtItsStation) {
+  testing::WriteText(Path("stations.yaml"),
+                     "stations:\n  - {id: T1, position_mm: [0, 0, 0], azimuth_gon: 0}\n");
+  const InputError e = LabRefusal(Lab("stations: stations.yaml\n"));
+  EXPECT_EQ(e.where().line, 6);
+  EXPECT_EQ(e.message(), "instrument station 'T2' is not in the stations");
+}
+
+// The database keeps each session's lab text; the files it names may be gone.
+TEST(LabSettings, ReadsTheStoredTextWithoutItsFiles) {
+  const std::string text =
+      "robot:\n  model: /gone/puma760.yaml\n  controller: {protocol: val, port: /dev/ttyS0}\n"
+      "instruments:\n  - {station: T1, protocol: geocom, port: /dev/ttyUSB0}\n"
+      "stations: /gone/stations.yaml\n"
+      "tolerances: {max_miss_mm: 0.15}\n"
+      "recalibration: {max_validation_mean_mm: 0.4, max_validation_max_mm: 1.5, tolerance_mm: "
+      "0.03, drift_sigma: 6}\n";
+  const LabSettings s = ParseLabSettings(text, "stored lab file of session 3");
+  EXPECT_EQ(s.robot_model_path, "/gone/puma760.yaml");
+  EXPECT_EQ(s.stations_path, "/gone/stations.yaml");
+  EXPECT_EQ(s.tolerances.max_miss_mm, 0.15);
+  ASSERT_TRUE(s.recalibration.has_value());
+  EXPECT_EQ(s.recalibration->max_validation_mean_mm, 0.4);
+  EXPECT_EQ(s.recalibration->max_validation_max_mm, 1.5);
+  EXPECT_EQ(s.recalibration->tolerance_mm, 0.03);
+  EXPECT_EQ(s.recalibration->drift_sigma, 6.0);
+  // ParseLab needs the model file and says so at the lab's `model:` line.
+  try {
+    ParseLab(text, "lab.yaml");
+    FAIL();
+  } catch (const InputError& e) {
+    EXPECT_EQ(e.where().line, 2);
+    EXPECT_EQ(e.message(), "cannot read robot model /gone/puma760.yaml");
+  }
+  const std::string without = text.substr(0, text.find("recalibration:"));
+  EXPECT_FALSE(ParseLabSettings(without, "stored").recalibration.has_value());
+}
+
+TEST(LabSettings, MalformedRecalibrationBlockIsAnInputError) {
+  const std::string head =
+      "robot:\n  model: m.yaml\n  controller: {protocol: as, port: p}\n"
+      "instruments:\n  - {station: T1, protocol: geocom, port: q}\n";
+  try {
+    ParseLabSettings(head + "recalibration:\n  max_validation_mean_mm: half a mm\n", "stored");
+    FAIL();
+  } catch (const InputError& e) {
+    EXPECT_STREQ(e.what(),
+                 "stored:7:27 (max_validation_mean_mm): expected a finite number, got 'half a mm'");
+  }
+  EXPECT_THROW(ParseLabSettings(head + "recalibration: {drift_sigma: -1}\n", "stored"), InputError);
+  EXPECT_THROW(ParseLabSettings(head + "recalibration: 0.5\n", "stored"), InputError);
+  EXPECT_THROW(ParseLabSettings(head + "recalibration: {max_validation_mean: 0.5}\n", "stored"),
+               InputError);
+  EXPECT_THROW(ParseLabSettings(head + "recalibration: {\n", "stored"), InputError);
+}
+
+}  // namespace
+}  // namespace armsig::acquisition
