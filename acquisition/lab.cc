@@ -10,7 +10,8 @@
 #include "core/error.h"
 #include "core/units.h"
 #include "instruments/geocom_device.h"
-#include "instruments/other_devices.h"
+#include "instruments/gsi_device.h"
+#include "instruments/robot_controllers.h"
 #include "io/atomic_file.h"
 #include "io/model_yaml.h"
 #include "io/network_io.h"
@@ -106,6 +107,9 @@ ControllerConfig ControllerFrom(const YamlValue& value, const std::string& sourc
   }
   if (const auto offset = map.Find("offset_deg")) {
     const std::vector<double> deg = offset->Numbers(n);
+    for (const YamlValue& item : offset->List()) {
+      item.Plausible(plausible::Quantity::kJointAngle, plausible::UnitOf(AngleUnit::kDeg));
+    }
     for (int i = 0; i < n; ++i) e.offset_rad(i) = deg[i] * kRadPerDeg;
   }
   if (const auto coupling = map.Find("coupling")) e.coupling = coupling->Matrix(n, n);
@@ -118,7 +122,7 @@ InstrumentConfig InstrumentFrom(const YamlValue& value, const std::string& sourc
                                  "sigma_hz_arcsec", "sigma_v_arcsec", "sigma_distance_mm"});
   InstrumentConfig c;
   const YamlValue station = map.Required("station", "the id of the station it stands on");
-  c.station = station.Text();
+  c.station = station.Name();
   *station_where = station.Where();
   c.protocol = Choice(map.Required("protocol", "geocom or gsi"), {"geocom", "gsi"});
   const auto port = map.Find("port");
@@ -135,9 +139,13 @@ InstrumentConfig InstrumentFrom(const YamlValue& value, const std::string& sourc
   if (const auto v = map.Find("baud")) c.baud = Baud(*v);
   if (const auto v = map.Find("crc")) c.crc = v->Flag();
   if (const auto v = map.Find("distance")) c.distance = v->Flag();
-  if (const auto v = map.Find("sigma_hz_arcsec")) c.sigma_hz_arcsec = v->PositiveNumber();
-  if (const auto v = map.Find("sigma_v_arcsec")) c.sigma_v_arcsec = v->PositiveNumber();
-  if (const auto v = map.Find("sigma_distance_mm")) c.sigma_distance_mm = v->PositiveNumber();
+  using plausible::Quantity;
+  if (const auto v = map.Find("sigma_hz_arcsec"))
+    c.sigma_hz_arcsec = v->Plausible(Quantity::kSigmaAngle, plausible::kArcsec);
+  if (const auto v = map.Find("sigma_v_arcsec"))
+    c.sigma_v_arcsec = v->Plausible(Quantity::kSigmaAngle, plausible::kArcsec);
+  if (const auto v = map.Find("sigma_distance_mm"))
+    c.sigma_distance_mm = v->Plausible(Quantity::kSigmaLength);
   return c;
 }
 
@@ -161,8 +169,8 @@ void TolerancesFrom(const YamlValue& value, Tolerances& tol, instruments::RetryP
 }
 
 RecalibrationSettings RecalibrationFrom(const YamlValue& value) {
-  const YamlMap map =
-      value.Map({"max_validation_mean_mm", "max_validation_max_mm", "tolerance_mm", "drift_sigma"});
+  const YamlMap map = value.Map({"max_validation_mean_mm", "max_validation_max_mm", "tolerance_mm",
+                                 "drift_sigma", "drift_mm"});
   RecalibrationSettings r;
   if (const auto v = map.Find("max_validation_mean_mm"))
     r.max_validation_mean_mm = v->PositiveNumber();
@@ -170,6 +178,7 @@ RecalibrationSettings RecalibrationFrom(const YamlValue& value) {
     r.max_validation_max_mm = v->PositiveNumber();
   if (const auto v = map.Find("tolerance_mm")) r.tolerance_mm = v->NonNegativeNumber();
   if (const auto v = map.Find("drift_sigma")) r.drift_sigma = v->PositiveNumber();
+  if (const auto v = map.Find("drift_mm")) r.drift_mm = v->NonNegativeNumber();
   return r;
 }
 
@@ -195,10 +204,9 @@ void CheckInstrumentStations(const ParsedLab& parsed,
   }
 }
 
-ParsedLab Parse(const std::string& text, const std::string& source) {
-  const io::YamlDocument doc = io::YamlDocument::Parse(text, source);
+ParsedLab ParseRoot(const YamlValue& root_value, const std::string& source) {
   const YamlMap root =
-      doc.Root().Map({"robot", "instruments", "stations", "tolerances", "recalibration"});
+      root_value.Map({"robot", "instruments", "stations", "tolerances", "recalibration"});
   ParsedLab parsed;
   LabSettings& lab = parsed.settings;
 
@@ -234,6 +242,12 @@ ParsedLab Parse(const std::string& text, const std::string& source) {
   }
   CheckInstrumentStations(parsed, lab.inline_stations);
   return parsed;
+}
+
+ParsedLab Parse(const std::string& text, const std::string& source) {
+  return io::YamlDocument::Parse(text, source).Read([&](const YamlValue& root) {
+    return ParseRoot(root, source);
+  });
 }
 
 // A file the lab names, refused at the lab file's key when it cannot be read.
@@ -290,10 +304,14 @@ namespace {
 std::unique_ptr<instruments::LineTransport> Transport(const std::string& port,
                                                       const std::string& tcp, unsigned baud) {
   if (!tcp.empty()) {
-    const auto address = SplitHostPort(tcp);  // ParseLab checked it
-    if (!address) throw InputError({"tcp", 0, 0, ""}, "'" + tcp + "': expected HOST:PORT");
+    const auto address = SplitHostPort(tcp);
+    if (!address) {
+      throw InputError({"tcp", 0, 0, ""},
+                       "'" + tcp + "': expected HOST:PORT with a port from 1 to 65535");
+    }
     return instruments::MakeTcpTransport(address->host, address->port);
   }
+  if (port.empty()) throw InputError({"port", 0, 0, ""}, "give a serial port or HOST:PORT");
   instruments::SerialSettings s;
   s.path = port;
   s.baud = baud;
@@ -301,30 +319,43 @@ std::unique_ptr<instruments::LineTransport> Transport(const std::string& port,
 }
 }  // namespace
 
+std::unique_ptr<instruments::DistanceInstrument> OpenInstrument(
+    const InstrumentConfig& c, const instruments::RetryPolicy& policy) {
+  if (c.protocol == "geocom") {
+    return std::make_unique<instruments::GeoComDevice>(Transport(c.port, c.tcp, c.baud), policy,
+                                                       c.crc);
+  }
+  if (c.protocol == "gsi") {
+    return std::make_unique<instruments::GsiOnlineDevice>(Transport(c.port, c.tcp, c.baud), policy);
+  }
+  throw InputError({"protocol", 0, 0, ""},
+                   "unknown instrument protocol '" + c.protocol + "' (expected geocom or gsi)");
+}
+
+std::unique_ptr<instruments::RobotController> OpenController(
+    const ControllerConfig& c, const instruments::RetryPolicy& policy) {
+  if (c.protocol == "counter") {
+    std::vector<std::unique_ptr<instruments::LineTransport>> ports;
+    for (const auto& p : c.counter_ports) ports.push_back(Transport(p, "", c.baud));
+    return std::make_unique<instruments::CounterBox>(std::move(ports), c.encoders, policy);
+  }
+  if (c.protocol == "val" || c.protocol == "as") {
+    return std::make_unique<instruments::ValController>(Transport(c.port, "", c.baud), c.can_move,
+                                                        policy);
+  }
+  throw InputError({"protocol", 0, 0, ""}, "unknown controller protocol '" + c.protocol +
+                                               "' (expected val, as or counter)");
+}
+
 std::vector<std::unique_ptr<instruments::DistanceInstrument>> OpenInstruments(
     const LabConfig& lab) {
   std::vector<std::unique_ptr<instruments::DistanceInstrument>> out;
-  for (const auto& c : lab.instruments) {
-    if (c.protocol == "geocom") {
-      out.push_back(std::make_unique<instruments::GeoComDevice>(Transport(c.port, c.tcp, c.baud),
-                                                                lab.policy, c.crc));
-    } else {
-      out.push_back(std::make_unique<instruments::GsiOnlineDevice>(Transport(c.port, c.tcp, c.baud),
-                                                                   lab.policy));
-    }
-  }
+  for (const auto& c : lab.instruments) out.push_back(OpenInstrument(c, lab.policy));
   return out;
 }
 
 std::unique_ptr<instruments::RobotController> OpenController(const LabConfig& lab) {
-  const auto& c = lab.controller;
-  if (c.protocol == "counter") {
-    std::vector<std::unique_ptr<instruments::LineTransport>> ports;
-    for (const auto& p : c.counter_ports) ports.push_back(Transport(p, "", c.baud));
-    return std::make_unique<instruments::CounterBox>(std::move(ports), c.encoders, lab.policy);
-  }
-  return std::make_unique<instruments::ValController>(Transport(c.port, "", c.baud), c.can_move,
-                                                      lab.policy);
+  return OpenController(lab.controller, lab.policy);
 }
 
 }  // namespace armsig::acquisition

@@ -53,6 +53,7 @@ struct RecalibrationSettings {
   std::optional<double> max_validation_max_mm;
   std::optional<double> tolerance_mm;
   std::optional<double> drift_sigma;
+  std::optional<double> drift_mm;  // smallest change of predicted positions called drift
 };
 
 // What a lab text says, read without opening the files it names: works on the lab YAML a
@@ -91,7 +92,12 @@ LabConfig ParseLab(const std::string& text, const std::string& source);
 // The same checks on the text alone; relative paths resolve against `source`'s folder.
 LabSettings ParseLabSettings(const std::string& text, const std::string& source);
 
-// Opens the devices the configuration names.
+// Opens the devices the configuration names. The one-device forms serve `armsig
+// instrument`: a malformed HOST:PORT is an InputError naming it.
+std::unique_ptr<instruments::DistanceInstrument> OpenInstrument(
+    const InstrumentConfig& config, const instruments::RetryPolicy& policy);
+std::unique_ptr<instruments::RobotController> OpenController(
+    const ControllerConfig& config, const instruments::RetryPolicy& policy);
 std::vector<std::unique_ptr<instruments::DistanceInstrument>> OpenInstruments(const LabConfig& lab);
 std::unique_ptr<instruments::RobotController> OpenController(const LabConfig& lab);
 

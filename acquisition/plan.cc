@@ -25,11 +25,12 @@ Plan ReadPlanCsv(const std::string& path, int num_joints) {
   std::set<std::string> labels;
   for (const auto& row : t.rows()) {
     PlannedConfiguration c;
-    c.label = t.Text(row, id);
+    c.label = t.Name(row, id);
     if (!labels.insert(c.label).second)
       throw InputError(t.Where(row, id), "duplicate pose '" + c.label + "'");
     c.joints_rad.resize(num_joints);
-    for (int i = 0; i < num_joints; ++i) c.joints_rad(i) = t.AngleRad(row, q[i]);
+    for (int i = 0; i < num_joints; ++i)
+      c.joints_rad(i) = t.AngleRad(row, q[i], plausible::Quantity::kJointAngle);
     plan.push_back(std::move(c));
   }
   if (plan.empty()) throw InputError({path, 0, 0, ""}, "empty plan");

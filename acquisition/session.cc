@@ -7,10 +7,12 @@
 #include <set>
 #include <thread>
 
+#include "acquisition/records.h"
 #include "core/error.h"
 #include "core/units.h"
 #include "db/store.h"
 #include "reduction/intersection.h"
+#include "reduction/point_flags.h"
 
 namespace armsig::acquisition {
 
@@ -18,23 +20,18 @@ using Clock = std::chrono::steady_clock;
 
 int64_t CreateSession(db::Database& db, const LabConfig& lab, const std::string& robot,
                       const Plan& plan) {
-  SQLite::Transaction tx(db.sql());
+  db::WriteTransaction tx(db);
   const int64_t robot_id = db::EnsureRobot(db, robot, lab.model.name, lab.model_yaml);
   const int64_t session = db::CreateSession(db, robot_id, lab.text, PlanToJson(plan), "running",
                                             "capture from " + lab.source);
   for (const auto& s : lab.stations) {
-    db::StationSetupRow row;
-    row.station = s.pose.id;
-    row.pose = s.pose;
-    row.sigma_position_mm = s.sigma_position_mm;
-    row.sigma_azimuth_rad = s.sigma_azimuth_rad;
+    db::StationSetupRow row = StationSetupRowOf(s, "lab");
     for (const auto& c : lab.instruments) {
       if (c.station == s.pose.id) {
         row.sigma_hz_rad = c.sigma_hz_arcsec * kRadPerArcsec;
         row.sigma_v_rad = c.sigma_v_arcsec * kRadPerArcsec;
       }
     }
-    row.method = "lab";
     db::InsertStationSetup(db, session, row);
   }
   tx.commit();
@@ -48,13 +45,51 @@ struct StationReading {
   int instrument = 0;
 };
 
+// Ctrl-C: the flag was raised while a configuration was being measured.
+struct StopRequested {};
+
+// Hands the stop flag to every device for the duration of a capture, so that a device
+// call in flight (a flooding port, a long move) ends within a few milliseconds.
+class InterruptScope {
+ public:
+  InterruptScope(std::vector<std::unique_ptr<instruments::DistanceInstrument>>& devices,
+                 instruments::RobotController& controller, const std::atomic<bool>* stop)
+      : devices_(devices), controller_(controller) {
+    if (!stop) return;
+    for (auto& d : devices_) d->SetInterrupt(stop);
+    controller_.SetInterrupt(stop);
+  }
+  ~InterruptScope() {
+    for (auto& d : devices_) d->SetInterrupt(nullptr);
+    controller_.SetInterrupt(nullptr);
+  }
+  InterruptScope(const InterruptScope&) = delete;
+  InterruptScope& operator=(const InterruptScope&) = delete;
+
+ private:
+  std::vector<std::unique_ptr<instruments::DistanceInstrument>>& devices_;
+  instruments::RobotController& controller_;
+};
+
 struct Measurement {
   Eigen::VectorXd joints;
   std::vector<StationReading> readings;  // every reading of every instrument (faces, repeats)
-  reduction::IntersectionResult point;
-  double repeat_mm = 0.0;
-  double device_ms = 0.0;  // slowest device call of the parallel round(s)
+  reduction::ReducedPoint point;         // its flags carry the tolerance checks
+  double device_ms = 0.0;                // slowest device call of the parallel round(s)
 };
+
+// A reading of the capture's target as an observation, with its instrument's sigmas.
+reduction::Observation ObservationOf(const StationReading& r, const InstrumentConfig& c) {
+  reduction::Observation o;
+  o.point = "target";
+  o.station = c.station;
+  o.reading = r.reading.angles;
+  o.distance_mm = r.reading.distance_mm;
+  o.sigma_hz_rad = c.sigma_hz_arcsec * kRadPerArcsec;
+  o.sigma_v_rad = c.sigma_v_arcsec * kRadPerArcsec;
+  o.sigma_distance_mm = c.sigma_distance_mm;
+  return o;
+}
 
 }  // namespace
 
@@ -83,14 +118,32 @@ CaptureSummary RunCapture(db::Database& db, const LabConfig& lab, int64_t sessio
                        "no oriented station " + lab.instruments[i].station);
   }
 
+  const InterruptScope interrupts(devices, controller, options.stop);
+  const auto stopping = [&] { return options.stop && options.stop->load(); };
+  // Between device calls: a raised stop flag ends the configuration.
+  const auto check_stop = [&] {
+    if (stopping()) throw StopRequested{};
+  };
+  // A wait that a raised stop flag cuts short.
+  const auto sleep_unless_stopped = [&](int ms) {
+    const auto end = Clock::now() + std::chrono::milliseconds(ms);
+    for (auto now = Clock::now(); now < end; now = Clock::now()) {
+      check_stop();
+      std::this_thread::sleep_for(
+          std::min<Clock::duration>(end - now, std::chrono::milliseconds(10)));
+    }
+    check_stop();
+  };
+
   const auto start = Clock::now();
-  double miss_sum = 0.0;
+  double miss_sum = 0.0, max_miss = 0.0;  // over usable points
   int miss_count = 0;
   double cycle_sum = 0.0, overhead_sum = 0.0;
   int cycles = 0;
 
   // One parallel round: joints (optional) and every instrument at once.
   auto round = [&](bool with_joints, Measurement& m) {
+    check_stop();
     std::future<Eigen::VectorXd> joints;
     std::vector<std::future<std::pair<instruments::Reading, double>>> futures;
     auto timed = [](auto&& f) {
@@ -130,21 +183,17 @@ CaptureSummary RunCapture(db::Database& db, const LabConfig& lab, int64_t sessio
     m.device_ms += slowest;
   };
 
-  auto intersect = [&](const std::vector<StationReading>& readings) {
+  // The point's checks are the lab's tolerances.
+  reduction::PointOptions point_options;
+  point_options.checks.max_miss_mm = lab.tolerances.max_miss_mm;
+  point_options.checks.max_repeat_mm = lab.tolerances.max_repeat_mm;
+  auto rays_of = [&](const std::vector<StationReading>& readings) {
     std::vector<reduction::Ray> rays;
     for (const auto& r : readings) {
-      const auto& c = lab.instruments[r.instrument];
-      reduction::Ray ray;
-      ray.station_mm = station_of[r.instrument]->pose.position_mm;
-      ray.world_from_station = station_of[r.instrument]->pose.world_from_station;
-      ray.reading = r.reading.angles;
-      ray.distance_mm = r.reading.distance_mm ? *r.reading.distance_mm : NAN;
-      ray.sigma_hz_rad = c.sigma_hz_arcsec * kRadPerArcsec;
-      ray.sigma_v_rad = c.sigma_v_arcsec * kRadPerArcsec;
-      ray.sigma_distance_mm = c.sigma_distance_mm;
-      rays.push_back(ray);
+      rays.push_back(reduction::RayOf(ObservationOf(r, lab.instruments[r.instrument]),
+                                      *station_of[r.instrument], reduction::InstrumentDefaults{}));
     }
-    return reduction::Intersect(rays);
+    return rays;
   };
 
   for (int seq = 0; seq < static_cast<int>(plan.size()); ++seq) {
@@ -158,32 +207,33 @@ CaptureSummary RunCapture(db::Database& db, const LabConfig& lab, int64_t sessio
     std::optional<Measurement> accepted;
     int attempts = 0;
     std::string fault;
-    for (int fault_try = 0; fault_try <= lab.tolerances.fault_retries && !accepted; ++fault_try) {
-      if (fault_try > 0)
-        std::this_thread::sleep_for(std::chrono::milliseconds(lab.tolerances.fault_retry_delay_ms));
+    bool stopped = false;
+    for (int fault_try = 0; fault_try <= lab.tolerances.fault_retries && !accepted && !stopped;
+         ++fault_try) {
       try {
+        if (fault_try > 0) sleep_unless_stopped(lab.tolerances.fault_retry_delay_ms);
+        check_stop();
         if (controller.CanMove())
           controller.MoveTo(target.joints_rad);
         else if (options.prompt_move)
           options.prompt_move(target);
-        std::this_thread::sleep_for(std::chrono::milliseconds(lab.tolerances.settle_ms));
+        sleep_unless_stopped(lab.tolerances.settle_ms);
         for (int measure = 0; measure <= lab.tolerances.max_remeasure; ++measure) {
           ++attempts;
           const auto cycle_start = Clock::now();
           Measurement m;
           round(true, m);
-          std::vector<Eigen::Vector3d> repeats;
-          {
-            repeats.push_back(intersect(m.readings).position_mm);
-            for (int k = 1; k < lab.tolerances.readings; ++k) {
-              Measurement again;
-              round(false, again);
-              repeats.push_back(intersect(again.readings).position_mm);
-              m.readings.insert(m.readings.end(), again.readings.begin(), again.readings.end());
-              m.device_ms += again.device_ms;
-            }
+          reduction::RayGroup group;  // every ray, and each repeated round's rays
+          group.repeats.push_back(rays_of(m.readings));
+          for (int k = 1; k < lab.tolerances.readings; ++k) {
+            Measurement again;
+            round(false, again);
+            group.repeats.push_back(rays_of(again.readings));
+            m.readings.insert(m.readings.end(), again.readings.begin(), again.readings.end());
+            m.device_ms += again.device_ms;
           }
           if (lab.tolerances.two_face) {
+            check_stop();
             std::vector<std::future<void>> turns;
             for (auto& d : devices)
               turns.push_back(std::async(std::launch::async, [&d] { d->ChangeFace(); }));
@@ -197,29 +247,38 @@ CaptureSummary RunCapture(db::Database& db, const LabConfig& lab, int64_t sessio
               turns.push_back(std::async(std::launch::async, [&d] { d->ChangeFace(); }));
             for (auto& t : turns) t.get();
           }
-          m.point = intersect(m.readings);
-          for (size_t a = 0; a < repeats.size(); ++a)
-            for (size_t b = a + 1; b < repeats.size(); ++b)
-              m.repeat_mm = std::max(m.repeat_mm, (repeats[a] - repeats[b]).norm());
+          group.rays = rays_of(m.readings);
+          reduction::IntersectPoint(group, point_options, m.point);
           const double cycle_ms =
               std::chrono::duration<double, std::milli>(Clock::now() - cycle_start).count();
           cycle_sum += cycle_ms;
           overhead_sum += std::max(0.0, cycle_ms - m.device_ms);
           ++cycles;
-          const bool good = m.point.status == reduction::IntersectionStatus::kOk &&
-                            m.point.max_miss_mm <= lab.tolerances.max_miss_mm &&
-                            m.repeat_mm <= lab.tolerances.max_repeat_mm;
-          if (good || measure == lab.tolerances.max_remeasure) {
+          if (m.point.accepted() || measure == lab.tolerances.max_remeasure) {
             accepted = std::move(m);
             break;
           }
           ++summary.remeasured;
         }
+      } catch (const StopRequested&) {
+        stopped = true;
       } catch (const std::exception& e) {
-        fault = e.what();
+        // A device call the stop flag interrupted (or that failed while it was raised)
+        // is no fault of the configuration: the session stops.
+        if (stopping()) {
+          stopped = true;
+        } else {
+          fault = e.what();
+        }
       }
     }
 
+    if (stopped && !accepted) {
+      // Nothing of this configuration is stored: --resume measures it again.
+      summary.stopped = true;
+      db::SetSessionState(db, session, "paused");
+      break;
+    }
     if (!accepted && !options.skip_on_fault) {
       {
         summary.paused = true;
@@ -229,66 +288,56 @@ CaptureSummary RunCapture(db::Database& db, const LabConfig& lab, int64_t sessio
         break;
       }
     }
-    SQLite::Transaction tx(db.sql());
+    db::WriteTransaction tx(db);
     if (!accepted) {
       db::InsertPose(db, session, seq, target.label, std::nullopt, "skipped", attempts);
       tx.commit();
       ++summary.skipped;
+      summary.skipped_configurations.push_back({target.label, fault});
     } else {
       const Measurement& m = *accepted;
       const int64_t pose =
           db::InsertPose(db, session, seq, target.label, m.joints, "measured", attempts);
       std::vector<db::ObservationRow> rows;
       for (const auto& r : m.readings) {
-        db::ObservationRow o;
-        o.pose_id = pose;
-        o.point = "target";
-        o.station = lab.instruments[r.instrument].station;
-        o.reading = r.reading.angles;
-        o.distance_mm = r.reading.distance_mm;
-        o.sigma_hz_rad = lab.instruments[r.instrument].sigma_hz_arcsec * kRadPerArcsec;
-        o.sigma_v_rad = lab.instruments[r.instrument].sigma_v_arcsec * kRadPerArcsec;
-        o.sigma_distance_mm = lab.instruments[r.instrument].sigma_distance_mm;
-        o.return_code = r.reading.return_code;
-        rows.push_back(o);
+        rows.push_back(ObservationRowOf(ObservationOf(r, lab.instruments[r.instrument]), pose,
+                                        r.reading.return_code));
       }
       db::InsertObservations(db, session, rows);
-      db::PointRow point;
-      point.pose_id = pose;
-      point.point = "target";
-      point.rays = static_cast<int>(m.readings.size());
-      if (m.point.status == reduction::IntersectionStatus::kOk) {
-        point.position_mm = m.point.position_mm;
-        point.covariance_mm2 = m.point.covariance_mm2;
-        point.rejected_rays = m.point.rejected;
-        point.sigma0 = m.point.dof > 0 ? m.point.sigma0 : NAN;
-        point.miss_mm = m.point.max_miss_mm;
-        std::string flags;
-        if (m.point.max_miss_mm > lab.tolerances.max_miss_mm) flags += "miss_exceeded ";
-        if (m.repeat_mm > lab.tolerances.max_repeat_mm) flags += "repeat_exceeded ";
-        if (m.point.rejected) flags += "blunder_rejected ";
-        point.flags = flags;
-        miss_sum += m.point.max_miss_mm;
-        ++miss_count;
-        summary.max_miss_mm = std::max(summary.max_miss_mm, m.point.max_miss_mm);
-      } else {
-        point.flags = reduction::ToString(m.point.status);
-      }
+      const reduction::IntersectionResult& result = m.point.result;
+      const db::PointRow point =
+          PointRowOf(pose, "target", static_cast<int>(m.readings.size()), result, result.flags);
       // Append this configuration's point (other sessions' points are untouched).
       db::InsertPoint(db, session, point);
       tx.commit();
       ++summary.measured;
+      if (m.point.accepted()) {
+        ++summary.usable;
+        miss_sum += result.max_miss_mm;
+        ++miss_count;
+        max_miss = std::max(max_miss, result.max_miss_mm);
+      } else if (result.status.ok()) {
+        ++summary.flagged;  // intersected, but beyond the tolerances after re-measuring
+        summary.flagged_configurations.push_back({target.label, ToString(result.flags)});
+      } else {
+        ++summary.failed;  // no point: the readings are kept, the point is not usable
+        summary.failed_configurations.push_back(
+            {target.label, ToString(result.flags) + ": " + result.status.message});
+      }
     }
     if (options.progress) {
       Progress p;
       p.done = summary.already + summary.measured + summary.skipped;
       p.total = summary.total;
       p.skipped = summary.skipped;
+      p.flagged = summary.flagged;
+      p.failed = summary.failed;
       p.remeasured = summary.remeasured;
       p.label = target.label;
-      p.last_miss_mm = accepted ? accepted->point.max_miss_mm : NAN;
-      p.mean_miss_mm = miss_count ? miss_sum / miss_count : 0.0;
-      p.max_miss_mm = summary.max_miss_mm;
+      p.last_miss_mm =
+          accepted && accepted->point.accepted() ? accepted->point.result.max_miss_mm : NAN;
+      p.mean_miss_mm = miss_count ? miss_sum / miss_count : NAN;
+      p.max_miss_mm = miss_count ? max_miss : NAN;
       p.elapsed_s = std::chrono::duration<double>(Clock::now() - start).count();
       const int this_run = summary.measured + summary.skipped;
       p.eta_s = this_run ? p.elapsed_s / this_run * (p.total - p.done) : 0.0;
@@ -296,7 +345,10 @@ CaptureSummary RunCapture(db::Database& db, const LabConfig& lab, int64_t sessio
     }
   }
   summary.seconds = std::chrono::duration<double>(Clock::now() - start).count();
-  summary.mean_miss_mm = miss_count ? miss_sum / miss_count : 0.0;
+  if (miss_count) {
+    summary.mean_miss_mm = miss_sum / miss_count;
+    summary.max_miss_mm = max_miss;
+  }
   summary.mean_cycle_ms = cycles ? cycle_sum / cycles : 0.0;
   summary.mean_overhead_ms = cycles ? overhead_sum / cycles : 0.0;
   if (!summary.paused && !summary.stopped) {

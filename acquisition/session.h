@@ -9,7 +9,9 @@
 #include <atomic>
 #include <functional>
 #include <memory>
+#include <optional>
 #include <string>
+#include <vector>
 
 #include "acquisition/lab.h"
 #include "acquisition/plan.h"
@@ -19,7 +21,10 @@ namespace armsig::acquisition {
 
 struct Progress {
   int done = 0, total = 0, skipped = 0, remeasured = 0;
+  int flagged = 0, failed = 0;  // this run (see CaptureSummary)
   std::string label;
+  // NaN when there is none: the last configuration gave no usable point, or no
+  // configuration of this run has one yet.
   double last_miss_mm = 0.0, mean_miss_mm = 0.0, max_miss_mm = 0.0;
   double elapsed_s = 0.0, eta_s = 0.0;
 };
@@ -32,12 +37,26 @@ struct CaptureOptions {
   std::function<void(const PlannedConfiguration&)> prompt_move;
 };
 
+// A configuration that gave no usable point, and why (its point flags, or the fault).
+struct ConfigurationVerdict {
+  std::string label;
+  std::string why;
+};
+
+// Every configuration of this run is stored with its readings (measured) or without
+// (skipped); a measured one is usable (intersected, within tolerances), flagged (its
+// point still exceeded the miss or repeat tolerance after re-measuring) or failed (no
+// point could be intersected: parallel rays, one ray, no convergence, non-finite).
 struct CaptureSummary {
   int64_t session = 0;
   int total = 0, measured = 0, skipped = 0, remeasured = 0, already = 0;
+  int usable = 0, flagged = 0, failed = 0;  // usable + flagged + failed = measured
+  std::vector<ConfigurationVerdict> flagged_configurations, failed_configurations,
+      skipped_configurations;
   bool completed = false, paused = false, stopped = false;
   std::string pause_reason;
-  double mean_miss_mm = 0.0, max_miss_mm = 0.0;
+  // Over this run's usable points only; nullopt when there is none.
+  std::optional<double> mean_miss_mm, max_miss_mm;
   double seconds = 0.0;
   double mean_cycle_ms = 0.0;     // per configuration, measurement only
   double mean_overhead_ms = 0.0;  // software time beyond the slowest device call

@@ -2,11 +2,11 @@
 //                  [--validate HOLDOUT.csv] [--json OUT.json]
 #include <iostream>
 
-#include "workflows/calibration_run.h"
 #include "app/command.h"
 #include "io/atomic_file.h"
 #include "io/model_yaml.h"
 #include "io/poses_csv.h"
+#include "workflows/calibration_run.h"
 
 namespace armsig::app {
 
@@ -25,7 +25,8 @@ int RunCalibrate(const CalibrateOptions& options, const GlobalOptions&) {
   std::vector<MeasuredPose> holdout;
   if (!options.validate.empty()) holdout = io::ReadPosesCsv(options.validate, model.num_joints());
 
-  const workflows::CalibrationRun run = workflows::RunCalibration(model, poses, holdout, options.settings);
+  const workflows::CalibrationRun run =
+      workflows::RunCalibration(model, poses, holdout, options.settings);
   std::cout << workflows::FormatCalibrationReport(model, run);
   if (!options.json.empty()) {
     io::WriteFileAtomically(options.json, workflows::CalibrationJson(model, run).dump(2) + "\n");
@@ -46,7 +47,7 @@ void SetupCalibrateCommand(CLI::App& parent, const GlobalOptions& global, Runner
   sub->add_option("--select", options->settings.select,
                   "Keep the N best-spread poses (D-optimal) for the fit, validate on the rest");
   sub->add_option("--validate", options->validate, "Held-out poses CSV to validate on");
-  sub->add_option("--json", options->json, "Write the result as JSON");
+  OutputFile(sub->add_option("--json", options->json, "Write the result as JSON"));
   sub->add_option("--robust", options->settings.robust_threshold_mm,
                   "Huber threshold (mm) on each pose's error distance: blunder poses are "
                   "down-weighted and reported");

@@ -14,8 +14,8 @@ enum ExitCode : int { kOk = 0, kFailure = 1, kInputError = 2, kQualityGate = 3 }
 
 struct GlobalOptions {
   std::string db_path;  // --db; empty = $ARMSIG_DB, else ./armsig.db
-  int verbosity = 0;  // -v: debug, -vv: trace
-  bool quiet = false;  // -q: warnings and errors only
+  int verbosity = 0;    // -v: debug, -vv: trace
+  bool quiet = false;   // -q: warnings and errors only
   std::string DbPath() const;
 };
 
@@ -32,6 +32,26 @@ void SetupImportCommand(CLI::App& parent, const GlobalOptions& global, Runner& r
 void SetupInstrumentCommand(CLI::App& parent, const GlobalOptions& global, Runner& run);
 void SetupDbCommand(CLI::App& parent, const GlobalOptions& global, Runner& run);
 void SetupSignatureCommands(CLI::App& parent, const GlobalOptions& global, Runner& run);
+void SetupLifecycleCommands(CLI::App& parent, const GlobalOptions& global, Runner& run);
+
+// For hints printed to the user that must work as printed: the path made absolute (so
+// the hint works from any directory), and a word quoted for a POSIX shell when needed.
+std::string AbsolutePath(const std::string& path);
+std::string ShellWord(const std::string& word);
+
+// Marks an option as naming a file (or a folder) the command will write: the path is
+// checked when the command line is parsed (its folder exists and is writable, it is not
+// a folder), so a typo is refused with exit 2 before any work is done or stored.
+CLI::Option* OutputFile(CLI::Option* option);
+CLI::Option* OutputDirectory(CLI::Option* option);
+// A name given on the command line (robot, station id): refused at parse time (exit 2,
+// naming the option) when longer than 64 bytes or holding control characters; a note
+// likewise beyond 1000 bytes (core/plausibility.h).
+CLI::Option* NameOption(CLI::Option* option);
+CLI::Option* NoteOption(CLI::Option* option);
+
+// "armsig 0.1.0 (git 1a2b3c4d5e6f, database schema v3)".
+std::string VersionText();
 
 // Builds the whole CLI (used by main and by tests).
 void SetupAll(CLI::App& app, GlobalOptions& global, Runner& run);

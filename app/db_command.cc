@@ -14,6 +14,7 @@ struct DbOptions {
   std::string out;
 };
 
+// `db info` creates a missing file: it is how a new lab database is made (and shows it).
 int RunDbInfo(const GlobalOptions& global) {
   db::Database database(global.DbPath());
   std::cout << "database      " << database.path() << "\n"
@@ -26,7 +27,7 @@ int RunDbInfo(const GlobalOptions& global) {
 }
 
 int RunDbExport(const DbOptions& options, const GlobalOptions& global) {
-  db::Database database(global.DbPath());
+  db::Database database(global.DbPath(), db::OpenMode::kMustExist);
   const std::string csv = database.ExportCsv(options.table);
   if (options.out.empty()) {
     std::cout << csv;
@@ -45,7 +46,7 @@ void SetupDbCommand(CLI::App& parent, const GlobalOptions& global, Runner& run) 
   auto* exp = db->add_subcommand("export", "Export one table");
   exp->add_option("table", options->table, "Table name")->required();
   exp->add_flag("--csv", options->csv, "CSV output (the default and only format)");
-  exp->add_option("--out", options->out, "Write to this file instead of stdout");
+  OutputFile(exp->add_option("--out", options->out, "Write to this file instead of stdout"));
   exp->callback([&run, &global, options] {
     run = [&global, options] { return RunDbExport(*options, global); };
   });

@@ -1,333 +1,80 @@
-// armsig demo [--db PATH] [--json OUT]: the main job on the embedded default.
-// A virtual lab — a PUMA 760 with hidden true errors (the paper's Table 3, h1…h4
-// included), three theodolites speaking GeoCOM and a Kawasaki-AS-style controller, all
-// on pseudo-terminals through the real drivers — is oriented from mutual pointings and
-// a scale bar, captures 200 configurations, is reduced, and 80 well-spread
-// configurations are calibrated with the paper's three parameter sets, validated on the
-// other 120.
+// armsig demo [--json OUT] [--configurations N] [--select M] [--resume SESSION]: the main
+// job on the embedded default (workflows/demo.h).
 #include <fmt/format.h>
+#include <spdlog/spdlog.h>
 #include <unistd.h>
 
-#include <filesystem>
-#include <fstream>
+#include <atomic>
+#include <cmath>
+#include <csignal>
 #include <iostream>
-#include <nlohmann/json.hpp>
-#include <random>
 
-#include "acquisition/lab.h"
-#include "acquisition/session.h"
-#include "workflows/builtin_models.h"
-#include "workflows/calibration_run.h"
 #include "app/command.h"
-#include "app/reduce_command.h"
-#include "calibration/identifiability.h"
-#include "calibration/selection.h"
-#include "calibration/simulation.h"
-#include "core/units.h"
-#include "db/database.h"
-#include "db/store.h"
-#include "instruments/geocom_device.h"
 #include "io/atomic_file.h"
-#include "io/model_yaml.h"
-#include "io/network_io.h"
-#include "reduction/observation.h"
-#include "reduction/orientation.h"
-#include "simulation/simulators.h"
+#include "workflows/demo.h"
 
 namespace armsig::app {
 
-struct DemoOptions {
-  std::string json;
-  int configurations = 200;
-  int select = 80;
-  double time_scale = 0.25;
-  unsigned seed = 1985;
-};
-
 namespace {
 
-constexpr double kSigmaArcsec = 0.5;
+std::atomic<bool> g_demo_stop{false};
 
 }  // namespace
 
-int RunDemo(const DemoOptions& options, const GlobalOptions& global) {
-  using namespace std::chrono_literals;
-  const auto started = std::chrono::steady_clock::now();
-  const calibration::RobotModel model = io::ParseRobotModel(workflows::kPuma760Yaml, "built-in PUMA 760");
-  const std::filesystem::path work =
-      std::filesystem::temp_directory_path() / ("armsig-demo-" + std::to_string(::getpid()));
-  std::filesystem::create_directories(work);
-  struct Cleanup {
-    std::filesystem::path path;
-    ~Cleanup() {
-      std::error_code ignored;
-      std::filesystem::remove_all(path, ignored);
-    }
-  } cleanup{work};
+struct DemoCommand {
+  workflows::DemoOptions options;
+  std::string json;
+};
 
-  // --- The virtual lab: the robot's hidden truth and three theodolites around it.
-  std::mt19937 rng(options.seed);
-  Eigen::Isometry3d base = Eigen::Isometry3d::Identity();  // robot base in the lab frame
-  base.translate(Eigen::Vector3d(120.0, -80.0, 0.0));
-  base.rotate(Eigen::AngleAxisd(0.35, Eigen::Vector3d::UnitZ()));
-  simulation::VirtualLab lab(model, calibration::PaperTable3Parameters(), base, options.seed);
-  const double angles[3] = {0.2, 2.3, 4.3};
-  for (int s = 0; s < 3; ++s) {
-    simulation::VirtualStation st;
-    st.pose.id = "T" + std::to_string(s + 1);
-    st.pose.position_mm = {3600.0 * std::cos(angles[s]), 3600.0 * std::sin(angles[s]),
-                           450.0 + 150.0 * s};
-    st.pose.azimuth_rad = WrapTwoPi(1.1 + 2.0 * s);
-    st.pose.world_from_station = reduction::LevelledRotation(st.pose.azimuth_rad);
-    st.sigma_angle_rad = kSigmaArcsec * kRadPerArcsec;
-    lab.AddStation(st);
-  }
-  simulation::SimulatorOptions sim;
-  sim.time_scale = options.time_scale;
-  sim.angle_latency = 40ms;
-  sim.motion_latency = 60ms;
-  std::vector<std::unique_ptr<simulation::GeoComSimulator>> theodolites;
-  for (int s = 0; s < 3; ++s) {
-    theodolites.push_back(std::make_unique<simulation::GeoComSimulator>(
-        lab, s, (work / ("T" + std::to_string(s + 1))).string(), sim, "TDRA6000", 358120 + s));
-    theodolites.back()->Start();
-  }
-  simulation::ValSimulator robot_sim(lab, (work / "robot").string(),
-                                     simulation::ValSimulator::Layout::kKawasakiAs, sim);
-  robot_sim.Start();
-  std::cout << "armsig demo: virtual lab with a PUMA 760 (hidden errors: the paper's Table 3), "
-               "three GeoCOM\n"
-            << "theodolites and a robot controller on pseudo-terminals in " << work.string()
-            << "\n\n";
-
-  // --- Station set-up: mutual pointings and a 1 m scale bar at three places, read
-  // through the real GeoCOM drivers.
-  reduction::OrientationProblem setup;
-  std::vector<std::unique_ptr<instruments::GeoComDevice>> drivers;
-  for (int s = 0; s < 3; ++s) {
-    instruments::SerialSettings port;
-    port.path = theodolites[s]->path();
-    drivers.push_back(
-        std::make_unique<instruments::GeoComDevice>(instruments::MakeSerialTransport(port)));
-    setup.station_ids.push_back("T" + std::to_string(s + 1));
-  }
-  std::vector<std::string> targets = {"T1", "T2", "T3"};
-  const Eigen::Vector3d bar_centres[3] = {{-300, 400, 600}, {500, -200, 1100}, {200, 600, 200}};
-  const Eigen::Vector3d bar_dirs[3] = {{1, 0, 0}, {0, 0.6, 0.8}, {0.6, -0.8, 0}};
-  for (int b = 0; b < 3; ++b) {
-    const std::string a = "BAR" + std::to_string(b + 1) + "a",
-                      c = "BAR" + std::to_string(b + 1) + "b";
-    lab.AddPoint(a, bar_centres[b] - 500.0 * bar_dirs[b].normalized());
-    lab.AddPoint(c, bar_centres[b] + 500.0 * bar_dirs[b].normalized());
-    targets.push_back(a);
-    targets.push_back(c);
-    setup.scale_bars.push_back({a, c, 1000.0, 0.005});
-  }
-  for (int s = 0; s < 3; ++s) {
-    for (const auto& t : targets) {
-      if (t == setup.station_ids[s]) continue;
-      lab.Aim(s, t);
-      reduction::Observation o;
-      o.station = setup.station_ids[s];
-      o.point = t;
-      o.reading = drivers[s]->MeasureAngles().angles;
-      o.sigma_hz_rad = o.sigma_v_rad = kSigmaArcsec * kRadPerArcsec;
-      setup.observations.push_back(o);
-    }
-    lab.Aim(s, "robot");
-  }
-  const auto oriented = reduction::Orient(setup);
-  if (!oriented.ok)
-    throw std::runtime_error("demo: orientation failed: " + oriented.refusals.front());
-  drivers.clear();
-  std::cout << fmt::format(
-      "1. stations oriented from {} readings (mutual pointings, 3 bar set-ups): sigma0 {:.3f}, "
-      "{} degrees of freedom\n",
-      setup.observations.size(), oriented.sigma0, oriented.dof);
-  for (const auto& s : oriented.stations) {
-    std::cout << fmt::format(
-        "   {}  x {:9.3f}  y {:9.3f}  z {:8.3f} mm  azimuth {:9.5f} gon  (sigma {:.3f} mm, "
-        "{:.2f}\")\n",
-        s.pose.id, s.pose.position_mm.x(), s.pose.position_mm.y(), s.pose.position_mm.z(),
-        FromRad(s.pose.azimuth_rad, AngleUnit::kGon), s.sigma_position_mm.norm(),
-        s.sigma_azimuth_rad / kRadPerArcsec);
-  }
-
-  // --- The lab file a technician would write, and the capture session.
-  io::WriteFileAtomically((work / "puma760.yaml").string(), workflows::kPuma760Yaml);
-  io::WriteFileAtomically((work / "stations.yaml").string(),
-                          io::FormatStationsYaml(oriented.stations, "armsig demo"));
-  std::string lab_yaml = fmt::format(
-      "robot:\n  model: puma760.yaml\n  controller: {{protocol: as, port: {}, can_move: "
-      "true}}\ninstruments:\n",
-      robot_sim.path());
-  for (int s = 0; s < 3; ++s) {
-    lab_yaml += fmt::format(
-        "  - {{station: T{}, protocol: geocom, port: {}, sigma_hz_arcsec: {}, sigma_v_arcsec: "
-        "{}}}\n",
-        s + 1, theodolites[s]->path(), kSigmaArcsec, kSigmaArcsec);
-  }
-  lab_yaml +=
-      "stations: stations.yaml\ntolerances: {max_miss_mm: 0.1, settle_ms: 0, readings: 1, "
-      "timeout_ms: 2000}\n";
-  io::WriteFileAtomically((work / "lab.yaml").string(), lab_yaml);
-  const acquisition::LabConfig lab_config = acquisition::LoadLab((work / "lab.yaml").string());
-
-  // The paper's ~200 configurations: single-joint rotation tests, line and circle tests.
-  acquisition::Plan plan;
-  for (const auto& q : calibration::LabTestConfigurations(model, rng))
-    plan.push_back({"C" + std::to_string(plan.size() + 1), q});
-  for (const auto& q : calibration::RandomConfigurations(
-           model, options.configurations - static_cast<int>(plan.size()), rng)) {
-    plan.push_back({"C" + std::to_string(plan.size() + 1), q});
-  }
-  db::Database database(global.DbPath());
-  const int64_t session = acquisition::CreateSession(database, lab_config, "puma760-demo", plan);
-  auto devices = acquisition::OpenInstruments(lab_config);
-  auto controller = acquisition::OpenController(lab_config);
-  acquisition::CaptureOptions capture;
-  capture.progress = [](const acquisition::Progress& p) {
-    if (::isatty(STDERR_FILENO)) {
-      std::cerr << fmt::format("\r   capturing {}/{}  miss {:.4f} mm  ETA {:.0f} s   ", p.done,
-                               p.total, p.last_miss_mm, p.eta_s)
-                << std::flush;
-    }
+int RunDemo(DemoCommand c, const GlobalOptions& global) {
+  c.options.db_path = global.DbPath();
+  g_demo_stop = false;
+  c.options.stop = &g_demo_stop;
+  std::signal(SIGINT, [](int) {
+    g_demo_stop = true;
+    std::signal(SIGINT, SIG_DFL);  // a second Ctrl-C ends at once
+  });
+  // The handler stays until the process ends: a Ctrl-C after the work is done changes
+  // nothing (the summary and the --json file are still written, exit as the work says).
+  workflows::DemoObserver observer;
+  observer.say = [](const std::string& text) { std::cout << text << std::flush; };
+  const bool tty = ::isatty(STDERR_FILENO);
+  observer.progress = [tty](const acquisition::Progress& p) {
+    if (!tty) return;
+    std::cerr << fmt::format("\r   capturing {}/{}  miss {}  ETA {:.0f} s   ", p.done, p.total,
+                             std::isnan(p.last_miss_mm) ? std::string("-")
+                                                        : fmt::format("{:.4f} mm", p.last_miss_mm),
+                             p.eta_s)
+              << (p.done == p.total ? "\r" + std::string(60, ' ') + "\r" : "") << std::flush;
   };
-  const auto captured =
-      acquisition::RunCapture(database, lab_config, session, devices, *controller, capture);
-  if (::isatty(STDERR_FILENO)) std::cerr << "\r" << std::string(60, ' ') << "\r";
-  if (!captured.completed)
-    throw std::runtime_error("demo: capture did not complete: " + captured.pause_reason);
-  std::cout << fmt::format(
-      "2. session {}: {} configurations captured in {:.1f} s ({:.1f} ms each, {:.2f} ms of it "
-      "software); miss distance mean {:.4f} mm, max {:.4f} mm\n",
-      session, captured.measured, captured.seconds, captured.mean_cycle_ms,
-      captured.mean_overhead_ms, captured.mean_miss_mm, captured.max_miss_mm);
-
-  // --- Reduction in the database, then the poses for calibration.
-  const auto reduced = ReduceSession(database, session, reduction::IntersectionOptions{});
-  std::vector<Eigen::Matrix3d> covariances;
-  const std::vector<MeasuredPose> poses = db::LoadSessionPoses(database, session, &covariances);
-  double noise_floor = 0.0;
-  // Mean length of a 3-D normal error with these covariances ≈ 0.921·√trace (isotropic).
-  for (const auto& c : covariances)
-    noise_floor += 0.921 * std::sqrt(c.trace()) / covariances.size();
-  std::cout << fmt::format(
-      "3. reduced {} observations into {} points ({} rays rejected); point precision: mean "
-      "3-D error {:.4f} mm\n",
-      reduced.observations, reduced.reduced, reduced.rejected_rays, noise_floor);
-
-  // --- Select 80 well-spread configurations (D-optimal on all 43 parameters), fit the
-  // paper's three models on them, validate on the rest.
-  std::vector<Eigen::VectorXd> joints;
-  for (const auto& p : poses) joints.push_back(p.joints_rad);
-  std::vector<int> all(model.num_parameters());
-  for (int i = 0; i < model.num_parameters(); ++i) all[i] = i;
-  const auto id = calibration::AnalyseJacobian(
-      calibration::StackedJacobian(model, Eigen::Isometry3d::Identity(),
-                                   Eigen::VectorXd::Zero(model.num_parameters()), joints),
-      all);
-  calibration::SelectionOptions selection;
-  selection.count = std::min<int>(options.select, static_cast<int>(poses.size()) - 1);
-  const auto selected = calibration::SelectConfigurations(model, joints, id.identified, selection);
-  std::vector<MeasuredPose> fit, validation;
-  {
-    std::vector<char> chosen(poses.size(), 0);
-    for (int i : selected.selected) chosen[i] = 1;
-    for (size_t i = 0; i < poses.size(); ++i) (chosen[i] ? fit : validation).push_back(poses[i]);
+  const auto result = workflows::RunDemo(c.options, observer);
+  if (!result.completed) {  // stopped by Ctrl-C
+    if (result.session > 0) {
+      spdlog::warn("demo: stopped; resume with: armsig --db {} demo --resume {} --time-scale {}{}",
+                   ShellWord(AbsolutePath(c.options.db_path)), result.session, c.options.time_scale,
+                   c.options.select ? fmt::format(" --select {}", c.options.select) : "");
+    }
+    return 130;
   }
-  std::cout << fmt::format(
-      "4. selected {} of {} configurations (D-optimal, condition number {:.1f}); validating on "
-      "the other {}\n\n",
-      fit.size(), poses.size(), selected.condition_number, validation.size());
-
-  nlohmann::json stages = nlohmann::json::array();
-  std::vector<workflows::CalibrationRun> runs;
-  const int64_t robot_id = *db::FindRobot(database, "puma760-demo");
-  for (const std::string spec : {"geometric", "geometric,h3,h4", "all"}) {
-    workflows::CalibrateSettings settings;
-    settings.params = spec;
-    workflows::CalibrationRun run = workflows::RunCalibration(model, fit, validation, settings);
-    std::cout << "--- params: " << spec << "\n" << workflows::FormatCalibrationReport(model, run) << "\n";
-    nlohmann::json stage = workflows::CalibrationJson(model, run);
-    stage["params"] = spec;
-    stages.push_back(stage);
-    SQLite::Transaction tx(database.sql());
-    db::InsertCalibration(
-        database, workflows::CalibrationRecordOf(model, run, robot_id, {{"session", session}},
-                                      {{"params", spec}, {"selection", "D-optimal"}}, false));
-    tx.commit();
-    runs.push_back(std::move(run));
-  }
-  // The full model becomes the robot's active arm signature.
-  {
-    SQLite::Statement a(database.sql(),
-                        "UPDATE calibrations SET active = (version = (SELECT max(version) FROM "
-                        "calibrations WHERE robot_id = ?)) "
-                        "WHERE robot_id = ?");
-    a.bind(1, robot_id);
-    a.bind(2, robot_id);
-    a.exec();
-  }
-
-  std::cout << fmt::format(
-      "The paper's progression, from this session's own data ({} fitted, {} validated):\n",
-      fit.size(), validation.size());
-  std::cout << fmt::format("  {:<18}{:>12}{:>22}{:>26}{:>18}\n", "params", "identified",
-                           "fit mean (max) mm", "validation mean (max) mm", "paper (fit)");
-  const auto nominal_validation =
-      calibration::Summarise(calibration::Distances(runs[0].validation_nominal_residuals));
-  std::cout << fmt::format(
-      "  {:<18}{:>12}{:>22}{:>26}{:>18}\n", "nominal", "-",
-      fmt::format("{:.3f} ({:.2f})", runs[0].estimate.nominal.mean_mm,
-                  runs[0].estimate.nominal.max_mm),
-      fmt::format("{:.3f} ({:.2f})", nominal_validation.mean_mm, nominal_validation.max_mm),
-      "5.9 (10)");
-  const char* paper[3] = {"1 (2)", "0.5 (1)", "0.27 (0.6)"};
-  for (size_t k = 0; k < runs.size(); ++k) {
-    const auto& e = runs[k].estimate;
-    const auto v = workflows::StatsOf(runs[k].validation_residuals);
-    std::cout << fmt::format(
-        "  {:<18}{:>12}{:>22}{:>26}{:>18}\n", runs[k].params_spec,
-        fmt::format("{} of {}", e.identifiability.rank, e.identifiability.candidates.size()),
-        fmt::format("{:.3f} ({:.2f})", e.fit.mean_mm, e.fit.max_mm),
-        fmt::format("{:.3f} ({:.2f})", v.mean_mm, v.max_mm), paper[k]);
-  }
-  std::cout << fmt::format(
-      "  measurement noise floor (mean 3-D error of a reduced point): {:.3f} mm\n", noise_floor);
-  const double seconds =
-      std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count();
-  std::cout << fmt::format(
-      "\nDone in {:.1f} s. The database stays for inspection: {} (armsig --db {} db info)\n",
-      seconds, database.path(), database.path());
-
-  if (!options.json.empty()) {
-    nlohmann::json out;
-    out["session"] = {{"id", session},
-                      {"poses", static_cast<int>(poses.size())},
-                      {"observations", reduced.observations},
-                      {"stations", static_cast<int>(oriented.stations.size())},
-                      {"noise_floor_mm", noise_floor},
-                      {"seconds", seconds}};
-    out["stages"] = stages;
-    io::WriteFileAtomically(options.json, out.dump(2) + "\n");
-  }
+  if (!c.json.empty()) io::WriteFileAtomically(c.json, result.json.dump(2) + "\n");
   return kOk;
 }
 
 void SetupDemoCommand(CLI::App& parent, const GlobalOptions& global, Runner& run) {
-  auto options = std::make_shared<DemoOptions>();
+  auto c = std::make_shared<DemoCommand>();
   auto* sub = parent.add_subcommand(
       "demo", "The whole chain on a virtual lab: orientation, capture, reduction, calibration");
-  sub->add_option("--json", options->json, "Write the demo's results as JSON");
-  sub->add_option("--configurations", options->configurations, "Configurations to capture")
+  OutputFile(sub->add_option("--json", c->json, "Write the demo's results as JSON"));
+  sub->add_option("--configurations", c->options.configurations, "Configurations to capture")
       ->capture_default_str();
-  sub->add_option("--select", options->select, "Configurations to fit")->capture_default_str();
-  sub->add_option("--time-scale", options->time_scale,
+  sub->add_option("--select", c->options.select,
+                  "Configurations to fit (default: 40 % of the configurations)");
+  sub->add_option("--resume", c->options.resume_session,
+                  "Continue a stopped demo session: capture the rest, then calibrate");
+  sub->add_option("--time-scale", c->options.time_scale,
                   "Multiplies every simulated instrument latency")
       ->capture_default_str();
-  sub->callback(
-      [&run, &global, options] { run = [&global, options] { return RunDemo(*options, global); }; });
+  sub->callback([&run, &global, c] { run = [&global, c] { return RunDemo(*c, global); }; });
 }
 
 }  // namespace armsig::app

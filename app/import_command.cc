@@ -1,5 +1,6 @@
-// armsig import poses FILE (--preset ur-ipa | --joints … --xyz …) --out POSES.csv
+// armsig import poses FILE (--preset ur-ipa | --joints … --xyz …) [--out POSES.csv] [--robot NAME]
 // armsig import gsi FILE --station ID --out OBS.csv
+#include <fmt/format.h>
 #include <spdlog/spdlog.h>
 
 #include <iostream>
@@ -11,11 +12,12 @@
 #include "io/atomic_file.h"
 #include "io/gsi_import.h"
 #include "io/poses_csv.h"
+#include "workflows/lifecycle.h"
 
 namespace armsig::app {
 
 struct ImportPosesOptions {
-  std::string file, out, preset, joints, xyz, id_column, delimiter, joint_unit = "rad";
+  std::string file, out, robot, preset, joints, xyz, id_column, delimiter, joint_unit = "rad";
   bool decimal_comma = false;
   double length_scale = 1.0;
 };
@@ -34,7 +36,10 @@ std::vector<std::string> SplitList(const std::string& text) {
 
 }  // namespace
 
-int RunImportPoses(const ImportPosesOptions& options) {
+int RunImportPoses(const ImportPosesOptions& options, const GlobalOptions& global) {
+  if (options.out.empty() && options.robot.empty())
+    throw InputError({"--out", 0, 0, ""}, "give --out FILE.csv, --robot NAME, or both");
+  if (!options.out.empty()) io::CheckOutputFile(options.out, "--out");
   io::PoseImportOptions import;
   if (options.preset == "ur-ipa") {
     import = io::PoseImportOptions::UrIpa();
@@ -67,8 +72,17 @@ int RunImportPoses(const ImportPosesOptions& options) {
   }
   if (options.length_scale != 1.0) import.length_scale_to_mm = options.length_scale;
   const auto poses = io::ImportPoses(options.file, import);
-  io::WriteFileAtomically(options.out, io::FormatPosesCsv(poses));
-  spdlog::info("import poses: {} poses from {} to {}", poses.size(), options.file, options.out);
+  if (!options.robot.empty()) {
+    db::Database database(global.DbPath(), db::OpenMode::kMustExist);
+    const int64_t session =
+        workflows::StorePosesSession(database, options.robot, poses, options.file);
+    std::cout << fmt::format("session {}: {} poses of robot {} from {} stored in {}\n", session,
+                             poses.size(), options.robot, options.file, database.path());
+  }
+  if (!options.out.empty()) {
+    io::WriteFileAtomically(options.out, io::FormatPosesCsv(poses));
+    spdlog::info("import poses: {} poses from {} to {}", poses.size(), options.file, options.out);
+  }
   return kOk;
 }
 
@@ -80,8 +94,7 @@ int RunImportGsi(const ImportGsiOptions& options) {
   const auto imported = io::ImportGsi(options.file, options.station);
   io::WriteFileAtomically(options.out, io::FormatObservationsCsv(imported.observations));
   spdlog::info("import gsi: {} observations from {} blocks ({} without Hz and V skipped) -> {}",
-               imported.observations.size(), imported.blocks, imported.skipped_blocks,
-               options.out);
+               imported.observations.size(), imported.blocks, imported.skipped_blocks, options.out);
   return kOk;
 }
 
@@ -96,7 +109,10 @@ void SetupImportCommand(CLI::App& parent, const GlobalOptions& global, Runner& r
       "A pose table with named columns (e.g. the IPA UR10 laser-tracker CSVs) to the "
       "SPEC poses CSV");
   p->add_option("file", poses->file, "Input CSV")->required();
-  p->add_option("--out", poses->out, "Output poses CSV")->required();
+  OutputFile(p->add_option("--out", poses->out, "Output poses CSV"));
+  NameOption(p->add_option(
+      "--robot", poses->robot,
+      "Store the poses as a new session of this registered robot (armsig robot add)"));
   p->add_option("--preset", poses->preset,
                 "ur-ipa: ';', decimal comma, shoulder_pan_joint…wrist_3_joint (rad), "
                 "measurement_x/y/z (mm)");
@@ -107,14 +123,17 @@ void SetupImportCommand(CLI::App& parent, const GlobalOptions& global, Runner& r
   p->add_option("--id", poses->id_column, "Pose id column (default: row number)");
   p->add_option("--delimiter", poses->delimiter, "Field delimiter: one character or 'tab'");
   p->add_flag("--decimal-comma", poses->decimal_comma, "Numbers use a decimal comma");
-  p->callback([&run, poses] { run = [poses] { return RunImportPoses(*poses); }; });
+  p->callback([&run, &global, poses] {
+    run = [&global, poses] { return RunImportPoses(*poses, global); };
+  });
 
   auto gsi = std::make_shared<ImportGsiOptions>();
   auto* g = sub->add_subcommand(
       "gsi", "A Leica GSI-8/GSI-16 file to angle observations (words 11, 21, 22, 31)");
   g->add_option("file", gsi->file, "GSI file")->required();
-  g->add_option("--station", gsi->station, "Station id for every observation")->required();
-  g->add_option("--out", gsi->out, "Observations CSV to write")->required();
+  NameOption(g->add_option("--station", gsi->station, "Station id for every observation"))
+      ->required();
+  OutputFile(g->add_option("--out", gsi->out, "Observations CSV to write"))->required();
   g->callback([&run, gsi] { run = [gsi] { return RunImportGsi(*gsi); }; });
 }
 

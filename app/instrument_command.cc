@@ -1,5 +1,5 @@
 // armsig instrument probe|read --port PATH|--tcp HOST:PORT --protocol geocom|gsi|val|as [--json]
-// armsig instrument simulate --protocol P [--link PATH] [--seconds N]
+// armsig instrument simulate --protocol P [--link PATH] [--seconds N] [--fault F]
 #include <fmt/format.h>
 #include <spdlog/spdlog.h>
 
@@ -7,23 +7,20 @@
 #include <csignal>
 #include <iostream>
 #include <nlohmann/json.hpp>
+#include <optional>
 #include <thread>
 
-#include "workflows/builtin_models.h"
+#include "acquisition/lab.h"
 #include "app/command.h"
-#include "calibration/simulation.h"
 #include "core/error.h"
 #include "core/units.h"
-#include "instruments/geocom_device.h"
-#include "instruments/other_devices.h"
-#include "io/model_yaml.h"
-#include "reduction/observation.h"
-#include "simulation/simulators.h"
+#include "simulation/fault_matrix.h"
+#include "workflows/virtual_instrument.h"
 
 namespace armsig::app {
 
 struct InstrumentOptions {
-  std::string action, port, tcp, protocol = "geocom", link = "armsig-sim-port";
+  std::string action, port, tcp, protocol = "geocom", link = "armsig-sim-port", fault;
   unsigned baud = 19200;
   bool json = false, crc = false, distance = false;
   int timeout_ms = 3000;
@@ -33,20 +30,6 @@ struct InstrumentOptions {
 namespace {
 
 std::atomic<bool> g_stop{false};
-
-std::unique_ptr<instruments::LineTransport> OpenTransport(const InstrumentOptions& o) {
-  if (!o.tcp.empty()) {
-    const size_t colon = o.tcp.rfind(':');
-    if (colon == std::string::npos) throw InputError({"--tcp", 0, 0, ""}, "expected HOST:PORT");
-    return instruments::MakeTcpTransport(
-        o.tcp.substr(0, colon), static_cast<unsigned short>(std::stoi(o.tcp.substr(colon + 1))));
-  }
-  if (o.port.empty()) throw InputError({"--port", 0, 0, ""}, "give --port PATH or --tcp HOST:PORT");
-  instruments::SerialSettings s;
-  s.path = o.port;
-  s.baud = o.baud;
-  return instruments::MakeSerialTransport(s);
-}
 
 nlohmann::json ReadingJson(const instruments::Reading& r, const std::string& device) {
   return {{"instrument", device},
@@ -63,30 +46,34 @@ nlohmann::json ReadingJson(const instruments::Reading& r, const std::string& dev
 int RunInstrument(const InstrumentOptions& o) {
   instruments::RetryPolicy policy;
   policy.timeout = std::chrono::milliseconds(o.timeout_ms);
-  if (o.protocol != "geocom" && o.protocol != "gsi" && o.protocol != "val" && o.protocol != "as") {
-    throw InputError({"--protocol", 0, 0, ""},
-                     "unknown protocol '" + o.protocol + "' (expected geocom, gsi, val or as)");
-  }
+  if (o.port.empty() && o.tcp.empty())
+    throw InputError({"--port", 0, 0, ""}, "give --port PATH or --tcp HOST:PORT");
   try {
     if (o.protocol == "val" || o.protocol == "as") {
-      instruments::ValController robot(OpenTransport(o), false, policy);
-      const Eigen::VectorXd q = robot.ReadJointsRad();
+      acquisition::ControllerConfig config;
+      config.protocol = o.protocol;
+      config.port = o.port;
+      config.baud = o.baud;
+      const auto robot = acquisition::OpenController(config, policy);
+      const Eigen::VectorXd q = robot->ReadJointsRad();
       if (o.json) {
         std::vector<double> joints(q.data(), q.data() + q.size());
-        std::cout << nlohmann::json{{"controller", robot.name()}, {"joints_rad", joints}}.dump()
+        std::cout << nlohmann::json{{"controller", robot->name()}, {"joints_rad", joints}}.dump()
                   << "\n";
       } else {
-        std::cout << robot.name() << ": " << q.size() << " joints (deg):";
+        std::cout << robot->name() << ": " << q.size() << " joints (deg):";
         for (int i = 0; i < q.size(); ++i) std::cout << fmt::format(" {:.3f}", q(i) * 180.0 / kPi);
         std::cout << "\n";
       }
       return kOk;
     }
-    std::unique_ptr<instruments::DistanceInstrument> device;
-    if (o.protocol == "geocom")
-      device = std::make_unique<instruments::GeoComDevice>(OpenTransport(o), policy, o.crc);
-    else
-      device = std::make_unique<instruments::GsiOnlineDevice>(OpenTransport(o), policy);
+    acquisition::InstrumentConfig config;
+    config.protocol = o.protocol;
+    config.port = o.port;
+    config.tcp = o.tcp;
+    config.baud = o.baud;
+    config.crc = o.crc;
+    const auto device = acquisition::OpenInstrument(config, policy);
     if (o.action == "probe") {
       const auto info = device->Identify();
       if (o.json) {
@@ -120,36 +107,18 @@ int RunInstrument(const InstrumentOptions& o) {
 }
 
 int RunSimulate(const InstrumentOptions& o) {
-  // A virtual PUMA 760 with the paper's Table 3 errors, one station 3 m away.
-  auto model = io::ParseRobotModel(workflows::kPuma760Yaml, "built-in PUMA 760");
-  simulation::VirtualLab lab(model, calibration::PaperTable3Parameters(),
-                             Eigen::Isometry3d::Identity());
-  simulation::VirtualStation st;
-  st.pose.id = "T1";
-  st.pose.position_mm = {3000, 0, 1000};
-  st.pose.azimuth_rad = 4.712;
-  st.pose.world_from_station = reduction::LevelledRotation(st.pose.azimuth_rad);
-  st.sigma_angle_rad = 0.5 * kRadPerArcsec;
-  st.sigma_distance_mm = 0.01;
-  lab.AddStation(st);
-  Eigen::VectorXd q(6);
-  q << 0.2, -0.6, 1.2, 0.3, -0.4, 0.5;
-  lab.SetJoints(q);
-  std::unique_ptr<simulation::LineSimulator> sim;
-  if (o.protocol == "geocom")
-    sim = std::make_unique<simulation::GeoComSimulator>(lab, 0, o.link);
-  else if (o.protocol == "gsi")
-    sim = std::make_unique<simulation::GsiOnlineSimulator>(lab, 0, o.link);
-  else if (o.protocol == "val")
-    sim = std::make_unique<simulation::ValSimulator>(lab, o.link,
-                                                     simulation::ValSimulator::Layout::kValII);
-  else if (o.protocol == "as")
-    sim = std::make_unique<simulation::ValSimulator>(lab, o.link,
-                                                     simulation::ValSimulator::Layout::kKawasakiAs);
-  else
-    throw InputError({"--protocol", 0, 0, ""},
-                     "unknown protocol '" + o.protocol + "' (expected geocom, gsi, val or as)");
-  sim->Start();
+  // --fault NAME: a misbehaving instrument, for trying a driver's deadlines by hand.
+  std::optional<simulation::Fault> fault;
+  if (!o.fault.empty()) {
+    fault = simulation::FaultFromName(o.fault);
+    if (!fault) {
+      throw InputError({"--fault", 0, 0, ""}, "unknown fault '" + o.fault + "' (expected one of " +
+                                                  simulation::FaultNames() + ")");
+    }
+  }
+  const auto virtual_instrument = workflows::StartVirtualInstrument(o.protocol, o.link);
+  auto& sim = virtual_instrument.simulator;
+  if (fault) sim->InjectAlways({*fault, 0});
   std::cout << "virtual " << o.protocol << " instrument on " << sim->path()
             << (o.seconds > 0 ? fmt::format(" for {} s", o.seconds) : std::string(" until Ctrl-C"))
             << std::endl;
@@ -179,7 +148,11 @@ void SetupInstrumentCommand(CLI::App& parent, const GlobalOptions&, Runner& run)
     a->add_option("--tcp", o->tcp, "HOST:PORT instead of a serial port");
     a->add_option("--protocol", o->protocol, "geocom | gsi | val | as")->capture_default_str();
     a->add_option("--baud", o->baud, "Baud rate")->capture_default_str();
-    a->add_option("--timeout-ms", o->timeout_ms, "Reply timeout")->capture_default_str();
+    a->add_option("--timeout-ms", o->timeout_ms,
+                  "Deadline of the whole exchange, from the command to the parsed reply "
+                  "(retries included)")
+        ->check(CLI::Range(1, 24 * 3600 * 1000))
+        ->capture_default_str();
     a->add_flag("--crc", o->crc, "GeoCOM: CRC-16 on every frame");
     a->add_flag("--distance", o->distance, "read: measure the distance too");
     a->add_flag("--json", o->json, "Machine-readable output");
@@ -192,6 +165,10 @@ void SetupInstrumentCommand(CLI::App& parent, const GlobalOptions&, Runner& run)
   s->add_option("--link", o->link, "Path of the port to create (a symlink to the pty)")
       ->capture_default_str();
   s->add_option("--seconds", o->seconds, "Stop after this many seconds (default: Ctrl-C)");
+  s->add_option("--fault", o->fault,
+                "Misbehave on every request: flood-bytes, endless-line, flood-lines, silence, "
+                "partial, wrong-trid, bad-crc, no-crc, busy, error, other-reply, out-of-range, "
+                "wrong-unit, vanish, noise");
   s->callback([&run, o] { run = [o] { return RunSimulate(*o); }; });
 }
 

@@ -1,12 +1,20 @@
 #include <SQLiteCpp/Exception.h>
+#include <fmt/format.h>
 #include <spdlog/sinks/stdout_color_sinks.h>
 #include <spdlog/spdlog.h>
 
 #include <cstdlib>
+#include <filesystem>
 #include <iostream>
+#include <memory>
 
 #include "app/command.h"
+#include "app/manual.h"
+#include "armsig_git.h"
+#include "db/schema.h"
 #include "core/error.h"
+#include "core/plausibility.h"
+#include "io/atomic_file.h"
 
 namespace armsig::app {
 
@@ -16,9 +24,71 @@ std::string GlobalOptions::DbPath() const {
   return "armsig.db";
 }
 
+std::string AbsolutePath(const std::string& path) {
+  std::error_code ec;
+  const auto absolute = std::filesystem::absolute(path, ec);
+  return ec ? path : absolute.lexically_normal().string();
+}
+
+std::string ShellWord(const std::string& word) {
+  if (!word.empty() &&
+      word.find_first_not_of("abcdefghijklmnopqrstuvwxyzABCDEFGHIJKLMNOPQRSTUVWXYZ0123456789"
+                             "_-./:=@%+,") == std::string::npos) {
+    return word;
+  }
+  std::string out = "'";
+  for (char c : word) out += c == '\'' ? std::string("'\\''") : std::string(1, c);
+  return out + "'";
+}
+
+namespace {
+
+CLI::Option* CheckedOutput(CLI::Option* option, bool folder) {
+  const std::string name = option->get_name();
+  return option->check(CLI::Validator(
+      [name, folder](std::string& path) -> std::string {
+        try {
+          if (folder) {
+            io::CheckOutputDirectory(path, name);
+          } else {
+            io::CheckOutputFile(path, name);
+          }
+          return {};
+        } catch (const InputError& e) {
+          return e.message();  // CLI11 prefixes the option's name
+        }
+      },
+      folder ? "DIR" : "FILE", "output path"));
+}
+
+}  // namespace
+
+CLI::Option* OutputFile(CLI::Option* option) { return CheckedOutput(option, false); }
+
+CLI::Option* NameOption(CLI::Option* option) {
+  return option->check(CLI::Validator(
+      [](std::string& text) { return plausible::CheckName(text).value_or(std::string()); }, "NAME",
+      "name"));
+}
+
+CLI::Option* NoteOption(CLI::Option* option) {
+  return option->check(CLI::Validator(
+      [](std::string& text) { return plausible::CheckNote(text).value_or(std::string()); }, "TEXT",
+      "note"));
+}
+CLI::Option* OutputDirectory(CLI::Option* option) { return CheckedOutput(option, true); }
+
+std::string VersionText() {
+  return fmt::format("armsig {} (git {}, database schema v{})", ARMSIG_VERSION, ARMSIG_GIT_COMMIT,
+                     db::LatestSchemaVersion());
+}
+
 void SetupAll(CLI::App& app, GlobalOptions& global, Runner& run) {
   app.require_subcommand(1);
-  app.set_version_flag("--version", std::string("armsig ") + ARMSIG_VERSION);
+  // Global options anywhere: an option a (nested) subcommand does not know goes up to
+  // its parent. Inherited by every subcommand created after this line, so it comes first.
+  app.fallthrough();
+  app.set_version_flag("--version", VersionText());
   app.add_option("--db", global.db_path,
                  "SQLite database file (default: $ARMSIG_DB, else ./armsig.db)");
   app.add_flag("-v,--verbose", global.verbosity, "More log output on stderr (repeat for more)");
@@ -34,6 +104,20 @@ void SetupAll(CLI::App& app, GlobalOptions& global, Runner& run) {
   SetupInstrumentCommand(app, global, run);
   SetupDbCommand(app, global, run);
   SetupSignatureCommands(app, global, run);
+  SetupLifecycleCommands(app, global, run);
+  // Hidden (no group): the build runs it to make the manual page and the completion.
+  auto* generate = app.add_subcommand("generate", "Manual page or bash completion")->group("");
+  auto what = std::make_shared<std::string>();
+  generate->add_option("what", *what, "man | bash-completion")
+      ->required()
+      ->check(CLI::IsMember({"man", "bash-completion"}));
+  generate->callback([&app, &run, what] {
+    run = [&app, what] {
+      std::cout << (*what == "man" ? ManPage(app, ARMSIG_VERSION, ARMSIG_GIT_DATE)
+                                   : BashCompletion(app));
+      return kOk;
+    };
+  });
 }
 
 int Main(int argc, const char* const* argv) {

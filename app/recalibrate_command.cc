@@ -17,6 +17,7 @@ struct RecalibrateCommand {
 
 int RunRecalibrate(RecalibrateCommand c, const GlobalOptions& global) {
   c.options.db_path = global.DbPath();
+  c.options.json_path = c.json;
   const auto d = workflows::Recalibrate(c.options);
   if (!c.json.empty()) io::WriteFileAtomically(c.json, d.ToJson().dump(2) + "\n");
   if (d.outcome == workflows::RecalibrationDecision::Outcome::kUpToDate) return kOk;
@@ -31,7 +32,7 @@ void SetupRecalibrateCommand(CLI::App& parent, const GlobalOptions& global, Runn
   auto c = std::make_shared<RecalibrateCommand>();
   auto& o = c->options;
   auto* sub = parent.add_subcommand("recalibrate", "The nightly recalibration job");
-  sub->add_option("--robot", o.robot, "Robot name")->required();
+  NameOption(sub->add_option("--robot", o.robot, "Robot name"))->required();
   sub->add_option("--since", o.since, "Only sessions started at or after this ISO date/time");
   sub->add_option("--select", o.select, "Configurations to fit (default: 60 %, at most 80)");
   sub->add_option("--params", o.params, "geometric | all | auto | list")->capture_default_str();
@@ -41,14 +42,17 @@ void SetupRecalibrateCommand(CLI::App& parent, const GlobalOptions& global, Runn
                   "Gate (default: lab file, else 2.0)");
   sub->add_option("--tolerance-mm", o.tolerance_mm,
                   "Allowed worsening against the active set (default 0.02)");
-  sub->add_option("--drift-sigma", o.drift_sigma, "Parameter change flagged as drift (default 5)");
-  sub->add_option("--report", o.report_dir, "Write an HTML report into this directory");
-  sub->add_option("--json", c->json, "Write a JSON summary for monitoring");
-  sub->add_option("--lock-wait", o.lock_wait_s,
-                  "Seconds to wait for another running recalibration")
+  sub->add_option("--drift-sigma", o.drift_sigma,
+                  "Parameter change (in sigmas) named when there is drift (default 5)");
+  sub->add_option("--drift-mm", o.drift_mm,
+                  "Smallest change of predicted positions called drift (default: lab file, else "
+                  "0.05)");
+  OutputDirectory(
+      sub->add_option("--report", o.report_dir, "Write an HTML report into this directory"));
+  OutputFile(sub->add_option("--json", c->json, "Write a JSON summary for monitoring"));
+  sub->add_option("--lock-wait", o.lock_wait_s, "Seconds to wait for another running recalibration")
       ->capture_default_str();
-  sub->add_flag("--force", o.force,
-                "Refit even if the active set already uses these measurements");
+  sub->add_flag("--force", o.force, "Refit even if the active set already uses these measurements");
   sub->callback([&run, &global, c] { run = [&global, c] { return RunRecalibrate(*c, global); }; });
 }
 

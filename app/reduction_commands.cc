@@ -1,6 +1,7 @@
 // armsig orient: station set-up by bundle adjustment.
 // armsig triangulate: intersection of every target point from oriented stations.
 #include <fmt/format.h>
+#include <spdlog/spdlog.h>
 
 #include <algorithm>
 #include <iostream>
@@ -9,6 +10,7 @@
 
 #include "app/command.h"
 #include "core/error.h"
+#include "core/plausibility.h"
 #include "core/units.h"
 #include "io/atomic_file.h"
 #include "io/csv.h"
@@ -16,31 +18,25 @@
 #include "reduction/instrument_errors.h"
 #include "reduction/intersection.h"
 #include "reduction/orientation.h"
+#include "workflows/network.h"
 
 namespace armsig::app {
 
 struct OrientOptions {
-  std::string observations, control, out, points_out, datum_station;
-  std::vector<std::string> scale_bars, unlevelled;
-  double scale_bar_sigma_mm = 0.01;
+  workflows::OrientFilesOptions files;
+  std::string out, points_out;
   bool no_instrument_errors = false;
-  bool free_datum = false;
-  std::vector<std::string> datum_points;
 };
 
 struct TriangulateOptions {
-  std::string stations, observations, out;
-  bool no_reject = false;
-  double critical_w = 3.29;
-  bool no_instrument_errors = false;
+  workflows::TriangulateFilesOptions files;
+  std::string out;
+  bool no_reject = false, no_instrument_errors = false;
 };
 
 namespace {
 
-// Two-face reduction: estimate each station's axis errors and correct its readings.
-void ReduceFaces(std::vector<reduction::Observation>& observations, bool enabled) {
-  if (!enabled) return;
-  const auto errors = reduction::ReduceTwoFace(observations, reduction::InstrumentDefaults{});
+void PrintInstrumentErrors(const std::map<std::string, reduction::InstrumentErrors>& errors) {
   for (const auto& [station, e] : errors) {
     std::cout << fmt::format(
         "station {}: {} two-face pairs: collimation {:.2f}\" ± {:.2f}, trunnion {}, vertical index "
@@ -65,56 +61,18 @@ std::string Describe(const reduction::ResidualReport& r) {
 
 }  // namespace
 
-int RunOrient(const OrientOptions& options) {
-  reduction::OrientationProblem problem;
-  problem.observations = io::ReadObservationsCsv(options.observations);
-  ReduceFaces(problem.observations, !options.no_instrument_errors);
-  for (const auto& text : options.scale_bars) {
-    problem.scale_bars.push_back(io::ParseScaleBar(text, options.scale_bar_sigma_mm));
-  }
-  if (!options.control.empty()) problem.control = io::ReadControlCsv(options.control);
-  // Station order: the datum station first, then in order of appearance.
-  std::set<std::string> seen;
-  if (!options.datum_station.empty()) {
-    problem.station_ids.push_back(options.datum_station);
-    seen.insert(options.datum_station);
-  }
-  for (const auto& o : problem.observations) {
-    if (seen.insert(o.station).second) problem.station_ids.push_back(o.station);
-  }
-  if (!options.datum_station.empty()) {
-    bool observed = false;
-    for (const auto& o : problem.observations) observed |= o.station == options.datum_station;
-    if (!observed) {
-      throw InputError(
-          {"--datum-station", 0, 0, ""},
-          "station '" + options.datum_station + "' has no observations in " + options.observations);
-    }
-  }
-  for (const auto& id : options.unlevelled) {
-    if (!seen.count(id)) {
-      throw InputError({"--unlevelled", 0, 0, ""}, "unknown station '" + id + "'");
-    }
-    problem.unlevelled.insert(id);
-  }
-
-  problem.free_datum = options.free_datum || !options.datum_points.empty();
-  problem.datum_points.insert(options.datum_points.begin(), options.datum_points.end());
-  const reduction::OrientationResult result = reduction::Orient(problem);
-  if (!result.ok) {
-    std::string why;
-    for (const auto& r : result.refusals) why += "\n  - " + r;
-    throw InputError({options.observations, 0, 0, ""},
-                     "the network cannot be solved:" + why + "\nnothing was written");
-  }
-
+int RunOrient(OrientOptions options) {
+  options.files.instrument_errors = !options.no_instrument_errors;
+  const auto run = workflows::OrientFiles(options.files);
+  PrintInstrumentErrors(run.instrument_errors);
+  const reduction::OrientationResult& result = run.result;
   std::cout << fmt::format("Orientation of {} stations, {} target points ({})\n",
                            result.stations.size(), result.points.size(), result.datum);
   std::cout << fmt::format(
       "sigma0 a posteriori {:.4f} (a priori 1), {} observations, {} unknowns, "
       "{} degrees of freedom, {} iterations{}\n\n",
       result.sigma0, result.observations, result.unknowns, result.dof, result.iterations,
-      result.converged ? "" : " (NOT converged)");
+      result.status.ok() ? "" : " (NOT converged: " + result.status.message + ")");
   std::cout << fmt::format("{:<10}{:>14}{:>14}{:>14}{:>16}{:>10}{:>10}{:>10}{:>12}\n", "station",
                            "x_mm", "y_mm", "z_mm", "azimuth_gon", "sx_mm", "sy_mm", "sz_mm",
                            "s_az_\"");
@@ -146,115 +104,75 @@ int RunOrient(const OrientOptions& options) {
 
   const std::string header = fmt::format(
       "armsig orient: {} stations from {}; datum: {}\nsigma0 {:.5f}, {} degrees of freedom",
-      result.stations.size(), options.observations, result.datum, result.sigma0, result.dof);
-  std::string points_csv;
-  if (!options.points_out.empty()) {
-    points_csv =
-        "point,x_mm,y_mm,z_mm,sx_mm,sy_mm,sz_mm,ellipsoid95_a_mm,ellipsoid95_b_mm,"
-        "ellipsoid95_c_mm,rays,control\n";
-    for (const auto& p : result.points) {
-      const auto e = reduction::EllipsoidOf(p.covariance_mm2);
-      points_csv +=
-          fmt::format("{},{:.6f},{:.6f},{:.6f},{:.6f},{:.6f},{:.6f},{:.6f},{:.6f},{:.6f},{},{}\n",
-                      io::CsvEscape(p.id), p.position_mm.x(), p.position_mm.y(), p.position_mm.z(),
-                      std::sqrt(p.covariance_mm2(0, 0)), std::sqrt(p.covariance_mm2(1, 1)),
-                      std::sqrt(p.covariance_mm2(2, 2)), e.semi_axes_mm(0), e.semi_axes_mm(1),
-                      e.semi_axes_mm(2), p.rays, p.control ? 1 : 0);
-    }
-  }
+      result.stations.size(), options.files.observations, result.datum, result.sigma0, result.dof);
   io::WriteFileAtomically(options.out, io::FormatStationsYaml(result.stations, header));
-  if (!options.points_out.empty()) io::WriteFileAtomically(options.points_out, points_csv);
-  return result.converged ? kOk : kFailure;
+  if (!options.points_out.empty()) {
+    io::WriteFileAtomically(options.points_out, workflows::FormatAdjustedPointsCsv(result.points));
+  }
+  return result.status.ok() ? kOk : kFailure;
 }
 
-int RunTriangulate(const TriangulateOptions& options) {
-  const auto stations = io::ReadStationsYaml(options.stations);
-  auto observations = io::ReadObservationsCsv(options.observations);
-  ReduceFaces(observations, !options.no_instrument_errors);
-  std::map<std::string, const reduction::Station*> by_id;
-  for (const auto& s : stations) by_id[s.pose.id] = &s;
-  reduction::InstrumentDefaults defaults;
-  std::vector<io::TriangulatedPoint> points;
-  std::map<std::string, size_t> index;
-  std::vector<std::vector<reduction::Ray>> rays;
-  for (size_t k = 0; k < observations.size(); ++k) {
-    const auto& o = observations[k];
-    auto it = by_id.find(o.station);
-    if (it == by_id.end()) {
-      throw InputError({options.observations, o.source_line, 0, "station"},
-                       "station '" + o.station + "' is not in " + options.stations);
-    }
-    if (by_id.count(o.point)) continue;  // a mutual pointing: not a target point
-    auto [pos, inserted] = index.emplace(o.point, points.size());
-    if (inserted) {
-      points.push_back({o.point, {}, {}});
-      rays.emplace_back();
-    }
-    const reduction::EffectiveSigmas sigma = reduction::SigmasOf(o, it->second, defaults);
-    reduction::Ray ray;
-    ray.station_mm = it->second->pose.position_mm;
-    ray.world_from_station = it->second->pose.world_from_station;
-    ray.reading = o.reading;
-    ray.distance_mm = o.distance_mm ? *o.distance_mm : std::numeric_limits<double>::quiet_NaN();
-    ray.sigma_hz_rad = sigma.hz_rad;
-    ray.sigma_v_rad = sigma.v_rad;
-    ray.sigma_distance_mm = sigma.distance_mm;
-    rays[pos->second].push_back(ray);
-    points[pos->second].observations.push_back(static_cast<int>(k));
-  }
-  reduction::IntersectionOptions intersection;
-  intersection.reject_blunders = !options.no_reject;
-  intersection.critical_w = options.critical_w;
-  int ok = 0, rejected = 0;
+int RunTriangulate(TriangulateOptions options) {
+  options.files.reject_blunders = !options.no_reject;
+  options.files.instrument_errors = !options.no_instrument_errors;
+  const auto run = workflows::TriangulateFiles(options.files);
+  PrintInstrumentErrors(run.instrument_errors);
+  const auto& points = run.points;
+  const auto& observations = run.observations;
   for (size_t p = 0; p < points.size(); ++p) {
-    reduction::Intersect(rays[p], intersection, points[p].result);
     const auto& r = points[p].result;
-    if (r.status == reduction::IntersectionStatus::kOk) {
-      ++ok;
-      rejected += r.rejected;
+    if (r.status.ok()) {
       for (size_t k = 0; k < r.rays.size(); ++k) {
         if (r.rays[k].rejected) {
           const auto& o = observations[points[p].observations[k]];
-          std::cerr << fmt::format(
-              "armsig triangulate: point {}: ray from station {} ({}:{}) is "
-              "a blunder (w = {:.1f}), rejected\n",
-              points[p].id, o.station, options.observations, o.source_line,
+          spdlog::warn(
+              "triangulate: point {}: ray from station {} ({}:{}) is a blunder (w = {:.1f}), "
+              "rejected",
+              points[p].id, o.station, options.files.observations, o.source_line,
               std::max(std::abs(r.rays[k].w_hz), std::abs(r.rays[k].w_v)));
         }
       }
-      if (r.blunder_suspected) {
-        std::cerr << "armsig triangulate: point " << points[p].id
-                  << ": a ray fails the blunder test but too few rays remain to reject it\n";
+      if (r.flags.Has(reduction::PointFlag::kBlunderSuspected)) {
+        spdlog::warn(
+            "triangulate: point {}: a ray fails the blunder test but too few rays remain to "
+            "reject it ({})",
+            points[p].id, reduction::ToString(reduction::PointFlag::kBlunderSuspected));
       }
     } else {
-      std::cerr << "armsig triangulate: point " << points[p].id << " not intersected: " << r.reason
-                << "\n";
+      spdlog::warn("triangulate: point {} not intersected: {} ({})", points[p].id, r.status.message,
+                   reduction::ToString(r.flags));
     }
   }
   io::WriteFileAtomically(options.out, io::FormatPointsCsv(points));
   std::cout << fmt::format("{} points intersected, {} not, {} rays rejected as blunders -> {}\n",
-                           ok, points.size() - ok, rejected, options.out);
+                           run.intersected, points.size() - run.intersected, run.rejected_rays,
+                           options.out);
   return kOk;
 }
 
 void SetupOrientCommand(CLI::App& parent, const GlobalOptions&, Runner& run) {
   auto o = std::make_shared<OrientOptions>();
   auto* sub = parent.add_subcommand("orient", "Orient the stations (bundle adjustment)");
-  sub->add_option("--observations", o->observations, "Angle observations CSV")->required();
-  sub->add_option("--scale-bar", o->scale_bars, "A:B=LEN_MM, repeatable");
-  sub->add_option("--scale-bar-sigma-mm", o->scale_bar_sigma_mm, "Sigma of every scale-bar length")
+  sub->add_option("--observations", o->files.observations, "Angle observations CSV")->required();
+  sub->add_option("--scale-bar", o->files.scale_bars, "A:B=LEN_MM, repeatable");
+  sub->add_option("--scale-bar-sigma-mm", o->files.scale_bar_sigma_mm,
+                  "Sigma of every scale-bar length")
+      ->check(CLI::Range(1e-9, plausible::kMaxSigmaMm))  // a sigma: > 0, finite
       ->capture_default_str();
-  sub->add_option("--control", o->control, "Control points CSV: point,x_mm,y_mm,z_mm[,sx_mm,...]");
-  sub->add_option("--unlevelled", o->unlevelled, "Stations whose rotation is free (not levelled)");
-  sub->add_option("--datum-station", o->datum_station,
+  sub->add_option("--control", o->files.control,
+                  "Control points CSV: point,x_mm,y_mm,z_mm[,sx_mm,...]");
+  sub->add_option("--unlevelled", o->files.unlevelled,
+                  "Stations whose rotation is free (not levelled)");
+  sub->add_option("--datum-station", o->files.datum_station,
                   "Station at the origin (default: the first)");
-  sub->add_flag("--free-datum", o->free_datum,
+  sub->add_flag("--free-datum", o->files.free_datum,
                 "Free network: precisions by inner constraints (minimum trace) over all points");
-  sub->add_option("--datum-points", o->datum_points,
+  sub->add_option("--datum-points", o->files.datum_points,
                   "Free network over these points and stations only (implies --free-datum)")
       ->delimiter(',');
-  sub->add_option("--out", o->out, "Stations YAML to write")->required();
-  sub->add_option("--points", o->points_out, "Also write the adjusted target points (CSV)");
+  OutputFile(sub->add_option("--out", o->out, "Stations YAML to write"))->required();
+  OutputFile(
+      sub->add_option("--points", o->points_out, "Also write the adjusted target points (CSV)"));
   sub->add_flag("--no-instrument-errors", o->no_instrument_errors,
                 "Do not estimate and apply axis errors from two-face readings");
   sub->callback([&run, o] { run = [o] { return RunOrient(*o); }; });
@@ -263,13 +181,13 @@ void SetupOrientCommand(CLI::App& parent, const GlobalOptions&, Runner& run) {
 void SetupTriangulateCommand(CLI::App& parent, const GlobalOptions&, Runner& run) {
   auto o = std::make_shared<TriangulateOptions>();
   auto* sub = parent.add_subcommand("triangulate", "Intersect the rays of every target point");
-  sub->add_option("--stations", o->stations, "Stations YAML")->required();
-  sub->add_option("--observations", o->observations, "Angle observations CSV")->required();
-  sub->add_option("--out", o->out, "Points CSV to write")->required();
+  sub->add_option("--stations", o->files.stations, "Stations YAML")->required();
+  sub->add_option("--observations", o->files.observations, "Angle observations CSV")->required();
+  OutputFile(sub->add_option("--out", o->out, "Points CSV to write"))->required();
   sub->add_flag("--no-reject", o->no_reject, "Report blunders but keep every ray");
   sub->add_flag("--no-instrument-errors", o->no_instrument_errors,
                 "Do not estimate and apply axis errors from two-face readings");
-  sub->add_option("--critical-w", o->critical_w, "Critical standardised residual")
+  sub->add_option("--critical-w", o->files.critical_w, "Critical standardised residual")
       ->capture_default_str();
   sub->callback([&run, o] { run = [o] { return RunTriangulate(*o); }; });
 }

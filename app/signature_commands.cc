@@ -21,7 +21,7 @@ struct SignatureOptions {
 };
 
 int RunPredict(const SignatureOptions& o, const GlobalOptions& global) {
-  db::Database database(global.DbPath());
+  db::Database database(global.DbPath(), db::OpenMode::kMustExist);
   const auto active = workflows::LoadActiveSignature(database, o.robot);
   const std::string csv =
       workflows::PredictCsv(active, workflows::FrameOf(active, o.frame), o.joints);
@@ -33,7 +33,7 @@ int RunPredict(const SignatureOptions& o, const GlobalOptions& global) {
 }
 
 int RunCompensate(const SignatureOptions& o, const GlobalOptions& global) {
-  db::Database database(global.DbPath());
+  db::Database database(global.DbPath(), db::OpenMode::kMustExist);
   const auto active = workflows::LoadActiveSignature(database, o.robot);
   std::optional<Eigen::VectorXd> seed;
   if (!o.seed_deg.empty()) {
@@ -51,7 +51,7 @@ int RunCompensate(const SignatureOptions& o, const GlobalOptions& global) {
 }
 
 int RunExport(const SignatureOptions& o, const GlobalOptions& global) {
-  db::Database database(global.DbPath());
+  db::Database database(global.DbPath(), db::OpenMode::kMustExist);
   const auto active = workflows::LoadActiveSignature(database, o.robot);
   const auto result = workflows::ExportSignature(active, o.robot, o.format, o.frame);
   if (!result.warning.empty()) spdlog::warn("export: {}", result.warning);
@@ -65,21 +65,21 @@ void SetupSignatureCommands(CLI::App& parent, const GlobalOptions& global, Runne
   auto p = std::make_shared<SignatureOptions>();
   auto* predict = parent.add_subcommand(
       "predict", "Calibrated target positions for joint angles (active arm signature)");
-  predict->add_option("--robot", p->robot, "Robot name")->required();
+  NameOption(predict->add_option("--robot", p->robot, "Robot name"))->required();
   predict->add_option("--joints", p->joints, "CSV: pose,q1_deg,…")->required();
-  predict->add_option("--out", p->out, "Positions CSV (default: stdout)");
+  OutputFile(predict->add_option("--out", p->out, "Positions CSV (default: stdout)"));
   predict->add_option("--frame", p->frame, "robot | measurement")->capture_default_str();
   predict->callback([&run, &global, p] { run = [&global, p] { return RunPredict(*p, global); }; });
 
   auto c = std::make_shared<SignatureOptions>();
   auto* compensate = parent.add_subcommand(
       "compensate", "Joint angles that make the calibrated robot reach targets");
-  compensate->add_option("--robot", c->robot, "Robot name")->required();
+  NameOption(compensate->add_option("--robot", c->robot, "Robot name"))->required();
   compensate
       ->add_option("--targets", c->targets,
                    "CSV: point,x_mm,y_mm,z_mm[,q1_deg,… the nominal program]")
       ->required();
-  compensate->add_option("--out", c->out, "Joints CSV")->required();
+  OutputFile(compensate->add_option("--out", c->out, "Joints CSV"))->required();
   compensate->add_option("--frame", c->frame, "robot | measurement")->capture_default_str();
   compensate
       ->add_option("--seed-deg", c->seed_deg,
@@ -91,9 +91,9 @@ void SetupSignatureCommands(CLI::App& parent, const GlobalOptions& global, Runne
   auto e = std::make_shared<SignatureOptions>();
   auto* exp = parent.add_subcommand(
       "export", "The active arm signature as JSON, a corrected model YAML or a URDF");
-  exp->add_option("--robot", e->robot, "Robot name")->required();
+  NameOption(exp->add_option("--robot", e->robot, "Robot name"))->required();
   exp->add_option("--format", e->format, "json | model | urdf")->required();
-  exp->add_option("--out", e->out, "File to write")->required();
+  OutputFile(exp->add_option("--out", e->out, "File to write"))->required();
   exp->add_option("--frame", e->frame, "robot | measurement")->capture_default_str();
   exp->callback([&run, &global, e] { run = [&global, e] { return RunExport(*e, global); }; });
 }

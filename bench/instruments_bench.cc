@@ -1,16 +1,23 @@
 // Reading three instruments costs the slowest one's latency, not their sum (issue #5):
 // three virtual GeoCOM theodolites on pseudo-terminals with 60, 90 and 120 ms latency,
-// read one after another and all at once. Run by hand: build/bench/instruments_bench
+// read one after another and all at once. Faults on the line (issue #15): the time from
+// a driver call to its typed error for every case of simulation::FaultMatrix() at a
+// 1000 ms deadline (the README's table). Run by hand: build/bench/instruments_bench
+// (--benchmark_filter=Fault for the fault table alone).
 #include <benchmark/benchmark.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <filesystem>
 #include <future>
 
 #include "calibration/simulation.h"
 #include "instruments/geocom_device.h"
+#include "io/model_yaml.h"
 #include "reduction/observation.h"
+#include "simulation/fault_matrix.h"
 #include "simulation/simulators.h"
+#include "workflows/builtin_models.h"
 
 namespace armsig {
 namespace {
@@ -67,6 +74,44 @@ void BM_ReadThreeConcurrently(benchmark::State& state) {
   }
 }
 BENCHMARK(BM_ReadThreeConcurrently)->Unit(benchmark::kMillisecond)->UseRealTime()->Iterations(10);
+
+// One case of the fault matrix per argument: time per iteration = time to the typed
+// error; counters: the worst time over the deadline (1 = on time) and the error's code.
+void BM_FaultOnTheLine(benchmark::State& state) {
+  const auto cases = simulation::FaultMatrix();
+  const auto& c = cases.at(static_cast<size_t>(state.range(0)));
+  simulation::VirtualLab lab(io::ParseRobotModel(workflows::kPuma760Yaml, "PUMA 760"),
+                             Eigen::VectorXd::Zero(43), Eigen::Isometry3d::Identity());
+  simulation::VirtualStation st;
+  st.pose.id = "T1";
+  st.pose.position_mm = Eigen::Vector3d(3000, -500, 1200);
+  lab.AddStation(st);
+  Eigen::VectorXd q(6);
+  q << 0.3, -0.4, 0.9, 0.2, -0.5, 0.1;
+  lab.SetJoints(q);
+  const std::string link = std::filesystem::temp_directory_path() /
+                           ("armsig-fault-" + std::to_string(::getpid()));
+  instruments::RetryPolicy policy;
+  policy.timeout = 1000ms;
+  double worst = 0.0;
+  int code = 0;
+  bool typed = true;
+  for (auto _ : state) {
+    const auto out = simulation::RunFaultCase(lab, c, link, policy);
+    worst = std::max(worst, out.ms);
+    code = out.code.value_or(-1);
+    typed = typed && out.code && !out.reading &&
+            std::find(c.codes.begin(), c.codes.end(), *out.code) != c.codes.end();
+  }
+  state.SetLabel(c.name() + (typed ? "" : " NOT TYPED AS EXPECTED"));
+  state.counters["worst_over_deadline"] = worst / 1000.0;
+  state.counters["code"] = code;
+}
+BENCHMARK(BM_FaultOnTheLine)
+    ->DenseRange(0, static_cast<int>(simulation::FaultMatrix().size()) - 1)
+    ->Unit(benchmark::kMillisecond)
+    ->UseRealTime()
+    ->Iterations(3);
 
 }  // namespace
 }  // namespace armsig

@@ -6,11 +6,11 @@
 #include <filesystem>
 #include <random>
 
-#include "app/reduce_command.h"
 #include "core/units.h"
 #include "db/store.h"
 #include "reduction/intersection.h"
 #include "reduction/observation.h"
+#include "workflows/reduce.h"
 
 namespace armsig {
 namespace {
@@ -21,7 +21,7 @@ std::string MakeDatabase(int64_t observations) {
                                .string();
   std::filesystem::remove(path);
   db::Database database(path);
-  SQLite::Transaction tx(database.sql());
+  db::WriteTransaction tx(database);
   const int64_t robot = db::EnsureRobot(database, "bench", "", "");
   const int64_t session = db::CreateSession(database, robot, "", "", "completed", "bench");
   const Eigen::Vector3d positions[3] = {{3500, 0, 1500}, {-1750, 3000, 1400}, {-1750, -3000, 1600}};
@@ -63,7 +63,7 @@ void BM_Reduce1MObservations(benchmark::State& state) {
   const std::string path = MakeDatabase(state.range(0));
   for (auto _ : state) {
     db::Database database(path);
-    const auto summary = app::ReduceSession(database, 1, reduction::IntersectionOptions{});
+    const auto summary = workflows::ReduceSession(database, 1, reduction::PointOptions{});
     benchmark::DoNotOptimize(summary.reduced);
     state.counters["points"] = static_cast<double>(summary.reduced);
   }

@@ -22,14 +22,15 @@ struct Lab {
 
   Ray RayTo(int s, const Eigen::Vector3d& x) {
     std::normal_distribution<double> noise(0.0, kSigma);
-    Ray r;
-    r.station_mm = station[s];
-    r.world_from_station = LevelledRotation(azimuth[s]);
-    r.reading = PredictReading(r.station_mm, r.world_from_station, x);
-    r.reading.hz_rad += noise(rng);
-    r.reading.v_rad += noise(rng);
-    r.sigma_hz_rad = r.sigma_v_rad = kSigma;
-    return r;
+    Station st;
+    st.pose.position_mm = station[s];
+    st.pose.world_from_station = LevelledRotation(azimuth[s]);
+    Observation o;
+    o.reading = PredictReading(st.pose.position_mm, st.pose.world_from_station, x);
+    o.reading.hz_rad += noise(rng);
+    o.reading.v_rad += noise(rng);
+    o.sigma_hz_rad = o.sigma_v_rad = kSigma;
+    return RayOf(o, st, InstrumentDefaults{});
   }
   Eigen::Vector3d Target() {
     std::uniform_real_distribution<double> u(-1000, 1000);
@@ -81,7 +82,7 @@ void BM_Orient3Stations200Points(benchmark::State& state) {
   problem.scale_bars.push_back({"T0", "T1", (bar_b - bar_a).norm(), 0.005});
   for (auto _ : state) {
     auto r = Orient(problem);
-    if (!r.ok) state.SkipWithError("orientation failed");
+    if (!r.status.ok()) state.SkipWithError("orientation failed");
     benchmark::DoNotOptimize(r.sigma0);
   }
 }

@@ -153,9 +153,13 @@ EstimationResult Estimate(const RobotModel& model, const std::vector<MeasuredPos
   for (const auto& p : poses) joints.push_back(p.joints_rad);
 
   // The identifiable subset is chosen once, at the nominal model, and kept: re-deciding
-  // it at every iteration makes Gauss–Newton wander on real data.
-  result.identifiability = AnalyseIdentifiability(model, result.world_from_base, joints, candidates,
-                                                  options.identifiability);
+  // it at every iteration makes Gauss–Newton wander on real data. It is decided in the
+  // robot's own frame: the base rotation multiplies every pose's rows by one orthogonal
+  // matrix, which leaves JᵀJ — hence the subset — unchanged in exact arithmetic, while the
+  // base aligned on noisy data would let rounding pick between exactly dependent
+  // parameters differently from one data set of the same poses to the next.
+  result.identifiability = AnalyseIdentifiability(model, Eigen::Isometry3d::Identity(), joints,
+                                                  candidates, options.identifiability);
   const std::vector<int>& subset = result.identifiability.identified;
   const int k = static_cast<int>(subset.size());
   const int needed = std::max(k, result.identifiability.structural_rank);
@@ -266,8 +270,32 @@ EstimationResult Estimate(const RobotModel& model, const std::vector<MeasuredPos
   for (int i = 0; i < m; ++i) weighted_sq += weights[i] * result.fit_residuals[i].squaredNorm();
   result.sigma0_mm = std::sqrt(weighted_sq / result.redundancy);
   if (k > 0) {
-    result.covariance =
-        result.sigma0_mm * result.sigma0_mm * normal.ldlt().solve(Eigen::MatrixXd::Identity(k, k));
+    const Eigen::MatrixXd normal_inverse = normal.ldlt().solve(Eigen::MatrixXd::Identity(k, k));
+    if (model.base) {
+      result.covariance = result.sigma0_mm * result.sigma0_mm * normal_inverse;
+    } else {
+      // The base was aligned on these same measurements, then held: a two-stage estimate.
+      // To first order the alignment moves the base by db = (BᵀB)⁻¹Bᵀ dy, with B the
+      // 3m × 6 derivative of the world positions by a small rotation and translation of
+      // the base, and the parameters answer the rest: dp = N⁻¹JᵀW (I − B(BᵀB)⁻¹Bᵀ) dy.
+      // Hence Cov(p) = σ0² N⁻¹ Cᵀ W⁻¹ C N⁻¹ with C = (I − P_B) W J. Without this, the
+      // parameters the base alignment already explains (the first joint's) would be
+      // reported two to three times less certain than repeated fits show them to be.
+      Eigen::MatrixXd base_jacobian(3 * m, 6);
+      const Eigen::Vector3d origin = result.world_from_base.translation();
+      for (int i = 0; i < m; ++i) {
+        const Eigen::Vector3d x = poses[i].target_in_world + result.fit_residuals[i] - origin;
+        base_jacobian.block<3, 3>(3 * i, 0) << 0, x.z(), -x.y(), -x.z(), 0, x.x(), x.y(), -x.x(), 0;
+        base_jacobian.block<3, 3>(3 * i, 3).setIdentity();
+      }
+      Eigen::MatrixXd c = current.jacobian;
+      for (int i = 0; i < m; ++i) c.middleRows<3>(3 * i) *= weights[i];
+      const Eigen::Matrix<double, 6, 6> base_normal = base_jacobian.transpose() * base_jacobian;
+      c -= base_jacobian * base_normal.ldlt().solve(base_jacobian.transpose() * c);
+      for (int i = 0; i < m; ++i) c.middleRows<3>(3 * i) /= std::sqrt(std::max(weights[i], 1e-12));
+      result.covariance = result.sigma0_mm * result.sigma0_mm * normal_inverse *
+                          (c.transpose() * c) * normal_inverse;
+    }
     for (int c = 0; c < k; ++c) result.sigmas(subset[c]) = std::sqrt(result.covariance(c, c));
   }
   result.fit = Summarise(Distances(result.fit_residuals));
@@ -275,6 +303,19 @@ EstimationResult Estimate(const RobotModel& model, const std::vector<MeasuredPos
     for (int i = 0; i < m; ++i) {
       if (result.fit_residuals[i].norm() > threshold) result.downweighted.push_back(i);
     }
+  }
+  // A fit whose numbers are not numbers is no result, whatever the iterations said.
+  bool finite = std::isfinite(result.sigma0_mm) && std::isfinite(result.cost) &&
+                result.params.allFinite() && result.covariance.allFinite() &&
+                result.world_from_base.matrix().allFinite();
+  for (int c = 0; c < k; ++c) finite = finite && std::isfinite(result.sigmas(subset[c]));
+  for (const auto& r : result.nominal_residuals) finite = finite && r.allFinite();
+  for (const auto& r : result.fit_residuals) finite = finite && r.allFinite();
+  if (!finite) {
+    result.status = EstimationStatus::kNonFinite;
+    result.message =
+        "the fit produced values that are not finite numbers (inf or NaN): check the poses' "
+        "coordinates and the model's lengths";
   }
   return result;
 }

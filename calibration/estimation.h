@@ -59,6 +59,7 @@ enum class EstimationStatus {
   kNoConvergence,    // iteration limit reached; result is the last accepted step
   kTooFewEquations,  // 3m equations cannot determine the identifiable parameters
   kDegenerateBase,   // base: auto with degenerate nominal positions
+  kNonFinite,        // an estimate, its sigma, σ0 or a residual is not a finite number
 };
 
 struct EstimationResult {
@@ -77,6 +78,7 @@ struct EstimationResult {
   ErrorStats nominal, fit;
   std::vector<int> downweighted;  // poses the robust loss treated as blunders (indices)
 
+  // kNonFinite is never ok: its numbers are not results.
   bool ok() const {
     return status == EstimationStatus::kConverged || status == EstimationStatus::kNoConvergence;
   }

@@ -7,7 +7,10 @@
 #include <cmath>
 #include <numbers>
 #include <random>
+#include <limits>
 #include <stdexcept>
+
+#include "calibration/simulation.h"
 
 namespace armsig::calibration {
 
@@ -137,22 +140,10 @@ IdentifiabilityReport AnalyseJacobian(const Eigen::MatrixXd& jacobian,
 std::vector<Eigen::VectorXd> SpreadConfigurations(const RobotModel& model, int count,
                                                   unsigned seed) {
   std::mt19937 rng(seed);
-  const int n = model.num_joints();
-  std::vector<Eigen::VectorXd> out;
-  out.reserve(count);
-  for (int m = 0; m < count; ++m) {
-    Eigen::VectorXd q(n);
-    for (int i = 0; i < n; ++i) {
-      double lo = -std::numbers::pi, hi = std::numbers::pi;
-      if (static_cast<int>(model.joint_min_rad.size()) == n) {
-        lo = model.joint_min_rad[i];
-        hi = model.joint_max_rad[i];
-      }
-      q(i) = std::uniform_real_distribution<double>(lo, hi)(rng);
-    }
-    out.push_back(q);
-  }
-  return out;
+  // Within the joint limits when the model has them, else within ±π.
+  const bool limited = static_cast<int>(model.joint_min_rad.size()) == model.num_joints();
+  return RandomConfigurations(model, count, rng,
+                              limited ? std::numeric_limits<double>::infinity() : std::numbers::pi);
 }
 
 IdentifiabilityReport AnalyseIdentifiability(const RobotModel& model,

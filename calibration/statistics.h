@@ -1,12 +1,13 @@
-// Distributions for the statistical tests of the calibration.
+// Distributions for the statistical tests of the calibration (Boost.Math).
 #pragma once
 
 namespace armsig::calibration {
 
-// Regularised incomplete beta function I_x(a, b) (continued fraction, Lentz).
-double RegularizedIncompleteBeta(double a, double b, double x);
-
-// Upper tail P(F > f) of Fisher's F distribution with (d1, d2) degrees of freedom.
+// Upper tail P(F > f) of Fisher's F distribution with (d1, d2) degrees of freedom
+// (boost::math::fisher_f). f ≤ 0 gives 1, f = +∞ gives 0.
 double FisherFSurvival(double f, double d1, double d2);
+
+// The critical value F(1 − alpha; d1, d2): P(F > value) = alpha.
+double FisherFCritical(double alpha, double d1, double d2);
 
 }  // namespace armsig::calibration

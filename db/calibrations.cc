@@ -32,6 +32,40 @@ Eigen::Isometry3d MatrixFromJson(const std::string& text, int64_t calibration_id
   return t;
 }
 
+std::string CovarianceJson(const std::vector<std::string>& names, const Eigen::MatrixXd& m) {
+  if (names.empty()) return "";
+  nlohmann::json rows = nlohmann::json::array();
+  for (int r = 0; r < m.rows(); ++r) {
+    nlohmann::json row = nlohmann::json::array();
+    for (int c = 0; c < m.cols(); ++c) row.push_back(m(r, c));
+    rows.push_back(row);
+  }
+  return nlohmann::json{{"parameters", names}, {"matrix", rows}}.dump();
+}
+
+void CovarianceFromJson(const std::string& text, int64_t calibration_id, StoredCalibration& c) {
+  const auto j = nlohmann::json::parse(text, nullptr, false);
+  const auto fail = [&] {
+    throw std::runtime_error("calibration " + std::to_string(calibration_id) +
+                             ": covariance_json is not {parameters, matrix}");
+  };
+  if (!j.is_object() || !j.contains("parameters") || !j.contains("matrix")) fail();
+  const auto& names = j["parameters"];
+  const auto& rows = j["matrix"];
+  if (!names.is_array() || !rows.is_array() || rows.size() != names.size()) fail();
+  const int k = static_cast<int>(names.size());
+  c.covariance.resize(k, k);
+  for (int r = 0; r < k; ++r) {
+    if (!names[r].is_string() || !rows[r].is_array() || static_cast<int>(rows[r].size()) != k)
+      fail();
+    c.covariance_parameters.push_back(names[r].get<std::string>());
+    for (int col = 0; col < k; ++col) {
+      if (!rows[r][col].is_number()) fail();
+      c.covariance(r, col) = rows[r][col].get<double>();
+    }
+  }
+}
+
 }  // namespace
 
 std::pair<int64_t, int> InsertCalibration(Database& db, const CalibrationRecord& c) {
@@ -51,8 +85,8 @@ std::pair<int64_t, int> InsertCalibration(Database& db, const CalibrationRecord&
       "rank, "
       "poses_fit, poses_validation, nominal_mean_mm, nominal_max_mm, nominal_rms_mm, fit_mean_mm, "
       "fit_max_mm, fit_rms_mm, validation_mean_mm, validation_max_mm, validation_rms_mm, "
-      "report_json, world_from_base_json) "
-      "VALUES (?,?,?,?,?,?,?,?,?,?,?,?,?,?,?,?,?,?,?,?)");
+      "report_json, world_from_base_json, covariance_json) "
+      "VALUES (?,?,?,?,?,?,?,?,?,?,?,?,?,?,?,?,?,?,?,?,?)");
   s.bind(1, c.robot_id);
   s.bind(2, version);
   s.bind(3, c.active ? 1 : 0);
@@ -68,6 +102,10 @@ std::pair<int64_t, int> InsertCalibration(Database& db, const CalibrationRecord&
   for (int k = 0; k < 9; ++k) BindOptional(s, 10 + k, stats[k]);
   s.bind(19, c.report_json);
   s.bind(20, MatrixJson(c.world_from_base));
+  if (c.covariance_parameters.empty())
+    s.bind(21);
+  else
+    s.bind(21, CovarianceJson(c.covariance_parameters, c.covariance));
   s.exec();
   const int64_t id = db.sql().getLastInsertRowid();
   SQLite::Statement p(db.sql(),
@@ -107,8 +145,9 @@ std::vector<StoredCalibration> CalibrationHistory(Database& db, int64_t robot_id
   SQLite::Statement q(
       db.sql(),
       "SELECT id, version, active, created_at, params_spec, inputs_json, coalesce(report_json,''), "
-      "validation_mean_mm, validation_max_mm, world_from_base_json FROM calibrations WHERE robot_id = ? ORDER BY "
-      "version");
+      "validation_mean_mm, validation_max_mm, world_from_base_json, covariance_json, options_json, "
+      "rank, poses_fit, poses_validation, fit_mean_mm FROM calibrations WHERE robot_id = ? "
+      "ORDER BY version");
   q.bind(1, robot_id);
   while (q.executeStep()) {
     StoredCalibration c;
@@ -121,7 +160,14 @@ std::vector<StoredCalibration> CalibrationHistory(Database& db, int64_t robot_id
     c.report_json = q.getColumn(6).getString();
     if (!q.getColumn(7).isNull()) c.validation_mean_mm = q.getColumn(7).getDouble();
     if (!q.getColumn(8).isNull()) c.validation_max_mm = q.getColumn(8).getDouble();
-    if (!q.getColumn(9).isNull()) c.world_from_base = MatrixFromJson(q.getColumn(9).getString(), c.id);
+    if (!q.getColumn(9).isNull())
+      c.world_from_base = MatrixFromJson(q.getColumn(9).getString(), c.id);
+    if (!q.getColumn(10).isNull()) CovarianceFromJson(q.getColumn(10).getString(), c.id, c);
+    c.options_json = q.getColumn(11).getString();
+    c.rank = q.getColumn(12).getInt();
+    c.poses_fit = q.getColumn(13).getInt();
+    c.poses_validation = q.getColumn(14).getInt();
+    if (!q.getColumn(15).isNull()) c.fit_mean_mm = q.getColumn(15).getDouble();
     SQLite::Statement p(db.sql(),
                         "SELECT name, value, unit, identified, sigma FROM calibration_parameters "
                         "WHERE calibration_id = ? "

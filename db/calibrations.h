@@ -24,6 +24,9 @@ struct CalibrationRecord {
   bool active = false;
   // The measuring frame of the data the set was fitted on (world from the robot base).
   Eigen::Isometry3d world_from_base = Eigen::Isometry3d::Identity();
+  // Covariance of the identified parameters (named, in the matrix's order); empty = none.
+  std::vector<std::string> covariance_parameters;
+  Eigen::MatrixXd covariance;
   struct Parameter {
     std::string name, unit;
     double value = 0.0, sigma = NAN;
@@ -46,9 +49,12 @@ struct StoredCalibration {
   int64_t id = 0;
   int version = 0;
   bool active = false;
-  std::string created_at, params_spec, inputs_json, report_json;
-  double validation_mean_mm = NAN, validation_max_mm = NAN;
+  std::string created_at, params_spec, inputs_json, options_json, report_json;
+  int rank = 0, poses_fit = 0, poses_validation = 0;
+  double fit_mean_mm = NAN, validation_mean_mm = NAN, validation_max_mm = NAN;
   std::optional<Eigen::Isometry3d> world_from_base;  // absent in sets stored before schema v2
+  std::vector<std::string> covariance_parameters;    // empty in sets stored before schema v3
+  Eigen::MatrixXd covariance;
   std::vector<CalibrationRecord::Parameter> parameters;
 };
 std::vector<StoredCalibration> CalibrationHistory(Database& db, int64_t robot_id);  // by version

@@ -1,8 +1,20 @@
 #include "db/database.h"
 
+#include <SQLiteCpp/Transaction.h>
+#include <fmt/format.h>
+#include <sqlite3.h>
+#include <sys/stat.h>
+
 #include <algorithm>
+#include <cctype>
 #include <cmath>
 #include <cstdio>
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+#include <random>
+#include <set>
+#include <thread>
 
 #include "core/error.h"
 #include "db/schema.h"
@@ -11,14 +23,249 @@ namespace armsig::db {
 
 namespace {
 
-int OpenFlags(const OpenOptions& options) {
-  return SQLite::OPEN_READWRITE | (options.create ? SQLite::OPEN_CREATE : 0) |
-         SQLite::OPEN_FULLMUTEX;
+// What the read-only look at an existing file found.
+enum class FileKind {
+  kEmpty,   // a SQLite file without tables, user_version 0 and no application_id: adopted
+  kArmsig,  // application_id = kApplicationId
+  kLegacy,  // armsig before application_id: user_version 1…latest and armsig's tables
+};
+
+// The path as one shell word, for a command the user can paste.
+std::string ShellQuoted(const std::string& path) {
+  const bool plain = !path.empty() && std::all_of(path.begin(), path.end(), [](unsigned char c) {
+    return std::isalnum(c) || std::strchr("_-./:=@%+,", c);
+  });
+  if (plain) return path;
+  std::string out = "'";
+  for (char c : path) out += c == '\'' ? std::string("'\\''") : std::string(1, c);
+  return out + "'";
 }
 
-SQLite::Database OpenOrExplain(const std::string& path, const OpenOptions& options) {
+std::string RecoveryAdvice(const std::string& path) {
+  return "the database file is damaged; nothing was written to it. Recover what is readable "
+         "into a new file and use that one: sqlite3 " +
+         ShellQuoted(path) + " \".recover\" | sqlite3 recovered.db";
+}
+
+[[noreturn]] void Refuse(const std::string& path, const std::string& why) {
+  throw InputError({path, 0, 0, ""}, why);
+}
+
+uint32_t BigEndian32(const unsigned char* bytes) {
+  return (uint32_t{bytes[0]} << 24) | (uint32_t{bytes[1]} << 16) | (uint32_t{bytes[2]} << 8) |
+         uint32_t{bytes[3]};
+}
+
+// The first look, with plain file reads: the SQLite header's magic, user_version (offset
+// 60) and application_id (offset 68). Refuses what is certainly not ours or too new without
+// letting SQLite touch the file. Returns whether the file is in WAL mode (header bytes 18
+// and 19 are 2).
+bool CheckHeader(const std::string& path, uintmax_t size) {
+  unsigned char header[100] = {};
+  std::ifstream in(path, std::ios::binary);
+  if (!in) Refuse(path, "cannot read the database file");
+  in.read(reinterpret_cast<char*>(header), sizeof header);
+  static constexpr char kMagic[] = "SQLite format 3";  // 16 bytes with its NUL
+  if (size < sizeof header || in.gcount() != sizeof header ||
+      std::memcmp(header, kMagic, sizeof kMagic) != 0) {
+    Refuse(path,
+           "not an SQLite database (armsig leaves the file as it is; check --db or "
+           "$ARMSIG_DB)");
+  }
+  const uint32_t user_version = BigEndian32(header + 60);
+  const int32_t application_id = static_cast<int32_t>(BigEndian32(header + 68));
+  if (application_id != 0 && application_id != kApplicationId) {
+    Refuse(path, fmt::format("another application's SQLite database (application_id "
+                             "0x{:08x}, armsig's is 0x{:08x}); armsig leaves it as it is",
+                             static_cast<uint32_t>(application_id),
+                             static_cast<uint32_t>(kApplicationId)));
+  }
+  if (user_version > static_cast<uint32_t>(LatestSchemaVersion())) {
+    Refuse(path, fmt::format("schema version {} is newer than this armsig understands ({}); "
+                             "the file is left as it is: use a newer armsig",
+                             user_version, LatestSchemaVersion()));
+  }
+  return header[18] == 2 && header[19] == 2;
+}
+
+// A path as an SQLite URI file name (RFC 3986 percent-encoding of what a URI reserves).
+std::string UriPath(const std::string& path) {
+  const std::string absolute = std::filesystem::absolute(path).lexically_normal().string();
+  std::string out = "file:";
+  for (unsigned char c : absolute) {
+    if (std::isalnum(c) || std::strchr("/-_.~", c)) {
+      out += static_cast<char>(c);
+    } else {
+      out += fmt::format("%{:02X}", c);
+    }
+  }
+  return out;
+}
+
+// The second look, through a read-only connection: what the file holds and whether it is
+// intact. `locked`: an ordinary read-only connection, which takes SQLite's locks (a
+// consistent view while others write) but creates the -wal and -shm files of a WAL-mode
+// file; otherwise the file is opened immutable (no locks, nothing created), which is only
+// a consistent view while nobody changes the file (see LookBeforeWriting).
+FileKind Inspect(const std::string& path, bool locked, int busy_timeout_ms) {
+  const std::string uri = UriPath(path) + (locked ? "?mode=ro" : "?mode=ro&immutable=1");
   try {
-    return SQLite::Database(path, OpenFlags(options), options.busy_timeout_ms);
+    SQLite::Database db(uri, SQLite::OPEN_READONLY | SQLite::OPEN_URI, busy_timeout_ms);
+    // One read transaction: the application_id, the user_version and the tables from one
+    // snapshot (three autocommit statements could straddle another process's migration).
+    SQLite::Transaction snapshot(db);
+    const int32_t application_id = db.execAndGet("PRAGMA application_id").getInt();
+    const int user_version = db.execAndGet("PRAGMA user_version").getInt();
+    std::set<std::string> tables;
+    SQLite::Statement query(db, "SELECT name FROM sqlite_master WHERE type = 'table'");
+    while (query.executeStep()) tables.insert(query.getColumn(0).getString());
+
+    FileKind kind = FileKind::kArmsig;
+    if (application_id != kApplicationId) {
+      const bool armsig_tables =
+          std::all_of(TableNames().begin(), TableNames().end(),
+                      [&](std::string_view t) { return tables.count(std::string(t)) > 0; });
+      if (application_id == 0 && user_version == 0 && tables.empty()) {
+        kind = FileKind::kEmpty;
+      } else if (application_id == 0 && user_version >= 1 &&
+                 user_version <= LatestSchemaVersion() && armsig_tables) {
+        kind = FileKind::kLegacy;
+      } else {
+        std::string names;
+        for (const auto& t : tables) {
+          if (names.size() > 60) {
+            names += ", …";
+            break;
+          }
+          names += (names.empty() ? "" : ", ") + t;
+        }
+        Refuse(path, fmt::format("not an armsig database (application_id {}, user_version {}, "
+                                 "tables: {}); armsig leaves it as it is",
+                                 application_id, user_version, names.empty() ? "none" : names));
+      }
+    }
+    if (user_version > LatestSchemaVersion()) {
+      Refuse(path, fmt::format("schema version {} is newer than this armsig understands ({}); "
+                               "the file is left as it is: use a newer armsig",
+                               user_version, LatestSchemaVersion()));
+    }
+    // quick_check: every page readable, b-trees well formed (O(N), no index cross-check).
+    SQLite::Statement check(db, "PRAGMA quick_check");
+    std::string problems;
+    while (check.executeStep()) {
+      const std::string line = check.getColumn(0).getString();
+      if (line == "ok") continue;
+      if (problems.size() < 200) problems += (problems.empty() ? "" : "; ") + line;
+    }
+    if (!problems.empty()) Refuse(path, RecoveryAdvice(path) + " (quick_check: " + problems + ")");
+    return kind;
+  } catch (const SQLite::Exception& e) {
+    const int code = e.getErrorCode() & 0xff;
+    if (code == SQLITE_CORRUPT || code == SQLITE_NOTADB) {
+      Refuse(path, RecoveryAdvice(path) + " (" + e.what() + ")");
+    }
+    throw;
+  }
+}
+
+// SQLite does not call the busy handler everywhere: changing the journal mode, opening the
+// WAL index while another connection recovers it, and similar steps of opening a file can
+// return SQLITE_BUSY at once. This runs `step` again (after a short random pause) until it
+// gets through or the busy timeout has passed, so that the timeout applies to every
+// statement of opening a file, not only to those SQLite waits for by itself.
+template <typename Step>
+auto RetryWhileBusy(int timeout_ms, Step&& step) {
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::milliseconds(timeout_ms);
+  std::minstd_rand jitter(std::random_device{}());
+  for (;;) {
+    try {
+      return step();
+    } catch (const SQLite::Exception& e) {
+      const int code = e.getErrorCode() & 0xff;
+      if ((code != SQLITE_BUSY && code != SQLITE_LOCKED) ||
+          std::chrono::steady_clock::now() >= deadline) {
+        throw;
+      }
+    }
+    std::this_thread::sleep_for(std::chrono::milliseconds(1 + jitter() % 20));
+  }
+}
+
+// What tells whether a file changed: its identity, size and modification time, and
+// whether it has a -wal file (a connection has it open).
+struct FileState {
+  dev_t device = 0;
+  ino_t inode = 0;
+  off_t size = -1;
+  timespec modified{};
+  bool wal = false;
+  bool operator==(const FileState& o) const {
+    return device == o.device && inode == o.inode && size == o.size &&
+           modified.tv_sec == o.modified.tv_sec && modified.tv_nsec == o.modified.tv_nsec &&
+           wal == o.wal;
+  }
+};
+
+FileState StateOf(const std::string& path) {
+  FileState state;
+  struct stat s {};
+  if (::stat(path.c_str(), &s) == 0) {
+    state.device = s.st_dev;
+    state.inode = s.st_ino;
+    state.size = s.st_size;
+    state.modified = s.st_mtim;
+  }
+  std::error_code ec;
+  state.wal = std::filesystem::exists(path + "-wal", ec);
+  return state;
+}
+
+// The read-only look at an existing file before anything is written to it. A WAL-mode
+// file without a -wal file (no connection has it open: the last one to close checkpoints
+// and removes it) is read immutable, so that nothing appears next to a file that is then
+// refused; such a read takes no locks, so it only counts when the file did not change
+// while it was read (another armsig process may be creating or writing the file at the
+// same moment: its checkpoint would tear the view). Otherwise, and when the file keeps
+// changing, a locked read-only connection gives a consistent view (the file is in use by
+// then, its -wal exists).
+void LookBeforeWriting(const std::string& path, int busy_timeout_ms) {
+  constexpr int kAttempts = 20;
+  for (int attempt = 1;; ++attempt) {
+    const FileState before = StateOf(path);
+    try {
+      const bool wal_mode =
+          CheckHeader(path, static_cast<uintmax_t>(std::max<off_t>(before.size, 0)));
+      const bool locked = !wal_mode || before.wal || attempt == kAttempts;
+      RetryWhileBusy(busy_timeout_ms, [&] { return Inspect(path, locked, busy_timeout_ms); });
+      if (locked || StateOf(path) == before) return;
+    } catch (const InputError&) {
+      // A refusal stands when the file held still while it was read.
+      if (attempt == kAttempts || StateOf(path) == before) throw;
+    } catch (const SQLite::Exception&) {
+      if (attempt == kAttempts || StateOf(path) == before) throw;
+    }
+    std::this_thread::sleep_for(std::chrono::milliseconds(5 * attempt));
+  }
+}
+
+SQLite::Database OpenOrExplain(const std::string& path, const OpenOptions& options, bool& created) {
+  std::error_code ec;
+  const bool exists = std::filesystem::exists(path, ec);
+  if (options.mode == OpenMode::kMustExist && !exists) {
+    throw InputError({path, 0, 0, ""},
+                     "no such database file (this command only reads and creates none; check "
+                     "--db or $ARMSIG_DB)");
+  }
+  const uintmax_t size = exists ? std::filesystem::file_size(path, ec) : 0;
+  created = !exists || ec || size == 0;
+  if (!created) {
+    // An existing file is looked at read-only first; only what passes is opened for writing.
+    LookBeforeWriting(path, options.busy_timeout_ms);
+  }
+  const int flags = SQLite::OPEN_READWRITE | SQLite::OPEN_FULLMUTEX |
+                    (options.mode == OpenMode::kCreate ? SQLite::OPEN_CREATE : 0);
+  try {
+    return SQLite::Database(path, flags, options.busy_timeout_ms);
   } catch (const SQLite::Exception& e) {
     throw InputError({path, 0, 0, ""}, std::string("cannot open database (") + e.what() + ")");
   }
@@ -45,11 +292,13 @@ std::string CsvField(const SQLite::Column& column) {
 }  // namespace
 
 Database::Database(const std::string& path, OpenOptions options)
-    : path_(path), db_(OpenOrExplain(path, options)) {
+    : path_(path),
+      busy_timeout_ms_(options.busy_timeout_ms),
+      db_(OpenOrExplain(path, options, created_)) {
   try {
     // WAL: readers never block the writer, and a killed writer leaves the last
     // committed state. synchronous=FULL so a commit also survives a power cut.
-    db_.exec("PRAGMA journal_mode=WAL");
+    RetryWhileBusy(busy_timeout_ms_, [&] { return db_.exec("PRAGMA journal_mode=WAL"); });
     db_.exec("PRAGMA synchronous=FULL");
     db_.exec("PRAGMA foreign_keys=ON");
   } catch (const SQLite::Exception& e) {
@@ -62,28 +311,31 @@ Database::Database(const std::string& path, OpenOptions options)
 int Database::SchemaVersion() { return db_.execAndGet("PRAGMA user_version").getInt(); }
 
 void Database::Migrate() {
-  const int current = SchemaVersion();
+  RetryWhileBusy(busy_timeout_ms_, [&] { MigrateOnce(); });
+}
+
+void Database::MigrateOnce() {
   const int latest = LatestSchemaVersion();
-  if (current > latest) {
-    throw InputError({path_, 0, 0, ""}, "schema version " + std::to_string(current) +
-                                            " is newer than this armsig understands (" +
-                                            std::to_string(latest) + ")");
-  }
-  if (current == latest) return;
-  // BEGIN IMMEDIATE takes the write lock first, so two processes opening a fresh
+  auto application_id = [&] { return db_.execAndGet("PRAGMA application_id").getInt(); };
+  if (SchemaVersion() == latest && application_id() == kApplicationId) return;
+  // An IMMEDIATE transaction takes the write lock first, so two processes opening a fresh
   // file at once cannot both migrate; the loser waits, then sees the new version.
-  db_.exec("BEGIN IMMEDIATE");
-  try {
-    const int now = SchemaVersion();
-    for (int v = now; v < latest; ++v) {
-      db_.exec(std::string(Migrations()[v]));
-    }
-    db_.exec("PRAGMA user_version=" + std::to_string(latest));
-    db_.exec("COMMIT");
-  } catch (...) {
-    db_.exec("ROLLBACK");
-    throw;
+  SQLite::Transaction tx(db_, SQLite::TransactionBehavior::IMMEDIATE);
+  // Looked at again under the lock (another process may have migrated, or replaced the file).
+  const int current = SchemaVersion();
+  const int id = application_id();
+  if (current > latest) {
+    Refuse(path_, fmt::format("schema version {} is newer than this armsig understands ({})",
+                              current, latest));
   }
+  if (id != 0 && id != kApplicationId) {
+    Refuse(path_, fmt::format("another application's SQLite database (application_id 0x{:08x})",
+                              static_cast<uint32_t>(id)));
+  }
+  for (int v = current; v < latest; ++v) db_.exec(std::string(Migrations()[v]));
+  db_.exec("PRAGMA user_version=" + std::to_string(latest));
+  db_.exec("PRAGMA application_id=" + std::to_string(kApplicationId));
+  tx.commit();  // rolled back by the destructor when a migration throws
 }
 
 std::vector<Database::TableCount> Database::RowCounts() {

@@ -4,7 +4,6 @@
 #include <cstdio>
 
 #include "core/units.h"
-
 #include "db/sql_util.h"
 
 namespace armsig::db {
@@ -170,9 +169,13 @@ void InsertPoint(Database& db, int64_t session_id, const PointRow& p) {
   s.bind(3, p.point);
   if (p.position_mm) {
     for (int k = 0; k < 3; ++k) s.bind(4 + k, (*p.position_mm)(k));
-    for (int k = 0; k < 3; ++k) s.bind(7 + k, std::sqrt(p.covariance_mm2(k, k)));
-    const Eigen::Matrix<double, 3, 3, Eigen::RowMajor> c = p.covariance_mm2;
-    s.bind(10, JsonArray(c.data(), 9));
+    if (p.covariance_mm2.allFinite()) {
+      for (int k = 0; k < 3; ++k) s.bind(7 + k, std::sqrt(p.covariance_mm2(k, k)));
+      const Eigen::Matrix<double, 3, 3, Eigen::RowMajor> c = p.covariance_mm2;
+      s.bind(10, JsonArray(c.data(), 9));
+    } else {  // not known (poses imported from a file)
+      for (int k = 7; k <= 10; ++k) s.bind(k);
+    }
   } else {
     for (int k = 4; k <= 10; ++k) s.bind(k);
   }
@@ -182,6 +185,32 @@ void InsertPoint(Database& db, int64_t session_id, const PointRow& p) {
   BindOptional(s, 14, p.miss_mm);
   s.bind(15, p.flags);
   s.exec();
+}
+
+std::vector<PointRow> LoadPoints(Database& db, int64_t session_id) {
+  SQLite::Statement q(db.sql(),
+                      "SELECT pose_id, point, x_mm, y_mm, z_mm, coalesce(covariance_json, ''), "
+                      "rays, rejected_rays, sigma0, miss_mm, flags FROM points "
+                      "WHERE session_id = ? ORDER BY pose_id, point");
+  q.bind(1, session_id);
+  std::vector<PointRow> out;
+  while (q.executeStep()) {
+    PointRow p;
+    if (!q.getColumn(0).isNull()) p.pose_id = q.getColumn(0).getInt64();
+    p.point = q.getColumn(1).getString();
+    if (!q.getColumn(2).isNull()) {
+      p.position_mm = Eigen::Vector3d(q.getColumn(2).getDouble(), q.getColumn(3).getDouble(),
+                                      q.getColumn(4).getDouble());
+    }
+    if (auto c = ParseCovariance(q.getColumn(5).getString())) p.covariance_mm2 = *c;
+    p.rays = q.getColumn(6).getInt();
+    p.rejected_rays = q.getColumn(7).getInt();
+    if (!q.getColumn(8).isNull()) p.sigma0 = q.getColumn(8).getDouble();
+    if (!q.getColumn(9).isNull()) p.miss_mm = q.getColumn(9).getDouble();
+    p.flags = q.getColumn(10).getString();
+    out.push_back(std::move(p));
+  }
+  return out;
 }
 
 void ReplacePoints(Database& db, int64_t session_id, const std::vector<PointRow>& points) {

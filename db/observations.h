@@ -62,6 +62,9 @@ struct PointRow {
 };
 // Adds one reduced point (call inside the configuration's transaction).
 void InsertPoint(Database& db, int64_t session_id, const PointRow& point);
+// Every stored point of a session, ordered by pose and point (`reduce` keeps the flags
+// it cannot derive again from the observations).
+std::vector<PointRow> LoadPoints(Database& db, int64_t session_id);
 // Replaces the session's reduced points (call inside a transaction).
 void ReplacePoints(Database& db, int64_t session_id, const std::vector<PointRow>& points);
 

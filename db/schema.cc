@@ -167,7 +167,13 @@ UPDATE calibrations SET world_from_base_json = json_extract(report_json, '$.base
   WHERE json_valid(report_json) AND json_type(report_json, '$.base') = 'array';
 )sql";
 
-constexpr std::array<std::string_view, 2> kMigrations = {kSchemaV1, kSchemaV2};
+// Schema v3: the covariance of a parameter set's identified parameters, so that the next
+// set can be compared with it by propagated uncertainty (drift); NULL in older sets.
+constexpr std::string_view kSchemaV3 = R"sql(
+ALTER TABLE calibrations ADD COLUMN covariance_json TEXT;  -- {"parameters": [names], "matrix": [[…]]}, mm and rad
+)sql";
+
+constexpr std::array<std::string_view, 3> kMigrations = {kSchemaV1, kSchemaV2, kSchemaV3};
 
 constexpr std::array<std::string_view, 11> kTables = {"robots",
                                                       "instruments",

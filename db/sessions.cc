@@ -131,15 +131,44 @@ std::vector<MeasuredPose> LoadSessionPoses(Database& db, int64_t session_id,
     pose.target_in_world = {q.getColumn(2).getDouble(), q.getColumn(3).getDouble(),
                             q.getColumn(4).getDouble()};
     if (covariances) {
-      Eigen::Matrix3d c = Eigen::Matrix3d::Constant(NAN);
-      const std::string text = q.getColumn(5).getString();
-      if (!text.empty()) {
-        const auto v = nlohmann::json::parse(text).get<std::vector<double>>();
-        c = Eigen::Map<const Eigen::Matrix<double, 3, 3, Eigen::RowMajor>>(v.data());
-      }
-      covariances->push_back(c);
+      covariances->push_back(
+          ParseCovariance(q.getColumn(5).getString()).value_or(Eigen::Matrix3d::Constant(NAN)));
     }
     out.push_back(std::move(pose));
+  }
+  return out;
+}
+
+std::vector<SessionSummary> ListSessions(Database& db, std::optional<int64_t> robot_id) {
+  SQLite::Statement q(
+      db.sql(),
+      "SELECT s.id, r.name, s.state, coalesce(s.note, ''), s.started_at, "
+      "coalesce(s.finished_at, ''), "
+      "(SELECT count(*) FROM poses p WHERE p.session_id = s.id AND p.status = 'measured'), "
+      "(SELECT count(*) FROM poses p WHERE p.session_id = s.id AND p.status = 'skipped'), "
+      "(SELECT count(*) FROM points t WHERE t.session_id = s.id AND t.x_mm IS NOT NULL), "
+      "(SELECT count(*) FROM points t WHERE t.session_id = s.id AND t.x_mm IS NOT NULL AND "
+      "coalesce(t.flags, '') <> '') "
+      "FROM sessions s JOIN robots r ON r.id = s.robot_id WHERE ?1 IS NULL OR s.robot_id = ?1 "
+      "ORDER BY s.id");
+  if (robot_id)
+    q.bind(1, *robot_id);
+  else
+    q.bind(1);
+  std::vector<SessionSummary> out;
+  while (q.executeStep()) {
+    SessionSummary s;
+    s.id = q.getColumn(0).getInt64();
+    s.robot = q.getColumn(1).getString();
+    s.state = q.getColumn(2).getString();
+    s.note = q.getColumn(3).getString();
+    s.started_at = q.getColumn(4).getString();
+    s.finished_at = q.getColumn(5).getString();
+    s.measured = q.getColumn(6).getInt();
+    s.skipped = q.getColumn(7).getInt();
+    s.usable = q.getColumn(8).getInt();
+    s.flagged = q.getColumn(9).getInt();
+    out.push_back(std::move(s));
   }
   return out;
 }

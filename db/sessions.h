@@ -26,6 +26,16 @@ struct SessionRow {
   std::string lab_yaml, plan_json, state, note;
 };
 std::optional<SessionRow> LoadSession(Database& db, int64_t session_id);
+struct SessionSummary {
+  int64_t id = 0;
+  std::string robot, state, note, started_at, finished_at;
+  int measured = 0, skipped = 0;  // configurations
+  int usable = 0;                 // reduced points with coordinates
+  int flagged = 0;                // of which carry a flag
+};
+// Every session (of one robot when given), oldest first.
+std::vector<SessionSummary> ListSessions(Database& db, std::optional<int64_t> robot_id);
+
 // The lab file stored with the robot's newest session that has one ("" if none).
 std::string LatestLabYaml(Database& db, int64_t robot_id);
 

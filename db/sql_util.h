@@ -3,9 +3,13 @@
 
 #include <SQLiteCpp/Statement.h>
 
+#include <Eigen/Core>
 #include <cmath>
 #include <cstdio>
+#include <nlohmann/json.hpp>
+#include <optional>
 #include <string>
+#include <vector>
 
 namespace armsig::db {
 
@@ -26,6 +30,19 @@ inline std::string JsonArray(const double* v, int n) {
     out += buffer;
   }
   return out + "]";
+}
+
+// A stored 3x3 row-major covariance (mm²); nullopt when empty or not nine numbers.
+inline std::optional<Eigen::Matrix3d> ParseCovariance(const std::string& text) {
+  if (text.empty()) return std::nullopt;
+  const auto j = nlohmann::json::parse(text, nullptr, /*allow_exceptions=*/false);
+  if (!j.is_array() || j.size() != 9) return std::nullopt;
+  Eigen::Matrix3d c;
+  for (int k = 0; k < 9; ++k) {
+    if (!j[k].is_number()) return std::nullopt;
+    c(k / 3, k % 3) = j[k].get<double>();
+  }
+  return c;
 }
 
 }  // namespace armsig::db

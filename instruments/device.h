@@ -2,6 +2,7 @@
 #pragma once
 
 #include <Eigen/Core>
+#include <atomic>
 #include <chrono>
 #include <optional>
 #include <stdexcept>
@@ -25,7 +26,10 @@ struct Reading {
   std::chrono::system_clock::time_point time;
 };
 
-// The instrument answered, but with an error code: no data.
+// The instrument answered with an error code, or never answered usably: no data. The
+// code is in GeoCOM's code space for every protocol (transport failures as the GeoCOM
+// client codes: 3077 COM_TIMEDOUT, 3100 COM_OVERRUN for an over-long line, 3085
+// COM_FAILED for a lost port, 3074 COM_CANT_DECODE for a reply that is no reading).
 class InstrumentError : public std::runtime_error {
  public:
   InstrumentError(std::string device, int code, const std::string& message)
@@ -38,7 +42,45 @@ class InstrumentError : public std::runtime_error {
   int code_;
 };
 
-class Theodolite {
+// A reply that decodes but cannot be a reading: a value outside what the instrument or
+// robot can report (a zenith angle below 0, Hz beyond a full circle, a joint beyond
+// ±720°, a negative distance), usually a reply in other units or another command's
+// reply. Code 3074 (COM_CANT_DECODE); the message names the device, the quantity, the
+// value and the expected range.
+class ReadingRangeError : public InstrumentError {
+ public:
+  ReadingRangeError(const std::string& device, std::string quantity, double value, double min,
+                    double max, const std::string& unit);
+  const std::string& quantity() const { return quantity_; }
+  double value() const { return value_; }
+  double min() const { return min_; }
+  double max() const { return max_; }
+
+ private:
+  std::string quantity_;
+  double value_, min_, max_;
+};
+
+// What any instrument or controller may report; beyond it: ReadingRangeError.
+inline constexpr double kMaxJointDeg = 720.0;       // two turns either way: any robot joint
+inline constexpr double kMaxDistanceMm = 1.0e7;     // 10 km: beyond any total station's range
+// Hz in [0, 2π], V (zenith angle) in [0, 2π] (face II above π), both finite.
+void CheckAngles(const std::string& device, double hz_rad, double v_rad);
+// A slope distance in [0, kMaxDistanceMm] mm.
+void CheckDistance(const std::string& device, double distance_mm);
+// Every joint finite and within ±kMaxJointDeg.
+void CheckJoints(const std::string& device, const Eigen::VectorXd& joints_rad);
+
+// Ctrl-C in a capture session: a flag that, once raised, ends the device call in flight
+// within a few milliseconds (TransportError kInterrupted, never retried). The caller keeps
+// the flag alive while it is set; nullptr clears it. Devices without a port ignore it.
+class Interruptible {
+ public:
+  virtual ~Interruptible() = default;
+  virtual void SetInterrupt(const std::atomic<bool>*) {}
+};
+
+class Theodolite : public Interruptible {
  public:
   virtual ~Theodolite() = default;
   virtual const std::string& name() const = 0;
@@ -55,7 +97,7 @@ class DistanceInstrument : public Theodolite {
   virtual Reading MeasureDistanceAndAngles() = 0;
 };
 
-class RobotController {
+class RobotController : public Interruptible {
  public:
   virtual ~RobotController() = default;
   virtual const std::string& name() const = 0;
@@ -64,7 +106,12 @@ class RobotController {
   virtual void MoveTo(const Eigen::VectorXd& joints_rad) = 0;
 };
 
-// How a driver retries: busy codes and timeouts, then gives up with a typed error.
+// How a driver retries: busy codes, bad checksums, silence, a lost port; then it gives
+// up with a typed error. `timeout` is the deadline of one device call (MeasureAngles,
+// ReadJointsRad, Identify …): from the first command to the parsed reply, every attempt,
+// discarded line, delay and reconnection included. Each attempt waits its share of the
+// time left (left / attempts left) before the command is sent again, so a silent
+// instrument is asked `attempts` times and the call still ends by its deadline.
 struct RetryPolicy {
   int attempts = 3;
   std::chrono::milliseconds timeout{3000};

@@ -68,16 +68,22 @@ struct Header {
   std::string_view body;
   bool had_crc = false;
   bool crc_ok = true;
+  std::string why;  // non-empty: malformed
 };
 
 std::optional<Header> ParseHeader(std::string_view line, std::string_view prefix,
                                   int with_trid_fields) {
-  const size_t start = line.find(prefix);
+  // The last frame start: what comes before it is noise or a frame cut short (a '%'
+  // never appears unescaped inside a frame, strings escape it as \%).
+  const size_t start = line.rfind(prefix);
   if (start == std::string_view::npos) return std::nullopt;
   line = line.substr(start);
-  const size_t colon = line.find(':');
-  if (colon == std::string_view::npos) return Header{{-1}, {}, false, false};
   Header h;
+  const size_t colon = line.find(':');
+  if (colon == std::string_view::npos) {
+    h.why = "expected ':' after the header '" + std::string(line) + "'";
+    return h;
+  }
   h.body = line.substr(colon + 1);
   std::string_view head = line.substr(prefix.size(), colon - prefix.size());
   std::vector<std::string_view> parts;
@@ -89,21 +95,35 @@ std::optional<Header> ParseHeader(std::string_view line, std::string_view prefix
     if (comma == std::string_view::npos) break;
     pos = comma + 1;
   }
-  for (auto part : parts) {
-    auto v = ToInt(part);
-    if (!v) return Header{{-1}, {}, false, false};
+  static constexpr const char* kFieldNames[] = {"first field (RPC or RC_COM)", "transaction id",
+                                                "CRC"};
+  if (static_cast<int>(parts.size()) > with_trid_fields + 1) {
+    h.why = "expected at most " + std::to_string(with_trid_fields + 1) +
+            " header fields before ':', got " + std::to_string(parts.size());
+    return h;
+  }
+  for (size_t i = 0; i < parts.size(); ++i) {
+    auto v = ToInt(parts[i]);
+    if (!v || (i == 0 && *v < 0)) {  // an overflowed transaction id may be negative
+      h.why = std::string("header ") + kFieldNames[i] + ": expected " +
+              (i == 0 ? "a non-negative integer" : "an integer") + ", got '" +
+              std::string(parts[i]) + "'";
+      return h;
+    }
     h.fields.push_back(*v);
   }
   // fields: first (rpc or rc_com), [trid], [crc]
-  if (static_cast<int>(h.fields.size()) > with_trid_fields + 1)
-    return Header{{-1}, {}, false, false};
   if (static_cast<int>(h.fields.size()) == with_trid_fields + 1) {
     h.had_crc = true;
     const int crc = h.fields.back();
     h.fields.pop_back();
     std::string without = std::string(prefix) + std::to_string(h.fields[0]) + "," +
                           std::to_string(h.fields[1]) + ":" + std::string(h.body);
-    h.crc_ok = Crc16Arc(without) == crc;
+    const uint16_t expected = Crc16Arc(without);
+    h.crc_ok = expected == crc;
+    if (!h.crc_ok)
+      h.why = "CRC " + std::to_string(crc) + " does not match the frame (expected " +
+              std::to_string(expected) + ")";
   }
   return h;
 }
@@ -137,6 +157,7 @@ struct Frame {
   std::optional<Header> header;
   std::optional<ParseError> error;
   bool had_crc = false;
+  std::string why;
 };
 
 Frame ParseFrame(std::string_view line, std::string_view prefix) {
@@ -147,26 +168,37 @@ Frame ParseFrame(std::string_view line, std::string_view prefix) {
   auto h = ParseHeader(line, prefix, 2);
   if (!h) {
     f.error = ParseError::kNotAFrame;
-  } else if (h->fields.empty() || h->fields[0] < 0) {
+    f.why = "expected a frame starting with '" + std::string(prefix) + "'";
+  } else if (h->fields.empty() || (!h->why.empty() && h->crc_ok)) {
     f.error = ParseError::kMalformed;
+    f.why = h->why.empty() ? "expected a header before ':'" : h->why;
   } else {
     f.had_crc = h->had_crc;
-    if (!h->crc_ok)
+    if (!h->crc_ok) {
       f.error = ParseError::kBadCrc;
-    else
+      f.why = h->why;
+    } else {
       f.header = std::move(h);
+    }
   }
   return f;
 }
 
 }  // namespace
 
-ParsedReply ParseReply(std::string_view line) {
+ParsedReply ParseReply(std::string_view line, bool require_crc) {
   ParsedReply out;
   Frame f = ParseFrame(line, "%R1P,");
   out.had_crc = f.had_crc;
   out.error = f.error;
+  out.why = f.why;
   if (f.error) return out;
+  if (require_crc && !f.had_crc) {
+    out.error = ParseError::kMissingCrc;
+    out.why = "expected a CRC field after the transaction id (%R1P,<rc_com>,<trid>,<crc>:), "
+              "got a reply without one";
+    return out;
+  }
   const Header& h = *f.header;
   Reply r;
   r.rc_com = h.fields[0];
@@ -176,12 +208,14 @@ ParsedReply ParseReply(std::string_view line) {
     // A communication error may carry no RPC return code.
     if (r.rc_com == 0) {
       out.error = ParseError::kMalformed;
+      out.why = "expected the RPC return code after ':'";
       return out;
     }
   } else {
     auto rc = ToInt(values.front());
     if (!rc) {
       out.error = ParseError::kMalformed;
+      out.why = "RPC return code: expected an integer, got '" + values.front() + "'";
       return out;
     }
     r.rc = *rc;
@@ -197,6 +231,7 @@ ParsedRequest ParseRequest(std::string_view line) {
   Frame f = ParseFrame(line, "%R1Q,");
   out.had_crc = f.had_crc;
   out.error = f.error;
+  out.why = f.why;
   if (f.error) return out;
   Request r;
   r.rpc = f.header->fields[0];
@@ -227,6 +262,164 @@ std::string EncodeString(std::string_view text) {
     }
   }
   return out + "\"";
+}
+
+std::string EncodeLong(long value) { return std::to_string(value); }
+
+namespace {
+
+// values[index] decoded by `decode`, or `why` naming the RPC, the value and the type.
+template <typename T, typename Decode>
+std::optional<T> ValueAt(const std::vector<std::string>& values, size_t index,
+                         std::string_view rpc, std::string_view name, std::string_view type,
+                         Decode decode, std::string* why) {
+  if (index >= values.size()) {
+    if (why)
+      *why = std::string(rpc) + ": reply has " + std::to_string(values.size()) +
+             " values, expected " + std::string(name) + " as value " + std::to_string(index + 1);
+    return std::nullopt;
+  }
+  std::optional<T> v = decode(values[index]);
+  if (!v && why)
+    *why = std::string(rpc) + ": value " + std::to_string(index + 1) + " (" + std::string(name) +
+           "): expected " + std::string(type) + ", got '" + values[index] + "'";
+  return v;
+}
+
+std::optional<double> DoubleAt(const std::vector<std::string>& values, size_t index,
+                               std::string_view rpc, std::string_view name, std::string* why) {
+  return ValueAt<double>(values, index, rpc, name, "a number", DecodeDouble, why);
+}
+
+std::optional<long> LongAt(const std::vector<std::string>& values, size_t index,
+                           std::string_view rpc, std::string_view name, std::string* why) {
+  return ValueAt<long>(values, index, rpc, name, "an integer", DecodeLong, why);
+}
+
+constexpr int kAngleDigits = 15;
+constexpr int kDistanceDigits = 6;  // µm
+
+}  // namespace
+
+std::vector<std::string> EncodeValues(const AngleComplete& a) {
+  return {EncodeDouble(a.hz_rad, kAngleDigits),
+          EncodeDouble(a.v_rad, kAngleDigits),
+          EncodeDouble(a.angle_accuracy_rad, kAngleDigits),
+          EncodeLong(a.angle_time_ms),
+          EncodeDouble(a.cross_incline_rad, kAngleDigits),
+          EncodeDouble(a.length_incline_rad, kAngleDigits),
+          EncodeDouble(a.incline_accuracy_rad, kAngleDigits),
+          EncodeLong(a.incline_time_ms),
+          EncodeLong(a.face)};
+}
+
+std::optional<AngleComplete> DecodeAngleComplete(const std::vector<std::string>& v,
+                                                 std::string* why) {
+  constexpr std::string_view rpc = "TMC_GetAngle1";
+  AngleComplete a;
+  auto hz = DoubleAt(v, 0, rpc, "Hz", why);
+  if (!hz) return std::nullopt;
+  auto vertical = DoubleAt(v, 1, rpc, "V", why);
+  if (!vertical) return std::nullopt;
+  auto accuracy = DoubleAt(v, 2, rpc, "AngleAccuracy", why);
+  if (!accuracy) return std::nullopt;
+  auto time = LongAt(v, 3, rpc, "AngleTime", why);
+  if (!time) return std::nullopt;
+  auto cross = DoubleAt(v, 4, rpc, "CrossIncline", why);
+  if (!cross) return std::nullopt;
+  auto length = DoubleAt(v, 5, rpc, "LengthIncline", why);
+  if (!length) return std::nullopt;
+  auto incline_accuracy = DoubleAt(v, 6, rpc, "InclineAccuracy", why);
+  if (!incline_accuracy) return std::nullopt;
+  auto incline_time = LongAt(v, 7, rpc, "InclineTime", why);
+  if (!incline_time) return std::nullopt;
+  auto face = LongAt(v, 8, rpc, "Face", why);
+  if (!face) return std::nullopt;
+  if (*face != 0 && *face != 1) {
+    if (why) *why = "TMC_GetAngle1: value 9 (Face): expected 0 or 1, got '" + v[8] + "'";
+    return std::nullopt;
+  }
+  a = {*hz, *vertical, *accuracy, *time, *cross, *length, *incline_accuracy, *incline_time, *face};
+  return a;
+}
+
+std::vector<std::string> EncodeValues(const AngleSimple& a) {
+  return {EncodeDouble(a.hz_rad, kAngleDigits), EncodeDouble(a.v_rad, kAngleDigits)};
+}
+
+std::optional<AngleSimple> DecodeAngleSimple(const std::vector<std::string>& v,
+                                             std::string* why) {
+  auto hz = DoubleAt(v, 0, "TMC_GetAngle5", "Hz", why);
+  if (!hz) return std::nullopt;
+  auto vertical = DoubleAt(v, 1, "TMC_GetAngle5", "V", why);
+  if (!vertical) return std::nullopt;
+  return AngleSimple{*hz, *vertical};
+}
+
+std::vector<std::string> EncodeValues(const SimpleMeasurement& m) {
+  std::vector<std::string> out = {EncodeDouble(m.hz_rad, kAngleDigits),
+                                  EncodeDouble(m.v_rad, kAngleDigits)};
+  if (m.slope_distance_m) out.push_back(EncodeDouble(*m.slope_distance_m, kDistanceDigits));
+  return out;
+}
+
+std::optional<SimpleMeasurement> DecodeSimpleMeasurement(const std::vector<std::string>& v,
+                                                         std::string* why) {
+  constexpr std::string_view rpc = "TMC_GetSimpleMea";
+  auto hz = DoubleAt(v, 0, rpc, "Hz", why);
+  if (!hz) return std::nullopt;
+  auto vertical = DoubleAt(v, 1, rpc, "V", why);
+  if (!vertical) return std::nullopt;
+  SimpleMeasurement m{*hz, *vertical, std::nullopt};
+  if (v.size() > 2) {
+    m.slope_distance_m = DoubleAt(v, 2, rpc, "SlopeDistance", why);
+    if (!m.slope_distance_m) return std::nullopt;
+  }
+  return m;
+}
+
+std::vector<std::string> EncodeValues(const DistanceAngle& d) {
+  return {EncodeDouble(d.hz_rad, kAngleDigits), EncodeDouble(d.v_rad, kAngleDigits),
+          EncodeDouble(d.slope_distance_m, kDistanceDigits), EncodeLong(d.dist_mode)};
+}
+
+std::optional<DistanceAngle> DecodeDistanceAngle(const std::vector<std::string>& v,
+                                                 std::string* why) {
+  constexpr std::string_view rpc = "BAP_MeasDistanceAngle";
+  auto hz = DoubleAt(v, 0, rpc, "Hz", why);
+  if (!hz) return std::nullopt;
+  auto vertical = DoubleAt(v, 1, rpc, "V", why);
+  if (!vertical) return std::nullopt;
+  auto distance = DoubleAt(v, 2, rpc, "SlopeDistance", why);
+  if (!distance) return std::nullopt;
+  auto mode = LongAt(v, 3, rpc, "DistMode", why);
+  if (!mode) return std::nullopt;
+  return DistanceAngle{*hz, *vertical, *distance, *mode};
+}
+
+std::vector<std::string> EncodeValues(const Version& v) {
+  return {EncodeLong(v.release), EncodeLong(v.version), EncodeLong(v.subversion)};
+}
+
+std::optional<Version> DecodeVersion(const std::vector<std::string>& v, std::string* why) {
+  constexpr std::string_view rpc = "GetSWVersion";
+  auto release = LongAt(v, 0, rpc, "Release", why);
+  if (!release) return std::nullopt;
+  auto version = LongAt(v, 1, rpc, "Version", why);
+  if (!version) return std::nullopt;
+  auto sub = LongAt(v, 2, rpc, "Subversion", why);
+  if (!sub) return std::nullopt;
+  return Version{*release, *version, *sub};
+}
+
+std::optional<std::string> DecodeStringValue(const std::vector<std::string>& values,
+                                             std::string_view what, std::string* why) {
+  return ValueAt<std::string>(values, 0, what, "value", "a quoted string", DecodeString, why);
+}
+
+std::optional<long> DecodeLongValue(const std::vector<std::string>& values, std::string_view what,
+                                    std::string* why) {
+  return LongAt(values, 0, what, "value", why);
 }
 
 std::optional<double> DecodeDouble(std::string_view text) {
@@ -332,6 +525,7 @@ const std::map<int, CodeInfo>& Codes() {
       {3085, {"COM_FAILED", "communication failed"}},
       {3093, {"COM_TR_ID_MISMATCH", "transaction id mismatch"}},
       {3094, {"COM_NOT_GEOCOM", "not a GeoCOM reply"}},
+      {3100, {"COM_OVERRUN", "line longer than the maximum"}},
       {3101, {"COM_SRVR_RX_CHECKSUM_ERROR", "instrument received a bad checksum"}},
       {3102, {"COM_CLNT_RX_CHECKSUM_ERROR", "reply had a bad checksum"}},
       {3107, {"COM_CONS_REQ", "request sent before the previous reply: retry"}},

@@ -1,8 +1,12 @@
 #include "instruments/geocom_device.h"
 
+#include <spdlog/spdlog.h>
+
+#include <algorithm>
 #include <cmath>
 #include <numbers>
-#include <thread>
+
+#include "instruments/line_retry.h"
 
 namespace armsig::instruments {
 
@@ -10,7 +14,9 @@ using geocom::CodeClass;
 
 GeoComDevice::GeoComDevice(std::unique_ptr<LineTransport> transport, RetryPolicy policy,
                            bool use_crc)
-    : transport_(std::move(transport)), policy_(policy), use_crc_(use_crc) {}
+    : transport_(std::move(transport)), policy_(policy), use_crc_(use_crc) {
+  transport_->SetMaxLineBytes(geocom::kMaxLineBytes);
+}
 
 int GeoComDevice::NextTransactionId() {
   trid_ = (trid_ + 1) % 32768;  // 0…32767, then back to 0
@@ -19,44 +25,57 @@ int GeoComDevice::NextTransactionId() {
 }
 
 geocom::Reply GeoComDevice::Call(int rpc, const std::vector<std::string>& params) {
+  return Call(rpc, params, CallDeadline());
+}
+
+geocom::Reply GeoComDevice::Call(int rpc, const std::vector<std::string>& params,
+                                 Deadline deadline) {
   ++stats_.requests;
-  std::string last_error = "no attempt";
+  const auto start = Clock::now();
+  std::string last_error = "no attempt before the deadline";
   int last_code = 3077;
-  for (int attempt = 0; attempt < policy_.attempts; ++attempt) {
+  // This call's transaction ids: a late reply to an earlier attempt of the same request
+  // is still its reply (a slow instrument is not asked twice for nothing).
+  std::vector<int> sent;
+  int attempt = 0;
+  for (; attempt < policy_.attempts && Clock::now() < deadline; ++attempt) {
     if (attempt > 0) ++stats_.retries;
+    const Deadline until = AttemptDeadline(deadline, policy_.attempts - attempt);
+    int stale = 0;
     try {
       if (!transport_->IsOpen()) {
         transport_->Open();
         ++stats_.reconnects;
-        transport_->Drain(std::chrono::milliseconds(20));
+        transport_->Drain(Millis(20), until);
       }
       const int trid = NextTransactionId();
-      transport_->Write(geocom::EncodeRequest({rpc, trid, params}, use_crc_), policy_.timeout);
-      const auto deadline = std::chrono::steady_clock::now() + policy_.timeout;
+      sent.push_back(trid);
+      transport_->Write(geocom::EncodeRequest({rpc, trid, params}, use_crc_), until);
       bool retry = false;
       while (!retry) {
-        const auto left =
-            std::chrono::duration_cast<Millis>(deadline - std::chrono::steady_clock::now());
-        if (left.count() <= 0) {
-          throw TransportError(TransportError::Kind::kTimeout, name(), "no matching reply in time");
-        }
-        const std::string line = transport_->ReadLine(left);
-        const auto parsed = geocom::ParseReply(line);
+        const std::string line = transport_->ReadLine(until);
+        const auto parsed = geocom::ParseReply(line, use_crc_);
         if (parsed.error == geocom::ParseError::kNotAFrame ||
             parsed.error == geocom::ParseError::kMalformed) {
-          ++stats_.noise_lines;  // garbage on the line: skip it
+          ++stats_.noise_lines;  // garbage on the line: skip it (the deadline still runs)
+          spdlog::debug("{}: skipped a line that is no GeoCOM reply: {}", name(), parsed.why);
           continue;
         }
-        if (parsed.error == geocom::ParseError::kBadCrc) {
+        if (parsed.error == geocom::ParseError::kBadCrc ||
+            parsed.error == geocom::ParseError::kMissingCrc) {
           ++stats_.crc_errors;
-          last_error = "reply failed its CRC check";
-          last_code = 3102;
+          const bool missing = parsed.error == geocom::ParseError::kMissingCrc;
+          last_error = (missing ? "reply without a CRC on a CRC link: "
+                                : "reply failed its CRC check: ") +
+                       parsed.why;
+          last_code = missing ? 3110 : 3102;  // COM_NO_CHECKSUM, COM_CLNT_RX_CHECKSUM_ERROR
           retry = true;
           break;
         }
         const geocom::Reply& reply = *parsed.reply;
-        if (reply.trid != trid) {
+        if (std::find(sent.begin(), sent.end(), reply.trid) == sent.end()) {
           ++stats_.stale_replies;  // a late reply to an earlier request
+          ++stale;
           continue;
         }
         const int code = reply.rc_com != 0 ? reply.rc_com : reply.rc;
@@ -64,7 +83,7 @@ geocom::Reply GeoComDevice::Call(int rpc, const std::vector<std::string>& params
           ++stats_.busy;
           last_error = geocom::CodeName(code) + ": " + geocom::CodeMeaning(code);
           last_code = code;
-          std::this_thread::sleep_for(policy_.busy_delay);
+          transport_->Pause(policy_.busy_delay, deadline);
           retry = true;
           break;
         }
@@ -83,98 +102,119 @@ geocom::Reply GeoComDevice::Call(int rpc, const std::vector<std::string>& params
         return reply;
       }
     } catch (const TransportError& e) {
-      last_error = e.what();
-      last_code = e.kind() == TransportError::Kind::kTimeout ? 3077 : 3085;
-      if (e.kind() == TransportError::Kind::kTimeout) {
-        // A late reply may still arrive: it will be dropped by its transaction id.
-        continue;
+      if (e.kind() == TransportError::Kind::kInterrupted) throw;
+      last_error = e.message();
+      last_code = CodeOf(e);
+      if (e.kind() == TransportError::Kind::kTimeout && stale > 0) {
+        last_error = std::to_string(stale) + " replies carried other transaction ids than " +
+                     std::to_string(sent.back());
+        last_code = 3093;  // COM_TR_ID_MISMATCH
       }
-      transport_->Close();
-      std::this_thread::sleep_for(policy_.reconnect_delay);
+      // A timeout: a late reply may still arrive and will be dropped by its transaction
+      // id. An over-long line: what is left of it (a flood's bytes still in the port)
+      // is drained, for a short while, so the next attempt starts on a clean line. A
+      // lost port: reopen after a pause.
+      if (e.kind() == TransportError::Kind::kLineTooLong) {
+        ++stats_.long_lines;
+        try {
+          transport_->Drain(Millis(50), std::min(deadline, Clock::now() + kMaxDrain));
+        } catch (const TransportError& d) {
+          if (d.kind() == TransportError::Kind::kInterrupted) throw;
+          transport_->Close();
+        }
+      } else if (e.kind() != TransportError::Kind::kTimeout) {
+        transport_->Close();
+        transport_->Pause(policy_.reconnect_delay, deadline);
+      }
     }
   }
   throw InstrumentError(name(), last_code,
-                        "RPC " + std::to_string(rpc) + " failed after " +
-                            std::to_string(policy_.attempts) + " attempts: " + last_error);
+                        "RPC " + std::to_string(rpc) + ": " + geocom::CodeName(last_code) + ": " +
+                            GaveUp(attempt, start, last_error));
 }
 
 DeviceInfo GeoComDevice::Identify() {
-  DeviceInfo info;
-  auto text = [&](int rpc) {
-    const auto r = Call(rpc, {});
+  const Deadline deadline = CallDeadline();  // the three RPCs share one deadline
+  auto values = [&](int rpc) {
+    const auto r = Call(rpc, {}, deadline);
     if (r.rc != 0) throw InstrumentError(name(), r.rc, geocom::CodeName(r.rc));
     return r.values;
   };
-  auto name_values = text(geocom::rpc::kGetInstrumentName);
-  if (name_values.empty() || !geocom::DecodeString(name_values[0])) {
-    throw InstrumentError(name(), 3074, "CSV_GetInstrumentName: expected a quoted name");
-  }
-  info.name = *geocom::DecodeString(name_values[0]);
-  auto serial = text(geocom::rpc::kGetInstrumentNo);
-  if (serial.empty() || !geocom::DecodeLong(serial[0])) {
-    throw InstrumentError(name(), 3074, "CSV_GetInstrumentNo: expected a number");
-  }
-  info.serial = std::to_string(*geocom::DecodeLong(serial[0]));
-  auto firmware = text(geocom::rpc::kGetFirmwareVersion);
-  if (firmware.size() < 3)
-    throw InstrumentError(name(), 3074, "CSV_GetSWVersion: expected 3 numbers");
-  info.firmware = firmware[0] + "." + firmware[1] + "." + firmware[2];
+  std::string why;
+  auto decoded = [&](auto value) {
+    if (!value) throw InstrumentError(name(), 3074, why);
+    return *value;
+  };
+  DeviceInfo info;
+  info.name = decoded(geocom::DecodeStringValue(values(geocom::rpc::kGetInstrumentName),
+                                                "CSV_GetInstrumentName", &why));
+  info.serial = std::to_string(decoded(geocom::DecodeLongValue(
+      values(geocom::rpc::kGetInstrumentNo), "CSV_GetInstrumentNo", &why)));
+  const auto firmware =
+      decoded(geocom::DecodeVersion(values(geocom::rpc::kGetFirmwareVersion), &why));
+  info.firmware = std::to_string(firmware.release) + "." + std::to_string(firmware.version) + "." +
+                  std::to_string(firmware.subversion);
   return info;
 }
 
-Reading GeoComDevice::ToReading(const geocom::Reply& reply, int hz_index, int v_index,
-                                int distance_index, int face_index) {
-  const CodeClass cls = geocom::Classify(reply.rc);
-  if (cls == CodeClass::kError) {
+void GeoComDevice::ThrowIfNoData(const geocom::Reply& reply) const {
+  if (geocom::Classify(reply.rc) == CodeClass::kError) {
     throw InstrumentError(name(), reply.rc,
                           geocom::CodeName(reply.rc) + ": " + geocom::CodeMeaning(reply.rc));
   }
-  auto number = [&](int index, const char* what) {
-    if (index >= static_cast<int>(reply.values.size())) {
-      throw InstrumentError(name(), 3074, std::string("reply has no ") + what);
-    }
-    auto v = geocom::DecodeDouble(reply.values[index]);
-    if (!v)
-      throw InstrumentError(
-          name(), 3074, std::string("cannot decode ") + what + " '" + reply.values[index] + "'");
-    return *v;
-  };
+}
+
+Reading GeoComDevice::StartReading(const geocom::Reply& reply) const {
   Reading r;
   r.time = std::chrono::system_clock::now();
   r.return_code = reply.rc;
   if (reply.rc != 0) r.note = geocom::CodeName(reply.rc) + ": " + geocom::CodeMeaning(reply.rc);
-  r.angles.hz_rad = number(hz_index, "Hz");
-  r.angles.v_rad = number(v_index, "V");
-  if (face_index >= 0) {
-    r.angles.face = number(face_index, "face") == 1.0 ? 2 : 1;
-  } else {
-    r.angles.face = r.angles.v_rad > std::numbers::pi ? 2 : 1;
-  }
-  // Angles-only codes: the distance is not valid even if a number is present.
-  if (distance_index >= 0 && cls != CodeClass::kAnglesOnly) {
-    const double metres = number(distance_index, "slope distance");
-    if (metres > 0) r.distance_mm = metres * 1000.0;
-  }
   return r;
 }
 
 Reading GeoComDevice::MeasureAngles() {
-  // TMC_GetAngle1: Hz, V, AngleAccuracy, AngleTime, CrossIncl, LengthIncl, InclAccuracy, InclTime,
-  // Face.
-  return ToReading(Call(geocom::rpc::kGetAngleComplete, {"1"}), 0, 1, -1, 8);
+  const auto reply = Call(geocom::rpc::kGetAngleComplete, {"1"});
+  ThrowIfNoData(reply);
+  std::string why;
+  const auto a = geocom::DecodeAngleComplete(reply.values, &why);
+  if (!a) throw InstrumentError(name(), 3074, why);
+  CheckAngles(name(), a->hz_rad, a->v_rad);
+  Reading r = StartReading(reply);
+  r.angles = {a->hz_rad, a->v_rad, a->face == 1 ? 2 : 1};
+  return r;
 }
 
 Reading GeoComDevice::MeasureAnglesSimple() {
-  return ToReading(Call(geocom::rpc::kGetAngleSimple, {"1"}), 0, 1, -1, -1);
+  const auto reply = Call(geocom::rpc::kGetAngleSimple, {"1"});
+  ThrowIfNoData(reply);
+  std::string why;
+  const auto a = geocom::DecodeAngleSimple(reply.values, &why);
+  if (!a) throw InstrumentError(name(), 3074, why);
+  CheckAngles(name(), a->hz_rad, a->v_rad);
+  Reading r = StartReading(reply);
+  r.angles = {a->hz_rad, a->v_rad, a->v_rad > std::numbers::pi ? 2 : 1};
+  return r;
 }
 
 Reading GeoComDevice::MeasureDistanceAndAngles() {
-  const auto start = Call(geocom::rpc::kDoMeasure, {"1", "1"});  // DEF_DIST, AUTO_INC
-  if (geocom::Classify(start.rc) == CodeClass::kError) {
-    throw InstrumentError(name(), start.rc,
-                          geocom::CodeName(start.rc) + ": " + geocom::CodeMeaning(start.rc));
+  const Deadline deadline = CallDeadline();  // both RPCs share one deadline
+  const auto start = Call(geocom::rpc::kDoMeasure, {"1", "1"}, deadline);  // DEF_DIST, AUTO_INC
+  ThrowIfNoData(start);
+  const auto reply = Call(geocom::rpc::kGetSimpleMea, {"5000", "1"}, deadline);
+  ThrowIfNoData(reply);
+  std::string why;
+  const auto m = geocom::DecodeSimpleMeasurement(reply.values, &why);
+  if (!m) throw InstrumentError(name(), 3074, why);
+  CheckAngles(name(), m->hz_rad, m->v_rad);
+  Reading r = StartReading(reply);
+  r.angles = {m->hz_rad, m->v_rad, m->v_rad > std::numbers::pi ? 2 : 1};
+  // Angles-only codes: the distance is not valid even if a number is present.
+  if (geocom::Classify(reply.rc) != CodeClass::kAnglesOnly) {
+    if (!m->slope_distance_m)
+      throw InstrumentError(name(), 3074, "TMC_GetSimpleMea: reply has no slope distance");
+    CheckDistance(name(), *m->slope_distance_m * 1000.0);
+    if (*m->slope_distance_m > 0) r.distance_mm = *m->slope_distance_m * 1000.0;
   }
-  Reading r = ToReading(Call(geocom::rpc::kGetSimpleMea, {"5000", "1"}), 0, 1, 2, -1);
   if (!r.distance_mm && r.return_code == 0) {
     throw InstrumentError(name(), 1292, "TMC_DIST_ERROR: no distance in the reply");
   }
@@ -183,8 +223,11 @@ Reading GeoComDevice::MeasureDistanceAndAngles() {
 
 int GeoComDevice::Face() {
   const auto r = Call(geocom::rpc::kGetFace, {});
-  if (r.rc != 0 || r.values.empty()) throw InstrumentError(name(), r.rc, "TMC_GetFace failed");
-  return r.values[0] == "1" ? 2 : 1;
+  if (r.rc != 0) throw InstrumentError(name(), r.rc, "TMC_GetFace failed: " + geocom::CodeName(r.rc));
+  std::string why;
+  const auto face = geocom::DecodeLongValue(r.values, "TMC_GetFace", &why);
+  if (!face) throw InstrumentError(name(), 3074, why);
+  return *face == 1 ? 2 : 1;
 }
 
 void GeoComDevice::ChangeFace() {
@@ -195,9 +238,12 @@ void GeoComDevice::ChangeFace() {
 
 bool GeoComDevice::CompensatorOn() {
   const auto r = Call(geocom::rpc::kGetInclineSwitch, {});
-  if (r.rc != 0 || r.values.empty())
-    throw InstrumentError(name(), r.rc, "TMC_GetInclineSwitch failed");
-  return r.values[0] == "1";
+  if (r.rc != 0)
+    throw InstrumentError(name(), r.rc, "TMC_GetInclineSwitch failed: " + geocom::CodeName(r.rc));
+  std::string why;
+  const auto on = geocom::DecodeLongValue(r.values, "TMC_GetInclineSwitch", &why);
+  if (!on) throw InstrumentError(name(), 3074, why);
+  return *on == 1;
 }
 
 void GeoComDevice::FineAdjust(double search_hz_rad, double search_v_rad) {

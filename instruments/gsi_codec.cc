@@ -4,6 +4,7 @@
 #include <cmath>
 #include <cstdio>
 #include <numbers>
+#include <stdexcept>
 
 namespace armsig::instruments::gsi {
 
@@ -178,61 +179,242 @@ std::string Identifier(const Word& w) {
 
 std::optional<int> BlockNumber(const Word& w) {
   if (w.wi != 11 && w.wi != 41) return std::nullopt;
-  if (!AllDigits(w.aux)) return std::nullopt;
-  return std::stoi(w.aux);
+  auto v = Integer(w.aux);
+  if (!v) return std::nullopt;
+  return static_cast<int>(*v);
+}
+
+std::string FormatWord(const Word& w) {
+  const size_t width = w.gsi16 ? 16 : 8;
+  if (w.data.size() != width) {
+    throw std::invalid_argument("GSI word " + std::to_string(w.wi) + ": data '" + w.data +
+                                "' is not " + std::to_string(width) + " characters");
+  }
+  if (w.sign != '+' && w.sign != '-')
+    throw std::invalid_argument("GSI word " + std::to_string(w.wi) + ": sign must be '+' or '-'");
+  std::string index = std::to_string(w.wi);
+  if (w.wi == 11 || w.wi == 41) {
+    // Positions 3–6 carry the block number.
+    if (w.aux.size() != 4)
+      throw std::invalid_argument("GSI word " + index + ": block number must be 4 characters");
+    return index + w.aux + w.sign + w.data + ' ';
+  }
+  if (w.wi < 0 || index.size() > 3)
+    throw std::invalid_argument("GSI word index " + index + " does not fit in 3 positions");
+  if (w.aux.size() != 2)
+    throw std::invalid_argument("GSI word " + index + ": auxiliary information must be 2 characters");
+  while (index.size() < 3) index += '.';
+  return index + w.aux + w.unit + w.sign + w.data + ' ';
+}
+
+std::string FormatBlock(const Block& block) {
+  std::string out = block.gsi16 ? "*" : "";
+  for (const auto& w : block.words) out += FormatWord(w);
+  return out;
+}
+
+std::string FormatFile(const std::vector<Block>& blocks) {
+  std::string out;
+  for (const auto& b : blocks) out += FormatBlock(b) + "\r\n";
+  return out;
 }
 
 namespace {
-std::string Compose(int wi, std::string_view aux2, char unit, char sign, std::string_view digits,
-                    bool gsi16) {
-  std::string index = std::to_string(wi);
-  while (index.size() < 3) index += '.';
-  std::string data(digits);
+
+// A non-negative magnitude as the zero-filled data field of a word.
+std::string DataDigits(int wi, unsigned long long magnitude, bool gsi16) {
   const size_t width = gsi16 ? 16 : 8;
-  if (data.size() > width) data = data.substr(data.size() - width);
-  while (data.size() < width) data = "0" + data;
-  return (gsi16 ? "" : "") + index + std::string(aux2) + unit + sign + data + ' ';
+  std::string digits = std::to_string(magnitude);
+  if (digits.size() > width) {
+    throw std::out_of_range("GSI word " + std::to_string(wi) + ": " + digits + " needs " +
+                            std::to_string(digits.size()) + " digits, a GSI-" +
+                            std::to_string(width) + " word has " + std::to_string(width));
+  }
+  return std::string(width - digits.size(), '0') + digits;
 }
+
+Word ValueWord(int wi, char unit, double value, double scaled_magnitude, bool gsi16) {
+  if (!(scaled_magnitude < 1e17))  // also NaN and infinity
+    throw std::out_of_range("GSI word " + std::to_string(wi) + ": " + std::to_string(value) +
+                            " is not finite or does not fit in a word");
+  const unsigned long long magnitude = std::llround(scaled_magnitude);
+  Word w;
+  w.wi = wi;
+  w.aux = "..";
+  w.unit = unit;
+  w.sign = value < 0 && magnitude != 0 ? '-' : '+';
+  w.gsi16 = gsi16;
+  w.data = DataDigits(wi, magnitude, gsi16);
+  return w;
+}
+
 }  // namespace
 
-std::string EncodeAngleWord(int wi, double rad, bool gsi16, char unit) {
-  while (rad < 0) rad += 2 * kPi;
-  long long value = 0;
-  if (unit == '3') {
-    value = std::llround(rad * 180.0 / kPi * 1e5);
-  } else if (unit == '4') {
-    const long long tenths_total = std::llround(rad * 180.0 / kPi * 36000.0);
-    const long long degrees = tenths_total / 36000, rest = tenths_total % 36000;
-    value = degrees * 100000 + (rest / 600) * 1000 + ((rest % 600) / 10) * 10 + rest % 10;
-  } else {
-    unit = '2';
-    value = std::llround(rad * 200.0 / kPi * 1e5);
+Word AngleWord(int wi, double rad, bool gsi16, char unit) {
+  const double a = std::abs(rad);
+  switch (unit) {
+    case '2':
+      return ValueWord(wi, unit, rad, a * 200.0 / kPi * 1e5, gsi16);
+    case '3':
+      return ValueWord(wi, unit, rad, a * 180.0 / kPi * 1e5, gsi16);
+    case '4': {  // DDDMMSSs
+      if (!(a < 1e6)) throw std::out_of_range("GSI word " + std::to_string(wi) + ": angle out of range");
+      const long long tenths = std::llround(a * 180.0 / kPi * 36000.0);
+      const long long degrees = tenths / 36000, rest = tenths % 36000;
+      const double packed = static_cast<double>(degrees * 100000 + (rest / 600) * 1000 +
+                                                ((rest % 600) / 10) * 10 + rest % 10);
+      return ValueWord(wi, unit, rad, packed, gsi16);
+    }
+    case '5':
+      return ValueWord(wi, unit, rad, a * 6400.0 / (2.0 * kPi) * 1e4, gsi16);
+    default:
+      throw std::invalid_argument(std::string("GSI unit '") + unit +
+                                  "' is not an angle unit (2, 3, 4 or 5)");
   }
-  return Compose(wi, "..", unit, '+', std::to_string(value), gsi16);
 }
 
-std::string EncodeLengthWord(int wi, double mm, bool gsi16, char unit) {
-  double scale = 1.0;
-  if (unit == '6')
-    scale = 10.0;
-  else if (unit == '8')
-    scale = 100.0;
-  else
-    unit = '0';
-  const long long value = std::llround(std::abs(mm) * scale);
-  return Compose(wi, "..", unit, mm < 0 ? '-' : '+', std::to_string(value), gsi16);
+Word LengthWord(int wi, double mm, bool gsi16, char unit) {
+  constexpr double kFootMm = 304.8;
+  const double a = std::abs(mm);
+  switch (unit) {
+    case '0':
+      return ValueWord(wi, unit, mm, a, gsi16);
+    case '1':
+      return ValueWord(wi, unit, mm, a / kFootMm * 1000.0, gsi16);
+    case '6':
+      return ValueWord(wi, unit, mm, a * 10.0, gsi16);
+    case '7':
+      return ValueWord(wi, unit, mm, a / kFootMm * 10000.0, gsi16);
+    case '8':
+      return ValueWord(wi, unit, mm, a * 100.0, gsi16);
+    default:
+      throw std::invalid_argument(std::string("GSI unit '") + unit +
+                                  "' is not a length unit (0, 1, 6, 7 or 8)");
+  }
 }
 
-std::string EncodeTextWord(int wi, std::string_view text, bool gsi16) {
-  std::string index = std::to_string(wi);
-  while (index.size() < 2) index += '.';
+Word TextWord(int wi, std::string_view text, bool gsi16) {
   const size_t width = gsi16 ? 16 : 8;
-  std::string data(text.substr(0, width));
-  while (data.size() < width) data = "0" + data;
-  // WI 11/41 use positions 3–6 for the block number; others two '.' then unit '.'.
-  if (wi == 11 || wi == 41) return index + "0001" + '+' + data + ' ';
-  while (index.size() < 3) index += '.';
-  return index + "..." + '+' + data + ' ';
+  if (text.size() > width) {
+    throw std::out_of_range("GSI word " + std::to_string(wi) + ": '" + std::string(text) +
+                            "' is longer than " + std::to_string(width) + " characters");
+  }
+  Word w;
+  w.wi = wi;
+  w.aux = wi == 11 || wi == 41 ? "0001" : "..";
+  w.gsi16 = gsi16;
+  w.data = std::string(width - text.size(), '0') + std::string(text);
+  return w;
+}
+
+// --- GSI Online -----------------------------------------------------------------------
+
+namespace {
+
+std::string_view Trim(std::string_view s) {
+  while (!s.empty() && (s.front() == ' ' || s.front() == '\r' || s.front() == '\n'))
+    s.remove_prefix(1);
+  while (!s.empty() && (s.back() == ' ' || s.back() == '\r' || s.back() == '\n'))
+    s.remove_suffix(1);
+  return s;
+}
+
+std::optional<int> SmallInteger(std::string_view s) {
+  auto v = Integer(s);
+  if (!v || *v > 1000000) return std::nullopt;
+  return static_cast<int>(*v);
+}
+
+}  // namespace
+
+std::string FormatOnlineRequest(const OnlineRequest& q) {
+  if (q.kind == OnlineRequest::Kind::kSet)
+    return "SET/" + std::to_string(q.param) + "/" + std::to_string(q.value) + "\r\n";
+  return std::string("GET/") + q.mode + "/WI" + std::to_string(q.wi) + "\r\n";
+}
+
+std::optional<OnlineRequest> ParseOnlineRequest(std::string_view line, std::string* why) {
+  const std::string_view text = Trim(line);
+  auto fail = [&](std::string m) -> std::optional<OnlineRequest> {
+    if (why) *why = std::move(m);
+    return std::nullopt;
+  };
+  OnlineRequest q;
+  if (text.rfind("GET/", 0) == 0) {
+    if (text.size() < 9 || text[5] != '/' || text.substr(6, 2) != "WI")
+      return fail("expected GET/<I|M|C>/WI<word index>, got '" + std::string(text) + "'");
+    q.mode = text[4];
+    if (q.mode != 'I' && q.mode != 'M' && q.mode != 'C')
+      return fail("GET: expected mode I, M or C in position 5, got '" + std::string(1, q.mode) +
+                  "'");
+    auto wi = SmallInteger(text.substr(8));
+    if (!wi)
+      return fail("GET: expected a word index (digits) after WI, got '" +
+                  std::string(text.substr(8)) + "'");
+    q.wi = *wi;
+    return q;
+  }
+  if (text.rfind("SET/", 0) == 0) {
+    const size_t slash = text.find('/', 4);
+    if (slash == std::string_view::npos)
+      return fail("expected SET/<parameter>/<value>, got '" + std::string(text) + "'");
+    auto param = SmallInteger(text.substr(4, slash - 4));
+    auto value = SmallInteger(text.substr(slash + 1));
+    if (!param || !value)
+      return fail("SET: expected SET/<parameter digits>/<value digits>, got '" +
+                  std::string(text) + "'");
+    q.kind = OnlineRequest::Kind::kSet;
+    q.param = *param;
+    q.value = *value;
+    return q;
+  }
+  return fail("expected GET/… or SET/…, got '" + std::string(text) + "'");
+}
+
+std::string FormatOnlineReply(const OnlineReply& r) {
+  switch (r.kind) {
+    case OnlineReply::Kind::kAck:
+      return "?\r\n";
+    case OnlineReply::Kind::kWarning:
+      return "@W" + std::to_string(r.code) + "\r\n";
+    case OnlineReply::Kind::kError:
+      return "@E" + std::to_string(r.code) + "\r\n";
+    case OnlineReply::Kind::kWord:
+      break;
+  }
+  return (r.word.gsi16 ? "*" : "") + FormatWord(r.word) + "\r\n";
+}
+
+std::optional<OnlineReply> ParseOnlineReply(std::string_view line, std::string* why) {
+  const std::string_view text = Trim(line);
+  auto fail = [&](std::string m) -> std::optional<OnlineReply> {
+    if (why) *why = std::move(m);
+    return std::nullopt;
+  };
+  if (text.empty()) return fail("empty line");
+  OnlineReply r;
+  if (text.rfind("@E", 0) == 0 || text.rfind("@W", 0) == 0) {
+    auto code = SmallInteger(text.substr(2));
+    if (!code)
+      return fail("expected a number after " + std::string(text.substr(0, 2)) + ", got '" +
+                  std::string(text) + "'");
+    r.kind = text[1] == 'E' ? OnlineReply::Kind::kError : OnlineReply::Kind::kWarning;
+    r.code = *code;
+    return r;
+  }
+  if (text == "?") {
+    r.kind = OnlineReply::Kind::kAck;
+    return r;
+  }
+  std::string_view word = text.front() == '*' ? text.substr(1) : text;
+  auto w = ParseWord(word, word.size() >= 23, why);
+  if (!w) return std::nullopt;
+  r.word = *w;
+  return r;
+}
+
+std::string Describe(const OnlineReply& r) {
+  return std::string(Trim(FormatOnlineReply(r)));
 }
 
 }  // namespace armsig::instruments::gsi

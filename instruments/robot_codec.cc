@@ -1,10 +1,12 @@
 #include "instruments/robot_codec.h"
 
 #include <Eigen/LU>
+#include <cctype>
 #include <charconv>
 #include <cmath>
 #include <cstdio>
 #include <sstream>
+#include <stdexcept>
 
 namespace armsig::instruments {
 
@@ -104,9 +106,25 @@ std::optional<WhereReadout> ParseWhere(std::string_view text, std::string* why) 
   return out;
 }
 
-std::string FormatWhere(const Eigen::VectorXd& joints_deg, const Eigen::VectorXd& pose) {
-  std::string out = " ";
+std::string FormatWhere(const Eigen::VectorXd& joints_deg, const Eigen::VectorXd& pose,
+                        MonitorDialect dialect) {
   char buffer[32];
+  std::string out;
+  if (dialect == MonitorDialect::kValII) {
+    if (pose.size() != 6) throw std::invalid_argument("VAL II WHERE needs a 6-value pose");
+    out = "     X/JT1      Y/JT2      Z/JT3      O/JT4      A/JT5      T/JT6     HAND\r\n";
+    for (int i = 0; i < 6; ++i) {
+      std::snprintf(buffer, sizeof buffer, "%11.3f", pose(i));
+      out += buffer;
+    }
+    out += "      0.000\r\n";  // HAND opening
+    for (int i = 0; i < joints_deg.size(); ++i) {
+      std::snprintf(buffer, sizeof buffer, "%11.3f", joints_deg(i));
+      out += buffer;
+    }
+    return out + "\r\n";
+  }
+  out = " ";
   for (int i = 0; i < joints_deg.size(); ++i) {
     std::snprintf(buffer, sizeof buffer, "%9s ", ("JT" + std::to_string(i + 1)).c_str());
     out += buffer;
@@ -124,6 +142,139 @@ std::string FormatWhere(const Eigen::VectorXd& joints_deg, const Eigen::VectorXd
   return out + "\r\n";
 }
 
+namespace {
+
+std::string_view TrimLine(std::string_view s) {
+  while (!s.empty() && (s.front() == ' ' || s.front() == '\r' || s.front() == '\n'))
+    s.remove_prefix(1);
+  while (!s.empty() && (s.back() == ' ' || s.back() == '\r' || s.back() == '\n'))
+    s.remove_suffix(1);
+  return s;
+}
+
+std::string Upper(std::string_view s) {
+  std::string out(s);
+  for (char& c : out) c = static_cast<char>(std::toupper(static_cast<unsigned char>(c)));
+  return out;
+}
+
+}  // namespace
+
+std::string FormatMonitorCommand(const MonitorCommand& command) {
+  if (command.kind == MonitorCommand::Kind::kWhere) return "WHERE\r\n";
+  std::string out = "DO JMOVE #[";
+  char buffer[32];
+  for (int i = 0; i < command.joints_deg.size(); ++i) {
+    std::snprintf(buffer, sizeof buffer, "%s%.4f", i ? "," : "", command.joints_deg(i));
+    out += buffer;
+  }
+  return out + "]\r\n";
+}
+
+std::optional<MonitorCommand> ParseMonitorCommand(std::string_view line, std::string* why) {
+  auto fail = [&](std::string m) -> std::optional<MonitorCommand> {
+    if (why) *why = std::move(m);
+    return std::nullopt;
+  };
+  const std::string text = Upper(TrimLine(line));
+  MonitorCommand command;
+  if (text == "WHERE" || text == "WH" || text == "WHERE 3") return command;
+  constexpr std::string_view kJMove = "DO JMOVE #[";
+  if (text.rfind(kJMove, 0) != 0) return fail("expected WHERE or DO JMOVE #[…], got '" + text + "'");
+  if (text.back() != ']') return fail("DO JMOVE: expected ']' at the end, got '" + text + "'");
+  const std::string_view list =
+      std::string_view(text).substr(kJMove.size(), text.size() - kJMove.size() - 1);
+  std::vector<double> values;
+  size_t pos = 0;
+  while (pos <= list.size()) {
+    size_t comma = list.find(',', pos);
+    if (comma == std::string_view::npos) comma = list.size();
+    const std::string item(TrimLine(list.substr(pos, comma - pos)));
+    auto v = Number(item);
+    if (!v) {
+      return fail("DO JMOVE: joint value " + std::to_string(values.size() + 1) +
+                  ": expected a number of degrees, got '" + item + "'");
+    }
+    values.push_back(*v);
+    pos = comma + 1;
+  }
+  command.kind = MonitorCommand::Kind::kJMove;
+  command.joints_deg = Eigen::Map<Eigen::VectorXd>(values.data(), values.size());
+  return command;
+}
+
+MonitorLine ParseMonitorLine(std::string_view line) {
+  MonitorLine out;
+  while (!line.empty() && (line.back() == '\r' || line.back() == '\n')) line.remove_suffix(1);
+  const size_t start = line.find_first_not_of(' ');
+  if (start == std::string_view::npos) return out;
+  out.text = std::string(line.substr(start));
+  if (out.text == "." || out.text == ">") {
+    out.kind = MonitorLine::Kind::kPrompt;
+  } else if (out.text.rfind("(P", 0) == 0 || out.text.rfind("*", 0) == 0 ||
+             out.text.rfind("Error", 0) == 0) {
+    out.kind = MonitorLine::Kind::kError;
+    const size_t close = out.text.find(')');
+    int code = 0;
+    if (out.text.rfind("(P", 0) == 0 && close != std::string::npos) {
+      auto [p, ec] = std::from_chars(out.text.data() + 2, out.text.data() + close, code);
+      if (ec == std::errc() && p == out.text.data() + close) out.error_code = code;
+    }
+  } else {
+    out.kind = MonitorLine::Kind::kText;
+  }
+  return out;
+}
+
+std::string FormatMonitorPrompt(MonitorDialect dialect) {
+  return dialect == MonitorDialect::kValII ? ".\r\n" : ">\r\n";
+}
+
+std::string FormatMonitorError(int code, std::string_view message) {
+  return "(P" + std::to_string(code) + ")" + std::string(message) + "\r\n";
+}
+
+std::string FormatCounterRequest(const CounterRequest& q) {
+  char buffer[32];
+  if (q.value)
+    std::snprintf(buffer, sizeof buffer, "%c%02X%X\n", q.kind, q.reg, *q.value);
+  else
+    std::snprintf(buffer, sizeof buffer, "%c%02X\n", q.kind, q.reg);
+  return buffer;
+}
+
+std::optional<CounterRequest> ParseCounterRequest(std::string_view line, std::string* why) {
+  auto fail = [&](std::string m) -> std::optional<CounterRequest> {
+    if (why) *why = std::move(m);
+    return std::nullopt;
+  };
+  const std::string_view text = TrimLine(line);
+  CounterRequest q;
+  if (text.size() < 3 || (text[0] != 'R' && text[0] != 'W' && text[0] != 'S'))
+    return fail("expected R<reg>, W<reg><value> or S<reg> (reg 2 hex digits), got '" +
+                std::string(text) + "'");
+  q.kind = text[0];
+  unsigned reg = 0;
+  auto [p, ec] = std::from_chars(text.data() + 1, text.data() + 3, reg, 16);
+  if (ec != std::errc() || p != text.data() + 3)
+    return fail("expected a register of 2 hex digits after '" + std::string(1, q.kind) +
+                "', got '" + std::string(text.substr(1, 2)) + "'");
+  q.reg = static_cast<int>(reg);
+  const std::string_view rest = text.substr(3);
+  if (q.kind != 'W') {
+    if (!rest.empty())
+      return fail("unexpected '" + std::string(rest) + "' after " + std::string(text.substr(0, 3)));
+    return q;
+  }
+  uint32_t value = 0;
+  auto [vp, vec] = std::from_chars(rest.data(), rest.data() + rest.size(), value, 16);
+  if (rest.empty() || rest.size() > 8 || vec != std::errc() || vp != rest.data() + rest.size())
+    return fail("W" + std::string(text.substr(1, 2)) + ": expected a value of 1-8 hex digits, got '" +
+                std::string(rest) + "'");
+  q.value = value;
+  return q;
+}
+
 std::optional<CounterReading> ParseCounterReply(std::string_view line, std::string* why) {
   std::string compact;
   for (char c : line) {
@@ -134,10 +285,13 @@ std::optional<CounterReading> ParseCounterReply(std::string_view line, std::stri
     return std::nullopt;
   };
   if (compact.empty()) return fail("empty reply");
-  if (compact[0] == 'e') return fail("counter box error reply '" + compact + "'");
+  CounterReading r;
+  if (compact[0] == 'e') {  // the box's error reply: data, not noise
+    r.kind = 'e';
+    return r;
+  }
   if (compact.back() != '!') return fail("expected a reply ending in '!', got '" + compact + "'");
   compact.pop_back();
-  CounterReading r;
   r.kind = compact[0];
   if (r.kind != 'r' && r.kind != 'w' && r.kind != 's')
     return fail("unknown reply kind '" + compact + "'");
@@ -164,6 +318,7 @@ std::optional<CounterReading> ParseCounterReply(std::string_view line, std::stri
 }
 
 std::string FormatCounterReply(const CounterReading& r) {
+  if (r.kind == 'e') return "e!\r\n";
   char buffer[48];
   std::snprintf(buffer, sizeof buffer, "%c%02X%08X", r.kind, r.reg, static_cast<uint32_t>(r.value));
   std::string out = buffer;

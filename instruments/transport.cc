@@ -4,24 +4,84 @@
 #include <utility>  // first: Boost 1.74 Asio uses std::exchange without including it (C++20)
 #include <boost/asio.hpp>
 // clang-format on
-#include <optional>
+#include <algorithm>
+#include <thread>
 
 namespace armsig::instruments {
 
 namespace asio = boost::asio;
 
-namespace {
-
-// Extracts the next line from `buffer` (CR, LF or CR LF terminated); nullopt if none.
-std::optional<std::string> TakeLine(std::string& buffer) {
-  const size_t end = buffer.find_first_of("\r\n");
-  if (end == std::string::npos) return std::nullopt;
-  std::string line = buffer.substr(0, end);
-  size_t skip = end + 1;
-  if (buffer[end] == '\r' && skip < buffer.size() && buffer[skip] == '\n') ++skip;
-  buffer.erase(0, skip);
-  return line;
+void LineTransport::Pause(Millis delay, Deadline deadline) {
+  const Deadline end = std::min(deadline, Clock::now() + delay);
+  for (;;) {
+    if (Interrupted()) ThrowInterrupted();
+    const auto now = Clock::now();
+    if (now >= end) return;
+    std::this_thread::sleep_for(std::min<Clock::duration>(end - now, kInterruptPoll));
+  }
 }
+
+void LineTransport::ThrowInterrupted() const {
+  throw TransportError(TransportError::Kind::kInterrupted, name(), "interrupted");
+}
+
+void LineBuffer::Clear() {
+  buffer_.clear();
+  scanned_ = 0;
+  skipping_ = false;
+  skipped_ = 0;
+}
+
+void LineBuffer::Discard(const char* data, size_t size) {
+  const bool mid_line =
+      size > 0 ? data[size - 1] != '\r' && data[size - 1] != '\n'
+               : skipping_ || (!buffer_.empty() && buffer_.back() != '\r' && buffer_.back() != '\n');
+  Clear();
+  skipping_ = mid_line;
+}
+
+bool LineBuffer::Next(size_t max_bytes, std::string& line) {
+  for (;;) {
+    const size_t end = buffer_.find_first_of("\r\n", scanned_);
+    if (end == std::string::npos) {
+      if (skipping_) {
+        // Still the over-long line: each further `max_bytes` of it is another error, so
+        // an endless line fails every attempt at once instead of holding it.
+        const size_t skipped = skipped_ + buffer_.size();
+        Clear();
+        skipping_ = true;
+        skipped_ = skipped;
+        if (skipped_ > max_bytes) {
+          skipped_ = 0;
+          throw std::length_error("line longer than " + std::to_string(max_bytes) + " bytes");
+        }
+        return false;
+      }
+      scanned_ = buffer_.size();
+      if (buffer_.size() > max_bytes) {
+        Clear();
+        skipping_ = true;
+        throw std::length_error("line longer than " + std::to_string(max_bytes) + " bytes");
+      }
+      return false;
+    }
+    const bool tail = skipping_;
+    const bool too_long = end > max_bytes;
+    line.assign(buffer_, 0, end);
+    buffer_.erase(0, end + 1);
+    scanned_ = 0;
+    skipping_ = false;
+    skipped_ = 0;
+    if (tail) continue;  // the rest of an over-long line
+    if (too_long) {
+      line.clear();
+      throw std::length_error("line longer than " + std::to_string(max_bytes) + " bytes");
+    }
+    return true;
+  }
+}
+
+namespace {
 
 template <typename Stream>
 class AsioLineTransport : public LineTransport {
@@ -31,12 +91,12 @@ class AsioLineTransport : public LineTransport {
   void Close() override {
     boost::system::error_code ignored;
     stream_.close(ignored);
-    buffer_.clear();
+    buffer_.Clear();
   }
   bool IsOpen() const override { return stream_.is_open(); }
   const std::string& name() const override { return name_; }
 
-  void Write(std::string_view data, Millis timeout) override {
+  void Write(std::string_view data, Deadline deadline) override {
     if (!stream_.is_open())
       throw TransportError(TransportError::Kind::kClosed, name_, "port is not open");
     boost::system::error_code ec;
@@ -46,80 +106,102 @@ class AsioLineTransport : public LineTransport {
                         ec = e;
                         done = true;
                       });
-    Run(timeout, done);
-    if (!done) throw TransportError(TransportError::Kind::kTimeout, name_, "write timed out");
+    const Wait why = Run(deadline, done);
+    if (ec == asio::error::operation_aborted || !done) {
+      if (why == Wait::kInterrupted) ThrowInterrupted();
+      throw TransportError(TransportError::Kind::kTimeout, name_, "write not done by the deadline");
+    }
     if (ec) Fail(ec, "write failed");
   }
 
-  std::string ReadLine(Millis timeout) override {
-    const auto deadline = std::chrono::steady_clock::now() + timeout;
+  std::string ReadLine(Deadline deadline) override {
+    std::string line;
     for (;;) {
-      while (auto line = TakeLine(buffer_)) {
-        if (!line->empty()) return *line;
+      try {
+        while (buffer_.Next(max_line_bytes(), line)) {
+          if (!line.empty()) return line;
+        }
+      } catch (const std::length_error& e) {
+        throw TransportError(TransportError::Kind::kLineTooLong, name_, e.what());
       }
-      const auto now = std::chrono::steady_clock::now();
-      if (now >= deadline) {
+      if (Clock::now() >= deadline) {
         throw TransportError(TransportError::Kind::kTimeout, name_,
-                             "no reply within " + std::to_string(timeout.count()) + " ms");
+                             "no complete line by the deadline");
       }
-      ReadSome(std::chrono::duration_cast<Millis>(deadline - now) + Millis(1));
+      buffer_.Append(chunk_, ReadSome(deadline));
     }
   }
 
-  int Drain(Millis quiet) override {
+  int Drain(Millis quiet, Deadline until) override {
     int bytes = static_cast<int>(buffer_.size());
-    buffer_.clear();
+    buffer_.Discard(nullptr, 0);
     if (!stream_.is_open()) return bytes;
-    try {
-      for (;;) bytes += ReadSome(quiet, /*keep=*/false);
-    } catch (const TransportError& e) {
-      if (e.kind() != TransportError::Kind::kTimeout) throw;
+    while (Clock::now() < until) {
+      size_t n = 0;
+      try {
+        n = ReadSome(std::min(until, Clock::now() + quiet));
+      } catch (const TransportError& e) {
+        if (e.kind() != TransportError::Kind::kTimeout) throw;
+        break;  // quiet
+      }
+      buffer_.Discard(chunk_, n);
+      bytes += static_cast<int>(n);
     }
     return bytes;
   }
 
  protected:
-  // Runs the io_context until `done` or the timeout; on timeout cancels the operation.
-  void Run(Millis timeout, bool& done) {
+  enum class Wait { kDone, kDeadline, kInterrupted };
+
+  // Runs the io_context until `done`, the deadline or an interrupt; an operation still
+  // pending then is cancelled and its handler run before returning.
+  Wait Run(Deadline deadline, bool& done) {
     io_.restart();
-    asio::steady_timer timer(io_);
-    bool expired = false;
-    timer.expires_after(timeout);
-    timer.async_wait([&](const boost::system::error_code& e) {
-      if (!e && !done) {
-        expired = true;
-        boost::system::error_code ignored;
-        stream_.cancel(ignored);
+    Wait why = Wait::kDone;
+    while (!done) {
+      if (Interrupted()) {
+        why = Wait::kInterrupted;
+        break;
       }
-    });
-    while (!done && io_.run_one() > 0) {
+      const auto now = Clock::now();
+      if (now >= deadline) {
+        why = Wait::kDeadline;
+        break;
+      }
+      io_.run_one_until(std::min(deadline, now + kInterruptPoll));
     }
-    timer.cancel();
-    io_.run();  // let the cancelled handlers finish
-    if (expired && !done) done = false;
+    if (!done) {
+      boost::system::error_code ignored;
+      stream_.cancel(ignored);
+      io_.restart();
+      while (!done && io_.run_one() > 0) {
+      }
+    }
+    io_.restart();
+    io_.poll();  // handlers that were already due
+    return why;
   }
 
-  int ReadSome(Millis timeout, bool keep = true) {
+  // Reads what arrives by `deadline` into chunk_; returns the number of bytes.
+  size_t ReadSome(Deadline deadline) {
     if (!stream_.is_open())
       throw TransportError(TransportError::Kind::kClosed, name_, "port is not open");
-    char chunk[512];
     boost::system::error_code ec;
     size_t n = 0;
     bool done = false;
-    stream_.async_read_some(asio::buffer(chunk),
+    stream_.async_read_some(asio::buffer(chunk_),
                             [&](const boost::system::error_code& e, size_t count) {
                               ec = e;
                               n = count;
                               done = true;
                             });
-    Run(timeout, done);
+    const Wait why = Run(deadline, done);
     if (ec == asio::error::operation_aborted || !done) {
-      throw TransportError(TransportError::Kind::kTimeout, name_,
-                           "no data within " + std::to_string(timeout.count()) + " ms");
+      if (why == Wait::kInterrupted) ThrowInterrupted();
+      throw TransportError(TransportError::Kind::kTimeout, name_, "no data by the deadline");
     }
     if (ec) Fail(ec, "read failed");
-    if (keep) buffer_.append(chunk, n);
-    return static_cast<int>(n);
+    return n;
   }
 
   [[noreturn]] void Fail(const boost::system::error_code& ec, const std::string& what) {
@@ -134,7 +216,8 @@ class AsioLineTransport : public LineTransport {
   std::string name_;
   asio::io_context io_;
   Stream stream_;
-  std::string buffer_;
+  LineBuffer buffer_;
+  char chunk_[512];
 };
 
 class SerialTransport : public AsioLineTransport<asio::serial_port> {
@@ -199,7 +282,11 @@ class TcpTransport : public AsioLineTransport<asio::ip::tcp::socket> {
       ec = e;
       done = true;
     });
-    Run(timeout_, done);
+    const Wait why = Run(Clock::now() + timeout_, done);
+    if (why == Wait::kInterrupted && (!done || ec)) {
+      Close();
+      ThrowInterrupted();
+    }
     if (!done || ec) {
       Close();
       throw TransportError(TransportError::Kind::kOpen, name_,
@@ -225,24 +312,31 @@ std::unique_ptr<LineTransport> MakeTcpTransport(const std::string& host, unsigne
   return std::make_unique<TcpTransport>(host, port, connect_timeout);
 }
 
-void FakeTransport::Write(std::string_view data, Millis) {
+void FakeTransport::Write(std::string_view data, Deadline) {
+  if (Interrupted()) ThrowInterrupted();
   if (!open_) throw TransportError(TransportError::Kind::kClosed, name_, "port is not open");
   written_.emplace_back(data);
-  pending_ += responder_(data);
+  const std::string reply = responder_(data);
+  pending_.Append(reply.data(), reply.size());
 }
 
-std::string FakeTransport::ReadLine(Millis timeout) {
+std::string FakeTransport::ReadLine(Deadline) {
+  if (Interrupted()) ThrowInterrupted();
   if (!open_) throw TransportError(TransportError::Kind::kClosed, name_, "port is not open");
-  while (auto line = TakeLine(pending_)) {
-    if (!line->empty()) return *line;
+  std::string line;
+  try {
+    while (pending_.Next(max_line_bytes(), line)) {
+      if (!line.empty()) return line;
+    }
+  } catch (const std::length_error& e) {
+    throw TransportError(TransportError::Kind::kLineTooLong, name_, e.what());
   }
-  throw TransportError(TransportError::Kind::kTimeout, name_,
-                       "no reply within " + std::to_string(timeout.count()) + " ms");
+  throw TransportError(TransportError::Kind::kTimeout, name_, "no complete line by the deadline");
 }
 
-int FakeTransport::Drain(Millis) {
+int FakeTransport::Drain(Millis, Deadline) {
   const int n = static_cast<int>(pending_.size());
-  pending_.clear();
+  pending_.Clear();
   return n;
 }
 

@@ -1,6 +1,7 @@
 #include "io/atomic_file.h"
 
 #include <fcntl.h>
+#include <sys/stat.h>
 #include <unistd.h>
 
 #include <cerrno>
@@ -14,31 +15,111 @@
 
 namespace armsig::io {
 
+namespace {
+
+// The process's umask without changing it (umask(2) can only set it, which would race with
+// other threads creating files): Linux reports it in /proc/self/status.
+mode_t CurrentUmask() {
+  std::ifstream status("/proc/self/status");
+  std::string line;
+  while (std::getline(status, line)) {
+    if (line.rfind("Umask:", 0) == 0)
+      return static_cast<mode_t>(std::stoul(line.substr(6), nullptr, 8));
+  }
+  return 022;
+}
+
+}  // namespace
+
 void WriteFileAtomically(const std::string& path, std::string_view content) {
-  const std::string tmp = path + ".tmp." + std::to_string(::getpid());
-  const int fd = ::open(tmp.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0644);
+  // The temporary file gets a name nobody can guess and is created with O_EXCL (mkostemp),
+  // so a symlink or file planted in the folder is never followed or overwritten: a job
+  // running as root cannot be made to write anywhere but `path`.
+  std::string tmp = path + ".tmp.XXXXXX";
+  const int fd = ::mkostemp(tmp.data(), O_CLOEXEC);
   if (fd < 0) {
     throw std::runtime_error(path + ": cannot write (" + std::strerror(errno) + ")");
   }
+  auto fail = [&](const std::string& what) {
+    const std::string reason = std::strerror(errno);
+    ::close(fd);
+    ::unlink(tmp.c_str());
+    throw std::runtime_error(path + ": " + what + " (" + reason + ")");
+  };
+  // mkostemp creates the file 0600; an output file is readable like any other (umask'ed
+  // 0644 as open(2) would have made it).
+  const mode_t mask = CurrentUmask();
+  if (::fchmod(fd, 0644 & ~mask) != 0) fail("cannot set the file mode");
   size_t written = 0;
   while (written < content.size()) {
     const ssize_t n = ::write(fd, content.data() + written, content.size() - written);
     if (n < 0) {
       if (errno == EINTR) continue;
-      const std::string reason = std::strerror(errno);
-      ::close(fd);
-      ::unlink(tmp.c_str());
-      throw std::runtime_error(path + ": write failed (" + reason + ")");
+      fail("write failed");
     }
     written += static_cast<size_t>(n);
   }
-  ::fsync(fd);
-  ::close(fd);
+  if (::fsync(fd) != 0) fail("cannot flush to disk");
+  if (::close(fd) != 0) {
+    const std::string reason = std::strerror(errno);
+    ::unlink(tmp.c_str());
+    throw std::runtime_error(path + ": write failed (" + reason + ")");
+  }
   if (::rename(tmp.c_str(), path.c_str()) != 0) {
     const std::string reason = std::strerror(errno);
     ::unlink(tmp.c_str());
     throw std::runtime_error(path + ": cannot rename into place (" + reason + ")");
   }
+  // The rename itself survives a power cut once the folder is flushed.
+  const std::string folder = std::filesystem::path(path).parent_path().string();
+  const int dir = ::open(folder.empty() ? "." : folder.c_str(), O_RDONLY | O_DIRECTORY | O_CLOEXEC);
+  if (dir >= 0) {
+    ::fsync(dir);
+    ::close(dir);
+  }
+}
+
+namespace {
+
+std::string ParentOf(const std::string& path) {
+  const std::filesystem::path parent = std::filesystem::path(path).parent_path();
+  return parent.empty() ? std::string(".") : parent.string();
+}
+
+void CheckWritableFolder(const std::string& folder, const std::string& path,
+                         const std::string& option) {
+  std::error_code error;
+  if (!std::filesystem::is_directory(folder, error)) {
+    throw InputError({option, 0, 0, ""}, "cannot write " + path + ": folder " + folder +
+                                             " does not exist (nothing was stored)");
+  }
+  if (::access(folder.c_str(), W_OK) != 0) {
+    throw InputError({option, 0, 0, ""}, "cannot write " + path + ": folder " + folder +
+                                             " is not writable (nothing was stored)");
+  }
+}
+
+}  // namespace
+
+void CheckOutputFile(const std::string& path, const std::string& option) {
+  std::error_code error;
+  if (std::filesystem::is_directory(path, error)) {
+    throw InputError({option, 0, 0, ""},
+                     path + " is a folder; expected a file name (nothing was stored)");
+  }
+  CheckWritableFolder(ParentOf(path), path, option);
+}
+
+void CheckOutputDirectory(const std::string& path, const std::string& option) {
+  std::error_code error;
+  if (std::filesystem::is_directory(path, error)) {
+    CheckWritableFolder(path, path, option);
+    return;
+  }
+  if (std::filesystem::exists(path, error)) {
+    throw InputError({option, 0, 0, ""}, path + " exists and is not a folder (nothing was stored)");
+  }
+  CheckWritableFolder(ParentOf(path), path, option);
 }
 
 std::string ReadWholeFile(const std::string& path) {

@@ -30,7 +30,60 @@ std::string_view Trim(std::string_view s) {
   return s;
 }
 
+bool AllDigits(std::string_view s) {
+  return !s.empty() && s.find_first_not_of("0123456789") == std::string_view::npos;
+}
+
+// "12" or "-12": what is left before the comma of a split "12,5".
+bool IntegerPart(std::string_view s) {
+  if (!s.empty() && (s.front() == '-' || s.front() == '+')) s.remove_prefix(1);
+  return AllDigits(s);
+}
+
+// "5" or "5e-3": what is left after the comma of a split "12,5".
+bool FractionPart(std::string_view s) {
+  const size_t e = s.find_first_of("eE");
+  if (e == std::string_view::npos) return AllDigits(s);
+  std::string_view exponent = s.substr(e + 1);
+  if (!exponent.empty() && (exponent.front() == '-' || exponent.front() == '+'))
+    exponent.remove_prefix(1);
+  return AllDigits(s.substr(0, e)) && AllDigits(exponent);
+}
+
+constexpr const char* kDecimalCommaHint =
+    "a decimal comma needs ';' or tab as the delimiter; with ',' numbers use a decimal point";
+
+// A comma-separated row with more fields than the header: when exactly as many field
+// pairs look like a number split at its decimal comma ("12" then "5") as there are
+// extra fields, the first such pair is named.
+[[noreturn]] void ThrowFieldCount(const std::string& source, const CsvRow& row, size_t expected,
+                                  char delimiter) {
+  const std::string counts = "expected " + std::to_string(expected) +
+                             " fields as in the header, found " + std::to_string(row.fields.size());
+  if (delimiter != ',' || row.fields.size() <= expected) {
+    throw InputError({source, row.line, 0, ""}, counts);
+  }
+  std::vector<size_t> splits;
+  for (size_t c = 0; c + 1 < row.fields.size(); ++c) {
+    if (IntegerPart(row.fields[c]) && FractionPart(row.fields[c + 1])) {
+      splits.push_back(c);
+      ++c;  // "1,5,2,5": pairs do not overlap
+    }
+  }
+  if (splits.size() == row.fields.size() - expected) {
+    const int column = static_cast<int>(splits.front()) + 1;
+    throw InputError({source, row.line, column, ""}, counts + ": '" + row.fields[splits.front()] +
+                                                         "," + row.fields[splits.front() + 1] +
+                                                         "' looks like a decimal comma (" +
+                                                         kDecimalCommaHint + ")");
+  }
+  throw InputError({source, row.line, 0, ""},
+                   counts + " (a decimal comma? " + std::string(kDecimalCommaHint) + ")");
+}
+
 }  // namespace
+
+bool DecimalCommaAllowed(char delimiter) { return delimiter == ';' || delimiter == '\t'; }
 
 std::optional<double> ParseNumber(std::string_view text, bool decimal_comma) {
   text = Trim(text);
@@ -66,6 +119,11 @@ CsvTable ParseCsv(std::string_view text, std::string source, CsvOptions options)
   if (text.starts_with("\xEF\xBB\xBF")) text.remove_prefix(3);
 
   // Split into records, honouring quotes (a quoted field may span lines).
+  if (options.delimiter != '\0' && options.delimiter != ',' && options.delimiter != ';' &&
+      options.delimiter != '\t') {
+    throw InputError({source, 0, 0, ""}, std::string("unsupported delimiter '") +
+                                             options.delimiter + "' (expected ',', ';' or tab)");
+  }
   std::vector<CsvRow> records;
   int line = 1;
   size_t i = 0;
@@ -153,14 +211,11 @@ CsvTable ParseCsv(std::string_view text, std::string source, CsvOptions options)
                        "empty column name in the header");
     }
   }
+  if (delimiter == '\0') delimiter = ',';
   for (const CsvRow& row : records) {
-    if (row.fields.size() != header.size()) {
-      throw InputError({source, row.line, 0, ""}, "expected " + std::to_string(header.size()) +
-                                                      " fields as in the header, found " +
-                                                      std::to_string(row.fields.size()));
-    }
+    if (row.fields.size() != header.size()) ThrowFieldCount(source, row, header.size(), delimiter);
   }
-  options.delimiter = delimiter == '\0' ? ',' : delimiter;
+  options.delimiter = delimiter;
   return CsvTable(std::move(source), std::move(header), std::move(records), options);
 }
 
@@ -212,10 +267,13 @@ SourceLocation CsvTable::Where(const CsvRow& row, int column) const {
 
 double CsvTable::Number(const CsvRow& row, int column) const {
   const std::string& field = row.fields.at(column);
-  if (auto v = ParseNumber(field, options_.decimal_comma)) return *v;
-  throw InputError(Where(row, column), field.empty()
-                                           ? "expected a number, the field is empty"
-                                           : "expected a finite number, got '" + field + "'");
+  if (auto v = ParseNumber(field, decimal_comma())) return *v;
+  if (field.empty()) throw InputError(Where(row, column), "expected a number, the field is empty");
+  if (!decimal_comma() && ParseNumber(field, true)) {
+    throw InputError(Where(row, column),
+                     "expected a finite number, got '" + field + "' (" + kDecimalCommaHint + ")");
+  }
+  throw InputError(Where(row, column), "expected a finite number, got '" + field + "'");
 }
 
 std::optional<double> CsvTable::OptionalNumber(const CsvRow& row, int column) const {
@@ -223,8 +281,24 @@ std::optional<double> CsvTable::OptionalNumber(const CsvRow& row, int column) co
   return Number(row, column);
 }
 
-double CsvTable::AngleRad(const CsvRow& row, const AngleColumn& column) const {
-  return ToRad(Number(row, column.index), column.unit);
+double CsvTable::Number(const CsvRow& row, int column, plausible::Quantity quantity,
+                        plausible::Unit unit) const {
+  const double value = Number(row, column);
+  if (auto why = plausible::Check(quantity, value, unit))
+    throw InputError(Where(row, column), *why);
+  return value * unit.to_internal;
+}
+
+std::optional<double> CsvTable::OptionalNumber(const CsvRow& row, int column,
+                                               plausible::Quantity quantity,
+                                               plausible::Unit unit) const {
+  if (Trim(row.fields.at(column)).empty()) return std::nullopt;
+  return Number(row, column, quantity, unit);
+}
+
+double CsvTable::AngleRad(const CsvRow& row, const AngleColumn& column,
+                          plausible::Quantity quantity) const {
+  return Number(row, column.index, quantity, plausible::UnitOf(column.unit));
 }
 
 int CsvTable::Integer(const CsvRow& row, int column) const {
@@ -239,6 +313,12 @@ int CsvTable::Integer(const CsvRow& row, int column) const {
 
 const std::string& CsvTable::Text(const CsvRow& row, int column) const {
   return row.fields.at(column);
+}
+
+const std::string& CsvTable::Name(const CsvRow& row, int column) const {
+  const std::string& text = row.fields.at(column);
+  if (auto why = plausible::CheckName(text)) throw InputError(Where(row, column), *why);
+  return text;
 }
 
 }  // namespace armsig::io

@@ -1,6 +1,10 @@
-// The shared CSV reader: every command reads its CSV input through it.
-// Understands quoted fields ("" escapes), CRLF and CR line ends, a UTF-8 BOM, any
-// single-character delimiter, decimal commas, and the SPEC's unit suffixes.
+// The shared CSV reader: every command reads its CSV input through it, so every reader
+// follows one dialect rule and gives the same messages:
+// - the delimiter is ',', ';' or tab, detected from the header line (or given);
+// - a decimal comma ("1,5") is accepted only when the delimiter is ';' or tab; in a
+//   comma-separated file it is refused with file:line:column and that reason;
+// - quoted fields ("" escapes, may span lines), CRLF and CR line ends, a UTF-8 BOM,
+//   '#' comment lines, and the SPEC's unit suffixes.
 #pragma once
 
 #include <optional>
@@ -9,15 +13,18 @@
 #include <vector>
 
 #include "core/error.h"
+#include "core/plausibility.h"
 #include "core/units.h"
 
 namespace armsig::io {
 
 struct CsvOptions {
-  char delimiter = ',';            // '\0' = guess from the header line (',', ';' or tab)
-  bool decimal_comma = false;      // "1,5" is 1.5 (needs a delimiter other than ',')
+  char delimiter = '\0';           // ',', ';' or '\t'; '\0' = detect from the header line
   bool skip_comment_lines = true;  // lines starting with '#'
 };
+
+// Whether numbers may use a decimal comma with this delimiter (';' or tab).
+bool DecimalCommaAllowed(char delimiter);
 
 struct CsvRow {
   int line = 0;  // 1-based line number in the file (of the row's first line)
@@ -38,6 +45,8 @@ class CsvTable {
   const std::string& source() const { return source_; }
   const std::vector<std::string>& header() const { return header_; }
   const std::vector<CsvRow>& rows() const { return rows_; }
+  char delimiter() const { return options_.delimiter; }
+  bool decimal_comma() const { return DecimalCommaAllowed(options_.delimiter); }
 
   std::optional<int> FindColumn(std::string_view name) const;
   // Throws InputError naming the file and the expected column.
@@ -50,9 +59,20 @@ class CsvTable {
   double Number(const CsvRow& row, int column) const;
   // nullopt when the field is empty; throws when it is not a finite number.
   std::optional<double> OptionalNumber(const CsvRow& row, int column) const;
-  double AngleRad(const CsvRow& row, const AngleColumn& column) const;
+  // A finite number that is also a plausible `quantity` given in `unit`
+  // (core/plausibility.h); throws InputError naming the range otherwise.
+  double Number(const CsvRow& row, int column, plausible::Quantity quantity,
+                plausible::Unit unit = plausible::kMm) const;
+  std::optional<double> OptionalNumber(const CsvRow& row, int column, plausible::Quantity quantity,
+                                       plausible::Unit unit = plausible::kMm) const;
+  // An angle in rad from a column with a unit suffix; always a plausible angle (joint
+  // angles within ±720 deg, others within two turns).
+  double AngleRad(const CsvRow& row, const AngleColumn& column,
+                  plausible::Quantity quantity = plausible::Quantity::kAngle) const;
   int Integer(const CsvRow& row, int column) const;
   const std::string& Text(const CsvRow& row, int column) const;
+  // An id or name: ≤ 64 bytes, no control characters (plausible::CheckName).
+  const std::string& Name(const CsvRow& row, int column) const;
 
   SourceLocation Where(const CsvRow& row, int column) const;
 
@@ -64,6 +84,9 @@ class CsvTable {
 };
 
 // Parses CSV text; `source` names it in messages. The first non-comment line is the header.
+// Throws InputError for a delimiter other than ',', ';' or tab, and for a row whose
+// field count differs from the header's (naming the likely decimal comma in a
+// comma-separated file).
 CsvTable ParseCsv(std::string_view text, std::string source, CsvOptions options = {});
 // Reads and parses a file; throws InputError when it cannot be read.
 CsvTable ReadCsvFile(const std::string& path, CsvOptions options = {});

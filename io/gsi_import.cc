@@ -12,6 +12,36 @@
 
 namespace armsig::io {
 
+namespace {
+
+// A circle reading of `word` (Hz or V) in [0, full circle] in the word's own unit, else
+// an InputError naming file, line, column, the value and the expected range.
+void CheckCircleReading(const instruments::gsi::Word& word, double rad, const SourceLocation& where,
+                        const char* what) {
+  if (rad >= 0.0 && rad <= 2.0 * kPi) return;
+  const char* unit = "gon";
+  double per_rad = 200.0 / kPi, circle = 400.0;
+  switch (word.unit) {
+    case '3':
+    case '4':
+      unit = "deg";
+      per_rad = 180.0 / kPi;
+      circle = 360.0;
+      break;
+    case '5':
+      unit = "mil";
+      per_rad = 3200.0 / kPi;
+      circle = 6400.0;
+      break;
+    default:
+      break;
+  }
+  throw InputError(where, fmt::format("{} = {:.5f} {} is no circle reading: expected 0 to {} {}",
+                                      what, rad * per_rad, unit, circle, unit));
+}
+
+}  // namespace
+
 GsiImport ImportGsi(const std::string& path, const std::string& station) {
   namespace gsi = instruments::gsi;
   const auto file = gsi::ParseFile(ReadWholeFile(path));
@@ -45,6 +75,8 @@ GsiImport ImportGsi(const std::string& path, const std::string& station) {
     if (!hz_rad) throw InputError(where(*hz, "WI21"), why);
     auto v_rad = gsi::AngleRad(*v, &why);
     if (!v_rad) throw InputError(where(*v, "WI22"), why);
+    CheckCircleReading(*hz, *hz_rad, where(*hz, "WI21"), "Hz");
+    CheckCircleReading(*v, *v_rad, where(*v, "WI22"), "V (zenith angle)");
     o.reading = {WrapTwoPi(*hz_rad), *v_rad, *v_rad > kPi ? 2 : 1};
     if (distance) {
       auto mm = gsi::LengthMm(*distance, &why);

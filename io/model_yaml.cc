@@ -13,9 +13,13 @@ namespace {
 using calibration::NongeometricTerm;
 using calibration::RobotModel;
 
-// A 4x4 homogeneous transform with a rotation in its upper-left 3x3.
-Eigen::Isometry3d Transform(const YamlValue& value) {
+// A 4x4 homogeneous transform with a rotation in its upper-left 3x3. `translation`:
+// kLength for a link (a 1e19 mm link is a typo, not a robot), kCoordinate for the base
+// (the robot in the measuring frame, which may be a survey grid).
+Eigen::Isometry3d Transform(const YamlValue& value, plausible::Quantity translation) {
   const Eigen::Matrix4d m = value.Matrix(4, 4);
+  const std::vector<YamlValue> rows = value.List();
+  for (int r = 0; r < 3; ++r) rows[r].List()[3].Plausible(translation);
   if ((m.row(3) - Eigen::RowVector4d(0, 0, 0, 1)).norm() > 1e-9) {
     value.Fail("expected a homogeneous transform (last row 0 0 0 1)");
   }
@@ -31,14 +35,15 @@ Eigen::Isometry3d Transform(const YamlValue& value) {
 // One DH row {d_mm, a_mm, alpha_deg | alpha_gon | alpha_rad}.
 Eigen::Isometry3d DhRow(const YamlValue& value) {
   const YamlMap row = value.Map({"d_mm", "a_mm", "alpha_deg", "alpha_gon", "alpha_rad"});
-  const double d = row.Has("d_mm") ? row.Find("d_mm")->Number() : 0.0;
-  const double a = row.Has("a_mm") ? row.Find("a_mm")->Number() : 0.0;
+  using plausible::Quantity;
+  const double d = row.Has("d_mm") ? row.Find("d_mm")->Plausible(Quantity::kLength) : 0.0;
+  const double a = row.Has("a_mm") ? row.Find("a_mm")->Plausible(Quantity::kLength) : 0.0;
   std::optional<double> alpha;
   for (AngleUnit unit : {AngleUnit::kDeg, AngleUnit::kGon, AngleUnit::kRad}) {
     const std::string key = "alpha" + std::string(AngleUnitSuffix(unit));
     if (const auto given = row.Find(key)) {
       if (alpha) given->Fail("give one of alpha_deg, alpha_gon, alpha_rad");
-      alpha = ToRad(given->Number(), unit);
+      alpha = ToRad(given->Plausible(Quantity::kAngle, plausible::UnitOf(unit)), unit);
     }
   }
   if (!alpha) row.Fail("missing 'alpha_deg' (or alpha_gon, alpha_rad)");
@@ -53,7 +58,7 @@ Eigen::Isometry3d DhRow(const YamlValue& value) {
 NongeometricTerm Term(const YamlValue& value, int num_joints) {
   const YamlMap map = value.Map({"name", "joint", "basis", "of", "value_rad"});
   NongeometricTerm term;
-  term.name = map.Required("name", "the term's parameter name").Text();
+  term.name = map.Required("name", "the term's parameter name").Name();
   term.joint = map.Required("joint", "the joint number it adds to").Integer(1, num_joints) - 1;
   const YamlValue basis = map.Required("basis", "cos or sign_cos");
   const std::string b = basis.Text();
@@ -67,7 +72,10 @@ NongeometricTerm Term(const YamlValue& value, int num_joints) {
   for (const YamlValue& j : map.Required("of", "a list of joint numbers").List(1)) {
     term.of.push_back(j.Integer(1, num_joints) - 1);
   }
-  if (const auto fixed = map.Find("value_rad")) term.fixed_rad = fixed->Number();
+  if (const auto fixed = map.Find("value_rad")) {
+    term.fixed_rad =
+        fixed->Plausible(plausible::Quantity::kAngle, plausible::UnitOf(AngleUnit::kRad));
+  }
   return term;
 }
 
@@ -75,12 +83,12 @@ RobotModel Parse(const YamlValue& root_value) {
   const YamlMap root = root_value.Map(
       {"name", "base", "links", "dh", "tool_mm", "nongeometric", "joint_limits_deg"});
   RobotModel model;
-  model.name = root.Has("name") ? root.Find("name")->Text() : "robot";
+  model.name = root.Has("name") ? root.Find("name")->Name() : "robot";
 
   if (const auto base = root.Find("base");
       base && !(base->IsScalar() && base->node().Scalar() == "auto")) {
     if (!base->IsList()) base->Fail("expected 'auto' or a 4x4 matrix, got " + base->Describe());
-    model.base = Transform(*base);
+    model.base = Transform(*base, plausible::Quantity::kCoordinate);
   }
 
   Eigen::Isometry3d folded_tool = Eigen::Isometry3d::Identity();
@@ -88,7 +96,7 @@ RobotModel Parse(const YamlValue& root_value) {
   const auto dh = root.Find("dh");
   if (links && dh) dh->Fail("give either 'links' or 'dh', not both");
   if (links) {
-    for (const YamlValue& link : links->List(1)) model.links.push_back(Transform(link));
+    for (const YamlValue& link : links->List(1)) model.links.push_back(Transform(link, plausible::Quantity::kLength));
   } else if (dh) {
     std::vector<Eigen::Isometry3d> rows;
     for (const YamlValue& row : dh->List(1)) rows.push_back(DhRow(row));
@@ -99,7 +107,7 @@ RobotModel Parse(const YamlValue& root_value) {
   }
 
   const Eigen::Vector3d tool =
-      root.Has("tool_mm") ? root.Find("tool_mm")->Vector3() : Eigen::Vector3d::Zero();
+      root.Has("tool_mm") ? root.Find("tool_mm")->Vector3(plausible::Quantity::kLength) : Eigen::Vector3d::Zero();
   model.tool_mm = folded_tool * tool;
 
   const int n = model.num_joints();
@@ -123,6 +131,9 @@ RobotModel Parse(const YamlValue& root_value) {
     }
     for (const YamlValue& pair : pairs) {
       const std::vector<double> lo_hi = pair.Numbers(2);
+      for (const YamlValue& limit : pair.List()) {
+        limit.Plausible(plausible::Quantity::kJointAngle, plausible::UnitOf(AngleUnit::kDeg));
+      }
       if (!(lo_hi[0] < lo_hi[1])) pair.Fail("expected [min, max] with min < max");
       model.joint_min_rad.push_back(ToRad(lo_hi[0], AngleUnit::kDeg));
       model.joint_max_rad.push_back(ToRad(lo_hi[1], AngleUnit::kDeg));
@@ -134,11 +145,11 @@ RobotModel Parse(const YamlValue& root_value) {
 }  // namespace
 
 calibration::RobotModel ParseRobotModel(const std::string& yaml_text, const std::string& source) {
-  return Parse(YamlDocument::Parse(yaml_text, source).Root());
+  return YamlDocument::Parse(yaml_text, source).Read(Parse);
 }
 
 calibration::RobotModel LoadRobotModel(const std::string& path) {
-  return Parse(YamlDocument::Load(path).Root());
+  return YamlDocument::Load(path).Read(Parse);
 }
 
 }  // namespace armsig::io

@@ -30,6 +30,9 @@ std::vector<reduction::Observation> ReadObservationsCsv(const std::string& path)
     o.station = t.Text(row, station);
     if (o.point.empty()) throw InputError(t.Where(row, point), "expected a point id");
     if (o.station.empty()) throw InputError(t.Where(row, station), "expected a station id");
+    t.Name(row, point);
+    t.Name(row, station);
+    using plausible::Quantity;
     o.reading.hz_rad = t.AngleRad(row, hz);
     o.reading.v_rad = t.AngleRad(row, v);
     if (o.reading.v_rad < 0 || o.reading.v_rad > 2 * kPi) {
@@ -43,21 +46,19 @@ std::vector<reduction::Observation> ReadObservationsCsv(const std::string& path)
       o.reading.face = o.reading.v_rad > kPi ? 2 : 1;  // SPEC: V > 200 gon is face II
     }
     if (distance) {
-      o.distance_mm = t.OptionalNumber(row, *distance);
+      o.distance_mm = t.OptionalNumber(row, *distance, Quantity::kLength);
       if (o.distance_mm && !(*o.distance_mm > 0)) {
         throw InputError(t.Where(row, *distance), "expected a positive distance");
       }
     }
-    auto sigma = [&](std::optional<int> column, double unit) {
+    auto sigma = [&](std::optional<int> column, Quantity quantity, plausible::Unit unit) {
       if (!column) return std::numeric_limits<double>::quiet_NaN();
-      const auto value = t.OptionalNumber(row, *column);
-      if (!value) return std::numeric_limits<double>::quiet_NaN();
-      if (!(*value > 0)) throw InputError(t.Where(row, *column), "expected a positive sigma");
-      return *value * unit;
+      const auto value = t.OptionalNumber(row, *column, quantity, unit);
+      return value ? *value : std::numeric_limits<double>::quiet_NaN();
     };
-    o.sigma_hz_rad = sigma(s_hz, kRadPerArcsec);
-    o.sigma_v_rad = sigma(s_v, kRadPerArcsec);
-    o.sigma_distance_mm = sigma(s_d, 1.0);
+    o.sigma_hz_rad = sigma(s_hz, Quantity::kSigmaAngle, plausible::kArcsec);
+    o.sigma_v_rad = sigma(s_v, Quantity::kSigmaAngle, plausible::kArcsec);
+    o.sigma_distance_mm = sigma(s_d, Quantity::kSigmaLength, plausible::kMm);
     o.source_line = row.line;
     out.push_back(std::move(o));
   }
@@ -78,9 +79,10 @@ reduction::Station StationFrom(const YamlValue& value, std::set<std::string>& id
                  "sigma_rotation_arcsec"});
   reduction::Station s;
   const YamlValue id = map.Required("id", "the station id");
-  s.pose.id = id.Text();
+  s.pose.id = id.Name();
   if (!ids.insert(s.pose.id).second) id.Fail("duplicate station id '" + s.pose.id + "'");
-  s.pose.position_mm = map.Required("position_mm", "[x, y, z] in mm").Vector3();
+  s.pose.position_mm =
+      map.Required("position_mm", "[x, y, z] in mm").Vector3(plausible::Quantity::kCoordinate);
 
   std::optional<YamlValue> orientation;  // the key that oriented the station
   for (AngleUnit unit : {AngleUnit::kGon, AngleUnit::kDeg, AngleUnit::kRad}) {
@@ -91,7 +93,8 @@ reduction::Station StationFrom(const YamlValue& value, std::set<std::string>& id
                       ": give one of azimuth_gon, azimuth_deg, azimuth_rad");
       }
       s.pose.levelled = true;
-      s.pose.azimuth_rad = ToRad(azimuth->Number(), unit);
+      s.pose.azimuth_rad =
+          ToRad(azimuth->Plausible(plausible::Quantity::kAngle, plausible::UnitOf(unit)), unit);
       s.pose.world_from_station = reduction::LevelledRotation(s.pose.azimuth_rad);
       orientation = azimuth;
     }
@@ -114,13 +117,14 @@ reduction::Station StationFrom(const YamlValue& value, std::set<std::string>& id
              ": expected azimuth_gon, azimuth_deg, azimuth_rad or rotation");
   }
 
+  using plausible::Quantity;
   if (const auto v = map.Find("sigma_hz_arcsec"))
-    s.sigma_hz_rad = v->PositiveNumber() * kRadPerArcsec;
+    s.sigma_hz_rad = v->Plausible(Quantity::kSigmaAngle, plausible::kArcsec) * kRadPerArcsec;
   if (const auto v = map.Find("sigma_v_arcsec"))
-    s.sigma_v_rad = v->PositiveNumber() * kRadPerArcsec;
+    s.sigma_v_rad = v->Plausible(Quantity::kSigmaAngle, plausible::kArcsec) * kRadPerArcsec;
   // The precision an orientation reported (FormatStationsYaml writes it).
   if (const auto v = map.Find("sigma_position_mm")) {
-    s.sigma_position_mm = v->Vector3();
+    s.sigma_position_mm = v->Vector3(Quantity::kLength);
     if (!(s.sigma_position_mm.minCoeff() >= 0)) v->Fail("expected sigmas ≥ 0");
   }
   if (const auto v = map.Find("sigma_azimuth_arcsec")) {
@@ -144,8 +148,9 @@ std::vector<reduction::Station> ParseStationsList(const YamlValue& list) {
 
 std::vector<reduction::Station> ParseStationsYaml(const std::string& text,
                                                   const std::string& source) {
-  const YamlDocument doc = YamlDocument::Parse(text, source);
-  return ParseStationsList(doc.Root().Map({"stations"}).Required("stations", "a list of stations"));
+  return YamlDocument::Parse(text, source).Read([](const YamlValue& root) {
+    return ParseStationsList(root.Map({"stations"}).Required("stations", "a list of stations"));
+  });
 }
 
 std::vector<reduction::Station> ReadStationsYaml(const std::string& path) {
@@ -208,15 +213,18 @@ std::vector<reduction::ControlPoint> ReadControlCsv(const std::string& path) {
   std::set<std::string> ids;
   for (const CsvRow& row : t.rows()) {
     reduction::ControlPoint c;
-    c.id = t.Text(row, point);
+    c.id = t.Name(row, point);
     if (!ids.insert(c.id).second) {
       throw InputError(t.Where(row, point), "duplicate control point '" + c.id + "'");
     }
-    c.position_mm = {t.Number(row, x), t.Number(row, y), t.Number(row, z)};
+    using plausible::Quantity;
+    c.position_mm = {t.Number(row, x, Quantity::kCoordinate),
+                     t.Number(row, y, Quantity::kCoordinate),
+                     t.Number(row, z, Quantity::kCoordinate)};
     if (sx && sy && sz && !t.Text(row, *sx).empty()) {
-      c.sigma_mm = Eigen::Vector3d(t.Number(row, *sx), t.Number(row, *sy), t.Number(row, *sz));
-      if (!(c.sigma_mm->minCoeff() > 0))
-        throw InputError(t.Where(row, *sx), "expected positive sigmas");
+      c.sigma_mm = Eigen::Vector3d(t.Number(row, *sx, Quantity::kSigmaLength),
+                                   t.Number(row, *sy, Quantity::kSigmaLength),
+                                   t.Number(row, *sz, Quantity::kSigmaLength));
     }
     out.push_back(std::move(c));
   }
@@ -235,8 +243,9 @@ reduction::ScaleBar ParseScaleBar(const std::string& text, double sigma_mm) {
   bar.from = text.substr(0, colon);
   bar.to = text.substr(colon + 1, equals - colon - 1);
   const auto length = ParseNumber(text.substr(equals + 1));
-  if (!length || !(*length > 0)) {
-    throw InputError({"--scale-bar", 0, 0, ""}, "'" + text + "': expected a positive length in mm");
+  if (!length || !(*length > 0) || !plausible::IsPlausible(plausible::Quantity::kLength, *length)) {
+    throw InputError({"--scale-bar", 0, 0, ""},
+                     "'" + text + "': expected a positive length in mm (at most 1 km)");
   }
   bar.length_mm = *length;
   bar.sigma_mm = sigma_mm;
@@ -250,9 +259,9 @@ std::string FormatPointsCsv(const std::vector<TriangulatedPoint>& points) {
   for (const auto& p : points) {
     const auto& r = p.result;
     out += CsvEscape(p.id);
-    if (r.status != reduction::IntersectionStatus::kOk) {
-      out += fmt::format(",,,,{},,,,,,,,,,,,,{}: {}\n", r.rays.size(), ToString(r.status),
-                         CsvEscape(r.reason));
+    if (!r.status.ok()) {
+      out += fmt::format(",,,,{},,,,,,,,,,,,,{}: {}\n", r.rays.size(), ToString(r.flags),
+                         CsvEscape(r.status.message));
       continue;
     }
     const auto e = reduction::EllipsoidOf(r.covariance_mm2);
@@ -271,7 +280,7 @@ std::string FormatPointsCsv(const std::vector<TriangulatedPoint>& points) {
         std::sqrt(r.covariance_mm2(0, 0)), std::sqrt(r.covariance_mm2(1, 1)),
         std::sqrt(r.covariance_mm2(2, 2)), r.sigma0, r.dof, r.rejected, r.max_miss_mm,
         e.semi_axes_mm(0), e.semi_axes_mm(1), e.semi_axes_mm(2), max_w, residuals,
-        r.blunder_suspected ? "blunder_suspected" : (r.rejected ? "blunder_rejected" : "ok"));
+        r.flags.empty() ? std::string("ok") : ToString(r.flags));
   }
   return out;
 }

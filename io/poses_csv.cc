@@ -25,12 +25,18 @@ std::vector<MeasuredPose> ReadPosesCsv(const std::string& path, int num_joints) 
     MeasuredPose pose;
     pose.id = table.Text(row, id_col);
     if (pose.id.empty()) throw InputError(table.Where(row, id_col), "expected a pose id");
+    table.Name(row, id_col);
     if (!ids.insert(pose.id).second) {
       throw InputError(table.Where(row, id_col), "duplicate pose id '" + pose.id + "'");
     }
     pose.joints_rad.resize(num_joints);
-    for (int i = 0; i < num_joints; ++i) pose.joints_rad(i) = table.AngleRad(row, q[i]);
-    pose.target_in_world = {table.Number(row, x), table.Number(row, y), table.Number(row, z)};
+    using plausible::Quantity;
+    for (int i = 0; i < num_joints; ++i) {
+      pose.joints_rad(i) = table.AngleRad(row, q[i], Quantity::kJointAngle);
+    }
+    pose.target_in_world = {table.Number(row, x, Quantity::kCoordinate),
+                            table.Number(row, y, Quantity::kCoordinate),
+                            table.Number(row, z, Quantity::kCoordinate)};
     poses.push_back(std::move(pose));
   }
   if (poses.empty())
@@ -75,27 +81,36 @@ std::vector<MeasuredPose> ImportPoses(const std::string& path, const PoseImportO
   if (options.xyz_columns.size() != 3) throw InputError("expected three position columns (--xyz)");
   CsvOptions csv;
   csv.delimiter = options.delimiter;
-  csv.decimal_comma = options.decimal_comma;
   const CsvTable table = ReadCsvFile(path, csv);
+  if (options.decimal_comma && !table.decimal_comma()) {
+    throw InputError({path, 1, 0, ""},
+                     "decimal commas were asked for, but the file is comma-separated (a decimal "
+                     "comma needs ';' or tab as the delimiter)");
+  }
   std::vector<int> q;
   for (const auto& name : options.joint_columns) q.push_back(table.Column(name));
   int xyz[3];
   for (int k = 0; k < 3; ++k) xyz[k] = table.Column(options.xyz_columns[k]);
   const int id_col = options.id_column.empty() ? -1 : table.Column(options.id_column);
+  // The file's length unit: mm unless --length-scale says otherwise.
+  const plausible::Unit length_unit{options.length_scale_to_mm == 1.0 ? "mm" : "(file units)",
+                                    options.length_scale_to_mm};
   std::vector<MeasuredPose> poses;
   std::set<std::string> ids;
   for (const CsvRow& row : table.rows()) {
     MeasuredPose pose;
-    pose.id = id_col >= 0 ? table.Text(row, id_col) : std::to_string(poses.size() + 1);
+    pose.id = id_col >= 0 ? table.Name(row, id_col) : std::to_string(poses.size() + 1);
     if (!ids.insert(pose.id).second) {
       throw InputError(table.Where(row, id_col), "duplicate pose id '" + pose.id + "'");
     }
     pose.joints_rad.resize(q.size());
+    using plausible::Quantity;
     for (size_t i = 0; i < q.size(); ++i) {
-      pose.joints_rad(i) = ToRad(table.Number(row, q[i]), options.joint_unit);
+      pose.joints_rad(i) =
+          table.Number(row, q[i], Quantity::kJointAngle, plausible::UnitOf(options.joint_unit));
     }
     for (int k = 0; k < 3; ++k) {
-      pose.target_in_world(k) = table.Number(row, xyz[k]) * options.length_scale_to_mm;
+      pose.target_in_world(k) = table.Number(row, xyz[k], Quantity::kCoordinate, length_unit);
     }
     poses.push_back(std::move(pose));
   }

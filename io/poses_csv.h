@@ -19,7 +19,9 @@ std::vector<MeasuredPose> ReadPosesCsv(const std::string& path, int num_joints);
 std::string FormatPosesCsv(const std::vector<MeasuredPose>& poses);
 
 struct PoseImportOptions {
-  char delimiter = '\0';  // '\0' = guess
+  char delimiter = '\0';  // ',', ';' or '\t'; '\0' = detect (io/csv.h)
+  // Decimal commas are read whenever the delimiter is ';' or tab (the one CSV rule);
+  // true only asserts it: a comma-separated file is then refused.
   bool decimal_comma = false;
   std::vector<std::string> joint_columns;  // in joint order
   AngleUnit joint_unit = AngleUnit::kRad;

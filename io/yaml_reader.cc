@@ -56,6 +56,12 @@ std::string YamlValue::Text() const {
   return node_.Scalar();
 }
 
+std::string YamlValue::Name() const {
+  std::string text = Text();
+  if (auto why = plausible::CheckName(text)) Fail(*why);
+  return text;
+}
+
 double YamlValue::Number() const {
   double value = 0.0;
   if (!IsScalar() || !YAML::convert<double>::decode(node_, value) || !std::isfinite(value)) {
@@ -87,6 +93,12 @@ int YamlValue::Integer(int min, int max) const {
   return static_cast<int>(value);
 }
 
+double YamlValue::Plausible(plausible::Quantity quantity, plausible::Unit unit) const {
+  const double value = Number();
+  if (auto why = plausible::Check(quantity, value, unit)) Fail(*why);
+  return value;
+}
+
 bool YamlValue::Flag() const {
   bool value = false;
   if (!IsScalar() || !YAML::convert<bool>::decode(node_, value)) Expected("true or false");
@@ -116,6 +128,14 @@ Eigen::Vector3d YamlValue::Vector3() const {
   if (!IsList() || node_.size() != 3) Expected("a list of 3 numbers [x, y, z]");
   const std::vector<double> v = Numbers(3);
   return {v[0], v[1], v[2]};
+}
+
+Eigen::Vector3d YamlValue::Vector3(plausible::Quantity quantity) const {
+  if (!IsList() || node_.size() != 3) Expected("a list of 3 numbers [x, y, z]");
+  const std::vector<YamlValue> items = List();
+  Eigen::Vector3d v;
+  for (int k = 0; k < 3; ++k) v(k) = items[k].Plausible(quantity);
+  return v;
 }
 
 Eigen::MatrixXd YamlValue::Matrix(int rows, int cols) const {
@@ -192,6 +212,14 @@ YamlDocument YamlDocument::Parse(const std::string& text, const std::string& sou
 
 YamlDocument YamlDocument::Load(const std::string& path) {
   return Parse(ReadWholeFile(path), path);
+}
+
+InputError YamlDocument::Translate(const YAML::Exception& e) const {
+  const bool at = HasPosition(e.mark);
+  return InputError({source_, at ? e.mark.line + 1 : 0, at ? e.mark.column + 1 : 0, ""},
+                    "unexpected YAML structure here (expected the shape this file's format "
+                    "gives: a mapping of known keys, lists where lists belong): " +
+                        e.msg);
 }
 
 YamlValue YamlDocument::Root() const {

@@ -17,9 +17,11 @@
 #include <optional>
 #include <string>
 #include <string_view>
+#include <utility>
 #include <vector>
 
 #include "core/error.h"
+#include "core/plausibility.h"
 
 namespace armsig::io {
 
@@ -45,17 +47,23 @@ class YamlValue {
 
   // Scalars.
   std::string Text() const;             // a non-empty scalar
+  std::string Name() const;             // a name: ≤ 64 bytes, no control characters
   double Number() const;                // finite
   double PositiveNumber() const;        // finite, > 0
   double NonNegativeNumber() const;     // finite, ≥ 0
   int Integer(int min, int max) const;  // an integer within [min, max]
   bool Flag() const;                    // true / false (yaml-cpp's yes/no/on/off too)
+  // A finite number that is a plausible `quantity` given in `unit` (core/plausibility.h),
+  // returned as given; refused naming the range otherwise.
+  double Plausible(plausible::Quantity quantity, plausible::Unit unit = plausible::kMm) const;
 
   // A list; refused when not a list or shorter than `min_size`.
   std::vector<YamlValue> List(size_t min_size = 0) const;
   // A list of exactly `size` numbers, and a rows×cols matrix as a list of rows.
   std::vector<double> Numbers(size_t size) const;
   Eigen::Vector3d Vector3() const;
+  // [x, y, z], each a plausible `quantity` in mm (kLength, kCoordinate).
+  Eigen::Vector3d Vector3(plausible::Quantity quantity) const;
   Eigen::MatrixXd Matrix(int rows, int cols) const;
 
   // A mapping whose keys must be among `allowed` (each at most once); anything else is
@@ -99,9 +107,23 @@ class YamlDocument {
   YamlValue Root() const;
   const std::string& source() const { return source_; }
 
+  // Runs a reader on the root: `read(Root())`. Every reader of a YAML file goes through
+  // here, so that no yaml-cpp exception escapes untranslated: one that a reader lets
+  // through (a node of a shape it did not expect) becomes an InputError at yaml-cpp's
+  // line and column, naming the file.
+  template <typename Reader>
+  auto Read(Reader&& read) const -> decltype(read(std::declval<YamlValue>())) {
+    try {
+      return read(Root());
+    } catch (const YAML::Exception& e) {
+      throw Translate(e);
+    }
+  }
+
  private:
   YamlDocument(YAML::Node root, std::string source)
       : root_(std::move(root)), source_(std::move(source)) {}
+  InputError Translate(const YAML::Exception& e) const;
 
   YAML::Node root_;
   std::string source_;

@@ -2,6 +2,7 @@
 
 #include <Eigen/Cholesky>
 #include <Eigen/LU>
+#include <algorithm>
 #include <cmath>
 #include <stdexcept>
 
@@ -16,18 +17,18 @@ void IntersectionOptions::Check() const {
   if (max_iterations < 1) throw std::invalid_argument("max_iterations must be ≥ 1");
 }
 
-const char* ToString(IntersectionStatus status) {
-  switch (status) {
-    case IntersectionStatus::kOk:
-      return "ok";
-    case IntersectionStatus::kOneRay:
-      return "one_ray";
-    case IntersectionStatus::kParallelRays:
-      return "parallel_rays";
-    case IntersectionStatus::kNoConvergence:
-      return "no_convergence";
-  }
-  return "?";
+Ray RayOf(const Observation& observation, const Station& station,
+          const InstrumentDefaults& defaults) {
+  const EffectiveSigmas sigma = SigmasOf(observation, &station, defaults);
+  Ray ray;
+  ray.station_mm = station.pose.position_mm;
+  ray.world_from_station = station.pose.world_from_station;
+  ray.reading = observation.reading;
+  ray.distance_mm = observation.distance_mm;
+  ray.sigma_hz_rad = sigma.hz_rad;
+  ray.sigma_v_rad = sigma.v_rad;
+  ray.sigma_distance_mm = sigma.distance_mm;
+  return ray;
 }
 
 AngleReading PredictReading(const Eigen::Vector3d& station_mm,
@@ -53,25 +54,40 @@ inline void Linearise(const Ray& ray, double hz_obs, double v_obs, const Eigen::
   const double rho2 = d.x() * d.x() + d.y() * d.y();
   const double rho = std::sqrt(rho2);
   const double r2 = rho2 + d.z() * d.z();
-  const double hz = std::atan2(d.x(), d.y());
-  const double v = std::atan2(rho, d.z());
+  const Eigen::Matrix3d rt = ray.world_from_station.transpose();
+  rows.a.row(2).setZero();
+  rows.r(2) = 0.0;
+  rows.count = 2;
+  if (ray.distance_mm) {
+    const double dist = std::sqrt(r2);
+    rows.a.row(2) = (d.transpose() / dist) * rt / ray.sigma_distance_mm;
+    rows.r(2) = (dist - *ray.distance_mm) / ray.sigma_distance_mm;
+    rows.count = 3;
+  }
+  if (NearPole(v_obs)) {
+    // At the zenith or nadir: PoleResidual, e·d̂ with ∂(e·d̂)/∂d = (e − (e·d̂) d̂)ᵀ / |d|,
+    // both components weighted with sigma_v (SigmaAcross).
+    const double dist = std::sqrt(r2);
+    const Eigen::Vector3d unit = d / dist;
+    const Eigen::Vector2d residual = PoleResidual<double>(d, hz_obs, v_obs);
+    const Eigen::Vector3d e_hz(std::cos(hz_obs), -std::sin(hz_obs), 0.0);
+    const Eigen::Vector3d e_v(std::cos(v_obs) * std::sin(hz_obs),
+                              std::cos(v_obs) * std::cos(hz_obs), -std::sin(v_obs));
+    rows.a.row(0) = ((e_hz - residual(0) * unit).transpose() / dist) * rt / ray.sigma_v_rad;
+    rows.a.row(1) = ((e_v - residual(1) * unit).transpose() / dist) * rt / ray.sigma_v_rad;
+    rows.r(0) = residual(0) / ray.sigma_v_rad;
+    rows.r(1) = residual(1) / ray.sigma_v_rad;
+    return;
+  }
+  const Eigen::Vector2d residual = HzVResidual<double>(d, hz_obs, v_obs);
+  // Analytic derivatives of HzVOf (the inner loop; checked against autodiff in the tests):
   // ∂hz/∂d and ∂v/∂d in the station frame, then to the world: ∂/∂X = ∂/∂d · Rᵀ.
   const Eigen::RowVector3d dhz(d.y() / rho2, -d.x() / rho2, 0.0);
   const Eigen::RowVector3d dv(d.x() * d.z() / (r2 * rho), d.y() * d.z() / (r2 * rho), -rho / r2);
-  const Eigen::Matrix3d rt = ray.world_from_station.transpose();
   rows.a.row(0) = dhz * rt / ray.sigma_hz_rad;
   rows.a.row(1) = dv * rt / ray.sigma_v_rad;
-  rows.r(0) = WrapPi(hz - hz_obs) / ray.sigma_hz_rad;
-  rows.r(1) = (v - v_obs) / ray.sigma_v_rad;
-  rows.count = 2;
-  rows.a.row(2).setZero();
-  rows.r(2) = 0.0;
-  if (std::isfinite(ray.distance_mm)) {
-    const double dist = std::sqrt(r2);
-    rows.a.row(2) = (d.transpose() / dist) * rt / ray.sigma_distance_mm;
-    rows.r(2) = (dist - ray.distance_mm) / ray.sigma_distance_mm;
-    rows.count = 3;
-  }
+  rows.r(0) = residual(0) / ray.sigma_hz_rad;
+  rows.r(1) = residual(1) / ray.sigma_v_rad;
 }
 
 }  // namespace
@@ -79,11 +95,10 @@ inline void Linearise(const Ray& ray, double hz_obs, double v_obs, const Eigen::
 void Intersect(std::span<const Ray> rays, const IntersectionOptions& options,
                IntersectionResult& result) {
   const int n = static_cast<int>(rays.size());
-  result.status = IntersectionStatus::kOk;
-  result.reason.clear();
+  result.status = SolveStatus{};
+  result.flags = PointFlags{};
   result.rays.assign(n, RayResult{});
   result.rejected = 0;
-  result.blunder_suspected = false;
   result.iterations = 0;
   result.sigma0 = 0.0;
   result.dof = 0;
@@ -100,18 +115,30 @@ void Intersect(std::span<const Ray> rays, const IntersectionOptions& options,
     hz[k] = face1.hz_rad;
     v[k] = face1.v_rad;
     u[k] = rays[k].world_from_station * DirectionInStation(face1);
-    has_distance |= std::isfinite(rays[k].distance_mm);
+    has_distance |= rays[k].distance_mm.has_value();
     origin_sum += rays[k].station_mm;
   }
-  auto fail = [&](IntersectionStatus status, std::string reason) {
-    result.status = status;
-    result.reason = std::move(reason);
+  auto fail = [&](SolveCode code, std::string message) {
+    result.status = {code, std::move(message)};
+    result.flags = FlagsOf(result.status);
     result.position_mm.setConstant(std::numeric_limits<double>::quiet_NaN());
     result.covariance_mm2.setConstant(std::numeric_limits<double>::quiet_NaN());
     result.rays_used = 0;
   };
+  for (int k = 0; k < n; ++k) {
+    const Ray& ray = rays[k];
+    const bool finite = ray.station_mm.allFinite() && ray.world_from_station.allFinite() &&
+                        std::isfinite(hz[k]) && std::isfinite(v[k]) &&
+                        std::isfinite(ray.sigma_hz_rad) && std::isfinite(ray.sigma_v_rad) &&
+                        (!ray.distance_mm ||
+                         (std::isfinite(*ray.distance_mm) && std::isfinite(ray.sigma_distance_mm)));
+    if (!finite) {
+      fail(SolveCode::kNonFinite, "ray " + std::to_string(k + 1) + " is not finite");
+      return;
+    }
+  }
   if (n == 0 || (n == 1 && !has_distance)) {
-    fail(IntersectionStatus::kOneRay, n == 0 ? "no ray" : "one ray and no distance");
+    fail(SolveCode::kTooFewObservations, n == 0 ? "no ray" : "one ray and no distance");
     return;
   }
   if (!has_distance) {
@@ -120,7 +147,7 @@ void Intersect(std::span<const Ray> rays, const IntersectionOptions& options,
       for (int b = a + 1; b < n; ++b) largest = std::max(largest, u[a].cross(u[b]).norm());
     }
     if (std::asin(std::min(1.0, largest)) < options.min_ray_angle_rad) {
-      fail(IntersectionStatus::kParallelRays,
+      fail(SolveCode::kDegenerate,
            "rays nearly parallel (largest angle " +
                std::to_string(std::asin(std::min(1.0, largest)) / kRadPerDeg) + " deg)");
       return;
@@ -137,8 +164,8 @@ void Intersect(std::span<const Ray> rays, const IntersectionOptions& options,
   if (has_distance) {
     int count = 0;
     for (int k = 0; k < n; ++k) {
-      if (std::isfinite(rays[k].distance_mm)) {
-        x += rays[k].station_mm + rays[k].distance_mm * u[k];
+      if (rays[k].distance_mm) {
+        x += rays[k].station_mm + *rays[k].distance_mm * u[k];
         ++count;
       }
     }
@@ -179,8 +206,12 @@ void Intersect(std::span<const Ray> rays, const IntersectionOptions& options,
       converged = step.squaredNorm() < 1e-12;  // 1 nm
     }
     result.iterations += it;
-    if (!converged || !x.allFinite()) {
-      fail(IntersectionStatus::kNoConvergence, "no convergence");
+    if (!x.allFinite() || !q.allFinite()) {
+      fail(SolveCode::kNonFinite, "the estimate is not finite");
+      return;
+    }
+    if (!converged) {
+      fail(SolveCode::kNotConverged, "no convergence");
       return;
     }
 
@@ -198,10 +229,12 @@ void Intersect(std::span<const Ray> rays, const IntersectionOptions& options,
         Linearise(rays[k], hz[k], v[k], x, row);
       }
       RayResult& rr = out[k];
-      rr.hz_arcsec = row.r(0) * rays[k].sigma_hz_rad * kArcsecPerRad;
+      // The first row's sigma: sigma_hz, or sigma_v across the line of sight at a pole.
+      const double sigma_across = NearPole(v[k]) ? rays[k].sigma_v_rad : rays[k].sigma_hz_rad;
+      rr.hz_arcsec = row.r(0) * sigma_across * kArcsecPerRad;
       rr.v_arcsec = row.r(1) * rays[k].sigma_v_rad * kArcsecPerRad;
-      rr.distance_mm = row.count == 3 ? row.r(2) * rays[k].sigma_distance_mm
-                                      : std::numeric_limits<double>::quiet_NaN();
+      rr.distance_mm = row.count == 3 ? std::optional<double>(row.r(2) * rays[k].sigma_distance_mm)
+                                      : std::nullopt;
       const Eigen::Vector3d to_point = x - rays[k].station_mm;
       rr.miss_mm = (to_point - to_point.dot(u[k]) * u[k]).norm();
       if (!active[k]) continue;
@@ -215,8 +248,7 @@ void Intersect(std::span<const Ray> rays, const IntersectionOptions& options,
         const double safe = std::max(redundancy, 1e-12);
         const double inv_sqrt = 1.0 / std::sqrt(safe);
         w[i] = redundancy > 1e-6 ? row.r(i) * inv_sqrt : 0.0;
-        if (i == 0)
-          rr.mdb_hz_arcsec = rays[k].sigma_hz_rad * options.delta0 * inv_sqrt * kArcsecPerRad;
+        if (i == 0) rr.mdb_hz_arcsec = sigma_across * options.delta0 * inv_sqrt * kArcsecPerRad;
         if (i == 1)
           rr.mdb_v_arcsec = rays[k].sigma_v_rad * options.delta0 * inv_sqrt * kArcsecPerRad;
         if (std::abs(w[i]) > worst_w) {
@@ -236,15 +268,16 @@ void Intersect(std::span<const Ray> rays, const IntersectionOptions& options,
     result.rays_used = used;
     if (worst < 0 || worst_w <= options.critical_w) break;
     // Reject the worst ray only if what remains still has redundancy to check itself.
-    const bool worst_has_distance = std::isfinite(rays[worst].distance_mm);
+    const bool worst_has_distance = rays[worst].distance_mm.has_value();
     const int remaining_observations = observations - (worst_has_distance ? 3 : 2);
     if (!options.reject_blunders || remaining_observations - 3 < 1) {
-      result.blunder_suspected = true;
+      result.flags.Set(PointFlag::kBlunderSuspected);
       break;
     }
     active[worst] = false;
     out[worst].rejected = true;
     ++result.rejected;
+    result.flags.Set(PointFlag::kBlunderRejected);
   }
 }
 
@@ -252,6 +285,52 @@ IntersectionResult Intersect(std::span<const Ray> rays, const IntersectionOption
   IntersectionResult result;
   Intersect(rays, options, result);
   return result;
+}
+
+void IntersectPoint(const RayGroup& group, const PointOptions& options, ReducedPoint& out) {
+  out.repeat_mm.reset();
+  if (group.repeats.size() >= 2) {
+    // Repeatability: the largest distance between the points of the repeated rounds
+    // (rounds that cannot be intersected do not count).
+    std::vector<Eigen::Vector3d> points;
+    for (const auto& round : group.repeats) {
+      Intersect(round, options.intersection, out.result);
+      if (out.result.status.ok()) points.push_back(out.result.position_mm);
+    }
+    double spread = 0.0;
+    for (size_t a = 0; a < points.size(); ++a)
+      for (size_t b = a + 1; b < points.size(); ++b)
+        spread = std::max(spread, (points[a] - points[b]).norm());
+    out.repeat_mm = spread;
+  }
+  Intersect(group.rays, options.intersection, out.result);
+  IntersectionResult& r = out.result;
+  if (!r.status.ok()) return;
+  const PointChecks& checks = options.checks;
+  if (checks.max_miss_mm && r.max_miss_mm > *checks.max_miss_mm)
+    r.flags.Set(PointFlag::kMissExceeded);
+  if (checks.max_repeat_mm && out.repeat_mm && *out.repeat_mm > *checks.max_repeat_mm)
+    r.flags.Set(PointFlag::kRepeatExceeded);
+}
+
+ReducedPoint IntersectPoint(const RayGroup& group, const PointOptions& options) {
+  ReducedPoint out;
+  IntersectPoint(group, options, out);
+  return out;
+}
+
+std::vector<ReducedPoint> IntersectPoints(std::span<const RayGroup> groups,
+                                          const PointOptions& options) {
+  std::vector<ReducedPoint> out(groups.size());
+  for (size_t k = 0; k < groups.size(); ++k) IntersectPoint(groups[k], options, out[k]);
+  return out;
+}
+
+PointFlags CarriedOverFlags(PointFlags stored, const PointChecks& checks) {
+  PointFlags kept;
+  kept.Set(PointFlag::kRepeatExceeded, stored.Has(PointFlag::kRepeatExceeded));
+  if (!checks.max_miss_mm) kept.Set(PointFlag::kMissExceeded, stored.Has(PointFlag::kMissExceeded));
+  return kept;
 }
 
 }  // namespace armsig::reduction

@@ -11,7 +11,10 @@
 #include <string>
 #include <vector>
 
+#include "core/error.h"
 #include "core/types.h"
+#include "reduction/network.h"
+#include "reduction/point_flags.h"
 
 namespace armsig::reduction {
 
@@ -20,9 +23,14 @@ struct Ray {
   Eigen::Vector3d station_mm = Eigen::Vector3d::Zero();
   Eigen::Matrix3d world_from_station = Eigen::Matrix3d::Identity();
   AngleReading reading;  // any face; reduced to face I internally
-  double distance_mm = std::numeric_limits<double>::quiet_NaN();  // NaN = none
+  std::optional<double> distance_mm;
   double sigma_hz_rad = 0.0, sigma_v_rad = 0.0, sigma_distance_mm = 0.0;
 };
+
+// The ray of an observation from its station's set-up, with the effective sigmas
+// (SigmasOf: the observation's own, else the station's, else the defaults).
+Ray RayOf(const Observation& observation, const Station& station,
+          const InstrumentDefaults& defaults);
 
 struct IntersectionOptions {
   bool reject_blunders = true;
@@ -33,25 +41,20 @@ struct IntersectionOptions {
   void Check() const;
 };
 
-enum class IntersectionStatus {
-  kOk,
-  kOneRay,        // a single ray without distance: no point
-  kParallelRays,  // every pair of rays closer than min_ray_angle
-  kNoConvergence,
-};
-const char* ToString(IntersectionStatus status);
-
 struct RayResult {
-  double hz_arcsec = 0.0, v_arcsec = 0.0;  // residuals (computed − observed)
-  double distance_mm = std::numeric_limits<double>::quiet_NaN();
+  double hz_arcsec = 0.0, v_arcsec = 0.0;          // residuals (computed − observed)
+  std::optional<double> distance_mm;               // residual of the distance, when measured
   double w_hz = 0.0, w_v = 0.0, w_distance = 0.0;  // standardised residuals
   double mdb_hz_arcsec = 0.0, mdb_v_arcsec = 0.0;  // minimal detectable biases
   double miss_mm = 0.0;                            // distance of the point from the ray
   bool rejected = false;
 };
 
+// status: kTooFewObservations (no ray, or one ray without distance), kDegenerate (every
+// pair of rays closer than min_ray_angle), kNotConverged, kNonFinite (an estimate is
+// not finite); position and covariance are NaN unless ok.
 struct IntersectionResult {
-  IntersectionStatus status = IntersectionStatus::kOk;
+  SolveStatus status;
   Eigen::Vector3d position_mm = Eigen::Vector3d::Zero();
   Eigen::Matrix3d covariance_mm2 = Eigen::Matrix3d::Zero();  // a priori (σ0 = 1)
   double sigma0 = 0.0;                                       // a posteriori, unit weight
@@ -59,10 +62,11 @@ struct IntersectionResult {
   int iterations = 0;
   int rays_used = 0;
   int rejected = 0;
-  bool blunder_suspected = false;  // a ray fails the test but cannot be rejected
-  double max_miss_mm = 0.0;
+  // blunder_rejected, blunder_suspected (a ray fails the test but cannot be rejected),
+  // or the flag of a failed solve (FlagsOf(status)); IntersectPoint adds its checks.
+  PointFlags flags;
+  double max_miss_mm = 0.0;     // largest miss distance of the rays used
   std::vector<RayResult> rays;  // one per input ray, in order
-  std::string reason;           // why status is not kOk
 };
 
 // Reuses `result`'s storage, so a loop over many points does not allocate.
@@ -70,9 +74,54 @@ void Intersect(std::span<const Ray> rays, const IntersectionOptions& options,
                IntersectionResult& result);
 IntersectionResult Intersect(std::span<const Ray> rays, const IntersectionOptions& options = {});
 
-// Hz, V (face I, rad) and slope distance of `target` seen from a station.
+// Hz, V (face I, rad) of `target` seen from a station (HzVOf).
 AngleReading PredictReading(const Eigen::Vector3d& station_mm,
                             const Eigen::Matrix3d& world_from_station,
                             const Eigen::Vector3d& target_mm);
+
+}  // namespace armsig::reduction
+
+namespace armsig::reduction {
+
+// The checks a reduced point must pass; a check without a tolerance is not made.
+struct PointChecks {
+  std::optional<double> max_miss_mm;    // miss_exceeded above this
+  std::optional<double> max_repeat_mm;  // repeat_exceeded above this
+};
+
+struct PointOptions {
+  IntersectionOptions intersection;
+  PointChecks checks;
+};
+
+// The rays of one target point (one pose, one point id). `repeats`: the rays of each
+// independent repeated measurement of it, when it was measured several times (capture's
+// repeatability check); the rays of all of them are also in `rays`.
+struct RayGroup {
+  std::vector<Ray> rays;
+  std::vector<std::vector<Ray>> repeats;
+};
+
+struct ReducedPoint {
+  IntersectionResult result;        // result.flags carries every flag of the point
+  std::optional<double> repeat_mm;  // largest distance between the repeats' points
+  // Solved, and passes the checks given (blunder flags do not refuse a point).
+  bool accepted() const {
+    return result.status.ok() && !result.flags.Has(PointFlag::kMissExceeded) &&
+           !result.flags.Has(PointFlag::kRepeatExceeded);
+  }
+};
+
+// Intersects one group and applies the checks.
+void IntersectPoint(const RayGroup& group, const PointOptions& options, ReducedPoint& out);
+ReducedPoint IntersectPoint(const RayGroup& group, const PointOptions& options = {});
+// Every group, in order.
+std::vector<ReducedPoint> IntersectPoints(std::span<const RayGroup> groups,
+                                          const PointOptions& options = {});
+
+// The flags of a previously stored point that a reduction with `checks` from the stored
+// rays cannot derive again and so keeps: repeat_exceeded always (only the accepted
+// readings are stored, not the rounds), miss_exceeded when no miss tolerance is given.
+PointFlags CarriedOverFlags(PointFlags stored, const PointChecks& checks);
 
 }  // namespace armsig::reduction

@@ -18,11 +18,8 @@ Eigen::Vector3d DirectionInStation(const AngleReading& reading) {
 }
 
 AngleReading ReadingOf(const Eigen::Vector3d& d) {
-  AngleReading r;
-  r.hz_rad = WrapTwoPi(std::atan2(d.x(), d.y()));
-  r.v_rad = std::atan2(std::hypot(d.x(), d.y()), d.z());
-  r.face = 1;
-  return r;
+  const Eigen::Vector2d hz_v = HzVOf<double>(d);
+  return {WrapTwoPi(hz_v(0)), hz_v(1), 1};
 }
 
 Eigen::Matrix3d LevelledRotation(double azimuth_rad) {

@@ -10,6 +10,7 @@
 #include <string>
 #include <vector>
 
+#include "core/error.h"
 #include "reduction/intersection.h"
 #include "reduction/network.h"
 
@@ -65,15 +66,17 @@ struct GroupVariance {
   double sigma0 = 0.0;  // √(Σv²/Σr), unit weight
 };
 
+// status: kDegenerate when the network cannot be solved (refusals say why; nothing else is
+// filled), kNotConverged (the results are those of the last iteration), kNonFinite (an
+// estimate or precision is not finite), else kOk.
 struct OrientationResult {
-  bool ok = false;
-  std::vector<std::string> refusals;  // why the network cannot be solved (when !ok)
+  SolveStatus status;
+  std::vector<std::string> refusals;  // why the network cannot be solved
   std::vector<Station> stations;      // with sigmas
   std::vector<PointEstimate> points;
   double sigma0 = 0.0;
   int dof = 0, observations = 0, unknowns = 0;
   int iterations = 0;
-  bool converged = false;
   std::vector<ResidualReport> residuals;
   std::vector<GroupVariance> groups;
   std::string datum;  // what fixed the datum

@@ -13,6 +13,8 @@ PACKAGES=(
   libspdlog-dev libfmt-dev
   libgtest-dev libgmock-dev libbenchmark-dev
   chromium  # report rendering test (headless)
+  dpkg-dev file groff-base  # the .deb (cpack, dpkg-shlibdeps) and the manual page check
+  clang  # libFuzzer targets (fuzz/)
 )
 
 missing=()

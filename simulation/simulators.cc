@@ -1,12 +1,14 @@
 #include "simulation/simulators.h"
 
+#include <spdlog/spdlog.h>
+
+#include <cctype>
 #include <cmath>
 #include <cstdio>
 #include <future>
 #include <numbers>
-#include <random>
-#include <sstream>
 
+#include "core/units.h"
 #include "instruments/geocom_codec.h"
 #include "instruments/gsi_codec.h"
 
@@ -14,6 +16,7 @@ namespace armsig::simulation {
 
 namespace asio = boost::asio;
 namespace geocom = instruments::geocom;
+namespace gsi = instruments::gsi;
 
 LineSimulator::LineSimulator(std::string link_path, SimulatorOptions options)
     : options_(options), port_(std::move(link_path)) {}
@@ -48,14 +51,40 @@ void LineSimulator::InjectOnce(FaultSpec fault) {
   faults_.push_back(fault);
 }
 
+void LineSimulator::InjectAlways(FaultSpec fault) {
+  std::lock_guard lock(fault_mutex_);
+  always_ = fault;
+}
+
+void LineSimulator::ClearFaults() {
+  {
+    std::lock_guard lock(fault_mutex_);
+    faults_.clear();
+    always_.reset();
+  }
+  ++flood_generation_;
+  std::promise<void> done;
+  asio::post(io_, [&] {
+    flooding_ = false;
+    done.set_value();
+  });
+  done.get_future().wait();
+}
+
+void LineSimulator::Vanish() {
+  present_ = false;
+  flooding_ = false;
+  ++flood_generation_;
+  boost::system::error_code ignored;
+  if (descriptor_) descriptor_->close(ignored);  // our duplicate of the master
+  port_.Disappear();
+  buffer_.clear();
+}
+
 void LineSimulator::Disappear() {
   std::promise<void> done;
   asio::post(io_, [&] {
-    present_ = false;
-    boost::system::error_code ignored;
-    descriptor_->close(ignored);  // our duplicate of the master
-    port_.Disappear();
-    buffer_.clear();
+    Vanish();
     done.set_value();
   });
   done.get_future().wait();
@@ -106,7 +135,43 @@ void LineSimulator::OnLine(const std::string& line) {
     if (!faults_.empty()) {
       fault = faults_.front();
       faults_.pop_front();
+    } else if (always_) {
+      fault = *always_;
     }
+  }
+  switch (fault.fault) {
+    case Fault::kVanish:
+      Vanish();
+      return;
+    case Fault::kFloodBytes: {
+      // Deterministic garbage, every byte value, CR and LF among it.
+      StartFlood([](int64_t k) {
+        std::string chunk(4096, '\0');
+        uint32_t x = static_cast<uint32_t>(k) * 2654435761u + 12345u;
+        for (char& c : chunk) {
+          x = x * 1664525u + 1013904223u;
+          c = static_cast<char>(x >> 24);
+        }
+        return chunk;
+      });
+      return;
+    }
+    case Fault::kEndlessLine:
+      StartFlood([](int64_t) {
+        std::string chunk;
+        while (chunk.size() < 4096) chunk += "%R1P,0,1:0,3.14159265358979,";
+        return chunk;
+      });
+      return;
+    case Fault::kFloodLines:
+      StartFlood([this, line](int64_t k) {
+        std::string chunk;
+        for (int64_t i = 0; chunk.size() < 4096; ++i) chunk += FloodLine(line, k * 1000 + i);
+        return chunk;
+      });
+      return;
+    default:
+      break;
   }
   auto response = Handle(line, fault);
   if (!response || fault.fault == Fault::kDropReply) return;
@@ -114,6 +179,47 @@ void LineSimulator::OnLine(const std::string& line) {
   if (fault.fault == Fault::kNoiseBytes) bytes = "\x13\xfe~#garbage\r\n\x07" + bytes;
   if (fault.fault == Fault::kTruncateReply) bytes = bytes.substr(0, bytes.size() / 2);
   Send(std::move(bytes), response->latency);
+}
+
+void LineSimulator::StartFlood(std::function<std::string(int64_t)> next) {
+  if (flooding_ || !present_ || !descriptor_->is_open()) return;
+  flooding_ = true;
+  FloodMore(std::make_shared<std::function<std::string(int64_t)>>(std::move(next)), 0,
+            flood_generation_.load());
+}
+
+void LineSimulator::FloodMore(std::shared_ptr<std::function<std::string(int64_t)>> next,
+                              int64_t k, uint64_t generation) {
+  if (!flooding_ || generation != flood_generation_.load() || !present_ ||
+      !descriptor_->is_open()) {
+    return;
+  }
+  FloodChunk(std::move(next), k, generation, std::make_shared<std::string>((*next)(k)), 0);
+}
+
+// One write_some at a time, so flood_bytes() counts what the line took as it takes it (a
+// composed async_write would count a 4 KiB chunk only once all of it was read).
+void LineSimulator::FloodChunk(std::shared_ptr<std::function<std::string(int64_t)>> next,
+                               int64_t k, uint64_t generation, std::shared_ptr<std::string> data,
+                               size_t offset) {
+  if (!flooding_ || generation != flood_generation_.load() || !present_ ||
+      !descriptor_->is_open()) {
+    return;
+  }
+  descriptor_->async_write_some(
+      asio::buffer(data->data() + offset, data->size() - offset),
+      [this, next, k, generation, data, offset](const boost::system::error_code& ec, size_t n) {
+        flood_bytes_ += static_cast<int64_t>(n);
+        if (ec) {
+          if (generation == flood_generation_.load()) flooding_ = false;
+          return;
+        }
+        if (offset + n < data->size()) {
+          FloodChunk(next, k, generation, data, offset + n);
+        } else {
+          FloodMore(next, k + 1, generation);
+        }
+      });
 }
 
 void LineSimulator::Send(std::string bytes, std::chrono::milliseconds latency) {
@@ -150,38 +256,32 @@ std::optional<LineSimulator::Response> GeoComSimulator::Handle(const std::string
   geocom::Reply r;
   r.trid = q.trid.value_or(0);
   auto latency = options_.angle_latency / 4;
-  auto angles = [&](bool with_distance, std::vector<std::string>& out) {
-    double distance_mm = 0.0;
-    const AngleReading a = lab_.Read(station_, with_distance ? &distance_mm : nullptr);
-    out.push_back(geocom::EncodeDouble(a.hz_rad));
-    out.push_back(geocom::EncodeDouble(a.v_rad));
-    return distance_mm;
-  };
+  const auto face_value = [&] { return lab_.Face(station_) == 2 ? 1L : 0L; };  // TMC_FACE
   switch (q.rpc) {
     case geocom::rpc::kNullProc:
       break;
     case geocom::rpc::kGetDoublePrecision:
-      r.values = {"15"};
+      r.values = {geocom::EncodeLong(15)};
       break;
     case geocom::rpc::kGetGeoComVersion:
-      r.values = {"1", "50", "0"};
+      r.values = geocom::EncodeValues(geocom::Version{1, 50, 0});
       break;
     case geocom::rpc::kGetInstrumentName:
       r.values = {geocom::EncodeString(name_)};
       break;
     case geocom::rpc::kGetInstrumentNo:
-      r.values = {std::to_string(serial_)};
+      r.values = {geocom::EncodeLong(serial_)};
       break;
     case geocom::rpc::kGetFirmwareVersion:
-      r.values = {"3", "20", "7"};
+      r.values = geocom::EncodeValues(geocom::Version{3, 20, 7});
       break;
     case geocom::rpc::kGetInclineSwitch:
-      r.values = {"1"};
+      r.values = {geocom::EncodeLong(1)};
       break;
     case geocom::rpc::kSetInclineSwitch:
       break;
     case geocom::rpc::kGetFace:
-      r.values = {lab_.Face(station_) == 2 ? "1" : "0"};
+      r.values = {geocom::EncodeLong(face_value())};
       break;
     case geocom::rpc::kChangeFace:
       lab_.SetFace(station_, 3 - lab_.Face(station_));
@@ -192,36 +292,55 @@ std::optional<LineSimulator::Response> GeoComSimulator::Handle(const std::string
       latency = options_.motion_latency / 2;
       break;
     case geocom::rpc::kGetAngleComplete: {
-      angles(false, r.values);
-      r.values.insert(r.values.end(),
-                      {"0.000001", "1000", "0.00001", "0.00002", "0.000003", "1000"});
-      r.values.push_back(lab_.Face(station_) == 2 ? "1" : "0");
+      const AngleReading a = lab_.Read(station_);
+      geocom::AngleComplete values;
+      values.hz_rad = a.hz_rad;
+      values.v_rad = a.v_rad;
+      values.angle_accuracy_rad = 0.000001;
+      values.angle_time_ms = 1000;
+      values.cross_incline_rad = 0.00001;
+      values.length_incline_rad = 0.00002;
+      values.incline_accuracy_rad = 0.000003;
+      values.incline_time_ms = 1000;
+      values.face = face_value();
+      r.values = geocom::EncodeValues(values);
       latency = options_.angle_latency;
       break;
     }
-    case geocom::rpc::kGetAngleSimple:
-      angles(false, r.values);
+    case geocom::rpc::kGetAngleSimple: {
+      const AngleReading a = lab_.Read(station_);
+      r.values = geocom::EncodeValues(geocom::AngleSimple{a.hz_rad, a.v_rad});
       latency = options_.angle_latency;
       break;
-    case geocom::rpc::kDoMeasure:
-      distance_ready_ = q.params.empty() || q.params[0] != "0";
+    }
+    case geocom::rpc::kDoMeasure: {
+      const auto program = q.params.empty() ? std::optional<long>(1) : geocom::DecodeLong(q.params[0]);
+      distance_ready_ = program != 0L;  // 0 = TMC_STOP
       latency = options_.angle_latency / 4;
       break;
+    }
     case geocom::rpc::kGetSimpleMea: {
-      const double d = angles(distance_ready_, r.values);
-      if (distance_ready_) {
-        r.values.push_back(geocom::EncodeDouble(d / 1000.0, 6));
-      } else {
+      double distance_mm = 0.0;
+      const AngleReading a = lab_.Read(station_, distance_ready_ ? &distance_mm : nullptr);
+      geocom::SimpleMeasurement m{a.hz_rad, a.v_rad, distance_mm / 1000.0};
+      if (!distance_ready_) {
         r.rc = 1285;  // angles valid, no distance measured
-        r.values.push_back("0");
+        m.slope_distance_m = 0.0;
       }
+      r.values = geocom::EncodeValues(m);
       latency = options_.distance_latency;
       break;
     }
     case geocom::rpc::kMeasDistanceAngle: {
-      const double d = angles(true, r.values);
-      r.values.push_back(geocom::EncodeDouble(d / 1000.0, 6));
-      r.values.push_back(q.params.empty() ? "2" : q.params[0]);
+      const auto mode = q.params.empty() ? std::optional<long>(2) : geocom::DecodeLong(q.params[0]);
+      if (!mode) {
+        r.rc = 2;  // GRC_IVPARAM
+        break;
+      }
+      double distance_mm = 0.0;
+      const AngleReading a = lab_.Read(station_, &distance_mm);
+      r.values = geocom::EncodeValues(
+          geocom::DistanceAngle{a.hz_rad, a.v_rad, distance_mm / 1000.0, *mode});
       latency = options_.distance_latency;
       break;
     }
@@ -230,6 +349,23 @@ std::optional<LineSimulator::Response> GeoComSimulator::Handle(const std::string
       r.values.clear();
   }
   switch (fault.fault) {
+    case Fault::kOtherReply:
+      // The right transaction id with another RPC's values (CSV_GetFirmwareVersion).
+      r.rc_com = 0;
+      r.rc = 0;
+      r.values = geocom::EncodeValues(geocom::Version{3, 20, 7});
+      break;
+    case Fault::kOutOfRange:
+      // Angles in degrees where radians belong, and a zenith angle below 0.
+      if (r.values.size() >= 2) {
+        const auto hz = geocom::DecodeDouble(r.values[0]);
+        const auto v = geocom::DecodeDouble(r.values[1]);
+        if (hz && v) {
+          r.values[0] = geocom::EncodeDouble(*hz * 180.0 / std::numbers::pi);
+          r.values[1] = geocom::EncodeDouble(-*v);
+        }
+      }
+      break;
     case Fault::kBusy:
       r.rc = 13;
       r.values.clear();
@@ -247,7 +383,8 @@ std::optional<LineSimulator::Response> GeoComSimulator::Handle(const std::string
     default:
       break;
   }
-  std::string bytes = geocom::EncodeReply(r, crc || fault.fault == Fault::kBadCrc);
+  std::string bytes = geocom::EncodeReply(
+      r, (crc || fault.fault == Fault::kBadCrc) && fault.fault != Fault::kNoCrc);
   if (fault.fault == Fault::kBadCrc) {
     // Corrupt one digit of the CRC field (the third comma-separated header field).
     const size_t colon = bytes.find(':');
@@ -255,6 +392,17 @@ std::optional<LineSimulator::Response> GeoComSimulator::Handle(const std::string
     bytes[last_comma + 1] = bytes[last_comma + 1] == '1' ? '2' : '1';
   }
   return Response{bytes, latency};
+}
+
+std::string GeoComSimulator::FloodLine(const std::string& request, int64_t k) {
+  // Well-formed replies (with a CRC when the request had one) whose transaction ids are
+  // far from the request's: late replies to requests never sent.
+  const auto parsed = geocom::ParseRequest(request);
+  const int trid = parsed.request ? parsed.request->trid.value_or(0) : 0;
+  geocom::Reply r;
+  r.trid = (trid + 10000 + static_cast<int>(k % 1000)) % 32768;
+  r.values = geocom::EncodeValues(geocom::AngleSimple{1.0, 1.5});
+  return geocom::EncodeReply(r, parsed.had_crc);
 }
 
 // --- GSI Online ---------------------------------------------------------------------
@@ -265,52 +413,83 @@ GsiOnlineSimulator::GsiOnlineSimulator(VirtualLab& lab, int station, std::string
 
 std::optional<LineSimulator::Response> GsiOnlineSimulator::Handle(const std::string& line,
                                                                   const FaultSpec& fault) {
+  using Reply = gsi::OnlineReply;
+  const auto reply = [](Reply::Kind kind, int code = 0) {
+    Reply r;
+    r.kind = kind;
+    r.code = code;
+    return gsi::FormatOnlineReply(r);
+  };
   if (fault.fault == Fault::kErrorCode)
-    return Response{"@E" + std::to_string(fault.code) + "\r\n", options_.angle_latency};
-  if (fault.fault == Fault::kBusy) return Response{"@W100\r\n", options_.angle_latency};
-  const std::string prefix = gsi16_ ? "*" : "";
-  if (line.rfind("SET/137/", 0) == 0) {
-    gsi16_ = line.substr(8) == "1";
-    return Response{"?\r\n", std::chrono::milliseconds(5)};
+    return Response{reply(Reply::Kind::kError, fault.code), options_.angle_latency};
+  if (fault.fault == Fault::kBusy)
+    return Response{reply(Reply::Kind::kWarning, 100), options_.angle_latency};
+  const std::string invalid = reply(Reply::Kind::kWarning, 427);  // invalid command
+  const auto q = gsi::ParseOnlineRequest(line);
+  if (!q) return Response{invalid, std::chrono::milliseconds(5)};
+  if (q->kind == gsi::OnlineRequest::Kind::kSet) {
+    if (q->param != 137) return Response{invalid, std::chrono::milliseconds(5)};
+    gsi16_ = q->value == 1;  // 137: GSI type, 0 GSI-8, 1 GSI-16
+    return Response{reply(Reply::Kind::kAck), std::chrono::milliseconds(5)};
   }
-  if (line.rfind("GET/", 0) != 0 || line.size() < 9 || line[5] != '/' ||
-      line.substr(6, 2) != "WI") {
-    return Response{"@W427\r\n", std::chrono::milliseconds(5)};
-  }
-  const char mode = line[4];
-  const int wi = std::atoi(line.c_str() + 8);
   auto latency = std::chrono::milliseconds(5);
-  if (mode == 'M' && (wi == 21 || wi == 22)) {
+  if (q->mode == 'M' && (q->wi == 21 || q->wi == 22)) {
     last_ = lab_.Read(station_);
     latency = options_.angle_latency;
-  } else if (mode == 'M' && wi == 31) {
+  } else if (q->mode == 'M' && q->wi == 31) {
     last_ = lab_.Read(station_, &last_distance_mm_);
     latency = options_.distance_latency;
   }
-  std::string word;
-  switch (wi) {
-    case 21:
-      word = instruments::gsi::EncodeAngleWord(21, last_.hz_rad, gsi16_);
-      break;
-    case 22:
-      word = instruments::gsi::EncodeAngleWord(22, last_.v_rad, gsi16_);
-      break;
-    case 31:
-      word = instruments::gsi::EncodeLengthWord(31, last_distance_mm_, gsi16_, '8');
-      break;
-    case 12:
-      word = instruments::gsi::EncodeTextWord(12, "4711", gsi16_);
-      break;
-    case 13:
-      word = instruments::gsi::EncodeTextWord(13, "T2002", gsi16_);
-      break;
-    case 590:
-      word = instruments::gsi::EncodeTextWord(590, "3.04", gsi16_);
-      break;
-    default:
-      return Response{"@W427\r\n", std::chrono::milliseconds(5)};
+  Reply word;
+  if (fault.fault == Fault::kOtherReply && q->kind == gsi::OnlineRequest::Kind::kGet) {
+    // Another word than the one asked for (the reply to another GET).
+    word.word = gsi::TextWord(q->wi == 12 ? 13 : 12, "4711", gsi16_);
+    return Response{gsi::FormatOnlineReply(word), latency};
   }
-  return Response{prefix + word + "\r\n", latency};
+  if (fault.fault == Fault::kWrongUnit && (q->wi == 21 || q->wi == 22)) {
+    word.word = gsi::LengthWord(q->wi, 1234.5, gsi16_, '0');  // metres on an angle word
+    return Response{gsi::FormatOnlineReply(word), latency};
+  }
+  if (fault.fault == Fault::kOutOfRange && q->wi == 22) {
+    word.word = gsi::AngleWord(22, -WrapTwoPi(last_.v_rad), gsi16_);  // a negative zenith angle
+    return Response{gsi::FormatOnlineReply(word), latency};
+  }
+  try {
+    switch (q->wi) {
+      case 21:  // a circle reading: [0, 400 gon)
+        word.word = gsi::AngleWord(21, WrapTwoPi(last_.hz_rad), gsi16_);
+        break;
+      case 22:
+        word.word = gsi::AngleWord(22, WrapTwoPi(last_.v_rad), gsi16_);
+        break;
+      case 31:
+        word.word = gsi::LengthWord(31, last_distance_mm_, gsi16_, '8');
+        break;
+      case 12:
+        word.word = gsi::TextWord(12, "4711", gsi16_);
+        break;
+      case 13:
+        word.word = gsi::TextWord(13, "T2002", gsi16_);
+        break;
+      case 590:
+        word.word = gsi::TextWord(590, "3.04", gsi16_);
+        break;
+      default:
+        return Response{invalid, std::chrono::milliseconds(5)};
+    }
+  } catch (const std::out_of_range& e) {  // e.g. a distance beyond a GSI-8 word
+    spdlog::warn("GSI Online simulator: {}", e.what());
+    return Response{invalid, std::chrono::milliseconds(5)};
+  }
+  return Response{gsi::FormatOnlineReply(word), latency};
+}
+
+std::string GsiOnlineSimulator::FloodLine(const std::string& request, int64_t k) {
+  // Words of the instrument, none the one asked for.
+  const auto q = gsi::ParseOnlineRequest(request);
+  gsi::OnlineReply word;
+  word.word = gsi::TextWord(q && q->wi == 12 ? 13 : 12, std::to_string(4700 + k % 100), gsi16_);
+  return gsi::FormatOnlineReply(word);
 }
 
 // --- VAL / AS -----------------------------------------------------------------------
@@ -321,52 +500,49 @@ ValSimulator::ValSimulator(VirtualLab& lab, std::string link_path, Layout layout
 
 std::optional<LineSimulator::Response> ValSimulator::Handle(const std::string& line,
                                                             const FaultSpec& fault) {
-  const std::string prompt = layout_ == Layout::kValII ? ".\r\n" : ">\r\n";
-  std::string upper = line;
-  for (char& c : upper) c = static_cast<char>(std::toupper(static_cast<unsigned char>(c)));
+  const std::string echo = line + "\r\n";
+  const std::string prompt = instruments::FormatMonitorPrompt(layout_);
   if (fault.fault == Fault::kErrorCode) {
-    return Response{
-        line + "\r\n(P1000)Cannot execute program because motor power is OFF.\r\n" + prompt,
-        options_.angle_latency};
+    return Response{echo +
+                        instruments::FormatMonitorError(
+                            1000, "Cannot execute program because motor power is OFF.") +
+                        prompt,
+                    options_.angle_latency};
+  }
+  const auto command = instruments::ParseMonitorCommand(line);
+  if (!command) {
+    return Response{echo + instruments::FormatMonitorError(2000, "Unknown command.") + prompt,
+                    std::chrono::milliseconds(5)};
   }
   const double to_deg = 180.0 / std::numbers::pi;
-  if (upper == "WHERE" || upper == "WH" || upper == "WHERE 3") {
-    const Eigen::VectorXd q = lab_.Joints() * to_deg;
+  if (command->kind == instruments::MonitorCommand::Kind::kWhere &&
+      fault.fault == Fault::kOtherReply) {
+    return Response{echo + prompt, options_.angle_latency};  // what a move prints
+  }
+  if (command->kind == instruments::MonitorCommand::Kind::kWhere) {
+    Eigen::VectorXd q = lab_.Joints() * to_deg;
+    if (fault.fault == Fault::kOutOfRange) q(0) = 1000.0;  // no joint turns that far
     const Eigen::Vector3d x = lab_.TruePosition("robot");
     Eigen::VectorXd pose(6);
     pose << x.x(), x.y(), x.z(), 0.0, 0.0, 0.0;
-    std::string text = line + "\r\n";
-    if (layout_ == Layout::kKawasakiAs) {
-      text += instruments::FormatWhere(q, pose);
-    } else {
-      char buffer[64];
-      text += "     X/JT1      Y/JT2      Z/JT3      O/JT4      A/JT5      T/JT6     HAND\r\n";
-      for (int i = 0; i < 6; ++i) {
-        std::snprintf(buffer, sizeof buffer, "%11.3f", pose(i));
-        text += buffer;
-      }
-      text += "      0.000\r\n";
-      for (int i = 0; i < q.size(); ++i) {
-        std::snprintf(buffer, sizeof buffer, "%11.3f", q(i));
-        text += buffer;
-      }
-      text += "\r\n";
-    }
-    return Response{text + prompt, options_.angle_latency};
+    return Response{echo + instruments::FormatWhere(q, pose, layout_) + prompt,
+                    options_.angle_latency};
   }
-  if (upper.rfind("DO JMOVE #[", 0) == 0 && upper.back() == ']') {
-    std::stringstream in(upper.substr(11, upper.size() - 12));
-    Eigen::VectorXd q(lab_.model().num_joints());
-    std::string item;
-    int i = 0;
-    while (std::getline(in, item, ',') && i < q.size()) q(i++) = std::atof(item.c_str()) / to_deg;
-    if (i != q.size())
-      return Response{line + "\r\n(P2008)Wrong number of joint values.\r\n" + prompt,
-                      std::chrono::milliseconds(5)};
-    lab_.SetJoints(q);
-    return Response{line + "\r\n" + prompt, options_.motion_latency};
+  if (command->joints_deg.size() != lab_.model().num_joints()) {
+    return Response{
+        echo + instruments::FormatMonitorError(2008, "Wrong number of joint values.") + prompt,
+        std::chrono::milliseconds(5)};
   }
-  return Response{line + "\r\n(P2000)Unknown command.\r\n" + prompt, std::chrono::milliseconds(5)};
+  lab_.SetJoints(command->joints_deg / to_deg);
+  return Response{echo + prompt, options_.motion_latency};
+}
+
+std::string ValSimulator::FloodLine(const std::string&, int64_t k) {
+  // Rows of numbers, never the prompt.
+  char row[96];
+  std::snprintf(row, sizeof row, "%9.3f %9.3f %9.3f %9.3f %9.3f %9.3f\r\n",
+                static_cast<double>(k % 360), 1.0, 2.0, 3.0, 4.0, 5.0);
+  return row;
 }
 
 // --- Counter box --------------------------------------------------------------------
@@ -381,22 +557,36 @@ CounterSimulator::CounterSimulator(VirtualLab& lab, int joint,
 
 std::optional<LineSimulator::Response> CounterSimulator::Handle(const std::string& line,
                                                                 const FaultSpec& fault) {
-  if (fault.fault == Fault::kErrorCode) return Response{"e!\r\n", std::chrono::milliseconds(2)};
-  if (line == "R0E") {
+  instruments::CounterReading error;
+  error.kind = 'e';
+  const std::string error_reply = instruments::FormatCounterReply(error);
+  if (fault.fault == Fault::kErrorCode) return Response{error_reply, std::chrono::milliseconds(2)};
+  const auto q = instruments::ParseCounterRequest(line);
+  if (!q || q->kind == 'S') return Response{error_reply, std::chrono::milliseconds(2)};  // no streaming
+  instruments::CounterReading r;
+  r.kind = static_cast<char>(std::tolower(static_cast<unsigned char>(q->kind)));
+  r.reg = q->reg;
+  if (fault.fault == Fault::kOtherReply) {
+    r.reg = 0x14;  // the version register
+    r.value = 1;
+  } else if (q->kind == 'R' && q->reg == 0x0E) {
     const Eigen::VectorXd counts = calibration_.ToCounts(lab_.Joints());
-    instruments::CounterReading r;
-    r.kind = 'r';
-    r.reg = 0x0E;
     r.value = static_cast<int64_t>(counts(joint_));
-    return Response{instruments::FormatCounterReply(r), std::chrono::milliseconds(2)};
+    if (fault.fault == Fault::kOutOfRange) r.value = 2147483647;  // the counter's limit
   }
-  if (line.size() >= 3 && (line[0] == 'W' || line[0] == 'R')) {
-    instruments::CounterReading r;
-    r.kind = static_cast<char>(std::tolower(line[0]));
-    r.reg = std::stoi(line.substr(1, 2), nullptr, 16);
-    return Response{instruments::FormatCounterReply(r), std::chrono::milliseconds(2)};
-  }
-  return Response{"e!\r\n", std::chrono::milliseconds(2)};
+  return Response{instruments::FormatCounterReply(r), std::chrono::milliseconds(2)};
+}
+
+}  // namespace armsig::simulation
+
+namespace armsig::simulation {
+
+std::string CounterSimulator::FloodLine(const std::string&, int64_t k) {
+  // Replies for another register (the stream-interval register), never the count.
+  instruments::CounterReading r;
+  r.reg = 0x0C;
+  r.value = k % 1000;
+  return instruments::FormatCounterReply(r);
 }
 
 }  // namespace armsig::simulation

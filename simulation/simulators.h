@@ -1,8 +1,11 @@
 // Virtual instruments on pseudo-terminals, speaking the real protocols with realistic
 // latency and noise, and fault injection: noise bytes, dropped or truncated replies,
-// wrong transaction ids, bad CRC, busy / error / warning return codes, a port that
-// disappears and comes back. Each simulator runs its own Boost.Asio loop on the pty
-// master; drivers open the slave by path like any serial port.
+// wrong transaction ids, bad or missing CRC, busy / error / warning return codes, a port
+// that disappears and comes back, floods (bytes, an endless line, unrelated lines, all
+// without pause), another command's reply, readings out of range or in wrong units.
+// A fault applies to the next request (InjectOnce) or to every request (InjectAlways).
+// Each simulator runs its own Boost.Asio loop on the pty master; drivers open the slave
+// by path like any serial port.
 #pragma once
 
 #include <atomic>
@@ -12,6 +15,7 @@
 // clang-format on
 #include <chrono>
 #include <deque>
+#include <functional>
 #include <memory>
 #include <mutex>
 #include <optional>
@@ -34,6 +38,19 @@ enum class Fault {
   kBusy,           // GeoCOM 13 SYSBUSY / GSI @W, once
   kErrorCode,      // the given code (GeoCOM rc, GSI @E, VAL error message)
   kWarningCode,    // GeoCOM: the given warning code with valid data (1283/1284/1285)
+  kNoCrc,          // GeoCOM: the reply without its CRC field although the request had one
+  kFloodBytes,     // instead of the reply: binary garbage (CR and LF among it), without pause
+  kEndlessLine,    // instead of the reply: printable bytes without pause, never a line end
+  kFloodLines,     // instead of the reply: lines of the protocol, none of them the reply
+                   // asked for (GeoCOM other transaction ids, GSI other words, VAL text
+                   // rows without a prompt, counter other registers), without pause
+  kOtherReply,     // the reply to another command (GeoCOM: same transaction id, another
+                   // RPC's values; GSI: another word; VAL: a move's reply to WHERE;
+                   // counter: another register)
+  kOutOfRange,     // a reading no instrument can give: GeoCOM angles in degrees, GSI a
+                   // negative zenith angle, VAL a joint at 1000°, counter a count at 2^31-1
+  kWrongUnit,      // GSI: Hz and V words with a length unit
+  kVanish,         // the port vanishes as the request arrives (the peer closes the pty)
 };
 
 struct FaultSpec {
@@ -58,10 +75,13 @@ class LineSimulator {
   void Start();
   void Stop();
   const std::string& path() const { return port_.path(); }
-  void InjectOnce(FaultSpec fault);  // applies to the next request
-  void Disappear();                  // the port vanishes (thread-safe)
+  void InjectOnce(FaultSpec fault);    // applies to the next request
+  void InjectAlways(FaultSpec fault);  // applies to every request (after the queued ones)
+  void ClearFaults();                  // and stops a flood
+  void Disappear();                    // the port vanishes (thread-safe)
   void Reappear();
   int requests() const { return requests_.load(); }
+  int64_t flood_bytes() const { return flood_bytes_.load(); }  // written by floods so far
 
  protected:
   struct Response {
@@ -70,6 +90,9 @@ class LineSimulator {
   };
   // Handles one request line; nullopt = silence.
   virtual std::optional<Response> Handle(const std::string& line, const FaultSpec& fault) = 0;
+  // The k-th line of a kFloodLines flood (with its terminator): the protocol's own kind
+  // of line, never the reply to `request`.
+  virtual std::string FloodLine(const std::string& request, int64_t k) = 0;
   std::chrono::milliseconds Scaled(std::chrono::milliseconds latency) const;
   SimulatorOptions options_;
 
@@ -77,6 +100,14 @@ class LineSimulator {
   void StartRead();
   void OnLine(const std::string& line);
   void Send(std::string bytes, std::chrono::milliseconds latency);
+  void Vanish();  // on the io thread
+  // Writes chunks made by `next` back to back until the fault is cleared or the port
+  // goes; one flood at a time.
+  void StartFlood(std::function<std::string(int64_t)> next);
+  void FloodMore(std::shared_ptr<std::function<std::string(int64_t)>> next, int64_t k,
+                 uint64_t generation);
+  void FloodChunk(std::shared_ptr<std::function<std::string(int64_t)>> next, int64_t k,
+                  uint64_t generation, std::shared_ptr<std::string> data, size_t offset);
 
   VirtualPort port_;
   boost::asio::io_context io_;
@@ -86,7 +117,11 @@ class LineSimulator {
   char chunk_[512];
   std::mutex fault_mutex_;
   std::deque<FaultSpec> faults_;
+  std::optional<FaultSpec> always_;
   std::atomic<int> requests_{0};
+  std::atomic<int64_t> flood_bytes_{0};
+  std::atomic<uint64_t> flood_generation_{0};  // a cleared flood stops at its next chunk
+  bool flooding_ = false;
   bool present_ = true;
   std::optional<boost::asio::executor_work_guard<boost::asio::io_context::executor_type>> work_;
 };
@@ -97,9 +132,13 @@ class GeoComSimulator : public LineSimulator {
   GeoComSimulator(VirtualLab& lab, int station, std::string link_path,
                   SimulatorOptions options = {}, std::string instrument_name = "TDRA6000",
                   long serial = 358123);
+  // Stops the io thread before this part of the object goes: it calls Handle and
+  // FloodLine.
+  ~GeoComSimulator() override { Stop(); }
 
  protected:
   std::optional<Response> Handle(const std::string& line, const FaultSpec& fault) override;
+  std::string FloodLine(const std::string& request, int64_t k) override;
 
  private:
   VirtualLab& lab_;
@@ -114,9 +153,13 @@ class GsiOnlineSimulator : public LineSimulator {
  public:
   GsiOnlineSimulator(VirtualLab& lab, int station, std::string link_path,
                      SimulatorOptions options = {});
+  // Stops the io thread before this part of the object goes: it calls Handle and
+  // FloodLine.
+  ~GsiOnlineSimulator() override { Stop(); }
 
  protected:
   std::optional<Response> Handle(const std::string& line, const FaultSpec& fault) override;
+  std::string FloodLine(const std::string& request, int64_t k) override;
 
  private:
   VirtualLab& lab_;
@@ -129,12 +172,16 @@ class GsiOnlineSimulator : public LineSimulator {
 // VAL II / Kawasaki AS monitor: WHERE and DO JMOVE #[…].
 class ValSimulator : public LineSimulator {
  public:
-  enum class Layout { kValII, kKawasakiAs };
+  using Layout = instruments::MonitorDialect;
   ValSimulator(VirtualLab& lab, std::string link_path, Layout layout = Layout::kKawasakiAs,
                SimulatorOptions options = {});
+  // Stops the io thread before this part of the object goes: it calls Handle and
+  // FloodLine.
+  ~ValSimulator() override { Stop(); }
 
  protected:
   std::optional<Response> Handle(const std::string& line, const FaultSpec& fault) override;
+  std::string FloodLine(const std::string& request, int64_t k) override;
 
  private:
   VirtualLab& lab_;
@@ -146,9 +193,13 @@ class CounterSimulator : public LineSimulator {
  public:
   CounterSimulator(VirtualLab& lab, int joint, instruments::EncoderCalibration calibration,
                    std::string link_path, SimulatorOptions options = {});
+  // Stops the io thread before this part of the object goes: it calls Handle and
+  // FloodLine.
+  ~CounterSimulator() override { Stop(); }
 
  protected:
   std::optional<Response> Handle(const std::string& line, const FaultSpec& fault) override;
+  std::string FloodLine(const std::string& request, int64_t k) override;
 
  private:
   VirtualLab& lab_;

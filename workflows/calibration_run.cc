@@ -4,9 +4,11 @@
 
 #include <algorithm>
 #include <cmath>
+#include <iterator>
 #include <numeric>
 #include <stdexcept>
 
+#include "calibration/drift.h"
 #include "core/error.h"
 
 namespace armsig::workflows {
@@ -32,6 +34,12 @@ CalibrationRun RunCalibration(const calibration::RobotModel& model,
         calibration::ParseParameterSpec(model, auto_params ? "all" : settings.params);
   } catch (const std::invalid_argument& e) {
     throw InputError({"--params", 0, 0, ""}, e.what());
+  }
+  std::optional<calibration::IdentifiabilityReport> model_report;
+  if (settings.model_subset) {
+    model_report =
+        calibration::ModelIdentifiability(model, options.parameters, settings.rank_tolerance);
+    options.parameters = model_report->identified;
   }
 
   std::vector<MeasuredPose> fit = poses, rest;
@@ -71,6 +79,24 @@ CalibrationRun RunCalibration(const calibration::RobotModel& model,
   if (run.estimate.status == EstimationStatus::kTooFewEquations ||
       run.estimate.status == EstimationStatus::kDegenerateBase) {
     throw InputError({"--poses", 0, 0, ""}, run.estimate.message);
+  }
+  if (run.estimate.status == EstimationStatus::kNonFinite) {
+    // Exit code 1 and no table, JSON or stored set of numbers that are not results.
+    throw std::runtime_error("calibration failed: " + run.estimate.message);
+  }
+  if (model_report && !auto_params) {
+    // The fit was asked for the model's subset only; what the user asked for is the spec,
+    // and the parameters left out are the model's, with how each depends on the others.
+    auto& id = run.estimate.identifiability;
+    id.candidates = model_report->candidates;
+    std::vector<int> asked = id.candidates, chosen = id.identified;
+    std::sort(asked.begin(), asked.end());
+    std::sort(chosen.begin(), chosen.end());
+    id.unidentified.clear();
+    std::set_difference(asked.begin(), asked.end(), chosen.begin(), chosen.end(),
+                        std::back_inserter(id.unidentified));
+    id.dependencies.insert(id.dependencies.end(), model_report->dependencies.begin(),
+                           model_report->dependencies.end());
   }
   for (const auto& p : fit) run.fit_pose_ids.push_back(p.id);
 
@@ -329,6 +355,11 @@ db::CalibrationRecord CalibrationRecordOf(const calibration::RobotModel& model,
   }
   c.active = active;
   c.world_from_base = e.world_from_base;
+  if (e.covariance.rows() == static_cast<int>(e.identifiability.identified.size())) {
+    const auto names = model.ParameterNames();
+    for (int k : e.identifiability.identified) c.covariance_parameters.push_back(names[k]);
+    c.covariance = e.covariance;
+  }
   const auto names = model.ParameterNames();
   std::vector<char> identified(model.num_parameters(), 0);
   for (int k : e.identifiability.identified) identified[k] = 1;

@@ -33,6 +33,10 @@ struct CalibrateSettings {
   double robust_threshold_mm = 0.0;
   double alpha = 0.01;
   double rank_tolerance = 1e-7;
+  // Candidates narrowed to what the model identifies from configurations spread over its
+  // joint limits (calibration::ModelIdentifiableSubset): every set of a robot then
+  // estimates the same parameters in the same gauge, whatever poses a night brought.
+  bool model_subset = false;
 };
 CalibrationRun RunCalibration(const calibration::RobotModel& model,
                               const std::vector<MeasuredPose>& poses,

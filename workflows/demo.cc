@@ -1,17 +1,19 @@
 #include "workflows/demo.h"
 
 #include <fmt/format.h>
+#include <stdlib.h>
 #include <yaml-cpp/yaml.h>
 
-#include <stdlib.h>
-
+#include <algorithm>
 #include <filesystem>
+#include <optional>
 #include <random>
 
 #include "acquisition/lab.h"
 #include "calibration/identifiability.h"
 #include "calibration/selection.h"
 #include "calibration/simulation.h"
+#include "core/error.h"
 #include "core/units.h"
 #include "db/database.h"
 #include "db/store.h"
@@ -31,8 +33,50 @@ namespace armsig::workflows {
 namespace {
 
 constexpr double kSigmaArcsec = 0.5;
+constexpr const char* kDemoRobot = "puma760-demo";
+
+bool Stopped(const DemoOptions& options) { return options.stop && options.stop->load(); }
 
 }  // namespace
+
+DemoLimits DemoLimitsOf(const calibration::RobotModel& model, unsigned seed) {
+  // Configurations spread over the joint limits, two per parameter: the model's
+  // structural rank, not an accident of a few poses.
+  std::mt19937 rng(seed);
+  const auto spread = calibration::RandomConfigurations(model, 2 * model.num_parameters(), rng);
+  std::vector<int> all(model.num_parameters());
+  for (int i = 0; i < model.num_parameters(); ++i) all[i] = i;
+  const auto id = calibration::AnalyseJacobian(
+      calibration::StackedJacobian(model, Eigen::Isometry3d::Identity(),
+                                   Eigen::VectorXd::Zero(model.num_parameters()), spread),
+      all);
+  DemoLimits limits;
+  limits.identifiable = static_cast<int>(id.identified.size());
+  limits.min_fit = limits.identifiable / 3 + 1;  // 3 equations per pose, more than unknowns
+  limits.min_validation = limits.min_fit;
+  limits.min_configurations = limits.min_fit + limits.min_validation;
+  return limits;
+}
+
+int DemoSelectCount(int configurations, int select, const DemoLimits& limits) {
+  if (configurations < limits.min_configurations) {
+    throw InputError({"--configurations", 0, 0, ""},
+                     fmt::format("{} configurations are too few: the calibration needs at least {} "
+                                 "({} to fit the {} identifiable parameters, {} to validate)",
+                                 configurations, limits.min_configurations, limits.min_fit,
+                                 limits.identifiable, limits.min_validation));
+  }
+  const int most = configurations - limits.min_validation;
+  if (select == 0) return std::clamp((2 * configurations + 2) / 5, limits.min_fit, most);
+  if (select < limits.min_fit || select > most) {
+    throw InputError({"--select", 0, 0, ""},
+                     fmt::format("{} is outside {}…{}: with {} configurations the fit needs at "
+                                 "least {} and the validation keeps at least {}",
+                                 select, limits.min_fit, most, configurations, limits.min_fit,
+                                 limits.min_validation));
+  }
+  return select;
+}
 
 DemoResult RunDemo(const DemoOptions& options, const DemoObserver& observer) {
   auto say = [&](const std::string& text) {
@@ -41,6 +85,23 @@ DemoResult RunDemo(const DemoOptions& options, const DemoObserver& observer) {
   using namespace std::chrono_literals;
   const auto started = std::chrono::steady_clock::now();
   const calibration::RobotModel model = io::ParseRobotModel(kPuma760Yaml, "built-in PUMA 760");
+  const DemoLimits limits = DemoLimitsOf(model, options.seed);
+  // Everything the options decide is checked before anything is created.
+  std::optional<db::Database> resumed_db;
+  acquisition::Plan stored_plan;
+  if (options.resume_session > 0) {
+    resumed_db.emplace(options.db_path, db::OpenMode::kMustExist);
+    const auto row = db::LoadSession(*resumed_db, options.resume_session);
+    if (!row || row->robot != kDemoRobot) {
+      throw InputError({resumed_db->path(), 0, 0, ""},
+                       fmt::format("no demo session {} (robot {}) to resume",
+                                   options.resume_session, kDemoRobot));
+    }
+    stored_plan = acquisition::PlanFromJson(row->plan_json);
+  }
+  const int configurations =
+      options.resume_session > 0 ? static_cast<int>(stored_plan.size()) : options.configurations;
+  const int select_count = DemoSelectCount(configurations, options.select, limits);
   // A fresh private directory (mkdtemp: mode 0700, a name nobody could plant in advance).
   std::string work_template =
       (std::filesystem::temp_directory_path() / "armsig-demo-XXXXXX").string();
@@ -127,8 +188,8 @@ DemoResult RunDemo(const DemoOptions& options, const DemoObserver& observer) {
     lab.Aim(s, "robot");
   }
   const auto oriented = reduction::Orient(setup);
-  if (!oriented.ok)
-    throw std::runtime_error("demo: orientation failed: " + oriented.refusals.front());
+  if (!oriented.status.ok())
+    throw std::runtime_error("demo: orientation failed: " + oriented.status.message);
   drivers.clear();
   std::string text = fmt::format(
       "1. stations oriented from {} readings (mutual pointings, 3 bar set-ups): sigma0 {:.3f}, "
@@ -151,10 +212,10 @@ DemoResult RunDemo(const DemoOptions& options, const DemoObserver& observer) {
   YAML::Emitter lab_yaml;
   lab_yaml << YAML::BeginMap << YAML::Key << "robot" << YAML::Value << YAML::BeginMap;
   lab_yaml << YAML::Key << "model" << YAML::Value << "puma760.yaml";
-  lab_yaml << YAML::Key << "controller" << YAML::Value << YAML::Flow << YAML::BeginMap
-           << YAML::Key << "protocol" << YAML::Value << "as" << YAML::Key << "port"
-           << YAML::Value << robot_sim.path() << YAML::Key << "can_move" << YAML::Value << true
-           << YAML::EndMap << YAML::EndMap;
+  lab_yaml << YAML::Key << "controller" << YAML::Value << YAML::Flow << YAML::BeginMap << YAML::Key
+           << "protocol" << YAML::Value << "as" << YAML::Key << "port" << YAML::Value
+           << robot_sim.path() << YAML::Key << "can_move" << YAML::Value << true << YAML::EndMap
+           << YAML::EndMap;
   lab_yaml << YAML::Key << "instruments" << YAML::Value << YAML::BeginSeq;
   for (int s = 0; s < 3; ++s) {
     lab_yaml << YAML::Flow << YAML::BeginMap << YAML::Key << "station" << YAML::Value
@@ -164,47 +225,76 @@ DemoResult RunDemo(const DemoOptions& options, const DemoObserver& observer) {
              << YAML::Value << kSigmaArcsec << YAML::EndMap;
   }
   lab_yaml << YAML::EndSeq << YAML::Key << "stations" << YAML::Value << "stations.yaml";
-  lab_yaml << YAML::Key << "tolerances" << YAML::Value << YAML::Flow << YAML::BeginMap
-           << YAML::Key << "max_miss_mm" << YAML::Value << 0.1 << YAML::Key << "settle_ms"
-           << YAML::Value << 0 << YAML::Key << "readings" << YAML::Value << 1 << YAML::Key
-           << "timeout_ms" << YAML::Value << 2000 << YAML::EndMap << YAML::EndMap;
+  lab_yaml << YAML::Key << "tolerances" << YAML::Value << YAML::Flow << YAML::BeginMap << YAML::Key
+           << "max_miss_mm" << YAML::Value << 0.1 << YAML::Key << "settle_ms" << YAML::Value << 0
+           << YAML::Key << "readings" << YAML::Value << 1 << YAML::Key << "timeout_ms"
+           << YAML::Value << 2000 << YAML::EndMap << YAML::EndMap;
   io::WriteFileAtomically((work / "lab.yaml").string(), std::string(lab_yaml.c_str()) + "\n");
   const acquisition::LabConfig lab_config = acquisition::LoadLab((work / "lab.yaml").string());
 
-  // The paper's ~200 configurations: single-joint rotation tests, line and circle tests.
-  acquisition::Plan plan;
-  for (const auto& q : calibration::LabTestConfigurations(model, rng))
-    plan.push_back({"C" + std::to_string(plan.size() + 1), q});
-  for (const auto& q : calibration::RandomConfigurations(
-           model, options.configurations - static_cast<int>(plan.size()), rng)) {
-    plan.push_back({"C" + std::to_string(plan.size() + 1), q});
-  }
-  db::Database database(options.db_path);
-  const int64_t session = acquisition::CreateSession(database, lab_config, "puma760-demo", plan);
-  auto devices = acquisition::OpenInstruments(lab_config);
-  auto controller = acquisition::OpenController(lab_config);
-  acquisition::CaptureOptions capture;
-  capture.progress = observer.progress;
-  capture.stop = options.stop;
-  const auto captured =
-      acquisition::RunCapture(database, lab_config, session, devices, *controller, capture);
   DemoResult result;
+  if (Stopped(options) && options.resume_session == 0) {
+    say("stopped before the capture began: nothing stored\n");
+    return result;
+  }
+  // The paper's ~200 configurations: single-joint rotation tests, line and circle tests
+  // (192 for six joints), the rest random; fewer than those tests: random ones, spread
+  // over the joint limits.
+  acquisition::Plan plan = stored_plan;
+  if (options.resume_session == 0) {
+    auto joints = calibration::LabTestConfigurations(model, rng);
+    if (static_cast<int>(joints.size()) > configurations) joints.clear();
+    for (const auto& q : calibration::RandomConfigurations(
+             model, configurations - static_cast<int>(joints.size()), rng)) {
+      joints.push_back(q);
+    }
+    for (const auto& q : joints) plan.push_back({"C" + std::to_string(plan.size() + 1), q});
+  }
+  if (!resumed_db) resumed_db.emplace(options.db_path);
+  db::Database& database = *resumed_db;
+  const int64_t session = options.resume_session > 0
+                              ? options.resume_session
+                              : acquisition::CreateSession(database, lab_config, kDemoRobot, plan);
   result.session = session;
+  acquisition::CaptureSummary captured;
+  try {
+    auto devices = acquisition::OpenInstruments(lab_config);
+    auto controller = acquisition::OpenController(lab_config);
+    acquisition::CaptureOptions capture;
+    capture.progress = observer.progress;
+    capture.stop = options.stop;
+    captured =
+        acquisition::RunCapture(database, lab_config, session, devices, *controller, capture);
+  } catch (...) {
+    db::SetSessionState(database, session, "paused");  // resumable, never left running
+    throw;
+  }
   if (captured.stopped) {
-    say(fmt::format("stopped: session {} is paused after {} configurations\n", session,
-                    captured.measured + captured.already));
+    say(fmt::format("stopped: session {} is paused after {} of {} configurations\n", session,
+                    captured.measured + captured.skipped + captured.already, captured.total));
     return result;
   }
   if (!captured.completed)
     throw std::runtime_error("demo: capture did not complete: " + captured.pause_reason);
+  if (captured.failed + captured.flagged > 0) {
+    std::string names;
+    for (const auto* list : {&captured.failed_configurations, &captured.flagged_configurations})
+      for (const auto& v : *list)
+        names += (names.empty() ? "" : ", ") + v.label + " (" + v.why + ")";
+    say(fmt::format("   {} failed and {} flagged configurations left out: {}\n", captured.failed,
+                    captured.flagged, names));
+  }
   say(fmt::format(
       "2. session {}: {} configurations captured in {:.1f} s ({:.1f} ms each, {:.2f} ms of it "
-      "software); miss distance mean {:.4f} mm, max {:.4f} mm\n",
-      session, captured.measured, captured.seconds, captured.mean_cycle_ms,
-      captured.mean_overhead_ms, captured.mean_miss_mm, captured.max_miss_mm));
+      "software){}\n",
+      session, captured.measured + captured.already, captured.seconds, captured.mean_cycle_ms,
+      captured.mean_overhead_ms,
+      captured.mean_miss_mm ? fmt::format("; miss distance mean {:.4f} mm, max {:.4f} mm",
+                                          *captured.mean_miss_mm, *captured.max_miss_mm)
+                            : std::string()));
 
   // --- Reduction in the database, then the poses for calibration.
-  const auto reduced = ReduceSession(database, session, reduction::IntersectionOptions{});
+  const auto reduced = ReduceSession(database, session, reduction::PointOptions{});
   std::vector<Eigen::Matrix3d> covariances;
   const std::vector<MeasuredPose> poses = db::LoadSessionPoses(database, session, &covariances);
   double noise_floor = 0.0;
@@ -227,7 +317,13 @@ DemoResult RunDemo(const DemoOptions& options, const DemoObserver& observer) {
                                    Eigen::VectorXd::Zero(model.num_parameters()), joints),
       all);
   calibration::SelectionOptions selection;
-  selection.count = std::min<int>(options.select, static_cast<int>(poses.size()) - 1);
+  selection.count =
+      std::min<int>(select_count, static_cast<int>(poses.size()) - limits.min_validation);
+  if (selection.count < limits.min_fit) {
+    throw std::runtime_error(fmt::format(
+        "demo: {} usable points of {} configurations: too few to fit and validate (need {})",
+        poses.size(), plan.size(), limits.min_configurations));
+  }
   const auto selected = calibration::SelectConfigurations(model, joints, id.identified, selection);
   std::vector<MeasuredPose> fit, validation;
   {
@@ -242,26 +338,36 @@ DemoResult RunDemo(const DemoOptions& options, const DemoObserver& observer) {
 
   nlohmann::json stages = nlohmann::json::array();
   std::vector<CalibrationRun> runs;
-  const int64_t robot_id = *db::FindRobot(database, "puma760-demo");
+  const int64_t robot_id = *db::FindRobot(database, kDemoRobot);
   for (const std::string spec : {"geometric", "geometric,h3,h4", "all"}) {
+    if (Stopped(options)) {
+      say(fmt::format("stopped: session {} is captured; nothing of its calibration stored\n",
+                      session));
+      return result;
+    }
     CalibrateSettings settings;
     settings.params = spec;
+    settings.model_subset = true;  // the robot's subset, as every later recalibration uses
     CalibrationRun run = RunCalibration(model, fit, validation, settings);
     say("--- params: " + spec + "\n" + FormatCalibrationReport(model, run) + "\n");
     nlohmann::json stage = CalibrationJson(model, run);
     stage["params"] = spec;
     stages.push_back(stage);
-    SQLite::Transaction tx(database.sql());
-    db::InsertCalibration(
-        database, CalibrationRecordOf(model, run, robot_id, {{"session", session}},
-                                      {{"params", spec}, {"selection", "D-optimal"}}, false));
-    tx.commit();
     runs.push_back(std::move(run));
   }
-  // The full model becomes the robot's active arm signature.
+  // The three sets and the full model as the robot's active arm signature, in one
+  // transaction: a demo stopped before this point stores none of them.
   {
-    SQLite::Transaction tx(database.sql());
-    db::SetActiveVersion(database, robot_id, db::CalibrationHistory(database, robot_id).back().version);
+    db::WriteTransaction tx(database);
+    for (const auto& run : runs) {
+      db::InsertCalibration(
+          database,
+          CalibrationRecordOf(model, run, robot_id,
+                              {{"sessions", {std::to_string(session)}}, {"poses", poses.size()}},
+                              {{"params", run.params_spec}, {"selection", "D-optimal"}}, false));
+    }
+    db::SetActiveVersion(database, robot_id,
+                         db::CalibrationHistory(database, robot_id).back().version);
     tx.commit();
   }
 
@@ -269,7 +375,7 @@ DemoResult RunDemo(const DemoOptions& options, const DemoObserver& observer) {
       "The paper's progression, from this session's own data ({} fitted, {} validated):\n",
       fit.size(), validation.size());
   text += fmt::format("  {:<18}{:>12}{:>22}{:>26}{:>18}\n", "params", "identified",
-                           "fit mean (max) mm", "validation mean (max) mm", "paper (fit)");
+                      "fit mean (max) mm", "validation mean (max) mm", "paper (fit)");
   const auto nominal_validation =
       calibration::Summarise(calibration::Distances(runs[0].validation_nominal_residuals));
   text += fmt::format(
@@ -288,8 +394,8 @@ DemoResult RunDemo(const DemoOptions& options, const DemoObserver& observer) {
         fmt::format("{:.3f} ({:.2f})", e.fit.mean_mm, e.fit.max_mm),
         fmt::format("{:.3f} ({:.2f})", v.mean_mm, v.max_mm), paper[k]);
   }
-  text += fmt::format(
-      "  measurement noise floor (mean 3-D error of a reduced point): {:.3f} mm\n", noise_floor);
+  text += fmt::format("  measurement noise floor (mean 3-D error of a reduced point): {:.3f} mm\n",
+                      noise_floor);
   const double seconds =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count();
   say(text);

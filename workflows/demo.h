@@ -12,17 +12,40 @@
 #include <string>
 
 #include "acquisition/session.h"
+#include "calibration/model.h"
 
 namespace armsig::workflows {
 
 struct DemoOptions {
   std::string db_path;
   int configurations = 200;  // captured
-  int select = 80;           // fitted (D-optimal), the rest validate
+  int select = 0;            // fitted (D-optimal), the rest validate; 0 = 40 % (80 of 200)
   double time_scale = 0.25;  // multiplies every simulated instrument latency
   unsigned seed = 1985;
-  const std::atomic<bool>* stop = nullptr;  // Ctrl-C: stop the capture between configurations
+  // Continue this stopped demo session (its stored plan; `configurations` is ignored):
+  // capture what is missing, then reduce and calibrate.
+  int64_t resume_session = 0;
+  // Ctrl-C: stop at the next safe point (between configurations, between stages).
+  const std::atomic<bool>* stop = nullptr;
 };
+
+// How few configurations the demo's calibration can use, from the model: the fit needs
+// more equations (3 per configuration) than the model has identifiable parameters
+// (all 43 candidates, rank on configurations spread over the joint limits), and the
+// validation set is at least as large as that smallest fit.
+struct DemoLimits {
+  int identifiable = 0;        // identifiable parameters of the built-in PUMA 760
+  int min_fit = 0;             // identifiable / 3 + 1
+  int min_validation = 0;      // = min_fit
+  int min_configurations = 0;  // min_fit + min_validation
+};
+DemoLimits DemoLimitsOf(const calibration::RobotModel& model, unsigned seed);
+
+// The configurations to fit for `configurations` captured ones: `select`, or 40 % when 0,
+// within [min_fit, configurations − min_validation]. Throws InputError (naming
+// --configurations or --select and the limit) when that range is empty or `select` is
+// outside it.
+int DemoSelectCount(int configurations, int select, const DemoLimits& limits);
 
 struct DemoObserver {
   std::function<void(const std::string&)> say;  // the narrative, one block at a time
@@ -30,12 +53,14 @@ struct DemoObserver {
 };
 
 struct DemoResult {
-  int64_t session = 0;
+  int64_t session = 0;     // 0 when stopped before the session was created
   bool completed = false;  // false when stopped before the end (the session is paused)
   double seconds = 0.0;
-  nlohmann::json json;     // the --json document
+  nlohmann::json json;  // the --json document
 };
 
+// Checks the options (DemoSelectCount) before anything is created. The virtual lab lives
+// in a private directory under $TMPDIR, removed on every way out but a hard kill.
 DemoResult RunDemo(const DemoOptions& options, const DemoObserver& observer);
 
 }  // namespace armsig::workflows

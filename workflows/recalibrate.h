@@ -15,15 +15,18 @@ namespace armsig::workflows {
 struct RecalibrateOptions {
   std::string db_path;
   std::string robot;
-  std::string since;         // ISO date/time lower bound on the sessions used ("" = all)
+  // ISO date or date/time lower bound on the sessions used ("" = all): 2026-11-01,
+  // 2026-11-01T02:30, 2026-11-01T02:30:00Z. Anything else is an InputError.
+  std::string since;
   std::string params = "all";
-  int select = 0;            // configurations to fit (0: 60 %, at most 80)
+  int select = 0;  // configurations to fit (0: 60 %, at most 80)
   // Gates; unset = the lab file's `recalibration:` block, else the defaults below.
-  std::optional<double> max_validation_mean_mm, max_validation_max_mm, tolerance_mm,
-      drift_sigma;
-  std::string report_dir;    // write the HTML report here ("" = none)
+  std::optional<double> max_validation_mean_mm, max_validation_max_mm, tolerance_mm, drift_sigma,
+      drift_mm;
+  std::string report_dir;  // write the HTML report here ("" = none)
+  std::string json_path;   // the caller will write the decision here: checked before any write
   int lock_wait_s = 600;
-  bool force = false;        // refit even when the active set already uses these inputs
+  bool force = false;  // refit even when the active set already uses these inputs
 };
 
 struct Gate {
@@ -38,6 +41,20 @@ struct DriftedParameter {
   double sigmas = 0.0;
 };
 
+// The new set against the active one, by the positions both predict over configurations
+// spread over the work volume (calibration::CompareModels), after aligning bases.
+struct ModelDrift {
+  int configurations = 0;
+  double max_mm = 0.0, mean_mm = 0.0, rms_mm = 0.0;
+  double chi2 = 0.0;
+  int dof = 0;
+  double p_value = 1.0;
+  bool significant = false;         // p_value < 0.001
+  double tolerance_mm = 0.0;        // drift needs max_mm above this too
+  bool previous_covariance = true;  // false: the active set predates stored covariances
+  bool same_subset = true;  // false: chi2 on the shape changes both subsets can make
+};
+
 struct RecalibrationDecision {
   enum class Outcome { kUpToDate, kStored, kRejected };
   Outcome outcome = Outcome::kRejected;
@@ -49,10 +66,12 @@ struct RecalibrationDecision {
   calibration::ErrorStats nominal, fit, validation;
   std::optional<calibration::ErrorStats> previous_on_same_data;
   std::vector<Gate> gates;
+  // Drift: the models differ significantly and by more than the tolerance in mm.
   bool drift = false;
-  double max_abs_sigmas = 0.0;
-  std::vector<DriftedParameter> drifted;
-  std::string report_path;  // "" when no report was written
+  std::optional<ModelDrift> model_drift;  // when there was an active set to compare with
+  double max_abs_sigmas = 0.0;            // per parameter, on the subset both sets share
+  std::vector<DriftedParameter> drifted;  // those beyond drift_sigma, largest first
+  std::string report_path;                // "" when no report was written
 
   bool passed() const { return outcome != Outcome::kRejected; }
   // "stored as version 4 (active)" / "rejected: a gate failed; version 3 stays active" / …

@@ -1,22 +1,311 @@
 #include "workflows/report.h"
 
+#include <fmt/chrono.h>
 #include <fmt/format.h>
+#include <spdlog/spdlog.h>
 
 #include <algorithm>
+#include <chrono>
 #include <cmath>
 #include <filesystem>
+#include <map>
+#include <numbers>
+#include <numeric>
 #include <opencv2/core.hpp>
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
+#include <set>
 
+#include "acquisition/lab.h"
+#include "core/error.h"
+#include "db/observations.h"
+#include "db/report_queries.h"
 #include "io/atomic_file.h"
+#include "workflows/html.h"
 
 namespace armsig::workflows {
 
+// ---- Numbers ----
+
+double PercentileNearestRank(std::vector<double> values, int percent) {
+  if (values.empty()) return NAN;
+  const int64_t n = static_cast<int64_t>(values.size());
+  // ceil(percent·n/100) in integers: 0.95·60 must be 57, not 57.000000000000007 → 58.
+  const int64_t rank = std::clamp<int64_t>((percent * n + 99) / 100, 1, n);
+  std::nth_element(values.begin(), values.begin() + (rank - 1), values.end());
+  return values[rank - 1];
+}
+
+std::vector<AxisStatistics> ResidualStatistics(const std::vector<Eigen::Vector3d>& residuals) {
+  std::vector<AxisStatistics> out;
+  const size_t n = residuals.size();
+  for (int c = 0; c < 4; ++c) {
+    AxisStatistics s;
+    s.name = c < 3 ? std::string("d") + "XYZ"[c] : "distance";
+    std::vector<double> v, magnitude;
+    for (const auto& r : residuals) {
+      v.push_back(c < 3 ? r(c) : r.norm());
+      magnitude.push_back(std::abs(v.back()));
+    }
+    if (n > 0) {
+      s.mean_mm = std::accumulate(v.begin(), v.end(), 0.0) / n;
+      double squares = 0.0, deviations = 0.0;
+      for (double x : v) {
+        squares += x * x;
+        deviations += (x - s.mean_mm) * (x - s.mean_mm);
+      }
+      s.rms_mm = std::sqrt(squares / n);
+      s.std_mm = n > 1 ? std::sqrt(deviations / (n - 1)) : NAN;  // sample standard deviation
+      s.max_abs_mm = *std::max_element(magnitude.begin(), magnitude.end());
+      s.p50_mm = PercentileNearestRank(magnitude, 50);
+      s.p95_mm = PercentileNearestRank(magnitude, 95);
+      s.p99_mm = PercentileNearestRank(magnitude, 99);
+    }
+    out.push_back(s);
+  }
+  return out;
+}
+
+std::vector<int> WorstResiduals(const std::vector<Eigen::Vector3d>& residuals, int count) {
+  std::vector<int> order(residuals.size());
+  std::iota(order.begin(), order.end(), 0);
+  std::stable_sort(order.begin(), order.end(),
+                   [&](int a, int b) { return residuals[a].norm() > residuals[b].norm(); });
+  order.resize(std::min<size_t>(order.size(), std::max(count, 0)));
+  return order;
+}
+
 namespace {
 
-const cv::Scalar kInk(40, 40, 40), kGrid(225, 225, 225), kRed(60, 60, 220), kGreen(80, 160, 40),
-    kBlue(200, 120, 30), kGrey(170, 170, 170);
+// 1, 2 or 5 × 10^k, the smallest not below `raw`.
+double NiceStep(double raw) {
+  const double magnitude = std::pow(10.0, std::floor(std::log10(raw)));
+  for (double m : {1.0, 2.0, 5.0}) {
+    if (m * magnitude >= raw * (1 - 1e-9)) return m * magnitude;
+  }
+  return 10.0 * magnitude;
+}
+
+// 1, 2 or 5 × 10^k, the largest not above `value`.
+double NiceBelow(double value) {
+  const double magnitude = std::pow(10.0, std::floor(std::log10(value)));
+  for (double m : {5.0, 2.0}) {
+    if (m * magnitude <= value * (1 + 1e-9)) return m * magnitude;
+  }
+  return magnitude;
+}
+
+}  // namespace
+
+std::vector<double> NiceTicks(double lo, double hi, int max_ticks) {
+  if (!(hi > lo)) hi = lo + 1.0;
+  const double step = NiceStep((hi - lo) / std::max(max_ticks, 1));
+  const double first = std::floor(lo / step + 1e-9), last = std::ceil(hi / step - 1e-9);
+  std::vector<double> ticks;
+  for (double k = first; k <= last; k += 1.0) ticks.push_back(k * step);
+  return ticks;
+}
+
+std::vector<int> IntegerTicks(int largest, int max_ticks) {
+  largest = std::max(largest, 1);
+  const int step = std::max(1, static_cast<int>(std::lround(NiceStep(static_cast<double>(largest) /
+                                                                     std::max(max_ticks, 1)))));
+  std::vector<int> ticks;
+  for (int t = 0;; t += step) {
+    ticks.push_back(t);
+    if (t >= largest) break;
+  }
+  return ticks;
+}
+
+Histogram HistogramOf(const std::vector<double>& distances_mm, int bins) {
+  Histogram h;
+  const double top =
+      distances_mm.empty()
+          ? 1.0
+          : std::max(*std::max_element(distances_mm.begin(), distances_mm.end()), 1e-6);
+  h.bin_width_mm = NiceStep(top / std::max(bins, 1));
+  h.counts.assign(static_cast<size_t>(std::floor(top / h.bin_width_mm)) + 1, 0);
+  for (double d : distances_mm) {
+    const auto b = static_cast<size_t>(std::floor(d / h.bin_width_mm));
+    h.counts[std::min(b, h.counts.size() - 1)]++;
+  }
+  h.count_ticks = IntegerTicks(*std::max_element(h.counts.begin(), h.counts.end()));
+  return h;
+}
+
+std::string ParamsKind(const std::string& spec) {
+  if (spec == "all" || spec == "geometric" || spec == "auto") return spec;
+  return spec.empty() ? "unknown" : "list";
+}
+
+namespace {
+
+// ---- Drawing ----
+
+const cv::Scalar kInk(40, 40, 40), kGrid(228, 228, 228), kRed(60, 60, 220), kGreen(70, 150, 40),
+    kBlue(190, 110, 30), kGrey(160, 160, 160), kOrange(0, 140, 240), kPurple(150, 60, 140),
+    kTeal(140, 140, 0);
+constexpr int kFont = cv::FONT_HERSHEY_SIMPLEX;
+constexpr double kDegPerRad = 180.0 / std::numbers::pi;
+
+enum class Align { kLeft, kCenter, kRight };
+
+void Text(cv::Mat& image, const std::string& text, cv::Point at, double scale = 0.4,
+          Align align = Align::kLeft, const cv::Scalar& color = kInk) {
+  int baseline = 0;
+  const cv::Size size = cv::getTextSize(text, kFont, scale, 1, &baseline);
+  if (align == Align::kCenter) at.x -= size.width / 2;
+  if (align == Align::kRight) at.x -= size.width;
+  cv::putText(image, text, at, kFont, scale, color, 1, cv::LINE_AA);
+}
+
+int TextWidth(const std::string& text, double scale = 0.4) {
+  int baseline = 0;
+  return cv::getTextSize(text, kFont, scale, 1, &baseline).width;
+}
+
+enum class Marker { kCircle, kSquare, kTriangle, kDiamond, kLine };
+
+void DrawMarker(cv::Mat& image, cv::Point c, Marker marker, const cv::Scalar& color, int r = 4) {
+  switch (marker) {
+    case Marker::kCircle:
+      cv::circle(image, c, r, color, cv::FILLED, cv::LINE_AA);
+      break;
+    case Marker::kSquare:
+      cv::rectangle(image, c - cv::Point(r, r), c + cv::Point(r, r), color, cv::FILLED);
+      break;
+    case Marker::kTriangle: {
+      const std::vector<cv::Point> p = {c + cv::Point(0, -r - 1), c + cv::Point(r + 1, r),
+                                        c + cv::Point(-r - 1, r)};
+      cv::fillConvexPoly(image, p, color, cv::LINE_AA);
+      break;
+    }
+    case Marker::kDiamond: {
+      const std::vector<cv::Point> p = {c + cv::Point(0, -r - 1), c + cv::Point(r + 1, 0),
+                                        c + cv::Point(0, r + 1), c + cv::Point(-r - 1, 0)};
+      cv::fillConvexPoly(image, p, color, cv::LINE_AA);
+      break;
+    }
+    case Marker::kLine:
+      cv::line(image, c - cv::Point(2 * r, 0), c + cv::Point(2 * r, 0), color, 2, cv::LINE_AA);
+      break;
+  }
+}
+
+struct LegendEntry {
+  Marker marker;
+  cv::Scalar color;
+  std::string text;
+};
+
+struct Axis {
+  double lo = 0.0, hi = 1.0;
+  bool log = false;
+  std::vector<double> ticks;
+  std::vector<std::string> labels;
+};
+
+std::string TickLabel(double value, double step) {
+  const int decimals = std::max(0, static_cast<int>(-std::floor(std::log10(step) + 1e-9)));
+  if (std::abs(value) < step * 1e-6) value = 0.0;  // no "-0.00"
+  return fmt::format("{:.{}f}", value, decimals);
+}
+
+Axis LinearAxis(double lo, double hi, int max_ticks) {
+  Axis a;
+  a.ticks = NiceTicks(lo, hi, max_ticks);
+  a.lo = a.ticks.front();
+  a.hi = a.ticks.back();
+  const double step = a.ticks.size() > 1 ? a.ticks[1] - a.ticks[0] : 1.0;
+  for (double t : a.ticks) a.labels.push_back(TickLabel(t, step));
+  return a;
+}
+
+Axis IntegerAxis(int largest, int max_ticks) {
+  Axis a;
+  for (int t : IntegerTicks(largest, max_ticks)) {
+    a.ticks.push_back(t);
+    a.labels.push_back(std::to_string(t));
+  }
+  a.lo = a.ticks.front();
+  a.hi = a.ticks.back();
+  return a;
+}
+
+Axis LogAxis(double lo, double hi) {
+  Axis a;
+  a.log = true;
+  const int first = static_cast<int>(std::floor(std::log10(std::max(lo, 1e-6))));
+  const int last = std::max(first + 1, static_cast<int>(std::ceil(std::log10(std::max(hi, 1e-6)))));
+  for (int d = first; d <= last; ++d) {
+    a.ticks.push_back(std::pow(10.0, d));
+    a.labels.push_back(fmt::format("{:g}", std::pow(10.0, d)));
+  }
+  a.lo = a.ticks.front();
+  a.hi = a.ticks.back();
+  return a;
+}
+
+// A plotting area with ticked axes; the title and legend sit above it, so the legend
+// covers no data.
+class Plot {
+ public:
+  Plot(int width, int height, const std::string& title, Axis x, Axis y, const std::string& xlabel,
+       const std::string& ylabel)
+      : image(height, width, CV_8UC3, cv::Scalar(255, 255, 255)),
+        area(70, 56, width - 70 - 20, height - 56 - 52),
+        x_(std::move(x)),
+        y_(std::move(y)) {
+    Text(image, title, {area.x, 20}, 0.55);
+    Text(image, ylabel, {8, area.y - 10});
+    Text(image, xlabel, {area.x + area.width / 2, height - 10}, 0.45, Align::kCenter);
+    for (size_t k = 0; k < x_.ticks.size(); ++k) {
+      const int px = X(x_.ticks[k]);
+      cv::line(image, {px, area.y}, {px, area.y + area.height}, kGrid);
+      cv::line(image, {px, area.y + area.height}, {px, area.y + area.height + 4}, kInk);
+      Text(image, x_.labels[k], {px, area.y + area.height + 18}, 0.4, Align::kCenter);
+    }
+    for (size_t k = 0; k < y_.ticks.size(); ++k) {
+      const int py = Y(y_.ticks[k]);
+      cv::line(image, {area.x, py}, {area.x + area.width, py}, kGrid);
+      cv::line(image, {area.x - 4, py}, {area.x, py}, kInk);
+      Text(image, y_.labels[k], {area.x - 7, py + 4}, 0.4, Align::kRight);
+    }
+    cv::rectangle(image, area, kInk);
+  }
+
+  int X(double x) const {
+    return area.x + static_cast<int>(std::lround(Fraction(x_, x) * area.width));
+  }
+  int Y(double y) const {
+    return area.y + area.height - static_cast<int>(std::lround(Fraction(y_, y) * area.height));
+  }
+  cv::Point At(double x, double y) const { return {X(x), Y(y)}; }
+
+  // One row above the plotting area, right of the y label.
+  void Legend(const std::vector<LegendEntry>& entries) {
+    cv::Point at(area.x + 10, area.y - 14);
+    for (const auto& e : entries) {
+      DrawMarker(image, at + cv::Point(5, -4), e.marker, e.color);
+      Text(image, e.text, at + cv::Point(16, 0));
+      at.x += 16 + TextWidth(e.text) + 22;
+    }
+  }
+
+  cv::Mat image;
+  cv::Rect area;
+
+ private:
+  static double Fraction(const Axis& a, double v) {
+    if (a.log) {
+      return (std::log10(std::max(v, 1e-12)) - std::log10(a.lo)) /
+             (std::log10(a.hi) - std::log10(a.lo));
+    }
+    return (v - a.lo) / (a.hi - a.lo);
+  }
+  Axis x_, y_;
+};
 
 std::string Base64(const std::vector<uchar>& data) {
   static const char* table = "ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
@@ -33,89 +322,6 @@ std::string Base64(const std::vector<uchar>& data) {
   return out;
 }
 
-std::string Html(const std::string& text) {
-  std::string out;
-  for (char c : text) {
-    if (c == '<')
-      out += "&lt;";
-    else if (c == '>')
-      out += "&gt;";
-    else if (c == '&')
-      out += "&amp;";
-    else if (c == '"')
-      out += "&quot;";
-    else if (c == '\'')
-      out += "&#39;";
-    else
-      out += c;
-  }
-  return out;
-}
-
-// A plotting area with axes; maps data to pixels.
-struct Plot {
-  cv::Mat image;
-  cv::Rect area;
-  double x0, x1, y0, y1;
-  bool log_y = false;
-
-  Plot(int w, int h, double xa, double xb, double ya, double yb, bool log, const std::string& title,
-       const std::string& xlabel, const std::string& ylabel)
-      : image(h, w, CV_8UC3, cv::Scalar(255, 255, 255)),
-        area(80, 40, w - 110, h - 100),
-        x0(xa),
-        x1(xb),
-        log_y(log) {
-    y0 = log ? std::log10(ya) : ya;
-    y1 = log ? std::log10(yb) : yb;
-    if (x1 <= x0) x1 = x0 + 1;
-    if (y1 <= y0) y1 = y0 + 1;
-    cv::putText(image, title, {area.x, 25}, cv::FONT_HERSHEY_SIMPLEX, 0.6, kInk, 1, cv::LINE_AA);
-    cv::putText(image, xlabel, {area.x + area.width / 2 - 60, h - 15}, cv::FONT_HERSHEY_SIMPLEX,
-                0.45, kInk, 1, cv::LINE_AA);
-    cv::putText(image, ylabel, {5, area.y - 10}, cv::FONT_HERSHEY_SIMPLEX, 0.45, kInk, 1,
-                cv::LINE_AA);
-    // Y ticks: decades on a log axis, 5 steps otherwise.
-    if (log) {
-      for (int d = static_cast<int>(std::floor(y0)); d <= static_cast<int>(std::ceil(y1)); ++d) {
-        if (d < y0 - 1e-9 || d > y1 + 1e-9) continue;
-        const int py = Y(std::pow(10.0, d));
-        cv::line(image, {area.x, py}, {area.x + area.width, py}, kGrid);
-        cv::putText(image, fmt::format("{:g}", std::pow(10.0, d)), {10, py + 4},
-                    cv::FONT_HERSHEY_SIMPLEX, 0.4, kInk, 1, cv::LINE_AA);
-      }
-    } else {
-      for (int k = 0; k <= 5; ++k) {
-        const double v = y0 + (y1 - y0) * k / 5;
-        const int py = Y(v);
-        cv::line(image, {area.x, py}, {area.x + area.width, py}, kGrid);
-        cv::putText(image, fmt::format("{:.3g}", v), {10, py + 4}, cv::FONT_HERSHEY_SIMPLEX, 0.4,
-                    kInk, 1, cv::LINE_AA);
-      }
-    }
-    for (int k = 0; k <= 5; ++k) {
-      const double v = x0 + (x1 - x0) * k / 5;
-      const int px = X(v);
-      cv::putText(image, fmt::format("{:.3g}", v), {px - 15, area.y + area.height + 18},
-                  cv::FONT_HERSHEY_SIMPLEX, 0.4, kInk, 1, cv::LINE_AA);
-    }
-    cv::rectangle(image, area, kInk);
-  }
-  int X(double x) const { return area.x + static_cast<int>((x - x0) / (x1 - x0) * area.width); }
-  int Y(double y) const {
-    const double v = log_y ? std::log10(std::max(y, 1e-12)) : y;
-    return area.y + area.height - static_cast<int>((v - y0) / (y1 - y0) * area.height);
-  }
-  void Legend(int row, const cv::Scalar& color, const std::string& text) {
-    const cv::Point at(area.x + 15, area.y + area.height - 50 + 20 * row);
-    cv::rectangle(image, at + cv::Point(-8, -12), at + cv::Point(215, 8), cv::Scalar(255, 255, 255),
-                  cv::FILLED);
-    cv::circle(image, at, 5, color, cv::FILLED, cv::LINE_AA);
-    cv::putText(image, text, at + cv::Point(12, 5), cv::FONT_HERSHEY_SIMPLEX, 0.45, kInk, 1,
-                cv::LINE_AA);
-  }
-};
-
 struct Figure {
   std::string file, title, png_base64;
 };
@@ -123,209 +329,638 @@ struct Figure {
 Figure Save(const std::string& dir, const std::string& file, const std::string& title,
             const cv::Mat& image) {
   std::vector<uchar> png;
-  cv::imencode(".png", image, png);
+  if (!cv::imencode(".png", image, png)) throw std::runtime_error("cannot encode " + file);
   io::WriteFileAtomically(dir + "/" + file, std::string(png.begin(), png.end()));
   return {file, title, Base64(png)};
 }
 
+Html FigureHtml(const Figure& f) {
+  // The base64 text is the program's own encoding of its PNG: trusted markup.
+  return HtmlFormat(
+      "<figure><img alt=\"{}\" src=\"data:image/png;base64,{}\"><figcaption>{}</figcaption>"
+      "</figure>\n",
+      f.title, Html::Trusted(f.png_base64), f.title);
+}
+
+Html Num(double v, int decimals = 4) {
+  if (std::abs(v) < 0.5 * std::pow(10.0, -decimals)) v = 0.0;  // no "-0.0000"
+  return std::isfinite(v) ? Html::Text(fmt::format("{:.{}f}", v, decimals)) : Html("&mdash;");
+}
+
+std::string Now() {
+  return fmt::format("{:%Y-%m-%dT%H:%M:%SZ}",
+                     std::chrono::floor<std::chrono::seconds>(std::chrono::system_clock::now()));
+}
+
+const char* kStyle = R"css(
+body{font-family:sans-serif;margin:2em;max-width:960px;color:#222}
+h1{font-size:1.5em}h2{font-size:1.2em;margin-top:1.6em;break-after:avoid;page-break-after:avoid}
+table{border-collapse:collapse;margin:0.8em 0}
+td,th{border:1px solid #ccc;padding:3px 8px;text-align:left;vertical-align:top}
+th{background:#f4f4f4}
+td.num,th.num{text-align:right;white-space:nowrap;font-variant-numeric:tabular-nums}
+.nowrap{white-space:nowrap}
+table.header th{white-space:nowrap}
+.bad{color:#b00}.good{color:#070}.note{font-style:italic}
+figure{margin:1em 0;break-inside:avoid;page-break-inside:avoid}
+figure img{max-width:100%;border:1px solid #eee;display:block}
+figcaption{font-size:0.85em;color:#555}
+.joints{display:flex;flex-wrap:wrap;gap:8px}.joints figure{margin:0.3em 0}
+@page{size:A4;margin:14mm}
+@media print{
+  body{margin:0;max-width:none;font-size:9pt}
+  figure img{max-width:100%;height:auto}
+  table{break-inside:avoid;page-break-inside:avoid}
+  .joints figure{width:48%}
+}
+)css";
+
 }  // namespace
 
 std::string WriteReport(const std::string& dir, const ReportInput& in) {
+  if (!in.run || !in.model) throw std::logic_error("WriteReport: no run or model");
   std::filesystem::create_directories(dir);
   const auto& run = *in.run;
   const auto& model = *in.model;
-  std::vector<Figure> figures;
+  const auto names = model.ParameterNames();
+  const auto& residuals = run.validation_residuals;
+  const std::vector<double> distances = calibration::Distances(residuals);
+  const size_t n = residuals.size();
+  // Validation poses by id (joints for the per-joint views, targets for the vectors).
+  std::map<std::string, const MeasuredPose*> pose_by_id;
+  for (const auto& p : in.validation) pose_by_id[p.id] = &p;
+  auto pose_of = [&](size_t i) -> const MeasuredPose* {
+    if (i >= run.validation_pose_ids.size()) return nullptr;
+    const auto it = pose_by_id.find(run.validation_pose_ids[i]);
+    return it == pose_by_id.end() ? nullptr : it->second;
+  };
+  const auto stats = ResidualStatistics(residuals);
 
   // 1. Error distance per validation configuration, nominal and calibrated (log scale).
+  Figure errors_figure;
   {
-    const size_t n = run.validation_residuals.size();
     double lo = 1e9, hi = 1e-9;
     for (size_t i = 0; i < n; ++i) {
-      lo = std::min(
-          {lo, run.validation_residuals[i].norm(), run.validation_nominal_residuals[i].norm()});
-      hi = std::max(
-          {hi, run.validation_residuals[i].norm(), run.validation_nominal_residuals[i].norm()});
+      lo = std::min({lo, residuals[i].norm(), run.validation_nominal_residuals[i].norm()});
+      hi = std::max({hi, residuals[i].norm(), run.validation_nominal_residuals[i].norm()});
     }
-    lo = std::pow(10.0, std::floor(std::log10(std::max(lo, 1e-4))));
-    hi = std::pow(10.0, std::ceil(std::log10(std::max(hi, 1e-3))));
-    Plot p(900, 420, 0, static_cast<double>(std::max<size_t>(n, 1)), lo, hi, true,
-           "Error distance per validation configuration", "configuration", "mm");
+    Plot p(900, 420, "Error distance per validation configuration",
+           IntegerAxis(static_cast<int>(std::max<size_t>(n, 1)), 10), LogAxis(lo, hi),
+           "validation configuration (number)", "mm");
     for (size_t i = 0; i < n; ++i) {
-      cv::circle(p.image, {p.X(i + 0.5), p.Y(run.validation_nominal_residuals[i].norm())}, 3, kRed,
-                 cv::FILLED, cv::LINE_AA);
-      cv::circle(p.image, {p.X(i + 0.5), p.Y(run.validation_residuals[i].norm())}, 3, kGreen,
-                 cv::FILLED, cv::LINE_AA);
+      DrawMarker(p.image, p.At(i + 1.0, run.validation_nominal_residuals[i].norm()),
+                 Marker::kCircle, kRed, 3);
+      DrawMarker(p.image, p.At(i + 1.0, residuals[i].norm()), Marker::kSquare, kGreen, 3);
     }
-    p.Legend(0, kRed, "nominal model");
-    p.Legend(1, kGreen, "calibrated (this fit)");
-    figures.push_back(
-        Save(dir, "errors.png", "Error distance before and after calibration", p.image));
+    p.Legend({{Marker::kCircle, kRed, "nominal model"},
+              {Marker::kSquare, kGreen, "calibrated (this fit)"}});
+    errors_figure = Save(dir, "errors.png", "Error distance before and after calibration", p.image);
   }
-  // 2. Histogram of the calibrated validation errors.
+  // 2. Histogram of the calibrated validation errors, with the percentiles.
+  Figure histogram_figure;
   {
-    std::vector<double> d;
-    for (const auto& r : run.validation_residuals) d.push_back(r.norm());
-    const double top = d.empty() ? 1.0 : *std::max_element(d.begin(), d.end()) * 1.05;
-    const int bins = 20;
-    std::vector<int> count(bins, 0);
-    for (double v : d) count[std::min(bins - 1, static_cast<int>(v / top * bins))]++;
-    const int most = std::max(1, *std::max_element(count.begin(), count.end()));
-    Plot p(900, 380, 0, top, 0, most * 1.1, false, "Calibrated error distances (validation)", "mm",
-           "count");
-    for (int b = 0; b < bins; ++b) {
-      cv::rectangle(p.image, cv::Point(p.X(top * b / bins) + 1, p.Y(count[b])),
-                    cv::Point(p.X(top * (b + 1) / bins) - 1, p.Y(0)), kBlue, cv::FILLED);
+    const Histogram h = HistogramOf(distances);
+    const double top = h.bin_width_mm * h.counts.size();
+    Plot p(900, 380, "Calibrated error distances (validation)", LinearAxis(0, top, 8),
+           IntegerAxis(h.count_ticks.back(), 6), "error distance (mm)", "poses");
+    for (size_t b = 0; b < h.counts.size(); ++b) {
+      if (h.counts[b] == 0) continue;
+      cv::rectangle(p.image, p.At(h.bin_width_mm * b, h.counts[b]) + cv::Point(1, 0),
+                    p.At(h.bin_width_mm * (b + 1), 0) - cv::Point(1, 0), kBlue, cv::FILLED);
     }
-    figures.push_back(Save(dir, "histogram.png", "Residual histogram", p.image));
+    const auto& d = stats[3];
+    const std::vector<std::pair<double, cv::Scalar>> lines = {
+        {d.p50_mm, kGreen}, {d.p95_mm, kOrange}, {d.p99_mm, kRed}};
+    for (const auto& [value, color] : lines) {
+      if (!std::isfinite(value)) continue;
+      cv::line(p.image, {p.X(value), p.area.y}, {p.X(value), p.area.y + p.area.height}, color, 2,
+               cv::LINE_AA);
+    }
+    p.Legend({{Marker::kSquare, kBlue, fmt::format("poses per {:g} mm", h.bin_width_mm)},
+              {Marker::kLine, kGreen, fmt::format("50 %: {:.4f} mm", d.p50_mm)},
+              {Marker::kLine, kOrange, fmt::format("95 %: {:.4f} mm", d.p95_mm)},
+              {Marker::kLine, kRed, fmt::format("99 %: {:.4f} mm", d.p99_mm)}});
+    histogram_figure = Save(dir, "histogram.png", "Residual histogram", p.image);
   }
-  // 3. Residual vectors in the work volume: top view (x, y) and side view (x, z).
+  // 3. Residual vectors in the work volume: top view (x, y) and side view (x, z), equal
+  // scales, positions ticked in mm, arrows magnified with a scale bar in mm.
+  Figure vectors_figure;
   {
-    cv::Mat image(460, 900, CV_8UC3, cv::Scalar(255, 255, 255));
+    cv::Mat image(520, 900, CV_8UC3, cv::Scalar(255, 255, 255));
     double largest = 1e-9;
-    for (const auto& r : run.validation_residuals) largest = std::max(largest, r.norm());
+    for (const auto& r : residuals) largest = std::max(largest, r.norm());
+    double span = 1.0;
+    for (int axis = 0; axis < 3; ++axis) {
+      double a = 1e18, b = -1e18;
+      for (size_t i = 0; i < n; ++i) {
+        if (const auto* pose = pose_of(i)) {
+          a = std::min(a, pose->target_in_world(axis));
+          b = std::max(b, pose->target_in_world(axis));
+        }
+      }
+      if (b >= a) span = std::max(span, (b - a) * 1.15);
+    }
+    const double magnify = 0.08 * span / largest;  // the largest residual: 8 % of the view
+    Text(image, "Residual vectors (calibrated model - measured) at the validation targets",
+         {70, 20}, 0.55);
+    double px_per_mm = 1.0;
     for (int panel = 0; panel < 2; ++panel) {
       const int axis = panel == 0 ? 1 : 2;
+      const char* vertical = panel == 0 ? "y" : "z";
+      const cv::Rect box(70 + panel * 440, 50, 370, 370);
       double xa = 1e18, xb = -1e18, ya = 1e18, yb = -1e18;
-      for (const auto& pose : in.validation) {
-        xa = std::min(xa, pose.target_in_world.x());
-        xb = std::max(xb, pose.target_in_world.x());
-        ya = std::min(ya, pose.target_in_world(axis));
-        yb = std::max(yb, pose.target_in_world(axis));
+      for (size_t i = 0; i < n; ++i) {
+        if (const auto* pose = pose_of(i)) {
+          xa = std::min(xa, pose->target_in_world.x());
+          xb = std::max(xb, pose->target_in_world.x());
+          ya = std::min(ya, pose->target_in_world(axis));
+          yb = std::max(yb, pose->target_in_world(axis));
+        }
       }
-      const double span = std::max({xb - xa, yb - ya, 1.0});
-      const cv::Rect box(30 + panel * 440, 50, 400, 380);
-      cv::rectangle(image, box, kInk);
-      cv::putText(image, panel == 0 ? "top view (x, y)" : "side view (x, z)", {box.x, 40},
-                  cv::FONT_HERSHEY_SIMPLEX, 0.5, kInk, 1, cv::LINE_AA);
-      const double scale = 0.08 * span / largest;  // the largest residual draws as 8 % of the view
+      if (xb < xa) xa = xb = ya = yb = 0.0;
+      const double cx = (xa + xb) / 2, cy = (ya + yb) / 2;
+      px_per_mm = box.width / span;
       auto px = [&](double x, double y) {
         return cv::Point(
-            box.x + 10 + static_cast<int>((x - xa) / span * (box.width - 20)),
-            box.y + box.height - 10 - static_cast<int>((y - ya) / span * (box.height - 20)));
+            box.x + box.width / 2 + static_cast<int>(std::lround((x - cx) * px_per_mm)),
+            box.y + box.height / 2 - static_cast<int>(std::lround((y - cy) * px_per_mm)));
       };
-      for (size_t i = 0; i < in.validation.size() && i < run.validation_residuals.size(); ++i) {
-        const Eigen::Vector3d& x = in.validation[i].target_in_world;
-        const Eigen::Vector3d tip = x + scale * run.validation_residuals[i];
+      const std::vector<double> tx = NiceTicks(cx - span / 2, cx + span / 2, 4);
+      const std::vector<double> ty = NiceTicks(cy - span / 2, cy + span / 2, 4);
+      const double step = tx.size() > 1 ? tx[1] - tx[0] : 1.0;
+      for (double t : tx) {
+        const int x = px(t, cy).x;
+        if (x < box.x || x > box.x + box.width) continue;
+        cv::line(image, {x, box.y}, {x, box.y + box.height}, kGrid);
+        Text(image, TickLabel(t, step), {x, box.y + box.height + 16}, 0.38, Align::kCenter);
+      }
+      for (double t : ty) {
+        const int y = px(cx, t).y;
+        if (y < box.y || y > box.y + box.height) continue;
+        cv::line(image, {box.x, y}, {box.x + box.width, y}, kGrid);
+        Text(image, TickLabel(t, step), {box.x - 5, y + 4}, 0.38, Align::kRight);
+      }
+      cv::rectangle(image, box, kInk);
+      Text(
+          image,
+          panel == 0 ? "top view: x (mm) across, y (mm) up" : "side view: x (mm) across, z (mm) up",
+          {box.x, box.y - 8}, 0.45);
+      Text(image, "x (mm)", {box.x + box.width / 2, box.y + box.height + 34}, 0.4, Align::kCenter);
+      Text(image, std::string(vertical) + " (mm)", {box.x - 60, box.y - 8 + 0}, 0.4);
+      // Coordinate axes of the measuring frame (directions), bottom left.
+      const cv::Point o(box.x + 16, box.y + box.height - 16);
+      cv::arrowedLine(image, o, o + cv::Point(36, 0), kInk, 1, cv::LINE_AA, 0, 0.25);
+      cv::arrowedLine(image, o, o + cv::Point(0, -36), kInk, 1, cv::LINE_AA, 0, 0.25);
+      Text(image, "x", o + cv::Point(40, 4));
+      Text(image, vertical, o + cv::Point(-3, -40));
+      for (size_t i = 0; i < n; ++i) {
+        const auto* pose = pose_of(i);
+        if (!pose) continue;
+        const Eigen::Vector3d& x = pose->target_in_world;
+        const Eigen::Vector3d tip = x + magnify * residuals[i];
         cv::circle(image, px(x.x(), x(axis)), 2, kGrey, cv::FILLED, cv::LINE_AA);
         cv::arrowedLine(image, px(x.x(), x(axis)), px(tip.x(), tip(axis)), kRed, 1, cv::LINE_AA, 0,
                         0.25);
       }
     }
-    cv::putText(image,
-                fmt::format("Residual vectors (calibrated model - measured), arrows x{:.0f}: the "
-                            "largest is {:.3f} mm",
-                            0.08 * 1000 / largest, largest),
-                {30, 20}, cv::FONT_HERSHEY_SIMPLEX, 0.5, kInk, 1, cv::LINE_AA);
-    figures.push_back(Save(dir, "vectors.png", "Residual vectors in the work volume", image));
+    // The residual scale bar: a round length in mm, drawn at the arrows' magnification.
+    const double bar_mm = NiceBelow(largest);
+    const int bar_px = std::max(1, static_cast<int>(std::lround(bar_mm * magnify * px_per_mm)));
+    const cv::Point b0(70, 490);
+    cv::line(image, b0, b0 + cv::Point(bar_px, 0), kRed, 2, cv::LINE_AA);
+    cv::line(image, b0 + cv::Point(0, -5), b0 + cv::Point(0, 5), kRed, 2);
+    cv::line(image, b0 + cv::Point(bar_px, -5), b0 + cv::Point(bar_px, 5), kRed, 2);
+    Text(image,
+         fmt::format("= {:g} mm of residual (arrows magnified x{:.0f}; largest {:.4f} mm)", bar_mm,
+                     magnify, largest),
+         b0 + cv::Point(bar_px + 10, 5), 0.45);
+    vectors_figure = Save(dir, "vectors.png", "Residual vectors in the work volume", image);
   }
-  // 4. Drift: validation error of every stored version.
+  // 4. Drift: the validation mean of every version, on the version axis; the kind of
+  // parameter set (--params) as marker and colour.
+  Figure drift_figure;
   {
-    std::vector<ReportHistoryPoint> h = in.history;
+    const auto& h = in.history;
+    int newest = 0;
     double top = 1e-6;
-    for (const auto& p : h) top = std::max(top, p.validation_mean_mm);
-    Plot p(900, 360, 0.5, h.size() + 0.5, 0, top * 1.2, false,
-           "Validation mean error of every version", "version", "mm");
+    for (const auto& p : h) {
+      newest = std::max(newest, p.version);
+      if (std::isfinite(p.validation_mean_mm)) top = std::max(top, p.validation_mean_mm);
+    }
+    auto x_of = [&](const ReportHistoryPoint& p) { return p.version > 0 ? p.version : newest + 1; };
+    Axis x;
+    std::set<int> xs;
+    for (const auto& p : h) xs.insert(x_of(p));
+    if (xs.empty()) xs.insert(1);
+    const int every = static_cast<int>(std::ceil(xs.size() / 15.0));  // at most ~15 labels
+    int k = 0;
+    for (int v : xs) {
+      if (k++ % every != 0 && v != *xs.rbegin()) continue;
+      x.ticks.push_back(v);
+      const bool unsaved = std::any_of(
+          h.begin(), h.end(), [&](const auto& p) { return p.version == 0 && x_of(p) == v; });
+      x.labels.push_back(unsaved ? "this run" : std::to_string(v));
+    }
+    x.lo = *xs.begin() - 0.5;
+    x.hi = *xs.rbegin() + 0.5;
+    Plot p(900, 360, "Validation mean error of every version", x, LinearAxis(0, top * 1.1, 5),
+           "parameter set version", "mm");
+    struct Style {
+      Marker marker;
+      cv::Scalar color;
+    };
+    const std::map<std::string, Style> styles = {{"all", {Marker::kCircle, kBlue}},
+                                                 {"geometric", {Marker::kSquare, kOrange}},
+                                                 {"auto", {Marker::kTriangle, kPurple}},
+                                                 {"list", {Marker::kDiamond, kTeal}},
+                                                 {"unknown", {Marker::kCircle, kGrey}}};
+    std::set<std::string> kinds;
+    bool any_active = false, any_unsaved = false;
     cv::Point last(-1, -1);
-    for (size_t i = 0; i < h.size(); ++i) {
-      const cv::Point at(p.X(i + 1.0), p.Y(h[i].validation_mean_mm));
-      if (last.x >= 0) cv::line(p.image, last, at, kBlue, 2, cv::LINE_AA);
-      cv::circle(p.image, at, 5, h[i].version == in.version ? kGreen : kBlue, cv::FILLED,
-                 cv::LINE_AA);
-      cv::putText(p.image, "v" + std::to_string(h[i].version), at + cv::Point(-8, -10),
-                  cv::FONT_HERSHEY_SIMPLEX, 0.4, kInk, 1, cv::LINE_AA);
+    for (const auto& point : h) {
+      if (!std::isfinite(point.validation_mean_mm)) continue;
+      const cv::Point at = p.At(x_of(point), point.validation_mean_mm);
+      if (last.x >= 0) cv::line(p.image, last, at, kGrey, 1, cv::LINE_AA);
       last = at;
     }
-    figures.push_back(Save(dir, "drift.png", "Drift against earlier versions", p.image));
+    for (const auto& point : h) {
+      if (!std::isfinite(point.validation_mean_mm)) continue;
+      const std::string kind = ParamsKind(point.params_spec);
+      kinds.insert(kind);
+      const Style& s = styles.at(kind);
+      const cv::Point at = p.At(x_of(point), point.validation_mean_mm);
+      DrawMarker(p.image, at, s.marker, s.color, 5);
+      if (point.active) {
+        cv::circle(p.image, at, 10, kInk, 1, cv::LINE_AA);
+        any_active = true;
+      }
+      if (point.version == 0) {
+        cv::circle(p.image, at, 10, kRed, 2, cv::LINE_AA);
+        any_unsaved = true;
+      }
+    }
+    std::vector<LegendEntry> legend;
+    for (const char* kind : {"all", "geometric", "auto", "list", "unknown"}) {
+      if (!kinds.count(kind)) continue;
+      legend.push_back({styles.at(kind).marker, styles.at(kind).color,
+                        std::string("params ") + (std::string(kind) == "list" ? "list" : kind)});
+    }
+    p.Legend(legend);
+    // Rings are explained in the caption row below the title's legend, inside the figure.
+    std::string rings;
+    if (any_active) rings += "black ring: the active set";
+    if (any_unsaved)
+      rings += std::string(rings.empty() ? "" : "; ") + "red ring: this run (not stored)";
+    if (!rings.empty()) Text(p.image, rings, {p.area.x + p.area.width, 20}, 0.4, Align::kRight);
+    if (h.empty()) {
+      Text(p.image, "no parameter set stored yet",
+           {p.area.x + p.area.width / 2, p.area.y + p.area.height / 2}, 0.5, Align::kCenter);
+    }
+    drift_figure = Save(dir, "drift.png", "Drift against earlier versions", p.image);
+  }
+  // 5. Error against each joint angle, one small figure per joint.
+  std::vector<Figure> joint_figures;
+  {
+    double top = 1e-6;
+    for (double d : distances) top = std::max(top, d);
+    for (int j = 0; j < model.num_joints(); ++j) {
+      double lo = 1e18, hi = -1e18;
+      for (size_t i = 0; i < n; ++i) {
+        if (const auto* pose = pose_of(i); pose && j < pose->joints_rad.size()) {
+          lo = std::min(lo, pose->joints_rad(j) * kDegPerRad);
+          hi = std::max(hi, pose->joints_rad(j) * kDegPerRad);
+        }
+      }
+      if (hi < lo) lo = hi = 0.0;
+      Plot p(440, 260, fmt::format("Joint {}: error against angle", j + 1), LinearAxis(lo, hi, 5),
+             LinearAxis(0, top, 4), fmt::format("joint {} (deg)", j + 1), "mm");
+      for (size_t i = 0; i < n; ++i) {
+        if (const auto* pose = pose_of(i); pose && j < pose->joints_rad.size()) {
+          DrawMarker(p.image, p.At(pose->joints_rad(j) * kDegPerRad, distances[i]), Marker::kCircle,
+                     kBlue, 3);
+        }
+      }
+      joint_figures.push_back(Save(dir, fmt::format("joint_{}.png", j + 1),
+                                   fmt::format("Error against joint {}", j + 1), p.image));
+    }
   }
 
-  // The page.
-  const auto names = model.ParameterNames();
-  std::string html =
-      "<!doctype html>\n<html><head><meta charset=\"utf-8\"><title>armsig report: " +
-      Html(in.robot) +
-      "</title>\n<style>body{font-family:sans-serif;margin:2em;max-width:960px;color:#222}"
-      "table{border-collapse:collapse;margin:1em 0}td,th{border:1px solid #ccc;padding:3px "
-      "8px;text-align:right}"
-      "th{background:#f4f4f4}.bad{color:#b00}.good{color:#070}img{max-width:100%;border:1px solid "
-      "#eee}</style>\n"
-      "</head><body>\n";
-  html += "<h1>Arm signature of " + Html(in.robot) + "</h1>\n";
-  html += "<p class=\"" + std::string(in.version > 0 ? "good" : "bad") + "\"><b>" +
-          Html(in.decision) + "</b></p>\n<ul>\n";
-  for (const auto& g : in.gates) html += "<li>" + Html(g) + "</li>\n";
-  html += "</ul>\n";
-  const auto v = calibration::Summarise(calibration::Distances(run.validation_residuals));
-  const auto vn = calibration::Summarise(calibration::Distances(run.validation_nominal_residuals));
-  html += fmt::format(
-      "<table><tr><th>error distance "
-      "(mm)</th><th>poses</th><th>mean</th><th>max</th><th>rms</th></tr>"
-      "<tr><td>nominal, fit</td><td>{}</td><td>{:.3f}</td><td>{:.3f}</td><td>{:.3f}</td></tr>"
-      "<tr><td>calibrated, fit</td><td>{}</td><td>{:.3f}</td><td>{:.3f}</td><td>{:.3f}</td></tr>"
-      "<tr><td>nominal, "
-      "validation</td><td>{}</td><td>{:.3f}</td><td>{:.3f}</td><td>{:.3f}</td></tr>"
-      "<tr><td>calibrated, "
-      "validation</td><td>{}</td><td>{:.3f}</td><td>{:.3f}</td><td>{:.3f}</td></tr></table>\n",
-      run.estimate.nominal.poses, run.estimate.nominal.mean_mm, run.estimate.nominal.max_mm,
-      run.estimate.nominal.rms_mm, run.estimate.fit.poses, run.estimate.fit.mean_mm,
-      run.estimate.fit.max_mm, run.estimate.fit.rms_mm, vn.poses, vn.mean_mm, vn.max_mm, vn.rms_mm,
-      v.poses, v.mean_mm, v.max_mm, v.rms_mm);
-  for (const auto& f : figures) {
-    html += "<h2>" + Html(f.title) + "</h2>\n<img class=\"figure\" alt=\"" + Html(f.title) +
-            "\" src=\"data:image/png;base64," + f.png_base64 + "\">\n";
-  }
-  // Parameter table in the paper's layout, with sigmas.
-  const int n = model.num_joints();
-  std::vector<char> identified(model.num_parameters(), 0);
-  for (int k : run.estimate.identifiability.identified) identified[k] = 1;
-  html += "<h2>Parameters (paper's Table 1-3 layout; value ± sigma)</h2>\n<table><tr><th>i =</th>";
-  for (int i = 1; i <= n + 1; ++i) html += "<th>" + std::to_string(i) + "</th>";
-  html += "</tr>\n";
-  const char* rows[6] = {"a (mm)",
-                         "b (mm)",
-                         "c (mm)",
-                         "&alpha; (1e-3 rad)",
-                         "&beta; (1e-3 rad)",
-                         "&gamma; (1e-3 rad)"};
-  for (int r = 0; r < 6; ++r) {
-    html += std::string("<tr><th>") + rows[r] + "</th>";
-    for (int i = 0; i <= n; ++i) {
-      const int k = i < n ? 6 * i + r : (r < 3 ? 6 * n + r : -1);
-      if (k < 0) {
-        html += "<td></td>";
-        continue;
-      }
-      const double scale = r < 3 ? 1.0 : 1e3;
-      html += identified[k]
-                  ? fmt::format("<td>{:.3f} ± {:.3f}</td>", run.estimate.params(k) * scale,
-                                run.estimate.sigmas(k) * scale)
-                  : "<td>&mdash;</td>";
+  // ---- The page ---- (every text through Html: escaped unless it is a literal here)
+  Html html = HtmlFormat(
+      "<!doctype html>\n<html><head><meta charset=\"utf-8\"><title>armsig report: {}</title>\n"
+      "<style>{}</style>\n</head><body>\n",
+      in.robot, Html::Trusted(kStyle));
+  html += HtmlFormat("<h1>Recalibration of {}</h1>\n", in.robot);
+  html += HtmlFormat("<p class=\"{}\"><b>{}</b></p>\n", in.version > 0 ? Html("good") : Html("bad"),
+                     in.decision);
+
+  // Header: where the numbers come from.
+  {
+    const auto& id = run.estimate.identifiability;
+    auto row = [&](const Html& label, const Html& id_name, const Html& value, bool nowrap = false) {
+      html += HtmlFormat("<tr><th>{}</th><td id=\"{}\"{}>{}</td></tr>\n", label, id_name,
+                         nowrap ? Html(" class=\"nowrap\"") : Html(), value);
+    };
+    html += "<table class=\"header\">\n";
+    row("Date", "generated-at", Html::Text(in.generated_at.empty() ? Now() : in.generated_at),
+        true);
+    row("armsig version", "armsig-version",
+        in.armsig_version.empty() ? Html("not known") : Html::Text(in.armsig_version), true);
+    row("Robot", "robot",
+        HtmlFormat("{} (model {}, {} joints)", in.robot, model.name, model.num_joints()));
+    row("Parameter set", "params",
+        HtmlFormat("--params {} ({}), {} poses fitted, {} validated", run.params_spec,
+                   ParamsKind(run.params_spec), run.fit_pose_ids.size(),
+                   run.validation_pose_ids.size()));
+    Html sessions;
+    for (const auto& s : in.sources.sessions) {
+      sessions += HtmlFormat(
+          "<div>session {}: {} &ndash; {} ({}), {} fitted + {} validation poses{}</div>", s.id,
+          s.started_at, s.finished_at.empty() ? std::string("not finished") : s.finished_at,
+          s.state, s.poses_fit, s.poses_validation,
+          s.note.empty() ? Html() : Html(", ") + Html::Text(s.note));
     }
+    row("Sessions used", "sessions", sessions.empty() ? Html("not known") : sessions);
+    Html instruments;
+    for (const auto& i : in.sources.instruments) {
+      std::string used;
+      for (int64_t s : i.sessions) used += (used.empty() ? "" : ", ") + std::to_string(s);
+      instruments += HtmlFormat("<div>{}: {}{}</div>", i.name, i.description,
+                                used.empty() ? std::string() : " (session " + used + ")");
+    }
+    row("Instruments", "instruments",
+        instruments.empty() ? Html("none recorded with these sessions") : instruments);
+    Html sigma0;
+    for (const auto& s : in.sources.setups) {
+      sigma0 +=
+          HtmlFormat("<div>session {}, station {}: {}</div>", s.session_id, s.station,
+                     std::isfinite(s.sigma0)
+                         ? HtmlFormat("&sigma;<sub>0</sub> = {:.3f} ({} dof{})", s.sigma0, s.dof,
+                                      s.method.empty() ? std::string() : ", " + s.method)
+                         : Html("&sigma;<sub>0</sub> not stored"));
+    }
+    row("Orientation &sigma;<sub>0</sub>", "sigma0",
+        sigma0.empty() ? Html("not stored (no station set-ups with these sessions)") : sigma0);
+    row("Rank", "rank",
+        HtmlFormat("{} of {} candidate parameters{}", id.rank, id.candidates.size(),
+                   id.structural_rank >= 0
+                       ? fmt::format(" (structural rank {})", id.structural_rank)
+                       : std::string()),
+        true);
+    row("Condition number", "condition-number", HtmlFormat("{:.4g}", id.condition_number), true);
+    std::string unidentified;
+    for (int k : id.unidentified) unidentified += (unidentified.empty() ? "" : ", ") + names[k];
+    row("Not identifiable (kept nominal)", "not-identifiable",
+        unidentified.empty() ? Html("none") : Html::Text(unidentified));
+    html += "</table>\n<ul>\n";
+    for (const auto& g : in.gates) html += HtmlFormat("<li>{}</li>\n", g);
+    html += "</ul>\n";
+  }
+
+  // Error statistics.
+  {
+    const auto v = StatsOf(residuals);
+    const auto vn = StatsOf(run.validation_nominal_residuals);
+    html +=
+        "<h2>Error distances</h2>\n<table><tr><th>error distance (mm)</th><th "
+        "class=\"num\">poses</th><th class=\"num\">mean</th><th class=\"num\">max</th><th "
+        "class=\"num\">rms</th></tr>\n";
+    auto line = [&](const char* label, const calibration::ErrorStats& s) {
+      html += HtmlFormat(
+          "<tr><td>{}</td><td class=\"num\">{}</td><td class=\"num\">{}</td><td "
+          "class=\"num\">{}</td><td class=\"num\">{}</td></tr>\n",
+          label, s.poses, Num(s.mean_mm), Num(s.max_mm), Num(s.rms_mm));
+    };
+    line("nominal, fit", run.estimate.nominal);
+    line("calibrated, fit", run.estimate.fit);
+    line("nominal, validation", vn);
+    line("calibrated, validation", v);
+    html += "</table>\n";
+    html += HtmlFormat(
+        "<h2>Validation error per axis</h2>\n<p>Calibrated model &minus; measured on the {} "
+        "validation poses, mm. Percentiles (nearest rank) of the absolute values.</p>\n"
+        "<table id=\"axis-statistics\"><tr><th></th><th class=\"num\">mean</th><th "
+        "class=\"num\">std dev</th><th class=\"num\">rms</th><th class=\"num\">max "
+        "|&middot;|</th><th class=\"num\">50 %</th><th class=\"num\">95 %</th><th "
+        "class=\"num\">99 %</th></tr>\n",
+        n);
+    for (const auto& s : stats) {
+      auto cell = [&](const char* field, double value) {
+        return HtmlFormat("<td class=\"num\" id=\"stat-{}-{}\">{}</td>", s.name, field, Num(value));
+      };
+      html += HtmlFormat("<tr><th>{}</th>", s.name) + cell("mean", s.mean_mm) +
+              cell("std", s.std_mm) + cell("rms", s.rms_mm) + cell("max", s.max_abs_mm) +
+              cell("p50", s.p50_mm) + cell("p95", s.p95_mm) + cell("p99", s.p99_mm) + "</tr>\n";
+    }
+    html += "</table>\n";
+  }
+  html += Html("<h2>Error per validation configuration</h2>\n") + FigureHtml(errors_figure) +
+          FigureHtml(histogram_figure);
+
+  // The ten worst validation poses.
+  {
+    html +=
+        "<h2>The ten worst validation poses</h2>\n<table id=\"worst\"><tr><th "
+        "class=\"num\">#</th><th>pose</th><th class=\"num\">distance</th><th "
+        "class=\"num\">dX</th><th class=\"num\">dY</th><th class=\"num\">dZ</th><th "
+        "class=\"num\">joints (deg)</th></tr>\n";
+    int rank = 0;
+    for (int i : WorstResiduals(residuals, 10)) {
+      const auto* pose = pose_of(i);
+      std::string joints;
+      if (pose) {
+        for (int j = 0; j < pose->joints_rad.size(); ++j)
+          joints += fmt::format("{}{:.1f}", j ? ", " : "", pose->joints_rad(j) * kDegPerRad);
+      }
+      html += HtmlFormat(
+          "<tr><td class=\"num\">{}</td><td class=\"pose\">{}</td><td class=\"num\">{}</td><td "
+          "class=\"num\">{}</td><td class=\"num\">{}</td><td class=\"num\">{}</td><td "
+          "class=\"num\">{}</td></tr>\n",
+          ++rank,
+          static_cast<size_t>(i) < run.validation_pose_ids.size() ? run.validation_pose_ids[i]
+                                                                  : std::to_string(i + 1),
+          Num(residuals[i].norm()), Num(residuals[i].x()), Num(residuals[i].y()),
+          Num(residuals[i].z()), joints.empty() ? Html("&mdash;") : Html::Text(joints));
+    }
+    html += "</table>\n";
+  }
+  html += Html("<h2>Residual vectors</h2>\n") + FigureHtml(vectors_figure);
+  html += "<h2>Error against each joint angle</h2>\n<div class=\"joints\">\n";
+  for (const auto& f : joint_figures) html += FigureHtml(f);
+  html += "</div>\n";
+
+  // Parameter table in the paper's layout, with sigmas.
+  {
+    const int joints = model.num_joints();
+    std::vector<char> identified(model.num_parameters(), 0);
+    for (int k : run.estimate.identifiability.identified) identified[k] = 1;
+    html +=
+        "<h2>Parameters (paper's Table 1-3 layout; value &plusmn; sigma)</h2>\n<table><tr><th>i "
+        "=</th>";
+    for (int i = 1; i <= joints + 1; ++i) html += HtmlFormat("<th class=\"num\">{}</th>", i);
     html += "</tr>\n";
+    const Html rows[6] = {"a (mm)",
+                          "b (mm)",
+                          "c (mm)",
+                          "&alpha; (1e-3 rad)",
+                          "&beta; (1e-3 rad)",
+                          "&gamma; (1e-3 rad)"};
+    for (int r = 0; r < 6; ++r) {
+      html += HtmlFormat("<tr><th>{}</th>", rows[r]);
+      for (int i = 0; i <= joints; ++i) {
+        const int k = i < joints ? 6 * i + r : (r < 3 ? 6 * joints + r : -1);
+        if (k < 0) {
+          html += "<td></td>";
+          continue;
+        }
+        const double scale = r < 3 ? 1.0 : 1e3;
+        html += identified[k]
+                    ? HtmlFormat("<td class=\"num\">{:.3f} &plusmn; {:.3f}</td>",
+                                 run.estimate.params(k) * scale, run.estimate.sigmas(k) * scale)
+                    : Html("<td class=\"num\">&mdash;</td>");
+      }
+      html += "</tr>\n";
+    }
+    html += "</table>\n";
+    for (int k = model.num_geometric(); k < model.num_parameters(); ++k) {
+      html += identified[k]
+                  ? HtmlFormat(
+                        "<p>{} = {:.3f} &plusmn; {:.3f} &times; 10<sup>-3</sup> "
+                        "rad</p>\n",
+                        names[k], run.estimate.params(k) * 1e3, run.estimate.sigmas(k) * 1e3)
+                  : HtmlFormat("<p>{}: not identified</p>\n", names[k]);
+    }
   }
-  html += "</table>\n";
-  for (int k = model.num_geometric(); k < model.num_parameters(); ++k) {
-    html += identified[k]
-                ? fmt::format("<p>{} = {:.3f} ± {:.3f} × 10<sup>-3</sup> rad</p>\n", Html(names[k]),
-                              run.estimate.params(k) * 1e3, run.estimate.sigmas(k) * 1e3)
-                : "<p>" + Html(names[k]) + ": not identified</p>\n";
-  }
-  if (!in.changes.empty()) {
-    html += std::string("<h2>Change against the previous version") +
-            (in.drift ? " <span class=\"bad\">(drift)</span>" : "") +
-            "</h2>\n<table><tr><th>parameter</th><th>change</th><th>in sigmas</th></tr>\n";
+
+  // Change against the previous version: a table, or a sentence saying why there is none.
+  {
+    html += HtmlFormat("<h2>Change against the previous version{}</h2>\n",
+                       in.drift ? Html(" <span class=\"bad\">(drift)</span>") : Html());
+    std::vector<calibration::ParameterChange> rows;
     for (const auto& c : in.changes) {
-      if (c.z == 0.0) continue;
-      const bool mm = model.UnitOf(c.parameter) == calibration::ParameterUnit::kMm;
-      html += fmt::format("<tr><td>{}</td><td>{:.4f} {}</td><td class=\"{}\">{:.1f}</td></tr>\n",
-                          Html(names[c.parameter]), mm ? c.change : c.change * 1e3, mm ? "mm" : "mrad",
-                          std::abs(c.z) > 5 ? "bad" : "", c.z);
+      if (c.z != 0.0 && std::isfinite(c.z)) rows.push_back(c);
+    }
+    Html why;
+    if (!in.previous_version) {
+      why = HtmlFormat(
+          "No previous version: this is the first parameter set of {}, so there is nothing to "
+          "compare against.",
+          in.robot);
+    } else if (!in.previous_params_spec.empty() && in.previous_params_spec != run.params_spec) {
+      why = HtmlFormat(
+          "Version {} was fitted with --params {}, this run with --params {}: the two sets "
+          "estimate different parameter subsets, {}.",
+          *in.previous_version, in.previous_params_spec, run.params_spec,
+          rows.empty() ? "so their parameters are not compared"
+                       : "so only the parameters identified in both are compared");
+    } else if (rows.empty()) {
+      why = HtmlFormat(
+          "Version {} and this run share no parameter identified with a sigma in both, so no "
+          "parameter is compared.",
+          *in.previous_version);
+    }
+    if (!in.changes_note.empty()) {
+      why += (why.empty() ? Html() : Html(" ")) + Html::Text(in.changes_note);
+    }
+    if (!why.empty()) html += HtmlFormat("<p class=\"note\" id=\"change-note\">{}</p>\n", why);
+    if (!rows.empty()) {
+      html += HtmlFormat(
+          "<table id=\"changes\"><tr><th>parameter</th><th class=\"num\">change since version "
+          "{}</th><th class=\"num\">in sigmas</th></tr>\n",
+          *in.previous_version);
+      for (const auto& c : rows) {
+        const bool mm = model.UnitOf(c.parameter) == calibration::ParameterUnit::kMm;
+        html += HtmlFormat(
+            "<tr><td>{}</td><td class=\"num\">{:.4f} {}</td><td class=\"num{}\">{:.1f}</td></tr>\n",
+            names[c.parameter], mm ? c.change : c.change * 1e3, mm ? "mm" : "mrad",
+            std::abs(c.z) > 5 ? Html(" bad") : Html(), c.z);
+      }
+      html += "</table>\n";
+    }
+  }
+
+  // History of versions.
+  html += Html("<h2>Drift against earlier versions</h2>\n") + FigureHtml(drift_figure);
+  if (!in.history.empty()) {
+    html +=
+        "<table id=\"versions\"><tr><th class=\"num\">version</th><th>stored</th><th>params</th>"
+        "<th class=\"num\">validation mean (mm)</th><th>active</th></tr>\n";
+    for (const auto& h : in.history) {
+      html += HtmlFormat(
+          "<tr><td class=\"num\">{}</td><td class=\"num\">{}</td><td>{}</td><td "
+          "class=\"num\">{}</td><td>{}</td></tr>\n",
+          h.version > 0 ? std::to_string(h.version) : std::string("this run"), h.created_at,
+          h.params_spec.empty() ? std::string("not known") : h.params_spec,
+          Num(h.validation_mean_mm), h.active ? "active" : "");
     }
     html += "</table>\n";
   }
   html += "</body></html>\n";
   const std::string path = dir + "/index.html";
-  io::WriteFileAtomically(path, html);
+  io::WriteFileAtomically(path, html.str());
   return path;
+}
+
+ReportSources LoadReportSources(db::Database& db, const CalibrationRun& run) {
+  ReportSources out;
+  // Pose ids are "<session>:<label>" (db::LoadRobotPoses).
+  std::map<int64_t, std::pair<int, int>> counts;  // session → fitted, validated
+  auto count = [&](const std::vector<std::string>& ids, bool fit) {
+    for (const auto& id : ids) {
+      const auto colon = id.find(':');
+      if (colon == std::string::npos || colon == 0) continue;
+      int64_t session = 0;
+      try {
+        session = std::stoll(id.substr(0, colon));
+      } catch (const std::exception&) {
+        continue;  // not a stored pose id
+      }
+      (fit ? counts[session].first : counts[session].second)++;
+    }
+  };
+  count(run.fit_pose_ids, true);
+  count(run.validation_pose_ids, false);
+  std::vector<int64_t> ids;
+  for (const auto& [id, c] : counts) ids.push_back(id);
+
+  std::map<std::pair<std::string, std::string>, std::vector<int64_t>> instruments;
+  for (const auto& s : db::LoadSessionSummaries(db, ids)) {
+    out.sessions.push_back({s.id, s.started_at, s.finished_at, s.state, s.note, counts[s.id].first,
+                            counts[s.id].second});
+    if (!s.lab_yaml.empty()) {
+      try {
+        const auto lab = acquisition::ParseLabSettings(
+            s.lab_yaml, fmt::format("lab file stored with session {}", s.id));
+        for (const auto& i : lab.instruments) {
+          std::string d =
+              i.protocol + (i.tcp.empty() ? " on " + i.port : " over " + i.tcp) +
+              fmt::format(", sigma hz {:g}\" v {:g}\"", i.sigma_hz_arcsec, i.sigma_v_arcsec);
+          if (i.distance) d += fmt::format(", distances (sigma {:g} mm)", i.sigma_distance_mm);
+          instruments[{"station " + i.station, d}].push_back(s.id);
+        }
+      } catch (const InputError& e) {
+        spdlog::warn("report: session {}: its stored lab file cannot be read: {}", s.id, e.what());
+        instruments[{"session " + std::to_string(s.id), "lab file unreadable"}].push_back(s.id);
+      }
+    }
+    for (const auto& i : db::SessionInstruments(db, s.id)) {
+      std::string d = i.kind + ", " + i.protocol;
+      if (!i.serial_number.empty()) d += ", serial " + i.serial_number;
+      if (!i.firmware.empty()) d += ", firmware " + i.firmware;
+      if (std::isfinite(i.sigma_hz_arcsec))
+        d += fmt::format(", sigma hz {:g}\" v {:g}\"", i.sigma_hz_arcsec, i.sigma_v_arcsec);
+      if (std::isfinite(i.sigma_distance_mm))
+        d += fmt::format(", sigma distance {:g} mm", i.sigma_distance_mm);
+      instruments[{i.name, d}].push_back(s.id);
+    }
+    for (const auto& [station, setup] : db::LatestStationSetups(db, s.id)) {
+      out.setups.push_back({s.id, station, setup.sigma0, setup.dof, setup.method});
+    }
+  }
+  for (const auto& [key, sessions] : instruments) {
+    out.instruments.push_back({key.first, key.second, sessions});
+  }
+  return out;
 }
 
 }  // namespace armsig::workflows

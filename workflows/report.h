@@ -1,35 +1,117 @@
 // The recalibration report: one self-contained HTML page (figures drawn with OpenCV,
-// embedded as PNG data URIs) a technician would rather look at than read.
+// embedded as PNG data URIs, no JavaScript, an A4 print stylesheet) a technician would
+// rather look at than read.
 #pragma once
 
+#include <Eigen/Core>
+#include <cmath>
+#include <cstdint>
+#include <optional>
 #include <string>
 #include <vector>
 
-#include "workflows/calibration_run.h"
 #include "calibration/compensation.h"
+#include "db/database.h"
+#include "workflows/calibration_run.h"
 
 namespace armsig::workflows {
 
 struct ReportHistoryPoint {
-  int version = 0;
+  int version = 0;  // 0: this run, not stored (rejected)
   std::string created_at;
   double validation_mean_mm = 0.0;
+  std::string params_spec;  // all | geometric | auto | a list of names ("" = not known)
+  bool active = false;
+};
+
+// Where the data came from: filled by LoadReportSources, or by hand (tests, imports).
+struct ReportSession {
+  int64_t id = 0;
+  std::string started_at, finished_at, state, note;
+  int poses_fit = 0, poses_validation = 0;
+};
+struct ReportInstrument {
+  std::string name;         // station id (lab file) or instrument name (instruments table)
+  std::string description;  // "geocom on /dev/ttyUSB0, σ 0.5″ / 0.5″"
+  std::vector<int64_t> sessions;
+};
+struct ReportStationSetup {
+  int64_t session_id = 0;
+  std::string station;
+  double sigma0 = NAN;  // a-posteriori σ0 of the orientation; NaN when not stored
+  int dof = 0;
+  std::string method;
+};
+struct ReportSources {
+  std::vector<ReportSession> sessions;
+  std::vector<ReportInstrument> instruments;
+  std::vector<ReportStationSetup> setups;
 };
 
 struct ReportInput {
+  std::string generated_at;    // ISO-8601 UTC; "" = now
+  std::string armsig_version;  // ARMSIG_VERSION of the program writing the report
   std::string robot;
   int version = 0;                 // 0 when nothing was stored
   std::string decision;            // "stored as version 4" / "rejected: …"
   std::vector<std::string> gates;  // one line per gate with its figures
   const calibration::RobotModel* model = nullptr;
   const CalibrationRun* run = nullptr;
-  std::vector<MeasuredPose> validation;  // same order as run->validation_residuals
+  std::vector<MeasuredPose> validation;  // the poses of run->validation_pose_ids
+  ReportSources sources;
   std::vector<ReportHistoryPoint> history;
-  std::vector<calibration::ParameterChange> changes;  // against the previous active set
+  // The change against the set active before this run; `previous_version` nullopt when
+  // the robot had none. `changes_note` says why the comparison is limited or absent when
+  // the caller knows more than the report can tell from the specs.
+  std::optional<int> previous_version;
+  std::string previous_params_spec;
+  std::vector<calibration::ParameterChange> changes;
+  std::string changes_note;
   bool drift = false;
 };
 
 // Writes DIR/index.html and DIR/*.png; returns the HTML path. Throws on I/O failure.
 std::string WriteReport(const std::string& dir, const ReportInput& input);
+
+// The sessions behind the run's pose ids ("<session>:<label>", as db::LoadRobotPoses
+// names them), with their dates, the instruments of their stored lab files and of the
+// instruments table, and their stations' latest orientation.
+ReportSources LoadReportSources(db::Database& db, const CalibrationRun& run);
+
+// ---- The pieces of the page, exposed for tests ----
+
+// Nearest-rank percentile: the smallest value v with at least `percent` % of the values
+// ≤ v (sorted[ceil(percent·n/100) − 1]). NaN for no values.
+double PercentileNearestRank(std::vector<double> values, int percent);
+
+// Statistics of one component (dX, dY, dZ: signed; "distance": the norm); the
+// percentiles are of the absolute values.
+struct AxisStatistics {
+  std::string name;
+  double mean_mm = NAN, std_mm = NAN, rms_mm = NAN, max_abs_mm = NAN;
+  double p50_mm = NAN, p95_mm = NAN, p99_mm = NAN;
+};
+// dX, dY, dZ and distance, in that order.
+std::vector<AxisStatistics> ResidualStatistics(const std::vector<Eigen::Vector3d>& residuals);
+
+// Indices of the `count` largest error distances, largest first (ties: lower index first).
+std::vector<int> WorstResiduals(const std::vector<Eigen::Vector3d>& residuals, int count);
+
+// Axis ticks: steps of 1, 2 or 5 × 10^k covering [lo, hi] with about `max_ticks` steps.
+std::vector<double> NiceTicks(double lo, double hi, int max_ticks);
+// Count ticks 0, s, 2s, … (s = 1, 2, 5, 10, …) up to the first ≥ `largest`.
+std::vector<int> IntegerTicks(int largest, int max_ticks = 6);
+
+// The histogram of error distances as drawn: equal bins from 0, integer counts and the
+// integer ticks of its count axis.
+struct Histogram {
+  double bin_width_mm = 0.0;
+  std::vector<int> counts;
+  std::vector<int> count_ticks;
+};
+Histogram HistogramOf(const std::vector<double>& distances_mm, int bins = 20);
+
+// "all", "geometric", "auto" or "list" (a comma list of names and groups).
+std::string ParamsKind(const std::string& params_spec);
 
 }  // namespace armsig::workflows

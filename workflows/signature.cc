@@ -67,7 +67,8 @@ std::string PredictCsv(const ActiveSignature& a, const Eigen::Isometry3d& frame,
   std::string out = "pose,x_mm,y_mm,z_mm,nominal_x_mm,nominal_y_mm,nominal_z_mm,correction_mm\n";
   for (const auto& row : t.rows()) {
     Eigen::VectorXd joints(a.model.num_joints());
-    for (size_t i = 0; i < q.size(); ++i) joints(i) = t.AngleRad(row, q[i]);
+    for (size_t i = 0; i < q.size(); ++i)
+      joints(i) = t.AngleRad(row, q[i], plausible::Quantity::kJointAngle);
     const Eigen::Vector3d x = kin.Position(frame, a.signature.params, joints.data());
     const Eigen::Vector3d nominal = kin.Position(frame, zero, joints.data());
     out += fmt::format("{},{:.6f},{:.6f},{:.6f},{:.6f},{:.6f},{:.6f},{:.6f}\n",
@@ -108,12 +109,15 @@ CompensationResult Compensate(const ActiveSignature& a, const Eigen::Isometry3d&
   result.csv += ",residual_mm,status\n";
   for (const auto& row : t.rows()) {
     ++result.targets;
-    const Eigen::Vector3d target(t.Number(row, cx), t.Number(row, cy), t.Number(row, cz));
+    using plausible::Quantity;
+    const Eigen::Vector3d target(t.Number(row, cx, Quantity::kCoordinate),
+                                 t.Number(row, cy, Quantity::kCoordinate),
+                                 t.Number(row, cz, Quantity::kCoordinate));
     // The nominal solution: the program's joints, or the nominal model's own solution.
     Eigen::VectorXd nominal(n);
     calibration::JointSolution nominal_solution;
     if (!q.empty()) {
-      for (int i = 0; i < n; ++i) nominal(i) = t.AngleRad(row, q[i]);
+      for (int i = 0; i < n; ++i) nominal(i) = t.AngleRad(row, q[i], Quantity::kJointAngle);
     } else {
       nominal_solution = calibration::SolveJoints(a.model, frame, zero, target, seed);
       nominal = nominal_solution.joints_rad;
@@ -128,9 +132,9 @@ CompensationResult Compensate(const ActiveSignature& a, const Eigen::Isometry3d&
     for (int i = 0; i < n; ++i) result.csv += fmt::format(",{:.8f}", nominal(i) / kRadPerDeg);
     result.csv += fmt::format(",{:.6f},{}\n", s.residual_mm, ok ? "ok" : "unreachable");
     if (!ok) {
-      result.unreachable.push_back(fmt::format("target {} ({}:{}): {}", t.Text(row, id),
-                                               targets_csv, row.line,
-                                               s.reason.empty() ? nominal_solution.reason : s.reason));
+      result.unreachable.push_back(
+          fmt::format("target {} ({}:{}): {}", t.Text(row, id), targets_csv, row.line,
+                      s.reason.empty() ? nominal_solution.reason : s.reason));
     }
   }
   return result;
@@ -150,7 +154,8 @@ ExportResult ExportSignature(const ActiveSignature& a, const std::string& robot,
            {"value", a.signature.params(k)},
            {"unit", a.model.UnitOf(k) == calibration::ParameterUnit::kMm ? "mm" : "rad"},
            {"identified", identified},
-           {"sigma", identified ? nlohmann::json(a.signature.sigmas(k)) : nlohmann::json(nullptr)}});
+           {"sigma",
+            identified ? nlohmann::json(a.signature.sigmas(k)) : nlohmann::json(nullptr)}});
     }
     result.text = nlohmann::json{{"robot", robot},
                                  {"model", a.model.name},

@@ -1,7 +1,20 @@
+#include <SQLiteCpp/SQLiteCpp.h>
+#include <fcntl.h>
 #include <gtest/gtest.h>
+#include <signal.h>
+#include <sys/wait.h>
+#include <unistd.h>
 
+#include <chrono>
+#include <cmath>
 #include <filesystem>
+#include <fstream>
+#include <nlohmann/json.hpp>
+#include <random>
+#include <regex>
+#include <thread>
 
+#include "calibration/model.h"
 #include "test_support.h"
 
 namespace armsig::testing {
@@ -17,7 +30,13 @@ TEST(Cli, HelpListsEveryCommandOfTheSpec) {
 }
 
 TEST(Cli, VersionAndUsageErrors) {
-  EXPECT_EQ(RunArmsig("--version").exit_code, 0);
+  const auto version = RunArmsig("--version");
+  EXPECT_EQ(version.exit_code, 0);
+  // The version, the git commit it was built from and the database schema it writes.
+  EXPECT_TRUE(std::regex_search(
+      version.out, std::regex(R"(^armsig \d+\.\d+\.\d+ \(git ([0-9a-f]{7,}(-modified)?|unknown), )"
+                              R"(database schema v\d+\)\n$)")))
+      << version.out;
   EXPECT_EQ(RunArmsig("").exit_code, 2);  // a command is required
   EXPECT_EQ(RunArmsig("no-such-command").exit_code, 2);
   EXPECT_EQ(RunArmsig("calibrate --model").exit_code, 2);
@@ -27,7 +46,7 @@ TEST(Cli, DbInfoCreatesTheFileAndReportsTheSchema) {
   TempDir dir;
   const auto r = RunArmsig("--db '" + dir.File("lab.db") + "' db info");
   EXPECT_EQ(r.exit_code, 0) << r.err;
-  EXPECT_NE(r.out.find("schema        v2"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("schema        v3"), std::string::npos) << r.out;
   EXPECT_NE(r.out.find("calibration_parameters"), std::string::npos);
   EXPECT_TRUE(std::filesystem::exists(dir.File("lab.db")));
 }
@@ -45,6 +64,7 @@ TEST(Cli, DbPathComesFromTheEnvironmentThenTheWorkingDirectory) {
 TEST(Cli, DbExportWritesCsvAndRejectsUnknownTables) {
   TempDir dir;
   const std::string db = "--db '" + dir.File("lab.db") + "' ";
+  ASSERT_EQ(RunArmsig(db + "db info").exit_code, 0);  // creates it
   const auto r = RunArmsig(db + "db export calibrations --csv");
   EXPECT_EQ(r.exit_code, 0) << r.err;
   EXPECT_EQ(r.out.rfind("id,robot_id,version,", 0), 0u) << r.out;
@@ -54,12 +74,343 @@ TEST(Cli, DbExportWritesCsvAndRejectsUnknownTables) {
   EXPECT_FALSE(std::filesystem::exists(dir.File("x.csv")));
 }
 
+// A misspelt key in any YAML file is refused with exit 2, naming the file, line and key
+// and the nearest valid key; nothing is written.
+TEST(Cli, MisspeltYamlKeysAreRefusedWithExitTwo) {
+  TempDir dir;
+  std::string model = ReadText(SourcePath("models/puma760.yaml"));
+  const size_t tool = model.find("tool_mm:");
+  ASSERT_NE(tool, std::string::npos);
+  model.replace(tool, 8, "tool_m:");
+  WriteText(dir.File("m.yaml"), model);
+  WriteText(dir.File("poses.csv"),
+            "pose,q1_deg,q2_deg,q3_deg,q4_deg,q5_deg,q6_deg,x_mm,y_mm,z_mm\n");
+  const auto m = RunArmsig("calibrate --model '" + dir.File("m.yaml") + "' --poses '" +
+                           dir.File("poses.csv") + "' --json '" + dir.File("out.json") + "'");
+  EXPECT_EQ(m.exit_code, 2) << m.err;
+  EXPECT_NE(m.err.find("m.yaml:"), std::string::npos) << m.err;
+  EXPECT_NE(m.err.find("'tool_m' (did you mean 'tool_mm'?)"), std::string::npos) << m.err;
+  EXPECT_FALSE(std::filesystem::exists(dir.File("out.json")));
+
+  WriteText(dir.File("st.yaml"),
+            "stations:\n  - {id: T1, position_mm: [0, 0, 0], azimut_gon: 0}\n");
+  WriteText(dir.File("obs.csv"), "point,station,hz_gon,v_gon\nP1,T1,10,100\n");
+  const auto s = RunArmsig("triangulate --stations '" + dir.File("st.yaml") + "' --observations '" +
+                           dir.File("obs.csv") + "' --out '" + dir.File("p.csv") + "'");
+  EXPECT_EQ(s.exit_code, 2) << s.err;
+  EXPECT_NE(s.err.find("st.yaml:2:"), std::string::npos) << s.err;
+  EXPECT_NE(s.err.find("'azimut_gon' (did you mean 'azimuth_gon'?)"), std::string::npos) << s.err;
+  EXPECT_FALSE(std::filesystem::exists(dir.File("p.csv")));
+
+  WriteText(dir.File("lab.yaml"),
+            "robot:\n  model: " + SourcePath("models/puma760.yaml") +
+                "\n  controller: {protocol: as, port: /dev/null}\n"
+                "instruments:\n  - {station: T1, protocol: geocom, port: /dev/null}\n"
+                "stations: st.yaml\ntolerance: {max_miss_mm: 0.1}\n");
+  const auto l = RunArmsig("--db '" + dir.File("lab.db") + "' capture --lab '" +
+                           dir.File("lab.yaml") + "' --plan auto:10 --robot r1");
+  EXPECT_EQ(l.exit_code, 2) << l.err;
+  EXPECT_NE(l.err.find("lab.yaml:7:"), std::string::npos) << l.err;
+  EXPECT_NE(l.err.find("'tolerance' (did you mean 'tolerances'?)"), std::string::npos) << l.err;
+}
+
 TEST(Cli, DbThatIsNotADatabaseIsAnInputError) {
   TempDir dir;
   WriteText(dir.File("junk.db"), std::string(8192, 'j'));
   const auto r = RunArmsig("--db '" + dir.File("junk.db") + "' db info");
   EXPECT_EQ(r.exit_code, 2);
   EXPECT_NE(r.err.find("junk.db"), std::string::npos);
+}
+
+// --db, -v and -q before or after the command name, and after nested subcommands.
+TEST(Cli, GlobalOptionsAnywhere) {
+  TempDir dir;
+  const std::string db = "'" + dir.File("x.db") + "'";
+  ASSERT_EQ(RunArmsig("db info --db " + db).exit_code, 0);  // after a nested subcommand
+  EXPECT_TRUE(std::filesystem::exists(dir.File("x.db")));
+  const auto before = RunArmsig("--db " + db + " db export robots --csv");
+  EXPECT_EQ(before.exit_code, 0) << before.err;
+  const auto after = RunArmsig("db export robots --csv --db " + db + " -q");
+  EXPECT_EQ(after.exit_code, 0) << after.err;
+  EXPECT_EQ(after.out, before.out);
+  // The SPEC's own form: `armsig demo --db x.db` (a refused option set: fails fast, after
+  // parsing, naming the demo's minimum; nothing is created).
+  const auto demo = RunArmsig("demo --db '" + dir.File("d.db") + "' --configurations 3");
+  EXPECT_EQ(demo.exit_code, 2) << demo.err;
+  EXPECT_NE(demo.err.find("--configurations"), std::string::npos) << demo.err;
+  EXPECT_FALSE(std::filesystem::exists(dir.File("d.db")));
+  // --db after the command is the one used: a reading command names the missing file.
+  const auto predict =
+      RunArmsig("predict --robot r --joints j.csv --db '" + dir.File("typo.db") + "'");
+  EXPECT_EQ(predict.exit_code, 2);
+  EXPECT_NE(predict.err.find("typo.db"), std::string::npos) << predict.err;
+  // -q and -v after a nested subcommand: import poses logs its decision at info level.
+  WriteText(dir.File("t.csv"), "j1,j2,X,Y,Z\n10,20,1,2,3\n");
+  const std::string import = "import poses '" + dir.File("t.csv") +
+                             "' --joints j1,j2 --joint-unit deg --xyz X,Y,Z --out '" +
+                             dir.File("o.csv") + "'";
+  const auto normal = RunArmsig(import);
+  ASSERT_EQ(normal.exit_code, 0) << normal.err;
+  EXPECT_NE(normal.err.find("import poses: 1 poses"), std::string::npos) << normal.err;
+  const auto quiet = RunArmsig(import + " -q");
+  ASSERT_EQ(quiet.exit_code, 0) << quiet.err;
+  EXPECT_EQ(quiet.err, "");
+  const auto verbose = RunArmsig(import + " -v");
+  EXPECT_EQ(verbose.exit_code, 0) << verbose.err;
+  EXPECT_EQ(RunArmsig(import + " --no-such-option").exit_code, 2);
+}
+
+// Commands that only read refuse a database file that does not exist (exit 2, naming the
+// path and --db / $ARMSIG_DB) and create nothing.
+TEST(Cli, ReadingCommandsRefuseAMissingDatabase) {
+  TempDir dir;
+  WriteText(dir.File("j.csv"), "pose,q1_deg\nP1,0\n");
+  WriteText(dir.File("lab.yaml"), "robot: {}\n");
+  const std::string typo = dir.File("lab-typo.db");
+  const std::string j = "'" + dir.File("j.csv") + "'";
+  for (const std::string& command : std::vector<std::string>{
+           "predict --robot r --joints " + j,
+           "compensate --robot r --targets " + j + " --out x.csv",
+           "export --robot r --format json --out x.json", "reduce", "reduce --session 1",
+           "db export robots --csv", "capture --lab '" + dir.File("lab.yaml") + "' --resume 1"}) {
+    const auto r = RunArmsig("--db '" + typo + "' " + command, dir.path().string());
+    EXPECT_EQ(r.exit_code, 2) << command << ": " << r.err;
+    EXPECT_NE(r.err.find(typo + ": no such database file"), std::string::npos)
+        << command << ": " << r.err;
+    EXPECT_NE(r.err.find("check --db or $ARMSIG_DB"), std::string::npos) << r.err;
+    EXPECT_FALSE(std::filesystem::exists(typo)) << command;
+  }
+  EXPECT_FALSE(std::filesystem::exists(dir.File("x.csv")));
+  EXPECT_FALSE(std::filesystem::exists(dir.File("x.json")));
+}
+
+// Every option that names an output is checked when the command line is parsed: a
+// missing folder is refused with exit 2, naming the option and the path, before any work
+// is done, so no database is created and nothing is stored.
+TEST(Cli, OutputPathsAreCheckedBeforeAnyWork) {
+  TempDir dir;
+  const std::string db = dir.File("lab.db");
+  const std::string missing = dir.File("no-such-folder");
+  WriteText(dir.File("j.csv"), "pose,q1_deg\nP1,0\n");
+  const std::string j = "'" + dir.File("j.csv") + "'";
+  for (const std::string& command : std::vector<std::string>{
+           "demo --configurations 60 --json '" + missing + "/demo.json'",
+           "recalibrate --robot r --json '" + missing + "/r.json'",
+           "recalibrate --robot r --report '" + missing + "/deep/report'",
+           "calibrate --model m.yaml --poses " + j + " --json '" + missing + "/c.json'",
+           "predict --robot r --joints " + j + " --out '" + missing + "/p.csv'",
+           "session export 1 --poses '" + missing + "/s.csv'",
+           "db export robots --csv --out '" + missing + "/r.csv'"}) {
+    const auto r = RunArmsig("--db '" + db + "' " + command, dir.path().string());
+    EXPECT_EQ(r.exit_code, 2) << command << ": " << r.err;
+    EXPECT_NE(r.err.find(missing), std::string::npos) << command << ": " << r.err;
+    EXPECT_FALSE(std::filesystem::exists(db)) << command;
+  }
+  const auto folder = RunArmsig("--db '" + db + "' demo --json '" + dir.path().string() + "'",
+                                dir.path().string());
+  EXPECT_EQ(folder.exit_code, 2) << folder.err;
+  EXPECT_NE(folder.err.find("is a folder; expected a file name"), std::string::npos) << folder.err;
+  EXPECT_FALSE(std::filesystem::exists(db));
+}
+
+namespace {
+
+// The same table with ';' as the delimiter and decimal commas (as a German or French
+// spreadsheet writes it).
+std::string SemicolonDecimalComma(std::string text) {
+  for (char& c : text) {
+    if (c == ',')
+      c = ';';
+    else if (c == '.')
+      c = ',';
+  }
+  return text;
+}
+
+}  // namespace
+
+// One CSV dialect for every reader: ';'/decimal-comma files give the same results as the
+// comma/decimal-point originals through calibrate, triangulate and orient.
+TEST(Cli, SemicolonDecimalCommaFilesThroughEveryReader) {
+  TempDir dir;
+  const std::string k06 = DataPath("networks/k06/");
+  WriteText(dir.File("obs.csv"), SemicolonDecimalComma(ReadText(k06 + "observations.csv")));
+  const auto comma =
+      RunArmsig("triangulate --stations '" + k06 + "stations.yaml' --observations '" + k06 +
+                "observations.csv' --out '" + dir.File("a.csv") + "'");
+  ASSERT_EQ(comma.exit_code, 0) << comma.err;
+  const auto semi = RunArmsig("triangulate --stations '" + k06 + "stations.yaml' --observations '" +
+                              dir.File("obs.csv") + "' --out '" + dir.File("b.csv") + "'");
+  ASSERT_EQ(semi.exit_code, 0) << semi.err;
+  EXPECT_EQ(ReadText(dir.File("a.csv")), ReadText(dir.File("b.csv")));
+
+  std::string bars;
+  std::ifstream in(k06 + "scale_bars.txt");
+  for (std::string line; std::getline(in, line);) bars += " --scale-bar " + line;
+  const auto orient = RunArmsig("orient --observations '" + dir.File("obs.csv") + "'" + bars +
+                                " --scale-bar-sigma-mm 0.005 --out '" + dir.File("st.yaml") + "'");
+  ASSERT_EQ(orient.exit_code, 0) << orient.err;
+  EXPECT_NE(orient.out.find("185 degrees of freedom"), std::string::npos) << orient.out;
+
+  // Poses: the SPEC's CSV of a simulated PUMA, as written by `import poses`.
+  std::string poses = "pose,q1_deg,q2_deg,q3_deg,q4_deg,q5_deg,q6_deg,x_mm,y_mm,z_mm\n";
+  const auto model = Puma();
+  calibration::Kinematics kin(model);
+  std::mt19937 rng(5);
+  std::uniform_real_distribution<double> angle(-2.0, 2.0);
+  for (int i = 0; i < 60; ++i) {
+    double q[6];
+    for (double& v : q) v = angle(rng);
+    const Eigen::Vector3d x = kin.Position(Eigen::Isometry3d::Identity(),
+                                           Eigen::VectorXd::Zero(model.num_parameters()), q);
+    poses += "P" + std::to_string(i + 1);
+    for (double v : q) poses += "," + std::to_string(v * 180.0 / M_PI);
+    poses += "," + std::to_string(x.x()) + "," + std::to_string(x.y()) + "," +
+             std::to_string(x.z()) + "\n";
+  }
+  WriteText(dir.File("poses.csv"), poses);
+  WriteText(dir.File("poses-semi.csv"), SemicolonDecimalComma(poses));
+  const std::string model_arg = " --model '" + SourcePath("models/puma760.yaml") + "'";
+  const auto a = RunArmsig("calibrate" + model_arg + " --params geometric --poses '" +
+                           dir.File("poses.csv") + "' --json '" + dir.File("a.json") + "'");
+  ASSERT_EQ(a.exit_code, 0) << a.err;
+  const auto b = RunArmsig("calibrate" + model_arg + " --params geometric --poses '" +
+                           dir.File("poses-semi.csv") + "' --json '" + dir.File("b.json") + "'");
+  ASSERT_EQ(b.exit_code, 0) << b.err;
+  EXPECT_EQ(ReadText(dir.File("a.json")), ReadText(dir.File("b.json")));
+
+  // A decimal comma in a comma-separated file: refused with file, line and column.
+  std::string broken = poses;
+  const size_t row2 = broken.find("\nP2,") + 5;  // P2's q1_deg
+  broken.replace(broken.find('.', row2), 1, ",");
+  WriteText(dir.File("broken.csv"), broken);
+  const auto c = RunArmsig("calibrate" + model_arg + " --poses '" + dir.File("broken.csv") + "'");
+  EXPECT_EQ(c.exit_code, 2);
+  EXPECT_NE(c.err.find(dir.File("broken.csv") + ":3:2"), std::string::npos) << c.err;
+  EXPECT_NE(c.err.find("decimal comma"), std::string::npos) << c.err;
+}
+
+// `armsig demo --configurations N` works for every N the calibration can use (60 here:
+// random configurations, 24 fitted, 36 validated) and refuses fewer with the minimum.
+TEST(Cli, DemoWithSixtyConfigurationsAndTooFew) {
+  TempDir dir;
+  const auto r = RunArmsig("--db '" + dir.File("demo.db") +
+                           "' demo --configurations 60 --time-scale 0.02 --json '" +
+                           dir.File("demo.json") + "'");
+  ASSERT_EQ(r.exit_code, 0) << r.err << r.out;
+  const auto j = nlohmann::json::parse(ReadText(dir.File("demo.json")));
+  EXPECT_EQ(j["session"]["poses"], 60);
+  ASSERT_EQ(j["stages"].size(), 3u);
+  EXPECT_EQ(j["stages"][2]["poses_used"], 24);
+  EXPECT_EQ(j["stages"][2]["validation"]["poses"], 36);
+  EXPECT_LT(j["stages"][2]["validation"]["mean_mm"].get<double>(), 0.1);
+
+  const auto few = RunArmsig("demo --db '" + dir.File("few.db") + "' --configurations 19");
+  EXPECT_EQ(few.exit_code, 2) << few.err;
+  EXPECT_NE(few.err.find("at least 20"), std::string::npos) << few.err;
+  EXPECT_FALSE(std::filesystem::exists(dir.File("few.db")));
+  const auto select =
+      RunArmsig("demo --db '" + dir.File("few.db") + "' --configurations 60 --select 55");
+  EXPECT_EQ(select.exit_code, 2) << select.err;
+  EXPECT_NE(select.err.find("--select"), std::string::npos) << select.err;
+  EXPECT_FALSE(std::filesystem::exists(dir.File("few.db")));
+}
+
+namespace {
+
+// Starts the binary with args, stdout and stderr to files and TMPDIR set; returns its pid.
+pid_t SpawnArmsig(std::vector<std::string> args, const std::string& out, const std::string& err,
+                  const std::string& tmpdir) {
+  args.insert(args.begin(), ARMSIG_BINARY);
+  const pid_t child = ::fork();
+  if (child == 0) {
+    std::vector<char*> argv;
+    for (auto& a : args) argv.push_back(a.data());
+    argv.push_back(nullptr);
+    ::dup2(::open(out.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0600), 1);
+    ::dup2(::open(err.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0600), 2);
+    ::setenv("TMPDIR", tmpdir.c_str(), 1);
+    ::execv(argv[0], argv.data());
+    _exit(127);
+  }
+  return child;
+}
+
+int TempEntries(const std::string& dir) {
+  int n = 0;
+  for (const auto& e : std::filesystem::directory_iterator(dir))
+    n += e.path().filename().string().rfind("armsig-demo-", 0) == 0;
+  return n;
+}
+
+bool HasSession(const std::string& db) {
+  if (!std::filesystem::exists(db)) return false;
+  try {
+    SQLite::Database sql(db, SQLite::OPEN_READONLY, 1000);
+    return sql.execAndGet("SELECT count(*) FROM sessions").getInt() > 0;
+  } catch (const SQLite::Exception&) {
+    return false;  // being created
+  }
+}
+
+}  // namespace
+
+// Ctrl-C at random moments of a demo: no armsig-demo-* directory is left in $TMPDIR, the
+// session is paused (or completed), and the resume command printed completes it.
+TEST(Cli, DemoCtrlCAtRandomMomentsLeavesNothingBehindAndResumes) {
+  TempDir dir;
+  const std::string tmp = dir.File("tmp");
+  std::filesystem::create_directories(tmp);
+  std::mt19937 rng(1123);
+  std::uniform_int_distribution<int> delay(0, 1500);
+  int resumed = 0;
+  for (int round = 0; round < 6; ++round) {
+    const std::string db = dir.File("demo-" + std::to_string(round) + ".db");
+    const pid_t child =
+        SpawnArmsig({"--db", db, "demo", "--configurations", "40", "--time-scale", "0.05"},
+                    dir.File("out"), dir.File("err"), tmp);
+    ASSERT_GE(child, 0);
+    if (round % 2 == 1) {
+      // Odd rounds: once the session exists (a loaded machine may take longer than the
+      // blind delays of the even rounds to get there), then a random moment after.
+      for (int wait = 0; wait < 1000 && !HasSession(db); ++wait)
+        std::this_thread::sleep_for(std::chrono::milliseconds(5));
+      std::this_thread::sleep_for(std::chrono::milliseconds(delay(rng) / 10));
+    } else {
+      std::this_thread::sleep_for(std::chrono::milliseconds(delay(rng)));
+    }
+    ::kill(child, SIGINT);
+    int status = 0;
+    ::waitpid(child, &status, 0);
+    const std::string err = ReadText(dir.File("err"));
+    EXPECT_EQ(TempEntries(tmp), 0) << "round " << round << "\n" << err;
+    if (!std::filesystem::exists(db)) continue;
+    std::string state;
+    {
+      SQLite::Database sql(db);
+      SQLite::Statement q(sql, "SELECT state FROM sessions");
+      if (!q.executeStep()) continue;
+      state = q.getColumn(0).getString();
+    }
+    ASSERT_TRUE(state == "paused" || state == "completed") << state << "\n" << err;
+    const size_t at = err.rfind("resume with: armsig ");
+    if (WIFEXITED(status) && WEXITSTATUS(status) == 0) continue;  // it had finished
+    ASSERT_TRUE(WIFEXITED(status) && WEXITSTATUS(status) == 130) << status << "\n" << err;
+    ASSERT_NE(at, std::string::npos) << err;
+    const size_t from = at + std::string("resume with: armsig ").size();
+    const std::string hint = err.substr(from, err.find('\n', from) - from);
+    setenv("TMPDIR", tmp.c_str(), 1);
+    const auto r = RunArmsig(hint, "/");
+    unsetenv("TMPDIR");
+    ASSERT_EQ(r.exit_code, 0) << hint << "\n" << r.err;
+    ++resumed;
+    SQLite::Database sql(db);
+    EXPECT_EQ(sql.execAndGet("SELECT state FROM sessions").getString(), "completed");
+    EXPECT_EQ(sql.execAndGet("SELECT count(*) FROM poses").getInt(), 40);
+    EXPECT_EQ(sql.execAndGet("SELECT count(*) FROM calibrations").getInt(), 3);
+    EXPECT_EQ(TempEntries(tmp), 0);
+  }
+  EXPECT_GE(resumed, 2);
 }
 
 }  // namespace armsig::testing

@@ -117,26 +117,48 @@ TEST(Estimation, FarOffBaseIsFoundFromTheData) {
 }
 
 TEST(Estimation, ParameterSigmasAreHonest) {
-  // Refit many noisy data sets of the same poses: the spread of the predicted position
-  // of a new pose matches the sigma the covariance propagates to it.
+  // Refit many noisy data sets of the same poses: the scatter of each identified
+  // parameter over the refits matches the sigma the fit reports for it, and the scatter
+  // of the predicted position of a new pose matches its propagated size.
   const auto model = testing::Puma();
   const Eigen::VectorXd truth = PaperTable3Parameters();
   std::mt19937 rng(4);
   const auto joints = RandomConfigurations(model, 60, rng);
   const Eigen::VectorXd probe = RandomConfigurations(model, 1, rng)[0];
-  std::vector<double> errors, sigmas;
-  for (int trial = 0; trial < 40; ++trial) {
+  const int trials = 40;
+  std::vector<Eigen::VectorXd> estimates;
+  Eigen::VectorXd mean_sigma = Eigen::VectorXd::Zero(model.num_parameters());
+  std::vector<int> identified;
+  double mse = 0;
+  for (int trial = 0; trial < trials; ++trial) {
     const auto poses = SimulatePoses(model, LabBase(), truth, joints, kNoiseMm, rng);
-    EstimationOptions o = With(model, "all");
-    const auto r = Estimate(model, poses, o);
+    const auto r = Estimate(model, poses, With(model, "all"));
     ASSERT_TRUE(r.ok());
+    if (trial == 0) identified = r.identifiability.identified;
+    ASSERT_EQ(r.identifiability.identified, identified) << "same poses, same identified subset";
+    estimates.push_back(r.params);
+    for (int k : identified) mean_sigma(k) += r.sigmas(k) / trials;
     Kinematics kin(model);
     const Eigen::Vector3d predicted = kin.Position(r.world_from_base, r.params, probe.data());
     const Eigen::Vector3d actual = kin.Position(LabBase(), truth, probe.data());
-    errors.push_back((predicted - actual).squaredNorm());
+    mse += (predicted - actual).squaredNorm() / trials;
   }
-  double mse = 0;
-  for (double e : errors) mse += e / errors.size();
+  ASSERT_GT(identified.size(), 20u);
+  std::vector<double> ratios;
+  for (int k : identified) {
+    double mean = 0, var = 0;
+    for (const auto& e : estimates) mean += e(k) / trials;
+    for (const auto& e : estimates) var += (e(k) - mean) * (e(k) - mean) / (trials - 1);
+    const double ratio = std::sqrt(var) / mean_sigma(k);
+    ratios.push_back(ratio);
+    // 40 refits: the sample standard deviation is good to ~11 % (1σ); 0.6–1.5 is > 3σ.
+    EXPECT_GT(ratio, 0.6) << model.ParameterNames()[k] << " sigma too large";
+    EXPECT_LT(ratio, 1.5) << model.ParameterNames()[k] << " sigma too small";
+  }
+  std::nth_element(ratios.begin(), ratios.begin() + ratios.size() / 2, ratios.end());
+  const double median = ratios[ratios.size() / 2];
+  EXPECT_GT(median, 0.85);
+  EXPECT_LT(median, 1.15);
   // The prediction error of a new pose is a fraction of the noise, and not zero.
   EXPECT_LT(std::sqrt(mse), 3 * kNoiseMm);
   EXPECT_GT(std::sqrt(mse), 0.05 * kNoiseMm);

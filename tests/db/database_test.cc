@@ -5,9 +5,11 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <filesystem>
 #include <thread>
 
 #include "core/error.h"
+#include "db/calibrations.h"
 #include "db/schema.h"
 #include "test_support.h"
 
@@ -31,6 +33,56 @@ TEST(Database, ReopeningDoesNotMigrateAgainAndKeepsRows) {
   }
   Database db(dir.File("lab.db"));
   EXPECT_EQ(db.sql().execAndGet("SELECT count(*) FROM robots").getInt(), 1);
+}
+
+// A file written by schema v1 (the base transform inside report_json) opens as the latest with
+// the transform in its own column, and the stored parameter set reads back with it.
+TEST(Database, MigratesAVersion1FileKeepingItsParameterSets) {
+  testing::TempDir dir;
+  const std::string path = dir.File("v1.db");
+  {
+    SQLite::Database raw(path, SQLite::OPEN_READWRITE | SQLite::OPEN_CREATE);
+    raw.exec(std::string(Migrations()[0]));
+    raw.exec("PRAGMA user_version=1");
+    raw.exec("INSERT INTO robots(name, model_name, model_yaml) VALUES ('r1','puma760','x')");
+    raw.exec(
+        "INSERT INTO calibrations(robot_id, version, active, params_spec, inputs_json, "
+        "options_json, rank, poses_fit, report_json) VALUES (1, 1, 1, 'all', '{}', '{}', 29, 80, "
+        "'{\"base\": [[1,0,0,1500.5],[0,0,-1,-20.25],[0,1,0,300],[0,0,0,1]]}')");
+    raw.exec(
+        "INSERT INTO calibrations(robot_id, version, active, params_spec, inputs_json, "
+        "options_json, rank, poses_fit, report_json) VALUES (1, 2, 0, 'all', '{}', '{}', 29, 80, "
+        "'not json')");
+  }
+  Database db(path);
+  EXPECT_EQ(db.SchemaVersion(), LatestSchemaVersion());
+  EXPECT_EQ(db.sql().execAndGet("SELECT count(*) FROM calibrations").getInt(), 2);
+  const auto history = CalibrationHistory(db, 1);
+  ASSERT_EQ(history.size(), 2u);
+  ASSERT_TRUE(history[0].world_from_base.has_value());
+  Eigen::Matrix4d expected;
+  expected << 1, 0, 0, 1500.5, 0, 0, -1, -20.25, 0, 1, 0, 300, 0, 0, 0, 1;
+  EXPECT_EQ(history[0].world_from_base->matrix(), expected);
+  EXPECT_FALSE(history[1].world_from_base.has_value());  // nothing to carry over
+  EXPECT_TRUE(history[0].covariance_parameters.empty());  // v3: none stored before
+}
+
+TEST(Database, CovarianceOfAParameterSetRoundTrips) {
+  testing::TempDir dir;
+  Database db(dir.File("lab.db"));
+  db.sql().exec("INSERT INTO robots(name, model_name, model_yaml) VALUES ('r1','puma760','x')");
+  CalibrationRecord record;
+  record.robot_id = 1;
+  record.params_spec = "all";
+  record.inputs_json = record.options_json = "{}";
+  record.covariance_parameters = {"a2", "beta2"};
+  record.covariance.resize(2, 2);
+  record.covariance << 1e-4, -2.5e-7, -2.5e-7, 3.0000000000000001e-9;
+  InsertCalibration(db, record);
+  const auto history = CalibrationHistory(db, 1);
+  ASSERT_EQ(history.size(), 1u);
+  EXPECT_EQ(history[0].covariance_parameters, record.covariance_parameters);
+  EXPECT_EQ(history[0].covariance, record.covariance);  // exact: JSON keeps 17 digits
 }
 
 TEST(Database, RefusesNewerSchema) {
@@ -136,6 +188,25 @@ TEST(Database, ConcurrentWritersWaitForEachOther) {
   b.join();
   Database db(path);
   EXPECT_EQ(db.sql().execAndGet("SELECT count(*) FROM instruments").getInt(), 200);
+}
+
+// A command that only reads opens with kMustExist: a missing file is an input error
+// naming it, and nothing is created; an existing database opens as usual.
+TEST(Database, MustExistRefusesAMissingFileAndCreatesNothing) {
+  testing::TempDir dir;
+  const std::string path = dir.File("typo.db");
+  try {
+    Database db(path, OpenMode::kMustExist);
+    FAIL() << "expected InputError";
+  } catch (const InputError& e) {
+    EXPECT_EQ(e.where().file, path);
+    EXPECT_NE(std::string(e.what()).find("no such database file"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("--db or $ARMSIG_DB"), std::string::npos) << e.what();
+  }
+  EXPECT_FALSE(std::filesystem::exists(path));
+  { Database created(path); }  // kCreate, the default
+  Database db(path, OpenMode::kMustExist);
+  EXPECT_EQ(db.SchemaVersion(), LatestSchemaVersion());
 }
 
 }  // namespace armsig::db

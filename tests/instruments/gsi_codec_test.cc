@@ -50,11 +50,165 @@ TEST(GsiCodec, DecodesEveryUnit) {
   EXPECT_FALSE(ParseWord("21.102x11545200", false, &why));
 }
 
-TEST(GsiCodec, EncodersRoundTrip) {
-  const double hz = 1.2345678;
-  EXPECT_NEAR(*AngleRad(*ParseWord(EncodeAngleWord(21, hz, false), false)), hz, 1e-7);
-  EXPECT_NEAR(*AngleRad(*ParseWord(EncodeAngleWord(21, hz, true, '4'), true)), hz, 3e-7);
-  EXPECT_NEAR(*LengthMm(*ParseWord(EncodeLengthWord(31, 4321.27, true, '8'), true)), 4321.27, 1e-9);
+// Value → word → text → word → value, for every unit, both word widths, negative
+// values and the largest value a GSI-8 word holds. Tolerance: half the unit's last digit.
+TEST(GsiCodec, AngleWordsRoundTripInEveryUnit) {
+  struct Case {
+    char unit;
+    double rad;
+    bool gsi16;
+    double half_digit_rad;
+  };
+  const double gon = kGon, deg = kDeg;
+  const Case cases[] = {
+      {'2', 1.2345678, false, 0.5e-5 * gon},   {'2', -1.2345678, true, 0.5e-5 * gon},
+      {'2', 0.0, false, 0.5e-5 * gon},         {'2', 999.99999 * gon, false, 0.5e-5 * gon},
+      {'3', 2.5, false, 0.5e-5 * deg},         {'3', -0.001, true, 0.5e-5 * deg},
+      {'4', 1.2345678, true, 0.05 / 3600 * deg}, {'4', -3.0, false, 0.05 / 3600 * deg},
+      {'4', 359.99 * deg, false, 0.05 / 3600 * deg},
+      {'5', 1.0, false, 0.5e-4 * 2 * M_PI / 6400}, {'5', -6.0, true, 0.5e-4 * 2 * M_PI / 6400},
+  };
+  for (const auto& c : cases) {
+    const Word w = AngleWord(21, c.rad, c.gsi16, c.unit);
+    const std::string text = FormatWord(w);
+    EXPECT_EQ(text.size(), c.gsi16 ? 24u : 16u) << text;
+    EXPECT_EQ(text.back(), ' ');
+    const auto parsed = ParseWord(text, c.gsi16);
+    ASSERT_TRUE(parsed) << text;
+    EXPECT_EQ(*parsed, w) << text;
+    EXPECT_EQ(parsed->sign, c.rad < 0 ? '-' : '+') << text;
+    EXPECT_NEAR(*AngleRad(*parsed), c.rad, c.half_digit_rad * 1.0001) << text;
+  }
+}
+
+TEST(GsiCodec, LengthWordsRoundTripInEveryUnit) {
+  struct Case {
+    char unit;
+    double mm;
+    bool gsi16;
+    double half_digit_mm;
+  };
+  const Case cases[] = {
+      {'0', 5165.0, false, 0.5},      {'0', -6850.0, true, 0.5},
+      {'1', 304.8, false, 0.1524},    {'6', 7349.3, true, 0.05},
+      {'6', -1.25, false, 0.05},      {'7', 1234.5, true, 0.01524},
+      {'8', 4321.27, true, 0.005},    {'8', 999999.99, false, 0.005},  // GSI-8 maximum
+      {'8', 123123456.0, true, 0.005},
+  };
+  for (const auto& c : cases) {
+    const Word w = LengthWord(31, c.mm, c.gsi16, c.unit);
+    const std::string text = FormatWord(w);
+    const auto parsed = ParseWord(text, c.gsi16);
+    ASSERT_TRUE(parsed) << text;
+    EXPECT_EQ(*parsed, w);
+    EXPECT_NEAR(*LengthMm(*parsed), c.mm, c.half_digit_mm * 1.0001) << text;
+  }
+}
+
+TEST(GsiCodec, FormatterRefusesWhatDoesNotFit) {
+  EXPECT_THROW(LengthWord(31, 1000000.0, false, '8'), std::out_of_range);  // 9 digits
+  EXPECT_NO_THROW(LengthWord(31, 1000000.0, true, '8'));
+  EXPECT_THROW(LengthWord(31, 1.0, false, '2'), std::invalid_argument);   // not a length unit
+  EXPECT_THROW(AngleWord(21, 1.0, false, '0'), std::invalid_argument);    // not an angle unit
+  EXPECT_THROW(AngleWord(21, NAN, false), std::out_of_range);
+  EXPECT_THROW(TextWord(11, "TOOLONGID", false), std::out_of_range);
+}
+
+// The documented words of the protocol notes, parsed and formatted back byte for byte.
+TEST(GsiCodec, DocumentedWordsFormatBackVerbatim) {
+  const std::pair<const char*, bool> words[] = {
+      {"21.102+11545200 ", false},          {"31..00+00005165 ", false},
+      {"110002+00000000GDEM5415 ", true},   {"21.024+0000000003545100 ", true},
+      {"51....+000000000017+000 ", true},   {"81..06-0000000000068507 ", true},
+      {"11....+000000P1 ", false},          {"590..6+01234560 ", false},
+  };
+  for (const auto& [text, gsi16] : words) {
+    const auto w = ParseWord(text, gsi16);
+    ASSERT_TRUE(w) << text;
+    EXPECT_EQ(FormatWord(*w), text);
+  }
+}
+
+TEST(GsiCodec, IdentifierWordsRoundTrip) {
+  for (bool gsi16 : {false, true}) {
+    for (const char* id : {"P1", "T2002", "GDEM5415", "1"}) {
+      const Word w = TextWord(11, id, gsi16);
+      const auto parsed = ParseWord(FormatWord(w), gsi16);
+      ASSERT_TRUE(parsed);
+      EXPECT_EQ(Identifier(*parsed), id);
+      EXPECT_EQ(BlockNumber(*parsed), 1);
+    }
+  }
+  EXPECT_EQ(Identifier(*ParseWord(FormatWord(TextWord(590, "3.04", false)), false)), "3.04");
+}
+
+// A file of mixed GSI-16 / GSI-8 blocks survives format → parse unchanged.
+TEST(GsiCodec, FilesRoundTrip) {
+  Block a;
+  a.gsi16 = true;
+  a.line = 1;
+  a.words = {TextWord(11, "P0001", true), AngleWord(21, 1.5, true, '4'),
+             AngleWord(22, 1.6, false, '2'), LengthWord(31, 7349.3, true, '6')};
+  Block b;
+  b.line = 2;
+  b.words = {TextWord(11, "2", false), LengthWord(81, -6850.7, false, '6')};
+  const std::string text = FormatFile({a, b});
+  const auto file = ParseFile(text);
+  ASSERT_FALSE(file.error) << file.error->message;
+  ASSERT_EQ(file.blocks.size(), 2u);
+  for (size_t i = 0; i < 2; ++i) {
+    const Block& expected = i == 0 ? a : b;
+    ASSERT_EQ(file.blocks[i].words.size(), expected.words.size());
+    EXPECT_EQ(file.blocks[i].gsi16, expected.gsi16);
+    for (size_t k = 0; k < expected.words.size(); ++k) {
+      Word w = file.blocks[i].words[k];
+      EXPECT_GT(w.column, 0);
+      w.column = 0;  // the position in the line is not part of the word
+      EXPECT_EQ(w, expected.words[k]) << "block " << i << " word " << k;
+    }
+  }
+}
+
+TEST(GsiOnline, RequestsRoundTrip) {
+  const OnlineRequest requests[] = {
+      {OnlineRequest::Kind::kGet, 'M', 21, 0, 0},
+      {OnlineRequest::Kind::kGet, 'I', 590, 0, 0},
+      {OnlineRequest::Kind::kGet, 'C', 31, 0, 0},
+      {OnlineRequest::Kind::kSet, 'I', 0, 137, 1},
+  };
+  for (const auto& q : requests) {
+    const std::string text = FormatOnlineRequest(q);
+    EXPECT_EQ(text.substr(text.size() - 2), "\r\n");
+    EXPECT_EQ(ParseOnlineRequest(text), q) << text;
+  }
+  EXPECT_EQ(FormatOnlineRequest({OnlineRequest::Kind::kGet, 'M', 21, 0, 0}), "GET/M/WI21\r\n");
+  std::string why;
+  EXPECT_FALSE(ParseOnlineRequest("GET/X/WI21", &why));
+  EXPECT_NE(why.find("mode I, M or C"), std::string::npos) << why;
+  EXPECT_FALSE(ParseOnlineRequest("GET/M/WIxx", &why));
+  EXPECT_NE(why.find("word index"), std::string::npos) << why;
+  EXPECT_FALSE(ParseOnlineRequest("PUT/11", &why));
+}
+
+TEST(GsiOnline, RepliesRoundTrip) {
+  OnlineReply word16;
+  word16.word = AngleWord(21, 2.0, true);
+  OnlineReply word8;
+  word8.word = LengthWord(31, 12345.67, false, '8');
+  const OnlineReply replies[] = {word16, word8, {OnlineReply::Kind::kAck, {}, 0},
+                                 {OnlineReply::Kind::kWarning, {}, 427},
+                                 {OnlineReply::Kind::kError, {}, 139}};
+  for (const auto& r : replies) {
+    const std::string text = FormatOnlineReply(r);
+    EXPECT_EQ(ParseOnlineReply(text.substr(0, text.size() - 2)), r) << text;
+  }
+  EXPECT_EQ(FormatOnlineReply(word16).front(), '*');  // GSI-16 replies start with '*'
+  EXPECT_EQ(FormatOnlineReply({OnlineReply::Kind::kError, {}, 139}), "@E139\r\n");
+  std::string why;
+  EXPECT_FALSE(ParseOnlineReply("@Exyz", &why));
+  EXPECT_NE(why.find("expected a number after @E"), std::string::npos) << why;
+  EXPECT_FALSE(ParseOnlineReply("#garbage", &why));
+  EXPECT_FALSE(ParseOnlineReply("   ", &why));
 }
 
 // Total Open Station asserts E 515.836, N 525.871, H 3.079 for the first point,

@@ -39,12 +39,75 @@ TEST(Csv, FindsAngleColumnsByAnySuffix) {
 }
 
 TEST(Csv, SemicolonsAndDecimalCommas) {
-  CsvOptions options;
-  options.delimiter = '\0';
-  options.decimal_comma = true;
-  const auto t = ParseCsv("a;b\n1,5;-2,25E-1\n", "mem.csv", options);
+  const auto t = ParseCsv("a;b\n1,5;-2,25E-1\n", "mem.csv");
+  EXPECT_EQ(t.delimiter(), ';');
+  EXPECT_TRUE(t.decimal_comma());
   EXPECT_DOUBLE_EQ(t.Number(t.rows()[0], 0), 1.5);
   EXPECT_DOUBLE_EQ(t.Number(t.rows()[0], 1), -0.225);
+}
+
+TEST(Csv, TabsAndDecimalCommas) {
+  const auto t = ParseCsv("pose\tx_mm\ty_mm\nP1\t12,5\t3.25\n", "mem.tsv");
+  EXPECT_EQ(t.delimiter(), '\t');
+  EXPECT_DOUBLE_EQ(t.Number(t.rows()[0], 1), 12.5);
+  EXPECT_DOUBLE_EQ(t.Number(t.rows()[0], 2), 3.25);  // a decimal point stays one
+}
+
+TEST(Csv, CommaFileDetectedAndNoDecimalComma) {
+  const auto t = ParseCsv("pose,x_mm\nP1,1.5\n", "mem.csv");
+  EXPECT_EQ(t.delimiter(), ',');
+  EXPECT_FALSE(t.decimal_comma());
+  EXPECT_FALSE(DecimalCommaAllowed(','));
+  EXPECT_TRUE(DecimalCommaAllowed(';'));
+  EXPECT_TRUE(DecimalCommaAllowed('\t'));
+}
+
+// A decimal comma in a comma-separated file, quoted so the row still has its fields:
+// refused at its line and column, saying why.
+TEST(Csv, QuotedDecimalCommaInCommaFileNamesLineAndColumn) {
+  const auto t = ParseCsv("pose,x_mm,y_mm\nP1,1.0,2.0\nP2,\"1,5\",2.0\n", "poses.csv");
+  try {
+    t.Number(t.rows()[1], 1);
+    FAIL() << "expected InputError";
+  } catch (const InputError& e) {
+    EXPECT_EQ(e.where().file, "poses.csv");
+    EXPECT_EQ(e.where().line, 3);
+    EXPECT_EQ(e.where().column, 2);
+    EXPECT_EQ(e.where().column_name, "x_mm");
+    EXPECT_NE(std::string(e.what()).find("'1,5'"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("a decimal comma needs ';' or tab"), std::string::npos)
+        << e.what();
+  }
+}
+
+// Unquoted, the decimal comma splits the number into two fields: the row has one field
+// too many, and the split is named at its column.
+TEST(Csv, SplitDecimalCommaInCommaFileNamesLineAndColumn) {
+  try {
+    ParseCsv("pose,x_mm,y_mm\nP1,1.0,2.0\nP2,4.0,-2,5\n", "poses.csv");
+    FAIL() << "expected InputError";
+  } catch (const InputError& e) {
+    EXPECT_EQ(e.where().file, "poses.csv");
+    EXPECT_EQ(e.where().line, 3);
+    EXPECT_EQ(e.where().column, 3);
+    EXPECT_NE(std::string(e.what()).find("'-2,5' looks like a decimal comma"), std::string::npos)
+        << e.what();
+  }
+  // Several candidates for one extra field: the line and the hint, no guessed column.
+  try {
+    ParseCsv("a,b,c\n1,2,3,4\n", "f.csv");
+    FAIL() << "expected InputError";
+  } catch (const InputError& e) {
+    EXPECT_EQ(e.where().line, 2);
+    EXPECT_EQ(e.where().column, 0);
+    EXPECT_NE(std::string(e.what()).find("a decimal comma?"), std::string::npos) << e.what();
+  }
+}
+
+TEST(Csv, OtherDelimitersAreRefused) {
+  CsvOptions options;
+  options.delimiter = '|';
+  EXPECT_THROW(ParseCsv("a|b\n1|2\n", "f.csv", options), InputError);
 }
 
 TEST(Csv, BadNumberNamesFileLineColumn) {

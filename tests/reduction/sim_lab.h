@@ -52,16 +52,6 @@ struct SimLab {
     return r;
   }
 
-  reduction::Ray RayTo(int s, const Eigen::Vector3d& target) {
-    reduction::Ray ray;
-    ray.station_mm = stations[s].pose.position_mm;
-    ray.world_from_station = stations[s].pose.world_from_station;
-    ray.reading = Read(s, target);
-    ray.sigma_hz_rad = kSigmaAngle;
-    ray.sigma_v_rad = kSigmaAngle;
-    return ray;
-  }
-
   reduction::Observation ObserveTo(int s, const std::string& point, const Eigen::Vector3d& target) {
     reduction::Observation o;
     o.station = stations[s].pose.id;
@@ -70,6 +60,11 @@ struct SimLab {
     o.sigma_hz_rad = kSigmaAngle;
     o.sigma_v_rad = kSigmaAngle;
     return o;
+  }
+
+  reduction::Ray RayTo(int s, const Eigen::Vector3d& target) {
+    return reduction::RayOf(ObserveTo(s, "target", target), stations[s],
+                            reduction::InstrumentDefaults{});
   }
 };
 

@@ -7,7 +7,8 @@
 
 #include "calibration/simulation.h"
 #include "instruments/geocom_device.h"
-#include "instruments/other_devices.h"
+#include "instruments/gsi_device.h"
+#include "instruments/robot_controllers.h"
 #include "reduction/intersection.h"
 #include "reduction/observation.h"
 #include "simulation/simulators.h"

@@ -1,106 +1,23 @@
-// The nightly job, compensation, reports and exports on databases filled with simulated
-// sessions of a PUMA 760 whose truth the test knows.
+// The nightly job, compensation and exports through the binary, as the lab runs them:
+// two recalibrations at once, predicted and compensated CSV files, exported models.
 #include <fmt/format.h>
 #include <gtest/gtest.h>
 
-#include <filesystem>
 #include <future>
 #include <nlohmann/json.hpp>
 #include <random>
-#include <regex>
-#include <thread>
 
 #include "calibration/compensation.h"
 #include "calibration/simulation.h"
 #include "db/database.h"
-#include "db/store.h"
 #include "io/csv.h"
-#include "io/model_export.h"
 #include "io/model_yaml.h"
+#include "support/simulated_sessions.h"
 #include "test_support.h"
 
 namespace armsig::testing {
-namespace {
 
-constexpr double kNoiseMm = 0.01;
-
-// One session of `count` configurations of the true robot, stored like a capture.
-void AddSession(db::Database& db, const Eigen::VectorXd& truth, int count, unsigned seed,
-                double blunder_fraction = 0.0) {
-  const auto model = Puma();
-  std::mt19937 rng(seed);
-  const auto poses =
-      calibration::SimulatePoses(model, Eigen::Isometry3d::Identity(), truth,
-                                 calibration::LabTestConfigurations(model, rng), kNoiseMm, rng);
-  SQLite::Transaction tx(db.sql());
-  const int64_t robot =
-      db::EnsureRobot(db, "puma", "puma760", ReadText(SourcePath("models/puma760.yaml")));
-  const int64_t session = db::CreateSession(db, robot, "", "", "completed", "simulated");
-  std::uniform_real_distribution<double> u(0, 1);
-  for (int i = 0; i < count && i < static_cast<int>(poses.size()); ++i) {
-    const int64_t pose =
-        db::InsertPose(db, session, i, poses[i].id, poses[i].joints_rad, "measured", 1);
-    Eigen::Vector3d x = poses[i].target_in_world;
-    if (u(rng) < blunder_fraction) x += Eigen::Vector3d(3.0, -2.0, 1.5);  // a bad measurement
-    SQLite::Statement s(db.sql(),
-                        "INSERT INTO points(session_id, pose_id, point, x_mm, y_mm, z_mm, rays) "
-                        "VALUES (?,?,?,?,?,?,3)");
-    s.bind(1, session);
-    s.bind(2, pose);
-    s.bind(3, "target");
-    s.bind(4, x.x());
-    s.bind(5, x.y());
-    s.bind(6, x.z());
-    s.exec();
-  }
-  tx.commit();
-}
-
-int ActiveVersion(const std::string& path) {
-  db::Database db(path);
-  return db.sql()
-      .execAndGet("SELECT coalesce(max(version), 0) FROM calibrations WHERE active = 1")
-      .getInt();
-}
-
-int Versions(const std::string& path) {
-  db::Database db(path);
-  return db.sql().execAndGet("SELECT count(*) FROM calibrations").getInt();
-}
-
-}  // namespace
-
-TEST(Recalibrate, PassesThenRejectsPlantedBadDataKeepingTheActiveSet) {
-  TempDir dir;
-  const std::string path = dir.File("lab.db");
-  const std::string db = "--db '" + path + "' ";
-  {
-    db::Database database(path);
-    AddSession(database, calibration::PaperTable3Parameters(), 150, 1);
-  }
-  auto first = RunArmsig(db + "recalibrate --robot puma --json '" + dir.File("1.json") + "'");
-  ASSERT_EQ(first.exit_code, 0) << first.err;
-  auto j = nlohmann::json::parse(ReadText(dir.File("1.json")));
-  EXPECT_EQ(j["decision"], "stored");
-  EXPECT_EQ(j["version"], 1);
-  EXPECT_LT(j["validation"]["mean_mm"].get<double>(), 0.03);
-  EXPECT_EQ(ActiveVersion(path), 1);
-  // Planted bad data: a session where a third of the points are off by millimetres.
-  {
-    db::Database database(path);
-    AddSession(database, calibration::PaperTable3Parameters(), 150, 2, 0.33);
-  }
-  auto second = RunArmsig(db + "recalibrate --robot puma --json '" + dir.File("2.json") + "'");
-  EXPECT_EQ(second.exit_code, 3) << second.err;
-  j = nlohmann::json::parse(ReadText(dir.File("2.json")));
-  EXPECT_EQ(j["decision"], "rejected");
-  EXPECT_TRUE(j["version"].is_null());
-  EXPECT_NE(second.err.find("FAILED"), std::string::npos);
-  EXPECT_EQ(ActiveVersion(path), 1);  // the old set stays active
-  EXPECT_EQ(Versions(path), 1);       // and nothing was stored
-}
-
-TEST(Recalibrate, IsIdempotentAndSafeAgainstTwoRunsAtOnce) {
+TEST(RecalibrateCommand, IsIdempotentAndSafeAgainstTwoRunsAtOnce) {
   TempDir dir;
   const std::string path = dir.File("lab.db");
   {
@@ -117,39 +34,6 @@ TEST(Recalibrate, IsIdempotentAndSafeAgainstTwoRunsAtOnce) {
   EXPECT_TRUE((ra.err + rb.err).find("up to date") != std::string::npos);
   EXPECT_EQ(RunArmsig(command).exit_code, 0);
   EXPECT_EQ(Versions(path), 1);
-}
-
-TEST(Recalibrate, DetectsAPlantedDrift) {
-  TempDir dir;
-  const std::string path = dir.File("lab.db");
-  const Eigen::VectorXd before = calibration::PaperTable3Parameters();
-  {
-    db::Database database(path);
-    AddSession(database, before, 150, 4);
-  }
-  ASSERT_EQ(RunArmsig("--db '" + path + "' recalibrate --robot puma").exit_code, 0);
-  // The robot changes: joint 3's backlash h4 triples, its arm offset c4 grows 0.4 mm.
-  Eigen::VectorXd after = before;
-  const auto model = Puma();
-  after(model.IndexOf("h4")) *= 3.0;
-  after(model.IndexOf("c4")) += 0.4;
-  std::string since;
-  {
-    db::Database database(path);
-    since = database.sql().execAndGet("SELECT strftime('%Y-%m-%dT%H:%M:%fZ','now')").getString();
-    std::this_thread::sleep_for(std::chrono::milliseconds(20));
-    AddSession(database, after, 150, 5);
-  }
-  const auto r = RunArmsig("--db '" + path + "' recalibrate --robot puma --since " + since +
-                           " --json '" + dir.File("d.json") + "'");
-  EXPECT_EQ(r.exit_code, 0) << r.err;
-  const auto j = nlohmann::json::parse(ReadText(dir.File("d.json")));
-  EXPECT_EQ(j["poses"], 150);  // only the new session
-  EXPECT_TRUE(j["drift"]["flag"].get<bool>());
-  bool h4 = false;
-  for (const auto& p : j["drift"]["parameters"]) h4 |= p["name"] == "h4";
-  EXPECT_TRUE(h4) << j["drift"].dump();
-  EXPECT_EQ(ActiveVersion(path), 2);
 }
 
 // Compensated joints land on the target in the calibrated model, and the true robot then
@@ -277,43 +161,6 @@ TEST(Export, CorrectedModelYamlReproducesTheCalibratedRobot) {
     worst = std::max(worst, (a - b).norm());
   }
   EXPECT_LT(worst, 0.1);
-}
-
-// URDF: compose the joints' origins (xyz in m, rpy) and rotations about z; it must give
-// the corrected model's positions.
-TEST(Export, UrdfChainMatchesTheModel) {
-  auto model = Puma();
-  model.nongeometric.clear();
-  std::mt19937 rng(11);
-  const Eigen::VectorXd params = calibration::RandomParameters(model, 1.0, 2e-3, 0, rng);
-  const auto corrected = calibration::CorrectedModel(model, params, Eigen::Isometry3d::Identity());
-  std::string warning;
-  const std::string urdf = io::FormatUrdf(corrected, &warning);
-  EXPECT_TRUE(warning.empty());
-  std::regex origin_re(
-      "<origin xyz=\"([^ ]+) ([^ ]+) ([^\"]+)\" rpy=\"([^ ]+) ([^ ]+) ([^\"]+)\"/>");
-  std::vector<Eigen::Isometry3d> origins;
-  for (auto it = std::sregex_iterator(urdf.begin(), urdf.end(), origin_re);
-       it != std::sregex_iterator(); ++it) {
-    Eigen::Isometry3d t = Eigen::Isometry3d::Identity();
-    t.translation() =
-        1000.0 * Eigen::Vector3d(std::stod((*it)[1]), std::stod((*it)[2]), std::stod((*it)[3]));
-    t.linear() = (Eigen::AngleAxisd(std::stod((*it)[6]), Eigen::Vector3d::UnitZ()) *
-                  Eigen::AngleAxisd(std::stod((*it)[5]), Eigen::Vector3d::UnitY()) *
-                  Eigen::AngleAxisd(std::stod((*it)[4]), Eigen::Vector3d::UnitX()))
-                     .toRotationMatrix();
-    origins.push_back(t);
-  }
-  ASSERT_EQ(origins.size(), 7u);  // six joints and the tool point
-  calibration::Kinematics kin(model);
-  for (const auto& q : calibration::RandomConfigurations(model, 20, rng)) {
-    Eigen::Isometry3d chain = Eigen::Isometry3d::Identity();
-    for (int i = 0; i < 6; ++i)
-      chain = chain * origins[i] * Eigen::AngleAxisd(q(i), Eigen::Vector3d::UnitZ());
-    const Eigen::Vector3d urdf_x = (chain * origins[6]).translation();
-    const Eigen::Vector3d model_x = kin.Position(Eigen::Isometry3d::Identity(), params, q.data());
-    EXPECT_LT((urdf_x - model_x).norm(), 1e-5);
-  }
 }
 
 }  // namespace armsig::testing

@@ -1,0 +1,74 @@
+#include "acquisition/records.h"
+
+#include <limits>
+
+namespace armsig::acquisition {
+
+db::ObservationRow ObservationRowOf(const reduction::Observation& o, std::optional<int64_t> pose_id,
+                                    int return_code) {
+  db::ObservationRow row;
+  row.pose_id = pose_id;
+  row.point = o.point;
+  row.station = o.station;
+  row.reading = o.reading;
+  row.distance_mm = o.distance_mm;
+  row.sigma_hz_rad = o.sigma_hz_rad;
+  row.sigma_v_rad = o.sigma_v_rad;
+  row.sigma_distance_mm = o.sigma_distance_mm;
+  row.return_code = return_code;
+  return row;
+}
+
+reduction::Observation ObservationOf(const db::ObservationRow& row) {
+  reduction::Observation o;
+  o.point = row.point;
+  o.station = row.station;
+  o.reading = row.reading;
+  o.distance_mm = row.distance_mm;
+  o.sigma_hz_rad = row.sigma_hz_rad;
+  o.sigma_v_rad = row.sigma_v_rad;
+  o.sigma_distance_mm = row.sigma_distance_mm;
+  return o;
+}
+
+db::StationSetupRow StationSetupRowOf(const reduction::Station& station,
+                                      const std::string& method) {
+  db::StationSetupRow row;
+  row.station = station.pose.id;
+  row.pose = station.pose;
+  row.sigma_position_mm = station.sigma_position_mm;
+  row.sigma_azimuth_rad = station.sigma_azimuth_rad;
+  row.sigma_hz_rad = station.sigma_hz_rad;
+  row.sigma_v_rad = station.sigma_v_rad;
+  row.method = method;
+  return row;
+}
+
+reduction::Station StationOf(const db::StationSetupRow& row) {
+  reduction::Station station;
+  station.pose = row.pose;
+  station.sigma_hz_rad = row.sigma_hz_rad;
+  station.sigma_v_rad = row.sigma_v_rad;
+  station.sigma_position_mm = row.sigma_position_mm;
+  station.sigma_azimuth_rad = row.sigma_azimuth_rad;
+  return station;
+}
+
+db::PointRow PointRowOf(std::optional<int64_t> pose_id, const std::string& point, int rays,
+                        const reduction::IntersectionResult& result, reduction::PointFlags flags) {
+  db::PointRow row;
+  row.pose_id = pose_id;
+  row.point = point;
+  row.rays = rays;
+  row.flags = reduction::ToString(flags);
+  if (result.status.ok()) {
+    row.position_mm = result.position_mm;
+    row.covariance_mm2 = result.covariance_mm2;
+    row.rejected_rays = result.rejected;
+    row.sigma0 = result.dof > 0 ? result.sigma0 : std::numeric_limits<double>::quiet_NaN();
+    row.miss_mm = result.max_miss_mm;
+  }
+  return row;
+}
+
+}  // namespace armsig::acquisition

@@ -1,0 +1,191 @@
+// The manual page and the bash completion, generated from the CLI itself (the one place
+// the commands and options are declared), so neither can fall behind the program.
+#include "app/manual.h"
+
+#include <fmt/format.h>
+
+#include <algorithm>
+#include <set>
+#include <string>
+#include <vector>
+
+namespace armsig::app {
+
+namespace {
+
+bool Visible(const CLI::App* sub) { return !sub->get_group().empty(); }
+
+std::vector<const CLI::App*> Subcommands(const CLI::App& app) {
+  return app.get_subcommands([](const CLI::App* sub) { return Visible(sub); });
+}
+
+bool IsHelp(const CLI::Option* option) {
+  const auto& names = option->get_lnames();
+  return std::find(names.begin(), names.end(), "help") != names.end() ||
+         std::find(names.begin(), names.end(), "version") != names.end();
+}
+
+// Options of `app` itself, without --help (and --version: it is in the synopsis).
+std::vector<const CLI::Option*> Options(const CLI::App& app) {
+  return app.get_options([](const CLI::Option* option) { return !IsHelp(option); });
+}
+
+// roff text: a leading '.' or '\'' would be a request; backslashes and hyphens escaped.
+std::string Roff(const std::string& text) {
+  std::string out;
+  for (char c : text) {
+    if (c == '\\') {
+      out += "\\e";
+    } else if (c == '-') {
+      out += "\\-";
+    } else {
+      out += c;
+    }
+  }
+  if (!out.empty() && (out[0] == '.' || out[0] == '\'')) out = "\\&" + out;
+  return out;
+}
+
+std::string OptionLabel(const CLI::Option* option) {
+  if (option->get_positional()) return option->get_name(true);
+  std::string label;
+  for (const auto& s : option->get_snames()) label += (label.empty() ? "-" : ", -") + s;
+  for (const auto& l : option->get_lnames()) label += (label.empty() ? "--" : ", --") + l;
+  if (option->get_expected_min() > 0 && !option->get_type_name().empty()) {
+    label += " " + option->get_type_name();
+  }
+  return label;
+}
+
+void ManCommand(const CLI::App& app, const std::string& path, std::string& out) {
+  const auto options = Options(app);
+  const auto subs = Subcommands(app);
+  out += ".SS \"" + Roff(path) + "\"\n" + Roff(app.get_description()) + "\n";
+  for (const auto* option : options) {
+    out += ".TP\n.B " + Roff(OptionLabel(option)) + "\n";
+    std::string text = option->get_description();
+    if (option->get_required()) text += " (required)";
+    if (!option->get_default_str().empty()) text += " [default: " + option->get_default_str() + "]";
+    out += Roff(text) + "\n";
+  }
+  for (const auto* sub : subs) ManCommand(*sub, path + " " + sub->get_name(), out);
+}
+
+void CollectCommands(const CLI::App& app, const std::string& path,
+                     std::vector<std::pair<std::string, const CLI::App*>>& out) {
+  out.emplace_back(path, &app);
+  for (const auto* sub : Subcommands(app)) {
+    CollectCommands(*sub, path.empty() ? sub->get_name() : path + " " + sub->get_name(), out);
+  }
+}
+
+}  // namespace
+
+std::string ManPage(const CLI::App& app, const std::string& version, const std::string& date) {
+  std::string out;
+  out += fmt::format(".TH ARMSIG 1 \"{}\" \"armsig {}\" \"User Commands\"\n", date, version);
+  out += ".SH NAME\narmsig \\- measure an industrial robot and fit its arm signature\n";
+  out += ".SH SYNOPSIS\n.B armsig\n[\\-\\-db PATH] [\\-q | \\-v | \\-vv] [\\-\\-version] "
+         "\\fICOMMAND\\fR ...\n.br\n.B armsig\n\\fICOMMAND\\fR \\-\\-help\n";
+  out += ".SH DESCRIPTION\n"
+         "armsig measures one industrial robot with external instruments (theodolites, total "
+         "stations, laser trackers) and fits its own kinematic error parameters, its arm "
+         "signature, after Chen and Chao. Human output goes to stdout, logs and progress to "
+         "stderr, machine output behind \\-\\-json.\n";
+  out += ".SH GLOBAL OPTIONS\n";
+  for (const auto* option : Options(app)) {
+    out += ".TP\n.B " + Roff(OptionLabel(option)) + "\n" + Roff(option->get_description()) + "\n";
+  }
+  out += ".SH COMMANDS\n";
+  for (const auto* sub : Subcommands(app)) ManCommand(*sub, "armsig " + sub->get_name(), out);
+  out += ".SH EXIT STATUS\n"
+         ".TP\n.B 0\nsuccess\n"
+         ".TP\n.B 1\nfailure (a fit that did not converge, an instrument that keeps failing, a "
+         "paused capture, unreachable targets)\n"
+         ".TP\n.B 2\nusage or input error: the message names the file, line, column and what "
+         "was expected; nothing is written\n"
+         ".TP\n.B 3\na quality gate failed (the active arm signature stays active)\n";
+  out += ".SH ENVIRONMENT\n.TP\n.B ARMSIG_DB\nthe database when \\-\\-db is not given "
+         "(else ./armsig.db)\n";
+  out += ".SH FILES\n.TP\n.I /usr/share/armsig/models/\nrobot model files (PUMA 760, UR10)\n"
+         ".TP\n.I /lib/systemd/system/armsig\\-recalibrate@.service\nthe nightly recalibration "
+         "of one robot, with its .timer\n";
+  out += ".SH SEE ALSO\nThe README of the armsig sources.\n";
+  return out;
+}
+
+std::string BashCompletion(const CLI::App& app) {
+  std::vector<std::pair<std::string, const CLI::App*>> commands;
+  CollectCommands(app, "", commands);
+  std::string cases;
+  for (const auto& [path, command] : commands) {
+    std::string words, value_options;
+    for (const auto* sub : Subcommands(*command)) words += " " + sub->get_name();
+    for (const auto* option : command->get_options()) {
+      if (option->get_positional()) continue;
+      for (const auto& s : option->get_snames()) words += " -" + s;
+      for (const auto& l : option->get_lnames()) {
+        words += " --" + l;
+        if (option->get_expected_min() > 0) value_options += " --" + l;
+      }
+    }
+    cases += fmt::format("    \"{}\") words=\"{}\"; takes_value=\"{} \" ;;\n", path,
+                         words.empty() ? "" : words.substr(1), value_options);
+  }
+  // The global options' words, to skip over them (with their values) in the command path.
+  std::string global_values;
+  for (const auto* option : app.get_options()) {
+    if (option->get_expected_min() == 0) continue;
+    for (const auto& l : option->get_lnames()) global_values += " --" + l;
+  }
+  std::set<std::string> names;
+  for (const auto& [path, command] : commands) {
+    for (const auto* sub : Subcommands(*command)) names.insert(sub->get_name());
+  }
+  std::string known;
+  for (const auto& n : names) known += " " + n;
+  return fmt::format(
+      R"(# bash completion for armsig (generated by `armsig generate bash-completion`)
+_armsig() {{
+  local cur prev path="" word i words takes_value
+  cur="${{COMP_WORDS[COMP_CWORD]}}"
+  prev="${{COMP_WORDS[COMP_CWORD-1]}}"
+  local commands=" {} "
+  # The command path typed so far: the known command words, in order.
+  for ((i = 1; i < COMP_CWORD; i++)); do
+    word="${{COMP_WORDS[i]}}"
+    case "$word" in
+      -*) continue ;;
+    esac
+    local candidate="${{path:+$path }}$word"
+    if [[ "$commands" == *" $word "* ]] && _armsig_known "$candidate"; then
+      path="$candidate"
+    fi
+  done
+  _armsig_words "$path"
+  local global_values="{} "
+  if [[ "$takes_value$global_values" == *" $prev "* ]]; then
+    COMPREPLY=($(compgen -f -- "$cur"))
+    return
+  fi
+  COMPREPLY=($(compgen -W "$words" -- "$cur"))
+  if [[ ${{#COMPREPLY[@]}} -eq 0 && "$cur" != -* ]]; then
+    COMPREPLY=($(compgen -f -- "$cur"))
+  fi
+}}
+_armsig_known() {{
+  _armsig_words "$1"
+  [[ -n "$words" ]]
+}}
+_armsig_words() {{
+  words=""
+  takes_value=" "
+  case "$1" in
+{}  esac
+}}
+complete -o filenames -F _armsig armsig
+)",
+      known.empty() ? "" : known.substr(1), global_values, cases);
+}
+
+}  // namespace armsig::app

@@ -1,0 +1,81 @@
+// Physical plausibility of the numbers armsig reads: the one place that says what a
+// coordinate, a length, an angle, a joint value or an a-priori sigma may be. A value
+// outside is not a measurement of a robot cell but a typo, a unit mix-up or a hostile
+// file, and the readers (CSV, poses, observations, control points, plans; model, lab and
+// stations YAML) refuse it as an InputError naming file:line:column and the range
+// expected (exit code 2), before any solver sees it.
+//
+//   if (auto why = plausible::Check(Quantity::kLength, value, plausible::kMm)) Fail(*why);
+#pragma once
+
+#include <cstddef>
+#include <optional>
+#include <string>
+#include <string_view>
+
+#include "core/units.h"
+
+namespace armsig::plausible {
+
+// Lengths and distances (robot links, tool offsets, DH lengths, measured distances, scale
+// bars): within ±1 km. A robot cell and its instruments fit in far less.
+inline constexpr double kMaxLengthMm = 1e6;
+// Coordinates in a measuring or survey frame (station positions, control points, measured
+// targets, a given robot base): within ±10,000 km, so that projected grid coordinates
+// (UTM, Gauss–Krüger: 1e10 mm with false easting and northing) are accepted, while 1e308
+// or 1e19 are not. A double still resolves 2e-6 mm there, and the solvers shift large
+// coordinates to a local origin.
+inline constexpr double kMaxCoordinateMm = 1e10;
+// Angles (Hz, V, azimuths, DH twists, fixed term values): finite and within two turns.
+inline constexpr double kMaxAngleRad = 4.0 * kPi;
+// Joint values: within ±720 deg (multi-turn wrist joints reach ±360 deg and more).
+inline constexpr double kMaxJointRad = 4.0 * kPi;
+// A-priori sigmas: > 0, and no larger than the quantity's own range.
+inline constexpr double kMaxSigmaMm = kMaxLengthMm;
+inline constexpr double kMaxSigmaRad = 2.0 * kPi;
+
+enum class Quantity {
+  kLength,       // mm: link lengths, tool offsets, distances, scale bars
+  kCoordinate,   // mm: positions in a measuring or survey frame
+  kAngle,        // rad
+  kJointAngle,   // rad
+  kSigmaLength,  // mm, > 0
+  kSigmaAngle,   // rad, > 0
+};
+
+// Names (robots, models, parameter and term names, station, point and pose ids) and notes
+// end up in log lines, terminals, CSV, the database and HTML reports: no control
+// characters (a newline in a robot name forges a log line; an escape sequence rewrites the
+// terminal; also DEL, the C1 controls and the Unicode line separators and bidirectional
+// overrides), and a sane length in bytes.
+inline constexpr std::size_t kMaxNameLength = 64;
+inline constexpr std::size_t kMaxNoteLength = 1000;
+// nullopt when `text` is a usable name (non-empty, ≤ max_length bytes, no control
+// characters); otherwise "expected a name of 1 to 64 characters without control
+// characters, got …" with the offending character named.
+std::optional<std::string> CheckName(std::string_view text,
+                                     std::size_t max_length = kMaxNameLength);
+// The same for a free-text note: may be empty, ≤ kMaxNoteLength bytes.
+std::optional<std::string> CheckNote(std::string_view text);
+
+// The unit a value is given in (the column's or key's suffix), for the check and the message.
+struct Unit {
+  const char* name;    // "mm", "deg", "gon", "rad", "arcsec"
+  double to_internal;  // factor to mm or rad
+};
+inline constexpr Unit kMm{"mm", 1.0};
+inline constexpr Unit kArcsec{"arcsec", kRadPerArcsec};
+Unit UnitOf(AngleUnit unit);
+
+// Whether `value` (mm or rad) is a plausible value of `quantity`.
+bool IsPlausible(Quantity quantity, double value);
+
+// "a finite length within ±1000000 mm (1 km)", "a finite joint angle within ±720 deg", …
+// with the range in `unit`.
+std::string Expected(Quantity quantity, Unit unit);
+
+// nullopt when `given` (in `unit`) is a plausible value of `quantity`, otherwise
+// "expected <range in unit>, got <given>".
+std::optional<std::string> Check(Quantity quantity, double given, Unit unit);
+
+}  // namespace armsig::plausible

@@ -1,0 +1,31 @@
+// Reads for the recalibration report: when the sessions behind a parameter set ran, and
+// the instruments the database knows them by. Plain statements, no writes.
+#pragma once
+
+#include <cmath>
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "db/database.h"
+
+namespace armsig::db {
+
+struct ReportSession {
+  int64_t id = 0;
+  std::string started_at, finished_at;  // ISO-8601 UTC; finished_at "" while not finished
+  std::string state, note, lab_yaml;    // lab_yaml "" when none was stored (imported poses)
+};
+// The sessions with these ids, by id; ids without a session are left out.
+std::vector<ReportSession> LoadSessionSummaries(Database& db,
+                                                 const std::vector<int64_t>& session_ids);
+
+// A row of the instruments table.
+struct InstrumentSummary {
+  std::string name, kind, protocol, serial_number, firmware;
+  double sigma_hz_arcsec = NAN, sigma_v_arcsec = NAN, sigma_distance_mm = NAN;
+};
+// The instruments a session's observations name, or whose stations it observed from.
+std::vector<InstrumentSummary> SessionInstruments(Database& db, int64_t session_id);
+
+}  // namespace armsig::db

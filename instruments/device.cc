@@ -1,0 +1,52 @@
+#include "instruments/device.h"
+
+#include <fmt/format.h>
+
+#include <cmath>
+#include <numbers>
+
+namespace armsig::instruments {
+
+namespace {
+
+std::string RangeMessage(const std::string& quantity, double value, double min, double max,
+                         const std::string& unit) {
+  return fmt::format("{} = {} {} is no reading: expected {} to {} {}", quantity, value, unit, min,
+                     max, unit);
+}
+
+}  // namespace
+
+ReadingRangeError::ReadingRangeError(const std::string& device, std::string quantity,
+                                     double value, double min, double max, const std::string& unit)
+    : InstrumentError(device, 3074, RangeMessage(quantity, value, min, max, unit)),
+      quantity_(std::move(quantity)),
+      value_(value),
+      min_(min),
+      max_(max) {}
+
+void CheckAngles(const std::string& device, double hz_rad, double v_rad) {
+  constexpr double kFull = 2.0 * std::numbers::pi;
+  // A circle reading is in [0, 2π); 2π itself is what a value just below it rounds to.
+  if (!(hz_rad >= 0.0 && hz_rad <= kFull))
+    throw ReadingRangeError(device, "Hz", hz_rad, 0.0, kFull, "rad");
+  if (!(v_rad >= 0.0 && v_rad <= kFull))
+    throw ReadingRangeError(device, "V (zenith angle)", v_rad, 0.0, kFull, "rad");
+}
+
+void CheckDistance(const std::string& device, double distance_mm) {
+  if (!(distance_mm >= 0.0 && distance_mm <= kMaxDistanceMm))
+    throw ReadingRangeError(device, "slope distance", distance_mm, 0.0, kMaxDistanceMm, "mm");
+}
+
+void CheckJoints(const std::string& device, const Eigen::VectorXd& joints_rad) {
+  for (Eigen::Index j = 0; j < joints_rad.size(); ++j) {
+    const double deg = joints_rad(j) * 180.0 / std::numbers::pi;
+    if (!(std::abs(deg) <= kMaxJointDeg)) {
+      throw ReadingRangeError(device, "joint " + std::to_string(j + 1), deg, -kMaxJointDeg,
+                              kMaxJointDeg, "deg");
+    }
+  }
+}
+
+}  // namespace armsig::instruments

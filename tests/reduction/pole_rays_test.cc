@@ -1,0 +1,108 @@
+// Rays at the zenith and the nadir (V = 0 or 200 gon), where Hz is undefined: the
+// orientation used to crash (a Jacobian of NaN, then the failed evaluation's empty
+// matrix indexed) on one such ray with a distance to a new point.
+#include <gtest/gtest.h>
+
+#include "reduction/intersection.h"
+#include "reduction/observation.h"
+#include "reduction/orientation.h"
+#include "reduction/sim_lab.h"
+
+namespace armsig::reduction {
+namespace {
+
+using testing::SimLab;
+
+// Three stations with mutual pointings, 20 targets and a distance-free scale bar.
+OrientationProblem Network(SimLab& lab) {
+  OrientationProblem p;
+  for (const auto& s : lab.stations) p.station_ids.push_back(s.pose.id);
+  const int ns = static_cast<int>(lab.stations.size());
+  for (int i = 0; i < ns; ++i) {
+    for (int j = 0; j < ns; ++j) {
+      if (i != j) {
+        p.observations.push_back(
+            lab.ObserveTo(i, lab.stations[j].pose.id, lab.stations[j].pose.position_mm));
+      }
+    }
+  }
+  for (int k = 0; k < 20; ++k) {
+    const Eigen::Vector3d t = lab.RandomTarget();
+    for (int i = 0; i < ns; ++i)
+      p.observations.push_back(lab.ObserveTo(i, "T" + std::to_string(k), t));
+  }
+  const Eigen::Vector3d a = lab.RandomTarget(), b = a + Eigen::Vector3d(1000.0, 0.0, 0.0);
+  for (int i = 0; i < ns; ++i) {
+    p.observations.push_back(lab.ObserveTo(i, "BA", a));
+    p.observations.push_back(lab.ObserveTo(i, "BB", b));
+  }
+  p.scale_bars.push_back({"BA", "BB", 1000.0, 0.002});
+  return p;
+}
+
+// One reading straight up (V = 0) or down (V = 200 gon) with a distance to a new point.
+Observation PoleRay(const SimLab& lab, int station, double v_rad, double distance_mm) {
+  Observation o;
+  o.station = lab.stations[station].pose.id;
+  o.point = "P";
+  o.reading = {1.2345, v_rad, 1};  // Hz is whatever the circle shows: meaningless here
+  o.distance_mm = distance_mm;
+  o.sigma_hz_rad = o.sigma_v_rad = testing::kSigmaAngle;
+  o.sigma_distance_mm = 0.01;
+  return o;
+}
+
+TEST(PoleRays, OneZenithOrNadirRayWithADistanceGivesThePointOnTheStandingAxis) {
+  for (const double v : {0.0, kPi}) {
+    for (const int station : {0, 1}) {
+      SimLab lab(3, 7);
+      OrientationProblem problem = Network(lab);
+      problem.observations.push_back(PoleRay(lab, station, v, 1500.0));
+      const OrientationResult r = Orient(problem);
+      ASSERT_TRUE(r.status.ok()) << "V = " << v << ", station " << station << ": "
+                                 << r.status.message;
+      const auto point = std::find_if(r.points.begin(), r.points.end(),
+                                      [](const PointEstimate& p) { return p.id == "P"; });
+      ASSERT_NE(point, r.points.end());
+      // The station's standing axis is the adjusted frame's z axis (levelled stations): the
+      // point lies 1500 mm above (zenith) or below (nadir) the adjusted station centre. The
+      // ray has no redundancy, so it is met exactly.
+      const Eigen::Vector3d expected =
+          r.stations[station].pose.position_mm + Eigen::Vector3d(0, 0, v == 0.0 ? 1500.0 : -1500.0);
+      EXPECT_LT((point->position_mm - expected).norm(), 1e-6) << point->position_mm.transpose();
+      EXPECT_TRUE(point->covariance_mm2.allFinite());
+    }
+  }
+}
+
+TEST(PoleRays, ZenithRayAmongOthersIntersectsAtTheTruth) {
+  // A target straight above station 0, seen from all three stations: the zenith ray holds
+  // V only (its Hz is noise), the others fix the point.
+  SimLab lab(3, 11);
+  const Eigen::Vector3d target = lab.stations[0].pose.position_mm + Eigen::Vector3d(0, 0, 2000.0);
+  std::vector<Ray> rays;
+  for (int s = 0; s < 3; ++s) rays.push_back(lab.RayTo(s, target));
+  rays[0].reading = {4.0, 0.0, 1};  // exactly at the zenith, any Hz
+  const IntersectionResult r = Intersect(rays, IntersectionOptions{});
+  ASSERT_TRUE(r.status.ok()) << r.status.message;
+  // 0.5" noise at ~4 m: a few hundredths of a millimetre.
+  EXPECT_LT((r.position_mm - target).norm(), 0.1);
+  EXPECT_TRUE(r.covariance_mm2.allFinite());
+}
+
+TEST(PoleRays, PoleResidualIsTheAngleAcrossTheLineOfSight) {
+  // Reading at V = 0 (any Hz), target 1e-4 rad off the axis towards the reading's e_v: the
+  // residual is (0, 1e-4) to first order, where Hz/V residuals are undefined.
+  const double hz = 0.7;
+  const Eigen::Vector3d e_v(std::sin(hz), std::cos(hz), 0.0);
+  const Eigen::Vector3d d = Eigen::Vector3d(0, 0, 1000.0) + 0.1 * e_v;
+  const Eigen::Vector2d r = PoleResidual<double>(d, hz, 0.0);
+  EXPECT_NEAR(r(0), 0.0, 1e-12);
+  EXPECT_NEAR(r(1), 1e-4, 1e-10);
+  EXPECT_TRUE(NearPole(0.0));
+  EXPECT_TRUE(NearPole(kPi));
+  EXPECT_FALSE(NearPole(ToRad(1.0, AngleUnit::kGon)));
+}
+
+}  // namespace
+}  // namespace armsig::reduction

@@ -1,0 +1,61 @@
+#include "support/simulated_sessions.h"
+
+#include <SQLiteCpp/Transaction.h>
+
+#include <random>
+
+#include "calibration/simulation.h"
+#include "db/store.h"
+#include "test_support.h"
+
+namespace armsig::testing {
+
+namespace {
+constexpr double kNoiseMm = 0.01;
+}  // namespace
+
+// One session of `count` configurations of the true robot, stored like a capture.
+void AddSession(db::Database& db, const Eigen::VectorXd& truth, int count, unsigned seed,
+                double blunder_fraction, const std::string& lab_yaml) {
+  const auto model = Puma();
+  std::mt19937 rng(seed);
+  const auto poses =
+      calibration::SimulatePoses(model, Eigen::Isometry3d::Identity(), truth,
+                                 calibration::LabTestConfigurations(model, rng), kNoiseMm, rng);
+  SQLite::Transaction tx(db.sql());
+  const int64_t robot =
+      db::EnsureRobot(db, "puma", "puma760", ReadText(SourcePath("models/puma760.yaml")));
+  const int64_t session = db::CreateSession(db, robot, lab_yaml, "", "completed", "simulated");
+  std::uniform_real_distribution<double> u(0, 1);
+  for (int i = 0; i < count && i < static_cast<int>(poses.size()); ++i) {
+    const int64_t pose =
+        db::InsertPose(db, session, i, poses[i].id, poses[i].joints_rad, "measured", 1);
+    Eigen::Vector3d x = poses[i].target_in_world;
+    if (u(rng) < blunder_fraction) x += Eigen::Vector3d(3.0, -2.0, 1.5);  // a bad measurement
+    SQLite::Statement s(db.sql(),
+                        "INSERT INTO points(session_id, pose_id, point, x_mm, y_mm, z_mm, rays) "
+                        "VALUES (?,?,?,?,?,?,3)");
+    s.bind(1, session);
+    s.bind(2, pose);
+    s.bind(3, "target");
+    s.bind(4, x.x());
+    s.bind(5, x.y());
+    s.bind(6, x.z());
+    s.exec();
+  }
+  tx.commit();
+}
+
+int ActiveVersion(const std::string& path) {
+  db::Database db(path);
+  return db.sql()
+      .execAndGet("SELECT coalesce(max(version), 0) FROM calibrations WHERE active = 1")
+      .getInt();
+}
+
+int Versions(const std::string& path) {
+  db::Database db(path);
+  return db.sql().execAndGet("SELECT count(*) FROM calibrations").getInt();
+}
+
+}  // namespace armsig::testing

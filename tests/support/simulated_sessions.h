@@ -1,0 +1,20 @@
+// Simulated sessions of a PUMA 760 whose truth the test knows, stored as a capture
+// would store them (configurations and reduced points), for the nightly-job tests.
+#pragma once
+
+#include <Eigen/Core>
+#include <string>
+
+#include "db/database.h"
+
+namespace armsig::testing {
+
+// One session of `count` configurations of the true robot (base = identity, 0.01 mm
+// noise); `blunder_fraction` of its points are moved by millimetres. `lab_yaml` is
+// stored with the session.
+void AddSession(db::Database& db, const Eigen::VectorXd& truth, int count, unsigned seed,
+                double blunder_fraction = 0.0, const std::string& lab_yaml = "");
+int ActiveVersion(const std::string& db_path);
+int Versions(const std::string& db_path);
+
+}  // namespace armsig::testing

@@ -1,0 +1,256 @@
+// The nightly job as a library function, on databases filled with simulated sessions of
+// a PUMA 760 whose truth the test knows.
+#include "workflows/recalibrate.h"
+
+#include <gtest/gtest.h>
+
+#include <chrono>
+#include <filesystem>
+#include <thread>
+#include <tuple>
+
+#include "calibration/simulation.h"
+#include "core/error.h"
+#include "db/database.h"
+#include "support/simulated_sessions.h"
+#include "test_support.h"
+
+namespace armsig::testing {
+
+namespace {
+
+workflows::RecalibrateOptions Options(const std::string& path) {
+  workflows::RecalibrateOptions o;
+  o.db_path = path;
+  o.robot = "puma";
+  return o;
+}
+
+}  // namespace
+
+TEST(Recalibrate, PassesThenRejectsPlantedBadDataKeepingTheActiveSet) {
+  TempDir dir;
+  const std::string path = dir.File("lab.db");
+  {
+    db::Database database(path);
+    AddSession(database, calibration::PaperTable3Parameters(), 150, 1);
+  }
+  const auto first = workflows::Recalibrate(Options(path));
+  ASSERT_EQ(first.outcome, workflows::RecalibrationDecision::Outcome::kStored) << first.Describe();
+  EXPECT_EQ(first.version, 1);
+  EXPECT_FALSE(first.previous_version.has_value());
+  EXPECT_LT(first.validation.mean_mm, 0.03);
+  EXPECT_EQ(ActiveVersion(path), 1);
+  const auto j = first.ToJson();
+  EXPECT_EQ(j["decision"], "stored");
+  EXPECT_EQ(j["version"], 1);
+  // Planted bad data: a session where a third of the points are off by millimetres.
+  {
+    db::Database database(path);
+    AddSession(database, calibration::PaperTable3Parameters(), 150, 2, 0.33);
+  }
+  const auto second = workflows::Recalibrate(Options(path));
+  EXPECT_EQ(second.outcome, workflows::RecalibrationDecision::Outcome::kRejected);
+  EXPECT_FALSE(second.passed());
+  bool failed_gate = false;
+  for (const auto& g : second.gates) failed_gate |= !g.passed;
+  EXPECT_TRUE(failed_gate);
+  EXPECT_EQ(second.previous_version, 1);
+  EXPECT_TRUE(second.ToJson()["version"].is_null());
+  EXPECT_EQ(ActiveVersion(path), 1);  // the old set stays active
+  EXPECT_EQ(Versions(path), 1);       // and nothing was stored
+}
+
+TEST(Recalibrate, SameInputsAreUpToDate) {
+  TempDir dir;
+  const std::string path = dir.File("lab.db");
+  {
+    db::Database database(path);
+    AddSession(database, calibration::PaperTable3Parameters(), 150, 3);
+  }
+  EXPECT_EQ(workflows::Recalibrate(Options(path)).outcome,
+            workflows::RecalibrationDecision::Outcome::kStored);
+  const auto again = workflows::Recalibrate(Options(path));
+  EXPECT_EQ(again.outcome, workflows::RecalibrationDecision::Outcome::kUpToDate);
+  EXPECT_EQ(again.version, 1);
+  EXPECT_EQ(Versions(path), 1);
+}
+
+// "Up to date" is decided by the measurements and options, not by how --since was
+// written; --since takes ISO dates only.
+TEST(Recalibrate, IdempotentOnContentAndSinceIsIso) {
+  TempDir dir;
+  const std::string path = dir.File("lab.db");
+  {
+    db::Database database(path);
+    AddSession(database, calibration::PaperTable3Parameters(), 150, 13);
+  }
+  auto options = Options(path);
+  options.since = "2000-01-01";
+  EXPECT_EQ(workflows::Recalibrate(options).outcome,
+            workflows::RecalibrationDecision::Outcome::kStored);
+  for (const std::string since :
+       {"1999-12-31T23:59", "2001-02-03 04:05:06", "1970-01-01T00:00:00Z", ""}) {
+    options.since = since;
+    EXPECT_EQ(workflows::Recalibrate(options).outcome,
+              workflows::RecalibrationDecision::Outcome::kUpToDate)
+        << since;
+  }
+  EXPECT_EQ(Versions(path), 1);
+  for (const std::string bad : {"yesterday", "2026-13-01", "2026-11-01T25:00", "01.11.2026"}) {
+    options.since = bad;
+    EXPECT_THROW(workflows::Recalibrate(options), InputError) << bad;
+  }
+  // Different options are a different fit.
+  options.since = "";
+  options.select = 100;
+  EXPECT_EQ(workflows::Recalibrate(options).outcome,
+            workflows::RecalibrationDecision::Outcome::kStored);
+  EXPECT_EQ(Versions(path), 2);
+}
+
+// Every output path is checked before the database is written: a --json into a missing
+// folder or a --report over a file stores nothing.
+TEST(Recalibrate, UnwritableOutputsStoreNothing) {
+  TempDir dir;
+  const std::string path = dir.File("lab.db");
+  {
+    db::Database database(path);
+    AddSession(database, calibration::PaperTable3Parameters(), 150, 14);
+  }
+  auto options = Options(path);
+  options.json_path = dir.File("missing/summary.json");
+  EXPECT_THROW(workflows::Recalibrate(options), InputError);
+  options.json_path = "";
+  WriteText(dir.File("plain-file"), "x");
+  options.report_dir = dir.File("plain-file");
+  EXPECT_THROW(workflows::Recalibrate(options), InputError);
+  EXPECT_EQ(Versions(path), 0);
+  const auto cli = RunArmsig("--db '" + path + "' recalibrate --robot puma --json '" +
+                             dir.File("missing/summary.json") + "'");
+  EXPECT_EQ(cli.exit_code, 2) << cli.err;
+  EXPECT_NE(cli.err.find("missing"), std::string::npos) << cli.err;
+  EXPECT_EQ(Versions(path), 0);
+}
+
+TEST(Recalibrate, DetectsAPlantedDrift) {
+  TempDir dir;
+  const std::string path = dir.File("lab.db");
+  const Eigen::VectorXd before = calibration::PaperTable3Parameters();
+  {
+    db::Database database(path);
+    AddSession(database, before, 150, 4);
+  }
+  ASSERT_TRUE(workflows::Recalibrate(Options(path)).passed());
+  // The robot changes: joint 3's backlash h4 triples, its arm offset c4 grows 0.4 mm.
+  Eigen::VectorXd after = before;
+  const auto model = Puma();
+  after(model.IndexOf("h4")) *= 3.0;
+  after(model.IndexOf("c4")) += 0.4;
+  std::string since;
+  {
+    db::Database database(path);
+    since = database.sql().execAndGet("SELECT strftime('%Y-%m-%dT%H:%M:%fZ','now')").getString();
+    std::this_thread::sleep_for(std::chrono::milliseconds(20));
+    AddSession(database, after, 150, 5);
+  }
+  auto options = Options(path);
+  options.since = since;
+  const auto d = workflows::Recalibrate(options);
+  EXPECT_TRUE(d.passed()) << d.Describe();
+  EXPECT_EQ(d.poses, 150);  // only the new session
+  EXPECT_TRUE(d.drift);
+  bool h4 = false;
+  for (const auto& p : d.drifted) h4 |= p.name == "h4";
+  EXPECT_TRUE(h4) << d.ToJson()["drift"].dump();
+  EXPECT_EQ(ActiveVersion(path), 2);
+}
+
+// Night after night on one database: a new session of the same robot each night (new
+// configurations, new noise), the job fitting that night's session. No night may ring
+// the drift alarm; a planted change of 0.2 mm in one link length, or of 0.5 mrad in one
+// joint axis, rings it on the first night after, naming the change in mm (or mrad).
+TEST(Recalibrate, TenNightsWithoutFalseDriftThenPlantedChangesAreFlagged) {
+  TempDir dir;
+  const std::string path = dir.File("lab.db");
+  const auto model = Puma();
+  const Eigen::VectorXd truth = calibration::PaperTable3Parameters();
+  auto night = [&](const Eigen::VectorXd& robot, unsigned seed) {
+    std::string since;
+    {
+      db::Database database(path);
+      since = database.sql().execAndGet("SELECT strftime('%Y-%m-%dT%H:%M:%fZ','now')").getString();
+      std::this_thread::sleep_for(std::chrono::milliseconds(5));
+      AddSession(database, robot, 150, seed);
+    }
+    auto options = Options(path);
+    options.since = since;
+    return workflows::Recalibrate(options);
+  };
+  int nights_with_drift = 0;
+  double worst_mm = 0.0;
+  for (unsigned n = 1; n <= 10; ++n) {
+    const auto d = night(truth, 100 + n);
+    ASSERT_EQ(d.outcome, workflows::RecalibrationDecision::Outcome::kStored) << d.Describe();
+    EXPECT_EQ(d.poses, 150);
+    if (n > 1) {
+      ASSERT_TRUE(d.model_drift.has_value());
+      EXPECT_TRUE(d.model_drift->previous_covariance);
+      worst_mm = std::max(worst_mm, d.model_drift->max_mm);
+      nights_with_drift += d.drift;
+      EXPECT_FALSE(d.drift) << "night " << n << ": " << d.ToJson()["drift"].dump();
+    }
+  }
+  EXPECT_EQ(nights_with_drift, 0);
+  EXPECT_LT(worst_mm, 0.05);  // nights differ by noise only: hundredths of a millimetre
+
+  for (const auto& [name, change, unit_scale] :
+       std::vector<std::tuple<std::string, double, double>>{{"a3", 0.2, 1.0},
+                                                            {"beta3", 0.5e-3, 1e3}}) {
+    Eigen::VectorXd changed = truth;
+    changed(model.IndexOf(name)) += change;
+    const auto d = night(changed, name == "a3" ? 201 : 202);
+    EXPECT_TRUE(d.drift) << name << ": " << d.ToJson()["drift"].dump();
+    ASSERT_TRUE(d.model_drift.has_value());
+    EXPECT_GT(d.model_drift->max_mm, 0.05) << name;
+    // The named parameter is the planted one, with its change to within 10 %.
+    ASSERT_FALSE(d.drifted.empty()) << name;
+    EXPECT_EQ(d.drifted.front().name, name) << d.ToJson()["drift"].dump();
+    EXPECT_NEAR(d.drifted.front().change * unit_scale, change * unit_scale,
+                0.1 * change * unit_scale)
+        << name;
+    // Back to the unchanged robot the next night: the change is flagged again (it is one).
+    if (name == "a3") {
+      const auto back = night(truth, 203);
+      EXPECT_TRUE(back.drift);
+    }
+  }
+}
+
+// The gates come from the lab file stored with the sessions; a malformed block there is
+// an input error (exit 2), never a silent fall-back to the defaults.
+TEST(Recalibrate, MalformedStoredRecalibrationBlockIsAnInputError) {
+  TempDir dir;
+  const std::string path = dir.File("lab.db");
+  const std::string lab =
+      "robot:\n  model: m.yaml\n  controller: {protocol: as, port: p}\n"
+      "instruments:\n  - {station: T1, protocol: geocom, port: q}\n"
+      "recalibration:\n  max_validation_mean_mm: half a mm\n";
+  {
+    db::Database database(path);
+    AddSession(database, calibration::PaperTable3Parameters(), 150, 12, 0.0, lab);
+  }
+  try {
+    workflows::Recalibrate(Options(path));
+    FAIL() << "a malformed recalibration block was accepted";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("max_validation_mean_mm"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find(":7:"), std::string::npos) << e.what();
+  }
+  EXPECT_EQ(Versions(path), 0);
+  const auto cli = RunArmsig("--db '" + path + "' recalibrate --robot puma");
+  EXPECT_EQ(cli.exit_code, 2) << cli.err;
+  EXPECT_NE(cli.err.find("max_validation_mean_mm"), std::string::npos) << cli.err;
+}
+
+}  // namespace armsig::testing

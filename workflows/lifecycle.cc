@@ -1,0 +1,176 @@
+#include "workflows/lifecycle.h"
+
+#include <SQLiteCpp/Transaction.h>
+#include <spdlog/spdlog.h>
+
+#include "core/error.h"
+#include "db/store.h"
+#include "io/atomic_file.h"
+#include "io/model_yaml.h"
+
+namespace armsig::workflows {
+
+namespace {
+
+int64_t RobotId(db::Database& database, const std::string& robot) {
+  const auto id = db::FindRobot(database, robot);
+  if (!id) {
+    throw InputError({database.path(), 0, 0, "--robot"},
+                     "no robot '" + robot + "' in the database (register it: armsig robot add " +
+                         robot + " --model FILE.yaml; armsig robot list shows the robots)");
+  }
+  return *id;
+}
+
+}  // namespace
+
+bool RegisterRobot(db::Database& database, const std::string& name, const std::string& model_path) {
+  if (name.empty()) throw InputError({"NAME", 0, 0, ""}, "a robot needs a name");
+  const std::string text = io::ReadWholeFile(model_path);
+  const auto model = io::ParseRobotModel(text, model_path);  // refuses a bad file, by line
+  db::WriteTransaction tx(database);
+  if (const auto id = db::FindRobot(database, name)) {
+    if (db::RobotModelYaml(database, *id) == text) return false;
+    throw InputError({model_path, 0, 0, ""},
+                     "robot '" + name +
+                         "' is already registered with another model; choose "
+                         "another name (armsig robot list)");
+  }
+  db::EnsureRobot(database, name, model.name, text);
+  tx.commit();
+  spdlog::info("robot {}: registered with model {} ({} joints, {} parameters) from {}", name,
+               model.name, model.num_joints(), model.num_parameters(), model_path);
+  return true;
+}
+
+int64_t StorePosesSession(db::Database& database, const std::string& robot,
+                          const std::vector<MeasuredPose>& poses, const std::string& source) {
+  const int64_t robot_id = RobotId(database, robot);
+  const auto model =
+      io::ParseRobotModel(db::RobotModelYaml(database, robot_id), "model of robot " + robot);
+  for (const auto& p : poses) {
+    if (p.joints_rad.size() != model.num_joints()) {
+      throw InputError({source, 0, 0, ""},
+                       "pose " + p.id + " has " + std::to_string(p.joints_rad.size()) +
+                           " joints; robot " + robot + "'s model " + model.name + " has " +
+                           std::to_string(model.num_joints()));
+    }
+  }
+  if (poses.empty()) throw InputError({source, 0, 0, ""}, "no poses to store");
+  db::WriteTransaction tx(database);
+  const int64_t session =
+      db::CreateSession(database, robot_id, "", "", "completed", "poses imported from " + source);
+  for (size_t k = 0; k < poses.size(); ++k) {
+    const int64_t pose = db::InsertPose(database, session, static_cast<int>(k), poses[k].id,
+                                        poses[k].joints_rad, "measured", 1);
+    db::PointRow point;
+    point.pose_id = pose;
+    point.point = "target";
+    point.position_mm = poses[k].target_in_world;
+    point.covariance_mm2.setConstant(std::numeric_limits<double>::quiet_NaN());
+    db::InsertPoint(database, session, point);
+  }
+  tx.commit();
+  spdlog::info("robot {}: session {} stores {} measured poses from {}", robot, session,
+               poses.size(), source);
+  return session;
+}
+
+std::vector<MeasuredPose> SessionPoses(db::Database& database, int64_t session_id) {
+  if (!db::SessionExists(database, session_id)) {
+    throw InputError({database.path(), 0, 0, ""},
+                     "no session " + std::to_string(session_id) + " (armsig sessions lists them)");
+  }
+  return db::LoadSessionPoses(database, session_id);
+}
+
+std::vector<db::SessionSummary> Sessions(db::Database& database, const std::string& robot) {
+  return db::ListSessions(
+      database, robot.empty() ? std::nullopt : std::optional<int64_t>(RobotId(database, robot)));
+}
+
+std::vector<VersionInfo> Versions(db::Database& database, const std::string& robot) {
+  std::vector<VersionInfo> out;
+  for (const auto& c : db::CalibrationHistory(database, RobotId(database, robot))) {
+    VersionInfo v;
+    v.version = c.version;
+    v.active = c.active;
+    v.created_at = c.created_at;
+    v.params_spec = c.params_spec;
+    v.rank = c.rank;
+    v.poses_fit = c.poses_fit;
+    v.poses_validation = c.poses_validation;
+    v.fit_mean_mm = c.fit_mean_mm;
+    v.validation_mean_mm = c.validation_mean_mm;
+    v.validation_max_mm = c.validation_max_mm;
+    const auto inputs = nlohmann::json::parse(c.inputs_json, nullptr, false);
+    if (inputs.is_object()) {
+      if (inputs.contains("sessions") && inputs["sessions"].is_array()) {
+        for (const auto& s : inputs["sessions"])
+          if (s.is_string()) v.sessions.push_back(s.get<std::string>());
+      }
+      if (inputs.contains("since") && inputs["since"].is_string()) v.since = inputs["since"];
+    }
+    out.push_back(std::move(v));
+  }
+  return out;
+}
+
+std::optional<int> Activate(db::Database& database, const std::string& robot, int version) {
+  const int64_t robot_id = RobotId(database, robot);
+  db::WriteTransaction tx(database);
+  const auto before = db::ActiveCalibration(database, robot_id);
+  if (!db::SetActiveVersion(database, robot_id, version)) {
+    throw InputError({"--version", 0, 0, ""}, "robot " + robot + " has no parameter set version " +
+                                                  std::to_string(version) +
+                                                  " (armsig versions --robot " + robot + ")");
+  }
+  tx.commit();
+  const std::optional<int> previous = before ? std::optional<int>(before->version) : std::nullopt;
+  spdlog::info("activate: robot {}: version {} is now active (was {})", robot, version,
+               previous ? "version " + std::to_string(*previous) : std::string("none"));
+  return previous;
+}
+
+nlohmann::json ToJson(const db::RobotRow& r) {
+  return {{"name", r.name},
+          {"model", r.model_name},
+          {"registered_at", r.created_at},
+          {"sessions", r.sessions},
+          {"active_version",
+           r.active_version ? nlohmann::json(*r.active_version) : nlohmann::json(nullptr)}};
+}
+
+nlohmann::json ToJson(const db::SessionSummary& s) {
+  return {{"id", s.id},
+          {"robot", s.robot},
+          {"state", s.state},
+          {"note", s.note},
+          {"started_at", s.started_at},
+          {"finished_at",
+           s.finished_at.empty() ? nlohmann::json(nullptr) : nlohmann::json(s.finished_at)},
+          {"measured", s.measured},
+          {"skipped", s.skipped},
+          {"usable_points", s.usable},
+          {"flagged_points", s.flagged}};
+}
+
+nlohmann::json ToJson(const VersionInfo& v) {
+  auto number = [](double x) {
+    return std::isfinite(x) ? nlohmann::json(x) : nlohmann::json(nullptr);
+  };
+  return {{"version", v.version},
+          {"active", v.active},
+          {"created_at", v.created_at},
+          {"params", v.params_spec},
+          {"rank", v.rank},
+          {"poses_fit", v.poses_fit},
+          {"poses_validation", v.poses_validation},
+          {"fit_mean_mm", number(v.fit_mean_mm)},
+          {"validation_mean_mm", number(v.validation_mean_mm)},
+          {"validation_max_mm", number(v.validation_max_mm)},
+          {"sessions", v.sessions},
+          {"since", v.since}};
+}
+
+}  // namespace armsig::workflows

@@ -1,0 +1,57 @@
+// The life of a lab's database: robots registered with their models, measured poses
+// from anywhere stored as sessions, sessions read back, parameter-set versions listed and
+// activated (roll back or forward).
+#pragma once
+
+#include <cstdint>
+#include <nlohmann/json.hpp>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "core/types.h"
+#include "db/database.h"
+#include "db/robots.h"
+#include "db/sessions.h"
+
+namespace armsig::workflows {
+
+// Registers `name` with the model file at `model_path` (read by the strict model
+// reader; its text is stored). Returns true when added, false when the robot already has
+// exactly this model; InputError when the name is taken with another model.
+bool RegisterRobot(db::Database& database, const std::string& name, const std::string& model_path);
+
+// Stores measured poses (joints + target in the measuring frame) as a new completed
+// session of a registered robot, in one transaction; the nightly job uses it like a
+// captured session. InputError for an unknown robot or joints that do not fit its model.
+int64_t StorePosesSession(db::Database& database, const std::string& robot,
+                          const std::vector<MeasuredPose>& poses, const std::string& source);
+
+// A session's measured poses with their reduced targets (pose ids = the session's labels).
+// InputError for an unknown session.
+std::vector<MeasuredPose> SessionPoses(db::Database& database, int64_t session_id);
+
+// Sessions, optionally of one robot (InputError when it is unknown).
+std::vector<db::SessionSummary> Sessions(db::Database& database, const std::string& robot);
+
+struct VersionInfo {
+  int version = 0;
+  bool active = false;
+  std::string created_at, params_spec;
+  int rank = 0, poses_fit = 0, poses_validation = 0;
+  double fit_mean_mm = 0.0, validation_mean_mm = 0.0, validation_max_mm = 0.0;
+  std::vector<std::string> sessions;  // session ids the set was fitted from (when recorded)
+  std::string since;                  // the --since it was asked with ("" = all)
+};
+// Every parameter set of a robot, oldest first. InputError for an unknown robot.
+std::vector<VersionInfo> Versions(db::Database& database, const std::string& robot);
+
+// Makes `version` the robot's active set (one transaction) and logs it. Returns the
+// version that was active before. InputError for an unknown robot or version.
+std::optional<int> Activate(db::Database& database, const std::string& robot, int version);
+
+nlohmann::json ToJson(const db::RobotRow& robot);
+nlohmann::json ToJson(const db::SessionSummary& session);
+nlohmann::json ToJson(const VersionInfo& version);
+
+}  // namespace armsig::workflows

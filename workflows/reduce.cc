@@ -1,0 +1,150 @@
+#include "workflows/reduce.h"
+
+#include <SQLiteCpp/Transaction.h>
+#include <spdlog/spdlog.h>
+
+#include <limits>
+#include <map>
+#include <optional>
+#include <utility>
+
+#include "acquisition/lab.h"
+#include "acquisition/records.h"
+#include "core/error.h"
+#include "db/store.h"
+#include "io/csv.h"
+#include "io/network_io.h"
+
+namespace armsig::workflows {
+
+reduction::PointChecks SessionChecks(db::Database& database, int64_t session_id) {
+  reduction::PointChecks checks;
+  const auto session = db::LoadSession(database, session_id);
+  if (!session || session->lab_yaml.empty()) return checks;
+  const auto lab = acquisition::ParseLabSettings(
+      session->lab_yaml, "lab file stored with session " + std::to_string(session_id));
+  checks.max_miss_mm = lab.tolerances.max_miss_mm;
+  checks.max_repeat_mm = lab.tolerances.max_repeat_mm;
+  return checks;
+}
+
+ReduceSummary ReduceSession(db::Database& database, int64_t session_id,
+                            const reduction::PointOptions& options) {
+  ReduceSummary summary;
+  summary.session = session_id;
+  std::map<std::string, reduction::Station> stations;
+  for (const auto& [code, setup] : db::LatestStationSetups(database, session_id))
+    stations.emplace(code, acquisition::StationOf(setup));
+  const auto observations = db::LoadObservations(database, session_id);
+  summary.observations = static_cast<int64_t>(observations.size());
+  // The flags stored with the points this reduction replaces, by (pose, point).
+  std::map<std::pair<std::optional<int64_t>, std::string>, reduction::PointFlags> stored;
+  for (const auto& p : db::LoadPoints(database, session_id)) {
+    if (const auto flags = reduction::ParsePointFlags(p.flags)) {
+      stored[{p.pose_id, p.point}] = *flags;
+    } else {
+      spdlog::warn("session {}: point {} has unknown stored flags '{}'; they are not kept",
+                   session_id, p.point, p.flags);
+    }
+  }
+  const reduction::InstrumentDefaults defaults;
+  std::vector<db::PointRow> points;
+  reduction::RayGroup group;
+  reduction::ReducedPoint reduced;
+  size_t begin = 0;
+  while (begin < observations.size()) {
+    size_t end = begin;
+    const auto& first = observations[begin];
+    while (end < observations.size() && observations[end].pose_id == first.pose_id &&
+           observations[end].point == first.point) {
+      ++end;
+    }
+    if (stations.count(first.point)) {  // a mutual pointing at a station: not a target
+      begin = end;
+      continue;
+    }
+    group.rays.clear();
+    for (size_t k = begin; k < end; ++k) {
+      const auto& o = observations[k];
+      auto it = stations.find(o.station);
+      if (it == stations.end()) {
+        throw InputError({"session " + std::to_string(session_id), 0, 0, ""},
+                         "station " + o.station + " has no set-up (orient it first)");
+      }
+      group.rays.push_back(reduction::RayOf(acquisition::ObservationOf(o), it->second, defaults));
+    }
+    reduction::IntersectPoint(group, options, reduced);
+    const reduction::IntersectionResult& result = reduced.result;
+    reduction::PointFlags flags = result.flags;
+    if (auto it = stored.find({first.pose_id, first.point}); it != stored.end())
+      flags |= reduction::CarriedOverFlags(it->second, options.checks);
+    db::PointRow row = acquisition::PointRowOf(first.pose_id, first.point,
+                                               static_cast<int>(group.rays.size()), result, flags);
+    if (result.status.ok()) {
+      ++summary.reduced;
+      summary.rejected_rays += result.rejected;
+    } else {
+      ++summary.failed;
+    }
+    points.push_back(std::move(row));
+    begin = end;
+  }
+  db::WriteTransaction tx(database);
+  db::ReplacePoints(database, session_id, points);
+  tx.commit();
+  return summary;
+}
+
+ImportObservationsResult ImportObservations(db::Database& database,
+                                            const ImportObservationsOptions& options) {
+  const auto stations = io::ReadStationsYaml(options.stations);
+  const auto observations = io::ReadObservationsCsv(options.file);
+  // The optional pose column groups rows into robot configurations.
+  const io::CsvTable table = io::ReadCsvFile(options.file);
+  const auto pose_column = table.FindColumn("pose");
+  std::map<std::string, const reduction::Station*> by_id;
+  for (const auto& s : stations) by_id[s.pose.id] = &s;
+  for (const auto& o : observations) {
+    if (!by_id.count(o.station)) {
+      throw InputError({options.file, o.source_line, 0, "station"},
+                       "station '" + o.station + "' is not in " + options.stations);
+    }
+  }
+  ImportObservationsResult result;
+  db::WriteTransaction tx(database);
+  const int64_t robot = db::EnsureRobot(database, options.robot, "", "");
+  result.session =
+      db::CreateSession(database, robot, "", "", "completed",
+                        options.note.empty() ? "imported from " + options.file : options.note);
+  for (const auto& s : stations) {
+    db::InsertStationSetup(database, result.session, acquisition::StationSetupRowOf(s, "file"));
+  }
+  std::map<std::string, int64_t> pose_ids;
+  std::vector<db::ObservationRow> rows;
+  rows.reserve(observations.size());
+  for (size_t k = 0; k < observations.size(); ++k) {
+    const auto& o = observations[k];
+    std::optional<int64_t> pose_id;
+    if (pose_column) {
+      const std::string& label = table.Text(table.rows()[k], *pose_column);
+      auto it = pose_ids.find(label);
+      if (it == pose_ids.end()) {
+        const int seq = static_cast<int>(pose_ids.size());
+        it = pose_ids
+                 .emplace(label, db::InsertPose(database, result.session, seq, label, std::nullopt,
+                                                "measured", 1))
+                 .first;
+      }
+      pose_id = it->second;
+    }
+    rows.push_back(acquisition::ObservationRowOf(o, pose_id));
+  }
+  db::InsertObservations(database, result.session, rows);
+  tx.commit();
+  result.observations = rows.size();
+  result.stations = stations.size();
+  result.poses = pose_ids.size();
+  return result;
+}
+
+}  // namespace armsig::workflows
