@@ -1,5 +1,7 @@
 #include "acquisition/lab.h"
 
+#include <yaml-cpp/yaml.h>
+
 #include <algorithm>
 #include <charconv>
 #include <filesystem>
@@ -356,6 +358,46 @@ std::vector<std::unique_ptr<instruments::DistanceInstrument>> OpenInstruments(
 
 std::unique_ptr<instruments::RobotController> OpenController(const LabConfig& lab) {
   return OpenController(lab.controller, lab.policy);
+}
+
+std::string FormatLabYaml(const LabFile& lab) {
+  const InstrumentConfig default_instrument;
+  const ControllerConfig default_controller;
+  YAML::Emitter out;
+  out << YAML::BeginMap << YAML::Key << "robot" << YAML::Value << YAML::BeginMap;
+  out << YAML::Key << "model" << YAML::Value << lab.model_path;
+  const ControllerConfig& c = lab.controller;
+  out << YAML::Key << "controller" << YAML::Value << YAML::Flow << YAML::BeginMap;
+  out << YAML::Key << "protocol" << YAML::Value << c.protocol;
+  if (!c.port.empty()) out << YAML::Key << "port" << YAML::Value << c.port;
+  if (c.baud != default_controller.baud) out << YAML::Key << "baud" << YAML::Value << c.baud;
+  out << YAML::Key << "can_move" << YAML::Value << c.can_move;
+  out << YAML::EndMap << YAML::EndMap;
+  out << YAML::Key << "instruments" << YAML::Value << YAML::BeginSeq;
+  for (const auto& i : lab.instruments) {
+    out << YAML::Flow << YAML::BeginMap << YAML::Key << "station" << YAML::Value << i.station
+        << YAML::Key << "protocol" << YAML::Value << i.protocol;
+    if (!i.port.empty()) out << YAML::Key << "port" << YAML::Value << i.port;
+    if (!i.tcp.empty()) out << YAML::Key << "tcp" << YAML::Value << i.tcp;
+    if (i.baud != default_instrument.baud) out << YAML::Key << "baud" << YAML::Value << i.baud;
+    if (i.crc) out << YAML::Key << "crc" << YAML::Value << true;
+    if (i.distance) out << YAML::Key << "distance" << YAML::Value << true;
+    out << YAML::Key << "sigma_hz_arcsec" << YAML::Value << i.sigma_hz_arcsec << YAML::Key
+        << "sigma_v_arcsec" << YAML::Value << i.sigma_v_arcsec;
+    if (i.distance) out << YAML::Key << "sigma_distance_mm" << YAML::Value << i.sigma_distance_mm;
+    out << YAML::EndMap;
+  }
+  out << YAML::EndSeq << YAML::Key << "stations" << YAML::Value << lab.stations_path;
+  const Tolerances& t = lab.tolerances;
+  out << YAML::Key << "tolerances" << YAML::Value << YAML::Flow << YAML::BeginMap << YAML::Key
+      << "max_miss_mm" << YAML::Value << t.max_miss_mm << YAML::Key << "max_repeat_mm"
+      << YAML::Value << t.max_repeat_mm << YAML::Key << "readings" << YAML::Value << t.readings
+      << YAML::Key << "max_remeasure" << YAML::Value << t.max_remeasure << YAML::Key << "settle_ms"
+      << YAML::Value << t.settle_ms << YAML::Key << "fault_retries" << YAML::Value
+      << t.fault_retries << YAML::Key << "fault_retry_delay_ms" << YAML::Value
+      << t.fault_retry_delay_ms << YAML::Key << "two_face" << YAML::Value << t.two_face << YAML::Key
+      << "timeout_ms" << YAML::Value << lab.timeout_ms << YAML::EndMap << YAML::EndMap;
+  return std::string(out.c_str()) + "\n";
 }
 
 }  // namespace armsig::acquisition

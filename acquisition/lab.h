@@ -92,6 +92,18 @@ LabConfig ParseLab(const std::string& text, const std::string& source);
 // The same checks on the text alone; relative paths resolve against `source`'s folder.
 LabSettings ParseLabSettings(const std::string& text, const std::string& source);
 
+// A lab file's text (YAML::Emitter) from its parts, as a technician would write it: the
+// model and stations by file name, every instrument and the controller with the keys
+// that differ from their defaults, the tolerances and the device timeout in full.
+struct LabFile {
+  std::string model_path, stations_path;
+  ControllerConfig controller;
+  std::vector<InstrumentConfig> instruments;
+  Tolerances tolerances;
+  int timeout_ms = 3000;
+};
+std::string FormatLabYaml(const LabFile& lab);
+
 // Opens the devices the configuration names. The one-device forms serve `armsig
 // instrument`: a malformed HOST:PORT is an InputError naming it.
 std::unique_ptr<instruments::DistanceInstrument> OpenInstrument(

@@ -334,10 +334,13 @@ CaptureSummary RunCapture(db::Database& db, const LabConfig& lab, int64_t sessio
       p.failed = summary.failed;
       p.remeasured = summary.remeasured;
       p.label = target.label;
-      p.last_miss_mm =
-          accepted && accepted->point.accepted() ? accepted->point.result.max_miss_mm : NAN;
-      p.mean_miss_mm = miss_count ? miss_sum / miss_count : NAN;
-      p.max_miss_mm = miss_count ? max_miss : NAN;
+      p.last_miss_mm = accepted && accepted->point.accepted()
+                           ? std::optional(accepted->point.result.max_miss_mm)
+                           : std::nullopt;
+      if (miss_count > 0) {
+        p.mean_miss_mm = miss_sum / miss_count;
+        p.max_miss_mm = max_miss;
+      }
       p.elapsed_s = std::chrono::duration<double>(Clock::now() - start).count();
       const int this_run = summary.measured + summary.skipped;
       p.eta_s = this_run ? p.elapsed_s / this_run * (p.total - p.done) : 0.0;

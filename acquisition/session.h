@@ -23,9 +23,9 @@ struct Progress {
   int done = 0, total = 0, skipped = 0, remeasured = 0;
   int flagged = 0, failed = 0;  // this run (see CaptureSummary)
   std::string label;
-  // NaN when there is none: the last configuration gave no usable point, or no
+  // Absent when there is none: the last configuration gave no usable point, or no
   // configuration of this run has one yet.
-  double last_miss_mm = 0.0, mean_miss_mm = 0.0, max_miss_mm = 0.0;
+  std::optional<double> last_miss_mm, mean_miss_mm, max_miss_mm;
   double elapsed_s = 0.0, eta_s = 0.0;
 };
 

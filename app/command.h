@@ -5,12 +5,14 @@
 #pragma once
 
 #include <CLI/CLI.hpp>
+#include <atomic>
 #include <functional>
 #include <string>
 
 namespace armsig::app {
 
-enum ExitCode : int { kOk = 0, kFailure = 1, kInputError = 2, kQualityGate = 3 };
+// kStopped: a Ctrl-C (or SIGTERM, SIGHUP) stopped the work, left resumable (128 + SIGINT).
+enum ExitCode : int { kOk = 0, kFailure = 1, kInputError = 2, kQualityGate = 3, kStopped = 130 };
 
 struct GlobalOptions {
   std::string db_path;  // --db; empty = $ARMSIG_DB, else ./armsig.db
@@ -34,10 +36,11 @@ void SetupDbCommand(CLI::App& parent, const GlobalOptions& global, Runner& run);
 void SetupSignatureCommands(CLI::App& parent, const GlobalOptions& global, Runner& run);
 void SetupLifecycleCommands(CLI::App& parent, const GlobalOptions& global, Runner& run);
 
-// For hints printed to the user that must work as printed: the path made absolute (so
-// the hint works from any directory), and a word quoted for a POSIX shell when needed.
-std::string AbsolutePath(const std::string& path);
-std::string ShellWord(const std::string& word);
+// Ctrl-C, SIGTERM (systemctl stop, kill) and SIGHUP (a closed terminal) ask the running
+// command to stop at its next safe point; the first call installs the handlers. A
+// second signal only repeats the request (the work being stopped is left resumable, never
+// half-written); a third ends the process at once.
+const std::atomic<bool>& StopRequested();
 
 // Marks an option as naming a file (or a folder) the command will write: the path is
 // checked when the command line is parsed (its folder exists and is writable, it is not

@@ -2,7 +2,9 @@
 #include <fmt/format.h>
 #include <spdlog/sinks/stdout_color_sinks.h>
 #include <spdlog/spdlog.h>
+#include <unistd.h>
 
+#include <csignal>
 #include <cstdlib>
 #include <filesystem>
 #include <iostream>
@@ -11,9 +13,9 @@
 #include "app/command.h"
 #include "app/manual.h"
 #include "armsig_git.h"
-#include "db/schema.h"
 #include "core/error.h"
 #include "core/plausibility.h"
+#include "db/schema.h"
 #include "io/atomic_file.h"
 
 namespace armsig::app {
@@ -24,21 +26,34 @@ std::string GlobalOptions::DbPath() const {
   return "armsig.db";
 }
 
-std::string AbsolutePath(const std::string& path) {
-  std::error_code ec;
-  const auto absolute = std::filesystem::absolute(path, ec);
-  return ec ? path : absolute.lexically_normal().string();
+namespace {
+
+std::atomic<bool> g_stop{false};
+std::atomic<int> g_signals{0};
+
+void OnStopSignal(int signal) {
+  g_stop = true;
+  const int n = ++g_signals;
+  if (n == 2) {
+    static const char kMessage[] =
+        "\narmsig: stopping at the next safe point (a third signal ends at once, leaving the "
+        "work to be resumed)\n";
+    [[maybe_unused]] const auto written = ::write(STDERR_FILENO, kMessage, sizeof kMessage - 1);
+  } else if (n >= 3) {
+    std::signal(signal, SIG_DFL);
+    std::raise(signal);
+  }
 }
 
-std::string ShellWord(const std::string& word) {
-  if (!word.empty() &&
-      word.find_first_not_of("abcdefghijklmnopqrstuvwxyzABCDEFGHIJKLMNOPQRSTUVWXYZ0123456789"
-                             "_-./:=@%+,") == std::string::npos) {
-    return word;
-  }
-  std::string out = "'";
-  for (char c : word) out += c == '\'' ? std::string("'\\''") : std::string(1, c);
-  return out + "'";
+}  // namespace
+
+const std::atomic<bool>& StopRequested() {
+  static const bool installed = [] {
+    for (int s : {SIGINT, SIGTERM, SIGHUP}) std::signal(s, OnStopSignal);
+    return true;
+  }();
+  (void)installed;
+  return g_stop;
 }
 
 namespace {

@@ -85,31 +85,36 @@ std::string ManPage(const CLI::App& app, const std::string& version, const std::
   std::string out;
   out += fmt::format(".TH ARMSIG 1 \"{}\" \"armsig {}\" \"User Commands\"\n", date, version);
   out += ".SH NAME\narmsig \\- measure an industrial robot and fit its arm signature\n";
-  out += ".SH SYNOPSIS\n.B armsig\n[\\-\\-db PATH] [\\-q | \\-v | \\-vv] [\\-\\-version] "
-         "\\fICOMMAND\\fR ...\n.br\n.B armsig\n\\fICOMMAND\\fR \\-\\-help\n";
-  out += ".SH DESCRIPTION\n"
-         "armsig measures one industrial robot with external instruments (theodolites, total "
-         "stations, laser trackers) and fits its own kinematic error parameters, its arm "
-         "signature, after Chen and Chao. Human output goes to stdout, logs and progress to "
-         "stderr, machine output behind \\-\\-json.\n";
+  out +=
+      ".SH SYNOPSIS\n.B armsig\n[\\-\\-db PATH] [\\-q | \\-v | \\-vv] [\\-\\-version] "
+      "\\fICOMMAND\\fR ...\n.br\n.B armsig\n\\fICOMMAND\\fR \\-\\-help\n";
+  out +=
+      ".SH DESCRIPTION\n"
+      "armsig measures one industrial robot with external instruments (theodolites, total "
+      "stations, laser trackers) and fits its own kinematic error parameters, its arm "
+      "signature, after Chen and Chao. Human output goes to stdout, logs and progress to "
+      "stderr, machine output behind \\-\\-json.\n";
   out += ".SH GLOBAL OPTIONS\n";
   for (const auto* option : Options(app)) {
     out += ".TP\n.B " + Roff(OptionLabel(option)) + "\n" + Roff(option->get_description()) + "\n";
   }
   out += ".SH COMMANDS\n";
   for (const auto* sub : Subcommands(app)) ManCommand(*sub, "armsig " + sub->get_name(), out);
-  out += ".SH EXIT STATUS\n"
-         ".TP\n.B 0\nsuccess\n"
-         ".TP\n.B 1\nfailure (a fit that did not converge, an instrument that keeps failing, a "
-         "paused capture, unreachable targets)\n"
-         ".TP\n.B 2\nusage or input error: the message names the file, line, column and what "
-         "was expected; nothing is written\n"
-         ".TP\n.B 3\na quality gate failed (the active arm signature stays active)\n";
-  out += ".SH ENVIRONMENT\n.TP\n.B ARMSIG_DB\nthe database when \\-\\-db is not given "
-         "(else ./armsig.db)\n";
-  out += ".SH FILES\n.TP\n.I /usr/share/armsig/models/\nrobot model files (PUMA 760, UR10)\n"
-         ".TP\n.I /lib/systemd/system/armsig\\-recalibrate@.service\nthe nightly recalibration "
-         "of one robot, with its .timer\n";
+  out +=
+      ".SH EXIT STATUS\n"
+      ".TP\n.B 0\nsuccess\n"
+      ".TP\n.B 1\nfailure (a fit that did not converge, an instrument that keeps failing, a "
+      "paused capture, unreachable targets)\n"
+      ".TP\n.B 2\nusage or input error: the message names the file, line, column and what "
+      "was expected; nothing is written\n"
+      ".TP\n.B 3\na quality gate failed (the active arm signature stays active)\n";
+  out +=
+      ".SH ENVIRONMENT\n.TP\n.B ARMSIG_DB\nthe database when \\-\\-db is not given "
+      "(else ./armsig.db)\n";
+  out +=
+      ".SH FILES\n.TP\n.I /usr/share/armsig/models/\nrobot model files (PUMA 760, UR10)\n"
+      ".TP\n.I /lib/systemd/system/armsig\\-recalibrate@.service\nthe nightly recalibration "
+      "of one robot, with its .timer\n";
   out += ".SH SEE ALSO\nThe README of the armsig sources.\n";
   return out;
 }

@@ -86,11 +86,11 @@ std::map<std::string, StationSetupRow> LatestStationSetups(Database& db, int64_t
     r.sigma_position_mm = {s.getColumn(7).getDouble(), s.getColumn(8).getDouble(),
                            s.getColumn(9).getDouble()};
     r.sigma_azimuth_rad = s.getColumn(10).getDouble();
-    r.sigma0 = s.getColumn(11).isNull() ? NAN : s.getColumn(11).getDouble();
+    r.sigma0 = OptionalDouble(s.getColumn(11));
     r.dof = s.getColumn(12).getInt();
     r.method = s.getColumn(13).getString();
-    r.sigma_hz_rad = s.getColumn(14).isNull() ? NAN : s.getColumn(14).getDouble();
-    r.sigma_v_rad = s.getColumn(15).isNull() ? NAN : s.getColumn(15).getDouble();
+    r.sigma_hz_rad = OptionalDouble(s.getColumn(14));
+    r.sigma_v_rad = OptionalDouble(s.getColumn(15));
     out[r.station] = r;
   }
   return out;
@@ -122,8 +122,10 @@ void InsertObservations(Database& db, int64_t session_id, const std::vector<Obse
     else
       s.bind(7);
     s.bind(8, r.reading.face);
-    BindOptional(s, 9, r.sigma_hz_rad / kRadPerArcsec);
-    BindOptional(s, 10, r.sigma_v_rad / kRadPerArcsec);
+    BindOptional(s, 9,
+                 r.sigma_hz_rad ? std::optional(*r.sigma_hz_rad / kRadPerArcsec) : std::nullopt);
+    BindOptional(s, 10,
+                 r.sigma_v_rad ? std::optional(*r.sigma_v_rad / kRadPerArcsec) : std::nullopt);
     BindOptional(s, 11, r.sigma_distance_mm);
     s.bind(12, r.return_code);
     s.exec();

@@ -21,9 +21,8 @@ struct StationSetupRow {
   StationPose pose;
   Eigen::Vector3d sigma_position_mm = Eigen::Vector3d::Zero();
   double sigma_azimuth_rad = 0.0;
-  double sigma_hz_rad = std::numeric_limits<double>::quiet_NaN();
-  double sigma_v_rad = std::numeric_limits<double>::quiet_NaN();
-  double sigma0 = std::numeric_limits<double>::quiet_NaN();
+  std::optional<double> sigma_hz_rad, sigma_v_rad;  // the station's a-priori sigmas
+  std::optional<double> sigma0;                     // of the orientation, when adjusted
   int dof = 0;
   std::string method;
 };
@@ -39,9 +38,7 @@ struct ObservationRow {
   std::string station;  // code
   AngleReading reading;
   std::optional<double> distance_mm;
-  double sigma_hz_rad = std::numeric_limits<double>::quiet_NaN();
-  double sigma_v_rad = std::numeric_limits<double>::quiet_NaN();
-  double sigma_distance_mm = std::numeric_limits<double>::quiet_NaN();
+  std::optional<double> sigma_hz_rad, sigma_v_rad, sigma_distance_mm;
   int return_code = 0;
 };
 // Inserts with one prepared statement (station ids resolved once).
@@ -56,8 +53,7 @@ struct PointRow {
   Eigen::Matrix3d covariance_mm2 = Eigen::Matrix3d::Zero();
   int rays = 0;
   int rejected_rays = 0;
-  double sigma0 = std::numeric_limits<double>::quiet_NaN();
-  double miss_mm = std::numeric_limits<double>::quiet_NaN();
+  std::optional<double> sigma0, miss_mm;  // absent when not reduced
   std::string flags;
 };
 // Adds one reduced point (call inside the configuration's transaction).

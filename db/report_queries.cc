@@ -4,10 +4,12 @@
 
 #include <algorithm>
 
+#include "db/sql_util.h"
+
 namespace armsig::db {
 
 std::vector<ReportSession> LoadSessionSummaries(Database& db,
-                                                 const std::vector<int64_t>& session_ids) {
+                                                const std::vector<int64_t>& session_ids) {
   std::vector<ReportSession> out;
   SQLite::Statement q(
       db.sql(),
@@ -42,9 +44,7 @@ std::vector<InstrumentSummary> SessionInstruments(Database& db, int64_t session_
       "SELECT st.instrument_id FROM stations st JOIN station_setups su ON su.station_id = st.id "
       "WHERE su.session_id = ?1) ORDER BY name");
   q.bind(1, session_id);
-  auto optional = [&](int column) {
-    return q.getColumn(column).isNull() ? NAN : q.getColumn(column).getDouble();
-  };
+  auto optional = [&](int column) { return OptionalDouble(q.getColumn(column)); };
   while (q.executeStep()) {
     InstrumentSummary i;
     i.name = q.getColumn(0).getString();

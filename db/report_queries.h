@@ -4,6 +4,7 @@
 
 #include <cmath>
 #include <cstdint>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -18,12 +19,12 @@ struct ReportSession {
 };
 // The sessions with these ids, by id; ids without a session are left out.
 std::vector<ReportSession> LoadSessionSummaries(Database& db,
-                                                 const std::vector<int64_t>& session_ids);
+                                                const std::vector<int64_t>& session_ids);
 
 // A row of the instruments table.
 struct InstrumentSummary {
   std::string name, kind, protocol, serial_number, firmware;
-  double sigma_hz_arcsec = NAN, sigma_v_arcsec = NAN, sigma_distance_mm = NAN;
+  std::optional<double> sigma_hz_arcsec, sigma_v_arcsec, sigma_distance_mm;
 };
 // The instruments a session's observations name, or whose stations it observed from.
 std::vector<InstrumentSummary> SessionInstruments(Database& db, int64_t session_id);

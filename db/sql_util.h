@@ -6,6 +6,7 @@
 #include <Eigen/Core>
 #include <cmath>
 #include <cstdio>
+#include <limits>
 #include <nlohmann/json.hpp>
 #include <optional>
 #include <string>
@@ -19,6 +20,15 @@ inline void BindOptional(SQLite::Statement& s, int index, double value) {
     s.bind(index, value);
   else
     s.bind(index);
+}
+
+inline void BindOptional(SQLite::Statement& s, int index, const std::optional<double>& value) {
+  BindOptional(s, index, value.value_or(std::numeric_limits<double>::quiet_NaN()));
+}
+// A column as an optional number (NULL = absent).
+inline std::optional<double> OptionalDouble(const SQLite::Column& column) {
+  if (column.isNull()) return std::nullopt;
+  return column.getDouble();
 }
 
 // A JSON array of n doubles printed exactly (%.17g).

@@ -181,13 +181,13 @@ std::string FormatStationsYaml(const std::vector<reduction::Station>& stations,
       for (int i = 0; i < 3; ++i) vector(r.row(i).transpose(), 1.0);
       out << YAML::EndSeq;
     }
-    if (std::isfinite(s.sigma_hz_rad)) {
+    if (s.sigma_hz_rad) {
       out << YAML::Key << "sigma_hz_arcsec" << YAML::Value
-          << YamlNumber(s.sigma_hz_rad / kRadPerArcsec);
+          << YamlNumber(*s.sigma_hz_rad / kRadPerArcsec);
     }
-    if (std::isfinite(s.sigma_v_rad)) {
+    if (s.sigma_v_rad) {
       out << YAML::Key << "sigma_v_arcsec" << YAML::Value
-          << YamlNumber(s.sigma_v_rad / kRadPerArcsec);
+          << YamlNumber(*s.sigma_v_rad / kRadPerArcsec);
     }
     out << YAML::Key << "sigma_position_mm" << YAML::Value;
     vector(s.sigma_position_mm, 1.0);

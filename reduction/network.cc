@@ -7,15 +7,15 @@ namespace armsig::reduction {
 
 EffectiveSigmas SigmasOf(const Observation& obs, const Station* station,
                          const InstrumentDefaults& defaults) {
-  auto pick = [](double own, double station_value, double fallback) {
-    if (std::isfinite(own) && own > 0) return own;
-    if (std::isfinite(station_value) && station_value > 0) return station_value;
+  auto pick = [](std::optional<double> own, std::optional<double> station_value, double fallback) {
+    if (own && *own > 0) return *own;
+    if (station_value && *station_value > 0) return *station_value;
     return fallback;
   };
-  const double nan = std::numeric_limits<double>::quiet_NaN();
-  return {pick(obs.sigma_hz_rad, station ? station->sigma_hz_rad : nan, defaults.sigma_hz_rad),
-          pick(obs.sigma_v_rad, station ? station->sigma_v_rad : nan, defaults.sigma_v_rad),
-          pick(obs.sigma_distance_mm, nan, defaults.sigma_distance_mm)};
+  return {
+      pick(obs.sigma_hz_rad, station ? station->sigma_hz_rad : std::nullopt, defaults.sigma_hz_rad),
+      pick(obs.sigma_v_rad, station ? station->sigma_v_rad : std::nullopt, defaults.sigma_v_rad),
+      pick(obs.sigma_distance_mm, std::nullopt, defaults.sigma_distance_mm)};
 }
 
 ErrorEllipsoid EllipsoidOf(const Eigen::Matrix3d& covariance_mm2) {

@@ -17,17 +17,14 @@ struct Observation {
   std::string station;
   AngleReading reading;
   std::optional<double> distance_mm;
-  // A-priori standard deviations; NaN = take the station's, else the defaults.
-  double sigma_hz_rad = std::numeric_limits<double>::quiet_NaN();
-  double sigma_v_rad = std::numeric_limits<double>::quiet_NaN();
-  double sigma_distance_mm = std::numeric_limits<double>::quiet_NaN();
+  // A-priori standard deviations; absent = the station's, else the defaults.
+  std::optional<double> sigma_hz_rad, sigma_v_rad, sigma_distance_mm;
   int source_line = 0;  // for messages: line of the file it came from
 };
 
 struct Station {
   StationPose pose;  // id, position, world_from_station, levelled, azimuth
-  double sigma_hz_rad = std::numeric_limits<double>::quiet_NaN();
-  double sigma_v_rad = std::numeric_limits<double>::quiet_NaN();
+  std::optional<double> sigma_hz_rad, sigma_v_rad;  // a-priori reading sigmas, if given
   // Precision after orientation (zero when fixed / given).
   Eigen::Vector3d sigma_position_mm = Eigen::Vector3d::Zero();
   double sigma_azimuth_rad = 0.0;

@@ -158,11 +158,11 @@ FaultOutcome RunFaultCase(VirtualLab& lab, const FaultCase& c, const std::string
       break;
     case Protocol::kValII:
     case Protocol::kKawasakiAs:
-      sim = std::make_unique<ValSimulator>(
-          lab, link,
-          c.protocol == Protocol::kValII ? ValSimulator::Layout::kValII
-                                         : ValSimulator::Layout::kKawasakiAs,
-          options);
+      sim = std::make_unique<ValSimulator>(lab, link,
+                                           c.protocol == Protocol::kValII
+                                               ? ValSimulator::Layout::kValII
+                                               : ValSimulator::Layout::kKawasakiAs,
+                                           options);
       break;
     case Protocol::kCounter:
       sim = std::make_unique<CounterSimulator>(lab, 0, encoders, link, options);
@@ -216,8 +216,8 @@ FaultOutcome RunFaultCase(VirtualLab& lab, const FaultCase& c, const std::string
   } catch (const std::exception& e) {
     out.error = std::string("not an InstrumentError: ") + e.what();
   }
-  out.ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start)
-               .count();
+  out.ms =
+      std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
   // The simulator counts a flood's bytes on its own thread as the line takes them: give
   // the count a moment to catch up with what the driver already read (out.ms is taken).
   const auto settle = std::chrono::steady_clock::now() + std::chrono::milliseconds(200);

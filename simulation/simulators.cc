@@ -188,8 +188,8 @@ void LineSimulator::StartFlood(std::function<std::string(int64_t)> next) {
             flood_generation_.load());
 }
 
-void LineSimulator::FloodMore(std::shared_ptr<std::function<std::string(int64_t)>> next,
-                              int64_t k, uint64_t generation) {
+void LineSimulator::FloodMore(std::shared_ptr<std::function<std::string(int64_t)>> next, int64_t k,
+                              uint64_t generation) {
   if (!flooding_ || generation != flood_generation_.load() || !present_ ||
       !descriptor_->is_open()) {
     return;
@@ -199,8 +199,8 @@ void LineSimulator::FloodMore(std::shared_ptr<std::function<std::string(int64_t)
 
 // One write_some at a time, so flood_bytes() counts what the line took as it takes it (a
 // composed async_write would count a 4 KiB chunk only once all of it was read).
-void LineSimulator::FloodChunk(std::shared_ptr<std::function<std::string(int64_t)>> next,
-                               int64_t k, uint64_t generation, std::shared_ptr<std::string> data,
+void LineSimulator::FloodChunk(std::shared_ptr<std::function<std::string(int64_t)>> next, int64_t k,
+                               uint64_t generation, std::shared_ptr<std::string> data,
                                size_t offset) {
   if (!flooding_ || generation != flood_generation_.load() || !present_ ||
       !descriptor_->is_open()) {
@@ -314,7 +314,8 @@ std::optional<LineSimulator::Response> GeoComSimulator::Handle(const std::string
       break;
     }
     case geocom::rpc::kDoMeasure: {
-      const auto program = q.params.empty() ? std::optional<long>(1) : geocom::DecodeLong(q.params[0]);
+      const auto program =
+          q.params.empty() ? std::optional<long>(1) : geocom::DecodeLong(q.params[0]);
       distance_ready_ = program != 0L;  // 0 = TMC_STOP
       latency = options_.angle_latency / 4;
       break;
@@ -562,7 +563,8 @@ std::optional<LineSimulator::Response> CounterSimulator::Handle(const std::strin
   const std::string error_reply = instruments::FormatCounterReply(error);
   if (fault.fault == Fault::kErrorCode) return Response{error_reply, std::chrono::milliseconds(2)};
   const auto q = instruments::ParseCounterRequest(line);
-  if (!q || q->kind == 'S') return Response{error_reply, std::chrono::milliseconds(2)};  // no streaming
+  if (!q || q->kind == 'S')
+    return Response{error_reply, std::chrono::milliseconds(2)};  // no streaming
   instruments::CounterReading r;
   r.kind = static_cast<char>(std::tolower(static_cast<unsigned char>(q->kind)));
   r.reg = q->reg;

@@ -1,11 +1,16 @@
 #include "workflows/demo.h"
 
 #include <fmt/format.h>
+#include <signal.h>
+#include <spdlog/spdlog.h>
 #include <stdlib.h>
-#include <yaml-cpp/yaml.h>
+#include <sys/stat.h>
+#include <unistd.h>
 
 #include <algorithm>
+#include <cerrno>
 #include <filesystem>
+#include <fstream>
 #include <optional>
 #include <random>
 
@@ -26,6 +31,8 @@
 #include "simulation/simulators.h"
 #include "workflows/builtin_models.h"
 #include "workflows/calibration_run.h"
+#include "workflows/capture.h"
+#include "workflows/hint.h"
 #include "workflows/reduce.h"
 
 namespace armsig::workflows {
@@ -78,6 +85,32 @@ int DemoSelectCount(int configurations, int select, const DemoLimits& limits) {
   return select;
 }
 
+namespace {
+
+constexpr const char* kOwnerFile = "owner.pid";
+
+// Scratch directories of demos that were killed (SIGKILL, a third Ctrl-C, a power cut):
+// ours (same user), named armsig-demo-*, whose owner process no longer exists.
+void RemoveAbandonedScratch() {
+  std::error_code ec;
+  for (const auto& entry :
+       std::filesystem::directory_iterator(std::filesystem::temp_directory_path(), ec)) {
+    const std::string name = entry.path().filename().string();
+    if (name.rfind("armsig-demo-", 0) != 0 || !entry.is_directory(ec) || entry.is_symlink(ec))
+      continue;
+    struct stat info {};
+    if (::lstat(entry.path().c_str(), &info) != 0 || info.st_uid != ::getuid()) continue;
+    std::ifstream owner(entry.path() / kOwnerFile);
+    long pid = 0;
+    if (!(owner >> pid) || pid <= 0) continue;  // not one of ours, or being created
+    if (::kill(static_cast<pid_t>(pid), 0) == 0 || errno != ESRCH) continue;  // alive
+    std::filesystem::remove_all(entry.path(), ec);
+    if (!ec) spdlog::info("demo: removed {} (left by process {}, which is gone)", name, pid);
+  }
+}
+
+}  // namespace
+
 DemoResult RunDemo(const DemoOptions& options, const DemoObserver& observer) {
   auto say = [&](const std::string& text) {
     if (observer.say) observer.say(text);
@@ -102,6 +135,7 @@ DemoResult RunDemo(const DemoOptions& options, const DemoObserver& observer) {
   const int configurations =
       options.resume_session > 0 ? static_cast<int>(stored_plan.size()) : options.configurations;
   const int select_count = DemoSelectCount(configurations, options.select, limits);
+  RemoveAbandonedScratch();
   // A fresh private directory (mkdtemp: mode 0700, a name nobody could plant in advance).
   std::string work_template =
       (std::filesystem::temp_directory_path() / "armsig-demo-XXXXXX").string();
@@ -109,6 +143,7 @@ DemoResult RunDemo(const DemoOptions& options, const DemoObserver& observer) {
     throw std::runtime_error("demo: cannot create a temporary directory in " +
                              std::filesystem::temp_directory_path().string());
   const std::filesystem::path work = work_template;
+  io::WriteFileAtomically((work / kOwnerFile).string(), std::to_string(::getpid()) + "\n");
   struct Cleanup {
     std::filesystem::path path;
     ~Cleanup() {
@@ -209,27 +244,25 @@ DemoResult RunDemo(const DemoOptions& options, const DemoObserver& observer) {
   io::WriteFileAtomically((work / "puma760.yaml").string(), kPuma760Yaml);
   io::WriteFileAtomically((work / "stations.yaml").string(),
                           io::FormatStationsYaml(oriented.stations, "armsig demo"));
-  YAML::Emitter lab_yaml;
-  lab_yaml << YAML::BeginMap << YAML::Key << "robot" << YAML::Value << YAML::BeginMap;
-  lab_yaml << YAML::Key << "model" << YAML::Value << "puma760.yaml";
-  lab_yaml << YAML::Key << "controller" << YAML::Value << YAML::Flow << YAML::BeginMap << YAML::Key
-           << "protocol" << YAML::Value << "as" << YAML::Key << "port" << YAML::Value
-           << robot_sim.path() << YAML::Key << "can_move" << YAML::Value << true << YAML::EndMap
-           << YAML::EndMap;
-  lab_yaml << YAML::Key << "instruments" << YAML::Value << YAML::BeginSeq;
+  acquisition::LabFile lab_file;
+  lab_file.model_path = "puma760.yaml";
+  lab_file.stations_path = "stations.yaml";
+  lab_file.controller.protocol = "as";
+  lab_file.controller.port = robot_sim.path();
+  lab_file.controller.can_move = true;
   for (int s = 0; s < 3; ++s) {
-    lab_yaml << YAML::Flow << YAML::BeginMap << YAML::Key << "station" << YAML::Value
-             << "T" + std::to_string(s + 1) << YAML::Key << "protocol" << YAML::Value << "geocom"
-             << YAML::Key << "port" << YAML::Value << theodolites[s]->path() << YAML::Key
-             << "sigma_hz_arcsec" << YAML::Value << kSigmaArcsec << YAML::Key << "sigma_v_arcsec"
-             << YAML::Value << kSigmaArcsec << YAML::EndMap;
+    acquisition::InstrumentConfig i;
+    i.station = "T" + std::to_string(s + 1);
+    i.protocol = "geocom";
+    i.port = theodolites[s]->path();
+    i.sigma_hz_arcsec = i.sigma_v_arcsec = kSigmaArcsec;
+    lab_file.instruments.push_back(i);
   }
-  lab_yaml << YAML::EndSeq << YAML::Key << "stations" << YAML::Value << "stations.yaml";
-  lab_yaml << YAML::Key << "tolerances" << YAML::Value << YAML::Flow << YAML::BeginMap << YAML::Key
-           << "max_miss_mm" << YAML::Value << 0.1 << YAML::Key << "settle_ms" << YAML::Value << 0
-           << YAML::Key << "readings" << YAML::Value << 1 << YAML::Key << "timeout_ms"
-           << YAML::Value << 2000 << YAML::EndMap << YAML::EndMap;
-  io::WriteFileAtomically((work / "lab.yaml").string(), std::string(lab_yaml.c_str()) + "\n");
+  lab_file.tolerances.max_miss_mm = 0.1;
+  lab_file.tolerances.settle_ms = 0;
+  lab_file.tolerances.readings = 1;
+  lab_file.timeout_ms = 2000;
+  io::WriteFileAtomically((work / "lab.yaml").string(), acquisition::FormatLabYaml(lab_file));
   const acquisition::LabConfig lab_config = acquisition::LoadLab((work / "lab.yaml").string());
 
   DemoResult result;
@@ -256,19 +289,19 @@ DemoResult RunDemo(const DemoOptions& options, const DemoObserver& observer) {
                               ? options.resume_session
                               : acquisition::CreateSession(database, lab_config, kDemoRobot, plan);
   result.session = session;
-  acquisition::CaptureSummary captured;
-  try {
-    auto devices = acquisition::OpenInstruments(lab_config);
-    auto controller = acquisition::OpenController(lab_config);
-    acquisition::CaptureOptions capture;
-    capture.progress = observer.progress;
-    capture.stop = options.stop;
-    captured =
-        acquisition::RunCapture(database, lab_config, session, devices, *controller, capture);
-  } catch (...) {
-    db::SetSessionState(database, session, "paused");  // resumable, never left running
-    throw;
+  {
+    std::vector<std::string> words = {"demo", "--resume", std::to_string(session), "--time-scale",
+                                      fmt::format("{}", options.time_scale)};
+    if (options.select > 0) words.insert(words.end(), {"--select", std::to_string(options.select)});
+    if (!options.json_path.empty())
+      words.insert(words.end(), {"--json", AbsolutePath(options.json_path)});
+    result.resume_hint = "armsig --db " + ShellWord(AbsolutePath(database.path()));
+    for (const auto& w : words) result.resume_hint += " " + ShellWord(w);
   }
+  acquisition::CaptureOptions capture;
+  capture.progress = observer.progress;
+  capture.stop = options.stop;
+  const acquisition::CaptureSummary captured = CaptureInto(database, lab_config, session, capture);
   if (captured.stopped) {
     say(fmt::format("stopped: session {} is paused after {} of {} configurations\n", session,
                     captured.measured + captured.skipped + captured.already, captured.total));
@@ -399,9 +432,8 @@ DemoResult RunDemo(const DemoOptions& options, const DemoObserver& observer) {
   const double seconds =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count();
   say(text);
-  say(fmt::format(
-      "\nDone in {:.1f} s. The database stays for inspection: {} (armsig --db {} db info)\n",
-      seconds, database.path(), database.path()));
+  say(fmt::format("\nDone in {:.1f} s. The database stays for inspection: {} ({})\n", seconds,
+                  database.path(), Hint(database.path(), {"db", "info"})));
 
   {
     nlohmann::json& out = result.json;
@@ -413,6 +445,8 @@ DemoResult RunDemo(const DemoOptions& options, const DemoObserver& observer) {
                       {"seconds", seconds}};
     out["stages"] = stages;
   }
+  if (!options.json_path.empty())
+    io::WriteFileAtomically(options.json_path, result.json.dump(2) + "\n");
   result.completed = true;
   result.seconds = seconds;
   return result;

@@ -18,6 +18,7 @@ namespace armsig::workflows {
 
 struct DemoOptions {
   std::string db_path;
+  std::string json_path;     // --json: written at the end (checked by the command line)
   int configurations = 200;  // captured
   int select = 0;            // fitted (D-optimal), the rest validate; 0 = 40 % (80 of 200)
   double time_scale = 0.25;  // multiplies every simulated instrument latency
@@ -56,11 +57,14 @@ struct DemoResult {
   int64_t session = 0;     // 0 when stopped before the session was created
   bool completed = false;  // false when stopped before the end (the session is paused)
   double seconds = 0.0;
-  nlohmann::json json;  // the --json document
+  nlohmann::json json;      // the --json document (also written to json_path)
+  std::string resume_hint;  // when stopped after the session was created
 };
 
 // Checks the options (DemoSelectCount) before anything is created. The virtual lab lives
-// in a private directory under $TMPDIR, removed on every way out but a hard kill.
+// in a private directory under $TMPDIR (armsig-demo-XXXXXX, holding its owner's pid),
+// removed on every way out but a hard kill; the next demo removes those whose owner is
+// gone.
 DemoResult RunDemo(const DemoOptions& options, const DemoObserver& observer);
 
 }  // namespace armsig::workflows

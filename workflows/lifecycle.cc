@@ -1,12 +1,14 @@
 #include "workflows/lifecycle.h"
 
-#include <SQLiteCpp/Transaction.h>
+#include <fmt/format.h>
+#include <fmt/ranges.h>
 #include <spdlog/spdlog.h>
 
 #include "core/error.h"
 #include "db/store.h"
 #include "io/atomic_file.h"
 #include "io/model_yaml.h"
+#include "workflows/hint.h"
 
 namespace armsig::workflows {
 
@@ -15,9 +17,12 @@ namespace {
 int64_t RobotId(db::Database& database, const std::string& robot) {
   const auto id = db::FindRobot(database, robot);
   if (!id) {
-    throw InputError({database.path(), 0, 0, "--robot"},
-                     "no robot '" + robot + "' in the database (register it: armsig robot add " +
-                         robot + " --model FILE.yaml; armsig robot list shows the robots)");
+    throw InputError(
+        {database.path(), 0, 0, "--robot"},
+        fmt::format("no robot '{}' in the database (register it: {}; {} shows the "
+                    "robots)",
+                    robot, Hint(database.path(), {"robot", "add", robot, "--model"}) + " FILE.yaml",
+                    Hint(database.path(), {"robot", "list"})));
   }
   return *id;
 }
@@ -33,8 +38,8 @@ bool RegisterRobot(db::Database& database, const std::string& name, const std::s
     if (db::RobotModelYaml(database, *id) == text) return false;
     throw InputError({model_path, 0, 0, ""},
                      "robot '" + name +
-                         "' is already registered with another model; choose "
-                         "another name (armsig robot list)");
+                         "' is already registered with another model; choose another name (" +
+                         Hint(database.path(), {"robot", "list"}) + ")");
   }
   db::EnsureRobot(database, name, model.name, text);
   tx.commit();
@@ -79,7 +84,8 @@ int64_t StorePosesSession(db::Database& database, const std::string& robot,
 std::vector<MeasuredPose> SessionPoses(db::Database& database, int64_t session_id) {
   if (!db::SessionExists(database, session_id)) {
     throw InputError({database.path(), 0, 0, ""},
-                     "no session " + std::to_string(session_id) + " (armsig sessions lists them)");
+                     fmt::format("no session {} ({} lists them)", session_id,
+                                 Hint(database.path(), {"sessions"})));
   }
   return db::LoadSessionPoses(database, session_id);
 }
@@ -106,8 +112,10 @@ std::vector<VersionInfo> Versions(db::Database& database, const std::string& rob
     const auto inputs = nlohmann::json::parse(c.inputs_json, nullptr, false);
     if (inputs.is_object()) {
       if (inputs.contains("sessions") && inputs["sessions"].is_array()) {
-        for (const auto& s : inputs["sessions"])
-          if (s.is_string()) v.sessions.push_back(s.get<std::string>());
+        for (const auto& s : inputs["sessions"]) {  // ids, stored as text by older versions
+          if (s.is_number_integer()) v.sessions.push_back(s.get<int64_t>());
+          if (s.is_string()) v.sessions.push_back(std::stoll(s.get<std::string>()));
+        }
       }
       if (inputs.contains("since") && inputs["since"].is_string()) v.since = inputs["since"];
     }
@@ -121,15 +129,68 @@ std::optional<int> Activate(db::Database& database, const std::string& robot, in
   db::WriteTransaction tx(database);
   const auto before = db::ActiveCalibration(database, robot_id);
   if (!db::SetActiveVersion(database, robot_id, version)) {
-    throw InputError({"--version", 0, 0, ""}, "robot " + robot + " has no parameter set version " +
-                                                  std::to_string(version) +
-                                                  " (armsig versions --robot " + robot + ")");
+    throw InputError({"--version", 0, 0, ""},
+                     fmt::format("robot {} has no parameter set version {} ({})", robot, version,
+                                 Hint(database.path(), {"versions", "--robot", robot})));
   }
   tx.commit();
   const std::optional<int> previous = before ? std::optional<int>(before->version) : std::nullopt;
   spdlog::info("activate: robot {}: version {} is now active (was {})", robot, version,
                previous ? "version " + std::to_string(*previous) : std::string("none"));
   return previous;
+}
+
+namespace {
+
+std::string JsonArray(const auto& items) {
+  nlohmann::json out = nlohmann::json::array();
+  for (const auto& item : items) out.push_back(ToJson(item));
+  return out.dump(2) + "\n";
+}
+
+}  // namespace
+
+std::string FormatRobots(const std::vector<db::RobotRow>& robots, bool json,
+                         const std::string& db_path) {
+  if (json) return JsonArray(robots);
+  if (robots.empty()) return "no robots in " + db_path + "\n";
+  std::string text;
+  for (const auto& r : robots) {
+    text +=
+        fmt::format("{:<20} model {:<12} {:>3} sessions  active version {}\n", r.name, r.model_name,
+                    r.sessions, r.active_version ? std::to_string(*r.active_version) : "none");
+  }
+  return text;
+}
+
+std::string FormatSessions(const std::vector<db::SessionSummary>& sessions, bool json) {
+  if (json) return JsonArray(sessions);
+  if (sessions.empty()) return "no sessions\n";
+  std::string text;
+  for (const auto& s : sessions) {
+    text += fmt::format(
+        "{:>4}  {:<16} {:<11} {}  {:>4} measured {:>3} skipped {:>4} usable ({} flagged)  {}\n",
+        s.id, s.robot, s.state, s.started_at.substr(0, 19), s.measured, s.skipped, s.usable,
+        s.flagged, s.note);
+  }
+  return text;
+}
+
+std::string FormatVersions(const std::vector<VersionInfo>& versions, bool json,
+                           const std::string& robot) {
+  if (json) return JsonArray(versions);
+  if (versions.empty()) return "robot " + robot + " has no parameter set yet\n";
+  std::string text;
+  for (const auto& v : versions) {
+    text += fmt::format(
+        "{} v{:<3} {}  params {:<9} rank {:>2}  fit {:>3} poses  validation mean {:.4f} max "
+        "{:.4f} mm on {}  sessions {}\n",
+        v.active ? "*" : " ", v.version, v.created_at.substr(0, 19), v.params_spec, v.rank,
+        v.poses_fit, v.validation_mean_mm, v.validation_max_mm, v.poses_validation,
+        v.sessions.empty() ? std::string("(not recorded)")
+                           : fmt::format("{}", fmt::join(v.sessions, ",")));
+  }
+  return text;
 }
 
 nlohmann::json ToJson(const db::RobotRow& r) {

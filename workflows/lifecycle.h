@@ -40,8 +40,8 @@ struct VersionInfo {
   std::string created_at, params_spec;
   int rank = 0, poses_fit = 0, poses_validation = 0;
   double fit_mean_mm = 0.0, validation_mean_mm = 0.0, validation_max_mm = 0.0;
-  std::vector<std::string> sessions;  // session ids the set was fitted from (when recorded)
-  std::string since;                  // the --since it was asked with ("" = all)
+  std::vector<int64_t> sessions;  // session ids the set was fitted from (when recorded)
+  std::string since;              // the --since it was asked with ("" = all)
 };
 // Every parameter set of a robot, oldest first. InputError for an unknown robot.
 std::vector<VersionInfo> Versions(db::Database& database, const std::string& robot);
@@ -49,6 +49,13 @@ std::vector<VersionInfo> Versions(db::Database& database, const std::string& rob
 // Makes `version` the robot's active set (one transaction) and logs it. Returns the
 // version that was active before. InputError for an unknown robot or version.
 std::optional<int> Activate(db::Database& database, const std::string& robot, int version);
+
+// What `robot list`, `sessions` and `versions` print: a table, or a JSON array.
+std::string FormatRobots(const std::vector<db::RobotRow>& robots, bool json,
+                         const std::string& db_path);
+std::string FormatSessions(const std::vector<db::SessionSummary>& sessions, bool json);
+std::string FormatVersions(const std::vector<VersionInfo>& versions, bool json,
+                           const std::string& robot);
 
 nlohmann::json ToJson(const db::RobotRow& robot);
 nlohmann::json ToJson(const db::SessionSummary& session);

@@ -1,11 +1,16 @@
 #include "workflows/network.h"
 
 #include <fmt/format.h>
+#include <spdlog/spdlog.h>
 
+#include <algorithm>
+#include <cmath>
 #include <set>
 #include <stdexcept>
 
 #include "core/error.h"
+#include "core/units.h"
+#include "io/atomic_file.h"
 #include "io/csv.h"
 #include "reduction/intersection.h"
 
@@ -61,7 +66,92 @@ OrientRun OrientFiles(const OrientFilesOptions& options) {
     throw std::runtime_error("orientation failed: " + run.result.status.message +
                              "; nothing was written");
   }
+  const auto& result = run.result;
+  if (!result.status.ok()) {
+    spdlog::error("orient: the adjustment did not converge ({}): nothing was written",
+                  result.status.message);
+    return run;
+  }
+  if (!options.out.empty()) {
+    const std::string header = fmt::format(
+        "armsig orient: {} stations from {}; datum: {}\nsigma0 {:.5f}, {} degrees of freedom",
+        result.stations.size(), options.observations, result.datum, result.sigma0, result.dof);
+    io::WriteFileAtomically(options.out, io::FormatStationsYaml(result.stations, header));
+  }
+  if (!options.points_out.empty())
+    io::WriteFileAtomically(options.points_out, FormatAdjustedPointsCsv(result.points));
   return run;
+}
+
+std::string FormatInstrumentErrors(
+    const std::map<std::string, reduction::InstrumentErrors>& errors) {
+  std::string text;
+  for (const auto& [station, e] : errors) {
+    text += fmt::format(
+        "station {}: {} two-face pairs: collimation {:.2f}\" ± {:.2f}, trunnion {}, vertical index "
+        "{:.2f}\" ± {:.2f} (applied to all its readings)\n",
+        station, e.pairs, e.collimation_rad / kRadPerArcsec,
+        e.sigma_collimation_rad / kRadPerArcsec,
+        e.trunnion_determined ? fmt::format("{:.2f}\" ± {:.2f}", e.trunnion_rad / kRadPerArcsec,
+                                            e.sigma_trunnion_rad / kRadPerArcsec)
+                              : std::string("not determinable (zenith angles too alike)"),
+        e.index_rad / kRadPerArcsec, e.sigma_index_rad / kRadPerArcsec);
+  }
+  return text;
+}
+
+namespace {
+
+std::string Describe(const reduction::ResidualReport& r) {
+  static const char* kKinds[] = {"Hz", "V", "distance", "scale bar", "control"};
+  const bool angle = r.kind == reduction::ResidualReport::Kind::kHz ||
+                     r.kind == reduction::ResidualReport::Kind::kV;
+  return fmt::format("{:<10} {:<16} v {:>9.3f}{}  w {:>6.2f}  r {:.2f}  MDB {:.3f}{}",
+                     kKinds[static_cast<int>(r.kind)], r.label, r.residual, angle ? "\"" : " mm",
+                     r.w, r.redundancy, r.mdb, angle ? "\"" : " mm");
+}
+
+}  // namespace
+
+std::string FormatOrientReport(const OrientRun& run) {
+  const reduction::OrientationResult& result = run.result;
+  std::string text = FormatInstrumentErrors(run.instrument_errors);
+  text += fmt::format("Orientation of {} stations, {} target points ({})\n", result.stations.size(),
+                      result.points.size(), result.datum);
+  text += fmt::format(
+      "sigma0 a posteriori {:.4f} (a priori 1), {} observations, {} unknowns, "
+      "{} degrees of freedom, {} iterations{}\n\n",
+      result.sigma0, result.observations, result.unknowns, result.dof, result.iterations,
+      result.status.ok() ? "" : " (NOT converged: " + result.status.message + ")");
+  text += fmt::format("{:<10}{:>14}{:>14}{:>14}{:>16}{:>10}{:>10}{:>10}{:>12}\n", "station", "x_mm",
+                      "y_mm", "z_mm", "azimuth_gon", "sx_mm", "sy_mm", "sz_mm", "s_az_\"");
+  for (const auto& s : result.stations) {
+    text += fmt::format(
+        "{:<10}{:>14.4f}{:>14.4f}{:>14.4f}{:>16}{:>10.4f}{:>10.4f}{:>10.4f}{:>12.3f}\n", s.pose.id,
+        s.pose.position_mm.x(), s.pose.position_mm.y(), s.pose.position_mm.z(),
+        s.pose.levelled ? fmt::format("{:.6f}", FromRad(s.pose.azimuth_rad, AngleUnit::kGon))
+                        : std::string("(rotation)"),
+        s.sigma_position_mm.x(), s.sigma_position_mm.y(), s.sigma_position_mm.z(),
+        s.sigma_azimuth_rad / kRadPerArcsec);
+  }
+  text += "\nvariance components (one step: sigma0 of each group = sqrt(sum v^2 / sum r))\n";
+  for (const auto& g : result.groups) {
+    text += fmt::format("  {:<18} {:>5} observations  redundancy {:>8.2f}  sigma0 {:.4f}\n",
+                        g.group, g.count, g.redundancy, g.sigma0);
+  }
+  std::vector<reduction::ResidualReport> worst = result.residuals;
+  std::sort(worst.begin(), worst.end(),
+            [](const auto& a, const auto& b) { return std::abs(a.w) > std::abs(b.w); });
+  const double critical = reduction::OrientationOptions{}.critical_w;
+  text += fmt::format("\nlargest standardised residuals (|w| > {} is a suspected blunder):\n",
+                      critical);
+  for (size_t k = 0; k < std::min<size_t>(8, worst.size()); ++k) {
+    text +=
+        "  " + Describe(worst[k]) + (std::abs(worst[k].w) > critical ? "  BLUNDER?" : "") + "\n";
+  }
+  for (const auto& [id, why] : result.excluded_points)
+    text += "point " + id + " not adjusted: " + why + "\n";
+  return text;
 }
 
 std::string FormatAdjustedPointsCsv(const std::vector<reduction::PointEstimate>& points) {
@@ -120,7 +210,36 @@ TriangulateRun TriangulateFiles(const TriangulateFilesOptions& options) {
       run.rejected_rays += run.points[p].result.rejected;
     }
   }
+  for (const auto& point : run.points) {
+    const auto& r = point.result;
+    if (!r.status.ok()) {
+      spdlog::warn("triangulate: point {} not intersected: {} ({})", point.id, r.status.message,
+                   reduction::ToString(r.flags));
+      continue;
+    }
+    for (size_t k = 0; k < r.rays.size(); ++k) {
+      if (!r.rays[k].rejected) continue;
+      const auto& o = run.observations[point.observations[k]];
+      spdlog::warn(
+          "triangulate: point {}: ray from station {} ({}:{}) is a blunder (w = {:.1f}), rejected",
+          point.id, o.station, options.observations, o.source_line,
+          std::max(std::abs(r.rays[k].w_hz), std::abs(r.rays[k].w_v)));
+    }
+    if (r.flags.Has(reduction::PointFlag::kBlunderSuspected)) {
+      spdlog::warn(
+          "triangulate: point {}: a ray fails the blunder test but too few rays remain to reject "
+          "it ({})",
+          point.id, reduction::ToString(reduction::PointFlag::kBlunderSuspected));
+    }
+  }
+  if (!options.out.empty()) io::WriteFileAtomically(options.out, io::FormatPointsCsv(run.points));
   return run;
+}
+
+std::string FormatTriangulateSummary(const TriangulateRun& run, const std::string& out) {
+  return FormatInstrumentErrors(run.instrument_errors) +
+         fmt::format("{} points intersected, {} not, {} rays rejected as blunders -> {}\n",
+                     run.intersected, run.points.size() - run.intersected, run.rejected_rays, out);
 }
 
 }  // namespace armsig::workflows

@@ -23,6 +23,8 @@ struct OrientFilesOptions {
   bool free_datum = false;
   std::vector<std::string> datum_points;  // free network over these only (implies free)
   bool instrument_errors = true;          // estimate and apply axis errors from two faces
+  std::string out;         // stations YAML written when set (only from a converged adjustment)
+  std::string points_out;  // the adjusted target points CSV, when set
 };
 
 struct OrientRun {
@@ -30,9 +32,13 @@ struct OrientRun {
   reduction::OrientationResult result;
 };
 
-// Reads the files and adjusts. A network that cannot be solved (result.refusals) is an
-// InputError naming the observations file and every reason; so are unknown stations.
+// Reads the files, adjusts and writes the outputs. A network that cannot be solved
+// (result.refusals) is an InputError naming the observations file and every reason; so
+// are unknown stations.
 OrientRun OrientFiles(const OrientFilesOptions& options);
+// What `orient` prints: axis errors, the stations with sigmas, variance components, the
+// largest standardised residuals (suspected blunders marked), points left out.
+std::string FormatOrientReport(const OrientRun& run);
 
 // The adjusted target points as CSV: coordinates, sigmas, 95 % ellipsoid semi-axes.
 std::string FormatAdjustedPointsCsv(const std::vector<reduction::PointEstimate>& points);
@@ -40,8 +46,9 @@ std::string FormatAdjustedPointsCsv(const std::vector<reduction::PointEstimate>&
 struct TriangulateFilesOptions {
   std::string stations, observations;
   bool reject_blunders = true;
-  double critical_w = 3.29;
+  double critical_w = reduction::IntersectionOptions{}.critical_w;
   bool instrument_errors = true;
+  std::string out;  // points CSV written when set
 };
 
 struct TriangulateRun {
@@ -52,8 +59,14 @@ struct TriangulateRun {
 };
 
 // Every target point intersected (mutual pointings at stations are skipped); no miss or
-// repeat tolerances. An observation from a station not in the stations file is an
-// InputError naming its line.
+// repeat tolerances; rejected rays and points not intersected are logged (warnings).
+// An observation from a station not in the stations file is an InputError naming its
+// line. Writes `out`.
 TriangulateRun TriangulateFiles(const TriangulateFilesOptions& options);
+// "N points intersected, M not, K rays rejected as blunders -> OUT" (and axis errors).
+std::string FormatTriangulateSummary(const TriangulateRun& run, const std::string& out);
+// Per station: two-face collimation, trunnion and index errors with their sigmas.
+std::string FormatInstrumentErrors(
+    const std::map<std::string, reduction::InstrumentErrors>& errors);
 
 }  // namespace armsig::workflows

@@ -52,7 +52,7 @@ struct ModelDrift {
   bool significant = false;         // p_value < 0.001
   double tolerance_mm = 0.0;        // drift needs max_mm above this too
   bool previous_covariance = true;  // false: the active set predates stored covariances
-  bool same_subset = true;  // false: chi2 on the shape changes both subsets can make
+  bool same_subset = true;          // false: chi2 on the shape changes both subsets can make
 };
 
 struct RecalibrationDecision {

@@ -1,6 +1,6 @@
 #include "workflows/reduce.h"
 
-#include <SQLiteCpp/Transaction.h>
+#include <fmt/format.h>
 #include <spdlog/spdlog.h>
 
 #include <limits>
@@ -14,6 +14,7 @@
 #include "db/store.h"
 #include "io/csv.h"
 #include "io/network_io.h"
+#include "workflows/hint.h"
 
 namespace armsig::workflows {
 
@@ -145,6 +146,44 @@ ImportObservationsResult ImportObservations(db::Database& database,
   result.stations = stations.size();
   result.poses = pose_ids.size();
   return result;
+}
+
+std::vector<ReduceSummary> ReduceSessions(db::Database& database, int64_t session,
+                                          bool reject_blunders) {
+  std::vector<int64_t> sessions;
+  if (session > 0) {
+    if (!db::SessionExists(database, session)) {
+      throw InputError({database.path(), 0, 0, ""},
+                       fmt::format("no session {} in the database ({} lists them)", session,
+                                   Hint(database.path(), {"sessions"})));
+    }
+    sessions.push_back(session);
+  } else {
+    sessions = db::SessionIds(database);
+  }
+  std::vector<ReduceSummary> out;
+  for (int64_t id : sessions) {
+    reduction::PointOptions options;
+    options.intersection.reject_blunders = reject_blunders;
+    options.checks = SessionChecks(database, id);
+    out.push_back(ReduceSession(database, id, options));
+    spdlog::debug("reduce: session {}: {} points reduced, {} not", id, out.back().reduced,
+                  out.back().failed);
+  }
+  return out;
+}
+
+std::string FormatReduceSummaries(const std::vector<ReduceSummary>& summaries,
+                                  const std::string& db_path) {
+  if (summaries.empty()) return "no sessions in " + db_path + "\n";
+  std::string text;
+  for (const auto& s : summaries) {
+    text += fmt::format(
+        "session {}: {} observations -> {} points reduced, {} not ({} rays rejected as "
+        "blunders)\n",
+        s.session, s.observations, s.reduced, s.failed, s.rejected_rays);
+  }
+  return text;
 }
 
 }  // namespace armsig::workflows

@@ -3,6 +3,7 @@
 
 #include <cstdint>
 #include <string>
+#include <vector>
 
 #include "db/database.h"
 #include "reduction/intersection.h"
@@ -28,6 +29,14 @@ reduction::PointChecks SessionChecks(db::Database& database, int64_t session_id)
 // (reduction::CarriedOverFlags). Mutual pointings at stations are not targets.
 ReduceSummary ReduceSession(db::Database& database, int64_t session_id,
                             const reduction::PointOptions& options);
+
+// `armsig reduce`: one session (`session` > 0; an InputError when it does not exist) or
+// every session, each with its own stored checks.
+std::vector<ReduceSummary> ReduceSessions(db::Database& database, int64_t session,
+                                          bool reject_blunders);
+// "session N: … observations -> … points reduced, … not (… rays rejected as blunders)".
+std::string FormatReduceSummaries(const std::vector<ReduceSummary>& summaries,
+                                  const std::string& db_path);
 
 struct ImportObservationsOptions {
   std::string file;      // observations CSV (SPEC), optional `pose` column

@@ -692,12 +692,11 @@ std::string WriteReport(const std::string& dir, const ReportInput& in) {
         instruments.empty() ? Html("none recorded with these sessions") : instruments);
     Html sigma0;
     for (const auto& s : in.sources.setups) {
-      sigma0 +=
-          HtmlFormat("<div>session {}, station {}: {}</div>", s.session_id, s.station,
-                     std::isfinite(s.sigma0)
-                         ? HtmlFormat("&sigma;<sub>0</sub> = {:.3f} ({} dof{})", s.sigma0, s.dof,
-                                      s.method.empty() ? std::string() : ", " + s.method)
-                         : Html("&sigma;<sub>0</sub> not stored"));
+      sigma0 += HtmlFormat(
+          "<div>session {}, station {}: {}</div>", s.session_id, s.station,
+          s.sigma0 ? HtmlFormat("&sigma;<sub>0</sub> = {:.3f} ({} dof{})", *s.sigma0, s.dof,
+                                s.method.empty() ? std::string() : ", " + s.method)
+                   : Html("&sigma;<sub>0</sub> not stored"));
     }
     row("Orientation &sigma;<sub>0</sub>", "sigma0",
         sigma0.empty() ? Html("not stored (no station set-ups with these sessions)") : sigma0);
@@ -947,10 +946,9 @@ ReportSources LoadReportSources(db::Database& db, const CalibrationRun& run) {
       std::string d = i.kind + ", " + i.protocol;
       if (!i.serial_number.empty()) d += ", serial " + i.serial_number;
       if (!i.firmware.empty()) d += ", firmware " + i.firmware;
-      if (std::isfinite(i.sigma_hz_arcsec))
-        d += fmt::format(", sigma hz {:g}\" v {:g}\"", i.sigma_hz_arcsec, i.sigma_v_arcsec);
-      if (std::isfinite(i.sigma_distance_mm))
-        d += fmt::format(", sigma distance {:g} mm", i.sigma_distance_mm);
+      if (i.sigma_hz_arcsec && i.sigma_v_arcsec)
+        d += fmt::format(", sigma hz {:g}\" v {:g}\"", *i.sigma_hz_arcsec, *i.sigma_v_arcsec);
+      if (i.sigma_distance_mm) d += fmt::format(", sigma distance {:g} mm", *i.sigma_distance_mm);
       instruments[{i.name, d}].push_back(s.id);
     }
     for (const auto& [station, setup] : db::LatestStationSetups(db, s.id)) {

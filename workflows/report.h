@@ -38,7 +38,7 @@ struct ReportInstrument {
 struct ReportStationSetup {
   int64_t session_id = 0;
   std::string station;
-  double sigma0 = NAN;  // a-posteriori σ0 of the orientation; NaN when not stored
+  std::optional<double> sigma0;  // a-posteriori σ0 of the orientation, when stored
   int dof = 0;
   std::string method;
 };

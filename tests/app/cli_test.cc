@@ -206,8 +206,8 @@ TEST(Cli, OutputPathsAreCheckedBeforeAnyWork) {
     EXPECT_NE(r.err.find(missing), std::string::npos) << command << ": " << r.err;
     EXPECT_FALSE(std::filesystem::exists(db)) << command;
   }
-  const auto folder = RunArmsig("--db '" + db + "' demo --json '" + dir.path().string() + "'",
-                                dir.path().string());
+  const auto folder =
+      RunArmsig("--db '" + db + "' demo --json '" + dir.path().string() + "'", dir.path().string());
   EXPECT_EQ(folder.exit_code, 2) << folder.err;
   EXPECT_NE(folder.err.find("is a folder; expected a file name"), std::string::npos) << folder.err;
   EXPECT_FALSE(std::filesystem::exists(db));

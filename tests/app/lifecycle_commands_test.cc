@@ -85,7 +85,7 @@ TEST(LifecycleCommands, RealUr10FromRegistrationToCompensationAndRollback) {
   ASSERT_EQ(versions.size(), 2u);
   EXPECT_FALSE(versions[0]["active"].get<bool>());
   EXPECT_TRUE(versions[1]["active"].get<bool>());
-  EXPECT_EQ(versions[1]["sessions"], nlohmann::json::array({"1"}));
+  EXPECT_EQ(versions[1]["sessions"], nlohmann::json::array({1}));
   EXPECT_EQ(versions[1]["poses_fit"], 120);
   const auto rollback = RunArmsig(db + "activate --robot ur10 --version 1");
   ASSERT_EQ(rollback.exit_code, 0) << rollback.err;

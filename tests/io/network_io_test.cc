@@ -37,7 +37,7 @@ TEST(StationsYaml, EveryStationsFileInTestDataLoads) {
   EXPECT_EQ(k06[1].pose.id, "2");
   EXPECT_EQ(k06[1].pose.position_mm, Eigen::Vector3d(1727.52902, 2195.82746, 47.17223));
   EXPECT_NEAR(k06[1].pose.azimuth_rad, 289.7748467 * kPi / 200.0, 1e-15);
-  EXPECT_NEAR(k06[1].sigma_hz_rad, 2.5920 * kRadPerArcsec, 1e-18);
+  EXPECT_NEAR(k06[1].sigma_hz_rad.value(), 2.5920 * kRadPerArcsec, 1e-18);
   EXPECT_TRUE(k06[1].pose.levelled);
 }
 
@@ -68,8 +68,8 @@ TEST(StationsYaml, FormattedStationsReadBackToTheSameNumbers) {
   EXPECT_EQ(back[0].pose.position_mm, levelled.pose.position_mm);
   EXPECT_TRUE(back[0].pose.levelled);
   EXPECT_NEAR(back[0].pose.azimuth_rad, levelled.pose.azimuth_rad, 1e-15);  // via gon
-  EXPECT_NEAR(back[0].sigma_hz_rad, levelled.sigma_hz_rad, 1e-20);
-  EXPECT_TRUE(std::isnan(back[0].sigma_v_rad));  // not given, not invented
+  EXPECT_NEAR(back[0].sigma_hz_rad.value(), *levelled.sigma_hz_rad, 1e-20);
+  EXPECT_FALSE(back[0].sigma_v_rad);  // not given, not invented
   EXPECT_EQ(back[0].sigma_position_mm, levelled.sigma_position_mm);
   EXPECT_NEAR(back[0].sigma_azimuth_rad, levelled.sigma_azimuth_rad, 1e-20);
 
@@ -77,8 +77,8 @@ TEST(StationsYaml, FormattedStationsReadBackToTheSameNumbers) {
   EXPECT_FALSE(back[1].pose.levelled);
   EXPECT_EQ(back[1].pose.position_mm, tilted.pose.position_mm);
   EXPECT_EQ(back[1].pose.world_from_station, tilted.pose.world_from_station);  // exactly
-  EXPECT_TRUE(std::isnan(back[1].sigma_hz_rad));
-  EXPECT_NEAR(back[1].sigma_v_rad, tilted.sigma_v_rad, 1e-20);
+  EXPECT_FALSE(back[1].sigma_hz_rad);
+  EXPECT_NEAR(back[1].sigma_v_rad.value(), *tilted.sigma_v_rad, 1e-20);
   EXPECT_LT((back[1].sigma_rotation_rad - tilted.sigma_rotation_rad).norm(), 1e-20);
 }
 

@@ -81,7 +81,8 @@ struct Fixture {
     input.sources.sessions = {{4, "2026-11-20T01:00:00.000Z", "2026-11-20T01:40:00.000Z",
                                "completed", "night shift", 60, 60}};
     input.sources.instruments = {{"station T1", "geocom on /dev/ttyUSB0", {4}}};
-    input.sources.setups = {{4, "T1", 1.234, 9, "mutual+scale_bar"}, {4, "T2", NAN, 0, ""}};
+    input.sources.setups = {{4, "T1", 1.234, 9, "mutual+scale_bar"},
+                            {4, "T2", std::nullopt, 0, ""}};
   }
 };
 
@@ -440,7 +441,7 @@ TEST(Report, SourcesAreReadFromTheSessionsBehindThePoses) {
   EXPECT_EQ(sources.instruments[0].sessions, (std::vector<int64_t>{1}));
   ASSERT_EQ(sources.setups.size(), 1u);  // only session 1 has a set-up
   EXPECT_EQ(sources.setups[0].session_id, 1);
-  EXPECT_DOUBLE_EQ(sources.setups[0].sigma0, 0.875);
+  EXPECT_DOUBLE_EQ(sources.setups[0].sigma0.value(), 0.875);
   EXPECT_EQ(sources.setups[0].dof, 11);
 }
 

@@ -1,0 +1,162 @@
+#include "workflows/capture.h"
+
+#include <fmt/format.h>
+#include <spdlog/spdlog.h>
+
+#include <cmath>
+#include <optional>
+
+#include "acquisition/lab.h"
+#include "acquisition/plan.h"
+#include "core/error.h"
+#include "db/database.h"
+#include "db/store.h"
+#include "workflows/hint.h"
+
+namespace armsig::workflows {
+
+namespace {
+
+std::string Duration(double seconds) {
+  const int s = static_cast<int>(seconds + 0.5);
+  return s >= 60 ? fmt::format("{}m{:02d}s", s / 60, s % 60) : fmt::format("{}s", s);
+}
+
+// A length for the progress line: "-" when there is none.
+std::string Mm(std::optional<double> mm) { return mm ? fmt::format("{:.3f}", *mm) : "-"; }
+
+// "C3 (parallel_rays: …), C7 (…)"
+std::string Named(const std::vector<acquisition::ConfigurationVerdict>& list) {
+  std::string out;
+  for (const auto& v : list) out += (out.empty() ? "" : ", ") + v.label + " (" + v.why + ")";
+  return out;
+}
+
+}  // namespace
+
+acquisition::CaptureSummary CaptureInto(db::Database& db, const acquisition::LabConfig& lab,
+                                        int64_t session,
+                                        const acquisition::CaptureOptions& options) {
+  try {
+    auto devices = acquisition::OpenInstruments(lab);
+    auto controller = acquisition::OpenController(lab);
+    return acquisition::RunCapture(db, lab, session, devices, *controller, options);
+  } catch (...) {
+    db::SetSessionState(db, session, "paused");  // resumable, never left running
+    throw;
+  }
+}
+
+CaptureOutcome RunCaptureSession(const CaptureRequest& request) {
+  CaptureOutcome out;
+  // Resuming only continues what is there: a mistyped --db must not become a new file.
+  std::optional<db::Database> opened;
+  if (request.resume > 0) opened.emplace(request.db_path, db::OpenMode::kMustExist);
+  const acquisition::LabConfig lab = acquisition::LoadLab(request.lab);
+  if (lab.stations.empty()) {
+    throw InputError({request.lab, 0, 0, "stations"},
+                     "no oriented stations (give 'stations:' a file from armsig orient)");
+  }
+  int64_t session = request.resume;
+  if (session == 0 && (request.plan.empty() || request.robot.empty())) {
+    throw InputError({"capture", 0, 0, ""},
+                     "a new session needs --plan and --robot (or --resume SESSION)");
+  }
+  // The plan is made before the database is touched: a bad plan stores nothing.
+  std::optional<acquisition::Plan> plan;
+  if (session == 0) plan = acquisition::MakePlan(request.plan, lab.model);
+  if (!opened) opened.emplace(request.db_path);  // a new session: after the inputs are read
+  db::Database& database = *opened;
+  if (session > 0) {
+    const auto row = db::LoadSession(database, session);
+    if (!row) {
+      throw InputError({database.path(), 0, 0, ""},
+                       fmt::format("no session {} to resume ({} lists them)", session,
+                                   Hint(database.path(), {"sessions"})));
+    }
+    if (row->state == "completed") {
+      out.already_complete = out.ok = true;
+      out.summary.session = session;
+      return out;
+    }
+  } else {
+    session = acquisition::CreateSession(database, lab, request.robot, *plan);
+    spdlog::info("capture: session {}, {} configurations", session, plan->size());
+  }
+  out.summary.session = session;
+  out.resume_hint = Hint(database.path(), {"capture", "--lab", AbsolutePath(request.lab),
+                                           "--resume", std::to_string(session)});
+  if (request.stop != nullptr && *request.stop) {  // before any device was opened
+    db::SetSessionState(database, session, "paused");
+    out.stopped_before_start = true;
+    spdlog::warn("capture: stopped before the first configuration; resume with: {}",
+                 out.resume_hint);
+    return out;
+  }
+  acquisition::CaptureOptions options;
+  options.skip_on_fault = request.skip_on_fault;
+  options.stop = request.stop;
+  options.progress = request.progress;
+  options.prompt_move = request.prompt_move;
+  try {
+    out.summary = CaptureInto(database, lab, session, options);
+  } catch (...) {
+    spdlog::info("capture: session {} paused; resume with: {}", session, out.resume_hint);
+    throw;
+  }
+  const auto& s = out.summary;
+  if (s.paused) {
+    spdlog::error("capture: session {} paused: {}", s.session, s.pause_reason);
+    spdlog::info("fix it, then resume with: {}", out.resume_hint);
+  } else if (s.stopped) {
+    spdlog::warn("capture: stopped; resume with: {}", out.resume_hint);
+  } else if (s.already + s.usable == 0) {
+    spdlog::error("capture: session {} has no usable configuration", s.session);
+  } else if (s.failed + s.flagged + s.skipped > 0 && !request.skip_on_fault) {
+    spdlog::error(
+        "capture: session {}: {} failed and {} flagged configurations (named above); "
+        "--skip-on-fault accepts such a session",
+        s.session, s.failed, s.flagged);
+  } else {
+    out.ok = true;
+  }
+  return out;
+}
+
+std::string FormatCaptureSummary(const acquisition::CaptureSummary& s) {
+  std::string text = fmt::format(
+      "session {}: {} of {} configurations stored ({} now, {} before): {} usable, {} flagged, {} "
+      "failed, {} skipped; {} re-measured\n",
+      s.session, s.already + s.measured + s.skipped, s.total, s.measured + s.skipped, s.already,
+      s.usable, s.flagged, s.failed, s.skipped, s.remeasured);
+  if (s.mean_miss_mm) {
+    text += fmt::format("  miss distance of the usable points: mean {:.4f} mm, max {:.4f} mm\n",
+                        *s.mean_miss_mm, *s.max_miss_mm);
+  } else if (s.measured > 0) {
+    text += "  no usable point in this run: no miss distance to report\n";
+  }
+  if (!s.failed_configurations.empty())
+    text += "  failed (no point): " + Named(s.failed_configurations) + "\n";
+  if (!s.flagged_configurations.empty())
+    text += "  flagged (beyond tolerances): " + Named(s.flagged_configurations) + "\n";
+  if (!s.skipped_configurations.empty())
+    text += "  skipped (instrument fault): " + Named(s.skipped_configurations) + "\n";
+  if (s.measured + s.skipped > 0) {
+    text += fmt::format("  {:.1f} s, {:.1f} ms per configuration ({:.2f} ms software)\n", s.seconds,
+                        s.mean_cycle_ms, s.mean_overhead_ms);
+  }
+  return text;
+}
+
+std::string FormatCaptureProgress(const acquisition::Progress& p) {
+  const int width = 30;
+  const int filled = p.total ? width * p.done / p.total : width;
+  return fmt::format(
+      "[{}{}] {}/{} {:<10} miss {} mm (mean {}, max {}) remeasured {} flagged {} failed {} "
+      "skipped {} ETA {}",
+      std::string(filled, '#'), std::string(width - filled, ' '), p.done, p.total, p.label,
+      Mm(p.last_miss_mm), Mm(p.mean_miss_mm), Mm(p.max_miss_mm), p.remeasured, p.flagged, p.failed,
+      p.skipped, Duration(p.eta_s));
+}
+
+}  // namespace armsig::workflows

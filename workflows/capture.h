@@ -1,0 +1,50 @@
+// The capture command's job: open (or resume) a session from a lab file, open the lab's
+// devices, run the session, and say what happened. A session is never left `running`:
+// whatever stops it (Ctrl-C, a device that cannot be opened, a failure mid-way) leaves
+// it `paused`, resumable by the printed command.
+#pragma once
+
+#include <atomic>
+#include <functional>
+#include <string>
+
+#include "acquisition/session.h"
+
+namespace armsig::workflows {
+
+struct CaptureRequest {
+  std::string db_path, lab, plan, robot;
+  int64_t resume = 0;  // > 0: continue this session
+  bool skip_on_fault = false;
+  const std::atomic<bool>* stop = nullptr;  // Ctrl-C
+  std::function<void(const acquisition::Progress&)> progress;
+  std::function<void(const acquisition::PlannedConfiguration&)> prompt_move;
+};
+
+struct CaptureOutcome {
+  acquisition::CaptureSummary summary;
+  bool already_complete = false;  // --resume of a completed session: nothing to do
+  bool stopped_before_start = false;
+  std::string resume_hint;  // the command that continues this session, as printed
+  // Success as the exit code tells it: a complete session whose configurations are all
+  // usable, or whose failed/flagged/skipped ones --skip-on-fault accepts.
+  bool ok = false;
+};
+
+// Opens the lab's devices and runs `session` in `db`; whatever escapes (a device that
+// cannot be opened, a failure mid-way) leaves the session paused before it is rethrown.
+acquisition::CaptureSummary CaptureInto(db::Database& db, const acquisition::LabConfig& lab,
+                                        int64_t session,
+                                        const acquisition::CaptureOptions& options);
+
+// Runs the session; throws InputError for a bad lab file, plan or --resume id (nothing
+// stored then), and rethrows device failures after pausing the session.
+CaptureOutcome RunCaptureSession(const CaptureRequest& request);
+
+// The end-of-run summary: usable, flagged, failed and skipped configurations, each one
+// that is not usable named with its reason.
+std::string FormatCaptureSummary(const acquisition::CaptureSummary& s);
+// The one-line live progress (for a terminal).
+std::string FormatCaptureProgress(const acquisition::Progress& p);
+
+}  // namespace armsig::workflows

@@ -1,0 +1,30 @@
+#include "workflows/hint.h"
+
+#include <filesystem>
+
+namespace armsig::workflows {
+
+std::string AbsolutePath(const std::string& path) {
+  std::error_code ec;
+  const auto absolute = std::filesystem::absolute(path, ec);
+  return ec ? path : absolute.lexically_normal().string();
+}
+
+std::string ShellWord(const std::string& word) {
+  if (!word.empty() &&
+      word.find_first_not_of("abcdefghijklmnopqrstuvwxyzABCDEFGHIJKLMNOPQRSTUVWXYZ0123456789"
+                             "_-./:=@%+,") == std::string::npos) {
+    return word;
+  }
+  std::string out = "'";
+  for (char c : word) out += c == '\'' ? std::string("'\\''") : std::string(1, c);
+  return out + "'";
+}
+
+std::string Hint(const std::string& db_path, std::initializer_list<std::string> words) {
+  std::string out = "armsig --db " + ShellWord(AbsolutePath(db_path));
+  for (const auto& w : words) out += " " + ShellWord(w);
+  return out;
+}
+
+}  // namespace armsig::workflows

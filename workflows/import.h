@@ -1,0 +1,33 @@
+// `armsig import`: foreign files into armsig's formats or into the database.
+#pragma once
+
+#include <cstdint>
+#include <string>
+
+namespace armsig::workflows {
+
+// `import poses`: a pose table with named columns (a preset, or columns named on the
+// command line) converted to the SPEC poses CSV (`out`) and/or stored as a new session of
+// a registered robot (`robot`, in the database at `db_path`, which must exist).
+struct ImportPosesRequest {
+  std::string file, out, robot, db_path;
+  std::string preset;                      // "ur-ipa" or empty
+  std::string joint_columns, xyz_columns;  // comma-separated column names
+  std::string id_column, delimiter;        // delimiter: one character or "tab"
+  std::string joint_unit = "rad";          // deg | gon | rad
+  bool decimal_comma = false;
+  double length_scale = 1.0;  // factor to mm
+};
+struct ImportPosesResult {
+  size_t poses = 0;
+  int64_t session = 0;  // 0 when not stored
+  std::string db_path;  // where it was stored
+};
+// Reads and checks the whole file before storing or writing anything.
+ImportPosesResult ImportPosesFile(const ImportPosesRequest& request);
+
+// `import gsi`: a Leica GSI-8/16 file to the observations CSV; returns a one-line summary.
+std::string ImportGsiFile(const std::string& file, const std::string& station,
+                          const std::string& out);
+
+}  // namespace armsig::workflows
