@@ -9,6 +9,8 @@
 #include <functional>
 #include <string>
 
+#include "db/database.h"
+
 namespace armsig::app {
 
 // kStopped: a Ctrl-C (or SIGTERM, SIGHUP) stopped the work, left resumable (128 + SIGINT).
@@ -52,6 +54,11 @@ CLI::Option* OutputDirectory(CLI::Option* option);
 // likewise beyond 1000 bytes (core/plausibility.h).
 CLI::Option* NameOption(CLI::Option* option);
 CLI::Option* NoteOption(CLI::Option* option);
+
+// Sets `sub`'s job to `job(database)` on the existing database --db names (a command that
+// only reads, or adds to what is there: a missing file is refused, never created).
+void OnExistingDatabase(CLI::App* sub, const GlobalOptions& global, Runner& run,
+                        std::function<int(db::Database&)> job);
 
 // "armsig 0.1.0 (git 1a2b3c4d5e6f, database schema v3)".
 std::string VersionText();

@@ -2,53 +2,48 @@
 #include <iostream>
 
 #include "app/command.h"
-#include "db/database.h"
 #include "io/atomic_file.h"
 
 namespace armsig::app {
 
-struct DbOptions {
-  std::string action;
-  std::string table;
-  bool csv = true;
-  std::string out;
-};
-
-// `db info` creates a missing file: it is how a new lab database is made (and shows it).
-int RunDbInfo(const GlobalOptions& global) {
-  db::Database database(global.DbPath());
-  std::cout << "database      " << database.path() << "\n"
-            << "schema        v" << database.SchemaVersion() << "\n";
-  for (const auto& count : database.RowCounts()) {
-    std::cout << "  " << count.table << std::string(24 - count.table.size(), ' ') << count.rows
-              << "\n";
-  }
-  return kOk;
-}
-
-int RunDbExport(const DbOptions& options, const GlobalOptions& global) {
-  db::Database database(global.DbPath(), db::OpenMode::kMustExist);
-  const std::string csv = database.ExportCsv(options.table);
-  if (options.out.empty()) {
-    std::cout << csv;
-  } else {
-    io::WriteFileAtomically(options.out, csv);
-  }
-  return kOk;
-}
-
 void SetupDbCommand(CLI::App& parent, const GlobalOptions& global, Runner& run) {
   auto* db = parent.add_subcommand("db", "Inspect or export the database");
   db->require_subcommand(1);
-  auto options = std::make_shared<DbOptions>();
+  // `init` makes a new, empty lab database (or says the file already is one); `info` and
+  // `export` only read: a missing file is refused, never created.
+  auto* init = db->add_subcommand("init", "Create an empty lab database (schema of this armsig)");
+  init->callback([&run, &global] {
+    run = [&global] {
+      db::Database database(global.DbPath());
+      std::cout << database.path()
+                << (database.created() ? ": new armsig database, schema v"
+                                       : ": already an armsig database, schema v")
+                << database.SchemaVersion() << "\n";
+      return kOk;
+    };
+  });
   auto* info = db->add_subcommand("info", "Schema version and row counts of every table");
-  info->callback([&run, &global] { run = [&global] { return RunDbInfo(global); }; });
-  auto* exp = db->add_subcommand("export", "Export one table");
-  exp->add_option("table", options->table, "Table name")->required();
-  exp->add_flag("--csv", options->csv, "CSV output (the default and only format)");
-  OutputFile(exp->add_option("--out", options->out, "Write to this file instead of stdout"));
-  exp->callback([&run, &global, options] {
-    run = [&global, options] { return RunDbExport(*options, global); };
+  OnExistingDatabase(info, global, run, [](db::Database& database) {
+    std::cout << "database      " << database.path() << "\n"
+              << "schema        v" << database.SchemaVersion() << "\n";
+    for (const auto& count : database.RowCounts()) {
+      std::cout << "  " << count.table << std::string(24 - count.table.size(), ' ') << count.rows
+                << "\n";
+    }
+    return kOk;
+  });
+  auto table = std::make_shared<std::string>(), out = std::make_shared<std::string>();
+  auto* exp = db->add_subcommand("export", "Export one table as CSV");
+  exp->add_option("table", *table, "Table name")->required();
+  exp->add_flag("--csv")->description("CSV output (the default and only format)");
+  OutputFile(exp->add_option("--out", *out, "Write to this file instead of stdout"));
+  OnExistingDatabase(exp, global, run, [table, out](db::Database& database) {
+    const std::string csv = database.ExportCsv(*table);
+    if (out->empty())
+      std::cout << csv;
+    else
+      io::WriteFileAtomically(*out, csv);
+    return kOk;
   });
 }
 

@@ -1,16 +1,42 @@
 // armsig import poses FILE (--preset ur-ipa | --joints … --xyz …) [--out POSES.csv] [--robot NAME]
 // armsig import gsi FILE --station ID --out OBS.csv
-// armsig import observations OBS.csv --stations STATIONS.yaml (app/reduce_command.cc)
+// armsig import observations OBS.csv --stations STATIONS.yaml: a file into a new session
 #include <fmt/format.h>
 #include <spdlog/spdlog.h>
 
 #include <iostream>
 
 #include "app/command.h"
-#include "app/reduce_command.h"
 #include "workflows/import.h"
+#include "workflows/reduce.h"
 
 namespace armsig::app {
+
+namespace {
+
+void SetupImportObservations(CLI::App& import, const GlobalOptions& global, Runner& run) {
+  auto o = std::make_shared<workflows::ImportObservationsOptions>();
+  auto* sub = import.add_subcommand(
+      "observations",
+      "Angle observations CSV (optional 'pose' column) into a new session, with "
+      "the stations' set-ups");
+  sub->add_option("file", o->file, "Observations CSV")->required();
+  sub->add_option("--stations", o->stations, "Stations YAML")->required();
+  NameOption(sub->add_option("--robot", o->robot, "Robot name"))->capture_default_str();
+  NoteOption(sub->add_option("--note", o->note, "Session note"));
+  sub->callback([&run, &global, o] {
+    run = [&global, o] {
+      db::Database database(global.DbPath());
+      const auto r = workflows::ImportObservations(database, *o);
+      std::cout << fmt::format(
+          "session {}: {} observations, {} stations, {} poses imported into {}\n", r.session,
+          r.observations, r.stations, r.poses, database.path());
+      return kOk;
+    };
+  });
+}
+
+}  // namespace
 
 void SetupImportCommand(CLI::App& parent, const GlobalOptions& global, Runner& run) {
   auto* sub = parent.add_subcommand("import", "Import foreign files into armsig formats");

@@ -21,18 +21,6 @@ struct LifecycleOptions {
   bool json = false;
 };
 
-// A subcommand whose job needs only its options and an existing database.
-void OnExisting(CLI::App* sub, const GlobalOptions& global, Runner& run,
-                std::shared_ptr<LifecycleOptions> o,
-                std::function<int(const LifecycleOptions&, db::Database&)> job) {
-  sub->callback([&run, &global, o, job] {
-    run = [&global, o, job] {
-      db::Database database(global.DbPath(), db::OpenMode::kMustExist);
-      return job(*o, database);
-    };
-  });
-}
-
 }  // namespace
 
 void SetupLifecycleCommands(CLI::App& parent, const GlobalOptions& global, Runner& run) {
@@ -57,8 +45,8 @@ void SetupLifecycleCommands(CLI::App& parent, const GlobalOptions& global, Runne
   auto o = std::make_shared<LifecycleOptions>();
   auto* list = robot->add_subcommand("list", "List the registered robots");
   list->add_flag("--json", o->json, "Machine-readable output");
-  OnExisting(list, global, run, o, [](const LifecycleOptions& o, db::Database& database) {
-    std::cout << workflows::FormatRobots(db::ListRobots(database), o.json, database.path());
+  OnExistingDatabase(list, global, run, [o = o](db::Database& database) {
+    std::cout << workflows::FormatRobots(db::ListRobots(database), o->json, database.path());
     return kOk;
   });
 
@@ -66,8 +54,8 @@ void SetupLifecycleCommands(CLI::App& parent, const GlobalOptions& global, Runne
   auto* sessions = parent.add_subcommand("sessions", "List the measurement sessions");
   NameOption(sessions->add_option("--robot", o->robot, "Only this robot's"));
   sessions->add_flag("--json", o->json, "Machine-readable output");
-  OnExisting(sessions, global, run, o, [](const LifecycleOptions& o, db::Database& database) {
-    std::cout << workflows::FormatSessions(workflows::Sessions(database, o.robot), o.json);
+  OnExistingDatabase(sessions, global, run, [o = o](db::Database& database) {
+    std::cout << workflows::FormatSessions(workflows::Sessions(database, o->robot), o->json);
     return kOk;
   });
 
@@ -77,10 +65,10 @@ void SetupLifecycleCommands(CLI::App& parent, const GlobalOptions& global, Runne
   auto* exp = session->add_subcommand("export", "A session's measured poses as a poses CSV");
   exp->add_option("id", o->session, "Session id")->required();
   OutputFile(exp->add_option("--poses", o->poses, "Poses CSV to write"))->required();
-  OnExisting(exp, global, run, o, [](const LifecycleOptions& o, db::Database& database) {
-    const auto poses = workflows::SessionPoses(database, o.session);
-    io::WriteFileAtomically(o.poses, io::FormatPosesCsv(poses));
-    std::cout << fmt::format("session {}: {} poses -> {}\n", o.session, poses.size(), o.poses);
+  OnExistingDatabase(exp, global, run, [o = o](db::Database& database) {
+    const auto poses = workflows::SessionPoses(database, o->session);
+    io::WriteFileAtomically(o->poses, io::FormatPosesCsv(poses));
+    std::cout << fmt::format("session {}: {} poses -> {}\n", o->session, poses.size(), o->poses);
     return kOk;
   });
 
@@ -88,8 +76,9 @@ void SetupLifecycleCommands(CLI::App& parent, const GlobalOptions& global, Runne
   auto* versions = parent.add_subcommand("versions", "A robot's parameter sets (* = active)");
   NameOption(versions->add_option("--robot", o->robot, "Robot name"))->required();
   versions->add_flag("--json", o->json, "Machine-readable output");
-  OnExisting(versions, global, run, o, [](const LifecycleOptions& o, db::Database& database) {
-    std::cout << workflows::FormatVersions(workflows::Versions(database, o.robot), o.json, o.robot);
+  OnExistingDatabase(versions, global, run, [o = o](db::Database& database) {
+    std::cout << workflows::FormatVersions(workflows::Versions(database, o->robot), o->json,
+                                           o->robot);
     return kOk;
   });
 
@@ -98,9 +87,9 @@ void SetupLifecycleCommands(CLI::App& parent, const GlobalOptions& global, Runne
       parent.add_subcommand("activate", "Make a parameter set active (roll back or forward)");
   NameOption(activate->add_option("--robot", o->robot, "Robot name"))->required();
   activate->add_option("--version", o->version, "Version to activate")->required();
-  OnExisting(activate, global, run, o, [](const LifecycleOptions& o, db::Database& database) {
-    const auto previous = workflows::Activate(database, o.robot, o.version);
-    std::cout << fmt::format("robot {}: version {} active (was {})\n", o.robot, o.version,
+  OnExistingDatabase(activate, global, run, [o = o](db::Database& database) {
+    const auto previous = workflows::Activate(database, o->robot, o->version);
+    std::cout << fmt::format("robot {}: version {} active (was {})\n", o->robot, o->version,
                              previous ? "version " + std::to_string(*previous) : "none");
     return kOk;
   });

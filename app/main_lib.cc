@@ -93,6 +93,16 @@ CLI::Option* NoteOption(CLI::Option* option) {
 }
 CLI::Option* OutputDirectory(CLI::Option* option) { return CheckedOutput(option, true); }
 
+void OnExistingDatabase(CLI::App* sub, const GlobalOptions& global, Runner& run,
+                        std::function<int(db::Database&)> job) {
+  sub->callback([&run, &global, job] {
+    run = [&global, job] {
+      db::Database database(global.DbPath(), db::OpenMode::kMustExist);
+      return job(database);
+    };
+  });
+}
+
 std::string VersionText() {
   return fmt::format("armsig {} (git {}, database schema v{})", ARMSIG_VERSION, ARMSIG_GIT_COMMIT,
                      db::LatestSchemaVersion());

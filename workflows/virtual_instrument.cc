@@ -1,10 +1,16 @@
 #include "workflows/virtual_instrument.h"
 
+#include <chrono>
+#include <filesystem>
+#include <optional>
+#include <thread>
+
 #include "calibration/simulation.h"
 #include "core/error.h"
 #include "core/units.h"
 #include "io/model_yaml.h"
 #include "reduction/observation.h"
+#include "simulation/fault_matrix.h"
 #include "workflows/builtin_models.h"
 
 namespace armsig::workflows {
@@ -13,6 +19,19 @@ VirtualInstrument StartVirtualInstrument(const std::string& protocol, const std:
   if (protocol != "geocom" && protocol != "gsi" && protocol != "val" && protocol != "as") {
     throw InputError({"--protocol", 0, 0, ""},
                      "unknown protocol '" + protocol + "' (expected geocom, gsi, val or as)");
+  }
+  std::error_code ec;
+  const auto status = std::filesystem::symlink_status(link, ec);
+  if (std::filesystem::exists(status)) {
+    const bool pty_link =
+        std::filesystem::is_symlink(status) &&
+        std::filesystem::read_symlink(link, ec).string().rfind("/dev/pts/", 0) == 0;
+    if (!pty_link) {
+      throw InputError({"--link", 0, 0, ""},
+                       link +
+                           " exists and is not a link to a pseudo-terminal: armsig leaves it as "
+                           "it is (choose another --link)");
+    }
   }
   VirtualInstrument v;
   const auto model = io::ParseRobotModel(kPuma760Yaml, "built-in PUMA 760");
@@ -41,6 +60,34 @@ VirtualInstrument StartVirtualInstrument(const std::string& protocol, const std:
   }
   v.simulator->Start();
   return v;
+}
+
+int64_t RunVirtualInstrument(const SimulateRequest& request,
+                             const std::function<void(const std::string& path)>& started) {
+  std::optional<simulation::Fault> fault;
+  if (!request.fault.empty()) {
+    fault = simulation::FaultFromName(request.fault);
+    if (!fault) {
+      throw InputError({"--fault", 0, 0, ""}, "unknown fault '" + request.fault +
+                                                  "' (expected one of " + simulation::FaultNames() +
+                                                  ")");
+    }
+  }
+  if (!(request.seconds >= 0.0 && request.seconds < 1e7)) {
+    throw InputError({"--seconds", 0, 0, ""}, "expected a number of seconds ≥ 0");
+  }
+  const auto instrument = StartVirtualInstrument(request.protocol, request.link);
+  auto& sim = instrument.simulator;
+  if (fault) sim->InjectAlways({*fault, 0});
+  if (started) started(sim->path());
+  const auto end = std::chrono::steady_clock::now() +
+                   std::chrono::milliseconds(static_cast<int64_t>(request.seconds * 1000));
+  while (!(request.stop && request.stop->load()) &&
+         (request.seconds <= 0 || std::chrono::steady_clock::now() < end)) {
+    std::this_thread::sleep_for(std::chrono::milliseconds(50));
+  }
+  sim->Stop();
+  return sim->requests();
 }
 
 }  // namespace armsig::workflows

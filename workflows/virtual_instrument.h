@@ -2,6 +2,8 @@
 // for trying a driver, a cable set-up or a third-party program by hand.
 #pragma once
 
+#include <atomic>
+#include <functional>
 #include <memory>
 #include <string>
 
@@ -17,7 +19,20 @@ struct VirtualInstrument {
   std::unique_ptr<simulation::LineSimulator> simulator;
 };
 
-// Started; an unknown protocol is an InputError naming it.
+// Started; an unknown protocol is an InputError naming it, and so is a `link` path that
+// exists and is not a link to a pseudo-terminal (armsig never replaces a user's file).
 VirtualInstrument StartVirtualInstrument(const std::string& protocol, const std::string& link);
+
+// `armsig instrument simulate`: a virtual instrument that misbehaves on every request when
+// `fault` names one (simulation::FaultNames()), served until `stop` is raised or
+// `seconds` have passed (0 = until stopped). `started` is told the port's path once it
+// answers. Returns the number of requests served.
+struct SimulateRequest {
+  std::string protocol = "geocom", link = "armsig-sim-port", fault;
+  double seconds = 0.0;
+  const std::atomic<bool>* stop = nullptr;
+};
+int64_t RunVirtualInstrument(const SimulateRequest& request,
+                             const std::function<void(const std::string& path)>& started);
 
 }  // namespace armsig::workflows

@@ -42,8 +42,17 @@ TEST(Cli, VersionAndUsageErrors) {
   EXPECT_EQ(RunArmsig("calibrate --model").exit_code, 2);
 }
 
-TEST(Cli, DbInfoCreatesTheFileAndReportsTheSchema) {
+TEST(Cli, DbInitCreatesTheFileAndInfoReportsTheSchema) {
   TempDir dir;
+  const auto missing = RunArmsig("--db '" + dir.File("lab.db") + "' db info");
+  EXPECT_EQ(missing.exit_code, 2);  // info only reads: it creates nothing
+  EXPECT_NE(missing.err.find("no such database file"), std::string::npos) << missing.err;
+  EXPECT_FALSE(std::filesystem::exists(dir.File("lab.db")));
+  const auto init = RunArmsig("--db '" + dir.File("lab.db") + "' db init");
+  EXPECT_EQ(init.exit_code, 0) << init.err;
+  EXPECT_NE(init.out.find("new armsig database"), std::string::npos) << init.out;
+  const auto again = RunArmsig("--db '" + dir.File("lab.db") + "' db init");
+  EXPECT_NE(again.out.find("already an armsig database"), std::string::npos) << again.out;
   const auto r = RunArmsig("--db '" + dir.File("lab.db") + "' db info");
   EXPECT_EQ(r.exit_code, 0) << r.err;
   EXPECT_NE(r.out.find("schema        v3"), std::string::npos) << r.out;
@@ -53,10 +62,10 @@ TEST(Cli, DbInfoCreatesTheFileAndReportsTheSchema) {
 
 TEST(Cli, DbPathComesFromTheEnvironmentThenTheWorkingDirectory) {
   TempDir dir;
-  EXPECT_EQ(RunArmsig("db info", dir.path().string()).exit_code, 0);
+  EXPECT_EQ(RunArmsig("db init", dir.path().string()).exit_code, 0);
   EXPECT_TRUE(std::filesystem::exists(dir.File("armsig.db")));
   setenv("ARMSIG_DB", dir.File("env.db").c_str(), 1);
-  EXPECT_EQ(RunArmsig("db info", dir.path().string()).exit_code, 0);
+  EXPECT_EQ(RunArmsig("db init", dir.path().string()).exit_code, 0);
   unsetenv("ARMSIG_DB");
   EXPECT_TRUE(std::filesystem::exists(dir.File("env.db")));
 }
@@ -64,7 +73,7 @@ TEST(Cli, DbPathComesFromTheEnvironmentThenTheWorkingDirectory) {
 TEST(Cli, DbExportWritesCsvAndRejectsUnknownTables) {
   TempDir dir;
   const std::string db = "--db '" + dir.File("lab.db") + "' ";
-  ASSERT_EQ(RunArmsig(db + "db info").exit_code, 0);  // creates it
+  ASSERT_EQ(RunArmsig(db + "db init").exit_code, 0);
   const auto r = RunArmsig(db + "db export calibrations --csv");
   EXPECT_EQ(r.exit_code, 0) << r.err;
   EXPECT_EQ(r.out.rfind("id,robot_id,version,", 0), 0u) << r.out;
@@ -126,7 +135,7 @@ TEST(Cli, DbThatIsNotADatabaseIsAnInputError) {
 TEST(Cli, GlobalOptionsAnywhere) {
   TempDir dir;
   const std::string db = "'" + dir.File("x.db") + "'";
-  ASSERT_EQ(RunArmsig("db info --db " + db).exit_code, 0);  // after a nested subcommand
+  ASSERT_EQ(RunArmsig("db init --db " + db).exit_code, 0);  // after a nested subcommand
   EXPECT_TRUE(std::filesystem::exists(dir.File("x.db")));
   const auto before = RunArmsig("--db " + db + " db export robots --csv");
   EXPECT_EQ(before.exit_code, 0) << before.err;

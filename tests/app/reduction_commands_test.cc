@@ -128,8 +128,7 @@ TEST(ReduceCommand, ReducesASessionIdempotentlyAndMatchesTriangulate) {
 
 TEST(ReduceCommand, UnknownSessionIsAnInputError) {
   TempDir dir;
-  ASSERT_EQ(RunArmsig("--db '" + dir.File("lab.db") + "' db info").exit_code,
-            0);  // reduce only reads
+  ASSERT_EQ(RunArmsig("--db '" + dir.File("lab.db") + "' db init").exit_code, 0);
   const auto r = RunArmsig("--db '" + dir.File("lab.db") + "' reduce --session 4");
   EXPECT_EQ(r.exit_code, 2);
   EXPECT_NE(r.err.find("no session 4"), std::string::npos);

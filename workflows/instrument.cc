@@ -1,0 +1,78 @@
+#include "workflows/instrument.h"
+
+#include <fmt/format.h>
+
+#include <nlohmann/json.hpp>
+
+#include "acquisition/lab.h"
+#include "core/error.h"
+#include "core/units.h"
+
+namespace armsig::workflows {
+
+namespace {
+
+nlohmann::json ReadingJson(const instruments::Reading& r, const std::string& device) {
+  return {{"instrument", device},
+          {"hz_rad", r.angles.hz_rad},
+          {"v_rad", r.angles.v_rad},
+          {"distance_mm", r.distance_mm ? nlohmann::json(*r.distance_mm) : nlohmann::json(nullptr)},
+          {"face", r.angles.face},
+          {"return_code", r.return_code},
+          {"warning", r.note.empty() ? nlohmann::json(nullptr) : nlohmann::json(r.note)}};
+}
+
+std::string ReadController(const InstrumentRequest& o, const instruments::RetryPolicy& policy) {
+  acquisition::ControllerConfig config;
+  config.protocol = o.protocol;
+  config.port = o.port;
+  config.baud = o.baud;
+  const auto robot = acquisition::OpenController(config, policy);
+  const Eigen::VectorXd q = robot->ReadJointsRad();
+  if (o.json) {
+    std::vector<double> joints(q.data(), q.data() + q.size());
+    return nlohmann::json{{"controller", robot->name()}, {"joints_rad", joints}}.dump() + "\n";
+  }
+  std::string text = fmt::format("{}: {} joints (deg):", robot->name(), q.size());
+  for (int i = 0; i < q.size(); ++i) text += fmt::format(" {:.3f}", q(i) / kRadPerDeg);
+  return text + "\n";
+}
+
+}  // namespace
+
+std::string QueryInstrument(const InstrumentRequest& o) {
+  if (o.port.empty() && o.tcp.empty())
+    throw InputError({"--port", 0, 0, ""}, "give --port PATH or --tcp HOST:PORT");
+  instruments::RetryPolicy policy;
+  policy.timeout = std::chrono::milliseconds(o.timeout_ms);
+  if (o.protocol == "val" || o.protocol == "as") return ReadController(o, policy);
+  acquisition::InstrumentConfig config;
+  config.protocol = o.protocol;
+  config.port = o.port;
+  config.tcp = o.tcp;
+  config.baud = o.baud;
+  config.crc = o.crc;
+  const auto device = acquisition::OpenInstrument(config, policy);
+  if (o.action == "probe") {
+    const auto info = device->Identify();
+    if (o.json) {
+      return nlohmann::json{{"port", device->name()},
+                            {"name", info.name},
+                            {"serial", info.serial},
+                            {"firmware", info.firmware}}
+                 .dump() +
+             "\n";
+    }
+    return fmt::format("{}: {} serial {} firmware {}\n", device->name(), info.name, info.serial,
+                       info.firmware);
+  }
+  const auto r = o.distance ? device->MeasureDistanceAndAngles() : device->MeasureAngles();
+  if (o.json) return ReadingJson(r, device->name()).dump() + "\n";
+  return fmt::format("{}: Hz {:.5f} gon  V {:.5f} gon  face {}{}{}\n", device->name(),
+                     FromRad(r.angles.hz_rad, AngleUnit::kGon),
+                     FromRad(r.angles.v_rad, AngleUnit::kGon), r.angles.face,
+                     r.distance_mm ? fmt::format("  distance {:.3f} mm", *r.distance_mm) : "",
+                     r.note.empty() ? "" : "  (" + r.note + ")");
+}
+
+}  // namespace armsig::workflows
