@@ -2,10 +2,13 @@
 
 #include <fmt/format.h>
 
+#include <charconv>
 #include <cmath>
 #include <nlohmann/json.hpp>
 #include <random>
+#include <optional>
 #include <set>
+#include <string_view>
 
 #include "calibration/identifiability.h"
 #include "calibration/selection.h"
@@ -79,28 +82,54 @@ Plan SingleJointPlan(const Eigen::VectorXd& start, int joint, double lo_rad, dou
   return plan;
 }
 
+namespace {
+
+// A whole decimal number in [lo, hi] (no sign, no trailing text, no overflow).
+std::optional<int> WholeNumber(std::string_view text, int lo, int hi) {
+  int value = 0;
+  const auto [end, ec] = std::from_chars(text.data(), text.data() + text.size(), value);
+  if (ec != std::errc() || end != text.data() + text.size() || value < lo || value > hi)
+    return std::nullopt;
+  return value;
+}
+
+}  // namespace
+
 Plan MakePlan(const std::string& spec, const calibration::RobotModel& model) {
+  constexpr int kMostConfigurations = 100000;
   if (spec.rfind("auto:", 0) == 0) {
-    const int count = std::atoi(spec.c_str() + 5);
-    if (count < 1) throw InputError({"--plan", 0, 0, ""}, "auto:N needs a positive N");
-    return WellSpreadPlan(model, count, std::max(2000, 20 * count), 7);
+    const auto count = WholeNumber(std::string_view(spec).substr(5), 1, kMostConfigurations);
+    if (!count) {
+      throw InputError({"--plan", 0, 0, ""},
+                       fmt::format("expected auto:N with N a whole number from 1 to {}, got '{}'",
+                                   kMostConfigurations, spec));
+    }
+    return WellSpreadPlan(model, *count, std::max(2000, 20 * *count), 7);
   }
   if (spec.rfind("single-joint:", 0) == 0) {
-    int joint = 0, steps = 0;
-    if (std::sscanf(spec.c_str(), "single-joint:%d:%d", &joint, &steps) != 2 || joint < 1 ||
-        joint > model.num_joints() || steps < 2) {
-      throw InputError({"--plan", 0, 0, ""}, "expected single-joint:J:STEPS with J in 1.." +
-                                                 std::to_string(model.num_joints()) +
-                                                 " and STEPS ≥ 2");
+    const std::string_view rest = std::string_view(spec).substr(13);
+    const size_t colon = rest.find(':');
+    const auto joint = colon == std::string_view::npos
+                           ? std::nullopt
+                           : WholeNumber(rest.substr(0, colon), 1, model.num_joints());
+    const auto steps = colon == std::string_view::npos
+                           ? std::nullopt
+                           : WholeNumber(rest.substr(colon + 1), 2, kMostConfigurations);
+    if (!joint || !steps) {
+      throw InputError({"--plan", 0, 0, ""},
+                       fmt::format("expected single-joint:J:STEPS with J in 1..{} and STEPS in "
+                                   "2..{}, got '{}'",
+                                   model.num_joints(), kMostConfigurations, spec));
     }
+    const int joint_number = *joint;
     double lo = -150 * kRadPerDeg, hi = 150 * kRadPerDeg;
     if (static_cast<int>(model.joint_min_rad.size()) == model.num_joints()) {
-      lo = std::max(lo, model.joint_min_rad[joint - 1]);
-      hi = std::min(hi, model.joint_max_rad[joint - 1]);
+      lo = std::max(lo, model.joint_min_rad[joint_number - 1]);
+      hi = std::min(hi, model.joint_max_rad[joint_number - 1]);
     }
     Eigen::VectorXd start = Eigen::VectorXd::Zero(model.num_joints());
     if (model.num_joints() >= 3) start(2) = 90 * kRadPerDeg;  // elbow bent, target in reach
-    return SingleJointPlan(start, joint - 1, lo, hi, steps);
+    return SingleJointPlan(start, joint_number - 1, lo, hi, *steps);
   }
   return ReadPlanCsv(spec, model.num_joints());
 }

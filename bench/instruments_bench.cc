@@ -17,7 +17,7 @@
 #include "reduction/observation.h"
 #include "simulation/fault_matrix.h"
 #include "simulation/simulators.h"
-#include "workflows/builtin_models.h"
+#include "io/builtin_models.h"
 
 namespace armsig {
 namespace {
@@ -80,7 +80,7 @@ BENCHMARK(BM_ReadThreeConcurrently)->Unit(benchmark::kMillisecond)->UseRealTime(
 void BM_FaultOnTheLine(benchmark::State& state) {
   const auto cases = simulation::FaultMatrix();
   const auto& c = cases.at(static_cast<size_t>(state.range(0)));
-  simulation::VirtualLab lab(io::ParseRobotModel(workflows::kPuma760Yaml, "PUMA 760"),
+  simulation::VirtualLab lab(io::ParseRobotModel(io::kPuma760Yaml, "PUMA 760"),
                              Eigen::VectorXd::Zero(43), Eigen::Isometry3d::Identity());
   simulation::VirtualStation st;
   st.pose.id = "T1";

@@ -29,7 +29,7 @@
 #include "reduction/observation.h"
 #include "reduction/orientation.h"
 #include "simulation/simulators.h"
-#include "workflows/builtin_models.h"
+#include "io/builtin_models.h"
 #include "workflows/calibration_run.h"
 #include "workflows/capture.h"
 #include "workflows/hint.h"
@@ -117,7 +117,7 @@ DemoResult RunDemo(const DemoOptions& options, const DemoObserver& observer) {
   };
   using namespace std::chrono_literals;
   const auto started = std::chrono::steady_clock::now();
-  const calibration::RobotModel model = io::ParseRobotModel(kPuma760Yaml, "built-in PUMA 760");
+  const calibration::RobotModel model = io::ParseRobotModel(io::kPuma760Yaml, "built-in PUMA 760");
   const DemoLimits limits = DemoLimitsOf(model, options.seed);
   // Everything the options decide is checked before anything is created.
   std::optional<db::Database> resumed_db;
@@ -241,7 +241,7 @@ DemoResult RunDemo(const DemoOptions& options, const DemoObserver& observer) {
   say(text);
 
   // --- The lab file a technician would write, and the capture session.
-  io::WriteFileAtomically((work / "puma760.yaml").string(), kPuma760Yaml);
+  io::WriteFileAtomically((work / "puma760.yaml").string(), io::kPuma760Yaml);
   io::WriteFileAtomically((work / "stations.yaml").string(),
                           io::FormatStationsYaml(oriented.stations, "armsig demo"));
   acquisition::LabFile lab_file;

@@ -11,7 +11,7 @@
 #include "io/model_yaml.h"
 #include "reduction/observation.h"
 #include "simulation/fault_matrix.h"
-#include "workflows/builtin_models.h"
+#include "io/builtin_models.h"
 
 namespace armsig::workflows {
 
@@ -34,7 +34,7 @@ VirtualInstrument StartVirtualInstrument(const std::string& protocol, const std:
     }
   }
   VirtualInstrument v;
-  const auto model = io::ParseRobotModel(kPuma760Yaml, "built-in PUMA 760");
+  const auto model = io::ParseRobotModel(io::kPuma760Yaml, "built-in PUMA 760");
   v.lab = std::make_unique<simulation::VirtualLab>(model, calibration::PaperTable3Parameters(),
                                                    Eigen::Isometry3d::Identity());
   simulation::VirtualStation station;

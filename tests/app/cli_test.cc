@@ -424,12 +424,12 @@ TEST(Cli, DemoCtrlCAtRandomMomentsLeavesNothingBehindAndResumes) {
 
 }  // namespace armsig::testing
 
-#include "workflows/builtin_models.h"
+#include "io/builtin_models.h"
 
 namespace armsig::testing {
 
 TEST(BuiltinModels, DemoPumaIsTheShippedModelFile) {
-  EXPECT_EQ(std::string(workflows::kPuma760Yaml), ReadText(SourcePath("models/puma760.yaml")));
+  EXPECT_EQ(std::string(io::kPuma760Yaml), ReadText(SourcePath("models/puma760.yaml")));
 }
 
 }  // namespace armsig::testing

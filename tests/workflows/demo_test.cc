@@ -5,13 +5,13 @@
 #include "core/error.h"
 #include "io/model_yaml.h"
 #include "test_support.h"
-#include "workflows/builtin_models.h"
+#include "io/builtin_models.h"
 
 namespace armsig::workflows {
 namespace {
 
 DemoLimits PumaLimits() {
-  return DemoLimitsOf(io::ParseRobotModel(kPuma760Yaml, "built-in PUMA 760"), 1985);
+  return DemoLimitsOf(io::ParseRobotModel(io::kPuma760Yaml, "built-in PUMA 760"), 1985);
 }
 
 std::string Refusal(int configurations, int select) {

@@ -2,7 +2,7 @@
 // `armsig instrument simulate` run anywhere (tests check it matches the file).
 #pragma once
 
-namespace armsig::workflows {
+namespace armsig::io {
 
 inline constexpr const char* kPuma760Yaml =
     R"yaml(# Unimation PUMA 760, after Chen & Chao, "Positioning Error Analysis for Robot
@@ -25,4 +25,4 @@ nongeometric:         # paper eq. (6)-(7): joint 2 and 3 twist under gravity, jo
   - {name: h4, joint: 3, basis: sign_cos, of: [2, 3]}
 )yaml";
 
-}  // namespace armsig::workflows
+}  // namespace armsig::io

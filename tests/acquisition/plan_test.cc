@@ -1,0 +1,70 @@
+// Capture plans from the command line's --plan: auto:N, single-joint:J:STEPS, a CSV file.
+#include "acquisition/plan.h"
+
+#include <gtest/gtest.h>
+
+#include "core/error.h"
+#include "core/units.h"
+#include "test_support.h"
+
+namespace armsig::acquisition {
+namespace {
+
+TEST(MakePlan, AutoGivesNDistinctConfigurationsWithinTheLimits) {
+  auto model = testing::Puma();
+  model.joint_min_rad.assign(6, -2.0);
+  model.joint_max_rad.assign(6, 2.0);
+  const Plan plan = MakePlan("auto:12", model);
+  ASSERT_EQ(plan.size(), 12u);
+  for (size_t k = 0; k < plan.size(); ++k) {
+    EXPECT_EQ(plan[k].joints_rad.size(), 6);
+    EXPECT_LE(plan[k].joints_rad.cwiseAbs().maxCoeff(), 2.0) << plan[k].label;
+    for (size_t j = 0; j < k; ++j)
+      EXPECT_GT((plan[k].joints_rad - plan[j].joints_rad).norm(), 1e-6) << k << " = " << j;
+  }
+}
+
+TEST(MakePlan, SingleJointSweepsOnlyThatJointOverItsRange) {
+  const auto model = testing::Puma();
+  const Plan plan = MakePlan("single-joint:2:5", model);
+  ASSERT_EQ(plan.size(), 5u);
+  EXPECT_EQ(plan[0].label, "J2-001");
+  EXPECT_NEAR(plan.front().joints_rad(1), -150 * kRadPerDeg, 1e-12);
+  EXPECT_NEAR(plan.back().joints_rad(1), 150 * kRadPerDeg, 1e-12);
+  for (const auto& c : plan) {
+    for (int j : {0, 2, 3, 4, 5}) EXPECT_EQ(c.joints_rad(j), plan[0].joints_rad(j)) << c.label;
+  }
+}
+
+// Garbage, trailing text, overflow and out-of-range numbers are refused, naming --plan and
+// what was expected; nothing is made of them (auto:4294967297 once became 1 configuration).
+TEST(MakePlan, MalformedSpecsAreInputErrorsNamingWhatWasExpected) {
+  const auto model = testing::Puma();
+  for (const char* spec :
+       {"auto:", "auto:0", "auto:-3", "auto:3junk", "auto: 3", "auto:4294967297", "auto:1e3",
+        "single-joint:2", "single-joint:2:3x", "single-joint:0:5", "single-joint:7:5",
+        "single-joint:2:1", "single-joint:x:5", "single-joint:2:99999999999"}) {
+    try {
+      MakePlan(spec, model);
+      ADD_FAILURE() << spec << " was accepted";
+    } catch (const InputError& e) {
+      EXPECT_EQ(e.where().file, "--plan") << spec;
+      EXPECT_NE(e.message().find("expected"), std::string::npos) << spec << ": " << e.what();
+      EXPECT_NE(e.message().find(spec), std::string::npos) << spec << ": " << e.what();
+    }
+  }
+}
+
+TEST(PlanJson, RoundTripsLabelsAndJointsExactly) {
+  Plan plan = {{"C1", Eigen::VectorXd::LinSpaced(6, -1.0 / 3.0, 2.0)},
+               {"a b", Eigen::VectorXd::Constant(6, 1e-17)}};
+  const Plan back = PlanFromJson(PlanToJson(plan));
+  ASSERT_EQ(back.size(), 2u);
+  for (size_t k = 0; k < 2; ++k) {
+    EXPECT_EQ(back[k].label, plan[k].label);
+    EXPECT_EQ(back[k].joints_rad, plan[k].joints_rad);
+  }
+}
+
+}  // namespace
+}  // namespace armsig::acquisition
