@@ -31,7 +31,7 @@ int RunCalibrate(const CalibrateOptions& options, const GlobalOptions&) {
   if (!options.json.empty()) {
     io::WriteFileAtomically(options.json, workflows::CalibrationJson(model, run).dump(2) + "\n");
   }
-  return run.estimate.status == calibration::EstimationStatus::kConverged ? kOk : kFailure;
+  return run.estimate.status.ok() ? kOk : kFailure;
 }
 
 void SetupCalibrateCommand(CLI::App& parent, const GlobalOptions& global, Runner& run) {

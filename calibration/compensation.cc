@@ -1,9 +1,13 @@
 #include "calibration/compensation.h"
 
+#include <fmt/format.h>
+
 #include <Eigen/Cholesky>
 #include <Eigen/SVD>
 #include <cmath>
 #include <stdexcept>
+
+#include "core/units.h"
 
 namespace armsig::calibration {
 
@@ -66,17 +70,25 @@ JointSolution SolveJoints(const RobotModel& model, const Eigen::Isometry3d& worl
     }
   }
   s.residual_mm = (target_mm - kin.Position(world_from_base, params, s.joints_rad.data())).norm();
+  if (!std::isfinite(s.residual_mm) || !s.joints_rad.allFinite()) {
+    s.status = {SolveCode::kNonFinite,
+                "the solution is not a finite number (seed, target or "
+                "parameters not finite)"};
+    return s;
+  }
   if (s.residual_mm > options.tolerance_mm * 10) {
-    s.status = JointSolveStatus::kUnreachable;
-    s.reason =
-        "no joint angles reach the target (closest " + std::to_string(s.residual_mm) + " mm)";
+    s.status = {SolveCode::kNotConverged,
+                fmt::format("no joint angles reach the target (closest {:.3f} mm)", s.residual_mm)};
     return s;
   }
   if (static_cast<int>(model.joint_min_rad.size()) == n) {
     for (int i = 0; i < n; ++i) {
       if (s.joints_rad(i) < model.joint_min_rad[i] || s.joints_rad(i) > model.joint_max_rad[i]) {
-        s.status = JointSolveStatus::kOutsideLimits;
-        s.reason = "joint " + std::to_string(i + 1) + " outside its limits";
+        s.status = {
+            SolveCode::kOutOfRange,
+            fmt::format("joint {} at {:.2f} deg, outside its limits [{:.2f}, {:.2f}]", i + 1,
+                        s.joints_rad(i) / kRadPerDeg, model.joint_min_rad[i] / kRadPerDeg,
+                        model.joint_max_rad[i] / kRadPerDeg)};
         return s;
       }
     }

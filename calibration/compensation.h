@@ -10,6 +10,7 @@
 #include <vector>
 
 #include "calibration/model.h"
+#include "core/error.h"
 #include "core/types.h"
 
 namespace armsig::calibration {
@@ -28,14 +29,14 @@ struct JointSolveOptions {
   void Check() const;
 };
 
-enum class JointSolveStatus { kConverged, kUnreachable, kOutsideLimits };
-
 struct JointSolution {
-  JointSolveStatus status = JointSolveStatus::kConverged;
+  // kOk; kNotConverged: no joint angles reach the target (it is out of reach, or the
+  // iteration stalled); kOutOfRange: the solution leaves a joint's limits; kNonFinite:
+  // a non-finite seed, target or model gave no number at all.
+  SolveStatus status;
   Eigen::VectorXd joints_rad;
   double residual_mm = 0.0;
   int iterations = 0;
-  std::string reason;
 };
 
 // Encoder angles for which the model (with `params`) puts the target at `target_mm`,

@@ -101,8 +101,8 @@ ModelComparison CompareModels(const RobotModel& model, const FittedSet& a, const
   AddCovariance(a, both);
   AddCovariance(b, both);
   Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eigen(both);
-  Eigen::MatrixXd g = jacobian * eigen.eigenvectors() *
-                      eigen.eigenvalues().cwiseMax(0.0).cwiseSqrt().asDiagonal();
+  Eigen::MatrixXd g =
+      jacobian * eigen.eigenvectors() * eigen.eigenvalues().cwiseMax(0.0).cwiseSqrt().asDiagonal();
   if (a.identified.empty() && b.identified.empty()) return out;
   Eigen::MatrixXd rigid(3 * m, 6);
   const Eigen::Vector3d centre = xa.rowwise().mean();
@@ -179,8 +179,8 @@ ModelComparison CompareModels(const RobotModel& model, const FittedSet& a, const
   rigid_count += nc - static_cast<int>(sv.size());
   Eigen::MatrixXd q = Eigen::MatrixXd::Identity(nc, nc);
   if (rigid_count > 0) {
-    const Eigen::MatrixXd n = norms.cwiseMax(1e-300).cwiseInverse().asDiagonal() *
-                              shape.matrixV().rightCols(rigid_count);
+    const Eigen::MatrixXd n =
+        norms.cwiseMax(1e-300).cwiseInverse().asDiagonal() * shape.matrixV().rightCols(rigid_count);
     for (int c = 0; c < nc; ++c) weight(c) = sc(c, c) > 0 ? 1.0 / sc(c, c) : 1.0;
     // δ' = Q δ, Q = I − N (Nᵀ W N)⁻¹ Nᵀ W: the change less its W-closest rigid combination.
     const Eigen::MatrixXd wn = weight.asDiagonal() * n;

@@ -136,8 +136,8 @@ EstimationResult Estimate(const RobotModel& model, const std::vector<MeasuredPos
   } else if (auto base = AlignBase(model, poses)) {
     result.world_from_base = *base;
   } else {
-    result.status = EstimationStatus::kDegenerateBase;
-    result.message =
+    result.status.code = SolveCode::kDegenerate;
+    result.status.message =
         "base: auto needs at least 3 poses whose nominal target positions are not on "
         "one line (got " +
         std::to_string(m) + ")";
@@ -164,11 +164,12 @@ EstimationResult Estimate(const RobotModel& model, const std::vector<MeasuredPos
   const int k = static_cast<int>(subset.size());
   const int needed = std::max(k, result.identifiability.structural_rank);
   if (3 * m <= needed) {
-    result.status = EstimationStatus::kTooFewEquations;
-    result.message = std::to_string(m) + " poses give " + std::to_string(3 * m) +
-                     " equations; the model has " + std::to_string(needed) +
-                     " identifiable parameters and needs more equations than that: at least " +
-                     std::to_string(needed / 3 + 1) + " poses";
+    result.status.code = SolveCode::kTooFewObservations;
+    result.status.message =
+        std::to_string(m) + " poses give " + std::to_string(3 * m) + " equations; the model has " +
+        std::to_string(needed) +
+        " identifiable parameters and needs more equations than that: at least " +
+        std::to_string(needed / 3 + 1) + " poses";
     return result;
   }
 
@@ -256,9 +257,9 @@ EstimationResult Estimate(const RobotModel& model, const std::vector<MeasuredPos
     }
   }
   result.iterations = iteration;
-  result.status = converged ? EstimationStatus::kConverged : EstimationStatus::kNoConvergence;
+  result.status.code = converged ? SolveCode::kOk : SolveCode::kNotConverged;
   if (!converged) {
-    result.message = "no convergence after " + std::to_string(iteration) + " iterations";
+    result.status.message = "no convergence after " + std::to_string(iteration) + " iterations";
   }
 
   // Covariance of the identified parameters: σ0² (Jᵀ W J)⁻¹ at the solution.
@@ -312,8 +313,8 @@ EstimationResult Estimate(const RobotModel& model, const std::vector<MeasuredPos
   for (const auto& r : result.nominal_residuals) finite = finite && r.allFinite();
   for (const auto& r : result.fit_residuals) finite = finite && r.allFinite();
   if (!finite) {
-    result.status = EstimationStatus::kNonFinite;
-    result.message =
+    result.status.code = SolveCode::kNonFinite;
+    result.status.message =
         "the fit produced values that are not finite numbers (inf or NaN): check the poses' "
         "coordinates and the model's lengths";
   }
@@ -351,7 +352,7 @@ AutoSelection SelectTermsByFTest(const RobotModel& model, const std::vector<Meas
   std::vector<int> remaining;
   for (int i = model.num_geometric(); i < model.num_parameters(); ++i) remaining.push_back(i);
   const auto names = model.ParameterNames();
-  while (current.ok() && !remaining.empty()) {
+  while (current.usable() && !remaining.empty()) {
     int best = -1;
     FTest best_test;
     EstimationResult best_result;
@@ -360,7 +361,7 @@ AutoSelection SelectTermsByFTest(const RobotModel& model, const std::vector<Meas
       opts.parameters.push_back(term);
       std::sort(opts.parameters.begin(), opts.parameters.end());
       EstimationResult trial = Estimate(model, poses, opts);
-      if (!trial.ok()) continue;
+      if (!trial.usable()) continue;
       FTest test = CompareNested(current, trial, names[term], alpha);
       selection.tests.push_back(test);
       if (test.significant && (best < 0 || test.f > best_test.f)) {

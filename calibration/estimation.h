@@ -11,6 +11,7 @@
 
 #include "calibration/identifiability.h"
 #include "calibration/model.h"
+#include "core/error.h"
 #include "core/types.h"
 
 namespace armsig::calibration {
@@ -54,17 +55,12 @@ struct EstimationOptions {
   void Check() const;
 };
 
-enum class EstimationStatus {
-  kConverged,
-  kNoConvergence,    // iteration limit reached; result is the last accepted step
-  kTooFewEquations,  // 3m equations cannot determine the identifiable parameters
-  kDegenerateBase,   // base: auto with degenerate nominal positions
-  kNonFinite,        // an estimate, its sigma, σ0 or a residual is not a finite number
-};
-
 struct EstimationResult {
-  EstimationStatus status = EstimationStatus::kConverged;
-  std::string message;
+  // kOk: converged. kNotConverged: the iteration limit was reached, the result is the last
+  // accepted step. kTooFewObservations: 3m equations cannot determine the identifiable
+  // parameters. kDegenerate: base: auto with degenerate nominal positions. kNonFinite: an
+  // estimate, its sigma, σ0 or a residual is not a finite number.
+  SolveStatus status;
   int iterations = 0;
   Eigen::Isometry3d world_from_base = Eigen::Isometry3d::Identity();
   Eigen::VectorXd params;      // all parameters; unidentified stay exactly zero
@@ -78,10 +74,9 @@ struct EstimationResult {
   ErrorStats nominal, fit;
   std::vector<int> downweighted;  // poses the robust loss treated as blunders (indices)
 
-  // kNonFinite is never ok: its numbers are not results.
-  bool ok() const {
-    return status == EstimationStatus::kConverged || status == EstimationStatus::kNoConvergence;
-  }
+  // Its numbers are results (converged, or stopped at the iteration limit); kNonFinite
+  // never is.
+  bool usable() const { return status.ok() || status.code == SolveCode::kNotConverged; }
 };
 
 // Fits the model to the poses. world_from_base: N1 to use; nullopt = model.base, or

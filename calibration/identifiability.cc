@@ -5,9 +5,9 @@
 #include <Eigen/SVD>
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <numbers>
 #include <random>
-#include <limits>
 #include <stdexcept>
 
 #include "calibration/simulation.h"

@@ -13,8 +13,6 @@
 
 namespace armsig::workflows {
 
-using calibration::EstimationStatus;
-
 calibration::ErrorStats StatsOf(const std::vector<Eigen::Vector3d>& residuals) {
   return calibration::Summarise(calibration::Distances(residuals));
 }
@@ -76,13 +74,13 @@ CalibrationRun RunCalibration(const calibration::RobotModel& model,
   }
 
   run.estimate = calibration::Estimate(model, fit, options);
-  if (run.estimate.status == EstimationStatus::kTooFewEquations ||
-      run.estimate.status == EstimationStatus::kDegenerateBase) {
-    throw InputError({"--poses", 0, 0, ""}, run.estimate.message);
+  if (run.estimate.status.code == SolveCode::kTooFewObservations ||
+      run.estimate.status.code == SolveCode::kDegenerate) {
+    throw InputError({"--poses", 0, 0, ""}, run.estimate.status.message);
   }
-  if (run.estimate.status == EstimationStatus::kNonFinite) {
+  if (run.estimate.status.code == SolveCode::kNonFinite) {
     // Exit code 1 and no table, JSON or stored set of numbers that are not results.
-    throw std::runtime_error("calibration failed: " + run.estimate.message);
+    throw std::runtime_error("calibration failed: " + run.estimate.status.message);
   }
   if (model_report && !auto_params) {
     // The fit was asked for the model's subset only; what the user asked for is the spec,
@@ -224,8 +222,8 @@ std::string FormatCalibrationReport(const calibration::RobotModel& model,
   out += fmt::format(
       "fit: {} after {} iterations, sigma0 {:.4f} mm per coordinate, "
       "redundancy {}\n\n",
-      est.status == EstimationStatus::kConverged ? "converged" : "NOT converged", est.iterations,
-      est.sigma0_mm, est.redundancy);
+      est.status.ok() ? "converged" : "NOT converged", est.iterations, est.sigma0_mm,
+      est.redundancy);
 
   out += fmt::format("{:<28}{:>8}{:>10}{:>10}{:>10}\n", "error distance (mm)", "poses", "mean",
                      "max", "rms");
@@ -270,7 +268,7 @@ nlohmann::json CalibrationJson(const calibration::RobotModel& model, const Calib
   out["poses_used"] = static_cast<int>(run.fit_pose_ids.size());
   out["nominal"] = stats(est.nominal);
   json fit = stats(est.fit);
-  fit["converged"] = est.status == EstimationStatus::kConverged;
+  fit["converged"] = est.status.ok();
   fit["iterations"] = est.iterations;
   fit["sigma0_mm"] = est.sigma0_mm;
   fit["redundancy"] = est.redundancy;

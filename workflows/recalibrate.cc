@@ -240,7 +240,7 @@ RecalibrationDecision Recalibrate(const RecalibrateOptions& o) {
   d.nominal = run.estimate.nominal;
   d.rank = run.estimate.identifiability.rank;
 
-  bool pass = run.estimate.status == calibration::EstimationStatus::kConverged;
+  bool pass = run.estimate.status.ok();
   auto gate = [&](const std::string& name, double value, double limit) {
     const bool ok = value <= limit;
     d.gates.push_back({name, value, limit, ok});

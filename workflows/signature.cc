@@ -123,9 +123,7 @@ CompensationResult Compensate(const ActiveSignature& a, const Eigen::Isometry3d&
       nominal = nominal_solution.joints_rad;
     }
     const auto s = calibration::SolveJoints(a.model, frame, a.signature.params, target, nominal);
-    const bool ok =
-        s.status == calibration::JointSolveStatus::kConverged &&
-        (q.size() || nominal_solution.status == calibration::JointSolveStatus::kConverged);
+    const bool ok = s.status.ok() && (q.size() || nominal_solution.status.ok());
     result.csv += io::CsvEscape(t.Text(row, id));
     for (int i = 0; i < n; ++i)
       result.csv += ok ? fmt::format(",{:.8f}", s.joints_rad(i) / kRadPerDeg) : std::string(",");
@@ -134,7 +132,7 @@ CompensationResult Compensate(const ActiveSignature& a, const Eigen::Isometry3d&
     if (!ok) {
       result.unreachable.push_back(
           fmt::format("target {} ({}:{}): {}", t.Text(row, id), targets_csv, row.line,
-                      s.reason.empty() ? nominal_solution.reason : s.reason));
+                      s.status.ok() ? nominal_solution.status.message : s.status.message));
     }
   }
   return result;

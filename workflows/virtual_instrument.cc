@@ -8,10 +8,10 @@
 #include "calibration/simulation.h"
 #include "core/error.h"
 #include "core/units.h"
+#include "io/builtin_models.h"
 #include "io/model_yaml.h"
 #include "reduction/observation.h"
 #include "simulation/fault_matrix.h"
-#include "io/builtin_models.h"
 
 namespace armsig::workflows {
 

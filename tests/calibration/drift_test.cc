@@ -30,7 +30,7 @@ FittedSet Night(const RobotModel& model, const Eigen::VectorXd& truth,
   EstimationOptions options;
   options.parameters = subset;
   const auto r = Estimate(model, poses, options);
-  EXPECT_TRUE(r.ok());
+  EXPECT_TRUE(r.usable());
   return {r.params, r.identifiability.identified, r.covariance};
 }
 
