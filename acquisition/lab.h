@@ -17,7 +17,7 @@ namespace armsig::acquisition {
 
 struct InstrumentConfig {
   std::string station;   // station id (matches the stations file / orientation)
-  std::string protocol;  // geocom | gsi
+  std::string protocol;  // geocom | gsi | emscon (`armsig instrument` only, so far)
   std::string port;      // serial path, or empty with tcp
   std::string tcp;       // HOST:PORT
   unsigned baud = 19200;
@@ -91,6 +91,13 @@ LabConfig LoadLab(const std::string& path);
 LabConfig ParseLab(const std::string& text, const std::string& source);
 // The same checks on the text alone; relative paths resolve against `source`'s folder.
 LabSettings ParseLabSettings(const std::string& text, const std::string& source);
+
+struct HostPort {
+  std::string host;
+  unsigned short port = 0;
+};
+// "HOST:PORT" with a port from 1 to 65535, else nullopt.
+std::optional<HostPort> SplitHostPort(const std::string& text);
 
 // Opens the devices the configuration names. The one-device forms serve `armsig
 // instrument`: a malformed HOST:PORT is an InputError naming it.

@@ -1,5 +1,5 @@
-// armsig instrument probe|read --port PATH|--tcp HOST:PORT --protocol geocom|gsi|val|as [--json]
-// armsig instrument simulate --protocol P [--link PATH] [--seconds N] [--fault F]
+// armsig instrument probe|read --port PATH|--tcp HOST:PORT --protocol geocom|gsi|val|as|emscon
+// armsig instrument simulate --protocol P [--link PATH | --tcp HOST:PORT] [--seconds N] [--fault F]
 #include <fmt/format.h>
 #include <spdlog/spdlog.h>
 
@@ -32,13 +32,28 @@ namespace {
 std::atomic<bool> g_stop{false};
 
 nlohmann::json ReadingJson(const instruments::Reading& r, const std::string& device) {
-  return {{"instrument", device},
-          {"hz_rad", r.angles.hz_rad},
-          {"v_rad", r.angles.v_rad},
-          {"distance_mm", r.distance_mm ? nlohmann::json(*r.distance_mm) : nlohmann::json(nullptr)},
-          {"face", r.angles.face},
-          {"return_code", r.return_code},
-          {"warning", r.note.empty() ? nlohmann::json(nullptr) : nlohmann::json(r.note)}};
+  nlohmann::json j = {
+      {"instrument", device},
+      {"hz_rad", r.angles.hz_rad},
+      {"v_rad", r.angles.v_rad},
+      {"distance_mm", r.distance_mm ? nlohmann::json(*r.distance_mm) : nlohmann::json(nullptr)},
+      {"face", r.angles.face},
+      {"return_code", r.return_code},
+      {"warning", r.note.empty() ? nlohmann::json(nullptr) : nlohmann::json(r.note)}};
+  // What a laser tracker reports besides (absent for theodolites).
+  if (const auto& p = r.point_in_instrument_mm)
+    j.update({{"x_mm", p->x()}, {"y_mm", p->y()}, {"z_mm", p->z()}});
+  if (const auto& s = r.sigma) {
+    j.update({{"sigma_hz_rad", s->hz_rad},
+              {"sigma_v_rad", s->v_rad},
+              {"sigma_distance_mm", s->distance_mm}});
+  }
+  if (const auto& e = r.environment) {
+    j.update({{"temperature_c", e->temperature_c},
+              {"pressure_hpa", e->pressure_hpa},
+              {"humidity_percent", e->humidity_percent}});
+  }
+  return j;
 }
 
 }  // namespace
@@ -89,7 +104,8 @@ int RunInstrument(const InstrumentOptions& o) {
       }
       return kOk;
     }
-    const auto r = o.distance ? device->MeasureDistanceAndAngles() : device->MeasureAngles();
+    const bool distance = o.distance || o.protocol == "emscon";  // a tracker always has one
+    const auto r = distance ? device->MeasureDistanceAndAngles() : device->MeasureAngles();
     if (o.json) {
       std::cout << ReadingJson(r, device->name()).dump() << "\n";
     } else {
@@ -116,7 +132,7 @@ int RunSimulate(const InstrumentOptions& o) {
                                                   simulation::FaultNames() + ")");
     }
   }
-  const auto virtual_instrument = workflows::StartVirtualInstrument(o.protocol, o.link);
+  const auto virtual_instrument = workflows::StartVirtualInstrument(o.protocol, o.link, o.tcp);
   auto& sim = virtual_instrument.simulator;
   if (fault) sim->InjectAlways({*fault, 0});
   std::cout << "virtual " << o.protocol << " instrument on " << sim->path()
@@ -146,7 +162,8 @@ void SetupInstrumentCommand(CLI::App& parent, const GlobalOptions&, Runner& run)
                                               : "Take one measurement");
     a->add_option("--port", o->port, "Serial port (or pty) path");
     a->add_option("--tcp", o->tcp, "HOST:PORT instead of a serial port");
-    a->add_option("--protocol", o->protocol, "geocom | gsi | val | as")->capture_default_str();
+    a->add_option("--protocol", o->protocol, "geocom | gsi | val | as | emscon")
+        ->capture_default_str();
     a->add_option("--baud", o->baud, "Baud rate")->capture_default_str();
     a->add_option("--timeout-ms", o->timeout_ms,
                   "Deadline of the whole exchange, from the command to the parsed reply "
@@ -161,14 +178,17 @@ void SetupInstrumentCommand(CLI::App& parent, const GlobalOptions&, Runner& run)
   auto o = std::make_shared<InstrumentOptions>();
   auto* s = sub->add_subcommand(
       "simulate", "Start a virtual instrument on a pseudo-terminal for manual trials");
-  s->add_option("--protocol", o->protocol, "geocom | gsi | val | as")->capture_default_str();
+  s->add_option("--protocol", o->protocol, "geocom | gsi | val | as | emscon")
+      ->capture_default_str();
+  s->add_option("--tcp", o->tcp, "emscon: HOST:PORT to listen on (e.g. 127.0.0.1:7000)");
   s->add_option("--link", o->link, "Path of the port to create (a symlink to the pty)")
       ->capture_default_str();
   s->add_option("--seconds", o->seconds, "Stop after this many seconds (default: Ctrl-C)");
   s->add_option("--fault", o->fault,
                 "Misbehave on every request: flood-bytes, endless-line, flood-lines, silence, "
                 "partial, wrong-trid, bad-crc, no-crc, busy, error, other-reply, out-of-range, "
-                "wrong-unit, vanish, noise");
+                "wrong-unit, vanish, noise; emscon also wrong-command-id, beam-break, "
+                "reflector-not-found, status-between, status-inside");
   s->callback([&run, o] { run = [o] { return RunSimulate(*o); }; });
 }
 
