@@ -117,7 +117,7 @@ es::CommandAnswer EmsconDevice::Exchange(const es::Request& request, Deadline un
 }
 
 template <typename F>
-auto EmsconDevice::WithRetries(int32_t command, Deadline deadline, F&& attempt) {
+auto EmsconDevice::WithRetries(int32_t command, Deadline deadline, F&& attempt, bool set_up) {
   const std::string what = command >= 0 ? es::CommandName(command) : "set-up";
   const auto start = Clock::now();
   std::string last = "no attempt before the deadline";
@@ -130,7 +130,7 @@ auto EmsconDevice::WithRetries(int32_t command, Deadline deadline, F&& attempt) 
     stale_in_call_ = 0;
     const Deadline until = AttemptDeadline(deadline, policy_.attempts - made);
     try {
-      EnsureReady(until);
+      EnsureReady(until, set_up);
       return attempt(until);
     } catch (const Busy& b) {
       ++stats_.busy;
@@ -176,7 +176,7 @@ auto EmsconDevice::WithRetries(int32_t command, Deadline deadline, F&& attempt) 
                         what + ": " + CodeText(code) + ": " + GaveUp(made, start, last));
 }
 
-void EmsconDevice::EnsureReady(Deadline deadline) {
+void EmsconDevice::EnsureReady(Deadline deadline, bool set_up) {
   if (!transport_->IsOpen()) {
     configured_ = false;
     transport_->Open();
@@ -184,7 +184,7 @@ void EmsconDevice::EnsureReady(Deadline deadline) {
     opened_before_ = true;
     transport_->Drain(Millis(20), std::min(deadline, Clock::now() + Millis(20)));
   }
-  if (!configured_) Configure(deadline);
+  if (set_up && !configured_) Configure(deadline);
 }
 
 void EmsconDevice::Configure(Deadline deadline) {
@@ -265,12 +265,18 @@ DeviceInfo EmsconDevice::Identify() {
 }
 
 es::SystemStatus EmsconDevice::Status() {
-  return WithRetries(es::GetSystemStatus::kCommand, CallDeadline(), [&](Deadline until) {
-    const auto a = Exchange(es::GetSystemStatus{}, until);
-    const auto* s = std::get_if<es::SystemStatus>(&a.data);
-    if (!s) throw InstrumentError(name(), 3074, "GetSystemStatus: the reply carries no status");
-    return *s;
-  });
+  // Asking changes nothing: no set-up first (a probe leaves the tracker as it was).
+  return WithRetries(
+      es::GetSystemStatus::kCommand, CallDeadline(),
+      [&](Deadline until) {
+        const auto a = Exchange(es::GetSystemStatus{}, until);
+        const auto* s = std::get_if<es::SystemStatus>(&a.data);
+        if (!s) {
+          throw InstrumentError(name(), 3074, "GetSystemStatus: the reply carries no status");
+        }
+        return *s;
+      },
+      false);
 }
 
 Reading EmsconDevice::ReadingOf(const es::MeasResult& m) const {

@@ -52,7 +52,9 @@ class EmsconDevice : public DistanceInstrument {
 
   // Connects (if needed) and runs the set-up sequence above, by policy.timeout.
   void Connect();
-  DeviceInfo Identify() override;  // GetSystemStatus: serial number and emScon version
+  // GetSystemStatus: serial number and emScon version. Identify and Status connect but do
+  // not set the tracker up (a probe changes nothing).
+  DeviceInfo Identify() override;
   // One stationary measurement (StartMeasurement → SingleMeasResult): Hz, V, distance,
   // the point, per-component sigmas, temperature, pressure, humidity; stamped when it
   // arrived (the result carries no time).
@@ -98,11 +100,12 @@ class EmsconDevice : public DistanceInstrument {
     std::string what;
   };
   Deadline CallDeadline() const { return Clock::now() + policy_.timeout; }
-  // Runs attempt(attempt_deadline) with the retry policy by `deadline`, connecting and
-  // setting the tracker up first whenever the connection is new.
+  // Runs attempt(attempt_deadline) with the retry policy by `deadline` (`command` names
+  // the call, -1 the set-up), connecting first and, with `set_up`, setting the tracker up
+  // whenever the connection is new.
   template <typename F>
-  auto WithRetries(int32_t command, Deadline deadline, F&& attempt);  // -1: the set-up
-  void EnsureReady(Deadline deadline);
+  auto WithRetries(int32_t command, Deadline deadline, F&& attempt, bool set_up = true);
+  void EnsureReady(Deadline deadline, bool set_up);
   void Configure(Deadline deadline);
   // Sends `request` and returns its answer (status AllOK); throws Busy, InstrumentError
   // (another status, or an ErrorResponse for this command) or TransportError.

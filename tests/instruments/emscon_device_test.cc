@@ -167,6 +167,15 @@ TEST(EmsconDevice, ConnectSetsEveryStateExplicitlyInOrder) {
   EXPECT_EQ(rig.tracker.Commands(), std::vector<int32_t>{es::StartMeasurement::kCommand});
 }
 
+// `armsig instrument probe` asks and changes nothing: no set-up before GetSystemStatus.
+TEST(EmsconDevice, IdentifyChangesNothing) {
+  Rig rig;
+  const DeviceInfo info = rig.device->Identify();
+  EXPECT_EQ(info.serial, "391234");
+  EXPECT_EQ(rig.tracker.Commands(), std::vector<int32_t>{es::GetSystemStatus::kCommand});
+  EXPECT_EQ(rig.device->statistics().configurations, 0);
+}
+
 TEST(EmsconDevice, InitializesOnlyAnUninitialisedTrackerOrWhenForced) {
   Rig cold;
   cold.tracker.processor_status = 3;  // Booted

@@ -311,6 +311,7 @@ TEST(EmsconCommand, ProbeAndReadJsonAgainstTheVirtualTracker) {
       testing::RunArmsig("instrument probe --protocol emscon --tcp " + tcp + " --json");
   ASSERT_EQ(probe.exit_code, 0) << probe.err;
   EXPECT_EQ(nlohmann::json::parse(probe.out)["serial"], "391234");
+  EXPECT_EQ(rig.sim->state().units.length, es::length_unit::kMeter);  // a probe sets nothing
   const auto read =
       testing::RunArmsig("instrument read --protocol emscon --tcp " + tcp + " --json");
   ASSERT_EQ(read.exit_code, 0) << read.err;
