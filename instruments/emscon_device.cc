@@ -130,8 +130,11 @@ auto EmsconDevice::WithRetries(int32_t command, Deadline deadline, F&& attempt, 
     stale_in_call_ = 0;
     const Deadline until = AttemptDeadline(deadline, policy_.attempts - made);
     try {
-      EnsureReady(until, set_up);
-      return attempt(until);
+      // Initialize's own time (a cold tracker) does not count against the call.
+      const Clock::duration initializing = EnsureReady(until, set_up);
+      deadline += initializing;
+      call_deadline_ = deadline;
+      return attempt(until + initializing);
     } catch (const Busy& b) {
       ++stats_.busy;
       last = b.what + " answered ES_RS_ServerBusy (1)";
@@ -176,7 +179,7 @@ auto EmsconDevice::WithRetries(int32_t command, Deadline deadline, F&& attempt, 
                         what + ": " + CodeText(code) + ": " + GaveUp(made, start, last));
 }
 
-void EmsconDevice::EnsureReady(Deadline deadline, bool set_up) {
+Clock::duration EmsconDevice::EnsureReady(Deadline deadline, bool set_up) {
   if (!transport_->IsOpen()) {
     configured_ = false;
     transport_->Open();
@@ -184,15 +187,18 @@ void EmsconDevice::EnsureReady(Deadline deadline, bool set_up) {
     opened_before_ = true;
     transport_->Drain(Millis(20), std::min(deadline, Clock::now() + Millis(20)));
   }
-  if (set_up && !configured_) Configure(deadline);
+  if (!set_up || configured_) return Clock::duration::zero();
+  return Configure(deadline);
 }
 
-void EmsconDevice::Configure(Deadline deadline) {
+Clock::duration EmsconDevice::Configure(Deadline deadline) {
   // The set-up sequence shares the call's deadline (it is part of the exchange), except
-  // Initialize, which moves the head and has its own.
+  // Initialize, which moves the head and has its own: the time it took is added to the
+  // deadline and returned.
   es::Units units;  // mm, the chosen angle unit, °C, mbar (= hPa), %RH
   units.angle = options_.angle_unit;
   Exchange(es::SetUnits{units}, deadline);
+  Clock::duration initializing = Clock::duration::zero();
   const auto status = Exchange(es::GetSystemStatus{}, deadline);
   const auto* s = std::get_if<es::SystemStatus>(&status.data);
   if (!s) throw InstrumentError(name(), 3074, "GetSystemStatus: the reply carries no status");
@@ -200,7 +206,10 @@ void EmsconDevice::Configure(Deadline deadline) {
       s->tracker_processor_status != es::tracker_processor_status::kInitialized) {
     spdlog::info("{}: initializing the tracker (processor status {})", name(),
                  s->tracker_processor_status);
-    Exchange(es::Initialize{}, std::max(deadline, Clock::now() + options_.initialize_timeout));
+    const auto begin = Clock::now();
+    Exchange(es::Initialize{}, std::max(deadline, begin + options_.initialize_timeout));
+    initializing = Clock::now() - begin;
+    deadline += initializing;
   }
   const auto read = Exchange(es::GetSystemSettings{}, deadline);
   const auto* current = std::get_if<es::SystemSettings>(&read.data);
@@ -249,6 +258,7 @@ void EmsconDevice::Configure(Deadline deadline) {
           ? "rad"
           : "angle unit " + std::to_string(options_.angle_unit),
       options_.measurement_time_ms, options_.use_adm ? " ADM" : "", *reflector_id_);
+  return initializing;
 }
 
 void EmsconDevice::Connect() {
@@ -321,12 +331,11 @@ Reading EmsconDevice::ReadingOf(const es::MeasResult& m) const {
 }
 
 Reading EmsconDevice::Measure() {
-  const Deadline deadline = CallDeadline();
-  return WithRetries(es::StartMeasurement::kCommand, deadline, [&](Deadline share) {
+  return WithRetries(es::StartMeasurement::kCommand, CallDeadline(), [&](Deadline share) {
     // A result comes after the measurement time: an attempt waits at least that long, never
     // past the call's deadline.
     const Deadline until = std::min(
-        deadline,
+        call_deadline_,
         std::max(share, Clock::now() + Millis(options_.measurement_time_ms) + kMeasurementMargin));
     constexpr int32_t id = es::StartMeasurement::kCommand;
     ++stats_.commands;

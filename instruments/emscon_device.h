@@ -105,8 +105,9 @@ class EmsconDevice : public DistanceInstrument {
   // whenever the connection is new.
   template <typename F>
   auto WithRetries(int32_t command, Deadline deadline, F&& attempt, bool set_up = true);
-  void EnsureReady(Deadline deadline, bool set_up);
-  void Configure(Deadline deadline);
+  // Both return the time Initialize took (zero when it was not needed).
+  Clock::duration EnsureReady(Deadline deadline, bool set_up);
+  Clock::duration Configure(Deadline deadline);
   // Sends `request` and returns its answer (status AllOK); throws Busy, InstrumentError
   // (another status, or an ErrorResponse for this command) or TransportError.
   emscon::CommandAnswer Exchange(const emscon::Request& request, Deadline until);
@@ -129,6 +130,7 @@ class EmsconDevice : public DistanceInstrument {
   std::optional<Event> last_unsolicited_;  // during the current call
   int stale_in_call_ = 0;
   int32_t last_sent_ = -1;  // the command sent last in the current call
+  Deadline call_deadline_;  // the current call's deadline (Initialize's time added)
   Statistics stats_;
 };
 

@@ -131,6 +131,21 @@ TEST(VirtualTracker, DriverSetsEveryStateAndMeasuresTheTruth) {
   EXPECT_NEAR(r.environment->humidity_percent, 45.0, 3.0);
 }
 
+// A cold tracker: Initialize takes 1.5 s, longer than the call's 1 s deadline; it has its
+// own deadline and the measurement after it still gets its time.
+TEST(VirtualTracker, ColdTrackerIsInitializedWithinItsOwnDeadline) {
+  EmsconSimulatorOptions options;
+  options.time_scale = 1.0;
+  options.initialize_latency = 1500ms;
+  options.command_latency = 1ms;
+  TrackerRig rig(options, Policy(1000ms));
+  const auto start = std::chrono::steady_clock::now();
+  rig.ExpectTruth(rig.device->Measure());
+  EXPECT_GE(std::chrono::steady_clock::now() - start, 1500ms);
+  EXPECT_TRUE(rig.sim->state().initialized);
+  EXPECT_EQ(rig.device->statistics().retries, 0);
+}
+
 TEST(VirtualTracker, EveryCall) {
   TrackerRig rig;
   const auto info = rig.device->Identify();
