@@ -6,6 +6,7 @@
 #include <algorithm>
 #include <cmath>
 #include <numbers>
+#include <stdexcept>
 
 #include "core/error.h"
 #include "instruments/line_retry.h"
@@ -40,7 +41,12 @@ bool Finite(const std::array<double, 3>& v) {
 
 EmsconDevice::EmsconDevice(std::unique_ptr<PacketTransport> transport, RetryPolicy policy,
                            EmsconOptions options)
-    : transport_(std::move(transport)), policy_(policy), options_(std::move(options)) {}
+    : transport_(std::move(transport)), policy_(policy), options_(std::move(options)) {
+  if (!es::RadiansPer(options_.angle_unit)) {
+    throw std::invalid_argument("EmsconOptions::angle_unit " + std::to_string(options_.angle_unit) +
+                                " is no ES_AngleUnit");
+  }
+}
 
 void EmsconDevice::Record(Event::Kind kind, int32_t value, int32_t command) {
   Event e{kind, value, command, std::chrono::system_clock::now()};
