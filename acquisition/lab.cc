@@ -11,6 +11,7 @@
 
 #include "core/error.h"
 #include "core/units.h"
+#include "instruments/emscon_device.h"
 #include "instruments/geocom_device.h"
 #include "instruments/gsi_device.h"
 #include "instruments/robot_controllers.h"
@@ -45,12 +46,8 @@ std::string Choice(const YamlValue& value, const std::vector<std::string>& choic
 
 constexpr int kMaxInt = std::numeric_limits<int>::max();
 
-struct HostPort {
-  std::string host;
-  unsigned short port = 0;
-};
+}  // namespace
 
-// "HOST:PORT" with a port from 1 to 65535, else nullopt.
 std::optional<HostPort> SplitHostPort(const std::string& text) {
   const size_t colon = text.rfind(':');
   if (colon == std::string::npos || colon == 0) return std::nullopt;
@@ -63,6 +60,8 @@ std::optional<HostPort> SplitHostPort(const std::string& text) {
   }
   return HostPort{text.substr(0, colon), static_cast<unsigned short>(port)};
 }
+
+namespace {
 
 unsigned Baud(const YamlValue& value) { return static_cast<unsigned>(value.Integer(1, kMaxInt)); }
 
@@ -330,8 +329,18 @@ std::unique_ptr<instruments::DistanceInstrument> OpenInstrument(
   if (c.protocol == "gsi") {
     return std::make_unique<instruments::GsiOnlineDevice>(Transport(c.port, c.tcp, c.baud), policy);
   }
-  throw InputError({"protocol", 0, 0, ""},
-                   "unknown instrument protocol '" + c.protocol + "' (expected geocom or gsi)");
+  if (c.protocol == "emscon") {  // a laser tracker: binary packets over TCP only
+    const auto address = SplitHostPort(c.tcp);
+    if (!address) {
+      throw InputError({"tcp", 0, 0, ""},
+                       "protocol emscon needs --tcp HOST:PORT (port 1 to "
+                       "65535; emScon servers listen on 700)");
+    }
+    return std::make_unique<instruments::EmsconDevice>(
+        instruments::MakeEmsconTcpTransport(address->host, address->port), policy);
+  }
+  throw InputError({"protocol", 0, 0, ""}, "unknown instrument protocol '" + c.protocol +
+                                               "' (expected geocom, gsi or emscon)");
 }
 
 std::unique_ptr<instruments::RobotController> OpenController(

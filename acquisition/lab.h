@@ -17,7 +17,7 @@ namespace armsig::acquisition {
 
 struct InstrumentConfig {
   std::string station;   // station id (matches the stations file / orientation)
-  std::string protocol;  // geocom | gsi
+  std::string protocol;  // geocom | gsi | emscon (`armsig instrument` only, so far)
   std::string port;      // serial path, or empty with tcp
   std::string tcp;       // HOST:PORT
   unsigned baud = 19200;
@@ -103,6 +103,12 @@ struct LabFile {
   int timeout_ms = 3000;
 };
 std::string FormatLabYaml(const LabFile& lab);
+struct HostPort {
+  std::string host;
+  unsigned short port = 0;
+};
+// "HOST:PORT" with a port from 1 to 65535, else nullopt.
+std::optional<HostPort> SplitHostPort(const std::string& text);
 
 // Opens the devices the configuration names. The one-device forms serve `armsig
 // instrument`: a malformed HOST:PORT is an InputError naming it.

@@ -1,5 +1,5 @@
-// armsig instrument probe|read --port PATH|--tcp HOST:PORT --protocol geocom|gsi|val|as [--json]
-// armsig instrument simulate --protocol P [--link PATH] [--seconds N] [--fault F]
+// armsig instrument probe|read --port PATH|--tcp HOST:PORT --protocol geocom|gsi|val|as|emscon
+// armsig instrument simulate --protocol P [--link PATH | --tcp HOST:PORT] [--seconds N] [--fault F]
 #include <fmt/format.h>
 #include <spdlog/spdlog.h>
 
@@ -24,8 +24,8 @@ void SetupInstrumentCommand(CLI::App& parent, const GlobalOptions&, Runner& run)
                                               : "Take one measurement");
     a->add_option("--port", o->port, "Serial port (or pty) path");
     a->add_option("--tcp", o->tcp, "HOST:PORT instead of a serial port");
-    a->add_option("--protocol", o->protocol, "geocom | gsi | val | as")
-        ->check(CLI::IsMember({"geocom", "gsi", "val", "as"}))
+    a->add_option("--protocol", o->protocol, "geocom | gsi | val | as | emscon")
+        ->check(CLI::IsMember({"geocom", "gsi", "val", "as", "emscon"}))
         ->capture_default_str();
     a->add_option("--baud", o->baud, "Baud rate")
         ->check(CLI::Range(50, 4000000))
@@ -53,14 +53,17 @@ void SetupInstrumentCommand(CLI::App& parent, const GlobalOptions&, Runner& run)
   auto o = std::make_shared<workflows::SimulateRequest>();
   auto* s = sub->add_subcommand(
       "simulate", "Start a virtual instrument on a pseudo-terminal for manual trials");
-  s->add_option("--protocol", o->protocol, "geocom | gsi | val | as")->capture_default_str();
+  s->add_option("--protocol", o->protocol, "geocom | gsi | val | as | emscon")
+      ->capture_default_str();
+  s->add_option("--tcp", o->tcp, "emscon: HOST:PORT to listen on (e.g. 127.0.0.1:7000)");
   s->add_option("--link", o->link, "Path of the port to create (a symlink to the pty)")
       ->capture_default_str();
   s->add_option("--seconds", o->seconds, "Stop after this many seconds (default: Ctrl-C)");
   s->add_option("--fault", o->fault,
                 "Misbehave on every request: flood-bytes, endless-line, flood-lines, silence, "
                 "partial, wrong-trid, bad-crc, no-crc, busy, error, other-reply, out-of-range, "
-                "wrong-unit, vanish, noise");
+                "wrong-unit, vanish, noise; emscon also wrong-command-id, beam-break, "
+                "reflector-not-found, status-between, status-inside");
   s->callback([&run, o] {
     run = [o] {
       workflows::SimulateRequest request = *o;

@@ -2,8 +2,12 @@
 // three virtual GeoCOM theodolites on pseudo-terminals with 60, 90 and 120 ms latency,
 // read one after another and all at once. Faults on the line (issue #15): the time from
 // a driver call to its typed error for every case of simulation::FaultMatrix() at a
-// 1000 ms deadline (the README's table). Run by hand: build/bench/instruments_bench
-// (--benchmark_filter=Fault for the fault table alone).
+// 1000 ms deadline (the README's table). Laser trackers (issue 12): the software overhead
+// of one tracker reading, StartMeasurement to the parsed and checked Reading, with the
+// virtual tracker answering without latency over loopback TCP (driver, codec, transport,
+// kernel and the simulator's own work), and the codec alone. Run by hand:
+// build/bench/instruments_bench (--benchmark_filter=Fault for the fault table alone,
+// --benchmark_filter=Tracker for the tracker figures).
 #include <benchmark/benchmark.h>
 #include <unistd.h>
 
@@ -12,9 +16,11 @@
 #include <future>
 
 #include "calibration/simulation.h"
+#include "instruments/emscon_device.h"
 #include "instruments/geocom_device.h"
 #include "io/model_yaml.h"
 #include "reduction/observation.h"
+#include "simulation/emscon_simulator.h"
 #include "simulation/fault_matrix.h"
 #include "simulation/simulators.h"
 #include "io/builtin_models.h"
@@ -112,6 +118,50 @@ BENCHMARK(BM_FaultOnTheLine)
     ->Unit(benchmark::kMillisecond)
     ->UseRealTime()
     ->Iterations(3);
+
+// One tracker reading, command to parsed result: the virtual tracker answers at once
+// (time_scale 0), so the time is the software's: driver, codec, Asio, loopback TCP and
+// the simulator. Target: at most 2 ms added to the instrument's own measuring time.
+void BM_TrackerReading(benchmark::State& state) {
+  simulation::VirtualLab lab(io::ParseRobotModel(io::kPuma760Yaml, "PUMA 760"),
+                             Eigen::VectorXd::Zero(43), Eigen::Isometry3d::Identity());
+  simulation::VirtualStation st;
+  st.pose.id = "LT1";
+  st.pose.position_mm = Eigen::Vector3d(3000, -500, 1200);
+  lab.AddStation(st);
+  simulation::EmsconSimulatorOptions options;
+  options.time_scale = 0.0;
+  options.initialized = true;
+  simulation::EmsconSimulator tracker(lab, 0, "127.0.0.1", 0, options);
+  tracker.Start();
+  instruments::EmsconDevice device(
+      instruments::MakeEmsconTcpTransport("127.0.0.1", tracker.port()));
+  device.Connect();
+  for (auto _ : state) benchmark::DoNotOptimize(device.Measure());
+  state.counters["status_packets"] = device.statistics().status_changes;
+}
+BENCHMARK(BM_TrackerReading)->Unit(benchmark::kMicrosecond)->UseRealTime()->MinTime(2.0);
+
+// The codec's share: encode StartMeasurement, split and decode a reply, a status change
+// and a 156-byte result arriving in one read.
+void BM_TrackerCodec(benchmark::State& state) {
+  namespace es = instruments::emscon;
+  es::MeasResult m;
+  m.value = {1.25, 1.5, 4000.0};
+  const std::string answer =
+      es::EncodePacket(es::CommandAnswer{es::StartMeasurement::kCommand, 0, {}}) +
+      es::EncodePacket(es::StatusChange{27}) + es::EncodePacket(m);
+  es::FrameSplitter splitter;
+  std::string frame;
+  for (auto _ : state) {
+    benchmark::DoNotOptimize(es::EncodeRequest(es::StartMeasurement{}));
+    splitter.Append(answer);
+    while (splitter.Next(frame) == es::FrameSplitter::Status::kFrame) {
+      benchmark::DoNotOptimize(es::DecodePacket(frame));
+    }
+  }
+}
+BENCHMARK(BM_TrackerCodec)->Unit(benchmark::kNanosecond);
 
 }  // namespace
 }  // namespace armsig

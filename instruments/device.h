@@ -16,14 +16,32 @@ struct DeviceInfo {
   std::string name, serial, firmware;
 };
 
+// Per-component standard deviations an instrument reported with its reading (a laser
+// tracker's result carries them).
+struct ReadingSigmas {
+  double hz_rad = 0.0, v_rad = 0.0, distance_mm = 0.0;
+};
+
+// The air at the instrument when it measured (a tracker's weather station or the values
+// entered on it): for refraction and for the record.
+struct Environment {
+  double temperature_c = 0.0, pressure_hpa = 0.0, humidity_percent = 0.0;
+};
+
 // One measurement as the instrument gave it. A warning code that still carries valid
-// data (GeoCOM 1283/1284) is kept in return_code; a reading is never invented.
+// data (GeoCOM 1283/1284) is kept in return_code; a reading is never invented. The
+// optional parts are set only by instruments that report them (laser trackers).
 struct Reading {
   AngleReading angles;
   std::optional<double> distance_mm;
   int return_code = 0;
   std::string note;  // e.g. "TMC_ACCURACY_GUARANTEE: data valid, accuracy not guaranteed"
-  std::chrono::system_clock::time_point time;
+  std::chrono::system_clock::time_point time;  // when the driver received it
+  // The point in the instrument frame (SPEC theodolite frame: z up, y circle zero), mm:
+  // distance × (sin V sin Hz, sin V cos Hz, cos V).
+  std::optional<Eigen::Vector3d> point_in_instrument_mm;
+  std::optional<ReadingSigmas> sigma;
+  std::optional<Environment> environment;
 };
 
 // The instrument answered with an error code, or never answered usably: no data. The

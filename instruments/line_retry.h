@@ -34,7 +34,8 @@ inline int CodeOf(const TransportError& e) {
     case TransportError::Kind::kTimeout:
       return 3077;  // COM_TIMEDOUT
     case TransportError::Kind::kLineTooLong:
-      return 3100;  // COM_OVERRUN: packet longer than the maximum
+    case TransportError::Kind::kBadFrame:
+      return 3100;  // COM_OVERRUN: a line or packet beyond the maximum, or out of frame
     default:
       return 3085;  // COM_FAILED: the port is gone or cannot be opened
   }

@@ -1,17 +1,15 @@
 #include "instruments/transport.h"
 
-// clang-format off
-#include <utility>  // first: Boost 1.74 Asio uses std::exchange without including it (C++20)
-#include <boost/asio.hpp>
-// clang-format on
 #include <algorithm>
 #include <thread>
+
+#include "instruments/asio_stream.h"
 
 namespace armsig::instruments {
 
 namespace asio = boost::asio;
 
-void LineTransport::Pause(Millis delay, Deadline deadline) {
+void TransportBase::Pause(Millis delay, Deadline deadline) {
   const Deadline end = std::min(deadline, Clock::now() + delay);
   for (;;) {
     if (Interrupted()) ThrowInterrupted();
@@ -21,7 +19,7 @@ void LineTransport::Pause(Millis delay, Deadline deadline) {
   }
 }
 
-void LineTransport::ThrowInterrupted() const {
+void TransportBase::ThrowInterrupted() const {
   throw TransportError(TransportError::Kind::kInterrupted, name(), "interrupted");
 }
 
@@ -33,9 +31,9 @@ void LineBuffer::Clear() {
 }
 
 void LineBuffer::Discard(const char* data, size_t size) {
-  const bool mid_line =
-      size > 0 ? data[size - 1] != '\r' && data[size - 1] != '\n'
-               : skipping_ || (!buffer_.empty() && buffer_.back() != '\r' && buffer_.back() != '\n');
+  const bool mid_line = size > 0 ? data[size - 1] != '\r' && data[size - 1] != '\n'
+                                 : skipping_ || (!buffer_.empty() && buffer_.back() != '\r' &&
+                                                 buffer_.back() != '\n');
   Clear();
   skipping_ = mid_line;
 }
@@ -86,33 +84,16 @@ namespace {
 template <typename Stream>
 class AsioLineTransport : public LineTransport {
  public:
-  explicit AsioLineTransport(std::string name) : name_(std::move(name)), stream_(io_) {}
+  explicit AsioLineTransport(std::string name) : name_(std::move(name)), conn_(*this) {}
 
   void Close() override {
-    boost::system::error_code ignored;
-    stream_.close(ignored);
+    conn_.Close();
     buffer_.Clear();
   }
-  bool IsOpen() const override { return stream_.is_open(); }
+  bool IsOpen() const override { return conn_.IsOpen(); }
   const std::string& name() const override { return name_; }
 
-  void Write(std::string_view data, Deadline deadline) override {
-    if (!stream_.is_open())
-      throw TransportError(TransportError::Kind::kClosed, name_, "port is not open");
-    boost::system::error_code ec;
-    bool done = false;
-    asio::async_write(stream_, asio::buffer(data.data(), data.size()),
-                      [&](const boost::system::error_code& e, size_t) {
-                        ec = e;
-                        done = true;
-                      });
-    const Wait why = Run(deadline, done);
-    if (ec == asio::error::operation_aborted || !done) {
-      if (why == Wait::kInterrupted) ThrowInterrupted();
-      throw TransportError(TransportError::Kind::kTimeout, name_, "write not done by the deadline");
-    }
-    if (ec) Fail(ec, "write failed");
-  }
+  void Write(std::string_view data, Deadline deadline) override { conn_.Write(data, deadline); }
 
   std::string ReadLine(Deadline deadline) override {
     std::string line;
@@ -128,18 +109,18 @@ class AsioLineTransport : public LineTransport {
         throw TransportError(TransportError::Kind::kTimeout, name_,
                              "no complete line by the deadline");
       }
-      buffer_.Append(chunk_, ReadSome(deadline));
+      buffer_.Append(chunk_, conn_.ReadSome(chunk_, sizeof chunk_, deadline));
     }
   }
 
   int Drain(Millis quiet, Deadline until) override {
     int bytes = static_cast<int>(buffer_.size());
     buffer_.Discard(nullptr, 0);
-    if (!stream_.is_open()) return bytes;
+    if (!conn_.IsOpen()) return bytes;
     while (Clock::now() < until) {
       size_t n = 0;
       try {
-        n = ReadSome(std::min(until, Clock::now() + quiet));
+        n = conn_.ReadSome(chunk_, sizeof chunk_, std::min(until, Clock::now() + quiet));
       } catch (const TransportError& e) {
         if (e.kind() != TransportError::Kind::kTimeout) throw;
         break;  // quiet
@@ -151,71 +132,8 @@ class AsioLineTransport : public LineTransport {
   }
 
  protected:
-  enum class Wait { kDone, kDeadline, kInterrupted };
-
-  // Runs the io_context until `done`, the deadline or an interrupt; an operation still
-  // pending then is cancelled and its handler run before returning.
-  Wait Run(Deadline deadline, bool& done) {
-    io_.restart();
-    Wait why = Wait::kDone;
-    while (!done) {
-      if (Interrupted()) {
-        why = Wait::kInterrupted;
-        break;
-      }
-      const auto now = Clock::now();
-      if (now >= deadline) {
-        why = Wait::kDeadline;
-        break;
-      }
-      io_.run_one_until(std::min(deadline, now + kInterruptPoll));
-    }
-    if (!done) {
-      boost::system::error_code ignored;
-      stream_.cancel(ignored);
-      io_.restart();
-      while (!done && io_.run_one() > 0) {
-      }
-    }
-    io_.restart();
-    io_.poll();  // handlers that were already due
-    return why;
-  }
-
-  // Reads what arrives by `deadline` into chunk_; returns the number of bytes.
-  size_t ReadSome(Deadline deadline) {
-    if (!stream_.is_open())
-      throw TransportError(TransportError::Kind::kClosed, name_, "port is not open");
-    boost::system::error_code ec;
-    size_t n = 0;
-    bool done = false;
-    stream_.async_read_some(asio::buffer(chunk_),
-                            [&](const boost::system::error_code& e, size_t count) {
-                              ec = e;
-                              n = count;
-                              done = true;
-                            });
-    const Wait why = Run(deadline, done);
-    if (ec == asio::error::operation_aborted || !done) {
-      if (why == Wait::kInterrupted) ThrowInterrupted();
-      throw TransportError(TransportError::Kind::kTimeout, name_, "no data by the deadline");
-    }
-    if (ec) Fail(ec, "read failed");
-    return n;
-  }
-
-  [[noreturn]] void Fail(const boost::system::error_code& ec, const std::string& what) {
-    // EOF / EIO / reset: the port or cable is gone. Close so the owner reconnects.
-    const bool closed = ec == asio::error::eof || ec == asio::error::connection_reset ||
-                        ec == asio::error::broken_pipe || ec.value() == EIO || ec.value() == EBADF;
-    Close();
-    throw TransportError(closed ? TransportError::Kind::kClosed : TransportError::Kind::kIo, name_,
-                         what + " (" + ec.message() + ")");
-  }
-
   std::string name_;
-  asio::io_context io_;
-  Stream stream_;
+  detail::AsioStream<Stream> conn_;
   LineBuffer buffer_;
   char chunk_[512];
 };
@@ -228,23 +146,24 @@ class SerialTransport : public AsioLineTransport<asio::serial_port> {
   void Open() override {
     Close();
     boost::system::error_code ec;
-    stream_.open(settings_.path, ec);
+    auto& port = conn_.stream();
+    port.open(settings_.path, ec);
     if (ec)
       throw TransportError(TransportError::Kind::kOpen, name_,
                            "cannot open (" + ec.message() + ")");
     // Options only after open (a known pitfall of Asio serial drivers).
     using asio::serial_port_base;
     try {
-      stream_.set_option(serial_port_base::baud_rate(settings_.baud));
-      stream_.set_option(serial_port_base::character_size(settings_.data_bits));
-      stream_.set_option(serial_port_base::parity(
+      port.set_option(serial_port_base::baud_rate(settings_.baud));
+      port.set_option(serial_port_base::character_size(settings_.data_bits));
+      port.set_option(serial_port_base::parity(
           settings_.parity == SerialSettings::Parity::kOdd    ? serial_port_base::parity::odd
           : settings_.parity == SerialSettings::Parity::kEven ? serial_port_base::parity::even
                                                               : serial_port_base::parity::none));
-      stream_.set_option(serial_port_base::stop_bits(settings_.stop_bits == 2
-                                                         ? serial_port_base::stop_bits::two
-                                                         : serial_port_base::stop_bits::one));
-      stream_.set_option(
+      port.set_option(serial_port_base::stop_bits(settings_.stop_bits == 2
+                                                      ? serial_port_base::stop_bits::two
+                                                      : serial_port_base::stop_bits::one));
+      port.set_option(
           serial_port_base::flow_control(settings_.flow == SerialSettings::Flow::kSoftware
                                              ? serial_port_base::flow_control::software
                                          : settings_.flow == SerialSettings::Flow::kHardware
@@ -271,28 +190,7 @@ class TcpTransport : public AsioLineTransport<asio::ip::tcp::socket> {
 
   void Open() override {
     Close();
-    asio::ip::tcp::resolver resolver(io_);
-    boost::system::error_code ec;
-    auto endpoints = resolver.resolve(host_, std::to_string(port_), ec);
-    if (ec)
-      throw TransportError(TransportError::Kind::kOpen, name_,
-                           "cannot resolve (" + ec.message() + ")");
-    bool done = false;
-    asio::async_connect(stream_, endpoints, [&](const boost::system::error_code& e, const auto&) {
-      ec = e;
-      done = true;
-    });
-    const Wait why = Run(Clock::now() + timeout_, done);
-    if (why == Wait::kInterrupted && (!done || ec)) {
-      Close();
-      ThrowInterrupted();
-    }
-    if (!done || ec) {
-      Close();
-      throw TransportError(TransportError::Kind::kOpen, name_,
-                           done ? "cannot connect (" + ec.message() + ")" : "connect timed out");
-    }
-    stream_.set_option(asio::ip::tcp::no_delay(true));
+    detail::ConnectTcp(conn_, host_, port_, timeout_, *this);
   }
 
  private:

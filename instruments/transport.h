@@ -35,11 +35,13 @@ class TransportError : public std::runtime_error {
  public:
   enum class Kind {
     kOpen,
-    kTimeout,      // the deadline passed
-    kClosed,       // the port or connection is gone
+    kTimeout,  // the deadline passed
+    kClosed,   // the port or connection is gone
     kIo,
     kLineTooLong,  // more bytes than the protocol's maximum line length without a terminator
     kInterrupted,  // the interrupt flag was raised (Ctrl-C): no retry
+    kBadFrame,     // a binary frame whose size field is out of bounds: the stream lost its
+                   // framing (what was buffered is dropped)
   };
   TransportError(Kind kind, std::string device, std::string message)
       : std::runtime_error(device + ": " + message),
@@ -55,38 +57,45 @@ class TransportError : public std::runtime_error {
   std::string device_, message_;
 };
 
-class LineTransport {
+// What every transport has, whatever it carries (lines or binary packets): opening and
+// closing, a name for messages, the interrupt flag and an interruptible pause.
+class TransportBase {
  public:
-  virtual ~LineTransport() = default;
+  virtual ~TransportBase() = default;
   virtual void Open() = 0;  // (re)opens; throws TransportError(kOpen)
   virtual void Close() = 0;
   virtual bool IsOpen() const = 0;
-  virtual void Write(std::string_view data, Deadline deadline) = 0;
-  // The next non-empty line without its terminator, by `deadline`. Throws
-  // TransportError: kTimeout, kLineTooLong, kClosed, kIo or kInterrupted.
-  virtual std::string ReadLine(Deadline deadline) = 0;
   // Discards everything received until the line is quiet for `quiet`, at the latest
   // until `until` (a port that never goes quiet cannot hold it longer). Returns the
   // number of bytes discarded.
   virtual int Drain(Millis quiet, Deadline until) = 0;
   virtual const std::string& name() const = 0;
 
-  // The protocol's longest line in bytes, its terminator not counted.
-  void SetMaxLineBytes(size_t bytes) { max_line_bytes_ = bytes; }
-  size_t max_line_bytes() const { return max_line_bytes_; }
   // A flag that, once true, ends every wait of this transport with kInterrupted (the
   // owner keeps the flag alive while it is set; nullptr clears it).
   void SetInterrupt(const std::atomic<bool>* flag) { interrupt_ = flag; }
   bool Interrupted() const { return interrupt_ != nullptr && interrupt_->load(); }
   // Waits `delay`, never past `deadline`; an interrupt ends it with kInterrupted.
   void Pause(Millis delay, Deadline deadline);
-
- protected:
   [[noreturn]] void ThrowInterrupted() const;
 
  private:
-  size_t max_line_bytes_ = kDefaultMaxLineBytes;
   const std::atomic<bool>* interrupt_ = nullptr;
+};
+
+class LineTransport : public TransportBase {
+ public:
+  virtual void Write(std::string_view data, Deadline deadline) = 0;
+  // The next non-empty line without its terminator, by `deadline`. Throws
+  // TransportError: kTimeout, kLineTooLong, kClosed, kIo or kInterrupted.
+  virtual std::string ReadLine(Deadline deadline) = 0;
+
+  // The protocol's longest line in bytes, its terminator not counted.
+  void SetMaxLineBytes(size_t bytes) { max_line_bytes_ = bytes; }
+  size_t max_line_bytes() const { return max_line_bytes_; }
+
+ private:
+  size_t max_line_bytes_ = kDefaultMaxLineBytes;
 };
 
 // Received bytes split into lines with a maximum length, without rescanning: each byte

@@ -23,6 +23,7 @@ seeds() {  # target → seed files
     gsi_fuzz) find tests/data/gsi -name '*.gsi' ;;
     geocom_fuzz) find fuzz/seeds/geocom -type f ;;
     robot_where_fuzz) find fuzz/seeds/robot -type f ;;
+    emscon_fuzz) find fuzz/seeds/emscon -type f ;;
   esac
   if [[ -d "tests/data/faults/${1%_fuzz}" ]]; then find "tests/data/faults/${1%_fuzz}" -type f; fi
 }

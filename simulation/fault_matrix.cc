@@ -4,9 +4,11 @@
 #include <thread>
 #include <utility>
 
+#include "instruments/emscon_device.h"
 #include "instruments/geocom_device.h"
 #include "instruments/gsi_device.h"
 #include "instruments/robot_controllers.h"
+#include "simulation/emscon_simulator.h"
 
 namespace armsig::simulation {
 
@@ -31,6 +33,11 @@ const std::vector<std::pair<Fault, const char*>>& Names() {
       {Fault::kOutOfRange, "out-of-range"},
       {Fault::kWrongUnit, "wrong-unit"},
       {Fault::kVanish, "vanish"},
+      {Fault::kWrongCommandId, "wrong-command-id"},
+      {Fault::kBeamBreak, "beam-break"},
+      {Fault::kReflectorNotFound, "reflector-not-found"},
+      {Fault::kStatusBetween, "status-between"},
+      {Fault::kStatusInside, "status-inside"},
   };
   return names;
 }
@@ -74,6 +81,8 @@ std::string ProtocolName(Protocol protocol) {
       return "as";
     case Protocol::kCounter:
       return "counter";
+    case Protocol::kEmscon:
+      return "emscon";
   }
   return "?";
 }
@@ -130,6 +139,25 @@ std::vector<FaultCase> FaultMatrix() {
   cases.push_back({counter, Fault::kVanish, {kFailed}});
   cases.push_back({counter, Fault::kOtherReply, {kTimedOut}});
   cases.push_back({counter, Fault::kOutOfRange, {kCantDecode}});
+  // The laser tracker: binary packets over TCP. Most faults hit the set-up's first command
+  // (SetUnits); the measurement faults hit StartMeasurement. A random size field is out of
+  // frame (3100) but may also be plausible and wait for bytes that never come (3077).
+  const Protocol emscon = Protocol::kEmscon;
+  cases.push_back({emscon, Fault::kFloodBytes, {kOverrun, kTimedOut}});
+  cases.push_back({emscon, Fault::kEndlessLine, {kOverrun, kTimedOut}});  // printable bytes
+  // Status and position packets, never the answer; a drain may cut one (out of frame).
+  cases.push_back({emscon, Fault::kFloodLines, {kTimedOut, kOverrun}});
+  cases.push_back({emscon, Fault::kNoiseBytes, {kOverrun, kTimedOut}});
+  cases.push_back({emscon, Fault::kDropReply, {kTimedOut}});
+  cases.push_back({emscon, Fault::kTruncateReply, {kTimedOut}});
+  cases.push_back({emscon, Fault::kWrongCommandId, {3093}});  // COM_TR_ID_MISMATCH
+  cases.push_back({emscon, Fault::kStatusInside, {3093, kTimedOut, kOverrun}});
+  cases.push_back({emscon, Fault::kBusy, {1}});        // ES_RS_ServerBusy
+  cases.push_back({emscon, Fault::kErrorCode, {39}});  // the ErrorResponse's status
+  cases.push_back({emscon, Fault::kVanish, {kFailed}});
+  cases.push_back({emscon, Fault::kOutOfRange, {kCantDecode}});
+  cases.push_back({emscon, Fault::kBeamBreak, {37}});             // ES_RS_NoDistanceSet
+  cases.push_back({emscon, Fault::kReflectorNotFound, {10004}});  // MeasurementStatusNotReady
   return cases;
 }
 
@@ -147,8 +175,15 @@ FaultOutcome RunFaultCase(VirtualLab& lab, const FaultCase& c, const std::string
   encoders.offset_rad = Eigen::VectorXd::Zero(lab.model().num_joints());
   encoders.coupling = Eigen::MatrixXd::Identity(lab.model().num_joints(), lab.model().num_joints());
 
-  std::unique_ptr<LineSimulator> sim;
+  std::unique_ptr<Simulator> sim;
   switch (c.protocol) {
+    case Protocol::kEmscon: {
+      EmsconSimulatorOptions tracker;
+      tracker.time_scale = 0.01;  // a 500 ms measurement in 5 ms
+      tracker.initialized = true;
+      sim = std::make_unique<EmsconSimulator>(lab, 0, "127.0.0.1", 0, tracker);
+      break;
+    }
     case Protocol::kGeoCom:
     case Protocol::kGeoComCrc:
       sim = std::make_unique<GeoComSimulator>(lab, 0, link, options);
@@ -169,11 +204,18 @@ FaultOutcome RunFaultCase(VirtualLab& lab, const FaultCase& c, const std::string
       break;
   }
   sim->Start();
-  sim->InjectAlways({c.fault, c.fault == Fault::kErrorCode ? 1 : 0});
+  const int error_code = c.protocol == Protocol::kEmscon ? 39 : 1;  // TrackerNotInitialized
+  sim->InjectAlways({c.fault, c.fault == Fault::kErrorCode ? error_code : 0});
 
   std::unique_ptr<instruments::Theodolite> theodolite;
   std::unique_ptr<instruments::RobotController> controller;
   switch (c.protocol) {
+    case Protocol::kEmscon: {
+      auto* tracker = static_cast<EmsconSimulator*>(sim.get());
+      theodolite = std::make_unique<instruments::EmsconDevice>(
+          instruments::MakeEmsconTcpTransport("127.0.0.1", tracker->port()), policy);
+      break;
+    }
     case Protocol::kGeoCom:
     case Protocol::kGeoComCrc:
       theodolite = std::make_unique<instruments::GeoComDevice>(

@@ -23,8 +23,9 @@ std::optional<Fault> FaultFromName(std::string_view name);
 // Every name FaultFromName knows, comma-separated.
 std::string FaultNames();
 
-enum class Protocol { kGeoCom, kGeoComCrc, kGsiOnline, kValII, kKawasakiAs, kCounter };
-std::string ProtocolName(Protocol protocol);  // geocom, geocom+crc, gsi, val, as, counter
+enum class Protocol { kGeoCom, kGeoComCrc, kGsiOnline, kValII, kKawasakiAs, kCounter, kEmscon };
+// geocom, geocom+crc, gsi, val, as, counter, emscon
+std::string ProtocolName(Protocol protocol);
 
 struct FaultCase {
   Protocol protocol = Protocol::kGeoCom;
@@ -43,9 +44,10 @@ struct FaultOutcome {
   int64_t flood_bytes = 0;   // bytes the simulator flooded during the call
 };
 
-// Starts the case's simulator at `link` on `lab` (a 6-joint robot seen from station 0),
-// makes it misbehave on every request, and takes one reading through the driver
-// (MeasureAngles or ReadJointsRad, what `armsig instrument read` calls) with `policy`.
+// Starts the case's simulator at `link` on `lab` (a 6-joint robot seen from station 0;
+// emscon: a virtual tracker on 127.0.0.1 at a free port, `link` unused), makes it
+// misbehave on every request, and takes one reading through the driver (MeasureAngles or
+// ReadJointsRad, what `armsig instrument read` calls) with `policy`.
 FaultOutcome RunFaultCase(VirtualLab& lab, const FaultCase& fault_case, const std::string& link,
                           const instruments::RetryPolicy& policy);
 

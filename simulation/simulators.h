@@ -51,6 +51,14 @@ enum class Fault {
                    // negative zenith angle, VAL a joint at 1000°, counter a count at 2^31-1
   kWrongUnit,      // GSI: Hz and V words with a length unit
   kVanish,         // the port vanishes as the request arrives (the peer closes the pty)
+  // Laser tracker (emScon) faults:
+  kWrongCommandId,     // every reply echoes another command's id (a measurement: no result)
+  kBeamBreak,          // StartMeasurement: accepted, then an error for it (NoDistanceSet)
+  kReflectorNotFound,  // StartMeasurement / FindReflector: MeasurementStatusNotReady
+  kStatusBetween,      // status changes and an unsolicited error before the reply and between
+                       // the reply and the result; the reply's header and body in two writes
+  kStatusInside,       // a status-change packet written between the reply's 8 header bytes and
+                       // the rest of it (a corrupted stream)
 };
 
 struct FaultSpec {
@@ -65,23 +73,40 @@ struct SimulatorOptions {
   std::chrono::milliseconds motion_latency{800};
 };
 
-class LineSimulator {
+// What every virtual instrument offers: start and stop, where a driver finds it, and
+// fault injection.
+class Simulator {
+ public:
+  virtual ~Simulator() = default;
+  virtual void Start() = 0;
+  virtual void Stop() = 0;
+  // Where a driver finds it: the pty's path, or HOST:PORT for a TCP simulator.
+  virtual const std::string& path() const = 0;
+  virtual void InjectOnce(FaultSpec fault) = 0;  // applies to the next request
+  virtual void InjectAlways(
+      FaultSpec fault) = 0;        // applies to every request (after the queued ones)
+  virtual void ClearFaults() = 0;  // and stops a flood
+  virtual int requests() const = 0;
+  virtual int64_t flood_bytes() const = 0;  // written by floods so far
+};
+
+class LineSimulator : public Simulator {
  public:
   LineSimulator(std::string link_path, SimulatorOptions options);
-  virtual ~LineSimulator();
+  ~LineSimulator() override;
   LineSimulator(const LineSimulator&) = delete;
   LineSimulator& operator=(const LineSimulator&) = delete;
 
-  void Start();
-  void Stop();
-  const std::string& path() const { return port_.path(); }
-  void InjectOnce(FaultSpec fault);    // applies to the next request
-  void InjectAlways(FaultSpec fault);  // applies to every request (after the queued ones)
-  void ClearFaults();                  // and stops a flood
-  void Disappear();                    // the port vanishes (thread-safe)
+  void Start() override;
+  void Stop() override;
+  const std::string& path() const override { return port_.path(); }
+  void InjectOnce(FaultSpec fault) override;
+  void InjectAlways(FaultSpec fault) override;
+  void ClearFaults() override;
+  void Disappear();  // the port vanishes (thread-safe)
   void Reappear();
-  int requests() const { return requests_.load(); }
-  int64_t flood_bytes() const { return flood_bytes_.load(); }  // written by floods so far
+  int requests() const override { return requests_.load(); }
+  int64_t flood_bytes() const override { return flood_bytes_.load(); }
 
  protected:
   struct Response {

@@ -33,6 +33,11 @@ void VirtualLab::Aim(int station, const std::string& target) {
   aim_.at(station) = target;
 }
 
+std::string VirtualLab::AimedAt(int station) const {
+  std::lock_guard lock(mutex_);
+  return aim_.at(station);
+}
+
 void VirtualLab::SetFace(int station, int face) {
   std::lock_guard lock(mutex_);
   face_.at(station) = face;

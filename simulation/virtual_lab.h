@@ -32,6 +32,7 @@ class VirtualLab {
 
   // What each station is aimed at: "robot" (the target on the robot) or a point id.
   void Aim(int station, const std::string& target);
+  std::string AimedAt(int station) const;
   void SetFace(int station, int face);
   int Face(int station) const;
   void SetJoints(const Eigen::VectorXd& joints_rad);

@@ -13,13 +13,28 @@ namespace armsig::workflows {
 namespace {
 
 nlohmann::json ReadingJson(const instruments::Reading& r, const std::string& device) {
-  return {{"instrument", device},
-          {"hz_rad", r.angles.hz_rad},
-          {"v_rad", r.angles.v_rad},
-          {"distance_mm", r.distance_mm ? nlohmann::json(*r.distance_mm) : nlohmann::json(nullptr)},
-          {"face", r.angles.face},
-          {"return_code", r.return_code},
-          {"warning", r.note.empty() ? nlohmann::json(nullptr) : nlohmann::json(r.note)}};
+  nlohmann::json j = {
+      {"instrument", device},
+      {"hz_rad", r.angles.hz_rad},
+      {"v_rad", r.angles.v_rad},
+      {"distance_mm", r.distance_mm ? nlohmann::json(*r.distance_mm) : nlohmann::json(nullptr)},
+      {"face", r.angles.face},
+      {"return_code", r.return_code},
+      {"warning", r.note.empty() ? nlohmann::json(nullptr) : nlohmann::json(r.note)}};
+  // What a laser tracker reports besides (absent for theodolites).
+  if (const auto& p = r.point_in_instrument_mm)
+    j.update({{"x_mm", p->x()}, {"y_mm", p->y()}, {"z_mm", p->z()}});
+  if (const auto& s = r.sigma) {
+    j.update({{"sigma_hz_rad", s->hz_rad},
+              {"sigma_v_rad", s->v_rad},
+              {"sigma_distance_mm", s->distance_mm}});
+  }
+  if (const auto& e = r.environment) {
+    j.update({{"temperature_c", e->temperature_c},
+              {"pressure_hpa", e->pressure_hpa},
+              {"humidity_percent", e->humidity_percent}});
+  }
+  return j;
 }
 
 std::string ReadController(const InstrumentRequest& o, const instruments::RetryPolicy& policy) {
@@ -66,7 +81,8 @@ std::string QueryInstrument(const InstrumentRequest& o) {
     return fmt::format("{}: {} serial {} firmware {}\n", device->name(), info.name, info.serial,
                        info.firmware);
   }
-  const auto r = o.distance ? device->MeasureDistanceAndAngles() : device->MeasureAngles();
+  const bool distance = o.distance || o.protocol == "emscon";  // a tracker always has one
+  const auto r = distance ? device->MeasureDistanceAndAngles() : device->MeasureAngles();
   if (o.json) return ReadingJson(r, device->name()).dump() + "\n";
   return fmt::format("{}: Hz {:.5f} gon  V {:.5f} gon  face {}{}{}\n", device->name(),
                      FromRad(r.angles.hz_rad, AngleUnit::kGon),

@@ -5,24 +5,34 @@
 #include <optional>
 #include <thread>
 
+#include "acquisition/lab.h"
 #include "calibration/simulation.h"
 #include "core/error.h"
 #include "core/units.h"
 #include "io/builtin_models.h"
 #include "io/model_yaml.h"
 #include "reduction/observation.h"
+#include "simulation/emscon_simulator.h"
 #include "simulation/fault_matrix.h"
 
 namespace armsig::workflows {
 
-VirtualInstrument StartVirtualInstrument(const std::string& protocol, const std::string& link) {
-  if (protocol != "geocom" && protocol != "gsi" && protocol != "val" && protocol != "as") {
-    throw InputError({"--protocol", 0, 0, ""},
-                     "unknown protocol '" + protocol + "' (expected geocom, gsi, val or as)");
+VirtualInstrument StartVirtualInstrument(const std::string& protocol, const std::string& link,
+                                         const std::string& tcp) {
+  if (protocol != "geocom" && protocol != "gsi" && protocol != "val" && protocol != "as" &&
+      protocol != "emscon") {
+    throw InputError({"--protocol", 0, 0, ""}, "unknown protocol '" + protocol +
+                                                   "' (expected geocom, gsi, val, as or emscon)");
+  }
+  const auto address = protocol == "emscon" ? acquisition::SplitHostPort(tcp) : std::nullopt;
+  if (protocol == "emscon" && !address) {
+    throw InputError(
+        {"--tcp", 0, 0, ""},
+        "protocol emscon listens on --tcp HOST:PORT (port 1 to 65535), got '" + tcp + "'");
   }
   std::error_code ec;
   const auto status = std::filesystem::symlink_status(link, ec);
-  if (std::filesystem::exists(status)) {
+  if (protocol != "emscon" && std::filesystem::exists(status)) {
     const bool pty_link =
         std::filesystem::is_symlink(status) &&
         std::filesystem::read_symlink(link, ec).string().rfind("/dev/pts/", 0) == 0;
@@ -49,7 +59,12 @@ VirtualInstrument StartVirtualInstrument(const std::string& protocol, const std:
   q << 0.2, -0.6, 1.2, 0.3, -0.4, 0.5;
   v.lab->SetJoints(q);
   using simulation::ValSimulator;
-  if (protocol == "geocom") {
+  if (protocol == "emscon") {
+    simulation::EmsconSimulatorOptions options;
+    options.initialized = true;  // a tracker that was switched on and warmed up
+    v.simulator = std::make_unique<simulation::EmsconSimulator>(*v.lab, 0, address->host,
+                                                                address->port, options);
+  } else if (protocol == "geocom") {
     v.simulator = std::make_unique<simulation::GeoComSimulator>(*v.lab, 0, link);
   } else if (protocol == "gsi") {
     v.simulator = std::make_unique<simulation::GsiOnlineSimulator>(*v.lab, 0, link);
@@ -76,7 +91,7 @@ int64_t RunVirtualInstrument(const SimulateRequest& request,
   if (!(request.seconds >= 0.0 && request.seconds < 1e7)) {
     throw InputError({"--seconds", 0, 0, ""}, "expected a number of seconds ≥ 0");
   }
-  const auto instrument = StartVirtualInstrument(request.protocol, request.link);
+  const auto instrument = StartVirtualInstrument(request.protocol, request.link, request.tcp);
   auto& sim = instrument.simulator;
   if (fault) sim->InjectAlways({*fault, 0});
   if (started) started(sim->path());

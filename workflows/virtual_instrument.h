@@ -13,22 +13,25 @@ namespace armsig::workflows {
 
 // The virtual lab behind it (a PUMA 760 with the paper's Table 3 errors in one fixed
 // configuration, one station 3 m away) and the simulator speaking `protocol` (geocom,
-// gsi, val or as) on a pseudo-terminal reachable as `link`.
+// gsi, val or as) on a pseudo-terminal reachable as `link`, or (emscon) a virtual laser
+// tracker listening on `tcp` (HOST:PORT, e.g. 127.0.0.1:7000).
 struct VirtualInstrument {
   std::unique_ptr<simulation::VirtualLab> lab;
-  std::unique_ptr<simulation::LineSimulator> simulator;
+  std::unique_ptr<simulation::Simulator> simulator;
 };
 
-// Started; an unknown protocol is an InputError naming it, and so is a `link` path that
-// exists and is not a link to a pseudo-terminal (armsig never replaces a user's file).
-VirtualInstrument StartVirtualInstrument(const std::string& protocol, const std::string& link);
+// Started; an unknown protocol, or emscon without a valid HOST:PORT, is an InputError
+// naming it, and so is a `link` path that exists and is not a link to a pseudo-terminal
+// (armsig never replaces a user's file).
+VirtualInstrument StartVirtualInstrument(const std::string& protocol, const std::string& link,
+                                         const std::string& tcp = "");
 
 // `armsig instrument simulate`: a virtual instrument that misbehaves on every request when
 // `fault` names one (simulation::FaultNames()), served until `stop` is raised or
 // `seconds` have passed (0 = until stopped). `started` is told the port's path once it
 // answers. Returns the number of requests served.
 struct SimulateRequest {
-  std::string protocol = "geocom", link = "armsig-sim-port", fault;
+  std::string protocol = "geocom", link = "armsig-sim-port", tcp, fault;
   double seconds = 0.0;
   const std::atomic<bool>* stop = nullptr;
 };

@@ -1,0 +1,158 @@
+// Internal to instruments/ (included by the transports' .cc files only): the Boost.Asio
+// byte stream under the line transports and the packet transport. Every operation is
+// asynchronous and ends by an absolute deadline or the owner's interrupt flag (polled every
+// kInterruptPoll); an operation still pending then is cancelled and its handler run before
+// returning, so nothing refers to a caller's buffer afterwards.
+#pragma once
+
+// clang-format off
+#include <utility>  // first: Boost 1.74 Asio uses std::exchange without including it (C++20)
+#include <boost/asio.hpp>
+// clang-format on
+#include <algorithm>
+#include <cerrno>
+#include <string>
+#include <string_view>
+
+#include "instruments/transport.h"
+
+namespace armsig::instruments::detail {
+
+namespace asio = boost::asio;
+
+template <typename Stream>
+class AsioStream {
+ public:
+  enum class Wait { kDone, kDeadline, kInterrupted };
+
+  // `owner` names the stream in errors and holds the interrupt flag; it outlives this.
+  explicit AsioStream(const TransportBase& owner) : owner_(owner), stream_(io_) {}
+
+  asio::io_context& io() { return io_; }
+  Stream& stream() { return stream_; }
+  bool IsOpen() const { return stream_.is_open(); }
+  void Close() {
+    boost::system::error_code ignored;
+    stream_.close(ignored);
+  }
+
+  // Runs the io_context until `done`, the deadline or an interrupt; an operation still
+  // pending then is cancelled and its handler run before returning.
+  Wait Run(Deadline deadline, bool& done) {
+    io_.restart();
+    Wait why = Wait::kDone;
+    while (!done) {
+      if (owner_.Interrupted()) {
+        why = Wait::kInterrupted;
+        break;
+      }
+      const auto now = Clock::now();
+      if (now >= deadline) {
+        why = Wait::kDeadline;
+        break;
+      }
+      io_.run_one_until(std::min(deadline, now + kInterruptPoll));
+    }
+    if (!done) {
+      boost::system::error_code ignored;
+      stream_.cancel(ignored);
+      io_.restart();
+      while (!done && io_.run_one() > 0) {
+      }
+    }
+    io_.restart();
+    io_.poll();  // handlers that were already due
+    return why;
+  }
+
+  // Writes all of `data` by `deadline`.
+  void Write(std::string_view data, Deadline deadline) {
+    if (!stream_.is_open())
+      throw TransportError(TransportError::Kind::kClosed, owner_.name(), "port is not open");
+    boost::system::error_code ec;
+    bool done = false;
+    asio::async_write(stream_, asio::buffer(data.data(), data.size()),
+                      [&](const boost::system::error_code& e, size_t) {
+                        ec = e;
+                        done = true;
+                      });
+    // An interrupt wins even when the operation completed meanwhile (a socket that always
+    // has data completes a cancelled read with data).
+    if (Run(deadline, done) == Wait::kInterrupted) owner_.ThrowInterrupted();
+    if (ec == asio::error::operation_aborted || !done) {
+      throw TransportError(TransportError::Kind::kTimeout, owner_.name(),
+                           "write not done by the deadline");
+    }
+    if (ec) Fail(ec, "write failed");
+  }
+
+  // Reads what arrives by `deadline` (at least one byte) into `buffer`; returns the count.
+  size_t ReadSome(char* buffer, size_t capacity, Deadline deadline) {
+    if (!stream_.is_open())
+      throw TransportError(TransportError::Kind::kClosed, owner_.name(), "port is not open");
+    boost::system::error_code ec;
+    size_t n = 0;
+    bool done = false;
+    stream_.async_read_some(asio::buffer(buffer, capacity),
+                            [&](const boost::system::error_code& e, size_t count) {
+                              ec = e;
+                              n = count;
+                              done = true;
+                            });
+    if (Run(deadline, done) == Wait::kInterrupted) owner_.ThrowInterrupted();
+    if (ec == asio::error::operation_aborted || !done) {
+      throw TransportError(TransportError::Kind::kTimeout, owner_.name(),
+                           "no data by the deadline");
+    }
+    if (ec) Fail(ec, "read failed");
+    return n;
+  }
+
+  // EOF / EIO / reset: the port or cable is gone (kClosed, the owner reconnects); other
+  // errors kIo. The stream is closed either way.
+  [[noreturn]] void Fail(const boost::system::error_code& ec, const std::string& what) {
+    const bool closed = ec == asio::error::eof || ec == asio::error::connection_reset ||
+                        ec == asio::error::broken_pipe || ec.value() == EIO || ec.value() == EBADF;
+    Close();
+    throw TransportError(closed ? TransportError::Kind::kClosed : TransportError::Kind::kIo,
+                         owner_.name(), what + " (" + ec.message() + ")");
+  }
+
+ private:
+  const TransportBase& owner_;
+  asio::io_context io_;
+  Stream stream_;
+};
+
+// Resolves and connects `socket` by now + `timeout` (TCP_NODELAY set); throws
+// TransportError kOpen, or kInterrupted.
+inline void ConnectTcp(AsioStream<asio::ip::tcp::socket>& socket, const std::string& host,
+                       unsigned short port, Millis timeout, const TransportBase& owner) {
+  socket.Close();
+  asio::ip::tcp::resolver resolver(socket.io());
+  boost::system::error_code ec;
+  auto endpoints = resolver.resolve(host, std::to_string(port), ec);
+  if (ec)
+    throw TransportError(TransportError::Kind::kOpen, owner.name(),
+                         "cannot resolve (" + ec.message() + ")");
+  bool done = false;
+  asio::async_connect(socket.stream(), endpoints,
+                      [&](const boost::system::error_code& e, const auto&) {
+                        ec = e;
+                        done = true;
+                      });
+  using Wait = AsioStream<asio::ip::tcp::socket>::Wait;
+  const Wait why = socket.Run(Clock::now() + timeout, done);
+  if (why == Wait::kInterrupted && (!done || ec)) {
+    socket.Close();
+    owner.ThrowInterrupted();
+  }
+  if (!done || ec) {
+    socket.Close();
+    throw TransportError(TransportError::Kind::kOpen, owner.name(),
+                         done ? "cannot connect (" + ec.message() + ")" : "connect timed out");
+  }
+  socket.stream().set_option(asio::ip::tcp::no_delay(true));
+}
+
+}  // namespace armsig::instruments::detail

@@ -1,0 +1,475 @@
+#include "instruments/emscon_device.h"
+
+#include <fmt/format.h>
+#include <spdlog/spdlog.h>
+
+#include <algorithm>
+#include <cmath>
+#include <numbers>
+#include <stdexcept>
+
+#include "core/error.h"
+#include "instruments/line_retry.h"
+
+namespace armsig::instruments {
+
+namespace es = emscon;
+
+namespace {
+
+// What a tracker's weather station or its operator may plausibly report; beyond it the
+// result is no reading (another unit than the one set, or garbage).
+constexpr double kMinTemperatureC = -40.0, kMaxTemperatureC = 80.0;
+constexpr double kMinPressureHpa = 300.0, kMaxPressureHpa = 1200.0;
+constexpr double kMinHumidity = 0.0, kMaxHumidity = 100.0;
+
+// A tracker's result arrives after its measurement time; an attempt never waits less than
+// that plus this margin (still never past the call's deadline).
+constexpr Millis kMeasurementMargin{200};
+
+std::string CodeText(int code) {
+  // Transport failures carry GeoCOM client codes, tracker answers emScon statuses.
+  if (code >= 3000 && code < 3200) return geocom::CodeName(code);
+  return es::StatusName(code);
+}
+
+bool Finite(const std::array<double, 3>& v) {
+  return std::all_of(v.begin(), v.end(), [](double x) { return std::isfinite(x); });
+}
+
+}  // namespace
+
+EmsconDevice::EmsconDevice(std::unique_ptr<PacketTransport> transport, RetryPolicy policy,
+                           EmsconOptions options)
+    : transport_(std::move(transport)), policy_(policy), options_(std::move(options)) {
+  if (!es::RadiansPer(options_.angle_unit)) {
+    throw std::invalid_argument("EmsconOptions::angle_unit " + std::to_string(options_.angle_unit) +
+                                " is no ES_AngleUnit");
+  }
+}
+
+void EmsconDevice::Record(Event::Kind kind, int32_t value, int32_t command) {
+  Event e{kind, value, command, std::chrono::system_clock::now()};
+  if (kind == Event::Kind::kStatusChange) {
+    ++stats_.status_changes;
+    spdlog::debug("{}: status change {} ({})", name(), es::StatusChangeName(value), value);
+  } else {
+    ++stats_.unsolicited_errors;
+    last_unsolicited_ = e;
+    spdlog::info("{}: unsolicited error {} ({}) for {}", name(), es::StatusName(value), value,
+                 es::CommandName(command));
+  }
+  events_.push_back(e);
+  if (events_.size() > kMaxEvents) events_.pop_front();
+}
+
+void EmsconDevice::ThrowStatus(int32_t command, int32_t status, const char* how) const {
+  throw InstrumentError(
+      name(), status,
+      fmt::format("{} {} {} ({})", es::CommandName(command), how, es::StatusName(status), status));
+}
+
+std::optional<es::Packet> EmsconDevice::NextPacket(Deadline until) {
+  const std::string frame = transport_->ReadPacket(until);
+  const es::DecodedPacket decoded = es::DecodePacket(frame);
+  if (decoded.error) {
+    ++stats_.undecodable;
+    spdlog::debug("{}: skipped a packet ({}): {}", name(), es::ToString(*decoded.error),
+                  decoded.why);
+    return std::nullopt;
+  }
+  const es::Packet& p = *decoded.packet;
+  if (const auto* s = std::get_if<es::StatusChange>(&p)) {
+    Record(Event::Kind::kStatusChange, s->change, 0);
+    return std::nullopt;
+  }
+  if (std::holds_alternative<es::ReflectorPosition>(p)) {
+    ++stats_.position_packets;
+    return std::nullopt;
+  }
+  return p;
+}
+
+es::CommandAnswer EmsconDevice::Exchange(const es::Request& request, Deadline until) {
+  const int32_t id = es::CommandOf(request);
+  ++stats_.commands;
+  last_sent_ = id;
+  transport_->Write(es::EncodeRequest(request), until);
+  for (;;) {
+    const auto packet = NextPacket(until);
+    if (!packet) continue;
+    if (const auto* a = std::get_if<es::CommandAnswer>(&*packet)) {
+      if (a->command != id) {
+        ++stats_.stale_answers;  // a late reply to an earlier command: not ours
+        ++stale_in_call_;
+        spdlog::debug("{}: skipped a reply to {} while waiting for {}", name(),
+                      es::CommandName(a->command), es::CommandName(id));
+        continue;
+      }
+      if (a->status == es::status::kServerBusy) throw Busy{es::CommandName(id)};
+      if (a->status != es::status::kAllOk) ThrowStatus(id, a->status, "answered");
+      return *a;
+    }
+    if (const auto* e = std::get_if<es::ErrorResponse>(&*packet)) {
+      if (e->command != id) {
+        Record(Event::Kind::kUnsolicitedError, e->status, e->command);
+        continue;
+      }
+      if (e->status == es::status::kServerBusy) throw Busy{es::CommandName(id)};
+      ThrowStatus(id, e->status, "failed:");
+    }
+    ++stats_.stale_results;  // a measurement result nobody asked for now
+  }
+}
+
+template <typename F>
+auto EmsconDevice::WithRetries(int32_t command, Deadline deadline, F&& attempt, bool set_up) {
+  const std::string what = command >= 0 ? es::CommandName(command) : "set-up";
+  const auto start = Clock::now();
+  std::string last = "no attempt before the deadline";
+  int code = 3077;  // COM_TIMEDOUT
+  int made = 0;
+  last_unsolicited_.reset();
+  last_sent_ = -1;
+  for (; made < policy_.attempts && Clock::now() < deadline; ++made) {
+    if (made > 0) ++stats_.retries;
+    stale_in_call_ = 0;
+    const Deadline until = AttemptDeadline(deadline, policy_.attempts - made);
+    try {
+      // Initialize's own time (a cold tracker) does not count against the call.
+      const Clock::duration initializing = EnsureReady(until, set_up);
+      deadline += initializing;
+      call_deadline_ = deadline;
+      return attempt(until + initializing);
+    } catch (const Busy& b) {
+      ++stats_.busy;
+      last = b.what + " answered ES_RS_ServerBusy (1)";
+      code = es::status::kServerBusy;
+      transport_->Pause(policy_.busy_delay, deadline);
+    } catch (const TransportError& e) {
+      if (e.kind() == TransportError::Kind::kInterrupted) throw;
+      last = e.message();
+      code = CodeOf(e);
+      spdlog::debug("{}: {} attempt {} of {} failed: {}", name(), what, made + 1, policy_.attempts,
+                    last);
+      if (e.kind() == TransportError::Kind::kTimeout && stale_in_call_ > 0) {
+        last = fmt::format("{} {} echoed other command ids", stale_in_call_,
+                           stale_in_call_ == 1 ? "reply" : "replies");
+        code = 3093;  // COM_TR_ID_MISMATCH: answers, but none to this command
+      }
+      if (e.kind() == TransportError::Kind::kBadFrame) ++stats_.bad_frames;
+      if (e.kind() == TransportError::Kind::kTimeout ||
+          e.kind() == TransportError::Kind::kBadFrame) {
+        // No transaction ids: clear a late answer or the rest of a broken stream before
+        // asking again (never for long on a flooding connection).
+        try {
+          transport_->Drain(Millis(50), std::min(deadline, Clock::now() + kMaxDrain));
+        } catch (const TransportError& d) {
+          if (d.kind() == TransportError::Kind::kInterrupted) throw;
+          transport_->Close();
+        }
+      } else {
+        transport_->Close();
+        transport_->Pause(policy_.reconnect_delay, deadline);
+      }
+    }
+  }
+  if (last_unsolicited_) {
+    last += fmt::format("; the tracker reported {} ({}) unsolicited",
+                        es::StatusName(last_unsolicited_->value), last_unsolicited_->value);
+  }
+  if (last_sent_ >= 0 && last_sent_ != command) {
+    last += " (last command sent: " + es::CommandName(last_sent_) + ", in the set-up)";
+  }
+  throw InstrumentError(name(), code,
+                        what + ": " + CodeText(code) + ": " + GaveUp(made, start, last));
+}
+
+Clock::duration EmsconDevice::EnsureReady(Deadline deadline, bool set_up) {
+  if (!transport_->IsOpen()) {
+    configured_ = false;
+    transport_->Open();
+    if (opened_before_) ++stats_.reconnects;
+    opened_before_ = true;
+    transport_->Drain(Millis(20), std::min(deadline, Clock::now() + Millis(20)));
+  }
+  if (!set_up || configured_) return Clock::duration::zero();
+  return Configure(deadline);
+}
+
+Clock::duration EmsconDevice::Configure(Deadline deadline) {
+  // The set-up sequence shares the call's deadline (it is part of the exchange), except
+  // Initialize, which moves the head and has its own: the time it took is added to the
+  // deadline and returned.
+  es::Units units;  // mm, the chosen angle unit, °C, mbar (= hPa), %RH
+  units.angle = options_.angle_unit;
+  Exchange(es::SetUnits{units}, deadline);
+  Clock::duration initializing = Clock::duration::zero();
+  const auto status = Exchange(es::GetSystemStatus{}, deadline);
+  const auto* s = std::get_if<es::SystemStatus>(&status.data);
+  if (!s) throw InstrumentError(name(), 3074, "GetSystemStatus: the reply carries no status");
+  if (options_.force_initialize ||
+      s->tracker_processor_status != es::tracker_processor_status::kInitialized) {
+    spdlog::info("{}: initializing the tracker (processor status {})", name(),
+                 s->tracker_processor_status);
+    const auto begin = Clock::now();
+    Exchange(es::Initialize{}, std::max(deadline, begin + options_.initialize_timeout));
+    initializing = Clock::now() - begin;
+    deadline += initializing;
+  }
+  const auto read = Exchange(es::GetSystemSettings{}, deadline);
+  const auto* current = std::get_if<es::SystemSettings>(&read.data);
+  if (!current)
+    throw InstrumentError(name(), 3074, "GetSystemSettings: the reply carries no settings");
+  es::SystemSettings settings = *current;  // keeps the weather station and hardware flags
+  settings.apply_transformation = false;   // results in the tracker's own frame
+  settings.apply_station_orientation = false;
+  settings.keep_last_position = true;
+  settings.send_unsolicited_messages = true;
+  settings.send_reflector_position = false;
+  settings.try_measurement_mode = false;
+  Exchange(es::SetSystemSettings{settings}, deadline);
+  Exchange(es::SetCoordinateSystemType{es::coordinate_system::kSCW}, deadline);
+  Exchange(es::SetMeasurementMode{es::meas_mode::kStationary}, deadline);
+  Exchange(es::SetStationaryModeParams{options_.measurement_time_ms, options_.use_adm}, deadline);
+  std::optional<int32_t> reflector = options_.reflector_id;
+  if (!reflector && !options_.reflector_name.empty()) {
+    const auto all = ReadReflectors(deadline);
+    std::string names;
+    for (const auto& r : all) {
+      if (r.name == options_.reflector_name) reflector = r.id;
+      names += (names.empty() ? "" : ", ") + r.name;
+    }
+    if (!reflector) {
+      throw InputError({"reflector", 0, 0, ""}, "no reflector named '" + options_.reflector_name +
+                                                    "' on " + name() + " (it has: " + names + ")");
+    }
+  }
+  if (reflector) {
+    Exchange(es::SetReflector{*reflector}, deadline);
+    reflector_id_ = reflector;
+  } else {
+    const auto active = Exchange(es::GetReflector{}, deadline);
+    const auto* id = std::get_if<es::Int32Value>(&active.data);
+    if (!id) throw InstrumentError(name(), 3074, "GetReflector: the reply carries no id");
+    reflector_id_ = id->value;
+  }
+  configured_ = true;
+  ++stats_.configurations;
+  spdlog::info(
+      "{}: set up: mm, {}, °C, mbar, %RH; spherical clockwise (SCW); stationary {} ms{}; "
+      "reflector {}",
+      name(),
+      options_.angle_unit == es::angle_unit::kRadian
+          ? "rad"
+          : "angle unit " + std::to_string(options_.angle_unit),
+      options_.measurement_time_ms, options_.use_adm ? " ADM" : "", *reflector_id_);
+  return initializing;
+}
+
+void EmsconDevice::Connect() {
+  WithRetries(-1, CallDeadline(), [](Deadline) { return 0; });
+}
+
+DeviceInfo EmsconDevice::Identify() {
+  const auto s = Status();
+  DeviceInfo info;
+  info.name = "Leica laser tracker (emScon)";
+  info.serial = std::to_string(s.serial);
+  info.firmware = fmt::format("emScon {}.{}.{}", s.version_major, s.version_minor, s.version_build);
+  return info;
+}
+
+es::SystemStatus EmsconDevice::Status() {
+  // Asking changes nothing: no set-up first (a probe leaves the tracker as it was).
+  return WithRetries(
+      es::GetSystemStatus::kCommand, CallDeadline(),
+      [&](Deadline until) {
+        const auto a = Exchange(es::GetSystemStatus{}, until);
+        const auto* s = std::get_if<es::SystemStatus>(&a.data);
+        if (!s) {
+          throw InstrumentError(name(), 3074, "GetSystemStatus: the reply carries no status");
+        }
+        return *s;
+      },
+      false);
+}
+
+Reading EmsconDevice::ReadingOf(const es::MeasResult& m) const {
+  if (m.status != es::status::kAllOk)
+    ThrowStatus(es::StartMeasurement::kCommand, m.status, "result:");
+  if (m.meas_mode != es::meas_mode::kStationary) {
+    throw InstrumentError(
+        name(), 3074,
+        fmt::format("a result in measurement mode {}, not stationary (0)", m.meas_mode));
+  }
+  if (m.try_mode) throw InstrumentError(name(), 3074, "a try-mode result is no measurement");
+  if (!Finite(m.value) || !Finite(m.std_dev) || !std::isfinite(m.temperature) ||
+      !std::isfinite(m.pressure) || !std::isfinite(m.humidity)) {
+    throw InstrumentError(name(), 3074, "a result with a value that is not a finite number");
+  }
+  const double to_rad = *es::RadiansPer(options_.angle_unit);
+  es::Spherical s{m.value[0] * to_rad, m.value[1] * to_rad, m.value[2]};  // SCW, mm
+  CheckAngles(name(), s.hz_rad, s.v_rad);
+  CheckDistance(name(), s.distance_mm);
+  for (int i = 0; i < 3; ++i) {
+    if (!(m.std_dev[i] >= 0.0)) {
+      throw ReadingRangeError(name(), "standard deviation " + std::to_string(i + 1), m.std_dev[i],
+                              0.0, HUGE_VAL, i < 2 ? "angle unit" : "mm");
+    }
+  }
+  if (!(m.temperature >= kMinTemperatureC && m.temperature <= kMaxTemperatureC))
+    throw ReadingRangeError(name(), "temperature", m.temperature, kMinTemperatureC,
+                            kMaxTemperatureC, "°C");
+  if (!(m.pressure >= kMinPressureHpa && m.pressure <= kMaxPressureHpa))
+    throw ReadingRangeError(name(), "pressure", m.pressure, kMinPressureHpa, kMaxPressureHpa,
+                            "hPa");
+  if (!(m.humidity >= kMinHumidity && m.humidity <= kMaxHumidity))
+    throw ReadingRangeError(name(), "humidity", m.humidity, kMinHumidity, kMaxHumidity, "%RH");
+  Reading r;
+  r.time = std::chrono::system_clock::now();
+  r.angles = {s.hz_rad, s.v_rad, s.v_rad > std::numbers::pi ? 2 : 1};
+  r.distance_mm = s.distance_mm;
+  r.point_in_instrument_mm = es::PointFromSpherical(s);
+  r.sigma = ReadingSigmas{m.std_dev[0] * to_rad, m.std_dev[1] * to_rad, m.std_dev[2]};
+  r.environment = Environment{m.temperature, m.pressure, m.humidity};
+  return r;
+}
+
+Reading EmsconDevice::Measure() {
+  return WithRetries(es::StartMeasurement::kCommand, CallDeadline(), [&](Deadline share) {
+    // A result comes after the measurement time: an attempt waits at least that long, never
+    // past the call's deadline.
+    const Deadline until = std::min(
+        call_deadline_,
+        std::max(share, Clock::now() + Millis(options_.measurement_time_ms) + kMeasurementMargin));
+    constexpr int32_t id = es::StartMeasurement::kCommand;
+    ++stats_.commands;
+    last_sent_ = id;
+    transport_->Write(es::EncodeRequest(es::StartMeasurement{}), until);
+    for (;;) {
+      const auto packet = NextPacket(until);
+      if (!packet) continue;
+      if (const auto* a = std::get_if<es::CommandAnswer>(&*packet)) {
+        if (a->command != id) {
+          ++stats_.stale_answers;
+          ++stale_in_call_;
+          continue;
+        }
+        if (a->status == es::status::kServerBusy) throw Busy{es::CommandName(id)};
+        if (a->status != es::status::kAllOk) ThrowStatus(id, a->status, "answered");
+        continue;  // accepted; the result follows
+      }
+      if (const auto* e = std::get_if<es::ErrorResponse>(&*packet)) {
+        if (e->command != id) {
+          Record(Event::Kind::kUnsolicitedError, e->status, e->command);
+          continue;
+        }
+        if (e->status == es::status::kServerBusy) throw Busy{es::CommandName(id)};
+        ThrowStatus(id, e->status, "failed:");
+      }
+      return ReadingOf(std::get<es::MeasResult>(*packet));
+    }
+  });
+}
+
+Reading EmsconDevice::MeasureAngles() {
+  Reading r = Measure();
+  r.distance_mm.reset();  // angles only, as asked (the sigmas and the point stay)
+  return r;
+}
+
+Reading EmsconDevice::MeasureDistanceAndAngles() { return Measure(); }
+
+int EmsconDevice::Face() {
+  return WithRetries(es::GetFace::kCommand, CallDeadline(), [&](Deadline until) {
+    const auto a = Exchange(es::GetFace{}, until);
+    const auto* face = std::get_if<es::Int32Value>(&a.data);
+    if (!face || (face->value != 1 && face->value != 2)) {
+      throw InstrumentError(
+          name(), 3074,
+          fmt::format("GetFace: face {} is neither 1 nor 2", face ? face->value : -1));
+    }
+    return static_cast<int>(face->value);
+  });
+}
+
+void EmsconDevice::ChangeFace() {
+  WithRetries(es::ChangeFace::kCommand, CallDeadline(),
+              [&](Deadline until) { return Exchange(es::ChangeFace{}, until).status; });
+}
+
+bool EmsconDevice::CompensatorOn() {
+  return WithRetries(es::GetLongSystemParameter::kCommand, CallDeadline(), [&](Deadline until) {
+    const auto a =
+        Exchange(es::GetLongSystemParameter{es::system_parameter::kInclinationSensorState}, until);
+    const auto* p = std::get_if<es::LongParameter>(&a.data);
+    if (!p || p->parameter != es::system_parameter::kInclinationSensorState) {
+      throw InstrumentError(name(), 3074,
+                            "GetLongSystemParameter: the reply is for another parameter");
+    }
+    return p->value != 0;  // 0 off, 2 apply corrections
+  });
+}
+
+void EmsconDevice::GoPosition(const Eigen::Vector3d& point_in_instrument_mm) {
+  if (!point_in_instrument_mm.allFinite())
+    throw InstrumentError(name(), 3074, "GoPosition: the point is not finite");
+  const es::Spherical s = es::SphericalFromPoint(point_in_instrument_mm);
+  const double per_rad = 1.0 / *es::RadiansPer(options_.angle_unit);
+  WithRetries(es::GoPosition::kCommand, CallDeadline(), [&](Deadline until) {
+    return Exchange(es::GoPosition{s.hz_rad * per_rad, s.v_rad * per_rad, s.distance_mm,
+                                   options_.use_adm},
+                    until)
+        .status;
+  });
+}
+
+void EmsconDevice::FindReflector(double approx_distance_mm) {
+  WithRetries(es::FindReflector::kCommand, CallDeadline(), [&](Deadline until) {
+    return Exchange(es::FindReflector{approx_distance_mm}, until).status;
+  });
+}
+
+Environment EmsconDevice::GetEnvironment() {
+  return WithRetries(es::GetEnvironmentParams::kCommand, CallDeadline(), [&](Deadline until) {
+    const auto a = Exchange(es::GetEnvironmentParams{}, until);
+    const auto* e = std::get_if<es::EnvironmentParams>(&a.data);
+    if (!e) throw InstrumentError(name(), 3074, "GetEnvironmentParams: no values in the reply");
+    return Environment{e->temperature, e->pressure, e->humidity};
+  });
+}
+
+std::vector<es::ReflectorInfo> EmsconDevice::Reflectors() {
+  return WithRetries(es::GetReflectors::kCommand, CallDeadline(),
+                     [&](Deadline until) { return ReadReflectors(until); });
+}
+
+std::vector<es::ReflectorInfo> EmsconDevice::ReadReflectors(Deadline until) {
+  {
+    std::vector<es::ReflectorInfo> out;
+    auto take = [&](const es::CommandAnswer& a) {
+      const auto* r = std::get_if<es::ReflectorInfo>(&a.data);
+      if (!r) throw InstrumentError(name(), 3074, "GetReflectors: no reflector in the reply");
+      out.push_back(*r);
+      return r->total;
+    };
+    const int32_t total = take(Exchange(es::GetReflectors{}, until));
+    // The server sends one reply per reflector (EMSCON.md §3.3).
+    while (static_cast<int32_t>(out.size()) < total) {
+      const auto packet = NextPacket(until);
+      if (!packet) continue;
+      const auto* a = std::get_if<es::CommandAnswer>(&*packet);
+      if (a && a->command == es::GetReflectors::kCommand && a->status == es::status::kAllOk) {
+        take(*a);
+      } else if (const auto* e = std::get_if<es::ErrorResponse>(&*packet)) {
+        Record(Event::Kind::kUnsolicitedError, e->status, e->command);
+      } else {
+        ++stats_.stale_answers;
+      }
+    }
+    return out;
+  }
+}
+
+}  // namespace armsig::instruments

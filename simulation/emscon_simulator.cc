@@ -1,0 +1,584 @@
+#include "simulation/emscon_simulator.h"
+
+#include <spdlog/spdlog.h>
+
+#include <cmath>
+#include <numbers>
+#include <stdexcept>
+#include <type_traits>
+
+namespace armsig::simulation {
+
+namespace asio = boost::asio;
+namespace es = instruments::emscon;
+using tcp = asio::ip::tcp;
+
+struct EmsconSimulator::Connection {
+  explicit Connection(asio::io_context& io) : socket(io) {}
+  tcp::socket socket;
+  es::FrameSplitter splitter;
+  char chunk[4096];
+  std::deque<Step> out;
+  bool writing = false;
+  bool flooding = false;  // one flood at a time
+  bool closed = false;
+  void Close() {
+    closed = true;
+    boost::system::error_code ignored;
+    socket.shutdown(tcp::socket::shutdown_both, ignored);
+    socket.close(ignored);
+  }
+};
+
+namespace {
+
+// The reflectors this tracker knows (GetReflectors).
+struct KnownReflector {
+  int32_t id;
+  int32_t target_type;  // ES_TargetType
+  const char* name;
+};
+constexpr KnownReflector kReflectors[] = {
+    {1, 1, "CCR 1.5in"}, {2, 5, "RRR 1.5in"}, {3, 6, "RRR 0.5in"}, {4, 4, "RFI 0.5in"}};
+
+// An id whose reply this tracker never sends unasked (Park, or GoLastMeasuredPoint for Park).
+int32_t OtherCommand(int32_t command) { return command == 10 ? 62 : 10; }
+
+std::string Noise() { return std::string("\x13\xfe~#garbage\r\n\x07", 13); }
+
+}  // namespace
+
+EmsconSimulator::EmsconSimulator(VirtualLab& lab, int station, std::string host,
+                                 unsigned short port, EmsconSimulatorOptions options)
+    : lab_(lab),
+      station_(station),
+      host_(std::move(host)),
+      port_(port),
+      address_(host_ + ":" + std::to_string(port)),
+      options_(options),
+      rng_(options.seed) {
+  // Deliberately not armsig's: every one of these must be set by the client.
+  state_.units = {es::length_unit::kMeter, es::angle_unit::kGon, es::temperature_unit::kFahrenheit,
+                  es::pressure_unit::kMmHg, es::humidity_unit::kRelativeHumidity};
+  state_.coordinate_system = es::coordinate_system::kRHR;
+  state_.meas_mode = 1;  // ContinuousTime
+  state_.meas_time_ms = 2500;
+  state_.reflector = 1;
+  state_.initialized = options.initialized;
+  state_.settings.weather_monitor_status = 2;  // ReadAndCalculateRefractions
+  state_.settings.apply_transformation = true;
+  state_.settings.apply_station_orientation = true;
+  state_.settings.send_reflector_position = true;
+  state_.settings.has_nivel = true;
+}
+
+EmsconSimulator::~EmsconSimulator() { Stop(); }
+
+std::chrono::milliseconds EmsconSimulator::Scaled(std::chrono::milliseconds latency) const {
+  return std::chrono::milliseconds(
+      static_cast<long>(std::llround(static_cast<double>(latency.count()) * options_.time_scale)));
+}
+
+double EmsconSimulator::SigmaMm(double distance_mm) const {
+  return 0.5 * (options_.mpe_constant_mm + options_.mpe_per_metre_mm * distance_mm / 1000.0);
+}
+
+double EmsconSimulator::Seconds() const {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now() - start_).count() *
+         options_.environment_time_scale;
+}
+
+es::EnvironmentParams EmsconSimulator::WeatherAt(double t) {
+  constexpr double kTwoPi = 2.0 * std::numbers::pi;
+  return {20.0 + 0.3 * std::sin(kTwoPi * t / 3600.0) + 0.1 * t / 3600.0,
+          1013.25 + 0.8 * std::sin(kTwoPi * t / 7200.0 + 1.0),
+          45.0 + 2.0 * std::sin(kTwoPi * t / 5400.0 + 2.0)};
+}
+
+void EmsconSimulator::Start() {
+  boost::system::error_code ec;
+  const auto address = asio::ip::make_address(host_, ec);
+  if (ec) throw std::runtime_error("virtual tracker: '" + host_ + "' is no IP address");
+  const tcp::endpoint endpoint(address, port_);
+  acceptor_ = std::make_unique<tcp::acceptor>(io_);
+  acceptor_->open(endpoint.protocol(), ec);
+  if (!ec) acceptor_->set_option(tcp::acceptor::reuse_address(true), ec);
+  if (!ec) acceptor_->bind(endpoint, ec);
+  if (!ec) acceptor_->listen(asio::socket_base::max_listen_connections, ec);
+  if (ec) {
+    throw std::runtime_error("virtual tracker: cannot listen on " + address_ + " (" + ec.message() +
+                             ")");
+  }
+  port_ = acceptor_->local_endpoint().port();
+  address_ = host_ + ":" + std::to_string(port_);
+  start_ = std::chrono::steady_clock::now();
+  work_.emplace(asio::make_work_guard(io_));
+  StartAccept();
+  thread_ = std::thread([this] { io_.run(); });
+}
+
+void EmsconSimulator::Stop() {
+  if (!thread_.joinable()) return;
+  asio::post(io_, [this] {
+    boost::system::error_code ignored;
+    if (acceptor_) acceptor_->close(ignored);
+    if (connection_) connection_->Close();
+    work_.reset();
+  });
+  io_.stop();
+  thread_.join();
+  // The io thread is gone: close what the posted handler may not have closed.
+  boost::system::error_code ignored;
+  if (acceptor_) acceptor_->close(ignored);
+  if (connection_) connection_->Close();
+}
+
+void EmsconSimulator::InjectOnce(FaultSpec fault) {
+  std::lock_guard lock(mutex_);
+  faults_.push_back(fault);
+}
+
+void EmsconSimulator::InjectAlways(FaultSpec fault) {
+  std::lock_guard lock(mutex_);
+  always_ = fault;
+}
+
+void EmsconSimulator::ClearFaults() {
+  std::lock_guard lock(mutex_);
+  faults_.clear();
+  always_.reset();
+  ++flood_generation_;  // a flood stops at its next chunk
+}
+
+EmsconSimulator::State EmsconSimulator::state() const {
+  std::lock_guard lock(mutex_);
+  return state_;
+}
+
+Eigen::Vector3d EmsconSimulator::TruePointInTracker() const {
+  const VirtualStation& s = lab_.station(station_);
+  const Eigen::Vector3d x = lab_.TruePosition(lab_.AimedAt(station_));
+  return s.pose.world_from_station.transpose() * (x - s.pose.position_mm);
+}
+
+void EmsconSimulator::StartAccept() {
+  auto c = std::make_shared<Connection>(io_);
+  acceptor_->async_accept(c->socket, [this, c](const boost::system::error_code& ec) {
+    if (ec) {
+      if (ec != asio::error::operation_aborted && acceptor_->is_open()) StartAccept();
+      return;
+    }
+    if (connection_) connection_->Close();  // one client at a time, the newest wins
+    connection_ = c;
+    ++connections_;
+    boost::system::error_code ignored;
+    c->socket.set_option(tcp::no_delay(true), ignored);
+    StartRead(c);
+    StartAccept();
+  });
+}
+
+void EmsconSimulator::StartRead(std::shared_ptr<Connection> c) {
+  c->socket.async_read_some(
+      asio::buffer(c->chunk), [this, c](const boost::system::error_code& ec, size_t n) {
+        if (ec || c->closed) return;
+        c->splitter.Append(std::string_view(c->chunk, n));
+        std::string frame;
+        for (;;) {
+          int32_t size = 0;
+          const auto status = c->splitter.Next(frame, &size);
+          if (status == es::FrameSplitter::Status::kNeedMore) break;
+          if (status == es::FrameSplitter::Status::kBadSize) {
+            spdlog::debug("virtual tracker: dropped bytes with a size field of {}", size);
+            break;
+          }
+          OnFrame(c, frame);
+          if (c->closed) return;
+        }
+        StartRead(c);
+      });
+}
+
+void EmsconSimulator::OnFrame(const std::shared_ptr<Connection>& c, const std::string& frame) {
+  ++requests_;
+  FaultSpec fault;
+  {
+    std::lock_guard lock(mutex_);
+    if (!faults_.empty()) {
+      fault = faults_.front();
+      faults_.pop_front();
+    } else if (always_) {
+      fault = *always_;
+    }
+  }
+  switch (fault.fault) {
+    case Fault::kVanish:
+      c->Close();
+      return;
+    case Fault::kFloodBytes:
+    case Fault::kEndlessLine:
+    case Fault::kFloodLines:
+      if (!c->flooding) {
+        c->flooding = true;
+        Flood(c, fault.fault == Fault::kFloodLines, fault.fault == Fault::kEndlessLine, 0,
+              flood_generation_.load());
+      }
+      return;
+    default:
+      break;
+  }
+  const es::DecodedRequest decoded = es::DecodeRequest(frame);
+  std::vector<Step> steps;
+  if (decoded.request) {
+    steps = Answer(*decoded.request, fault);
+  } else if (decoded.command >= 0) {
+    // A command this server does not model: NotImplemented, as emScon answers.
+    steps.push_back(
+        {Scaled(options_.command_latency),
+         es::EncodePacket(es::CommandAnswer{decoded.command, es::status::kNotImplemented, {}})});
+  } else {
+    spdlog::debug("virtual tracker: ignored a packet that is no command: {}", decoded.why);
+    return;
+  }
+  if (steps.empty() || fault.fault == Fault::kDropReply) return;
+  switch (fault.fault) {
+    case Fault::kNoiseBytes:
+      steps.front().bytes = Noise() + steps.front().bytes;
+      break;
+    case Fault::kTruncateReply:
+      steps.resize(1);
+      steps.front().bytes.resize(steps.front().bytes.size() / 2);
+      break;
+    case Fault::kStatusInside: {
+      std::string& b = steps.front().bytes;
+      b = b.substr(0, es::kHeaderBytes) +
+          es::EncodePacket(es::StatusChange{es::status_change::kMeasStatusReady}) +
+          b.substr(es::kHeaderBytes);
+      break;
+    }
+    default:
+      break;
+  }
+  Queue(c, std::move(steps));
+}
+
+std::vector<EmsconSimulator::Step> EmsconSimulator::Answer(const es::Request& request,
+                                                           const FaultSpec& fault) {
+  const int32_t id = es::CommandOf(request);
+  const auto latency = Scaled(options_.command_latency);
+  if (fault.fault == Fault::kBusy) {
+    return {{latency, es::EncodePacket(es::CommandAnswer{id, es::status::kServerBusy, {}})}};
+  }
+  if (fault.fault == Fault::kErrorCode) {
+    const int32_t code = fault.code != 0 ? fault.code : es::status::kTrackerNotInitialized;
+    return {{latency, es::EncodePacket(es::ErrorResponse{id, code})}};
+  }
+  std::vector<Step> steps;
+  std::vector<std::string> after;  // status changes once the reply is out
+  es::CommandAnswer a{id, es::status::kAllOk, {}};
+  auto reply_latency = latency;
+  bool measured = false;
+  {
+    std::lock_guard lock(mutex_);
+    State& s = state_;
+    const auto change = [&](int32_t value) {
+      after.push_back(es::EncodePacket(es::StatusChange{value}));
+    };
+    std::visit(
+        [&](const auto& r) {
+          using T = std::decay_t<decltype(r)>;
+          if constexpr (std::is_same_v<T, es::Initialize>) {
+            s.initialized = true;
+            reply_latency = Scaled(options_.initialize_latency);
+            change(151);  // InitializationStatusChanged
+          } else if constexpr (std::is_same_v<T, es::GetSystemStatus>) {
+            a.data = es::SystemStatus{0,    s.initialized ? 5 : 3,
+                                      3,    2,
+                                      3,    6,
+                                      1234, s.settings.weather_monitor_status,
+                                      0,    391234};
+          } else if constexpr (std::is_same_v<T, es::SetUnits>) {
+            const auto& u = r.units;
+            if (!es::MillimetresPer(u.length) || !es::RadiansPer(u.angle) ||
+                !es::ToCelsius(0.0, u.temperature) || !es::ToHectopascal(0.0, u.pressure) ||
+                u.humidity != es::humidity_unit::kRelativeHumidity) {
+              a.status = es::status::kWrongParameter;
+            } else {
+              s.units = u;
+              change(es::status_change::kUnitsChanged);
+            }
+          } else if constexpr (std::is_same_v<T, es::SetEnvironmentParams>) {
+            change(2);  // EnvironmentParamsChanged (the weather station keeps measuring)
+          } else if constexpr (std::is_same_v<T, es::GetEnvironmentParams>) {
+            const auto w = WeatherAt(Seconds());
+            a.data = es::EnvironmentParams{*es::FromCelsius(w.temperature, s.units.temperature),
+                                           *es::FromHectopascal(w.pressure, s.units.pressure),
+                                           w.humidity};
+          } else if constexpr (std::is_same_v<T, es::SetMeasurementMode>) {
+            if (r.mode != es::meas_mode::kStationary) {
+              a.status = es::status::kNotImplemented;  // AT4xx: stationary only
+            } else {
+              s.meas_mode = r.mode;
+              change(es::status_change::kMeasurementModeChanged);
+            }
+          } else if constexpr (std::is_same_v<T, es::SetCoordinateSystemType>) {
+            if (r.type == es::coordinate_system::kRHR || r.type == es::coordinate_system::kSCW ||
+                r.type == es::coordinate_system::kSCC) {
+              s.coordinate_system = r.type;
+              change(es::status_change::kCoordinateSystemTypeChanged);
+            } else {
+              a.status = r.type >= 0 && r.type <= 7 ? es::status::kNotImplemented
+                                                    : es::status::kWrongParameter;
+            }
+          } else if constexpr (std::is_same_v<T, es::SetStationaryModeParams>) {
+            if (r.meas_time_ms < 1 || r.meas_time_ms > 100000) {
+              a.status = 4;  // WrongParameter1
+            } else {
+              s.meas_time_ms = r.meas_time_ms;
+              s.use_adm = r.use_adm;
+              change(es::status_change::kStationaryModeParamsChanged);
+            }
+          } else if constexpr (std::is_same_v<T, es::SetReflector>) {
+            bool known = false;
+            for (const auto& k : kReflectors) known = known || k.id == r.reflector_id;
+            if (known) {
+              s.reflector = r.reflector_id;
+              change(es::status_change::kReflectorChanged);
+            } else {
+              a.status = 4;  // WrongParameter1
+            }
+          } else if constexpr (std::is_same_v<T, es::GetReflector>) {
+            a.data = es::Int32Value{s.reflector};
+          } else if constexpr (std::is_same_v<T, es::GetReflectors>) {
+            const auto n = static_cast<int32_t>(std::size(kReflectors));
+            for (int32_t i = 0; i + 1 < n; ++i) {  // all but the last; `a` is the last
+              const auto& k = kReflectors[i];
+              steps.push_back(
+                  {latency, es::EncodePacket(es::CommandAnswer{
+                                id, 0, es::ReflectorInfo{n, k.id, k.target_type, 0.0, k.name}})});
+            }
+            const auto& k = kReflectors[n - 1];
+            a.data = es::ReflectorInfo{n, k.id, k.target_type, 0.0, k.name};
+          } else if constexpr (std::is_same_v<T, es::SetSystemSettings>) {
+            s.settings = r.settings;
+            change(es::status_change::kSystemSettingsChanged);
+          } else if constexpr (std::is_same_v<T, es::GetSystemSettings>) {
+            a.data = s.settings;
+          } else if constexpr (std::is_same_v<T, es::StartMeasurement>) {
+            measured = true;
+          } else if constexpr (std::is_same_v<T, es::ChangeFace>) {
+            s.face = 3 - s.face;
+            lab_.SetFace(station_, s.face);
+            reply_latency = Scaled(options_.motion_latency);
+            change(s.face == 1 ? es::status_change::kIsFace1 : es::status_change::kIsFace2);
+          } else if constexpr (std::is_same_v<T, es::GoPosition>) {
+            const double mm = *es::MillimetresPer(s.units.length);
+            const double rad = *es::RadiansPer(s.units.angle);
+            if (s.coordinate_system == es::coordinate_system::kRHR) {
+              s.go_position_mm = Eigen::Vector3d(r.val1, r.val2, r.val3) * mm;
+            } else {
+              double hz = r.val1 * rad;
+              if (s.coordinate_system == es::coordinate_system::kSCC) hz = -hz;
+              s.go_position_mm = es::PointFromSpherical({hz, r.val2 * rad, r.val3 * mm});
+            }
+            reply_latency = Scaled(options_.motion_latency);
+          } else if constexpr (std::is_same_v<T, es::FindReflector>) {
+            reply_latency = Scaled(options_.motion_latency);
+            if (fault.fault == Fault::kReflectorNotFound) {
+              a.status = es::status::kMeasurementStatusNotReady;
+            }
+          } else if constexpr (std::is_same_v<T, es::GetFace>) {
+            a.data = es::Int32Value{s.face};
+          } else if constexpr (std::is_same_v<T, es::GetLongSystemParameter>) {
+            if (r.parameter == es::system_parameter::kInclinationSensorState) {
+              a.data = es::LongParameter{r.parameter, 2};  // apply corrections
+            } else {
+              a.status = es::status::kNotImplemented;
+            }
+          }
+        },
+        request);
+    if (a.status != es::status::kAllOk) a.data = std::monostate{};
+  }
+
+  const bool wrong_id = fault.fault == Fault::kWrongCommandId;
+  if (wrong_id) a.command = OtherCommand(id);
+  if (!measured) {
+    steps.push_back({reply_latency, es::EncodePacket(a)});
+  } else {
+    int32_t meas_time = 0;
+    bool initialized = false;
+    {
+      std::lock_guard lock(mutex_);
+      meas_time = state_.meas_time_ms;
+      initialized = state_.initialized;
+    }
+    if (!initialized) {
+      a.status = es::status::kTrackerNotInitialized;
+      steps.push_back({latency, es::EncodePacket(a)});
+    } else if (fault.fault == Fault::kReflectorNotFound) {
+      steps.push_back(
+          {latency, es::EncodePacket(es::StatusChange{es::status_change::kMeasStatusNotReady})});
+      a.status = es::status::kMeasurementStatusNotReady;
+      steps.push_back({std::chrono::milliseconds(0), es::EncodePacket(a)});
+    } else {
+      steps.push_back({latency, es::EncodePacket(a)});  // accepted
+      const auto measuring = Scaled(std::chrono::milliseconds(meas_time));
+      if (fault.fault == Fault::kBeamBreak) {
+        steps.push_back(
+            {measuring, es::EncodePacket(es::ErrorResponse{es::StartMeasurement::kCommand,
+                                                           es::status::kNoDistanceSet})});
+        after.push_back(es::EncodePacket(es::StatusChange{es::status_change::kMeasStatusNotReady}));
+      } else if (!wrong_id) {
+        steps.push_back(
+            {measuring, es::EncodePacket(MeasureNow(fault.fault == Fault::kOutOfRange))});
+        after.push_back(es::EncodePacket(es::StatusChange{es::status_change::kMeasStatusReady}));
+      }
+    }
+  }
+  if (fault.fault == Fault::kStatusBetween) {
+    // Before the reply: a status change and an unsolicited error about something else;
+    // the reply's header and body in two writes; between the reply and the result another
+    // status change.
+    std::vector<Step> mixed;
+    mixed.push_back({steps.front().delay,
+                     es::EncodePacket(es::StatusChange{es::status_change::kMeasStatusBusy}) +
+                         es::EncodePacket(es::ErrorResponse{64, 10013})});
+    const std::string& reply = steps.front().bytes;
+    mixed.push_back({std::chrono::milliseconds(0), reply.substr(0, es::kHeaderBytes)});
+    mixed.push_back({std::chrono::milliseconds(5), reply.substr(es::kHeaderBytes)});
+    for (size_t i = 1; i < steps.size(); ++i) {
+      mixed.push_back({std::chrono::milliseconds(0),
+                       es::EncodePacket(es::StatusChange{es::status_change::kMeasStatusReady})});
+      mixed.push_back(std::move(steps[i]));
+    }
+    steps = std::move(mixed);
+  }
+  for (auto& bytes : after) steps.push_back({std::chrono::milliseconds(0), std::move(bytes)});
+  return steps;
+}
+
+es::MeasResult EmsconSimulator::MeasureNow(bool out_of_range) {
+  const Eigen::Vector3d truth = TruePointInTracker();
+  std::lock_guard lock(mutex_);
+  const State& s = state_;
+  ++state_.measurements;
+  const double sigma = SigmaMm(truth.norm());
+  std::normal_distribution<double> noise(0.0, sigma);
+  Eigen::Vector3d p = truth + Eigen::Vector3d(noise(rng_), noise(rng_), noise(rng_));
+  if (s.settings.apply_transformation) p.x() += kUserTransformationShiftMm;
+  const es::Spherical sph = es::SphericalFromPoint(p);
+  const double mm = *es::MillimetresPer(s.units.length);
+  const double rad = *es::RadiansPer(s.units.angle);
+  es::MeasResult m;
+  m.meas_mode = s.meas_mode;
+  m.try_mode = s.settings.try_measurement_mode;
+  if (s.coordinate_system == es::coordinate_system::kRHR) {
+    for (int i = 0; i < 3; ++i) {
+      m.value[i] = p[i] / mm;
+      m.std_dev[i] = sigma / mm;
+    }
+  } else {
+    double hz = sph.hz_rad;
+    if (s.coordinate_system == es::coordinate_system::kSCC && hz > 0.0) {
+      hz = 2.0 * std::numbers::pi - hz;
+    }
+    m.value = {hz / rad, sph.v_rad / rad, sph.distance_mm / mm};
+    m.std_dev = {sigma / (sph.distance_mm * std::sin(sph.v_rad)) / rad,
+                 sigma / sph.distance_mm / rad, sigma / mm};
+  }
+  if (out_of_range) m.value[1] = -m.value[1];
+  m.std_total = std::sqrt(3.0) * sigma / mm;
+  m.apriori_std = m.std_dev;
+  m.apriori_std_total = m.std_total;
+  const auto w = WeatherAt(Seconds());
+  m.temperature = *es::FromCelsius(w.temperature, s.units.temperature);
+  m.pressure = *es::FromHectopascal(w.pressure, s.units.pressure);
+  m.humidity = w.humidity;
+  return m;
+}
+
+void EmsconSimulator::Queue(const std::shared_ptr<Connection>& c, std::vector<Step> steps) {
+  for (auto& s : steps) c->out.push_back(std::move(s));
+  if (!c->writing) Pump(c);
+}
+
+void EmsconSimulator::Pump(std::shared_ptr<Connection> c) {
+  if (c->closed || c->out.empty()) {
+    c->writing = false;
+    return;
+  }
+  c->writing = true;
+  auto step = std::make_shared<Step>(std::move(c->out.front()));
+  c->out.pop_front();
+  auto write = [this, c, step] {
+    if (c->closed) return;
+    asio::async_write(c->socket, asio::buffer(step->bytes),
+                      [this, c, step](const boost::system::error_code& ec, size_t) {
+                        if (ec) {
+                          c->writing = false;
+                          return;
+                        }
+                        Pump(c);
+                      });
+  };
+  if (step->delay.count() <= 0) {
+    write();
+    return;
+  }
+  auto timer = std::make_shared<asio::steady_timer>(io_, step->delay);
+  timer->async_wait([timer, write](const boost::system::error_code& ec) {
+    if (!ec) write();
+  });
+}
+
+void EmsconSimulator::Flood(std::shared_ptr<Connection> c, bool packets, bool printable, int64_t k,
+                            uint64_t generation) {
+  if (c->closed || generation != flood_generation_.load()) {
+    c->flooding = false;
+    return;
+  }
+  auto data = std::make_shared<std::string>();
+  if (packets) {
+    // Status changes and reflector positions: the protocol's own packets, never a reply.
+    while (data->size() + 48 <= 4096) {
+      *data += es::EncodePacket(es::StatusChange{k % 2 == 0 ? 26 : 27});
+      *data += es::EncodePacket(
+          es::ReflectorPosition{0, {1.0, 1.5, 2000.0 + static_cast<double>(k % 100)}});
+    }
+  } else {
+    data->resize(4096);
+    uint32_t x = static_cast<uint32_t>(k) * 2654435761u + 12345u;
+    for (char& ch : *data) {
+      x = x * 1664525u + 1013904223u;
+      ch = printable ? static_cast<char>('A' + (x >> 24) % 26) : static_cast<char>(x >> 24);
+    }
+  }
+  FloodChunk(std::move(c), std::move(data), 0, packets, printable, k, generation);
+}
+
+// One write_some at a time, so flood_bytes() counts what the connection took as it takes it.
+void EmsconSimulator::FloodChunk(std::shared_ptr<Connection> c, std::shared_ptr<std::string> data,
+                                 size_t offset, bool packets, bool printable, int64_t k,
+                                 uint64_t generation) {
+  if (c->closed || generation != flood_generation_.load()) {
+    c->flooding = false;
+    return;
+  }
+  c->socket.async_write_some(asio::buffer(data->data() + offset, data->size() - offset),
+                             [this, c, data, offset, packets, printable, k, generation](
+                                 const boost::system::error_code& ec, size_t n) {
+                               flood_bytes_ += static_cast<int64_t>(n);
+                               if (ec) {
+                                 c->flooding = false;
+                                 return;
+                               }
+                               if (offset + n < data->size()) {
+                                 FloodChunk(c, data, offset + n, packets, printable, k, generation);
+                               } else {
+                                 Flood(c, packets, printable, k + 1, generation);
+                               }
+                             });
+}
+
+}  // namespace armsig::simulation

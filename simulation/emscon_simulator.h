@@ -1,0 +1,149 @@
+// A virtual Leica laser tracker behind an emScon server: the TPI binary protocol over TCP
+// (a Boost.Asio acceptor on its own thread), answering through the same codec as the
+// driver (instruments/emscon_codec.h). It measures the true position of what its station
+// of the VirtualLab is aimed at, with the noise model below, in the units, coordinate
+// system type, measurement mode and system settings the client set. It starts in a state
+// that is deliberately not armsig's (metres, gon, °F, mmHg, Cartesian, continuous mode, a
+// user transformation applied, not initialised), so a driver that assumes any of it
+// measures wrong or not at all.
+//
+// Noise model (MPE class of an AT401-like tracker): the maximum permissible error of a
+// point is MPE(d) = 15 µm + 6 µm/m · d; one standard deviation is half of it, isotropic:
+// σ(d) = MPE(d) / 2 on each of x, y, z (d the distance from the tracker). The result
+// reports it per component in spherical form: σ_Hz = σ / (d sin V), σ_V = σ / d, σ_d = σ.
+//
+// The weather drifts slowly: T = 20 °C + 0.3 °C sin(2πt/1 h) + 0.1 °C/h · t,
+// p = 1013.25 hPa + 0.8 hPa sin(2πt/2 h + 1), RH = 45 % + 2 % sin(2πt/1.5 h + 2), t the time
+// since start (times environment_time_scale).
+//
+// Faults (FaultSpec, once or on every request): silence, partial (half the first packet),
+// noise (garbage before the reply), flood-bytes / endless-line (binary or printable bytes
+// without pause), flood-lines (status-change and reflector-position packets without
+// pause, never the reply), busy (ES_RS_ServerBusy), error (an ErrorResponse with the given
+// status), wrong-command-id, vanish (the server closes the connection), out-of-range (a
+// negative zenith angle), beam-break, reflector-not-found, status-between, status-inside.
+#pragma once
+
+#include <Eigen/Core>
+#include <atomic>
+#include <chrono>
+#include <deque>
+#include <memory>
+#include <mutex>
+#include <optional>
+#include <random>
+#include <string>
+#include <thread>
+
+#include "instruments/emscon_codec.h"
+#include "simulation/simulators.h"
+#include "simulation/virtual_lab.h"
+
+namespace armsig::simulation {
+
+struct EmsconSimulatorOptions {
+  double time_scale = 1.0;  // multiplies every latency (0 = answer at once)
+  std::chrono::milliseconds command_latency{2};
+  std::chrono::milliseconds motion_latency{100};      // GoPosition, ChangeFace, FindReflector
+  std::chrono::milliseconds initialize_latency{300};  // Initialize
+  // A stationary measurement takes the measurement time the client set (times time_scale).
+  double mpe_constant_mm = 0.015;
+  double mpe_per_metre_mm = 0.006;
+  double environment_time_scale = 1.0;  // seconds of weather per second
+  bool initialized = false;             // the tracker processor's state at start
+  unsigned seed = 7;
+};
+
+class EmsconSimulator : public Simulator {
+ public:
+  // Listens on `host`:`port` (port 0: any free port; path() names the one taken).
+  EmsconSimulator(VirtualLab& lab, int station, std::string host = "127.0.0.1",
+                  unsigned short port = 0, EmsconSimulatorOptions options = {});
+  ~EmsconSimulator() override;
+  EmsconSimulator(const EmsconSimulator&) = delete;
+  EmsconSimulator& operator=(const EmsconSimulator&) = delete;
+
+  void Start() override;  // throws std::runtime_error when the address cannot be bound
+  void Stop() override;
+  const std::string& path() const override { return address_; }
+  unsigned short port() const { return port_; }
+  void InjectOnce(FaultSpec fault) override;
+  void InjectAlways(FaultSpec fault) override;
+  void ClearFaults() override;
+  int requests() const override { return requests_.load(); }
+  int64_t flood_bytes() const override { return flood_bytes_.load(); }
+  int connections() const { return connections_.load(); }
+
+  // σ of each Cartesian component at `distance_mm` (the noise model above).
+  double SigmaMm(double distance_mm) const;
+
+  // The tracker's state as the client left it (a snapshot, thread-safe).
+  struct State {
+    instruments::emscon::Units units;
+    int32_t coordinate_system = 0;
+    int32_t meas_mode = 0;
+    int32_t meas_time_ms = 0;
+    bool use_adm = false;
+    int32_t reflector = 0;
+    bool initialized = false;
+    instruments::emscon::SystemSettings settings;
+    int face = 1;
+    std::optional<Eigen::Vector3d> go_position_mm;  // the last GoPosition, tracker frame
+    int measurements = 0;
+  };
+  State state() const;
+  // The true point the tracker would measure now, in its own frame (mm).
+  Eigen::Vector3d TruePointInTracker() const;
+  // The weather at `seconds` after start (°C, hPa, %RH).
+  static instruments::emscon::EnvironmentParams WeatherAt(double seconds);
+
+  // The shift the simulated user transformation applies while bApplyTransformationParams
+  // is set (a driver that leaves it on measures in the wrong frame).
+  static constexpr double kUserTransformationShiftMm = 100.0;
+
+ private:
+  struct Connection;
+  struct Step {
+    std::chrono::milliseconds delay{0};
+    std::string bytes;
+  };
+  void StartAccept();
+  void StartRead(std::shared_ptr<Connection> c);
+  void OnFrame(const std::shared_ptr<Connection>& c, const std::string& frame);
+  void Queue(const std::shared_ptr<Connection>& c, std::vector<Step> steps);
+  void Pump(std::shared_ptr<Connection> c);
+  void Flood(std::shared_ptr<Connection> c, bool packets, bool printable, int64_t k,
+             uint64_t generation);
+  void FloodChunk(std::shared_ptr<Connection> c, std::shared_ptr<std::string> data, size_t offset,
+                  bool packets, bool printable, int64_t k, uint64_t generation);
+  // The packets answering `request` (before faults), and the latency of the first.
+  std::vector<Step> Answer(const instruments::emscon::Request& request, const FaultSpec& fault);
+  instruments::emscon::MeasResult MeasureNow(bool out_of_range);
+  double Seconds() const;
+  std::chrono::milliseconds Scaled(std::chrono::milliseconds latency) const;
+
+  VirtualLab& lab_;
+  int station_;
+  std::string host_;
+  unsigned short port_;
+  std::string address_;
+  EmsconSimulatorOptions options_;
+  boost::asio::io_context io_;
+  std::unique_ptr<boost::asio::ip::tcp::acceptor> acceptor_;
+  std::shared_ptr<Connection> connection_;  // the one client (an AT4xx takes only one)
+  std::thread thread_;
+  std::optional<boost::asio::executor_work_guard<boost::asio::io_context::executor_type>> work_;
+  std::chrono::steady_clock::time_point start_;
+
+  mutable std::mutex mutex_;  // faults and state
+  std::deque<FaultSpec> faults_;
+  std::optional<FaultSpec> always_;
+  State state_;
+  std::mt19937 rng_;
+
+  std::atomic<int> requests_{0}, connections_{0};
+  std::atomic<int64_t> flood_bytes_{0};
+  std::atomic<uint64_t> flood_generation_{0};
+};
+
+}  // namespace armsig::simulation
