@@ -1,5 +1,8 @@
 #include "acquisition/session.h"
 
+#include <fmt/format.h>
+#include <spdlog/spdlog.h>
+
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -292,6 +295,7 @@ CaptureSummary RunCapture(db::Database& db, const LabConfig& lab, int64_t sessio
     if (!accepted) {
       db::InsertPose(db, session, seq, target.label, std::nullopt, "skipped", attempts);
       tx.commit();
+      spdlog::debug("capture: {} skipped after {} attempt(s): {}", target.label, attempts, fault);
       ++summary.skipped;
       summary.skipped_configurations.push_back({target.label, fault});
     } else {
@@ -311,6 +315,19 @@ CaptureSummary RunCapture(db::Database& db, const LabConfig& lab, int64_t sessio
       db::InsertPoint(db, session, point);
       tx.commit();
       ++summary.measured;
+      const std::string flags = ToString(result.flags);
+      spdlog::debug("capture: {} stored: {} readings, {} attempt(s), point {}{}, miss {:.4f} mm",
+                    target.label, m.readings.size(), attempts,
+                    result.status.ok() ? "intersected" : "not intersected",
+                    flags.empty() ? "" : " [" + flags + "]", result.max_miss_mm);
+      for (const auto& r : m.readings) {
+        spdlog::trace("capture: {} {}: Hz {:.8f} V {:.8f} rad{} code {}", target.label,
+                      lab.instruments[r.instrument].station, r.reading.angles.hz_rad,
+                      r.reading.angles.v_rad,
+                      r.reading.distance_mm ? fmt::format(" d {:.4f} mm", *r.reading.distance_mm)
+                                            : std::string(),
+                      r.reading.return_code);
+      }
       if (m.point.accepted()) {
         ++summary.usable;
         miss_sum += result.max_miss_mm;

@@ -1,5 +1,7 @@
 #include "io/csv.h"
 
+#include <spdlog/spdlog.h>
+
 #include <charconv>
 #include <cmath>
 #include <fstream>
@@ -224,7 +226,9 @@ CsvTable ReadCsvFile(const std::string& path, CsvOptions options) {
   if (!in) throw InputError({path, 0, 0, ""}, "cannot open file for reading");
   std::ostringstream buffer;
   buffer << in.rdbuf();
-  return ParseCsv(buffer.str(), path, options);
+  CsvTable table = ParseCsv(buffer.str(), path, options);
+  spdlog::debug("read {}: {} rows, {} columns", path, table.rows().size(), table.header().size());
+  return table;
 }
 
 CsvTable::CsvTable(std::string source, std::vector<std::string> header, std::vector<CsvRow> rows,

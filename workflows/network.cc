@@ -67,6 +67,10 @@ OrientRun OrientFiles(const OrientFilesOptions& options) {
                              "; nothing was written");
   }
   const auto& result = run.result;
+  spdlog::debug("orient: {} stations, {} points, {} observations, {} unknowns, sigma0 {:.4f}, {} "
+                "iterations ({})",
+                result.stations.size(), result.points.size(), result.observations,
+                result.unknowns, result.sigma0, result.iterations, result.datum);
   if (!result.status.ok()) {
     spdlog::error("orient: the adjustment did not converge ({}): nothing was written",
                   result.status.message);
@@ -212,6 +216,8 @@ TriangulateRun TriangulateFiles(const TriangulateFilesOptions& options) {
   }
   for (const auto& point : run.points) {
     const auto& r = point.result;
+    spdlog::trace("triangulate: point {}: {} rays, {} ({})", point.id, r.rays.size(),
+                  r.status.ok() ? "intersected" : "not intersected", reduction::ToString(r.flags));
     if (!r.status.ok()) {
       spdlog::warn("triangulate: point {} not intersected: {} ({})", point.id, r.status.message,
                    reduction::ToString(r.flags));
