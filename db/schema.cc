@@ -173,7 +173,22 @@ constexpr std::string_view kSchemaV3 = R"sql(
 ALTER TABLE calibrations ADD COLUMN covariance_json TEXT;  -- {"parameters": [names], "matrix": [[…]]}, mm and rad
 )sql";
 
-constexpr std::array<std::string_view, 3> kMigrations = {kSchemaV1, kSchemaV2, kSchemaV3};
+// ---- Laser-tracker environment (branch `tracker`, issue 12) --------------------------------
+// The air at the instrument with every reading (a laser tracker's weather station reports
+// temperature, pressure and humidity with each result), for the record and for the
+// recalibration report's error-against-temperature figure; NULL for readings without it
+// (theodolites, older files). Written as the version after v3 in this branch; when merged
+// after another branch's v4, it becomes the next number: only its place in kMigrations
+// changes, the statement stands alone.
+constexpr std::string_view kSchemaObservationEnvironment = R"sql(
+ALTER TABLE observations ADD COLUMN temperature_c REAL;     -- deg C at the instrument
+ALTER TABLE observations ADD COLUMN pressure_hpa REAL;      -- hPa
+ALTER TABLE observations ADD COLUMN humidity_percent REAL;  -- % relative humidity
+)sql";
+// ---- end laser-tracker environment ------------------------------------------------------
+
+constexpr std::array<std::string_view, 4> kMigrations = {kSchemaV1, kSchemaV2, kSchemaV3,
+                                                         kSchemaObservationEnvironment};
 
 constexpr std::array<std::string_view, 11> kTables = {"robots",
                                                       "instruments",

@@ -77,8 +77,8 @@ PoseImportOptions PoseImportOptions::UrIpa() {
 }
 
 std::vector<MeasuredPose> ImportPoses(const std::string& path, const PoseImportOptions& options) {
-  if (options.joint_columns.empty()) throw InputError("no joint columns given (--joints)");
-  if (options.xyz_columns.size() != 3) throw InputError("expected three position columns (--xyz)");
+  if (options.joint_columns.empty()) throw InputError("no joint columns given (--joint-columns)");
+  if (options.xyz_columns.size() != 3) throw InputError("expected three position columns (--xyz-columns)");
   CsvOptions csv;
   csv.delimiter = options.delimiter;
   const CsvTable table = ReadCsvFile(path, csv);

@@ -9,6 +9,7 @@
 #include <string>
 #include <vector>
 
+#include "calibration/model.h"
 #include "core/types.h"
 #include "db/database.h"
 #include "db/robots.h"
@@ -21,11 +22,18 @@ namespace armsig::workflows {
 // exactly this model; InputError when the name is taken with another model.
 bool RegisterRobot(db::Database& database, const std::string& name, const std::string& model_path);
 
+// The model a registered robot was stored with. InputError (naming `robot add`) for an
+// unknown robot.
+calibration::RobotModel RegisteredModel(db::Database& database, const std::string& robot);
+
 // Stores measured poses (joints + target in the measuring frame) as a new completed
 // session of a registered robot, in one transaction; the nightly job uses it like a
 // captured session. InputError for an unknown robot or joints that do not fit its model.
+// `covariances_mm2`: each pose's target covariance (from a point table's sigmas), empty or
+// NaN where not known.
 int64_t StorePosesSession(db::Database& database, const std::string& robot,
-                          const std::vector<MeasuredPose>& poses, const std::string& source);
+                          const std::vector<MeasuredPose>& poses, const std::string& source,
+                          const std::vector<Eigen::Matrix3d>& covariances_mm2 = {});
 
 // A session's measured poses with their reduced targets (pose ids = the session's labels).
 // InputError for an unknown session.

@@ -15,6 +15,7 @@
 #include "calibration/identifiability.h"
 #include "core/error.h"
 #include "db/database.h"
+#include "db/report_queries.h"
 #include "db/store.h"
 #include "io/atomic_file.h"
 #include "io/file_lock.h"
@@ -347,6 +348,11 @@ RecalibrationDecision Recalibrate(const RecalibrateOptions& o) {
     input.validation = validation;
     input.armsig_version = ARMSIG_VERSION;
     input.sources = LoadReportSources(database, run);
+    {
+      std::vector<int64_t> sessions;
+      for (const auto& s : input.sources.sessions) sessions.push_back(s.id);
+      input.temperature_c = db::PoseTemperatures(database, sessions);
+    }
     for (const auto& h : db::CalibrationHistory(database, *robot_id)) {
       input.history.push_back(
           {h.version, h.created_at, h.validation_mean_mm, h.params_spec, h.active});

@@ -106,6 +106,28 @@ std::vector<double> NiceTicks(double lo, double hi, int max_ticks) {
   return ticks;
 }
 
+std::optional<LinearTrend> LinearTrendOf(const std::vector<double>& x,
+                                         const std::vector<double>& y) {
+  const size_t n = std::min(x.size(), y.size());
+  if (n < 2) return std::nullopt;
+  double mx = 0.0, my = 0.0;
+  for (size_t i = 0; i < n; ++i) {
+    mx += x[i] / n;
+    my += y[i] / n;
+  }
+  double sxx = 0.0, sxy = 0.0;
+  for (size_t i = 0; i < n; ++i) {
+    sxx += (x[i] - mx) * (x[i] - mx);
+    sxy += (x[i] - mx) * (y[i] - my);
+  }
+  if (!(sxx > 0.0)) return std::nullopt;  // one temperature: no slope
+  LinearTrend t;
+  t.slope = sxy / sxx;
+  t.intercept = my - t.slope * mx;
+  t.points = static_cast<int>(n);
+  return t;
+}
+
 std::vector<int> IntegerTicks(int largest, int max_ticks) {
   largest = std::max(largest, 1);
   const int step = std::max(1, static_cast<int>(std::lround(NiceStep(static_cast<double>(largest) /
@@ -645,6 +667,55 @@ std::string WriteReport(const std::string& dir, const ReportInput& in) {
     }
   }
 
+  // 6. Error against the air temperature at the instrument (laser trackers report it with
+  // every reading): a thermal drift of the robot or the set-up shows as a slope.
+  Figure temperature_figure;
+  std::vector<double> temperatures, temperature_errors;
+  for (size_t i = 0; i < n && i < run.validation_pose_ids.size(); ++i) {
+    const auto it = in.temperature_c.find(run.validation_pose_ids[i]);
+    if (it == in.temperature_c.end() || !std::isfinite(it->second)) continue;
+    temperatures.push_back(it->second);
+    temperature_errors.push_back(distances[i]);
+  }
+  const std::optional<LinearTrend> trend = LinearTrendOf(temperatures, temperature_errors);
+  {
+    double lo = 20.0, hi = 21.0, top = 1e-6;
+    if (!temperatures.empty()) {
+      lo = *std::min_element(temperatures.begin(), temperatures.end());
+      hi = *std::max_element(temperatures.begin(), temperatures.end());
+      if (hi - lo < 0.01) {  // a steady room: a 0.1 °C wide axis around it
+        lo -= 0.05;
+        hi += 0.05;
+      }
+    }
+    for (double d : distances) top = std::max(top, d);
+    Plot p(900, 360, "Calibrated error against the air temperature at the instrument",
+           LinearAxis(lo, hi, 8), LinearAxis(0, top, 5), "air temperature at the instrument (deg C)",
+           "mm");
+    for (size_t k = 0; k < temperatures.size(); ++k) {
+      DrawMarker(p.image, p.At(temperatures[k], temperature_errors[k]), Marker::kCircle, kBlue, 3);
+    }
+    std::vector<LegendEntry> legend = {
+        {Marker::kCircle, kBlue,
+         fmt::format("validation poses with a temperature: {} of {}", temperatures.size(), n)}};
+    if (trend) {
+      const Axis axis = LinearAxis(lo, hi, 8);  // the drawn axis: lo and hi rounded out
+      const double x0 = axis.lo, x1 = axis.hi;
+      cv::line(p.image, p.At(x0, trend->intercept + trend->slope * x0),
+               p.At(x1, trend->intercept + trend->slope * x1), kRed, 2, cv::LINE_AA);
+      legend.push_back({Marker::kLine, kRed,
+                        fmt::format("least-squares trend: {:+.4f} mm per deg C", trend->slope)});
+    }
+    p.Legend(legend);
+    if (temperatures.empty()) {
+      Text(p.image,
+           "no temperature stored with these poses (theodolites, or poses imported from a file)",
+           {p.area.x + p.area.width / 2, p.area.y + p.area.height / 2}, 0.5, Align::kCenter);
+    }
+    temperature_figure =
+        Save(dir, "temperature.png", "Error against the air temperature", p.image);
+  }
+
   // ---- The page ---- (every text through Html: escaped unless it is a literal here)
   Html html = HtmlFormat(
       "<!doctype html>\n<html><head><meta charset=\"utf-8\"><title>armsig report: {}</title>\n"
@@ -784,6 +855,23 @@ std::string WriteReport(const std::string& dir, const ReportInput& in) {
     html += "</table>\n";
   }
   html += Html("<h2>Residual vectors</h2>\n") + FigureHtml(vectors_figure);
+  html += Html("<h2>Error against temperature</h2>\n");
+  if (temperatures.empty()) {
+    html += Html(
+        "<p id=\"temperature-trend\">No validation pose has an air temperature (laser trackers "
+        "store it with every reading; theodolites and imported poses do not).</p>\n");
+  } else {
+    const auto [t_lo, t_hi] = std::minmax_element(temperatures.begin(), temperatures.end());
+    html += HtmlFormat(
+        "<p id=\"temperature-trend\">{} of {} validation poses have an air temperature, {:.3f} "
+        "to {:.3f} &deg;C; {}</p>\n",
+        temperatures.size(), n, *t_lo, *t_hi,
+        trend ? HtmlFormat("least-squares slope of the error distance: <span "
+                           "id=\"temperature-slope\">{:.6f}</span> mm per &deg;C",
+                           trend->slope)
+              : Html("all at one temperature: no slope."));
+  }
+  html += FigureHtml(temperature_figure);
   html += "<h2>Error against each joint angle</h2>\n<div class=\"joints\">\n";
   for (const auto& f : joint_figures) html += FigureHtml(f);
   html += "</div>\n";
