@@ -163,7 +163,15 @@ std::vector<Line> SplitLines(std::string_view text) {
   size_t start = 0;
   for (size_t i = 0; i <= text.size(); ++i) {
     if (i == text.size() || text[i] == '\n' || text[i] == '\r') {
-      lines.push_back({number, std::string(Trim(text.substr(start, i - start)))});
+      // A leading tab is an empty first field (a units line under a header whose first
+      // column is the name), not indentation: keep it when the line has anything else.
+      std::string_view raw = text.substr(start, i - start);
+      while (!raw.empty() && raw.front() == ' ') raw.remove_prefix(1);
+      lines.push_back({number, Trim(raw).empty() ? std::string() : std::string(raw)});
+      while (!lines.back().text.empty() &&
+             std::isspace(static_cast<unsigned char>(lines.back().text.back()))) {
+        lines.back().text.pop_back();
+      }
       ++number;
       if (i < text.size() && text[i] == '\r' && i + 1 < text.size() && text[i + 1] == '\n') ++i;
       start = i + 1;

@@ -225,20 +225,12 @@ TEST_F(LabFile, InstrumentOnAnUnknownStationIsRefusedAtItsStation) {
 // the robot's base in the lab frame for pointing the beam; theodolites and trackers mix.
 TEST(LabSettings, TrackerInstrumentsAndTheRobotBase) {
   const std::string text =
-      "robot:
-  model: m.yaml
-  controller: {protocol: as, port: p}
-"
-      "  base: [[0, -1, 0, 2500], [1, 0, 0, 1500], [0, 0, 1, -900], [0, 0, 0, 1]]
-"
-      "instruments:
-"
-      "  - {station: LT1, protocol: emscon, tcp: '192.168.0.20:700', measurement_time_ms: 250}
-"
-      "  - {station: T1, protocol: geocom, port: /dev/ttyUSB0}
-"
-      "tolerances: {max_sigma_mm: 0.03, max_repeat_sigma: 3.5}
-";
+      "robot:\n  model: m.yaml\n  controller: {protocol: as, port: p}\n"
+      "  base: [[0, -1, 0, 2500], [1, 0, 0, 1500], [0, 0, 1, -900], [0, 0, 0, 1]]\n"
+      "instruments:\n"
+      "  - {station: LT1, protocol: emscon, tcp: '192.168.0.20:700', measurement_time_ms: 250}\n"
+      "  - {station: T1, protocol: geocom, port: /dev/ttyUSB0}\n"
+      "tolerances: {max_sigma_mm: 0.03, max_repeat_sigma: 3.5}\n";
   const LabSettings s = ParseLabSettings(text, "lab.yaml");
   ASSERT_EQ(s.instruments.size(), 2u);
   EXPECT_EQ(s.instruments[0].protocol, "emscon");
@@ -264,68 +256,40 @@ TEST(LabSettings, TrackerInstrumentsAndTheRobotBase) {
     }
     return std::string("(accepted)");
   };
-  const std::string head = "robot:
-  model: m.yaml
-  controller: {protocol: as, port: p}
-";
-  EXPECT_NE(refusal(head + "instruments:
-  - {station: LT1, protocol: emscon, port: /dev/ttyS1}
-")
+  const std::string head = "robot:\n  model: m.yaml\n  controller: {protocol: as, port: p}\n";
+  EXPECT_NE(refusal(head + "instruments:\n  - {station: LT1, protocol: emscon, port: /dev/ttyS1}\n")
                 .find("lab.yaml:5:44 (port): instrument LT1: 'port' is no emscon setting"),
             std::string::npos)
-      << refusal(head + "instruments:
-  - {station: LT1, protocol: emscon, port: /dev/ttyS1}
-");
-  EXPECT_NE(refusal(head + "instruments:
-  - {station: LT1, protocol: emscon}
-")
+      << refusal(head + "instruments:\n  - {station: LT1, protocol: emscon, port: /dev/ttyS1}\n");
+  EXPECT_NE(refusal(head + "instruments:\n  - {station: LT1, protocol: emscon}\n")
                 .find("protocol emscon needs tcp: HOST:PORT"),
             std::string::npos);
-  EXPECT_NE(refusal(head + "instruments:
-  - {station: T1, protocol: geocom, port: p, "
-                           "measurement_time_ms: 9}
-")
+  EXPECT_NE(refusal(head + "instruments:\n  - {station: T1, protocol: geocom, port: p, "
+                           "measurement_time_ms: 9}\n")
                 .find("'measurement_time_ms' belongs to protocol emscon, not geocom"),
             std::string::npos);
-  EXPECT_NE(refusal(head + "instruments:
-  - {station: LT1, protocol: emscon, tcp: 'h:700', "
-                           "distance: false}
-")
+  EXPECT_NE(refusal(head + "instruments:\n  - {station: LT1, protocol: emscon, tcp: 'h:700', "
+                           "distance: false}\n")
                 .find("always measures the distance"),
             std::string::npos);
   // A base that is no rigid transform.
-  EXPECT_NE(refusal("robot:
-  model: m.yaml
-  controller: {protocol: as, port: p}
-"
-                    "  base: [[2, 0, 0, 0], [0, 1, 0, 0], [0, 0, 1, 0], [0, 0, 0, 1]]
-"
-                    "instruments:
-  - {station: T1, protocol: geocom, port: q}
-")
+  EXPECT_NE(refusal("robot:\n  model: m.yaml\n  controller: {protocol: as, port: p}\n"
+                    "  base: [[2, 0, 0, 0], [0, 1, 0, 0], [0, 0, 1, 0], [0, 0, 0, 1]]\n"
+                    "instruments:\n  - {station: T1, protocol: geocom, port: q}\n")
                 .find("lab.yaml:4:9 (base): expected a rotation"),
             std::string::npos)
-      << refusal("robot:
-  model: m.yaml
-  controller: {protocol: as, port: p}
-"
-                 "  base: [[2, 0, 0, 0], [0, 1, 0, 0], [0, 0, 1, 0], [0, 0, 0, 1]]
-"
-                 "instruments:
-  - {station: T1, protocol: geocom, port: q}
-");
-  EXPECT_NE(refusal(head + "instruments:
-  - {station: T1, protocol: geocom, port: q}
-"
-                           "tolerances: {max_sigma_mm: 0}
-")
+      << refusal("robot:\n  model: m.yaml\n  controller: {protocol: as, port: p}\n"
+                 "  base: [[2, 0, 0, 0], [0, 1, 0, 0], [0, 0, 1, 0], [0, 0, 0, 1]]\n"
+                 "instruments:\n  - {station: T1, protocol: geocom, port: q}\n");
+  EXPECT_NE(refusal(head + "instruments:\n  - {station: T1, protocol: geocom, port: q}\n"
+                           "tolerances: {max_sigma_mm: 0}\n")
                 .find("max_sigma_mm"),
             std::string::npos);
 }
 
 // FormatLabYaml writes a tracker as a technician would: tcp, no sigmas of its own.
 TEST(LabSettings, FormattedTrackerLabReadsBack) {
-  LabFile lab;
+  acquisition::LabFile lab;
   lab.model_path = "puma760.yaml";
   lab.stations_path = "stations.yaml";
   lab.controller.protocol = "as";

@@ -10,6 +10,7 @@
 
 #include "core/error.h"
 #include "db/calibrations.h"
+#include "db/observations.h"
 #include "db/schema.h"
 #include "test_support.h"
 

@@ -21,6 +21,12 @@
 namespace armsig::io {
 namespace {
 
+JointLogOptions SixJoints() {
+  JointLogOptions options;
+  options.num_joints = 6;
+  return options;
+}
+
 // The four points every fixture holds, in mm.
 const Eigen::Vector3d kFixture[4] = {{1512.4031, -203.1187, 1034.5520},
                                      {1498.7725, 12.0390, 1102.7713},
@@ -245,7 +251,7 @@ TEST(TrackerImport, JoinByIdGivesBackTheSimulatedPoses) {
 
   const auto table = ReadPointTable(dir.File("pts.csv"));
   EXPECT_EQ(table.unit, LengthUnit::kM);
-  const auto joined = JoinPointsAndJoints(table, ReadJointLog(dir.File("log.csv"), {6}));
+  const auto joined = JoinPointsAndJoints(table, ReadJointLog(dir.File("log.csv"), SixJoints()));
   ASSERT_EQ(joined.poses.size(), sim.joints.size());
   EXPECT_EQ(joined.unused_joint_rows, 1);
   for (size_t j = 0; j < joined.poses.size(); ++j) {
@@ -263,7 +269,7 @@ TEST(TrackerImport, JoinByIdGivesBackTheSimulatedPoses) {
   testing::WriteText(dir.File("pts2.csv"), pts2);
   const std::string refused = Refused([&] {
     JoinPointsAndJoints(ReadPointTable(dir.File("pts2.csv")),
-                        ReadJointLog(dir.File("log2.csv"), {6}));
+                        ReadJointLog(dir.File("log2.csv"), SixJoints()));
   });
   const int c7_line = 5 + static_cast<int>(std::find(order.begin(), order.end(), 6) - order.begin());
   EXPECT_NE(refused.find(fmt::format("pts2.csv:{}: point 'C7' is ambiguous", c7_line)),

@@ -146,8 +146,8 @@ TEST(TrackerSetUp, TrackerFromPointsTheOtherStationsMeasure) {
     tracker.pose.position_mm = {-2500.0, 2000.0, 1300.0};
     tracker.pose.levelled = false;
     tracker.pose.world_from_station =
-        (Eigen::AngleAxisd(0.02, Eigen::Vector3d::UnitX()) * LevelledRotation(2.0 + 0.1 * t))
-            .toRotationMatrix();
+        Eigen::AngleAxisd(0.02, Eigen::Vector3d::UnitX()).toRotationMatrix() *
+        LevelledRotation(2.0 + 0.1 * t);
     OrientationProblem p;
     p.station_ids = {"S1", "S2", "LT1"};
     p.unlevelled.insert("LT1");
