@@ -5,6 +5,8 @@
 
 #include <Eigen/Core>
 #include <Eigen/Geometry>
+#include <cstdint>
+#include <map>
 #include <optional>
 #include <string>
 #include <vector>
@@ -41,6 +43,22 @@ std::vector<Eigen::Vector3d> Residuals(const RobotModel& model,
                                        const Eigen::Isometry3d& world_from_base,
                                        const Eigen::VectorXd& params,
                                        const std::vector<MeasuredPose>& poses);
+
+// The robot base in each measurement frame (MeasuredPose::frame): world_from_base of the
+// poses measured in that frame.
+using FrameBases = std::map<int64_t, Eigen::Isometry3d>;
+// The frames the poses were measured in, ascending.
+std::vector<int64_t> FramesOf(const std::vector<MeasuredPose>& poses);
+// Residuals with each pose's own frame's base. std::invalid_argument when a pose's frame
+// has no base.
+std::vector<Eigen::Vector3d> Residuals(const RobotModel& model, const FrameBases& bases,
+                                       const Eigen::VectorXd& params,
+                                       const std::vector<MeasuredPose>& poses);
+// The base of every frame with a non-degenerate set of poses, by a rigid best fit of the
+// positions under `params` (AlignBaseWithParams) to that frame's poses; frames whose poses
+// cannot place it (fewer than three, or on one line) are left out.
+FrameBases AlignFrameBases(const RobotModel& model, const Eigen::VectorXd& params,
+                           const std::vector<MeasuredPose>& poses);
 std::vector<double> Distances(const std::vector<Eigen::Vector3d>& residuals);
 
 struct EstimationOptions {
@@ -62,13 +80,21 @@ struct EstimationResult {
   // estimate, its sigma, σ0 or a residual is not a finite number.
   SolveStatus status;
   int iterations = 0;
+  // Poses from several measurement frames (MeasuredPose::frame) are fitted with one base
+  // per frame. The reference frame (the highest frame number: the latest session) is the
+  // datum: its base is aligned (or given) and held, as with a single frame, so the first
+  // joint's parameters carry what is left of its base error; every other frame's base is
+  // estimated with the parameters (six more unknowns each). `world_from_base` is the
+  // reference frame's, `bases` has every frame's.
   Eigen::Isometry3d world_from_base = Eigen::Isometry3d::Identity();
+  int64_t reference_frame = 0;
+  FrameBases bases;
   Eigen::VectorXd params;      // all parameters; unidentified stay exactly zero
   Eigen::VectorXd sigmas;      // NaN for unidentified
   Eigen::MatrixXd covariance;  // identified subset, in the order of identifiability.identified
   IdentifiabilityReport identifiability;
   double sigma0_mm = 0.0;  // a posteriori σ of one coordinate
-  int redundancy = 0;      // 3m − rank
+  int redundancy = 0;      // 3m − rank − 6 × (frames − 1)
   double cost = 0.0;       // Σ weighted squared residuals (mm²)
   std::vector<Eigen::Vector3d> nominal_residuals, fit_residuals;
   ErrorStats nominal, fit;
@@ -79,8 +105,9 @@ struct EstimationResult {
   bool usable() const { return status.ok() || status.code == SolveCode::kNotConverged; }
 };
 
-// Fits the model to the poses. world_from_base: N1 to use; nullopt = model.base, or
-// AlignBase when the model says auto.
+// Fits the model to the poses. N1 of the reference frame: model.base, or AlignBase on that
+// frame's poses when the model says auto; the other frames' bases start from AlignBase on
+// theirs (kDegenerate when a frame's poses cannot place it).
 EstimationResult Estimate(const RobotModel& model, const std::vector<MeasuredPose>& poses,
                           const EstimationOptions& options);
 
