@@ -74,18 +74,6 @@ void EvaluateTerms(const RobotModel& model, const double* joints_rad, double* va
   }
 }
 
-const char* UnitName(ParameterUnit unit) {
-  switch (unit) {
-    case ParameterUnit::kMm:
-      return "mm";
-    case ParameterUnit::kRad:
-      return "rad";
-    case ParameterUnit::kRadPerM:
-      return "rad/m";
-  }
-  return "?";
-}
-
 std::vector<std::string> RobotModel::ParameterNames() const {
   static const char* kPerJoint[] = {"a", "b", "c", "alpha", "beta", "gamma"};
   std::vector<std::string> names;
@@ -100,12 +88,7 @@ std::vector<std::string> RobotModel::ParameterNames() const {
 }
 
 ParameterUnit RobotModel::UnitOf(int parameter) const {
-  if (parameter >= num_geometric()) {
-    return nongeometric[parameter - num_geometric()].basis ==
-                   NongeometricTerm::Basis::kGravityTorque
-               ? ParameterUnit::kRadPerM
-               : ParameterUnit::kRad;
-  }
+  if (parameter >= num_geometric()) return ParameterUnit::kRad;
   if (parameter >= 6 * num_joints()) return ParameterUnit::kMm;
   return (parameter % 6) < 3 ? ParameterUnit::kMm : ParameterUnit::kRad;
 }

@@ -31,9 +31,10 @@ struct NongeometricTerm {
     kSin,      // sin(order · Σθ̄_of)        transmission harmonics
     // The gravity torque about this joint's axis of a unit mass at the origin of joint
     // `mass_at`'s frame (the target point when mass_at = num_joints()), computed on the
-    // nominal geometry at the encoder angles with gravity along RobotModel::gravity_in_base,
-    // in unit mass × metre: τ = z·((p − o) × g) / 1000 mm. The coefficient is a compliance
-    // (rad per unit mass and metre of lever): the joint yields in the direction of the torque.
+    // nominal geometry at the encoder angles with gravity along RobotModel::gravity_in_base:
+    // τ = z·((p − o) × g) / 1000 mm, i.e. the torque counted in units of a unit mass one
+    // metre out, a pure number like cos θ. Its coefficient (rad) is a compliance: the
+    // deflection under that unit torque; the joint yields in the direction of the torque.
     kGravityTorque,
   };
   std::string name;
@@ -43,20 +44,15 @@ struct NongeometricTerm {
   int order = 1;        // kCos, kSin: harmonic order (multiplies the angle sum)
   int mass_at = -1;     // kGravityTorque: 0-based joint frame carrying the mass (n = target)
   TermFamily family = TermFamily::kModel;
-  // A correction already known (exported models); the parameter adds to it. In the
-  // parameter's unit (rad, or rad/m for kGravityTorque).
+  // A correction already known (exported models); the parameter adds to it.
   double fixed_rad = 0.0;
 
   friend bool operator==(const NongeometricTerm&, const NongeometricTerm&) = default;
 };
 
-enum class ParameterUnit {
-  kMm,
-  kRad,
-  kRadPerM,  // compliance terms: rad per unit mass and metre of lever
-};
-// "mm", "rad", "rad/m": the unit names of the JSON output.
-const char* UnitName(ParameterUnit unit);
+// Every non-geometric coefficient is in rad: its basis is a pure number (cos, SIGN, sin,
+// or a gravity torque counted in unit-mass metres).
+enum class ParameterUnit { kMm, kRad };
 
 struct RobotModel {
   std::string name;

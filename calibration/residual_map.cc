@@ -18,7 +18,7 @@ namespace armsig::calibration {
 namespace {
 
 // Configurations per block in batch prediction (bounds the M × B distance matrix).
-constexpr int kBatchBlock = 256;
+constexpr int kBatchBlock = 64;
 // Kernel values below e^−34.5 ≈ 1e-15 are left out of sums (their weights are mm-sized).
 constexpr double kNegligibleExponent = 34.5;
 // Centres the local GP variance is conditioned on.
@@ -45,6 +45,23 @@ class FlushDenormals {
   unsigned saved_;
 #endif
 };
+
+// Runs body(f) for f = 0 … count−1 on up to `threads` threads.
+template <typename Body>
+void ParallelFor(int count, int threads, const Body& body) {
+  threads = std::min(threads, count);
+  if (threads <= 1) {
+    for (int f = 0; f < count; ++f) body(f);
+    return;
+  }
+  std::vector<std::thread> workers;
+  for (int t = 0; t < threads; ++t) {
+    workers.emplace_back([&, t] {
+      for (int f = t; f < count; f += threads) body(f);
+    });
+  }
+  for (auto& w : workers) w.join();
+}
 
 }  // namespace
 
@@ -199,42 +216,62 @@ MapPrediction ResidualMap::PredictWithJacobian(
 
 void ResidualMap::PredictBatch(const Eigen::MatrixXd& joints_rad,
                                Eigen::Matrix3Xd& corrections_in_base_mm,
-                               std::vector<char>& supported) const {
+                               std::vector<char>& supported, int threads) const {
   Require(joints_rad.rows() == data_.num_joints, "batch rows must be the model's joints");
-  const FlushDenormals flush;
   const Eigen::Index b = joints_rad.cols();
-  const int j = static_cast<int>(data_.joints.size());
   corrections_in_base_mm.setZero(3, b);
   supported.assign(b, 0);
+  const int blocks = static_cast<int>((b + kBatchBlock - 1) / kBatchBlock);
+  const int workers = std::max(1, std::min(threads, blocks));
+  ParallelFor(workers, workers, [&](int w) {
+    const Eigen::Index begin = static_cast<Eigen::Index>(blocks * w / workers) * kBatchBlock;
+    const Eigen::Index end = std::min<Eigen::Index>(
+        b, static_cast<Eigen::Index>(blocks * (w + 1) / workers) * kBatchBlock);
+    PredictRange(joints_rad, begin, end, corrections_in_base_mm, supported);
+  });
+}
+
+void ResidualMap::PredictRange(const Eigen::MatrixXd& joints_rad, Eigen::Index begin,
+                               Eigen::Index end, Eigen::Matrix3Xd& corrections_in_base_mm,
+                               std::vector<char>& supported) const {
+  const FlushDenormals flush;
+  const int j = static_cast<int>(data_.joints.size());
   const float inv_l2 = static_cast<float>(1.0 / (data_.length_scale * data_.length_scale));
   const float radius2 = static_cast<float>(data_.support_radius * data_.support_radius);
   Eigen::MatrixXd u(2 * j, kBatchBlock);
-  Eigen::MatrixXf half_d2, k;
+  Eigen::MatrixXf kernel;
+  Eigen::ArrayXf column(centres());
   Eigen::Matrix3Xf block;
-  for (Eigen::Index start = 0; start < b; start += kBatchBlock) {
-    const Eigen::Index count = std::min<Eigen::Index>(kBatchBlock, b - start);
+  Eigen::VectorXf nearest(kBatchBlock);
+  std::vector<double> angles(j);
+  for (Eigen::Index start = begin; start < end; start += kBatchBlock) {
+    const Eigen::Index count = std::min<Eigen::Index>(kBatchBlock, end - start);
     for (Eigen::Index i = 0; i < count; ++i) {
-      const std::vector<double> angles = FeatureAngles(data_, joints_rad.col(start + i).data());
+      for (int k = 0; k < j; ++k) angles[k] = joints_rad(data_.joints[k], start + i);
       Features(angles.data(), u.col(i).data());
     }
     // Single precision on features centred on the centres' mean (small norms, so the
     // distances from |u|² + |c|² − 2u·c keep ~1e-6 of their size): matches Predict to
     // ~1e-6 of the correction.
     const Eigen::MatrixXf uf = (u.leftCols(count).colwise() - feature_mean_).cast<float>();
-    half_d2.noalias() = -centred_features_f_ * uf;  // M × count
-    half_d2.colwise() += centred_half_norm2_f_;
-    half_d2.rowwise() += 0.5f * uf.colwise().squaredNorm();
-    half_d2 = half_d2.cwiseMax(0.0f);
-    // Exponents capped at 80: e^−80 is still a normal float and weighs nothing.
-    k = (-(half_d2.array() * inv_l2).min(80.0f)).exp().matrix();
-    block.noalias() = weights_f_.transpose() * k;
+    kernel.noalias() = centred_features_f_ * uf;  // M × count: u·c
     for (Eigen::Index i = 0; i < count; ++i) {
-      const bool ok = 2.0f * half_d2.col(i).minCoeff() <= radius2;
+      column =
+          (centred_half_norm2_f_.array() + 0.5f * uf.col(i).squaredNorm() - kernel.col(i).array())
+              .max(0.0f);  // |u − c|²/2
+      nearest(i) = column.minCoeff();
+      // Exponents capped at 80: e^−80 is still a normal float and weighs nothing.
+      kernel.col(i) = (-(column * inv_l2).min(80.0f)).exp().matrix();
+    }
+    block.noalias() = weights_f_.transpose() * kernel;
+    for (Eigen::Index i = 0; i < count; ++i) {
+      const bool ok = 2.0f * nearest(i) <= radius2;
       supported[start + i] = ok;
       if (!ok) continue;
       Eigen::Vector3d correction = block.col(i).cast<double>();
-      if (data_.output_frame == "joint1")
+      if (data_.output_frame == "joint1") {
         correction = TurnAboutZ(joints_rad(0, start + i)) * correction;
+      }
       corrections_in_base_mm.col(start + i) = correction;
     }
   }
@@ -272,22 +309,26 @@ std::vector<MappedPosition> PredictPositions(const RobotModel& model,
                                              const Eigen::Isometry3d& world_from_base,
                                              const Eigen::VectorXd& params, const ResidualMap* map,
                                              const std::vector<Eigen::VectorXd>& joints_rad,
-                                             bool with_sigma) {
-  Kinematics kin(model);
-  std::vector<MappedPosition> out(joints_rad.size());
-  for (size_t i = 0; i < joints_rad.size(); ++i) {
-    out[i].parametric_mm = kin.Position(world_from_base, params, joints_rad[i].data());
-    out[i].position_mm = out[i].parametric_mm;
-    out[i].sigma_mm = map && with_sigma ? map->CorrectionSigmaMm(joints_rad[i].data())
-                                        : std::numeric_limits<double>::quiet_NaN();
-  }
+                                             bool with_sigma, int threads) {
+  const int count = static_cast<int>(joints_rad.size());
+  std::vector<MappedPosition> out(count);
+  const int workers = std::max(1, std::min(threads, count / 1024 + 1));
+  ParallelFor(workers, workers, [&](int w) {
+    Kinematics kin(model);
+    for (int i = count * w / workers; i < count * (w + 1) / workers; ++i) {
+      out[i].parametric_mm = kin.Position(world_from_base, params, joints_rad[i].data());
+      out[i].position_mm = out[i].parametric_mm;
+      out[i].sigma_mm = map && with_sigma ? map->CorrectionSigmaMm(joints_rad[i].data())
+                                          : std::numeric_limits<double>::quiet_NaN();
+    }
+  });
   if (!map || joints_rad.empty()) return out;
-  Eigen::MatrixXd q(model.num_joints(), joints_rad.size());
-  for (size_t i = 0; i < joints_rad.size(); ++i) q.col(i) = joints_rad[i];
+  Eigen::MatrixXd q(model.num_joints(), count);
+  for (int i = 0; i < count; ++i) q.col(i) = joints_rad[i];
   Eigen::Matrix3Xd corrections;
   std::vector<char> supported;
-  map->PredictBatch(q, corrections, supported);
-  for (size_t i = 0; i < joints_rad.size(); ++i) {
+  map->PredictBatch(q, corrections, supported, threads);
+  for (int i = 0; i < count; ++i) {
     out[i].map_applied = supported[i];
     out[i].extrapolated = !supported[i];
     if (supported[i]) out[i].position_mm += world_from_base.linear() * corrections.col(i);
@@ -371,23 +412,6 @@ double Quantile(std::vector<double> v, double q) {
   const size_t lo = static_cast<size_t>(std::floor(pos));
   const size_t hi = std::min(lo + 1, v.size() - 1);
   return v[lo] + (pos - static_cast<double>(lo)) * (v[hi] - v[lo]);
-}
-
-// Runs body(f) for f = 0 … count−1 on up to `threads` threads.
-template <typename Body>
-void ParallelFor(int count, int threads, const Body& body) {
-  threads = std::min(threads, count);
-  if (threads <= 1) {
-    for (int f = 0; f < count; ++f) body(f);
-    return;
-  }
-  std::vector<std::thread> workers;
-  for (int t = 0; t < threads; ++t) {
-    workers.emplace_back([&, t] {
-      for (int f = t; f < count; f += threads) body(f);
-    });
-  }
-  for (auto& w : workers) w.join();
 }
 
 }  // namespace
@@ -621,8 +645,11 @@ ResidualMapFit FitResidualMap(const RobotModel& model, const EstimationResult& f
     for (int j : data.joints) data.centres_rad[t].push_back(poses[train[t]].joints_rad(j));
     data.weights_mm[t] = {w(t, 0), w(t, 1), w(t, 2)};
   }
-  // GP reading: σ² per coordinate from the map's own cross-validated residual.
-  data.noise_sigma_mm = std::sqrt(best.sum_sq / (3.0 * mt));
+  // GP reading: with the kernel's shape (ℓ) and the noise-to-signal ratio (λ) fixed by the
+  // cross-validation, the maximum-likelihood prior amplitude is s² = tr(Yᵀ (K + λI)⁻¹ Y) / 3n
+  // and the noise σ² = λ s² (Rasmussen & Williams 2006, §5.4.1 with the scale profiled out).
+  const double s2 = std::max(0.0, (y.array() * w.array()).sum() / (3.0 * mt));
+  data.noise_sigma_mm = std::sqrt(data.regularisation * s2);
 
   result.used =
       result.cv_mean_mm_with_map <= (1.0 - options.required_gain) * result.cv_mean_mm_parametric;

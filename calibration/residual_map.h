@@ -13,11 +13,12 @@
 // on the UR10 the residual varies over a tenth of the joints' spread, which a few hundred
 // inducing points (Nyström) cannot follow; at most `max_training_poses` fit poses (chosen
 // by farthest-point sampling) train the map, which bounds the cubic cost. As a Gaussian
-// process with noise σ² per coordinate and prior amplitude s² = σ²/λ, the latent variance
-// of the correction is s² (1 − k_Nᵀ (K_NN + λI)⁻¹ k_N) conditioned on the N = 32 centres
-// nearest the configuration: the kernel is local (ℓ a fraction of the spread), so this is
-// the full posterior's to rounding near the data and a conservative (larger) value when
-// more centres matter. No matrix is stored for it.
+// process with prior amplitude s² (its maximum-likelihood value given ℓ and λ,
+// s² = tr(Yᵀ(K + λI)⁻¹Y)/3n) and noise σ² = λ s² per coordinate, the latent variance of the
+// correction is s² (1 − k_Nᵀ (K_NN + λI)⁻¹ k_N) conditioned on the N = 32 centres nearest
+// the configuration: the kernel is local (ℓ a fraction of the spread), so this is the full
+// posterior's near the data and a conservative (larger) value where more centres matter.
+// No matrix is stored for it. A new measurement's predictive variance adds σ².
 //
 // Corrections are measured − parametric position, in the robot's base frame (the frame
 // world_from_base maps from), so a map applies in any measuring frame; with output frame
@@ -64,7 +65,7 @@ struct ResidualMapData {
   std::vector<double> feature_scale;  // (a_j, b_j) per feature joint: sin, cos scales
   double length_scale = 1.0;          // ℓ, scaled feature units
   double regularisation = 0.1;        // λ (= σ² / s²)
-  double noise_sigma_mm = 0.0;        // σ per coordinate: the map's cross-validated residual
+  double noise_sigma_mm = 0.0;        // σ per coordinate (GP noise; prior amplitude s² = σ²/λ)
   double support_radius = 0.0;  // scaled feature units; farther from every centre: not applied
   std::vector<std::vector<double>> centres_rad;   // M × joints.size(): training poses' angles
   std::vector<std::array<double, 3>> weights_mm;  // M × 3
@@ -95,7 +96,7 @@ class ResidualMap {
   // matrix products in single precision (agrees with Predict to ~1e-6 of the correction).
   // Corrections 3 × B in the base frame.
   void PredictBatch(const Eigen::MatrixXd& joints_rad, Eigen::Matrix3Xd& corrections_in_base_mm,
-                    std::vector<char>& supported) const;
+                    std::vector<char>& supported, int threads = 1) const;
   // Latent standard deviation of the correction, per coordinate (mm), by the local GP
   // variance above. Meaningful whether supported or not (far away it is s).
   double CorrectionSigmaMm(const double* joints_rad) const;
@@ -104,6 +105,8 @@ class ResidualMap {
   // Scaled features of the feature joints' angles; half squared distances to every centre.
   void Features(const double* angles, double* u) const;
   void HalfDistances(const double* u, Eigen::Ref<Eigen::VectorXd> half_d2) const;
+  void PredictRange(const Eigen::MatrixXd& joints_rad, Eigen::Index begin, Eigen::Index end,
+                    Eigen::Matrix3Xd& corrections_in_base_mm, std::vector<char>& supported) const;
   MapPrediction Evaluate(const double* joints_rad,
                          Eigen::Matrix<double, 3, Eigen::Dynamic>* d_correction_d_joints) const;
 
@@ -127,12 +130,13 @@ struct MappedPosition {
   bool extrapolated = false;  // a map exists but this configuration is outside its support
   double sigma_mm = 0.0;      // latent σ of the correction per coordinate (NaN if not asked)
 };
-// `map` may be null (parametric only). Sigma is computed only when `with_sigma`.
+// `map` may be null (parametric only). Sigma is computed only when `with_sigma` (about
+// 30 µs a configuration). `threads` > 1 splits large batches (≥ 1024 configurations each).
 std::vector<MappedPosition> PredictPositions(const RobotModel& model,
                                              const Eigen::Isometry3d& world_from_base,
                                              const Eigen::VectorXd& params, const ResidualMap* map,
                                              const std::vector<Eigen::VectorXd>& joints_rad,
-                                             bool with_sigma = false);
+                                             bool with_sigma = false, int threads = 1);
 
 enum class FeatureScaling {
   kStandardised,  // each sin / cos column divided by its spread over the fit poses

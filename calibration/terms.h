@@ -3,12 +3,13 @@
 // one joint, like the paper's eq. (6)–(7), so they share its Jacobian (∂x/∂θ_joint · f),
 // its identifiability analysis and its F-tests:
 //
-//  - compliance `k{i}_{j}` (rad/m): joint i yields to the gravity torque of a lumped unit
+//  - compliance `k{i}_{j}` (rad): joint i yields to the gravity torque of a lumped unit
 //    mass at the origin of joint j's frame (j = i+1 … n; j = n+1 is the target point),
 //    computed on the nominal geometry at the encoder angles, gravity along the model's
 //    `gravity_in_base` (base z up by default). One stiffness-like coefficient per mass:
-//    Δθ_i = k_ij · τ_ij, τ in unit mass × metre. Motors sit at the joints, so masses
-//    lumped at the joint origins are the usual first model of an arm's weight.
+//    Δθ_i = k_ij · τ_ij, τ counted in unit-mass metres (a pure number), so k_ij is the
+//    deflection in rad under a unit mass one metre out. Motors sit at the joints, so
+//    masses lumped at the joint origins are the usual first model of an arm's weight.
 //  - transmission harmonics `e{i}_s1 e{i}_c1 e{i}_s2 e{i}_c2` (rad): sin/cos of joint i's
 //    own encoder angle, first and second order (eccentric gears and encoders, the
 //    twice-per-turn error of strain-wave gears).

@@ -61,8 +61,7 @@ std::string FormatRobotModelYaml(const calibration::RobotModel& model, const std
       if (t.family != calibration::TermFamily::kModel) {
         out << YAML::Key << "family" << YAML::Value << calibration::TermFamilyName(t.family);
       }
-      out << YAML::Key << (t.basis == Basis::kGravityTorque ? "value_rad_per_m" : "value_rad")
-          << YAML::Value << YamlNumber(t.fixed_rad);
+      out << YAML::Key << "value_rad" << YAML::Value << YamlNumber(t.fixed_rad);
       out << YAML::EndMap;
     }
     out << YAML::EndSeq;

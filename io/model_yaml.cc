@@ -57,8 +57,8 @@ Eigen::Isometry3d DhRow(const YamlValue& value) {
 }
 
 NongeometricTerm Term(const YamlValue& value, int num_joints) {
-  const YamlMap map = value.Map({"name", "joint", "basis", "of", "order", "mass_at", "family",
-                                 "value_rad", "value_rad_per_m"});
+  const YamlMap map =
+      value.Map({"name", "joint", "basis", "of", "order", "mass_at", "family", "value_rad"});
   NongeometricTerm term;
   using Basis = NongeometricTerm::Basis;
   term.name = map.Required("name", "the term's parameter name").Name();
@@ -103,13 +103,7 @@ NongeometricTerm Term(const YamlValue& value, int num_joints) {
     if (!parsed) family->Fail("expected family 'compliance' or 'harmonics', got '" + f + "'");
     term.family = *parsed;
   }
-  // The value's unit is in its key: rad for angle bases, rad/m for compliances.
-  const char* value_key = term.basis == Basis::kGravityTorque ? "value_rad_per_m" : "value_rad";
-  const char* other_key = term.basis == Basis::kGravityTorque ? "value_rad" : "value_rad_per_m";
-  if (const auto other = map.Find(other_key)) {
-    other->Fail(std::string("this term's value is given as '") + value_key + "'");
-  }
-  if (const auto fixed = map.Find(value_key)) {
+  if (const auto fixed = map.Find("value_rad")) {
     term.fixed_rad =
         fixed->Plausible(plausible::Quantity::kAngle, plausible::UnitOf(AngleUnit::kRad));
   }
