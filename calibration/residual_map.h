@@ -43,6 +43,7 @@
 #include <Eigen/Core>
 #include <Eigen/Geometry>
 #include <array>
+#include <limits>
 #include <string>
 #include <vector>
 
@@ -170,8 +171,9 @@ struct CrossValidationPoint {
 struct ResidualMapFit {
   bool used = false;
   std::string decision;  // why (used or not), in words
-  double cv_mean_mm_parametric = 0.0;
-  double cv_mean_mm_with_map = 0.0;
+  // NaN when not computed (too few poses, no fit).
+  double cv_mean_mm_parametric = std::numeric_limits<double>::quiet_NaN();
+  double cv_mean_mm_with_map = std::numeric_limits<double>::quiet_NaN();
   ResidualMapData map;                     // empty centres when it could not be fitted
   std::vector<CrossValidationPoint> grid;  // every (ℓ, λ) evaluated, in order
 };

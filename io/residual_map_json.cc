@@ -1,5 +1,6 @@
 #include "io/residual_map_json.h"
 
+#include <cmath>
 #include <set>
 #include <stdexcept>
 
@@ -26,6 +27,35 @@ nlohmann::json ResidualMapToJson(const ResidualMapData& map) {
           {"support_radius", map.support_radius},
           {"centres_rad", map.centres_rad},
           {"weights_mm", weights}};
+}
+
+nlohmann::json ResidualModelJson(const calibration::ResidualMapFit& fit) {
+  const ResidualMapData& map = fit.map;
+  const bool fitted = !map.centres_rad.empty();
+  nlohmann::json grid = nlohmann::json::array();
+  for (const auto& g : fit.grid) {
+    grid.push_back({{"length_scale", g.length_scale},
+                    {"regularisation", g.regularisation},
+                    {"cv_mean_mm", g.cv_mean_mm}});
+  }
+  nlohmann::json hyperparameters = nullptr;
+  if (fitted) {
+    hyperparameters = {{"length_scale", map.length_scale},
+                       {"regularisation", map.regularisation},
+                       {"noise_sigma_mm", map.noise_sigma_mm},
+                       {"support_radius", map.support_radius},
+                       {"centres", map.centres_rad.size()}};
+  }
+  auto number = [](double v) {
+    return std::isfinite(v) ? nlohmann::json(v) : nlohmann::json(nullptr);
+  };
+  return {{"used", fit.used},
+          {"kind", fitted ? nlohmann::json(map.kind) : nlohmann::json(nullptr)},
+          {"cv_mean_mm_parametric", number(fit.cv_mean_mm_parametric)},
+          {"cv_mean_mm_with_map", number(fit.cv_mean_mm_with_map)},
+          {"decision", fit.decision},
+          {"hyperparameters", hyperparameters},
+          {"grid", grid}};
 }
 
 ResidualMapData ResidualMapFromJson(const nlohmann::json& json, const std::string& source) {

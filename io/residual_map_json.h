@@ -16,6 +16,15 @@ namespace armsig::io {
 
 nlohmann::json ResidualMapToJson(const calibration::ResidualMapData& map);
 
+// The calibrate JSON's `residual_model` object (SPEC):
+//   {"used": true, "kind": "gaussian_kernel_ridge", "cv_mean_mm_parametric": 0.420,
+//    "cv_mean_mm_with_map": 0.311, "decision": "…",
+//    "hyperparameters": {"length_scale": 0.5, "regularisation": 0.1, "noise_sigma_mm": 0.086,
+//                        "support_radius": 1.61, "centres": 1773},
+//    "grid": [{"length_scale", "regularisation", "cv_mean_mm"}, …]}
+// `kind` and `hyperparameters` are null when no map could be fitted (too few poses).
+nlohmann::json ResidualModelJson(const calibration::ResidualMapFit& fit);
+
 // Throws InputError naming `source` and the offending field (a missing or mistyped field,
 // an unknown key, a version this program does not know, data ResidualMap refuses).
 calibration::ResidualMapData ResidualMapFromJson(const nlohmann::json& json,

@@ -16,7 +16,7 @@ using calibration::ResidualMap;
 using calibration::ResidualMapData;
 
 // A small fitted map: a PUMA with an error the geometric model cannot make.
-ResidualMapData FittedMap() {
+calibration::ResidualMapFit Fit() {
   const auto model = testing::Puma();
   std::mt19937 rng(1);
   const auto joints = calibration::RandomConfigurations(model, 60, rng);
@@ -26,8 +26,9 @@ ResidualMapData FittedMap() {
   calibration::EstimationOptions o;
   o.parameters = calibration::ParseParameterSpec(model, "geometric");
   const auto fit = calibration::Estimate(model, poses, o);
-  return calibration::FitResidualMap(model, fit, poses).map;
+  return calibration::FitResidualMap(model, fit, poses);
 }
+ResidualMapData FittedMap() { return Fit().map; }
 
 InputError Refusal(const nlohmann::json& json) {
   try {
@@ -84,6 +85,28 @@ TEST(ResidualMapJson, RefusesWhatItCannotUse) {
   j["joints"][0] = 7;
   EXPECT_NE(Refusal(j).message().find("out of range"), std::string::npos);
   EXPECT_EQ(Refusal(j).where().file, "set 3");
+}
+
+TEST(ResidualMapJson, ResidualModelSummaryHasTheSpecShape) {
+  const calibration::ResidualMapFit fit = Fit();
+  const nlohmann::json j = ResidualModelJson(fit);
+  EXPECT_EQ(j["used"], fit.used);
+  EXPECT_EQ(j["kind"], "gaussian_kernel_ridge");
+  EXPECT_EQ(j["cv_mean_mm_parametric"], fit.cv_mean_mm_parametric);
+  EXPECT_EQ(j["cv_mean_mm_with_map"], fit.cv_mean_mm_with_map);
+  EXPECT_EQ(j["hyperparameters"]["length_scale"], fit.map.length_scale);
+  EXPECT_EQ(j["hyperparameters"]["regularisation"], fit.map.regularisation);
+  EXPECT_EQ(j["hyperparameters"]["centres"], fit.map.centres_rad.size());
+  EXPECT_EQ(j["grid"].size(), fit.grid.size());
+  // Too few poses: no map, and the JSON says so with nulls rather than numbers.
+  calibration::ResidualMapFit none;
+  none.decision = "too few poses";
+  const nlohmann::json n = ResidualModelJson(none);
+  EXPECT_FALSE(n["used"]);
+  EXPECT_TRUE(n["kind"].is_null());
+  EXPECT_TRUE(n["hyperparameters"].is_null());
+  EXPECT_TRUE(n["cv_mean_mm_with_map"].is_null());
+  EXPECT_TRUE(n["cv_mean_mm_parametric"].is_null());
 }
 
 }  // namespace armsig::io
