@@ -7,6 +7,7 @@
 
 #include <random>
 
+#include "calibration/compensation.h"
 #include "calibration/estimation.h"
 #include "calibration/simulation.h"
 #include "test_support.h"
@@ -256,6 +257,40 @@ TEST(GeneratedTerms, PlantedHarmonicsAreRecoveredWithinPropagatedSigma) {
   // 20 standardised errors: their squares sum like χ²(20) (99.9 % below 45.3) when the
   // propagated sigmas are honest.
   EXPECT_LT(chi2, 45.3);
+}
+
+TEST(GeneratedTerms, CorrectedModelKeepsThemAsFixedValues) {
+  // The exported model folds the geometric parameters into its links and keeps the terms'
+  // values. Harmonics depend on the angles only: exact. Compliances are recomputed on the
+  // corrected links, whose axes and levers differ from the nominal ones by the geometric
+  // errors (1e-3 rad, mm in m): a second-order change, 0.011 mm here with all ten compliances
+  // at 1e-3 rad per unit-mass metre (the UR10 split fits one, k2_4 = 1.1e-3) and 1 mrad errors.
+  const RobotModel model = Ur10With({TermFamily::kCompliance, TermFamily::kHarmonics});
+  std::mt19937 rng(41);
+  Eigen::VectorXd params = RandomParameters(model, 0.5, 1e-3, 0.0, rng);
+  for (int k = model.num_geometric(); k < model.num_parameters(); ++k) {
+    params(k) = model.nongeometric[k - model.num_geometric()].family == TermFamily::kCompliance
+                    ? 1e-3
+                    : 2e-4;
+  }
+  Eigen::VectorXd harmonics_only = params;
+  for (int k = model.num_geometric(); k < model.num_parameters(); ++k) {
+    if (model.nongeometric[k - model.num_geometric()].family == TermFamily::kCompliance) {
+      harmonics_only(k) = 0.0;
+    }
+  }
+  for (const auto& [p, tolerance] : {std::pair{harmonics_only, 1e-9}, std::pair{params, 0.02}}) {
+    const RobotModel corrected = CorrectedModel(model, p, LabBase());
+    Kinematics calibrated(model), exported(corrected);
+    const Eigen::VectorXd zero = Eigen::VectorXd::Zero(corrected.num_parameters());
+    double worst = 0.0;
+    for (const auto& q : RandomConfigurations(model, 50, rng, 3.0)) {
+      worst = std::max(worst, (calibrated.Position(LabBase(), p, q.data()) -
+                               exported.Position(*corrected.base, zero, q.data()))
+                                  .norm());
+    }
+    EXPECT_LT(worst, tolerance);
+  }
 }
 
 TEST(GeneratedTerms, ParameterListsNameFamilies) {
