@@ -12,7 +12,9 @@
 #include <stdexcept>
 
 #include "calibration/compensation.h"
+#include "calibration/cross_validation.h"
 #include "calibration/statistics.h"
+#include "calibration/terms.h"
 
 namespace armsig::calibration {
 
@@ -31,15 +33,27 @@ std::vector<int> ParseParameterSpec(const RobotModel& model, const std::string& 
       for (int i = 0; i < model.num_geometric(); ++i) chosen.insert(i);
     } else if (token == "all") {
       for (int i = 0; i < model.num_parameters(); ++i) chosen.insert(i);
+    } else if (const auto family = TermFamilyFromName(token)) {
+      bool found = false;
+      for (size_t k = 0; k < model.nongeometric.size(); ++k) {
+        if (model.nongeometric[k].family != *family) continue;
+        chosen.insert(model.num_geometric() + static_cast<int>(k));
+        found = true;
+      }
+      if (!found) {
+        throw std::invalid_argument("the model has no " + token +
+                                    " terms (generate them: 'generated_terms: [" + token +
+                                    "]' in the model file)");
+      }
     } else if (int index = model.IndexOf(token); index >= 0) {
       chosen.insert(index);
     } else {
-      std::string known = "geometric, all";
+      std::string known = "geometric, all, compliance, harmonics";
       for (size_t i = model.num_geometric(); i < names.size(); ++i) known += ", " + names[i];
-      throw std::invalid_argument("unknown parameter '" + token + "' (expected geometric, all, " +
-                                  "a parameter name such as a1 … c" +
-                                  std::to_string(model.num_joints() + 1) + ", or one of: " + known +
-                                  ")");
+      throw std::invalid_argument(
+          "unknown parameter '" + token + "' (expected geometric, all, compliance, harmonics, " +
+          "a parameter name such as a1 … c" + std::to_string(model.num_joints() + 1) +
+          ", or one of: " + known + ")");
     }
   }
   if (!any) throw std::invalid_argument("empty parameter list");
@@ -457,41 +471,138 @@ FTest CompareNested(const EstimationResult& reduced, const EstimationResult& ful
   return t;
 }
 
-AutoSelection SelectTermsByFTest(const RobotModel& model, const std::vector<MeasuredPose>& poses,
-                                 const EstimationOptions& options, double alpha) {
+void TermSelectionOptions::Check() const {
+  if (!(alpha > 0 && alpha < 1)) throw std::invalid_argument("F-test alpha must be in (0, 1)");
+  if (folds < 2) throw std::invalid_argument("cross-validation needs at least 2 folds");
+  if (!(min_cv_gain >= 0 && min_cv_gain < 1)) {
+    throw std::invalid_argument("minimum cross-validation gain must be in [0, 1)");
+  }
+}
+
+AutoSelection SelectTerms(const RobotModel& model, const std::vector<MeasuredPose>& poses,
+                          const EstimationOptions& options,
+                          const TermSelectionOptions& selection_options) {
+  selection_options.Check();
   AutoSelection selection;
   EstimationOptions opts = options;
   for (int i = 0; i < model.num_geometric(); ++i) selection.parameters.push_back(i);
   opts.parameters = selection.parameters;
   EstimationResult current = Estimate(model, poses, opts);
   std::vector<int> remaining;
-  for (int i = model.num_geometric(); i < model.num_parameters(); ++i) remaining.push_back(i);
+  for (int i = model.num_geometric(); i < model.num_parameters(); ++i) {
+    if (options.parameters.empty() ||
+        std::find(options.parameters.begin(), options.parameters.end(), i) !=
+            options.parameters.end()) {
+      remaining.push_back(i);
+    }
+  }
   const auto names = model.ParameterNames();
-  while (current.usable() && !remaining.empty()) {
-    int best = -1;
-    FTest best_test;
-    EstimationResult best_result;
-    for (int term : remaining) {
-      opts.parameters = selection.parameters;
-      opts.parameters.push_back(term);
-      std::sort(opts.parameters.begin(), opts.parameters.end());
-      EstimationResult trial = Estimate(model, poses, opts);
-      if (!trial.usable()) continue;
-      FTest test = CompareNested(current, trial, names[term], alpha);
-      selection.tests.push_back(test);
-      if (test.significant && (best < 0 || test.f > best_test.f)) {
-        best = term;
-        best_test = test;
-        best_result = std::move(trial);
+  const int m = static_cast<int>(poses.size());
+  const bool cross_validate = selection_options.cross_validate && m >= 2 * selection_options.folds;
+  const std::vector<int> folds =
+      cross_validate ? AssignFolds(m, selection_options.folds, selection_options.seed)
+                     : std::vector<int>(m, 0);
+  // A candidate is identifiable next to the current set when its unit-scaled column keeps
+  // a part orthogonal to theirs above the rank tolerance (the QR's criterion).
+  const double tolerance = std::max(options.identifiability.relative_tolerance, 1e-6);
+  Kinematics kin(model);
+  Eigen::Matrix<double, 3, Eigen::Dynamic> block(3, model.num_parameters());
+  bool first = true;
+  // One round per added term; the first also measures the geometric model's CV error, even
+  // when there is nothing to add.
+  while (current.usable() && (first || !remaining.empty())) {
+    // Linearise at the current fit: columns of the identified subset, then the candidates.
+    const std::vector<int>& kept = current.identifiability.identified;
+    const int k = static_cast<int>(kept.size());
+    const int c = static_cast<int>(remaining.size());
+    Eigen::MatrixXd jacobian(3 * m, k + c);
+    Eigen::VectorXd residual(3 * m);
+    for (int i = 0; i < m; ++i) {
+      // Each pose in its own measurement frame's base (held at the fit's value).
+      const auto frame = current.bases.find(poses[i].frame);
+      const Eigen::Isometry3d& frame_base =
+          frame != current.bases.end() ? frame->second : current.world_from_base;
+      const Eigen::Vector3d x =
+          kin.PositionAndJacobian(frame_base, current.params, poses[i].joints_rad.data(), block);
+      residual.segment<3>(3 * i) = x - poses[i].target_in_world;
+      for (int a = 0; a < k; ++a) jacobian.block<3, 1>(3 * i, a) = block.col(kept[a]);
+      for (int a = 0; a < c; ++a) jacobian.block<3, 1>(3 * i, k + a) = block.col(remaining[a]);
+    }
+    const LinearisedCrossValidation cv(jacobian, residual, folds,
+                                       cross_validate ? selection_options.folds : 1);
+    std::vector<int> base(k);
+    for (int a = 0; a < k; ++a) base[a] = a;
+    if (first) {
+      if (cross_validate)
+        selection.cv_mean_mm_geometric = selection.cv_mean_mm = cv.HeldOutMeanMm(base);
+      first = false;
+    }
+    if (remaining.empty()) break;
+    const double rss_base = cv.ResidualSumOfSquares(base);
+    // Projections onto the kept columns, for the identifiability check and the RSS drop.
+    Eigen::MatrixXd normal = jacobian.transpose() * jacobian;
+    const Eigen::LDLT<Eigen::MatrixXd> kept_normal(normal.topLeftCorner(k, k));
+    int best = -1, best_record = -1;
+    double best_cv = std::numeric_limits<double>::infinity(), best_f = 0.0;
+    for (int a = 0; a < c; ++a) {
+      const int col = k + a;
+      const Eigen::VectorXd cross = normal.block(0, col, k, 1);
+      const double schur = normal(col, col) - cross.dot(kept_normal.solve(cross));
+      if (!(normal(col, col) > 0) || !(schur > tolerance * tolerance * normal(col, col))) continue;
+      std::vector<int> with = base;
+      with.push_back(col);
+      FTest test;
+      test.added = names[remaining[a]];
+      test.rss_reduced = rss_base;
+      test.rss_full = cv.ResidualSumOfSquares(with);
+      test.df_added = 1;
+      test.df_residual = current.redundancy - 1;  // 3m − rank − 6 per extra frame − 1
+      if (test.df_residual > 0 && test.rss_full > 0) {
+        test.f =
+            std::max(0.0, (test.rss_reduced - test.rss_full) / (test.rss_full / test.df_residual));
+        test.p_value = FisherFSurvival(test.f, 1, test.df_residual);
+        test.significant = test.p_value < selection_options.alpha;
       }
+      if (test.significant && cross_validate) test.cv_mean_mm = cv.HeldOutMeanMm(with);
+      const bool better = cross_validate ? test.significant && test.cv_mean_mm < best_cv
+                                         : test.significant && test.f > best_f;
+      if (better) {
+        best = a;
+        best_record = static_cast<int>(selection.tests.size());
+        best_cv = test.cv_mean_mm;
+        best_f = test.f;
+      }
+      selection.tests.push_back(test);
     }
     if (best < 0) break;
-    selection.parameters.push_back(best);
-    std::sort(selection.parameters.begin(), selection.parameters.end());
-    remaining.erase(std::find(remaining.begin(), remaining.end(), best));
-    current = std::move(best_result);
+    if (cross_validate && best_cv > (1.0 - selection_options.min_cv_gain) * selection.cv_mean_mm) {
+      break;
+    }
+    // Add it: refit both ways and redo its F-test on the fitted models.
+    std::vector<int> trial_parameters = selection.parameters;
+    trial_parameters.push_back(remaining[best]);
+    std::sort(trial_parameters.begin(), trial_parameters.end());
+    opts.parameters = trial_parameters;
+    EstimationResult trial = Estimate(model, poses, opts);
+    if (!trial.usable()) break;
+    FTest exact = CompareNested(current, trial, names[remaining[best]], selection_options.alpha);
+    if (!exact.significant) break;
+    exact.cv_mean_mm = selection.tests[best_record].cv_mean_mm;
+    exact.accepted = true;
+    selection.tests[best_record] = exact;  // the fitted models' test replaces the linearised one
+    selection.parameters = trial_parameters;
+    if (cross_validate) selection.cv_mean_mm = best_cv;
+    remaining.erase(remaining.begin() + best);
+    current = std::move(trial);
   }
   return selection;
+}
+
+AutoSelection SelectTermsByFTest(const RobotModel& model, const std::vector<MeasuredPose>& poses,
+                                 const EstimationOptions& options, double alpha) {
+  TermSelectionOptions selection;
+  selection.alpha = alpha;
+  return SelectTerms(model, poses, options, selection);
 }
 
 }  // namespace armsig::calibration

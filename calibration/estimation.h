@@ -7,6 +7,7 @@
 #include <Eigen/Geometry>
 #include <cstdint>
 #include <map>
+#include <limits>
 #include <optional>
 #include <string>
 #include <vector>
@@ -19,8 +20,10 @@
 namespace armsig::calibration {
 
 // Parses a --params spec: "geometric", "all", or a comma list mixing "geometric",
-// "all" and parameter names ("geometric,h3,h4"). Returns ascending indices. Throws
-// std::invalid_argument naming an unknown parameter and listing the known ones.
+// "all", generated families ("compliance", "harmonics": every term of that family in the
+// model, calibration/terms.h) and parameter names ("geometric,h3,h4"). Returns ascending
+// indices. Throws std::invalid_argument naming an unknown parameter and listing the known
+// ones, or a family the model has no terms of.
 std::vector<int> ParseParameterSpec(const RobotModel& model, const std::string& spec);
 
 struct ErrorStats {
@@ -118,16 +121,41 @@ struct FTest {
   int df_added = 0, df_residual = 0;
   double f = 0.0, p_value = 1.0;
   bool significant = false;
+  // --params auto: cross-validated mean error distance (mm) of the model with the term
+  // (NaN when not computed: not significant, or cross-validation off), and whether the term
+  // was added. Tests of candidates come from the linearised model at the current fit
+  // (exact for a model linear in its parameters); the test of a term that is added is
+  // then redone with both models fitted (CompareNested).
+  double cv_mean_mm = std::numeric_limits<double>::quiet_NaN();
+  bool accepted = false;
 };
 FTest CompareNested(const EstimationResult& reduced, const EstimationResult& full,
                     const std::string& added, double alpha);
 
-// --params auto: start from the geometric model and add non-geometric terms one at a
-// time, each time the one with the best significant F-test, until none is significant.
+// --params auto: start from the geometric model and add the model's non-geometric terms
+// (the paper's h-terms and the generated compliance and harmonic families alike) one at
+// a time. Each round every candidate the data can identify next to the current set is
+// F-tested; among the significant ones the term that lowers the K-fold cross-validated
+// mean error on the fit poses the most is added, if it lowers it by at least
+// `min_cv_gain` (relative). It stops when no term passes both.
+struct TermSelectionOptions {
+  double alpha = 0.01;         // significance of the F-tests
+  bool cross_validate = true;  // false: the paper-era rule, the largest significant F
+  int folds = 5;
+  unsigned seed = 1;           // of the fold assignment
+  double min_cv_gain = 0.005;  // relative decrease of the CV mean a term must bring
+  void Check() const;
+};
 struct AutoSelection {
   std::vector<int> parameters;
-  std::vector<FTest> tests;  // every test made, in order
+  std::vector<FTest> tests;  // every test made, in order (accepted ones flagged)
+  double cv_mean_mm_geometric = std::numeric_limits<double>::quiet_NaN();
+  double cv_mean_mm = std::numeric_limits<double>::quiet_NaN();  // of the selected model
 };
+AutoSelection SelectTerms(const RobotModel& model, const std::vector<MeasuredPose>& poses,
+                          const EstimationOptions& options,
+                          const TermSelectionOptions& selection = {});
+// The same with the default selection options at significance `alpha`.
 AutoSelection SelectTermsByFTest(const RobotModel& model, const std::vector<MeasuredPose>& poses,
                                  const EstimationOptions& options, double alpha = 0.01);
 
