@@ -13,6 +13,7 @@
 
 #include "acquisition/beam_pointing.h"
 #include "acquisition/records.h"
+#include "acquisition/session_owner.h"
 #include "core/error.h"
 #include "core/units.h"
 #include "db/store.h"
@@ -30,6 +31,7 @@ int64_t CreateSession(db::Database& db, const LabConfig& lab, const std::string&
   const int64_t robot_id = db::EnsureRobot(db, robot, lab.model.name, lab.model_yaml);
   const int64_t session = db::CreateSession(db, robot_id, lab.text, PlanToJson(plan), "running",
                                             "capture from " + lab.source);
+  db::SetSessionOwner(db, session, ThisProcess());  // running: in this process
   for (const auto& s : lab.stations) {
     db::StationSetupRow row = StationSetupRowOf(s, "lab");
     for (const auto& c : lab.instruments) {
@@ -133,6 +135,7 @@ CaptureSummary RunCapture(db::Database& db, const LabConfig& lab, int64_t sessio
   const auto stored = db::StoredSeqs(db, session);
   const std::set<int> done(stored.begin(), stored.end());
   summary.already = static_cast<int>(done.size());
+  db::SetSessionOwner(db, session, ThisProcess());
   db::SetSessionState(db, session, "running");
 
   // Stations by instrument.

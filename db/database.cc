@@ -42,9 +42,13 @@ std::string ShellQuoted(const std::string& path) {
 }
 
 std::string RecoveryAdvice(const std::string& path) {
+  // Absolute, so that the command works as printed from any directory.
+  std::error_code ec;
+  const auto absolute = std::filesystem::absolute(path, ec);
   return "the database file is damaged; nothing was written to it. Recover what is readable "
          "into a new file and use that one: sqlite3 " +
-         ShellQuoted(path) + " \".recover\" | sqlite3 recovered.db";
+         ShellQuoted(ec ? path : absolute.lexically_normal().string()) +
+         " \".recover\" | sqlite3 recovered.db";
 }
 
 [[noreturn]] void Refuse(const std::string& path, const std::string& why) {
@@ -123,7 +127,7 @@ FileKind Inspect(const std::string& path, bool locked, int busy_timeout_ms) {
     FileKind kind = FileKind::kArmsig;
     if (application_id != kApplicationId) {
       const bool armsig_tables =
-          std::all_of(TableNames().begin(), TableNames().end(),
+          std::all_of(LegacyTableNames().begin(), LegacyTableNames().end(),
                       [&](std::string_view t) { return tables.count(std::string(t)) > 0; });
       if (application_id == 0 && user_version == 0 && tables.empty()) {
         kind = FileKind::kEmpty;

@@ -15,6 +15,7 @@
 #include <random>
 
 #include "acquisition/lab.h"
+#include "acquisition/session_owner.h"
 #include "calibration/identifiability.h"
 #include "calibration/selection.h"
 #include "calibration/simulation.h"
@@ -34,6 +35,7 @@
 #include "workflows/calibration_run.h"
 #include "workflows/capture.h"
 #include "workflows/hint.h"
+#include "workflows/network.h"
 #include "workflows/reduce.h"
 
 namespace armsig::workflows {
@@ -134,6 +136,10 @@ DemoResult RunDemo(const DemoOptions& options, const DemoObserver& observer) {
     }
     stored_plan = acquisition::PlanFromJson(row->plan_json);
     stored_lab_yaml = row->lab_yaml;
+    if (row->state != "completed") {
+      // Refused while another live process runs it (exit 2, naming the pid).
+      acquisition::ClaimSession(*resumed_db, options.resume_session);
+    }
   }
   if (!options.instrument.empty() && options.instrument != "theodolites" &&
       options.instrument != "tracker") {
@@ -324,7 +330,8 @@ DemoResult RunDemo(const DemoOptions& options, const DemoObserver& observer) {
           s.sigma_azimuth_rad / kRadPerArcsec);
     }
     say(text);
-    oriented_stations = oriented.stations;
+    // With the orientation's σ0, dof and method, which the session's set-ups then keep.
+    oriented_stations = OrientedStations(setup, oriented);
     stations = static_cast<int>(oriented.stations.size());
     for (int s = 0; s < 3; ++s) {
       acquisition::InstrumentConfig i;
@@ -373,8 +380,7 @@ DemoResult RunDemo(const DemoOptions& options, const DemoObserver& observer) {
     if (options.select > 0) words.insert(words.end(), {"--select", std::to_string(options.select)});
     if (!options.json_path.empty())
       words.insert(words.end(), {"--json", AbsolutePath(options.json_path)});
-    result.resume_hint = "armsig --db " + ShellWord(AbsolutePath(database.path()));
-    for (const auto& w : words) result.resume_hint += " " + ShellWord(w);
+    result.resume_hint = Hint(database.path(), words);
   }
   acquisition::CaptureOptions capture;
   capture.progress = observer.progress;
@@ -492,8 +498,12 @@ DemoResult RunDemo(const DemoOptions& options, const DemoObserver& observer) {
                               {{"sessions", {std::to_string(session)}}, {"poses", poses.size()}},
                               {{"params", run.params_spec}, {"selection", "D-optimal"}}, false));
     }
-    db::SetActiveVersion(database, robot_id,
-                         db::CalibrationHistory(database, robot_id).back().version);
+    const auto before = db::ActiveCalibration(database, robot_id);
+    const int newest = db::CalibrationHistory(database, robot_id).back().version;
+    db::SetActiveVersion(database, robot_id, newest);
+    db::RecordActivation(database, robot_id,
+                         {newest, before ? std::optional<int>(before->version) : std::nullopt, "",
+                          "demo", fmt::format("armsig demo, session {}, params all", session)});
     tx.commit();
   }
 

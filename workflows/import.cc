@@ -148,7 +148,10 @@ ImportPosesResult ImportPosesFile(const ImportPosesRequest& request) {
   result.poses = poses.size();
   const std::string source = tracker ? request.points + " + " + request.joints : request.file;
   if (database) {
-    result.session = StorePosesSession(*database, request.robot, poses, source, covariances);
+    const auto stored = StorePosesSession(*database, request.robot, poses, source,
+                                          request.allow_duplicate, covariances);
+    result.session = stored.session;
+    result.duplicate = stored.duplicate;
     result.db_path = database->path();
   }
   if (!request.out.empty()) {

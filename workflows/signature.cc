@@ -10,6 +10,7 @@
 #include "io/csv.h"
 #include "io/model_export.h"
 #include "io/model_yaml.h"
+#include "workflows/hint.h"
 
 namespace armsig::workflows {
 
@@ -30,14 +31,12 @@ Signature SignatureOf(const calibration::RobotModel& model, const db::StoredCali
 
 ActiveSignature LoadActiveSignature(db::Database& database, const std::string& robot) {
   const auto id = db::FindRobot(database, robot);
-  if (!id)
-    throw InputError({database.path(), 0, 0, "--robot"},
-                     "no robot '" + robot + "' in the database");
+  if (!id) throw InputError({database.path(), 0, 0, "--robot"}, UnknownRobotMessage(database.path(), robot));
   const auto active = db::ActiveCalibration(database, *id);
   if (!active) {
-    throw InputError(
-        {database.path(), 0, 0, "--robot"},
-        "robot '" + robot + "' has no active parameter set (run armsig recalibrate first)");
+    throw InputError({database.path(), 0, 0, "--robot"},
+                     "robot " + ShellWord(robot) + " has no active parameter set (fit one: " +
+                         Hint(database.path(), {"recalibrate", "--robot", robot}) + ")");
   }
   ActiveSignature out{
       io::ParseRobotModel(db::RobotModelYaml(database, *id), "model of robot " + robot), {}};
