@@ -199,8 +199,14 @@ ALTER TABLE sessions ADD COLUMN owner_host TEXT;
 ALTER TABLE sessions ADD COLUMN owner_started TEXT;   -- that process's start (boot id / start tick), against pid reuse
 )sql";
 
-constexpr std::array<std::string_view, 4> kMigrations = {kSchemaV1, kSchemaV2, kSchemaV3,
-                                                         kSchemaV4};
+// Schema v5: a parameter set may carry the residual map used with it (issue 13), as JSON
+// (io/residual_map_json.h); NULL for parametric sets.
+constexpr std::string_view kSchemaV5 = R"sql(
+ALTER TABLE calibrations ADD COLUMN residual_map_json TEXT;
+)sql";
+
+constexpr std::array<std::string_view, 5> kMigrations = {kSchemaV1, kSchemaV2, kSchemaV3,
+                                                         kSchemaV4, kSchemaV5};
 
 // The tables of schema v1: an armsig file from before application_id has at least these.
 constexpr std::array<std::string_view, 11> kTablesV1 = {"robots",

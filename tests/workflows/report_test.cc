@@ -88,7 +88,8 @@ struct Fixture {
 
 const std::vector<std::string> kFigureFiles = {
     "errors.png",  "histogram.png", "vectors.png", "drift.png",   "joint_1.png",
-    "joint_2.png", "joint_3.png",   "joint_4.png", "joint_5.png", "joint_6.png"};
+    "joint_2.png", "joint_3.png",   "joint_4.png", "joint_5.png", "joint_6.png",
+    "residual_map.png"};
 
 // The text of the element with this id (up to its closing tag's '<').
 std::string Cell(const std::string& html, const std::string& id) {
@@ -142,7 +143,8 @@ TEST(Report, EmbedsEveryFigureAsAValidPngIdenticalToItsFile) {
     EXPECT_TRUE(same_as_a_file) << "figure " << figures;
     ++figures;
   }
-  EXPECT_EQ(figures, 10);  // errors, histogram, vectors, drift (history), one per joint
+  // errors, histogram, vectors, drift (history), one per joint, the residual map's CV curve
+  EXPECT_EQ(figures, 11);
 }
 
 TEST(Report, HeadlessChromiumRendersEveryFigure) {
