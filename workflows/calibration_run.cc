@@ -41,6 +41,19 @@ std::vector<Eigen::Vector3d> MappedResiduals(const calibration::RobotModel& mode
   return r;
 }
 
+CalibrationRun::MapValidation CalibrationRun::map_validation() const {
+  MapValidation v;
+  v.poses = static_cast<int>(validation_map_sigma_mm.size());
+  if (v.poses == 0) return v;
+  double sum = 0.0;
+  for (int i = 0; i < v.poses; ++i) {
+    v.outside += validation_map_extrapolated[i];
+    sum += validation_map_sigma_mm[i];
+  }
+  v.mean_sigma_mm = sum / v.poses;
+  return v;
+}
+
 CalibrationRun RunCalibration(const calibration::RobotModel& model,
                               const std::vector<MeasuredPose>& poses,
                               const std::vector<MeasuredPose>& holdout,
@@ -371,17 +384,11 @@ std::string FormatCalibrationReport(const calibration::RobotModel& model,
                          m.map.length_scale, m.map.regularisation, m.map.centres_rad.size());
     }
     out += "\n";
-    if (run.map_used() && !run.validation_map_sigma_mm.empty()) {
-      int outside = 0;
-      double sum = 0.0;
-      for (size_t i = 0; i < run.validation_map_sigma_mm.size(); ++i) {
-        outside += run.validation_map_extrapolated[i];
-        sum += run.validation_map_sigma_mm[i];
-      }
+    if (const auto v = run.map_validation(); run.map_used() && v.poses > 0) {
       out += fmt::format(
           "  validation: predictive sigma {:.4f} mm per coordinate on average; {} of {} poses "
           "outside the map's support (parametric prediction, flagged)\n",
-          sum / run.validation_map_sigma_mm.size(), outside, run.validation_map_sigma_mm.size());
+          v.mean_sigma_mm, v.outside, v.poses);
     }
   }
   return out;

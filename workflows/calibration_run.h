@@ -2,6 +2,7 @@
 // SPEC's calibrate JSON.
 #pragma once
 
+#include <limits>
 #include <nlohmann/json.hpp>
 #include <optional>
 #include <string>
@@ -50,6 +51,13 @@ struct CalibrationRun {
   std::vector<double> validation_map_sigma_mm;
   std::vector<char> validation_map_extrapolated;
   bool map_used() const { return residual_map && residual_map->used; }
+  // Over the validation poses when the map is used: how many were outside its support,
+  // and the mean predictive σ (NaN without).
+  struct MapValidation {
+    int outside = 0, poses = 0;
+    double mean_sigma_mm = std::numeric_limits<double>::quiet_NaN();
+  };
+  MapValidation map_validation() const;
 };
 
 // Runs the whole calibrate pipeline (selection, --params auto, estimation, validation).

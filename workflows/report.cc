@@ -847,18 +847,11 @@ std::string WriteReport(const std::string& dir, const ReportInput& in) {
                            fmt::format("{:g}", m.map.regularisation), m.map.centres_rad.size(),
                            Num(m.map.noise_sigma_mm));
       }
-      if (run.map_used() && !run.validation_map_sigma_mm.empty()) {
-        int outside = 0;
-        double sum = 0.0;
-        for (size_t i = 0; i < run.validation_map_sigma_mm.size(); ++i) {
-          outside += run.validation_map_extrapolated[i];
-          sum += run.validation_map_sigma_mm[i];
-        }
+      if (const auto v = run.map_validation(); run.map_used() && v.poses > 0) {
         html += HtmlFormat(
             " On the validation poses: predictive σ {} mm per coordinate on average; {} of {} "
             "outside the map's support (parametric prediction).",
-            Num(sum / run.validation_map_sigma_mm.size()), outside,
-            run.validation_map_sigma_mm.size());
+            Num(v.mean_sigma_mm), v.outside, v.poses);
       }
       html += "</p>\n";
       if (map_figure) html += FigureHtml(*map_figure);
