@@ -36,6 +36,11 @@ void SetupRecalibrateCommand(CLI::App& parent, const GlobalOptions& global, Runn
   sub->add_option("--since", o.since, "Only sessions started at or after this ISO date/time");
   sub->add_option("--select", o.select, "Configurations to fit (default: 60 %, at most 80)");
   sub->add_option("--params", o.params, "geometric | all | auto | list")->capture_default_str();
+  sub->add_option("--residual-model", o.residual_model,
+                  "auto: a cross-validated residual map stored with the set when it clearly "
+                  "helps; off: parametric only")
+      ->check(CLI::IsMember({"auto", "off"}))
+      ->capture_default_str();
   sub->add_option("--max-validation-mean-mm", o.max_validation_mean_mm,
                   "Gate (default: lab file, else 0.5)");
   sub->add_option("--max-validation-max-mm", o.max_validation_max_mm,

@@ -696,7 +696,72 @@ std::string WriteReport(const std::string& dir, const ReportInput& in) {
     }
   }
 
-  // 6. Error against the air temperature at the instrument (laser trackers report it with
+  // 6. The residual map's cross-validation curve: CV mean against the length scale, one
+  // line per regularisation, the parametric model's CV mean as a level.
+  std::optional<Figure> map_figure;
+  if (run.residual_map && !run.residual_map->grid.empty()) {
+    const auto& m = *run.residual_map;
+    double lo = 1e300, hi = 0.0, top = 0.0, bottom = 1e300;
+    std::set<double> lambdas;
+    for (const auto& g : m.grid) {
+      lo = std::min(lo, g.length_scale);
+      hi = std::max(hi, g.length_scale);
+      if (std::isfinite(g.cv_mean_mm)) {
+        top = std::max(top, g.cv_mean_mm);
+        bottom = std::min(bottom, g.cv_mean_mm);
+      }
+      lambdas.insert(g.regularisation);
+    }
+    if (std::isfinite(m.cv_mean_mm_parametric)) {
+      top = std::max(top, m.cv_mean_mm_parametric);
+      bottom = std::min(bottom, m.cv_mean_mm_parametric);
+    }
+    if (!(top > 0)) top = 1.0;
+    if (!(bottom < top)) bottom = 0.0;
+    Plot p(900, 360, "Residual map: cross-validated mean error on the fit poses",
+           LinearAxis(lo * 0.9, hi * 1.1, 6), LinearAxis(std::max(0.0, bottom * 0.9), top * 1.05, 5),
+           "length scale (scaled joint features)", "mm");
+    const Marker markers[] = {Marker::kCircle, Marker::kSquare, Marker::kTriangle,
+                              Marker::kDiamond};
+    const cv::Scalar colors[] = {kBlue, kOrange, kPurple, kTeal, kGrey};
+    std::vector<LegendEntry> legend;
+    int k = 0;
+    for (double lambda : lambdas) {
+      std::vector<calibration::CrossValidationPoint> line;
+      for (const auto& g : m.grid) {
+        if (g.regularisation == lambda && std::isfinite(g.cv_mean_mm)) line.push_back(g);
+      }
+      std::sort(line.begin(), line.end(),
+                [](const auto& a, const auto& b) { return a.length_scale < b.length_scale; });
+      const Marker marker = markers[k % 4];
+      const cv::Scalar color = colors[k % 5];
+      for (size_t i = 0; i < line.size(); ++i) {
+        const cv::Point at = p.At(line[i].length_scale, line[i].cv_mean_mm);
+        if (i > 0) {
+          cv::line(p.image, p.At(line[i - 1].length_scale, line[i - 1].cv_mean_mm), at, color, 1,
+                   cv::LINE_AA);
+        }
+        DrawMarker(p.image, at, marker, color, 4);
+      }
+      legend.push_back({marker, color, fmt::format("lambda {:g}", lambda)});
+      ++k;
+    }
+    if (std::isfinite(m.cv_mean_mm_parametric)) {
+      const int y = p.Y(m.cv_mean_mm_parametric);
+      cv::line(p.image, {p.area.x, y}, {p.area.x + p.area.width, y}, kRed, 1, cv::LINE_AA);
+      legend.push_back({Marker::kLine, kRed, "parametric model"});
+    }
+    if (!m.map.centres_rad.empty()) {
+      // The chosen (length scale, regularisation): a ring around its point.
+      cv::circle(p.image, p.At(m.map.length_scale, m.cv_mean_mm_with_map), 10, kInk, 1,
+                 cv::LINE_AA);
+      Text(p.image, "ring: chosen", {p.area.x + p.area.width, 20}, 0.4, Align::kRight);
+    }
+    p.Legend(legend);
+    map_figure = Save(dir, "residual_map.png", "Residual map: cross-validation curve", p.image);
+  }
+
+  // 7. Error against the air temperature at the instrument (laser trackers report it with
   // every reading): a thermal drift of the robot or the set-up shows as a slope.
   Figure temperature_figure;
   std::vector<double> temperatures, temperature_errors;
@@ -833,8 +898,35 @@ std::string WriteReport(const std::string& dir, const ReportInput& in) {
     line("nominal, fit", run.estimate.nominal);
     line("calibrated, fit", run.estimate.fit);
     line("nominal, validation", vn);
-    line("calibrated, validation", v);
+    if (run.map_used() && !run.validation_parametric_residuals.empty()) {
+      line("parametric, validation (before the map)", StatsOf(run.validation_parametric_residuals));
+      line("with the residual map, validation", v);
+    } else {
+      line("calibrated, validation", v);
+    }
     html += "</table>\n";
+    if (run.residual_map) {
+      const auto& m = *run.residual_map;
+      html += HtmlFormat(
+          "<h2>Residual map</h2>\n<p id=\"residual-map\">{}: {}. Cross-validated mean error on "
+          "the fit poses (5 folds): {} mm parametric, {} mm with the map.",
+          m.used ? "Used" : "Not used", m.decision, Num(m.cv_mean_mm_parametric),
+          Num(m.cv_mean_mm_with_map));
+      if (!m.map.centres_rad.empty()) {
+        html += HtmlFormat(" Length scale {}, regularisation {}, {} centres, noise σ {} mm.",
+                           fmt::format("{:g}", m.map.length_scale),
+                           fmt::format("{:g}", m.map.regularisation), m.map.centres_rad.size(),
+                           Num(m.map.noise_sigma_mm));
+      }
+      if (const auto v = run.map_validation(); run.map_used() && v.poses > 0) {
+        html += HtmlFormat(
+            " On the validation poses: predictive σ {} mm per coordinate on average; {} of {} "
+            "outside the map's support (parametric prediction).",
+            Num(v.mean_sigma_mm), v.outside, v.poses);
+      }
+      html += "</p>\n";
+      if (map_figure) html += FigureHtml(*map_figure);
+    }
     html += HtmlFormat(
         "<h2>Validation error per axis</h2>\n<p>Calibrated model &minus; measured on the {} "
         "validation poses, mm. Percentiles (nearest rank) of the absolute values.</p>\n"

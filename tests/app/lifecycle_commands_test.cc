@@ -173,7 +173,10 @@ TEST(LifecycleCommands, RealUr10NightlyPathReproducesTheHeldOutFigure) {
                 .exit_code,
             0);
   const auto night = RunArmsig(db +
+                               // The parametric figure: the residual map (on by default since
+                               // issue 13) would bring it to 0.39 mm.
                                "recalibrate --robot ur10 --params geometric --select 1773 "
+                               "--residual-model off "
                                "--max-validation-mean-mm 0.6 --json '" +
                                dir.File("night.json") + "' --report '" + dir.File("report") + "'");
   ASSERT_EQ(night.exit_code, 0) << night.err << night.out;
@@ -314,6 +317,136 @@ TEST(LifecycleCommands, ImportTrackerPointsAndJointLogIntoASession) {
   EXPECT_NE(no_times.err.find("time column"), std::string::npos) << no_times.err;
   const auto sessions = nlohmann::json::parse(RunArmsig(db + "sessions --json").out);
   EXPECT_EQ(sessions.size(), 1u);
+}
+
+}  // namespace armsig::testing
+
+namespace armsig::testing {
+
+// The residual map in the life cycle (issue 13): stored with the parameter set by
+// `recalibrate`, applied by `predict` and `compensate`, carried by the JSON export and
+// refused (with a warning) by the URDF, shown in the report.
+TEST(LifecycleCommands, ResidualMapIsStoredAppliedExportedAndReported) {
+  TempDir dir;
+  const std::string db = "--db '" + dir.File("lab.db") + "' ";
+  ASSERT_EQ(RunArmsig(db + "robot add ur10 --model '" + SourcePath("models/ur10.yaml") + "'")
+                .exit_code,
+            0);
+  const std::string data = DataPath("ur10-ipa/series_C-measurements_random_poses.csv");
+  ASSERT_EQ(RunArmsig(db + "import poses '" + data + "' --preset ur-ipa --robot ur10").exit_code, 0);
+  const std::string recal = db + "recalibrate --robot ur10 --select 600 --max-validation-mean-mm 0.8 ";
+  const auto off = RunArmsig(recal + "--residual-model off --json '" + dir.File("1.json") + "'");
+  ASSERT_EQ(off.exit_code, 0) << off.err;
+  const auto on = RunArmsig(recal + "--json '" + dir.File("2.json") + "' --report '" +
+                            dir.File("report") + "'");
+  ASSERT_EQ(on.exit_code, 0) << on.err;  // another option: another fit, not "up to date"
+  const auto j1 = nlohmann::json::parse(ReadText(dir.File("1.json")));
+  const auto j2 = nlohmann::json::parse(ReadText(dir.File("2.json")));
+  EXPECT_EQ(j2["version"], 2);
+  EXPECT_FALSE(j1["residual_model"]["used"].get<bool>());
+  ASSERT_TRUE(j2["residual_model"]["used"].get<bool>()) << j2["residual_model"].dump();
+  // The same 2,173 held-out configurations (the selection depends on the poses only): the
+  // map does not make them worse.
+  EXPECT_EQ(j1["validation"]["poses"], j2["validation"]["poses"]);
+  EXPECT_LE(j2["validation"]["mean_mm"].get<double>(), j1["validation"]["mean_mm"].get<double>());
+  const std::string html = ReadText(dir.File("report/index.html"));
+  EXPECT_NE(html.find("<h2>Residual map</h2>"), std::string::npos);
+  EXPECT_NE(html.find("with the residual map, validation"), std::string::npos);
+  EXPECT_TRUE(std::filesystem::exists(dir.File("report/residual_map.png")));
+
+  // predict with the map's set (active) and with the parametric set: on the measured
+  // configurations the map's predictions are closer to what the tracker measured.
+  const auto measured = io::ImportPoses(data, io::PoseImportOptions::UrIpa());
+  std::string joints = "pose,q1_deg,q2_deg,q3_deg,q4_deg,q5_deg,q6_deg\n";
+  for (size_t k = 0; k < measured.size(); k += 7) {
+    joints += measured[k].id;
+    for (int i = 0; i < 6; ++i)
+      joints += fmt::format(",{:.12f}", measured[k].joints_rad(i) * 180 / kPi);
+    joints += "\n";
+  }
+  WriteText(dir.File("j.csv"), joints);
+  auto predict_mean = [&](const std::string& out, int* applied) {
+    const auto r = RunArmsig(db + "predict --robot ur10 --frame measurement --map-sigma --joints '" +
+                             dir.File("j.csv") + "' --out '" + dir.File(out) + "'");
+    EXPECT_EQ(r.exit_code, 0) << r.err;
+    const auto p = io::ReadCsvFile(dir.File(out));
+    double mean = 0.0;
+    *applied = 0;
+    for (size_t k = 0; k < p.rows().size(); ++k) {
+      const Eigen::Vector3d x(p.Number(p.rows()[k], 1), p.Number(p.rows()[k], 2),
+                              p.Number(p.rows()[k], 3));
+      mean += (x - measured[7 * k].target_in_world).norm() / p.rows().size();
+      const bool on = p.Text(p.rows()[k], p.Column("map")) == "applied";
+      *applied += on ? 1 : 0;
+      // The map's predictive σ when it is applied; nothing without a map.
+      const std::string sigma = p.Text(p.rows()[k], p.Column("map_sigma_mm"));
+      if (on) {
+        EXPECT_GT(std::stod(sigma), 0.0);
+      }
+    }
+    return mean;
+  };
+  int applied_map = 0, applied_none = 0;
+  const double with_map = predict_mean("p2.csv", &applied_map);
+  ASSERT_EQ(RunArmsig(db + "activate --robot ur10 --version 1").exit_code, 0);
+  const double parametric = predict_mean("p1.csv", &applied_none);
+  EXPECT_EQ(applied_none, 0);
+  EXPECT_GT(applied_map, 350);  // of 397: the configurations inside the map's support
+  EXPECT_LT(with_map, 0.95 * parametric);
+  ASSERT_EQ(RunArmsig(db + "activate --robot ur10 --version 2").exit_code, 0);
+
+  // compensate: joints for the map's own predictions; predicted back they land on them
+  // (the Newton iteration includes the map).
+  const auto p2 = io::ReadCsvFile(dir.File("p2.csv"));
+  std::string targets = "point,x_mm,y_mm,z_mm";
+  for (int i = 1; i <= 6; ++i) targets += fmt::format(",q{}_deg", i);
+  targets += "\n";
+  std::string back_joints = "pose,q1_deg,q2_deg,q3_deg,q4_deg,q5_deg,q6_deg\n";
+  for (size_t k = 0; k < 6; ++k) {
+    targets += fmt::format("T{},{},{},{}", k, p2.Text(p2.rows()[k], 1), p2.Text(p2.rows()[k], 2),
+                           p2.Text(p2.rows()[k], 3));
+    // The nominal program: the measured joints moved by a few tenths of a degree.
+    for (int i = 0; i < 6; ++i)
+      targets += fmt::format(",{:.6f}", measured[7 * k].joints_rad(i) * 180 / kPi + 0.3);
+    targets += "\n";
+  }
+  WriteText(dir.File("t.csv"), targets);
+  const auto c = RunArmsig(db + "compensate --robot ur10 --frame measurement --targets '" +
+                           dir.File("t.csv") + "' --out '" + dir.File("c.csv") + "'");
+  ASSERT_EQ(c.exit_code, 0) << c.err;
+  const auto cj = io::ReadCsvFile(dir.File("c.csv"));
+  for (size_t k = 0; k < 6; ++k) {
+    EXPECT_EQ(cj.Text(cj.rows()[k], cj.Column("status")), "ok") << k;
+    back_joints += fmt::format("T{}", k);
+    for (int i = 1; i <= 6; ++i)
+      back_joints += "," + cj.Text(cj.rows()[k], cj.Column(fmt::format("q{}_deg", i)));
+    back_joints += "\n";
+  }
+  WriteText(dir.File("back.csv"), back_joints);
+  ASSERT_EQ(RunArmsig(db + "predict --robot ur10 --frame measurement --joints '" +
+                      dir.File("back.csv") + "' --out '" + dir.File("pb.csv") + "'")
+                .exit_code,
+            0);
+  const auto pb = io::ReadCsvFile(dir.File("pb.csv"));
+  for (size_t k = 0; k < 6; ++k) {
+    const Eigen::Vector3d target(p2.Number(p2.rows()[k], 1), p2.Number(p2.rows()[k], 2),
+                                 p2.Number(p2.rows()[k], 3));
+    const Eigen::Vector3d back(pb.Number(pb.rows()[k], 1), pb.Number(pb.rows()[k], 2),
+                               pb.Number(pb.rows()[k], 3));
+    EXPECT_LT((back - target).norm(), 0.01) << k;
+  }
+
+  // Exports: the JSON carries the map; a URDF cannot, and the warning says so.
+  ASSERT_EQ(RunArmsig(db + "export --robot ur10 --format json --out '" + dir.File("s.json") + "'")
+                .exit_code,
+            0);
+  const auto s = nlohmann::json::parse(ReadText(dir.File("s.json")));
+  EXPECT_EQ(s["residual_map"]["kind"], "gaussian_kernel_ridge");
+  EXPECT_EQ(s["residual_map"]["centres_rad"].size(), 600u);
+  const auto urdf =
+      RunArmsig(db + "export --robot ur10 --format urdf --out '" + dir.File("r.urdf") + "'");
+  EXPECT_EQ(urdf.exit_code, 0) << urdf.err;
+  EXPECT_NE(urdf.err.find("residual map"), std::string::npos) << urdf.err;
 }
 
 }  // namespace armsig::testing

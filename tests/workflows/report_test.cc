@@ -93,8 +93,9 @@ struct Fixture {
 };
 
 const std::vector<std::string> kFigureFiles = {
-    "errors.png",  "histogram.png", "vectors.png", "drift.png",   "joint_1.png", "joint_2.png",
-    "joint_3.png", "joint_4.png",   "joint_5.png", "joint_6.png", "temperature.png"};
+    "errors.png",  "histogram.png", "vectors.png", "drift.png",       "joint_1.png",
+    "joint_2.png", "joint_3.png",   "joint_4.png", "joint_5.png",     "joint_6.png",
+    "residual_map.png", "temperature.png"};
 
 // The text of the element with this id (up to its closing tag's '<').
 std::string Cell(const std::string& html, const std::string& id) {
@@ -148,7 +149,9 @@ TEST(Report, EmbedsEveryFigureAsAValidPngIdenticalToItsFile) {
     EXPECT_TRUE(same_as_a_file) << "figure " << figures;
     ++figures;
   }
-  EXPECT_EQ(figures, 11);  // errors, histogram, vectors, drift, temperature, one per joint
+  // errors, histogram, vectors, drift (history), one per joint, the residual map's CV curve,
+  // error against temperature
+  EXPECT_EQ(figures, 12);
 }
 
 TEST(Report, HeadlessChromiumRendersEveryFigure) {
