@@ -201,7 +201,10 @@ void LineSimulator::FloodMore(std::shared_ptr<std::function<std::string(int64_t)
       !descriptor_->is_open()) {
     return;
   }
-  FloodChunk(std::move(next), k, generation, std::make_shared<std::string>((*next)(k)), 0);
+  // The chunk first: the order in which function arguments are evaluated is unspecified,
+  // and moving `next` into its parameter before calling it left it empty under clang.
+  auto data = std::make_shared<std::string>((*next)(k));
+  FloodChunk(std::move(next), k, generation, std::move(data), 0);
 }
 
 // One write_some at a time, so flood_bytes() counts what the line took as it takes it (a
