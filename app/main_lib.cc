@@ -160,7 +160,8 @@ int Main(int argc, const char* const* argv) {
     const int code = app.exit(e);  // prints help / version / the usage error
     return code == 0 ? kOk : kInputError;
   }
-  auto logger = spdlog::stderr_color_st("armsig");
+  // _mt: `worker --jobs N` logs from several threads.
+  auto logger = spdlog::stderr_color_mt("armsig");
   spdlog::set_default_logger(logger);
   spdlog::set_pattern("armsig: %^%l%$: %v");
   // Progress and decisions (info) by default; -q keeps warnings, -v adds the details.
