@@ -5,6 +5,7 @@
 #include <fmt/format.h>
 #include <spdlog/spdlog.h>
 
+#include <algorithm>
 #include <iostream>
 #include <mutex>
 #include <nlohmann/json.hpp>
@@ -81,8 +82,10 @@ int RunSchedule(ScheduleCommand c, const GlobalOptions& global) {
       std::cout << fmt::format("job {}: recalibrate {} is already {}: not queued twice\n",
                                s.job.id, s.robot, db::ToString(s.job.state));
   }
-  spdlog::info("schedule: {} job{} in {}", scheduled.size(), scheduled.size() == 1 ? "" : "s",
-               QueueName(c.options.queue));
+  const auto queued = std::count_if(scheduled.begin(), scheduled.end(),
+                                    [](const workflows::Scheduled& s) { return s.job.created; });
+  spdlog::info("schedule: {} queued, {} already open, in {}", queued,
+               static_cast<long>(scheduled.size()) - queued, QueueName(c.options.queue));
   return kOk;
 }
 
