@@ -30,9 +30,8 @@ using namespace std::chrono_literals;
 // One connection to the queue, with the SQLite database it wraps when SQLite.
 struct Opened {
   std::unique_ptr<Database> sqlite;
-  std::unique_ptr<Connection> connection;
+  std::unique_ptr<Connection> connection;  // declared last: destroyed before the database
   Connection& operator*() { return *connection; }
-  ~Opened() { connection.reset(); }
 };
 
 Opened Open(const std::string& target) {
