@@ -65,7 +65,7 @@ TEST(FleetCommands, ScheduleAllThenTwoWorkersStoreEveryRobotOnce) {
   }
   // Nothing left: another worker has nothing to do; scheduling again queues anew.
   EXPECT_EQ(RunArmsig(db + " worker --once").exit_code, 0);
-  EXPECT_EQ(RunArmsig(db + " schedule recalibrate --robot cell1").exit_code, 0);
+  EXPECT_EQ(RunArmsig(db + " schedule recalibrate --robot cell1 --residual-model off").exit_code, 0);
   r = RunArmsig(db + " worker --once");
   EXPECT_EQ(r.exit_code, 0) << r.err;
   EXPECT_NE(r.out.find("up to date"), std::string::npos) << r.out;
@@ -149,7 +149,8 @@ TEST(FleetCommands, TheQueueOnPostgresDrainsLikeTheSqliteOne) {
     AddSession(database, calibration::PaperTable3Parameters(), 100, 7, 0.0, "", "a");
     AddSession(database, calibration::PaperTable3Parameters(), 100, 8, 0.0, "", "b");
   }
-  const std::string uri = PostgresServer::Shared().NewDatabase("fleet_queue");
+  static int n = 0;
+  const std::string uri = PostgresServer::Shared().NewDatabase("fleet_queue_" + std::to_string(++n));
   const std::string args = "--db '" + path + "' --queue '" + uri + "'";
   auto r = RunArmsig("--db '" + path + "' schedule recalibrate --all --residual-model off --queue '" +
                      uri + "'");
