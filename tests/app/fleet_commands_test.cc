@@ -139,6 +139,47 @@ TEST(FleetCommands, AWorkerKilledMidJobIsRetriedByAnotherAndStoredOnce) {
   EXPECT_EQ(jobs[0]["version"], 1);
 }
 
+// SIGTERM (systemctl stop) while a polling worker runs a job: the job is finished and
+// recorded, nothing more is claimed, exit 130.
+TEST(FleetCommands, SigtermFinishesTheCurrentJobThenStops) {
+  TempDir dir;
+  const std::string path = dir.File("lab.db");
+  {
+    db::Database database(path);
+    AddSession(database, calibration::PaperTable3Parameters(), 200, 9);
+  }
+  const std::string db = "--db '" + path + "'";
+  ASSERT_EQ(RunArmsig(db + " schedule recalibrate --robot puma").exit_code, 0);
+  const pid_t pid = ::fork();
+  ASSERT_GE(pid, 0);
+  if (pid == 0) {
+    const int null = ::open("/dev/null", O_WRONLY);
+    ::dup2(null, 1);
+    ::dup2(null, 2);
+    ::execl(ARMSIG_BINARY, ARMSIG_BINARY, "--db", path.c_str(), "worker", "--poll-s", "0.2",
+            static_cast<char*>(nullptr));
+    ::_exit(127);
+  }
+  bool started = false;
+  for (int k = 0; k < 2000 && !started; ++k) {
+    std::this_thread::sleep_for(5ms);
+    db::Database database(path);
+    started = database.sql().execAndGet("SELECT count(*) FROM jobs WHERE state <> 'queued'")
+                  .getInt() == 1;
+  }
+  ASSERT_TRUE(started);
+  ::kill(pid, SIGTERM);
+  int status = 0;
+  ::waitpid(pid, &status, 0);
+  ASSERT_TRUE(WIFEXITED(status)) << status;
+  EXPECT_EQ(WEXITSTATUS(status), 130);
+  const auto jobs = Jobs(db);
+  ASSERT_EQ(jobs.size(), 1u);
+  EXPECT_EQ(jobs[0]["state"], "done");
+  EXPECT_EQ(jobs[0]["attempts"], 1);
+  EXPECT_EQ(Versions(path), 1);
+}
+
 // The queue on the PostgreSQL server (the store stays SQLite until its port): claims with
 // SKIP LOCKED, the robot's advisory lock around the run.
 TEST(FleetCommands, TheQueueOnPostgresDrainsLikeTheSqliteOne) {
