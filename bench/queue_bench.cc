@@ -133,7 +133,7 @@ void BM_Worker(benchmark::State& state) {
     db::Database db(path);
     for (int k = 0; k < kRobots; ++k) AddRobot(db, "r" + std::to_string(k), 120, 100 + k);
   }
-  int64_t jobs = 0;
+  int64_t jobs = 0, failed = 0;
   for (auto _ : state) {
     state.PauseTiming();
     workflows::ScheduleOptions schedule;
@@ -149,7 +149,9 @@ void BM_Worker(benchmark::State& state) {
     worker.once = true;
     const auto s = workflows::RunWorker(worker);
     jobs += s.done + s.rejected + s.failed;
+    failed += s.failed;
   }
+  state.counters["failed"] = static_cast<double>(failed);
   state.counters["jobs"] = static_cast<double>(jobs);
   state.counters["jobs_per_s"] =
       benchmark::Counter(static_cast<double>(jobs), benchmark::Counter::kIsRate);
