@@ -37,6 +37,7 @@ void SetupInstrumentCommand(CLI::App& parent, const GlobalOptions& global, Runne
 void SetupDbCommand(CLI::App& parent, const GlobalOptions& global, Runner& run);
 void SetupSignatureCommands(CLI::App& parent, const GlobalOptions& global, Runner& run);
 void SetupLifecycleCommands(CLI::App& parent, const GlobalOptions& global, Runner& run);
+void SetupFleetCommands(CLI::App& parent, const GlobalOptions& global, Runner& run);
 
 // Ctrl-C, SIGTERM (systemctl stop, kill) and SIGHUP (a closed terminal) ask the running
 // command to stop at its next safe point; the first call installs the handlers. A

@@ -130,6 +130,7 @@ void SetupAll(CLI::App& app, GlobalOptions& global, Runner& run) {
   SetupDbCommand(app, global, run);
   SetupSignatureCommands(app, global, run);
   SetupLifecycleCommands(app, global, run);
+  SetupFleetCommands(app, global, run);
   // Hidden (no group): the build runs it to make the manual page and the completion.
   auto* generate = app.add_subcommand("generate", "Manual page or bash completion")->group("");
   auto what = std::make_shared<std::string>();
@@ -159,7 +160,8 @@ int Main(int argc, const char* const* argv) {
     const int code = app.exit(e);  // prints help / version / the usage error
     return code == 0 ? kOk : kInputError;
   }
-  auto logger = spdlog::stderr_color_st("armsig");
+  // _mt: `worker --jobs N` logs from several threads.
+  auto logger = spdlog::stderr_color_mt("armsig");
   spdlog::set_default_logger(logger);
   spdlog::set_pattern("armsig: %^%l%$: %v");
   // Progress and decisions (info) by default; -q keeps warnings, -v adds the details.

@@ -1,6 +1,9 @@
 #include "db/schema.h"
 
 #include <array>
+#include <string>
+
+#include "db/jobs.h"
 
 namespace armsig::db {
 
@@ -215,8 +218,11 @@ ALTER TABLE observations ADD COLUMN pressure_hpa REAL;      -- hPa
 ALTER TABLE observations ADD COLUMN humidity_percent REAL;  -- % relative humidity
 )sql";
 
-constexpr std::array<std::string_view, 6> kMigrations = {kSchemaV1, kSchemaV2, kSchemaV3,
-                                                         kSchemaV4, kSchemaV5, kSchemaV6};
+// ---- Schema v7 (issue 14): the job queue of the nightly work. --------------------------
+// Kept apart so that renumbering at a merge is moving this one entry: the DDL is
+// db/jobs.cc's (the same text creates the table on PostgreSQL, EnsureJobsSchema).
+constexpr int kJobsMigration = 7;  // the schema version that adds `jobs`
+// --------------------------------------------------------------------------------------
 
 // The tables of schema v1: an armsig file from before application_id has at least these.
 constexpr std::array<std::string_view, 11> kTablesV1 = {"robots",
@@ -231,7 +237,7 @@ constexpr std::array<std::string_view, 11> kTablesV1 = {"robots",
                                                         "calibration_parameters",
                                                         "validation_residuals"};
 
-constexpr std::array<std::string_view, 12> kTables = {"robots",
+constexpr std::array<std::string_view, 13> kTables = {"robots",
                                                       "instruments",
                                                       "stations",
                                                       "sessions",
@@ -242,11 +248,21 @@ constexpr std::array<std::string_view, 12> kTables = {"robots",
                                                       "calibrations",
                                                       "calibration_parameters",
                                                       "validation_residuals",
-                                                      "activations"};
+                                                      "activations",
+                                                      "jobs"};
 
 }  // namespace
 
-std::span<const std::string_view> Migrations() { return kMigrations; }
+std::span<const std::string_view> Migrations() {
+  static const std::string jobs = JobsSchemaSql(Backend::kSqlite);
+  static const std::array<std::string_view, 7> migrations = [] {
+    std::array<std::string_view, 7> m = {kSchemaV1, kSchemaV2, kSchemaV3, kSchemaV4,
+                                         kSchemaV5, kSchemaV6};
+    m[kJobsMigration - 1] = jobs;
+    return m;
+  }();
+  return migrations;
+}
 std::span<const std::string_view> TableNames() { return kTables; }
 std::span<const std::string_view> LegacyTableNames() { return kTablesV1; }
 

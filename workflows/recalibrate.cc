@@ -4,6 +4,7 @@
 #include <spdlog/spdlog.h>
 
 #include <algorithm>
+#include <cctype>
 #include <cmath>
 #include <cstdlib>
 #include <ctime>
@@ -259,6 +260,17 @@ nlohmann::json RecalibrationDecision::DriftJson() const {
   return j;
 }
 
+std::string RobotLockPath(const std::string& db_path, const std::string& robot) {
+  std::string name;
+  for (unsigned char c : robot) {
+    if (std::isalnum(c) || c == '-' || c == '_' || c == '.')
+      name += static_cast<char>(c);
+    else
+      name += fmt::format("%{:02X}", c);
+  }
+  return db_path + ".recalibrate." + name + ".lock";
+}
+
 RecalibrationDecision Recalibrate(const RecalibrateOptions& o) {
   // Everything the run will write is checked before anything is stored.
   const std::string since = o.since.empty() ? std::string() : SinceToUtc(o.since);
@@ -268,7 +280,9 @@ RecalibrationDecision Recalibrate(const RecalibrateOptions& o) {
   const auto robot_id = db::FindRobot(database, o.robot);
   if (!robot_id)
     throw InputError({o.db_path, 0, 0, "--robot"}, UnknownRobotMessage(database.path(), o.robot));
-  io::FileLock lock(o.db_path + ".recalibrate.lock", o.lock_wait_s);
+  // One run per robot at a time (the lock guards the robot's versions); other robots of
+  // the same file recalibrate in parallel (`armsig worker --jobs N`).
+  io::FileLock lock(RobotLockPath(o.db_path, o.robot), o.lock_wait_s);
   auto log = [&](const std::string& message) {
     spdlog::info("recalibrate: {}: {}", o.robot, message);
   };

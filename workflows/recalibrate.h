@@ -98,6 +98,10 @@ struct RecalibrationDecision {
   nlohmann::json DriftJson() const;
 };
 
+// The file lock of one robot's recalibration beside the SQLite database
+// ("lab.db.recalibrate.puma.lock"; characters other than [A-Za-z0-9._-] as %XX).
+std::string RobotLockPath(const std::string& db_path, const std::string& robot);
+
 // Throws InputError for an unknown robot, too few measurements or a malformed stored
 // lab file; std::runtime_error when another recalibration holds the lock too long.
 RecalibrationDecision Recalibrate(const RecalibrateOptions& options);

@@ -16,7 +16,7 @@ constexpr double kNoiseMm = 0.01;
 
 // One session of `count` configurations of the true robot, stored like a capture.
 void AddSession(db::Database& db, const Eigen::VectorXd& truth, int count, unsigned seed,
-                double blunder_fraction, const std::string& lab_yaml) {
+                double blunder_fraction, const std::string& lab_yaml, const std::string& robot_name) {
   const auto model = Puma();
   std::mt19937 rng(seed);
   const auto poses =
@@ -24,7 +24,7 @@ void AddSession(db::Database& db, const Eigen::VectorXd& truth, int count, unsig
                                  calibration::LabTestConfigurations(model, rng), kNoiseMm, rng);
   SQLite::Transaction tx(db.sql());
   const int64_t robot =
-      db::EnsureRobot(db, "puma", "puma760", ReadText(SourcePath("models/puma760.yaml")));
+      db::EnsureRobot(db, robot_name, "puma760", ReadText(SourcePath("models/puma760.yaml")));
   const int64_t session = db::CreateSession(db, robot, lab_yaml, "", "completed", "simulated");
   std::uniform_real_distribution<double> u(0, 1);
   for (int i = 0; i < count && i < static_cast<int>(poses.size()); ++i) {

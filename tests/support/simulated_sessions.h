@@ -11,9 +11,10 @@ namespace armsig::testing {
 
 // One session of `count` configurations of the true robot (base = identity, 0.01 mm
 // noise); `blunder_fraction` of its points are moved by millimetres. `lab_yaml` is
-// stored with the session.
+// stored with the session. The robot (a PUMA 760 model) is registered as `robot`.
 void AddSession(db::Database& db, const Eigen::VectorXd& truth, int count, unsigned seed,
-                double blunder_fraction = 0.0, const std::string& lab_yaml = "");
+                double blunder_fraction = 0.0, const std::string& lab_yaml = "",
+                const std::string& robot = "puma");
 int ActiveVersion(const std::string& db_path);
 int Versions(const std::string& db_path);
 

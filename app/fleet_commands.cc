@@ -1,0 +1,210 @@
+// armsig schedule recalibrate (--robot NAME… | --all) [recalibrate options] [--queue URI]
+// armsig worker [--jobs N] [--once] [--lease-s S] [--queue URI]
+// armsig jobs [--json] [--queue URI]
+// The nightly job as a queue (workflows/worker.h); exit codes per SPEC.
+#include <fmt/format.h>
+#include <spdlog/spdlog.h>
+
+#include <algorithm>
+#include <iostream>
+#include <mutex>
+#include <nlohmann/json.hpp>
+
+#include "app/command.h"
+#include "db/postgres_connection.h"
+#include "workflows/worker.h"
+
+namespace armsig::app {
+
+namespace {
+
+constexpr char kQueueHelp[] =
+    "Where the queue lives: a postgresql:// URI (credentials from libpq's environment, "
+    "~/.pgpass or a service file) or a SQLite file (default: the --db file)";
+
+struct ScheduleCommand {
+  workflows::ScheduleOptions options;
+};
+
+struct WorkerCommand {
+  workflows::WorkerOptions options;
+};
+
+struct JobsCommand {
+  std::string queue;
+  bool json = false;
+  int limit = 0;
+};
+
+std::string Time(const std::optional<int64_t>& ms) {
+  return ms ? db::IsoUtcFromMs(*ms) : std::string();
+}
+
+nlohmann::json JobJson(const db::Job& j) {
+  auto optional_time = [](const std::optional<int64_t>& ms) {
+    return ms ? nlohmann::json(db::IsoUtcFromMs(*ms)) : nlohmann::json();
+  };
+  nlohmann::json out = {{"id", j.id},
+                        {"kind", j.kind},
+                        {"robot", j.robot},
+                        {"state", db::ToString(j.state)},
+                        {"attempts", j.attempts},
+                        {"worker", j.worker.empty() ? nlohmann::json() : nlohmann::json(j.worker)},
+                        {"created", db::IsoUtcFromMs(j.created_ms)},
+                        {"started", optional_time(j.started_ms)},
+                        {"finished", optional_time(j.finished_ms)},
+                        {"lease_expires", optional_time(j.lease_expires_ms)},
+                        {"version", j.version ? nlohmann::json(*j.version) : nlohmann::json()},
+                        {"summary", j.summary.empty() ? nlohmann::json() : nlohmann::json(j.summary)},
+                        {"error", j.error.empty() ? nlohmann::json() : nlohmann::json(j.error)}};
+  out["options"] = nlohmann::json::parse(j.options_json, nullptr, false);
+  out["result"] = j.result_json.empty() ? nlohmann::json()
+                                        : nlohmann::json::parse(j.result_json, nullptr, false);
+  return out;
+}
+
+std::string QueueName(const std::string& queue) {
+  return db::IsPostgresUri(queue) ? db::RedactedUri(queue) : queue;
+}
+
+int RunSchedule(ScheduleCommand c, const GlobalOptions& global) {
+  c.options.store_db = global.DbPath();
+  if (c.options.queue.empty()) c.options.queue = c.options.store_db;
+  const auto scheduled = workflows::Schedule(c.options);
+  if (scheduled.empty()) {
+    std::cout << fmt::format("no robots in {}: nothing scheduled\n", c.options.store_db);
+    return kOk;
+  }
+  for (const auto& s : scheduled) {
+    if (s.job.created)
+      std::cout << fmt::format("job {}: recalibrate {} queued\n", s.job.id, s.robot);
+    else
+      std::cout << fmt::format("job {}: recalibrate {} is already {}: not queued twice\n",
+                               s.job.id, s.robot, db::ToString(s.job.state));
+  }
+  const auto queued = std::count_if(scheduled.begin(), scheduled.end(),
+                                    [](const workflows::Scheduled& s) { return s.job.created; });
+  spdlog::info("schedule: {} queued, {} already open, in {}", queued,
+               static_cast<long>(scheduled.size()) - queued, QueueName(c.options.queue));
+  return kOk;
+}
+
+int RunWorkerCommand(WorkerCommand c, const GlobalOptions& global) {
+  c.options.store_db = global.DbPath();
+  c.options.stop = &StopRequested();
+  std::mutex print;
+  c.options.on_finished = [&print](const db::Job& j) {
+    std::lock_guard lock(print);
+    std::cout << fmt::format("job {}: {}: {}{}\n", j.id, j.robot, db::ToString(j.state),
+                             j.summary.empty() || j.summary == "failed" ? "" : " — " + j.summary)
+              << std::flush;
+  };
+  const auto s = workflows::RunWorker(c.options);
+  spdlog::info("worker: {} done, {} rejected, {} failed{}{}", s.done, s.rejected, s.failed,
+               s.lost ? fmt::format(", {} lost to other workers", s.lost) : "",
+               s.stopped ? "; stopped on request" : "");
+  if (s.stopped) return kStopped;
+  if (s.failed) return kFailure;
+  if (s.rejected) return kQualityGate;
+  return kOk;
+}
+
+int RunJobs(const JobsCommand& c, const GlobalOptions& global) {
+  const std::string queue = c.queue.empty() ? global.DbPath() : c.queue;
+  workflows::QueueConnection connection(queue);
+  const auto jobs = db::ListJobs(*connection, c.limit);
+  if (c.json) {
+    nlohmann::json out = nlohmann::json::array();
+    for (const auto& j : jobs) out.push_back(JobJson(j));
+    std::cout << out.dump(2) << "\n";
+    return kOk;
+  }
+  if (jobs.empty()) {
+    std::cout << fmt::format("no jobs in {}\n", QueueName(queue));
+    return kOk;
+  }
+  std::cout << fmt::format("{:>5}  {:<16} {:<9} {:>3}  {:<24} {:<20} {:<20} {}\n", "id", "robot",
+                           "state", "try", "worker", "created", "finished", "result");
+  for (const auto& j : jobs) {
+    std::string result = j.error.empty() ? j.summary : j.error;
+    if (j.state == db::JobState::kRunning && j.lease_expires_ms)
+      result = "lease until " + Time(j.lease_expires_ms);
+    std::cout << fmt::format("{:>5}  {:<16} {:<9} {:>3}  {:<24} {:<20} {:<20} {}\n", j.id, j.robot,
+                             db::ToString(j.state), j.attempts, j.worker,
+                             Time(j.created_ms).substr(0, 19), Time(j.finished_ms).substr(0, 19),
+                             result);
+  }
+  return kOk;
+}
+
+}  // namespace
+
+void SetupFleetCommands(CLI::App& parent, const GlobalOptions& global, Runner& run) {
+  {
+    auto c = std::make_shared<ScheduleCommand>();
+    auto& o = c->options;
+    auto& r = o.recalibrate;
+    auto* schedule = parent.add_subcommand("schedule", "Put work into the queue (the fleet)");
+    schedule->require_subcommand(1);
+    auto* sub = schedule->add_subcommand(
+        "recalibrate", "Queue one recalibration job per robot (a robot already queued or "
+                       "running is not queued twice)");
+    auto* robot = NameOption(sub->add_option("--robot", o.robots, "Robot name (repeatable)"));
+    auto* all = sub->add_flag("--all", o.all, "Every robot of the database");
+    robot->excludes(all);
+    sub->add_option("--since", r.since, "Only sessions started at or after this ISO date/time");
+    sub->add_option("--select", r.select, "Configurations to fit (default: 60 %, at most 80)");
+    sub->add_option("--params", r.params, "geometric | all | auto | list")->capture_default_str();
+    sub->add_option("--residual-model", r.residual_model, "auto | off")
+        ->check(CLI::IsMember({"auto", "off"}))
+        ->capture_default_str();
+    sub->add_option("--max-validation-mean-mm", r.max_validation_mean_mm, "Gate");
+    sub->add_option("--max-validation-max-mm", r.max_validation_max_mm, "Gate");
+    sub->add_option("--tolerance-mm", r.tolerance_mm, "Allowed worsening against the active set");
+    sub->add_option("--drift-sigma", r.drift_sigma, "Parameter change named as drift, in sigmas");
+    sub->add_option("--drift-mm", r.drift_mm, "Smallest change of positions called drift");
+    sub->add_option("--report-dir", r.report_dir,
+                    "Each robot's HTML report into DIR/ROBOT (as the worker sees the path)");
+    sub->add_option("--lock-wait", r.lock_wait_s, "Seconds to wait for a robot's lock")
+        ->capture_default_str();
+    sub->add_flag("--force", r.force, "Refit even if the active set already uses the data");
+    sub->add_option("--queue", o.queue, kQueueHelp);
+    sub->callback([&run, &global, c, robot, all, sub] {
+      if (robot->count() == 0 && all->count() == 0)
+        throw CLI::RequiredError(sub->get_name() + ": --robot NAME or --all");
+      run = [&global, c] { return RunSchedule(*c, global); };
+    });
+  }
+  {
+    auto c = std::make_shared<WorkerCommand>();
+    auto& o = c->options;
+    auto* sub = parent.add_subcommand(
+        "worker", "Take jobs from the queue and run them (any number of workers at once)");
+    sub->add_option("--jobs", o.jobs, "Jobs run at once by this process")
+        ->check(CLI::Range(1, 256))
+        ->capture_default_str();
+    sub->add_flag("--once", o.once, "Stop when the queue is empty instead of polling");
+    sub->add_option("--lease-s", o.lease_s,
+                    "Lease of a claimed job (renewed every third of it; a job whose worker "
+                    "vanished is claimable again after it)")
+        ->capture_default_str();
+    sub->add_option("--max-attempts", o.max_attempts,
+                    "Claims of a job whose workers vanished before it is failed")
+        ->check(CLI::Range(1, 100))
+        ->capture_default_str();
+    sub->add_option("--poll-s", o.poll_s, "Pause between looks at an empty queue")
+        ->capture_default_str();
+    sub->add_option("--queue", o.queue, kQueueHelp);
+    sub->callback([&run, &global, c] { run = [&global, c] { return RunWorkerCommand(*c, global); }; });
+  }
+  {
+    auto c = std::make_shared<JobsCommand>();
+    auto* sub = parent.add_subcommand("jobs", "The queue: every job, its state and result");
+    sub->add_flag("--json", c->json, "Machine-readable output");
+    sub->add_option("--limit", c->limit, "Only the newest N jobs");
+    sub->add_option("--queue", c->queue, kQueueHelp);
+    sub->callback([&run, &global, c] { run = [&global, c] { return RunJobs(*c, global); }; });
+  }
+}
+
+}  // namespace armsig::app

@@ -1,0 +1,215 @@
+// The nightly job as a queue through the binary, as a plant runs it: schedule, workers,
+// the queue listed; a worker killed with SIGKILL mid-job and its job retried by another.
+#include <fcntl.h>
+#include <gtest/gtest.h>
+#include <signal.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <chrono>
+#include <nlohmann/json.hpp>
+#include <thread>
+
+#include "calibration/simulation.h"
+#include "db/database.h"
+#include "db/jobs.h"
+#include "support/postgres_server.h"
+#include "support/simulated_sessions.h"
+#include "test_support.h"
+#include "workflows/worker.h"
+
+namespace armsig::testing {
+namespace {
+
+using namespace std::chrono_literals;
+
+nlohmann::json Jobs(const std::string& args) {
+  const auto r = RunArmsig(args + " jobs --json");
+  EXPECT_EQ(r.exit_code, 0) << r.err;
+  return nlohmann::json::parse(r.out);
+}
+
+TEST(FleetCommands, ScheduleAllThenTwoWorkersStoreEveryRobotOnce) {
+  TempDir dir;
+  const std::string path = dir.File("lab.db");
+  {
+    db::Database database(path);
+    for (int k = 0; k < 3; ++k)
+      AddSession(database, calibration::PaperTable3Parameters(), 120, 10 + k, 0.0, "",
+                 "cell" + std::to_string(k + 1));
+  }
+  const std::string db = "--db '" + path + "'";
+  auto r = RunArmsig(db + " schedule recalibrate --all --residual-model off --report-dir '" +
+                     dir.path().string() + "'");
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_NE(r.out.find("recalibrate cell3 queued"), std::string::npos) << r.out;
+  r = RunArmsig(db + " schedule recalibrate --robot cell2");
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_NE(r.out.find("already queued: not queued twice"), std::string::npos) << r.out;
+  auto jobs = Jobs(db);
+  ASSERT_EQ(jobs.size(), 3u);
+
+  r = RunArmsig(db + " worker --jobs 2 --once");
+  ASSERT_EQ(r.exit_code, 0) << r.err << r.out;
+  EXPECT_EQ(Versions(path), 3);
+  jobs = Jobs(db);
+  ASSERT_EQ(jobs.size(), 3u);
+  for (const auto& j : jobs) {
+    EXPECT_EQ(j["state"], "done") << j.dump();
+    EXPECT_EQ(j["attempts"], 1);
+    EXPECT_EQ(j["version"], 1);
+    EXPECT_EQ(j["result"]["robot"], j["robot"]);
+    EXPECT_EQ(j["options"]["residual_model"], "off");
+    EXPECT_TRUE(std::filesystem::exists(dir.path() / j["robot"].get<std::string>()))
+        << "per-robot report folder";
+  }
+  // Nothing left: another worker has nothing to do; scheduling again queues anew.
+  EXPECT_EQ(RunArmsig(db + " worker --once").exit_code, 0);
+  EXPECT_EQ(RunArmsig(db + " schedule recalibrate --robot cell1 --residual-model off").exit_code, 0);
+  r = RunArmsig(db + " worker --once");
+  EXPECT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_NE(r.out.find("up to date"), std::string::npos) << r.out;
+  EXPECT_EQ(Versions(path), 3);
+  const auto text = RunArmsig(db + " jobs");
+  EXPECT_NE(text.out.find("cell1"), std::string::npos) << text.out;
+}
+
+TEST(FleetCommands, UnknownRobotIsAnInputErrorAndNothingIsQueued) {
+  TempDir dir;
+  const std::string path = dir.File("lab.db");
+  {
+    db::Database database(path);
+    AddSession(database, calibration::PaperTable3Parameters(), 60, 1);
+  }
+  const auto r = RunArmsig("--db '" + path + "' schedule recalibrate --robot puma --robot nope");
+  EXPECT_EQ(r.exit_code, 2);
+  EXPECT_NE(r.err.find("nope"), std::string::npos) << r.err;
+  EXPECT_EQ(Jobs("--db '" + path + "'").size(), 0u);
+  EXPECT_EQ(RunArmsig("--db '" + path + "' schedule recalibrate").exit_code, 2);
+}
+
+// A worker killed with SIGKILL in the middle of a job: after the lease another worker
+// claims it again (attempt 2), runs it, and the parameter set is stored once.
+TEST(FleetCommands, AWorkerKilledMidJobIsRetriedByAnotherAndStoredOnce) {
+  TempDir dir;
+  const std::string path = dir.File("lab.db");
+  {
+    db::Database database(path);
+    AddSession(database, calibration::PaperTable3Parameters(), 200, 5);
+  }
+  const std::string db = "--db '" + path + "'";
+  ASSERT_EQ(RunArmsig(db + " schedule recalibrate --robot puma").exit_code, 0);
+
+  const pid_t pid = ::fork();
+  ASSERT_GE(pid, 0);
+  if (pid == 0) {
+    const int null = ::open("/dev/null", O_WRONLY);
+    ::dup2(null, 1);
+    ::dup2(null, 2);
+    ::execl(ARMSIG_BINARY, ARMSIG_BINARY, "--db", path.c_str(), "worker", "--once", "--lease-s",
+            "1", static_cast<char*>(nullptr));
+    ::_exit(127);
+  }
+  // Kill it as soon as it holds the job.
+  bool running = false;
+  for (int k = 0; k < 2000 && !running; ++k) {
+    std::this_thread::sleep_for(5ms);
+    db::Database database(path);
+    running = database.sql().execAndGet("SELECT count(*) FROM jobs WHERE state = 'running'")
+                  .getInt() == 1;
+  }
+  ASSERT_TRUE(running);
+  ::kill(pid, SIGKILL);
+  int status = 0;
+  ::waitpid(pid, &status, 0);
+  ASSERT_TRUE(WIFSIGNALED(status));
+  EXPECT_EQ(Versions(path), 0) << "killed before it stored anything";
+
+  // Before the lease has expired there is nothing to take; after it, the job is retried.
+  auto r = RunArmsig(db + " worker --once --lease-s 1");
+  EXPECT_EQ(r.exit_code, 0) << r.err;
+  std::this_thread::sleep_for(1200ms);
+  r = RunArmsig(db + " worker --once --lease-s 1");
+  ASSERT_EQ(r.exit_code, 0) << r.err << r.out;
+  EXPECT_EQ(Versions(path), 1);
+  const auto jobs = Jobs(db);
+  ASSERT_EQ(jobs.size(), 1u);
+  EXPECT_EQ(jobs[0]["state"], "done");
+  EXPECT_EQ(jobs[0]["attempts"], 2);
+  EXPECT_EQ(jobs[0]["version"], 1);
+}
+
+// SIGTERM (systemctl stop) while a polling worker runs a job: the job is finished and
+// recorded, nothing more is claimed, exit 130.
+TEST(FleetCommands, SigtermFinishesTheCurrentJobThenStops) {
+  TempDir dir;
+  const std::string path = dir.File("lab.db");
+  {
+    db::Database database(path);
+    AddSession(database, calibration::PaperTable3Parameters(), 200, 9);
+  }
+  const std::string db = "--db '" + path + "'";
+  ASSERT_EQ(RunArmsig(db + " schedule recalibrate --robot puma").exit_code, 0);
+  const pid_t pid = ::fork();
+  ASSERT_GE(pid, 0);
+  if (pid == 0) {
+    const int null = ::open("/dev/null", O_WRONLY);
+    ::dup2(null, 1);
+    ::dup2(null, 2);
+    ::execl(ARMSIG_BINARY, ARMSIG_BINARY, "--db", path.c_str(), "worker", "--poll-s", "0.2",
+            static_cast<char*>(nullptr));
+    ::_exit(127);
+  }
+  bool started = false;
+  for (int k = 0; k < 2000 && !started; ++k) {
+    std::this_thread::sleep_for(5ms);
+    db::Database database(path);
+    started = database.sql().execAndGet("SELECT count(*) FROM jobs WHERE state <> 'queued'")
+                  .getInt() == 1;
+  }
+  ASSERT_TRUE(started);
+  ::kill(pid, SIGTERM);
+  int status = 0;
+  ::waitpid(pid, &status, 0);
+  ASSERT_TRUE(WIFEXITED(status)) << status;
+  EXPECT_EQ(WEXITSTATUS(status), 130);
+  const auto jobs = Jobs(db);
+  ASSERT_EQ(jobs.size(), 1u);
+  EXPECT_EQ(jobs[0]["state"], "done");
+  EXPECT_EQ(jobs[0]["attempts"], 1);
+  EXPECT_EQ(Versions(path), 1);
+}
+
+// The queue on the PostgreSQL server (the store stays SQLite until its port): claims with
+// SKIP LOCKED, the robot's advisory lock around the run.
+TEST(FleetCommands, TheQueueOnPostgresDrainsLikeTheSqliteOne) {
+  TempDir dir;
+  const std::string path = dir.File("lab.db");
+  {
+    db::Database database(path);
+    AddSession(database, calibration::PaperTable3Parameters(), 100, 7, 0.0, "", "a");
+    AddSession(database, calibration::PaperTable3Parameters(), 100, 8, 0.0, "", "b");
+  }
+  static int n = 0;
+  const std::string uri = PostgresServer::Shared().NewDatabase("fleet_queue_" + std::to_string(++n));
+  const std::string args = "--db '" + path + "' --queue '" + uri + "'";
+  auto r = RunArmsig("--db '" + path + "' schedule recalibrate --all --residual-model off --queue '" +
+                     uri + "'");
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  r = RunArmsig("--db '" + path + "' worker --jobs 2 --once --queue '" + uri + "'");
+  ASSERT_EQ(r.exit_code, 0) << r.err << r.out;
+  EXPECT_EQ(Versions(path), 2);
+  // `jobs` reads the queue from --db when it is the server's URI.
+  const auto jobs = Jobs("--db '" + uri + "'");
+  ASSERT_EQ(jobs.size(), 2u);
+  for (const auto& j : jobs) EXPECT_EQ(j["state"], "done") << j.dump();
+
+  // The store itself is not yet on PostgreSQL: said so, exit 2.
+  r = RunArmsig("--db '" + uri + "' worker --once");
+  EXPECT_EQ(r.exit_code, 2);
+  EXPECT_NE(r.err.find("not yet stored on PostgreSQL"), std::string::npos) << r.err;
+  EXPECT_NE(r.err.find("--queue"), std::string::npos) << r.err;
+}
+
+}  // namespace
+}  // namespace armsig::testing

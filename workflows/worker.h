@@ -1,0 +1,83 @@
+// The nightly job as a queue (issue 14): `schedule` enqueues one recalibration job per robot,
+// any number of workers (threads, processes, machines) drain the queue, each job running
+// workflows::Recalibrate with its gates, the outcome stored with the job (db/jobs.h).
+//
+// Where things live today: the store (robots, sessions, parameter sets) is SQLite only, so
+// `store_db` is a SQLite file; the queue is in the same file by default, or in a PostgreSQL
+// database (`queue`, a postgresql:// URI), where the claims use row locks with SKIP LOCKED
+// and each run holds the robot's advisory lock.
+#pragma once
+
+#include <atomic>
+#include <cstdint>
+#include <functional>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "db/connection.h"
+#include "db/jobs.h"
+#include "workflows/recalibrate.h"
+
+namespace armsig::workflows {
+
+// The queue of `queue` (a SQLite path: that armsig file, which must exist; a postgresql://
+// URI: that database, the jobs table created when missing).
+class QueueConnection {
+ public:
+  explicit QueueConnection(const std::string& queue);
+  ~QueueConnection();
+  db::Connection& operator*() { return *connection_; }
+  db::Connection* operator->() { return connection_.get(); }
+
+ private:
+  struct Sqlite;
+  std::unique_ptr<Sqlite> sqlite_;
+  std::unique_ptr<db::Connection> connection_;
+};
+
+// The job's options as stored with it (options_json) and back. db_path, json_path and the
+// report directory's per-robot subfolder are the worker's business, not stored.
+std::string RecalibrateOptionsToJson(const RecalibrateOptions& options);
+RecalibrateOptions RecalibrateOptionsFromJson(const std::string& json);
+
+struct ScheduleOptions {
+  std::string store_db;        // SQLite: the robots
+  std::string queue;           // "" = store_db
+  std::vector<std::string> robots;  // or every robot of the store when `all`
+  bool all = false;
+  RecalibrateOptions recalibrate;  // passed through to every job
+};
+struct Scheduled {
+  std::string robot;
+  db::EnqueueResult job;
+};
+// Throws InputError for an unknown robot (nothing enqueued then) or a store on PostgreSQL.
+std::vector<Scheduled> Schedule(const ScheduleOptions& options);
+
+struct WorkerOptions {
+  std::string store_db;  // SQLite file of the robots and their data
+  std::string queue;     // "" = store_db
+  int jobs = 1;          // jobs run at once (threads, each with its own connections)
+  bool once = false;     // stop when no job is claimable instead of polling
+  double lease_s = 300;  // a claim's lease; heartbeats renew it every lease/3
+  int max_attempts = 3;  // claims of a job whose workers vanished before it is failed
+  double poll_s = 5;     // pause between looks at an empty queue (without `once`)
+  const std::atomic<bool>* stop = nullptr;  // set: finish the current job, claim no more
+  // Called after each job (from the worker's threads, serialised).
+  std::function<void(const db::Job&)> on_finished;
+  std::string worker_id;  // "" = host:pid
+  void Check() const;     // throws InputError
+};
+
+struct WorkerSummary {
+  int done = 0, rejected = 0, failed = 0;
+  int lost = 0;  // finished after the lease was lost to another worker (not recorded)
+  bool stopped = false;
+};
+WorkerSummary RunWorker(const WorkerOptions& options);
+
+// "host:pid".
+std::string DefaultWorkerId();
+
+}  // namespace armsig::workflows
