@@ -62,7 +62,9 @@ void SetupImportCommand(CLI::App& parent, const GlobalOptions& global, Runner& r
       ->check(CLI::IsMember({"deg", "gon", "rad"}))
       ->capture_default_str();
   p->add_option("--xyz", poses->xyz_columns, "Measured x,y,z columns, comma-separated");
-  p->add_option("--length-scale", poses->length_scale, "Factor to mm (1000 for metres)");
+  NumberOption(
+      p->add_option("--length-scale", poses->length_scale, "Factor to mm (1000 for metres)"), 1e-6,
+      1e6);
   p->add_option("--id", poses->id_column, "Pose id column (default: row number)");
   p->add_option("--delimiter", poses->delimiter, "Field delimiter: one character or 'tab'");
   p->add_flag("--decimal-comma", poses->decimal_comma, "Numbers use a decimal comma");

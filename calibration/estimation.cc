@@ -86,6 +86,11 @@ std::vector<double> Distances(const std::vector<Eigen::Vector3d>& residuals) {
   return d;
 }
 
+namespace {
+// Joint motion (rad, over all joints) below which a set of poses is one configuration.
+constexpr double kNoMotionRad = 1e-9;
+}  // namespace
+
 void EstimationOptions::Check() const {
   identifiability.Check();
   if (max_iterations < 1) throw std::invalid_argument("max_iterations must be ≥ 1");
@@ -129,6 +134,22 @@ EstimationResult Estimate(const RobotModel& model, const std::vector<MeasuredPos
   result.params = Eigen::VectorXd::Zero(np);
   result.sigmas = Eigen::VectorXd::Constant(np, std::numeric_limits<double>::quiet_NaN());
 
+  // Poses that do not move the robot determine nothing about its joints: refused, whatever
+  // the targets (a fit would "converge" with σ0 of the targets' scatter and mean nothing).
+  if (m >= 2) {
+    double motion = 0.0;
+    for (const auto& p : poses)
+      motion = std::max(motion, (p.joints_rad - poses[0].joints_rad).norm());
+    if (!(motion > kNoMotionRad)) {
+      result.status.code = SolveCode::kDegenerate;
+      result.status.message = "all " + std::to_string(m) +
+                              " poses have the same joint angles: the robot never moved, so the "
+                              "poses cannot determine its parameters (measure configurations "
+                              "that move every joint)";
+      return result;
+    }
+  }
+
   // N1: given, or the rigid best fit of the nominal model (paper: "N1 has to be
   // established before the estimation process begins").
   if (model.base) {
@@ -160,6 +181,25 @@ EstimationResult Estimate(const RobotModel& model, const std::vector<MeasuredPos
   // parameters differently from one data set of the same poses to the next.
   result.identifiability = AnalyseIdentifiability(model, Eigen::Isometry3d::Identity(), joints,
                                                   candidates, options.identifiability);
+  // Poses that identify far fewer parameters than configurations spread over the joint
+  // limits do (the model's structural rank) cannot determine the signature: a joint barely
+  // moved, every pose on one path. Refused, naming the joints that never moved.
+  if (const int structural = result.identifiability.structural_rank;
+      structural > 0 && 2 * result.identifiability.rank < structural) {
+    std::string frozen;
+    for (const auto& f : result.identifiability.frozen_joints) {
+      frozen += (frozen.empty() ? "" : ", ") + std::to_string(f.joint + 1);
+    }
+    result.status.code = SolveCode::kDegenerate;
+    result.status.message =
+        "the poses determine only " + std::to_string(result.identifiability.rank) + " of the " +
+        std::to_string(structural) +
+        " parameters that configurations spread over the joint limits determine" +
+        (frozen.empty() ? std::string(": the robot barely moves between them")
+                        : "; joints that never move: " + frozen) +
+        " (measure configurations that move every joint)";
+    return result;
+  }
   const std::vector<int>& subset = result.identifiability.identified;
   const int k = static_cast<int>(subset.size());
   const int needed = std::max(k, result.identifiability.structural_rank);

@@ -3,6 +3,7 @@
 #include <optional>
 #include <set>
 
+#include "core/text.h"
 #include "core/units.h"
 #include "io/yaml_reader.h"
 
@@ -67,7 +68,7 @@ NongeometricTerm Term(const YamlValue& value, int num_joints) {
   } else if (b == "sign_cos") {
     term.basis = NongeometricTerm::Basis::kSignCos;
   } else {
-    basis.Fail("expected basis 'cos' or 'sign_cos', got '" + b + "'");
+    basis.Fail("expected basis 'cos' or 'sign_cos', got " + Quoted(b));
   }
   for (const YamlValue& j : map.Required("of", "a list of joint numbers").List(1)) {
     term.of.push_back(j.Integer(1, num_joints) - 1);
@@ -96,7 +97,8 @@ RobotModel Parse(const YamlValue& root_value) {
   const auto dh = root.Find("dh");
   if (links && dh) dh->Fail("give either 'links' or 'dh', not both");
   if (links) {
-    for (const YamlValue& link : links->List(1)) model.links.push_back(Transform(link, plausible::Quantity::kLength));
+    for (const YamlValue& link : links->List(1))
+      model.links.push_back(Transform(link, plausible::Quantity::kLength));
   } else if (dh) {
     std::vector<Eigen::Isometry3d> rows;
     for (const YamlValue& row : dh->List(1)) rows.push_back(DhRow(row));
@@ -106,8 +108,9 @@ RobotModel Parse(const YamlValue& root_value) {
     root.Fail("missing 'links' (N2…Nn as 4x4 matrices) or 'dh' (one row per joint)");
   }
 
-  const Eigen::Vector3d tool =
-      root.Has("tool_mm") ? root.Find("tool_mm")->Vector3(plausible::Quantity::kLength) : Eigen::Vector3d::Zero();
+  const Eigen::Vector3d tool = root.Has("tool_mm")
+                                   ? root.Find("tool_mm")->Vector3(plausible::Quantity::kLength)
+                                   : Eigen::Vector3d::Zero();
   model.tool_mm = folded_tool * tool;
 
   const int n = model.num_joints();
@@ -117,7 +120,7 @@ RobotModel Parse(const YamlValue& root_value) {
     for (const YamlValue& node : terms->List()) {
       NongeometricTerm term = Term(node, n);
       if (!names.insert(term.name).second) {
-        node.Fail("duplicate parameter name '" + term.name + "'");
+        node.Fail("duplicate parameter name " + Quoted(term.name));
       }
       model.nongeometric.push_back(std::move(term));
     }

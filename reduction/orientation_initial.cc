@@ -166,22 +166,35 @@ std::optional<InitialValues> FindInitialValues(const OrientationProblem& problem
   };
 
   // Resection of station i from known points and placed stations it sights or that sight it.
+  // Each sighted point counts once: a repeated sighting of one point (the same line twice in
+  // a file) is no second direction, and two rays to one point place the station on that
+  // point.
   auto try_resect = [&](int i) {
     std::vector<Eigen::Vector3d> points, dirs;
+    std::set<std::string> sighted;
     for (const auto& o : obs) {
-      if (o.station != i) continue;
+      if (o.station != i || !sighted.insert(o.point).second) continue;
       if (o.target_station >= 0) {
         if (st[o.target_station].placed) {
           points.push_back(st[o.target_station].position);
           dirs.push_back(dir_in_station(o));
+        } else {
+          sighted.erase(o.point);
         }
       } else if (auto it = known.find(o.point); it != known.end()) {
         points.push_back(it->second);
         dirs.push_back(dir_in_station(o));
+      } else {
+        sighted.erase(o.point);  // not known yet: a later ray to it may be
       }
     }
     if (!st[i].levelled && ResectUnlevelled(points, dirs, st[i])) return true;
     if (points.size() < 2) return false;
+    bool apart = false;  // at least two of the points are distinct places
+    for (size_t k = 1; k < points.size() && !apart; ++k) {
+      apart = (points[k] - points[0]).norm() > 1e-6 * std::max(1.0, points[0].norm());
+    }
+    if (!apart) return false;
     auto cost = [&](double az) {
       std::vector<Eigen::Vector3d> world(dirs.size());
       const Eigen::Matrix3d r = LevelledRotation(az);

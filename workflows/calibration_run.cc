@@ -10,6 +10,7 @@
 
 #include "calibration/drift.h"
 #include "core/error.h"
+#include "core/text.h"
 
 namespace armsig::workflows {
 
@@ -334,9 +335,9 @@ db::CalibrationRecord CalibrationRecordOf(const calibration::RobotModel& model,
   db::CalibrationRecord c;
   c.robot_id = robot_id;
   c.params_spec = run.params_spec;
-  c.inputs_json = inputs.dump();
-  c.options_json = options.dump();
-  c.report_json = CalibrationJson(model, run).dump();
+  c.inputs_json = JsonText(inputs);
+  c.options_json = JsonText(options);
+  c.report_json = JsonText(CalibrationJson(model, run));
   c.rank = e.identifiability.rank;
   c.poses_fit = static_cast<int>(run.fit_pose_ids.size());
   c.poses_validation = static_cast<int>(run.validation_pose_ids.size());

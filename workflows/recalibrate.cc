@@ -14,6 +14,7 @@
 #include "calibration/drift.h"
 #include "calibration/identifiability.h"
 #include "core/error.h"
+#include "core/text.h"
 #include "db/database.h"
 #include "db/store.h"
 #include "io/atomic_file.h"
@@ -45,8 +46,8 @@ std::string CheckedSince(const std::string& text) {
   if (!std::regex_match(text, m, iso) || number(2) < 1 || number(2) > 12 || number(3) < 1 ||
       number(3) > 31 || number(4) > 23 || number(5) > 59 || number(6) > 60) {
     throw InputError({"--since", 0, 0, ""},
-                     "'" + text +
-                         "': expected an ISO date or date/time, e.g. 2026-11-01 or "
+                     Quoted(text) +
+                         ": expected an ISO date or date/time, e.g. 2026-11-01 or "
                          "2026-11-01T02:30:00Z");
   }
   std::string normalised = text;
@@ -180,7 +181,8 @@ RecalibrationDecision Recalibrate(const RecalibrateOptions& o) {
   db::Database database(o.db_path, db::OpenMode::kMustExist);
   const auto robot_id = db::FindRobot(database, o.robot);
   if (!robot_id)
-    throw InputError({o.db_path, 0, 0, "--robot"}, "no robot '" + o.robot + "' in the database");
+    throw InputError({o.db_path, 0, 0, "--robot"},
+                     "no robot " + Quoted(o.robot) + " in the database");
   io::FileLock lock(o.db_path + ".recalibrate.lock", o.lock_wait_s);
   auto log = [&](const std::string& message) {
     spdlog::info("recalibrate: {}: {}", o.robot, message);

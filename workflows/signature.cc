@@ -6,6 +6,7 @@
 
 #include "calibration/compensation.h"
 #include "core/error.h"
+#include "core/text.h"
 #include "core/units.h"
 #include "io/csv.h"
 #include "io/model_export.h"
@@ -32,12 +33,12 @@ ActiveSignature LoadActiveSignature(db::Database& database, const std::string& r
   const auto id = db::FindRobot(database, robot);
   if (!id)
     throw InputError({database.path(), 0, 0, "--robot"},
-                     "no robot '" + robot + "' in the database");
+                     "no robot " + Quoted(robot) + " in the database");
   const auto active = db::ActiveCalibration(database, *id);
   if (!active) {
     throw InputError(
         {database.path(), 0, 0, "--robot"},
-        "robot '" + robot + "' has no active parameter set (run armsig recalibrate first)");
+        "robot " + Quoted(robot) + " has no active parameter set (run armsig recalibrate first)");
   }
   ActiveSignature out{
       io::ParseRobotModel(db::RobotModelYaml(database, *id), "model of robot " + robot), {}};
@@ -52,12 +53,15 @@ Eigen::Isometry3d FrameOf(const ActiveSignature& a, const std::string& frame) {
       throw InputError({"--frame", 0, 0, ""}, "the active set has no stored measuring frame");
     return *a.signature.world_from_base;
   }
-  throw InputError({"--frame", 0, 0, ""}, "expected robot or measurement, got '" + frame + "'");
+  throw InputError({"--frame", 0, 0, ""}, "expected robot or measurement, got " + Quoted(frame));
 }
 
 std::string PredictCsv(const ActiveSignature& a, const Eigen::Isometry3d& frame,
                        const std::string& joints_csv) {
   const io::CsvTable t = io::ReadCsvFile(joints_csv);
+  std::vector<std::string> known = {"pose"};
+  for (int i = 1; i <= a.model.num_joints(); ++i) known.push_back("q" + std::to_string(i) + "_*");
+  t.RefuseUnreadUnits(known);
   const int id = t.Column("pose");
   std::vector<io::AngleColumn> q;
   for (int i = 1; i <= a.model.num_joints(); ++i)
@@ -72,7 +76,7 @@ std::string PredictCsv(const ActiveSignature& a, const Eigen::Isometry3d& frame,
     const Eigen::Vector3d x = kin.Position(frame, a.signature.params, joints.data());
     const Eigen::Vector3d nominal = kin.Position(frame, zero, joints.data());
     out += fmt::format("{},{:.6f},{:.6f},{:.6f},{:.6f},{:.6f},{:.6f},{:.6f}\n",
-                       io::CsvEscape(t.Text(row, id)), x.x(), x.y(), x.z(), nominal.x(),
+                       io::CsvEscape(t.Name(row, id)), x.x(), x.y(), x.z(), nominal.x(),
                        nominal.y(), nominal.z(), (x - nominal).norm());
   }
   return out;
@@ -83,6 +87,9 @@ CompensationResult Compensate(const ActiveSignature& a, const Eigen::Isometry3d&
                               const std::optional<Eigen::VectorXd>& seed_rad) {
   const int n = a.model.num_joints();
   const io::CsvTable t = io::ReadCsvFile(targets_csv);
+  std::vector<std::string> known = {"point", "x_mm", "y_mm", "z_mm"};
+  for (int i = 1; i <= n; ++i) known.push_back("q" + std::to_string(i) + "_*");
+  t.RefuseUnreadUnits(known);
   const int id = t.Column("point");
   const int cx = t.Column("x_mm"), cy = t.Column("y_mm"), cz = t.Column("z_mm");
   std::vector<io::AngleColumn> q;
@@ -124,7 +131,7 @@ CompensationResult Compensate(const ActiveSignature& a, const Eigen::Isometry3d&
     }
     const auto s = calibration::SolveJoints(a.model, frame, a.signature.params, target, nominal);
     const bool ok = s.status.ok() && (q.size() || nominal_solution.status.ok());
-    result.csv += io::CsvEscape(t.Text(row, id));
+    result.csv += io::CsvEscape(t.Name(row, id));
     for (int i = 0; i < n; ++i)
       result.csv += ok ? fmt::format(",{:.8f}", s.joints_rad(i) / kRadPerDeg) : std::string(",");
     for (int i = 0; i < n; ++i) result.csv += fmt::format(",{:.8f}", nominal(i) / kRadPerDeg);
@@ -155,11 +162,11 @@ ExportResult ExportSignature(const ActiveSignature& a, const std::string& robot,
            {"sigma",
             identified ? nlohmann::json(a.signature.sigmas(k)) : nlohmann::json(nullptr)}});
     }
-    result.text = nlohmann::json{{"robot", robot},
-                                 {"model", a.model.name},
-                                 {"version", a.signature.version},
-                                 {"parameters", params}}
-                      .dump(2) +
+    result.text = JsonText(nlohmann::json{{"robot", robot},
+                                          {"model", a.model.name},
+                                          {"version", a.signature.version},
+                                          {"parameters", params}},
+                           2) +
                   "\n";
   } else if (format == "model" || format == "urdf") {
     const auto corrected = calibration::CorrectedModel(a.model, a.signature.params, frame);
@@ -171,7 +178,7 @@ ExportResult ExportSignature(const ActiveSignature& a, const std::string& robot,
       result.text = io::FormatUrdf(corrected, &result.warning);
     }
   } else {
-    throw InputError({"--format", 0, 0, ""}, "expected json, model or urdf, got '" + format + "'");
+    throw InputError({"--format", 0, 0, ""}, "expected json, model or urdf, got " + Quoted(format));
   }
   return result;
 }
