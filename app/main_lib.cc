@@ -204,7 +204,7 @@ class PrintableSink final : public spdlog::sinks::stderr_color_sink_st {
     }
     spdlog::details::log_msg printable(msg);
     printable.payload = text;
-    stderr_color_sink_st::log(printable);
+    spdlog::sinks::stderr_color_sink_st::log(printable);
   }
 };
 

@@ -99,7 +99,8 @@ bool IsPlausible(Quantity quantity, double value) {
       return std::abs(value) <= kMaxAngleRad;
     case Quantity::kCircleReading:
     case Quantity::kZenithAngle:
-      return value >= 0 && value <= kFullCircleRad;
+      // The full turn given in gon or deg converts to 2π plus a rounding ulp or two.
+      return value >= 0 && value <= kFullCircleRad * (1 + 1e-14);
     case Quantity::kJointAngle:
       return std::abs(value) <= kMaxJointRad;
     case Quantity::kSigmaLength:

@@ -80,7 +80,7 @@ GsiImport ParseGsiImport(std::string_view text, const std::string& source,
     if (!v_rad) throw InputError(where(*v, "WI22"), why);
     CheckCircleReading(*hz, *hz_rad, where(*hz, "WI21"), plausible::Quantity::kCircleReading);
     CheckCircleReading(*v, *v_rad, where(*v, "WI22"), plausible::Quantity::kZenithAngle);
-    o.reading = {WrapTwoPi(*hz_rad), *v_rad, *v_rad > kPi ? 2 : 1};
+    o.reading = {WrapTwoPi(*hz_rad), *v_rad, FaceOfZenithAngle(*v_rad)};
     if (distance) {
       auto mm = gsi::LengthMm(*distance, &why);
       if (!mm) throw InputError(where(*distance, "WI31"), why);

@@ -97,8 +97,10 @@ class XmlWriter {
     out_ += "</" + std::string(tag) + ">\n";
   }
   // XML comments may not hold "--" nor end in "-"; control characters are shown escaped.
+  // Markup characters are escaped too: entities mean nothing inside a comment, but no
+  // tool that scans the file for tags (a grep, a naive parser) finds an element in it.
   void Comment(std::string_view text) {
-    std::string body = Printable(text);
+    std::string body = Escaped(text);
     for (size_t at; (at = body.find("--")) != std::string::npos;) body.replace(at, 2, "- -");
     if (!body.empty() && body.back() == '-') body += ' ';
     Indent();

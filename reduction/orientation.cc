@@ -419,6 +419,17 @@ OrientationResult Orient(const OrientationProblem& problem, const OrientationOpt
     Eigen::SimplicialLDLT<Eigen::SparseMatrix<double>> check(scaled);
     const bool singular = check.info() != Eigen::Success || ldlt.info() != Eigen::Success ||
                           check.vectorD().minCoeff() < 1e-8;  // healthy networks: ~1e-3
+    if (singular && !converged) {
+      // Iterations that ran out ending on a singular network: not a datum defect but an
+      // adjustment that went astray (typically a gross blunder far from the other rays).
+      result.status = {SolveCode::kNotConverged,
+                       "the adjustment did not converge after " +
+                           std::to_string(result.iterations) +
+                           " iterations and ended on a degenerate network (a gross blunder? "
+                           "check the rays of the points named in the warnings, and rays read "
+                           "at the zenith or nadir)"};
+      return result;
+    }
     if (singular) {
       refuse(targets_collinear
                  ? "all target points lie on one line: the stations can turn about it, the "

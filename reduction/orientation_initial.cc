@@ -153,14 +153,19 @@ std::optional<InitialValues> FindInitialValues(const OrientationProblem& problem
           ++polar_count;
         }
       }
-      if (polar_count > 0) {
+      // Directions from two or more places first: they hold whatever the distances say,
+      // so that one wrong distance (a blunder, a ray read at the zenith) cannot carry the
+      // point away from its other rays, and they need no scale (the network's scale is
+      // still provisional here). A polar point only for a point no two rays intersect.
+      bool spread = false;
+      for (size_t a = 0; a < dirs.size() && !spread; ++a)
+        for (size_t b = a + 1; b < dirs.size() && !spread; ++b)
+          spread = dirs[a].cross(dirs[b]).norm() > 1e-3 &&
+                   (origins[a] - origins[b]).norm() > 0;
+      if (spread) {
+        known[point] = ClosestPointOfLines(origins, dirs, nullptr);
+      } else if (polar_count > 0) {
         known[point] = polar / polar_count;
-      } else if (origins.size() >= 2) {
-        bool spread = false;
-        for (size_t a = 0; a < dirs.size() && !spread; ++a)
-          for (size_t b = a + 1; b < dirs.size(); ++b)
-            spread |= dirs[a].cross(dirs[b]).norm() > 1e-3;
-        if (spread) known[point] = ClosestPointOfLines(origins, dirs, nullptr);
       }
     }
   };

@@ -59,7 +59,8 @@ TEST(Export, UrdfEscapesTheModelNameByConstruction) {
   const std::string urdf = io::FormatUrdf(corrected);
   EXPECT_EQ(urdf.find("<link name=\"injected\"/>"), std::string::npos) << urdf;
   EXPECT_NE(
-      urdf.find("<robot name=\"x&quot;&gt;&lt;link name=&quot;injected&quot;/&gt;&lt;!-- \">"),
+      urdf.find("<robot name=\"x&quot;&gt;&lt;link name=&quot;injected&quot;/&gt;&lt;!-- "
+                "-calibrated\">"),
       std::string::npos)
       << urdf;
   // Links: base_link, link1, link2, link3, tool0: and nothing else.
