@@ -40,7 +40,10 @@ db::StationSetupRow StationSetupRowOf(const reduction::Station& station,
   row.sigma_azimuth_rad = station.sigma_azimuth_rad;
   row.sigma_hz_rad = station.sigma_hz_rad;
   row.sigma_v_rad = station.sigma_v_rad;
-  row.method = method;
+  // How the station was oriented, when the stations file says (armsig orient writes it).
+  row.method = station.orientation_method.empty() ? method : station.orientation_method;
+  row.sigma0 = station.orientation_sigma0;
+  row.dof = station.orientation_dof;
   return row;
 }
 
@@ -51,6 +54,11 @@ reduction::Station StationOf(const db::StationSetupRow& row) {
   station.sigma_v_rad = row.sigma_v_rad;
   station.sigma_position_mm = row.sigma_position_mm;
   station.sigma_azimuth_rad = row.sigma_azimuth_rad;
+  if (row.sigma0) {
+    station.orientation_sigma0 = row.sigma0;
+    station.orientation_dof = row.dof;
+    station.orientation_method = row.method;
+  }
   return station;
 }
 

@@ -1,5 +1,8 @@
 #include "acquisition/session.h"
 
+#include <fmt/format.h>
+#include <spdlog/spdlog.h>
+
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -8,6 +11,7 @@
 #include <thread>
 
 #include "acquisition/records.h"
+#include "acquisition/session_owner.h"
 #include "core/error.h"
 #include "core/units.h"
 #include "db/store.h"
@@ -24,6 +28,7 @@ int64_t CreateSession(db::Database& db, const LabConfig& lab, const std::string&
   const int64_t robot_id = db::EnsureRobot(db, robot, lab.model.name, lab.model_yaml);
   const int64_t session = db::CreateSession(db, robot_id, lab.text, PlanToJson(plan), "running",
                                             "capture from " + lab.source);
+  db::SetSessionOwner(db, session, ThisProcess());  // running: in this process
   for (const auto& s : lab.stations) {
     db::StationSetupRow row = StationSetupRowOf(s, "lab");
     for (const auto& c : lab.instruments) {
@@ -105,6 +110,7 @@ CaptureSummary RunCapture(db::Database& db, const LabConfig& lab, int64_t sessio
   const auto stored = db::StoredSeqs(db, session);
   const std::set<int> done(stored.begin(), stored.end());
   summary.already = static_cast<int>(done.size());
+  db::SetSessionOwner(db, session, ThisProcess());
   db::SetSessionState(db, session, "running");
 
   // Stations by instrument.
@@ -292,6 +298,7 @@ CaptureSummary RunCapture(db::Database& db, const LabConfig& lab, int64_t sessio
     if (!accepted) {
       db::InsertPose(db, session, seq, target.label, std::nullopt, "skipped", attempts);
       tx.commit();
+      spdlog::debug("capture: {} skipped after {} attempt(s): {}", target.label, attempts, fault);
       ++summary.skipped;
       summary.skipped_configurations.push_back({target.label, fault});
     } else {
@@ -311,6 +318,19 @@ CaptureSummary RunCapture(db::Database& db, const LabConfig& lab, int64_t sessio
       db::InsertPoint(db, session, point);
       tx.commit();
       ++summary.measured;
+      const std::string flags = ToString(result.flags);
+      spdlog::debug("capture: {} stored: {} readings, {} attempt(s), point {}{}, miss {:.4f} mm",
+                    target.label, m.readings.size(), attempts,
+                    result.status.ok() ? "intersected" : "not intersected",
+                    flags.empty() ? "" : " [" + flags + "]", result.max_miss_mm);
+      for (const auto& r : m.readings) {
+        spdlog::trace("capture: {} {}: Hz {:.8f} V {:.8f} rad{} code {}", target.label,
+                      lab.instruments[r.instrument].station, r.reading.angles.hz_rad,
+                      r.reading.angles.v_rad,
+                      r.reading.distance_mm ? fmt::format(" d {:.4f} mm", *r.reading.distance_mm)
+                                            : std::string(),
+                      r.reading.return_code);
+      }
       if (m.point.accepted()) {
         ++summary.usable;
         miss_sum += result.max_miss_mm;

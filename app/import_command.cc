@@ -68,12 +68,19 @@ void SetupImportCommand(CLI::App& parent, const GlobalOptions& global, Runner& r
   p->add_option("--id", poses->id_column, "Pose id column (default: row number)");
   p->add_option("--delimiter", poses->delimiter, "Field delimiter: one character or 'tab'");
   p->add_flag("--decimal-comma", poses->decimal_comma, "Numbers use a decimal comma");
+  p->add_flag("--allow-duplicate", poses->allow_duplicate,
+              "Store the poses even when a session of the robot already holds exactly these "
+              "joints and targets (default: nothing is stored, that session is named)");
   p->callback([&run, &global, poses] {
     run = [&global, poses] {
       workflows::ImportPosesRequest request = *poses;
       request.db_path = global.DbPath();
       const auto r = workflows::ImportPosesFile(request);
-      if (r.session > 0) {
+      if (r.duplicate) {
+        std::cout << fmt::format(
+            "{} poses of robot {} from {}: already stored as session {} in {}; nothing stored\n",
+            r.poses, request.robot, request.file, r.session, r.db_path);
+      } else if (r.session > 0) {
         std::cout << fmt::format("session {}: {} poses of robot {} from {} stored in {}\n",
                                  r.session, r.poses, request.robot, request.file, r.db_path);
       }

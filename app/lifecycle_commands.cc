@@ -67,7 +67,8 @@ void SetupLifecycleCommands(CLI::App& parent, const GlobalOptions& global, Runne
   OutputFile(exp->add_option("--poses", o->poses, "Poses CSV to write"))->required();
   OnDatabaseToRead(exp, global, run, [o = o](db::Database& database) {
     const auto poses = workflows::SessionPoses(database, o->session);
-    io::WriteFileAtomically(o->poses, io::FormatPosesCsv(poses));
+    io::WriteFileAtomically(
+        o->poses, io::FormatPosesCsv(poses, workflows::SessionJoints(database, o->session)));
     std::cout << fmt::format("session {}: {} poses -> {}\n", o->session, poses.size(), o->poses);
     return kOk;
   });

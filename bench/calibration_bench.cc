@@ -1,12 +1,19 @@
 // Calibration speed (issue #3): full 43-parameter fit on 80 and 10,000 poses, and
-// selecting 80 of 10,000 candidates. Run by hand: build/bench/calibration_bench
+// selecting 80 of 10,000 candidates. Issue #13: the whole beyond-geometric fit on the
+// UR10 split (1,773 poses: terms by F-test and cross-validation, the residual map's
+// cross-validation on two threads) and predictions with the map.
+// Run by hand: build/bench/calibration_bench
 #include <benchmark/benchmark.h>
 
+#include <fstream>
 #include <random>
 
 #include "calibration/estimation.h"
+#include "calibration/residual_map.h"
 #include "calibration/selection.h"
 #include "calibration/simulation.h"
+#include "io/model_yaml.h"
+#include "io/poses_csv.h"
 
 namespace armsig::calibration {
 namespace {
@@ -74,6 +81,77 @@ void BM_Select80Of(benchmark::State& state) {
   }
 }
 BENCHMARK(BM_Select80Of)->Arg(10000)->Unit(benchmark::kMillisecond);
+
+// The UR10 model and the 1,773 fit poses of the issue's split of series C.
+struct Ur10Fit {
+  RobotModel model;
+  std::vector<MeasuredPose> fit;
+};
+const Ur10Fit& Ur10SplitFit() {
+  static const Ur10Fit data = [] {
+    Ur10Fit d;
+    const std::string source = ARMSIG_SOURCE_DIR;
+    d.model = io::LoadRobotModel(source + "/models/ur10.yaml");
+    const auto poses =
+        io::ImportPoses(source + "/tests/data/ur10-ipa/series_C-measurements_random_poses.csv",
+                        io::PoseImportOptions::UrIpa());
+    std::ifstream file(source + "/tests/data/ur10-ipa-split/series_C-permutation.txt");
+    std::vector<int> permutation;
+    for (int i; file >> i;) permutation.push_back(i);
+    for (int k = 0; k < 1773; ++k) d.fit.push_back(poses.at(permutation.at(k)));
+    return d;
+  }();
+  return data;
+}
+
+// Geometric fit, --params auto (F-tests and cross-validation over h1…h4 and 30 generated
+// terms), the final estimate, and the residual map with its cross-validated search.
+void BM_Ur10TermsAndMapFit(benchmark::State& state) {
+  const Ur10Fit& d = Ur10SplitFit();
+  EstimationOptions all;
+  all.parameters = ParseParameterSpec(d.model, "all");
+  for (auto _ : state) {
+    const auto selection = SelectTerms(d.model, d.fit, all);
+    EstimationOptions chosen;
+    chosen.parameters = selection.parameters;
+    const auto estimate = Estimate(d.model, d.fit, chosen);
+    const auto map = FitResidualMap(d.model, estimate, d.fit);
+    benchmark::DoNotOptimize(map.cv_mean_mm_with_map);
+  }
+}
+BENCHMARK(BM_Ur10TermsAndMapFit)->Unit(benchmark::kSecond)->UseRealTime();
+
+// Predicted positions (parametric + map) for configurations like the fit poses.
+void BM_Ur10PredictWithMap(benchmark::State& state) {
+  const Ur10Fit& d = Ur10SplitFit();
+  EstimationOptions geometric;
+  geometric.parameters = ParseParameterSpec(d.model, "geometric");
+  const auto estimate = Estimate(d.model, d.fit, geometric);
+  const auto fit = FitResidualMap(d.model, estimate, d.fit);
+  const ResidualMap map(fit.map);
+  std::mt19937 rng(3);
+  std::normal_distribution<double> jitter(0.0, 0.02);
+  std::vector<Eigen::VectorXd> joints(static_cast<size_t>(state.range(0)));
+  for (size_t i = 0; i < joints.size(); ++i) {
+    joints[i] = d.fit[i % d.fit.size()].joints_rad;
+    for (int j = 0; j < joints[i].size(); ++j) joints[i](j) += jitter(rng);
+  }
+  const bool with_map = state.range(1) != 0;
+  const int threads = static_cast<int>(state.range(2));
+  for (auto _ : state) {
+    const auto predicted = PredictPositions(d.model, estimate.world_from_base, estimate.params,
+                                            with_map ? &map : nullptr, joints, false, threads);
+    benchmark::DoNotOptimize(predicted.data());
+  }
+  state.SetItemsProcessed(state.iterations() * state.range(0));
+}
+// Arguments: configurations; 1 with the map, 0 the parametric model alone; threads.
+BENCHMARK(BM_Ur10PredictWithMap)
+    ->Args({100000, 1, 1})
+    ->Args({100000, 1, 2})
+    ->Args({100000, 0, 1})
+    ->Unit(benchmark::kMillisecond)
+    ->UseRealTime();
 
 }  // namespace
 }  // namespace armsig::calibration

@@ -7,6 +7,7 @@
 #include <cmath>
 #include <stdexcept>
 
+#include "calibration/residual_map.h"
 #include "core/plausibility.h"
 #include "core/text.h"
 #include "core/units.h"
@@ -42,24 +43,37 @@ void JointSolveOptions::Check() const {
 
 JointSolution SolveJoints(const RobotModel& model, const Eigen::Isometry3d& world_from_base,
                           const Eigen::VectorXd& params, const Eigen::Vector3d& target_mm,
-                          const Eigen::VectorXd& seed_rad, const JointSolveOptions& options) {
+                          const Eigen::VectorXd& seed_rad, const JointSolveOptions& options,
+                          const ResidualMap* map) {
   options.Check();
   const int n = model.num_joints();
   Kinematics kin(model);
   JointSolution s;
   s.joints_rad = seed_rad;
   Eigen::Matrix<double, 3, Eigen::Dynamic> jp(3, model.num_parameters());
+  Eigen::Matrix<double, 3, Eigen::Dynamic> map_jacobian(3, n);
+  // Position (parametric + the map's correction in the measuring frame) and ∂x/∂θ̄.
+  auto position = [&](const Eigen::VectorXd& q, Eigen::MatrixXd* jacobian) {
+    Eigen::Vector3d x = kin.PositionAndJacobian(world_from_base, params, q.data(), jp);
+    // ∂x/∂θ̄ (encoder angles): the joint Jacobian; the terms' own dependence on the angles
+    // is second order (coefficient · derivative of the basis) and left to the iteration.
+    if (jacobian) *jacobian = kin.JointJacobian();
+    if (map) {
+      const MapPrediction p = map->PredictWithJacobian(q.data(), map_jacobian);
+      s.map_extrapolated = !p.supported;
+      x += world_from_base.linear() * p.correction_in_base_mm;
+      if (jacobian) *jacobian += world_from_base.linear() * map_jacobian;
+    }
+    return x;
+  };
+  Eigen::MatrixXd j;
   double best = INFINITY;
   int stalled = 0;
   for (; s.iterations < options.max_iterations; ++s.iterations) {
-    const Eigen::Vector3d x =
-        kin.PositionAndJacobian(world_from_base, params, s.joints_rad.data(), jp);
+    const Eigen::Vector3d x = position(s.joints_rad, &j);
     const Eigen::Vector3d e = target_mm - x;
     s.residual_mm = e.norm();
     if (s.residual_mm < options.tolerance_mm) break;
-    // ∂x/∂θ̄ (encoder angles): the joint Jacobian, plus the h-terms' dependence is second
-    // order (h · sin) and left to the iteration.
-    const Eigen::MatrixXd j = kin.JointJacobian();
     const double lambda = options.damping_mm * std::min(1.0, s.residual_mm / 10.0);
     const Eigen::Matrix3d jjt = j * j.transpose() + lambda * lambda * Eigen::Matrix3d::Identity();
     Eigen::VectorXd step = j.transpose() * jjt.ldlt().solve(e);
@@ -73,7 +87,7 @@ JointSolution SolveJoints(const RobotModel& model, const Eigen::Isometry3d& worl
       break;
     }
   }
-  s.residual_mm = (target_mm - kin.Position(world_from_base, params, s.joints_rad.data())).norm();
+  s.residual_mm = (target_mm - position(s.joints_rad, nullptr)).norm();
   if (!std::isfinite(s.residual_mm) || !s.joints_rad.allFinite()) {
     s.status = {SolveCode::kNonFinite,
                 "the solution is not a finite number (seed, target or "

@@ -15,6 +15,8 @@
 
 namespace armsig::calibration {
 
+class ResidualMap;
+
 // Rigid best fit (Umeyama) of the model's positions under `params` to measured poses:
 // the measuring frame of new data for an existing parameter set. nullopt if degenerate.
 std::optional<Eigen::Isometry3d> AlignBaseWithParams(const RobotModel& model,
@@ -37,14 +39,20 @@ struct JointSolution {
   Eigen::VectorXd joints_rad;
   double residual_mm = 0.0;
   int iterations = 0;
+  bool map_extrapolated = false;  // the residual map was not applied: outside its support
 };
 
 // Encoder angles for which the model (with `params`) puts the target at `target_mm`,
 // by damped least squares from `seed` with minimum-norm steps (the redundant degrees
 // of freedom stay near the seed: the tool keeps its orientation for small corrections).
+// With a residual map (calibration/residual_map.h) the position is the parametric one
+// plus the map's correction, and the iteration uses the map's derivative by the joint
+// angles; `map_extrapolated` is set when the solution lies outside the map's support
+// (there the parametric model alone was used).
 JointSolution SolveJoints(const RobotModel& model, const Eigen::Isometry3d& world_from_base,
                           const Eigen::VectorXd& params, const Eigen::Vector3d& target_mm,
-                          const Eigen::VectorXd& seed_rad, const JointSolveOptions& options = {});
+                          const Eigen::VectorXd& seed_rad, const JointSolveOptions& options = {},
+                          const ResidualMap* map = nullptr);
 
 // The model with the parameters folded in: N_i' = N_i·H_i (N_1' = base·H_1), tool
 // x̄' = x̄ + [a b c], h-terms kept as fixed values. Its nominal is the calibrated robot.

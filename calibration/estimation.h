@@ -5,6 +5,9 @@
 
 #include <Eigen/Core>
 #include <Eigen/Geometry>
+#include <cstdint>
+#include <map>
+#include <limits>
 #include <optional>
 #include <string>
 #include <vector>
@@ -17,8 +20,10 @@
 namespace armsig::calibration {
 
 // Parses a --params spec: "geometric", "all", or a comma list mixing "geometric",
-// "all" and parameter names ("geometric,h3,h4"). Returns ascending indices. Throws
-// std::invalid_argument naming an unknown parameter and listing the known ones.
+// "all", generated families ("compliance", "harmonics": every term of that family in the
+// model, calibration/terms.h) and parameter names ("geometric,h3,h4"). Returns ascending
+// indices. Throws std::invalid_argument naming an unknown parameter and listing the known
+// ones, or a family the model has no terms of.
 std::vector<int> ParseParameterSpec(const RobotModel& model, const std::string& spec);
 
 struct ErrorStats {
@@ -41,6 +46,22 @@ std::vector<Eigen::Vector3d> Residuals(const RobotModel& model,
                                        const Eigen::Isometry3d& world_from_base,
                                        const Eigen::VectorXd& params,
                                        const std::vector<MeasuredPose>& poses);
+
+// The robot base in each measurement frame (MeasuredPose::frame): world_from_base of the
+// poses measured in that frame.
+using FrameBases = std::map<int64_t, Eigen::Isometry3d>;
+// The frames the poses were measured in, ascending.
+std::vector<int64_t> FramesOf(const std::vector<MeasuredPose>& poses);
+// Residuals with each pose's own frame's base. std::invalid_argument when a pose's frame
+// has no base.
+std::vector<Eigen::Vector3d> Residuals(const RobotModel& model, const FrameBases& bases,
+                                       const Eigen::VectorXd& params,
+                                       const std::vector<MeasuredPose>& poses);
+// The base of every frame with a non-degenerate set of poses, by a rigid best fit of the
+// positions under `params` (AlignBaseWithParams) to that frame's poses; frames whose poses
+// cannot place it (fewer than three, or on one line) are left out.
+FrameBases AlignFrameBases(const RobotModel& model, const Eigen::VectorXd& params,
+                           const std::vector<MeasuredPose>& poses);
 std::vector<double> Distances(const std::vector<Eigen::Vector3d>& residuals);
 
 struct EstimationOptions {
@@ -62,13 +83,21 @@ struct EstimationResult {
   // estimate, its sigma, σ0 or a residual is not a finite number.
   SolveStatus status;
   int iterations = 0;
+  // Poses from several measurement frames (MeasuredPose::frame) are fitted with one base
+  // per frame. The reference frame (the highest frame number: the latest session) is the
+  // datum: its base is aligned (or given) and held, as with a single frame, so the first
+  // joint's parameters carry what is left of its base error; every other frame's base is
+  // estimated with the parameters (six more unknowns each). `world_from_base` is the
+  // reference frame's, `bases` has every frame's.
   Eigen::Isometry3d world_from_base = Eigen::Isometry3d::Identity();
+  int64_t reference_frame = 0;
+  FrameBases bases;
   Eigen::VectorXd params;      // all parameters; unidentified stay exactly zero
   Eigen::VectorXd sigmas;      // NaN for unidentified
   Eigen::MatrixXd covariance;  // identified subset, in the order of identifiability.identified
   IdentifiabilityReport identifiability;
   double sigma0_mm = 0.0;  // a posteriori σ of one coordinate
-  int redundancy = 0;      // 3m − rank
+  int redundancy = 0;      // 3m − rank − 6 × (frames − 1)
   double cost = 0.0;       // Σ weighted squared residuals (mm²)
   std::vector<Eigen::Vector3d> nominal_residuals, fit_residuals;
   ErrorStats nominal, fit;
@@ -79,8 +108,9 @@ struct EstimationResult {
   bool usable() const { return status.ok() || status.code == SolveCode::kNotConverged; }
 };
 
-// Fits the model to the poses. world_from_base: N1 to use; nullopt = model.base, or
-// AlignBase when the model says auto.
+// Fits the model to the poses. N1 of the reference frame: model.base, or AlignBase on that
+// frame's poses when the model says auto; the other frames' bases start from AlignBase on
+// theirs (kDegenerate when a frame's poses cannot place it).
 EstimationResult Estimate(const RobotModel& model, const std::vector<MeasuredPose>& poses,
                           const EstimationOptions& options);
 
@@ -91,16 +121,41 @@ struct FTest {
   int df_added = 0, df_residual = 0;
   double f = 0.0, p_value = 1.0;
   bool significant = false;
+  // --params auto: cross-validated mean error distance (mm) of the model with the term
+  // (NaN when not computed: not significant, or cross-validation off), and whether the term
+  // was added. Tests of candidates come from the linearised model at the current fit
+  // (exact for a model linear in its parameters); the test of a term that is added is
+  // then redone with both models fitted (CompareNested).
+  double cv_mean_mm = std::numeric_limits<double>::quiet_NaN();
+  bool accepted = false;
 };
 FTest CompareNested(const EstimationResult& reduced, const EstimationResult& full,
                     const std::string& added, double alpha);
 
-// --params auto: start from the geometric model and add non-geometric terms one at a
-// time, each time the one with the best significant F-test, until none is significant.
+// --params auto: start from the geometric model and add the model's non-geometric terms
+// (the paper's h-terms and the generated compliance and harmonic families alike) one at
+// a time. Each round every candidate the data can identify next to the current set is
+// F-tested; among the significant ones the term that lowers the K-fold cross-validated
+// mean error on the fit poses the most is added, if it lowers it by at least
+// `min_cv_gain` (relative). It stops when no term passes both.
+struct TermSelectionOptions {
+  double alpha = 0.01;         // significance of the F-tests
+  bool cross_validate = true;  // false: the paper-era rule, the largest significant F
+  int folds = 5;
+  unsigned seed = 1;           // of the fold assignment
+  double min_cv_gain = 0.005;  // relative decrease of the CV mean a term must bring
+  void Check() const;
+};
 struct AutoSelection {
   std::vector<int> parameters;
-  std::vector<FTest> tests;  // every test made, in order
+  std::vector<FTest> tests;  // every test made, in order (accepted ones flagged)
+  double cv_mean_mm_geometric = std::numeric_limits<double>::quiet_NaN();
+  double cv_mean_mm = std::numeric_limits<double>::quiet_NaN();  // of the selected model
 };
+AutoSelection SelectTerms(const RobotModel& model, const std::vector<MeasuredPose>& poses,
+                          const EstimationOptions& options,
+                          const TermSelectionOptions& selection = {});
+// The same with the default selection options at significance `alpha`.
 AutoSelection SelectTermsByFTest(const RobotModel& model, const std::vector<MeasuredPose>& poses,
                                  const EstimationOptions& options, double alpha = 0.01);
 

@@ -6,13 +6,72 @@
 
 namespace armsig::calibration {
 
-double NongeometricTerm::Evaluate(const double* joints_rad) const {
+namespace {
+
+void NominalChain(const RobotModel& model, const double* joints_rad, NominalFrames& frames) {
+  const int n = model.num_joints();
+  frames.origin.resize(n);
+  frames.axis.resize(n);
+  Eigen::Matrix3d rot = Eigen::Matrix3d::Identity();
+  Eigen::Vector3d pos = Eigen::Vector3d::Zero();
+  for (int i = 0; i < n; ++i) {
+    if (i > 0) {
+      pos += rot * model.links[i - 1].translation();
+      rot = rot * model.links[i - 1].linear();
+    }
+    frames.origin[i] = pos;
+    frames.axis[i] = rot.col(2);
+    rot = rot * Eigen::AngleAxisd(joints_rad[i], Eigen::Vector3d::UnitZ()).toRotationMatrix();
+  }
+  frames.target = pos + rot * model.tool_mm;
+}
+
+double AngleBasis(const NongeometricTerm& term, const double* joints_rad) {
   double sum = 0.0;
-  for (int j : of) sum += joints_rad[j];
-  const double c = std::cos(sum);
-  if (basis == Basis::kCos) return c;
-  // Paper eq. (7): SIGN[x] = x/|x|; at exactly zero the backlash side is undefined, take 0.
-  return c > 0.0 ? 1.0 : (c < 0.0 ? -1.0 : 0.0);
+  for (int j : term.of) sum += joints_rad[j];
+  switch (term.basis) {
+    case NongeometricTerm::Basis::kCos:
+      return std::cos(term.order * sum);
+    case NongeometricTerm::Basis::kSin:
+      return std::sin(term.order * sum);
+    case NongeometricTerm::Basis::kSignCos: {
+      // Paper eq. (7): SIGN[x] = x/|x|; at exactly zero the backlash side is undefined, take 0.
+      const double c = std::cos(sum);
+      return c > 0.0 ? 1.0 : (c < 0.0 ? -1.0 : 0.0);
+    }
+    case NongeometricTerm::Basis::kGravityTorque:
+      break;
+  }
+  throw std::logic_error("gravity-torque term evaluated as an angle basis");
+}
+
+}  // namespace
+
+void EvaluateTerms(const RobotModel& model, const double* joints_rad, double* values) {
+  NominalFrames frames;
+  EvaluateTerms(model, joints_rad, values, frames);
+}
+
+void EvaluateTerms(const RobotModel& model, const double* joints_rad, double* values,
+                   NominalFrames& frames) {
+  bool chained = false;
+  for (size_t k = 0; k < model.nongeometric.size(); ++k) {
+    const NongeometricTerm& term = model.nongeometric[k];
+    if (term.basis != NongeometricTerm::Basis::kGravityTorque) {
+      values[k] = AngleBasis(term, joints_rad);
+      continue;
+    }
+    if (!chained) {
+      NominalChain(model, joints_rad, frames);
+      chained = true;
+    }
+    // τ = z·((p − o) × g) for a unit mass at p, in unit mass × m.
+    const Eigen::Vector3d& p =
+        term.mass_at < model.num_joints() ? frames.origin[term.mass_at] : frames.target;
+    values[k] =
+        frames.axis[term.joint].dot((p - frames.origin[term.joint]).cross(model.gravity_in_base)) /
+        1000.0;
+  }
 }
 
 std::vector<std::string> RobotModel::ParameterNames() const {
@@ -90,6 +149,7 @@ Kinematics::Kinematics(const RobotModel& model) : model_(model) {
   alpha_axis_.resize(n);
   beta_axis_.resize(n);
   true_angles_.resize(n);
+  term_values_.resize(model.nongeometric.size());
   h_rot_.resize(n);
   hx_rot_.resize(n);
 }
@@ -106,14 +166,14 @@ void Kinematics::PrepareParameters(const Eigen::VectorXd& params) {
 }
 
 void Kinematics::TrueJointAngles(const Eigen::VectorXd& params, const double* joints_rad,
-                                 double* true_rad) const {
+                                 double* true_rad) {
   const int n = model_.num_joints();
   for (int i = 0; i < n; ++i) true_rad[i] = joints_rad[i];
+  EvaluateTerms(model_, joints_rad, term_values_.data(), nominal_frames_);
   const int g = model_.num_geometric();
   for (size_t k = 0; k < model_.nongeometric.size(); ++k) {
     const auto& term = model_.nongeometric[k];
-    true_rad[term.joint] +=
-        (params[g + static_cast<int>(k)] + term.fixed_rad) * term.Evaluate(joints_rad);
+    true_rad[term.joint] += (params[g + static_cast<int>(k)] + term.fixed_rad) * term_values_[k];
   }
 }
 
@@ -182,9 +242,8 @@ Eigen::Vector3d Kinematics::PositionAndJacobian(
   const int g = model_.num_geometric();
   for (size_t k = 0; k < model_.nongeometric.size(); ++k) {
     const auto& term = model_.nongeometric[k];
-    // Paper eq. (6)–(7): ∂x/∂h = ∂x/∂θ_joint · f(θ̄).
-    jacobian.col(g + static_cast<int>(k)) =
-        jacobian.col(6 * term.joint + 5) * term.Evaluate(joints_rad);
+    // Paper eq. (6)–(7): ∂x/∂h = ∂x/∂θ_joint · f(θ̄) (f from this evaluation).
+    jacobian.col(g + static_cast<int>(k)) = jacobian.col(6 * term.joint + 5) * term_values_[k];
   }
   return x_;
 }

@@ -15,19 +15,43 @@
 
 namespace armsig::calibration {
 
-// A term added to a true joint angle: h · f(Σ θ̄_j for j in `of`).
+// Where a non-geometric term comes from: written in the model file (the paper's h1…h4),
+// or generated from the nominal geometry (calibration/terms.h).
+enum class TermFamily {
+  kModel,       // given in the model file
+  kCompliance,  // joint deflection under the gravity torque of a lumped unit mass
+  kHarmonics,   // transmission error: sin / cos of the joint's own angle, orders 1 and 2
+};
+
+// A term added to a true joint angle: θ_joint += (h + fixed) · f(θ̄).
 struct NongeometricTerm {
-  enum class Basis { kCos, kSignCos };
+  enum class Basis {
+    kCos,      // cos(order · Σθ̄_of)        paper eq. (6) (order 1)
+    kSignCos,  // SIGN[cos(Σθ̄_of)]          paper eq. (7): backlash
+    kSin,      // sin(order · Σθ̄_of)        transmission harmonics
+    // The gravity torque about this joint's axis of a unit mass at the origin of joint
+    // `mass_at`'s frame (the target point when mass_at = num_joints()), computed on the
+    // nominal geometry at the encoder angles with gravity along RobotModel::gravity_in_base:
+    // τ = z·((p − o) × g) / 1000 mm, i.e. the torque counted in units of a unit mass one
+    // metre out, a pure number like cos θ. Its coefficient (rad) is a compliance: the
+    // deflection under that unit torque; the joint yields in the direction of the torque.
+    kGravityTorque,
+  };
   std::string name;
   int joint = 0;  // 0-based joint whose true angle it corrects
   Basis basis = Basis::kCos;
-  std::vector<int> of;     // 0-based joints whose encoder angles are summed
-  double fixed_rad = 0.0;  // a correction already known (exported models); the parameter adds to it
+  std::vector<int> of;  // kCos, kSignCos, kSin: 0-based joints whose encoder angles are summed
+  int order = 1;        // kCos, kSin: harmonic order (multiplies the angle sum)
+  int mass_at = -1;     // kGravityTorque: 0-based joint frame carrying the mass (n = target)
+  TermFamily family = TermFamily::kModel;
+  // A correction already known (exported models); the parameter adds to it.
+  double fixed_rad = 0.0;
 
-  // Paper eq. (6)–(7): cos(Σθ̄) or SIGN[cos(Σθ̄)].
-  double Evaluate(const double* joints_rad) const;
+  friend bool operator==(const NongeometricTerm&, const NongeometricTerm&) = default;
 };
 
+// Every non-geometric coefficient is in rad: its basis is a pure number (cos, SIGN, sin,
+// or a gravity torque counted in unit-mass metres).
 enum class ParameterUnit { kMm, kRad };
 
 struct RobotModel {
@@ -37,6 +61,9 @@ struct RobotModel {
   std::vector<Eigen::Isometry3d> links;               // N2…Nn
   Eigen::Vector3d tool_mm = Eigen::Vector3d::Zero();  // x̄, in the last link frame
   std::vector<NongeometricTerm> nongeometric;
+  // Direction of gravity in the robot's base frame (the frame N1 maps from), unit length:
+  // base z up unless the model file says otherwise. Used by kGravityTorque terms only.
+  Eigen::Vector3d gravity_in_base = -Eigen::Vector3d::UnitZ();
   // Optional joint limits (rad); empty when unknown.
   std::vector<double> joint_min_rad, joint_max_rad;
 
@@ -50,6 +77,22 @@ struct RobotModel {
   // Index of a parameter name, or -1.
   int IndexOf(const std::string& name) const;
 };
+
+// The value f_k(θ̄) of every non-geometric term of `model` for the encoder angles
+// (model.nongeometric.size() values into `values`). One pass of the nominal chain when
+// the model has gravity-torque terms.
+void EvaluateTerms(const RobotModel& model, const double* joints_rad, double* values);
+
+// The nominal chain in the robot's base frame for the encoder angles (H_i = I, true angle =
+// encoder angle): a point on each joint axis (the origin of its frame), the axis, and the
+// target point. The gravity-torque terms are computed from it.
+struct NominalFrames {
+  std::vector<Eigen::Vector3d> origin, axis;
+  Eigen::Vector3d target = Eigen::Vector3d::Zero();
+};
+// The same with caller-owned scratch (no allocation once sized).
+void EvaluateTerms(const RobotModel& model, const double* joints_rad, double* values,
+                   NominalFrames& scratch);
 
 // Homogeneous transforms of paper eq. (2) and (3).
 Eigen::Isometry3d ErrorTransform(double a, double b, double c, double alpha, double beta,
@@ -78,8 +121,7 @@ class Kinematics {
   Eigen::Matrix<double, 3, Eigen::Dynamic> JointJacobian() const;
 
   // True joint angles for the encoder angles under the model's h-terms.
-  void TrueJointAngles(const Eigen::VectorXd& params, const double* joints_rad,
-                       double* true_rad) const;
+  void TrueJointAngles(const Eigen::VectorXd& params, const double* joints_rad, double* true_rad);
 
   const RobotModel& model() const { return model_; }
 
@@ -94,6 +136,8 @@ class Kinematics {
   std::vector<Eigen::Matrix3d> f_rot_, g_rot_;
   std::vector<Eigen::Vector3d> h_origin_, alpha_axis_, beta_axis_;
   std::vector<double> true_angles_;
+  std::vector<double> term_values_;  // f_k(θ̄) of the last evaluation
+  NominalFrames nominal_frames_;
   std::vector<Eigen::Matrix3d> h_rot_, hx_rot_;  // Rx·Ry·Rz and Rx of every H_i
   Eigen::VectorXd prepared_params_;
   Eigen::Vector3d x_ = Eigen::Vector3d::Zero();
@@ -110,10 +154,11 @@ Eigen::Matrix<T, 3, 1> TargetPosition(const RobotModel& model,
   const int n = model.num_joints();
   std::vector<T> theta(n);
   for (int i = 0; i < n; ++i) theta[i] = T(joints_rad[i]);
+  std::vector<double> f(model.nongeometric.size());
+  EvaluateTerms(model, joints_rad, f.data());
   for (size_t k = 0; k < model.nongeometric.size(); ++k) {
     const auto& term = model.nongeometric[k];
-    theta[term.joint] +=
-        (params[model.num_geometric() + k] + T(term.fixed_rad)) * term.Evaluate(joints_rad);
+    theta[term.joint] += (params[model.num_geometric() + k] + T(term.fixed_rad)) * f[k];
   }
   auto rx = [](const T& a) {
     Mat4 m = Mat4::Identity();

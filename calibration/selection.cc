@@ -5,7 +5,10 @@
 #include <Eigen/SVD>
 #include <algorithm>
 #include <cmath>
+#include <iterator>
 #include <limits>
+#include <map>
+#include <numeric>
 #include <stdexcept>
 #include <string>
 
@@ -68,6 +71,57 @@ Observability Measure(const std::vector<Eigen::MatrixXd>& blocks, const std::vec
   return o;
 }
 
+// With several measurement frames, the six base unknowns of every frame but the latest
+// (Estimate's datum): a small world-side motion of a frame's base moves a target x of that
+// frame by ω × (x − c) + t, c the frame's centre; positions at the nominal model in the
+// robot's frame (D-optimality does not depend on where a frame is). Scaled like the
+// parameters' columns (RMS over the frame's candidates).
+void AddBaseColumns(const RobotModel& model, const std::vector<Eigen::VectorXd>& configurations,
+                    const std::vector<int64_t>& frames, std::vector<Eigen::MatrixXd>& blocks) {
+  if (frames.empty() || blocks.empty()) return;
+  std::map<int64_t, int> index;
+  for (int64_t f : frames) index.emplace(f, 0);
+  if (index.size() < 2) return;
+  int next = 0;
+  for (auto it = index.begin(); std::next(it) != index.end(); ++it) it->second = next++;
+  index.rbegin()->second = -1;  // the latest frame is the datum
+  Kinematics kin(model);
+  const Eigen::VectorXd zero = Eigen::VectorXd::Zero(model.num_parameters());
+  std::vector<Eigen::Vector3d> x(configurations.size());
+  std::vector<Eigen::Vector3d> centre(next, Eigen::Vector3d::Zero());
+  std::vector<int> count(next, 0);
+  for (size_t i = 0; i < configurations.size(); ++i) {
+    x[i] = kin.Position(Eigen::Isometry3d::Identity(), zero, configurations[i].data());
+    if (const int f = index[frames[i]]; f >= 0) {
+      centre[f] += x[i];
+      ++count[f];
+    }
+  }
+  for (int f = 0; f < next; ++f) centre[f] /= std::max(count[f], 1);
+  std::vector<Eigen::Matrix<double, 3, 6>> columns(configurations.size());
+  Eigen::Matrix<double, 6, 1> sum_sq = Eigen::Matrix<double, 6, 1>::Zero();
+  for (size_t i = 0; i < configurations.size(); ++i) {
+    if (index[frames[i]] < 0) continue;
+    const Eigen::Vector3d v = x[i] - centre[index[frames[i]]];
+    columns[i].leftCols<3>() << 0, v.z(), -v.y(), -v.z(), 0, v.x(), v.y(), -v.x(), 0;
+    columns[i].rightCols<3>().setIdentity();
+    sum_sq += columns[i].colwise().squaredNorm().transpose();
+  }
+  const int counted = std::accumulate(count.begin(), count.end(), 0);
+  Eigen::Matrix<double, 6, 1> scale = (sum_sq / std::max(counted, 1)).cwiseSqrt();
+  for (int c = 0; c < 6; ++c) {
+    if (!(scale(c) > 0.0)) scale(c) = 1.0;
+  }
+  const int l = static_cast<int>(blocks[0].cols());
+  for (size_t i = 0; i < blocks.size(); ++i) {
+    Eigen::MatrixXd wide = Eigen::MatrixXd::Zero(3, l + 6 * next);
+    wide.leftCols(l) = blocks[i];
+    if (const int f = index[frames[i]]; f >= 0)
+      wide.middleCols<6>(l + 6 * f) = columns[i] * scale.cwiseInverse().asDiagonal();
+    blocks[i] = std::move(wide);
+  }
+}
+
 }  // namespace
 
 Eigen::VectorXd ColumnScale(const RobotModel& model,
@@ -91,11 +145,16 @@ Observability MeasureObservability(const RobotModel& model,
 SelectionResult SelectConfigurations(const RobotModel& model,
                                      const std::vector<Eigen::VectorXd>& candidates_rad,
                                      const std::vector<int>& parameters,
-                                     const SelectionOptions& options) {
+                                     const SelectionOptions& options,
+                                     const std::vector<int64_t>& frames) {
   const int m = static_cast<int>(candidates_rad.size());
   options.Check(m);
-  const int l = static_cast<int>(parameters.size());
-  const auto blocks = ScaledBlocks(model, candidates_rad, parameters, nullptr, nullptr);
+  if (!frames.empty() && static_cast<int>(frames.size()) != m)
+    throw std::invalid_argument("SelectConfigurations: one frame per candidate expected");
+  auto blocks = ScaledBlocks(model, candidates_rad, parameters, nullptr, nullptr);
+  AddBaseColumns(model, candidates_rad, frames, blocks);
+  const int l = blocks.empty() ? static_cast<int>(parameters.size())
+                               : static_cast<int>(blocks[0].cols());
 
   // Information M = ridge·I + Σ JᵢᵀJᵢ; keep M⁻¹ and, for every candidate, Sᵢ = Jᵢ M⁻¹ Jᵢᵀ.
   // Adding i multiplies det M by det(I + Sᵢ); removing it by det(I − Sᵢ).

@@ -5,6 +5,7 @@
 
 #include <Eigen/Core>
 #include <Eigen/Geometry>
+#include <cstdint>
 #include <vector>
 
 #include "calibration/model.h"
@@ -34,10 +35,15 @@ struct Observability {
 };
 
 // `parameters`: the identifiable subset to make observable (indices of the model).
+// `frames`: the measurement frame of every candidate (MeasuredPose::frame), or empty for
+// one frame. With several, the criterion includes the six base unknowns of every frame but
+// the latest (as calibration::Estimate fits them), so each frame keeps the configurations
+// that place it (at least three) along with those that make the parameters observable.
 SelectionResult SelectConfigurations(const RobotModel& model,
                                      const std::vector<Eigen::VectorXd>& candidates_rad,
                                      const std::vector<int>& parameters,
-                                     const SelectionOptions& options);
+                                     const SelectionOptions& options,
+                                     const std::vector<int64_t>& frames = {});
 
 Observability MeasureObservability(const RobotModel& model,
                                    const std::vector<Eigen::VectorXd>& configurations_rad,

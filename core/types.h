@@ -3,6 +3,7 @@
 
 #include <Eigen/Core>
 #include <Eigen/Geometry>
+#include <cstdint>
 #include <string>
 #include <vector>
 
@@ -26,7 +27,11 @@ inline int FaceOfZenithAngle(double v_rad) {
 struct MeasuredPose {
   std::string id;
   Eigen::VectorXd joints_rad;       // encoder angles θ̄, zero at the null configuration
-  Eigen::Vector3d target_in_world;  // measured target position, mm
+  Eigen::Vector3d target_in_world;  // measured target position, mm, in frame `frame`
+  // The measurement frame `target_in_world` is given in: one per set-up of the instruments
+  // (a capture session, an imported file; the database uses the session id). Poses of
+  // different frames are fitted with one robot base each (calibration::Estimate).
+  int64_t frame = 0;
 };
 
 // Station pose: world point = position + R · instrument point (SPEC "Station pose").

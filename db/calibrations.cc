@@ -132,8 +132,8 @@ std::pair<int64_t, int> InsertCalibration(Database& db, const CalibrationRecord&
       "rank, "
       "poses_fit, poses_validation, nominal_mean_mm, nominal_max_mm, nominal_rms_mm, fit_mean_mm, "
       "fit_max_mm, fit_rms_mm, validation_mean_mm, validation_max_mm, validation_rms_mm, "
-      "report_json, world_from_base_json, covariance_json) "
-      "VALUES (?,?,?,?,?,?,?,?,?,?,?,?,?,?,?,?,?,?,?,?,?)");
+      "report_json, world_from_base_json, covariance_json, drift_json) "
+      "VALUES (?,?,?,?,?,?,?,?,?,?,?,?,?,?,?,?,?,?,?,?,?,?)");
   s.bind(1, c.robot_id);
   s.bind(2, version);
   s.bind(3, c.active ? 1 : 0);
@@ -153,6 +153,10 @@ std::pair<int64_t, int> InsertCalibration(Database& db, const CalibrationRecord&
     s.bind(21);
   else
     s.bind(21, CovarianceJson(c.covariance_parameters, c.covariance));
+  if (c.drift_json.empty())
+    s.bind(22);
+  else
+    s.bind(22, c.drift_json);
   s.exec();
   const int64_t id = db.sql().getLastInsertRowid();
   SQLite::Statement p(db.sql(),
@@ -193,8 +197,8 @@ std::vector<StoredCalibration> CalibrationHistory(Database& db, int64_t robot_id
       db.sql(),
       "SELECT id, version, active, created_at, params_spec, inputs_json, coalesce(report_json,''), "
       "validation_mean_mm, validation_max_mm, world_from_base_json, covariance_json, options_json, "
-      "rank, poses_fit, poses_validation, fit_mean_mm FROM calibrations WHERE robot_id = ? "
-      "ORDER BY version");
+      "rank, poses_fit, poses_validation, fit_mean_mm, coalesce(drift_json, '') FROM calibrations "
+      "WHERE robot_id = ? ORDER BY version");
   q.bind(1, robot_id);
   while (q.executeStep()) {
     StoredCalibration c;
@@ -215,6 +219,7 @@ std::vector<StoredCalibration> CalibrationHistory(Database& db, int64_t robot_id
     c.poses_fit = q.getColumn(13).getInt();
     c.poses_validation = q.getColumn(14).getInt();
     if (!q.getColumn(15).isNull()) c.fit_mean_mm = q.getColumn(15).getDouble();
+    c.drift_json = q.getColumn(16).getString();
     SQLite::Statement p(db.sql(),
                         "SELECT name, value, unit, identified, sigma FROM calibration_parameters "
                         "WHERE calibration_id = ? "
@@ -254,6 +259,39 @@ bool SetActiveVersion(Database& db, int64_t robot_id, int version) {
   s.bind(2, robot_id);
   s.exec();
   return true;
+}
+
+void RecordActivation(Database& db, int64_t robot_id, const Activation& a) {
+  SQLite::Statement s(db.sql(),
+                      "INSERT INTO activations(robot_id, version, previous_version, activated_by, "
+                      "note) VALUES (?,?,?,?,?)");
+  s.bind(1, robot_id);
+  s.bind(2, a.version);
+  if (a.previous_version)
+    s.bind(3, *a.previous_version);
+  else
+    s.bind(3);
+  s.bind(4, a.activated_by);
+  s.bind(5, a.note);
+  s.exec();
+}
+
+std::vector<Activation> ActivationHistory(Database& db, int64_t robot_id) {
+  std::vector<Activation> out;
+  SQLite::Statement q(db.sql(),
+                      "SELECT version, previous_version, activated_at, activated_by, "
+                      "coalesce(note, '') FROM activations WHERE robot_id = ? ORDER BY id");
+  q.bind(1, robot_id);
+  while (q.executeStep()) {
+    Activation a;
+    a.version = q.getColumn(0).getInt();
+    if (!q.getColumn(1).isNull()) a.previous_version = q.getColumn(1).getInt();
+    a.activated_at = q.getColumn(2).getString();
+    a.activated_by = q.getColumn(3).getString();
+    a.note = q.getColumn(4).getString();
+    out.push_back(std::move(a));
+  }
+  return out;
 }
 
 }  // namespace armsig::db

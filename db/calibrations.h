@@ -27,6 +27,8 @@ struct CalibrationRecord {
   // Covariance of the identified parameters (named, in the matrix's order); empty = none.
   std::vector<std::string> covariance_parameters;
   Eigen::MatrixXd covariance;
+  // The drift decision against the set active before it (JSON); "" when none was made.
+  std::string drift_json{};
   struct Parameter {
     std::string name, unit;
     double value = 0.0, sigma = NAN;
@@ -55,13 +57,27 @@ struct StoredCalibration {
   std::optional<Eigen::Isometry3d> world_from_base;  // absent in sets stored before schema v2
   std::vector<std::string> covariance_parameters;    // empty in sets stored before schema v3
   Eigen::MatrixXd covariance;
+  std::string drift_json{};  // "" when no drift decision was stored (or before schema v4)
   std::vector<CalibrationRecord::Parameter> parameters;
 };
 std::vector<StoredCalibration> CalibrationHistory(Database& db, int64_t robot_id);  // by version
 std::optional<StoredCalibration> ActiveCalibration(Database& db, int64_t robot_id);
 
 // Makes `version` the robot's only active set. Returns false (nothing changed) when the
-// robot has no such version. Call inside a transaction.
+// robot has no such version. Call inside a transaction, and record it (RecordActivation).
 bool SetActiveVersion(Database& db, int64_t robot_id, int version);
+
+// The activation history (schema v4): who made which set active, when, replacing which.
+struct Activation {
+  int version = 0;
+  std::optional<int> previous_version;
+  std::string activated_at;  // ISO-8601 UTC
+  std::string activated_by;  // recalibrate | activate | demo | migration
+  std::string note;
+};
+// Appends to the history (inside the transaction that changed the active set).
+void RecordActivation(Database& db, int64_t robot_id, const Activation& activation);
+// The robot's activations, oldest first.
+std::vector<Activation> ActivationHistory(Database& db, int64_t robot_id);
 
 }  // namespace armsig::db

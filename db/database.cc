@@ -47,9 +47,13 @@ std::string ShellQuoted(const std::string& path) {
 }
 
 std::string RecoveryAdvice(const std::string& path) {
+  // Absolute, so that the command works as printed from any directory.
+  std::error_code ec;
+  const auto absolute = std::filesystem::absolute(path, ec);
   return "the database file is damaged; nothing was written to it. Recover what is readable "
          "into a new file and use that one: sqlite3 " +
-         ShellQuoted(path) + " \".recover\" | sqlite3 recovered.db";
+         ShellQuoted(ec ? path : absolute.lexically_normal().string()) +
+         " \".recover\" | sqlite3 recovered.db";
 }
 
 [[noreturn]] void Refuse(const std::string& path, const std::string& why) {
@@ -126,8 +130,9 @@ FileKind Inspect(const std::string& path, const std::string& open_path, bool loc
     SQLite::Statement query(db, "SELECT name FROM sqlite_master WHERE type = 'table'");
     while (query.executeStep()) tables.insert(query.getColumn(0).getString());
 
+    // The tables every armsig schema version has (later versions add to them).
     const bool armsig_tables =
-        std::all_of(TableNames().begin(), TableNames().end(),
+        std::all_of(LegacyTableNames().begin(), LegacyTableNames().end(),
                     [&](std::string_view t) { return tables.count(std::string(t)) > 0; });
     auto table_list = [&] {
       std::string names;

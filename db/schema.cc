@@ -173,9 +173,49 @@ constexpr std::string_view kSchemaV3 = R"sql(
 ALTER TABLE calibrations ADD COLUMN covariance_json TEXT;  -- {"parameters": [names], "matrix": [[…]]}, mm and rad
 )sql";
 
-constexpr std::array<std::string_view, 3> kMigrations = {kSchemaV1, kSchemaV2, kSchemaV3};
+// Schema v4: the life cycle's record. Every activation of a parameter set (who: the nightly
+// job, `activate` or the demo; when; which set it replaced); each set's drift decision
+// against the set that was active before it; and the process that runs a session (pid,
+// host, start), so that a session left `running` by a killed process is told apart from a
+// live capture. The set active at the migration gets an activation row by 'migration'.
+constexpr std::string_view kSchemaV4 = R"sql(
+CREATE TABLE activations (
+  id                INTEGER PRIMARY KEY,
+  robot_id          INTEGER NOT NULL REFERENCES robots(id),
+  version           INTEGER NOT NULL,              -- the set made active
+  previous_version  INTEGER,                       -- the set active before (NULL: none)
+  activated_at      TEXT NOT NULL DEFAULT (strftime('%Y-%m-%dT%H:%M:%fZ','now')),
+  activated_by      TEXT NOT NULL CHECK (activated_by IN ('recalibrate','activate','demo','migration')),
+  note              TEXT
+);
+CREATE INDEX activations_by_robot ON activations(robot_id, id);
+INSERT INTO activations(robot_id, version, activated_by, note)
+  SELECT robot_id, version, 'migration',
+         'active when the database was migrated to schema v4 (earlier activations were not recorded)'
+  FROM calibrations WHERE active = 1 ORDER BY robot_id;
+ALTER TABLE calibrations ADD COLUMN drift_json TEXT;  -- the drift decision against the set active before ({"flag", "against", …}); NULL when none was made
+ALTER TABLE sessions ADD COLUMN owner_pid INTEGER;    -- the process running the session (capture, demo)
+ALTER TABLE sessions ADD COLUMN owner_host TEXT;
+ALTER TABLE sessions ADD COLUMN owner_started TEXT;   -- that process's start (boot id / start tick), against pid reuse
+)sql";
 
-constexpr std::array<std::string_view, 11> kTables = {"robots",
+constexpr std::array<std::string_view, 4> kMigrations = {kSchemaV1, kSchemaV2, kSchemaV3,
+                                                         kSchemaV4};
+
+// The tables of schema v1: an armsig file from before application_id has at least these.
+constexpr std::array<std::string_view, 11> kTablesV1 = {"robots",
+                                                        "instruments",
+                                                        "stations",
+                                                        "sessions",
+                                                        "station_setups",
+                                                        "poses",
+                                                        "observations",
+                                                        "points",
+                                                        "calibrations",
+                                                        "calibration_parameters",
+                                                        "validation_residuals"};
+
+constexpr std::array<std::string_view, 12> kTables = {"robots",
                                                       "instruments",
                                                       "stations",
                                                       "sessions",
@@ -185,11 +225,13 @@ constexpr std::array<std::string_view, 11> kTables = {"robots",
                                                       "points",
                                                       "calibrations",
                                                       "calibration_parameters",
-                                                      "validation_residuals"};
+                                                      "validation_residuals",
+                                                      "activations"};
 
 }  // namespace
 
 std::span<const std::string_view> Migrations() { return kMigrations; }
 std::span<const std::string_view> TableNames() { return kTables; }
+std::span<const std::string_view> LegacyTableNames() { return kTablesV1; }
 
 }  // namespace armsig::db

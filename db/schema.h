@@ -12,5 +12,8 @@ inline int LatestSchemaVersion() { return static_cast<int>(Migrations().size());
 
 // Tables of the current schema, in dependency order (for `db info` and `db export`).
 std::span<const std::string_view> TableNames();
+// The tables an armsig file from before PRAGMA application_id holds (schema v1's): how
+// such a file is recognised as armsig's.
+std::span<const std::string_view> LegacyTableNames();
 
 }  // namespace armsig::db

@@ -9,9 +9,10 @@ namespace armsig::db {
 int64_t CreateSession(Database& db, int64_t robot_id, const std::string& lab_yaml,
                       const std::string& plan_json, const std::string& state,
                       const std::string& note) {
-  SQLite::Statement s(
-      db.sql(),
-      "INSERT INTO sessions(robot_id, lab_yaml, plan_json, state, note) VALUES (?,?,?,?,?)");
+  SQLite::Statement s(db.sql(),
+                      "INSERT INTO sessions(robot_id, lab_yaml, plan_json, state, note, "
+                      "finished_at) VALUES (?,?,?,?,?, CASE WHEN ?4 IN ('completed','aborted') "
+                      "THEN strftime('%Y-%m-%dT%H:%M:%fZ','now') END)");
   s.bind(1, robot_id);
   s.bind(2, lab_yaml);
   s.bind(3, plan_json);
@@ -31,6 +32,27 @@ void SetSessionState(Database& db, int64_t session_id, const std::string& state)
   s.bind(3, session_id);
   s.exec();
 }
+
+void SetSessionOwner(Database& db, int64_t session_id, const SessionOwner& owner) {
+  SQLite::Statement s(
+      db.sql(),
+      "UPDATE sessions SET owner_pid = ?, owner_host = ?, owner_started = ? WHERE id = ?");
+  s.bind(1, owner.pid);
+  s.bind(2, owner.host);
+  s.bind(3, owner.started);
+  s.bind(4, session_id);
+  s.exec();
+}
+
+namespace {
+
+std::optional<SessionOwner> OwnerOf(SQLite::Statement& q, int pid_column) {
+  if (q.getColumn(pid_column).isNull()) return std::nullopt;
+  return SessionOwner{q.getColumn(pid_column).getInt64(), q.getColumn(pid_column + 1).getString(),
+                      q.getColumn(pid_column + 2).getString()};
+}
+
+}  // namespace
 
 std::vector<int64_t> SessionIds(Database& db) {
   std::vector<int64_t> out;
@@ -67,13 +89,15 @@ int64_t InsertPose(Database& db, int64_t session_id, int seq, const std::string&
 std::optional<SessionRow> LoadSession(Database& db, int64_t session_id) {
   SQLite::Statement s(db.sql(),
                       "SELECT s.id, r.name, coalesce(s.lab_yaml,''), coalesce(s.plan_json,''), "
-                      "s.state, coalesce(s.note,'') "
+                      "s.state, coalesce(s.note,''), s.owner_pid, coalesce(s.owner_host, ''), "
+                      "coalesce(s.owner_started, '') "
                       "FROM sessions s JOIN robots r ON r.id = s.robot_id WHERE s.id = ?");
   s.bind(1, session_id);
   if (!s.executeStep()) return std::nullopt;
   return SessionRow{s.getColumn(0).getInt64(),  s.getColumn(1).getString(),
                     s.getColumn(2).getString(), s.getColumn(3).getString(),
-                    s.getColumn(4).getString(), s.getColumn(5).getString()};
+                    s.getColumn(4).getString(), s.getColumn(5).getString(),
+                    OwnerOf(s, 6)};
 }
 
 std::vector<int> StoredSeqs(Database& db, int64_t session_id) {
@@ -99,7 +123,8 @@ std::vector<MeasuredPose> LoadRobotPoses(Database& db, int64_t robot_id, const s
   int64_t newest = 0;
   while (q.executeStep()) {
     MeasuredPose pose;
-    pose.id = std::to_string(q.getColumn(0).getInt64()) + ":" + q.getColumn(1).getString();
+    pose.frame = q.getColumn(0).getInt64();
+    pose.id = std::to_string(pose.frame) + ":" + q.getColumn(1).getString();
     const auto joints =
         nlohmann::json::parse(q.getColumn(2).getString()).get<std::vector<double>>();
     pose.joints_rad = Eigen::Map<const Eigen::VectorXd>(joints.data(), joints.size());
@@ -125,6 +150,7 @@ std::vector<MeasuredPose> LoadSessionPoses(Database& db, int64_t session_id,
   while (q.executeStep()) {
     MeasuredPose pose;
     pose.id = q.getColumn(0).getString();
+    pose.frame = session_id;
     const auto joints =
         nlohmann::json::parse(q.getColumn(1).getString()).get<std::vector<double>>();
     pose.joints_rad = Eigen::Map<const Eigen::VectorXd>(joints.data(), joints.size());
@@ -148,7 +174,8 @@ std::vector<SessionSummary> ListSessions(Database& db, std::optional<int64_t> ro
       "(SELECT count(*) FROM poses p WHERE p.session_id = s.id AND p.status = 'skipped'), "
       "(SELECT count(*) FROM points t WHERE t.session_id = s.id AND t.x_mm IS NOT NULL), "
       "(SELECT count(*) FROM points t WHERE t.session_id = s.id AND t.x_mm IS NOT NULL AND "
-      "coalesce(t.flags, '') <> '') "
+      "coalesce(t.flags, '') <> ''), s.owner_pid, coalesce(s.owner_host, ''), "
+      "coalesce(s.owner_started, '') "
       "FROM sessions s JOIN robots r ON r.id = s.robot_id WHERE ?1 IS NULL OR s.robot_id = ?1 "
       "ORDER BY s.id");
   if (robot_id)
@@ -168,6 +195,7 @@ std::vector<SessionSummary> ListSessions(Database& db, std::optional<int64_t> ro
     s.skipped = q.getColumn(7).getInt();
     s.usable = q.getColumn(8).getInt();
     s.flagged = q.getColumn(9).getInt();
+    s.owner = OwnerOf(q, 10);
     out.push_back(std::move(s));
   }
   return out;

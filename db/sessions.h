@@ -13,10 +13,20 @@
 
 namespace armsig::db {
 
+// A session created `completed` (an import) is finished at once: finished_at is set.
 int64_t CreateSession(Database& db, int64_t robot_id, const std::string& lab_yaml,
                       const std::string& plan_json, const std::string& state,
                       const std::string& note);
 void SetSessionState(Database& db, int64_t session_id, const std::string& state);
+
+// The process that runs a session (capture, demo), schema v4: its pid, host name, and a
+// token of its start (boot id and start tick), so that a reused pid is not taken for it.
+struct SessionOwner {
+  int64_t pid = 0;
+  std::string host, started;
+  bool operator==(const SessionOwner&) const = default;
+};
+void SetSessionOwner(Database& db, int64_t session_id, const SessionOwner& owner);
 std::vector<int64_t> SessionIds(Database& db);
 bool SessionExists(Database& db, int64_t session_id);
 
@@ -24,6 +34,7 @@ struct SessionRow {
   int64_t id = 0;
   std::string robot;
   std::string lab_yaml, plan_json, state, note;
+  std::optional<SessionOwner> owner{};  // absent when none was recorded
 };
 std::optional<SessionRow> LoadSession(Database& db, int64_t session_id);
 struct SessionSummary {
@@ -32,6 +43,7 @@ struct SessionSummary {
   int measured = 0, skipped = 0;  // configurations
   int usable = 0;                 // reduced points with coordinates
   int flagged = 0;                // of which carry a flag
+  std::optional<SessionOwner> owner{};
 };
 // Every session (of one robot when given), oldest first.
 std::vector<SessionSummary> ListSessions(Database& db, std::optional<int64_t> robot_id);
@@ -46,13 +58,15 @@ int64_t InsertPose(Database& db, int64_t session_id, int seq, const std::string&
 std::vector<int> StoredSeqs(Database& db, int64_t session_id);
 
 // Every measured configuration of the robot with a reduced point: joints + target.
-// Pose ids are "<session>:<label>". `since`: ISO date/time lower bound on the session
-// start (empty = all). `max_pose_row` receives the newest pose row id (for idempotence).
+// Pose ids are "<session>:<label>", and each pose's measurement frame is its session
+// (MeasuredPose::frame = the session id). `since`: lower bound on the session start as
+// stored (YYYY-MM-DDTHH:MM:SS.sssZ, UTC; empty = all). `max_pose_row` receives the newest
+// pose row id.
 std::vector<MeasuredPose> LoadRobotPoses(Database& db, int64_t robot_id, const std::string& since,
                                          int64_t* max_pose_row = nullptr);
 
 // A session's measured configurations with their reduced points, in plan order, and
-// each point's covariance (mm²).
+// each point's covariance (mm²). Their frame is the session id.
 std::vector<MeasuredPose> LoadSessionPoses(Database& db, int64_t session_id,
                                            std::vector<Eigen::Matrix3d>* covariances = nullptr);
 

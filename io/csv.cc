@@ -1,5 +1,7 @@
 #include "io/csv.h"
 
+#include <spdlog/spdlog.h>
+
 #include <charconv>
 #include <cmath>
 #include <set>
@@ -234,7 +236,10 @@ CsvTable ParseCsv(std::string_view text, std::string source, CsvOptions options)
 }
 
 CsvTable ReadCsvFile(const std::string& path, CsvOptions options) {
-  return ParseCsv(ReadWholeFile(path, kCsvFileLimit), path, options);
+  CsvTable table = ParseCsv(ReadWholeFile(path, kCsvFileLimit), path, options);
+  spdlog::debug("read {}: {} rows, {} columns", Printable(path), table.rows().size(),
+                table.header().size());
+  return table;
 }
 
 CsvTable::CsvTable(std::string source, std::vector<std::string> header, std::vector<CsvRow> rows,

@@ -8,6 +8,7 @@
 #include <string_view>
 #include <utility>
 
+#include "calibration/terms.h"
 #include "core/text.h"
 #include "core/units.h"
 #include "io/yaml_reader.h"
@@ -50,15 +51,29 @@ std::string FormatRobotModelYaml(const calibration::RobotModel& model, const std
       out << YAML::Flow << YAML::BeginMap;
       out << YAML::Key << "name" << YAML::Value << t.name;
       out << YAML::Key << "joint" << YAML::Value << t.joint + 1;
-      out << YAML::Key << "basis" << YAML::Value
-          << (t.basis == calibration::NongeometricTerm::Basis::kCos ? "cos" : "sign_cos");
-      out << YAML::Key << "of" << YAML::Value << YAML::Flow << YAML::BeginSeq;
-      for (int j : t.of) out << j + 1;
-      out << YAML::EndSeq;
+      using Basis = calibration::NongeometricTerm::Basis;
+      static const char* kBasis[] = {"cos", "sign_cos", "sin", "gravity_torque"};
+      out << YAML::Key << "basis" << YAML::Value << kBasis[static_cast<int>(t.basis)];
+      if (t.basis == Basis::kGravityTorque) {
+        out << YAML::Key << "mass_at" << YAML::Value << t.mass_at + 1;
+      } else {
+        out << YAML::Key << "of" << YAML::Value << YAML::Flow << YAML::BeginSeq;
+        for (int j : t.of) out << j + 1;
+        out << YAML::EndSeq;
+      }
+      if (t.order != 1) out << YAML::Key << "order" << YAML::Value << t.order;
+      if (t.family != calibration::TermFamily::kModel) {
+        out << YAML::Key << "family" << YAML::Value << calibration::TermFamilyName(t.family);
+      }
       out << YAML::Key << "value_rad" << YAML::Value << YamlNumber(t.fixed_rad);
       out << YAML::EndMap;
     }
     out << YAML::EndSeq;
+  }
+  if (model.gravity_in_base != -Eigen::Vector3d::UnitZ()) {
+    out << YAML::Key << "gravity" << YAML::Value << YAML::Flow << YAML::BeginSeq
+        << YamlNumber(model.gravity_in_base.x()) << YamlNumber(model.gravity_in_base.y())
+        << YamlNumber(model.gravity_in_base.z()) << YAML::EndSeq;
   }
   if (model.joint_min_rad.size() == static_cast<size_t>(model.num_joints())) {
     out << YAML::Key << "joint_limits_deg" << YAML::Value << YAML::Flow << YAML::BeginSeq;

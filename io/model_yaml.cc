@@ -3,6 +3,7 @@
 #include <optional>
 #include <set>
 
+#include "calibration/terms.h"
 #include "core/text.h"
 #include "core/units.h"
 #include "io/yaml_reader.h"
@@ -57,21 +58,51 @@ Eigen::Isometry3d DhRow(const YamlValue& value) {
 }
 
 NongeometricTerm Term(const YamlValue& value, int num_joints) {
-  const YamlMap map = value.Map({"name", "joint", "basis", "of", "value_rad"});
+  const YamlMap map =
+      value.Map({"name", "joint", "basis", "of", "order", "mass_at", "family", "value_rad"});
   NongeometricTerm term;
+  using Basis = NongeometricTerm::Basis;
   term.name = map.Required("name", "the term's parameter name").Name();
   term.joint = map.Required("joint", "the joint number it adds to").Integer(1, num_joints) - 1;
-  const YamlValue basis = map.Required("basis", "cos or sign_cos");
+  const YamlValue basis = map.Required("basis", "cos, sign_cos, sin or gravity_torque");
   const std::string b = basis.Text();
   if (b == "cos") {
-    term.basis = NongeometricTerm::Basis::kCos;
+    term.basis = Basis::kCos;
   } else if (b == "sign_cos") {
-    term.basis = NongeometricTerm::Basis::kSignCos;
+    term.basis = Basis::kSignCos;
+  } else if (b == "sin") {
+    term.basis = Basis::kSin;
+  } else if (b == "gravity_torque") {
+    term.basis = Basis::kGravityTorque;
   } else {
-    basis.Fail("expected basis 'cos' or 'sign_cos', got " + Quoted(b));
+    basis.Fail("expected basis 'cos', 'sign_cos', 'sin' or 'gravity_torque', got " + Quoted(b));
   }
-  for (const YamlValue& j : map.Required("of", "a list of joint numbers").List(1)) {
-    term.of.push_back(j.Integer(1, num_joints) - 1);
+  if (term.basis == Basis::kGravityTorque) {
+    // The mass sits at the origin of a joint's frame after this joint, or (n+1) the target.
+    if (const auto of = map.Find("of")) of->Fail("a gravity_torque term takes 'mass_at', not 'of'");
+    term.mass_at = map.Required("mass_at",
+                                "the joint number whose frame carries the unit mass "
+                                "(n+1: the target point)")
+                       .Integer(term.joint + 2, num_joints + 1) -
+                   1;
+  } else {
+    if (const auto mass = map.Find("mass_at"))
+      mass->Fail("only gravity_torque terms take 'mass_at'");
+    for (const YamlValue& j : map.Required("of", "a list of joint numbers").List(1)) {
+      term.of.push_back(j.Integer(1, num_joints) - 1);
+    }
+  }
+  if (const auto order = map.Find("order")) {
+    if (term.basis != Basis::kCos && term.basis != Basis::kSin) {
+      order->Fail("only cos and sin terms take a harmonic 'order'");
+    }
+    term.order = order->Integer(1, 64);
+  }
+  if (const auto family = map.Find("family")) {
+    const std::string f = family->Text();
+    const auto parsed = calibration::TermFamilyFromName(f);
+    if (!parsed) family->Fail("expected family 'compliance' or 'harmonics', got " + Quoted(f));
+    term.family = *parsed;
   }
   if (const auto fixed = map.Find("value_rad")) {
     term.fixed_rad =
@@ -81,8 +112,8 @@ NongeometricTerm Term(const YamlValue& value, int num_joints) {
 }
 
 RobotModel Parse(const YamlValue& root_value) {
-  const YamlMap root = root_value.Map(
-      {"name", "base", "links", "dh", "tool_mm", "nongeometric", "joint_limits_deg"});
+  const YamlMap root = root_value.Map({"name", "base", "links", "dh", "tool_mm", "nongeometric",
+                                       "generated_terms", "gravity", "joint_limits_deg"});
   RobotModel model;
   model.name = root.Has("name") ? root.Find("name")->Name() : "robot";
 
@@ -126,6 +157,13 @@ RobotModel Parse(const YamlValue& root_value) {
     }
   }
 
+  if (const auto gravity = root.Find("gravity")) {
+    // Direction only (in the robot's base frame); its length does not matter.
+    const Eigen::Vector3d g = gravity->Vector3();
+    if (!(g.norm() > 1e-9)) gravity->Fail("expected a non-zero direction [x, y, z]");
+    model.gravity_in_base = g.normalized();
+  }
+
   if (const auto limits = root.Find("joint_limits_deg")) {
     const std::vector<YamlValue> pairs = limits->List();
     if (static_cast<int>(pairs.size()) != n) {
@@ -140,6 +178,21 @@ RobotModel Parse(const YamlValue& root_value) {
       if (!(lo_hi[0] < lo_hi[1])) pair.Fail("expected [min, max] with min < max");
       model.joint_min_rad.push_back(ToRad(lo_hi[0], AngleUnit::kDeg));
       model.joint_max_rad.push_back(ToRad(lo_hi[1], AngleUnit::kDeg));
+    }
+  }
+  // Generated last: which terms can move the target is decided over the joint limits.
+  if (const auto generated = root.Find("generated_terms")) {
+    std::vector<calibration::TermFamily> families;
+    for (const YamlValue& node : generated->List()) {
+      const std::string f = node.Text();
+      const auto family = calibration::TermFamilyFromName(f);
+      if (!family) node.Fail("expected 'compliance' or 'harmonics', got " + Quoted(f));
+      families.push_back(*family);
+    }
+    try {
+      model = calibration::WithGeneratedTerms(model, families);
+    } catch (const std::invalid_argument& e) {
+      generated->Fail(e.what());
     }
   }
   return model;

@@ -80,7 +80,7 @@ reduction::Station StationFrom(const YamlValue& value, std::set<std::string>& id
   const YamlMap map =
       value.Map({"id", "position_mm", "azimuth_gon", "azimuth_deg", "azimuth_rad", "rotation",
                  "sigma_hz_arcsec", "sigma_v_arcsec", "sigma_position_mm", "sigma_azimuth_arcsec",
-                 "sigma_rotation_arcsec"});
+                 "sigma_rotation_arcsec", "orientation"});
   reduction::Station s;
   const YamlValue id = map.Required("id", "the station id");
   s.pose.id = id.Name();
@@ -137,6 +137,13 @@ reduction::Station StationFrom(const YamlValue& value, std::set<std::string>& id
   if (const auto v = map.Find("sigma_rotation_arcsec")) {
     s.sigma_rotation_rad = v->Vector3() * kRadPerArcsec;
     if (!(s.sigma_rotation_rad.minCoeff() >= 0)) v->Fail("expected sigmas ≥ 0");
+  }
+  // The adjustment that oriented the station (FormatStationsYaml writes what orient found).
+  if (const auto v = map.Find("orientation")) {
+    const YamlMap o = v->Map({"sigma0", "dof", "method"});
+    s.orientation_sigma0 = o.Required("sigma0", "σ0 a posteriori").NonNegativeNumber();
+    if (const auto dof = o.Find("dof")) s.orientation_dof = dof->Integer(0, 1000000000);
+    if (const auto method = o.Find("method")) s.orientation_method = method->Name();
   }
   return s;
 }
@@ -201,6 +208,14 @@ std::string FormatStationsYaml(const std::vector<reduction::Station>& stations,
     } else {
       out << YAML::Key << "sigma_rotation_arcsec" << YAML::Value;
       vector(s.sigma_rotation_rad, 1.0 / kRadPerArcsec);
+    }
+    if (s.orientation_sigma0) {
+      out << YAML::Key << "orientation" << YAML::Value << YAML::Flow << YAML::BeginMap;
+      out << YAML::Key << "sigma0" << YAML::Value << YamlNumber(*s.orientation_sigma0);
+      out << YAML::Key << "dof" << YAML::Value << s.orientation_dof;
+      if (!s.orientation_method.empty())
+        out << YAML::Key << "method" << YAML::Value << YAML::DoubleQuoted << s.orientation_method;
+      out << YAML::EndMap;
     }
     out << YAML::EndMap;
   }

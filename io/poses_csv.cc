@@ -2,6 +2,7 @@
 
 #include <cstdio>
 #include <set>
+#include <stdexcept>
 
 #include "core/error.h"
 #include "core/text.h"
@@ -50,14 +51,18 @@ std::vector<MeasuredPose> ReadPosesCsv(const std::string& path, int num_joints) 
   return poses;
 }
 
-std::string FormatPosesCsv(const std::vector<MeasuredPose>& poses) {
+std::string FormatPosesCsv(const std::vector<MeasuredPose>& poses, int num_joints) {
   std::string out = "pose";
-  const int n = poses.empty() ? 0 : static_cast<int>(poses[0].joints_rad.size());
+  const int n = num_joints >= 0  ? num_joints
+                : poses.empty() ? 0
+                                : static_cast<int>(poses[0].joints_rad.size());
   for (int i = 1; i <= n; ++i) out += ",q" + std::to_string(i) + "_deg";
   out += ",x_mm,y_mm,z_mm\n";
   char buffer[64];
   for (const auto& pose : poses) {
     out += CsvEscape(pose.id);
+    if (pose.joints_rad.size() != n)
+      throw std::invalid_argument("FormatPosesCsv: pose " + pose.id + " has another joint count");
     for (int i = 0; i < n; ++i) {
       std::snprintf(buffer, sizeof buffer, ",%.12g", FromRad(pose.joints_rad(i), AngleUnit::kDeg));
       out += buffer;

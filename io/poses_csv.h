@@ -15,8 +15,10 @@ namespace armsig::io {
 // column) for a missing column, a malformed number, a duplicate pose id, or no rows.
 std::vector<MeasuredPose> ReadPosesCsv(const std::string& path, int num_joints);
 
-// Writes the SPEC's poses CSV (angles in degrees, full precision).
-std::string FormatPosesCsv(const std::vector<MeasuredPose>& poses);
+// Writes the SPEC's poses CSV (angles in degrees, full precision). `num_joints`: the q
+// columns of the header (−1: as many as the first pose has), so that a file without a
+// pose still has the full header.
+std::string FormatPosesCsv(const std::vector<MeasuredPose>& poses, int num_joints = -1);
 
 struct PoseImportOptions {
   char delimiter = '\0';  // ',', ';' or '\t'; '\0' = detect (io/csv.h)

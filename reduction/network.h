@@ -30,6 +30,12 @@ struct Station {
   Eigen::Vector3d sigma_position_mm = Eigen::Vector3d::Zero();
   double sigma_azimuth_rad = 0.0;
   Eigen::Vector3d sigma_rotation_rad = Eigen::Vector3d::Zero();  // unlevelled
+  // The adjustment that oriented it (armsig orient, the demo), when known: σ0 a
+  // posteriori, its degrees of freedom and how (mutual+scale_bar, control, …). Carried by
+  // the stations file into the set-ups a session stores.
+  std::optional<double> orientation_sigma0{};
+  int orientation_dof = 0;
+  std::string orientation_method{};
 };
 
 // Defaults when neither the observation nor its station gives a sigma.

@@ -15,6 +15,7 @@ PACKAGES=(
   chromium  # report rendering test (headless)
   dpkg-dev file groff-base  # the .deb (cpack, dpkg-shlibdeps) and the manual page check
   clang  # libFuzzer targets (fuzz/)
+  libpq-dev postgresql  # the PostgreSQL backend; the tests start a server of their own
 )
 
 missing=()

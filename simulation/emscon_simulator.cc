@@ -133,20 +133,12 @@ void EmsconSimulator::Stop() {
   if (connection_) connection_->Close();
 }
 
-void EmsconSimulator::InjectOnce(FaultSpec fault) {
-  std::lock_guard lock(mutex_);
-  faults_.push_back(fault);
-}
+void EmsconSimulator::InjectOnce(FaultSpec fault) { faults_.Once(fault); }
 
-void EmsconSimulator::InjectAlways(FaultSpec fault) {
-  std::lock_guard lock(mutex_);
-  always_ = fault;
-}
+void EmsconSimulator::InjectAlways(FaultSpec fault) { faults_.Always(fault); }
 
 void EmsconSimulator::ClearFaults() {
-  std::lock_guard lock(mutex_);
-  faults_.clear();
-  always_.reset();
+  faults_.Clear();
   ++flood_generation_;  // a flood stops at its next chunk
 }
 
@@ -201,16 +193,7 @@ void EmsconSimulator::StartRead(std::shared_ptr<Connection> c) {
 
 void EmsconSimulator::OnFrame(const std::shared_ptr<Connection>& c, const std::string& frame) {
   ++requests_;
-  FaultSpec fault;
-  {
-    std::lock_guard lock(mutex_);
-    if (!faults_.empty()) {
-      fault = faults_.front();
-      faults_.pop_front();
-    } else if (always_) {
-      fault = *always_;
-    }
-  }
+  const FaultSpec fault = faults_.Next();
   switch (fault.fault) {
     case Fault::kVanish:
       c->Close();

@@ -136,8 +136,7 @@ class EmsconSimulator : public Simulator {
   std::chrono::steady_clock::time_point start_;
 
   mutable std::mutex mutex_;  // faults and state
-  std::deque<FaultSpec> faults_;
-  std::optional<FaultSpec> always_;
+  FaultQueue faults_;
   State state_;
   std::mt19937 rng_;
 

@@ -37,11 +37,11 @@ struct FaultCase {
 std::vector<FaultCase> FaultMatrix();
 
 struct FaultOutcome {
-  double ms = 0.0;           // from the driver call to its end
-  bool reading = false;      // the driver returned a reading: the case failed
-  std::optional<int> code;   // the InstrumentError's code
-  std::string error;         // what the error said (or the unexpected exception)
-  int64_t flood_bytes = 0;   // bytes the simulator flooded during the call
+  double ms = 0.0;          // from the driver call to its end
+  bool reading = false;     // the driver returned a reading: the case failed
+  std::optional<int> code;  // the InstrumentError's code
+  std::string error;        // what the error said (or the unexpected exception)
+  int64_t flood_bytes = 0;  // bytes the simulator flooded during the call
 };
 
 // Starts the case's simulator at `link` on `lab` (a 6-joint robot seen from station 0;

@@ -46,22 +46,38 @@ void LineSimulator::Stop() {
   thread_.join();
 }
 
-void LineSimulator::InjectOnce(FaultSpec fault) {
-  std::lock_guard lock(fault_mutex_);
-  faults_.push_back(fault);
+void FaultQueue::Once(FaultSpec fault) {
+  std::lock_guard lock(mutex_);
+  once_.push_back(fault);
 }
 
-void LineSimulator::InjectAlways(FaultSpec fault) {
-  std::lock_guard lock(fault_mutex_);
+void FaultQueue::Always(FaultSpec fault) {
+  std::lock_guard lock(mutex_);
   always_ = fault;
 }
 
-void LineSimulator::ClearFaults() {
-  {
-    std::lock_guard lock(fault_mutex_);
-    faults_.clear();
-    always_.reset();
+void FaultQueue::Clear() {
+  std::lock_guard lock(mutex_);
+  once_.clear();
+  always_.reset();
+}
+
+FaultSpec FaultQueue::Next() {
+  std::lock_guard lock(mutex_);
+  if (!once_.empty()) {
+    const FaultSpec fault = once_.front();
+    once_.pop_front();
+    return fault;
   }
+  return always_.value_or(FaultSpec{});
+}
+
+void LineSimulator::InjectOnce(FaultSpec fault) { faults_.Once(fault); }
+
+void LineSimulator::InjectAlways(FaultSpec fault) { faults_.Always(fault); }
+
+void LineSimulator::ClearFaults() {
+  faults_.Clear();
   ++flood_generation_;
   std::promise<void> done;
   asio::post(io_, [&] {
@@ -129,16 +145,7 @@ void LineSimulator::StartRead() {
 
 void LineSimulator::OnLine(const std::string& line) {
   ++requests_;
-  FaultSpec fault;
-  {
-    std::lock_guard lock(fault_mutex_);
-    if (!faults_.empty()) {
-      fault = faults_.front();
-      faults_.pop_front();
-    } else if (always_) {
-      fault = *always_;
-    }
-  }
+  const FaultSpec fault = faults_.Next();
   switch (fault.fault) {
     case Fault::kVanish:
       Vanish();

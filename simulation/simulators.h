@@ -66,6 +66,21 @@ struct FaultSpec {
   int code = 0;
 };
 
+// The faults a simulator applies: queued ones to the next requests, then one to every
+// request. Thread-safe (the test thread injects, the io thread takes).
+class FaultQueue {
+ public:
+  void Once(FaultSpec fault);
+  void Always(FaultSpec fault);
+  void Clear();
+  FaultSpec Next();  // Fault::kNone when there is none
+
+ private:
+  std::mutex mutex_;
+  std::deque<FaultSpec> once_;
+  std::optional<FaultSpec> always_;
+};
+
 struct SimulatorOptions {
   double time_scale = 1.0;  // multiplies every latency (0.1 = ten times faster)
   std::chrono::milliseconds angle_latency{40};
@@ -140,9 +155,7 @@ class LineSimulator : public Simulator {
   std::thread thread_;
   std::string buffer_;
   char chunk_[512];
-  std::mutex fault_mutex_;
-  std::deque<FaultSpec> faults_;
-  std::optional<FaultSpec> always_;
+  FaultQueue faults_;
   std::atomic<int> requests_{0};
   std::atomic<int64_t> flood_bytes_{0};
   std::atomic<uint64_t> flood_generation_{0};  // a cleared flood stops at its next chunk

@@ -1,10 +1,13 @@
 #include "workflows/calibration_run.h"
 
 #include <fmt/format.h>
+#include <spdlog/spdlog.h>
 
 #include <algorithm>
 #include <cmath>
 #include <iterator>
+#include <map>
+#include <numbers>
 #include <numeric>
 #include <stdexcept>
 
@@ -42,6 +45,7 @@ CalibrationRun RunCalibration(const calibration::RobotModel& model,
   }
 
   std::vector<MeasuredPose> fit = poses, rest;
+  const std::vector<int64_t> frames = calibration::FramesOf(poses);
   if (settings.select > 0) {
     if (settings.select >= static_cast<int>(poses.size())) {
       throw InputError({"--select", 0, 0, ""},
@@ -59,13 +63,41 @@ CalibrationRun RunCalibration(const calibration::RobotModel& model,
         options.parameters, options.identifiability);
     calibration::SelectionOptions selection_options;
     selection_options.count = settings.select;
-    run.selection =
-        calibration::SelectConfigurations(model, joints, report.identified, selection_options);
+    std::vector<int64_t> candidate_frames;
+    if (frames.size() > 1) {
+      for (const auto& p : poses) candidate_frames.push_back(p.frame);
+    }
+    run.selection = calibration::SelectConfigurations(model, joints, report.identified,
+                                                      selection_options, candidate_frames);
     run.selection_candidates = static_cast<int>(poses.size());
     fit.clear();
     std::vector<char> chosen(poses.size(), 0);
     for (int i : run.selection->selected) chosen[i] = 1;
     for (size_t i = 0; i < poses.size(); ++i) (chosen[i] ? fit : rest).push_back(poses[i]);
+    spdlog::debug(
+        "calibration: selected {} of {} configurations (D-optimal on {} parameters{}), log det "
+        "{:.2f}, condition number {:.3g}, {} exchanges",
+        fit.size(), poses.size(), report.identified.size(),
+        frames.size() > 1 ? fmt::format(" and the bases of {} further frames", frames.size() - 1)
+                          : std::string(),
+        run.selection->log_det, run.selection->condition_number, run.selection->exchanges);
+    if (spdlog::should_log(spdlog::level::trace)) {
+      for (const auto& p : fit) spdlog::trace("calibration: fit pose {} (frame {})", p.id, p.frame);
+    }
+    if (frames.size() > 1) {
+      std::map<int64_t, int> fitted;
+      for (const auto& p : fit) fitted[p.frame]++;
+      for (int64_t f : frames) {
+        if (fitted[f] < 3) {
+          throw InputError(
+              {"--select", 0, 0, ""},
+              fmt::format("{} configurations are too few to fit {} measurement frames: frame "
+                          "{} keeps {} of them, and every frame needs at least 3 (its base has "
+                          "six unknowns); give a larger --select",
+                          settings.select, frames.size(), f, fitted[f]));
+        }
+      }
+    }
   }
 
   if (auto_params) {
@@ -99,14 +131,63 @@ CalibrationRun RunCalibration(const calibration::RobotModel& model,
   }
   for (const auto& p : fit) run.fit_pose_ids.push_back(p.id);
 
-  const std::vector<MeasuredPose>& validation = holdout.empty() ? rest : holdout;
-  for (const auto& p : validation) run.validation_pose_ids.push_back(p.id);
+  // Validation: every pose in its own frame. A frame none of whose poses was fitted has no
+  // base from the fit: it is aligned on its validation poses with the fitted parameters.
+  std::vector<MeasuredPose> validation = holdout.empty() ? rest : holdout;
+  calibration::FrameBases bases = run.estimate.bases;
+  std::map<int64_t, RunFrame> frame_info;
+  for (const auto& [frame, base] : bases) frame_info[frame] = {frame, base, 0, 0, false};
+  for (const auto& p : fit) frame_info[p.frame].fit_poses++;
+  {
+    std::vector<MeasuredPose> unplaced;
+    for (const auto& p : validation) {
+      if (!bases.count(p.frame)) unplaced.push_back(p);
+    }
+    for (const auto& [frame, base] :
+         calibration::AlignFrameBases(model, run.estimate.params, unplaced)) {
+      bases[frame] = base;
+      frame_info[frame] = {frame, base, 0, 0, true};
+      spdlog::warn(
+          "calibration: measurement frame {} has no fitted pose; its base is aligned on its "
+          "validation poses with the fitted parameters",
+          frame);
+    }
+    std::vector<MeasuredPose> placed;
+    for (auto& p : validation) {
+      if (bases.count(p.frame)) {
+        placed.push_back(std::move(p));
+      } else {
+        spdlog::warn("calibration: pose {} left out of the validation: its measurement frame {} "
+                     "has too few poses to be placed",
+                     p.id, p.frame);
+      }
+    }
+    validation = std::move(placed);
+  }
+  for (const auto& p : validation) {
+    run.validation_pose_ids.push_back(p.id);
+    frame_info[p.frame].validation_poses++;
+  }
+  for (const auto& [frame, info] : frame_info) run.frames.push_back(info);
   if (!validation.empty()) {
-    run.validation_residuals = calibration::Residuals(model, run.estimate.world_from_base,
-                                                      run.estimate.params, validation);
-    run.validation_nominal_residuals =
-        calibration::Residuals(model, run.estimate.world_from_base,
-                               Eigen::VectorXd::Zero(model.num_parameters()), validation);
+    run.validation_residuals =
+        calibration::Residuals(model, bases, run.estimate.params, validation);
+    run.validation_nominal_residuals = calibration::Residuals(
+        model, bases, Eigen::VectorXd::Zero(model.num_parameters()), validation);
+  }
+  if (run.frames.size() > 1 && spdlog::should_log(spdlog::level::debug)) {
+    for (const auto& f : run.frames) {
+      const Eigen::Vector3d t = f.world_from_base.translation();
+      spdlog::debug(
+          "calibration: frame {}{}: {} fitted, {} validated; base at ({:.3f}, {:.3f}, {:.3f}) "
+          "mm, rotated {:.4f} deg from the reference frame's",
+          f.frame, f.frame == run.estimate.reference_frame ? " (reference)" : "", f.fit_poses,
+          f.validation_poses, t.x(), t.y(), t.z(),
+          Eigen::AngleAxisd(run.estimate.world_from_base.linear().transpose() *
+                            f.world_from_base.linear())
+                  .angle() *
+              180.0 / std::numbers::pi);
+    }
   }
   return run;
 }
@@ -285,6 +366,21 @@ nlohmann::json CalibrationJson(const calibration::RobotModel& model, const Calib
                     est.world_from_base.matrix()(r, 2), est.world_from_base.matrix()(r, 3)});
   }
   out["base"] = base;
+  json frames = json::array();
+  for (const auto& f : run.frames) {
+    json rows = json::array();
+    for (int r = 0; r < 4; ++r) {
+      rows.push_back({f.world_from_base.matrix()(r, 0), f.world_from_base.matrix()(r, 1),
+                      f.world_from_base.matrix()(r, 2), f.world_from_base.matrix()(r, 3)});
+    }
+    frames.push_back({{"frame", f.frame},
+                      {"reference", f.frame == est.reference_frame},
+                      {"base", rows},
+                      {"fit_poses", f.fit_poses},
+                      {"validation_poses", f.validation_poses},
+                      {"base_from_validation", f.base_from_validation}});
+  }
+  out["frames"] = frames;
   json deps = json::array();
   for (const auto& dep : est.identifiability.dependencies) {
     json on = json::array();

@@ -14,11 +14,26 @@
 
 namespace armsig::workflows {
 
+// One measurement frame of a run (a session): its base and how many of its poses were
+// fitted and validated. `base_from_validation`: none of its poses was fitted, so its base
+// was aligned on its validation poses with the fitted parameters (six of their degrees of
+// freedom are then spent on it).
+struct RunFrame {
+  int64_t frame = 0;
+  Eigen::Isometry3d world_from_base = Eigen::Isometry3d::Identity();
+  int fit_poses = 0, validation_poses = 0;
+  bool base_from_validation = false;
+};
+
 struct CalibrationRun {
   std::string params_spec;
   calibration::EstimationResult estimate;
+  // Every measurement frame of the fit and validation poses, ascending (one when all
+  // poses come from one set-up, as in a file).
+  std::vector<RunFrame> frames;
   std::vector<std::string> fit_pose_ids;
   std::vector<std::string> validation_pose_ids;
+  // Each validation pose in its own frame, with that frame's base.
   std::vector<Eigen::Vector3d> validation_residuals, validation_nominal_residuals;
   std::optional<calibration::SelectionResult> selection;
   int selection_candidates = 0;
@@ -26,7 +41,9 @@ struct CalibrationRun {
 };
 
 // Runs the whole calibrate pipeline (selection, --params auto, estimation, validation).
-// Throws InputError for input problems (unknown parameter, too few poses, degenerate data).
+// Poses from several measurement frames (MeasuredPose::frame) are fitted with one base per
+// frame and validated in their own frame. Throws InputError for input problems (unknown
+// parameter, too few poses, degenerate data, a --select too small to place every frame).
 struct CalibrateSettings {
   std::string params = "all";
   int select = 0;

@@ -8,6 +8,7 @@
 
 #include "acquisition/lab.h"
 #include "acquisition/plan.h"
+#include "acquisition/session_owner.h"
 #include "core/error.h"
 #include "db/database.h"
 #include "db/store.h"
@@ -55,7 +56,9 @@ CaptureOutcome RunCaptureSession(const CaptureRequest& request) {
   const acquisition::LabConfig lab = acquisition::LoadLab(request.lab);
   if (lab.stations.empty()) {
     throw InputError({request.lab, 0, 0, "stations"},
-                     "no oriented stations (give 'stations:' a file from armsig orient)");
+                     "no oriented stations (give 'stations:' the file that armsig orient wrote: "
+                     "armsig orient --observations OBS.csv --scale-bar A:B=LEN_MM --out "
+                     "stations.yaml)");
   }
   int64_t session = request.resume;
   if (session == 0 && (request.plan.empty() || request.robot.empty())) {
@@ -79,6 +82,10 @@ CaptureOutcome RunCaptureSession(const CaptureRequest& request) {
       out.summary.session = session;
       return out;
     }
+    // Refused while another live process runs it; an interrupted one is ours now.
+    spdlog::debug("capture: session {} is {} (stored state {}); claiming it", session,
+                  acquisition::DisplayState(row->state, row->owner), row->state);
+    acquisition::ClaimSession(database, session);
   } else {
     session = acquisition::CreateSession(database, lab, request.robot, *plan);
     spdlog::info("capture: session {}, {} configurations", session, plan->size());

@@ -15,6 +15,7 @@
 #include <random>
 
 #include "acquisition/lab.h"
+#include "acquisition/session_owner.h"
 #include "calibration/identifiability.h"
 #include "calibration/selection.h"
 #include "calibration/simulation.h"
@@ -34,6 +35,7 @@
 #include "workflows/calibration_run.h"
 #include "workflows/capture.h"
 #include "workflows/hint.h"
+#include "workflows/network.h"
 #include "workflows/reduce.h"
 
 namespace armsig::workflows {
@@ -132,6 +134,10 @@ DemoResult RunDemo(const DemoOptions& options, const DemoObserver& observer) {
                                    options.resume_session, kDemoRobot));
     }
     stored_plan = acquisition::PlanFromJson(row->plan_json);
+    if (row->state != "completed") {
+      // Refused while another live process runs it (exit 2, naming the pid).
+      acquisition::ClaimSession(*resumed_db, options.resume_session);
+    }
   }
   const int configurations =
       options.resume_session > 0 ? static_cast<int>(stored_plan.size()) : options.configurations;
@@ -243,8 +249,9 @@ DemoResult RunDemo(const DemoOptions& options, const DemoObserver& observer) {
 
   // --- The lab file a technician would write, and the capture session.
   io::WriteFileAtomically((work / "puma760.yaml").string(), io::kPuma760Yaml);
+  // With the orientation's σ0, dof and method, which the session's set-ups then keep.
   io::WriteFileAtomically((work / "stations.yaml").string(),
-                          io::FormatStationsYaml(oriented.stations, "armsig demo"));
+                          io::FormatStationsYaml(OrientedStations(setup, oriented), "armsig demo"));
   acquisition::LabFile lab_file;
   lab_file.model_path = "puma760.yaml";
   lab_file.stations_path = "stations.yaml";
@@ -296,8 +303,7 @@ DemoResult RunDemo(const DemoOptions& options, const DemoObserver& observer) {
     if (options.select > 0) words.insert(words.end(), {"--select", std::to_string(options.select)});
     if (!options.json_path.empty())
       words.insert(words.end(), {"--json", AbsolutePath(options.json_path)});
-    result.resume_hint = "armsig --db " + ShellWord(AbsolutePath(database.path()));
-    for (const auto& w : words) result.resume_hint += " " + ShellWord(w);
+    result.resume_hint = Hint(database.path(), words);
   }
   acquisition::CaptureOptions capture;
   capture.progress = observer.progress;
@@ -400,8 +406,12 @@ DemoResult RunDemo(const DemoOptions& options, const DemoObserver& observer) {
                               {{"sessions", {std::to_string(session)}}, {"poses", poses.size()}},
                               {{"params", run.params_spec}, {"selection", "D-optimal"}}, false));
     }
-    db::SetActiveVersion(database, robot_id,
-                         db::CalibrationHistory(database, robot_id).back().version);
+    const auto before = db::ActiveCalibration(database, robot_id);
+    const int newest = db::CalibrationHistory(database, robot_id).back().version;
+    db::SetActiveVersion(database, robot_id, newest);
+    db::RecordActivation(database, robot_id,
+                         {newest, before ? std::optional<int>(before->version) : std::nullopt, "",
+                          "demo", fmt::format("armsig demo, session {}, params all", session)});
     tx.commit();
   }
 

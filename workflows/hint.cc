@@ -22,9 +22,19 @@ std::string ShellWord(const std::string& word) {
 }
 
 std::string Hint(const std::string& db_path, std::initializer_list<std::string> words) {
+  return Hint(db_path, std::vector<std::string>(words));
+}
+
+std::string Hint(const std::string& db_path, const std::vector<std::string>& words) {
   std::string out = "armsig --db " + ShellWord(AbsolutePath(db_path));
   for (const auto& w : words) out += " " + ShellWord(w);
   return out;
+}
+
+std::string UnknownRobotMessage(const std::string& db_path, const std::string& robot) {
+  return "no robot " + ShellWord(robot) + " in the database (register it: " +
+         Hint(db_path, {"robot", "add", robot, "--model", "MODEL.yaml"}) + "; " +
+         Hint(db_path, {"robot", "list"}) + " shows the robots)";
 }
 
 }  // namespace armsig::workflows

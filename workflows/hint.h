@@ -5,6 +5,7 @@
 
 #include <initializer_list>
 #include <string>
+#include <vector>
 
 namespace armsig::workflows {
 
@@ -16,5 +17,11 @@ std::string ShellWord(const std::string& word);
 // "armsig --db /abs/lab.db WORD…": every word quoted as needed. Words that name files
 // should be passed through AbsolutePath first.
 std::string Hint(const std::string& db_path, std::initializer_list<std::string> words);
+std::string Hint(const std::string& db_path, const std::vector<std::string>& words);
+
+// "no robot 'NAME' in the database (register it: armsig --db … robot add NAME --model
+// MODEL.yaml; armsig --db … robot list shows the robots)": MODEL.yaml is the one word to
+// replace.
+std::string UnknownRobotMessage(const std::string& db_path, const std::string& robot);
 
 }  // namespace armsig::workflows

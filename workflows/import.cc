@@ -74,7 +74,10 @@ ImportPosesResult ImportPosesFile(const ImportPosesRequest& request) {
   result.poses = poses.size();
   if (!request.robot.empty()) {
     db::Database database(request.db_path, db::OpenMode::kMustExist);
-    result.session = StorePosesSession(database, request.robot, poses, request.file);
+    const auto stored =
+        StorePosesSession(database, request.robot, poses, request.file, request.allow_duplicate);
+    result.session = stored.session;
+    result.duplicate = stored.duplicate;
     result.db_path = database.path();
   }
   if (!request.out.empty()) {

@@ -16,12 +16,14 @@ struct ImportPosesRequest {
   std::string id_column, delimiter;        // delimiter: one character or "tab"
   std::string joint_unit = "rad";          // deg | gon | rad
   bool decimal_comma = false;
-  double length_scale = 1.0;  // factor to mm
+  double length_scale = 1.0;     // factor to mm
+  bool allow_duplicate = false;  // store a copy of poses a session of the robot already holds
 };
 struct ImportPosesResult {
   size_t poses = 0;
-  int64_t session = 0;  // 0 when not stored
-  std::string db_path;  // where it was stored
+  int64_t session = 0;     // 0 when not stored
+  bool duplicate = false;  // nothing stored: `session` already holds exactly these poses
+  std::string db_path;     // where it was stored
 };
 // Reads and checks the whole file before storing or writing anything.
 ImportPosesResult ImportPosesFile(const ImportPosesRequest& request);

@@ -4,6 +4,11 @@
 #include <fmt/ranges.h>
 #include <spdlog/spdlog.h>
 
+#include <cstdint>
+#include <cstring>
+#include <limits>
+
+#include "acquisition/session_owner.h"
 #include "core/error.h"
 #include "core/plausibility.h"
 #include "core/text.h"
@@ -19,12 +24,8 @@ namespace {
 int64_t RobotId(db::Database& database, const std::string& robot) {
   const auto id = db::FindRobot(database, robot);
   if (!id) {
-    throw InputError(
-        {database.path(), 0, 0, "--robot"},
-        fmt::format("no robot '{}' in the database (register it: {}; {} shows the "
-                    "robots)",
-                    robot, Hint(database.path(), {"robot", "add", robot, "--model"}) + " FILE.yaml",
-                    Hint(database.path(), {"robot", "list"})));
+    throw InputError({database.path(), 0, 0, "--robot"},
+                     UnknownRobotMessage(database.path(), robot));
   }
   return *id;
 }
@@ -50,8 +51,29 @@ bool RegisterRobot(db::Database& database, const std::string& name, const std::s
   return true;
 }
 
-int64_t StorePosesSession(db::Database& database, const std::string& robot,
-                          const std::vector<MeasuredPose>& poses, const std::string& source) {
+std::string PosesDigest(const std::vector<MeasuredPose>& poses) {
+  // FNV-1a over the bit patterns of every joint angle and target coordinate, in order.
+  uint64_t hash = 0xcbf29ce484222325ULL;
+  auto add = [&](double value) {
+    uint64_t bits = 0;
+    if (value == 0.0) value = 0.0;  // -0 and +0 are one measurement
+    std::memcpy(&bits, &value, sizeof bits);
+    for (int k = 0; k < 8; ++k) {
+      hash ^= (bits >> (8 * k)) & 0xff;
+      hash *= 0x100000001b3ULL;
+    }
+  };
+  for (const auto& p : poses) {
+    add(static_cast<double>(p.joints_rad.size()));
+    for (int i = 0; i < p.joints_rad.size(); ++i) add(p.joints_rad(i));
+    for (int i = 0; i < 3; ++i) add(p.target_in_world(i));
+  }
+  return fmt::format("{:016x}", hash);
+}
+
+StoredPoses StorePosesSession(db::Database& database, const std::string& robot,
+                              const std::vector<MeasuredPose>& poses, const std::string& source,
+                              bool allow_duplicate) {
   const int64_t robot_id = RobotId(database, robot);
   const auto model =
       io::ParseRobotModel(db::RobotModelYaml(database, robot_id), "model of robot " + robot);
@@ -64,7 +86,29 @@ int64_t StorePosesSession(db::Database& database, const std::string& robot,
     }
   }
   if (poses.empty()) throw InputError({source, 0, 0, ""}, "no poses to store");
-  db::WriteTransaction tx(database);
+  StoredPoses result;
+  result.digest = PosesDigest(poses);
+  spdlog::debug("import poses: {} poses from {}: content digest {}", poses.size(), source,
+                result.digest);
+  db::WriteTransaction tx(database);  // the look for a copy and the insert: one writer at a time
+  for (const auto& s : db::ListSessions(database, robot_id)) {
+    if (s.measured != static_cast<int>(poses.size())) continue;
+    const std::string digest = PosesDigest(db::LoadSessionPoses(database, s.id));
+    spdlog::trace("import poses: session {} ({} poses): digest {}", s.id, s.measured, digest);
+    if (digest != result.digest) continue;
+    if (allow_duplicate) {
+      spdlog::warn("import poses: session {} already holds these {} poses; storing them again "
+                   "(--allow-duplicate)",
+                   s.id, poses.size());
+      break;
+    }
+    result.session = s.id;
+    result.duplicate = true;
+    spdlog::info("import poses: robot {}: these {} poses are already stored as session {}; "
+                 "nothing stored (--allow-duplicate stores them again)",
+                 robot, poses.size(), s.id);
+    return result;
+  }
   const int64_t session =
       db::CreateSession(database, robot_id, "", "", "completed",
                         // The file name is input: shown in the note, never obeyed.
@@ -83,7 +127,8 @@ int64_t StorePosesSession(db::Database& database, const std::string& robot,
   tx.commit();
   spdlog::info("robot {}: session {} stores {} measured poses from {}", robot, session,
                poses.size(), source);
-  return session;
+  result.session = session;
+  return result;
 }
 
 std::vector<MeasuredPose> SessionPoses(db::Database& database, int64_t session_id) {
@@ -95,14 +140,38 @@ std::vector<MeasuredPose> SessionPoses(db::Database& database, int64_t session_i
   return db::LoadSessionPoses(database, session_id);
 }
 
+int SessionJoints(db::Database& database, int64_t session_id) {
+  const auto row = db::LoadSession(database, session_id);
+  if (!row) {
+    throw InputError({database.path(), 0, 0, ""},
+                     fmt::format("no session {} ({} lists them)", session_id,
+                                 Hint(database.path(), {"sessions"})));
+  }
+  const int64_t robot_id = RobotId(database, row->robot);
+  return io::ParseRobotModel(db::RobotModelYaml(database, robot_id), "model of robot " + row->robot)
+      .num_joints();
+}
+
 std::vector<db::SessionSummary> Sessions(db::Database& database, const std::string& robot) {
-  return db::ListSessions(
+  auto sessions = db::ListSessions(
       database, robot.empty() ? std::nullopt : std::optional<int64_t>(RobotId(database, robot)));
+  for (auto& s : sessions) {
+    const std::string shown = acquisition::DisplayState(s.state, s.owner);
+    if (shown != s.state) {
+      spdlog::debug("sessions: session {} is stored as {}, its process {} is gone: {}", s.id,
+                    s.state, s.owner ? fmt::format("{} on {}", s.owner->pid, s.owner->host)
+                                     : std::string("(not recorded)"),
+                    shown);
+    }
+    s.state = shown;
+  }
+  return sessions;
 }
 
 std::vector<VersionInfo> Versions(db::Database& database, const std::string& robot) {
   std::vector<VersionInfo> out;
-  for (const auto& c : db::CalibrationHistory(database, RobotId(database, robot))) {
+  const int64_t robot_id = RobotId(database, robot);
+  for (const auto& c : db::CalibrationHistory(database, robot_id)) {
     VersionInfo v;
     v.version = c.version;
     v.active = c.active;
@@ -124,12 +193,25 @@ std::vector<VersionInfo> Versions(db::Database& database, const std::string& rob
       }
       if (inputs.contains("since") && inputs["since"].is_string()) v.since = inputs["since"];
     }
+    const auto drift =
+        nlohmann::json::parse(c.drift_json.empty() ? "null" : c.drift_json, nullptr, false);
+    if (drift.is_object() && drift.contains("flag") && drift["flag"].is_boolean()) {
+      v.drift = drift["flag"].get<bool>();
+      if (drift.contains("against") && drift["against"].is_number_integer())
+        v.drift_against = drift["against"].get<int>();
+    }
     out.push_back(std::move(v));
+  }
+  for (const auto& a : db::ActivationHistory(database, robot_id)) {
+    for (auto& v : out) {
+      if (v.version == a.version) v.activations.push_back(a);
+    }
   }
   return out;
 }
 
-std::optional<int> Activate(db::Database& database, const std::string& robot, int version) {
+std::optional<int> Activate(db::Database& database, const std::string& robot, int version,
+                            const std::string& note) {
   const int64_t robot_id = RobotId(database, robot);
   db::WriteTransaction tx(database);
   const auto before = db::ActiveCalibration(database, robot_id);
@@ -138,8 +220,9 @@ std::optional<int> Activate(db::Database& database, const std::string& robot, in
                      fmt::format("robot {} has no parameter set version {} ({})", robot, version,
                                  Hint(database.path(), {"versions", "--robot", robot})));
   }
-  tx.commit();
   const std::optional<int> previous = before ? std::optional<int>(before->version) : std::nullopt;
+  db::RecordActivation(database, robot_id, {version, previous, "", "activate", note});
+  tx.commit();
   spdlog::info("activate: robot {}: version {} is now active (was {})", robot, version,
                previous ? "version " + std::to_string(*previous) : std::string("none"));
   return previous;
@@ -189,14 +272,25 @@ std::string FormatVersions(const std::vector<VersionInfo>& versions, bool json,
   if (versions.empty()) return "robot " + robot + " has no parameter set yet\n";
   std::string text;
   for (const auto& v : versions) {
+    std::string activated = "never active";
+    if (!v.activations.empty()) {
+      const auto& a = v.activations.back();
+      activated = fmt::format("activated {} by {}", Printable(a.activated_at.substr(0, 19)),
+                              Printable(a.activated_by));
+      if (v.activations.size() > 1)
+        activated += fmt::format(" ({} times)", v.activations.size());
+    }
     text += fmt::format(
         "{} v{:<3} {}  params {:<9} rank {:>2}  fit {:>3} poses  validation mean {:.4f} max "
-        "{:.4f} mm on {}  sessions {}\n",
+        "{:.4f} mm on {}  sessions {}  {}{}\n",
         v.active ? "*" : " ", v.version, Printable(v.created_at.substr(0, 19)),
         Printable(v.params_spec), v.rank, v.poses_fit, v.validation_mean_mm, v.validation_max_mm,
         v.poses_validation,
         v.sessions.empty() ? std::string("(not recorded)")
-                           : fmt::format("{}", fmt::join(v.sessions, ",")));
+                           : fmt::format("{}", fmt::join(v.sessions, ",")),
+        activated,
+        v.drift && *v.drift ? fmt::format("  DRIFT against v{}", v.drift_against.value_or(0))
+                            : std::string());
   }
   return text;
 }
@@ -211,9 +305,12 @@ nlohmann::json ToJson(const db::RobotRow& r) {
 }
 
 nlohmann::json ToJson(const db::SessionSummary& s) {
+  nlohmann::json owner = nullptr;
+  if (s.owner) owner = {{"pid", s.owner->pid}, {"host", s.owner->host}};
   return {{"id", s.id},
           {"robot", s.robot},
           {"state", s.state},
+          {"owner", owner},
           {"note", s.note},
           {"started_at", s.started_at},
           {"finished_at",
@@ -228,6 +325,19 @@ nlohmann::json ToJson(const VersionInfo& v) {
   auto number = [](double x) {
     return std::isfinite(x) ? nlohmann::json(x) : nlohmann::json(nullptr);
   };
+  nlohmann::json activations = nlohmann::json::array();
+  for (const auto& a : v.activations) {
+    activations.push_back(
+        {{"at", a.activated_at},
+         {"by", a.activated_by},
+         {"previous", a.previous_version ? nlohmann::json(*a.previous_version) : nlohmann::json()},
+         {"note", a.note}});
+  }
+  nlohmann::json drift = nullptr;
+  if (v.drift) {
+    drift = {{"flag", *v.drift},
+             {"against", v.drift_against ? nlohmann::json(*v.drift_against) : nlohmann::json()}};
+  }
   return {{"version", v.version},
           {"active", v.active},
           {"created_at", v.created_at},
@@ -239,7 +349,9 @@ nlohmann::json ToJson(const VersionInfo& v) {
           {"validation_mean_mm", number(v.validation_mean_mm)},
           {"validation_max_mm", number(v.validation_max_mm)},
           {"sessions", v.sessions},
-          {"since", v.since}};
+          {"since", v.since},
+          {"activations", activations},
+          {"drift", drift}};
 }
 
 }  // namespace armsig::workflows

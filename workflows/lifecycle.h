@@ -10,6 +10,7 @@
 #include <vector>
 
 #include "core/types.h"
+#include "db/calibrations.h"
 #include "db/database.h"
 #include "db/robots.h"
 #include "db/sessions.h"
@@ -21,17 +22,34 @@ namespace armsig::workflows {
 // exactly this model; InputError when the name is taken with another model.
 bool RegisterRobot(db::Database& database, const std::string& name, const std::string& model_path);
 
+// What measured poses are: their joints and targets, in order (not their ids), as a
+// stable 64-bit FNV-1a digest in hex. Equal digests = the same measurements.
+std::string PosesDigest(const std::vector<MeasuredPose>& poses);
+
+struct StoredPoses {
+  int64_t session = 0;     // the new session, or the one that already holds these poses
+  bool duplicate = false;  // nothing stored: `session` holds exactly these poses already
+  std::string digest;      // PosesDigest of the poses
+};
 // Stores measured poses (joints + target in the measuring frame) as a new completed
 // session of a registered robot, in one transaction; the nightly job uses it like a
-// captured session. InputError for an unknown robot or joints that do not fit its model.
-int64_t StorePosesSession(db::Database& database, const std::string& robot,
-                          const std::vector<MeasuredPose>& poses, const std::string& source);
+// captured session. Idempotent: when a session of the robot already holds exactly these
+// joints and targets (the same file imported twice), nothing is stored and that session
+// is named, unless `allow_duplicate`. InputError for an unknown robot or joints that do
+// not fit its model.
+StoredPoses StorePosesSession(db::Database& database, const std::string& robot,
+                              const std::vector<MeasuredPose>& poses, const std::string& source,
+                              bool allow_duplicate = false);
 
 // A session's measured poses with their reduced targets (pose ids = the session's labels).
 // InputError for an unknown session.
 std::vector<MeasuredPose> SessionPoses(db::Database& database, int64_t session_id);
+// The number of joints of the session's robot (its model), so that a session without a
+// usable pose still exports the full poses header.
+int SessionJoints(db::Database& database, int64_t session_id);
 
-// Sessions, optionally of one robot (InputError when it is unknown).
+// Sessions, optionally of one robot (InputError when it is unknown). A `running` session
+// whose process is gone is shown `interrupted` (acquisition::DisplayState).
 std::vector<db::SessionSummary> Sessions(db::Database& database, const std::string& robot);
 
 struct VersionInfo {
@@ -42,13 +60,18 @@ struct VersionInfo {
   double fit_mean_mm = 0.0, validation_mean_mm = 0.0, validation_max_mm = 0.0;
   std::vector<int64_t> sessions;  // session ids the set was fitted from (when recorded)
   std::string since;              // the --since it was asked with ("" = all)
+  std::vector<db::Activation> activations{};  // every time it was made active, oldest first
+  std::optional<bool> drift{};  // its drift decision against the set before, when made
+  std::optional<int> drift_against{};
 };
 // Every parameter set of a robot, oldest first. InputError for an unknown robot.
 std::vector<VersionInfo> Versions(db::Database& database, const std::string& robot);
 
-// Makes `version` the robot's active set (one transaction) and logs it. Returns the
-// version that was active before. InputError for an unknown robot or version.
-std::optional<int> Activate(db::Database& database, const std::string& robot, int version);
+// Makes `version` the robot's active set (one transaction, recorded in the activation
+// history as by `activate` with `note`) and logs it. Returns the version that was active
+// before. InputError for an unknown robot or version.
+std::optional<int> Activate(db::Database& database, const std::string& robot, int version,
+                            const std::string& note = "");
 
 // What `robot list`, `sessions` and `versions` print: a table, or a JSON array.
 std::string FormatRobots(const std::vector<db::RobotRow>& robots, bool json,

@@ -17,6 +17,31 @@
 
 namespace armsig::workflows {
 
+std::vector<reduction::Station> OrientedStations(const reduction::OrientationProblem& problem,
+                                                 const reduction::OrientationResult& result) {
+  const std::set<std::string> stations(problem.station_ids.begin(), problem.station_ids.end());
+  bool mutual = false, distances = false;
+  for (const auto& o : problem.observations) {
+    mutual |= stations.count(o.point) > 0;
+    distances |= o.distance_mm.has_value();
+  }
+  std::vector<std::string> parts;
+  if (mutual) parts.push_back("mutual");
+  if (!problem.scale_bars.empty()) parts.push_back("scale_bar");
+  if (!problem.control.empty()) parts.push_back("control");
+  if (distances) parts.push_back("distances");
+  if (problem.free_datum) parts.push_back("free_datum");
+  std::string method;
+  for (const auto& p : parts) method += (method.empty() ? "" : "+") + p;
+  std::vector<reduction::Station> out = result.stations;
+  for (auto& s : out) {
+    s.orientation_sigma0 = result.sigma0;
+    s.orientation_dof = result.dof;
+    s.orientation_method = method.empty() ? std::string("orient") : method;
+  }
+  return out;
+}
+
 OrientRun OrientFiles(const OrientFilesOptions& options) {
   OrientRun run;
   reduction::OrientationProblem problem;
@@ -68,6 +93,10 @@ OrientRun OrientFiles(const OrientFilesOptions& options) {
                              "; nothing was written");
   }
   const auto& result = run.result;
+  spdlog::debug("orient: {} stations, {} points, {} observations, {} unknowns, sigma0 {:.4f}, {} "
+                "iterations ({})",
+                result.stations.size(), result.points.size(), result.observations,
+                result.unknowns, result.sigma0, result.iterations, result.datum);
   if (!result.status.ok()) {
     spdlog::error("orient: the adjustment did not converge ({}): nothing was written",
                   result.status.message);
@@ -77,7 +106,8 @@ OrientRun OrientFiles(const OrientFilesOptions& options) {
     const std::string header = fmt::format(
         "armsig orient: {} stations from {}; datum: {}\nsigma0 {:.5f}, {} degrees of freedom",
         result.stations.size(), options.observations, result.datum, result.sigma0, result.dof);
-    io::WriteFileAtomically(options.out, io::FormatStationsYaml(result.stations, header));
+    io::WriteFileAtomically(options.out,
+                            io::FormatStationsYaml(OrientedStations(problem, result), header));
   }
   if (!options.points_out.empty())
     io::WriteFileAtomically(options.points_out, FormatAdjustedPointsCsv(result.points));
@@ -214,6 +244,8 @@ TriangulateRun TriangulateFiles(const TriangulateFilesOptions& options) {
   }
   for (const auto& point : run.points) {
     const auto& r = point.result;
+    spdlog::trace("triangulate: point {}: {} rays, {} ({})", point.id, r.rays.size(),
+                  r.status.ok() ? "intersected" : "not intersected", reduction::ToString(r.flags));
     if (!r.status.ok()) {
       spdlog::warn("triangulate: point {} not intersected: {} ({})", point.id, r.status.message,
                    reduction::ToString(r.flags));

@@ -32,6 +32,12 @@ struct OrientRun {
   reduction::OrientationResult result;
 };
 
+// The oriented stations with the adjustment's σ0, degrees of freedom and method
+// ("mutual+scale_bar", "control+distances", …, from what the problem held), as the
+// stations file carries them into a session's set-ups.
+std::vector<reduction::Station> OrientedStations(const reduction::OrientationProblem& problem,
+                                                 const reduction::OrientationResult& result);
+
 // Reads the files, adjusts and writes the outputs. A network that cannot be solved
 // (result.refusals) is an InputError naming the observations file and every reason; so
 // are unknown stations.

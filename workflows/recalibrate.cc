@@ -5,7 +5,10 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdlib>
+#include <ctime>
 #include <functional>
+#include <map>
 #include <regex>
 #include <set>
 
@@ -21,6 +24,7 @@
 #include "io/file_lock.h"
 #include "io/model_yaml.h"
 #include "workflows/calibration_run.h"
+#include "workflows/hint.h"
 #include "workflows/report.h"
 #include "workflows/signature.h"
 
@@ -34,27 +38,8 @@ struct Gates {
 };
 
 constexpr int kDriftConfigurations = 50;     // spread over the work volume, the same every night
+constexpr size_t kMinPosesPerSession = 3;    // to place a session's measurement frame
 constexpr double kDriftSignificance = 1e-3;  // p-value below which two sets differ
-
-// `--since` as the database compares it (the sessions' started_at is
-// YYYY-MM-DDTHH:MM:SS.sssZ): an ISO date, or date and time (T or one space between).
-std::string CheckedSince(const std::string& text) {
-  static const std::regex iso(
-      R"(^(\d{4})-(\d{2})-(\d{2})(?:[T ](\d{2}):(\d{2})(?::(\d{2})(?:\.\d+)?)?Z?)?$)");
-  std::smatch m;
-  auto number = [&](int group) { return m[group].matched ? std::stoi(m[group].str()) : 0; };
-  if (!std::regex_match(text, m, iso) || number(2) < 1 || number(2) > 12 || number(3) < 1 ||
-      number(3) > 31 || number(4) > 23 || number(5) > 59 || number(6) > 60) {
-    throw InputError({"--since", 0, 0, ""},
-                     Quoted(text) +
-                         ": expected an ISO date or date/time, e.g. 2026-11-01 or "
-                         "2026-11-01T02:30:00Z");
-  }
-  std::string normalised = text;
-  if (normalised.size() > 10) normalised[10] = 'T';
-  if (!normalised.empty() && normalised.back() == 'Z') normalised.pop_back();
-  return normalised;
-}
 
 // What the measurements are, not how they were asked for: every pose's id, joints and
 // target, in order, with the options that shape the fit. Equal digests = same inputs.
@@ -108,11 +93,97 @@ nlohmann::json Stats(const calibration::ErrorStats& s) {
   return {{"poses", s.poses}, {"mean_mm", s.mean_mm}, {"max_mm", s.max_mm}, {"rms_mm", s.rms_mm}};
 }
 
+// A calibration's stored inputs digest ("" when none was recorded).
+std::string StoredDigest(const db::StoredCalibration& c) {
+  const auto stored = nlohmann::json::parse(c.inputs_json.empty() ? "{}" : c.inputs_json, nullptr,
+                                            false);
+  return stored.is_object() ? stored.value("digest", std::string()) : std::string();
+}
+
+bool LeapYear(int y) { return (y % 4 == 0 && y % 100 != 0) || y % 400 == 0; }
+
+int DaysInMonth(int year, int month) {
+  static constexpr int kDays[12] = {31, 28, 31, 30, 31, 30, 31, 31, 30, 31, 30, 31};
+  return month == 2 && LeapYear(year) ? 29 : kDays[month - 1];
+}
+
 }  // namespace
+
+std::string SinceToUtc(const std::string& text) {
+  static const std::regex iso(
+      R"(^(\d{4})-(\d{2})-(\d{2})(?:[T ](\d{2}):(\d{2})(?::(\d{2})(?:\.(\d+))?)?(Z|([+-])(\d{2})(?::?(\d{2}))?)?)?$)");
+  auto fail = [&](const std::string& why) -> InputError {
+    return InputError({"--since", 0, 0, ""}, "'" + text + "': " + why);
+  };
+  std::smatch m;
+  if (!std::regex_match(text, m, iso)) {
+    throw fail(
+        "expected an ISO 8601 date or date and time, e.g. 2026-11-01, 2026-11-01T02:30 (local "
+        "time), 2026-11-01T02:30:00Z (UTC) or 2026-11-01T02:30+01:00");
+  }
+  auto number = [&](int group) { return m[group].matched ? std::stoi(m[group].str()) : 0; };
+  const int year = number(1), month = number(2), day = number(3);
+  const int hour = number(4), minute = number(5), second = number(6);
+  if (month < 1 || month > 12) throw fail(fmt::format("there is no month {:02d}", month));
+  if (day < 1 || day > DaysInMonth(year, month)) {
+    throw fail(fmt::format("{:04d}-{:02d} has {} days, there is no day {:02d}", year, month,
+                           DaysInMonth(year, month), day));
+  }
+  if (hour > 23 || minute > 59 || second > 59)
+    throw fail(fmt::format("{:02d}:{:02d}:{:02d} is no time of day", hour, minute, second));
+  const int offset_hours = number(10), offset_minutes = number(11);
+  if (offset_hours > 23 || offset_minutes > 59)
+    throw fail(fmt::format("{} is no offset from UTC", m[8].str()));
+  int milliseconds = 0;
+  if (m[7].matched) milliseconds = std::stoi((m[7].str() + "00").substr(0, 3));
+  std::tm tm{};
+  tm.tm_year = year - 1900;
+  tm.tm_mon = month - 1;
+  tm.tm_mday = day;
+  tm.tm_hour = hour;
+  tm.tm_min = minute;
+  tm.tm_sec = second;
+  std::time_t utc = 0;
+  if (m[8].matched) {  // Z or an offset: that many hours east of UTC
+    const int sign = m[9].matched && m[9].str() == "-" ? -1 : 1;
+    utc = ::timegm(&tm) - sign * (offset_hours * 3600 + offset_minutes * 60);
+  } else {  // local time of $TZ (a time that a DST change skips is read as mktime does)
+    tm.tm_isdst = -1;
+    utc = std::mktime(&tm);
+    if (utc == static_cast<std::time_t>(-1) && !(year == 1969 && month == 12 && day == 31))
+      throw fail("not a time this system can represent");
+  }
+  std::tm out{};
+  if (!::gmtime_r(&utc, &out)) throw fail("not a time this system can represent");
+  const std::string bound =
+      fmt::format("{:04d}-{:02d}-{:02d}T{:02d}:{:02d}:{:02d}.{:03d}Z", out.tm_year + 1900,
+                  out.tm_mon + 1, out.tm_mday, out.tm_hour, out.tm_min, out.tm_sec, milliseconds);
+  spdlog::debug("recalibrate: --since {} ({}) = {}", text,
+                m[8].matched ? (m[8].str() == "Z" ? std::string("UTC") : "UTC" + m[8].str())
+                             : fmt::format("local time, TZ={}", std::getenv("TZ") ? std::getenv("TZ")
+                                                                                   : "(unset)"),
+                bound);
+  return bound;
+}
 
 std::string RecalibrationDecision::Describe() const {
   switch (outcome) {
     case Outcome::kUpToDate:
+      if (previous_version && *previous_version != version) {
+        // A roll-back (or forward) chose the active set: the nightly job does not undo it.
+        return fmt::format(
+            "up to date: version {} already fits these {} poses with these options; version {} "
+            "stays active (made active by {}{}); nothing to do (--force refits)",
+            version, poses, *previous_version,
+            active_chosen_by.empty() ? std::string("a choice not recorded") : active_chosen_by,
+            active_chosen_at.empty() ? std::string() : " at " + active_chosen_at);
+      }
+      if (!previous_version) {
+        return fmt::format(
+            "up to date: version {} already fits these {} poses with these options; no set is "
+            "active; nothing to do (--force refits)",
+            version, poses);
+      }
       return fmt::format("up to date: version {} already uses these {} poses; nothing to do",
                          version, poses);
     case Outcome::kStored:
@@ -132,6 +203,12 @@ nlohmann::json RecalibrationDecision::ToJson() const {
   if (outcome == Outcome::kUpToDate) {
     j["decision"] = "up_to_date";
     j["version"] = version;
+    j["active_version"] =
+        previous_version ? nlohmann::json(*previous_version) : nlohmann::json(nullptr);
+    if (previous_version && *previous_version != version) {
+      j["active_chosen_by"] = active_chosen_by;
+      j["active_chosen_at"] = active_chosen_at;
+    }
     return j;
   }
   j["decision"] = outcome == Outcome::kStored ? "stored" : "rejected";
@@ -149,40 +226,47 @@ nlohmann::json RecalibrationDecision::ToJson() const {
                           {"limit_mm", g.limit_mm},
                           {"passed", g.passed}});
   }
-  if (previous_version) {
-    nlohmann::json moved = nlohmann::json::array();
-    for (const auto& p : drifted)
-      moved.push_back({{"name", p.name}, {"change", p.change}, {"sigmas", p.sigmas}});
-    j["drift"] = {{"flag", drift}, {"max_abs_sigmas", max_abs_sigmas}, {"parameters", moved}};
-    if (model_drift) {
-      const auto& m = *model_drift;
-      j["drift"]["positions"] = {{"configurations", m.configurations},
-                                 {"max_mm", m.max_mm},
-                                 {"mean_mm", m.mean_mm},
-                                 {"rms_mm", m.rms_mm},
-                                 {"chi2", m.chi2},
-                                 {"dof", m.dof},
-                                 {"p_value", m.p_value},
-                                 {"significant", m.significant},
-                                 {"tolerance_mm", m.tolerance_mm},
-                                 {"previous_covariance_stored", m.previous_covariance},
-                                 {"same_subset", m.same_subset}};
-    }
-  }
+  if (previous_version) j["drift"] = DriftJson();
+  j["sessions"] = sessions;
   if (!report_path.empty()) j["report"] = report_path;
+  return j;
+}
+
+nlohmann::json RecalibrationDecision::DriftJson() const {
+  if (!previous_version) return nullptr;
+  nlohmann::json moved = nlohmann::json::array();
+  for (const auto& p : drifted)
+    moved.push_back({{"name", p.name}, {"change", p.change}, {"sigmas", p.sigmas}});
+  nlohmann::json j = {{"flag", drift},
+                      {"against", *previous_version},
+                      {"max_abs_sigmas", max_abs_sigmas},
+                      {"parameters", moved}};
+  if (model_drift) {
+    const auto& m = *model_drift;
+    j["positions"] = {{"configurations", m.configurations},
+                      {"max_mm", m.max_mm},
+                      {"mean_mm", m.mean_mm},
+                      {"rms_mm", m.rms_mm},
+                      {"chi2", m.chi2},
+                      {"dof", m.dof},
+                      {"p_value", m.p_value},
+                      {"significant", m.significant},
+                      {"tolerance_mm", m.tolerance_mm},
+                      {"previous_covariance_stored", m.previous_covariance},
+                      {"same_subset", m.same_subset}};
+  }
   return j;
 }
 
 RecalibrationDecision Recalibrate(const RecalibrateOptions& o) {
   // Everything the run will write is checked before anything is stored.
-  const std::string since = o.since.empty() ? std::string() : CheckedSince(o.since);
+  const std::string since = o.since.empty() ? std::string() : SinceToUtc(o.since);
   if (!o.json_path.empty()) io::CheckOutputFile(o.json_path, "--json");
   if (!o.report_dir.empty()) io::CheckOutputDirectory(o.report_dir, "--report");
   db::Database database(o.db_path, db::OpenMode::kMustExist);
   const auto robot_id = db::FindRobot(database, o.robot);
   if (!robot_id)
-    throw InputError({o.db_path, 0, 0, "--robot"},
-                     "no robot " + Quoted(o.robot) + " in the database");
+    throw InputError({o.db_path, 0, 0, "--robot"}, UnknownRobotMessage(database.path(), o.robot));
   io::FileLock lock(o.db_path + ".recalibrate.lock", o.lock_wait_s);
   auto log = [&](const std::string& message) {
     spdlog::info("recalibrate: {}: {}", o.robot, message);
@@ -191,56 +275,121 @@ RecalibrationDecision Recalibrate(const RecalibrateOptions& o) {
   const auto model =
       io::ParseRobotModel(db::RobotModelYaml(database, *robot_id), "model of robot " + o.robot);
   const Gates gates = LoadGates(database, *robot_id, o);
-  const auto poses = db::LoadRobotPoses(database, *robot_id, since);
-  const auto current = db::ActiveCalibration(database, *robot_id);
+  spdlog::debug(
+      "recalibrate: gates: validation mean <= {} mm, max <= {} mm, tolerance {} mm, drift {} mm "
+      "/ {} sigma",
+      gates.max_mean_mm, gates.max_max_mm, gates.tolerance_mm, gates.drift_mm, gates.drift_sigma);
+  std::vector<MeasuredPose> poses;
+  {
+    // Every session is a measurement frame of its own (its own set-up of the instruments);
+    // one whose poses cannot place its frame adds nothing but unknowns.
+    std::map<int64_t, std::vector<MeasuredPose>> by_session;
+    for (auto& p : db::LoadRobotPoses(database, *robot_id, since))
+      by_session[p.frame].push_back(std::move(p));
+    for (auto& [session, list] : by_session) {
+      if (list.size() < kMinPosesPerSession) {
+        spdlog::warn(
+            "recalibrate: {}: session {} has {} usable configuration{}: too few to place its "
+            "measurement frame ({} needed); left out",
+            o.robot, session, list.size(), list.size() == 1 ? "" : "s", kMinPosesPerSession);
+        continue;
+      }
+      spdlog::debug("recalibrate: session {}: {} usable configurations (one measurement frame)",
+                    session, list.size());
+      for (auto& p : list) poses.push_back(std::move(p));
+    }
+  }
+  const auto history = db::CalibrationHistory(database, *robot_id);
+  std::optional<db::StoredCalibration> current;
+  for (const auto& c : history) {
+    if (c.active) current = c;
+  }
 
   RecalibrationDecision d;
   d.robot = o.robot;
   d.poses = static_cast<int>(poses.size());
   if (current) d.previous_version = current->version;
-  // Idempotence on content: the active set was already fitted on exactly these
-  // measurements with these options, however they were asked for.
   const std::string digest = InputDigest(poses, o.params, o.select);
-  std::set<std::string> sessions;
-  for (const auto& p : poses) sessions.insert(p.id.substr(0, p.id.find(':')));
+  std::set<int64_t> sessions;
+  for (const auto& p : poses) sessions.insert(p.frame);
+  d.sessions.assign(sessions.begin(), sessions.end());
   const nlohmann::json inputs = {{"digest", digest},     {"poses", poses.size()},
                                  {"sessions", sessions}, {"since", since},
                                  {"params", o.params},   {"select", o.select}};
-  if (current && !o.force) {
-    const auto stored = nlohmann::json::parse(
-        current->inputs_json.empty() ? "{}" : current->inputs_json, nullptr, false);
-    if (stored.is_object() && stored.value("digest", std::string()) == digest) {
+  spdlog::debug("recalibrate: inputs: {} poses from sessions {}, --params {} --select {}: digest {}",
+                poses.size(), JsonText(nlohmann::json(sessions)), o.params, o.select, digest);
+  // Idempotence on content: a stored set was already fitted on exactly these measurements
+  // with these options, however they were asked for. The active one first; else the
+  // newest other one (after `activate` chose another set: the night does not undo it).
+  if (!o.force) {
+    const db::StoredCalibration* same = nullptr;
+    for (auto it = history.rbegin(); it != history.rend(); ++it) {
+      if (StoredDigest(*it) != digest) continue;
+      spdlog::debug("recalibrate: version {}{} has this digest", it->version,
+                    it->active ? " (active)" : "");
+      if (it->active || !same) same = &*it;
+      if (it->active) break;
+    }
+    if (same) {
       d.outcome = RecalibrationDecision::Outcome::kUpToDate;
-      d.version = current->version;
+      d.version = same->version;
+      if (current && current->version != same->version) {
+        const auto activations = db::ActivationHistory(database, *robot_id);
+        for (auto a = activations.rbegin(); a != activations.rend(); ++a) {
+          if (a->version != current->version) continue;
+          d.active_chosen_by = a->activated_by;
+          d.active_chosen_at = a->activated_at;
+          break;
+        }
+      }
       log(d.Describe());
       return d;
     }
+  } else {
+    spdlog::debug("recalibrate: --force: refitting whatever is stored");
   }
   if (poses.size() < 20) {
     throw InputError({o.db_path, 0, 0, "--robot"},
                      fmt::format("robot {} has {} measured configurations{}; a recalibration "
-                                 "needs at least 20 (some to fit, the rest to validate)",
-                                 o.robot, poses.size(), since.empty() ? "" : " since " + since));
+                                 "needs at least 20 (some to fit, the rest to validate); {} "
+                                 "lists its sessions",
+                                 o.robot, poses.size(), since.empty() ? "" : " since " + since,
+                                 Hint(database.path(), {"sessions", "--robot", o.robot})));
   }
   CalibrateSettings settings;
   settings.params = o.params;
   settings.model_subset = true;
+  // 60 %, at most 80 (the paper's) and 6 more for every further session: each session's
+  // frame adds six base unknowns.
+  const size_t most = 80 + 6 * (sessions.size() - 1);
   settings.select =
       o.select > 0
           ? o.select
-          : static_cast<int>(std::min<size_t>(80, std::max<size_t>(poses.size() * 6 / 10, 10)));
-  log(fmt::format("{} configurations: fitting {} ({}), validating on the rest", poses.size(),
-                  settings.select, o.params));
+          : static_cast<int>(std::min<size_t>(most, std::max<size_t>(poses.size() * 6 / 10, 10)));
+  log(fmt::format("{} configurations from {} session{}: fitting {} ({}), validating on the rest",
+                  poses.size(), sessions.size(), sessions.size() == 1 ? "" : "s", settings.select,
+                  o.params));
   const CalibrationRun run = RunCalibration(model, poses, {}, settings);
   std::vector<MeasuredPose> fit, validation;
   {
     const std::set<std::string> fit_ids(run.fit_pose_ids.begin(), run.fit_pose_ids.end());
-    for (const auto& p : poses) (fit_ids.count(p.id) ? fit : validation).push_back(p);
+    const std::set<std::string> validation_ids(run.validation_pose_ids.begin(),
+                                               run.validation_pose_ids.end());
+    for (const auto& p : poses) {
+      if (fit_ids.count(p.id)) fit.push_back(p);
+      if (validation_ids.count(p.id)) validation.push_back(p);
+    }
   }
   d.validation = StatsOf(run.validation_residuals);
   d.fit = run.estimate.fit;
   d.nominal = run.estimate.nominal;
   d.rank = run.estimate.identifiability.rank;
+  spdlog::debug(
+      "recalibrate: fit {} ({} iterations): rank {}, sigma0 {:.4f} mm, fit mean {:.4f} mm; "
+      "validation mean {:.4f} mm, max {:.4f} mm on {} configurations",
+      run.estimate.status.ok() ? "converged" : "NOT converged", run.estimate.iterations, d.rank,
+      run.estimate.sigma0_mm, d.fit.mean_mm, d.validation.mean_mm, d.validation.max_mm,
+      d.validation.poses);
 
   bool pass = run.estimate.status.ok();
   auto gate = [&](const std::string& name, double value, double limit) {
@@ -254,15 +403,36 @@ RecalibrationDecision Recalibrate(const RecalibrateOptions& o) {
   gate("validation max", d.validation.max_mm, gates.max_max_mm);
   std::vector<calibration::ParameterChange> changes;
   if (current) {
-    // The current set on the same validation data, its base re-aligned on the fit poses
-    // (the measuring frame moves between set-ups; the arm signature does not).
+    // The current set on the same validation data, each session's base re-aligned on that
+    // session's fit poses (the measuring frame moves between set-ups; the arm signature
+    // does not), as the new fit placed each frame on them.
     const Signature old = SignatureOf(model, *current);
-    if (const auto base = calibration::AlignBaseWithParams(model, old.params, fit)) {
+    calibration::FrameBases old_bases = calibration::AlignFrameBases(model, old.params, fit);
+    {
+      std::vector<MeasuredPose> unplaced;
+      for (const auto& p : validation) {
+        if (!old_bases.count(p.frame)) unplaced.push_back(p);
+      }
+      for (const auto& [frame, base] : calibration::AlignFrameBases(model, old.params, unplaced))
+        old_bases[frame] = base;
+    }
+    bool placed = !validation.empty();
+    for (const auto& p : validation) placed = placed && old_bases.count(p.frame) > 0;
+    if (placed) {
       d.previous_on_same_data =
-          StatsOf(calibration::Residuals(model, *base, old.params, validation));
+          StatsOf(calibration::Residuals(model, old_bases, old.params, validation));
+      spdlog::debug(
+          "recalibrate: version {} on the same validation data ({} frames re-aligned): mean "
+          "{:.4f} mm, max {:.4f} mm",
+          current->version, old_bases.size(), d.previous_on_same_data->mean_mm,
+          d.previous_on_same_data->max_mm);
       gate(fmt::format("not worse than version {} on the same data (+{:.3f} mm)", current->version,
                        gates.tolerance_mm),
            d.validation.mean_mm, d.previous_on_same_data->mean_mm + gates.tolerance_mm);
+    } else {
+      spdlog::debug("recalibrate: version {} could not be placed in every frame: no comparison "
+                    "on the same data",
+                    current->version);
     }
     // Drift: do the two models put the arm in different places, beyond what both fits'
     // uncertainty explains and by more than the tolerance?
@@ -324,10 +494,15 @@ RecalibrationDecision Recalibrate(const RecalibrateOptions& o) {
                                       {"tolerance_mm", gates.tolerance_mm},
                                       {"drift_sigma", gates.drift_sigma},
                                       {"drift_mm", gates.drift_mm}}}};
+    db::CalibrationRecord record = CalibrationRecordOf(model, run, *robot_id, inputs, options, true);
+    if (d.previous_version) record.drift_json = JsonText(d.DriftJson());
     db::WriteTransaction tx(database);
-    d.version = db::InsertCalibration(
-                    database, CalibrationRecordOf(model, run, *robot_id, inputs, options, true))
-                    .second;
+    d.version = db::InsertCalibration(database, record).second;
+    db::RecordActivation(
+        database, *robot_id,
+        {d.version, d.previous_version, "", "recalibrate",
+         fmt::format("validation mean {:.4f} mm on {} configurations{}", d.validation.mean_mm,
+                     d.validation.poses, d.drift ? "; drift flagged" : "")});
     tx.commit();
     d.outcome = RecalibrationDecision::Outcome::kStored;
   } else {
@@ -349,13 +524,12 @@ RecalibrationDecision Recalibrate(const RecalibrateOptions& o) {
     input.validation = validation;
     input.armsig_version = ARMSIG_VERSION;
     input.sources = LoadReportSources(database, run);
-    for (const auto& h : db::CalibrationHistory(database, *robot_id)) {
-      input.history.push_back(
-          {h.version, h.created_at, h.validation_mean_mm, h.params_spec, h.active});
-    }
+    input.history = ReportHistoryOf(database, *robot_id);
     if (d.version == 0) {
-      input.history.push_back(
-          {0, "this run (rejected)", d.validation.mean_mm, run.params_spec, false});
+      ReportHistoryPoint rejected{0, "this run (rejected)", d.validation.mean_mm, run.params_spec,
+                                  false};
+      rejected.drift = d.drift;
+      input.history.push_back(rejected);
     }
     if (current) {
       input.previous_version = current->version;

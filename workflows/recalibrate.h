@@ -15,19 +15,27 @@ namespace armsig::workflows {
 struct RecalibrateOptions {
   std::string db_path;
   std::string robot;
-  // ISO date or date/time lower bound on the sessions used ("" = all): 2026-11-01,
-  // 2026-11-01T02:30, 2026-11-01T02:30:00Z. Anything else is an InputError.
+  // ISO date or date/time lower bound on the sessions used ("" = all), see SinceToUtc.
   std::string since;
   std::string params = "all";
-  int select = 0;  // configurations to fit (0: 60 %, at most 80)
+  // Configurations to fit (0: 60 %, at most 80 plus 6 for every session beyond the first,
+  // whose measurement frame adds six unknowns).
+  int select = 0;
   // Gates; unset = the lab file's `recalibration:` block, else the defaults below.
   std::optional<double> max_validation_mean_mm, max_validation_max_mm, tolerance_mm, drift_sigma,
       drift_mm;
   std::string report_dir;  // write the HTML report here ("" = none)
   std::string json_path;   // the caller will write the decision here: checked before any write
   int lock_wait_s = 600;
-  bool force = false;  // refit even when the active set already uses these inputs
+  bool force = false;  // refit even when a stored set already uses these inputs
 };
+
+// `--since` as the sessions' start times are stored (UTC, YYYY-MM-DDTHH:MM:SS.sssZ). An
+// ISO 8601 date (its midnight) or date and time (T or one space between; HH:MM or
+// HH:MM:SS with an optional fraction), in local time ($TZ) unless it ends in Z (UTC) or an
+// offset from UTC (±HH:MM, ±HHMM, ±HH). Anything else, an impossible calendar date
+// (2026-02-30, 2026-11-31) included, is an InputError naming the value.
+std::string SinceToUtc(const std::string& text);
 
 struct Gate {
   std::string name;
@@ -59,8 +67,13 @@ struct RecalibrationDecision {
   enum class Outcome { kUpToDate, kStored, kRejected };
   Outcome outcome = Outcome::kRejected;
   std::string robot;
-  int version = 0;                      // stored version, or the active one when up to date
+  // The stored version; when up to date, the version fitted on these inputs (the active
+  // one, or — after a roll-back — another, which stays inactive).
+  int version = 0;
   std::optional<int> previous_version;  // the set active before this run
+  // Up to date with a set that is not the active one: how the active one was chosen (its
+  // latest activation: recalibrate, activate, demo or migration, and when).
+  std::string active_chosen_by, active_chosen_at;
   int poses = 0;
   int rank = 0;
   calibration::ErrorStats nominal, fit, validation;
@@ -71,12 +84,16 @@ struct RecalibrationDecision {
   std::optional<ModelDrift> model_drift;  // when there was an active set to compare with
   double max_abs_sigmas = 0.0;            // per parameter, on the subset both sets share
   std::vector<DriftedParameter> drifted;  // those beyond drift_sigma, largest first
+  std::vector<int64_t> sessions;          // the sessions fitted and validated
   std::string report_path;                // "" when no report was written
 
   bool passed() const { return outcome != Outcome::kRejected; }
   // "stored as version 4 (active)" / "rejected: a gate failed; version 3 stays active" / …
   std::string Describe() const;
   nlohmann::json ToJson() const;
+  // The drift decision as stored with the new set (calibrations.drift_json); null when
+  // there was no active set to compare with.
+  nlohmann::json DriftJson() const;
 };
 
 // Throws InputError for an unknown robot, too few measurements or a malformed stored

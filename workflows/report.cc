@@ -9,6 +9,7 @@
 #include <cmath>
 #include <filesystem>
 #include <map>
+#include <nlohmann/json.hpp>
 #include <numbers>
 #include <numeric>
 #include <opencv2/core.hpp>
@@ -18,6 +19,7 @@
 
 #include "acquisition/lab.h"
 #include "core/error.h"
+#include "db/calibrations.h"
 #include "db/observations.h"
 #include "db/report_queries.h"
 #include "io/atomic_file.h"
@@ -563,7 +565,7 @@ std::string WriteReport(const std::string& dir, const ReportInput& in) {
     }
     x.lo = *xs.begin() - 0.5;
     x.hi = *xs.rbegin() + 0.5;
-    Plot p(900, 360, "Validation mean error of every version", x, LinearAxis(0, top * 1.1, 5),
+    Plot p(900, 360, "Validation mean error of every version", x, LinearAxis(0, top * 1.25, 5),
            "parameter set version", "mm");
     struct Style {
       Marker marker;
@@ -575,7 +577,8 @@ std::string WriteReport(const std::string& dir, const ReportInput& in) {
                                                  {"list", {Marker::kDiamond, kTeal}},
                                                  {"unknown", {Marker::kCircle, kGrey}}};
     std::set<std::string> kinds;
-    bool any_active = false, any_unsaved = false;
+    bool any_active = false, any_unsaved = false, any_drift = false, any_by_hand = false,
+         any_activated = false;
     cv::Point last(-1, -1);
     for (const auto& point : h) {
       if (!std::isfinite(point.validation_mean_mm)) continue;
@@ -598,6 +601,24 @@ std::string WriteReport(const std::string& dir, const ReportInput& in) {
         cv::circle(p.image, at, 10, kRed, 2, cv::LINE_AA);
         any_unsaved = true;
       }
+      if (point.drift) {
+        // Drift flagged against the set before it: a red bar with a cap above the point.
+        cv::line(p.image, at + cv::Point(0, -14), at + cv::Point(0, -30), kRed, 3, cv::LINE_AA);
+        cv::line(p.image, at + cv::Point(-6, -30), at + cv::Point(6, -30), kRed, 3, cv::LINE_AA);
+        any_drift = true;
+      }
+      if (!point.activations.empty()) {
+        // Made active: a triangle below the point, purple when `activate` chose it (a roll
+        // back or forward), green when the nightly job or the demo did.
+        const bool by_hand = std::any_of(point.activations.begin(), point.activations.end(),
+                                         [](const auto& a) { return a.by == "activate"; });
+        const cv::Point tip = at + cv::Point(0, 13);
+        const std::vector<cv::Point> triangle = {tip, tip + cv::Point(-6, 10),
+                                                 tip + cv::Point(6, 10)};
+        cv::fillConvexPoly(p.image, triangle, by_hand ? kPurple : kGreen, cv::LINE_AA);
+        any_by_hand |= by_hand;
+        any_activated |= !by_hand;
+      }
     }
     std::vector<LegendEntry> legend;
     for (const char* kind : {"all", "geometric", "auto", "list", "unknown"}) {
@@ -612,6 +633,14 @@ std::string WriteReport(const std::string& dir, const ReportInput& in) {
     if (any_unsaved)
       rings += std::string(rings.empty() ? "" : "; ") + "red ring: this run (not stored)";
     if (!rings.empty()) Text(p.image, rings, {p.area.x + p.area.width, 20}, 0.4, Align::kRight);
+    // The marks of the life cycle, explained under the plot (outside the data).
+    std::string marks;
+    if (any_drift) marks += "red bar above: drift flagged against the set before";
+    if (any_activated)
+      marks += std::string(marks.empty() ? "" : "; ") + "green triangle below: made active";
+    if (any_by_hand)
+      marks += std::string(marks.empty() ? "" : "; ") + "purple triangle: made active by activate";
+    if (!marks.empty()) Text(p.image, marks, {p.area.x, p.image.rows - 8}, 0.4);
     if (h.empty()) {
       Text(p.image, "no parameter set stored yet",
            {p.area.x + p.area.width / 2, p.area.y + p.area.height / 2}, 0.5, Align::kCenter);
@@ -870,8 +899,8 @@ std::string WriteReport(const std::string& dir, const ReportInput& in) {
       for (const auto& c : rows) {
         const bool mm = model.UnitOf(c.parameter) == calibration::ParameterUnit::kMm;
         html += HtmlFormat(
-            "<tr><td>{}</td><td class=\"num\">{:.4f} {}</td><td class=\"num{}\">{:.1f}</td></tr>\n",
-            names[c.parameter], mm ? c.change : c.change * 1e3, mm ? "mm" : "mrad",
+            "<tr><td>{}</td><td class=\"num\">{}</td><td class=\"num{}\">{:.1f}</td></tr>\n",
+            names[c.parameter], FormatChange(c.change, mm),
             std::abs(c.z) > 5 ? Html(" bad") : Html(), c.z);
       }
       html += "</table>\n";
@@ -883,14 +912,22 @@ std::string WriteReport(const std::string& dir, const ReportInput& in) {
   if (!in.history.empty()) {
     html +=
         "<table id=\"versions\"><tr><th class=\"num\">version</th><th>stored</th><th>params</th>"
-        "<th class=\"num\">validation mean (mm)</th><th>active</th></tr>\n";
+        "<th class=\"num\">validation mean (mm)</th><th>drift</th><th>made active</th>"
+        "<th>active</th></tr>\n";
     for (const auto& h : in.history) {
+      Html activations;
+      for (const auto& a : h.activations) {
+        activations += HtmlFormat("{}<span class=\"nowrap\">{} by {}</span>",
+                                  activations.empty() ? Html() : Html("<br>"), a.at, a.by);
+      }
       html += HtmlFormat(
           "<tr><td class=\"num\">{}</td><td class=\"num\">{}</td><td>{}</td><td "
-          "class=\"num\">{}</td><td>{}</td></tr>\n",
+          "class=\"num\">{}</td><td class=\"drift\">{}</td><td class=\"activated\">{}</td>"
+          "<td>{}</td></tr>\n",
           h.version > 0 ? std::to_string(h.version) : std::string("this run"), h.created_at,
           h.params_spec.empty() ? std::string("not known") : h.params_spec,
-          Num(h.validation_mean_mm), h.active ? "active" : "");
+          Num(h.validation_mean_mm), h.drift ? Html("<span class=\"bad\">DRIFT</span>") : Html(),
+          activations, h.active ? "active" : "");
     }
     html += "</table>\n";
   }
@@ -898,6 +935,40 @@ std::string WriteReport(const std::string& dir, const ReportInput& in) {
   const std::string path = dir + "/index.html";
   io::WriteFileAtomically(path, html.str());
   return path;
+}
+
+std::vector<ReportHistoryPoint> ReportHistoryOf(db::Database& db, int64_t robot_id) {
+  std::vector<ReportHistoryPoint> out;
+  const auto activations = db::ActivationHistory(db, robot_id);
+  for (const auto& h : db::CalibrationHistory(db, robot_id)) {
+    ReportHistoryPoint point{h.version, h.created_at, h.validation_mean_mm, h.params_spec,
+                             h.active};
+    const auto drift = nlohmann::json::parse(h.drift_json.empty() ? "null" : h.drift_json,
+                                             nullptr, false);
+    point.drift = drift.is_object() && drift.value("flag", false);
+    for (const auto& a : activations) {
+      if (a.version == h.version) point.activations.push_back({a.activated_at, a.activated_by});
+    }
+    out.push_back(std::move(point));
+  }
+  return out;
+}
+
+std::string FormatChange(double value, bool millimetres) {
+  // Three significant digits in mm / mrad from 0.01 up, else in µm / µrad (never "-0.0000").
+  const double magnitude = std::abs(value) * (millimetres ? 1.0 : 1e3);  // mm or mrad
+  const bool small = magnitude < 0.01;
+  const double shown = (millimetres ? value : value * 1e3) * (small ? 1e3 : 1.0);
+  const char* unit = millimetres ? (small ? "µm" : "mm") : (small ? "µrad" : "mrad");
+  const double a = std::abs(shown);
+  if (!(a > 0.0)) return fmt::format("0 {}", unit);
+  if (!std::isfinite(a)) return fmt::format("{} {}", shown, unit);
+  const int decimals = std::clamp(2 - static_cast<int>(std::floor(std::log10(a))), 0, 6);
+  const std::string text = fmt::format("{:.{}f}", shown, decimals);
+  // A value that rounds to zero at six decimals is shown as zero, without a sign.
+  return (text.find_first_not_of("-0.") == std::string::npos ? fmt::format("{:.{}f}", 0.0, decimals)
+                                                              : text) +
+         " " + unit;
 }
 
 ReportSources LoadReportSources(db::Database& db, const CalibrationRun& run) {

@@ -16,13 +16,21 @@
 
 namespace armsig::workflows {
 
+struct ReportActivation {
+  std::string at;  // ISO-8601 UTC
+  std::string by;  // recalibrate | activate | demo | migration
+};
 struct ReportHistoryPoint {
   int version = 0;  // 0: this run, not stored (rejected)
   std::string created_at;
   double validation_mean_mm = 0.0;
   std::string params_spec;  // all | geometric | auto | a list of names ("" = not known)
   bool active = false;
+  bool drift = false;  // its comparison with the set active before it flagged drift
+  std::vector<ReportActivation> activations{};  // every time it was made active, oldest first
 };
+// Every stored version of the robot with its drift flag and activations (schema v4).
+std::vector<ReportHistoryPoint> ReportHistoryOf(db::Database& db, int64_t robot_id);
 
 // Where the data came from: filled by LoadReportSources, or by hand (tests, imports).
 struct ReportSession {
@@ -110,6 +118,10 @@ struct Histogram {
   std::vector<int> count_ticks;
 };
 Histogram HistogramOf(const std::vector<double>& distances_mm, int bins = 20);
+
+// A parameter's change as the change table shows it: three significant digits, in mm or
+// mrad from 0.01 up, else in µm or µrad ("-0.0420 µrad", never "-0.0000 mrad").
+std::string FormatChange(double value, bool millimetres);
 
 // "all", "geometric", "auto" or "list" (a comma list of names and groups).
 std::string ParamsKind(const std::string& params_spec);

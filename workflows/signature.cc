@@ -11,6 +11,7 @@
 #include "io/csv.h"
 #include "io/model_export.h"
 #include "io/model_yaml.h"
+#include "workflows/hint.h"
 
 namespace armsig::workflows {
 
@@ -31,14 +32,12 @@ Signature SignatureOf(const calibration::RobotModel& model, const db::StoredCali
 
 ActiveSignature LoadActiveSignature(db::Database& database, const std::string& robot) {
   const auto id = db::FindRobot(database, robot);
-  if (!id)
-    throw InputError({database.path(), 0, 0, "--robot"},
-                     "no robot " + Quoted(robot) + " in the database");
+  if (!id) throw InputError({database.path(), 0, 0, "--robot"}, UnknownRobotMessage(database.path(), robot));
   const auto active = db::ActiveCalibration(database, *id);
   if (!active) {
-    throw InputError(
-        {database.path(), 0, 0, "--robot"},
-        "robot " + Quoted(robot) + " has no active parameter set (run armsig recalibrate first)");
+    throw InputError({database.path(), 0, 0, "--robot"},
+                     "robot " + ShellWord(robot) + " has no active parameter set (fit one: " +
+                         Hint(database.path(), {"recalibrate", "--robot", robot}) + ")");
   }
   ActiveSignature out{
       io::ParseRobotModel(db::RobotModelYaml(database, *id), "model of robot " + robot), {}};

@@ -37,6 +37,10 @@ TEST(LifecycleCommands, RealUr10FromRegistrationToCompensationAndRollback) {
       RunArmsig(db + "import poses '" + data + "' --preset ur-ipa --robot ur10 --out '" +
                 dir.File("c.csv") + "'");
   ASSERT_EQ(imported.exit_code, 0) << imported.err;
+  // The same export again stores nothing and names the session that holds it.
+  const auto twice = RunArmsig(db + "import poses '" + data + "' --preset ur-ipa --robot ur10");
+  EXPECT_EQ(twice.exit_code, 0) << twice.err;
+  EXPECT_NE(twice.out.find("already stored as session 1"), std::string::npos) << twice.out;
   const auto unknown = RunArmsig(db + "import poses '" + data + "' --preset ur-ipa --robot ur5");
   EXPECT_EQ(unknown.exit_code, 2);
   EXPECT_NE(unknown.err.find("robot add ur5"), std::string::npos) << unknown.err;

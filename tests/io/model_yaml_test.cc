@@ -115,6 +115,59 @@ TEST(ModelYaml, WrongShapeNamesPositionAndWhatWasExpected) {
   EXPECT_EQ(base.message(), "expected 'auto' or a 4x4 matrix, got 'identity'");
 }
 
+TEST(ModelYaml, GeneratedTermsAndGravityAreRead) {
+  // The UR10 file asks for both families: its h1…h4, then 10 compliances and 20 harmonics.
+  const auto ur10 = testing::Ur10();
+  ASSERT_EQ(ur10.num_parameters(), 39 + 4 + 30);
+  EXPECT_EQ(ur10.ParameterNames()[43], "k2_3");
+  EXPECT_EQ(ur10.nongeometric[4].basis, calibration::NongeometricTerm::Basis::kGravityTorque);
+  EXPECT_EQ(ur10.nongeometric[4].family, calibration::TermFamily::kCompliance);
+  EXPECT_EQ(ur10.ParameterNames().back(), "e5_c2");
+  EXPECT_EQ(ur10.gravity_in_base, Eigen::Vector3d(0, 0, -1));
+  // Gravity is a direction: any length, normalised; it changes which terms exist.
+  const std::string dh = testing::ReadText(testing::SourcePath("models/ur10.yaml"));
+  const auto wall = ParseRobotModel(dh + "gravity: [-2, 0, 0]\n", "wall.yaml");
+  EXPECT_EQ(wall.gravity_in_base, Eigen::Vector3d(-1, 0, 0));
+  EXPECT_NE(wall.IndexOf("k1_3"), -1);  // joint 1 carries torque on a wall
+  EXPECT_EQ(ur10.IndexOf("k1_3"), -1);
+  // Explicit entries of the new bases.
+  const auto explicit_terms = ParseRobotModel(
+      std::string(kOneLink) +
+          "nongeometric:\n"
+          "  - {name: s, joint: 1, basis: sin, of: [1], order: 2, value_rad: 1e-4}\n"
+          "  - {name: k, joint: 1, basis: gravity_torque, mass_at: 3, value_rad: 2e-4}\n"
+          "gravity: [1, 0, 0]\n",
+      "m.yaml");
+  ASSERT_EQ(explicit_terms.nongeometric.size(), 2u);
+  EXPECT_EQ(explicit_terms.nongeometric[0].order, 2);
+  EXPECT_EQ(explicit_terms.nongeometric[0].fixed_rad, 1e-4);
+  EXPECT_EQ(explicit_terms.nongeometric[1].mass_at, 2);  // 0-based: the target of 2 joints
+  EXPECT_EQ(explicit_terms.nongeometric[1].fixed_rad, 2e-4);
+}
+
+TEST(ModelYaml, RefusesMisusedTermKeys) {
+  const std::string terms = std::string(kOneLink) + "nongeometric:\n  - ";
+  EXPECT_EQ(ModelRefusal(std::string(kOneLink) + "generated_terms: [thermal]\n").message(),
+            "expected 'compliance' or 'harmonics', got 'thermal'");
+  EXPECT_EQ(ModelRefusal(terms + "{name: k, joint: 1, basis: gravity_torque, of: [1]}\n").message(),
+            "a gravity_torque term takes 'mass_at', not 'of'");
+  EXPECT_EQ(
+      ModelRefusal(terms + "{name: k, joint: 1, basis: gravity_torque, mass_at: 1}\n").message(),
+      "expected an integer from 2 to 3, got '1'");  // a mass after the joint
+  EXPECT_EQ(
+      ModelRefusal(terms + "{name: h, joint: 1, basis: sign_cos, of: [1], order: 2}\n").message(),
+      "only cos and sin terms take a harmonic 'order'");
+  EXPECT_EQ(ModelRefusal(std::string(kOneLink) + "gravity: [0, 0, 0]\n").message(),
+            "expected a non-zero direction [x, y, z]");
+  // A generated name already taken by the file's own terms (the tool off the axes, so
+  // both joints move it and have harmonics).
+  EXPECT_NE(ModelRefusal(terms + "{name: e1_s1, joint: 1, basis: cos, of: [1]}\n" +
+                         "tool_mm: [100, 0, 0]\ngenerated_terms: [harmonics]\n")
+                .message()
+                .find("'e1_s1'"),
+            std::string::npos);
+}
+
 TEST(ModelYaml, EveryShippedModelLoads) {
   int models = 0;
   for (const auto& entry : std::filesystem::directory_iterator(testing::SourcePath("models"))) {
@@ -152,7 +205,10 @@ TEST(ModelExport, FormattedModelReadsBackToTheSameNumbers) {
     EXPECT_EQ(back.nongeometric[k].basis, model.nongeometric[k].basis);
     EXPECT_EQ(back.nongeometric[k].of, model.nongeometric[k].of);
     EXPECT_EQ(back.nongeometric[k].fixed_rad, model.nongeometric[k].fixed_rad);
+    // Generated terms too (order, mass, family): the whole term reads back.
+    EXPECT_TRUE(back.nongeometric[k] == model.nongeometric[k]) << model.nongeometric[k].name;
   }
+  EXPECT_EQ(back.gravity_in_base, model.gravity_in_base);
   ASSERT_EQ(back.joint_min_rad.size(), 6u);
   for (int i = 0; i < 6; ++i) {
     EXPECT_NEAR(back.joint_min_rad[i], model.joint_min_rad[i], 1e-14);  // via degrees

@@ -3,9 +3,9 @@
 #include <gtest/gtest.h>
 
 #include "core/error.h"
+#include "io/builtin_models.h"
 #include "io/model_yaml.h"
 #include "test_support.h"
-#include "io/builtin_models.h"
 
 namespace armsig::workflows {
 namespace {

@@ -5,6 +5,8 @@
 #include <gtest/gtest.h>
 
 #include <chrono>
+#include <cstdlib>
+#include <ctime>
 #include <filesystem>
 #include <thread>
 #include <tuple>
@@ -14,6 +16,7 @@
 #include "db/database.h"
 #include "support/simulated_sessions.h"
 #include "test_support.h"
+#include "workflows/lifecycle.h"
 
 namespace armsig::testing {
 
@@ -251,6 +254,102 @@ TEST(Recalibrate, MalformedStoredRecalibrationBlockIsAnInputError) {
   const auto cli = RunArmsig("--db '" + path + "' recalibrate --robot puma");
   EXPECT_EQ(cli.exit_code, 2) << cli.err;
   EXPECT_NE(cli.err.find("max_validation_mean_mm"), std::string::npos) << cli.err;
+}
+
+}  // namespace armsig::testing
+
+namespace armsig::testing {
+
+// After a roll-back the nightly job does not undo the technician's choice: the inputs are
+// already fitted by a stored set (not the active one), so it is up to date; every
+// activation (the job's, the roll-back) is in the history with what it replaced.
+TEST(Recalibrate, RollbackIsRespectedAndEveryActivationIsRecorded) {
+  TempDir dir;
+  const std::string path = dir.File("lab.db");
+  {
+    db::Database database(path);
+    AddSession(database, calibration::PaperTable3Parameters(), 120, 31);
+  }
+  ASSERT_EQ(workflows::Recalibrate(Options(path)).outcome,
+            workflows::RecalibrationDecision::Outcome::kStored);
+  {
+    db::Database database(path);
+    AddSession(database, calibration::PaperTable3Parameters(), 120, 32);
+  }
+  const auto second = workflows::Recalibrate(Options(path));
+  ASSERT_EQ(second.outcome, workflows::RecalibrationDecision::Outcome::kStored)
+      << second.Describe();
+  EXPECT_EQ(second.sessions, (std::vector<int64_t>{1, 2}));
+  {
+    db::Database database(path);
+    EXPECT_EQ(workflows::Activate(database, "puma", 1, "v2 moved the tool"), 2);
+  }
+  const auto night = workflows::Recalibrate(Options(path));
+  EXPECT_EQ(night.outcome, workflows::RecalibrationDecision::Outcome::kUpToDate);
+  EXPECT_EQ(night.version, 2);
+  EXPECT_EQ(night.previous_version, 1);
+  EXPECT_EQ(night.active_chosen_by, "activate");
+  EXPECT_NE(night.Describe().find("version 1 stays active"), std::string::npos)
+      << night.Describe();
+  EXPECT_EQ(night.ToJson()["active_version"], 1);
+  EXPECT_EQ(ActiveVersion(path), 1);
+  EXPECT_EQ(Versions(path), 2);
+  // --force refits and the new set becomes active as a nightly result.
+  auto force = Options(path);
+  force.force = true;
+  const auto forced = workflows::Recalibrate(force);
+  EXPECT_EQ(forced.outcome, workflows::RecalibrationDecision::Outcome::kStored);
+  EXPECT_EQ(ActiveVersion(path), 3);
+
+  db::Database database(path);
+  const auto versions = workflows::Versions(database, "puma");
+  ASSERT_EQ(versions.size(), 3u);
+  ASSERT_EQ(versions[0].activations.size(), 2u);  // by the first night, then the roll-back
+  EXPECT_EQ(versions[0].activations[0].activated_by, "recalibrate");
+  EXPECT_FALSE(versions[0].activations[0].previous_version.has_value());
+  EXPECT_EQ(versions[0].activations[1].activated_by, "activate");
+  EXPECT_EQ(versions[0].activations[1].previous_version, 2);
+  EXPECT_EQ(versions[0].activations[1].note, "v2 moved the tool");
+  ASSERT_EQ(versions[1].activations.size(), 1u);
+  EXPECT_EQ(versions[1].activations[0].previous_version, 1);
+  // Each night's drift decision is kept with its set, against the set it replaced.
+  EXPECT_FALSE(versions[0].drift.has_value());
+  ASSERT_TRUE(versions[1].drift.has_value());
+  EXPECT_FALSE(*versions[1].drift);
+  EXPECT_EQ(versions[1].drift_against, 1);
+  EXPECT_EQ(versions[2].drift_against, 1);  // version 1 was active when 3 was fitted
+}
+
+// --since is read in the time zone it names (Z, an offset) or else in local time, and
+// becomes the UTC bound the sessions' start times are stored with.
+TEST(SinceToUtc, ReadsIsoDatesInTheirTimeZoneAndRefusesImpossibleOnes) {
+  const char* saved = std::getenv("TZ");
+  const std::string saved_tz = saved ? saved : "";
+  setenv("TZ", "XST-3", 1);  // POSIX: local time is three hours east of UTC
+  tzset();
+  EXPECT_EQ(workflows::SinceToUtc("2026-11-01T02:30:00Z"), "2026-11-01T02:30:00.000Z");
+  EXPECT_EQ(workflows::SinceToUtc("2026-11-01T02:30+01:00"), "2026-11-01T01:30:00.000Z");
+  EXPECT_EQ(workflows::SinceToUtc("2026-11-01T02:30-0130"), "2026-11-01T04:00:00.000Z");
+  EXPECT_EQ(workflows::SinceToUtc("2026-11-01 12:00"), "2026-11-01T09:00:00.000Z");
+  EXPECT_EQ(workflows::SinceToUtc("2026-11-01"), "2026-10-31T21:00:00.000Z");
+  EXPECT_EQ(workflows::SinceToUtc("2024-02-29T00:00:00.25Z"), "2024-02-29T00:00:00.250Z");
+  for (const std::string bad : {"2026-02-29", "2026-11-31", "2026-04-31T00:00Z", "2026-00-10",
+                                "2026-11-01T24:00", "2026-11-01T12:60", "2026-11-01T12:00+25:00",
+                                "yesterday", "2026-11-1", "1.11.2026", "2026-11-01T12:00 Z"}) {
+    EXPECT_THROW(workflows::SinceToUtc(bad), InputError) << bad;
+  }
+  try {
+    workflows::SinceToUtc("2026-02-30");
+    ADD_FAILURE();
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("2026-02 has 28 days"), std::string::npos) << e.what();
+  }
+  if (saved) {
+    setenv("TZ", saved_tz.c_str(), 1);
+  } else {
+    unsetenv("TZ");
+  }
+  tzset();
 }
 
 }  // namespace armsig::testing

@@ -1,0 +1,667 @@
+#include "calibration/residual_map.h"
+
+#include <Eigen/Cholesky>
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <limits>
+#include <map>
+#include <stdexcept>
+#include <thread>
+
+#if defined(__SSE2__)
+#include <xmmintrin.h>
+#endif
+
+namespace armsig::calibration {
+
+namespace {
+
+// Configurations per block in batch prediction (bounds the M × B distance matrix).
+constexpr int kBatchBlock = 64;
+// Kernel values below e^−34.5 ≈ 1e-15 are left out of sums (their weights are mm-sized).
+constexpr double kNegligibleExponent = 34.5;
+// Centres the local GP variance is conditioned on.
+constexpr int kVarianceNeighbours = 32;
+
+Eigen::Matrix3d TurnAboutZ(double angle) {
+  return Eigen::AngleAxisd(angle, Eigen::Vector3d::UnitZ()).toRotationMatrix();
+}
+
+void Require(bool condition, const std::string& what) {
+  if (!condition) throw std::invalid_argument("residual map: " + what);
+}
+
+// Denormal numbers (below 1e-38 in single precision) make the factorisations of kernel
+// matrices a hundred times slower and change nothing that matters: while one of these is
+// alive, this thread's SSE unit flushes them to zero (restored on destruction).
+class FlushDenormals {
+ public:
+#if defined(__SSE2__)
+  FlushDenormals() : saved_(_mm_getcsr()) { _mm_setcsr(saved_ | 0x8040); }  // FTZ | DAZ
+  ~FlushDenormals() { _mm_setcsr(saved_); }
+
+ private:
+  unsigned saved_;
+#endif
+};
+
+// Runs body(f) for f = 0 … count−1 on up to `threads` threads.
+template <typename Body>
+void ParallelFor(int count, int threads, const Body& body) {
+  threads = std::min(threads, count);
+  if (threads <= 1) {
+    for (int f = 0; f < count; ++f) body(f);
+    return;
+  }
+  std::vector<std::thread> workers;
+  for (int t = 0; t < threads; ++t) {
+    workers.emplace_back([&, t] {
+      for (int f = t; f < count; f += threads) body(f);
+    });
+  }
+  for (auto& w : workers) w.join();
+}
+
+}  // namespace
+
+ResidualMap::ResidualMap(ResidualMapData data) : data_(std::move(data)) {
+  Require(data_.version == ResidualMapData::kVersion,
+          "version " + std::to_string(data_.version) + " is not known (expected " +
+              std::to_string(ResidualMapData::kVersion) + ")");
+  Require(data_.kind == ResidualMapData::kKind, "unknown kind '" + data_.kind + "'");
+  Require(data_.output_frame == "base" || data_.output_frame == "joint1",
+          "output frame must be 'base' or 'joint1', got '" + data_.output_frame + "'");
+  Require(data_.num_joints > 0, "the model's joint count must be positive");
+  const int j = static_cast<int>(data_.joints.size());
+  Require(j > 0, "no feature joints");
+  Require(data_.feature_scale.size() == 2 * data_.joints.size(),
+          "two feature scales (sin, cos) per feature joint");
+  for (int k = 0; k < j; ++k) {
+    Require(data_.joints[k] >= 0 && data_.joints[k] < data_.num_joints,
+            "feature joint out of range");
+  }
+  for (double a : data_.feature_scale) {
+    Require(std::isfinite(a) && a > 0, "feature scales must be positive");
+  }
+  Require(std::isfinite(data_.length_scale) && data_.length_scale > 0, "length scale must be > 0");
+  Require(std::isfinite(data_.regularisation) && data_.regularisation > 0,
+          "regularisation must be > 0");
+  Require(std::isfinite(data_.noise_sigma_mm) && data_.noise_sigma_mm >= 0,
+          "noise sigma must be ≥ 0");
+  Require(std::isfinite(data_.support_radius) && data_.support_radius >= 0,
+          "support radius must be ≥ 0");
+  const int m = static_cast<int>(data_.centres_rad.size());
+  Require(m > 0, "no centres");
+  Require(data_.weights_mm.size() == data_.centres_rad.size(), "one weight vector per centre");
+  centre_features_.resize(m, 2 * j);
+  weights_.resize(m, 3);
+  for (int c = 0; c < m; ++c) {
+    Require(data_.centres_rad[c].size() == data_.joints.size(),
+            "every centre has one angle per feature joint");
+    for (int k = 0; k < j; ++k)
+      Require(std::isfinite(data_.centres_rad[c][k]), "centre angles must be finite");
+    Eigen::VectorXd u(2 * j);
+    Features(data_.centres_rad[c].data(), u.data());
+    centre_features_.row(c) = u.transpose();
+    for (int r = 0; r < 3; ++r) {
+      Require(std::isfinite(data_.weights_mm[c][r]), "weights must be finite");
+      weights_(c, r) = data_.weights_mm[c][r];
+    }
+  }
+  centre_half_norm2_ = 0.5 * centre_features_.rowwise().squaredNorm();
+  feature_mean_ = centre_features_.colwise().mean().transpose();
+  const Eigen::MatrixXd centred = centre_features_.rowwise() - feature_mean_.transpose();
+  centred_features_f_ = centred.cast<float>();
+  centred_half_norm2_f_ = (0.5 * centred.rowwise().squaredNorm()).cast<float>();
+  weights_f_ = weights_.cast<float>();
+  // Every configuration within the support radius keeps its nearest centre.
+  cutoff_half_d2_ = std::max(kNegligibleExponent * data_.length_scale * data_.length_scale,
+                             0.51 * data_.support_radius * data_.support_radius);
+}
+
+// `angles`: one per feature joint (a centre's, or FeatureAngles of a joint vector).
+void ResidualMap::Features(const double* angles, double* u) const {
+  const int j = static_cast<int>(data_.joints.size());
+  for (int k = 0; k < j; ++k) {
+    const double a = angles[k];
+    u[2 * k] = data_.feature_scale[2 * k] * std::sin(a);
+    u[2 * k + 1] = data_.feature_scale[2 * k + 1] * std::cos(a);
+  }
+}
+
+void ResidualMap::HalfDistances(const double* u, Eigen::Ref<Eigen::VectorXd> half_d2) const {
+  const Eigen::Map<const Eigen::VectorXd> uu(u, centre_features_.cols());
+  half_d2 = (0.5 * uu.squaredNorm() + centre_half_norm2_.array() - (centre_features_ * uu).array())
+                .max(0.0)
+                .matrix();
+}
+
+namespace {
+
+// The feature joints' angles of a full joint vector.
+std::vector<double> FeatureAngles(const ResidualMapData& data, const double* joints_rad) {
+  std::vector<double> a(data.joints.size());
+  for (size_t k = 0; k < a.size(); ++k) a[k] = joints_rad[data.joints[k]];
+  return a;
+}
+
+}  // namespace
+
+MapPrediction ResidualMap::Evaluate(
+    const double* joints_rad,
+    Eigen::Matrix<double, 3, Eigen::Dynamic>* d_correction_d_joints) const {
+  const int j = static_cast<int>(data_.joints.size());
+  const std::vector<double> angles = FeatureAngles(data_, joints_rad);
+  Eigen::VectorXd u(2 * j), half_d2(centres());
+  Features(angles.data(), u.data());
+  HalfDistances(u.data(), half_d2);
+  MapPrediction p;
+  p.support_distance = std::sqrt(2.0 * half_d2.minCoeff());
+  p.supported = p.support_distance <= data_.support_radius;
+  if (d_correction_d_joints) d_correction_d_joints->setZero(3, data_.num_joints);
+  if (!p.supported) return p;
+  const double inv_l2 = 1.0 / (data_.length_scale * data_.length_scale);
+  Eigen::Vector3d correction = Eigen::Vector3d::Zero();
+  Eigen::Matrix<double, 3, Eigen::Dynamic> d = Eigen::Matrix<double, 3, Eigen::Dynamic>::Zero(3, j);
+  // ∂(−|u − c|²/2)/∂θ = (c − u)·∂u/∂θ, ∂u/∂θ = (a cos θ, −b sin θ) in the joint's columns.
+  Eigen::VectorXd du(2 * j);
+  for (int f = 0; f < j; ++f) {
+    du(2 * f) = data_.feature_scale[2 * f] * std::cos(angles[f]);
+    du(2 * f + 1) = -data_.feature_scale[2 * f + 1] * std::sin(angles[f]);
+  }
+  for (int c = 0; c < centres(); ++c) {
+    if (half_d2(c) > cutoff_half_d2_) continue;
+    const double k = std::exp(-half_d2(c) * inv_l2);
+    const Eigen::Vector3d wk = weights_.row(c).transpose() * k;
+    correction += wk;
+    if (d_correction_d_joints) {
+      for (int f = 0; f < j; ++f) {
+        const double ds = (centre_features_(c, 2 * f) - u(2 * f)) * du(2 * f) +
+                          (centre_features_(c, 2 * f + 1) - u(2 * f + 1)) * du(2 * f + 1);
+        d.col(f) += wk * (ds * inv_l2);
+      }
+    }
+  }
+  if (data_.output_frame == "joint1") {
+    const Eigen::Matrix3d turn = TurnAboutZ(joints_rad[0]);
+    if (d_correction_d_joints) {
+      d = turn * d;
+      Eigen::Matrix3d d_turn;  // ∂Rz(q)/∂q
+      const double s = std::sin(joints_rad[0]), co = std::cos(joints_rad[0]);
+      d_turn << -s, -co, 0, co, -s, 0, 0, 0, 0;
+      d_correction_d_joints->col(0) += d_turn * correction;
+    }
+    correction = turn * correction;
+  }
+  if (d_correction_d_joints) {
+    for (int f = 0; f < j; ++f) d_correction_d_joints->col(data_.joints[f]) += d.col(f);
+  }
+  p.correction_in_base_mm = correction;
+  return p;
+}
+
+MapPrediction ResidualMap::Predict(const double* joints_rad) const {
+  return Evaluate(joints_rad, nullptr);
+}
+
+MapPrediction ResidualMap::PredictWithJacobian(
+    const double* joints_rad,
+    Eigen::Ref<Eigen::Matrix<double, 3, Eigen::Dynamic>> d_correction_d_joints) const {
+  Eigen::Matrix<double, 3, Eigen::Dynamic> d(3, data_.num_joints);
+  const MapPrediction p = Evaluate(joints_rad, &d);
+  d_correction_d_joints = d;
+  return p;
+}
+
+void ResidualMap::PredictBatch(const Eigen::MatrixXd& joints_rad,
+                               Eigen::Matrix3Xd& corrections_in_base_mm,
+                               std::vector<char>& supported, int threads) const {
+  Require(joints_rad.rows() == data_.num_joints, "batch rows must be the model's joints");
+  const Eigen::Index b = joints_rad.cols();
+  corrections_in_base_mm.setZero(3, b);
+  supported.assign(b, 0);
+  const int blocks = static_cast<int>((b + kBatchBlock - 1) / kBatchBlock);
+  const int workers = std::max(1, std::min(threads, blocks));
+  ParallelFor(workers, workers, [&](int w) {
+    const Eigen::Index begin = static_cast<Eigen::Index>(blocks * w / workers) * kBatchBlock;
+    const Eigen::Index end = std::min<Eigen::Index>(
+        b, static_cast<Eigen::Index>(blocks * (w + 1) / workers) * kBatchBlock);
+    PredictRange(joints_rad, begin, end, corrections_in_base_mm, supported);
+  });
+}
+
+void ResidualMap::PredictRange(const Eigen::MatrixXd& joints_rad, Eigen::Index begin,
+                               Eigen::Index end, Eigen::Matrix3Xd& corrections_in_base_mm,
+                               std::vector<char>& supported) const {
+  const FlushDenormals flush;
+  const int j = static_cast<int>(data_.joints.size());
+  const float inv_l2 = static_cast<float>(1.0 / (data_.length_scale * data_.length_scale));
+  const float radius2 = static_cast<float>(data_.support_radius * data_.support_radius);
+  Eigen::MatrixXd u(2 * j, kBatchBlock);
+  Eigen::MatrixXf kernel;
+  Eigen::ArrayXf column(centres());
+  Eigen::Matrix3Xf block;
+  Eigen::VectorXf nearest(kBatchBlock);
+  std::vector<double> angles(j);
+  for (Eigen::Index start = begin; start < end; start += kBatchBlock) {
+    const Eigen::Index count = std::min<Eigen::Index>(kBatchBlock, end - start);
+    for (Eigen::Index i = 0; i < count; ++i) {
+      for (int k = 0; k < j; ++k) angles[k] = joints_rad(data_.joints[k], start + i);
+      Features(angles.data(), u.col(i).data());
+    }
+    // Single precision on features centred on the centres' mean (small norms, so the
+    // distances from |u|² + |c|² − 2u·c keep ~1e-6 of their size): matches Predict to
+    // ~1e-6 of the correction.
+    const Eigen::MatrixXf uf = (u.leftCols(count).colwise() - feature_mean_).cast<float>();
+    kernel.noalias() = centred_features_f_ * uf;  // M × count: u·c
+    for (Eigen::Index i = 0; i < count; ++i) {
+      column =
+          (centred_half_norm2_f_.array() + 0.5f * uf.col(i).squaredNorm() - kernel.col(i).array())
+              .max(0.0f);  // |u − c|²/2
+      nearest(i) = column.minCoeff();
+      // Exponents capped at 80: e^−80 is still a normal float and weighs nothing.
+      kernel.col(i) = (-(column * inv_l2).min(80.0f)).exp().matrix();
+    }
+    block.noalias() = weights_f_.transpose() * kernel;
+    for (Eigen::Index i = 0; i < count; ++i) {
+      const bool ok = 2.0f * nearest(i) <= radius2;
+      supported[start + i] = ok;
+      if (!ok) continue;
+      Eigen::Vector3d correction = block.col(i).cast<double>();
+      if (data_.output_frame == "joint1") {
+        correction = TurnAboutZ(joints_rad(0, start + i)) * correction;
+      }
+      corrections_in_base_mm.col(start + i) = correction;
+    }
+  }
+}
+
+double ResidualMap::CorrectionSigmaMm(const double* joints_rad) const {
+  const int j = static_cast<int>(data_.joints.size());
+  const std::vector<double> angles = FeatureAngles(data_, joints_rad);
+  Eigen::VectorXd u(2 * j), half_d2(centres());
+  Features(angles.data(), u.data());
+  HalfDistances(u.data(), half_d2);
+  const int count = std::min(kVarianceNeighbours, centres());
+  std::vector<int> order(centres());
+  for (int c = 0; c < centres(); ++c) order[c] = c;
+  std::partial_sort(order.begin(), order.begin() + count, order.end(),
+                    [&](int a, int b) { return half_d2(a) < half_d2(b); });
+  const double inv_l2 = 1.0 / (data_.length_scale * data_.length_scale);
+  Eigen::MatrixXd k(count, count);
+  Eigen::VectorXd kx(count);
+  for (int a = 0; a < count; ++a) {
+    kx(a) = std::exp(-half_d2(order[a]) * inv_l2);
+    for (int b = 0; b <= a; ++b) {
+      const double h =
+          0.5 * (centre_features_.row(order[a]) - centre_features_.row(order[b])).squaredNorm();
+      k(a, b) = k(b, a) = std::exp(-h * inv_l2);
+    }
+  }
+  k.diagonal().array() += data_.regularisation;
+  const double prior = data_.noise_sigma_mm * data_.noise_sigma_mm / data_.regularisation;
+  const double reduction = kx.dot(k.llt().solve(kx));
+  return std::sqrt(std::max(0.0, prior * (1.0 - reduction)));
+}
+
+std::vector<MappedPosition> PredictPositions(const RobotModel& model,
+                                             const Eigen::Isometry3d& world_from_base,
+                                             const Eigen::VectorXd& params, const ResidualMap* map,
+                                             const std::vector<Eigen::VectorXd>& joints_rad,
+                                             bool with_sigma, int threads) {
+  const int count = static_cast<int>(joints_rad.size());
+  std::vector<MappedPosition> out(count);
+  const int workers = std::max(1, std::min(threads, count / 1024 + 1));
+  ParallelFor(workers, workers, [&](int w) {
+    Kinematics kin(model);
+    for (int i = count * w / workers; i < count * (w + 1) / workers; ++i) {
+      out[i].parametric_mm = kin.Position(world_from_base, params, joints_rad[i].data());
+      out[i].position_mm = out[i].parametric_mm;
+      out[i].sigma_mm = map && with_sigma ? map->CorrectionSigmaMm(joints_rad[i].data())
+                                          : std::numeric_limits<double>::quiet_NaN();
+    }
+  });
+  if (!map || joints_rad.empty()) return out;
+  Eigen::MatrixXd q(model.num_joints(), count);
+  for (int i = 0; i < count; ++i) q.col(i) = joints_rad[i];
+  Eigen::Matrix3Xd corrections;
+  std::vector<char> supported;
+  map->PredictBatch(q, corrections, supported, threads);
+  for (int i = 0; i < count; ++i) {
+    out[i].map_applied = supported[i];
+    out[i].extrapolated = !supported[i];
+    if (supported[i]) out[i].position_mm += world_from_base.linear() * corrections.col(i);
+  }
+  return out;
+}
+
+void ResidualMapOptions::Check() const {
+  auto fail = [](const std::string& what) { throw std::invalid_argument("residual map: " + what); };
+  if (folds < 2) fail("at least 2 folds");
+  if (length_scales.empty() || regularisations.empty()) fail("empty hyperparameter grid");
+  if (!std::is_sorted(length_scales.begin(), length_scales.end()) ||
+      !std::is_sorted(regularisations.begin(), regularisations.end())) {
+    fail("the grids must be ascending");
+  }
+  for (double l : length_scales) {
+    if (!(l > 0)) fail("length scales must be > 0");
+  }
+  for (double r : regularisations) {
+    if (!(r > 0)) fail("regularisations must be > 0");
+  }
+  if (max_training_poses < 2 * folds) fail("max_training_poses too small for the folds");
+  if (!(required_gain >= 0 && required_gain < 1)) fail("required gain in [0, 1)");
+  if (output_frame != "base" && output_frame != "joint1") fail("output frame 'base' or 'joint1'");
+  if (!(support_quantile > 0 && support_quantile <= 1) || !(support_margin >= 1)) {
+    fail("support quantile in (0, 1], margin ≥ 1");
+  }
+  if (threads < 1) fail("at least one thread");
+}
+
+namespace {
+
+// Joints whose motion moves the target over the fit poses (nominal lever above a micron
+// per radian): a joint whose axis passes through the target carries no information.
+std::vector<int> FeatureJoints(const RobotModel& model, const std::vector<MeasuredPose>& poses) {
+  RobotModel bare = model;
+  bare.nongeometric.clear();
+  Kinematics kin(bare);
+  const Eigen::VectorXd zero = Eigen::VectorXd::Zero(bare.num_parameters());
+  Eigen::VectorXd lever = Eigen::VectorXd::Zero(model.num_joints());
+  for (const auto& p : poses) {
+    kin.Position(Eigen::Isometry3d::Identity(), zero, p.joints_rad.data());
+    lever += kin.JointJacobian().colwise().squaredNorm().transpose();
+  }
+  lever = (lever / static_cast<double>(std::max<size_t>(poses.size(), 1))).cwiseSqrt();
+  std::vector<int> joints;
+  for (int i = 0; i < model.num_joints(); ++i) {
+    if (lever(i) > 1e-3) joints.push_back(i);  // mm per rad
+  }
+  return joints;
+}
+
+// Farthest-point sampling in feature space: a deterministic cover of the fit poses,
+// starting from the pose nearest the centroid. Ascending indices.
+std::vector<int> FarthestPoints(const Eigen::MatrixXd& u, int count) {
+  const int m = static_cast<int>(u.rows());
+  std::vector<int> chosen;
+  if (count >= m) {
+    for (int i = 0; i < m; ++i) chosen.push_back(i);
+    return chosen;
+  }
+  const Eigen::RowVectorXd centroid = u.colwise().mean();
+  Eigen::Index first = 0;
+  (u.rowwise() - centroid).rowwise().squaredNorm().minCoeff(&first);
+  Eigen::VectorXd nearest = (u.rowwise() - u.row(first)).rowwise().squaredNorm();
+  chosen.push_back(static_cast<int>(first));
+  while (static_cast<int>(chosen.size()) < count) {
+    Eigen::Index next = 0;
+    nearest.maxCoeff(&next);
+    chosen.push_back(static_cast<int>(next));
+    nearest = nearest.cwiseMin((u.rowwise() - u.row(next)).rowwise().squaredNorm());
+  }
+  std::sort(chosen.begin(), chosen.end());
+  return chosen;
+}
+
+double Quantile(std::vector<double> v, double q) {
+  if (v.empty()) return 0.0;
+  std::sort(v.begin(), v.end());
+  const double pos = q * static_cast<double>(v.size() - 1);
+  const size_t lo = static_cast<size_t>(std::floor(pos));
+  const size_t hi = std::min(lo + 1, v.size() - 1);
+  return v[lo] + (pos - static_cast<double>(lo)) * (v[hi] - v[lo]);
+}
+
+}  // namespace
+
+ResidualMapFit FitResidualMap(const RobotModel& model, const EstimationResult& fit,
+                              const std::vector<MeasuredPose>& poses,
+                              const ResidualMapOptions& options) {
+  options.Check();
+  ResidualMapFit result;
+  const int m = static_cast<int>(poses.size());
+  const int n = model.num_joints();
+  if (!fit.status.ok() || static_cast<int>(fit.fit_residuals.size()) != m) {
+    result.decision = "no parametric fit on these poses to learn from";
+    return result;
+  }
+  if (m < 4 * options.folds) {
+    result.decision =
+        "too few poses for " + std::to_string(options.folds) + "-fold cross-validation";
+    return result;
+  }
+
+  // The parametric model and its linearised K-fold refits (one Gauss–Newton step each).
+  const std::vector<int>& subset = fit.identifiability.identified;
+  const int p = static_cast<int>(subset.size());
+  Eigen::MatrixXd jacobian(3 * m, p);
+  Eigen::VectorXd residual(3 * m);
+  {
+    Kinematics kin(model);
+    Eigen::Matrix<double, 3, Eigen::Dynamic> block(3, model.num_parameters());
+    for (int i = 0; i < m; ++i) {
+      const Eigen::Vector3d x = kin.PositionAndJacobian(fit.world_from_base, fit.params,
+                                                        poses[i].joints_rad.data(), block);
+      residual.segment<3>(3 * i) = x - poses[i].target_in_world;
+      for (int c = 0; c < p; ++c) jacobian.block<3, 1>(3 * i, c) = block.col(subset[c]);
+    }
+  }
+  const int folds = options.folds;
+  const LinearisedCrossValidation cv(jacobian, residual, AssignFolds(m, folds, options.seed),
+                                     folds);
+  std::vector<int> all(p);
+  for (int c = 0; c < p; ++c) all[c] = c;
+
+  // Features of every fit pose, scaled; the poses that train the map.
+  ResidualMapData& data = result.map;
+  data.output_frame = options.output_frame;
+  data.num_joints = n;
+  data.joints = FeatureJoints(model, poses);
+  if (data.joints.empty()) {
+    result.decision = "no joint moves the target";
+    return result;
+  }
+  const int jf = static_cast<int>(data.joints.size());
+  Eigen::MatrixXd u_all(m, 2 * jf);
+  for (int i = 0; i < m; ++i) {
+    for (int k = 0; k < jf; ++k) {
+      const double a = poses[i].joints_rad(data.joints[k]);
+      u_all(i, 2 * k) = std::sin(a);
+      u_all(i, 2 * k + 1) = std::cos(a);
+    }
+  }
+  data.feature_scale.assign(2 * jf, 1.0);
+  if (options.scaling == FeatureScaling::kStandardised) {
+    // Spread floor 0.05 (a joint that hardly moved, ~3°): moving it later is far from the
+    // data, not nothing.
+    const Eigen::RowVectorXd mean = u_all.colwise().mean();
+    for (int f = 0; f < 2 * jf; ++f) {
+      const double spread = std::sqrt((u_all.col(f).array() - mean(f)).square().mean());
+      data.feature_scale[f] = 1.0 / std::max(spread, 0.05);
+    }
+  }
+  for (int f = 0; f < 2 * jf; ++f) u_all.col(f) *= data.feature_scale[f];
+  const std::vector<int> train = FarthestPoints(u_all, options.max_training_poses);
+  const int mt = static_cast<int>(train.size());
+  Eigen::MatrixXd u(mt, 2 * jf);
+  for (int t = 0; t < mt; ++t) u.row(t) = u_all.row(train[t]);
+
+  // Everything in the map's output frame: residuals (model − measured) turned by Qᵀ, Q the
+  // map frame in the measuring frame (distances do not change). Per fold, the training
+  // poses' residuals under the parametric refit without that fold.
+  std::vector<Eigen::Matrix3d> frame(mt);
+  for (int t = 0; t < mt; ++t) {
+    frame[t] = fit.world_from_base.linear();
+    if (options.output_frame == "joint1") {
+      frame[t] = frame[t] * TurnAboutZ(poses[train[t]].joints_rad(0));
+    }
+  }
+  std::vector<int> fold_of(mt);
+  for (int t = 0; t < mt; ++t) fold_of[t] = cv.fold_of_pose()[train[t]];
+  std::vector<Eigen::MatrixXd> refit(folds);  // mt × 3 each
+  double parametric_sum = 0.0;
+  for (int f = 0; f < folds; ++f) {
+    const Eigen::VectorXd r = cv.RefitWithout(f, all);
+    refit[f].resize(mt, 3);
+    for (int t = 0; t < mt; ++t) {
+      refit[f].row(t) = (frame[t].transpose() * r.segment<3>(3 * train[t])).transpose();
+      if (fold_of[t] == f) parametric_sum += refit[f].row(t).norm();
+    }
+  }
+  result.cv_mean_mm_parametric = parametric_sum / mt;
+
+  // Half squared distances between the training poses, and the support radius from their
+  // leave-one-out nearest neighbours.
+  Eigen::MatrixXd half_d2 = -u * u.transpose();
+  half_d2.colwise() += 0.5 * u.rowwise().squaredNorm();
+  half_d2.rowwise() += 0.5 * u.rowwise().squaredNorm().transpose();
+  half_d2 = half_d2.cwiseMax(0.0);
+  {
+    std::vector<double> loo(mt);
+    for (int t = 0; t < mt; ++t) {
+      double best = std::numeric_limits<double>::infinity();
+      for (int c = 0; c < mt; ++c) {
+        if (c != t) best = std::min(best, half_d2(t, c));
+      }
+      loo[t] = std::sqrt(2.0 * best);
+    }
+    data.support_radius = options.support_margin * Quantile(loo, options.support_quantile);
+  }
+
+  // Cross-validation of one (ℓ, λ): per fold, kernel ridge on the other folds (single
+  // precision: K + λI with λ ≥ 0.01 is well conditioned, and the figures compared differ
+  // in the third digit), predicting the fold.
+  std::vector<std::vector<int>> fold_rows(folds), train_rows(folds);
+  for (int t = 0; t < mt; ++t) {
+    for (int f = 0; f < folds; ++f) (fold_of[t] == f ? fold_rows : train_rows)[f].push_back(t);
+  }
+  struct Score {
+    double mean = std::numeric_limits<double>::infinity(), sum_sq = 0.0;
+  };
+  std::map<int, Eigen::MatrixXf> kernels;  // by ℓ index, the few most recent
+  auto kernel = [&](int li) -> const Eigen::MatrixXf& {
+    if (auto it = kernels.find(li); it != kernels.end()) return it->second;
+    if (kernels.size() >= 3) kernels.erase(kernels.begin());
+    const double l = options.length_scales[li];
+    // Entries below e^−60 are zero: in single precision they would be denormal numbers,
+    // which slow the factorisation a hundredfold and weigh nothing.
+    return kernels[li] = (half_d2.array() / (l * l) > 60.0)
+                             .select(0.0, (-half_d2.array() / (l * l)).exp())
+                             .matrix()
+                             .cast<float>();
+  };
+  auto score = [&](int li, int ri) {
+    const Eigen::MatrixXf& k = kernel(li);
+    const float lambda = static_cast<float>(options.regularisations[ri]);
+    std::vector<double> sum(folds, 0.0), sum_sq(folds, 0.0);
+    std::vector<char> failed(folds, 0);
+    ParallelFor(folds, options.threads, [&](int f) {
+      const FlushDenormals flush;
+      const std::vector<int>& tr = train_rows[f];
+      const std::vector<int>& te = fold_rows[f];
+      Eigen::MatrixXf a(tr.size(), tr.size()), kft(te.size(), tr.size());
+      Eigen::MatrixXf y(tr.size(), 3);
+      for (size_t c = 0; c < tr.size(); ++c) {
+        for (size_t r = 0; r < tr.size(); ++r) a(r, c) = k(tr[r], tr[c]);
+        for (size_t r = 0; r < te.size(); ++r) kft(r, c) = k(te[r], tr[c]);
+        y.row(c) = (-refit[f].row(tr[c])).cast<float>();
+      }
+      a.diagonal().array() += lambda;
+      const Eigen::LLT<Eigen::MatrixXf> llt(a);
+      if (llt.info() != Eigen::Success) {
+        failed[f] = 1;
+        return;
+      }
+      const Eigen::MatrixXf predicted = kft * llt.solve(y);
+      for (size_t r = 0; r < te.size(); ++r) {
+        const Eigen::RowVector3d e = refit[f].row(te[r]) + predicted.row(r).cast<double>();
+        sum[f] += e.norm();
+        sum_sq[f] += e.squaredNorm();
+      }
+    });
+    Score s;
+    if (std::count(failed.begin(), failed.end(), 1) > 0) return s;
+    s.mean = 0.0;
+    for (int f = 0; f < folds; ++f) {
+      s.mean += sum[f] / mt;
+      s.sum_sq += sum_sq[f];
+    }
+    return s;
+  };
+
+  // Walk the grid from its middle to the best neighbour until none is better.
+  std::map<std::pair<int, int>, Score> scored;
+  auto at = [&](int li, int ri) {
+    const auto key = std::make_pair(li, ri);
+    if (auto it = scored.find(key); it != scored.end()) return it->second;
+    const Score s = score(li, ri);
+    result.grid.push_back({options.length_scales[li], options.regularisations[ri], s.mean});
+    return scored[key] = s;
+  };
+  const int nl = static_cast<int>(options.length_scales.size());
+  const int nr = static_cast<int>(options.regularisations.size());
+  int li = nl / 2, ri = nr / 2;
+  Score best = at(li, ri);
+  for (;;) {
+    int next_l = li, next_r = ri;
+    static constexpr std::pair<int, int> kSteps[] = {{-1, 0}, {1, 0}, {0, -1}, {0, 1}};
+    for (const auto& [dl, dr] : kSteps) {
+      const int l = li + dl, r = ri + dr;
+      if (l < 0 || l >= nl || r < 0 || r >= nr) continue;
+      const Score s = at(l, r);
+      if (s.mean < best.mean) {
+        best = s;
+        next_l = l;
+        next_r = r;
+      }
+    }
+    if (next_l == li && next_r == ri) break;
+    li = next_l;
+    ri = next_r;
+  }
+  kernels.clear();
+  if (!std::isfinite(best.mean)) {
+    result.decision = "the map's cross-validation failed (kernel matrices not positive definite)";
+    return result;
+  }
+  data.length_scale = options.length_scales[li];
+  data.regularisation = options.regularisations[ri];
+  result.cv_mean_mm_with_map = best.mean;
+
+  // The map on all training poses with the chosen hyperparameters (double precision).
+  const FlushDenormals flush;
+  Eigen::MatrixXd k = (-half_d2.array() / (data.length_scale * data.length_scale)).exp().matrix();
+  k.diagonal().array() += data.regularisation;
+  Eigen::MatrixXd y(mt, 3);
+  for (int t = 0; t < mt; ++t) {
+    y.row(t) = -(frame[t].transpose() * fit.fit_residuals[train[t]]).transpose();
+  }
+  const Eigen::MatrixXd w = k.llt().solve(y);
+  data.centres_rad.resize(mt);
+  data.weights_mm.resize(mt);
+  for (int t = 0; t < mt; ++t) {
+    for (int j : data.joints) data.centres_rad[t].push_back(poses[train[t]].joints_rad(j));
+    data.weights_mm[t] = {w(t, 0), w(t, 1), w(t, 2)};
+  }
+  // GP reading: with the kernel's shape (ℓ) and the noise-to-signal ratio (λ) fixed by the
+  // cross-validation, the maximum-likelihood prior amplitude is s² = tr(Yᵀ (K + λI)⁻¹ Y) / 3n
+  // and the noise σ² = λ s² (Rasmussen & Williams 2006, §5.4.1 with the scale profiled out).
+  const double s2 = std::max(0.0, (y.array() * w.array()).sum() / (3.0 * mt));
+  data.noise_sigma_mm = std::sqrt(data.regularisation * s2);
+
+  result.used =
+      result.cv_mean_mm_with_map <= (1.0 - options.required_gain) * result.cv_mean_mm_parametric;
+  char text[256];
+  std::snprintf(text, sizeof text,
+                "%d-fold cross-validation on %d fit poses: %.4f mm with the map against %.4f mm "
+                "parametric (%+.1f %%; %s needs %.0f %% better)",
+                folds, mt, result.cv_mean_mm_with_map, result.cv_mean_mm_parametric,
+                100.0 * (result.cv_mean_mm_with_map / result.cv_mean_mm_parametric - 1.0),
+                result.used ? "used:" : "not used:", 100.0 * options.required_gain);
+  result.decision = text;
+  return result;
+}
+
+}  // namespace armsig::calibration

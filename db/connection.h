@@ -1,0 +1,121 @@
+// One interface to the two database backends armsig stores into: SQLite (the embedded
+// default, one file per lab) and PostgreSQL (a plant's central server). db/ writes every
+// statement once, in the SQL both understand, with `?` placeholders; each backend
+// prepares it (PostgreSQL: `$1…$n`, a server-side prepared statement cached per
+// connection) and maps its errors to DatabaseError.
+#pragma once
+
+#include <cstdint>
+#include <memory>
+#include <optional>
+#include <stdexcept>
+#include <string>
+#include <string_view>
+#include <vector>
+
+namespace armsig::db {
+
+enum class Backend { kSqlite, kPostgres };
+
+// Any error a backend reports. `transient`: the statement lost a race with another writer
+// (SQLite busy/locked after its timeout, PostgreSQL serialization failure or deadlock);
+// the caller may retry the whole transaction.
+class DatabaseError : public std::runtime_error {
+ public:
+  DatabaseError(const std::string& message, std::string code, bool transient)
+      : std::runtime_error(message), code_(std::move(code)), transient_(transient) {}
+  const std::string& code() const { return code_; }  // SQLite's result code or a SQLSTATE
+  bool transient() const { return transient_; }
+
+ private:
+  std::string code_;
+  bool transient_;
+};
+
+// A prepared statement: bind (1-based), step through the rows, read columns (0-based).
+// Binding again after the last row re-runs it with the new values.
+class Statement {
+ public:
+  virtual ~Statement() = default;
+  virtual void BindNull(int index) = 0;
+  virtual void Bind(int index, int64_t value) = 0;
+  virtual void Bind(int index, double value) = 0;  // NaN and ±inf bind as NULL
+  virtual void Bind(int index, std::string_view text) = 0;
+  virtual void BindBlob(int index, std::string_view bytes) = 0;
+  void Bind(int index, int value) { Bind(index, static_cast<int64_t>(value)); }
+  void Bind(int index, const char* text) { Bind(index, std::string_view(text)); }
+  void Bind(int index, const std::string& text) { Bind(index, std::string_view(text)); }
+  void Bind(int index, const std::optional<double>& value) {
+    if (value)
+      Bind(index, *value);
+    else
+      BindNull(index);
+  }
+  void Bind(int index, const std::optional<int64_t>& value) {
+    if (value)
+      Bind(index, *value);
+    else
+      BindNull(index);
+  }
+
+  // The next row; false when there is none. The first call runs the statement.
+  virtual bool Step() = 0;
+  // Runs a statement that returns no rows (or ignores them); returns the rows changed.
+  virtual int64_t Execute() = 0;
+
+  virtual int Columns() const = 0;
+  virtual bool IsNull(int column) const = 0;
+  virtual int64_t Int(int column) const = 0;
+  virtual double Double(int column) const = 0;
+  virtual std::string Text(int column) const = 0;
+  virtual std::string Blob(int column) const = 0;
+  std::optional<double> OptionalDouble(int column) const {
+    return IsNull(column) ? std::nullopt : std::optional<double>(Double(column));
+  }
+  std::optional<int64_t> OptionalInt(int column) const {
+    return IsNull(column) ? std::nullopt : std::optional<int64_t>(Int(column));
+  }
+};
+
+enum class TransactionKind {
+  kWrite,     // SQLite BEGIN IMMEDIATE (the write lock at once); PostgreSQL READ COMMITTED
+  kSnapshot,  // a consistent read: SQLite BEGIN (a read transaction sees one snapshot in
+              // WAL mode); PostgreSQL REPEATABLE READ READ ONLY
+};
+
+class Connection {
+ public:
+  virtual ~Connection() = default;
+  virtual Backend backend() const = 0;
+  // The statement, prepared (cached by its text where the backend benefits).
+  virtual std::unique_ptr<Statement> Prepare(std::string_view sql) = 0;
+  // SQL without parameters or results (DDL, transaction control).
+  virtual void Exec(std::string_view sql) = 0;
+  virtual void Begin(TransactionKind kind) = 0;
+  virtual void Commit() = 0;
+  virtual void Rollback() = 0;
+  // What to call it in messages: the file, or the URI without its password.
+  virtual const std::string& name() const = 0;
+
+  // Convenience: one value of a one-row query.
+  int64_t QueryInt(std::string_view sql);
+};
+
+// `?` placeholders as PostgreSQL's `$1…$n` (outside quoted strings and identifiers).
+std::string NumberedPlaceholders(std::string_view sql);
+
+// A transaction that rolls back unless committed.
+class Transaction {
+ public:
+  Transaction(Connection& connection, TransactionKind kind);
+  ~Transaction();
+  void Commit();
+  Transaction(const Transaction&) = delete;
+  Transaction& operator=(const Transaction&) = delete;
+
+ private:
+  Connection& connection_;
+  bool open_ = true;
+};
+
+}  // namespace armsig::db

@@ -1,0 +1,107 @@
+#include "io/residual_map_json.h"
+
+#include <cmath>
+#include <set>
+#include <stdexcept>
+
+#include "core/error.h"
+
+namespace armsig::io {
+
+using calibration::ResidualMapData;
+
+nlohmann::json ResidualMapToJson(const ResidualMapData& map) {
+  nlohmann::json joints = nlohmann::json::array();
+  for (int j : map.joints) joints.push_back(j + 1);
+  nlohmann::json weights = nlohmann::json::array();
+  for (const auto& w : map.weights_mm) weights.push_back({w[0], w[1], w[2]});
+  return {{"version", map.version},
+          {"kind", map.kind},
+          {"output_frame", map.output_frame},
+          {"num_joints", map.num_joints},
+          {"joints", joints},
+          {"feature_scale", map.feature_scale},
+          {"length_scale", map.length_scale},
+          {"regularisation", map.regularisation},
+          {"noise_sigma_mm", map.noise_sigma_mm},
+          {"support_radius", map.support_radius},
+          {"centres_rad", map.centres_rad},
+          {"weights_mm", weights}};
+}
+
+nlohmann::json ResidualModelJson(const calibration::ResidualMapFit& fit) {
+  const ResidualMapData& map = fit.map;
+  const bool fitted = !map.centres_rad.empty();
+  nlohmann::json grid = nlohmann::json::array();
+  for (const auto& g : fit.grid) {
+    grid.push_back({{"length_scale", g.length_scale},
+                    {"regularisation", g.regularisation},
+                    {"cv_mean_mm", g.cv_mean_mm}});
+  }
+  nlohmann::json hyperparameters = nullptr;
+  if (fitted) {
+    hyperparameters = {{"length_scale", map.length_scale},
+                       {"regularisation", map.regularisation},
+                       {"noise_sigma_mm", map.noise_sigma_mm},
+                       {"support_radius", map.support_radius},
+                       {"centres", map.centres_rad.size()}};
+  }
+  auto number = [](double v) {
+    return std::isfinite(v) ? nlohmann::json(v) : nlohmann::json(nullptr);
+  };
+  return {{"used", fit.used},
+          {"kind", fitted ? nlohmann::json(map.kind) : nlohmann::json(nullptr)},
+          {"cv_mean_mm_parametric", number(fit.cv_mean_mm_parametric)},
+          {"cv_mean_mm_with_map", number(fit.cv_mean_mm_with_map)},
+          {"decision", fit.decision},
+          {"hyperparameters", hyperparameters},
+          {"grid", grid}};
+}
+
+ResidualMapData ResidualMapFromJson(const nlohmann::json& json, const std::string& source) {
+  auto fail = [&](const std::string& field, const std::string& message) -> InputError {
+    return InputError({source, 0, 0, field}, "residual map: " + message);
+  };
+  if (!json.is_object()) throw fail("", "expected a JSON object");
+  static const std::set<std::string> kKeys = {"version",        "kind",           "output_frame",
+                                              "num_joints",     "joints",         "feature_scale",
+                                              "length_scale",   "regularisation", "noise_sigma_mm",
+                                              "support_radius", "centres_rad",    "weights_mm"};
+  for (const auto& item : json.items()) {
+    if (!kKeys.count(item.key())) throw fail(item.key(), "unknown key '" + item.key() + "'");
+  }
+  auto field = [&](const char* key) -> const nlohmann::json& {
+    if (!json.contains(key)) throw fail(key, std::string("missing '") + key + "'");
+    return json.at(key);
+  };
+  ResidualMapData map;
+  try {
+    map.version = field("version").get<int>();
+    if (map.version != ResidualMapData::kVersion) {
+      throw fail("version", "version " + std::to_string(map.version) +
+                                " was written by a newer armsig (this one reads version " +
+                                std::to_string(ResidualMapData::kVersion) + ")");
+    }
+    map.kind = field("kind").get<std::string>();
+    map.output_frame = field("output_frame").get<std::string>();
+    map.num_joints = field("num_joints").get<int>();
+    for (int j : field("joints").get<std::vector<int>>()) map.joints.push_back(j - 1);
+    map.feature_scale = field("feature_scale").get<std::vector<double>>();
+    map.length_scale = field("length_scale").get<double>();
+    map.regularisation = field("regularisation").get<double>();
+    map.noise_sigma_mm = field("noise_sigma_mm").get<double>();
+    map.support_radius = field("support_radius").get<double>();
+    map.centres_rad = field("centres_rad").get<std::vector<std::vector<double>>>();
+    map.weights_mm = field("weights_mm").get<std::vector<std::array<double, 3>>>();
+  } catch (const nlohmann::json::exception& e) {
+    throw fail("", std::string("malformed field: ") + e.what());
+  }
+  try {
+    calibration::ResidualMap check(map);  // every consistency rule in one place
+  } catch (const std::invalid_argument& e) {
+    throw fail("", e.what());
+  }
+  return map;
+}
+
+}  // namespace armsig::io

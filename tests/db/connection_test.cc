@@ -1,0 +1,160 @@
+// The two backends behind db::Connection, tested alike: SQLite (a temporary file) and
+// PostgreSQL (the tests' own server, tests/support/postgres_server.h).
+#include "db/connection.h"
+
+#include <SQLiteCpp/Database.h>
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <limits>
+
+#include "core/error.h"
+#include "db/postgres_connection.h"
+#include "db/sqlite_connection.h"
+#include "support/postgres_server.h"
+#include "test_support.h"
+
+namespace armsig::db {
+namespace {
+
+using testing::TempDir;
+
+class BothBackends : public ::testing::TestWithParam<Backend> {
+ protected:
+  void SetUp() override {
+    if (GetParam() == Backend::kSqlite) {
+      sqlite_.emplace(dir_.File("t.db"), SQLite::OPEN_READWRITE | SQLite::OPEN_CREATE);
+      connection_ = std::make_unique<SqliteConnection>(*sqlite_, dir_.File("t.db"));
+    } else {
+      static int n = 0;
+      const std::string uri =
+          testing::PostgresServer::Shared().NewDatabase("connection_" + std::to_string(++n));
+      connection_ = std::make_unique<PostgresConnection>(uri);
+    }
+  }
+  Connection& c() { return *connection_; }
+  std::string Blob() const { return GetParam() == Backend::kSqlite ? "BLOB" : "BYTEA"; }
+
+  TempDir dir_;
+  std::optional<SQLite::Database> sqlite_;
+  std::unique_ptr<Connection> connection_;
+};
+
+// Every value comes back exactly: doubles to the last bit, int64 extremes, UTF-8 text,
+// blobs with NUL bytes, NULL (and non-finite doubles stored as NULL).
+TEST_P(BothBackends, ValuesRoundTripExactly) {
+  c().Exec("CREATE TABLE v (i BIGINT, d DOUBLE PRECISION, t TEXT, b " + Blob() + ")");
+  const double doubles[] = {1.0 / 3.0, -2.5e-300, 6.02214076e23, 0.1, 4.9e-324, -1e308};
+  const int64_t ints[] = {std::numeric_limits<int64_t>::min(), -1, 0,
+                          std::numeric_limits<int64_t>::max()};
+  auto insert = c().Prepare("INSERT INTO v (i, d, t, b) VALUES (?, ?, ?, ?)");
+  for (int k = 0; k < 6; ++k) {
+    insert->Bind(1, ints[k % 4]);
+    insert->Bind(2, doubles[k]);
+    insert->Bind(3, std::string("Zürich ? 'quoted' \"x\" ") + std::to_string(k));
+    insert->BindBlob(4, std::string("\0\x01\xff?", 4) + std::to_string(k));
+    EXPECT_EQ(insert->Execute(), 1);
+  }
+  insert->BindNull(1);
+  insert->Bind(2, std::numeric_limits<double>::quiet_NaN());
+  insert->BindNull(3);
+  insert->BindNull(4);
+  insert->Execute();
+  auto q = c().Prepare("SELECT i, d, t, b FROM v ORDER BY (t IS NULL), t");
+  for (int k = 0; k < 6; ++k) {
+    ASSERT_TRUE(q->Step()) << k;
+    EXPECT_EQ(q->Int(0), ints[k % 4]);
+    EXPECT_EQ(q->Double(1), doubles[k]);
+    EXPECT_EQ(q->Text(2), std::string("Zürich ? 'quoted' \"x\" ") + std::to_string(k));
+    EXPECT_EQ(q->Blob(3), std::string("\0\x01\xff?", 4) + std::to_string(k));
+  }
+  ASSERT_TRUE(q->Step());  // the row of NULLs, last
+  for (int col = 0; col < 4; ++col) EXPECT_TRUE(q->IsNull(col)) << col;
+  EXPECT_FALSE(q->Step());
+}
+
+TEST_P(BothBackends, PlaceholdersInsideQuotesAreText) {
+  c().Exec("CREATE TABLE p (a TEXT, b TEXT)");
+  auto insert = c().Prepare("INSERT INTO p (a, b) VALUES ('?', ?)");
+  insert->Bind(1, "second");
+  insert->Execute();
+  auto q = c().Prepare("SELECT a, b FROM p WHERE b = ?");
+  q->Bind(1, "second");
+  ASSERT_TRUE(q->Step());
+  EXPECT_EQ(q->Text(0), "?");
+  EXPECT_EQ(q->Text(1), "second");
+}
+
+TEST_P(BothBackends, RebindingRunsTheStatementAgain) {
+  c().Exec("CREATE TABLE r (x BIGINT)");
+  auto insert = c().Prepare("INSERT INTO r (x) VALUES (?)");
+  for (int k = 0; k < 5; ++k) {
+    insert->Bind(1, k);
+    insert->Execute();
+  }
+  auto q = c().Prepare("SELECT count(*), sum(x) FROM r WHERE x >= ?");
+  q->Bind(1, 2);
+  ASSERT_TRUE(q->Step());
+  EXPECT_EQ(q->Int(0), 3);
+  EXPECT_EQ(q->Int(1), 9);
+  q->Bind(1, 4);
+  ASSERT_TRUE(q->Step());
+  EXPECT_EQ(q->Int(0), 1);
+}
+
+TEST_P(BothBackends, UncommittedTransactionRollsBack) {
+  c().Exec("CREATE TABLE t (x BIGINT)");
+  {
+    Transaction tx(c(), TransactionKind::kWrite);
+    auto s = c().Prepare("INSERT INTO t (x) VALUES (1)");
+    s->Execute();
+  }  // no Commit
+  EXPECT_EQ(c().QueryInt("SELECT count(*) FROM t"), 0);
+  {
+    Transaction tx(c(), TransactionKind::kWrite);
+    c().Prepare("INSERT INTO t (x) VALUES (2)")->Execute();
+    tx.Commit();
+  }
+  EXPECT_EQ(c().QueryInt("SELECT count(*) FROM t"), 1);
+}
+
+TEST_P(BothBackends, ConstraintViolationIsADatabaseErrorNotTransient) {
+  c().Exec("CREATE TABLE u (x BIGINT PRIMARY KEY)");
+  c().Prepare("INSERT INTO u (x) VALUES (1)")->Execute();
+  try {
+    c().Prepare("INSERT INTO u (x) VALUES (1)")->Execute();
+    FAIL();
+  } catch (const DatabaseError& e) {
+    EXPECT_FALSE(e.transient());
+    EXPECT_FALSE(e.code().empty());
+  }
+}
+
+INSTANTIATE_TEST_SUITE_P(Db, BothBackends, ::testing::Values(Backend::kSqlite, Backend::kPostgres),
+                         [](const auto& info) {
+                           return info.param == Backend::kSqlite ? "sqlite" : "postgres";
+                         });
+
+TEST(NumberedPlaceholders, NumbersOnlyPlaceholdersOutsideQuotes) {
+  EXPECT_EQ(NumberedPlaceholders("SELECT ? , '?', \"?\", ?"), "SELECT $1 , '?', \"?\", $2");
+  EXPECT_EQ(NumberedPlaceholders("x = 'it''s ?' AND y = ?"), "x = 'it''s ?' AND y = $1");
+}
+
+TEST(PostgresUri, PasswordsNeverStandInAUriOrAMessage) {
+  EXPECT_EQ(RedactedUri("postgresql://job:s3cret@db.plant:5432/armsig"),
+            "postgresql://job@db.plant:5432/armsig");
+  EXPECT_EQ(RedactedUri("postgresql:///armsig?host=/tmp&password=s3cret&user=a"),
+            "postgresql:///armsig?host=/tmp&user=a");
+  EXPECT_EQ(RedactedUri("postgresql://db/armsig?sslmode=require"),
+            "postgresql://db/armsig?sslmode=require");
+  try {
+    PostgresConnection c("postgresql://job:s3cret@localhost/armsig");
+    FAIL();
+  } catch (const InputError& e) {
+    EXPECT_EQ(std::string(e.what()).find("s3cret"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("PGPASSWORD"), std::string::npos);
+  }
+}
+
+}  // namespace
+}  // namespace armsig::db

@@ -1,0 +1,112 @@
+#include "io/residual_map_json.h"
+
+#include <gtest/gtest.h>
+
+#include <random>
+
+#include "calibration/estimation.h"
+#include "calibration/simulation.h"
+#include "core/error.h"
+#include "test_support.h"
+
+namespace armsig::io {
+namespace {
+
+using calibration::ResidualMap;
+using calibration::ResidualMapData;
+
+// A small fitted map: a PUMA with an error the geometric model cannot make.
+calibration::ResidualMapFit Fit() {
+  const auto model = testing::Puma();
+  std::mt19937 rng(1);
+  const auto joints = calibration::RandomConfigurations(model, 60, rng);
+  auto poses = calibration::SimulatePoses(model, Eigen::Isometry3d::Identity(),
+                                          calibration::PaperTable3Parameters(), joints, 0.02, rng);
+  for (auto& p : poses) p.target_in_world.x() += 0.3 * std::sin(p.joints_rad(1) + p.joints_rad(2));
+  calibration::EstimationOptions o;
+  o.parameters = calibration::ParseParameterSpec(model, "geometric");
+  const auto fit = calibration::Estimate(model, poses, o);
+  return calibration::FitResidualMap(model, fit, poses);
+}
+ResidualMapData FittedMap() { return Fit().map; }
+
+InputError Refusal(const nlohmann::json& json) {
+  try {
+    ResidualMapFromJson(json, "set 3");
+  } catch (const InputError& e) {
+    return e;
+  }
+  ADD_FAILURE() << "expected an InputError for " << json.dump().substr(0, 200);
+  return InputError("none");
+}
+
+}  // namespace
+
+TEST(ResidualMapJson, RoundTripKeepsEveryPrediction) {
+  const ResidualMapData map = FittedMap();
+  ASSERT_FALSE(map.centres_rad.empty());
+  const nlohmann::json json = ResidualMapToJson(map);
+  EXPECT_EQ(json["kind"], "gaussian_kernel_ridge");
+  EXPECT_EQ(json["version"], 1);
+  EXPECT_EQ(json["joints"], nlohmann::json::array({1, 2, 3, 4, 5}));  // 1-based in files
+  const ResidualMapData back = ResidualMapFromJson(nlohmann::json::parse(json.dump()), "set 3");
+  EXPECT_EQ(back.joints, map.joints);
+  EXPECT_EQ(back.centres_rad, map.centres_rad);
+  EXPECT_EQ(back.weights_mm, map.weights_mm);
+  EXPECT_EQ(back.feature_scale, map.feature_scale);
+  const ResidualMap a(map), b(back);
+  std::mt19937 rng(2);
+  for (const auto& q : calibration::RandomConfigurations(testing::Puma(), 20, rng)) {
+    const auto pa = a.Predict(q.data()), pb = b.Predict(q.data());
+    EXPECT_EQ(pa.supported, pb.supported);
+    EXPECT_EQ(pa.correction_in_base_mm, pb.correction_in_base_mm);  // bit for bit
+    EXPECT_EQ(a.CorrectionSigmaMm(q.data()), b.CorrectionSigmaMm(q.data()));
+  }
+}
+
+TEST(ResidualMapJson, RefusesWhatItCannotUse) {
+  const nlohmann::json good = ResidualMapToJson(FittedMap());
+  nlohmann::json j = good;
+  j["colour"] = "red";
+  EXPECT_EQ(Refusal(j).message(), "residual map: unknown key 'colour'");
+  j = good;
+  j["version"] = 2;
+  EXPECT_NE(Refusal(j).message().find("newer armsig"), std::string::npos);
+  j = good;
+  j.erase("weights_mm");
+  EXPECT_EQ(Refusal(j).message(), "residual map: missing 'weights_mm'");
+  j = good;
+  j["length_scale"] = "wide";
+  EXPECT_NE(Refusal(j).message().find("malformed"), std::string::npos);
+  j = good;
+  j["weights_mm"].erase(0);
+  EXPECT_NE(Refusal(j).message().find("one weight vector per centre"), std::string::npos);
+  j = good;
+  j["joints"][0] = 7;
+  EXPECT_NE(Refusal(j).message().find("out of range"), std::string::npos);
+  EXPECT_EQ(Refusal(j).where().file, "set 3");
+}
+
+TEST(ResidualMapJson, ResidualModelSummaryHasTheSpecShape) {
+  const calibration::ResidualMapFit fit = Fit();
+  const nlohmann::json j = ResidualModelJson(fit);
+  EXPECT_EQ(j["used"], fit.used);
+  EXPECT_EQ(j["kind"], "gaussian_kernel_ridge");
+  EXPECT_EQ(j["cv_mean_mm_parametric"], fit.cv_mean_mm_parametric);
+  EXPECT_EQ(j["cv_mean_mm_with_map"], fit.cv_mean_mm_with_map);
+  EXPECT_EQ(j["hyperparameters"]["length_scale"], fit.map.length_scale);
+  EXPECT_EQ(j["hyperparameters"]["regularisation"], fit.map.regularisation);
+  EXPECT_EQ(j["hyperparameters"]["centres"], fit.map.centres_rad.size());
+  EXPECT_EQ(j["grid"].size(), fit.grid.size());
+  // Too few poses: no map, and the JSON says so with nulls rather than numbers.
+  calibration::ResidualMapFit none;
+  none.decision = "too few poses";
+  const nlohmann::json n = ResidualModelJson(none);
+  EXPECT_FALSE(n["used"]);
+  EXPECT_TRUE(n["kind"].is_null());
+  EXPECT_TRUE(n["hyperparameters"].is_null());
+  EXPECT_TRUE(n["cv_mean_mm_with_map"].is_null());
+  EXPECT_TRUE(n["cv_mean_mm_parametric"].is_null());
+}
+
+}  // namespace armsig::io

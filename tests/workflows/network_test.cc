@@ -1,0 +1,159 @@
+// orient and triangulate on files (workflows/network): real networks through the library
+// calls the commands make, and the input errors they refuse.
+#include "workflows/network.h"
+
+#include <gtest/gtest.h>
+
+#include <filesystem>
+#include <fstream>
+
+#include "core/error.h"
+#include "io/csv.h"
+#include "io/network_io.h"
+#include "test_support.h"
+
+namespace armsig::workflows {
+namespace {
+
+using testing::DataPath;
+using testing::TempDir;
+using testing::WriteText;
+
+std::string Net(const std::string& f) { return DataPath("networks/" + f); }
+
+std::vector<std::string> K06ScaleBars() {
+  std::vector<std::string> bars;
+  std::ifstream in(Net("k06/scale_bars.txt"));
+  for (std::string line; std::getline(in, line);)
+    if (!line.empty()) bars.push_back(line);
+  return bars;
+}
+
+// Comp3D's published adjustment of polygone_K06: σ0 1.16316 on 185 degrees of freedom
+// (data/README). The stations written are read back by the stations reader and
+// triangulate every target again.
+TEST(OrientFiles, K06WithScaleBarsReproducesComp3DAndWritesReadableStations) {
+  TempDir dir;
+  OrientFilesOptions o;
+  o.observations = Net("k06/observations.csv");
+  o.scale_bars = K06ScaleBars();
+  o.scale_bar_sigma_mm = 0.005;
+  o.out = dir.File("st.yaml");
+  o.points_out = dir.File("pts.csv");
+  const OrientRun run = OrientFiles(o);
+  ASSERT_TRUE(run.result.status.ok()) << run.result.status.message;
+  EXPECT_EQ(run.result.dof, 185);
+  EXPECT_NEAR(run.result.sigma0, 1.16307, 2e-4);
+  const std::string report = FormatOrientReport(run);
+  EXPECT_NE(report.find("185 degrees of freedom"), std::string::npos) << report;
+  const auto stations = io::ReadStationsYaml(o.out);
+  ASSERT_EQ(stations.size(), 4u);
+  const auto points = io::ReadCsvFile(o.points_out);
+  EXPECT_EQ(points.rows().size(), run.result.points.size());
+
+  TriangulateFilesOptions t;
+  t.stations = o.out;
+  t.observations = o.observations;
+  t.out = dir.File("tri.csv");
+  const TriangulateRun tri = TriangulateFiles(t);
+  EXPECT_EQ(tri.points.size(), 54u);
+  EXPECT_EQ(tri.intersected, 54);
+  EXPECT_EQ(io::ReadCsvFile(t.out).rows().size(), 54u);
+}
+
+TEST(OrientFiles, NetworkWithoutScaleIsRefusedAndNothingWritten) {
+  TempDir dir;
+  // k06's angles without its 11 slope distances and without the scale bars: no scale.
+  const auto table = io::ReadCsvFile(Net("k06/observations.csv"));
+  std::string angles = "point,station,hz_gon,v_gon\n";
+  for (const auto& row : table.rows()) {
+    angles +=
+        row.fields[0] + "," + row.fields[1] + "," + row.fields[2] + "," + row.fields[3] + "\n";
+  }
+  WriteText(dir.File("angles.csv"), angles);
+  OrientFilesOptions o;
+  o.observations = dir.File("angles.csv");
+  o.out = dir.File("st.yaml");
+  try {
+    OrientFiles(o);
+    FAIL() << "a network without scale was adjusted";
+  } catch (const InputError& e) {
+    EXPECT_NE(e.message().find("no scale"), std::string::npos) << e.what();
+  }
+  EXPECT_FALSE(std::filesystem::exists(o.out));
+}
+
+TEST(OrientFiles, MalformedOrUnobservedScaleBarIsAnInputError) {
+  OrientFilesOptions o;
+  o.observations = Net("k06/observations.csv");
+  o.scale_bars = {"1008-1180"};
+  EXPECT_THROW(OrientFiles(o), InputError);
+  o.scale_bars = {"1008:9999=100"};
+  try {
+    OrientFiles(o);
+    FAIL();
+  } catch (const InputError& e) {
+    EXPECT_NE(e.message().find("9999 is never observed"), std::string::npos) << e.what();
+  }
+}
+
+// The 41 k06 targets seen by angles only and on no bar do not depend on any weighting:
+// from the published stations they land on Comp3D's coordinates (data/README: 3.1 µm).
+TEST(TriangulateFiles, K06AngleOnlyTargetsLandOnComp3D) {
+  TriangulateFilesOptions t;
+  t.stations = Net("k06/stations.yaml");
+  t.observations = Net("k06/observations.csv");
+  const TriangulateRun run = TriangulateFiles(t);
+  const auto expected = io::ReadCsvFile(Net("k06/expected.csv"));
+  int compared = 0;
+  for (const auto& p : run.points) {
+    if (!p.result.status.ok()) continue;
+    for (const auto& row : expected.rows()) {
+      if (expected.Text(row, 0) != p.id) continue;
+      const Eigen::Vector3d published(expected.Number(row, 1), expected.Number(row, 2),
+                                      expected.Number(row, 3));
+      if ((p.result.position_mm - published).norm() < 0.01) ++compared;
+    }
+  }
+  EXPECT_GE(compared, 41);
+}
+
+TEST(TriangulateFiles, UnknownStationNamesTheLineAndWritesNothing) {
+  TempDir dir;
+  WriteText(dir.File("obs.csv"), "point,station,hz_gon,v_gon\nP,1,10,100\nP,9,20,100\n");
+  TriangulateFilesOptions t;
+  t.stations = Net("k06/stations.yaml");
+  t.observations = dir.File("obs.csv");
+  t.out = dir.File("p.csv");
+  try {
+    TriangulateFiles(t);
+    FAIL();
+  } catch (const InputError& e) {
+    EXPECT_EQ(e.where().line, 3);
+    EXPECT_NE(e.message().find("station '9'"), std::string::npos) << e.what();
+  }
+  EXPECT_FALSE(std::filesystem::exists(t.out));
+}
+
+// One ray gives no point: it is reported with its flag and written without coordinates.
+TEST(TriangulateFiles, OneRayPointIsReportedNotInvented) {
+  TempDir dir;
+  WriteText(dir.File("obs.csv"), "point,station,hz_gon,v_gon\nLONE,1,10,100\n");
+  TriangulateFilesOptions t;
+  t.stations = Net("k06/stations.yaml");
+  t.observations = dir.File("obs.csv");
+  t.out = dir.File("p.csv");
+  const TriangulateRun run = TriangulateFiles(t);
+  ASSERT_EQ(run.points.size(), 1u);
+  EXPECT_EQ(run.intersected, 0);
+  EXPECT_FALSE(run.points[0].result.status.ok());
+  const auto table = io::ReadCsvFile(t.out);
+  ASSERT_EQ(table.rows().size(), 1u);
+  EXPECT_TRUE(table.Text(table.rows()[0], table.Column("x_mm")).empty());
+  EXPECT_NE(table.Text(table.rows()[0], table.Column("status")).find("one_ray"), std::string::npos);
+  EXPECT_NE(FormatTriangulateSummary(run, t.out).find("0 points intersected, 1 not"),
+            std::string::npos);
+}
+
+}  // namespace
+}  // namespace armsig::workflows
