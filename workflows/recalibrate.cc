@@ -113,7 +113,7 @@ std::string SinceToUtc(const std::string& text) {
   static const std::regex iso(
       R"(^(\d{4})-(\d{2})-(\d{2})(?:[T ](\d{2}):(\d{2})(?::(\d{2})(?:\.(\d+))?)?(Z|([+-])(\d{2})(?::?(\d{2}))?)?)?$)");
   auto fail = [&](const std::string& why) -> InputError {
-    return InputError({"--since", 0, 0, ""}, "'" + text + "': " + why);
+    return InputError({"--since", 0, 0, ""}, Quoted(text) + ": " + why);
   };
   std::smatch m;
   if (!std::regex_match(text, m, iso)) {
