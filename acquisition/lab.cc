@@ -140,15 +140,36 @@ ControllerConfig ControllerFrom(const YamlValue& value, const std::string& sourc
 
 InstrumentConfig InstrumentFrom(const YamlValue& value, const std::string& source,
                                 SourceLocation* station_where) {
-  const YamlMap map = value.Map({"station", "protocol", "port", "tcp", "baud", "crc", "distance",
-                                 "sigma_hz_arcsec", "sigma_v_arcsec", "sigma_distance_mm"});
+  const YamlMap map =
+      value.Map({"station", "protocol", "port", "tcp", "baud", "crc", "distance", "sigma_hz_arcsec",
+                 "sigma_v_arcsec", "sigma_distance_mm", "measurement_time_ms"});
   InstrumentConfig c;
   const YamlValue station = map.Required("station", "the id of the station it stands on");
   c.station = station.Name();
   *station_where = station.Where();
-  c.protocol = Choice(map.Required("protocol", "geocom or gsi"), {"geocom", "gsi"});
+  c.protocol =
+      Choice(map.Required("protocol", "geocom, gsi or emscon"), {"geocom", "gsi", "emscon"});
   const auto port = map.Find("port");
   const auto tcp = map.Find("tcp");
+  if (c.protocol == "emscon") {
+    // A laser tracker behind an emScon server: binary packets over TCP, always distances.
+    for (const char* key : {"port", "baud", "crc"}) {
+      if (const auto v = map.Find(key)) {
+        v->Fail("instrument " + c.station + ": '" + key +
+                "' is no emscon setting (a laser tracker is reached over tcp: HOST:PORT)");
+      }
+    }
+    if (!tcp) map.Fail("instrument " + c.station + ": protocol emscon needs tcp: HOST:PORT");
+    c.distance = true;
+    if (const auto d = map.Find("distance"); d && !d->Flag()) {
+      d->Fail("instrument " + c.station + ": a laser tracker always measures the distance");
+    }
+    if (const auto v = map.Find("measurement_time_ms")) {
+      c.measurement_time_ms = static_cast<int>(v->Integer(1, 100000));
+    }
+  } else if (const auto v = map.Find("measurement_time_ms")) {
+    v->Fail("'measurement_time_ms' belongs to protocol emscon, not " + c.protocol);
+  }
   if (port && tcp) tcp->Fail("instrument " + c.station + ": give port or tcp, not both");
   if (port) c.port = Resolve(source, port->Text());
   if (tcp) {
@@ -160,7 +181,7 @@ InstrumentConfig InstrumentFrom(const YamlValue& value, const std::string& sourc
   if (!port && !tcp) map.Fail("instrument " + c.station + ": missing 'port' or 'tcp'");
   if (const auto v = map.Find("baud")) c.baud = Baud(*v);
   if (const auto v = map.Find("crc")) c.crc = v->Flag();
-  if (const auto v = map.Find("distance")) c.distance = v->Flag();
+  if (const auto v = map.Find("distance"); v && c.protocol != "emscon") c.distance = v->Flag();
   using plausible::Quantity;
   if (const auto v = map.Find("sigma_hz_arcsec"))
     c.sigma_hz_arcsec = v->Plausible(Quantity::kSigmaAngle, plausible::kArcsec);
@@ -172,11 +193,13 @@ InstrumentConfig InstrumentFrom(const YamlValue& value, const std::string& sourc
 }
 
 void TolerancesFrom(const YamlValue& value, Tolerances& tol, instruments::RetryPolicy& policy) {
-  const YamlMap map =
-      value.Map({"max_miss_mm", "max_repeat_mm", "readings", "max_remeasure", "settle_ms",
-                 "fault_retries", "fault_retry_delay_ms", "two_face", "timeout_ms"});
+  const YamlMap map = value.Map({"max_miss_mm", "max_repeat_mm", "readings", "max_remeasure",
+                                 "settle_ms", "fault_retries", "fault_retry_delay_ms", "two_face",
+                                 "timeout_ms", "max_sigma_mm", "max_repeat_sigma"});
   if (const auto v = map.Find("max_miss_mm")) tol.max_miss_mm = PositiveMm(*v);
   if (const auto v = map.Find("max_repeat_mm")) tol.max_repeat_mm = PositiveMm(*v);
+  if (const auto v = map.Find("max_sigma_mm")) tol.max_sigma_mm = PositiveMm(*v);
+  if (const auto v = map.Find("max_repeat_sigma")) tol.max_repeat_sigma = v->PositiveNumber();
   if (const auto v = map.Find("readings")) tol.readings = v->Integer(1, kMaxReadings);
   if (const auto v = map.Find("max_remeasure")) tol.max_remeasure = v->Integer(0, kMaxRemeasure);
   if (const auto v = map.Find("settle_ms")) tol.settle_ms = v->Integer(0, kMaxDelayMs);
@@ -239,10 +262,14 @@ ParsedLab ParseRoot(const YamlValue& root_value, const std::string& source) {
   ParsedLab parsed;
   LabSettings& lab = parsed.settings;
 
-  const YamlMap robot = root.Required("robot", "model and controller").Map({"model", "controller"});
+  const YamlMap robot =
+      root.Required("robot", "model and controller").Map({"model", "controller", "base"});
   const YamlValue model = robot.Required("model", "the robot model file");
   lab.robot_model_path = Resolve(source, model.Text());
   parsed.model_where = model.Where();
+  if (const auto base = robot.Find("base")) {
+    lab.robot_base = io::ReadRigidTransform(*base, plausible::Quantity::kCoordinate);
+  }
   lab.controller =
       ControllerFrom(robot.Required("controller", "{protocol: val | as | counter, port, …}"),
                      source, &parsed.ports_where);
@@ -304,6 +331,7 @@ LabConfig ParseLab(const std::string& text, const std::string& source) {
   lab.robot_model_path = settings.robot_model_path;
   lab.model_yaml = ReadNamedFile(settings.robot_model_path, parsed.model_where, "robot model");
   lab.model = io::ParseRobotModel(lab.model_yaml, settings.robot_model_path);
+  lab.robot_base = settings.robot_base;
   lab.controller = settings.controller;
   if (lab.controller.protocol == "counter" &&
       static_cast<int>(lab.controller.counter_ports.size()) != lab.model.num_joints()) {
@@ -366,8 +394,10 @@ std::unique_ptr<instruments::DistanceInstrument> OpenInstrument(
                        "protocol emscon needs --tcp HOST:PORT (port 1 to "
                        "65535; emScon servers listen on 700)");
     }
+    instruments::EmsconOptions options;
+    options.measurement_time_ms = c.measurement_time_ms;
     return std::make_unique<instruments::EmsconDevice>(
-        instruments::MakeEmsconTcpTransport(address->host, address->port), policy);
+        instruments::MakeEmsconTcpTransport(address->host, address->port), policy, options);
   }
   throw InputError({"protocol", 0, 0, ""}, "unknown instrument protocol " + Quoted(c.protocol) +
                                                " (expected geocom, gsi or emscon)");
@@ -419,6 +449,13 @@ std::string FormatLabYaml(const LabFile& lab) {
     if (!i.port.empty()) out << YAML::Key << "port" << YAML::Value << i.port;
     if (!i.tcp.empty()) out << YAML::Key << "tcp" << YAML::Value << i.tcp;
     if (i.baud != default_instrument.baud) out << YAML::Key << "baud" << YAML::Value << i.baud;
+    if (i.protocol == "emscon") {  // the tracker states its sigmas with every reading
+      if (i.measurement_time_ms != default_instrument.measurement_time_ms) {
+        out << YAML::Key << "measurement_time_ms" << YAML::Value << i.measurement_time_ms;
+      }
+      out << YAML::EndMap;
+      continue;
+    }
     if (i.crc) out << YAML::Key << "crc" << YAML::Value << true;
     if (i.distance) out << YAML::Key << "distance" << YAML::Value << true;
     out << YAML::Key << "sigma_hz_arcsec" << YAML::Value << i.sigma_hz_arcsec << YAML::Key
@@ -435,7 +472,9 @@ std::string FormatLabYaml(const LabFile& lab) {
       << YAML::Value << t.settle_ms << YAML::Key << "fault_retries" << YAML::Value
       << t.fault_retries << YAML::Key << "fault_retry_delay_ms" << YAML::Value
       << t.fault_retry_delay_ms << YAML::Key << "two_face" << YAML::Value << t.two_face << YAML::Key
-      << "timeout_ms" << YAML::Value << lab.timeout_ms << YAML::EndMap << YAML::EndMap;
+      << "timeout_ms" << YAML::Value << lab.timeout_ms << YAML::Key << "max_sigma_mm"
+      << YAML::Value << t.max_sigma_mm << YAML::Key << "max_repeat_sigma" << YAML::Value
+      << t.max_repeat_sigma << YAML::EndMap << YAML::EndMap;
   return std::string(out.c_str()) + "\n";
 }
 

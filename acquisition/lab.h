@@ -17,13 +17,15 @@ namespace armsig::acquisition {
 
 struct InstrumentConfig {
   std::string station;   // station id (matches the stations file / orientation)
-  std::string protocol;  // geocom | gsi | emscon (`armsig instrument` only, so far)
+  std::string protocol;  // geocom | gsi | emscon (a laser tracker: TCP, always distances)
   std::string port;      // serial path, or empty with tcp
   std::string tcp;       // HOST:PORT
   unsigned baud = 19200;
   bool crc = false;
   bool distance = false;  // measure distances (laser tracker / total station)
+  // A-priori sigmas; a laser tracker's readings carry their own, which take their place.
   double sigma_hz_arcsec = 0.5, sigma_v_arcsec = 0.5, sigma_distance_mm = 0.5;
+  int measurement_time_ms = 500;  // emscon: the stationary measurement averages this long
 };
 
 struct ControllerConfig {
@@ -44,6 +46,13 @@ struct Tolerances {
   int fault_retries = 2;           // session-level retries of a failing instrument
   int fault_retry_delay_ms = 500;  // wait before each retry (a port coming back, an operator)
   bool two_face = false;           // measure in both faces
+  // Laser trackers, against the sigmas they state with each reading: a reading whose
+  // largest one-sigma error exceeds max_sigma_mm is flagged (sigma_exceeded) and measured
+  // again; repeated readings (readings ≥ 2) of one tracker that differ by more than
+  // max_repeat_sigma of their combined sigma are flagged (repeat_exceeded) and measured
+  // again.
+  double max_sigma_mm = 0.05;
+  double max_repeat_sigma = 4.0;
 };
 
 // The lab file's `recalibration:` block: gates of the nightly job. An absent key is
@@ -61,6 +70,9 @@ struct RecalibrationSettings {
 // text is checked (unknown keys refused everywhere), not only the parts returned.
 struct LabSettings {
   std::string robot_model_path;  // resolved against the lab file's folder
+  // `robot: base:` — world (lab frame) from robot base, when the lab knows it; laser
+  // trackers point their beam through it until enough points are measured to fit it.
+  std::optional<Eigen::Isometry3d> robot_base;
   ControllerConfig controller;
   std::vector<InstrumentConfig> instruments;
   std::string stations_path;                        // `stations: FILE` (resolved), else empty
@@ -76,6 +88,7 @@ struct LabConfig {
   std::string robot_model_path;
   std::string model_yaml;  // the robot model file's text (stored with the robot)
   calibration::RobotModel model;
+  std::optional<Eigen::Isometry3d> robot_base;  // world from robot base (`robot: base:`)
   ControllerConfig controller;
   std::vector<InstrumentConfig> instruments;
   std::vector<reduction::Station> stations;  // oriented stations (from the stations file)

@@ -7,9 +7,11 @@
 #include <chrono>
 #include <cmath>
 #include <future>
+#include <map>
 #include <set>
 #include <thread>
 
+#include "acquisition/beam_pointing.h"
 #include "acquisition/records.h"
 #include "acquisition/session_owner.h"
 #include "core/error.h"
@@ -17,6 +19,7 @@
 #include "db/store.h"
 #include "reduction/intersection.h"
 #include "reduction/point_flags.h"
+#include "reduction/polar_checks.h"
 
 namespace armsig::acquisition {
 
@@ -48,6 +51,7 @@ namespace {
 struct StationReading {
   instruments::Reading reading;
   int instrument = 0;
+  int round = 0;  // which round of readings (repeat or face) it came from
 };
 
 // Ctrl-C: the flag was raised while a configuration was being measured.
@@ -80,10 +84,17 @@ struct Measurement {
   Eigen::VectorXd joints;
   std::vector<StationReading> readings;  // every reading of every instrument (faces, repeats)
   reduction::ReducedPoint point;         // its flags carry the tolerance checks
-  double device_ms = 0.0;                // slowest device call of the parallel round(s)
+  double device_ms = 0.0;                // slowest device call of each parallel step, summed
 };
 
-// A reading of the capture's target as an observation, with its instrument's sigmas.
+bool UsableSigmas(const std::optional<instruments::ReadingSigmas>& s) {
+  return s && std::isfinite(s->hz_rad) && std::isfinite(s->v_rad) &&
+         std::isfinite(s->distance_mm) && s->hz_rad > 0.0 && s->v_rad > 0.0 &&
+         s->distance_mm > 0.0;
+}
+
+// A reading of the capture's target as an observation: with the sigmas the instrument
+// stated with it (a laser tracker), else its configured ones.
 reduction::Observation ObservationOf(const StationReading& r, const InstrumentConfig& c) {
   reduction::Observation o;
   o.point = "target";
@@ -93,7 +104,21 @@ reduction::Observation ObservationOf(const StationReading& r, const InstrumentCo
   o.sigma_hz_rad = c.sigma_hz_arcsec * kRadPerArcsec;
   o.sigma_v_rad = c.sigma_v_arcsec * kRadPerArcsec;
   o.sigma_distance_mm = c.sigma_distance_mm;
+  if (UsableSigmas(r.reading.sigma)) {
+    o.sigma_hz_rad = r.reading.sigma->hz_rad;
+    o.sigma_v_rad = r.reading.sigma->v_rad;
+    o.sigma_distance_mm = r.reading.sigma->distance_mm;
+  }
   return o;
+}
+
+// A tracker searches at the distance the prediction gives, else at its last reading's,
+// else at this (a typical robot cell: the tracker a few metres from the robot).
+constexpr double kDefaultSearchDistanceMm = 3000.0;
+
+double MsSince(std::chrono::steady_clock::time_point start) {
+  return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start)
+      .count();
 }
 
 }  // namespace
@@ -124,6 +149,31 @@ CaptureSummary RunCapture(db::Database& db, const LabConfig& lab, int64_t sessio
                        "no oriented station " + lab.instruments[i].station);
   }
 
+  // Laser trackers point their beams at the predicted target before measuring.
+  std::vector<instruments::BeamSteering*> beams(devices.size(), nullptr);
+  bool any_beam = false;
+  for (size_t i = 0; i < devices.size(); ++i) {
+    beams[i] = dynamic_cast<instruments::BeamSteering*>(devices[i].get());
+    any_beam |= beams[i] != nullptr;
+  }
+  std::optional<TargetPredictor> predictor;
+  if (any_beam) {
+    predictor.emplace(lab.model,
+                      options.prediction_params.value_or(
+                          Eigen::VectorXd::Zero(lab.model.num_parameters())),
+                      lab.robot_base);
+    // A resumed session starts from the points it has (the base is known at once).
+    for (const auto& p : db::LoadSessionPoses(db, session)) {
+      predictor->Add(p.joints_rad, p.target_in_world);
+    }
+    spdlog::info("capture: laser tracker beams point through {}{}", predictor->Describe(),
+                 options.prediction_params ? " and the robot's active arm signature"
+                                           : " and the nominal model");
+  }
+  std::vector<std::optional<double>> expected_distance(devices.size());  // this configuration
+  std::vector<double> last_distance(devices.size(), 0.0);
+  std::atomic<int> searches{0}, operator_pointed{0};
+
   const InterruptScope interrupts(devices, controller, options.stop);
   const auto stopping = [&] { return options.stop && options.stop->load(); };
   // Between device calls: a raised stop flag ends the configuration.
@@ -144,27 +194,58 @@ CaptureSummary RunCapture(db::Database& db, const LabConfig& lab, int64_t sessio
   const auto start = Clock::now();
   double miss_sum = 0.0, max_miss = 0.0;  // over usable points
   int miss_count = 0;
-  double cycle_sum = 0.0, overhead_sum = 0.0;
-  int cycles = 0;
+  double cycle_sum = 0.0, overhead_sum = 0.0, store_sum = 0.0;
+  int cycles = 0, stores = 0;
+
+  // A tracker's reading: where its beam points; when the reflector is not there, a search
+  // around the beam (FindReflector), then the operator.
+  auto measure = [&](size_t i, const PlannedConfiguration& target) {
+    auto& device = *devices[i];
+    auto read = [&] {
+      return lab.instruments[i].distance ? device.MeasureDistanceAndAngles()
+                                         : device.MeasureAngles();
+    };
+    instruments::BeamSteering* beam = beams[i];
+    if (!beam) return read();
+    const std::string& station = lab.instruments[i].station;
+    try {
+      return read();
+    } catch (const instruments::InstrumentError& e) {
+      if (!beam->ReflectorLost(e.code()) || stopping()) throw;
+      spdlog::debug("capture: {} {}: no reflector in the beam ({}); searching", target.label,
+                    station, e.what());
+    }
+    ++searches;
+    const double around = expected_distance[i].value_or(
+        last_distance[i] > 0.0 ? last_distance[i] : kDefaultSearchDistanceMm);
+    try {
+      beam->FindReflector(around);
+      return read();
+    } catch (const instruments::InstrumentError& e) {
+      if (!beam->ReflectorLost(e.code()) || stopping() || !options.prompt_reflector) throw;
+      spdlog::info("capture: {} {}: the reflector was not found around the beam ({}); asking the "
+                   "operator to point the beam at it",
+                   target.label, station, e.what());
+    }
+    ++operator_pointed;
+    options.prompt_reflector(station, target);
+    check_stop();
+    return read();
+  };
 
   // One parallel round: joints (optional) and every instrument at once.
-  auto round = [&](bool with_joints, Measurement& m) {
+  auto round = [&](bool with_joints, Measurement& m, const PlannedConfiguration& target,
+                   int round_index) {
     check_stop();
     std::future<Eigen::VectorXd> joints;
     std::vector<std::future<std::pair<instruments::Reading, double>>> futures;
-    auto timed = [](auto&& f) {
-      const auto a = Clock::now();
-      auto r = f();
-      return std::make_pair(r, std::chrono::duration<double, std::milli>(Clock::now() - a).count());
-    };
     if (with_joints)
       joints = std::async(std::launch::async, [&] { return controller.ReadJointsRad(); });
     for (size_t i = 0; i < devices.size(); ++i) {
       futures.push_back(std::async(std::launch::async, [&, i] {
-        return timed([&] {
-          return lab.instruments[i].distance ? devices[i]->MeasureDistanceAndAngles()
-                                             : devices[i]->MeasureAngles();
-        });
+        const auto a = Clock::now();
+        auto r = measure(i, target);
+        return std::make_pair(r, MsSince(a));
       }));
     }
     std::exception_ptr failure;
@@ -172,7 +253,7 @@ CaptureSummary RunCapture(db::Database& db, const LabConfig& lab, int64_t sessio
     for (size_t i = 0; i < futures.size(); ++i) {
       try {
         auto [reading, ms] = futures[i].get();
-        m.readings.push_back({reading, static_cast<int>(i)});
+        m.readings.push_back({reading, static_cast<int>(i), round_index});
         slowest = std::max(slowest, ms);
       } catch (...) {
         if (!failure) failure = std::current_exception();
@@ -189,6 +270,47 @@ CaptureSummary RunCapture(db::Database& db, const LabConfig& lab, int64_t sessio
     m.device_ms += slowest;
   };
 
+  // Every tracker's beam at the target the model predicts for this configuration; returns
+  // the device time (the slowest GoPosition, and the joint reading it needed).
+  auto point_beams = [&](const PlannedConfiguration& target) {
+    std::fill(expected_distance.begin(), expected_distance.end(), std::nullopt);
+    if (!any_beam) return 0.0;
+    const auto a = Clock::now();
+    double device_ms = 0.0;
+    Eigen::VectorXd q = target.joints_rad;
+    if (!controller.CanMove()) {  // the operator moved it: where it is, not where it was asked
+      q = controller.ReadJointsRad();
+      device_ms += MsSince(a);
+    }
+    const auto predicted = predictor->Predict(q);
+    if (!predicted) return device_ms;
+    std::vector<std::future<double>> moves;
+    for (size_t i = 0; i < devices.size(); ++i) {
+      if (!beams[i]) continue;
+      const auto& pose = station_of[i]->pose;
+      const Eigen::Vector3d in_instrument =
+          pose.world_from_station.transpose() * (*predicted - pose.position_mm);
+      expected_distance[i] = in_instrument.norm();
+      moves.push_back(std::async(std::launch::async, [&, i, in_instrument] {
+        const auto t = Clock::now();
+        beams[i]->GoPosition(in_instrument);
+        return MsSince(t);
+      }));
+      ++summary.beam_predicted;
+    }
+    std::exception_ptr failure;
+    double slowest = 0.0;
+    for (auto& f : moves) {
+      try {
+        slowest = std::max(slowest, f.get());
+      } catch (...) {
+        if (!failure) failure = std::current_exception();
+      }
+    }
+    if (failure) std::rethrow_exception(failure);
+    return device_ms + slowest;
+  };
+
   // The point's checks are the lab's tolerances.
   reduction::PointOptions point_options;
   point_options.checks.max_miss_mm = lab.tolerances.max_miss_mm;
@@ -200,6 +322,55 @@ CaptureSummary RunCapture(db::Database& db, const LabConfig& lab, int64_t sessio
                                       *station_of[r.instrument], reduction::InstrumentDefaults{}));
     }
     return rays;
+  };
+  // A tracker's readings against the sigmas it stated: each one's largest sigma, and its
+  // repeated readings (same face) against each other.
+  auto tracker_checks = [&](Measurement& m) {
+    if (!any_beam || !m.point.result.status.ok()) return;
+    std::map<std::pair<int, int>, std::vector<std::pair<Eigen::Vector3d, Eigen::Matrix3d>>> seen;
+    bool sigma_exceeded = false, repeat_exceeded = false;
+    for (const auto& r : m.readings) {
+      if (!beams[r.instrument] || !UsableSigmas(r.reading.sigma) || !r.reading.distance_mm)
+        continue;
+      const auto& s = *r.reading.sigma;
+      const Eigen::Matrix3d c = reduction::PolarCovariance(
+          r.reading.angles, *r.reading.distance_mm, {s.hz_rad, s.v_rad, s.distance_mm});
+      const double sigma = reduction::LargestSigmaMm(c);
+      if (sigma > lab.tolerances.max_sigma_mm) {
+        sigma_exceeded = true;
+        spdlog::debug("capture: {}: a reading states sigma {:.4f} mm > {} mm",
+                      lab.instruments[r.instrument].station, sigma, lab.tolerances.max_sigma_mm);
+      }
+      const Eigen::Vector3d p = reduction::PolarPoint(r.reading.angles, *r.reading.distance_mm);
+      for (const auto& [q, cq] : seen[{r.instrument, r.reading.angles.face}]) {
+        const double k = reduction::NormalisedDisagreement(p, c, q, cq);
+        if (k > lab.tolerances.max_repeat_sigma) {
+          repeat_exceeded = true;
+          spdlog::debug("capture: {}: repeated readings {:.4f} mm apart, {:.1f} sigma",
+                        lab.instruments[r.instrument].station, (p - q).norm(), k);
+        }
+      }
+      seen[{r.instrument, r.reading.angles.face}].push_back({p, c});
+    }
+    if (sigma_exceeded) m.point.result.flags.Set(reduction::PointFlag::kSigmaExceeded);
+    if (repeat_exceeded) m.point.result.flags.Set(reduction::PointFlag::kRepeatExceeded);
+  };
+  auto turn_faces = [&] {
+    check_stop();
+    const auto a = Clock::now();
+    std::vector<std::future<void>> turns;
+    for (auto& d : devices)
+      turns.push_back(std::async(std::launch::async, [&d] { d->ChangeFace(); }));
+    std::exception_ptr failure;
+    for (auto& t : turns) {
+      try {
+        t.get();
+      } catch (...) {
+        if (!failure) failure = std::current_exception();
+      }
+    }
+    if (failure) std::rethrow_exception(failure);
+    return MsSince(a);
   };
 
   for (int seq = 0; seq < static_cast<int>(plan.size()); ++seq) {
@@ -224,43 +395,39 @@ CaptureSummary RunCapture(db::Database& db, const LabConfig& lab, int64_t sessio
         else if (options.prompt_move)
           options.prompt_move(target);
         sleep_unless_stopped(lab.tolerances.settle_ms);
-        for (int measure = 0; measure <= lab.tolerances.max_remeasure; ++measure) {
+        auto cycle_start = Clock::now();
+        const double pointing_ms = point_beams(target);
+        for (int measure_try = 0; measure_try <= lab.tolerances.max_remeasure; ++measure_try) {
           ++attempts;
-          const auto cycle_start = Clock::now();
+          if (measure_try > 0) cycle_start = Clock::now();
           Measurement m;
-          round(true, m);
+          if (measure_try == 0) m.device_ms = pointing_ms;
+          round(true, m, target, 0);
           reduction::RayGroup group;  // every ray, and each repeated round's rays
           group.repeats.push_back(rays_of(m.readings));
           for (int k = 1; k < lab.tolerances.readings; ++k) {
             Measurement again;
-            round(false, again);
+            round(false, again, target, k);
             group.repeats.push_back(rays_of(again.readings));
             m.readings.insert(m.readings.end(), again.readings.begin(), again.readings.end());
             m.device_ms += again.device_ms;
           }
           if (lab.tolerances.two_face) {
-            check_stop();
-            std::vector<std::future<void>> turns;
-            for (auto& d : devices)
-              turns.push_back(std::async(std::launch::async, [&d] { d->ChangeFace(); }));
-            for (auto& t : turns) t.get();
+            m.device_ms += turn_faces();
             Measurement face2;
-            round(false, face2);
+            round(false, face2, target, lab.tolerances.readings);
             m.readings.insert(m.readings.end(), face2.readings.begin(), face2.readings.end());
             m.device_ms += face2.device_ms;
-            turns.clear();
-            for (auto& d : devices)
-              turns.push_back(std::async(std::launch::async, [&d] { d->ChangeFace(); }));
-            for (auto& t : turns) t.get();
+            m.device_ms += turn_faces();
           }
           group.rays = rays_of(m.readings);
           reduction::IntersectPoint(group, point_options, m.point);
-          const double cycle_ms =
-              std::chrono::duration<double, std::milli>(Clock::now() - cycle_start).count();
+          tracker_checks(m);
+          const double cycle_ms = MsSince(cycle_start);
           cycle_sum += cycle_ms;
           overhead_sum += std::max(0.0, cycle_ms - m.device_ms);
           ++cycles;
-          if (m.point.accepted() || measure == lab.tolerances.max_remeasure) {
+          if (m.point.accepted() || measure_try == lab.tolerances.max_remeasure) {
             accepted = std::move(m);
             break;
           }
@@ -286,14 +453,13 @@ CaptureSummary RunCapture(db::Database& db, const LabConfig& lab, int64_t sessio
       break;
     }
     if (!accepted && !options.skip_on_fault) {
-      {
-        summary.paused = true;
-        summary.pause_reason = "configuration " + target.label + " (" + std::to_string(seq + 1) +
-                               " of " + std::to_string(plan.size()) + "): " + fault;
-        db::SetSessionState(db, session, "paused");
-        break;
-      }
+      summary.paused = true;
+      summary.pause_reason = "configuration " + target.label + " (" + std::to_string(seq + 1) +
+                             " of " + std::to_string(plan.size()) + "): " + fault;
+      db::SetSessionState(db, session, "paused");
+      break;
     }
+    const auto store_start = Clock::now();
     db::WriteTransaction tx(db);
     if (!accepted) {
       db::InsertPose(db, session, seq, target.label, std::nullopt, "skipped", attempts);
@@ -307,8 +473,14 @@ CaptureSummary RunCapture(db::Database& db, const LabConfig& lab, int64_t sessio
           db::InsertPose(db, session, seq, target.label, m.joints, "measured", attempts);
       std::vector<db::ObservationRow> rows;
       for (const auto& r : m.readings) {
-        rows.push_back(ObservationRowOf(ObservationOf(r, lab.instruments[r.instrument]), pose,
-                                        r.reading.return_code));
+        db::ObservationRow o = ObservationRowOf(ObservationOf(r, lab.instruments[r.instrument]),
+                                                pose, r.reading.return_code);
+        if (const auto& air = r.reading.environment) {
+          o.temperature_c = air->temperature_c;
+          o.pressure_hpa = air->pressure_hpa;
+          o.humidity_percent = air->humidity_percent;
+        }
+        rows.push_back(std::move(o));
       }
       db::InsertObservations(db, session, rows);
       const reduction::IntersectionResult& result = m.point.result;
@@ -317,6 +489,8 @@ CaptureSummary RunCapture(db::Database& db, const LabConfig& lab, int64_t sessio
       // Append this configuration's point (other sessions' points are untouched).
       db::InsertPoint(db, session, point);
       tx.commit();
+      store_sum += MsSince(store_start);
+      ++stores;
       ++summary.measured;
       const std::string flags = ToString(result.flags);
       spdlog::debug("capture: {} stored: {} readings, {} attempt(s), point {}{}, miss {:.4f} mm",
@@ -330,6 +504,15 @@ CaptureSummary RunCapture(db::Database& db, const LabConfig& lab, int64_t sessio
                       r.reading.distance_mm ? fmt::format(" d {:.4f} mm", *r.reading.distance_mm)
                                             : std::string(),
                       r.reading.return_code);
+        if (r.reading.distance_mm) last_distance[r.instrument] = *r.reading.distance_mm;
+      }
+      if (predictor && result.status.ok() && m.point.accepted()) {
+        const bool had_fit = predictor->fitted();
+        predictor->Add(m.joints, result.position_mm);
+        if (!had_fit && predictor->fitted()) {
+          spdlog::info("capture: robot base {}; the tracker beams point by prediction from now on",
+                       predictor->Describe().substr(5));
+        }
       }
       if (m.point.accepted()) {
         ++summary.usable;
@@ -374,6 +557,10 @@ CaptureSummary RunCapture(db::Database& db, const LabConfig& lab, int64_t sessio
   }
   summary.mean_cycle_ms = cycles ? cycle_sum / cycles : 0.0;
   summary.mean_overhead_ms = cycles ? overhead_sum / cycles : 0.0;
+  summary.mean_store_ms = stores ? store_sum / stores : 0.0;
+  summary.beam_searches = searches.load();
+  summary.beam_operator = operator_pointed.load();
+  if (predictor) summary.beam_base = predictor->Describe();
   if (!summary.paused && !summary.stopped) {
     summary.completed = true;
     db::SetSessionState(db, session, "completed");

@@ -6,6 +6,7 @@
 // configuration not stored, and nothing committed is lost or duplicated.
 #pragma once
 
+#include <Eigen/Core>
 #include <atomic>
 #include <functional>
 #include <memory>
@@ -35,6 +36,14 @@ struct CaptureOptions {
   std::function<void(const Progress&)> progress;
   // Called when the controller cannot be commanded: the operator moves the robot.
   std::function<void(const PlannedConfiguration&)> prompt_move;
+  // Called when a laser tracker does not find its reflector where its beam points, even
+  // after searching around it (FindReflector): the operator points the beam at the
+  // reflector (the tracker's camera or by hand), then it measures again. Without it such
+  // a configuration is an instrument fault (retried, then paused or skipped).
+  std::function<void(const std::string& station, const PlannedConfiguration&)> prompt_reflector;
+  // The model's parameters to predict where a tracker's beam should point (the robot's
+  // active arm signature); the nominal model when absent.
+  std::optional<Eigen::VectorXd> prediction_params;
 };
 
 // A configuration that gave no usable point, and why (its point flags, or the fault).
@@ -58,8 +67,17 @@ struct CaptureSummary {
   // Over this run's usable points only; nullopt when there is none.
   std::optional<double> mean_miss_mm, max_miss_mm;
   double seconds = 0.0;
-  double mean_cycle_ms = 0.0;     // per configuration, measurement only
-  double mean_overhead_ms = 0.0;  // software time beyond the slowest device call
+  double mean_cycle_ms = 0.0;  // per configuration: pointing the trackers and measuring
+  // Software time per configuration beyond the device calls it waits for (the slowest of
+  // each parallel step: pointing, every round of readings), from the first command to the
+  // reduced point, and the time to store the configuration (one committed transaction).
+  double mean_overhead_ms = 0.0;
+  double mean_store_ms = 0.0;
+  // Laser trackers: beams pointed at a predicted target (GoPosition), searches around the
+  // beam (FindReflector), beams the operator pointed; how the prediction's base was known
+  // at the end of the run.
+  int beam_predicted = 0, beam_searches = 0, beam_operator = 0;
+  std::string beam_base;
 };
 
 // A new session: the robot (created if new), the lab text, the plan and the stations'

@@ -52,6 +52,11 @@ void SetupCalibrateCommand(CLI::App& parent, const GlobalOptions& global, Runner
                       "Keep the N best-spread poses (D-optimal) for the fit, validate on the rest"),
       0, kMaxPoses);
   sub->add_option("--validate", options->validate, "Held-out poses CSV to validate on");
+  sub->add_option("--residual-model", options->settings.residual_model,
+                  "auto: a cross-validated residual map after the parametric fit, used only "
+                  "when it clearly helps; off: parametric only")
+      ->check(CLI::IsMember({"auto", "off"}))
+      ->capture_default_str();
   OutputFile(sub->add_option("--json", options->json, "Write the result as JSON"));
   NumberOption(sub->add_option("--robust", options->settings.robust_threshold_mm,
                                "Huber threshold (mm) on each pose's error distance: blunder poses "

@@ -25,6 +25,17 @@ void PromptMove(const acquisition::PlannedConfiguration& c) {
   }
 }
 
+// Asks the operator to point a laser tracker's beam at its reflector (only on a terminal;
+// otherwise such a configuration is an instrument fault).
+void PromptReflector(const std::string& station, const acquisition::PlannedConfiguration& c) {
+  std::cerr << "\n" << station << ": the reflector is not where the beam points (configuration "
+            << c.label
+            << "); point the beam at it (the tracker's camera, or turn the head by hand) and "
+               "press Enter ";
+  std::string line;
+  std::getline(std::cin, line);
+}
+
 }  // namespace
 
 void SetupCaptureCommand(CLI::App& parent, const GlobalOptions& global, Runner& run) {
@@ -49,6 +60,7 @@ void SetupCaptureCommand(CLI::App& parent, const GlobalOptions& global, Runner& 
         if (tty) std::cerr << "\r" << workflows::FormatCaptureProgress(p) << "   " << std::flush;
       };
       request.prompt_move = PromptMove;
+      if (::isatty(STDIN_FILENO)) request.prompt_reflector = PromptReflector;
       const auto outcome = workflows::RunCaptureSession(request);
       if (outcome.already_complete) {
         std::cout << "session " << outcome.summary.session << " is already complete\n";

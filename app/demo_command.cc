@@ -1,4 +1,5 @@
-// armsig demo [--json OUT] [--configurations N] [--select M] [--resume SESSION]: the main
+// armsig demo [--json OUT] [--configurations N] [--select M] [--instrument theodolites|tracker]
+// [--resume SESSION]: the main
 // job on the embedded default (workflows/demo.h).
 #include <fmt/format.h>
 #include <spdlog/spdlog.h>
@@ -26,6 +27,11 @@ void SetupDemoCommand(CLI::App& parent, const GlobalOptions& global, Runner& run
   NumberOption(sub->add_option("--resume", o->resume_session,
                                "Continue a stopped demo session: capture the rest, then calibrate"),
                1, kMaxId);
+  sub->add_option("--instrument", o->instrument,
+                  "theodolites (three GeoCOM theodolites, oriented by mutual pointings; the "
+                  "default) or tracker (one laser tracker speaking emScon on loopback TCP); "
+                  "--resume keeps the session's")
+      ->check(CLI::IsMember({"theodolites", "tracker"}));
   NumberOption(sub->add_option("--time-scale", o->time_scale,
                                "Multiplies every simulated instrument latency"),
                0.0, 100.0)

@@ -1,4 +1,5 @@
-// armsig import poses FILE (--preset ur-ipa | --joints … --xyz …) [--out POSES.csv] [--robot NAME]
+// armsig import poses FILE (--preset ur-ipa | --joint-columns … --xyz-columns …) [--out POSES.csv] [--robot NAME]
+// armsig import poses --points PTS.txt --joints LOG.csv [--match id|time] [--out …] [--robot NAME]
 // armsig import gsi FILE --station ID --out OBS.csv
 // armsig import observations OBS.csv --stations STATIONS.yaml: a file into a new session
 #include <fmt/format.h>
@@ -46,9 +47,10 @@ void SetupImportCommand(CLI::App& parent, const GlobalOptions& global, Runner& r
   auto poses = std::make_shared<workflows::ImportPosesRequest>();
   auto* p = sub->add_subcommand(
       "poses",
-      "A pose table with named columns (e.g. the IPA UR10 laser-tracker CSVs) to the "
-      "SPEC poses CSV, or into the database as a session of a robot");
-  p->add_option("file", poses->file, "Input CSV")->required();
+      "A pose table with named columns (e.g. the IPA UR10 laser-tracker CSVs), or a laser "
+      "tracker's point table joined with the robot's joint log, to the SPEC poses CSV, or into "
+      "the database as a session of a robot");
+  p->add_option("file", poses->file, "Input pose table CSV (or give --points and --joints)");
   OutputFile(p->add_option("--out", poses->out, "Output poses CSV"));
   NameOption(p->add_option(
       "--robot", poses->robot,
@@ -57,11 +59,34 @@ void SetupImportCommand(CLI::App& parent, const GlobalOptions& global, Runner& r
                 "ur-ipa: ';', decimal comma, shoulder_pan_joint…wrist_3_joint (rad), "
                 "measurement_x/y/z (mm)")
       ->check(CLI::IsMember({"ur-ipa"}));
-  p->add_option("--joints", poses->joint_columns, "Joint columns in joint order, comma-separated");
-  p->add_option("--joint-unit", poses->joint_unit, "deg | gon | rad")
+  p->add_option("--points", poses->points,
+                "A laser tracker's point table (name, X, Y, Z [, sigmas, time]: the text/CSV "
+                "export of SpatialAnalyzer, Leica, Metrolog, PolyWorks…)")
+      ->check(CLI::ExistingFile);
+  p->add_option("--joints", poses->joints,
+                "The robot's joint log CSV (pose id and/or time column, q1_deg… or "
+                "--joint-columns), joined with --points")
+      ->check(CLI::ExistingFile);
+  p->add_option("--match", poses->match,
+                "Join points and joint readings by point/pose id, or by time stamp (the nearest "
+                "within --time-tolerance-s)")
+      ->check(CLI::IsMember({"id", "time"}))
+      ->capture_default_str();
+  // A day at most: joint readings and tracker points of one session.
+  NumberOption(p->add_option("--time-tolerance-s", poses->time_tolerance_s,
+                             "--match time: largest gap between a point's and its joint "
+                             "reading's time"),
+               1e-6, 86400.0)
+      ->capture_default_str();
+  p->add_option("--points-unit", poses->points_unit,
+                "The point table's length unit when the file names none")
+      ->check(CLI::IsMember({"mm", "m", "inch"}));
+  p->add_option("--joint-columns", poses->joint_columns,
+                "Joint columns in joint order, comma-separated");
+  p->add_option("--joint-unit", poses->joint_unit, "Unit of --joint-columns: deg | gon | rad")
       ->check(CLI::IsMember({"deg", "gon", "rad"}))
       ->capture_default_str();
-  p->add_option("--xyz", poses->xyz_columns, "Measured x,y,z columns, comma-separated");
+  p->add_option("--xyz-columns", poses->xyz_columns, "Measured x,y,z columns, comma-separated");
   NumberOption(
       p->add_option("--length-scale", poses->length_scale, "Factor to mm (1000 for metres)"), 1e-6,
       1e6);
@@ -76,13 +101,15 @@ void SetupImportCommand(CLI::App& parent, const GlobalOptions& global, Runner& r
       workflows::ImportPosesRequest request = *poses;
       request.db_path = global.DbPath();
       const auto r = workflows::ImportPosesFile(request);
+      const std::string source =
+          request.points.empty() ? request.file : request.points + " and " + request.joints;
       if (r.duplicate) {
         std::cout << fmt::format(
             "{} poses of robot {} from {}: already stored as session {} in {}; nothing stored\n",
-            r.poses, request.robot, request.file, r.session, r.db_path);
+            r.poses, request.robot, source, r.session, r.db_path);
       } else if (r.session > 0) {
         std::cout << fmt::format("session {}: {} poses of robot {} from {} stored in {}\n",
-                                 r.session, r.poses, request.robot, request.file, r.db_path);
+                                 r.session, r.poses, request.robot, source, r.db_path);
       }
       return kOk;
     };

@@ -19,6 +19,7 @@ namespace {
 struct SignatureOptions {
   std::string robot, joints, targets, out, format, frame = "robot";
   std::vector<double> seed_deg;
+  bool map_sigma = false;
 };
 
 CLI::App* Command(CLI::App& parent, const char* name, const char* help, SignatureOptions& o) {
@@ -37,11 +38,13 @@ void SetupSignatureCommands(CLI::App& parent, const GlobalOptions& global, Runne
   auto* predict = Command(
       parent, "predict", "Calibrated target positions for joint angles (active arm signature)", *p);
   predict->add_option("--joints", p->joints, "CSV: pose,q1_deg,…")->required();
+  predict->add_flag("--map-sigma", p->map_sigma,
+                    "Fill map_sigma_mm: the residual map's predictive sigma per configuration");
   OutputFile(predict->add_option("--out", p->out, "Positions CSV (default: stdout)"));
   OnDatabaseToRead(predict, global, run, [p](db::Database& database) {
     const auto active = workflows::LoadActiveSignature(database, p->robot);
     const std::string csv =
-        workflows::PredictCsv(active, workflows::FrameOf(active, p->frame), p->joints);
+        workflows::PredictCsv(active, workflows::FrameOf(active, p->frame), p->joints, p->map_sigma);
     if (p->out.empty())
       std::cout << csv;
     else
@@ -71,6 +74,12 @@ void SetupSignatureCommands(CLI::App& parent, const GlobalOptions& global, Runne
     const auto result =
         workflows::Compensate(active, workflows::FrameOf(active, c->frame), c->targets, seed);
     for (const auto& why : result.unreachable) spdlog::warn("compensate: {}", why);
+    if (result.outside_map > 0) {
+      spdlog::warn(
+          "compensate: {} targets lie outside the residual map's support: their joints are the "
+          "parametric model's (status ok_outside_map)",
+          result.outside_map);
+    }
     io::WriteFileAtomically(c->out, result.csv);
     std::cout << fmt::format(
         "{} targets, {} compensated with arm signature version {}, {} unreachable -> {}\n",

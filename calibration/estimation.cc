@@ -559,11 +559,8 @@ AutoSelection SelectTerms(const RobotModel& model, const std::vector<MeasuredPos
     Eigen::VectorXd residual(3 * m);
     for (int i = 0; i < m; ++i) {
       // Each pose in its own measurement frame's base (held at the fit's value).
-      const auto frame = current.bases.find(poses[i].frame);
-      const Eigen::Isometry3d& frame_base =
-          frame != current.bases.end() ? frame->second : current.world_from_base;
       const Eigen::Vector3d x =
-          kin.PositionAndJacobian(frame_base, current.params, poses[i].joints_rad.data(), block);
+          kin.PositionAndJacobian(current.base_of(poses[i].frame), current.params, poses[i].joints_rad.data(), block);
       residual.segment<3>(3 * i) = x - poses[i].target_in_world;
       for (int a = 0; a < k; ++a) jacobian.block<3, 1>(3 * i, a) = block.col(kept[a]);
       for (int a = 0; a < c; ++a) jacobian.block<3, 1>(3 * i, k + a) = block.col(remaining[a]);

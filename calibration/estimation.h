@@ -106,6 +106,11 @@ struct EstimationResult {
   // Its numbers are results (converged, or stopped at the iteration limit); kNonFinite
   // never is.
   bool usable() const { return status.ok() || status.code == SolveCode::kNotConverged; }
+  // The base of a pose's measurement frame (world_from_base when the frame has none).
+  const Eigen::Isometry3d& base_of(int64_t frame) const {
+    const auto it = bases.find(frame);
+    return it != bases.end() ? it->second : world_from_base;
+  }
 };
 
 // Fits the model to the poses. N1 of the reference frame: model.base, or AlignBase on that

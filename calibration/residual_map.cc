@@ -442,7 +442,8 @@ ResidualMapFit FitResidualMap(const RobotModel& model, const EstimationResult& f
     Kinematics kin(model);
     Eigen::Matrix<double, 3, Eigen::Dynamic> block(3, model.num_parameters());
     for (int i = 0; i < m; ++i) {
-      const Eigen::Vector3d x = kin.PositionAndJacobian(fit.world_from_base, fit.params,
+      // Each pose in its own measurement frame's base (the fit's value).
+      const Eigen::Vector3d x = kin.PositionAndJacobian(fit.base_of(poses[i].frame), fit.params,
                                                         poses[i].joints_rad.data(), block);
       residual.segment<3>(3 * i) = x - poses[i].target_in_world;
       for (int c = 0; c < p; ++c) jacobian.block<3, 1>(3 * i, c) = block.col(subset[c]);
@@ -493,7 +494,7 @@ ResidualMapFit FitResidualMap(const RobotModel& model, const EstimationResult& f
   // poses' residuals under the parametric refit without that fold.
   std::vector<Eigen::Matrix3d> frame(mt);
   for (int t = 0; t < mt; ++t) {
-    frame[t] = fit.world_from_base.linear();
+    frame[t] = fit.base_of(poses[train[t]].frame).linear();
     if (options.output_frame == "joint1") {
       frame[t] = frame[t] * TurnAboutZ(poses[train[t]].joints_rad(0));
     }

@@ -36,7 +36,7 @@
 // calibration/cross_validation.h), the map is trained on the other folds' residuals of
 // that refit and predicts the fold. The search walks a log grid from its middle to the
 // best neighbour until no neighbour is better. The map is used only when its
-// cross-validated mean error beats the parametric model's by `required_gain` (2 %): both
+// cross-validated mean error beats the parametric model's by `required_gain` (5 %): both
 // figures are reported either way.
 #pragma once
 
@@ -153,7 +153,10 @@ struct ResidualMapOptions {
   std::vector<double> length_scales = {0.25, 0.35, 0.5, 0.7, 1.0, 1.4, 2.0};
   std::vector<double> regularisations = {0.01, 0.03, 0.1, 0.3, 1.0};
   int max_training_poses = 2000;  // above: a farthest-point subset trains the map
-  double required_gain = 0.02;    // CV mean with the map ≤ (1 − gain) × parametric CV mean
+  // CV mean with the map ≤ (1 − gain) × parametric CV mean. 5 %: on a complete model whose
+  // residual is the instruments' noise (the PUMA demo's 43 parameters) the map's CV gain is
+  // 2–3 %, chance structure that does not carry to new poses.
+  double required_gain = 0.05;
   std::string output_frame = "base";
   double support_quantile = 0.99;
   double support_margin = 1.25;

@@ -132,8 +132,8 @@ std::pair<int64_t, int> InsertCalibration(Database& db, const CalibrationRecord&
       "rank, "
       "poses_fit, poses_validation, nominal_mean_mm, nominal_max_mm, nominal_rms_mm, fit_mean_mm, "
       "fit_max_mm, fit_rms_mm, validation_mean_mm, validation_max_mm, validation_rms_mm, "
-      "report_json, world_from_base_json, covariance_json, drift_json) "
-      "VALUES (?,?,?,?,?,?,?,?,?,?,?,?,?,?,?,?,?,?,?,?,?,?)");
+      "report_json, world_from_base_json, covariance_json, drift_json, residual_map_json) "
+      "VALUES (?,?,?,?,?,?,?,?,?,?,?,?,?,?,?,?,?,?,?,?,?,?,?)");
   s.bind(1, c.robot_id);
   s.bind(2, version);
   s.bind(3, c.active ? 1 : 0);
@@ -157,6 +157,10 @@ std::pair<int64_t, int> InsertCalibration(Database& db, const CalibrationRecord&
     s.bind(22);
   else
     s.bind(22, c.drift_json);
+  if (c.residual_map_json.empty())
+    s.bind(23);
+  else
+    s.bind(23, c.residual_map_json);
   s.exec();
   const int64_t id = db.sql().getLastInsertRowid();
   SQLite::Statement p(db.sql(),
@@ -197,7 +201,8 @@ std::vector<StoredCalibration> CalibrationHistory(Database& db, int64_t robot_id
       db.sql(),
       "SELECT id, version, active, created_at, params_spec, inputs_json, coalesce(report_json,''), "
       "validation_mean_mm, validation_max_mm, world_from_base_json, covariance_json, options_json, "
-      "rank, poses_fit, poses_validation, fit_mean_mm, coalesce(drift_json, '') FROM calibrations "
+      "rank, poses_fit, poses_validation, fit_mean_mm, coalesce(drift_json, ''), "
+      "coalesce(residual_map_json, '') FROM calibrations "
       "WHERE robot_id = ? ORDER BY version");
   q.bind(1, robot_id);
   while (q.executeStep()) {
@@ -220,6 +225,7 @@ std::vector<StoredCalibration> CalibrationHistory(Database& db, int64_t robot_id
     c.poses_validation = q.getColumn(14).getInt();
     if (!q.getColumn(15).isNull()) c.fit_mean_mm = q.getColumn(15).getDouble();
     c.drift_json = q.getColumn(16).getString();
+    c.residual_map_json = q.getColumn(17).getString();
     SQLite::Statement p(db.sql(),
                         "SELECT name, value, unit, identified, sigma FROM calibration_parameters "
                         "WHERE calibration_id = ? "

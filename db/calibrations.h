@@ -29,6 +29,8 @@ struct CalibrationRecord {
   Eigen::MatrixXd covariance;
   // The drift decision against the set active before it (JSON); "" when none was made.
   std::string drift_json{};
+  // The residual map used with the parameters (io/residual_map_json.h); "" = none.
+  std::string residual_map_json{};
   struct Parameter {
     std::string name, unit;
     double value = 0.0, sigma = NAN;
@@ -58,6 +60,7 @@ struct StoredCalibration {
   std::vector<std::string> covariance_parameters;    // empty in sets stored before schema v3
   Eigen::MatrixXd covariance;
   std::string drift_json{};  // "" when no drift decision was stored (or before schema v4)
+  std::string residual_map_json{};  // "" = parametric only (and before schema v5)
   std::vector<CalibrationRecord::Parameter> parameters;
 };
 std::vector<StoredCalibration> CalibrationHistory(Database& db, int64_t robot_id);  // by version

@@ -101,8 +101,8 @@ void InsertObservations(Database& db, int64_t session_id, const std::vector<Obse
   SQLite::Statement s(
       db.sql(),
       "INSERT INTO observations(session_id, pose_id, point, station_id, hz_rad, v_rad, "
-      "distance_mm, face, sigma_hz_arcsec, sigma_v_arcsec, sigma_distance_mm, return_code) "
-      "VALUES (?,?,?,?,?,?,?,?,?,?,?,?)");
+      "distance_mm, face, sigma_hz_arcsec, sigma_v_arcsec, sigma_distance_mm, return_code, "
+      "temperature_c, pressure_hpa, humidity_percent) VALUES (?,?,?,?,?,?,?,?,?,?,?,?,?,?,?)");
   for (const auto& r : rows) {
     auto it = station_ids.find(r.station);
     if (it == station_ids.end())
@@ -128,6 +128,9 @@ void InsertObservations(Database& db, int64_t session_id, const std::vector<Obse
                  r.sigma_v_rad ? std::optional(*r.sigma_v_rad / kRadPerArcsec) : std::nullopt);
     BindOptional(s, 11, r.sigma_distance_mm);
     s.bind(12, r.return_code);
+    BindOptional(s, 13, r.temperature_c);
+    BindOptional(s, 14, r.pressure_hpa);
+    BindOptional(s, 15, r.humidity_percent);
     s.exec();
   }
 }
@@ -137,7 +140,8 @@ std::vector<ObservationRow> LoadObservations(Database& db, int64_t session_id) {
   SQLite::Statement s(
       db.sql(),
       "SELECT o.pose_id, o.point, st.code, o.hz_rad, o.v_rad, o.distance_mm, o.face, "
-      "o.sigma_hz_arcsec, o.sigma_v_arcsec, o.sigma_distance_mm, o.return_code "
+      "o.sigma_hz_arcsec, o.sigma_v_arcsec, o.sigma_distance_mm, o.return_code, "
+      "o.temperature_c, o.pressure_hpa, o.humidity_percent "
       "FROM observations o JOIN stations st ON st.id = o.station_id "
       "WHERE o.session_id = ? ORDER BY o.pose_id, o.point, o.id");
   s.bind(1, session_id);
@@ -152,6 +156,9 @@ std::vector<ObservationRow> LoadObservations(Database& db, int64_t session_id) {
     if (!s.getColumn(8).isNull()) r.sigma_v_rad = s.getColumn(8).getDouble() * kRadPerArcsec;
     if (!s.getColumn(9).isNull()) r.sigma_distance_mm = s.getColumn(9).getDouble();
     r.return_code = s.getColumn(10).getInt();
+    r.temperature_c = OptionalDouble(s.getColumn(11));
+    r.pressure_hpa = OptionalDouble(s.getColumn(12));
+    r.humidity_percent = OptionalDouble(s.getColumn(13));
     out.push_back(std::move(r));
   }
   return out;

@@ -40,6 +40,8 @@ struct ObservationRow {
   std::optional<double> distance_mm;
   std::optional<double> sigma_hz_rad, sigma_v_rad, sigma_distance_mm;
   int return_code = 0;
+  // The air at the instrument when it measured (laser trackers report it), °C, hPa, %RH.
+  std::optional<double> temperature_c, pressure_hpa, humidity_percent;
 };
 // Inserts with one prepared statement (station ids resolved once).
 void InsertObservations(Database& db, int64_t session_id, const std::vector<ObservationRow>& rows);

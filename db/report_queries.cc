@@ -32,6 +32,23 @@ std::vector<ReportSession> LoadSessionSummaries(Database& db,
   return out;
 }
 
+std::map<std::string, double> PoseTemperatures(Database& db,
+                                               const std::vector<int64_t>& session_ids) {
+  std::map<std::string, double> out;
+  SQLite::Statement q(db.sql(),
+                      "SELECT p.label, avg(o.temperature_c) FROM observations o JOIN poses p ON "
+                      "p.id = o.pose_id WHERE o.session_id = ? AND o.temperature_c IS NOT NULL "
+                      "GROUP BY p.id");
+  for (int64_t id : session_ids) {
+    q.reset();
+    q.bind(1, id);
+    while (q.executeStep()) {
+      out[std::to_string(id) + ":" + q.getColumn(0).getString()] = q.getColumn(1).getDouble();
+    }
+  }
+  return out;
+}
+
 std::vector<InstrumentSummary> SessionInstruments(Database& db, int64_t session_id) {
   std::vector<InstrumentSummary> out;
   SQLite::Statement q(

@@ -4,6 +4,7 @@
 
 #include <cmath>
 #include <cstdint>
+#include <map>
 #include <optional>
 #include <string>
 #include <vector>
@@ -20,6 +21,11 @@ struct ReportSession {
 // The sessions with these ids, by id; ids without a session are left out.
 std::vector<ReportSession> LoadSessionSummaries(Database& db,
                                                 const std::vector<int64_t>& session_ids);
+
+// The mean air temperature (°C) of each measured pose's readings that carry one (laser
+// trackers), by "<session>:<label>" as db::LoadRobotPoses names the poses; poses without
+// a temperature are left out.
+std::map<std::string, double> PoseTemperatures(Database& db, const std::vector<int64_t>& session_ids);
 
 // A row of the instruments table.
 struct InstrumentSummary {

@@ -199,8 +199,24 @@ ALTER TABLE sessions ADD COLUMN owner_host TEXT;
 ALTER TABLE sessions ADD COLUMN owner_started TEXT;   -- that process's start (boot id / start tick), against pid reuse
 )sql";
 
-constexpr std::array<std::string_view, 4> kMigrations = {kSchemaV1, kSchemaV2, kSchemaV3,
-                                                         kSchemaV4};
+// Schema v5: a parameter set may carry the residual map used with it (issue 13), as JSON
+// (io/residual_map_json.h); NULL for parametric sets.
+constexpr std::string_view kSchemaV5 = R"sql(
+ALTER TABLE calibrations ADD COLUMN residual_map_json TEXT;
+)sql";
+
+// Schema v6 (issue 12, laser trackers): the air at the instrument with every reading (a
+// laser tracker's weather station reports temperature, pressure and humidity with each
+// result), for the record and for the recalibration report's error-against-temperature
+// figure; NULL for readings without it (theodolites, older files).
+constexpr std::string_view kSchemaV6 = R"sql(
+ALTER TABLE observations ADD COLUMN temperature_c REAL;     -- deg C at the instrument
+ALTER TABLE observations ADD COLUMN pressure_hpa REAL;      -- hPa
+ALTER TABLE observations ADD COLUMN humidity_percent REAL;  -- % relative humidity
+)sql";
+
+constexpr std::array<std::string_view, 6> kMigrations = {kSchemaV1, kSchemaV2, kSchemaV3,
+                                                         kSchemaV4, kSchemaV5, kSchemaV6};
 
 // The tables of schema v1: an armsig file from before application_id has at least these.
 constexpr std::array<std::string_view, 11> kTablesV1 = {"robots",

@@ -118,6 +118,21 @@ class DistanceInstrument : public Theodolite {
   virtual Reading MeasureDistanceAndAngles() = 0;
 };
 
+// An instrument that points its beam (a laser tracker): its reflector on the robot is found
+// only when the beam passes near it, so capture points the beam at the predicted target
+// before measuring, and has it search when it misses.
+class BeamSteering {
+ public:
+  virtual ~BeamSteering() = default;
+  // Points the beam at a position in the instrument frame (mm).
+  virtual void GoPosition(const Eigen::Vector3d& point_in_instrument_mm) = 0;
+  // Searches the reflector around the beam's direction at about this distance.
+  virtual void FindReflector(double approx_distance_mm) = 0;
+  // Whether a failed measurement's code means the beam is not on the reflector (no
+  // reflector where the beam points, a broken beam) rather than a fault of the instrument.
+  virtual bool ReflectorLost(int code) const = 0;
+};
+
 class RobotController : public Interruptible {
  public:
   virtual ~RobotController() = default;

@@ -433,6 +433,10 @@ void EmsconDevice::FindReflector(double approx_distance_mm) {
   });
 }
 
+bool EmsconDevice::ReflectorLost(int code) const {
+  return code == es::status::kNoDistanceSet || code == es::status::kMeasurementStatusNotReady;
+}
+
 Environment EmsconDevice::GetEnvironment() {
   return WithRetries(es::GetEnvironmentParams::kCommand, CallDeadline(), [&](Deadline until) {
     const auto a = Exchange(es::GetEnvironmentParams{}, until);

@@ -43,7 +43,7 @@ struct EmsconOptions {
   int32_t angle_unit = emscon::angle_unit::kRadian;
 };
 
-class EmsconDevice : public DistanceInstrument {
+class EmsconDevice : public DistanceInstrument, public BeamSteering {
  public:
   EmsconDevice(std::unique_ptr<PacketTransport> transport, RetryPolicy policy = {},
                EmsconOptions options = {});
@@ -66,9 +66,12 @@ class EmsconDevice : public DistanceInstrument {
   bool CompensatorOn() override;  // AT4xx inclination sensor state (system parameter 5002)
   // Points the beam at a predicted position in the instrument frame (mm), as Hz, V,
   // distance in SCW (GoPosition).
-  void GoPosition(const Eigen::Vector3d& point_in_instrument_mm);
+  void GoPosition(const Eigen::Vector3d& point_in_instrument_mm) override;
   // Searches the reflector around the beam's direction at about this distance.
-  void FindReflector(double approx_distance_mm);
+  void FindReflector(double approx_distance_mm) override;
+  // 37 NoDistanceSet (the beam broke) and 10004 MeasurementStatusNotReady (no reflector in
+  // the beam).
+  bool ReflectorLost(int code) const override;
   Environment GetEnvironment();  // GetEnvironmentParams, °C, hPa, %RH
   emscon::SystemStatus Status();
   std::vector<emscon::ReflectorInfo> Reflectors();  // GetReflectors (one reply each)

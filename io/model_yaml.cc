@@ -10,15 +10,7 @@
 
 namespace armsig::io {
 
-namespace {
-
-using calibration::NongeometricTerm;
-using calibration::RobotModel;
-
-// A 4x4 homogeneous transform with a rotation in its upper-left 3x3. `translation`:
-// kLength for a link (a 1e19 mm link is a typo, not a robot), kCoordinate for the base
-// (the robot in the measuring frame, which may be a survey grid).
-Eigen::Isometry3d Transform(const YamlValue& value, plausible::Quantity translation) {
+Eigen::Isometry3d ReadRigidTransform(const YamlValue& value, plausible::Quantity translation) {
   const Eigen::Matrix4d m = value.Matrix(4, 4);
   const std::vector<YamlValue> rows = value.List();
   for (int r = 0; r < 3; ++r) rows[r].List()[3].Plausible(translation);
@@ -33,6 +25,11 @@ Eigen::Isometry3d Transform(const YamlValue& value, plausible::Quantity translat
   t.matrix() = m;
   return t;
 }
+
+namespace {
+
+using calibration::NongeometricTerm;
+using calibration::RobotModel;
 
 // One DH row {d_mm, a_mm, alpha_deg | alpha_gon | alpha_rad}.
 Eigen::Isometry3d DhRow(const YamlValue& value) {
@@ -120,7 +117,7 @@ RobotModel Parse(const YamlValue& root_value) {
   if (const auto base = root.Find("base");
       base && !(base->IsScalar() && base->node().Scalar() == "auto")) {
     if (!base->IsList()) base->Fail("expected 'auto' or a 4x4 matrix, got " + base->Describe());
-    model.base = Transform(*base, plausible::Quantity::kCoordinate);
+    model.base = ReadRigidTransform(*base, plausible::Quantity::kCoordinate);
   }
 
   Eigen::Isometry3d folded_tool = Eigen::Isometry3d::Identity();
@@ -129,7 +126,7 @@ RobotModel Parse(const YamlValue& root_value) {
   if (links && dh) dh->Fail("give either 'links' or 'dh', not both");
   if (links) {
     for (const YamlValue& link : links->List(1))
-      model.links.push_back(Transform(link, plausible::Quantity::kLength));
+      model.links.push_back(ReadRigidTransform(link, plausible::Quantity::kLength));
   } else if (dh) {
     std::vector<Eigen::Isometry3d> rows;
     for (const YamlValue& row : dh->List(1)) rows.push_back(DhRow(row));

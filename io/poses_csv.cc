@@ -88,13 +88,13 @@ PoseImportOptions PoseImportOptions::UrIpa() {
 }
 
 std::vector<MeasuredPose> ImportPoses(const std::string& path, const PoseImportOptions& options) {
-  if (options.joint_columns.empty()) throw InputError("no joint columns given (--joints)");
-  if (options.xyz_columns.size() != 3) throw InputError("expected three position columns (--xyz)");
+  if (options.joint_columns.empty()) throw InputError("no joint columns given (--joint-columns)");
+  if (options.xyz_columns.size() != 3) throw InputError("expected three position columns (--xyz-columns)");
   // Each column names one quantity: a joint given twice, or a column that is a joint and a
   // coordinate, is a typo that would silently calibrate nonsense.
   std::vector<std::pair<std::string, std::string>> named;  // column, option
-  for (const auto& c : options.joint_columns) named.emplace_back(c, "--joints");
-  for (const auto& c : options.xyz_columns) named.emplace_back(c, "--xyz");
+  for (const auto& c : options.joint_columns) named.emplace_back(c, "--joint-columns");
+  for (const auto& c : options.xyz_columns) named.emplace_back(c, "--xyz-columns");
   if (!options.id_column.empty()) named.emplace_back(options.id_column, "--id");
   for (size_t a = 0; a < named.size(); ++a) {
     for (size_t b = 0; b < a; ++b) {

@@ -333,6 +333,7 @@ std::vector<ReducedPoint> IntersectPoints(std::span<const RayGroup> groups,
 PointFlags CarriedOverFlags(PointFlags stored, const PointChecks& checks) {
   PointFlags kept;
   kept.Set(PointFlag::kRepeatExceeded, stored.Has(PointFlag::kRepeatExceeded));
+  kept.Set(PointFlag::kSigmaExceeded, stored.Has(PointFlag::kSigmaExceeded));
   if (!checks.max_miss_mm) kept.Set(PointFlag::kMissExceeded, stored.Has(PointFlag::kMissExceeded));
   return kept;
 }

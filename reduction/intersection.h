@@ -108,7 +108,8 @@ struct ReducedPoint {
   // Solved, and passes the checks given (blunder flags do not refuse a point).
   bool accepted() const {
     return result.status.ok() && !result.flags.Has(PointFlag::kMissExceeded) &&
-           !result.flags.Has(PointFlag::kRepeatExceeded);
+           !result.flags.Has(PointFlag::kRepeatExceeded) &&
+           !result.flags.Has(PointFlag::kSigmaExceeded);
   }
 };
 
@@ -120,8 +121,9 @@ std::vector<ReducedPoint> IntersectPoints(std::span<const RayGroup> groups,
                                           const PointOptions& options = {});
 
 // The flags of a previously stored point that a reduction with `checks` from the stored
-// rays cannot derive again and so keeps: repeat_exceeded always (only the accepted
-// readings are stored, not the rounds), miss_exceeded when no miss tolerance is given.
+// rays cannot derive again and so keeps: repeat_exceeded and sigma_exceeded always (only
+// the accepted readings are stored, not the rounds; the sigma tolerance is capture's),
+// miss_exceeded when no miss tolerance is given.
 PointFlags CarriedOverFlags(PointFlags stored, const PointChecks& checks);
 
 }  // namespace armsig::reduction

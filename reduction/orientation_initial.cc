@@ -113,6 +113,37 @@ void SetLevelled(StationState& s, double azimuth, const Eigen::Vector3d& positio
   s.placed = true;
 }
 
+// A polar station (laser tracker, total station) from ≥ 3 known points it measured with
+// distances, not on one line: the rigid best fit (Umeyama, no scale) of its polar points
+// d·u onto the known ones gives its full pose, however it is tilted; a levelled station
+// keeps the azimuth of that rotation.
+bool ResectPolar(const std::vector<Eigen::Vector3d>& points,
+                 const std::vector<Eigen::Vector3d>& polar_in_station, StationState& s) {
+  const int k = static_cast<int>(points.size());
+  if (k < 3) return false;
+  Eigen::Matrix3Xd from(3, k), to(3, k);
+  for (int i = 0; i < k; ++i) {
+    from.col(i) = polar_in_station[i];
+    to.col(i) = points[i];
+  }
+  const Eigen::Matrix3Xd centred = to.colwise() - to.rowwise().mean();
+  const Eigen::JacobiSVD<Eigen::Matrix3Xd> svd(centred);
+  if (!(svd.singularValues()(1) > 1e-3 * svd.singularValues()(0))) return false;  // a line
+  const Eigen::Matrix4d t = Eigen::umeyama(from, to, false);
+  if (!t.allFinite()) return false;
+  const Eigen::Matrix3d r = t.topLeftCorner<3, 3>();
+  if (s.levelled) {
+    SetLevelled(s, WrapTwoPi(-std::atan2(r(1, 0), r(0, 0))), t.topRightCorner<3, 1>());
+    return true;
+  }
+  s.rotation = r;
+  s.position = t.topRightCorner<3, 1>();
+  Eigen::AngleAxisd aa(s.rotation);
+  s.angle_axis = aa.angle() * aa.axis();
+  s.placed = true;
+  return true;
+}
+
 }  // namespace
 
 std::optional<InitialValues> FindInitialValues(const OrientationProblem& problem,
@@ -170,29 +201,33 @@ std::optional<InitialValues> FindInitialValues(const OrientationProblem& problem
     }
   };
 
+  // Whether known points are in true scale (from control points): only then do a polar
+  // station's distances place it (in a local frame the scale comes last).
+  bool metric_frame = use_control;
   // Resection of station i from known points and placed stations it sights or that sight it.
   // Each sighted point counts once: a repeated sighting of one point (the same line twice in
   // a file) is no second direction, and two rays to one point place the station on that
   // point.
   auto try_resect = [&](int i) {
-    std::vector<Eigen::Vector3d> points, dirs;
+    std::vector<Eigen::Vector3d> points, dirs, polar_points, polar;
     std::set<std::string> sighted;
     for (const auto& o : obs) {
-      if (o.station != i || !sighted.insert(o.point).second) continue;
+      if (o.station != i) continue;
+      const Eigen::Vector3d* at = nullptr;
       if (o.target_station >= 0) {
-        if (st[o.target_station].placed) {
-          points.push_back(st[o.target_station].position);
-          dirs.push_back(dir_in_station(o));
-        } else {
-          sighted.erase(o.point);
-        }
+        if (st[o.target_station].placed) at = &st[o.target_station].position;
       } else if (auto it = known.find(o.point); it != known.end()) {
-        points.push_back(it->second);
-        dirs.push_back(dir_in_station(o));
-      } else {
-        sighted.erase(o.point);  // not known yet: a later ray to it may be
+        at = &it->second;
+      }
+      if (!at || !sighted.insert(o.point).second) continue;
+      points.push_back(*at);
+      dirs.push_back(dir_in_station(o));
+      if (o.distance) {
+        polar_points.push_back(*at);
+        polar.push_back(*o.distance * dirs.back());
       }
     }
+    if (metric_frame && ResectPolar(polar_points, polar, st[i])) return true;
     if (!st[i].levelled && ResectUnlevelled(points, dirs, st[i])) return true;
     if (points.size() < 2) return false;
     bool apart = false;  // at least two of the points are distinct places
@@ -316,6 +351,7 @@ std::optional<InitialValues> FindInitialValues(const OrientationProblem& problem
     if (!any) local_frame = true;  // fall back: build locally, then fit to the control
   }
   if (local_frame) {
+    metric_frame = false;
     for (auto& s : st) s.placed = false;
     known.clear();
     SetLevelled(st[0], 0.0, Eigen::Vector3d::Zero());

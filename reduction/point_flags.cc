@@ -7,9 +7,10 @@ namespace armsig::reduction {
 
 namespace {
 
-constexpr std::array<std::pair<PointFlag, const char*>, 8> kWords = {{
+constexpr std::array<std::pair<PointFlag, const char*>, 9> kWords = {{
     {PointFlag::kMissExceeded, "miss_exceeded"},
     {PointFlag::kRepeatExceeded, "repeat_exceeded"},
+    {PointFlag::kSigmaExceeded, "sigma_exceeded"},
     {PointFlag::kBlunderRejected, "blunder_rejected"},
     {PointFlag::kBlunderSuspected, "blunder_suspected"},
     {PointFlag::kOneRay, "one_ray"},

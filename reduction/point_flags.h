@@ -20,6 +20,9 @@ enum class PointFlag : uint32_t {
   kParallelRays = 1u << 5,      // rays nearly parallel: no point
   kNotConverged = 1u << 6,      // the least squares did not converge: no point
   kNonFinite = 1u << 7,         // an input or the estimate is not finite: no point
+  // A polar instrument (laser tracker) stated a sigma above the tolerance for a reading
+  // (turbulent air, a dirty or tilted reflector).
+  kSigmaExceeded = 1u << 8,
 };
 
 // A set of flags; its text is the words in the order of PointFlag, space-separated.

@@ -76,8 +76,12 @@ fi
 
 seconds="${1:-20}"
 scripts/setup.sh
-CXX=clang++ cmake -S . -B build-fuzz -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo -DARMSIG_FUZZ=ON \
-  -DARMSIG_BUILD_TESTS=OFF -DARMSIG_BUILD_BENCH=OFF >/dev/null
+# A tree that exists (scripts/test.sh builds it with the tests, to run them under the
+# sanitizers) is used as configured; a new one gets the fuzzers only.
+if [[ ! -f build-fuzz/CMakeCache.txt ]]; then
+  CXX=clang++ cmake -S . -B build-fuzz -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo -DARMSIG_FUZZ=ON \
+    -DARMSIG_BUILD_TESTS=OFF -DARMSIG_BUILD_BENCH=OFF >/dev/null
+fi
 cmake --build build-fuzz --target armsig_fuzzers --parallel "$(nproc)"
 
 mkdir -p build-fuzz/crashes

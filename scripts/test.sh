@@ -1,16 +1,19 @@
 #!/usr/bin/env bash
 # README command 2: install what is missing, build (warnings are errors), run the whole
-# test suite through ctest, then again under AddressSanitizer + UndefinedBehaviorSanitizer,
-# then every parser under libFuzzer for a short run.
+# test suite through ctest, then again under AddressSanitizer + UndefinedBehaviorSanitizer
+# (clang), then every parser under libFuzzer for a short run.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 scripts/setup.sh
 jobs="$(nproc)"
 scripts/build.sh build -DARMSIG_WERROR=ON
 ctest --test-dir build --output-on-failure --parallel "$jobs"
-scripts/build.sh build-asan -DARMSIG_WERROR=ON -DARMSIG_SANITIZE=ON -DARMSIG_BUILD_BENCH=OFF
+# One clang tree instrumented for AddressSanitizer + UndefinedBehaviorSanitizer and for
+# libFuzzer (ARMSIG_FUZZ implies ARMSIG_SANITIZE): the whole suite under the sanitizers,
+# then every parser under libFuzzer for a short run (scripts/fuzz.sh 3600 is the long
+# campaign) from the same objects.
+CXX=clang++ scripts/build.sh build-fuzz -DARMSIG_WERROR=ON -DARMSIG_FUZZ=ON \
+  -DARMSIG_BUILD_TESTS=ON -DARMSIG_BUILD_BENCH=OFF
 ASAN_OPTIONS=detect_leaks=1 UBSAN_OPTIONS=print_stacktrace=1 \
-  ctest --test-dir build-asan --output-on-failure --parallel "$jobs"
-# Every parser under libFuzzer (clang, ASan+UBSan) for a short run; scripts/fuzz.sh 3600
-# is the long campaign.
+  ctest --test-dir build-fuzz --output-on-failure --parallel "$jobs"
 scripts/fuzz.sh "${ARMSIG_FUZZ_SECONDS:-15}"

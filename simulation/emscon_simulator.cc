@@ -3,6 +3,7 @@
 #include <spdlog/spdlog.h>
 
 #include <cmath>
+#include <limits>
 #include <numbers>
 #include <stdexcept>
 #include <type_traits>
@@ -151,6 +152,37 @@ Eigen::Vector3d EmsconSimulator::TruePointInTracker() const {
   const VirtualStation& s = lab_.station(station_);
   const Eigen::Vector3d x = lab_.TruePosition(lab_.AimedAt(station_));
   return s.pose.world_from_station.transpose() * (x - s.pose.position_mm);
+}
+
+namespace {
+// How far a beam along `beam` (unit) passes from `point`, measured at the point; a point
+// behind the tracker is never in the beam.
+double MissOf(const Eigen::Vector3d& beam, const Eigen::Vector3d& point) {
+  const double along = point.dot(beam);
+  if (along <= 0.0) return std::numeric_limits<double>::infinity();
+  return (point - along * beam).norm();
+}
+}  // namespace
+
+double EmsconSimulator::BeamMissMm() const {
+  const Eigen::Vector3d truth = TruePointInTracker();
+  std::lock_guard lock(mutex_);
+  return MissOf(state_.beam, truth);
+}
+
+void EmsconSimulator::GuideBeamToReflector() {
+  const Eigen::Vector3d truth = TruePointInTracker();
+  std::lock_guard lock(mutex_);
+  if (truth.norm() > 0.0) state_.beam = truth.normalized();
+  ++state_.guided;
+}
+
+void EmsconSimulator::DegradeNextMeasurements(int count, double noise_factor,
+                                              double stated_factor) {
+  std::lock_guard lock(mutex_);
+  degraded_ = count;
+  noise_factor_ = noise_factor;
+  stated_factor_ = stated_factor;
 }
 
 void EmsconSimulator::StartAccept() {
@@ -364,11 +396,21 @@ std::vector<EmsconSimulator::Step> EmsconSimulator::Answer(const es::Request& re
               if (s.coordinate_system == es::coordinate_system::kSCC) hz = -hz;
               s.go_position_mm = es::PointFromSpherical({hz, r.val2 * rad, r.val3 * mm});
             }
+            if (s.go_position_mm->norm() > 0.0) s.beam = s.go_position_mm->normalized();
+            ++s.go_positions;
             reply_latency = Scaled(options_.motion_latency);
           } else if constexpr (std::is_same_v<T, es::FindReflector>) {
             reply_latency = Scaled(options_.motion_latency);
-            if (fault.fault == Fault::kReflectorNotFound) {
+            ++s.searches;
+            const Eigen::Vector3d truth = TruePointInTracker();
+            const bool near = options_.acquire_radius_mm <= 0.0 ||
+                              MissOf(s.beam, truth) <= options_.search_radius_mm;
+            if (fault.fault == Fault::kReflectorNotFound || !near) {
               a.status = es::status::kMeasurementStatusNotReady;
+              ++s.not_found;
+            } else {
+              if (truth.norm() > 0.0) s.beam = truth.normalized();
+              ++s.found;
             }
           } else if constexpr (std::is_same_v<T, es::GetFace>) {
             a.data = es::Int32Value{s.face};
@@ -391,15 +433,18 @@ std::vector<EmsconSimulator::Step> EmsconSimulator::Answer(const es::Request& re
   } else {
     int32_t meas_time = 0;
     bool initialized = false;
+    const bool out_of_beam = options_.acquire_radius_mm > 0.0 &&
+                             BeamMissMm() > options_.acquire_radius_mm;
     {
       std::lock_guard lock(mutex_);
       meas_time = state_.meas_time_ms;
       initialized = state_.initialized;
+      if (out_of_beam && initialized) ++state_.not_found;
     }
     if (!initialized) {
       a.status = es::status::kTrackerNotInitialized;
       steps.push_back({latency, es::EncodePacket(a)});
-    } else if (fault.fault == Fault::kReflectorNotFound) {
+    } else if (fault.fault == Fault::kReflectorNotFound || out_of_beam) {
       steps.push_back(
           {latency, es::EncodePacket(es::StatusChange{es::status_change::kMeasStatusNotReady})});
       a.status = es::status::kMeasurementStatusNotReady;
@@ -446,8 +491,15 @@ es::MeasResult EmsconSimulator::MeasureNow(bool out_of_range) {
   std::lock_guard lock(mutex_);
   const State& s = state_;
   ++state_.measurements;
-  const double sigma = SigmaMm(truth.norm());
-  std::normal_distribution<double> noise(0.0, sigma);
+  if (truth.norm() > 0.0) state_.beam = truth.normalized();  // locked on the reflector
+  double noise_factor = 1.0, stated_factor = 1.0;
+  if (degraded_ > 0) {
+    --degraded_;
+    noise_factor = noise_factor_;
+    stated_factor = stated_factor_;
+  }
+  const double stated = SigmaMm(truth.norm()) * stated_factor;
+  std::normal_distribution<double> noise(0.0, SigmaMm(truth.norm()) * noise_factor);
   Eigen::Vector3d p = truth + Eigen::Vector3d(noise(rng_), noise(rng_), noise(rng_));
   if (s.settings.apply_transformation) p.x() += kUserTransformationShiftMm;
   const es::Spherical sph = es::SphericalFromPoint(p);
@@ -459,7 +511,7 @@ es::MeasResult EmsconSimulator::MeasureNow(bool out_of_range) {
   if (s.coordinate_system == es::coordinate_system::kRHR) {
     for (int i = 0; i < 3; ++i) {
       m.value[i] = p[i] / mm;
-      m.std_dev[i] = sigma / mm;
+      m.std_dev[i] = stated / mm;
     }
   } else {
     double hz = sph.hz_rad;
@@ -467,11 +519,11 @@ es::MeasResult EmsconSimulator::MeasureNow(bool out_of_range) {
       hz = 2.0 * std::numbers::pi - hz;
     }
     m.value = {hz / rad, sph.v_rad / rad, sph.distance_mm / mm};
-    m.std_dev = {sigma / (sph.distance_mm * std::sin(sph.v_rad)) / rad,
-                 sigma / sph.distance_mm / rad, sigma / mm};
+    m.std_dev = {stated / (sph.distance_mm * std::sin(sph.v_rad)) / rad,
+                 stated / sph.distance_mm / rad, stated / mm};
   }
   if (out_of_range) m.value[1] = -m.value[1];
-  m.std_total = std::sqrt(3.0) * sigma / mm;
+  m.std_total = std::sqrt(3.0) * stated / mm;
   m.apriori_std = m.std_dev;
   m.apriori_std_total = m.std_total;
   const auto w = WeatherAt(Seconds());

@@ -52,6 +52,14 @@ struct EmsconSimulatorOptions {
   double environment_time_scale = 1.0;  // seconds of weather per second
   bool initialized = false;             // the tracker processor's state at start
   unsigned seed = 7;
+  // Where the beam points. 0: the tracker always finds its reflector (it follows it).
+  // Otherwise a measurement finds the reflector only when the beam passes within this
+  // distance of it (at the reflector), and answers MeasurementStatusNotReady otherwise. The
+  // beam points along the last GoPosition, the last reflector it measured or found, or,
+  // at start, horizontally towards circle zero (+y).
+  double acquire_radius_mm = 0.0;
+  // FindReflector searches this far around the beam (at the reflector) and locks on it.
+  double search_radius_mm = 150.0;
 };
 
 class EmsconSimulator : public Simulator {
@@ -90,10 +98,21 @@ class EmsconSimulator : public Simulator {
     int face = 1;
     std::optional<Eigen::Vector3d> go_position_mm;  // the last GoPosition, tracker frame
     int measurements = 0;
+    Eigen::Vector3d beam = Eigen::Vector3d::UnitY();  // unit direction, tracker frame
+    int go_positions = 0, searches = 0, found = 0, not_found = 0, guided = 0;
   };
   State state() const;
   // The true point the tracker would measure now, in its own frame (mm).
   Eigen::Vector3d TruePointInTracker() const;
+  // The operator points the beam at the reflector (a real tracker: its camera, or the
+  // head turned by hand): the next measurement finds it.
+  void GuideBeamToReflector();
+  // The next `count` measurements are poor (turbulent air, a dirty reflector): their noise
+  // is `noise_factor` times the model's; the sigma they state is `stated_factor` times it
+  // (1: the tracker does not notice).
+  void DegradeNextMeasurements(int count, double noise_factor, double stated_factor);
+  // How far the beam passes from the reflector now, mm (at the reflector's distance).
+  double BeamMissMm() const;
   // The weather at `seconds` after start (°C, hPa, %RH).
   static instruments::emscon::EnvironmentParams WeatherAt(double seconds);
 
@@ -138,6 +157,8 @@ class EmsconSimulator : public Simulator {
   mutable std::mutex mutex_;  // faults and state
   FaultQueue faults_;
   State state_;
+  int degraded_ = 0;
+  double noise_factor_ = 1.0, stated_factor_ = 1.0;
   std::mt19937 rng_;
 
   std::atomic<int> requests_{0}, connections_{0};

@@ -14,11 +14,45 @@
 #include "calibration/drift.h"
 #include "core/error.h"
 #include "core/text.h"
+#include "io/residual_map_json.h"
 
 namespace armsig::workflows {
 
 calibration::ErrorStats StatsOf(const std::vector<Eigen::Vector3d>& residuals) {
   return calibration::Summarise(calibration::Distances(residuals));
+}
+
+std::vector<Eigen::Vector3d> MappedResiduals(const calibration::RobotModel& model,
+                                             const calibration::FrameBases& bases,
+                                             const Eigen::VectorXd& params,
+                                             const calibration::ResidualMap* map,
+                                             const std::vector<MeasuredPose>& poses,
+                                             std::vector<char>* outside) {
+  std::vector<Eigen::Vector3d> r = calibration::Residuals(model, bases, params, poses);
+  if (outside) outside->assign(poses.size(), 0);
+  if (!map) return r;
+  for (size_t i = 0; i < poses.size(); ++i) {
+    const auto prediction = map->Predict(poses[i].joints_rad.data());
+    if (prediction.supported) {
+      r[i] += bases.at(poses[i].frame).linear() * prediction.correction_in_base_mm;
+    } else if (outside) {
+      (*outside)[i] = 1;
+    }
+  }
+  return r;
+}
+
+CalibrationRun::MapValidation CalibrationRun::map_validation() const {
+  MapValidation v;
+  v.poses = static_cast<int>(validation_map_sigma_mm.size());
+  if (v.poses == 0) return v;
+  double sum = 0.0;
+  for (int i = 0; i < v.poses; ++i) {
+    v.outside += validation_map_extrapolated[i];
+    sum += validation_map_sigma_mm[i];
+  }
+  v.mean_sigma_mm = sum / v.poses;
+  return v;
 }
 
 CalibrationRun RunCalibration(const calibration::RobotModel& model,
@@ -175,6 +209,25 @@ CalibrationRun RunCalibration(const calibration::RobotModel& model,
     run.validation_nominal_residuals = calibration::Residuals(
         model, bases, Eigen::VectorXd::Zero(model.num_parameters()), validation);
   }
+  if (settings.residual_model == "auto" && run.estimate.status.ok()) {
+    run.residual_map = calibration::FitResidualMap(model, run.estimate, fit);
+    const auto& m = *run.residual_map;
+    spdlog::info("calibration: residual map {}: {}", m.used ? "used" : "not used", m.decision);
+    if (m.used && !validation.empty()) {
+      const calibration::ResidualMap map(m.map);
+      run.validation_parametric_residuals = run.validation_residuals;
+      run.validation_residuals = MappedResiduals(model, bases, run.estimate.params, &map,
+                                                 validation, &run.validation_map_extrapolated);
+      for (const auto& p : validation) {
+        const double latent = map.CorrectionSigmaMm(p.joints_rad.data());
+        run.validation_map_sigma_mm.push_back(
+            std::sqrt(latent * latent + m.map.noise_sigma_mm * m.map.noise_sigma_mm));
+      }
+    }
+  } else if (settings.residual_model != "auto" && settings.residual_model != "off") {
+    throw InputError({"--residual-model", 0, 0, ""},
+                     "expected auto or off, got '" + settings.residual_model + "'");
+  }
   if (run.frames.size() > 1 && spdlog::should_log(spdlog::level::debug)) {
     for (const auto& f : run.frames) {
       const Eigen::Vector3d t = f.world_from_base.translation();
@@ -317,7 +370,27 @@ std::string FormatCalibrationReport(const calibration::RobotModel& model,
   line("calibrated, fit poses", est.fit);
   if (!run.validation_residuals.empty()) {
     line("nominal, validation", StatsOf(run.validation_nominal_residuals));
-    line("calibrated, validation", StatsOf(run.validation_residuals));
+    if (run.map_used() && !run.validation_parametric_residuals.empty()) {
+      line("parametric, validation", StatsOf(run.validation_parametric_residuals));
+      line("with map, validation", StatsOf(run.validation_residuals));
+    } else {
+      line("calibrated, validation", StatsOf(run.validation_residuals));
+    }
+  }
+  if (run.residual_map) {
+    const auto& m = *run.residual_map;
+    out += fmt::format("residual map: {} — {}", m.used ? "used" : "not used", m.decision);
+    if (!m.map.centres_rad.empty()) {
+      out += fmt::format(" (length scale {:.3g}, regularisation {:.3g}, {} centres)",
+                         m.map.length_scale, m.map.regularisation, m.map.centres_rad.size());
+    }
+    out += "\n";
+    if (const auto v = run.map_validation(); run.map_used() && v.poses > 0) {
+      out += fmt::format(
+          "  validation: predictive sigma {:.4f} mm per coordinate on average; {} of {} poses "
+          "outside the map's support (parametric prediction, flagged)\n",
+          v.mean_sigma_mm, v.outside, v.poses);
+    }
   }
   return out;
 }
@@ -359,7 +432,24 @@ nlohmann::json CalibrationJson(const calibration::RobotModel& model, const Calib
   json validation = stats(StatsOf(run.validation_residuals));
   validation["nominal"] = stats(StatsOf(run.validation_nominal_residuals));
   validation["pose_ids"] = run.validation_pose_ids;
+  validation["map_applied"] = run.map_used();
+  if (run.map_used() && !run.validation_parametric_residuals.empty()) {
+    validation["parametric"] = stats(StatsOf(run.validation_parametric_residuals));
+    validation["map_sigma_mm"] = run.validation_map_sigma_mm;
+    json outside = json::array();
+    for (size_t i = 0; i < run.validation_map_extrapolated.size(); ++i) {
+      if (run.validation_map_extrapolated[i]) outside.push_back(run.validation_pose_ids[i]);
+    }
+    validation["map_extrapolated"] = outside;
+  }
   out["validation"] = validation;
+  out["residual_model"] = run.residual_map ? io::ResidualModelJson(*run.residual_map)
+                                           : json{{"used", false},
+                                                  {"kind", nullptr},
+                                                  {"cv_mean_mm_parametric", nullptr},
+                                                  {"cv_mean_mm_with_map", nullptr},
+                                                  {"hyperparameters", nullptr},
+                                                  {"decision", "--residual-model off"}};
   json base = json::array();
   for (int r = 0; r < 4; ++r) {
     base.push_back({est.world_from_base.matrix()(r, 0), est.world_from_base.matrix()(r, 1),
@@ -450,6 +540,7 @@ db::CalibrationRecord CalibrationRecordOf(const calibration::RobotModel& model,
   }
   c.active = active;
   c.world_from_base = e.world_from_base;
+  if (run.map_used()) c.residual_map_json = JsonText(io::ResidualMapToJson(run.residual_map->map));
   if (e.covariance.rows() == static_cast<int>(e.identifiability.identified.size())) {
     const auto names = model.ParameterNames();
     for (int k : e.identifiability.identified) c.covariance_parameters.push_back(names[k]);

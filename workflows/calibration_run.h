@@ -2,12 +2,14 @@
 // SPEC's calibrate JSON.
 #pragma once
 
+#include <limits>
 #include <nlohmann/json.hpp>
 #include <optional>
 #include <string>
 #include <vector>
 
 #include "calibration/estimation.h"
+#include "calibration/residual_map.h"
 #include "calibration/selection.h"
 #include "core/types.h"
 #include "db/store.h"
@@ -38,6 +40,24 @@ struct CalibrationRun {
   std::optional<calibration::SelectionResult> selection;
   int selection_candidates = 0;
   std::optional<calibration::AutoSelection> auto_terms;
+  // The residual map (--residual-model auto), fitted and cross-validated on the fit poses
+  // only; absent with --residual-model off. When it is used, `validation_residuals` have it
+  // applied and `validation_parametric_residuals` are the parametric model's alone.
+  std::optional<calibration::ResidualMapFit> residual_map;
+  std::vector<Eigen::Vector3d> validation_parametric_residuals;
+  // Per validation pose when the map is used: its predictive σ per coordinate (mm; the
+  // latent σ of the correction and the map's noise σ, see residual_map.h), and whether the
+  // pose was outside the map's support (then the parametric prediction, flagged).
+  std::vector<double> validation_map_sigma_mm;
+  std::vector<char> validation_map_extrapolated;
+  bool map_used() const { return residual_map && residual_map->used; }
+  // Over the validation poses when the map is used: how many were outside its support,
+  // and the mean predictive σ (NaN without).
+  struct MapValidation {
+    int outside = 0, poses = 0;
+    double mean_sigma_mm = std::numeric_limits<double>::quiet_NaN();
+  };
+  MapValidation map_validation() const;
 };
 
 // Runs the whole calibrate pipeline (selection, --params auto, estimation, validation).
@@ -54,6 +74,9 @@ struct CalibrateSettings {
   // joint limits (calibration::ModelIdentifiableSubset): every set of a robot then
   // estimates the same parameters in the same gauge, whatever poses a night brought.
   bool model_subset = false;
+  // "auto": fit the residual map after the parametric model and use it when its
+  // cross-validated error beats the parametric model's by a clear margin; "off": never.
+  std::string residual_model = "auto";
 };
 CalibrationRun RunCalibration(const calibration::RobotModel& model,
                               const std::vector<MeasuredPose>& poses,
@@ -64,6 +87,16 @@ CalibrationRun RunCalibration(const calibration::RobotModel& model,
 // sigmas, then h-terms, identifiability and error distances.
 std::string FormatCalibrationReport(const calibration::RobotModel& model,
                                     const CalibrationRun& run);
+
+// Residuals (model − measured) of poses, each in its frame's base, with a residual map's
+// correction where the pose is inside its support (`map` null: parametric). `outside`
+// (when given) gets one flag per pose: the map was not applied there.
+std::vector<Eigen::Vector3d> MappedResiduals(const calibration::RobotModel& model,
+                                             const calibration::FrameBases& bases,
+                                             const Eigen::VectorXd& params,
+                                             const calibration::ResidualMap* map,
+                                             const std::vector<MeasuredPose>& poses,
+                                             std::vector<char>* outside = nullptr);
 
 // Error statistics of a set of residual vectors.
 calibration::ErrorStats StatsOf(const std::vector<Eigen::Vector3d>& residuals);

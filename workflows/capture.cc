@@ -3,6 +3,7 @@
 #include <fmt/format.h>
 #include <spdlog/spdlog.h>
 
+#include <algorithm>
 #include <cmath>
 #include <optional>
 
@@ -13,6 +14,7 @@
 #include "db/database.h"
 #include "db/store.h"
 #include "workflows/hint.h"
+#include "workflows/signature.h"
 
 namespace armsig::workflows {
 
@@ -35,12 +37,40 @@ std::string Named(const std::vector<acquisition::ConfigurationVerdict>& list) {
 
 }  // namespace
 
+namespace {
+
+// The session's robot's active arm signature, when it has one of the lab's model: a laser
+// tracker's beam then points where the calibrated robot puts the target.
+std::optional<Eigen::VectorXd> ActiveParameters(db::Database& db,
+                                                const acquisition::LabConfig& lab,
+                                                int64_t session) {
+  const auto row = db::LoadSession(db, session);
+  if (!row) return std::nullopt;
+  const auto robot = db::FindRobot(db, row->robot);
+  if (!robot) return std::nullopt;
+  const auto active = db::ActiveCalibration(db, *robot);
+  if (!active) return std::nullopt;
+  const Signature signature = SignatureOf(lab.model, *active);
+  spdlog::debug("capture: predicting tracker targets with version {} of robot {}",
+                signature.version, row->robot);
+  return signature.params;
+}
+
+}  // namespace
+
 acquisition::CaptureSummary CaptureInto(db::Database& db, const acquisition::LabConfig& lab,
                                         int64_t session,
                                         const acquisition::CaptureOptions& options) {
   try {
     auto devices = acquisition::OpenInstruments(lab);
     auto controller = acquisition::OpenController(lab);
+    const bool tracker = std::any_of(lab.instruments.begin(), lab.instruments.end(),
+                                     [](const auto& i) { return i.protocol == "emscon"; });
+    if (tracker && !options.prediction_params) {
+      acquisition::CaptureOptions with_signature = options;
+      with_signature.prediction_params = ActiveParameters(db, lab, session);
+      return acquisition::RunCapture(db, lab, session, devices, *controller, with_signature);
+    }
     return acquisition::RunCapture(db, lab, session, devices, *controller, options);
   } catch (...) {
     db::SetSessionState(db, session, "paused");  // resumable, never left running
@@ -105,6 +135,7 @@ CaptureOutcome RunCaptureSession(const CaptureRequest& request) {
   options.stop = request.stop;
   options.progress = request.progress;
   options.prompt_move = request.prompt_move;
+  options.prompt_reflector = request.prompt_reflector;
   try {
     out.summary = CaptureInto(database, lab, session, options);
   } catch (...) {
@@ -148,9 +179,16 @@ std::string FormatCaptureSummary(const acquisition::CaptureSummary& s) {
     text += "  flagged (beyond tolerances): " + Named(s.flagged_configurations) + "\n";
   if (!s.skipped_configurations.empty())
     text += "  skipped (instrument fault): " + Named(s.skipped_configurations) + "\n";
+  if (s.beam_predicted + s.beam_searches + s.beam_operator > 0 || !s.beam_base.empty()) {
+    text += fmt::format(
+        "  laser tracker beams: {} pointed at the predicted target, {} searches, {} pointed by "
+        "the operator; {}\n",
+        s.beam_predicted, s.beam_searches, s.beam_operator, s.beam_base);
+  }
   if (s.measured + s.skipped > 0) {
-    text += fmt::format("  {:.1f} s, {:.1f} ms per configuration ({:.2f} ms software)\n", s.seconds,
-                        s.mean_cycle_ms, s.mean_overhead_ms);
+    text += fmt::format(
+        "  {:.1f} s, {:.1f} ms per configuration ({:.2f} ms software, {:.2f} ms storing)\n",
+        s.seconds, s.mean_cycle_ms, s.mean_overhead_ms, s.mean_store_ms);
   }
   return text;
 }

@@ -19,6 +19,8 @@ struct CaptureRequest {
   const std::atomic<bool>* stop = nullptr;  // Ctrl-C
   std::function<void(const acquisition::Progress&)> progress;
   std::function<void(const acquisition::PlannedConfiguration&)> prompt_move;
+  std::function<void(const std::string&, const acquisition::PlannedConfiguration&)>
+      prompt_reflector;  // a laser tracker's beam missed its reflector (CaptureOptions)
 };
 
 struct CaptureOutcome {
@@ -33,6 +35,9 @@ struct CaptureOutcome {
 
 // Opens the lab's devices and runs `session` in `db`; whatever escapes (a device that
 // cannot be opened, a failure mid-way) leaves the session paused before it is rethrown.
+// When the lab has a laser tracker and `options` no prediction parameters, the session's
+// robot's active arm signature (if it has one, of the lab's model) predicts where the
+// beam points.
 acquisition::CaptureSummary CaptureInto(db::Database& db, const acquisition::LabConfig& lab,
                                         int64_t session,
                                         const acquisition::CaptureOptions& options);

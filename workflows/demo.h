@@ -18,6 +18,11 @@ namespace armsig::workflows {
 
 struct DemoOptions {
   std::string db_path;
+  // "theodolites" (three GeoCOM theodolites on pseudo-terminals, oriented by mutual
+  // pointings and a scale bar) or "tracker" (one virtual laser tracker speaking emScon on
+  // loopback TCP; its frame is the lab frame, so no orientation). A resumed session keeps
+  // the instruments it was captured with.
+  std::string instrument;  // empty: theodolites for a new demo
   std::string json_path;     // --json: written at the end (checked by the command line)
   int configurations = 200;  // captured
   int select = 0;            // fitted (D-optimal), the rest validate; 0 = 40 % (80 of 200)

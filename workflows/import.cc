@@ -3,6 +3,7 @@
 #include <fmt/format.h>
 #include <spdlog/spdlog.h>
 
+#include <optional>
 #include <sstream>
 #include <vector>
 
@@ -13,6 +14,7 @@
 #include "io/atomic_file.h"
 #include "io/gsi_import.h"
 #include "io/poses_csv.h"
+#include "io/tracker_import.h"
 #include "workflows/lifecycle.h"
 
 namespace armsig::workflows {
@@ -65,24 +67,98 @@ io::PoseImportOptions ImportOptionsOf(const ImportPosesRequest& r) {
 
 }  // namespace
 
+namespace {
+
+// --points PTS --joints LOG: the tracker's point table joined with the robot's joint log.
+io::JoinedPoses JoinTrackerExport(const ImportPosesRequest& r, int num_joints) {
+  if (r.points.empty() || r.joints.empty()) {
+    throw InputError({r.points.empty() ? "--points" : "--joints", 0, 0, ""},
+                     "give both --points (the tracker's point table) and --joints (the robot's "
+                     "joint log)");
+  }
+  if (!r.file.empty() || !r.preset.empty() || !r.xyz_columns.empty() || !r.id_column.empty()) {
+    throw InputError({"--points", 0, 0, ""},
+                     "--points/--joints take the place of a pose table: give no FILE, --preset, "
+                     "--xyz-columns or --id");
+  }
+  io::PointTableOptions points;
+  if (!r.points_unit.empty()) {
+    points.unit = io::LengthUnitFromText(r.points_unit);
+    if (!points.unit) {
+      throw InputError({"--points-unit", 0, 0, ""},
+                       "expected mm, m or inch, got '" + r.points_unit + "'");
+    }
+  }
+  const io::PointTable table = io::ReadPointTable(r.points, points);
+  io::JointLogOptions log;
+  log.num_joints = num_joints;
+  log.joint_columns = SplitList(r.joint_columns);
+  const auto unit = AngleUnitFromSuffix("_" + r.joint_unit);
+  if (!unit) throw InputError({"--joint-unit", 0, 0, ""}, "expected deg, gon or rad");
+  log.joint_unit = *unit;
+  io::JoinOptions join;
+  if (r.match == "time") {
+    join.by = io::JoinBy::kTime;
+  } else if (r.match != "id") {
+    throw InputError({"--match", 0, 0, ""}, "expected id or time, got '" + r.match + "'");
+  }
+  if (!(r.time_tolerance_s > 0.0 && r.time_tolerance_s < 86400.0)) {
+    throw InputError({"--time-tolerance-s", 0, 0, ""},
+                     fmt::format("expected a positive number of seconds, got {}",
+                                 r.time_tolerance_s));
+  }
+  join.time_tolerance_s = r.time_tolerance_s;
+  io::JoinedPoses joined = io::JoinPointsAndJoints(table, io::ReadJointLog(r.joints, log), join);
+  spdlog::info(
+      "import poses: {} points of {} ({} delimiter{}, {} from {}) joined by {} with {} ({} joint "
+      "readings unused{})",
+      joined.poses.size(), r.points, table.delimiter, table.decimal_comma ? ", decimal comma" : "",
+      io::ToString(table.unit), table.unit_from, r.match, r.joints, joined.unused_joint_rows,
+      join.by == io::JoinBy::kTime ? fmt::format(", largest time gap {:.3f} s", joined.max_time_gap_s)
+                                   : std::string());
+  return joined;
+}
+
+}  // namespace
+
 ImportPosesResult ImportPosesFile(const ImportPosesRequest& request) {
   if (request.out.empty() && request.robot.empty())
     throw InputError({"--out", 0, 0, ""}, "give --out FILE.csv, --robot NAME, or both");
   if (!request.out.empty()) io::CheckOutputFile(request.out, "--out");
-  const auto poses = io::ImportPoses(request.file, ImportOptionsOf(request));
+  const bool tracker = !request.points.empty() || !request.joints.empty();
+  if (!tracker && request.file.empty()) {
+    throw InputError({"import poses", 0, 0, ""},
+                     "give a pose table FILE, or --points PTS --joints LOG");
+  }
   ImportPosesResult result;
-  result.poses = poses.size();
+  std::optional<db::Database> database;
+  int num_joints = 0;
   if (!request.robot.empty()) {
-    db::Database database(request.db_path, db::OpenMode::kMustExist);
-    const auto stored =
-        StorePosesSession(database, request.robot, poses, request.file, request.allow_duplicate);
+    database.emplace(request.db_path, db::OpenMode::kMustExist);
+    num_joints = RegisteredModel(*database, request.robot).num_joints();
+  }
+  std::vector<MeasuredPose> poses;
+  std::vector<Eigen::Matrix3d> covariances;
+  if (tracker) {
+    io::JoinedPoses joined = JoinTrackerExport(request, num_joints);
+    poses = std::move(joined.poses);
+    covariances = std::move(joined.covariances_mm2);
+    result.unused_joint_rows = joined.unused_joint_rows;
+  } else {
+    poses = io::ImportPoses(request.file, ImportOptionsOf(request));
+  }
+  result.poses = poses.size();
+  const std::string source = tracker ? request.points + " + " + request.joints : request.file;
+  if (database) {
+    const auto stored = StorePosesSession(*database, request.robot, poses, source,
+                                          request.allow_duplicate, covariances);
     result.session = stored.session;
     result.duplicate = stored.duplicate;
-    result.db_path = database.path();
+    result.db_path = database->path();
   }
   if (!request.out.empty()) {
     io::WriteFileAtomically(request.out, io::FormatPosesCsv(poses));
-    spdlog::info("import poses: {} poses from {} to {}", poses.size(), request.file, request.out);
+    spdlog::info("import poses: {} poses from {} to {}", poses.size(), source, request.out);
   }
   return result;
 }

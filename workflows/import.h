@@ -11,6 +11,11 @@ namespace armsig::workflows {
 // a registered robot (`robot`, in the database at `db_path`, which must exist).
 struct ImportPosesRequest {
   std::string file, out, robot, db_path;
+  // Or a tracker's point table joined with the robot's joint log (io/tracker_import.h).
+  std::string points, joints;
+  std::string match = "id";         // id | time
+  double time_tolerance_s = 0.5;    // --match time: nearest joint reading within this
+  std::string points_unit;          // mm | m | inch: the point table's unit when it names none
   std::string preset;                      // "ur-ipa" or empty
   std::string joint_columns, xyz_columns;  // comma-separated column names
   std::string id_column, delimiter;        // delimiter: one character or "tab"
@@ -21,9 +26,10 @@ struct ImportPosesRequest {
 };
 struct ImportPosesResult {
   size_t poses = 0;
-  int64_t session = 0;     // 0 when not stored
-  bool duplicate = false;  // nothing stored: `session` already holds exactly these poses
-  std::string db_path;     // where it was stored
+  int64_t session = 0;         // 0 when not stored
+  bool duplicate = false;      // nothing stored: `session` already holds exactly these poses
+  int unused_joint_rows = 0;   // --points/--joints: joint readings no point took
+  std::string db_path;         // where it was stored
 };
 // Reads and checks the whole file before storing or writing anything.
 ImportPosesResult ImportPosesFile(const ImportPosesRequest& request);

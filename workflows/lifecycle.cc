@@ -51,6 +51,11 @@ bool RegisterRobot(db::Database& database, const std::string& name, const std::s
   return true;
 }
 
+calibration::RobotModel RegisteredModel(db::Database& database, const std::string& robot) {
+  return io::ParseRobotModel(db::RobotModelYaml(database, RobotId(database, robot)),
+                             "model of robot " + robot);
+}
+
 std::string PosesDigest(const std::vector<MeasuredPose>& poses) {
   // FNV-1a over the bit patterns of every joint angle and target coordinate, in order.
   uint64_t hash = 0xcbf29ce484222325ULL;
@@ -73,7 +78,8 @@ std::string PosesDigest(const std::vector<MeasuredPose>& poses) {
 
 StoredPoses StorePosesSession(db::Database& database, const std::string& robot,
                               const std::vector<MeasuredPose>& poses, const std::string& source,
-                              bool allow_duplicate) {
+                              bool allow_duplicate,
+                              const std::vector<Eigen::Matrix3d>& covariances_mm2) {
   const int64_t robot_id = RobotId(database, robot);
   const auto model =
       io::ParseRobotModel(db::RobotModelYaml(database, robot_id), "model of robot " + robot);
@@ -122,6 +128,7 @@ StoredPoses StorePosesSession(db::Database& database, const std::string& robot,
     point.point = "target";
     point.position_mm = poses[k].target_in_world;
     point.covariance_mm2.setConstant(std::numeric_limits<double>::quiet_NaN());
+    if (k < covariances_mm2.size()) point.covariance_mm2 = covariances_mm2[k];
     db::InsertPoint(database, session, point);
   }
   tx.commit();

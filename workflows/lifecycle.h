@@ -9,6 +9,7 @@
 #include <string>
 #include <vector>
 
+#include "calibration/model.h"
 #include "core/types.h"
 #include "db/calibrations.h"
 #include "db/database.h"
@@ -21,6 +22,10 @@ namespace armsig::workflows {
 // reader; its text is stored). Returns true when added, false when the robot already has
 // exactly this model; InputError when the name is taken with another model.
 bool RegisterRobot(db::Database& database, const std::string& name, const std::string& model_path);
+
+// The model a registered robot was stored with. InputError (naming `robot add`) for an
+// unknown robot.
+calibration::RobotModel RegisteredModel(db::Database& database, const std::string& robot);
 
 // What measured poses are: their joints and targets, in order (not their ids), as a
 // stable 64-bit FNV-1a digest in hex. Equal digests = the same measurements.
@@ -36,10 +41,12 @@ struct StoredPoses {
 // captured session. Idempotent: when a session of the robot already holds exactly these
 // joints and targets (the same file imported twice), nothing is stored and that session
 // is named, unless `allow_duplicate`. InputError for an unknown robot or joints that do
-// not fit its model.
+// not fit its model. `covariances_mm2`: each pose's target covariance (from a point
+// table's sigmas), empty or NaN where not known.
 StoredPoses StorePosesSession(db::Database& database, const std::string& robot,
                               const std::vector<MeasuredPose>& poses, const std::string& source,
-                              bool allow_duplicate = false);
+                              bool allow_duplicate = false,
+                              const std::vector<Eigen::Matrix3d>& covariances_mm2 = {});
 
 // A session's measured poses with their reduced targets (pose ids = the session's labels).
 // InputError for an unknown session.

@@ -19,6 +19,7 @@
 #include "core/error.h"
 #include "core/text.h"
 #include "db/database.h"
+#include "db/report_queries.h"
 #include "db/store.h"
 #include "io/atomic_file.h"
 #include "io/file_lock.h"
@@ -227,6 +228,7 @@ nlohmann::json RecalibrationDecision::ToJson() const {
                           {"passed", g.passed}});
   }
   if (previous_version) j["drift"] = DriftJson();
+  if (!residual_model.is_null()) j["residual_model"] = residual_model;
   j["sessions"] = sessions;
   if (!report_path.empty()) j["report"] = report_path;
   return j;
@@ -309,13 +311,15 @@ RecalibrationDecision Recalibrate(const RecalibrateOptions& o) {
   d.robot = o.robot;
   d.poses = static_cast<int>(poses.size());
   if (current) d.previous_version = current->version;
-  const std::string digest = InputDigest(poses, o.params, o.select);
+  const std::string digest =
+      InputDigest(poses, o.params + "|residual-model=" + o.residual_model, o.select);
   std::set<int64_t> sessions;
   for (const auto& p : poses) sessions.insert(p.frame);
   d.sessions.assign(sessions.begin(), sessions.end());
   const nlohmann::json inputs = {{"digest", digest},     {"poses", poses.size()},
                                  {"sessions", sessions}, {"since", since},
-                                 {"params", o.params},   {"select", o.select}};
+                                 {"params", o.params},   {"select", o.select},
+                                 {"residual_model", o.residual_model}};
   spdlog::debug("recalibrate: inputs: {} poses from sessions {}, --params {} --select {}: digest {}",
                 poses.size(), JsonText(nlohmann::json(sessions)), o.params, o.select, digest);
   // Idempotence on content: a stored set was already fitted on exactly these measurements
@@ -359,6 +363,7 @@ RecalibrationDecision Recalibrate(const RecalibrateOptions& o) {
   CalibrateSettings settings;
   settings.params = o.params;
   settings.model_subset = true;
+  settings.residual_model = o.residual_model;
   // 60 %, at most 80 (the paper's) and 6 more for every further session: each session's
   // frame adds six base unknowns.
   const size_t most = 80 + 6 * (sessions.size() - 1);
@@ -381,6 +386,7 @@ RecalibrationDecision Recalibrate(const RecalibrateOptions& o) {
     }
   }
   d.validation = StatsOf(run.validation_residuals);
+  d.residual_model = CalibrationJson(model, run)["residual_model"];
   d.fit = run.estimate.fit;
   d.nominal = run.estimate.nominal;
   d.rank = run.estimate.identifiability.rank;
@@ -419,8 +425,9 @@ RecalibrationDecision Recalibrate(const RecalibrateOptions& o) {
     bool placed = !validation.empty();
     for (const auto& p : validation) placed = placed && old_bases.count(p.frame) > 0;
     if (placed) {
+      // With its residual map when it has one: the set as predict and compensate use it.
       d.previous_on_same_data =
-          StatsOf(calibration::Residuals(model, old_bases, old.params, validation));
+          StatsOf(MappedResiduals(model, old_bases, old.params, old.map.get(), validation));
       spdlog::debug(
           "recalibrate: version {} on the same validation data ({} frames re-aligned): mean "
           "{:.4f} mm, max {:.4f} mm",
@@ -524,6 +531,11 @@ RecalibrationDecision Recalibrate(const RecalibrateOptions& o) {
     input.validation = validation;
     input.armsig_version = ARMSIG_VERSION;
     input.sources = LoadReportSources(database, run);
+    {
+      std::vector<int64_t> sessions;
+      for (const auto& s : input.sources.sessions) sessions.push_back(s.id);
+      input.temperature_c = db::PoseTemperatures(database, sessions);
+    }
     input.history = ReportHistoryOf(database, *robot_id);
     if (d.version == 0) {
       ReportHistoryPoint rejected{0, "this run (rejected)", d.validation.mean_mm, run.params_spec,

@@ -18,6 +18,7 @@ struct RecalibrateOptions {
   // ISO date or date/time lower bound on the sessions used ("" = all), see SinceToUtc.
   std::string since;
   std::string params = "all";
+  std::string residual_model = "auto";  // auto | off (calibrate's --residual-model)
   // Configurations to fit (0: 60 %, at most 80 plus 6 for every session beyond the first,
   // whose measurement frame adds six unknowns).
   int select = 0;
@@ -85,6 +86,7 @@ struct RecalibrationDecision {
   double max_abs_sigmas = 0.0;            // per parameter, on the subset both sets share
   std::vector<DriftedParameter> drifted;  // those beyond drift_sigma, largest first
   std::vector<int64_t> sessions;          // the sessions fitted and validated
+  nlohmann::json residual_model;          // calibrate's residual_model object (null: not fitted)
   std::string report_path;                // "" when no report was written
 
   bool passed() const { return outcome != Outcome::kRejected; }

@@ -108,6 +108,28 @@ std::vector<double> NiceTicks(double lo, double hi, int max_ticks) {
   return ticks;
 }
 
+std::optional<LinearTrend> LinearTrendOf(const std::vector<double>& x,
+                                         const std::vector<double>& y) {
+  const size_t n = std::min(x.size(), y.size());
+  if (n < 2) return std::nullopt;
+  double mx = 0.0, my = 0.0;
+  for (size_t i = 0; i < n; ++i) {
+    mx += x[i] / n;
+    my += y[i] / n;
+  }
+  double sxx = 0.0, sxy = 0.0;
+  for (size_t i = 0; i < n; ++i) {
+    sxx += (x[i] - mx) * (x[i] - mx);
+    sxy += (x[i] - mx) * (y[i] - my);
+  }
+  if (!(sxx > 0.0)) return std::nullopt;  // one temperature: no slope
+  LinearTrend t;
+  t.slope = sxy / sxx;
+  t.intercept = my - t.slope * mx;
+  t.points = static_cast<int>(n);
+  return t;
+}
+
 std::vector<int> IntegerTicks(int largest, int max_ticks) {
   largest = std::max(largest, 1);
   const int step = std::max(1, static_cast<int>(std::lround(NiceStep(static_cast<double>(largest) /
@@ -674,6 +696,120 @@ std::string WriteReport(const std::string& dir, const ReportInput& in) {
     }
   }
 
+  // 6. The residual map's cross-validation curve: CV mean against the length scale, one
+  // line per regularisation, the parametric model's CV mean as a level.
+  std::optional<Figure> map_figure;
+  if (run.residual_map && !run.residual_map->grid.empty()) {
+    const auto& m = *run.residual_map;
+    double lo = 1e300, hi = 0.0, top = 0.0, bottom = 1e300;
+    std::set<double> lambdas;
+    for (const auto& g : m.grid) {
+      lo = std::min(lo, g.length_scale);
+      hi = std::max(hi, g.length_scale);
+      if (std::isfinite(g.cv_mean_mm)) {
+        top = std::max(top, g.cv_mean_mm);
+        bottom = std::min(bottom, g.cv_mean_mm);
+      }
+      lambdas.insert(g.regularisation);
+    }
+    if (std::isfinite(m.cv_mean_mm_parametric)) {
+      top = std::max(top, m.cv_mean_mm_parametric);
+      bottom = std::min(bottom, m.cv_mean_mm_parametric);
+    }
+    if (!(top > 0)) top = 1.0;
+    if (!(bottom < top)) bottom = 0.0;
+    Plot p(900, 360, "Residual map: cross-validated mean error on the fit poses",
+           LinearAxis(lo * 0.9, hi * 1.1, 6), LinearAxis(std::max(0.0, bottom * 0.9), top * 1.05, 5),
+           "length scale (scaled joint features)", "mm");
+    const Marker markers[] = {Marker::kCircle, Marker::kSquare, Marker::kTriangle,
+                              Marker::kDiamond};
+    const cv::Scalar colors[] = {kBlue, kOrange, kPurple, kTeal, kGrey};
+    std::vector<LegendEntry> legend;
+    int k = 0;
+    for (double lambda : lambdas) {
+      std::vector<calibration::CrossValidationPoint> line;
+      for (const auto& g : m.grid) {
+        if (g.regularisation == lambda && std::isfinite(g.cv_mean_mm)) line.push_back(g);
+      }
+      std::sort(line.begin(), line.end(),
+                [](const auto& a, const auto& b) { return a.length_scale < b.length_scale; });
+      const Marker marker = markers[k % 4];
+      const cv::Scalar color = colors[k % 5];
+      for (size_t i = 0; i < line.size(); ++i) {
+        const cv::Point at = p.At(line[i].length_scale, line[i].cv_mean_mm);
+        if (i > 0) {
+          cv::line(p.image, p.At(line[i - 1].length_scale, line[i - 1].cv_mean_mm), at, color, 1,
+                   cv::LINE_AA);
+        }
+        DrawMarker(p.image, at, marker, color, 4);
+      }
+      legend.push_back({marker, color, fmt::format("lambda {:g}", lambda)});
+      ++k;
+    }
+    if (std::isfinite(m.cv_mean_mm_parametric)) {
+      const int y = p.Y(m.cv_mean_mm_parametric);
+      cv::line(p.image, {p.area.x, y}, {p.area.x + p.area.width, y}, kRed, 1, cv::LINE_AA);
+      legend.push_back({Marker::kLine, kRed, "parametric model"});
+    }
+    if (!m.map.centres_rad.empty()) {
+      // The chosen (length scale, regularisation): a ring around its point.
+      cv::circle(p.image, p.At(m.map.length_scale, m.cv_mean_mm_with_map), 10, kInk, 1,
+                 cv::LINE_AA);
+      Text(p.image, "ring: chosen", {p.area.x + p.area.width, 20}, 0.4, Align::kRight);
+    }
+    p.Legend(legend);
+    map_figure = Save(dir, "residual_map.png", "Residual map: cross-validation curve", p.image);
+  }
+
+  // 7. Error against the air temperature at the instrument (laser trackers report it with
+  // every reading): a thermal drift of the robot or the set-up shows as a slope.
+  Figure temperature_figure;
+  std::vector<double> temperatures, temperature_errors;
+  for (size_t i = 0; i < n && i < run.validation_pose_ids.size(); ++i) {
+    const auto it = in.temperature_c.find(run.validation_pose_ids[i]);
+    if (it == in.temperature_c.end() || !std::isfinite(it->second)) continue;
+    temperatures.push_back(it->second);
+    temperature_errors.push_back(distances[i]);
+  }
+  const std::optional<LinearTrend> trend = LinearTrendOf(temperatures, temperature_errors);
+  {
+    double lo = 20.0, hi = 21.0, top = 1e-6;
+    if (!temperatures.empty()) {
+      lo = *std::min_element(temperatures.begin(), temperatures.end());
+      hi = *std::max_element(temperatures.begin(), temperatures.end());
+      if (hi - lo < 0.01) {  // a steady room: a 0.1 °C wide axis around it
+        lo -= 0.05;
+        hi += 0.05;
+      }
+    }
+    for (double d : distances) top = std::max(top, d);
+    Plot p(900, 360, "Calibrated error against the air temperature at the instrument",
+           LinearAxis(lo, hi, 8), LinearAxis(0, top, 5), "air temperature at the instrument (deg C)",
+           "mm");
+    for (size_t k = 0; k < temperatures.size(); ++k) {
+      DrawMarker(p.image, p.At(temperatures[k], temperature_errors[k]), Marker::kCircle, kBlue, 3);
+    }
+    std::vector<LegendEntry> legend = {
+        {Marker::kCircle, kBlue,
+         fmt::format("validation poses with a temperature: {} of {}", temperatures.size(), n)}};
+    if (trend) {
+      const Axis axis = LinearAxis(lo, hi, 8);  // the drawn axis: lo and hi rounded out
+      const double x0 = axis.lo, x1 = axis.hi;
+      cv::line(p.image, p.At(x0, trend->intercept + trend->slope * x0),
+               p.At(x1, trend->intercept + trend->slope * x1), kRed, 2, cv::LINE_AA);
+      legend.push_back({Marker::kLine, kRed,
+                        fmt::format("least-squares trend: {:+.4f} mm per deg C", trend->slope)});
+    }
+    p.Legend(legend);
+    if (temperatures.empty()) {
+      Text(p.image,
+           "no temperature stored with these poses (theodolites, or poses imported from a file)",
+           {p.area.x + p.area.width / 2, p.area.y + p.area.height / 2}, 0.5, Align::kCenter);
+    }
+    temperature_figure =
+        Save(dir, "temperature.png", "Error against the air temperature", p.image);
+  }
+
   // ---- The page ---- (every text through Html: escaped unless it is a literal here)
   Html html = HtmlFormat(
       "<!doctype html>\n<html><head><meta charset=\"utf-8\"><title>armsig report: {}</title>\n"
@@ -762,8 +898,35 @@ std::string WriteReport(const std::string& dir, const ReportInput& in) {
     line("nominal, fit", run.estimate.nominal);
     line("calibrated, fit", run.estimate.fit);
     line("nominal, validation", vn);
-    line("calibrated, validation", v);
+    if (run.map_used() && !run.validation_parametric_residuals.empty()) {
+      line("parametric, validation (before the map)", StatsOf(run.validation_parametric_residuals));
+      line("with the residual map, validation", v);
+    } else {
+      line("calibrated, validation", v);
+    }
     html += "</table>\n";
+    if (run.residual_map) {
+      const auto& m = *run.residual_map;
+      html += HtmlFormat(
+          "<h2>Residual map</h2>\n<p id=\"residual-map\">{}: {}. Cross-validated mean error on "
+          "the fit poses (5 folds): {} mm parametric, {} mm with the map.",
+          m.used ? "Used" : "Not used", m.decision, Num(m.cv_mean_mm_parametric),
+          Num(m.cv_mean_mm_with_map));
+      if (!m.map.centres_rad.empty()) {
+        html += HtmlFormat(" Length scale {}, regularisation {}, {} centres, noise σ {} mm.",
+                           fmt::format("{:g}", m.map.length_scale),
+                           fmt::format("{:g}", m.map.regularisation), m.map.centres_rad.size(),
+                           Num(m.map.noise_sigma_mm));
+      }
+      if (const auto v = run.map_validation(); run.map_used() && v.poses > 0) {
+        html += HtmlFormat(
+            " On the validation poses: predictive σ {} mm per coordinate on average; {} of {} "
+            "outside the map's support (parametric prediction).",
+            Num(v.mean_sigma_mm), v.outside, v.poses);
+      }
+      html += "</p>\n";
+      if (map_figure) html += FigureHtml(*map_figure);
+    }
     html += HtmlFormat(
         "<h2>Validation error per axis</h2>\n<p>Calibrated model &minus; measured on the {} "
         "validation poses, mm. Percentiles (nearest rank) of the absolute values.</p>\n"
@@ -813,6 +976,23 @@ std::string WriteReport(const std::string& dir, const ReportInput& in) {
     html += "</table>\n";
   }
   html += Html("<h2>Residual vectors</h2>\n") + FigureHtml(vectors_figure);
+  html += Html("<h2>Error against temperature</h2>\n");
+  if (temperatures.empty()) {
+    html += Html(
+        "<p id=\"temperature-trend\">No validation pose has an air temperature (laser trackers "
+        "store it with every reading; theodolites and imported poses do not).</p>\n");
+  } else {
+    const auto [t_lo, t_hi] = std::minmax_element(temperatures.begin(), temperatures.end());
+    html += HtmlFormat(
+        "<p id=\"temperature-trend\">{} of {} validation poses have an air temperature, {:.3f} "
+        "to {:.3f} &deg;C; {}</p>\n",
+        temperatures.size(), n, *t_lo, *t_hi,
+        trend ? HtmlFormat("least-squares slope of the error distance: <span "
+                           "id=\"temperature-slope\">{:.6f}</span> mm per &deg;C",
+                           trend->slope)
+              : Html("all at one temperature: no slope."));
+  }
+  html += FigureHtml(temperature_figure);
   html += "<h2>Error against each joint angle</h2>\n<div class=\"joints\">\n";
   for (const auto& f : joint_figures) html += FigureHtml(f);
   html += "</div>\n";

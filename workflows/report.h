@@ -6,6 +6,7 @@
 #include <Eigen/Core>
 #include <cmath>
 #include <cstdint>
+#include <map>
 #include <optional>
 #include <string>
 #include <vector>
@@ -66,6 +67,9 @@ struct ReportInput {
   const calibration::RobotModel* model = nullptr;
   const CalibrationRun* run = nullptr;
   std::vector<MeasuredPose> validation;  // the poses of run->validation_pose_ids
+  // Air temperature (°C) at the instrument for validation poses that have one (laser
+  // trackers), by pose id: the error-against-temperature figure.
+  std::map<std::string, double> temperature_c;
   ReportSources sources;
   std::vector<ReportHistoryPoint> history;
   // The change against the set active before this run; `previous_version` nullopt when
@@ -122,6 +126,15 @@ Histogram HistogramOf(const std::vector<double>& distances_mm, int bins = 20);
 // A parameter's change as the change table shows it: three significant digits, in mm or
 // mrad from 0.01 up, else in µm or µrad ("-0.0420 µrad", never "-0.0000 mrad").
 std::string FormatChange(double value, bool millimetres);
+
+// The least-squares line y = intercept + slope·x (the error-against-temperature trend);
+// nullopt for fewer than two points or a single x.
+struct LinearTrend {
+  double slope = 0.0, intercept = 0.0;
+  int points = 0;
+};
+std::optional<LinearTrend> LinearTrendOf(const std::vector<double>& x,
+                                         const std::vector<double>& y);
 
 // "all", "geometric", "auto" or "list" (a comma list of names and groups).
 std::string ParamsKind(const std::string& params_spec);

@@ -1,6 +1,7 @@
 #include "workflows/signature.h"
 
 #include <fmt/format.h>
+#include <spdlog/spdlog.h>
 
 #include <nlohmann/json.hpp>
 
@@ -11,6 +12,7 @@
 #include "io/csv.h"
 #include "io/model_export.h"
 #include "io/model_yaml.h"
+#include "io/residual_map_json.h"
 #include "workflows/hint.h"
 
 namespace armsig::workflows {
@@ -27,6 +29,19 @@ Signature SignatureOf(const calibration::RobotModel& model, const db::StoredCali
     if (p.identified) s.sigmas(k) = p.sigma;
   }
   s.world_from_base = stored.world_from_base;
+  if (!stored.residual_map_json.empty()) {
+    const std::string source = fmt::format("residual map of parameter set {}", stored.version);
+    const auto json = nlohmann::json::parse(stored.residual_map_json, nullptr, false);
+    if (json.is_discarded())
+      throw InputError({source, 0, 0, ""}, "the stored map is not JSON (a damaged database?)");
+    s.map = std::make_shared<const calibration::ResidualMap>(
+        io::ResidualMapFromJson(json, source));
+    if (s.map->data().num_joints != model.num_joints()) {
+      throw InputError({source, 0, 0, ""},
+                       fmt::format("the map is for {} joints, the model has {}",
+                                   s.map->data().num_joints, model.num_joints()));
+    }
+  }
   return s;
 }
 
@@ -56,7 +71,7 @@ Eigen::Isometry3d FrameOf(const ActiveSignature& a, const std::string& frame) {
 }
 
 std::string PredictCsv(const ActiveSignature& a, const Eigen::Isometry3d& frame,
-                       const std::string& joints_csv) {
+                       const std::string& joints_csv, bool map_sigma) {
   const io::CsvTable t = io::ReadCsvFile(joints_csv);
   std::vector<std::string> known = {"pose"};
   for (int i = 1; i <= a.model.num_joints(); ++i) known.push_back("q" + std::to_string(i) + "_*");
@@ -67,16 +82,39 @@ std::string PredictCsv(const ActiveSignature& a, const Eigen::Isometry3d& frame,
     q.push_back(t.AngleColumnOf("q" + std::to_string(i)));
   calibration::Kinematics kin(a.model);
   const Eigen::VectorXd zero = Eigen::VectorXd::Zero(a.model.num_parameters());
-  std::string out = "pose,x_mm,y_mm,z_mm,nominal_x_mm,nominal_y_mm,nominal_z_mm,correction_mm\n";
+  std::vector<Eigen::VectorXd> joints;
   for (const auto& row : t.rows()) {
-    Eigen::VectorXd joints(a.model.num_joints());
+    Eigen::VectorXd q_rad(a.model.num_joints());
     for (size_t i = 0; i < q.size(); ++i)
-      joints(i) = t.AngleRad(row, q[i], plausible::Quantity::kJointAngle);
-    const Eigen::Vector3d x = kin.Position(frame, a.signature.params, joints.data());
-    const Eigen::Vector3d nominal = kin.Position(frame, zero, joints.data());
-    out += fmt::format("{},{:.6f},{:.6f},{:.6f},{:.6f},{:.6f},{:.6f},{:.6f}\n",
-                       io::CsvEscape(t.Name(row, id)), x.x(), x.y(), x.z(), nominal.x(),
-                       nominal.y(), nominal.z(), (x - nominal).norm());
+      q_rad(i) = t.AngleRad(row, q[i], plausible::Quantity::kJointAngle);
+    joints.push_back(std::move(q_rad));
+  }
+  const calibration::ResidualMap* map = a.signature.map.get();
+  const auto calibrated = calibration::PredictPositions(a.model, frame, a.signature.params, map,
+                                                        joints, map != nullptr && map_sigma,
+                                                        joints.size() >= 2048 ? 2 : 1);
+  const double noise = map ? map->data().noise_sigma_mm : 0.0;
+  std::string out =
+      "pose,x_mm,y_mm,z_mm,nominal_x_mm,nominal_y_mm,nominal_z_mm,correction_mm,map,map_sigma_mm\n";
+  int outside = 0;
+  for (size_t k = 0; k < joints.size(); ++k) {
+    const Eigen::Vector3d& x = calibrated[k].position_mm;
+    const Eigen::Vector3d nominal = kin.Position(frame, zero, joints[k].data());
+    const char* state = !map ? "none" : calibrated[k].map_applied ? "applied" : "outside";
+    outside += calibrated[k].extrapolated ? 1 : 0;
+    const std::string sigma =
+        map && map_sigma ? fmt::format("{:.6f}", std::sqrt(calibrated[k].sigma_mm * calibrated[k].sigma_mm +
+                                              noise * noise))
+            : std::string();
+    out += fmt::format("{},{:.6f},{:.6f},{:.6f},{:.6f},{:.6f},{:.6f},{:.6f},{},{}\n",
+                       io::CsvEscape(t.Name(t.rows()[k], id)), x.x(), x.y(), x.z(), nominal.x(),
+                       nominal.y(), nominal.z(), (x - nominal).norm(), state, sigma);
+  }
+  if (outside > 0) {
+    spdlog::warn(
+        "predict: {} of {} configurations are outside the residual map's support (far from the "
+        "poses it was fitted on): they get the parametric prediction (column map = outside)",
+        outside, joints.size());
   }
   return out;
 }
@@ -128,13 +166,18 @@ CompensationResult Compensate(const ActiveSignature& a, const Eigen::Isometry3d&
       nominal_solution = calibration::SolveJoints(a.model, frame, zero, target, seed);
       nominal = nominal_solution.joints_rad;
     }
-    const auto s = calibration::SolveJoints(a.model, frame, a.signature.params, target, nominal);
+    const auto s = calibration::SolveJoints(a.model, frame, a.signature.params, target, nominal,
+                                            {}, a.signature.map.get());
     const bool ok = s.status.ok() && (q.size() || nominal_solution.status.ok());
     result.csv += io::CsvEscape(t.Name(row, id));
     for (int i = 0; i < n; ++i)
       result.csv += ok ? fmt::format(",{:.8f}", s.joints_rad(i) / kRadPerDeg) : std::string(",");
     for (int i = 0; i < n; ++i) result.csv += fmt::format(",{:.8f}", nominal(i) / kRadPerDeg);
-    result.csv += fmt::format(",{:.6f},{}\n", s.residual_mm, ok ? "ok" : "unreachable");
+    // Outside the residual map's support the solution is the parametric model's: usable,
+    // and flagged.
+    result.csv += fmt::format(",{:.6f},{}\n", s.residual_mm,
+                              !ok ? "unreachable" : s.map_extrapolated ? "ok_outside_map" : "ok");
+    if (ok && s.map_extrapolated) ++result.outside_map;
     if (!ok) {
       result.unreachable.push_back(
           fmt::format("target {} ({}:{}): {}", t.Text(row, id), targets_csv, row.line,
@@ -161,12 +204,13 @@ ExportResult ExportSignature(const ActiveSignature& a, const std::string& robot,
            {"sigma",
             identified ? nlohmann::json(a.signature.sigmas(k)) : nlohmann::json(nullptr)}});
     }
-    result.text = JsonText(nlohmann::json{{"robot", robot},
-                                          {"model", a.model.name},
-                                          {"version", a.signature.version},
-                                          {"parameters", params}},
-                           2) +
-                  "\n";
+    nlohmann::json out{{"robot", robot},
+                       {"model", a.model.name},
+                       {"version", a.signature.version},
+                       {"parameters", params},
+                       {"residual_map", a.signature.map ? io::ResidualMapToJson(a.signature.map->data())
+                                                        : nlohmann::json(nullptr)}};
+    result.text = JsonText(out, 2) + "\n";
   } else if (format == "model" || format == "urdf") {
     const auto corrected = calibration::CorrectedModel(a.model, a.signature.params, frame);
     if (format == "model") {
@@ -175,6 +219,15 @@ ExportResult ExportSignature(const ActiveSignature& a, const std::string& robot,
                                  robot, a.signature.version, frame_name));
     } else {
       result.text = io::FormatUrdf(corrected, &result.warning);
+    }
+    if (a.signature.map) {
+      const std::string lost = fmt::format(
+          "arm signature version {} uses a residual map ({} centres), which a {} cannot carry: "
+          "the exported kinematics are the parametric model's alone (held-out error without the "
+          "map, see `armsig versions`); export --format json keeps the map",
+          a.signature.version, a.signature.map->centres(),
+          format == "urdf" ? "URDF" : "model YAML");
+      result.warning = result.warning.empty() ? lost : result.warning + "; " + lost;
     }
   } else {
     throw InputError({"--format", 0, 0, ""}, "expected json, model or urdf, got " + Quoted(format));

@@ -3,11 +3,13 @@
 
 #include <Eigen/Core>
 #include <Eigen/Geometry>
+#include <memory>
 #include <optional>
 #include <string>
 #include <vector>
 
 #include "calibration/model.h"
+#include "calibration/residual_map.h"
 #include "db/database.h"
 #include "db/store.h"
 
@@ -17,6 +19,8 @@ struct Signature {
   int version = 0;
   Eigen::VectorXd params, sigmas;
   std::optional<Eigen::Isometry3d> world_from_base;  // the measuring frame of its data
+  // The residual map stored with the set (issue 13); null = parametric only.
+  std::shared_ptr<const calibration::ResidualMap> map;
 };
 
 Signature SignatureOf(const calibration::RobotModel& model, const db::StoredCalibration& stored);
@@ -33,9 +37,13 @@ ActiveSignature LoadActiveSignature(db::Database& database, const std::string& r
 Eigen::Isometry3d FrameOf(const ActiveSignature& active, const std::string& frame);
 
 // armsig predict: calibrated and nominal target positions for every row of a joints CSV
-// (pose,q1_deg,…). Returns the positions CSV.
+// (pose,q1_deg,…). Returns the positions CSV. With a residual map, the calibrated
+// position includes its correction, and two columns say so: `map` (applied | outside:
+// the configuration is outside the map's support and gets the parametric prediction |
+// none) and `map_sigma_mm` (the map's predictive σ per coordinate, when `map_sigma` asks
+// for it: about 30 µs a configuration; empty otherwise).
 std::string PredictCsv(const ActiveSignature& active, const Eigen::Isometry3d& frame,
-                       const std::string& joints_csv);
+                       const std::string& joints_csv, bool map_sigma = false);
 
 // armsig compensate: joints that make the calibrated robot reach each target of a CSV
 // (point,x_mm,y_mm,z_mm[,q1_deg,… the nominal program]).
@@ -43,15 +51,17 @@ struct CompensationResult {
   std::string csv;  // point,q…_deg,nominal_q…_deg,residual_mm,status
   int targets = 0;
   std::vector<std::string> unreachable;  // one message per target that could not be reached
+  int outside_map = 0;  // reached with the parametric model only: outside the map's support
 };
 CompensationResult Compensate(const ActiveSignature& active, const Eigen::Isometry3d& frame,
                               const std::string& targets_csv,
                               const std::optional<Eigen::VectorXd>& seed_rad);
 
-// armsig export: the active set as json | model (corrected model YAML) | urdf.
+// armsig export: the active set as json | model (corrected model YAML) | urdf. The JSON
+// carries the residual map; a model YAML or URDF cannot, and says so in `warning`.
 struct ExportResult {
   std::string text;
-  std::string warning;  // what a URDF cannot carry
+  std::string warning;  // what a URDF or a model YAML cannot carry
 };
 ExportResult ExportSignature(const ActiveSignature& active, const std::string& robot,
                              const std::string& format, const std::string& frame_name);

@@ -221,6 +221,98 @@ TEST_F(LabFile, InstrumentOnAnUnknownStationIsRefusedAtItsStation) {
   EXPECT_EQ(e.message(), "instrument station 'T2' is not in the stations");
 }
 
+// A laser tracker in the lab file: protocol emscon over tcp (always distances, its own
+// sigmas), the stationary measurement time, the tolerances against its stated sigmas, and
+// the robot's base in the lab frame for pointing the beam; theodolites and trackers mix.
+TEST(LabSettings, TrackerInstrumentsAndTheRobotBase) {
+  const std::string text =
+      "robot:\n  model: m.yaml\n  controller: {protocol: as, port: p}\n"
+      "  base: [[0, -1, 0, 2500], [1, 0, 0, 1500], [0, 0, 1, -900], [0, 0, 0, 1]]\n"
+      "instruments:\n"
+      "  - {station: LT1, protocol: emscon, tcp: '192.168.0.20:700', measurement_time_ms: 250}\n"
+      "  - {station: T1, protocol: geocom, port: /dev/ttyUSB0}\n"
+      "tolerances: {max_sigma_mm: 0.03, max_repeat_sigma: 3.5}\n";
+  const LabSettings s = ParseLabSettings(text, "lab.yaml");
+  ASSERT_EQ(s.instruments.size(), 2u);
+  EXPECT_EQ(s.instruments[0].protocol, "emscon");
+  EXPECT_EQ(s.instruments[0].tcp, "192.168.0.20:700");
+  EXPECT_TRUE(s.instruments[0].distance);
+  EXPECT_EQ(s.instruments[0].measurement_time_ms, 250);
+  EXPECT_FALSE(s.instruments[1].distance);
+  EXPECT_EQ(s.tolerances.max_sigma_mm, 0.03);
+  EXPECT_EQ(s.tolerances.max_repeat_sigma, 3.5);
+  ASSERT_TRUE(s.robot_base.has_value());
+  EXPECT_NEAR((*s.robot_base * Eigen::Vector3d(1, 0, 0) - Eigen::Vector3d(2500, 1501, -900)).norm(),
+              0.0, 1e-12);
+  EXPECT_FALSE(ParseLabSettings(text.substr(0, text.find("  base:")) +
+                                    text.substr(text.find("instruments:")),
+                                "lab.yaml")
+                   .robot_base.has_value());
+
+  auto refusal = [](const std::string& lab) {
+    try {
+      ParseLabSettings(lab, "lab.yaml");
+    } catch (const InputError& e) {
+      return std::string(e.what());
+    }
+    return std::string("(accepted)");
+  };
+  const std::string head = "robot:\n  model: m.yaml\n  controller: {protocol: as, port: p}\n";
+  EXPECT_NE(refusal(head + "instruments:\n  - {station: LT1, protocol: emscon, port: /dev/ttyS1}\n")
+                .find("lab.yaml:5:44 (port): instrument LT1: 'port' is no emscon setting"),
+            std::string::npos)
+      << refusal(head + "instruments:\n  - {station: LT1, protocol: emscon, port: /dev/ttyS1}\n");
+  EXPECT_NE(refusal(head + "instruments:\n  - {station: LT1, protocol: emscon}\n")
+                .find("protocol emscon needs tcp: HOST:PORT"),
+            std::string::npos);
+  EXPECT_NE(refusal(head + "instruments:\n  - {station: T1, protocol: geocom, port: p, "
+                           "measurement_time_ms: 9}\n")
+                .find("'measurement_time_ms' belongs to protocol emscon, not geocom"),
+            std::string::npos);
+  EXPECT_NE(refusal(head + "instruments:\n  - {station: LT1, protocol: emscon, tcp: 'h:700', "
+                           "distance: false}\n")
+                .find("always measures the distance"),
+            std::string::npos);
+  // A base that is no rigid transform.
+  EXPECT_NE(refusal("robot:\n  model: m.yaml\n  controller: {protocol: as, port: p}\n"
+                    "  base: [[2, 0, 0, 0], [0, 1, 0, 0], [0, 0, 1, 0], [0, 0, 0, 1]]\n"
+                    "instruments:\n  - {station: T1, protocol: geocom, port: q}\n")
+                .find("lab.yaml:4:9 (base): expected a rotation"),
+            std::string::npos)
+      << refusal("robot:\n  model: m.yaml\n  controller: {protocol: as, port: p}\n"
+                 "  base: [[2, 0, 0, 0], [0, 1, 0, 0], [0, 0, 1, 0], [0, 0, 0, 1]]\n"
+                 "instruments:\n  - {station: T1, protocol: geocom, port: q}\n");
+  EXPECT_NE(refusal(head + "instruments:\n  - {station: T1, protocol: geocom, port: q}\n"
+                           "tolerances: {max_sigma_mm: 0}\n")
+                .find("max_sigma_mm"),
+            std::string::npos);
+}
+
+// FormatLabYaml writes a tracker as a technician would: tcp, no sigmas of its own.
+TEST(LabSettings, FormattedTrackerLabReadsBack) {
+  acquisition::LabFile lab;
+  lab.model_path = "puma760.yaml";
+  lab.stations_path = "stations.yaml";
+  lab.controller.protocol = "as";
+  lab.controller.port = "/dev/pts/3";
+  InstrumentConfig tracker;
+  tracker.station = "LT1";
+  tracker.protocol = "emscon";
+  tracker.tcp = "127.0.0.1:7000";
+  tracker.distance = true;
+  tracker.measurement_time_ms = 200;
+  lab.instruments.push_back(tracker);
+  lab.tolerances.max_sigma_mm = 0.02;
+  const std::string text = FormatLabYaml(lab);
+  EXPECT_EQ(text.find("sigma_hz_arcsec"), std::string::npos) << text;
+  const LabSettings s = ParseLabSettings(text, "lab.yaml");
+  ASSERT_EQ(s.instruments.size(), 1u);
+  EXPECT_EQ(s.instruments[0].protocol, "emscon");
+  EXPECT_EQ(s.instruments[0].tcp, "127.0.0.1:7000");
+  EXPECT_EQ(s.instruments[0].measurement_time_ms, 200);
+  EXPECT_EQ(s.tolerances.max_sigma_mm, 0.02);
+}
+
 // The database keeps each session's lab text; the files it names may be gone.
 TEST(LabSettings, ReadsTheStoredTextWithoutItsFiles) {
   const std::string text =

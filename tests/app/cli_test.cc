@@ -160,7 +160,7 @@ TEST(Cli, GlobalOptionsAnywhere) {
   // -q and -v after a nested subcommand: import poses logs its decision at info level.
   WriteText(dir.File("t.csv"), "j1,j2,X,Y,Z\n10,20,1,2,3\n");
   const std::string import = "import poses '" + dir.File("t.csv") +
-                             "' --joints j1,j2 --joint-unit deg --xyz X,Y,Z --out '" +
+                             "' --joint-columns j1,j2 --joint-unit deg --xyz-columns X,Y,Z --out '" +
                              dir.File("o.csv") + "'";
   const auto normal = RunArmsig(import);
   ASSERT_EQ(normal.exit_code, 0) << normal.err;

@@ -10,6 +10,7 @@
 
 #include "core/error.h"
 #include "db/calibrations.h"
+#include "db/observations.h"
 #include "db/schema.h"
 #include "test_support.h"
 
@@ -65,6 +66,53 @@ TEST(Database, MigratesAVersion1FileKeepingItsParameterSets) {
   EXPECT_EQ(history[0].world_from_base->matrix(), expected);
   EXPECT_FALSE(history[1].world_from_base.has_value());  // nothing to carry over
   EXPECT_TRUE(history[0].covariance_parameters.empty());  // v3: none stored before
+}
+
+// A file of schema v3 (before the laser-tracker environment columns) opens as the latest:
+// its readings keep their values and have no temperature, pressure or humidity; a new
+// reading stores and reads them back, and a theodolite reading leaves them NULL.
+TEST(Database, MigratesAVersion3FileToReadingsWithTheirEnvironment) {
+  testing::TempDir dir;
+  const std::string path = dir.File("v3.db");
+  {
+    SQLite::Database raw(path, SQLite::OPEN_READWRITE | SQLite::OPEN_CREATE);
+    for (int v = 0; v < 3; ++v) raw.exec(std::string(Migrations()[v]));
+    raw.exec("PRAGMA user_version=3");
+    raw.exec("INSERT INTO robots(name, model_name, model_yaml) VALUES ('r1','puma760','x')");
+    raw.exec("INSERT INTO sessions(robot_id, state) VALUES (1, 'completed')");
+    raw.exec("INSERT INTO stations(code) VALUES ('T1')");
+    raw.exec(
+        "INSERT INTO observations(session_id, point, station_id, hz_rad, v_rad) VALUES (1, 'p', "
+        "1, 1.25, 1.5)");
+  }
+  Database db(path);
+  EXPECT_EQ(db.SchemaVersion(), LatestSchemaVersion());
+  auto rows = LoadObservations(db, 1);
+  ASSERT_EQ(rows.size(), 1u);
+  EXPECT_EQ(rows[0].reading.hz_rad, 1.25);
+  EXPECT_FALSE(rows[0].temperature_c || rows[0].pressure_hpa || rows[0].humidity_percent);
+  ObservationRow tracker;
+  tracker.point = "q";
+  tracker.station = "LT1";
+  tracker.reading = {0.5, 1.4, 1};
+  tracker.distance_mm = 2750.125;
+  tracker.temperature_c = 20.37;
+  tracker.pressure_hpa = 1012.8;
+  tracker.humidity_percent = 44.1;
+  ObservationRow theodolite = tracker;
+  theodolite.point = "r";
+  theodolite.distance_mm.reset();
+  theodolite.temperature_c.reset();
+  theodolite.pressure_hpa.reset();
+  theodolite.humidity_percent.reset();
+  InsertObservations(db, 1, {tracker, theodolite});
+  rows = LoadObservations(db, 1);
+  ASSERT_EQ(rows.size(), 3u);
+  EXPECT_EQ(rows[1].point, "q");
+  EXPECT_EQ(rows[1].temperature_c, 20.37);
+  EXPECT_EQ(rows[1].pressure_hpa, 1012.8);
+  EXPECT_EQ(rows[1].humidity_percent, 44.1);
+  EXPECT_FALSE(rows[2].temperature_c.has_value());
 }
 
 TEST(Database, CovarianceOfAParameterSetRoundTrips) {

@@ -263,7 +263,7 @@ TEST(HostileInputs, AmbiguousCsvHeadersAreRefusedNamingBothColumns) {
   options.xyz_columns = {"x", "y", "z"};
   WriteText(dir.File("i.csv"), "q1_deg,x,y,z\n1,2,3,4\n");
   e = Refusal([&] { ImportPoses(dir.File("i.csv"), options); });
-  EXPECT_EQ(e.where().file, "--joints");
+  EXPECT_EQ(e.where().file, "--joint-columns");
   EXPECT_NE(e.message().find("'q1_deg' is given twice"), std::string::npos) << e.what();
 }
 

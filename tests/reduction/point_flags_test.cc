@@ -14,9 +14,12 @@ TEST(PointFlags, TextRoundTripsInOneOrder) {
   EXPECT_EQ(ToString(PointFlags{}), "");
   for (PointFlag f : {PointFlag::kBlunderRejected, PointFlag::kBlunderSuspected,
                       PointFlag::kMissExceeded, PointFlag::kRepeatExceeded, PointFlag::kOneRay,
-                      PointFlag::kParallelRays, PointFlag::kNotConverged, PointFlag::kNonFinite}) {
+                      PointFlag::kParallelRays, PointFlag::kNotConverged, PointFlag::kNonFinite,
+                      PointFlag::kSigmaExceeded}) {
     EXPECT_EQ(ParsePointFlags(ToString(f)), PointFlags(f)) << ToString(f);
   }
+  EXPECT_EQ(ToString(PointFlags(PointFlag::kSigmaExceeded).Set(PointFlag::kRepeatExceeded)),
+            "repeat_exceeded sigma_exceeded");
 }
 
 TEST(PointFlags, ParsesWhatEarlierVersionsStored) {

@@ -2,7 +2,11 @@
 
 #include <gtest/gtest.h>
 
+#include <atomic>
+#include <nlohmann/json.hpp>
+
 #include "core/error.h"
+#include "db/database.h"
 #include "io/builtin_models.h"
 #include "io/model_yaml.h"
 #include "test_support.h"
@@ -54,6 +58,87 @@ TEST(DemoLimits, TooFewConfigurationsOrASelectionOutsideTheLimitsAreRefused) {
   EXPECT_NE(many.find("10…50"), std::string::npos) << many;
   EXPECT_NE(Refusal(60, 9).find("10…50"), std::string::npos);
   EXPECT_EQ(Refusal(60, 40), "");
+}
+
+// `demo --instrument tracker`: one virtual laser tracker on loopback TCP, its frame the
+// lab frame (no orientation); the beam pointed by the operator for the first
+// configurations, then by prediction through the fitted base; the paper's progression
+// down to the tracker's noise floor. Stopped midway, it resumes with the tracker it was
+// captured with; asked to resume with theodolites, it refuses.
+TEST(Demo, TrackerLabRunsTheWholeChainWithoutOrientation) {
+  testing::TempDir dir;
+  DemoOptions o;
+  o.db_path = dir.File("demo.db");
+  o.instrument = "tracker";
+  o.configurations = 40;
+  o.time_scale = 0.05;
+  std::atomic<bool> stop{false};
+  o.stop = &stop;
+  std::string narrative;
+  DemoObserver observer;
+  observer.say = [&](const std::string& text) { narrative += text; };
+  observer.progress = [&](const acquisition::Progress& p) {
+    if (p.done == 12) stop = true;
+  };
+  const DemoResult first = RunDemo(o, observer);
+  ASSERT_FALSE(first.completed);
+  ASSERT_GT(first.session, 0);
+  EXPECT_NE(narrative.find("needs no orientation by mutual pointings"), std::string::npos)
+      << narrative;
+
+  DemoOptions wrong = o;
+  wrong.resume_session = first.session;
+  wrong.instrument = "theodolites";
+  wrong.stop = nullptr;
+  EXPECT_THROW(RunDemo(wrong, {}), InputError);
+
+  DemoOptions resume = o;
+  resume.resume_session = first.session;
+  resume.instrument.clear();
+  resume.stop = nullptr;
+  narrative.clear();
+  observer.progress = nullptr;
+  const DemoResult r = RunDemo(resume, observer);
+  ASSERT_TRUE(r.completed) << narrative;
+  const auto& j = r.json;
+  EXPECT_EQ(j["session"]["instrument"], "tracker");
+  EXPECT_EQ(j["session"]["stations"], 1);
+  EXPECT_EQ(j["session"]["poses"], 40);
+  ASSERT_EQ(j["stages"].size(), 3u);
+  EXPECT_EQ(j["stages"][0]["rank"], 25);
+  EXPECT_EQ(j["stages"][2]["rank"], 29);
+  const double floor = j["session"]["noise_floor_mm"];
+  EXPECT_LT(floor, 0.03);  // σ ≈ 0.008 mm per axis at 2–3.5 m
+  const double all = j["stages"][2]["validation"]["mean_mm"];
+  EXPECT_LT(all, 3.0 * floor);  // 16 fitted poses for 29 parameters, and the validation noise
+  EXPECT_GT(j["stages"][0]["validation"]["mean_mm"].get<double>(), 10.0 * all);
+  // Resumed from stored points: the base is fitted before the first new configuration.
+  EXPECT_EQ(j["session"]["beam"]["operator"], 0);
+  EXPECT_EQ(j["session"]["beam"]["predicted"], 28);
+  EXPECT_NE(j["session"]["beam"]["base"].get<std::string>().find("base fitted to 40"),
+            std::string::npos);
+  db::Database db(o.db_path);
+  EXPECT_EQ(db.sql().execAndGet("SELECT count(*) FROM observations WHERE temperature_c IS NULL")
+                .getInt(),
+            0);
+  EXPECT_EQ(db.sql().execAndGet("SELECT count(*) FROM observations").getInt(), 40);
+}
+
+TEST(Demo, TrackerFromTheCommandLine) {
+  testing::TempDir dir;
+  const auto r = testing::RunArmsig("--db '" + dir.File("d.db") + "' demo --instrument tracker " +
+                                    "--configurations 30 --time-scale 0.02 --json '" +
+                                    dir.File("d.json") + "'");
+  ASSERT_EQ(r.exit_code, 0) << r.err << r.out;
+  EXPECT_NE(r.out.find("laser tracker"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("beam:"), std::string::npos) << r.out;
+  const auto j = nlohmann::json::parse(testing::ReadText(dir.File("d.json")));
+  EXPECT_EQ(j["session"]["instrument"], "tracker");
+  EXPECT_LE(j["session"]["beam"]["operator"].get<int>(), 3);
+  std::cout << "tracker demo, 30 configurations: " << j["session"]["software_ms_per_configuration"]
+            << " ms software and " << j["session"]["store_ms_per_configuration"]
+            << " ms storing per configuration\n";
+  EXPECT_EQ(testing::RunArmsig("demo --instrument laser").exit_code, 2);
 }
 
 }  // namespace armsig::workflows

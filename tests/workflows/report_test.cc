@@ -8,7 +8,9 @@
 #include <SQLiteCpp/Transaction.h>
 #include <gtest/gtest.h>
 
+#include <Eigen/QR>
 #include <algorithm>
+#include <cmath>
 #include <opencv2/core.hpp>
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
@@ -74,6 +76,10 @@ struct Fixture {
           run.validation_pose_ids.end())
         input.validation.push_back(p);
     }
+    // A laser tracker's air temperature with the validation poses, drifting 0.8 °C.
+    for (size_t k = 0; k < run.validation_pose_ids.size(); ++k) {
+      input.temperature_c[run.validation_pose_ids[k]] = 20.1 + 0.8 * k / 60.0 + 0.05 * std::sin(k);
+    }
     input.history = {{1, "2026-11-01T02:00:00Z", 0.03, "all", false},
                      {2, "2026-11-02T02:00:00Z", 0.02, "geometric", true}};
     input.generated_at = "2026-11-23T02:30:00Z";
@@ -87,8 +93,9 @@ struct Fixture {
 };
 
 const std::vector<std::string> kFigureFiles = {
-    "errors.png",  "histogram.png", "vectors.png", "drift.png",   "joint_1.png",
-    "joint_2.png", "joint_3.png",   "joint_4.png", "joint_5.png", "joint_6.png"};
+    "errors.png",  "histogram.png", "vectors.png", "drift.png",       "joint_1.png",
+    "joint_2.png", "joint_3.png",   "joint_4.png", "joint_5.png",     "joint_6.png",
+    "residual_map.png", "temperature.png"};
 
 // The text of the element with this id (up to its closing tag's '<').
 std::string Cell(const std::string& html, const std::string& id) {
@@ -142,7 +149,9 @@ TEST(Report, EmbedsEveryFigureAsAValidPngIdenticalToItsFile) {
     EXPECT_TRUE(same_as_a_file) << "figure " << figures;
     ++figures;
   }
-  EXPECT_EQ(figures, 10);  // errors, histogram, vectors, drift (history), one per joint
+  // errors, histogram, vectors, drift (history), one per joint, the residual map's CV curve,
+  // error against temperature
+  EXPECT_EQ(figures, 12);
 }
 
 TEST(Report, HeadlessChromiumRendersEveryFigure) {
@@ -334,6 +343,44 @@ TEST(Report, PrintsOnA4WithFiguresKeptWholeAndNumbersUnwrapped) {
        at = html.find("<figure><img", at + 1))
     ++figures;
   EXPECT_EQ(images, figures);
+}
+
+// Error against the air temperature: the slope printed is the least-squares slope of the
+// validation error distances on the temperatures (solved here with Eigen's QR); without
+// temperatures the section says why and the figure says so.
+TEST(Report, ErrorAgainstTemperatureGivesTheLeastSquaresSlope) {
+  Fixture f;
+  TempDir dir;
+  const std::string html = ReadText(workflows::WriteReport(dir.File("report"), f.input));
+  const auto& ids = f.run.validation_pose_ids;
+  Eigen::MatrixXd a(ids.size(), 2);
+  Eigen::VectorXd b(ids.size());
+  for (size_t k = 0; k < ids.size(); ++k) {
+    a(k, 0) = 1.0;
+    a(k, 1) = f.input.temperature_c.at(ids[k]);
+    b(k) = f.run.validation_residuals[k].norm();
+  }
+  const Eigen::Vector2d line = a.colPivHouseholderQr().solve(b);
+  const std::string marker = "id=\"temperature-slope\">";
+  ASSERT_NE(html.find(marker), std::string::npos);
+  const std::string slope = html.substr(html.find(marker) + marker.size(), 20);
+  EXPECT_NEAR(std::stod(slope), line(1), 1e-6) << slope;
+  EXPECT_NE(html.find(std::to_string(ids.size()) + " of " + std::to_string(ids.size()) +
+                      " validation poses have an air temperature"),
+            std::string::npos);
+  EXPECT_FALSE(cv::imread(dir.File("report/temperature.png")).empty());
+
+  f.input.temperature_c.clear();
+  const std::string none = ReadText(workflows::WriteReport(dir.File("none"), f.input));
+  EXPECT_NE(none.find("No validation pose has an air temperature"), std::string::npos);
+  EXPECT_EQ(none.find("temperature-slope"), std::string::npos);
+  EXPECT_FALSE(cv::imread(dir.File("none/temperature.png")).empty());
+  // One temperature for all: no slope to give.
+  EXPECT_FALSE(workflows::LinearTrendOf({20.0, 20.0, 20.0}, {0.1, 0.2, 0.3}).has_value());
+  const auto t = workflows::LinearTrendOf({19.0, 20.0, 21.0}, {0.1, 0.2, 0.3});
+  ASSERT_TRUE(t.has_value());
+  EXPECT_NEAR(t->slope, 0.1, 1e-12);
+  EXPECT_NEAR(t->intercept, -1.8, 1e-12);
 }
 
 TEST(Report, OneErrorAgainstAngleFigurePerJoint) {
