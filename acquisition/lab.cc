@@ -4,12 +4,14 @@
 
 #include <algorithm>
 #include <charconv>
+#include <cmath>
 #include <filesystem>
 #include <fstream>
 #include <limits>
 #include <sstream>
 
 #include "core/error.h"
+#include "core/text.h"
 #include "core/units.h"
 #include "instruments/emscon_device.h"
 #include "instruments/geocom_device.h"
@@ -41,10 +43,20 @@ std::string Choice(const YamlValue& value, const std::vector<std::string>& choic
   for (size_t i = 0; i < choices.size(); ++i) {
     list += (i == 0 ? "" : i + 1 == choices.size() ? " or " : ", ") + choices[i];
   }
-  value.Fail("expected " + list + ", got '" + text + "'");
+  value.Fail("expected " + list + ", got " + Quoted(text));
 }
 
 constexpr int kMaxInt = std::numeric_limits<int>::max();
+// Plausible maximums of a lab's settings: far beyond any real lab, far below a number that
+// makes a session run for ever (2,000,000,000 retries of a failing instrument, a billion
+// readings per pointing).
+constexpr int kMaxBaud = 4000000;
+constexpr int kMaxReadings = 100;        // readings per pointing
+constexpr int kMaxRemeasure = 100;       // re-measurements of a configuration
+constexpr int kMaxRetries = 100;         // tries of a failing instrument call
+constexpr int kMaxDelayMs = 10 * 60000;  // settle and retry delays: 10 min
+constexpr int kMaxTimeoutMs = 3600000;   // one device call: 1 h
+constexpr double kMaxGateMm = plausible::kMaxLengthMm;
 
 }  // namespace
 
@@ -63,7 +75,14 @@ std::optional<HostPort> SplitHostPort(const std::string& text) {
 
 namespace {
 
-unsigned Baud(const YamlValue& value) { return static_cast<unsigned>(value.Integer(1, kMaxInt)); }
+unsigned Baud(const YamlValue& value) { return static_cast<unsigned>(value.Integer(50, kMaxBaud)); }
+
+// A positive length in mm within a robot cell.
+double PositiveMm(const YamlValue& value) {
+  const double mm = value.PositiveNumber();
+  if (mm > kMaxGateMm) value.Fail("expected at most 1000000 mm (1 km), got " + value.Describe());
+  return mm;
+}
 
 ControllerConfig ControllerFrom(const YamlValue& value, const std::string& source,
                                 SourceLocation* ports_where) {
@@ -76,7 +95,7 @@ ControllerConfig ControllerFrom(const YamlValue& value, const std::string& sourc
   if (c.protocol != "counter") {
     for (const char* key : {"ports", "counts_per_deg", "offset_deg", "coupling"}) {
       if (const auto v = map.Find(key)) {
-        v->Fail("'" + std::string(key) + "' belongs to protocol counter, not " + c.protocol);
+        v->Fail(Quoted(std::string(key)) + " belongs to protocol counter, not " + c.protocol);
       }
     }
     c.port = Resolve(source, map.Required("port", "the controller's serial port").Text());
@@ -98,7 +117,9 @@ ControllerConfig ControllerFrom(const YamlValue& value, const std::string& sourc
   const YamlValue scale = map.Required("counts_per_deg", "one counts_per_deg per joint");
   for (int i = 0; const YamlValue& v : scale.List()) {
     const double counts_per_deg = v.Number();
-    if (counts_per_deg == 0.0) v.Fail("expected a non-zero counts_per_deg");
+    if (counts_per_deg == 0.0 || std::abs(counts_per_deg) > 1e9) {
+      v.Fail("expected a non-zero counts_per_deg within ±1e9, got " + v.Describe());
+    }
     if (i < n) e.counts_per_rad(i) = counts_per_deg / kRadPerDeg;
     ++i;
   }
@@ -154,7 +175,7 @@ InstrumentConfig InstrumentFrom(const YamlValue& value, const std::string& sourc
   if (tcp) {
     c.tcp = tcp->Text();
     if (!SplitHostPort(c.tcp)) {
-      tcp->Fail("expected HOST:PORT with a port from 1 to 65535, got '" + c.tcp + "'");
+      tcp->Fail("expected HOST:PORT with a port from 1 to 65535, got " + Quoted(c.tcp));
     }
   }
   if (!port && !tcp) map.Fail("instrument " + c.station + ": missing 'port' or 'tcp'");
@@ -175,20 +196,20 @@ void TolerancesFrom(const YamlValue& value, Tolerances& tol, instruments::RetryP
   const YamlMap map = value.Map({"max_miss_mm", "max_repeat_mm", "readings", "max_remeasure",
                                  "settle_ms", "fault_retries", "fault_retry_delay_ms", "two_face",
                                  "timeout_ms", "max_sigma_mm", "max_repeat_sigma"});
-  if (const auto v = map.Find("max_miss_mm")) tol.max_miss_mm = v->PositiveNumber();
-  if (const auto v = map.Find("max_repeat_mm")) tol.max_repeat_mm = v->PositiveNumber();
-  if (const auto v = map.Find("max_sigma_mm")) tol.max_sigma_mm = v->PositiveNumber();
+  if (const auto v = map.Find("max_miss_mm")) tol.max_miss_mm = PositiveMm(*v);
+  if (const auto v = map.Find("max_repeat_mm")) tol.max_repeat_mm = PositiveMm(*v);
+  if (const auto v = map.Find("max_sigma_mm")) tol.max_sigma_mm = PositiveMm(*v);
   if (const auto v = map.Find("max_repeat_sigma")) tol.max_repeat_sigma = v->PositiveNumber();
-  if (const auto v = map.Find("readings")) tol.readings = v->Integer(1, kMaxInt);
-  if (const auto v = map.Find("max_remeasure")) tol.max_remeasure = v->Integer(0, kMaxInt);
-  if (const auto v = map.Find("settle_ms")) tol.settle_ms = v->Integer(0, kMaxInt);
-  if (const auto v = map.Find("fault_retries")) tol.fault_retries = v->Integer(0, kMaxInt);
+  if (const auto v = map.Find("readings")) tol.readings = v->Integer(1, kMaxReadings);
+  if (const auto v = map.Find("max_remeasure")) tol.max_remeasure = v->Integer(0, kMaxRemeasure);
+  if (const auto v = map.Find("settle_ms")) tol.settle_ms = v->Integer(0, kMaxDelayMs);
+  if (const auto v = map.Find("fault_retries")) tol.fault_retries = v->Integer(0, kMaxRetries);
   if (const auto v = map.Find("fault_retry_delay_ms")) {
-    tol.fault_retry_delay_ms = v->Integer(0, kMaxInt);
+    tol.fault_retry_delay_ms = v->Integer(0, kMaxDelayMs);
   }
   if (const auto v = map.Find("two_face")) tol.two_face = v->Flag();
   if (const auto v = map.Find("timeout_ms")) {
-    policy.timeout = std::chrono::milliseconds(v->Integer(1, kMaxInt));
+    policy.timeout = std::chrono::milliseconds(v->Integer(1, kMaxTimeoutMs));
   }
 }
 
@@ -196,13 +217,20 @@ RecalibrationSettings RecalibrationFrom(const YamlValue& value) {
   const YamlMap map = value.Map({"max_validation_mean_mm", "max_validation_max_mm", "tolerance_mm",
                                  "drift_sigma", "drift_mm"});
   RecalibrationSettings r;
-  if (const auto v = map.Find("max_validation_mean_mm"))
-    r.max_validation_mean_mm = v->PositiveNumber();
-  if (const auto v = map.Find("max_validation_max_mm"))
-    r.max_validation_max_mm = v->PositiveNumber();
-  if (const auto v = map.Find("tolerance_mm")) r.tolerance_mm = v->NonNegativeNumber();
-  if (const auto v = map.Find("drift_sigma")) r.drift_sigma = v->PositiveNumber();
-  if (const auto v = map.Find("drift_mm")) r.drift_mm = v->NonNegativeNumber();
+  if (const auto v = map.Find("max_validation_mean_mm")) r.max_validation_mean_mm = PositiveMm(*v);
+  if (const auto v = map.Find("max_validation_max_mm")) r.max_validation_max_mm = PositiveMm(*v);
+  if (const auto v = map.Find("tolerance_mm")) {
+    r.tolerance_mm = v->NonNegativeNumber();
+    if (r.tolerance_mm > kMaxGateMm) PositiveMm(*v);
+  }
+  if (const auto v = map.Find("drift_sigma")) {
+    r.drift_sigma = v->PositiveNumber();
+    if (r.drift_sigma > 1e6) v->Fail("expected at most 1000000 sigmas, got " + v->Describe());
+  }
+  if (const auto v = map.Find("drift_mm")) {
+    r.drift_mm = v->NonNegativeNumber();
+    if (r.drift_mm > kMaxGateMm) PositiveMm(*v);
+  }
   return r;
 }
 
@@ -223,7 +251,7 @@ void CheckInstrumentStations(const ParsedLab& parsed,
                                    [&](const auto& s) { return s.pose.id == id; });
     if (!found) {
       throw InputError(parsed.instrument_station_where[i],
-                       "instrument station '" + id + "' is not in the stations");
+                       "instrument station " + Quoted(id) + " is not in the stations");
     }
   }
 }
@@ -281,11 +309,11 @@ ParsedLab Parse(const std::string& text, const std::string& source) {
 // A file the lab names, refused at the lab file's key when it cannot be read.
 std::string ReadNamedFile(const std::string& path, const SourceLocation& where,
                           const std::string& what) {
-  std::ifstream in(path, std::ios::binary);
-  if (!in) throw InputError(where, "cannot read " + what + " " + path);
-  std::ostringstream buffer;
-  buffer << in.rdbuf();
-  return buffer.str();
+  try {
+    return io::ReadWholeFile(path, io::kYamlFileLimit);
+  } catch (const InputError& e) {
+    throw InputError(where, "cannot read " + what + " " + Quoted(path) + ": " + e.message());
+  }
 }
 
 }  // namespace
@@ -327,7 +355,9 @@ LabConfig ParseLab(const std::string& text, const std::string& source) {
   return lab;
 }
 
-LabConfig LoadLab(const std::string& path) { return ParseLab(io::ReadWholeFile(path), path); }
+LabConfig LoadLab(const std::string& path) {
+  return ParseLab(io::ReadWholeFile(path, io::kYamlFileLimit), path);
+}
 
 namespace {
 std::unique_ptr<instruments::LineTransport> Transport(const std::string& port,
@@ -336,7 +366,7 @@ std::unique_ptr<instruments::LineTransport> Transport(const std::string& port,
     const auto address = SplitHostPort(tcp);
     if (!address) {
       throw InputError({"tcp", 0, 0, ""},
-                       "'" + tcp + "': expected HOST:PORT with a port from 1 to 65535");
+                       Quoted(tcp) + ": expected HOST:PORT with a port from 1 to 65535");
     }
     return instruments::MakeTcpTransport(address->host, address->port);
   }
@@ -369,8 +399,8 @@ std::unique_ptr<instruments::DistanceInstrument> OpenInstrument(
     return std::make_unique<instruments::EmsconDevice>(
         instruments::MakeEmsconTcpTransport(address->host, address->port), policy, options);
   }
-  throw InputError({"protocol", 0, 0, ""}, "unknown instrument protocol '" + c.protocol +
-                                               "' (expected geocom, gsi or emscon)");
+  throw InputError({"protocol", 0, 0, ""}, "unknown instrument protocol " + Quoted(c.protocol) +
+                                               " (expected geocom, gsi or emscon)");
 }
 
 std::unique_ptr<instruments::RobotController> OpenController(
@@ -384,8 +414,8 @@ std::unique_ptr<instruments::RobotController> OpenController(
     return std::make_unique<instruments::ValController>(Transport(c.port, "", c.baud), c.can_move,
                                                         policy);
   }
-  throw InputError({"protocol", 0, 0, ""}, "unknown controller protocol '" + c.protocol +
-                                               "' (expected val, as or counter)");
+  throw InputError({"protocol", 0, 0, ""}, "unknown controller protocol " + Quoted(c.protocol) +
+                                               " (expected val, as or counter)");
 }
 
 std::vector<std::unique_ptr<instruments::DistanceInstrument>> OpenInstruments(

@@ -14,6 +14,7 @@
 #include "calibration/selection.h"
 #include "calibration/simulation.h"
 #include "core/error.h"
+#include "core/text.h"
 #include "core/units.h"
 #include "io/csv.h"
 
@@ -21,6 +22,9 @@ namespace armsig::acquisition {
 
 Plan ReadPlanCsv(const std::string& path, int num_joints) {
   const io::CsvTable t = io::ReadCsvFile(path);
+  std::vector<std::string> known = {"pose"};
+  for (int i = 1; i <= num_joints; ++i) known.push_back("q" + std::to_string(i) + "_*");
+  t.RefuseUnreadUnits(known);
   const int id = t.Column("pose");
   std::vector<io::AngleColumn> q;
   for (int i = 1; i <= num_joints; ++i) q.push_back(t.AngleColumnOf("q" + std::to_string(i)));
@@ -30,7 +34,7 @@ Plan ReadPlanCsv(const std::string& path, int num_joints) {
     PlannedConfiguration c;
     c.label = t.Name(row, id);
     if (!labels.insert(c.label).second)
-      throw InputError(t.Where(row, id), "duplicate pose '" + c.label + "'");
+      throw InputError(t.Where(row, id), "duplicate pose " + Quoted(c.label));
     c.joints_rad.resize(num_joints);
     for (int i = 0; i < num_joints; ++i)
       c.joints_rad(i) = t.AngleRad(row, q[i], plausible::Quantity::kJointAngle);
@@ -141,7 +145,7 @@ std::string PlanToJson(const Plan& plan) {
                  {"joints_rad", std::vector<double>(c.joints_rad.data(),
                                                     c.joints_rad.data() + c.joints_rad.size())}});
   }
-  return j.dump();
+  return JsonText(j);
 }
 
 Plan PlanFromJson(const std::string& json) {

@@ -3,6 +3,8 @@
 #include <iostream>
 
 #include "app/command.h"
+#include "core/plausibility.h"
+#include "core/text.h"
 #include "io/atomic_file.h"
 #include "io/model_yaml.h"
 #include "io/poses_csv.h"
@@ -29,7 +31,8 @@ int RunCalibrate(const CalibrateOptions& options, const GlobalOptions&) {
       workflows::RunCalibration(model, poses, holdout, options.settings);
   std::cout << workflows::FormatCalibrationReport(model, run);
   if (!options.json.empty()) {
-    io::WriteFileAtomically(options.json, workflows::CalibrationJson(model, run).dump(2) + "\n");
+    io::WriteFileAtomically(options.json,
+                            JsonText(workflows::CalibrationJson(model, run), 2) + "\n");
   }
   return run.estimate.status.ok() ? kOk : kFailure;
 }
@@ -44,8 +47,10 @@ void SetupCalibrateCommand(CLI::App& parent, const GlobalOptions& global, Runner
   sub->add_option("--params", options->settings.params,
                   "geometric | all | auto | list such as geometric,h3,h4")
       ->capture_default_str();
-  sub->add_option("--select", options->settings.select,
-                  "Keep the N best-spread poses (D-optimal) for the fit, validate on the rest");
+  NumberOption(
+      sub->add_option("--select", options->settings.select,
+                      "Keep the N best-spread poses (D-optimal) for the fit, validate on the rest"),
+      0, kMaxPoses);
   sub->add_option("--validate", options->validate, "Held-out poses CSV to validate on");
   sub->add_option("--residual-model", options->settings.residual_model,
                   "auto: a cross-validated residual map after the parametric fit, used only "
@@ -53,14 +58,18 @@ void SetupCalibrateCommand(CLI::App& parent, const GlobalOptions& global, Runner
       ->check(CLI::IsMember({"auto", "off"}))
       ->capture_default_str();
   OutputFile(sub->add_option("--json", options->json, "Write the result as JSON"));
-  sub->add_option("--robust", options->settings.robust_threshold_mm,
-                  "Huber threshold (mm) on each pose's error distance: blunder poses are "
-                  "down-weighted and reported");
-  sub->add_option("--alpha", options->settings.alpha,
-                  "Significance level of the F-tests of --params auto")
+  NumberOption(sub->add_option("--robust", options->settings.robust_threshold_mm,
+                               "Huber threshold (mm) on each pose's error distance: blunder poses "
+                               "are down-weighted and reported (0: off)"),
+               0, plausible::kMaxLengthMm);
+  NumberOption(sub->add_option("--alpha", options->settings.alpha,
+                               "Significance level of the F-tests of --params auto"),
+               1e-12, 0.5)
       ->capture_default_str();
-  sub->add_option("--rank-tolerance", options->settings.rank_tolerance,
-                  "Relative pivot below which a scaled Jacobian column counts as dependent")
+  NumberOption(
+      sub->add_option("--rank-tolerance", options->settings.rank_tolerance,
+                      "Relative pivot below which a scaled Jacobian column counts as dependent"),
+      1e-15, 0.1)
       ->capture_default_str();
   sub->callback([&run, &global, options] {
     run = [&global, options] { return RunCalibrate(*options, global); };

@@ -44,8 +44,8 @@ void SetupCaptureCommand(CLI::App& parent, const GlobalOptions& global, Runner& 
   sub->add_option("--lab", o->lab, "Lab configuration YAML")->required();
   sub->add_option("--plan", o->plan, "PLAN.csv, auto:N (well spread) or single-joint:J:STEPS");
   NameOption(sub->add_option("--robot", o->robot, "Robot name (created in the database if new)"));
-  sub->add_option("--resume", o->resume, "Continue this session where it stopped")
-      ->check(CLI::PositiveNumber);
+  NumberOption(sub->add_option("--resume", o->resume, "Continue this session where it stopped"), 1,
+               kMaxId);
   sub->add_flag("--skip-on-fault", o->skip_on_fault,
                 "Record a configuration whose instrument keeps failing as skipped and go on "
                 "(default: pause), and exit 0 although configurations failed or were flagged "

@@ -10,6 +10,7 @@
 #include <string>
 
 #include "db/database.h"
+#include "workflows/recalibrate.h"
 
 namespace armsig::app {
 
@@ -32,6 +33,10 @@ void SetupCalibrateCommand(CLI::App& parent, const GlobalOptions& global, Runner
 void SetupCaptureCommand(CLI::App& parent, const GlobalOptions& global, Runner& run);
 void SetupReduceCommand(CLI::App& parent, const GlobalOptions& global, Runner& run);
 void SetupRecalibrateCommand(CLI::App& parent, const GlobalOptions& global, Runner& run);
+// The nightly fit's options (--since, --select, --params, --residual-model, the gates and
+// drift thresholds, --lock-wait, --force), range-checked, for `recalibrate` and for
+// `schedule recalibrate` alike.
+void AddRecalibrateOptions(CLI::App& sub, workflows::RecalibrateOptions& options);
 void SetupImportCommand(CLI::App& parent, const GlobalOptions& global, Runner& run);
 void SetupInstrumentCommand(CLI::App& parent, const GlobalOptions& global, Runner& run);
 void SetupDbCommand(CLI::App& parent, const GlobalOptions& global, Runner& run);
@@ -55,11 +60,25 @@ CLI::Option* OutputDirectory(CLI::Option* option);
 // likewise beyond 1000 bytes (core/plausibility.h).
 CLI::Option* NameOption(CLI::Option* option);
 CLI::Option* NoteOption(CLI::Option* option);
+// A number given on the command line (every numeric option of every command is declared
+// through here): finite — "nan", "inf" and "1e999" are refused, which CLI11's own Range
+// lets through — and within [min, max]; refused at parse time (exit 2) naming the option
+// and the range. For an integer option CLI11 refuses a fraction itself.
+CLI::Option* NumberOption(CLI::Option* option, double min, double max);
+// The same check for an option that takes a list of numbers (--seed-deg 0,-90,90).
+CLI::Validator NumberCheck(double min, double max);
+// Bounds for counts and ids given on the command line.
+inline constexpr double kMaxPoses = 1e6;                // configurations of one session or fit
+inline constexpr double kMaxId = 9.007199254740992e15;  // 2^53: a database row id
 
 // Sets `sub`'s job to `job(database)` on the existing database --db names (a command that
-// only reads, or adds to what is there: a missing file is refused, never created).
+// adds to what is there: a missing file is refused, never created).
 void OnExistingDatabase(CLI::App* sub, const GlobalOptions& global, Runner& run,
                         std::function<int(db::Database&)> job);
+// The same for a command that only reads (db::OpenMode::kReadOnly): nothing is created,
+// initialised, migrated or written, and an empty file is refused.
+void OnDatabaseToRead(CLI::App* sub, const GlobalOptions& global, Runner& run,
+                      std::function<int(db::Database&)> job);
 
 // "armsig 0.1.0 (git 1a2b3c4d5e6f, database schema v3)".
 std::string VersionText();

@@ -23,7 +23,7 @@ void SetupDbCommand(CLI::App& parent, const GlobalOptions& global, Runner& run) 
     };
   });
   auto* info = db->add_subcommand("info", "Schema version and row counts of every table");
-  OnExistingDatabase(info, global, run, [](db::Database& database) {
+  OnDatabaseToRead(info, global, run, [](db::Database& database) {
     std::cout << "database      " << database.path() << "\n"
               << "schema        v" << database.SchemaVersion() << "\n";
     for (const auto& count : database.RowCounts()) {
@@ -37,7 +37,7 @@ void SetupDbCommand(CLI::App& parent, const GlobalOptions& global, Runner& run) 
   exp->add_option("table", *table, "Table name")->required();
   exp->add_flag("--csv")->description("CSV output (the default and only format)");
   OutputFile(exp->add_option("--out", *out, "Write to this file instead of stdout"));
-  OnExistingDatabase(exp, global, run, [table, out](db::Database& database) {
+  OnDatabaseToRead(exp, global, run, [table, out](db::Database& database) {
     const std::string csv = database.ExportCsv(*table);
     if (out->empty())
       std::cout << csv;

@@ -18,20 +18,23 @@ void SetupDemoCommand(CLI::App& parent, const GlobalOptions& global, Runner& run
   auto* sub = parent.add_subcommand(
       "demo", "The whole chain on a virtual lab: orientation, capture, reduction, calibration");
   OutputFile(sub->add_option("--json", o->json_path, "Write the demo's results as JSON"));
-  sub->add_option("--configurations", o->configurations, "Configurations to capture")
+  NumberOption(sub->add_option("--configurations", o->configurations, "Configurations to capture"),
+               1, kMaxPoses)
       ->capture_default_str();
-  sub->add_option("--select", o->select,
-                  "Configurations to fit (default: 40 % of the configurations)");
-  sub->add_option("--resume", o->resume_session,
-                  "Continue a stopped demo session: capture the rest, then calibrate")
-      ->check(CLI::PositiveNumber);
+  NumberOption(sub->add_option("--select", o->select,
+                               "Configurations to fit (default, 0: 40 % of the configurations)"),
+               0, kMaxPoses);
+  NumberOption(sub->add_option("--resume", o->resume_session,
+                               "Continue a stopped demo session: capture the rest, then calibrate"),
+               1, kMaxId);
   sub->add_option("--instrument", o->instrument,
                   "theodolites (three GeoCOM theodolites, oriented by mutual pointings; the "
                   "default) or tracker (one laser tracker speaking emScon on loopback TCP); "
                   "--resume keeps the session's")
       ->check(CLI::IsMember({"theodolites", "tracker"}));
-  sub->add_option("--time-scale", o->time_scale, "Multiplies every simulated instrument latency")
-      ->check(CLI::Range(0.0, 100.0))
+  NumberOption(sub->add_option("--time-scale", o->time_scale,
+                               "Multiplies every simulated instrument latency"),
+               0.0, 100.0)
       ->capture_default_str();
   sub->callback([&run, &global, o] {
     run = [&global, o] {

@@ -11,6 +11,7 @@
 #include <nlohmann/json.hpp>
 
 #include "app/command.h"
+#include "core/text.h"
 #include "db/postgres_connection.h"
 #include "workflows/worker.h"
 
@@ -116,7 +117,7 @@ int RunJobs(const JobsCommand& c, const GlobalOptions& global) {
   if (c.json) {
     nlohmann::json out = nlohmann::json::array();
     for (const auto& j : jobs) out.push_back(JobJson(j));
-    std::cout << out.dump(2) << "\n";
+    std::cout << JsonText(out, 2) << "\n";
     return kOk;
   }
   if (jobs.empty()) {
@@ -152,22 +153,10 @@ void SetupFleetCommands(CLI::App& parent, const GlobalOptions& global, Runner& r
     auto* robot = NameOption(sub->add_option("--robot", o.robots, "Robot name (repeatable)"));
     auto* all = sub->add_flag("--all", o.all, "Every robot of the database");
     robot->excludes(all);
-    sub->add_option("--since", r.since, "Only sessions started at or after this ISO date/time");
-    sub->add_option("--select", r.select, "Configurations to fit (default: 60 %, at most 80)");
-    sub->add_option("--params", r.params, "geometric | all | auto | list")->capture_default_str();
-    sub->add_option("--residual-model", r.residual_model, "auto | off")
-        ->check(CLI::IsMember({"auto", "off"}))
-        ->capture_default_str();
-    sub->add_option("--max-validation-mean-mm", r.max_validation_mean_mm, "Gate");
-    sub->add_option("--max-validation-max-mm", r.max_validation_max_mm, "Gate");
-    sub->add_option("--tolerance-mm", r.tolerance_mm, "Allowed worsening against the active set");
-    sub->add_option("--drift-sigma", r.drift_sigma, "Parameter change named as drift, in sigmas");
-    sub->add_option("--drift-mm", r.drift_mm, "Smallest change of positions called drift");
-    sub->add_option("--report-dir", r.report_dir,
-                    "Each robot's HTML report into DIR/ROBOT (as the worker sees the path)");
-    sub->add_option("--lock-wait", r.lock_wait_s, "Seconds to wait for a robot's lock")
-        ->capture_default_str();
-    sub->add_flag("--force", r.force, "Refit even if the active set already uses the data");
+    AddRecalibrateOptions(*sub, r);
+    OutputDirectory(sub->add_option("--report-dir", r.report_dir,
+                                    "Each robot's HTML report into DIR/ROBOT (as the worker sees "
+                                    "the path)"));
     sub->add_option("--queue", o.queue, kQueueHelp);
     sub->callback([&run, &global, c, robot, all, sub] {
       if (robot->count() == 0 && all->count() == 0)
@@ -184,15 +173,17 @@ void SetupFleetCommands(CLI::App& parent, const GlobalOptions& global, Runner& r
         ->check(CLI::Range(1, 256))
         ->capture_default_str();
     sub->add_flag("--once", o.once, "Stop when the queue is empty instead of polling");
-    sub->add_option("--lease-s", o.lease_s,
-                    "Lease of a claimed job (renewed every third of it; a job whose worker "
-                    "vanished is claimable again after it)")
+    NumberOption(sub->add_option("--lease-s", o.lease_s,
+                                 "Lease of a claimed job (renewed every third of it; a job whose "
+                                 "worker vanished is claimable again after it)"),
+                 0.5, 7.0 * 24 * 3600)
         ->capture_default_str();
     sub->add_option("--max-attempts", o.max_attempts,
                     "Claims of a job whose workers vanished before it is failed")
         ->check(CLI::Range(1, 100))
         ->capture_default_str();
-    sub->add_option("--poll-s", o.poll_s, "Pause between looks at an empty queue")
+    NumberOption(sub->add_option("--poll-s", o.poll_s, "Pause between looks at an empty queue"),
+                 0.01, 3600.0)
         ->capture_default_str();
     sub->add_option("--queue", o.queue, kQueueHelp);
     sub->callback([&run, &global, c] { run = [&global, c] { return RunWorkerCommand(*c, global); }; });
@@ -201,7 +192,7 @@ void SetupFleetCommands(CLI::App& parent, const GlobalOptions& global, Runner& r
     auto c = std::make_shared<JobsCommand>();
     auto* sub = parent.add_subcommand("jobs", "The queue: every job, its state and result");
     sub->add_flag("--json", c->json, "Machine-readable output");
-    sub->add_option("--limit", c->limit, "Only the newest N jobs");
+    sub->add_option("--limit", c->limit, "Only the newest N jobs")->check(CLI::Range(0, 1000000));
     sub->add_option("--queue", c->queue, kQueueHelp);
     sub->callback([&run, &global, c] { run = [&global, c] { return RunJobs(*c, global); }; });
   }

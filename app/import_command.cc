@@ -72,9 +72,11 @@ void SetupImportCommand(CLI::App& parent, const GlobalOptions& global, Runner& r
                 "within --time-tolerance-s)")
       ->check(CLI::IsMember({"id", "time"}))
       ->capture_default_str();
-  p->add_option("--time-tolerance-s", poses->time_tolerance_s,
-                "--match time: largest gap between a point's and its joint reading's time")
-      ->check(CLI::PositiveNumber)
+  // A day at most: joint readings and tracker points of one session.
+  NumberOption(p->add_option("--time-tolerance-s", poses->time_tolerance_s,
+                             "--match time: largest gap between a point's and its joint "
+                             "reading's time"),
+               1e-6, 86400.0)
       ->capture_default_str();
   p->add_option("--points-unit", poses->points_unit,
                 "The point table's length unit when the file names none")
@@ -85,7 +87,9 @@ void SetupImportCommand(CLI::App& parent, const GlobalOptions& global, Runner& r
       ->check(CLI::IsMember({"deg", "gon", "rad"}))
       ->capture_default_str();
   p->add_option("--xyz-columns", poses->xyz_columns, "Measured x,y,z columns, comma-separated");
-  p->add_option("--length-scale", poses->length_scale, "Factor to mm (1000 for metres)");
+  NumberOption(
+      p->add_option("--length-scale", poses->length_scale, "Factor to mm (1000 for metres)"), 1e-6,
+      1e6);
   p->add_option("--id", poses->id_column, "Pose id column (default: row number)");
   p->add_option("--delimiter", poses->delimiter, "Field delimiter: one character or 'tab'");
   p->add_flag("--decimal-comma", poses->decimal_comma, "Numbers use a decimal comma");

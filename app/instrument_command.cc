@@ -27,13 +27,11 @@ void SetupInstrumentCommand(CLI::App& parent, const GlobalOptions&, Runner& run)
     a->add_option("--protocol", o->protocol, "geocom | gsi | val | as | emscon")
         ->check(CLI::IsMember({"geocom", "gsi", "val", "as", "emscon"}))
         ->capture_default_str();
-    a->add_option("--baud", o->baud, "Baud rate")
-        ->check(CLI::Range(50, 4000000))
-        ->capture_default_str();
-    a->add_option("--timeout-ms", o->timeout_ms,
-                  "Deadline of the whole exchange, from the command to the parsed reply "
-                  "(retries included)")
-        ->check(CLI::Range(1, 24 * 3600 * 1000))
+    NumberOption(a->add_option("--baud", o->baud, "Baud rate"), 50, 4000000)->capture_default_str();
+    NumberOption(a->add_option("--timeout-ms", o->timeout_ms,
+                               "Deadline of the whole exchange, from the command to the parsed "
+                               "reply (retries included)"),
+                 1, 24 * 3600 * 1000)
         ->capture_default_str();
     a->add_flag("--crc", o->crc, "GeoCOM: CRC-16 on every frame");
     a->add_flag("--distance", o->distance, "read: measure the distance too");
@@ -58,7 +56,8 @@ void SetupInstrumentCommand(CLI::App& parent, const GlobalOptions&, Runner& run)
   s->add_option("--tcp", o->tcp, "emscon: HOST:PORT to listen on (e.g. 127.0.0.1:7000)");
   s->add_option("--link", o->link, "Path of the port to create (a symlink to the pty)")
       ->capture_default_str();
-  s->add_option("--seconds", o->seconds, "Stop after this many seconds (default: Ctrl-C)");
+  NumberOption(s->add_option("--seconds", o->seconds, "Stop after this many seconds (0: Ctrl-C)"),
+               0, 1e6);
   s->add_option("--fault", o->fault,
                 "Misbehave on every request: flood-bytes, endless-line, flood-lines, silence, "
                 "partial, wrong-trid, bad-crc, no-crc, busy, error, other-reply, out-of-range, "

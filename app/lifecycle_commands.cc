@@ -45,7 +45,7 @@ void SetupLifecycleCommands(CLI::App& parent, const GlobalOptions& global, Runne
   auto o = std::make_shared<LifecycleOptions>();
   auto* list = robot->add_subcommand("list", "List the registered robots");
   list->add_flag("--json", o->json, "Machine-readable output");
-  OnExistingDatabase(list, global, run, [o = o](db::Database& database) {
+  OnDatabaseToRead(list, global, run, [o = o](db::Database& database) {
     std::cout << workflows::FormatRobots(db::ListRobots(database), o->json, database.path());
     return kOk;
   });
@@ -54,7 +54,7 @@ void SetupLifecycleCommands(CLI::App& parent, const GlobalOptions& global, Runne
   auto* sessions = parent.add_subcommand("sessions", "List the measurement sessions");
   NameOption(sessions->add_option("--robot", o->robot, "Only this robot's"));
   sessions->add_flag("--json", o->json, "Machine-readable output");
-  OnExistingDatabase(sessions, global, run, [o = o](db::Database& database) {
+  OnDatabaseToRead(sessions, global, run, [o = o](db::Database& database) {
     std::cout << workflows::FormatSessions(workflows::Sessions(database, o->robot), o->json);
     return kOk;
   });
@@ -63,9 +63,9 @@ void SetupLifecycleCommands(CLI::App& parent, const GlobalOptions& global, Runne
   auto* session = parent.add_subcommand("session", "One session");
   session->require_subcommand(1);
   auto* exp = session->add_subcommand("export", "A session's measured poses as a poses CSV");
-  exp->add_option("id", o->session, "Session id")->required();
+  NumberOption(exp->add_option("id", o->session, "Session id"), 1, kMaxId)->required();
   OutputFile(exp->add_option("--poses", o->poses, "Poses CSV to write"))->required();
-  OnExistingDatabase(exp, global, run, [o = o](db::Database& database) {
+  OnDatabaseToRead(exp, global, run, [o = o](db::Database& database) {
     const auto poses = workflows::SessionPoses(database, o->session);
     io::WriteFileAtomically(
         o->poses, io::FormatPosesCsv(poses, workflows::SessionJoints(database, o->session)));
@@ -77,7 +77,7 @@ void SetupLifecycleCommands(CLI::App& parent, const GlobalOptions& global, Runne
   auto* versions = parent.add_subcommand("versions", "A robot's parameter sets (* = active)");
   NameOption(versions->add_option("--robot", o->robot, "Robot name"))->required();
   versions->add_flag("--json", o->json, "Machine-readable output");
-  OnExistingDatabase(versions, global, run, [o = o](db::Database& database) {
+  OnDatabaseToRead(versions, global, run, [o = o](db::Database& database) {
     std::cout << workflows::FormatVersions(workflows::Versions(database, o->robot), o->json,
                                            o->robot);
     return kOk;
@@ -87,7 +87,8 @@ void SetupLifecycleCommands(CLI::App& parent, const GlobalOptions& global, Runne
   auto* activate =
       parent.add_subcommand("activate", "Make a parameter set active (roll back or forward)");
   NameOption(activate->add_option("--robot", o->robot, "Robot name"))->required();
-  activate->add_option("--version", o->version, "Version to activate")->required();
+  NumberOption(activate->add_option("--version", o->version, "Version to activate"), 1, kMaxId)
+      ->required();
   OnExistingDatabase(activate, global, run, [o = o](db::Database& database) {
     const auto previous = workflows::Activate(database, o->robot, o->version);
     std::cout << fmt::format("robot {}: version {} active (was {})\n", o->robot, o->version,

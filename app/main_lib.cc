@@ -1,20 +1,25 @@
 #include <SQLiteCpp/Exception.h>
 #include <fmt/format.h>
+#include <glog/logging.h>
 #include <spdlog/sinks/stdout_color_sinks.h>
 #include <spdlog/spdlog.h>
 #include <unistd.h>
 
+#include <charconv>
+#include <cmath>
 #include <csignal>
 #include <cstdlib>
 #include <filesystem>
 #include <iostream>
 #include <memory>
+#include <mutex>
 
 #include "app/command.h"
 #include "app/manual.h"
 #include "armsig_git.h"
 #include "core/error.h"
 #include "core/plausibility.h"
+#include "core/text.h"
 #include "db/schema.h"
 #include "io/atomic_file.h"
 
@@ -93,11 +98,44 @@ CLI::Option* NoteOption(CLI::Option* option) {
 }
 CLI::Option* OutputDirectory(CLI::Option* option) { return CheckedOutput(option, true); }
 
+CLI::Option* NumberOption(CLI::Option* option, double min, double max) {
+  return option->check(NumberCheck(min, max));
+}
+
+CLI::Validator NumberCheck(double min, double max) {
+  const std::string range = fmt::format("{:g} to {:g}", min, max);
+  return CLI::Validator(
+      [min, max, range](std::string& text) -> std::string {
+        double value = 0.0;
+        const char* first = text.data() + (text.starts_with('+') ? 1 : 0);
+        const char* last = text.data() + text.size();
+        const auto [end, error] = std::from_chars(first, last, value);
+        if (first == last || error != std::errc() || end != last) {
+          return "expected a number from " + range + ", got " + Quoted(text);
+        }
+        if (!std::isfinite(value) || value < min || value > max) {
+          return "expected a finite number from " + range + ", got " + Quoted(text);
+        }
+        return {};
+      },
+      "NUMBER " + range, "number in range");
+}
+
 void OnExistingDatabase(CLI::App* sub, const GlobalOptions& global, Runner& run,
                         std::function<int(db::Database&)> job) {
   sub->callback([&run, &global, job] {
     run = [&global, job] {
       db::Database database(global.DbPath(), db::OpenMode::kMustExist);
+      return job(database);
+    };
+  });
+}
+
+void OnDatabaseToRead(CLI::App* sub, const GlobalOptions& global, Runner& run,
+                      std::function<int(db::Database&)> job) {
+  sub->callback([&run, &global, job] {
+    run = [&global, job] {
+      db::Database database(global.DbPath(), db::OpenMode::kReadOnly);
       return job(database);
     };
   });
@@ -146,6 +184,62 @@ void SetupAll(CLI::App& app, GlobalOptions& global, Runner& run) {
   });
 }
 
+namespace {
+
+// Every log line is shown, never obeyed: a control character or a byte that is not UTF-8
+// in a message (a file name, a value echoed from a file, a name from a database or a
+// device) is written as an escape (core/text.h Printable), and a line break inside a
+// message is kept but indented, so that no text can begin a line of its own that reads
+// like one of armsig's ("armsig: info: …").
+// Thread-safe (the _mt sink's own mutex): `worker --jobs N` logs from several threads.
+class PrintableSink final : public spdlog::sinks::stderr_color_sink_mt {
+ public:
+  void log(const spdlog::details::log_msg& msg) override {
+    const std::string_view payload(msg.payload.data(), msg.payload.size());
+    std::string text;
+    for (size_t start = 0;;) {
+      const size_t end = payload.find('\n', start);
+      text += Printable(payload.substr(start, end == std::string_view::npos ? end : end - start));
+      if (end == std::string_view::npos) break;
+      text += "\n  ";
+      start = end + 1;
+    }
+    spdlog::details::log_msg printable(msg);
+    printable.payload = text;
+    spdlog::sinks::stderr_color_sink_mt::log(printable);
+  }
+};
+
+// Ceres logs through glog: its warnings ("Error in evaluating the ResidualBlock", a dump of
+// parameter blocks) are for its developers. They go to the debug log (-v); what the user
+// reads is armsig's own message from the solver's status. Only glog's FATAL (a failed CHECK,
+// a bug) still reaches stderr, as it ends the process.
+class GlogToSpdlog final : public google::LogSink {
+ public:
+  void send(google::LogSeverity severity, const char*, const char* base_filename, int line,
+            const google::LogMessageTime&, const char* message, size_t length) override {
+    spdlog::log(severity >= google::GLOG_ERROR ? spdlog::level::debug : spdlog::level::trace,
+                "ceres ({}:{}): {}", base_filename, line, std::string_view(message, length));
+  }
+};
+
+void RouteCeresLogging() {
+  static std::once_flag once;
+  std::call_once(once, [] {
+    if (!google::IsGoogleLoggingInitialized()) google::InitGoogleLogging("armsig");
+    for (google::LogSeverity s :
+         {google::GLOG_INFO, google::GLOG_WARNING, google::GLOG_ERROR, google::GLOG_FATAL}) {
+      google::SetLogDestination(s, "");  // no log files
+    }
+    FLAGS_logtostderr = false;
+    FLAGS_stderrthreshold = google::GLOG_FATAL;
+    static GlogToSpdlog sink;
+    google::AddLogSink(&sink);
+  });
+}
+
+}  // namespace
+
 int Main(int argc, const char* const* argv) {
   CLI::App app{
       "armsig: measure an industrial robot with external instruments and fit its arm signature "
@@ -160,9 +254,9 @@ int Main(int argc, const char* const* argv) {
     const int code = app.exit(e);  // prints help / version / the usage error
     return code == 0 ? kOk : kInputError;
   }
-  // _mt: `worker --jobs N` logs from several threads.
-  auto logger = spdlog::stderr_color_mt("armsig");
+  auto logger = std::make_shared<spdlog::logger>("armsig", std::make_shared<PrintableSink>());
   spdlog::set_default_logger(logger);
+  RouteCeresLogging();
   spdlog::set_pattern("armsig: %^%l%$: %v");
   // Progress and decisions (info) by default; -q keeps warnings, -v adds the details.
   spdlog::set_level(global.quiet            ? spdlog::level::warn

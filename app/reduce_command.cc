@@ -12,8 +12,8 @@ void SetupReduceCommand(CLI::App& parent, const GlobalOptions& global, Runner& r
   auto no_reject = std::make_shared<bool>(false);
   auto* sub = parent.add_subcommand(
       "reduce", "Reduce stored raw observations into points (per session, idempotent)");
-  sub->add_option("--session", *session, "Session id (default: every session)")
-      ->check(CLI::PositiveNumber);
+  NumberOption(sub->add_option("--session", *session, "Session id (default: every session)"), 1,
+               kMaxId);
   sub->add_flag("--no-reject", *no_reject, "Report blunders but keep every ray");
   OnExistingDatabase(sub, global, run, [session, no_reject](db::Database& database) {
     const auto summaries = workflows::ReduceSessions(database, *session, !*no_reject);

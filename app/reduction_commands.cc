@@ -14,17 +14,20 @@ void SetupOrientCommand(CLI::App& parent, const GlobalOptions&, Runner& run) {
   auto* sub = parent.add_subcommand("orient", "Orient the stations (bundle adjustment)");
   sub->add_option("--observations", o->observations, "Angle observations CSV")->required();
   sub->add_option("--scale-bar", o->scale_bars, "A:B=LEN_MM, repeatable");
-  sub->add_option("--scale-bar-sigma-mm", o->scale_bar_sigma_mm, "Sigma of every scale-bar length")
-      ->check(CLI::Range(1e-9, plausible::kMaxSigmaMm))  // a sigma: > 0, finite
+  NumberOption(sub->add_option("--scale-bar-sigma-mm", o->scale_bar_sigma_mm,
+                               "Sigma of every scale-bar length"),
+               1e-9, plausible::kMaxSigmaMm)  // a sigma: > 0, finite
       ->capture_default_str();
   sub->add_option("--control", o->control, "Control points CSV: point,x_mm,y_mm,z_mm[,sx_mm,...]");
-  sub->add_option("--unlevelled", o->unlevelled, "Stations whose rotation is free (not levelled)");
-  sub->add_option("--datum-station", o->datum_station,
-                  "Station at the origin (default: the first)");
+  NameOption(sub->add_option("--unlevelled", o->unlevelled,
+                             "Stations whose rotation is free (not levelled)"));
+  NameOption(sub->add_option("--datum-station", o->datum_station,
+                             "Station at the origin (default: the first)"));
   sub->add_flag("--free-datum", o->free_datum,
                 "Free network: precisions by inner constraints (minimum trace) over all points");
-  sub->add_option("--datum-points", o->datum_points,
-                  "Free network over these points and stations only (implies --free-datum)")
+  NameOption(sub->add_option("--datum-points", o->datum_points,
+                             "Free network over these points and stations only (implies "
+                             "--free-datum)"))
       ->delimiter(',');
   OutputFile(sub->add_option("--out", o->out, "Stations YAML to write"))->required();
   OutputFile(
@@ -52,8 +55,8 @@ void SetupTriangulateCommand(CLI::App& parent, const GlobalOptions&, Runner& run
   sub->add_flag("--no-reject", *no_reject, "Report blunders but keep every ray");
   sub->add_flag("--no-instrument-errors", *no_instrument_errors,
                 "Do not estimate and apply axis errors from two-face readings");
-  sub->add_option("--critical-w", o->critical_w, "Critical standardised residual")
-      ->check(CLI::Range(1.0, 100.0))
+  NumberOption(sub->add_option("--critical-w", o->critical_w, "Critical standardised residual"),
+               1.0, 100.0)
       ->capture_default_str();
   sub->callback([&run, o, no_reject, no_instrument_errors] {
     run = [o, no_reject, no_instrument_errors] {

@@ -41,7 +41,7 @@ void SetupSignatureCommands(CLI::App& parent, const GlobalOptions& global, Runne
   predict->add_flag("--map-sigma", p->map_sigma,
                     "Fill map_sigma_mm: the residual map's predictive sigma per configuration");
   OutputFile(predict->add_option("--out", p->out, "Positions CSV (default: stdout)"));
-  OnExistingDatabase(predict, global, run, [p](db::Database& database) {
+  OnDatabaseToRead(predict, global, run, [p](db::Database& database) {
     const auto active = workflows::LoadActiveSignature(database, p->robot);
     const std::string csv =
         workflows::PredictCsv(active, workflows::FrameOf(active, p->frame), p->joints, p->map_sigma);
@@ -64,8 +64,8 @@ void SetupSignatureCommands(CLI::App& parent, const GlobalOptions& global, Runne
       ->add_option("--seed-deg", c->seed_deg,
                    "Start of the nominal solution when the targets carry no joints (q1,…,qn)")
       ->delimiter(',')
-      ->check(CLI::Range(-720.0, 720.0));  // NaN fails the range too
-  OnExistingDatabase(compensate, global, run, [c](db::Database& database) {
+      ->check(NumberCheck(-720.0, 720.0));
+  OnDatabaseToRead(compensate, global, run, [c](db::Database& database) {
     const auto active = workflows::LoadActiveSignature(database, c->robot);
     std::optional<Eigen::VectorXd> seed;
     if (!c->seed_deg.empty()) {
@@ -95,7 +95,7 @@ void SetupSignatureCommands(CLI::App& parent, const GlobalOptions& global, Runne
       ->check(CLI::IsMember({"json", "model", "urdf"}))
       ->required();
   OutputFile(exp->add_option("--out", e->out, "File to write"))->required();
-  OnExistingDatabase(exp, global, run, [e](db::Database& database) {
+  OnDatabaseToRead(exp, global, run, [e](db::Database& database) {
     const auto active = workflows::LoadActiveSignature(database, e->robot);
     const auto result = workflows::ExportSignature(active, e->robot, e->format, e->frame);
     if (!result.warning.empty()) spdlog::warn("export: {}", result.warning);

@@ -8,6 +8,8 @@
 #include <stdexcept>
 
 #include "calibration/residual_map.h"
+#include "core/plausibility.h"
+#include "core/text.h"
 #include "core/units.h"
 
 namespace armsig::calibration {
@@ -25,7 +27,9 @@ std::optional<Eigen::Isometry3d> AlignBaseWithParams(const RobotModel& model,
   }
   const Eigen::Matrix3Xd centred = from.colwise() - from.rowwise().mean();
   Eigen::JacobiSVD<Eigen::Matrix3Xd> svd(centred);
-  if (svd.singularValues()(1) < 1e-6 * svd.singularValues()(0)) return std::nullopt;
+  // Not on one line, and not all in one point either (every singular value 0: "0 < 0" let
+  // poses that never move the robot through).
+  if (!(svd.singularValues()(1) > 1e-6 * svd.singularValues()(0))) return std::nullopt;
   Eigen::Isometry3d base = Eigen::Isometry3d::Identity();
   base.matrix() = Eigen::umeyama(from, to, false);
   return base;
@@ -126,7 +130,11 @@ RobotModel CorrectedModel(const RobotModel& model, const Eigen::VectorXd& params
   for (size_t k = 0; k < out.nongeometric.size(); ++k) {
     out.nongeometric[k].fixed_rad += params(model.num_geometric() + static_cast<int>(k));
   }
-  out.name = model.name + "-calibrated";
+  // The exported model must load again: its name stays within the name limit, the model's
+  // own name cut (at a character boundary) to make room for the suffix.
+  static constexpr std::string_view kSuffix = "-calibrated";
+  out.name = std::string(TruncateUtf8(model.name, plausible::kMaxNameLength - kSuffix.size())) +
+             std::string(kSuffix);
   return out;
 }
 

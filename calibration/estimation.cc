@@ -101,6 +101,11 @@ std::vector<double> Distances(const std::vector<Eigen::Vector3d>& residuals) {
   return d;
 }
 
+namespace {
+// Joint motion (rad, over all joints) below which a set of poses is one configuration.
+constexpr double kNoMotionRad = 1e-9;
+}  // namespace
+
 std::vector<int64_t> FramesOf(const std::vector<MeasuredPose>& poses) {
   std::set<int64_t> frames;
   for (const auto& p : poses) frames.insert(p.frame);
@@ -179,6 +184,22 @@ EstimationResult Estimate(const RobotModel& model, const std::vector<MeasuredPos
   result.params = Eigen::VectorXd::Zero(np);
   result.sigmas = Eigen::VectorXd::Constant(np, std::numeric_limits<double>::quiet_NaN());
 
+  // Poses that do not move the robot determine nothing about its joints: refused, whatever
+  // the targets (a fit would "converge" with σ0 of the targets' scatter and mean nothing).
+  if (m >= 2) {
+    double motion = 0.0;
+    for (const auto& p : poses)
+      motion = std::max(motion, (p.joints_rad - poses[0].joints_rad).norm());
+    if (!(motion > kNoMotionRad)) {
+      result.status.code = SolveCode::kDegenerate;
+      result.status.message = "all " + std::to_string(m) +
+                              " poses have the same joint angles: the robot never moved, so the "
+                              "poses cannot determine its parameters (measure configurations "
+                              "that move every joint)";
+      return result;
+    }
+  }
+
   // Measurement frames: the reference (the latest) is the datum; every other one gets a
   // base of its own among the unknowns. `extra[i]`: the index of pose i's frame among the
   // others, −1 for the reference frame.
@@ -249,6 +270,25 @@ EstimationResult Estimate(const RobotModel& model, const std::vector<MeasuredPos
   // reference frame's alignment does, in its own poses only.
   result.identifiability = AnalyseIdentifiability(model, Eigen::Isometry3d::Identity(), joints,
                                                   candidates, options.identifiability);
+  // Poses that identify far fewer parameters than configurations spread over the joint
+  // limits do (the model's structural rank) cannot determine the signature: a joint barely
+  // moved, every pose on one path. Refused, naming the joints that never moved.
+  if (const int structural = result.identifiability.structural_rank;
+      structural > 0 && 2 * result.identifiability.rank < structural) {
+    std::string frozen;
+    for (const auto& f : result.identifiability.frozen_joints) {
+      frozen += (frozen.empty() ? "" : ", ") + std::to_string(f.joint + 1);
+    }
+    result.status.code = SolveCode::kDegenerate;
+    result.status.message =
+        "the poses determine only " + std::to_string(result.identifiability.rank) + " of the " +
+        std::to_string(structural) +
+        " parameters that configurations spread over the joint limits determine" +
+        (frozen.empty() ? std::string(": the robot barely moves between them")
+                        : "; joints that never move: " + frozen) +
+        " (measure configurations that move every joint)";
+    return result;
+  }
   const std::vector<int>& subset = result.identifiability.identified;
   const int k = static_cast<int>(subset.size());
   const int unknowns = k + 6 * extra_frames;  // parameters, then six per further base

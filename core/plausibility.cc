@@ -3,6 +3,8 @@
 #include <cmath>
 #include <cstdio>
 
+#include "core/text.h"
+
 namespace armsig::plausible {
 
 namespace {
@@ -17,52 +19,58 @@ std::string Range(double internal, Unit unit) {
   return Number(internal / unit.to_internal) + " " + unit.name;
 }
 
-// The first control character in `text` as "U+000A at byte 6", or nullopt.
-std::optional<std::string> ControlCharacter(std::string_view text) {
-  auto at = [](unsigned code, size_t byte) {
-    char code_text[16];
-    std::snprintf(code_text, sizeof code_text, "U+%04X", code);
-    return "control character " + std::string(code_text) + " at byte " + std::to_string(byte + 1);
-  };
-  for (size_t i = 0; i < text.size(); ++i) {
-    const auto c = static_cast<unsigned char>(text[i]);
-    if (c < 0x20 || c == 0x7f) return at(c, i);
-    const auto next = [&](size_t k) {
-      return i + k < text.size() ? static_cast<unsigned char>(text[i + k]) : 0u;
-    };
-    // C1 controls U+0080–U+009F (UTF-8 C2 80–C2 9F).
-    if (c == 0xc2 && next(1) >= 0x80 && next(1) <= 0x9f) return at(next(1), i);
-    // U+2028/2029 line and paragraph separators, U+202A–202E and U+2066–2069 bidi controls.
-    if (c == 0xe2 && next(1) == 0x80 && next(2) >= 0xa8 && next(2) <= 0xae) {
-      return at(0x2000 + (next(2) - 0x80), i);
+// What makes `text` unusable as a name or note, or nullopt: "a control character U+000A
+// at byte 6", "a byte 0xff at byte 2 that is not UTF-8".
+std::optional<std::string> BadCharacter(std::string_view text) {
+  for (size_t pos = 0; pos < text.size();) {
+    const size_t at = pos;
+    const auto c = NextCodePoint(text, &pos);
+    char buffer[64];
+    if (!c) {
+      std::snprintf(buffer, sizeof buffer, "a byte 0x%02x at byte %zu that is not UTF-8",
+                    static_cast<unsigned>(static_cast<unsigned char>(text[at])), at + 1);
+      return buffer;
     }
-    if (c == 0xe2 && next(1) == 0x81 && next(2) >= 0xa6 && next(2) <= 0xa9) {
-      return at(0x2040 + (next(2) - 0x80), i);
+    if (IsControlCharacter(*c)) {
+      std::snprintf(buffer, sizeof buffer, "a control character U+%04X at byte %zu",
+                    static_cast<unsigned>(*c), at + 1);
+      return buffer;
     }
   }
   return std::nullopt;
+}
+
+bool OnlyInvisible(std::string_view text) {
+  for (size_t pos = 0; pos < text.size();) {
+    const auto c = NextCodePoint(text, &pos);
+    if (!c || !IsInvisible(*c)) return false;
+  }
+  return true;
 }
 
 }  // namespace
 
 std::optional<std::string> CheckName(std::string_view text, std::size_t max_length) {
   const std::string expected = "expected a name of 1 to " + std::to_string(max_length) +
-                               " characters without control characters";
+                               " bytes of UTF-8 text without control characters";
   if (text.empty()) return expected + ", got an empty name";
   if (text.size() > max_length) {
     return expected + ", got " + std::to_string(text.size()) + " bytes";
   }
-  if (auto control = ControlCharacter(text)) return expected + ", got a " + *control;
+  if (auto bad = BadCharacter(text)) return expected + ", got " + *bad;
+  if (OnlyInvisible(text)) {
+    return expected + ", got " + Quoted(text) + ": only blanks or invisible characters";
+  }
   return std::nullopt;
 }
 
 std::optional<std::string> CheckNote(std::string_view text) {
   const std::string expected = "expected a note of at most " + std::to_string(kMaxNoteLength) +
-                               " characters without control characters";
+                               " bytes of UTF-8 text without control characters";
   if (text.size() > kMaxNoteLength) {
     return expected + ", got " + std::to_string(text.size()) + " bytes";
   }
-  if (auto control = ControlCharacter(text)) return expected + ", got a " + *control;
+  if (auto bad = BadCharacter(text)) return expected + ", got " + *bad;
   return std::nullopt;
 }
 
@@ -83,10 +91,16 @@ bool IsPlausible(Quantity quantity, double value) {
   switch (quantity) {
     case Quantity::kLength:
       return std::abs(value) <= kMaxLengthMm;
+    case Quantity::kDistance:
+      return value > 0 && value <= kMaxLengthMm;
     case Quantity::kCoordinate:
       return std::abs(value) <= kMaxCoordinateMm;
     case Quantity::kAngle:
       return std::abs(value) <= kMaxAngleRad;
+    case Quantity::kCircleReading:
+    case Quantity::kZenithAngle:
+      // The full turn given in gon or deg converts to 2π plus a rounding ulp or two.
+      return value >= 0 && value <= kFullCircleRad * (1 + 1e-14);
     case Quantity::kJointAngle:
       return std::abs(value) <= kMaxJointRad;
     case Quantity::kSigmaLength:
@@ -101,10 +115,17 @@ std::string Expected(Quantity quantity, Unit unit) {
   switch (quantity) {
     case Quantity::kLength:
       return "a finite length within ±" + Range(kMaxLengthMm, unit) + " (1 km)";
+    case Quantity::kDistance:
+      return "a distance > 0 and ≤ " + Range(kMaxLengthMm, unit) + " (1 km)";
     case Quantity::kCoordinate:
       return "a finite coordinate within ±" + Range(kMaxCoordinateMm, unit) + " (10,000 km)";
     case Quantity::kAngle:
       return "a finite angle within ±" + Range(kMaxAngleRad, unit) + " (two turns)";
+    case Quantity::kCircleReading:
+      return "a horizontal circle reading from 0 to " + Range(kFullCircleRad, unit);
+    case Quantity::kZenithAngle:
+      return "a zenith angle from 0 to " + Range(kFullCircleRad, unit) +
+             " (face II above the half circle)";
     case Quantity::kJointAngle:
       return "a finite joint angle within ±" + Range(kMaxJointRad, unit) +
              (std::string_view(unit.name) == "deg" ? "" : " (±720 deg)");

@@ -26,8 +26,13 @@ inline constexpr double kMaxLengthMm = 1e6;
 // or 1e19 are not. A double still resolves 2e-6 mm there, and the solvers shift large
 // coordinates to a local origin.
 inline constexpr double kMaxCoordinateMm = 1e10;
-// Angles (Hz, V, azimuths, DH twists, fixed term values): finite and within two turns.
+// Angles (azimuths, DH twists, fixed term values): finite and within two turns.
 inline constexpr double kMaxAngleRad = 4.0 * kPi;
+// Circle readings of an instrument (Hz, and V as a zenith angle, face II above 200 gon): from
+// 0 to one full turn, the full turn itself included (it is what a reading just below it
+// rounds to, 399.99999996 gon written with four decimals). The same rule for the
+// observations CSV, GSI files and every instrument driver.
+inline constexpr double kFullCircleRad = 2.0 * kPi;
 // Joint values: within ±720 deg (multi-turn wrist joints reach ±360 deg and more).
 inline constexpr double kMaxJointRad = 4.0 * kPi;
 // A-priori sigmas: > 0, and no larger than the quantity's own range.
@@ -35,27 +40,32 @@ inline constexpr double kMaxSigmaMm = kMaxLengthMm;
 inline constexpr double kMaxSigmaRad = 2.0 * kPi;
 
 enum class Quantity {
-  kLength,       // mm: link lengths, tool offsets, distances, scale bars
-  kCoordinate,   // mm: positions in a measuring or survey frame
-  kAngle,        // rad
-  kJointAngle,   // rad
-  kSigmaLength,  // mm, > 0
-  kSigmaAngle,   // rad, > 0
+  kLength,         // mm: link lengths, tool offsets, scale bars
+  kDistance,       // mm, > 0: a measured distance (slope distance of a total station, tracker)
+  kCoordinate,     // mm: positions in a measuring or survey frame
+  kAngle,          // rad
+  kCircleReading,  // rad, [0, full circle]: a horizontal circle reading Hz
+  kZenithAngle,    // rad, [0, full circle]: a vertical circle reading V (zenith angle)
+  kJointAngle,     // rad
+  kSigmaLength,    // mm, > 0
+  kSigmaAngle,     // rad, > 0
 };
 
 // Names (robots, models, parameter and term names, station, point and pose ids) and notes
-// end up in log lines, terminals, CSV, the database and HTML reports: no control
-// characters (a newline in a robot name forges a log line; an escape sequence rewrites the
-// terminal; also DEL, the C1 controls and the Unicode line separators and bidirectional
-// overrides), and a sane length in bytes.
+// end up in log lines, terminals, CSV, JSON, the database and HTML reports: valid UTF-8 (a
+// stray byte makes every JSON output of the name fail), no control characters (a newline
+// in a robot name forges a log line; an escape sequence rewrites the terminal; also DEL,
+// the C1 controls and the Unicode line separators and bidirectional overrides, core/text.h),
+// not only blanks or invisible characters (a name that looks empty), and a sane length in
+// bytes.
 inline constexpr std::size_t kMaxNameLength = 64;
 inline constexpr std::size_t kMaxNoteLength = 1000;
-// nullopt when `text` is a usable name (non-empty, ≤ max_length bytes, no control
-// characters); otherwise "expected a name of 1 to 64 characters without control
-// characters, got …" with the offending character named.
+// nullopt when `text` is a usable name; otherwise "expected a name of 1 to 64 bytes of
+// UTF-8 text without control characters, got …" with what is wrong named (the control
+// character and its byte, the byte that is not UTF-8, the length).
 std::optional<std::string> CheckName(std::string_view text,
                                      std::size_t max_length = kMaxNameLength);
-// The same for a free-text note: may be empty, ≤ kMaxNoteLength bytes.
+// The same for a free-text note: may be empty or blank, ≤ kMaxNoteLength bytes.
 std::optional<std::string> CheckNote(std::string_view text);
 
 // The unit a value is given in (the column's or key's suffix), for the check and the message.
@@ -67,7 +77,7 @@ inline constexpr Unit kMm{"mm", 1.0};
 inline constexpr Unit kArcsec{"arcsec", kRadPerArcsec};
 Unit UnitOf(AngleUnit unit);
 
-// Whether `value` (mm or rad) is a plausible value of `quantity`.
+// Whether `value` (mm or rad) is a plausible value of `quantity`. NaN and ±inf never are.
 bool IsPlausible(Quantity quantity, double value);
 
 // "a finite length within ±1000000 mm (1 km)", "a finite joint angle within ±720 deg", …

@@ -16,6 +16,13 @@ struct AngleReading {
   int face = 1;         // 1 or 2
 };
 
+// The face a reading is on when the file or device does not say: SPEC "a reading with
+// V > 200 gon is face II". The nadir itself (V = 200 gon given in gon or deg, which
+// converts to π plus a rounding ulp) is face I, as is anything within 1e-12 rad of it.
+inline int FaceOfZenithAngle(double v_rad) {
+  return v_rad > 3.14159265358979323846 + 1e-12 ? 2 : 1;
+}
+
 // A robot configuration with its measured target position (measurement frame).
 struct MeasuredPose {
   std::string id;

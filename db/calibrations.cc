@@ -4,6 +4,9 @@
 #include <nlohmann/json.hpp>
 #include <stdexcept>
 
+#include "core/error.h"
+#include "core/plausibility.h"
+#include "core/text.h"
 #include "db/sql_util.h"
 
 namespace armsig::db {
@@ -14,7 +17,7 @@ std::string MatrixJson(const Eigen::Isometry3d& t) {
   nlohmann::json rows = nlohmann::json::array();
   for (int r = 0; r < 4; ++r)
     rows.push_back({t.matrix()(r, 0), t.matrix()(r, 1), t.matrix()(r, 2), t.matrix()(r, 3)});
-  return rows.dump();
+  return JsonText(rows);
 }
 
 Eigen::Isometry3d MatrixFromJson(const std::string& text, int64_t calibration_id) {
@@ -27,7 +30,13 @@ Eigen::Isometry3d MatrixFromJson(const std::string& text, int64_t calibration_id
     if (!rows[r].is_array() || rows[r].size() != 4)
       throw std::runtime_error("calibration " + std::to_string(calibration_id) +
                                ": world_from_base is not a 4x4 matrix");
-    for (int c = 0; c < 4; ++c) t.matrix()(r, c) = rows[r][c].get<double>();
+    for (int c = 0; c < 4; ++c) {
+      if (!rows[r][c].is_number()) {
+        throw std::runtime_error("calibration " + std::to_string(calibration_id) +
+                                 ": world_from_base holds something that is not a number");
+      }
+      t.matrix()(r, c) = rows[r][c].get<double>();
+    }
   }
   return t;
 }
@@ -40,7 +49,7 @@ std::string CovarianceJson(const std::vector<std::string>& names, const Eigen::M
     for (int c = 0; c < m.cols(); ++c) row.push_back(m(r, c));
     rows.push_back(row);
   }
-  return nlohmann::json{{"parameters", names}, {"matrix", rows}}.dump();
+  return JsonText(nlohmann::json{{"parameters", names}, {"matrix", rows}});
 }
 
 void CovarianceFromJson(const std::string& text, int64_t calibration_id, StoredCalibration& c) {
@@ -64,6 +73,44 @@ void CovarianceFromJson(const std::string& text, int64_t calibration_id, StoredC
       c.covariance(r, col) = rows[r][col].get<double>();
     }
   }
+}
+
+// A stored parameter set is input like any file: an edited or damaged database could hold
+// inf, NaN or 1e300 where a parameter belongs, and predict, compensate, export and the drift
+// test would print it as a result. Refused on load (an InputError naming the file, the robot
+// and the version), so that no command computes with it.
+void CheckStoredValues(Database& db, int64_t robot_id, const StoredCalibration& c) {
+  auto refuse = [&](const std::string& what) {
+    std::string robot = "id " + std::to_string(robot_id);
+    SQLite::Statement name(db.sql(), "SELECT name FROM robots WHERE id = ?");
+    name.bind(1, robot_id);
+    if (name.executeStep()) robot = Quoted(name.getColumn(0).getString());
+    throw InputError({db.path(), 0, 0, ""},
+                     "robot " + robot + ", parameter set version " + std::to_string(c.version) +
+                         ": " + what +
+                         "; the database was edited or damaged (activate another version, or "
+                         "recalibrate)");
+  };
+  for (const auto& p : c.parameters) {
+    const bool angle = p.unit == "rad";
+    if (!angle && p.unit != "mm") {
+      refuse("parameter " + Quoted(p.name) + " has the unit " + Quoted(p.unit) +
+             " (expected mm or rad)");
+    }
+    const auto quantity = angle ? plausible::Quantity::kAngle : plausible::Quantity::kLength;
+    const auto unit = angle ? plausible::UnitOf(AngleUnit::kRad) : plausible::kMm;
+    if (auto why = plausible::Check(quantity, p.value, unit)) {
+      refuse("parameter " + Quoted(p.name) + ": " + *why);
+    }
+    if (p.identified && !(std::isnan(p.sigma) || (std::isfinite(p.sigma) && p.sigma >= 0))) {
+      refuse("parameter " + Quoted(p.name) + " has the sigma " + std::to_string(p.sigma) +
+             " (expected a finite sigma ≥ 0)");
+    }
+  }
+  if (c.world_from_base && !c.world_from_base->matrix().allFinite()) {
+    refuse("its measuring frame (world_from_base) is not finite");
+  }
+  if (!c.covariance.allFinite()) refuse("its covariance is not finite");
 }
 
 }  // namespace
@@ -193,6 +240,7 @@ std::vector<StoredCalibration> CalibrationHistory(Database& db, int64_t robot_id
       param.sigma = p.getColumn(4).isNull() ? NAN : p.getColumn(4).getDouble();
       c.parameters.push_back(param);
     }
+    CheckStoredValues(db, robot_id, c);
     out.push_back(std::move(c));
   }
   return out;

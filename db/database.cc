@@ -1,12 +1,15 @@
 #include "db/database.h"
 
+#include <SQLiteCpp/Backup.h>
 #include <SQLiteCpp/Transaction.h>
 #include <fmt/format.h>
 #include <sqlite3.h>
 #include <sys/stat.h>
+#include <unistd.h>
 
 #include <algorithm>
 #include <cctype>
+#include <cerrno>
 #include <cmath>
 #include <cstdio>
 #include <cstring>
@@ -14,7 +17,9 @@
 #include <fstream>
 #include <random>
 #include <set>
+#include <stdexcept>
 #include <thread>
+#include <utility>
 
 #include "core/error.h"
 #include "db/schema.h"
@@ -111,8 +116,9 @@ std::string UriPath(const std::string& path) {
 // consistent view while others write) but creates the -wal and -shm files of a WAL-mode
 // file; otherwise the file is opened immutable (no locks, nothing created), which is only
 // a consistent view while nobody changes the file (see LookBeforeWriting).
-FileKind Inspect(const std::string& path, bool locked, int busy_timeout_ms) {
-  const std::string uri = UriPath(path) + (locked ? "?mode=ro" : "?mode=ro&immutable=1");
+FileKind Inspect(const std::string& path, const std::string& open_path, bool locked,
+                 int busy_timeout_ms) {
+  const std::string uri = UriPath(open_path) + (locked ? "?mode=ro" : "?mode=ro&immutable=1");
   try {
     SQLite::Database db(uri, SQLite::OPEN_READONLY | SQLite::OPEN_URI, busy_timeout_ms);
     // One read transaction: the application_id, the user_version and the tables from one
@@ -124,28 +130,44 @@ FileKind Inspect(const std::string& path, bool locked, int busy_timeout_ms) {
     SQLite::Statement query(db, "SELECT name FROM sqlite_master WHERE type = 'table'");
     while (query.executeStep()) tables.insert(query.getColumn(0).getString());
 
+    // The tables every armsig schema version has (later versions add to them).
+    const bool armsig_tables =
+        std::all_of(LegacyTableNames().begin(), LegacyTableNames().end(),
+                    [&](std::string_view t) { return tables.count(std::string(t)) > 0; });
+    auto table_list = [&] {
+      std::string names;
+      for (const auto& t : tables) {
+        if (names.size() > 60) {
+          names += ", …";
+          break;
+        }
+        names += (names.empty() ? "" : ", ") + t;
+      }
+      return names.empty() ? std::string("none") : names;
+    };
     FileKind kind = FileKind::kArmsig;
-    if (application_id != kApplicationId) {
-      const bool armsig_tables =
-          std::all_of(LegacyTableNames().begin(), LegacyTableNames().end(),
-                      [&](std::string_view t) { return tables.count(std::string(t)) > 0; });
+    if (application_id == kApplicationId) {
+      // armsig's mark, but not what armsig makes: schema version 0 with tables (every
+      // migration sets both in one transaction), or a version without armsig's tables. A
+      // migration from 0 would fail on the first CREATE TABLE; refused instead, untouched.
+      if (user_version == 0 && tables.empty()) {
+        kind = FileKind::kEmpty;
+      } else if (user_version == 0 || !armsig_tables) {
+        Refuse(path, fmt::format("carries armsig's application_id but is not a database armsig "
+                                 "made (schema version {}, tables: {}): damaged or edited; armsig "
+                                 "leaves it as it is",
+                                 user_version, table_list()));
+      }
+    } else {
       if (application_id == 0 && user_version == 0 && tables.empty()) {
         kind = FileKind::kEmpty;
       } else if (application_id == 0 && user_version >= 1 &&
                  user_version <= LatestSchemaVersion() && armsig_tables) {
         kind = FileKind::kLegacy;
       } else {
-        std::string names;
-        for (const auto& t : tables) {
-          if (names.size() > 60) {
-            names += ", …";
-            break;
-          }
-          names += (names.empty() ? "" : ", ") + t;
-        }
         Refuse(path, fmt::format("not an armsig database (application_id {}, user_version {}, "
                                  "tables: {}); armsig leaves it as it is",
-                                 application_id, user_version, names.empty() ? "none" : names));
+                                 application_id, user_version, table_list()));
       }
     }
     if (user_version > LatestSchemaVersion()) {
@@ -224,24 +246,66 @@ FileState StateOf(const std::string& path) {
   return state;
 }
 
+// A private folder that is removed with everything in it when this goes out of scope.
+class ScratchFolder {
+ public:
+  ScratchFolder() {
+    std::string pattern = (std::filesystem::temp_directory_path() / "armsig-look-XXXXXX").string();
+    if (::mkdtemp(pattern.data()) == nullptr) {
+      throw std::runtime_error("cannot make a temporary folder (" +
+                               std::string(std::strerror(errno)) + ")");
+    }
+    path_ = pattern;
+  }
+  ~ScratchFolder() {
+    std::error_code ignored;
+    std::filesystem::remove_all(path_, ignored);
+  }
+  const std::string& path() const { return path_; }
+
+ private:
+  std::string path_;
+};
+
+// A WAL-mode file with a -wal but without its -shm (a database copied with its -wal, or left
+// by a crashed writer on another machine): no connection has it open (an open one keeps its
+// -shm), and any SQLite reader that also sees the -wal would create the -shm next to it. The
+// file and its -wal are looked at as a private copy instead; nothing appears beside them.
+FileKind InspectCopy(const std::string& path, int busy_timeout_ms) {
+  const ScratchFolder scratch;
+  const std::string copy = scratch.path() + "/look.db";
+  std::filesystem::copy_file(path, copy);
+  std::filesystem::copy_file(path + "-wal", copy + "-wal");
+  return Inspect(path, copy, /*locked=*/true, busy_timeout_ms);
+}
+
 // The read-only look at an existing file before anything is written to it. A WAL-mode
 // file without a -wal file (no connection has it open: the last one to close checkpoints
 // and removes it) is read immutable, so that nothing appears next to a file that is then
 // refused; such a read takes no locks, so it only counts when the file did not change
 // while it was read (another armsig process may be creating or writing the file at the
-// same moment: its checkpoint would tear the view). Otherwise, and when the file keeps
-// changing, a locked read-only connection gives a consistent view (the file is in use by
-// then, its -wal exists).
-void LookBeforeWriting(const std::string& path, int busy_timeout_ms) {
+// same moment: its checkpoint would tear the view). A -wal without its -shm is read as a
+// private copy (InspectCopy). Otherwise, and when the file keeps changing, a locked
+// read-only connection gives a consistent view (the file is in use by then, its -wal and
+// -shm exist, so nothing is created).
+FileKind LookBeforeWriting(const std::string& path, int busy_timeout_ms) {
   constexpr int kAttempts = 20;
   for (int attempt = 1;; ++attempt) {
     const FileState before = StateOf(path);
     try {
       const bool wal_mode =
           CheckHeader(path, static_cast<uintmax_t>(std::max<off_t>(before.size, 0)));
-      const bool locked = !wal_mode || before.wal || attempt == kAttempts;
-      RetryWhileBusy(busy_timeout_ms, [&] { return Inspect(path, locked, busy_timeout_ms); });
-      if (locked || StateOf(path) == before) return;
+      std::error_code ec;
+      const bool shm = std::filesystem::exists(path + "-shm", ec);
+      if (wal_mode && before.wal && !shm) {
+        const FileKind kind = InspectCopy(path, busy_timeout_ms);
+        if (StateOf(path) == before) return kind;
+      } else {
+        const bool locked = !wal_mode || before.wal || attempt == kAttempts;
+        const FileKind kind = RetryWhileBusy(
+            busy_timeout_ms, [&] { return Inspect(path, path, locked, busy_timeout_ms); });
+        if (locked || StateOf(path) == before) return kind;
+      }
     } catch (const InputError&) {
       // A refusal stands when the file held still while it was read.
       if (attempt == kAttempts || StateOf(path) == before) throw;
@@ -252,23 +316,64 @@ void LookBeforeWriting(const std::string& path, int busy_timeout_ms) {
   }
 }
 
+[[noreturn]] void RefuseEmpty(const std::string& path) {
+  Refuse(path,
+         "an empty file, not an armsig database yet: this command only uses what is there and "
+         "creates nothing (armsig db init makes it a lab database; check --db or $ARMSIG_DB)");
+}
+
+// A read-only connection for a command that only reads. A file of an older schema (or an
+// older armsig file without application_id) is copied into memory and migrated there: the
+// command reads the current schema, the file is not written.
+SQLite::Database OpenForReading(const std::string& path, const OpenOptions& options) {
+  auto open = [&] {
+    return SQLite::Database(UriPath(path) + "?mode=ro",
+                            SQLite::OPEN_READONLY | SQLite::OPEN_URI | SQLite::OPEN_FULLMUTEX,
+                            options.busy_timeout_ms);
+  };
+  SQLite::Database file = open();
+  const auto [version, application_id] = RetryWhileBusy(options.busy_timeout_ms, [&] {
+    SQLite::Transaction snapshot(file);
+    return std::pair<int, int32_t>(file.execAndGet("PRAGMA user_version").getInt(),
+                                   file.execAndGet("PRAGMA application_id").getInt());
+  });
+  if (version == LatestSchemaVersion() && application_id == kApplicationId) return file;
+  SQLite::Database memory(":memory:", SQLite::OPEN_READWRITE | SQLite::OPEN_CREATE);
+  RetryWhileBusy(options.busy_timeout_ms, [&] {
+    SQLite::Backup copy(memory, file);
+    copy.executeStep();  // every page
+    return 0;
+  });
+  return memory;
+}
+
 SQLite::Database OpenOrExplain(const std::string& path, const OpenOptions& options, bool& created) {
   std::error_code ec;
   const bool exists = std::filesystem::exists(path, ec);
-  if (options.mode == OpenMode::kMustExist && !exists) {
+  if (options.mode != OpenMode::kCreate && !exists) {
     throw InputError({path, 0, 0, ""},
-                     "no such database file (this command only reads and creates none; check "
-                     "--db or $ARMSIG_DB)");
+                     "no such database file (this command only uses what is there and creates "
+                     "none; check --db or $ARMSIG_DB)");
+  }
+  if (exists && !std::filesystem::is_regular_file(path, ec)) {
+    // A FIFO would block the first read, a device never end: never opened.
+    Refuse(path, "not a regular file, so not a database file (check --db or $ARMSIG_DB)");
   }
   const uintmax_t size = exists ? std::filesystem::file_size(path, ec) : 0;
-  created = !exists || ec || size == 0;
-  if (!created) {
+  const bool empty = !exists || ec || size == 0;
+  FileKind kind = FileKind::kEmpty;
+  if (!empty) {
     // An existing file is looked at read-only first; only what passes is opened for writing.
-    LookBeforeWriting(path, options.busy_timeout_ms);
+    kind = LookBeforeWriting(path, options.busy_timeout_ms);
   }
-  const int flags = SQLite::OPEN_READWRITE | SQLite::OPEN_FULLMUTEX |
-                    (options.mode == OpenMode::kCreate ? SQLite::OPEN_CREATE : 0);
+  if (options.mode != OpenMode::kCreate && exists && (empty || kind == FileKind::kEmpty)) {
+    RefuseEmpty(path);
+  }
+  created = empty;
   try {
+    if (options.mode == OpenMode::kReadOnly) return OpenForReading(path, options);
+    const int flags = SQLite::OPEN_READWRITE | SQLite::OPEN_FULLMUTEX |
+                      (options.mode == OpenMode::kCreate ? SQLite::OPEN_CREATE : 0);
     return SQLite::Database(path, flags, options.busy_timeout_ms);
   } catch (const SQLite::Exception& e) {
     throw InputError({path, 0, 0, ""}, std::string("cannot open database (") + e.what() + ")");
@@ -298,7 +403,15 @@ std::string CsvField(const SQLite::Column& column) {
 Database::Database(const std::string& path, OpenOptions options)
     : path_(path),
       busy_timeout_ms_(options.busy_timeout_ms),
+      read_only_(options.mode == OpenMode::kReadOnly),
       db_(OpenOrExplain(path, options, created_)) {
+  if (read_only_) {
+    // The file's connection is read-only, and an older schema was copied into memory: the
+    // migration below, if any, changes only that copy.
+    db_.exec("PRAGMA foreign_keys=ON");
+    if (options.migrate) Migrate();
+    return;
+  }
   try {
     // WAL: readers never block the writer, and a killed writer leaves the last
     // committed state. synchronous=FULL so a commit also survives a power cut.

@@ -8,7 +8,8 @@
 // recognised by their user_version and tables and get it in their migration); another
 // application's SQLite file, a schema newer than this program and a file that fails
 // PRAGMA quick_check are refused as input errors and left byte for byte as they were
-// (no -wal or -shm file is created next to them).
+// (no -wal or -shm file is created next to them: a WAL-mode file with a -wal but no -shm,
+// a copied one, is looked at in a private copy).
 #pragma once
 
 #include <SQLiteCpp/SQLiteCpp.h>
@@ -22,12 +23,16 @@ namespace armsig::db {
 
 enum class OpenMode {
   kCreate,     // a missing file becomes a new, empty database (commands that write)
-  kMustExist,  // a missing file is an input error (commands that only read)
+  kMustExist,  // a missing file is an input error (commands that add to what is there)
+  // Commands that only read: a missing or empty file (0 bytes, or SQLite without tables) is
+  // an input error, nothing is created, initialised or written (the connection is
+  // read-only; a file of an older schema is migrated in a private in-memory copy).
+  kReadOnly,
 };
 
 struct OpenOptions {
   OpenMode mode = OpenMode::kCreate;
-  bool migrate = true;          // apply forward migrations
+  bool migrate = true;          // apply forward migrations (kReadOnly: in the in-memory copy)
   int busy_timeout_ms = 10000;  // wait this long for another writer's lock
 };
 
@@ -48,6 +53,7 @@ class Database {
   const std::string& path() const { return path_; }
   // Whether this process created the file (it was missing or empty when opened).
   bool created() const { return created_; }
+  bool read_only() const { return read_only_; }
   int SchemaVersion();
 
   struct TableCount {
@@ -67,6 +73,7 @@ class Database {
   std::string path_;
   int busy_timeout_ms_ = 0;
   bool created_ = false;
+  bool read_only_ = false;
   SQLite::Database db_;
 };
 

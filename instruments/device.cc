@@ -5,6 +5,8 @@
 #include <cmath>
 #include <numbers>
 
+#include "core/plausibility.h"
+
 namespace armsig::instruments {
 
 namespace {
@@ -17,8 +19,8 @@ std::string RangeMessage(const std::string& quantity, double value, double min, 
 
 }  // namespace
 
-ReadingRangeError::ReadingRangeError(const std::string& device, std::string quantity,
-                                     double value, double min, double max, const std::string& unit)
+ReadingRangeError::ReadingRangeError(const std::string& device, std::string quantity, double value,
+                                     double min, double max, const std::string& unit)
     : InstrumentError(device, 3074, RangeMessage(quantity, value, min, max, unit)),
       quantity_(std::move(quantity)),
       value_(value),
@@ -26,16 +28,18 @@ ReadingRangeError::ReadingRangeError(const std::string& device, std::string quan
       max_(max) {}
 
 void CheckAngles(const std::string& device, double hz_rad, double v_rad) {
-  constexpr double kFull = 2.0 * std::numbers::pi;
-  // A circle reading is in [0, 2π); 2π itself is what a value just below it rounds to.
-  if (!(hz_rad >= 0.0 && hz_rad <= kFull))
+  // The one rule for circle readings (core/plausibility.h), as in files: [0, 2π], 2π itself
+  // being what a value just below it rounds to.
+  constexpr double kFull = plausible::kFullCircleRad;
+  if (!plausible::IsPlausible(plausible::Quantity::kCircleReading, hz_rad))
     throw ReadingRangeError(device, "Hz", hz_rad, 0.0, kFull, "rad");
-  if (!(v_rad >= 0.0 && v_rad <= kFull))
+  if (!plausible::IsPlausible(plausible::Quantity::kZenithAngle, v_rad))
     throw ReadingRangeError(device, "V (zenith angle)", v_rad, 0.0, kFull, "rad");
 }
 
 void CheckDistance(const std::string& device, double distance_mm) {
-  if (!(distance_mm >= 0.0 && distance_mm <= kMaxDistanceMm))
+  // 0: no distance measured; else a distance by the rule files follow.
+  if (distance_mm != 0.0 && !plausible::IsPlausible(plausible::Quantity::kDistance, distance_mm))
     throw ReadingRangeError(device, "slope distance", distance_mm, 0.0, kMaxDistanceMm, "mm");
 }
 

@@ -8,6 +8,7 @@
 #include <stdexcept>
 #include <string>
 
+#include "core/plausibility.h"
 #include "core/types.h"
 
 namespace armsig::instruments {
@@ -80,8 +81,10 @@ class ReadingRangeError : public InstrumentError {
 };
 
 // What any instrument or controller may report; beyond it: ReadingRangeError.
-inline constexpr double kMaxJointDeg = 720.0;       // two turns either way: any robot joint
-inline constexpr double kMaxDistanceMm = 1.0e7;     // 10 km: beyond any total station's range
+inline constexpr double kMaxJointDeg = 720.0;  // two turns either way: any robot joint
+// A slope distance within a robot cell's plausible range (core/plausibility.h, 1 km), as in
+// files.
+inline constexpr double kMaxDistanceMm = plausible::kMaxLengthMm;
 // Hz in [0, 2π], V (zenith angle) in [0, 2π] (face II above π), both finite.
 void CheckAngles(const std::string& device, double hz_rad, double v_rad);
 // A slope distance in [0, kMaxDistanceMm] mm.

@@ -9,6 +9,7 @@
 #include <stdexcept>
 
 #include "core/error.h"
+#include "core/text.h"
 #include "instruments/line_retry.h"
 
 namespace armsig::instruments {
@@ -241,8 +242,9 @@ Clock::duration EmsconDevice::Configure(Deadline deadline) {
       names += (names.empty() ? "" : ", ") + r.name;
     }
     if (!reflector) {
-      throw InputError({"reflector", 0, 0, ""}, "no reflector named '" + options_.reflector_name +
-                                                    "' on " + name() + " (it has: " + names + ")");
+      throw InputError({"reflector", 0, 0, ""}, "no reflector named " +
+                                                    Quoted(options_.reflector_name) + " on " +
+                                                    name() + " (it has: " + names + ")");
     }
   }
   if (reflector) {

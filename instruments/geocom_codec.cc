@@ -5,6 +5,8 @@
 #include <cstdio>
 #include <map>
 
+#include "core/text.h"
+
 namespace armsig::instruments::geocom {
 
 uint16_t Crc16Arc(std::string_view data) {
@@ -81,7 +83,7 @@ std::optional<Header> ParseHeader(std::string_view line, std::string_view prefix
   Header h;
   const size_t colon = line.find(':');
   if (colon == std::string_view::npos) {
-    h.why = "expected ':' after the header '" + std::string(line) + "'";
+    h.why = "expected ':' after the header " + Quoted(std::string(line));
     return h;
   }
   h.body = line.substr(colon + 1);
@@ -106,8 +108,8 @@ std::optional<Header> ParseHeader(std::string_view line, std::string_view prefix
     auto v = ToInt(parts[i]);
     if (!v || (i == 0 && *v < 0)) {  // an overflowed transaction id may be negative
       h.why = std::string("header ") + kFieldNames[i] + ": expected " +
-              (i == 0 ? "a non-negative integer" : "an integer") + ", got '" +
-              std::string(parts[i]) + "'";
+              (i == 0 ? "a non-negative integer" : "an integer") + ", got " +
+              Quoted(std::string(parts[i]));
       return h;
     }
     h.fields.push_back(*v);
@@ -168,7 +170,7 @@ Frame ParseFrame(std::string_view line, std::string_view prefix) {
   auto h = ParseHeader(line, prefix, 2);
   if (!h) {
     f.error = ParseError::kNotAFrame;
-    f.why = "expected a frame starting with '" + std::string(prefix) + "'";
+    f.why = "expected a frame starting with " + Quoted(std::string(prefix));
   } else if (h->fields.empty() || (!h->why.empty() && h->crc_ok)) {
     f.error = ParseError::kMalformed;
     f.why = h->why.empty() ? "expected a header before ':'" : h->why;
@@ -195,8 +197,9 @@ ParsedReply ParseReply(std::string_view line, bool require_crc) {
   if (f.error) return out;
   if (require_crc && !f.had_crc) {
     out.error = ParseError::kMissingCrc;
-    out.why = "expected a CRC field after the transaction id (%R1P,<rc_com>,<trid>,<crc>:), "
-              "got a reply without one";
+    out.why =
+        "expected a CRC field after the transaction id (%R1P,<rc_com>,<trid>,<crc>:), "
+        "got a reply without one";
     return out;
   }
   const Header& h = *f.header;
@@ -215,7 +218,7 @@ ParsedReply ParseReply(std::string_view line, bool require_crc) {
     auto rc = ToInt(values.front());
     if (!rc) {
       out.error = ParseError::kMalformed;
-      out.why = "RPC return code: expected an integer, got '" + values.front() + "'";
+      out.why = "RPC return code: expected an integer, got " + Quoted(values.front());
       return out;
     }
     r.rc = *rc;
@@ -270,9 +273,9 @@ namespace {
 
 // values[index] decoded by `decode`, or `why` naming the RPC, the value and the type.
 template <typename T, typename Decode>
-std::optional<T> ValueAt(const std::vector<std::string>& values, size_t index,
-                         std::string_view rpc, std::string_view name, std::string_view type,
-                         Decode decode, std::string* why) {
+std::optional<T> ValueAt(const std::vector<std::string>& values, size_t index, std::string_view rpc,
+                         std::string_view name, std::string_view type, Decode decode,
+                         std::string* why) {
   if (index >= values.size()) {
     if (why)
       *why = std::string(rpc) + ": reply has " + std::to_string(values.size()) +
@@ -282,7 +285,7 @@ std::optional<T> ValueAt(const std::vector<std::string>& values, size_t index,
   std::optional<T> v = decode(values[index]);
   if (!v && why)
     *why = std::string(rpc) + ": value " + std::to_string(index + 1) + " (" + std::string(name) +
-           "): expected " + std::string(type) + ", got '" + values[index] + "'";
+           "): expected " + std::string(type) + ", got " + Quoted(values[index]);
   return v;
 }
 
@@ -336,7 +339,7 @@ std::optional<AngleComplete> DecodeAngleComplete(const std::vector<std::string>&
   auto face = LongAt(v, 8, rpc, "Face", why);
   if (!face) return std::nullopt;
   if (*face != 0 && *face != 1) {
-    if (why) *why = "TMC_GetAngle1: value 9 (Face): expected 0 or 1, got '" + v[8] + "'";
+    if (why) *why = "TMC_GetAngle1: value 9 (Face): expected 0 or 1, got " + Quoted(v[8]);
     return std::nullopt;
   }
   a = {*hz, *vertical, *accuracy, *time, *cross, *length, *incline_accuracy, *incline_time, *face};
@@ -347,8 +350,7 @@ std::vector<std::string> EncodeValues(const AngleSimple& a) {
   return {EncodeDouble(a.hz_rad, kAngleDigits), EncodeDouble(a.v_rad, kAngleDigits)};
 }
 
-std::optional<AngleSimple> DecodeAngleSimple(const std::vector<std::string>& v,
-                                             std::string* why) {
+std::optional<AngleSimple> DecodeAngleSimple(const std::vector<std::string>& v, std::string* why) {
   auto hz = DoubleAt(v, 0, "TMC_GetAngle5", "Hz", why);
   if (!hz) return std::nullopt;
   auto vertical = DoubleAt(v, 1, "TMC_GetAngle5", "V", why);

@@ -6,6 +6,8 @@
 #include <numbers>
 #include <stdexcept>
 
+#include "core/text.h"
+
 namespace armsig::instruments::gsi {
 
 namespace {
@@ -52,12 +54,12 @@ std::optional<Word> ParseWord(std::string_view text, bool gsi16, std::string* wh
   }
   auto number = Integer(wi);
   if (!number)
-    return fail("expected a word index (digits and '.') in positions 1-3, got '" +
-                std::string(text.substr(0, 3)) + "'");
+    return fail("expected a word index (digits and '.') in positions 1-3, got " +
+                Quoted(std::string(text.substr(0, 3))));
   w.wi = static_cast<int>(*number);
   w.sign = text[6];
   if (w.sign != '+' && w.sign != '-') {
-    return fail("expected '+' or '-' in position 7, got '" + std::string(1, w.sign) + "'");
+    return fail("expected '+' or '-' in position 7, got " + Quoted(std::string(1, w.sign)));
   }
   w.data = std::string(text.substr(7, gsi16 ? 16 : 8));
   return w;
@@ -103,7 +105,7 @@ FileResult ParseFile(std::string_view text) {
       if (!word || (word_text.size() != 15 && word_text.size() != 23)) {
         out.error = DecodeError{
             this_line, static_cast<int>(pos) + 1,
-            word ? "expected a 16- or 24-character GSI word, got '" + std::string(word_text) + "'"
+            word ? "expected a 16- or 24-character GSI word, got " + Quoted(std::string(word_text))
                  : why};
         return out;
       }
@@ -123,7 +125,7 @@ std::optional<double> AngleRad(const Word& w, std::string* why) {
   };
   const std::string& d = w.data;
   auto v = Integer(d);
-  if (!v) return fail("expected digits, got '" + d + "'");
+  if (!v) return fail("expected digits, got " + Quoted(d));
   const double sign = w.sign == '-' ? -1.0 : 1.0;
   switch (w.unit) {
     case '2':  // gon, 5 decimals
@@ -136,7 +138,7 @@ std::optional<double> AngleRad(const Word& w, std::string* why) {
       const long long seconds = (x / 10) % 100;
       const long long minutes = (x / 1000) % 100;
       const long long degrees = x / 100000;
-      if (minutes >= 60 || seconds >= 60) return fail("minutes or seconds ≥ 60 in '" + d + "'");
+      if (minutes >= 60 || seconds >= 60) return fail("minutes or seconds ≥ 60 in " + Quoted(d));
       return sign * (degrees + minutes / 60.0 + (seconds + tenths / 10.0) / 3600.0) * kPi / 180.0;
     }
     case '5':  // mil (6400 per circle), 4 decimals
@@ -152,7 +154,7 @@ std::optional<double> LengthMm(const Word& w, std::string* why) {
     return std::nullopt;
   };
   auto v = Integer(w.data);
-  if (!v) return fail("expected digits, got '" + w.data + "'");
+  if (!v) return fail("expected digits, got " + Quoted(w.data));
   const double sign = w.sign == '-' ? -1.0 : 1.0;
   constexpr double kFootMm = 304.8;
   switch (w.unit) {
@@ -187,8 +189,8 @@ std::optional<int> BlockNumber(const Word& w) {
 std::string FormatWord(const Word& w) {
   const size_t width = w.gsi16 ? 16 : 8;
   if (w.data.size() != width) {
-    throw std::invalid_argument("GSI word " + std::to_string(w.wi) + ": data '" + w.data +
-                                "' is not " + std::to_string(width) + " characters");
+    throw std::invalid_argument("GSI word " + std::to_string(w.wi) + ": data " + Quoted(w.data) +
+                                " is not " + std::to_string(width) + " characters");
   }
   if (w.sign != '+' && w.sign != '-')
     throw std::invalid_argument("GSI word " + std::to_string(w.wi) + ": sign must be '+' or '-'");
@@ -202,7 +204,8 @@ std::string FormatWord(const Word& w) {
   if (w.wi < 0 || index.size() > 3)
     throw std::invalid_argument("GSI word index " + index + " does not fit in 3 positions");
   if (w.aux.size() != 2)
-    throw std::invalid_argument("GSI word " + index + ": auxiliary information must be 2 characters");
+    throw std::invalid_argument("GSI word " + index +
+                                ": auxiliary information must be 2 characters");
   while (index.size() < 3) index += '.';
   return index + w.aux + w.unit + w.sign + w.data + ' ';
 }
@@ -258,7 +261,8 @@ Word AngleWord(int wi, double rad, bool gsi16, char unit) {
     case '3':
       return ValueWord(wi, unit, rad, a * 180.0 / kPi * 1e5, gsi16);
     case '4': {  // DDDMMSSs
-      if (!(a < 1e6)) throw std::out_of_range("GSI word " + std::to_string(wi) + ": angle out of range");
+      if (!(a < 1e6))
+        throw std::out_of_range("GSI word " + std::to_string(wi) + ": angle out of range");
       const long long tenths = std::llround(a * 180.0 / kPi * 36000.0);
       const long long degrees = tenths / 36000, rest = tenths % 36000;
       const double packed = static_cast<double>(degrees * 100000 + (rest / 600) * 1000 +
@@ -296,8 +300,8 @@ Word LengthWord(int wi, double mm, bool gsi16, char unit) {
 Word TextWord(int wi, std::string_view text, bool gsi16) {
   const size_t width = gsi16 ? 16 : 8;
   if (text.size() > width) {
-    throw std::out_of_range("GSI word " + std::to_string(wi) + ": '" + std::string(text) +
-                            "' is longer than " + std::to_string(width) + " characters");
+    throw std::out_of_range("GSI word " + std::to_string(wi) + ": " + Quoted(std::string(text)) +
+                            " is longer than " + std::to_string(width) + " characters");
   }
   Word w;
   w.wi = wi;
@@ -342,33 +346,33 @@ std::optional<OnlineRequest> ParseOnlineRequest(std::string_view line, std::stri
   OnlineRequest q;
   if (text.rfind("GET/", 0) == 0) {
     if (text.size() < 9 || text[5] != '/' || text.substr(6, 2) != "WI")
-      return fail("expected GET/<I|M|C>/WI<word index>, got '" + std::string(text) + "'");
+      return fail("expected GET/<I|M|C>/WI<word index>, got " + Quoted(std::string(text)));
     q.mode = text[4];
     if (q.mode != 'I' && q.mode != 'M' && q.mode != 'C')
-      return fail("GET: expected mode I, M or C in position 5, got '" + std::string(1, q.mode) +
-                  "'");
+      return fail("GET: expected mode I, M or C in position 5, got " +
+                  Quoted(std::string(1, q.mode)));
     auto wi = SmallInteger(text.substr(8));
     if (!wi)
-      return fail("GET: expected a word index (digits) after WI, got '" +
-                  std::string(text.substr(8)) + "'");
+      return fail("GET: expected a word index (digits) after WI, got " +
+                  Quoted(std::string(text.substr(8))));
     q.wi = *wi;
     return q;
   }
   if (text.rfind("SET/", 0) == 0) {
     const size_t slash = text.find('/', 4);
     if (slash == std::string_view::npos)
-      return fail("expected SET/<parameter>/<value>, got '" + std::string(text) + "'");
+      return fail("expected SET/<parameter>/<value>, got " + Quoted(std::string(text)));
     auto param = SmallInteger(text.substr(4, slash - 4));
     auto value = SmallInteger(text.substr(slash + 1));
     if (!param || !value)
-      return fail("SET: expected SET/<parameter digits>/<value digits>, got '" +
-                  std::string(text) + "'");
+      return fail("SET: expected SET/<parameter digits>/<value digits>, got " +
+                  Quoted(std::string(text)));
     q.kind = OnlineRequest::Kind::kSet;
     q.param = *param;
     q.value = *value;
     return q;
   }
-  return fail("expected GET/… or SET/…, got '" + std::string(text) + "'");
+  return fail("expected GET/… or SET/…, got " + Quoted(std::string(text)));
 }
 
 std::string FormatOnlineReply(const OnlineReply& r) {
@@ -396,8 +400,8 @@ std::optional<OnlineReply> ParseOnlineReply(std::string_view line, std::string* 
   if (text.rfind("@E", 0) == 0 || text.rfind("@W", 0) == 0) {
     auto code = SmallInteger(text.substr(2));
     if (!code)
-      return fail("expected a number after " + std::string(text.substr(0, 2)) + ", got '" +
-                  std::string(text) + "'");
+      return fail("expected a number after " + std::string(text.substr(0, 2)) + ", got " +
+                  Quoted(std::string(text)));
     r.kind = text[1] == 'E' ? OnlineReply::Kind::kError : OnlineReply::Kind::kWarning;
     r.code = *code;
     return r;
@@ -413,8 +417,6 @@ std::optional<OnlineReply> ParseOnlineReply(std::string_view line, std::string* 
   return r;
 }
 
-std::string Describe(const OnlineReply& r) {
-  return std::string(Trim(FormatOnlineReply(r)));
-}
+std::string Describe(const OnlineReply& r) { return std::string(Trim(FormatOnlineReply(r))); }
 
 }  // namespace armsig::instruments::gsi

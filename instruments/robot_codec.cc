@@ -8,6 +8,8 @@
 #include <sstream>
 #include <stdexcept>
 
+#include "core/text.h"
+
 namespace armsig::instruments {
 
 namespace {
@@ -180,8 +182,9 @@ std::optional<MonitorCommand> ParseMonitorCommand(std::string_view line, std::st
   MonitorCommand command;
   if (text == "WHERE" || text == "WH" || text == "WHERE 3") return command;
   constexpr std::string_view kJMove = "DO JMOVE #[";
-  if (text.rfind(kJMove, 0) != 0) return fail("expected WHERE or DO JMOVE #[…], got '" + text + "'");
-  if (text.back() != ']') return fail("DO JMOVE: expected ']' at the end, got '" + text + "'");
+  if (text.rfind(kJMove, 0) != 0)
+    return fail("expected WHERE or DO JMOVE #[…], got " + Quoted(text));
+  if (text.back() != ']') return fail("DO JMOVE: expected ']' at the end, got " + Quoted(text));
   const std::string_view list =
       std::string_view(text).substr(kJMove.size(), text.size() - kJMove.size() - 1);
   std::vector<double> values;
@@ -193,7 +196,7 @@ std::optional<MonitorCommand> ParseMonitorCommand(std::string_view line, std::st
     auto v = Number(item);
     if (!v) {
       return fail("DO JMOVE: joint value " + std::to_string(values.size() + 1) +
-                  ": expected a number of degrees, got '" + item + "'");
+                  ": expected a number of degrees, got " + Quoted(item));
     }
     values.push_back(*v);
     pos = comma + 1;
@@ -251,26 +254,27 @@ std::optional<CounterRequest> ParseCounterRequest(std::string_view line, std::st
   const std::string_view text = TrimLine(line);
   CounterRequest q;
   if (text.size() < 3 || (text[0] != 'R' && text[0] != 'W' && text[0] != 'S'))
-    return fail("expected R<reg>, W<reg><value> or S<reg> (reg 2 hex digits), got '" +
-                std::string(text) + "'");
+    return fail("expected R<reg>, W<reg><value> or S<reg> (reg 2 hex digits), got " +
+                Quoted(std::string(text)));
   q.kind = text[0];
   unsigned reg = 0;
   auto [p, ec] = std::from_chars(text.data() + 1, text.data() + 3, reg, 16);
   if (ec != std::errc() || p != text.data() + 3)
-    return fail("expected a register of 2 hex digits after '" + std::string(1, q.kind) +
-                "', got '" + std::string(text.substr(1, 2)) + "'");
+    return fail("expected a register of 2 hex digits after " + Quoted(std::string(1, q.kind)) +
+                ", got " + Quoted(std::string(text.substr(1, 2))));
   q.reg = static_cast<int>(reg);
   const std::string_view rest = text.substr(3);
   if (q.kind != 'W') {
     if (!rest.empty())
-      return fail("unexpected '" + std::string(rest) + "' after " + std::string(text.substr(0, 3)));
+      return fail("unexpected " + Quoted(std::string(rest)) + " after " +
+                  std::string(text.substr(0, 3)));
     return q;
   }
   uint32_t value = 0;
   auto [vp, vec] = std::from_chars(rest.data(), rest.data() + rest.size(), value, 16);
   if (rest.empty() || rest.size() > 8 || vec != std::errc() || vp != rest.data() + rest.size())
-    return fail("W" + std::string(text.substr(1, 2)) + ": expected a value of 1-8 hex digits, got '" +
-                std::string(rest) + "'");
+    return fail("W" + std::string(text.substr(1, 2)) +
+                ": expected a value of 1-8 hex digits, got " + Quoted(std::string(rest)));
   q.value = value;
   return q;
 }
@@ -290,11 +294,11 @@ std::optional<CounterReading> ParseCounterReply(std::string_view line, std::stri
     r.kind = 'e';
     return r;
   }
-  if (compact.back() != '!') return fail("expected a reply ending in '!', got '" + compact + "'");
+  if (compact.back() != '!') return fail("expected a reply ending in '!', got " + Quoted(compact));
   compact.pop_back();
   r.kind = compact[0];
   if (r.kind != 'r' && r.kind != 'w' && r.kind != 's')
-    return fail("unknown reply kind '" + compact + "'");
+    return fail("unknown reply kind " + Quoted(compact));
   if (compact.size() != 11 && compact.size() != 19) {
     return fail("expected <kind><reg 2 hex><data 8 hex>[<timestamp 8 hex>]!, got '" + compact +
                 "!'");
@@ -306,12 +310,12 @@ std::optional<CounterReading> ParseCounterReply(std::string_view line, std::stri
     return ec == std::errc() && p == compact.data() + at + n;
   };
   if (!hex(1, 2, reg) || !hex(3, 8, data))
-    return fail("expected hexadecimal digits in '" + compact + "'");
+    return fail("expected hexadecimal digits in " + Quoted(compact));
   r.reg = static_cast<int>(reg);
   r.value = static_cast<int32_t>(data);  // two's complement count
   if (compact.size() == 19) {
     uint32_t ts = 0;
-    if (!hex(11, 8, ts)) return fail("expected a hexadecimal timestamp in '" + compact + "'");
+    if (!hex(11, 8, ts)) return fail("expected a hexadecimal timestamp in " + Quoted(compact));
     r.timestamp = ts;
   }
   return r;

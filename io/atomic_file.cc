@@ -8,7 +8,6 @@
 #include <cstring>
 #include <filesystem>
 #include <fstream>
-#include <sstream>
 #include <stdexcept>
 
 #include "core/error.h"
@@ -122,12 +121,67 @@ void CheckOutputDirectory(const std::string& path, const std::string& option) {
   CheckWritableFolder(ParentOf(path), path, option);
 }
 
-std::string ReadWholeFile(const std::string& path) {
-  std::ifstream in(path, std::ios::binary);
-  if (!in) throw InputError({path, 0, 0, ""}, "cannot open file for reading");
-  std::ostringstream buffer;
-  buffer << in.rdbuf();
-  return buffer.str();
+namespace {
+
+const char* KindOf(mode_t mode) {
+  if (S_ISDIR(mode)) return "a folder";
+  if (S_ISFIFO(mode)) return "a FIFO";
+  if (S_ISCHR(mode)) return "a character device";
+  if (S_ISBLK(mode)) return "a block device";
+  if (S_ISSOCK(mode)) return "a socket";
+  return "not a regular file";
+}
+
+std::string Size(std::size_t bytes) {
+  return bytes >= (std::size_t{1} << 20) ? std::to_string(bytes >> 20) + " MiB"
+                                         : std::to_string(bytes) + " bytes";
+}
+
+}  // namespace
+
+std::string ReadWholeFile(const std::string& path, FileLimit limit) {
+  // O_NONBLOCK: opening a FIFO for reading would otherwise wait for a writer; it is refused
+  // below before anything is read. O_NOCTTY: a terminal never becomes the controlling one.
+  const int fd = ::open(path.c_str(), O_RDONLY | O_NONBLOCK | O_NOCTTY | O_CLOEXEC);
+  if (fd < 0) {
+    throw InputError({path, 0, 0, ""},
+                     std::string("cannot open file for reading (") + std::strerror(errno) + ")");
+  }
+  struct Closer {
+    int fd;
+    ~Closer() { ::close(fd); }
+  } closer{fd};
+  struct stat st {};
+  if (::fstat(fd, &st) != 0) {
+    throw InputError({path, 0, 0, ""},
+                     std::string("cannot read file (") + std::strerror(errno) + ")");
+  }
+  if (!S_ISREG(st.st_mode)) {
+    throw InputError({path, 0, 0, ""}, std::string("is ") + KindOf(st.st_mode) +
+                                           ", not a regular file: expected " + limit.format +
+                                           " (nothing was read)");
+  }
+  const auto too_big = [&] {
+    return InputError({path, 0, 0, ""}, "is larger than " + std::string(limit.format) +
+                                            " armsig reads (at most " + Size(limit.max_bytes) +
+                                            ")");
+  };
+  if (static_cast<std::size_t>(st.st_size) > limit.max_bytes) throw too_big();
+  std::string out;
+  out.reserve(static_cast<std::size_t>(st.st_size));
+  char buffer[1 << 16];
+  for (;;) {
+    const ssize_t n = ::read(fd, buffer, sizeof buffer);
+    if (n < 0) {
+      if (errno == EINTR) continue;
+      throw InputError({path, 0, 0, ""},
+                       std::string("cannot read file (") + std::strerror(errno) + ")");
+    }
+    if (n == 0) break;
+    if (out.size() + static_cast<std::size_t>(n) > limit.max_bytes) throw too_big();  // it grew
+    out.append(buffer, static_cast<std::size_t>(n));
+  }
+  return out;
 }
 
 }  // namespace armsig::io

@@ -2,6 +2,7 @@
 // same directory, flushed, then renamed over the target.
 #pragma once
 
+#include <cstddef>
 #include <string>
 #include <string_view>
 
@@ -17,7 +18,21 @@ void CheckOutputFile(const std::string& path, const std::string& option);
 // created (its parent exists and is writable).
 void CheckOutputDirectory(const std::string& path, const std::string& option);
 
-// Reads a whole file; throws InputError naming the path when it cannot.
-std::string ReadWholeFile(const std::string& path);
+// The most armsig reads of one input file, per format: far beyond any real file of the
+// format (a robot model is a few kB, a stations file a few hundred, an observations CSV of a
+// million readings 60 MB), far below what would exhaust the memory.
+struct FileLimit {
+  std::size_t max_bytes;
+  const char* format;  // "a YAML file", for the message
+};
+inline constexpr FileLimit kYamlFileLimit{std::size_t{16} << 20, "a YAML file"};  // 16 MiB
+inline constexpr FileLimit kCsvFileLimit{std::size_t{256} << 20, "a CSV file"};   // 256 MiB
+inline constexpr FileLimit kGsiFileLimit{std::size_t{64} << 20, "a GSI file"};    // 64 MiB
+
+// Reads a whole input file: every reader of a file armsig is given goes through here.
+// Throws InputError naming the path when it cannot be opened, is not a regular file (a
+// folder, a FIFO that would block, /dev/zero or /dev/urandom that never end, a socket or a
+// terminal: never read from) or holds more than the format's limit.
+std::string ReadWholeFile(const std::string& path, FileLimit limit);
 
 }  // namespace armsig::io

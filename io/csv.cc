@@ -4,8 +4,10 @@
 
 #include <charconv>
 #include <cmath>
-#include <fstream>
-#include <sstream>
+#include <set>
+
+#include "core/text.h"
+#include "io/atomic_file.h"
 
 namespace armsig::io {
 
@@ -62,8 +64,12 @@ constexpr const char* kDecimalCommaHint =
                                   char delimiter) {
   const std::string counts = "expected " + std::to_string(expected) +
                              " fields as in the header, found " + std::to_string(row.fields.size());
+  // The column where the row departs from the header: its first missing or extra field.
+  const int departs = static_cast<int>(std::min(row.fields.size(), expected)) + 1;
   if (delimiter != ',' || row.fields.size() <= expected) {
-    throw InputError({source, row.line, 0, ""}, counts);
+    throw InputError({source, row.line, departs, ""},
+                     counts + (row.fields.size() < expected ? " (the row ends before this column)"
+                                                            : " (this field is one too many)"));
   }
   std::vector<size_t> splits;
   for (size_t c = 0; c + 1 < row.fields.size(); ++c) {
@@ -74,12 +80,12 @@ constexpr const char* kDecimalCommaHint =
   }
   if (splits.size() == row.fields.size() - expected) {
     const int column = static_cast<int>(splits.front()) + 1;
-    throw InputError({source, row.line, column, ""}, counts + ": '" + row.fields[splits.front()] +
-                                                         "," + row.fields[splits.front() + 1] +
-                                                         "' looks like a decimal comma (" +
-                                                         kDecimalCommaHint + ")");
+    throw InputError({source, row.line, column, ""},
+                     counts + ": " +
+                         Quoted(row.fields[splits.front()] + "," + row.fields[splits.front() + 1]) +
+                         " looks like a decimal comma (" + kDecimalCommaHint + ")");
   }
-  throw InputError({source, row.line, 0, ""},
+  throw InputError({source, row.line, departs, ""},
                    counts + " (a decimal comma? " + std::string(kDecimalCommaHint) + ")");
 }
 
@@ -212,31 +218,41 @@ CsvTable ParseCsv(std::string_view text, std::string source, CsvOptions options)
       throw InputError({source, header_line, static_cast<int>(c) + 1, ""},
                        "empty column name in the header");
     }
+    // Two columns of one name: which one a reader takes would be a guess.
+    for (size_t first = 0; first < c; ++first) {
+      if (header[first] == header[c]) {
+        throw InputError({source, header_line, static_cast<int>(c) + 1, header[c]},
+                         "duplicate column " + Quoted(header[c]) + " (also column " +
+                             std::to_string(first + 1) + "): expected each column once");
+      }
+    }
   }
   if (delimiter == '\0') delimiter = ',';
   for (const CsvRow& row : records) {
     if (row.fields.size() != header.size()) ThrowFieldCount(source, row, header.size(), delimiter);
   }
   options.delimiter = delimiter;
-  return CsvTable(std::move(source), std::move(header), std::move(records), options);
+  return CsvTable(std::move(source), std::move(header), std::move(records), options, header_line);
 }
 
 CsvTable ReadCsvFile(const std::string& path, CsvOptions options) {
-  std::ifstream in(path, std::ios::binary);
-  if (!in) throw InputError({path, 0, 0, ""}, "cannot open file for reading");
-  std::ostringstream buffer;
-  buffer << in.rdbuf();
-  CsvTable table = ParseCsv(buffer.str(), path, options);
-  spdlog::debug("read {}: {} rows, {} columns", path, table.rows().size(), table.header().size());
+  CsvTable table = ParseCsv(ReadWholeFile(path, kCsvFileLimit), path, options);
+  spdlog::debug("read {}: {} rows, {} columns", Printable(path), table.rows().size(),
+                table.header().size());
   return table;
 }
 
 CsvTable::CsvTable(std::string source, std::vector<std::string> header, std::vector<CsvRow> rows,
-                   CsvOptions options)
+                   CsvOptions options, int header_line)
     : source_(std::move(source)),
       header_(std::move(header)),
       rows_(std::move(rows)),
-      options_(options) {}
+      options_(options),
+      header_line_(header_line) {}
+
+SourceLocation CsvTable::HeaderWhere(int column) const {
+  return {source_, header_line_, column + 1, header_.at(column)};
+}
 
 std::optional<int> CsvTable::FindColumn(std::string_view name) const {
   for (size_t c = 0; c < header_.size(); ++c) {
@@ -247,22 +263,72 @@ std::optional<int> CsvTable::FindColumn(std::string_view name) const {
 
 int CsvTable::Column(std::string_view name) const {
   if (auto c = FindColumn(name)) return *c;
-  throw InputError({source_, 1, 0, ""}, "missing column '" + std::string(name) + "' in the header");
+  throw InputError({source_, header_line_, 0, ""},
+                   "missing column " + Quoted(std::string(name)) + " in the header");
 }
 
 std::optional<AngleColumn> CsvTable::FindAngleColumn(std::string_view base) const {
+  std::optional<AngleColumn> found;
   for (AngleUnit unit : {AngleUnit::kGon, AngleUnit::kDeg, AngleUnit::kRad}) {
     std::string name = std::string(base) + std::string(AngleUnitSuffix(unit));
-    if (auto c = FindColumn(name)) return AngleColumn{*c, unit, name};
+    if (auto c = FindColumn(name)) {
+      if (found) {
+        // hz_gon and hz_deg: the same quantity twice, and no telling which one is meant.
+        const int later = std::max(found->index, *c), earlier = std::min(found->index, *c);
+        throw InputError(HeaderWhere(later), "column " + Quoted(header_[later]) +
+                                                 " gives the same quantity as column " +
+                                                 std::to_string(earlier + 1) + " " +
+                                                 Quoted(header_[earlier]) +
+                                                 " in another unit: expected one of them");
+      }
+      found = AngleColumn{*c, unit, name};
+    }
   }
-  return std::nullopt;
+  return found;
+}
+
+namespace {
+
+// "sigma_hz_arcsec" -> "sigma_hz": the quantity without its unit.
+std::string_view QuantityOf(std::string_view name) {
+  const size_t underscore = name.rfind('_');
+  return underscore == std::string_view::npos ? name : name.substr(0, underscore);
+}
+
+}  // namespace
+
+void CsvTable::RefuseUnreadUnits(const std::vector<std::string>& known) const {
+  for (size_t c = 0; c < header_.size(); ++c) {
+    const std::string& column = header_[c];
+    bool is_known = false;
+    for (const std::string& k : known) {
+      is_known |= k == column || (k.ends_with("_*") && AngleUnitFromSuffix(column) &&
+                                  StripUnitSuffix(column) == k.substr(0, k.size() - 2));
+    }
+    if (is_known) continue;
+    for (const std::string& k : known) {
+      if (k.find('_') == std::string_view::npos) continue;  // a name, not a quantity with a unit
+      const std::string_view quantity = QuantityOf(k);
+      if (column != quantity && QuantityOf(column) != quantity) continue;
+      const std::string expected = k.ends_with("_*")
+                                       ? std::string(quantity) + "_gon, " + std::string(quantity) +
+                                             "_deg or " + std::string(quantity) + "_rad"
+                                       : std::string(k);
+      throw InputError(
+          HeaderWhere(static_cast<int>(c)),
+          "column " + Quoted(column) +
+              (column == quantity ? " has no unit" : " is in a unit armsig does not read") +
+              ": expected " + expected +
+              " (armsig would otherwise leave it unread and use a default)");
+    }
+  }
 }
 
 AngleColumn CsvTable::AngleColumnOf(std::string_view base) const {
   if (auto c = FindAngleColumn(base)) return *c;
   const std::string b(base);
-  throw InputError({source_, 1, 0, ""}, "missing column '" + b + "_deg', '" + b + "_gon' or '" + b +
-                                            "_rad' in the header");
+  throw InputError({source_, header_line_, 0, ""}, "missing column '" + b + "_deg', '" + b +
+                                                       "_gon' or '" + b + "_rad' in the header");
 }
 
 SourceLocation CsvTable::Where(const CsvRow& row, int column) const {
@@ -274,10 +340,10 @@ double CsvTable::Number(const CsvRow& row, int column) const {
   if (auto v = ParseNumber(field, decimal_comma())) return *v;
   if (field.empty()) throw InputError(Where(row, column), "expected a number, the field is empty");
   if (!decimal_comma() && ParseNumber(field, true)) {
-    throw InputError(Where(row, column),
-                     "expected a finite number, got '" + field + "' (" + kDecimalCommaHint + ")");
+    throw InputError(Where(row, column), "expected a finite number, got " + Quoted(field) + " (" +
+                                             kDecimalCommaHint + ")");
   }
-  throw InputError(Where(row, column), "expected a finite number, got '" + field + "'");
+  throw InputError(Where(row, column), "expected a finite number, got " + Quoted(field));
 }
 
 std::optional<double> CsvTable::OptionalNumber(const CsvRow& row, int column) const {
@@ -310,7 +376,7 @@ int CsvTable::Integer(const CsvRow& row, int column) const {
   int value = 0;
   auto [ptr, ec] = std::from_chars(field.data(), field.data() + field.size(), value);
   if (field.empty() || ec != std::errc() || ptr != field.data() + field.size()) {
-    throw InputError(Where(row, column), "expected an integer, got '" + std::string(field) + "'");
+    throw InputError(Where(row, column), "expected an integer, got " + Quoted(field));
   }
   return value;
 }

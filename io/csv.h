@@ -7,6 +7,7 @@
 //   '#' comment lines, and the SPEC's unit suffixes.
 #pragma once
 
+#include <initializer_list>
 #include <optional>
 #include <string>
 #include <string_view>
@@ -40,10 +41,13 @@ struct AngleColumn {
 class CsvTable {
  public:
   CsvTable(std::string source, std::vector<std::string> header, std::vector<CsvRow> rows,
-           CsvOptions options);
+           CsvOptions options, int header_line = 1);
 
   const std::string& source() const { return source_; }
   const std::vector<std::string>& header() const { return header_; }
+  int header_line() const { return header_line_; }  // 1-based; after leading comment lines
+  // Where a header column is: file:header_line:column (name).
+  SourceLocation HeaderWhere(int column) const;
   const std::vector<CsvRow>& rows() const { return rows_; }
   char delimiter() const { return options_.delimiter; }
   bool decimal_comma() const { return DecimalCommaAllowed(options_.delimiter); }
@@ -51,7 +55,8 @@ class CsvTable {
   std::optional<int> FindColumn(std::string_view name) const;
   // Throws InputError naming the file and the expected column.
   int Column(std::string_view name) const;
-  // "hz" finds hz_gon, hz_deg or hz_rad.
+  // "hz" finds hz_gon, hz_deg or hz_rad; two of them (the same quantity in two units) are
+  // refused naming both columns.
   std::optional<AngleColumn> FindAngleColumn(std::string_view base) const;
   AngleColumn AngleColumnOf(std::string_view base) const;
 
@@ -76,19 +81,29 @@ class CsvTable {
 
   SourceLocation Where(const CsvRow& row, int column) const;
 
+  // Refuses (file:1:column) a header column that gives one of the `known` quantities in a
+  // unit armsig does not read, or without a unit, where the reader would otherwise leave it
+  // unread and use a default: distance_m or distance next to a known distance_mm,
+  // sigma_hz_mgon next to sigma_hz_arcsec, hz_grad next to an angle column given as "hz_*"
+  // (any of _gon, _deg, _rad). Names without a unit ("point") are not checked; other
+  // columns are the file's own (SPEC: extra columns are ignored).
+  void RefuseUnreadUnits(const std::vector<std::string>& known) const;
+
  private:
   std::string source_;
   std::vector<std::string> header_;
   std::vector<CsvRow> rows_;
   CsvOptions options_;
+  int header_line_ = 1;
 };
 
 // Parses CSV text; `source` names it in messages. The first non-comment line is the header.
-// Throws InputError for a delimiter other than ',', ';' or tab, and for a row whose
-// field count differs from the header's (naming the likely decimal comma in a
-// comma-separated file).
+// Throws InputError for a delimiter other than ',', ';' or tab, a header naming a column
+// twice, and for a row whose field count differs from the header's (naming the column
+// where it departs, and the likely decimal comma in a comma-separated file).
 CsvTable ParseCsv(std::string_view text, std::string source, CsvOptions options = {});
-// Reads and parses a file; throws InputError when it cannot be read.
+// Reads (io::ReadWholeFile: a regular file of at most kCsvFileLimit) and parses a file;
+// throws InputError when it cannot be read.
 CsvTable ReadCsvFile(const std::string& path, CsvOptions options = {});
 
 // Parses a whole field as a finite double ("1.5", "-2e-3", with decimal_comma "1,5").

@@ -5,6 +5,8 @@
 #include <cmath>
 
 #include "core/error.h"
+#include "core/plausibility.h"
+#include "core/text.h"
 #include "core/units.h"
 #include "instruments/gsi_codec.h"
 #include "io/atomic_file.h"
@@ -14,39 +16,39 @@ namespace armsig::io {
 
 namespace {
 
-// A circle reading of `word` (Hz or V) in [0, full circle] in the word's own unit, else
-// an InputError naming file, line, column, the value and the expected range.
-void CheckCircleReading(const instruments::gsi::Word& word, double rad, const SourceLocation& where,
-                        const char* what) {
-  if (rad >= 0.0 && rad <= 2.0 * kPi) return;
-  const char* unit = "gon";
-  double per_rad = 200.0 / kPi, circle = 400.0;
+// The unit a GSI angle word is written in, for the message.
+plausible::Unit WordUnit(const instruments::gsi::Word& word) {
   switch (word.unit) {
     case '3':
     case '4':
-      unit = "deg";
-      per_rad = 180.0 / kPi;
-      circle = 360.0;
-      break;
+      return plausible::UnitOf(AngleUnit::kDeg);
     case '5':
-      unit = "mil";
-      per_rad = 3200.0 / kPi;
-      circle = 6400.0;
-      break;
+      return {"mil", kPi / 3200.0};
     default:
-      break;
+      return plausible::UnitOf(AngleUnit::kGon);
   }
-  throw InputError(where, fmt::format("{} = {:.5f} {} is no circle reading: expected 0 to {} {}",
-                                      what, rad * per_rad, unit, circle, unit));
+}
+
+// A circle reading (Hz or V) by the one rule of core/plausibility.h, as the observations CSV
+// and the drivers read them; else an InputError naming file, line, column, the value in the
+// word's own unit and the range.
+void CheckCircleReading(const instruments::gsi::Word& word, double rad, const SourceLocation& where,
+                        plausible::Quantity quantity) {
+  const plausible::Unit unit = WordUnit(word);
+  if (auto why = plausible::Check(quantity, rad / unit.to_internal, unit)) {
+    throw InputError(where, *why);
+  }
 }
 
 }  // namespace
 
-GsiImport ImportGsi(const std::string& path, const std::string& station) {
+GsiImport ParseGsiImport(std::string_view text, const std::string& source,
+                         const std::string& station) {
   namespace gsi = instruments::gsi;
-  const auto file = gsi::ParseFile(ReadWholeFile(path));
+  if (auto why = plausible::CheckName(station)) throw InputError({"--station", 0, 0, ""}, *why);
+  const auto file = gsi::ParseFile(text);
   if (file.error)
-    throw InputError({path, file.error->line, file.error->column, ""}, file.error->message);
+    throw InputError({source, file.error->line, file.error->column, ""}, file.error->message);
   GsiImport out;
   for (const auto& block : file.blocks) {
     ++out.blocks;
@@ -62,34 +64,46 @@ GsiImport ImportGsi(const std::string& path, const std::string& station) {
       continue;
     }
     auto where = [&](const gsi::Word& w, const char* name) {
-      return SourceLocation{path, block.line, w.column, name};
+      return SourceLocation{source, block.line, w.column, name};
     };
     if (!point)
-      throw InputError({path, block.line, 1, "WI11"},
+      throw InputError({source, block.line, 1, "WI11"},
                        "block with Hz and V but no point number (word 11)");
     std::string why;
     reduction::Observation o;
     o.point = gsi::Identifier(*point);
+    if (auto bad = plausible::CheckName(o.point)) throw InputError(where(*point, "WI11"), *bad);
     o.station = station;
     auto hz_rad = gsi::AngleRad(*hz, &why);
     if (!hz_rad) throw InputError(where(*hz, "WI21"), why);
     auto v_rad = gsi::AngleRad(*v, &why);
     if (!v_rad) throw InputError(where(*v, "WI22"), why);
-    CheckCircleReading(*hz, *hz_rad, where(*hz, "WI21"), "Hz");
-    CheckCircleReading(*v, *v_rad, where(*v, "WI22"), "V (zenith angle)");
-    o.reading = {WrapTwoPi(*hz_rad), *v_rad, *v_rad > kPi ? 2 : 1};
+    CheckCircleReading(*hz, *hz_rad, where(*hz, "WI21"), plausible::Quantity::kCircleReading);
+    CheckCircleReading(*v, *v_rad, where(*v, "WI22"), plausible::Quantity::kZenithAngle);
+    o.reading = {WrapTwoPi(*hz_rad), *v_rad, FaceOfZenithAngle(*v_rad)};
     if (distance) {
       auto mm = gsi::LengthMm(*distance, &why);
       if (!mm) throw InputError(where(*distance, "WI31"), why);
-      if (*mm > 0) o.distance_mm = *mm;  // 0 = no distance measured
+      // 0 is the format's "no distance measured"; anything else is a distance by the rule
+      // every reader applies (a negative one is no measurement, 1e16 mm no robot cell).
+      if (*mm != 0.0) {
+        if (auto bad = plausible::Check(plausible::Quantity::kDistance, *mm, plausible::kMm)) {
+          throw InputError(where(*distance, "WI31"), *bad);
+        }
+        o.distance_mm = *mm;
+      }
     }
     o.source_line = block.line;
     out.observations.push_back(std::move(o));
   }
   if (out.observations.empty()) {
-    throw InputError({path, 0, 0, ""}, "no block with both Hz (word 21) and V (word 22)");
+    throw InputError({source, 0, 0, ""}, "no block with both Hz (word 21) and V (word 22)");
   }
   return out;
+}
+
+GsiImport ImportGsi(const std::string& path, const std::string& station) {
+  return ParseGsiImport(ReadWholeFile(path, kGsiFileLimit), path, station);
 }
 
 std::string FormatObservationsCsv(const std::vector<reduction::Observation>& observations) {

@@ -3,6 +3,7 @@
 #pragma once
 
 #include <string>
+#include <string_view>
 #include <vector>
 
 #include "reduction/network.h"
@@ -15,8 +16,13 @@ struct GsiImport {
   int skipped_blocks = 0;  // blocks without Hz and V (coordinates, codes, levelling)
 };
 
-// Throws InputError naming the file, line and column of a malformed word.
+// Throws InputError naming the file, line and column of a malformed word, a point number
+// that is no name, a circle reading or a distance outside core/plausibility.h's rules (the
+// same the observations CSV and the drivers apply; a distance of 0 is GSI's "none").
 GsiImport ImportGsi(const std::string& path, const std::string& station);
+// The same on text already read; `source` names it in messages.
+GsiImport ParseGsiImport(std::string_view text, const std::string& source,
+                         const std::string& station);
 
 std::string FormatObservationsCsv(const std::vector<reduction::Observation>& observations);
 

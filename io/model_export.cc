@@ -4,8 +4,12 @@
 #include <yaml-cpp/yaml.h>
 
 #include <cmath>
+#include <initializer_list>
+#include <string_view>
+#include <utility>
 
 #include "calibration/terms.h"
+#include "core/text.h"
 #include "core/units.h"
 #include "io/yaml_reader.h"
 
@@ -84,49 +88,130 @@ std::string FormatRobotModelYaml(const calibration::RobotModel& model, const std
   return std::string(out.c_str()) + "\n";
 }
 
+namespace {
+
+// The URDF is written through this one writer: every attribute value and comment is escaped
+// by construction, so a name holding `"><link name="injected"/><!-- ` stays text.
+class XmlWriter {
+ public:
+  using Attributes = std::initializer_list<std::pair<std::string_view, std::string>>;
+
+  XmlWriter() { out_ = "<?xml version=\"1.0\"?>\n"; }
+  void Open(std::string_view tag, Attributes attributes = {}) {
+    Start(tag, attributes);
+    out_ += ">\n";
+    ++depth_;
+  }
+  void Empty(std::string_view tag, Attributes attributes = {}) {
+    Start(tag, attributes);
+    out_ += "/>\n";
+  }
+  void Close(std::string_view tag) {
+    --depth_;
+    Indent();
+    out_ += "</" + std::string(tag) + ">\n";
+  }
+  // XML comments may not hold "--" nor end in "-"; control characters are shown escaped.
+  // Markup characters are escaped too: entities mean nothing inside a comment, but no
+  // tool that scans the file for tags (a grep, a naive parser) finds an element in it.
+  void Comment(std::string_view text) {
+    std::string body = Escaped(text);
+    for (size_t at; (at = body.find("--")) != std::string::npos;) body.replace(at, 2, "- -");
+    if (!body.empty() && body.back() == '-') body += ' ';
+    Indent();
+    out_ += "<!-- " + body + " -->\n";
+  }
+  const std::string& str() const { return out_; }
+
+ private:
+  static std::string Escaped(std::string_view value) {
+    std::string out;
+    for (char c : Printable(value)) {
+      switch (c) {
+        case '&':
+          out += "&amp;";
+          break;
+        case '<':
+          out += "&lt;";
+          break;
+        case '>':
+          out += "&gt;";
+          break;
+        case '"':
+          out += "&quot;";
+          break;
+        case '\'':
+          out += "&apos;";
+          break;
+        default:
+          out += c;
+      }
+    }
+    return out;
+  }
+  void Start(std::string_view tag, Attributes attributes) {
+    Indent();
+    out_ += "<" + std::string(tag);
+    for (const auto& [name, value] : attributes) {
+      out_ += " " + std::string(name) + "=\"" + Escaped(value) + "\"";
+    }
+  }
+  void Indent() { out_ += std::string(2 * depth_, ' '); }
+
+  std::string out_;
+  int depth_ = 0;
+};
+
+}  // namespace
+
 std::string FormatUrdf(const calibration::RobotModel& model, std::string* warning) {
-  auto origin = [](const Eigen::Isometry3d& t) {
-    // URDF rpy: R = Rz(yaw)·Ry(pitch)·Rx(roll), fixed axes.
+  XmlWriter xml;
+  // URDF rpy: R = Rz(yaw)·Ry(pitch)·Rx(roll), fixed axes.
+  auto origin = [&xml](const Eigen::Isometry3d& t) {
     const Eigen::Vector3d ypr = t.linear().eulerAngles(2, 1, 0);
     const Eigen::Vector3d xyz = t.translation() / 1000.0;
-    return fmt::format("<origin xyz=\"{:.9f} {:.9f} {:.9f}\" rpy=\"{:.12f} {:.12f} {:.12f}\"/>",
-                       xyz.x(), xyz.y(), xyz.z(), ypr(2), ypr(1), ypr(0));
+    xml.Empty("origin", {{"xyz", fmt::format("{:.9f} {:.9f} {:.9f}", xyz.x(), xyz.y(), xyz.z())},
+                         {"rpy", fmt::format("{:.12f} {:.12f} {:.12f}", ypr(2), ypr(1), ypr(0))}});
   };
-  std::string out = "<?xml version=\"1.0\"?>\n<!-- armsig: " + model.name + " -->\n<robot name=\"" +
-                    model.name + "\">\n";
+  xml.Comment("armsig: " + model.name);
+  xml.Open("robot", {{"name", model.name}});
   bool h_terms = false;
   for (const auto& t : model.nongeometric) h_terms |= t.fixed_rad != 0.0;
   if (h_terms) {
-    out +=
-        "  <!-- the model's non-geometric terms (joint angles corrected by functions of other "
-        "joints) are not part of URDF -->\n";
+    xml.Comment(
+        "the model's non-geometric terms (joint angles corrected by functions of other joints) "
+        "are not part of URDF");
     if (warning)
       *warning = "non-geometric terms (h) are left out of the URDF: apply them in the controller";
   }
-  out += "  <link name=\"base_link\"/>\n";
+  xml.Empty("link", {{"name", "base_link"}});
   const int n = model.num_joints();
+  const bool limits = model.joint_min_rad.size() == static_cast<size_t>(n);
   for (int i = 0; i < n; ++i) {
     const Eigen::Isometry3d before =
         i == 0 ? model.base.value_or(Eigen::Isometry3d::Identity()) : model.links[i - 1];
-    out += fmt::format("  <link name=\"link{}\"/>\n", i + 1);
-    out += fmt::format(
-        "  <joint name=\"joint{}\" type=\"revolute\">\n    <parent link=\"{}\"/>\n    <child "
-        "link=\"link{}\"/>\n"
-        "    {}\n    <axis xyz=\"0 0 1\"/>\n",
-        i + 1, i == 0 ? "base_link" : "link" + std::to_string(i), i + 1, origin(before));
-    const bool limits = model.joint_min_rad.size() == static_cast<size_t>(n);
-    out += fmt::format(
-        "    <limit lower=\"{:.6f}\" upper=\"{:.6f}\" effort=\"0\" velocity=\"0\"/>\n  </joint>\n",
-        limits ? model.joint_min_rad[i] : -M_PI, limits ? model.joint_max_rad[i] : M_PI);
+    xml.Empty("link", {{"name", fmt::format("link{}", i + 1)}});
+    xml.Open("joint", {{"name", fmt::format("joint{}", i + 1)}, {"type", "revolute"}});
+    xml.Empty("parent", {{"link", i == 0 ? std::string("base_link") : fmt::format("link{}", i)}});
+    xml.Empty("child", {{"link", fmt::format("link{}", i + 1)}});
+    origin(before);
+    xml.Empty("axis", {{"xyz", "0 0 1"}});
+    xml.Empty("limit", {{"lower", fmt::format("{:.6f}", limits ? model.joint_min_rad[i] : -M_PI)},
+                        {"upper", fmt::format("{:.6f}", limits ? model.joint_max_rad[i] : M_PI)},
+                        {"effort", "0"},
+                        {"velocity", "0"}});
+    xml.Close("joint");
   }
   Eigen::Isometry3d tool = Eigen::Isometry3d::Identity();
   tool.translation() = model.tool_mm;
-  out += "  <link name=\"tool0\"/>\n";
-  out += fmt::format(
-      "  <joint name=\"tool_point\" type=\"fixed\">\n    <parent link=\"link{}\"/>\n    <child "
-      "link=\"tool0\"/>\n    {}\n  </joint>\n",
-      n, origin(tool));
-  return out + "</robot>\n";
+  xml.Empty("link", {{"name", "tool0"}});
+  xml.Open("joint", {{"name", "tool_point"}, {"type", "fixed"}});
+  xml.Empty("parent", {{"link", fmt::format("link{}", n)}});
+  xml.Empty("child", {{"link", "tool0"}});
+  origin(tool);
+  xml.Close("joint");
+  xml.Close("robot");
+  return xml.str();
 }
 
 }  // namespace armsig::io

@@ -4,6 +4,7 @@
 #include <set>
 
 #include "calibration/terms.h"
+#include "core/text.h"
 #include "core/units.h"
 #include "io/yaml_reader.h"
 
@@ -71,7 +72,7 @@ NongeometricTerm Term(const YamlValue& value, int num_joints) {
   } else if (b == "gravity_torque") {
     term.basis = Basis::kGravityTorque;
   } else {
-    basis.Fail("expected basis 'cos', 'sign_cos', 'sin' or 'gravity_torque', got '" + b + "'");
+    basis.Fail("expected basis 'cos', 'sign_cos', 'sin' or 'gravity_torque', got " + Quoted(b));
   }
   if (term.basis == Basis::kGravityTorque) {
     // The mass sits at the origin of a joint's frame after this joint, or (n+1) the target.
@@ -97,7 +98,7 @@ NongeometricTerm Term(const YamlValue& value, int num_joints) {
   if (const auto family = map.Find("family")) {
     const std::string f = family->Text();
     const auto parsed = calibration::TermFamilyFromName(f);
-    if (!parsed) family->Fail("expected family 'compliance' or 'harmonics', got '" + f + "'");
+    if (!parsed) family->Fail("expected family 'compliance' or 'harmonics', got " + Quoted(f));
     term.family = *parsed;
   }
   if (const auto fixed = map.Find("value_rad")) {
@@ -147,7 +148,7 @@ RobotModel Parse(const YamlValue& root_value) {
     for (const YamlValue& node : terms->List()) {
       NongeometricTerm term = Term(node, n);
       if (!names.insert(term.name).second) {
-        node.Fail("duplicate parameter name '" + term.name + "'");
+        node.Fail("duplicate parameter name " + Quoted(term.name));
       }
       model.nongeometric.push_back(std::move(term));
     }
@@ -182,7 +183,7 @@ RobotModel Parse(const YamlValue& root_value) {
     for (const YamlValue& node : generated->List()) {
       const std::string f = node.Text();
       const auto family = calibration::TermFamilyFromName(f);
-      if (!family) node.Fail("expected 'compliance' or 'harmonics', got '" + f + "'");
+      if (!family) node.Fail("expected 'compliance' or 'harmonics', got " + Quoted(f));
       families.push_back(*family);
     }
     try {

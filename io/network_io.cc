@@ -4,9 +4,11 @@
 #include <yaml-cpp/yaml.h>
 
 #include <cmath>
+#include <map>
 #include <set>
 
 #include "core/error.h"
+#include "core/text.h"
 #include "core/units.h"
 #include "io/atomic_file.h"
 #include "io/csv.h"
@@ -17,6 +19,8 @@ namespace armsig::io {
 
 std::vector<reduction::Observation> ReadObservationsCsv(const std::string& path) {
   const CsvTable t = ReadCsvFile(path);
+  t.RefuseUnreadUnits({"point", "station", "hz_*", "v_*", "face", "distance_mm", "sigma_hz_arcsec",
+                       "sigma_v_arcsec", "sigma_distance_mm"});
   const int point = t.Column("point"), station = t.Column("station");
   const AngleColumn hz = t.AngleColumnOf("hz"), v = t.AngleColumnOf("v");
   const auto face = t.FindColumn("face");
@@ -26,30 +30,27 @@ std::vector<reduction::Observation> ReadObservationsCsv(const std::string& path)
   std::vector<reduction::Observation> out;
   for (const CsvRow& row : t.rows()) {
     reduction::Observation o;
-    o.point = t.Text(row, point);
-    o.station = t.Text(row, station);
-    if (o.point.empty()) throw InputError(t.Where(row, point), "expected a point id");
-    if (o.station.empty()) throw InputError(t.Where(row, station), "expected a station id");
-    t.Name(row, point);
-    t.Name(row, station);
-    using plausible::Quantity;
-    o.reading.hz_rad = t.AngleRad(row, hz);
-    o.reading.v_rad = t.AngleRad(row, v);
-    if (o.reading.v_rad < 0 || o.reading.v_rad > 2 * kPi) {
-      throw InputError(t.Where(row, v.index), "expected a zenith angle in [0, 400 gon)");
+    if (t.Text(row, point).empty()) throw InputError(t.Where(row, point), "expected a point id");
+    if (t.Text(row, station).empty()) {
+      throw InputError(t.Where(row, station), "expected a station id");
     }
+    o.point = t.Name(row, point);
+    o.station = t.Name(row, station);
+    using plausible::Quantity;
+    // One rule for circle readings (core/plausibility.h), as in GSI files and from drivers.
+    o.reading.hz_rad = t.AngleRad(row, hz, Quantity::kCircleReading);
+    o.reading.v_rad = t.AngleRad(row, v, Quantity::kZenithAngle);
     if (face && !t.Text(row, *face).empty()) {
       const int f = t.Integer(row, *face);
-      if (f != 1 && f != 2) throw InputError(t.Where(row, *face), "expected face 1 or 2");
+      if (f != 1 && f != 2) {
+        throw InputError(t.Where(row, *face), "expected face 1 or 2, got " + std::to_string(f));
+      }
       o.reading.face = f;
     } else {
-      o.reading.face = o.reading.v_rad > kPi ? 2 : 1;  // SPEC: V > 200 gon is face II
+      o.reading.face = FaceOfZenithAngle(o.reading.v_rad);  // SPEC: V > 200 gon is face II
     }
     if (distance) {
-      o.distance_mm = t.OptionalNumber(row, *distance, Quantity::kLength);
-      if (o.distance_mm && !(*o.distance_mm > 0)) {
-        throw InputError(t.Where(row, *distance), "expected a positive distance");
-      }
+      o.distance_mm = t.OptionalNumber(row, *distance, Quantity::kDistance);
     }
     auto sigma = [&](std::optional<int> column, Quantity quantity, plausible::Unit unit) {
       if (!column) return std::numeric_limits<double>::quiet_NaN();
@@ -60,6 +61,7 @@ std::vector<reduction::Observation> ReadObservationsCsv(const std::string& path)
     o.sigma_v_rad = sigma(s_v, Quantity::kSigmaAngle, plausible::kArcsec);
     o.sigma_distance_mm = sigma(s_d, Quantity::kSigmaLength, plausible::kMm);
     o.source_line = row.line;
+    o.source_station_column = station + 1;
     out.push_back(std::move(o));
   }
   if (out.empty()) throw InputError({path, 0, 0, ""}, "no observations (expected data rows)");
@@ -70,6 +72,8 @@ namespace {
 
 // Rotation matrices given in a file are accepted within this of orthonormal.
 constexpr double kRotationTolerance = 1e-6;
+// Control points closer than this are one point given twice (a µm is below any survey).
+constexpr double kSameControlPositionMm = 1e-3;
 
 // One station; `ids` holds the ids of the stations before it (duplicates are refused).
 reduction::Station StationFrom(const YamlValue& value, std::set<std::string>& ids) {
@@ -80,7 +84,7 @@ reduction::Station StationFrom(const YamlValue& value, std::set<std::string>& id
   reduction::Station s;
   const YamlValue id = map.Required("id", "the station id");
   s.pose.id = id.Name();
-  if (!ids.insert(s.pose.id).second) id.Fail("duplicate station id '" + s.pose.id + "'");
+  if (!ids.insert(s.pose.id).second) id.Fail("duplicate station id " + Quoted(s.pose.id));
   s.pose.position_mm =
       map.Required("position_mm", "[x, y, z] in mm").Vector3(plausible::Quantity::kCoordinate);
 
@@ -161,7 +165,7 @@ std::vector<reduction::Station> ParseStationsYaml(const std::string& text,
 }
 
 std::vector<reduction::Station> ReadStationsYaml(const std::string& path) {
-  return ParseStationsYaml(ReadWholeFile(path), path);
+  return ParseStationsYaml(ReadWholeFile(path, kYamlFileLimit), path);
 }
 
 std::string FormatStationsYaml(const std::vector<reduction::Station>& stations,
@@ -221,21 +225,38 @@ std::string FormatStationsYaml(const std::vector<reduction::Station>& stations,
 
 std::vector<reduction::ControlPoint> ReadControlCsv(const std::string& path) {
   const CsvTable t = ReadCsvFile(path);
+  t.RefuseUnreadUnits({"point", "x_mm", "y_mm", "z_mm", "sx_mm", "sy_mm", "sz_mm"});
   const int point = t.Column("point");
   const int x = t.Column("x_mm"), y = t.Column("y_mm"), z = t.Column("z_mm");
   const auto sx = t.FindColumn("sx_mm"), sy = t.FindColumn("sy_mm"), sz = t.FindColumn("sz_mm");
+  const int sigma_columns = int{sx.has_value()} + int{sy.has_value()} + int{sz.has_value()};
+  if (sigma_columns != 0 && sigma_columns != 3) {
+    throw InputError({path, t.header_line(), 0, ""},
+                     "give all of sx_mm, sy_mm, sz_mm (a weighted control point) or none");
+  }
   std::vector<reduction::ControlPoint> out;
-  std::set<std::string> ids;
+  std::map<std::string, int> line_of;  // id → its line
   for (const CsvRow& row : t.rows()) {
     reduction::ControlPoint c;
     c.id = t.Name(row, point);
-    if (!ids.insert(c.id).second) {
-      throw InputError(t.Where(row, point), "duplicate control point '" + c.id + "'");
+    if (const auto [it, inserted] = line_of.emplace(c.id, row.line); !inserted) {
+      throw InputError(t.Where(row, point), "duplicate control point " + Quoted(c.id) +
+                                                " (first given on line " +
+                                                std::to_string(it->second) + ")");
     }
     using plausible::Quantity;
     c.position_mm = {t.Number(row, x, Quantity::kCoordinate),
                      t.Number(row, y, Quantity::kCoordinate),
                      t.Number(row, z, Quantity::kCoordinate)};
+    // Two control points cannot stand in one place: a copied row, not a survey.
+    for (const auto& other : out) {
+      if ((other.position_mm - c.position_mm).norm() < kSameControlPositionMm) {
+        throw InputError(t.Where(row, x),
+                         "control point " + Quoted(c.id) + " has the position of control point " +
+                             Quoted(other.id) + " (line " + std::to_string(line_of.at(other.id)) +
+                             "): expected distinct points");
+      }
+    }
     if (sx && sy && sz && !t.Text(row, *sx).empty()) {
       c.sigma_mm = Eigen::Vector3d(t.Number(row, *sx, Quantity::kSigmaLength),
                                    t.Number(row, *sy, Quantity::kSigmaLength),
@@ -248,19 +269,29 @@ std::vector<reduction::ControlPoint> ReadControlCsv(const std::string& path) {
 }
 
 reduction::ScaleBar ParseScaleBar(const std::string& text, double sigma_mm) {
+  const SourceLocation where{"--scale-bar", 0, 0, ""};
   const size_t colon = text.find(':'), equals = text.find('=');
   if (colon == std::string::npos || equals == std::string::npos || colon > equals || colon == 0 ||
       equals == colon + 1) {
-    throw InputError({"--scale-bar", 0, 0, ""},
-                     "'" + text + "': expected A:B=LEN_MM, e.g. 1008:1180=1720.0");
+    throw InputError(where, Quoted(text) + ": expected A:B=LEN_MM, e.g. 1008:1180=1720.0");
   }
   reduction::ScaleBar bar;
   bar.from = text.substr(0, colon);
   bar.to = text.substr(colon + 1, equals - colon - 1);
+  for (const std::string* end : {&bar.from, &bar.to}) {
+    if (auto why = plausible::CheckName(*end)) {
+      throw InputError(where, Quoted(text) + ": point " + Quoted(*end) + ": " + *why);
+    }
+  }
+  if (bar.from == bar.to) {
+    // A length from a point to itself measures nothing (and gave Ceres one parameter
+    // block twice, which it answers with an abort).
+    throw InputError(where, Quoted(text) + ": both ends are point " + Quoted(bar.from) +
+                                ": expected two different points");
+  }
   const auto length = ParseNumber(text.substr(equals + 1));
   if (!length || !(*length > 0) || !plausible::IsPlausible(plausible::Quantity::kLength, *length)) {
-    throw InputError({"--scale-bar", 0, 0, ""},
-                     "'" + text + "': expected a positive length in mm (at most 1 km)");
+    throw InputError(where, Quoted(text) + ": expected a positive length in mm (at most 1 km)");
   }
   bar.length_mm = *length;
   bar.sigma_mm = sigma_mm;

@@ -5,30 +5,36 @@
 #include <stdexcept>
 
 #include "core/error.h"
+#include "core/text.h"
 #include "io/csv.h"
 
 namespace armsig::io {
 
 std::vector<MeasuredPose> ReadPosesCsv(const std::string& path, int num_joints) {
   const CsvTable table = ReadCsvFile(path);
+  std::vector<std::string> known = {"pose", "x_mm", "y_mm", "z_mm"};
+  for (int i = 1; i <= num_joints; ++i) known.push_back("q" + std::to_string(i) + "_*");
+  table.RefuseUnreadUnits(known);
   const int id_col = table.Column("pose");
   std::vector<AngleColumn> q;
   for (int i = 1; i <= num_joints; ++i) q.push_back(table.AngleColumnOf("q" + std::to_string(i)));
   const int x = table.Column("x_mm"), y = table.Column("y_mm"), z = table.Column("z_mm");
-  if (table.FindAngleColumn("q" + std::to_string(num_joints + 1))) {
-    throw InputError({path, 1, 0, ""}, "has a column q" + std::to_string(num_joints + 1) +
-                                           " but the robot model has " +
-                                           std::to_string(num_joints) + " joints");
+  if (const auto extra = table.FindAngleColumn("q" + std::to_string(num_joints + 1))) {
+    throw InputError(table.HeaderWhere(extra->index),
+                     "a joint column " + Quoted(extra->name) + " but the robot model has " +
+                         std::to_string(num_joints) + " joints (expected q1…q" +
+                         std::to_string(num_joints) + ")");
   }
   std::vector<MeasuredPose> poses;
   std::set<std::string> ids;
   for (const CsvRow& row : table.rows()) {
     MeasuredPose pose;
-    pose.id = table.Text(row, id_col);
-    if (pose.id.empty()) throw InputError(table.Where(row, id_col), "expected a pose id");
-    table.Name(row, id_col);
+    if (table.Text(row, id_col).empty()) {
+      throw InputError(table.Where(row, id_col), "expected a pose id");
+    }
+    pose.id = table.Name(row, id_col);
     if (!ids.insert(pose.id).second) {
-      throw InputError(table.Where(row, id_col), "duplicate pose id '" + pose.id + "'");
+      throw InputError(table.Where(row, id_col), "duplicate pose id " + Quoted(pose.id));
     }
     pose.joints_rad.resize(num_joints);
     using plausible::Quantity;
@@ -84,6 +90,22 @@ PoseImportOptions PoseImportOptions::UrIpa() {
 std::vector<MeasuredPose> ImportPoses(const std::string& path, const PoseImportOptions& options) {
   if (options.joint_columns.empty()) throw InputError("no joint columns given (--joint-columns)");
   if (options.xyz_columns.size() != 3) throw InputError("expected three position columns (--xyz-columns)");
+  // Each column names one quantity: a joint given twice, or a column that is a joint and a
+  // coordinate, is a typo that would silently calibrate nonsense.
+  std::vector<std::pair<std::string, std::string>> named;  // column, option
+  for (const auto& c : options.joint_columns) named.emplace_back(c, "--joint-columns");
+  for (const auto& c : options.xyz_columns) named.emplace_back(c, "--xyz-columns");
+  if (!options.id_column.empty()) named.emplace_back(options.id_column, "--id");
+  for (size_t a = 0; a < named.size(); ++a) {
+    for (size_t b = 0; b < a; ++b) {
+      if (named[a].first == named[b].first) {
+        throw InputError({named[a].second, 0, 0, ""}, "column " + Quoted(named[a].first) +
+                                                          " is given twice (" + named[b].second +
+                                                          " and " + named[a].second +
+                                                          "): expected each column once");
+      }
+    }
+  }
   CsvOptions csv;
   csv.delimiter = options.delimiter;
   const CsvTable table = ReadCsvFile(path, csv);
@@ -106,7 +128,7 @@ std::vector<MeasuredPose> ImportPoses(const std::string& path, const PoseImportO
     MeasuredPose pose;
     pose.id = id_col >= 0 ? table.Name(row, id_col) : std::to_string(poses.size() + 1);
     if (!ids.insert(pose.id).second) {
-      throw InputError(table.Where(row, id_col), "duplicate pose id '" + pose.id + "'");
+      throw InputError(table.Where(row, id_col), "duplicate pose id " + Quoted(pose.id));
     }
     pose.joints_rad.resize(q.size());
     using plausible::Quantity;

@@ -1,13 +1,17 @@
 #include "io/yaml_reader.h"
 
 #include <fmt/format.h>
+#include <yaml-cpp/eventhandler.h>
+#include <yaml-cpp/parser.h>
 
 #include <algorithm>
 #include <cmath>
 #include <limits>
 #include <map>
 #include <numeric>
+#include <sstream>
 
+#include "core/text.h"
 #include "io/atomic_file.h"
 
 namespace armsig::io {
@@ -44,7 +48,7 @@ std::string YamlValue::Describe() const {
   if (!node_.IsDefined() || node_.IsNull()) return "nothing";
   if (node_.IsSequence()) return fmt::format("a list of {}", node_.size());
   if (node_.IsMap()) return "a mapping";
-  return "'" + node_.Scalar() + "'";
+  return Quoted(node_.Scalar());
 }
 
 void YamlValue::Expected(const std::string& what) const {
@@ -165,13 +169,14 @@ YamlMap YamlValue::Map(std::initializer_list<std::string_view> allowed) const {
     const std::string& name = it->first.Scalar();
     if (std::find(keys.begin(), keys.end(), name) == keys.end()) {
       const auto nearest = NearestKey(name, keys);
-      key.Fail("unknown key '" + name + "' " +
-               (nearest ? "(did you mean '" + *nearest + "'?)"
+      key.Fail("unknown key " + Quoted(name) + " " +
+               (nearest ? "(did you mean " + Quoted(*nearest) + "?)"
                         : "(expected one of: " + KeyList(keys) + ")"));
     }
     const auto [previous, inserted] = seen.emplace(name, key.Where().line);
     if (!inserted) {
-      key.Fail(fmt::format("duplicate key '{}' (first given on line {})", name, previous->second));
+      key.Fail(
+          fmt::format("duplicate key {} (first given on line {})", Quoted(name), previous->second));
     }
   }
   return YamlMap(*this);
@@ -195,13 +200,51 @@ std::optional<YamlValue> YamlMap::Find(std::string_view key) const {
 YamlValue YamlMap::Required(std::string_view key, const std::string& expected) const {
   if (auto found = Find(key)) return *found;
   YamlValue where(value_.node(), value_.source(), std::string(key), YAML::Mark::null_mark());
-  where.Fail("missing '" + std::string(key) + "' (expected " + expected + ")");
+  where.Fail("missing " + Quoted(std::string(key)) + " (expected " + expected + ")");
 }
 
 // --- YamlDocument
 
+namespace {
+
+// Refuses the first alias (*name) of a document. yaml-cpp resolves an alias to the anchored
+// node itself, so an error in an aliased value would be reported at the anchor, far from
+// where the value is used; and a few aliases of aliases make a reader walk a tree of
+// billions of nodes (the "billion laughs"). armsig's files need neither: write the value out.
+class AliasRefusal final : public YAML::EventHandler {
+ public:
+  explicit AliasRefusal(const std::string& source) : source_(source) {}
+  void OnAlias(const YAML::Mark& mark, YAML::anchor_t) override {
+    throw InputError({source_, mark.line + 1, mark.column + 1, ""},
+                     "YAML aliases (*name) are not accepted in armsig files: write the value out "
+                     "where it is used");
+  }
+  void OnDocumentStart(const YAML::Mark&) override {}
+  void OnDocumentEnd() override {}
+  void OnNull(const YAML::Mark&, YAML::anchor_t) override {}
+  void OnScalar(const YAML::Mark&, const std::string&, YAML::anchor_t,
+                const std::string&) override {}
+  void OnSequenceStart(const YAML::Mark&, const std::string&, YAML::anchor_t,
+                       YAML::EmitterStyle::value) override {}
+  void OnSequenceEnd() override {}
+  void OnMapStart(const YAML::Mark&, const std::string&, YAML::anchor_t,
+                  YAML::EmitterStyle::value) override {}
+  void OnMapEnd() override {}
+
+ private:
+  const std::string& source_;
+};
+
+}  // namespace
+
 YamlDocument YamlDocument::Parse(const std::string& text, const std::string& source) {
   try {
+    {
+      std::istringstream stream(text);
+      YAML::Parser parser(stream);
+      AliasRefusal refusal(source);
+      parser.HandleNextDocument(refusal);
+    }
     return YamlDocument(YAML::Load(text), source);
   } catch (const YAML::Exception& e) {
     const bool at = HasPosition(e.mark);
@@ -211,7 +254,7 @@ YamlDocument YamlDocument::Parse(const std::string& text, const std::string& sou
 }
 
 YamlDocument YamlDocument::Load(const std::string& path) {
-  return Parse(ReadWholeFile(path), path);
+  return Parse(ReadWholeFile(path, kYamlFileLimit), path);
 }
 
 InputError YamlDocument::Translate(const YAML::Exception& e) const {

@@ -4,6 +4,7 @@
 #include <cmath>
 
 #include "core/units.h"
+#include "reduction/observation.h"
 
 namespace armsig::reduction {
 
@@ -96,7 +97,13 @@ std::map<std::string, InstrumentErrors> ReduceTwoFace(std::vector<Observation>& 
   for (const auto& [key, slot] : faces) {
     if (slot.first < 0 || slot.second < 0) continue;
     const auto& o1 = observations[slot.first];
-    pairs[key.first].push_back({o1.reading, observations[slot.second].reading});
+    const AngleReading& face1 = o1.reading;
+    const AngleReading& face2 = observations[slot.second].reading;
+    const bool agree =
+        std::abs(WrapPi(face1.hz_rad - (face2.hz_rad - kPi))) <= 2 * kMaxTwoFaceDisagreementRad &&
+        std::abs(face1.v_rad + face2.v_rad - 2.0 * kPi) <= 2 * kMaxTwoFaceDisagreementRad;
+    if (!agree || NearPole(face1.v_rad) || NearPole(face2.v_rad)) continue;
+    pairs[key.first].push_back({face1, face2});
     sigmas[key.first] = SigmasOf(o1, nullptr, defaults);
   }
   std::map<std::string, InstrumentErrors> out;

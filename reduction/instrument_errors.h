@@ -13,6 +13,8 @@
 
 namespace armsig::reduction {
 
+inline constexpr double kMaxTwoFaceDisagreementRad = 1e-2;  // 0.64 gon, 2063"
+
 struct InstrumentErrors {
   double collimation_rad = 0.0;
   double trunnion_rad = 0.0;
@@ -53,6 +55,11 @@ namespace armsig::reduction {
 // For every station with readings of the same point in both faces: estimate its axis
 // errors and correct all its readings (to face I). Stations without pairs are left as
 // they are. Returns the estimates by station id.
+// A pair is one direction read in both faces only when the two readings agree within
+// kMaxTwoFaceDisagreementRad (Hz − 200 gon and 400 gon − V; real axis errors are a few
+// tens of arc seconds) and neither lies at the zenith or nadir (where Hz says nothing):
+// other pairs are blunders or different directions and are not used, so that one bad
+// reading cannot become an "instrument error" applied to every reading of its station.
 std::map<std::string, InstrumentErrors> ReduceTwoFace(std::vector<Observation>& observations,
                                                       const InstrumentDefaults& defaults);
 

@@ -64,18 +64,22 @@ inline void Linearise(const Ray& ray, double hz_obs, double v_obs, const Eigen::
     rows.r(2) = (dist - *ray.distance_mm) / ray.sigma_distance_mm;
     rows.count = 3;
   }
-  if (NearPole(v_obs)) {
+  const bool pole_reading = NearPole(v_obs);
+  if (pole_reading || PredictedNearPole<double>(d)) {
     // At the zenith or nadir: PoleResidual, e·d̂ with ∂(e·d̂)/∂d = (e − (e·d̂) d̂)ᵀ / |d|,
-    // both components weighted with sigma_v (SigmaAcross).
+    // both components weighted with sigma_v (SigmaAcross). A reading away from the poles
+    // whose prediction passes the standing axis (HzVResidual): the first component divided
+    // by sin V_obs is ΔHz, weighted with sigma_hz.
     const double dist = std::sqrt(r2);
     const Eigen::Vector3d unit = d / dist;
     const Eigen::Vector2d residual = PoleResidual<double>(d, hz_obs, v_obs);
     const Eigen::Vector3d e_hz(std::cos(hz_obs), -std::sin(hz_obs), 0.0);
     const Eigen::Vector3d e_v(std::cos(v_obs) * std::sin(hz_obs),
                               std::cos(v_obs) * std::cos(hz_obs), -std::sin(v_obs));
-    rows.a.row(0) = ((e_hz - residual(0) * unit).transpose() / dist) * rt / ray.sigma_v_rad;
+    const double across = pole_reading ? ray.sigma_v_rad : std::sin(v_obs) * ray.sigma_hz_rad;
+    rows.a.row(0) = ((e_hz - residual(0) * unit).transpose() / dist) * rt / across;
     rows.a.row(1) = ((e_v - residual(1) * unit).transpose() / dist) * rt / ray.sigma_v_rad;
-    rows.r(0) = residual(0) / ray.sigma_v_rad;
+    rows.r(0) = residual(0) / across;
     rows.r(1) = residual(1) / ray.sigma_v_rad;
     return;
   }

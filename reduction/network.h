@@ -19,7 +19,8 @@ struct Observation {
   std::optional<double> distance_mm;
   // A-priori standard deviations; absent = the station's, else the defaults.
   std::optional<double> sigma_hz_rad, sigma_v_rad, sigma_distance_mm;
-  int source_line = 0;  // for messages: line of the file it came from
+  int source_line = 0;            // for messages: line of the file it came from
+  int source_station_column = 0;  // and the column of its station id (0: unknown)
 };
 
 struct Station {

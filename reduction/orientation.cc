@@ -45,9 +45,13 @@ OrientationResult Orient(const OrientationProblem& problem, const OrientationOpt
   IndexedNetwork network;
   std::vector<std::string>& station_ids = network.station_ids;
   std::map<std::string, int>& station_index = network.station_index;
-  station_ids = problem.station_ids;
-  for (const auto& id : station_ids)
-    station_index.emplace(id, static_cast<int>(station_index.size()));
+  for (const auto& id : problem.station_ids) {
+    if (!station_index.emplace(id, static_cast<int>(station_ids.size())).second) {
+      refuse("station " + id + " is listed twice");
+      continue;
+    }
+    station_ids.push_back(id);
+  }
   for (const auto& obs : problem.observations) {
     if (!station_index.count(obs.station)) {
       station_index.emplace(obs.station, static_cast<int>(station_ids.size()));
@@ -65,7 +69,9 @@ OrientationResult Orient(const OrientationProblem& problem, const OrientationOpt
       station_info[i].sigma_v_rad = it->second;
   }
   std::map<std::string, ControlPoint>& control = network.control;
-  for (const auto& c : problem.control) control[c.id] = c;
+  for (const auto& c : problem.control) {
+    if (!control.emplace(c.id, c).second) refuse("control point " + c.id + " is given twice");
+  }
 
   using Obs = IndexedObservation;
   std::vector<Obs>& obs = network.obs;
@@ -116,12 +122,54 @@ OrientationResult Orient(const OrientationProblem& problem, const OrientationOpt
         "no scale: give a scale bar (--scale-bar A:B=LEN_MM), distances, or control points "
         "(--control)");
   }
+  // Constraints between two things must join two different ones: Ceres is never given one
+  // parameter block twice (it aborts the process on that).
   for (const auto& bar : problem.scale_bars) {
+    if (bar.from == bar.to) {
+      refuse("scale bar " + bar.from + ":" + bar.to + ": both ends are the same point");
+      continue;
+    }
     for (const auto* end : {&bar.from, &bar.to}) {
       if (!usable.count(*end)) {
         refuse("scale bar " + bar.from + ":" + bar.to + ": point " + *end +
                (rays_of_point.count(*end) ? " has only one ray" : " is never observed"));
       }
+    }
+  }
+  if (use_control) {
+    // The control points fix position, orientation and scale only when they are spread:
+    // all in one place they fix no azimuth and no scale; on one line, no rotation about it
+    // when no station is levelled.
+    Eigen::Vector3d mean = Eigen::Vector3d::Zero();
+    for (const auto& c : problem.control) mean += c.position_mm;
+    mean /= static_cast<double>(problem.control.size());
+    Eigen::Matrix3d scatter = Eigen::Matrix3d::Zero();
+    for (const auto& c : problem.control) {
+      scatter += (c.position_mm - mean) * (c.position_mm - mean).transpose();
+    }
+    const Eigen::Vector3d spread = Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d>(scatter)
+                                       .eigenvalues()
+                                       .cwiseMax(0)
+                                       .cwiseSqrt();
+    bool all_unlevelled = ns > 0;
+    for (const auto& id : station_ids) all_unlevelled &= problem.unlevelled.count(id) > 0;
+    constexpr double kSpreadMm = 1e-3;  // a µm: below any survey, above rounding
+    if (!(spread(2) > kSpreadMm)) {
+      refuse(
+          "the control points all lie in one place: they fix no orientation and no scale "
+          "(give control points at different places)");
+    } else if (all_unlevelled && !(spread(1) > kSpreadMm)) {
+      refuse(
+          "the control points lie on one line and no station is levelled: the network can "
+          "turn about that line (give a control point off the line)");
+    }
+  }
+  for (int i = 0; i < ns; ++i) {
+    bool observed = false;
+    for (const auto& o : obs) observed |= o.station == i || o.target_station == i;
+    if (!observed) {
+      refuse("station " + station_ids[i] + " has no observations");
+      continue;
     }
   }
   for (int i = 0; i < ns; ++i) {
@@ -152,6 +200,34 @@ OrientationResult Orient(const OrientationProblem& problem, const OrientationOpt
   if (!initial) return refused();
   std::vector<StationState>& st = initial->stations;
   std::map<std::string, Eigen::Vector3d>& known = initial->points;
+  // Approximate values the adjustment can start from: finite, and no station on a point it
+  // sights (a direction to itself has no derivative; it would fail at the first step).
+  {
+    constexpr double kCoincidentMm = 1e-6;
+    for (int i = 0; i < ns; ++i) {
+      if (!st[i].position.allFinite() || !std::isfinite(st[i].azimuth) ||
+          !st[i].angle_axis.allFinite()) {
+        refuse("station " + station_ids[i] + ": no finite approximate pose from its rays");
+      }
+    }
+    for (const auto& o : obs) {
+      const Eigen::Vector3d* target = nullptr;
+      if (o.target_station >= 0) {
+        target = &st[o.target_station].position;
+      } else if (auto it = known.find(o.point); it != known.end()) {
+        target = &it->second;
+      }
+      if (target &&
+          (!target->allFinite() || (*target - st[o.station].position).norm() <= kCoincidentMm)) {
+        refuse("station " + station_ids[o.station] + " and " +
+               (o.target_station >= 0 ? "station " : "point ") + o.point +
+               " get the same approximate position: the observations do not place them apart "
+               "(repeated or contradictory sightings?)");
+        break;
+      }
+    }
+    if (!result.refusals.empty()) return refused();
+  }
 
   // --- The bundle. Coordinates are shifted to the first station's start so that large
   // coordinates (1e7 mm) keep their precision; shifted back at the end.
@@ -343,6 +419,17 @@ OrientationResult Orient(const OrientationProblem& problem, const OrientationOpt
     Eigen::SimplicialLDLT<Eigen::SparseMatrix<double>> check(scaled);
     const bool singular = check.info() != Eigen::Success || ldlt.info() != Eigen::Success ||
                           check.vectorD().minCoeff() < 1e-8;  // healthy networks: ~1e-3
+    if (singular && !converged) {
+      // Iterations that ran out ending on a singular network: not a datum defect but an
+      // adjustment that went astray (typically a gross blunder far from the other rays).
+      result.status = {SolveCode::kNotConverged,
+                       "the adjustment did not converge after " +
+                           std::to_string(result.iterations) +
+                           " iterations and ended on a degenerate network (a gross blunder? "
+                           "check the rays of the points named in the warnings, and rays read "
+                           "at the zenith or nadir)"};
+      return result;
+    }
     if (singular) {
       refuse(targets_collinear
                  ? "all target points lie on one line: the stations can turn about it, the "

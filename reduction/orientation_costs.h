@@ -13,8 +13,9 @@
 namespace armsig::reduction {
 
 // Hz and V of a point (or another station's centre) seen from a station: the observation
-// equation HzVResidual, or PoleResidual for a reading at the zenith or nadir (NearPole),
-// whose two components are both weighted with sigma_v (see SigmaAcross). kOrientationSize 1:
+// equation AngleResidualOf (HzVResidual, or PoleResidual for a reading at the zenith or nadir,
+// whose two components are both weighted with sigma_v: see SigmaAcross), finite for every
+// prediction, the standing axis included. kOrientationSize 1:
 // levelled, the azimuth (world_from_station = Rz(−azimuth)); 3: angle-axis of world_from_station.
 template <int kOrientationSize>
 struct AngleResidual {
@@ -35,7 +36,10 @@ struct AngleResidual {
       const T inverse[3] = {-orientation[0], -orientation[1], -orientation[2]};
       ceres::AngleAxisRotatePoint(inverse, world, d.data());
     }
-    const Eigen::Matrix<T, 2, 1> r = NearPole(v) ? PoleResidual(d, hz, v) : HzVResidual(d, hz, v);
+    // A target on the station itself has no direction: not a step Ceres may take (it rejects
+    // it and shortens the step); initial values never put one there (Orient refuses).
+    if (d.dot(d) == T(0)) return false;
+    const Eigen::Matrix<T, 2, 1> r = AngleResidualOf(d, hz, v);
     residual[0] = r(0) / T(SigmaAcross(v, sigma_hz, sigma_v));
     residual[1] = r(1) / T(sigma_v);
     return true;
@@ -62,7 +66,9 @@ struct LengthResidual {
   bool operator()(const T* a, const T* b, T* residual) const {
     using std::sqrt;
     const T dx = b[0] - a[0], dy = b[1] - a[1], dz = b[2] - a[2];
-    residual[0] = (sqrt(dx * dx + dy * dy + dz * dz) - T(length)) / T(sigma);
+    const T squared = dx * dx + dy * dy + dz * dz;
+    if (squared == T(0)) return false;  // the derivative of |b − a| at a = b is 0/0
+    residual[0] = (sqrt(squared) - T(length)) / T(sigma);
     return true;
   }
   static ceres::CostFunction* Create(double length, double sigma) {

@@ -184,14 +184,19 @@ std::optional<InitialValues> FindInitialValues(const OrientationProblem& problem
           ++polar_count;
         }
       }
-      if (polar_count > 0) {
+      // Directions from two or more places first: they hold whatever the distances say,
+      // so that one wrong distance (a blunder, a ray read at the zenith) cannot carry the
+      // point away from its other rays, and they need no scale (the network's scale is
+      // still provisional here). A polar point only for a point no two rays intersect.
+      bool spread = false;
+      for (size_t a = 0; a < dirs.size() && !spread; ++a)
+        for (size_t b = a + 1; b < dirs.size() && !spread; ++b)
+          spread = dirs[a].cross(dirs[b]).norm() > 1e-3 &&
+                   (origins[a] - origins[b]).norm() > 0;
+      if (spread) {
+        known[point] = ClosestPointOfLines(origins, dirs, nullptr);
+      } else if (polar_count > 0) {
         known[point] = polar / polar_count;
-      } else if (origins.size() >= 2) {
-        bool spread = false;
-        for (size_t a = 0; a < dirs.size() && !spread; ++a)
-          for (size_t b = a + 1; b < dirs.size(); ++b)
-            spread |= dirs[a].cross(dirs[b]).norm() > 1e-3;
-        if (spread) known[point] = ClosestPointOfLines(origins, dirs, nullptr);
       }
     }
   };
@@ -200,8 +205,12 @@ std::optional<InitialValues> FindInitialValues(const OrientationProblem& problem
   // station's distances place it (in a local frame the scale comes last).
   bool metric_frame = use_control;
   // Resection of station i from known points and placed stations it sights or that sight it.
+  // Each sighted point counts once: a repeated sighting of one point (the same line twice in
+  // a file) is no second direction, and two rays to one point place the station on that
+  // point.
   auto try_resect = [&](int i) {
     std::vector<Eigen::Vector3d> points, dirs, polar_points, polar;
+    std::set<std::string> sighted;
     for (const auto& o : obs) {
       if (o.station != i) continue;
       const Eigen::Vector3d* at = nullptr;
@@ -210,7 +219,7 @@ std::optional<InitialValues> FindInitialValues(const OrientationProblem& problem
       } else if (auto it = known.find(o.point); it != known.end()) {
         at = &it->second;
       }
-      if (!at) continue;
+      if (!at || !sighted.insert(o.point).second) continue;
       points.push_back(*at);
       dirs.push_back(dir_in_station(o));
       if (o.distance) {
@@ -221,6 +230,11 @@ std::optional<InitialValues> FindInitialValues(const OrientationProblem& problem
     if (metric_frame && ResectPolar(polar_points, polar, st[i])) return true;
     if (!st[i].levelled && ResectUnlevelled(points, dirs, st[i])) return true;
     if (points.size() < 2) return false;
+    bool apart = false;  // at least two of the points are distinct places
+    for (size_t k = 1; k < points.size() && !apart; ++k) {
+      apart = (points[k] - points[0]).norm() > 1e-6 * std::max(1.0, points[0].norm());
+    }
+    if (!apart) return false;
     auto cost = [&](double az) {
       std::vector<Eigen::Vector3d> world(dirs.size());
       const Eigen::Matrix3d r = LevelledRotation(az);

@@ -13,6 +13,7 @@
 
 #include "calibration/drift.h"
 #include "core/error.h"
+#include "core/text.h"
 #include "io/residual_map_json.h"
 
 namespace armsig::workflows {
@@ -520,9 +521,9 @@ db::CalibrationRecord CalibrationRecordOf(const calibration::RobotModel& model,
   db::CalibrationRecord c;
   c.robot_id = robot_id;
   c.params_spec = run.params_spec;
-  c.inputs_json = inputs.dump();
-  c.options_json = options.dump();
-  c.report_json = CalibrationJson(model, run).dump();
+  c.inputs_json = JsonText(inputs);
+  c.options_json = JsonText(options);
+  c.report_json = JsonText(CalibrationJson(model, run));
   c.rank = e.identifiability.rank;
   c.poses_fit = static_cast<int>(run.fit_pose_ids.size());
   c.poses_validation = static_cast<int>(run.validation_pose_ids.size());
@@ -539,7 +540,7 @@ db::CalibrationRecord CalibrationRecordOf(const calibration::RobotModel& model,
   }
   c.active = active;
   c.world_from_base = e.world_from_base;
-  if (run.map_used()) c.residual_map_json = io::ResidualMapToJson(run.residual_map->map).dump();
+  if (run.map_used()) c.residual_map_json = JsonText(io::ResidualMapToJson(run.residual_map->map));
   if (e.covariance.rows() == static_cast<int>(e.identifiability.identified.size())) {
     const auto names = model.ParameterNames();
     for (int k : e.identifiability.identified) c.covariance_parameters.push_back(names[k]);

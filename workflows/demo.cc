@@ -20,6 +20,7 @@
 #include "calibration/selection.h"
 #include "calibration/simulation.h"
 #include "core/error.h"
+#include "core/text.h"
 #include "core/units.h"
 #include "db/database.h"
 #include "db/store.h"
@@ -562,7 +563,7 @@ DemoResult RunDemo(const DemoOptions& options, const DemoObserver& observer) {
     out["stages"] = stages;
   }
   if (!options.json_path.empty())
-    io::WriteFileAtomically(options.json_path, result.json.dump(2) + "\n");
+    io::WriteFileAtomically(options.json_path, JsonText(result.json, 2) + "\n");
   result.completed = true;
   result.seconds = seconds;
   return result;

@@ -8,6 +8,7 @@
 #include <vector>
 
 #include "core/error.h"
+#include "core/text.h"
 #include "core/units.h"
 #include "db/database.h"
 #include "io/atomic_file.h"
@@ -35,7 +36,8 @@ io::PoseImportOptions ImportOptionsOf(const ImportPosesRequest& r) {
   if (r.preset == "ur-ipa") {
     import = io::PoseImportOptions::UrIpa();
   } else if (!r.preset.empty()) {
-    throw InputError({"--preset", 0, 0, ""}, "unknown preset '" + r.preset + "' (expected ur-ipa)");
+    throw InputError({"--preset", 0, 0, ""},
+                     "unknown preset " + Quoted(r.preset) + " (expected ur-ipa)");
   }
   if (!r.joint_columns.empty()) import.joint_columns = SplitList(r.joint_columns);
   if (!r.xyz_columns.empty()) import.xyz_columns = SplitList(r.xyz_columns);

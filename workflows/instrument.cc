@@ -6,6 +6,7 @@
 
 #include "acquisition/lab.h"
 #include "core/error.h"
+#include "core/text.h"
 #include "core/units.h"
 
 namespace armsig::workflows {
@@ -46,7 +47,7 @@ std::string ReadController(const InstrumentRequest& o, const instruments::RetryP
   const Eigen::VectorXd q = robot->ReadJointsRad();
   if (o.json) {
     std::vector<double> joints(q.data(), q.data() + q.size());
-    return nlohmann::json{{"controller", robot->name()}, {"joints_rad", joints}}.dump() + "\n";
+    return JsonText(nlohmann::json{{"controller", robot->name()}, {"joints_rad", joints}}) + "\n";
   }
   std::string text = fmt::format("{}: {} joints (deg):", robot->name(), q.size());
   for (int i = 0; i < q.size(); ++i) text += fmt::format(" {:.3f}", q(i) / kRadPerDeg);
@@ -71,11 +72,10 @@ std::string QueryInstrument(const InstrumentRequest& o) {
   if (o.action == "probe") {
     const auto info = device->Identify();
     if (o.json) {
-      return nlohmann::json{{"port", device->name()},
-                            {"name", info.name},
-                            {"serial", info.serial},
-                            {"firmware", info.firmware}}
-                 .dump() +
+      return JsonText(nlohmann::json{{"port", device->name()},
+                                     {"name", info.name},
+                                     {"serial", info.serial},
+                                     {"firmware", info.firmware}}) +
              "\n";
     }
     return fmt::format("{}: {} serial {} firmware {}\n", device->name(), info.name, info.serial,
@@ -83,7 +83,7 @@ std::string QueryInstrument(const InstrumentRequest& o) {
   }
   const bool distance = o.distance || o.protocol == "emscon";  // a tracker always has one
   const auto r = distance ? device->MeasureDistanceAndAngles() : device->MeasureAngles();
-  if (o.json) return ReadingJson(r, device->name()).dump() + "\n";
+  if (o.json) return JsonText(ReadingJson(r, device->name())) + "\n";
   return fmt::format("{}: Hz {:.5f} gon  V {:.5f} gon  face {}{}{}\n", device->name(),
                      FromRad(r.angles.hz_rad, AngleUnit::kGon),
                      FromRad(r.angles.v_rad, AngleUnit::kGon), r.angles.face,

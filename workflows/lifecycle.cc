@@ -10,6 +10,8 @@
 
 #include "acquisition/session_owner.h"
 #include "core/error.h"
+#include "core/plausibility.h"
+#include "core/text.h"
 #include "db/store.h"
 #include "io/atomic_file.h"
 #include "io/model_yaml.h"
@@ -32,14 +34,14 @@ int64_t RobotId(db::Database& database, const std::string& robot) {
 
 bool RegisterRobot(db::Database& database, const std::string& name, const std::string& model_path) {
   if (name.empty()) throw InputError({"NAME", 0, 0, ""}, "a robot needs a name");
-  const std::string text = io::ReadWholeFile(model_path);
+  const std::string text = io::ReadWholeFile(model_path, io::kYamlFileLimit);
   const auto model = io::ParseRobotModel(text, model_path);  // refuses a bad file, by line
   db::WriteTransaction tx(database);
   if (const auto id = db::FindRobot(database, name)) {
     if (db::RobotModelYaml(database, *id) == text) return false;
     throw InputError({model_path, 0, 0, ""},
-                     "robot '" + name +
-                         "' is already registered with another model; choose another name (" +
+                     "robot " + Quoted(name) +
+                         " is already registered with another model; choose another name (" +
                          Hint(database.path(), {"robot", "list"}) + ")");
   }
   db::EnsureRobot(database, name, model.name, text);
@@ -114,7 +116,10 @@ StoredPoses StorePosesSession(db::Database& database, const std::string& robot,
     return result;
   }
   const int64_t session =
-      db::CreateSession(database, robot_id, "", "", "completed", "poses imported from " + source);
+      db::CreateSession(database, robot_id, "", "", "completed",
+                        // The file name is input: shown in the note, never obeyed.
+                        std::string(TruncateUtf8("poses imported from " + Printable(source),
+                                                 plausible::kMaxNoteLength)));
   for (size_t k = 0; k < poses.size(); ++k) {
     const int64_t pose = db::InsertPose(database, session, static_cast<int>(k), poses[k].id,
                                         poses[k].joints_rad, "measured", 1);
@@ -235,7 +240,7 @@ namespace {
 std::string JsonArray(const auto& items) {
   nlohmann::json out = nlohmann::json::array();
   for (const auto& item : items) out.push_back(ToJson(item));
-  return out.dump(2) + "\n";
+  return JsonText(out, 2) + "\n";
 }
 
 }  // namespace
@@ -247,8 +252,10 @@ std::string FormatRobots(const std::vector<db::RobotRow>& robots, bool json,
   std::string text;
   for (const auto& r : robots) {
     text +=
-        fmt::format("{:<20} model {:<12} {:>3} sessions  active version {}\n", r.name, r.model_name,
-                    r.sessions, r.active_version ? std::to_string(*r.active_version) : "none");
+        // Text from the database is shown, never obeyed (an edited file may hold anything).
+        fmt::format("{:<20} model {:<12} {:>3} sessions  active version {}\n", Printable(r.name),
+                    Printable(r.model_name), r.sessions,
+                    r.active_version ? std::to_string(*r.active_version) : "none");
   }
   return text;
 }
@@ -260,8 +267,8 @@ std::string FormatSessions(const std::vector<db::SessionSummary>& sessions, bool
   for (const auto& s : sessions) {
     text += fmt::format(
         "{:>4}  {:<16} {:<11} {}  {:>4} measured {:>3} skipped {:>4} usable ({} flagged)  {}\n",
-        s.id, s.robot, s.state, s.started_at.substr(0, 19), s.measured, s.skipped, s.usable,
-        s.flagged, s.note);
+        s.id, Printable(s.robot), Printable(s.state), Printable(s.started_at.substr(0, 19)),
+        s.measured, s.skipped, s.usable, s.flagged, Printable(s.note));
   }
   return text;
 }
@@ -275,15 +282,17 @@ std::string FormatVersions(const std::vector<VersionInfo>& versions, bool json,
     std::string activated = "never active";
     if (!v.activations.empty()) {
       const auto& a = v.activations.back();
-      activated = fmt::format("activated {} by {}", a.activated_at.substr(0, 19), a.activated_by);
+      activated = fmt::format("activated {} by {}", Printable(a.activated_at.substr(0, 19)),
+                              Printable(a.activated_by));
       if (v.activations.size() > 1)
         activated += fmt::format(" ({} times)", v.activations.size());
     }
     text += fmt::format(
         "{} v{:<3} {}  params {:<9} rank {:>2}  fit {:>3} poses  validation mean {:.4f} max "
         "{:.4f} mm on {}  sessions {}  {}{}\n",
-        v.active ? "*" : " ", v.version, v.created_at.substr(0, 19), v.params_spec, v.rank,
-        v.poses_fit, v.validation_mean_mm, v.validation_max_mm, v.poses_validation,
+        v.active ? "*" : " ", v.version, Printable(v.created_at.substr(0, 19)),
+        Printable(v.params_spec), v.rank, v.poses_fit, v.validation_mean_mm, v.validation_max_mm,
+        v.poses_validation,
         v.sessions.empty() ? std::string("(not recorded)")
                            : fmt::format("{}", fmt::join(v.sessions, ",")),
         activated,

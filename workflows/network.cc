@@ -9,6 +9,7 @@
 #include <stdexcept>
 
 #include "core/error.h"
+#include "core/text.h"
 #include "core/units.h"
 #include "io/atomic_file.h"
 #include "io/csv.h"
@@ -66,14 +67,14 @@ OrientRun OrientFiles(const OrientFilesOptions& options) {
     bool observed = false;
     for (const auto& o : problem.observations) observed |= o.station == options.datum_station;
     if (!observed) {
-      throw InputError(
-          {"--datum-station", 0, 0, ""},
-          "station '" + options.datum_station + "' has no observations in " + options.observations);
+      throw InputError({"--datum-station", 0, 0, ""}, "station " + Quoted(options.datum_station) +
+                                                          " has no observations in " +
+                                                          options.observations);
     }
   }
   for (const auto& id : options.unlevelled) {
     if (!seen.count(id)) {
-      throw InputError({"--unlevelled", 0, 0, ""}, "unknown station '" + id + "'");
+      throw InputError({"--unlevelled", 0, 0, ""}, "unknown station " + Quoted(id));
     }
     problem.unlevelled.insert(id);
   }
@@ -216,8 +217,9 @@ TriangulateRun TriangulateFiles(const TriangulateFilesOptions& options) {
     const auto& o = run.observations[k];
     auto it = by_id.find(o.station);
     if (it == by_id.end()) {
-      throw InputError({options.observations, o.source_line, 0, "station"},
-                       "station '" + o.station + "' is not in " + options.stations);
+      throw InputError({options.observations, o.source_line, o.source_station_column, "station"},
+                       "station " + Quoted(o.station) + " is not in " + options.stations +
+                           " (expected one of its stations)");
     }
     if (by_id.count(o.point)) continue;  // a mutual pointing: not a target point
     auto [pos, inserted] = index.emplace(o.point, run.points.size());

@@ -18,6 +18,7 @@
 #include "calibration/drift.h"
 #include "calibration/identifiability.h"
 #include "core/error.h"
+#include "core/text.h"
 #include "db/database.h"
 #include "db/report_queries.h"
 #include "db/store.h"
@@ -114,7 +115,7 @@ std::string SinceToUtc(const std::string& text) {
   static const std::regex iso(
       R"(^(\d{4})-(\d{2})-(\d{2})(?:[T ](\d{2}):(\d{2})(?::(\d{2})(?:\.(\d+))?)?(Z|([+-])(\d{2})(?::?(\d{2}))?)?)?$)");
   auto fail = [&](const std::string& why) -> InputError {
-    return InputError({"--since", 0, 0, ""}, "'" + text + "': " + why);
+    return InputError({"--since", 0, 0, ""}, Quoted(text) + ": " + why);
   };
   std::smatch m;
   if (!std::regex_match(text, m, iso)) {
@@ -334,7 +335,7 @@ RecalibrationDecision Recalibrate(const RecalibrateOptions& o) {
                                  {"params", o.params},   {"select", o.select},
                                  {"residual_model", o.residual_model}};
   spdlog::debug("recalibrate: inputs: {} poses from sessions {}, --params {} --select {}: digest {}",
-                poses.size(), nlohmann::json(sessions).dump(), o.params, o.select, digest);
+                poses.size(), JsonText(nlohmann::json(sessions)), o.params, o.select, digest);
   // Idempotence on content: a stored set was already fitted on exactly these measurements
   // with these options, however they were asked for. The active one first; else the
   // newest other one (after `activate` chose another set: the night does not undo it).
@@ -515,7 +516,7 @@ RecalibrationDecision Recalibrate(const RecalibrateOptions& o) {
                                       {"drift_sigma", gates.drift_sigma},
                                       {"drift_mm", gates.drift_mm}}}};
     db::CalibrationRecord record = CalibrationRecordOf(model, run, *robot_id, inputs, options, true);
-    if (d.previous_version) record.drift_json = d.DriftJson().dump();
+    if (d.previous_version) record.drift_json = JsonText(d.DriftJson());
     db::WriteTransaction tx(database);
     d.version = db::InsertCalibration(database, record).second;
     db::RecordActivation(

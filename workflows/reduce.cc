@@ -11,6 +11,8 @@
 #include "acquisition/lab.h"
 #include "acquisition/records.h"
 #include "core/error.h"
+#include "core/plausibility.h"
+#include "core/text.h"
 #include "db/store.h"
 #include "io/csv.h"
 #include "io/network_io.h"
@@ -96,6 +98,12 @@ ReduceSummary ReduceSession(db::Database& database, int64_t session_id,
   return summary;
 }
 
+std::string ImportNote(const std::string& file) {
+  // The file name is input: shown, never obeyed (a newline in it would be one in the note),
+  // and cut to a note's length.
+  return std::string(TruncateUtf8("imported from " + Printable(file), plausible::kMaxNoteLength));
+}
+
 ImportObservationsResult ImportObservations(db::Database& database,
                                             const ImportObservationsOptions& options) {
   const auto stations = io::ReadStationsYaml(options.stations);
@@ -107,8 +115,9 @@ ImportObservationsResult ImportObservations(db::Database& database,
   for (const auto& s : stations) by_id[s.pose.id] = &s;
   for (const auto& o : observations) {
     if (!by_id.count(o.station)) {
-      throw InputError({options.file, o.source_line, 0, "station"},
-                       "station '" + o.station + "' is not in " + options.stations);
+      throw InputError({options.file, o.source_line, o.source_station_column, "station"},
+                       "station " + Quoted(o.station) + " is not in " + options.stations +
+                           " (expected one of its stations)");
     }
   }
   ImportObservationsResult result;
@@ -116,7 +125,7 @@ ImportObservationsResult ImportObservations(db::Database& database,
   const int64_t robot = db::EnsureRobot(database, options.robot, "", "");
   result.session =
       db::CreateSession(database, robot, "", "", "completed",
-                        options.note.empty() ? "imported from " + options.file : options.note);
+                        options.note.empty() ? ImportNote(options.file) : options.note);
   for (const auto& s : stations) {
     db::InsertStationSetup(database, result.session, acquisition::StationSetupRowOf(s, "file"));
   }
@@ -127,7 +136,7 @@ ImportObservationsResult ImportObservations(db::Database& database,
     const auto& o = observations[k];
     std::optional<int64_t> pose_id;
     if (pose_column) {
-      const std::string& label = table.Text(table.rows()[k], *pose_column);
+      const std::string& label = table.Name(table.rows()[k], *pose_column);
       auto it = pose_ids.find(label);
       if (it == pose_ids.end()) {
         const int seq = static_cast<int>(pose_ids.size());

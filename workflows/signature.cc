@@ -7,6 +7,7 @@
 
 #include "calibration/compensation.h"
 #include "core/error.h"
+#include "core/text.h"
 #include "core/units.h"
 #include "io/csv.h"
 #include "io/model_export.h"
@@ -66,12 +67,15 @@ Eigen::Isometry3d FrameOf(const ActiveSignature& a, const std::string& frame) {
       throw InputError({"--frame", 0, 0, ""}, "the active set has no stored measuring frame");
     return *a.signature.world_from_base;
   }
-  throw InputError({"--frame", 0, 0, ""}, "expected robot or measurement, got '" + frame + "'");
+  throw InputError({"--frame", 0, 0, ""}, "expected robot or measurement, got " + Quoted(frame));
 }
 
 std::string PredictCsv(const ActiveSignature& a, const Eigen::Isometry3d& frame,
                        const std::string& joints_csv, bool map_sigma) {
   const io::CsvTable t = io::ReadCsvFile(joints_csv);
+  std::vector<std::string> known = {"pose"};
+  for (int i = 1; i <= a.model.num_joints(); ++i) known.push_back("q" + std::to_string(i) + "_*");
+  t.RefuseUnreadUnits(known);
   const int id = t.Column("pose");
   std::vector<io::AngleColumn> q;
   for (int i = 1; i <= a.model.num_joints(); ++i)
@@ -103,7 +107,7 @@ std::string PredictCsv(const ActiveSignature& a, const Eigen::Isometry3d& frame,
                                               noise * noise))
             : std::string();
     out += fmt::format("{},{:.6f},{:.6f},{:.6f},{:.6f},{:.6f},{:.6f},{:.6f},{},{}\n",
-                       io::CsvEscape(t.Text(t.rows()[k], id)), x.x(), x.y(), x.z(), nominal.x(),
+                       io::CsvEscape(t.Name(t.rows()[k], id)), x.x(), x.y(), x.z(), nominal.x(),
                        nominal.y(), nominal.z(), (x - nominal).norm(), state, sigma);
   }
   if (outside > 0) {
@@ -120,6 +124,9 @@ CompensationResult Compensate(const ActiveSignature& a, const Eigen::Isometry3d&
                               const std::optional<Eigen::VectorXd>& seed_rad) {
   const int n = a.model.num_joints();
   const io::CsvTable t = io::ReadCsvFile(targets_csv);
+  std::vector<std::string> known = {"point", "x_mm", "y_mm", "z_mm"};
+  for (int i = 1; i <= n; ++i) known.push_back("q" + std::to_string(i) + "_*");
+  t.RefuseUnreadUnits(known);
   const int id = t.Column("point");
   const int cx = t.Column("x_mm"), cy = t.Column("y_mm"), cz = t.Column("z_mm");
   std::vector<io::AngleColumn> q;
@@ -162,7 +169,7 @@ CompensationResult Compensate(const ActiveSignature& a, const Eigen::Isometry3d&
     const auto s = calibration::SolveJoints(a.model, frame, a.signature.params, target, nominal,
                                             {}, a.signature.map.get());
     const bool ok = s.status.ok() && (q.size() || nominal_solution.status.ok());
-    result.csv += io::CsvEscape(t.Text(row, id));
+    result.csv += io::CsvEscape(t.Name(row, id));
     for (int i = 0; i < n; ++i)
       result.csv += ok ? fmt::format(",{:.8f}", s.joints_rad(i) / kRadPerDeg) : std::string(",");
     for (int i = 0; i < n; ++i) result.csv += fmt::format(",{:.8f}", nominal(i) / kRadPerDeg);
@@ -203,7 +210,7 @@ ExportResult ExportSignature(const ActiveSignature& a, const std::string& robot,
                        {"parameters", params},
                        {"residual_map", a.signature.map ? io::ResidualMapToJson(a.signature.map->data())
                                                         : nlohmann::json(nullptr)}};
-    result.text = out.dump(2) + "\n";
+    result.text = JsonText(out, 2) + "\n";
   } else if (format == "model" || format == "urdf") {
     const auto corrected = calibration::CorrectedModel(a.model, a.signature.params, frame);
     if (format == "model") {
@@ -223,7 +230,7 @@ ExportResult ExportSignature(const ActiveSignature& a, const std::string& robot,
       result.warning = result.warning.empty() ? lost : result.warning + "; " + lost;
     }
   } else {
-    throw InputError({"--format", 0, 0, ""}, "expected json, model or urdf, got '" + format + "'");
+    throw InputError({"--format", 0, 0, ""}, "expected json, model or urdf, got " + Quoted(format));
   }
   return result;
 }

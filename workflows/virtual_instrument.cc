@@ -8,6 +8,7 @@
 #include "acquisition/lab.h"
 #include "calibration/simulation.h"
 #include "core/error.h"
+#include "core/text.h"
 #include "core/units.h"
 #include "io/builtin_models.h"
 #include "io/model_yaml.h"
@@ -21,14 +22,14 @@ VirtualInstrument StartVirtualInstrument(const std::string& protocol, const std:
                                          const std::string& tcp) {
   if (protocol != "geocom" && protocol != "gsi" && protocol != "val" && protocol != "as" &&
       protocol != "emscon") {
-    throw InputError({"--protocol", 0, 0, ""}, "unknown protocol '" + protocol +
-                                                   "' (expected geocom, gsi, val, as or emscon)");
+    throw InputError({"--protocol", 0, 0, ""}, "unknown protocol " + Quoted(protocol) +
+                                                   " (expected geocom, gsi, val, as or emscon)");
   }
   const auto address = protocol == "emscon" ? acquisition::SplitHostPort(tcp) : std::nullopt;
   if (protocol == "emscon" && !address) {
     throw InputError(
         {"--tcp", 0, 0, ""},
-        "protocol emscon listens on --tcp HOST:PORT (port 1 to 65535), got '" + tcp + "'");
+        "protocol emscon listens on --tcp HOST:PORT (port 1 to 65535), got " + Quoted(tcp));
   }
   std::error_code ec;
   const auto status = std::filesystem::symlink_status(link, ec);
@@ -83,8 +84,8 @@ int64_t RunVirtualInstrument(const SimulateRequest& request,
   if (!request.fault.empty()) {
     fault = simulation::FaultFromName(request.fault);
     if (!fault) {
-      throw InputError({"--fault", 0, 0, ""}, "unknown fault '" + request.fault +
-                                                  "' (expected one of " + simulation::FaultNames() +
+      throw InputError({"--fault", 0, 0, ""}, "unknown fault " + Quoted(request.fault) +
+                                                  " (expected one of " + simulation::FaultNames() +
                                                   ")");
     }
   }

@@ -12,6 +12,7 @@
 #include <nlohmann/json.hpp>
 #include <thread>
 
+#include "core/text.h"
 #include "core/error.h"
 #include "db/database.h"
 #include "db/postgres_connection.h"
@@ -78,7 +79,7 @@ std::string RecalibrateOptionsToJson(const RecalibrateOptions& o) {
   optional("tolerance_mm", o.tolerance_mm);
   optional("drift_sigma", o.drift_sigma);
   optional("drift_mm", o.drift_mm);
-  return j.dump();
+  return JsonText(j);
 }
 
 RecalibrateOptions RecalibrateOptionsFromJson(const std::string& text) {
@@ -208,7 +209,7 @@ Outcome RunJob(const WorkerOptions& options, db::Connection& queue, const db::Jo
     db::RobotLock lock(queue, kKind, job.robot, o.lock_wait_s);
     const auto d = Recalibrate(o);
     out.state = d.passed() ? db::JobState::kDone : db::JobState::kRejected;
-    out.result_json = d.ToJson().dump();
+    out.result_json = JsonText(d.ToJson());
     out.summary = d.Describe();
     if (d.version > 0) out.version = d.version;
   } catch (const std::exception& e) {

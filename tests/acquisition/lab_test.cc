@@ -136,7 +136,7 @@ TEST_F(LabFile, WrongShapesNamePositionAndWhatWasExpected) {
     const InputError e = LabRefusal(Lab("tolerances: {readings: 1.5}\n"));
     EXPECT_EQ(e.where().line, 7);
     EXPECT_EQ(e.where().column, 24);
-    EXPECT_EQ(e.message(), "expected an integer ≥ 1, got '1.5'");
+    EXPECT_EQ(e.message(), "expected an integer from 1 to 100, got '1.5'");
   }
   {
     const InputError e = LabRefusal(Lab("tolerances: [0.1]\n"));
@@ -166,7 +166,8 @@ TEST_F(LabFile, WrongShapesNamePositionAndWhatWasExpected) {
     const InputError e = LabRefusal(Lab("stations: nowhere.yaml\n"));
     EXPECT_EQ(e.where().file, Path("lab.yaml"));
     EXPECT_EQ(e.where().line, 7);
-    EXPECT_EQ(e.message(), "cannot read stations file " + Path("nowhere.yaml"));
+    EXPECT_EQ(e.message(), "cannot read stations file '" + Path("nowhere.yaml") +
+                               "': cannot open file for reading (No such file or directory)");
   }
 }
 
@@ -336,7 +337,9 @@ TEST(LabSettings, ReadsTheStoredTextWithoutItsFiles) {
     FAIL();
   } catch (const InputError& e) {
     EXPECT_EQ(e.where().line, 2);
-    EXPECT_EQ(e.message(), "cannot read robot model /gone/puma760.yaml");
+    EXPECT_EQ(e.message(),
+              "cannot read robot model '/gone/puma760.yaml': cannot open file for reading (No "
+              "such file or directory)");
   }
   const std::string without = text.substr(0, text.find("recalibration:"));
   EXPECT_FALSE(ParseLabSettings(without, "stored").recalibration.has_value());

@@ -210,6 +210,44 @@ TEST(Estimation, FrozenJointStillFitsWhatTheDataCanSay) {
   EXPECT_GT(r.nominal.mean_mm, 1.0);
 }
 
+// Issue 15: poses that do not move the robot "converged" with σ0 of the targets' scatter.
+TEST(Estimation, PosesThatNeverMoveTheRobotAreRefusedWhateverTheTargets) {
+  std::mt19937 rng(15);
+  const RobotModel model = testing::Puma();
+  std::vector<MeasuredPose> poses;
+  std::uniform_real_distribution<double> scatter(-500.0, 500.0);
+  for (int i = 0; i < 40; ++i) {
+    MeasuredPose p;
+    p.id = "p" + std::to_string(i);
+    p.joints_rad = Eigen::VectorXd::Zero(6);
+    p.target_in_world = Eigen::Vector3d(scatter(rng), scatter(rng), scatter(rng));
+    poses.push_back(p);
+  }
+  auto r = Estimate(model, poses, With(model, "all"));  // base: auto
+  EXPECT_EQ(r.status.code, SolveCode::kDegenerate);
+  EXPECT_NE(r.status.message.find("same joint angles"), std::string::npos) << r.status.message;
+  RobotModel given = model;
+  given.base = LabBase();  // the base does not need the poses: the joints still say nothing
+  for (auto& p : poses) p.joints_rad = Eigen::VectorXd::Constant(6, 0.3);
+  r = Estimate(given, poses, With(given, "all"));
+  EXPECT_EQ(r.status.code, SolveCode::kDegenerate);
+}
+
+TEST(Estimation, PosesThatIdentifyFarFewerParametersThanTheModelAreRefused) {
+  // Only joint 1 moves: the data identify a handful of the 29 parameters.
+  Lab lab = MakeLab(60, 0.0, 16);
+  std::mt19937 rng(16);
+  auto joints = RandomConfigurations(lab.model, 60, rng);
+  for (auto& q : joints) {
+    for (int j = 1; j < 6; ++j) q(j) = 0.2 * j;
+  }
+  lab.fit = SimulatePoses(lab.model, LabBase(), lab.truth, joints, kNoiseMm, rng);
+  const auto r = Estimate(lab.model, lab.fit, With(lab.model, "all"));
+  EXPECT_EQ(r.status.code, SolveCode::kDegenerate);
+  EXPECT_NE(r.status.message.find("joints that never move: 2, 3, 4, 5, 6"), std::string::npos)
+      << r.status.message;
+}
+
 // Two sessions are two set-ups of the instruments: the same robot seen from two
 // measuring frames. Each frame gets its own base; the latest frame is the datum, the other
 // base is estimated with the parameters and found to the noise level.

@@ -4,11 +4,15 @@
 #include <fcntl.h>
 #include <gtest/gtest.h>
 #include <spawn.h>
+#include <sys/stat.h>
 #include <sys/wait.h>
 
+#include <chrono>
 #include <filesystem>
 #include <fstream>
+#include <functional>
 #include <set>
+#include <utility>
 
 #include "core/error.h"
 #include "db/database.h"
@@ -250,6 +254,137 @@ TEST(DatabaseIntegrity, EightConcurrentWriterProcessesAllSucceedAndStoreEveryRow
   }
   EXPECT_EQ(notes.size(), static_cast<size_t>(kWriters));
   for (int k = 0; k < kWriters; ++k) EXPECT_EQ(notes.count("writer " + std::to_string(k)), 1u);
+}
+
+// --- Issue 15, second audit.
+
+// A WAL-mode database written by `make` and copied, while its writer still has it open,
+// together with its -wal but not its -shm (what a backup of the two files, or a copy
+// from another machine, gives). The copy's content lives in its -wal.
+std::string CopiedWithWal(const TempDir& dir, const std::string& name,
+                          const std::function<void(SQLite::Database&)>& make) {
+  const std::string original = dir.File(name + ".orig");
+  const std::string copy = dir.File(name);
+  SQLite::Database raw(original, SQLite::OPEN_READWRITE | SQLite::OPEN_CREATE);
+  raw.exec("PRAGMA journal_mode=WAL");
+  raw.exec("PRAGMA wal_autocheckpoint=0");
+  make(raw);
+  std::filesystem::copy_file(original, copy);
+  std::filesystem::copy_file(original + "-wal", copy + "-wal");
+  return copy;
+}
+
+TEST(DatabaseIntegrity, AForeignOrFutureFileWithAWalButNoShmIsRefusedAndNoShmAppears) {
+  TempDir dir;
+  const std::string foreign = CopiedWithWal(dir, "foreign.db", [](SQLite::Database& db) {
+    db.exec("CREATE TABLE invoices(id INTEGER PRIMARY KEY, total REAL)");
+    db.exec("INSERT INTO invoices(total) VALUES (12.5)");
+  });
+  const std::string future = CopiedWithWal(dir, "future.db", [](SQLite::Database& db) {
+    for (int v = 0; v < LatestSchemaVersion(); ++v) db.exec(std::string(Migrations()[v]));
+    db.exec("PRAGMA application_id=" + std::to_string(kApplicationId));
+    db.exec("PRAGMA user_version=" + std::to_string(LatestSchemaVersion() + 1));
+  });
+  for (const auto& [path, why] : {std::pair{foreign, std::string("not an armsig database")},
+                                  std::pair{future, std::string("newer than this armsig")}}) {
+    const std::string before = ReadText(path), wal_before = ReadText(path + "-wal");
+    for (const OpenMode mode : {OpenMode::kReadOnly, OpenMode::kCreate}) {
+      try {
+        Database db(path, mode);
+        ADD_FAILURE() << path << ": expected an InputError";
+      } catch (const InputError& e) {
+        EXPECT_NE(std::string(e.what()).find(why), std::string::npos) << e.what();
+      }
+      EXPECT_TRUE(ReadText(path) == before) << path;
+      EXPECT_TRUE(ReadText(path + "-wal") == wal_before) << path;
+      EXPECT_FALSE(std::filesystem::exists(path + "-shm")) << path << "-shm created";
+    }
+  }
+  // armsig's own file copied the same way is read with its -wal's content.
+  const std::string own = CopiedWithWal(dir, "own.db", [](SQLite::Database& db) {
+    for (int v = 0; v < LatestSchemaVersion(); ++v) db.exec(std::string(Migrations()[v]));
+    db.exec("PRAGMA application_id=" + std::to_string(kApplicationId));
+    db.exec("PRAGMA user_version=" + std::to_string(LatestSchemaVersion()));
+    db.exec("INSERT INTO robots(name, model_name, model_yaml) VALUES ('r1', 'm', 'x')");
+  });
+  Database db(own, OpenMode::kReadOnly);
+  EXPECT_EQ(db.sql().execAndGet("SELECT count(*) FROM robots").getInt(), 1);
+}
+
+TEST(DatabaseIntegrity, ArmsigsApplicationIdWithSchemaVersionZeroAndTablesIsRefusedUntouched) {
+  TempDir dir;
+  const std::string path = dir.File("zero.db");
+  MakeArmsigDatabase(path);
+  {
+    SQLite::Database raw(path, SQLite::OPEN_READWRITE);
+    raw.exec("PRAGMA user_version=0");
+  }
+  const std::string before = ReadText(path);
+  const std::string why = Refusal(path);
+  EXPECT_NE(why.find("carries armsig's application_id but is not a database armsig made "
+                     "(schema version 0"),
+            std::string::npos)
+      << why;
+  EXPECT_EQ(why.find("already exists"), std::string::npos) << why;
+  ExpectUntouched(path, before);
+}
+
+TEST(DatabaseIntegrity, CommandsThatOnlyReadCreateAndInitialiseNothing) {
+  TempDir dir;
+  const std::string empty = dir.File("empty.db");
+  testing::WriteText(empty, "");
+  for (const OpenMode mode : {OpenMode::kReadOnly, OpenMode::kMustExist}) {
+    try {
+      Database db(empty, mode);
+      ADD_FAILURE() << "an empty file was opened";
+    } catch (const InputError& e) {
+      EXPECT_NE(std::string(e.what()).find("an empty file, not an armsig database yet"),
+                std::string::npos)
+          << e.what();
+    }
+    ExpectUntouched(empty, "");
+  }
+  EXPECT_THROW(Database(dir.File("missing.db"), OpenMode::kReadOnly), InputError);
+  EXPECT_FALSE(std::filesystem::exists(dir.File("missing.db")));
+
+  // An armsig file of schema v1 is read through a migrated copy in memory: the file is left
+  // byte for byte (no migration written, no application_id set).
+  const std::string old = dir.File("v1.db");
+  {
+    SQLite::Database raw(old, SQLite::OPEN_READWRITE | SQLite::OPEN_CREATE);
+    raw.exec(std::string(Migrations()[0]));
+    raw.exec("PRAGMA user_version=1");
+    raw.exec("INSERT INTO robots(name, model_name, model_yaml) VALUES ('r1','puma760','x')");
+  }
+  const std::string before = ReadText(old);
+  {
+    Database db(old, OpenMode::kReadOnly);
+    EXPECT_TRUE(db.read_only());
+    EXPECT_EQ(db.SchemaVersion(), LatestSchemaVersion());
+    EXPECT_EQ(db.sql().execAndGet("SELECT count(*) FROM robots").getInt(), 1);
+  }
+  EXPECT_TRUE(ReadText(old) == before);
+  // A read-only connection refuses writes.
+  const std::string current = dir.File("current.db");
+  MakeArmsigDatabase(current);
+  Database db(current, OpenMode::kReadOnly);
+  EXPECT_THROW(db.sql().exec("DELETE FROM robots"), SQLite::Exception);
+}
+
+TEST(DatabaseIntegrity, ANonRegularFileIsNeverOpened) {
+  TempDir dir;
+  const std::string fifo = dir.File("lab.db");
+  ASSERT_EQ(::mkfifo(fifo.c_str(), 0600), 0);
+  const auto start = std::chrono::steady_clock::now();
+  for (const OpenMode mode : {OpenMode::kCreate, OpenMode::kReadOnly}) {
+    try {
+      Database db(fifo, mode);
+      ADD_FAILURE() << "a FIFO was opened";
+    } catch (const InputError& e) {
+      EXPECT_NE(std::string(e.what()).find("not a regular file"), std::string::npos) << e.what();
+    }
+  }
+  EXPECT_LT(std::chrono::steady_clock::now() - start, std::chrono::seconds(2));
 }
 
 }  // namespace

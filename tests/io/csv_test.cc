@@ -93,13 +93,14 @@ TEST(Csv, SplitDecimalCommaInCommaFileNamesLineAndColumn) {
     EXPECT_NE(std::string(e.what()).find("'-2,5' looks like a decimal comma"), std::string::npos)
         << e.what();
   }
-  // Several candidates for one extra field: the line and the hint, no guessed column.
+  // Several candidates for one extra field: no guessed split, but the line, the first
+  // column beyond the header (the one too many) and the hint.
   try {
     ParseCsv("a,b,c\n1,2,3,4\n", "f.csv");
     FAIL() << "expected InputError";
   } catch (const InputError& e) {
     EXPECT_EQ(e.where().line, 2);
-    EXPECT_EQ(e.where().column, 0);
+    EXPECT_EQ(e.where().column, 4);
     EXPECT_NE(std::string(e.what()).find("a decimal comma?"), std::string::npos) << e.what();
   }
 }

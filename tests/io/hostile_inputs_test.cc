@@ -2,12 +2,17 @@
 // names with control characters are input errors naming file:line:column and what was
 // expected, in every reader (core/plausibility.h holds the ranges).
 #include <gtest/gtest.h>
+#include <sys/stat.h>
 
+#include <chrono>
+#include <filesystem>
 #include <functional>
 
 #include "acquisition/lab.h"
 #include "core/error.h"
 #include "core/plausibility.h"
+#include "io/atomic_file.h"
+#include "io/gsi_import.h"
 #include "io/model_yaml.h"
 #include "io/network_io.h"
 #include "io/poses_csv.h"
@@ -76,7 +81,8 @@ TEST(HostileInputs, PosesCoordinateOf1e308IsRefusedAtItsLineAndColumn) {
   EXPECT_EQ(e.where().file, path);
   EXPECT_EQ(e.where().line, 2);
   EXPECT_EQ(e.where().column, 10);
-  EXPECT_NE(e.message().find("a finite coordinate within ±1e+10 mm"), std::string::npos) << e.what();
+  EXPECT_NE(e.message().find("a finite coordinate within ±1e+10 mm"), std::string::npos)
+      << e.what();
 }
 
 TEST(HostileInputs, JointAnglesBeyond720DegreesAndHugeLengthsInEveryCsvReader) {
@@ -105,7 +111,7 @@ TEST(HostileInputs, JointAnglesBeyond720DegreesAndHugeLengthsInEveryCsvReader) {
   PoseImportOptions options;
   options.joint_columns = {"j1"};
   options.xyz_columns = {"X", "Y", "Z"};
-  options.length_scale_to_mm = 1000.0;                           // metres
+  options.length_scale_to_mm = 1000.0;                          // metres
   WriteText(dir.File("i.csv"), "j1,X,Y,Z\n0.1,1.5,2e7,0.3\n");  // 20,000 km
   e = Refusal([&] { ImportPoses(dir.File("i.csv"), options); });
   EXPECT_EQ(e.where().column, 3);
@@ -208,6 +214,218 @@ TEST(HostileInputs, NamesWithControlCharactersAreRefusedWhereTheyEnter) {
             "pose,q1_deg,x_mm,y_mm,z_mm\n" + std::string(70, 'p') + ",1,2,3,4\n");
   e = Refusal([&] { ReadPosesCsv(dir.File("p.csv"), 1); });
   EXPECT_NE(e.message().find("1 to 64"), std::string::npos) << e.what();
+}
+
+// --- Issue 15, second audit.
+
+InputError FaultRefusal(const std::function<void(const std::string&)>& read,
+                        const std::string& file) {
+  return Refusal([&] { read(DataPath("faults/" + file)); });
+}
+
+TEST(HostileInputs, AmbiguousCsvHeadersAreRefusedNamingBothColumns) {
+  const auto observations = [](const std::string& p) { ReadObservationsCsv(p); };
+  InputError e = FaultRefusal(observations, "observations-duplicate-column.csv");
+  EXPECT_EQ(e.where().line, 2);  // the header, after a comment line
+  EXPECT_EQ(e.where().column, 6);
+  EXPECT_NE(e.message().find("duplicate column 'distance_mm' (also column 5)"), std::string::npos)
+      << e.what();
+  e = FaultRefusal(observations, "observations-hz-two-units.csv");
+  EXPECT_EQ(e.where().column, 5);
+  EXPECT_NE(e.message().find("'hz_deg' gives the same quantity as column 3 'hz_gon'"),
+            std::string::npos)
+      << e.what();
+  e = FaultRefusal(observations, "observations-distance-in-metres.csv");
+  EXPECT_EQ(e.where().column, 5);
+  EXPECT_NE(e.message().find("expected distance_mm"), std::string::npos) << e.what();
+  e = FaultRefusal(observations, "observations-sigma-mgon.csv");
+  EXPECT_NE(e.message().find("'sigma_hz_mgon' is in a unit armsig does not read: expected "
+                             "sigma_hz_arcsec"),
+            std::string::npos)
+      << e.what();
+
+  TempDir dir;
+  WriteText(dir.File("p.csv"), "pose,q1_deg,x_mm,y_mm,z_mm,x_mm\na,1,2,3,4,5\n");
+  EXPECT_EQ(Refusal([&] { ReadPosesCsv(dir.File("p.csv"), 1); }).where().column, 6);
+  WriteText(dir.File("p.csv"), "pose,q1_grad,x_mm,y_mm,z_mm\na,1,2,3,4\n");
+  e = Refusal([&] { ReadPosesCsv(dir.File("p.csv"), 1); });
+  EXPECT_EQ(e.where().column, 2);
+  EXPECT_NE(e.message().find("expected q1_gon, q1_deg or q1_rad"), std::string::npos) << e.what();
+  WriteText(dir.File("c.csv"), "point,x_mm,y_mm,z_mm,sx_m\nC,1,2,3,0.001\n");
+  EXPECT_EQ(Refusal([&] { ReadControlCsv(dir.File("c.csv")); }).where().column, 5);
+  // Extra columns of other names are still the file's own (SPEC).
+  WriteText(dir.File("p.csv"),
+            "pose,q1_deg,x_mm,y_mm,z_mm,operator,temperature_c\na,1,2,3,4,ann,20\n");
+  EXPECT_EQ(ReadPosesCsv(dir.File("p.csv"), 1).size(), 1u);
+
+  PoseImportOptions options;
+  options.joint_columns = {"q1_deg", "q1_deg"};
+  options.xyz_columns = {"x", "y", "z"};
+  WriteText(dir.File("i.csv"), "q1_deg,x,y,z\n1,2,3,4\n");
+  e = Refusal([&] { ImportPoses(dir.File("i.csv"), options); });
+  EXPECT_EQ(e.where().file, "--joint-columns");
+  EXPECT_NE(e.message().find("'q1_deg' is given twice"), std::string::npos) << e.what();
+}
+
+TEST(HostileInputs, MessagesNameTheColumnAndTheValue) {
+  TempDir dir;
+  WriteText(dir.File("p.csv"), "pose,q1_deg,q2_deg,q3_deg,x_mm,y_mm,z_mm\na,1,2,3,4,5,6\n");
+  InputError e = Refusal([&] { ReadPosesCsv(dir.File("p.csv"), 2); });
+  EXPECT_EQ(e.where().line, 1);
+  EXPECT_EQ(e.where().column, 4);
+  EXPECT_NE(e.message().find("'q3_deg'"), std::string::npos) << e.what();
+  WriteText(dir.File("x.csv"), "point,station,hz_gon,v_gon\nP,S1,10\n");
+  e = Refusal([&] { ReadObservationsCsv(dir.File("x.csv")); });
+  EXPECT_EQ(e.where().line, 2);
+  EXPECT_EQ(e.where().column, 4);  // where the row ends short
+  WriteText(dir.File("v.csv"), "point,station,hz_gon,v_gon\nP,S1,10,401\n");
+  e = Refusal([&] { ReadObservationsCsv(dir.File("v.csv")); });
+  EXPECT_EQ(e.where().column, 4);
+  EXPECT_NE(e.message().find("got 401"), std::string::npos) << e.what();
+}
+
+TEST(HostileInputs, CircleReadingsFollowOneRuleInEveryReader) {
+  TempDir dir;
+  const std::string head = "point,station,hz_gon,v_gon\n";
+  for (const std::string row : {"P,S1,-10,100", "P,S1,401,100", "P,S1,799,100"}) {
+    WriteText(dir.File("o.csv"), head + row + "\n");
+    const InputError e = Refusal([&] { ReadObservationsCsv(dir.File("o.csv")); });
+    EXPECT_EQ(e.where().column, 3) << row;
+    EXPECT_NE(e.message().find("horizontal circle reading from 0 to 400 gon"), std::string::npos)
+        << e.what();
+  }
+  WriteText(dir.File("o.csv"), "point,station,hz_deg,v_deg\nP,S1,361,90\n");
+  EXPECT_EQ(Refusal([&] { ReadObservationsCsv(dir.File("o.csv")); }).where().column, 3);
+  WriteText(dir.File("o.csv"), "point,station,hz_rad,v_rad\nP,S1,7,1\n");
+  EXPECT_EQ(Refusal([&] { ReadObservationsCsv(dir.File("o.csv")); }).where().column, 3);
+  EXPECT_NE(FaultRefusal([](const std::string& p) { ReadObservationsCsv(p); },
+                         "observations-hz-401gon.csv")
+                .message()
+                .find("got 401"),
+            std::string::npos);
+
+  // GSI: a distance of 1e16 mm or a negative one is refused, not written or dropped.
+  InputError e =
+      FaultRefusal([](const std::string& p) { ImportGsi(p, "S1"); }, "gsi-distance-1e16mm.gsi");
+  EXPECT_EQ(e.where().column_name, "WI31");
+  EXPECT_NE(e.message().find("a distance > 0 and ≤ 1000000 mm"), std::string::npos) << e.what();
+  e = FaultRefusal([](const std::string& p) { ImportGsi(p, "S1"); }, "gsi-negative-distance.gsi");
+  EXPECT_NE(e.message().find("got -1500"), std::string::npos) << e.what();
+
+  // What import gsi writes, the observations reader reads: V = 400 gon included.
+  WriteText(dir.File("v.gsi"), "110001+00000001 21.322+00000000 22.322+40000000\r\n");
+  WriteText(dir.File("v.csv"),
+            FormatObservationsCsv(ImportGsi(dir.File("v.gsi"), "S1").observations));
+  const auto back = ReadObservationsCsv(dir.File("v.csv"));
+  ASSERT_EQ(back.size(), 1u);
+  EXPECT_NEAR(back[0].reading.v_rad, 2 * kPi, 1e-12);
+}
+
+TEST(HostileInputs, EchoedValuesAreQuotedEscapedAndCut) {
+  const InputError e = FaultRefusal([](const std::string& p) { ReadObservationsCsv(p); },
+                                    "observations-forged-log-line.csv");
+  const std::string what = e.what();
+  EXPECT_EQ(what.find('\n'), std::string::npos) << what;
+  EXPECT_NE(what.find("\\narmsig: info: orientation accepted"), std::string::npos) << what;
+  TempDir dir;
+  WriteText(dir.File("o.csv"), "point,station,hz_gon,v_gon\nP,S1,\"1\x1b[2J\",100\n");
+  EXPECT_NE(std::string(Refusal([&] { ReadObservationsCsv(dir.File("o.csv")); }).what())
+                .find("'1\\x1b[2J'"),
+            std::string::npos);
+  using namespace std::string_literals;
+  WriteText(dir.File("n.csv"), "point,station,hz_gon,v_gon\nP,S1,\"1\0\",100\n"s);
+  EXPECT_NE(
+      std::string(Refusal([&] { ReadObservationsCsv(dir.File("n.csv")); }).what()).find("\\0"),
+      std::string::npos);
+  WriteText(dir.File("big.csv"),
+            "point,station,hz_gon,v_gon\nP,S1," + std::string(50'000'000, '9') + "x,100\n");
+  const std::string big = Refusal([&] { ReadObservationsCsv(dir.File("big.csv")); }).what();
+  EXPECT_LT(big.size(), 400u);
+  EXPECT_NE(big.find("(50000001 bytes)"), std::string::npos) << big;
+  // YAML values and keys too.
+  const std::string yaml = Refusal([] {
+                             ParseRobotModel(
+                                 "name: r\nlinks: [[[1,0,0,0],[0,1,0,0],[0,0,1,0],[0,0,0,1]]]\n"
+                                 "tool_mm: [0, 0, \"\\e[2J\\n\"]\n",
+                                 "m.yaml");
+                           }).what();
+  EXPECT_EQ(yaml.find('\x1b'), std::string::npos) << yaml;
+  EXPECT_EQ(yaml.find('\n'), std::string::npos) << yaml;
+}
+
+TEST(HostileInputs, NonRegularAndOversizedFilesAreRefusedWithoutReading) {
+  // /dev/zero never ends (it was read to 2.1 GB and bad_alloc), a FIFO blocks the reader.
+  for (const auto& read : std::vector<std::function<void()>>{
+           [] { LoadRobotModel("/dev/zero"); }, [] { ReadPosesCsv("/dev/zero", 6); },
+           [] { ReadStationsYaml("/dev/urandom"); }, [] { ImportGsi("/dev/zero", "S1"); }}) {
+    const InputError e = Refusal(read);
+    EXPECT_NE(e.message().find("is a character device, not a regular file"), std::string::npos)
+        << e.what();
+  }
+  TempDir dir;
+  const std::string fifo = dir.File("fifo.csv");
+  ASSERT_EQ(::mkfifo(fifo.c_str(), 0600), 0);
+  const auto start = std::chrono::steady_clock::now();
+  EXPECT_NE(Refusal([&] { ReadObservationsCsv(fifo); }).message().find("is a FIFO"),
+            std::string::npos);
+  EXPECT_LT(std::chrono::steady_clock::now() - start, std::chrono::seconds(2));
+  EXPECT_NE(Refusal([&] { ReadPosesCsv(dir.path().string(), 6); }).message().find("is a folder"),
+            std::string::npos);
+  // A sparse file beyond the YAML limit: refused by its size, not read.
+  const std::string huge = dir.File("huge.yaml");
+  WriteText(huge, "name: r\n");
+  std::filesystem::resize_file(huge, kYamlFileLimit.max_bytes + 1);
+  EXPECT_NE(Refusal([&] { LoadRobotModel(huge); }).message().find("at most 16 MiB"),
+            std::string::npos);
+  // A lab naming /dev/urandom as its stations file: refused at the lab's key.
+  WriteText(dir.File("lab.yaml"),
+            "robot:\n  model: " + testing::SourcePath("models/puma760.yaml") +
+                "\n  controller: {protocol: val, port: /dev/null}\ninstruments:\n"
+                "  - {station: S1, protocol: geocom, port: /dev/null}\nstations: /dev/urandom\n");
+  const InputError lab = Refusal([&] { acquisition::LoadLab(dir.File("lab.yaml")); });
+  EXPECT_EQ(lab.where().file, dir.File("lab.yaml"));
+  EXPECT_NE(lab.message().find("not a regular file"), std::string::npos) << lab.what();
+}
+
+TEST(HostileInputs, YamlAliasesAreRefusedWhereTheyAreUsed) {
+  const InputError e =
+      FaultRefusal([](const std::string& p) { LoadRobotModel(p); }, "model-alias.yaml");
+  EXPECT_EQ(e.where().line, 5);  // the alias, not the anchor on line 4
+  EXPECT_NE(e.message().find("aliases"), std::string::npos) << e.what();
+  // Aliases of aliases (the "billion laughs") are refused before any reader walks them.
+  std::string bomb = "a: &a [x, x, x, x, x, x, x, x, x, x]\n";
+  for (char c = 'b'; c <= 'k'; ++c) {
+    bomb += std::string(1, c) + ": &" + c + " [";
+    for (int k = 0; k < 10; ++k) bomb += std::string(k ? ", *" : "*") + static_cast<char>(c - 1);
+    bomb += "]\n";
+  }
+  EXPECT_NE(Refusal([&] { ParseStationsYaml(bomb, "bomb.yaml"); }).message().find("aliases"),
+            std::string::npos);
+}
+
+TEST(HostileInputs, LabSettingsHavePlausibleMaximums) {
+  for (const std::string file : {"lab-fault-retries-2e9.yaml", "lab-readings-1e9.yaml"}) {
+    const InputError e = FaultRefusal(
+        [](const std::string& p) {
+          acquisition::ParseLabSettings(ReadWholeFile(p, kYamlFileLimit), p);
+        },
+        file);
+    EXPECT_EQ(e.where().line, 7) << e.what();
+    EXPECT_NE(e.message().find("an integer from"), std::string::npos) << e.what();
+  }
+}
+
+TEST(HostileInputs, ScaleBarsAndControlPointsMustJoinDifferentPoints) {
+  InputError e = Refusal([] { ParseScaleBar("A:A=1000", 0.01); });
+  EXPECT_EQ(e.where().file, "--scale-bar");
+  EXPECT_NE(e.message().find("both ends are point 'A'"), std::string::npos) << e.what();
+  EXPECT_NE(Refusal([] { ParseScaleBar("A:B\xff=1000", 0.01); }).message().find("not UTF-8"),
+            std::string::npos);
+  e = FaultRefusal([](const std::string& p) { ReadControlCsv(p); }, "control-one-position.csv");
+  EXPECT_EQ(e.where().line, 4);
+  EXPECT_NE(e.message().find("'T2' has the position of control point 'T1' (line 3)"),
+            std::string::npos)
+      << e.what();
 }
 
 }  // namespace

@@ -8,6 +8,8 @@
 
 #include "calibration/compensation.h"
 #include "calibration/simulation.h"
+#include "core/plausibility.h"
+#include "io/model_yaml.h"
 #include "test_support.h"
 
 namespace armsig::testing {
@@ -47,6 +49,39 @@ TEST(Export, UrdfChainMatchesTheModel) {
     const Eigen::Vector3d model_x = kin.Position(Eigen::Isometry3d::Identity(), params, q.data());
     EXPECT_LT((urdf_x - model_x).norm(), 1e-5);
   }
+}
+
+// Issue 15: the model name went raw into <robot name="…"> and an XML comment.
+TEST(Export, UrdfEscapesTheModelNameByConstruction) {
+  const auto model = io::LoadRobotModel(DataPath("faults/model-name-injection.yaml"));
+  const auto corrected = calibration::CorrectedModel(
+      model, Eigen::VectorXd::Zero(model.num_parameters()), Eigen::Isometry3d::Identity());
+  const std::string urdf = io::FormatUrdf(corrected);
+  EXPECT_EQ(urdf.find("<link name=\"injected\"/>"), std::string::npos) << urdf;
+  EXPECT_NE(
+      urdf.find("<robot name=\"x&quot;&gt;&lt;link name=&quot;injected&quot;/&gt;&lt;!-- "
+                "-calibrated\">"),
+      std::string::npos)
+      << urdf;
+  // Links: base_link, link1, link2, link3, tool0: and nothing else.
+  size_t links = 0;
+  for (size_t at = 0; (at = urdf.find("<link ", at)) != std::string::npos; ++at) ++links;
+  EXPECT_EQ(links, 5u) << urdf;
+  // The comment holds no "--" (which would end it early or make the XML invalid).
+  const size_t open = urdf.find("<!-- "), close = urdf.find(" -->", open);
+  ASSERT_NE(close, std::string::npos);
+  EXPECT_EQ(urdf.substr(open + 5, close - open - 5).find("--"), std::string::npos) << urdf;
+}
+
+TEST(Export, AnExportedModelWithALongNameLoadsAgain) {
+  auto model = Puma();
+  model.name = std::string(62, 'r') + "ä";  // 64 bytes, the longest name there is
+  const auto corrected = calibration::CorrectedModel(
+      model, Eigen::VectorXd::Zero(model.num_parameters()), Eigen::Isometry3d::Identity());
+  EXPECT_LE(corrected.name.size(), plausible::kMaxNameLength);
+  EXPECT_TRUE(corrected.name.ends_with("-calibrated")) << corrected.name;
+  const auto back = io::ParseRobotModel(io::FormatRobotModelYaml(corrected, "export"), "e.yaml");
+  EXPECT_EQ(back.name, corrected.name);
 }
 
 }  // namespace armsig::testing

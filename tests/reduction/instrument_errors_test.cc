@@ -92,4 +92,50 @@ TEST(InstrumentErrors, ReduceTwoFaceCorrectsEveryReadingOfTheStation) {
   }
 }
 
+// Issue 15: a reading at the nadir (V = 200 gon, which converts to π plus an ulp) was taken
+// for face II and paired with the face-I reading of the same point: a "collimation" of
+// 18 gon and an "index" of 81 gon were then applied to every reading of the station, and
+// orient failed ("network is singular").
+TEST(InstrumentErrors, TheNadirIsFaceOne) {
+  EXPECT_EQ(FaceOfZenithAngle(ToRad(200.0, AngleUnit::kGon)), 1);
+  EXPECT_EQ(FaceOfZenithAngle(ToRad(180.0, AngleUnit::kDeg)), 1);
+  EXPECT_EQ(FaceOfZenithAngle(ToRad(200.0001, AngleUnit::kGon)), 2);
+  EXPECT_EQ(FaceOfZenithAngle(ToRad(399.9, AngleUnit::kGon)), 2);
+}
+
+TEST(InstrumentErrors, PairsThatDoNotReadOneDirectionAreNotUsed) {
+  InstrumentErrors planted;
+  planted.collimation_rad = 18 * kRadPerArcsec;
+  planted.index_rad = 9 * kRadPerArcsec;
+  std::vector<Observation> obs;
+  for (int k = 0; k < 4; ++k) {
+    const AngleReading t{0.5 * k, ToRad(70.0 + 10.0 * k, AngleUnit::kGon), 1};
+    for (int face : {1, 2}) {
+      Observation o;
+      o.station = "T1";
+      o.point = "P" + std::to_string(k);
+      o.reading = ApplyInstrumentErrors(t, face, planted);
+      obs.push_back(o);
+    }
+  }
+  // P9: face I at V = 38 gon, and a "face II" that is another direction (a blunder);
+  // P8: a face-II reading at the pole (Hz says nothing there).
+  auto add = [&](const char* point, AngleReading reading) {
+    Observation o;
+    o.station = "T1";
+    o.point = point;
+    o.reading = reading;
+    obs.push_back(o);
+  };
+  add("P9", {ToRad(238.0, AngleUnit::kGon), ToRad(38.0, AngleUnit::kGon), 1});
+  add("P9", {0.0, ToRad(200.5, AngleUnit::kGon), 2});
+  add("P8", {1.0, ToRad(60.0, AngleUnit::kGon), 1});
+  add("P8", {1.0 + kPi, 2.0 * kPi, 2});
+  const auto errors = ReduceTwoFace(obs, InstrumentDefaults{});
+  ASSERT_EQ(errors.count("T1"), 1u);
+  EXPECT_EQ(errors.at("T1").pairs, 4);
+  EXPECT_NEAR(errors.at("T1").collimation_rad, planted.collimation_rad, 1e-9);
+  EXPECT_NEAR(errors.at("T1").index_rad, planted.index_rad, 1e-9);
+}
+
 }  // namespace armsig::reduction

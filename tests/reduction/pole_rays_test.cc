@@ -1,7 +1,11 @@
 // Rays at the zenith and the nadir (V = 0 or 200 gon), where Hz is undefined: the
 // orientation used to crash (a Jacobian of NaN, then the failed evaluation's empty
 // matrix indexed) on one such ray with a distance to a new point.
+#include <ceres/jet.h>
 #include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cmath>
 
 #include "reduction/intersection.h"
 #include "reduction/observation.h"
@@ -102,6 +106,101 @@ TEST(PoleRays, PoleResidualIsTheAngleAcrossTheLineOfSight) {
   EXPECT_TRUE(NearPole(0.0));
   EXPECT_TRUE(NearPole(kPi));
   EXPECT_FALSE(NearPole(ToRad(1.0, AngleUnit::kGon)));
+}
+
+// --- Issue 15, second audit: nothing the data say may reach Ceres as a NaN or an abort.
+
+TEST(PoleRays, HzVResidualHasFiniteDerivativesWhereThePredictionIsOnTheStandingAxis) {
+  // The reading is an ordinary one (V = 60 gon); the prediction is straight up, where Hz has
+  // no derivative. The equation must stay finite (it gave NaN, and Ceres stopped).
+  using Jet = ceres::Jet<double, 3>;
+  for (const Eigen::Vector3d& d :
+       {Eigen::Vector3d(0, 0, 1500), Eigen::Vector3d(0, 0, -1500), Eigen::Vector3d(1e-9, 0, 2)}) {
+    Eigen::Matrix<Jet, 3, 1> dj;
+    for (int i = 0; i < 3; ++i) dj(i) = Jet(d(i), i);
+    const auto r = AngleResidualOf(dj, 0.4, ToRad(60.0, AngleUnit::kGon));
+    for (int k = 0; k < 2; ++k) {
+      EXPECT_TRUE(std::isfinite(r(k).a)) << d.transpose();
+      EXPECT_TRUE(r(k).v.allFinite()) << d.transpose() << ": " << r(k).v.transpose();
+    }
+  }
+  // Near the observed direction it is still the Hz/V residual.
+  const AngleReading reading{0.4, ToRad(60.0, AngleUnit::kGon), 1};
+  const Eigen::Vector3d d = DirectionInStation(reading) * 2000.0 + Eigen::Vector3d(0.01, 0, 0);
+  const Eigen::Vector2d a = AngleResidualOf<double>(d, reading.hz_rad, reading.v_rad);
+  const Eigen::Vector2d hz_v = HzVOf<double>(d);
+  EXPECT_NEAR(a(0), WrapPi(hz_v(0) - reading.hz_rad), 1e-15);
+  EXPECT_NEAR(a(1), hz_v(1) - reading.v_rad, 1e-15);
+}
+
+TEST(PoleRays, ABlunderAtTheZenithOrNadirIsAdjustedAndNamedNotNaN) {
+  // One ray of target T0 from station 1 read at V = 0 or 200 gon with a distance that does
+  // not fit the target's other rays: the approximate T0 lies on the standing axis.
+  for (const double v : {0.0, kPi}) {
+    SimLab lab(3, 7);
+    OrientationProblem problem = Network(lab);
+    Observation blunder = PoleRay(lab, 1, v, 1500.0);
+    blunder.point = "T0";
+    problem.observations.push_back(blunder);
+    const OrientationResult r = Orient(problem);
+    ASSERT_TRUE(r.status.ok()) << "V = " << v << ": " << r.status.message;
+    double worst = 0.0;
+    for (const auto& res : r.residuals) {
+      if (res.observation == static_cast<int>(problem.observations.size()) - 1)
+        worst = std::max(worst, std::abs(res.w));
+    }
+    EXPECT_GT(worst, OrientationOptions{}.critical_w) << "V = " << v;
+  }
+}
+
+TEST(PoleRays, ARepeatedSightingOfTheDatumStationOrients) {
+  SimLab lab(3, 7);
+  OrientationProblem problem = Network(lab);
+  // Station 0 (the datum) sighted from station 1: the same observation twice.
+  for (const auto& o : std::vector<Observation>(problem.observations)) {
+    if (o.station == lab.stations[1].pose.id && o.point == lab.stations[0].pose.id) {
+      problem.observations.push_back(o);
+    }
+  }
+  const OrientationResult r = Orient(problem);
+  ASSERT_TRUE(r.status.ok()) << r.status.message;
+  // The result is in the SPEC datum: station 0's frame (its centre the origin, its circle
+  // zero the +y axis).
+  const auto& first = lab.stations[0].pose;
+  const Eigen::Vector3d truth = first.world_from_station.transpose() *
+                                (lab.stations[1].pose.position_mm - first.position_mm);
+  EXPECT_LT((r.stations[1].pose.position_mm - truth).norm(), 0.1);
+}
+
+TEST(PoleRays, ConstraintsOnOnePointAreRefusedNotAborted) {
+  SimLab lab(3, 7);
+  OrientationProblem problem = Network(lab);
+  problem.scale_bars.push_back({"T1", "T1", 1000.0, 0.01});  // Ceres: duplicate blocks, abort
+  OrientationResult r = Orient(problem);
+  EXPECT_EQ(r.status.code, SolveCode::kDegenerate);
+  EXPECT_NE(r.status.message.find("scale bar T1:T1: both ends are the same point"),
+            std::string::npos)
+      << r.status.message;
+
+  problem = Network(lab);
+  problem.scale_bars.clear();
+  for (const char* id : {"T1", "T2", "T3"}) problem.control.push_back({id, {100, 200, 300}, {}});
+  r = Orient(problem);
+  EXPECT_EQ(r.status.code, SolveCode::kDegenerate);
+  EXPECT_NE(r.status.message.find("control points all lie in one place"), std::string::npos)
+      << r.status.message;
+
+  problem = Network(lab);
+  problem.control.push_back({"T1", {0, 0, 0}, {}});
+  problem.control.push_back({"T1", {0, 0, 1}, {}});
+  EXPECT_EQ(Orient(problem).status.code, SolveCode::kDegenerate);
+
+  problem = Network(lab);
+  problem.station_ids.insert(problem.station_ids.begin(), "NOBODY");  // a datum without rays
+  r = Orient(problem);
+  EXPECT_EQ(r.status.code, SolveCode::kDegenerate);
+  EXPECT_NE(r.status.message.find("station NOBODY has no observations"), std::string::npos)
+      << r.status.message;
 }
 
 }  // namespace

@@ -352,4 +352,17 @@ TEST(SinceToUtc, ReadsIsoDatesInTheirTimeZoneAndRefusesImpossibleOnes) {
   tzset();
 }
 
+// Issue 15: --since echoed its value raw; a line break in it began a line of its own.
+TEST(SinceToUtc, ARefusedValueIsQuotedWithItsControlCharactersEscapedAndCut) {
+  try {
+    workflows::SinceToUtc("2026\narmsig: info: forged" + std::string(200, '9'));
+    ADD_FAILURE();
+  } catch (const InputError& e) {
+    const std::string what = e.what();
+    EXPECT_EQ(what.find('\n'), std::string::npos) << what;
+    EXPECT_NE(what.find("'2026\\narmsig: info: forged"), std::string::npos) << what;
+    EXPECT_NE(what.find("bytes)"), std::string::npos) << what;  // cut, with its size
+  }
+}
+
 }  // namespace armsig::testing
