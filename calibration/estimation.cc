@@ -84,14 +84,10 @@ std::vector<Eigen::Vector3d> Residuals(const RobotModel& model,
                                        const Eigen::Isometry3d& world_from_base,
                                        const Eigen::VectorXd& params,
                                        const std::vector<MeasuredPose>& poses) {
-  Kinematics kin(model);
-  std::vector<Eigen::Vector3d> out;
-  out.reserve(poses.size());
-  for (const auto& pose : poses) {
-    out.push_back(kin.Position(world_from_base, params, pose.joints_rad.data()) -
-                  pose.target_in_world);
-  }
-  return out;
+  // One base for every pose, whatever frame it names.
+  FrameBases one;
+  for (int64_t frame : FramesOf(poses)) one.emplace(frame, world_from_base);
+  return Residuals(model, one, params, poses);
 }
 
 std::vector<double> Distances(const std::vector<Eigen::Vector3d>& residuals) {
