@@ -46,7 +46,6 @@ std::string Choice(const YamlValue& value, const std::vector<std::string>& choic
   value.Fail("expected " + list + ", got " + Quoted(text));
 }
 
-constexpr int kMaxInt = std::numeric_limits<int>::max();
 // Plausible maximums of a lab's settings: far beyond any real lab, far below a number that
 // makes a session run for ever (2,000,000,000 retries of a failing instrument, a billion
 // readings per pointing).
