@@ -4,8 +4,11 @@
 #include <spdlog/spdlog.h>
 
 #include <algorithm>
+#include <boost/asio/post.hpp>
+#include <boost/asio/thread_pool.hpp>
 #include <chrono>
 #include <cmath>
+#include <functional>
 #include <future>
 #include <map>
 #include <set>
@@ -89,8 +92,7 @@ struct Measurement {
 
 bool UsableSigmas(const std::optional<instruments::ReadingSigmas>& s) {
   return s && std::isfinite(s->hz_rad) && std::isfinite(s->v_rad) &&
-         std::isfinite(s->distance_mm) && s->hz_rad > 0.0 && s->v_rad > 0.0 &&
-         s->distance_mm > 0.0;
+         std::isfinite(s->distance_mm) && s->hz_rad > 0.0 && s->v_rad > 0.0 && s->distance_mm > 0.0;
 }
 
 // A reading of the capture's target as an observation: with the sigmas the instrument
@@ -120,6 +122,57 @@ double MsSince(std::chrono::steady_clock::time_point start) {
   return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start)
       .count();
 }
+
+// The threads of a capture's parallel steps (every instrument and the joints at once),
+// started once for the session: a step starts no thread, and its first task runs on the
+// calling thread, so one tracker alone is measured without any hand-over between threads.
+class Crew {
+ public:
+  explicit Crew(size_t threads) : pool_(std::max<size_t>(threads, 1)) {}
+  ~Crew() { pool_.join(); }
+  Crew(const Crew&) = delete;
+  Crew& operator=(const Crew&) = delete;
+
+  template <typename F>
+  auto Spawn(F f) -> std::future<decltype(f())> {
+    auto task = std::make_shared<std::packaged_task<decltype(f())()>>(std::move(f));
+    auto future = task->get_future();
+    boost::asio::post(pool_, [task] { (*task)(); });
+    return future;
+  }
+
+  // Runs every task at once, the first here, and waits for all of them (they may hold
+  // references into the caller's frame); their results in order, else the first failure
+  // in task order.
+  template <typename T>
+  std::vector<T> Together(std::vector<std::function<T()>>& tasks) {
+    std::vector<std::future<T>> others;
+    for (size_t i = 1; i < tasks.size(); ++i) others.push_back(Spawn(tasks[i]));
+    std::vector<std::optional<T>> results(tasks.size());
+    std::exception_ptr failure;
+    if (!tasks.empty()) {
+      try {
+        results[0] = tasks[0]();
+      } catch (...) {
+        failure = std::current_exception();
+      }
+    }
+    for (size_t i = 1; i < tasks.size(); ++i) {
+      try {
+        results[i] = others[i - 1].get();
+      } catch (...) {
+        if (!failure) failure = std::current_exception();
+      }
+    }
+    if (failure) std::rethrow_exception(failure);
+    std::vector<T> out;
+    for (auto& r : results) out.push_back(std::move(*r));
+    return out;
+  }
+
+ private:
+  boost::asio::thread_pool pool_;
+};
 
 }  // namespace
 
@@ -158,10 +211,10 @@ CaptureSummary RunCapture(db::Database& db, const LabConfig& lab, int64_t sessio
   }
   std::optional<TargetPredictor> predictor;
   if (any_beam) {
-    predictor.emplace(lab.model,
-                      options.prediction_params.value_or(
-                          Eigen::VectorXd::Zero(lab.model.num_parameters())),
-                      lab.robot_base);
+    predictor.emplace(
+        lab.model,
+        options.prediction_params.value_or(Eigen::VectorXd::Zero(lab.model.num_parameters())),
+        lab.robot_base);
     // A resumed session starts from the points it has (the base is known at once).
     for (const auto& p : db::LoadSessionPoses(db, session)) {
       predictor->Add(p.joints_rad, p.target_in_world);
@@ -223,9 +276,10 @@ CaptureSummary RunCapture(db::Database& db, const LabConfig& lab, int64_t sessio
       return read();
     } catch (const instruments::InstrumentError& e) {
       if (!beam->ReflectorLost(e.code()) || stopping() || !options.prompt_reflector) throw;
-      spdlog::info("capture: {} {}: the reflector was not found around the beam ({}); asking the "
-                   "operator to point the beam at it",
-                   target.label, station, e.what());
+      spdlog::info(
+          "capture: {} {}: the reflector was not found around the beam ({}); asking the "
+          "operator to point the beam at it",
+          target.label, station, e.what());
     }
     ++operator_pointed;
     options.prompt_reflector(station, target);
@@ -234,30 +288,27 @@ CaptureSummary RunCapture(db::Database& db, const LabConfig& lab, int64_t sessio
   };
 
   // One parallel round: joints (optional) and every instrument at once.
+  Crew crew(devices.size());
   auto round = [&](bool with_joints, Measurement& m, const PlannedConfiguration& target,
                    int round_index) {
     check_stop();
-    std::future<Eigen::VectorXd> joints;
-    std::vector<std::future<std::pair<instruments::Reading, double>>> futures;
-    if (with_joints)
-      joints = std::async(std::launch::async, [&] { return controller.ReadJointsRad(); });
+    using Timed = std::pair<instruments::Reading, double>;
+    std::vector<std::function<Timed()>> reads;
     for (size_t i = 0; i < devices.size(); ++i) {
-      futures.push_back(std::async(std::launch::async, [&, i] {
+      reads.push_back([&, i] {
         const auto a = Clock::now();
         auto r = measure(i, target);
         return std::make_pair(r, MsSince(a));
-      }));
+      });
     }
+    std::future<Eigen::VectorXd> joints;
+    if (with_joints) joints = crew.Spawn([&] { return controller.ReadJointsRad(); });
     std::exception_ptr failure;
-    double slowest = 0.0;
-    for (size_t i = 0; i < futures.size(); ++i) {
-      try {
-        auto [reading, ms] = futures[i].get();
-        m.readings.push_back({reading, static_cast<int>(i), round_index});
-        slowest = std::max(slowest, ms);
-      } catch (...) {
-        if (!failure) failure = std::current_exception();
-      }
+    std::vector<Timed> done_reads;
+    try {
+      done_reads = crew.Together(reads);
+    } catch (...) {
+      failure = std::current_exception();
     }
     if (with_joints) {
       try {
@@ -267,6 +318,11 @@ CaptureSummary RunCapture(db::Database& db, const LabConfig& lab, int64_t sessio
       }
     }
     if (failure) std::rethrow_exception(failure);
+    double slowest = 0.0;
+    for (size_t i = 0; i < done_reads.size(); ++i) {
+      m.readings.push_back({done_reads[i].first, static_cast<int>(i), round_index});
+      slowest = std::max(slowest, done_reads[i].second);
+    }
     m.device_ms += slowest;
   };
 
@@ -284,30 +340,22 @@ CaptureSummary RunCapture(db::Database& db, const LabConfig& lab, int64_t sessio
     }
     const auto predicted = predictor->Predict(q);
     if (!predicted) return device_ms;
-    std::vector<std::future<double>> moves;
+    std::vector<std::function<double()>> moves;
     for (size_t i = 0; i < devices.size(); ++i) {
       if (!beams[i]) continue;
       const auto& pose = station_of[i]->pose;
       const Eigen::Vector3d in_instrument =
           pose.world_from_station.transpose() * (*predicted - pose.position_mm);
       expected_distance[i] = in_instrument.norm();
-      moves.push_back(std::async(std::launch::async, [&, i, in_instrument] {
+      moves.push_back([&, i, in_instrument] {
         const auto t = Clock::now();
         beams[i]->GoPosition(in_instrument);
         return MsSince(t);
-      }));
+      });
       ++summary.beam_predicted;
     }
-    std::exception_ptr failure;
     double slowest = 0.0;
-    for (auto& f : moves) {
-      try {
-        slowest = std::max(slowest, f.get());
-      } catch (...) {
-        if (!failure) failure = std::current_exception();
-      }
-    }
-    if (failure) std::rethrow_exception(failure);
+    for (const double ms : crew.Together(moves)) slowest = std::max(slowest, ms);
     return device_ms + slowest;
   };
 
@@ -333,8 +381,8 @@ CaptureSummary RunCapture(db::Database& db, const LabConfig& lab, int64_t sessio
       if (!beams[r.instrument] || !UsableSigmas(r.reading.sigma) || !r.reading.distance_mm)
         continue;
       const auto& s = *r.reading.sigma;
-      const Eigen::Matrix3d c = reduction::PolarCovariance(
-          r.reading.angles, *r.reading.distance_mm, {s.hz_rad, s.v_rad, s.distance_mm});
+      const Eigen::Matrix3d c = reduction::PolarCovariance(r.reading.angles, *r.reading.distance_mm,
+                                                           {s.hz_rad, s.v_rad, s.distance_mm});
       const double sigma = reduction::LargestSigmaMm(c);
       if (sigma > lab.tolerances.max_sigma_mm) {
         sigma_exceeded = true;
@@ -358,18 +406,13 @@ CaptureSummary RunCapture(db::Database& db, const LabConfig& lab, int64_t sessio
   auto turn_faces = [&] {
     check_stop();
     const auto a = Clock::now();
-    std::vector<std::future<void>> turns;
+    std::vector<std::function<int()>> turns;
     for (auto& d : devices)
-      turns.push_back(std::async(std::launch::async, [&d] { d->ChangeFace(); }));
-    std::exception_ptr failure;
-    for (auto& t : turns) {
-      try {
-        t.get();
-      } catch (...) {
-        if (!failure) failure = std::current_exception();
-      }
-    }
-    if (failure) std::rethrow_exception(failure);
+      turns.push_back([&d] {
+        d->ChangeFace();
+        return 0;
+      });
+    crew.Together(turns);
     return MsSince(a);
   };
 
