@@ -1,12 +1,17 @@
 // CLI smoke tests of orient, triangulate and reduce; the behaviour is tested on the library
 // calls in tests/workflows/network_test.cc and reduce_test.cc.
+#include <fmt/format.h>
 #include <gtest/gtest.h>
 
+#include <Eigen/Geometry>
 #include <filesystem>
 #include <fstream>
 
+#include "core/units.h"
 #include "db/database.h"
 #include "io/csv.h"
+#include "io/network_io.h"
+#include "reduction/observation.h"
 #include "test_support.h"
 
 namespace armsig::testing {
@@ -33,6 +38,90 @@ TEST(OrientCommand, K06WithScaleBarsWritesStationsAndReport) {
   ASSERT_EQ(t.exit_code, 0) << t.err;
   const auto table = io::ReadCsvFile(dir.File("tri.csv"));
   EXPECT_EQ(table.rows().size(), 54u);
+}
+
+// A laser tracker's set-up through the command line: a tracker tilted on a bracket reads
+// (Hz, V, D) to control points; `orient --control --unlevelled` gives back its pose. The
+// readings are exact (written to 1e-10 gon and 1e-6 mm), so the pose must come back to the
+// truth far inside its sigmas, and the sigmas must be the ones propagated here from the
+// control points' 0.02 mm and the tracker's noise model. Two control points cannot fix
+// six unknowns: refused, and no stations file is written.
+TEST(OrientCommand, TrackerSetUpFromControlPointsThroughTheCommandLine) {
+  TempDir dir;
+  StationPose truth;
+  truth.id = "LT1";
+  truth.position_mm = {3200.0, -400.0, 1450.0};
+  truth.levelled = false;
+  truth.world_from_station =
+      Eigen::AngleAxisd(0.35, Eigen::Vector3d(0.6, -0.8, 0.0)).toRotationMatrix() *
+      reduction::LevelledRotation(2.1);
+  const std::vector<Eigen::Vector3d> control = {{900.0, 300.0, 1800.0},
+                                                {-700.0, 800.0, 1200.0},
+                                                {200.0, -900.0, 600.0},
+                                                {-400.0, -300.0, 1700.0},
+                                                {600.0, 700.0, 400.0}};
+  auto write = [&](size_t count) {
+    std::string obs =
+        "point,station,hz_gon,v_gon,distance_mm,sigma_hz_arcsec,sigma_v_arcsec,"
+        "sigma_distance_mm\n";
+    std::string ctrl = "point,x_mm,y_mm,z_mm,sx_mm,sy_mm,sz_mm\n";
+    for (size_t k = 0; k < count; ++k) {
+      const Eigen::Vector3d p =
+          truth.world_from_station.transpose() * (control[k] - truth.position_mm);
+      const AngleReading r = reduction::ReadingOf(p.normalized());
+      const double sigma_mm = (0.015 + 0.006 * p.norm() / 1000.0) / 2.0;
+      const double sigma_arcsec = sigma_mm / p.norm() / kRadPerArcsec;
+      obs += fmt::format("C{},LT1,{:.10f},{:.10f},{:.6f},{:.3f},{:.3f},{:.4f}\n", k + 1,
+                         r.hz_rad * 200.0 / kPi, r.v_rad * 200.0 / kPi, p.norm(), sigma_arcsec,
+                         sigma_arcsec, sigma_mm);
+      ctrl += fmt::format("C{},{:.4f},{:.4f},{:.4f},0.02,0.02,0.02\n", k + 1, control[k].x(),
+                          control[k].y(), control[k].z());
+    }
+    WriteText(dir.File("obs.csv"), obs);
+    WriteText(dir.File("ctrl.csv"), ctrl);
+  };
+  const std::string command = "orient --observations '" + dir.File("obs.csv") + "' --control '" +
+                              dir.File("ctrl.csv") + "' --unlevelled LT1 --out '" +
+                              dir.File("st.yaml") + "'";
+  write(control.size());
+  const auto r = RunArmsig(command);
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  const auto stations = io::ReadStationsYaml(dir.File("st.yaml"));
+  ASSERT_EQ(stations.size(), 1u);
+  const reduction::Station& lt1 = stations[0];
+  EXPECT_EQ(lt1.pose.id, "LT1");
+  EXPECT_FALSE(lt1.pose.levelled);
+  EXPECT_LT((lt1.pose.position_mm - truth.position_mm).norm(), 1e-3);
+  const Eigen::AngleAxisd rotation_error(lt1.pose.world_from_station.transpose() *
+                                         truth.world_from_station);
+  EXPECT_LT(rotation_error.angle(), 1e-7);
+  // The position's sigmas, propagated independently: the linearised rigid fit
+  // x_k = t + δθ × (x_k − t) with each point's isotropic variance (control 0.02 mm and the
+  // tracker's own σ), unknowns t and δθ; a priori (the readings are exact, so a posteriori
+  // scaling would say nothing).
+  Eigen::Matrix<double, 6, 6> normal = Eigen::Matrix<double, 6, 6>::Zero();
+  for (const auto& x : control) {
+    const double d = (x - truth.position_mm).norm();
+    const double sigma_mm = (0.015 + 0.006 * d / 1000.0) / 2.0;
+    Eigen::Matrix<double, 3, 6> a;
+    const Eigen::Vector3d lever = x - truth.position_mm;
+    Eigen::Matrix3d cross;
+    cross << 0, -lever.z(), lever.y(), lever.z(), 0, -lever.x(), -lever.y(), lever.x(), 0;
+    a << Eigen::Matrix3d::Identity(), -cross;
+    normal += a.transpose() * a / (0.02 * 0.02 + sigma_mm * sigma_mm);
+  }
+  const Eigen::Matrix<double, 6, 6> covariance = normal.inverse();
+  for (int k = 0; k < 3; ++k) {
+    const double expected = std::sqrt(covariance(k, k));
+    EXPECT_NEAR(lt1.sigma_position_mm(k), expected, 0.05 * expected) << k;
+  }
+
+  std::filesystem::remove(dir.File("st.yaml"));
+  write(2);
+  const auto refused = RunArmsig(command);
+  EXPECT_EQ(refused.exit_code, 2) << refused.err;
+  EXPECT_NE(refused.err.find("LT1"), std::string::npos) << refused.err;
+  EXPECT_FALSE(std::filesystem::exists(dir.File("st.yaml")));
 }
 
 TEST(TriangulateCommand, MalformedAngleNamesLineAndColumn) {
