@@ -1,7 +1,11 @@
-// armsig db info | export TABLE --csv [--out FILE]
+// armsig db init | info | export TABLE --csv [--out FILE] | push --to TARGET
+#include <fmt/format.h>
+
 #include <iostream>
 
 #include "app/command.h"
+#include "db/push.h"
+#include "db/sqlite_connection.h"
 #include "io/atomic_file.h"
 
 namespace armsig::app {
@@ -43,6 +47,39 @@ void SetupDbCommand(CLI::App& parent, const GlobalOptions& global, Runner& run) 
       std::cout << csv;
     else
       io::WriteFileAtomically(*out, csv);
+    return kOk;
+  });
+
+  // push: the cell's finished sessions and parameter sets into a central store.
+  auto to = std::make_shared<std::string>();
+  auto* push = db->add_subcommand(
+      "push",
+      "Copy this database's finished sessions and parameter sets into another store "
+      "(idempotent: run it again, nothing doubles; an interrupted push resumes)");
+  push->add_option("--to", *to, "The central store: a PostgreSQL URI or an SQLite file")
+      ->required();
+  OnExistingDatabase(push, global, run, [to](db::Database& source) {
+    db::Database target(*to, db::OpenMode::kCreate);
+    db::SqliteConnection from(source.sql(), source.path());
+    db::SqliteConnection into(target.sql(), target.path());
+    db::PushOptions options;
+    options.source_name = source.path();
+    options.stop = &StopRequested();
+    const db::PushSummary s = db::Push(from, into, options);
+    std::cout << fmt::format(
+        "pushed {} session(s) ({} poses, {} observations, {} points) and {} parameter set(s) "
+        "to {}; {} session(s) and {} set(s) were there already\n",
+        s.sessions_pushed, s.poses, s.observations, s.points, s.sets_pushed, into.name(),
+        s.sessions_present, s.sets_present);
+    if (s.robots_created) std::cout << fmt::format("new robots there: {}\n", s.robots_created);
+    for (const auto& v : s.versions) std::cout << "  parameter set " << v << " there\n";
+    if (s.activated) std::cout << fmt::format("active sets made active there: {}\n", s.activated);
+    for (const auto& open : s.open_sessions)
+      std::cout << "  not pushed, still open: " << open << " (pushed once finished)\n";
+    if (s.stopped) {
+      std::cout << "stopped: what was pushed is complete; run it again to push the rest\n";
+      return kStopped;
+    }
     return kOk;
   });
 }

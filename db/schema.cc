@@ -224,6 +224,16 @@ ALTER TABLE observations ADD COLUMN humidity_percent REAL;  -- % relative humidi
 constexpr int kJobsMigration = 7;  // the schema version that adds `jobs`
 // --------------------------------------------------------------------------------------
 
+// Schema v8 (issue 14, `db push`): a session and a parameter set get a UUID the first time
+// they are pushed to a central store, so that a second push (or one resumed after a cut
+// connection) recognises what the server already holds; NULL until then.
+constexpr std::string_view kSchemaV8 = R"sql(
+ALTER TABLE sessions ADD COLUMN uuid TEXT;
+CREATE UNIQUE INDEX sessions_by_uuid ON sessions(uuid);
+ALTER TABLE calibrations ADD COLUMN uuid TEXT;
+CREATE UNIQUE INDEX calibrations_by_uuid ON calibrations(uuid);
+)sql";
+
 // The tables of schema v1: an armsig file from before application_id has at least these.
 constexpr std::array<std::string_view, 11> kTablesV1 = {"robots",
                                                         "instruments",
@@ -255,9 +265,9 @@ constexpr std::array<std::string_view, 13> kTables = {"robots",
 
 std::span<const std::string_view> Migrations() {
   static const std::string jobs = JobsSchemaSql(Backend::kSqlite);
-  static const std::array<std::string_view, 7> migrations = [] {
-    std::array<std::string_view, 7> m = {kSchemaV1, kSchemaV2, kSchemaV3, kSchemaV4,
-                                         kSchemaV5, kSchemaV6};
+  static const std::array<std::string_view, 8> migrations = [] {
+    std::array<std::string_view, 8> m = {kSchemaV1, kSchemaV2, kSchemaV3, kSchemaV4,
+                                         kSchemaV5, kSchemaV6, {},        kSchemaV8};
     m[kJobsMigration - 1] = jobs;
     return m;
   }();

@@ -219,3 +219,56 @@ TEST(FleetCommands, TheQueueOnPostgresDrainsLikeTheSqliteOne) {
 
 }  // namespace
 }  // namespace armsig::testing
+
+namespace armsig::testing {
+
+// A cell's demo database (three theodolites: observations, station set-ups, points) pushed
+// to a central file twice: the same observations there, once; a robot of another model
+// of the same name on the target is exit 2 naming it.
+TEST(DbPushCommand, PushesADemoCellOnceAndRefusesAnotherModel) {
+  TempDir dir;
+  const std::string cell = dir.File("cell.db"), central = dir.File("central.db");
+  ASSERT_EQ(RunArmsig("--db '" + cell + "' demo --configurations 30 --time-scale 0").exit_code, 0);
+  const std::string push = "--db '" + cell + "' db push --to '" + central + "'";
+  auto r = RunArmsig(push);
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_NE(r.out.find("pushed 1 session(s) (30 poses, 90 observations, 30 points)"),
+            std::string::npos)
+      << r.out;
+  r = RunArmsig(push);
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_NE(r.out.find("pushed 0 session(s)"), std::string::npos) << r.out;
+  // Every reading, with its station's code, the same on both sides (ids differ).
+  const std::string readings =
+      "SELECT s.code, o.point, o.hz_rad, o.v_rad, o.face, p.seq FROM observations o JOIN "
+      "stations s ON s.id = o.station_id JOIN poses p ON p.id = o.pose_id ORDER BY p.seq, "
+      "s.code, o.face, o.hz_rad";
+  auto rows = [&](const std::string& path) {
+    db::Database database(path, db::OpenMode::kMustExist);
+    SQLite::Statement q(database.sql(), readings);
+    std::vector<std::string> out;
+    while (q.executeStep()) {
+      out.push_back(q.getColumn(0).getString() + " " + q.getColumn(1).getString() + " " +
+                    std::to_string(q.getColumn(2).getDouble()) + " " +
+                    std::to_string(q.getColumn(3).getDouble()) + " " +
+                    std::to_string(q.getColumn(4).getInt()) + " " +
+                    std::to_string(q.getColumn(5).getInt()));
+    }
+    return out;
+  };
+  const auto there = rows(central);
+  EXPECT_EQ(there.size(), 90u);
+  EXPECT_EQ(there, rows(cell));
+
+  const std::string other = dir.File("other.db");
+  {
+    db::Database database(other);
+    database.sql().exec(
+        "INSERT INTO robots(name, model_name, model_yaml) VALUES ('puma760-demo', 'x', 'x')");
+  }
+  r = RunArmsig("--db '" + cell + "' db push --to '" + other + "'");
+  EXPECT_EQ(r.exit_code, 2) << r.err;
+  EXPECT_NE(r.err.find("robot puma760-demo has another model"), std::string::npos) << r.err;
+}
+
+}  // namespace armsig::testing

@@ -1,0 +1,567 @@
+#include "db/push.h"
+
+#include <fmt/format.h>
+#include <spdlog/spdlog.h>
+
+#include <boost/uuid/random_generator.hpp>
+#include <boost/uuid/uuid_io.hpp>
+#include <map>
+#include <nlohmann/json.hpp>
+#include <optional>
+
+#include "core/error.h"
+#include "core/text.h"
+
+namespace armsig::db {
+
+namespace {
+
+// A column copied as it is: its name and how it is read and bound.
+enum class Kind { kInt, kReal, kText };
+struct Column {
+  const char* name;
+  Kind kind;
+};
+
+void CopyValue(const Statement& from, int column, Statement& to, int index, Kind kind) {
+  if (from.IsNull(column)) {
+    to.BindNull(index);
+    return;
+  }
+  switch (kind) {
+    case Kind::kInt:
+      to.Bind(index, from.Int(column));
+      break;
+    case Kind::kReal:
+      to.Bind(index, from.Double(column));
+      break;
+    case Kind::kText:
+      to.Bind(index, from.Text(column));
+      break;
+  }
+}
+
+// The copied columns of each table, beside its id and the ids that are mapped.
+constexpr Column kInstrumentColumns[] = {
+    {"kind", Kind::kText},           {"protocol", Kind::kText},
+    {"port", Kind::kText},           {"serial_number", Kind::kText},
+    {"firmware", Kind::kText},       {"sigma_hz_arcsec", Kind::kReal},
+    {"sigma_v_arcsec", Kind::kReal}, {"sigma_distance_mm", Kind::kReal},
+    {"created_at", Kind::kText}};
+constexpr Column kSessionColumns[] = {{"lab_yaml", Kind::kText},   {"plan_json", Kind::kText},
+                                      {"state", Kind::kText},      {"note", Kind::kText},
+                                      {"started_at", Kind::kText}, {"finished_at", Kind::kText}};
+constexpr Column kSetupColumns[] = {
+    {"x_mm", Kind::kReal},          {"y_mm", Kind::kReal},         {"z_mm", Kind::kReal},
+    {"levelled", Kind::kInt},       {"azimuth_rad", Kind::kReal},  {"rotation_json", Kind::kText},
+    {"sx_mm", Kind::kReal},         {"sy_mm", Kind::kReal},        {"sz_mm", Kind::kReal},
+    {"s_azimuth_rad", Kind::kReal}, {"sigma0", Kind::kReal},       {"dof", Kind::kInt},
+    {"method", Kind::kText},        {"sigma_hz_rad", Kind::kReal}, {"sigma_v_rad", Kind::kReal},
+    {"created_at", Kind::kText}};
+constexpr Column kPoseColumns[] = {{"seq", Kind::kInt},          {"label", Kind::kText},
+                                   {"joints_json", Kind::kText}, {"status", Kind::kText},
+                                   {"attempts", Kind::kInt},     {"captured_at", Kind::kText}};
+constexpr Column kObservationColumns[] = {{"point", Kind::kText},
+                                          {"hz_rad", Kind::kReal},
+                                          {"v_rad", Kind::kReal},
+                                          {"distance_mm", Kind::kReal},
+                                          {"face", Kind::kInt},
+                                          {"sigma_hz_arcsec", Kind::kReal},
+                                          {"sigma_v_arcsec", Kind::kReal},
+                                          {"sigma_distance_mm", Kind::kReal},
+                                          {"return_code", Kind::kInt},
+                                          {"measured_at", Kind::kText},
+                                          {"temperature_c", Kind::kReal},
+                                          {"pressure_hpa", Kind::kReal},
+                                          {"humidity_percent", Kind::kReal}};
+constexpr Column kPointColumns[] = {{"point", Kind::kText},  {"x_mm", Kind::kReal},
+                                    {"y_mm", Kind::kReal},   {"z_mm", Kind::kReal},
+                                    {"sx_mm", Kind::kReal},  {"sy_mm", Kind::kReal},
+                                    {"sz_mm", Kind::kReal},  {"covariance_json", Kind::kText},
+                                    {"rays", Kind::kInt},    {"rejected_rays", Kind::kInt},
+                                    {"sigma0", Kind::kReal}, {"miss_mm", Kind::kReal},
+                                    {"flags", Kind::kText},  {"reduced_at", Kind::kText}};
+constexpr Column kCalibrationColumns[] = {
+    {"params_spec", Kind::kText},        {"inputs_json", Kind::kText},
+    {"options_json", Kind::kText},       {"rank", Kind::kInt},
+    {"poses_fit", Kind::kInt},           {"poses_validation", Kind::kInt},
+    {"nominal_mean_mm", Kind::kReal},    {"nominal_max_mm", Kind::kReal},
+    {"nominal_rms_mm", Kind::kReal},     {"fit_mean_mm", Kind::kReal},
+    {"fit_max_mm", Kind::kReal},         {"fit_rms_mm", Kind::kReal},
+    {"validation_mean_mm", Kind::kReal}, {"validation_max_mm", Kind::kReal},
+    {"validation_rms_mm", Kind::kReal},  {"report_json", Kind::kText},
+    {"created_at", Kind::kText},         {"world_from_base_json", Kind::kText},
+    {"covariance_json", Kind::kText},    {"drift_json", Kind::kText},
+    {"residual_map_json", Kind::kText}};
+constexpr Column kParameterColumns[] = {{"name", Kind::kText},
+                                        {"value", Kind::kReal},
+                                        {"unit", Kind::kText},
+                                        {"identified", Kind::kInt},
+                                        {"sigma", Kind::kReal}};
+constexpr Column kResidualColumns[] = {{"pose_label", Kind::kText},
+                                       {"role", Kind::kText},
+                                       {"dx_mm", Kind::kReal},
+                                       {"dy_mm", Kind::kReal},
+                                       {"dz_mm", Kind::kReal},
+                                       {"distance_mm", Kind::kReal},
+                                       {"nominal_distance_mm", Kind::kReal}};
+
+template <size_t N>
+std::string Names(const Column (&columns)[N]) {
+  std::string out;
+  for (const auto& c : columns) out += std::string(out.empty() ? "" : ", ") + c.name;
+  return out;
+}
+// The placeholders of the copied columns and `extra` more.
+template <size_t N>
+std::string Marks(const Column (&)[N], int extra) {
+  std::string out;
+  for (size_t k = 0; k < N + static_cast<size_t>(extra); ++k) out += k ? ",?" : "?";
+  return out;
+}
+// Binds columns [first, first + N) of `from` as parameters [index, index + N) of `to`.
+template <size_t N>
+void CopyColumns(const Statement& from, int first, Statement& to, int index,
+                 const Column (&columns)[N]) {
+  for (size_t k = 0; k < N; ++k)
+    CopyValue(from, first + static_cast<int>(k), to, index + static_cast<int>(k), columns[k].kind);
+}
+
+// The id an INSERT … RETURNING id gives, the statement run to its end (SQLite keeps an
+// unfinished statement open, and a transaction with one open cannot commit).
+int64_t InsertedId(Statement& insert, const Connection& target, const std::string& what) {
+  if (!insert.Step()) throw DatabaseError(target.name() + ": no id for " + what, "", false);
+  const int64_t id = insert.Int(0);
+  while (insert.Step()) {
+  }
+  return id;
+}
+
+std::string NewUuid() {
+  static thread_local boost::uuids::random_generator generator;
+  return boost::uuids::to_string(generator());
+}
+
+// The server's ids of the cell's robots, stations and instruments (by name), created on the
+// server when new.
+class NameMap {
+ public:
+  NameMap(Connection& source, Connection& target, PushSummary& summary)
+      : source_(source), target_(target), summary_(summary) {}
+
+  int64_t Robot(int64_t local) {
+    if (auto it = robots_.find(local); it != robots_.end()) return it->second;
+    auto s =
+        source_.Prepare("SELECT name, model_name, model_yaml, created_at FROM robots WHERE id = ?");
+    s->Bind(1, local);
+    if (!s->Step())
+      throw DatabaseError(source_.name() + ": no robot " + std::to_string(local), "", false);
+    const std::string name = s->Text(0), model_yaml = s->Text(2);
+    auto t = target_.Prepare("SELECT id, model_yaml FROM robots WHERE name = ?");
+    t->Bind(1, name);
+    int64_t id = 0;
+    if (t->Step()) {
+      if (t->Text(1) != model_yaml) {
+        throw InputError({source_.name(), 0, 0, "robots"},
+                         fmt::format("robot {} has another model on {} than in this cell's "
+                                     "database: nothing of it is pushed (compare `armsig robot "
+                                     "list` on both; a robot renamed in the cell is pushed under "
+                                     "its new name)",
+                                     name, target_.name()));
+      }
+      id = t->Int(0);
+    } else {
+      auto insert = target_.Prepare(
+          "INSERT INTO robots(name, model_name, model_yaml, created_at) VALUES (?,?,?,?) "
+          "RETURNING id");
+      insert->Bind(1, name);
+      insert->Bind(2, s->Text(1));
+      insert->Bind(3, model_yaml);
+      insert->Bind(4, s->Text(3));
+      id = InsertedId(*insert, target_, "robot " + name);
+      ++summary_.robots_created;
+    }
+    robots_[local] = id;
+    return id;
+  }
+
+  std::optional<int64_t> Instrument(std::optional<int64_t> local) {
+    if (!local) return std::nullopt;
+    if (auto it = instruments_.find(*local); it != instruments_.end()) return it->second;
+    auto s = source_.Prepare("SELECT name, " + Names(kInstrumentColumns) +
+                             " FROM instruments WHERE id = ?");
+    s->Bind(1, *local);
+    if (!s->Step()) return std::nullopt;
+    const int64_t id = Ensure("instruments", "name", s->Text(0), [&] {
+      auto insert = target_.Prepare("INSERT INTO instruments(name, " + Names(kInstrumentColumns) +
+                                    ") VALUES (" + Marks(kInstrumentColumns, 1) + ") RETURNING id");
+      insert->Bind(1, s->Text(0));
+      CopyColumns(*s, 1, *insert, 2, kInstrumentColumns);
+      return insert;
+    });
+    instruments_[*local] = id;
+    return id;
+  }
+
+  int64_t Station(int64_t local) {
+    if (auto it = stations_.find(local); it != stations_.end()) return it->second;
+    auto s = source_.Prepare("SELECT code, instrument_id, description FROM stations WHERE id = ?");
+    s->Bind(1, local);
+    if (!s->Step())
+      throw DatabaseError(source_.name() + ": no station " + std::to_string(local), "", false);
+    const std::string code = s->Text(0);
+    const auto instrument = Instrument(s->OptionalInt(1));
+    const int64_t id = Ensure("stations", "code", code, [&] {
+      auto insert = target_.Prepare(
+          "INSERT INTO stations(code, instrument_id, description) VALUES (?,?,?) RETURNING id");
+      insert->Bind(1, code);
+      insert->Bind(2, instrument);
+      if (s->IsNull(2))
+        insert->BindNull(3);
+      else
+        insert->Bind(3, s->Text(2));
+      return insert;
+    });
+    stations_[local] = id;
+    return id;
+  }
+
+  // A new transaction on the server may have rolled back rows this map created: forget them.
+  void Forget() {
+    robots_.clear();
+    stations_.clear();
+    instruments_.clear();
+  }
+
+ private:
+  template <typename MakeInsert>
+  int64_t Ensure(const std::string& table, const std::string& key, const std::string& value,
+                 MakeInsert make_insert) {
+    auto t = target_.Prepare("SELECT id FROM " + table + " WHERE " + key + " = ?");
+    t->Bind(1, value);
+    if (t->Step()) return t->Int(0);
+    auto insert = make_insert();
+    return InsertedId(*insert, target_, table + " " + value);
+  }
+
+  Connection& source_;
+  Connection& target_;
+  PushSummary& summary_;
+  std::map<int64_t, int64_t> robots_, stations_, instruments_;
+};
+
+// Gives every finished session and every parameter set of the cell a UUID (one local
+// transaction): their identity on every server they are pushed to.
+void AssignUuids(Connection& source) {
+  Transaction tx(source, TransactionKind::kWrite);
+  for (const char* table : {"sessions", "calibrations"}) {
+    std::vector<int64_t> ids;
+    auto q = source.Prepare(
+        std::string("SELECT id FROM ") + table + " WHERE uuid IS NULL" +
+        (std::string(table) == "sessions" ? " AND state IN ('completed','aborted')" : ""));
+    while (q->Step()) ids.push_back(q->Int(0));
+    auto u = source.Prepare(std::string("UPDATE ") + table + " SET uuid = ? WHERE id = ?");
+    for (const int64_t id : ids) {
+      u->Bind(1, NewUuid());
+      u->Bind(2, id);
+      u->Execute();
+    }
+  }
+  tx.Commit();
+}
+
+std::optional<int64_t> ServerIdOf(Connection& target, const char* table, const std::string& uuid) {
+  auto t = target.Prepare(std::string("SELECT id FROM ") + table + " WHERE uuid = ?");
+  t->Bind(1, uuid);
+  if (t->Step()) return t->Int(0);
+  return std::nullopt;
+}
+
+// One session with everything measured in it, in one server transaction.
+void PushSession(Connection& source, Connection& target, NameMap& names, int64_t local,
+                 const std::string& uuid, PushSummary& summary) {
+  Transaction tx(target, TransactionKind::kWrite);
+  names.Forget();
+  auto s =
+      source.Prepare("SELECT robot_id, " + Names(kSessionColumns) + " FROM sessions WHERE id = ?");
+  s->Bind(1, local);
+  if (!s->Step()) return;
+  const int64_t robot = names.Robot(s->Int(0));
+  auto insert = target.Prepare("INSERT INTO sessions(robot_id, " + Names(kSessionColumns) +
+                               ", uuid) VALUES (" + Marks(kSessionColumns, 2) + ") RETURNING id");
+  insert->Bind(1, robot);
+  CopyColumns(*s, 1, *insert, 2, kSessionColumns);
+  insert->Bind(static_cast<int>(std::size(kSessionColumns)) + 2, uuid);
+  const int64_t session = InsertedId(*insert, target, "a session");
+
+  {
+    auto q = source.Prepare("SELECT station_id, " + Names(kSetupColumns) +
+                            " FROM station_setups WHERE session_id = ? ORDER BY id");
+    q->Bind(1, local);
+    auto w = target.Prepare("INSERT INTO station_setups(station_id, session_id, " +
+                            Names(kSetupColumns) + ") VALUES (" + Marks(kSetupColumns, 2) + ")");
+    while (q->Step()) {
+      w->Bind(1, names.Station(q->Int(0)));
+      w->Bind(2, session);
+      CopyColumns(*q, 1, *w, 3, kSetupColumns);
+      w->Execute();
+    }
+  }
+  std::map<int64_t, int64_t> poses;
+  {
+    auto q = source.Prepare("SELECT id, " + Names(kPoseColumns) +
+                            " FROM poses WHERE session_id = ? ORDER BY id");
+    q->Bind(1, local);
+    auto w = target.Prepare("INSERT INTO poses(session_id, " + Names(kPoseColumns) + ") VALUES (" +
+                            Marks(kPoseColumns, 1) + ") RETURNING id");
+    while (q->Step()) {
+      w->Bind(1, session);
+      CopyColumns(*q, 1, *w, 2, kPoseColumns);
+      poses[q->Int(0)] = InsertedId(*w, target, "a pose");
+      ++summary.poses;
+    }
+  }
+  auto pose_of = [&](const Statement& q, int column) -> std::optional<int64_t> {
+    if (q.IsNull(column)) return std::nullopt;
+    const auto it = poses.find(q.Int(column));
+    if (it == poses.end()) return std::nullopt;  // a pose of another session: not linked
+    return it->second;
+  };
+  {
+    auto q =
+        source.Prepare("SELECT pose_id, station_id, instrument_id, " + Names(kObservationColumns) +
+                       " FROM observations WHERE session_id = ? ORDER BY id");
+    q->Bind(1, local);
+    auto w = target.Prepare(
+        "INSERT INTO observations(session_id, pose_id, station_id, "
+        "instrument_id, " +
+        Names(kObservationColumns) + ") VALUES (" + Marks(kObservationColumns, 4) + ")");
+    while (q->Step()) {
+      w->Bind(1, session);
+      w->Bind(2, pose_of(*q, 0));
+      w->Bind(3, names.Station(q->Int(1)));
+      w->Bind(4, names.Instrument(q->OptionalInt(2)));
+      CopyColumns(*q, 3, *w, 5, kObservationColumns);
+      w->Execute();
+      ++summary.observations;
+    }
+  }
+  {
+    auto q = source.Prepare("SELECT pose_id, " + Names(kPointColumns) +
+                            " FROM points WHERE session_id = ? ORDER BY id");
+    q->Bind(1, local);
+    auto w = target.Prepare("INSERT INTO points(session_id, pose_id, " + Names(kPointColumns) +
+                            ") VALUES (" + Marks(kPointColumns, 2) + ")");
+    while (q->Step()) {
+      w->Bind(1, session);
+      w->Bind(2, pose_of(*q, 0));
+      CopyColumns(*q, 1, *w, 3, kPointColumns);
+      w->Execute();
+      ++summary.points;
+    }
+  }
+  tx.Commit();
+  ++summary.sessions_pushed;
+}
+
+// The session ids a parameter set's inputs name, as the server's (ids of sessions that
+// were not pushed, open ones, are left as they were and so are the digest's).
+std::string ServerInputs(Connection& source, Connection& target, const std::string& inputs_json) {
+  auto j = nlohmann::json::parse(inputs_json, nullptr, /*allow_exceptions=*/false);
+  if (!j.is_object() || !j.contains("sessions") || !j["sessions"].is_array()) return inputs_json;
+  for (auto& id : j["sessions"]) {
+    if (!id.is_number_integer()) continue;
+    auto s = source.Prepare("SELECT uuid FROM sessions WHERE id = ?");
+    s->Bind(1, id.get<int64_t>());
+    if (!s->Step() || s->IsNull(0)) continue;
+    if (const auto server = ServerIdOf(target, "sessions", s->Text(0))) id = *server;
+  }
+  return JsonText(j);
+}
+
+// One parameter set with its parameters and residuals, in one server transaction; the
+// robot's next version there. Returns the server's version.
+int PushCalibration(Connection& source, Connection& target, NameMap& names, int64_t local,
+                    const std::string& uuid, PushSummary& summary) {
+  Transaction tx(target, TransactionKind::kWrite);
+  names.Forget();
+  auto s = source.Prepare("SELECT robot_id, version, " + Names(kCalibrationColumns) +
+                          " FROM calibrations WHERE id = ?");
+  s->Bind(1, local);
+  if (!s->Step()) return 0;
+  const int64_t robot = names.Robot(s->Int(0));
+  auto next =
+      target.Prepare("SELECT coalesce(max(version), 0) + 1 FROM calibrations WHERE robot_id = ?");
+  next->Bind(1, robot);
+  next->Step();
+  const int version = static_cast<int>(next->Int(0));
+  auto insert = target.Prepare("INSERT INTO calibrations(robot_id, version, active, " +
+                               Names(kCalibrationColumns) + ", uuid) VALUES (" +
+                               Marks(kCalibrationColumns, 4) + ") RETURNING id");
+  insert->Bind(1, robot);
+  insert->Bind(2, version);
+  insert->Bind(3, 0);
+  CopyColumns(*s, 2, *insert, 4, kCalibrationColumns);
+  // inputs_json (the second copied column) with the server's session ids
+  insert->Bind(5, ServerInputs(source, target, s->Text(3)));
+  insert->Bind(static_cast<int>(std::size(kCalibrationColumns)) + 4, uuid);
+  const int64_t calibration = InsertedId(*insert, target, "a parameter set");
+  {
+    auto q = source.Prepare("SELECT " + Names(kParameterColumns) +
+                            " FROM calibration_parameters WHERE calibration_id = ? ORDER BY rowid");
+    q->Bind(1, local);
+    auto w =
+        target.Prepare("INSERT INTO calibration_parameters(calibration_id, " +
+                       Names(kParameterColumns) + ") VALUES (" + Marks(kParameterColumns, 1) + ")");
+    while (q->Step()) {
+      w->Bind(1, calibration);
+      CopyColumns(*q, 0, *w, 2, kParameterColumns);
+      w->Execute();
+    }
+  }
+  {
+    // A residual's pose on the server: the same (session, plan index) of the pushed session.
+    auto q = source.Prepare(
+        "SELECT s.uuid, p.seq, " + Names(kResidualColumns) +
+        " FROM validation_residuals r LEFT JOIN poses p ON p.id = r.pose_id "
+        "LEFT JOIN sessions s ON s.id = p.session_id WHERE r.calibration_id = ? ORDER BY r.id");
+    q->Bind(1, local);
+    auto find = target.Prepare(
+        "SELECT p.id FROM poses p JOIN sessions s ON s.id = p.session_id "
+        "WHERE s.uuid = ? AND p.seq = ?");
+    auto w =
+        target.Prepare("INSERT INTO validation_residuals(calibration_id, pose_id, " +
+                       Names(kResidualColumns) + ") VALUES (" + Marks(kResidualColumns, 2) + ")");
+    while (q->Step()) {
+      std::optional<int64_t> pose;
+      if (!q->IsNull(0) && !q->IsNull(1)) {
+        find->Bind(1, q->Text(0));
+        find->Bind(2, q->Int(1));
+        if (find->Step()) pose = find->Int(0);
+      }
+      w->Bind(1, calibration);
+      w->Bind(2, pose);
+      CopyColumns(*q, 2, *w, 3, kResidualColumns);
+      w->Execute();
+    }
+  }
+  tx.Commit();
+  ++summary.sets_pushed;
+  return version;
+}
+
+// Makes the cell's active set the server's active one when it is newer than the server's.
+void PushActivation(Connection& source, Connection& target, NameMap& names, int64_t local_robot,
+                    const PushOptions& options, PushSummary& summary) {
+  auto s = source.Prepare(
+      "SELECT uuid, version, created_at FROM calibrations WHERE robot_id = ? AND active = 1");
+  s->Bind(1, local_robot);
+  if (!s->Step() || s->IsNull(0)) return;
+  const std::string uuid = s->Text(0), created_at = s->Text(2);
+  const int local_version = static_cast<int>(s->Int(1));
+  Transaction tx(target, TransactionKind::kWrite);
+  names.Forget();
+  const int64_t robot = names.Robot(local_robot);
+  auto pushed =
+      target.Prepare("SELECT version, active FROM calibrations WHERE robot_id = ? AND uuid = ?");
+  pushed->Bind(1, robot);
+  pushed->Bind(2, uuid);
+  if (!pushed->Step() || pushed->Int(1) == 1) return;  // not there, or already active
+  const int version = static_cast<int>(pushed->Int(0));
+  auto active = target.Prepare(
+      "SELECT version, created_at FROM calibrations WHERE robot_id = ? AND active = 1");
+  active->Bind(1, robot);
+  std::optional<int> previous;
+  if (active->Step()) {
+    if (active->Text(1) > created_at) return;  // the server's own set is newer
+    previous = static_cast<int>(active->Int(0));
+  }
+  auto off = target.Prepare("UPDATE calibrations SET active = 0 WHERE robot_id = ? AND active = 1");
+  off->Bind(1, robot);
+  off->Execute();
+  auto on = target.Prepare("UPDATE calibrations SET active = 1 WHERE robot_id = ? AND version = ?");
+  on->Bind(1, robot);
+  on->Bind(2, version);
+  on->Execute();
+  auto record = target.Prepare(
+      "INSERT INTO activations(robot_id, version, previous_version, activated_by, note) "
+      "VALUES (?,?,?,'activate',?)");
+  record->Bind(1, robot);
+  record->Bind(2, version);
+  if (previous)
+    record->Bind(3, static_cast<int64_t>(*previous));
+  else
+    record->BindNull(3);
+  record->Bind(
+      4, fmt::format("pushed from {} (version {} there)", options.source_name, local_version));
+  record->Execute();
+  tx.Commit();
+  ++summary.activated;
+}
+
+}  // namespace
+
+PushSummary Push(Connection& source, Connection& target, const PushOptions& options) {
+  PushSummary summary;
+  const auto stopping = [&] { return options.stop && options.stop->load(); };
+  AssignUuids(source);
+  NameMap names(source, target, summary);
+
+  struct Item {
+    int64_t id;
+    std::string uuid, label;
+  };
+  std::vector<Item> sessions, sets;
+  {
+    auto q = source.Prepare("SELECT id, uuid, state FROM sessions ORDER BY id");
+    while (q->Step()) {
+      if (q->IsNull(1)) {
+        summary.open_sessions.push_back(fmt::format("session {} ({})", q->Int(0), q->Text(2)));
+        continue;
+      }
+      sessions.push_back({q->Int(0), q->Text(1), ""});
+    }
+    auto c = source.Prepare(
+        "SELECT c.id, c.uuid, r.name, c.version FROM calibrations c JOIN robots r ON "
+        "r.id = c.robot_id ORDER BY c.id");
+    while (c->Step())
+      sets.push_back({c->Int(0), c->Text(1), fmt::format("{} v{}", c->Text(2), c->Int(3))});
+  }
+  for (const auto& s : sessions) {
+    if (stopping()) {
+      summary.stopped = true;
+      return summary;
+    }
+    if (ServerIdOf(target, "sessions", s.uuid)) {
+      ++summary.sessions_present;
+      continue;
+    }
+    PushSession(source, target, names, s.id, s.uuid, summary);
+    spdlog::debug("push: session {} stored on {}", s.id, target.name());
+  }
+  for (const auto& c : sets) {
+    if (stopping()) {
+      summary.stopped = true;
+      return summary;
+    }
+    if (ServerIdOf(target, "calibrations", c.uuid)) {
+      ++summary.sets_present;
+      continue;
+    }
+    const int version = PushCalibration(source, target, names, c.id, c.uuid, summary);
+    summary.versions.push_back(fmt::format("{} -> v{}", c.label, version));
+  }
+  auto robots = source.Prepare("SELECT DISTINCT robot_id FROM calibrations WHERE active = 1");
+  std::vector<int64_t> active_robots;
+  while (robots->Step()) active_robots.push_back(robots->Int(0));
+  for (const int64_t robot : active_robots) {
+    if (stopping()) {
+      summary.stopped = true;
+      return summary;
+    }
+    PushActivation(source, target, names, robot, options, summary);
+  }
+  return summary;
+}
+
+}  // namespace armsig::db

@@ -1,0 +1,278 @@
+// `db push`: a cell's database copied into a central store, idempotent and resumable. The
+// cell holds simulated sessions of a PUMA 760 and parameter sets the nightly job fitted;
+// what the central store gives back (poses, active parameters) is read through the same
+// db/ readers the commands use and compared with the cell's.
+#include "db/push.h"
+
+#include <gtest/gtest.h>
+
+#include <map>
+
+#include "calibration/simulation.h"
+#include "core/error.h"
+#include "db/calibrations.h"
+#include "db/database.h"
+#include "db/robots.h"
+#include "db/sessions.h"
+#include "db/sqlite_connection.h"
+#include "support/simulated_sessions.h"
+#include "test_support.h"
+#include "workflows/recalibrate.h"
+
+namespace armsig::testing {
+
+namespace {
+
+workflows::RecalibrateOptions Nightly(const std::string& path) {
+  workflows::RecalibrateOptions o;
+  o.db_path = path;
+  o.robot = "puma";
+  o.residual_model = "off";
+  return o;
+}
+
+// A cell: two finished sessions, one parameter set fitted on them (active).
+void MakeCell(const std::string& path) {
+  {
+    db::Database database(path);
+    AddSession(database, calibration::PaperTable3Parameters(), 60, 1);
+    AddSession(database, calibration::PaperTable3Parameters(), 60, 2);
+  }
+  const auto fit = workflows::Recalibrate(Nightly(path));
+  ASSERT_EQ(fit.outcome, workflows::RecalibrationDecision::Outcome::kStored) << fit.Describe();
+}
+
+std::map<std::string, int64_t> Counts(db::Database& database) {
+  std::map<std::string, int64_t> out;
+  for (const auto& c : database.RowCounts()) out[c.table] = c.rows;
+  return out;
+}
+
+db::PushSummary PushFiles(const std::string& from, const std::string& to,
+                          db::Connection* cut = nullptr) {
+  db::Database source(from, db::OpenMode::kMustExist);
+  db::Database target(to);
+  db::SqliteConnection a(source.sql(), from), b(target.sql(), to);
+  return db::Push(a, cut ? *cut : b, {from, nullptr});
+}
+
+// The robot's measured poses as the nightly job reads them, keyed by label and in the
+// order of their session's start (pose ids carry the session id, which differs).
+std::vector<std::pair<std::string, Eigen::Vector3d>> Poses(const std::string& path) {
+  db::Database database(path, db::OpenMode::kMustExist);
+  const auto robot = db::FindRobot(database, "puma");
+  EXPECT_TRUE(robot.has_value());
+  std::vector<std::pair<std::string, Eigen::Vector3d>> out;
+  if (!robot) return out;
+  for (const auto& p : db::LoadRobotPoses(database, *robot, "")) {
+    out.emplace_back(p.id.substr(p.id.find(':') + 1) + " " + std::to_string(p.joints_rad.sum()),
+                     p.target_in_world);
+  }
+  return out;
+}
+
+// A connection that is cut after `budget` calls have reached the server (prepare, each
+// run of a statement, begin, commit): every later call fails as on a dropped connection
+// (the server rolls back the open transaction).
+class CutConnection : public db::Connection {
+ public:
+  CutConnection(db::Connection& inner, int budget) : inner_(inner), budget_(budget) {}
+  db::Backend backend() const override { return inner_.backend(); }
+  std::unique_ptr<db::Statement> Prepare(std::string_view sql) override {
+    Spend();
+    return std::make_unique<CutStatement>(*this, inner_.Prepare(sql));
+  }
+  void Exec(std::string_view sql) override {
+    Spend();
+    inner_.Exec(sql);
+  }
+  void Begin(db::TransactionKind kind) override {
+    Spend();
+    inner_.Begin(kind);
+  }
+  void Commit() override {
+    Spend();
+    inner_.Commit();
+  }
+  void Rollback() override { inner_.Rollback(); }
+  const std::string& name() const override { return inner_.name(); }
+
+ private:
+  class CutStatement : public db::Statement {
+   public:
+    CutStatement(CutConnection& c, std::unique_ptr<db::Statement> s) : c_(c), s_(std::move(s)) {}
+    void BindNull(int i) override { s_->BindNull(i); }
+    void Bind(int i, int64_t v) override { s_->Bind(i, v); }
+    void Bind(int i, double v) override { s_->Bind(i, v); }
+    void Bind(int i, std::string_view v) override { s_->Bind(i, v); }
+    void BindBlob(int i, std::string_view v) override { s_->BindBlob(i, v); }
+    bool Step() override {
+      c_.Spend();
+      return s_->Step();
+    }
+    int64_t Execute() override {
+      c_.Spend();
+      return s_->Execute();
+    }
+    int Columns() const override { return s_->Columns(); }
+    bool IsNull(int k) const override { return s_->IsNull(k); }
+    int64_t Int(int k) const override { return s_->Int(k); }
+    double Double(int k) const override { return s_->Double(k); }
+    std::string Text(int k) const override { return s_->Text(k); }
+    std::string Blob(int k) const override { return s_->Blob(k); }
+
+   private:
+    CutConnection& c_;
+    std::unique_ptr<db::Statement> s_;
+  };
+  void Spend() {
+    if (--budget_ < 0) throw db::DatabaseError(name() + ": connection lost", "08006", false);
+  }
+  db::Connection& inner_;
+  int budget_;
+};
+
+}  // namespace
+
+// Pushed twice: the second push stores nothing. The central store reads back the same
+// poses and the same active parameters as the cell.
+TEST(Push, TwiceDoublesNothingAndTheStoreReadsBackTheCell) {
+  TempDir dir;
+  const std::string cell = dir.File("cell.db"), central = dir.File("central.db");
+  MakeCell(cell);
+  const auto first = PushFiles(cell, central);
+  EXPECT_EQ(first.sessions_pushed, 2);
+  EXPECT_EQ(first.poses, 120);
+  EXPECT_EQ(first.points, 120);
+  EXPECT_EQ(first.sets_pushed, 1);
+  EXPECT_EQ(first.activated, 1);
+  EXPECT_EQ(first.robots_created, 1);
+  const auto second = PushFiles(cell, central);
+  EXPECT_EQ(second.sessions_pushed, 0);
+  EXPECT_EQ(second.sets_pushed, 0);
+  EXPECT_EQ(second.sessions_present, 2);
+  EXPECT_EQ(second.sets_present, 1);
+  EXPECT_EQ(second.activated, 0);
+
+  db::Database a(cell, db::OpenMode::kMustExist), b(central, db::OpenMode::kMustExist);
+  auto from = Counts(a), to = Counts(b);
+  for (const char* table : {"robots", "sessions", "poses", "points", "observations", "calibrations",
+                            "calibration_parameters", "validation_residuals"}) {
+    EXPECT_EQ(to[table], from[table]) << table;
+  }
+  EXPECT_EQ(Poses(central), Poses(cell));
+  const auto robot_a = db::FindRobot(a, "puma"), robot_b = db::FindRobot(b, "puma");
+  ASSERT_TRUE(robot_a && robot_b);
+  const auto active_a = db::ActiveCalibration(a, *robot_a),
+             active_b = db::ActiveCalibration(b, *robot_b);
+  ASSERT_TRUE(active_a && active_b);
+  ASSERT_EQ(active_b->parameters.size(), active_a->parameters.size());
+  for (size_t k = 0; k < active_a->parameters.size(); ++k) {
+    EXPECT_EQ(active_b->parameters[k].name, active_a->parameters[k].name);
+    EXPECT_EQ(active_b->parameters[k].value, active_a->parameters[k].value);
+  }
+  EXPECT_TRUE(active_b->world_from_base->isApprox(*active_a->world_from_base, 0.0));
+  EXPECT_EQ(active_b->covariance, active_a->covariance);
+  // The set's inputs name the server's sessions.
+  const auto inputs = nlohmann::json::parse(active_b->inputs_json);
+  const auto server_sessions = db::SessionIds(b);
+  for (const auto& id : inputs["sessions"]) {
+    EXPECT_NE(std::find(server_sessions.begin(), server_sessions.end(), id.get<int64_t>()),
+              server_sessions.end());
+  }
+  // The activation on the server says where the set came from.
+  const auto history = db::ActivationHistory(b, *robot_b);
+  ASSERT_EQ(history.size(), 1u);
+  EXPECT_NE(history[0].note.find("pushed from " + cell), std::string::npos) << history[0].note;
+}
+
+// The connection is cut at every possible statement in turn: each push leaves whole
+// sessions and sets or nothing of them, and the next one completes the store, every row
+// once.
+TEST(Push, ACutConnectionLeavesWholeItemsAndTheNextPushCompletes) {
+  TempDir dir;
+  const std::string cell = dir.File("cell.db");
+  MakeCell(cell);
+  std::map<std::string, int64_t> want;
+  {
+    db::Database a(cell, db::OpenMode::kMustExist);
+    want = Counts(a);
+  }
+  int cuts = 0;
+  for (int budget = 0;; budget += 23) {
+    const std::string central = dir.File("central-" + std::to_string(budget) + ".db");
+    bool was_cut = false;
+    {
+      db::Database source(cell, db::OpenMode::kMustExist);
+      db::Database target(central);
+      db::SqliteConnection a(source.sql(), cell), b(target.sql(), central);
+      CutConnection cut(b, budget);
+      try {
+        db::Push(a, cut, {cell, nullptr});
+      } catch (const db::DatabaseError& e) {
+        was_cut = true;
+        EXPECT_NE(std::string(e.what()).find("connection lost"), std::string::npos) << e.what();
+      }
+      // Whatever was stored is whole: each stored session has all of its poses.
+      auto sessions = target.sql().execAndGet(
+          "SELECT count(*) FROM sessions s WHERE (SELECT count(*) FROM poses p WHERE "
+          "p.session_id = s.id) <> 60");
+      EXPECT_EQ(sessions.getInt(), 0) << "budget " << budget;
+      auto sets = target.sql().execAndGet(
+          "SELECT count(*) FROM calibrations c WHERE NOT EXISTS (SELECT 1 FROM "
+          "calibration_parameters p WHERE p.calibration_id = c.id)");
+      EXPECT_EQ(sets.getInt(), 0) << "budget " << budget;
+    }
+    PushFiles(cell, central);
+    db::Database b(central, db::OpenMode::kMustExist);
+    auto to = Counts(b);
+    for (const char* table : {"robots", "sessions", "poses", "points", "observations",
+                              "calibrations", "calibration_parameters", "validation_residuals"}) {
+      EXPECT_EQ(to[table], want[table]) << table << ", cut after " << budget << " statements";
+    }
+    EXPECT_EQ(to["activations"], 1) << budget;
+    if (!was_cut) break;
+    ++cuts;
+  }
+  EXPECT_GT(cuts, 20);  // the cut fell in every part of the push
+}
+
+// Open sessions wait; a robot with another model on the server is refused by name.
+TEST(Push, OpenSessionsWaitAndAnotherModelIsRefused) {
+  TempDir dir;
+  const std::string cell = dir.File("cell.db"), central = dir.File("central.db");
+  MakeCell(cell);
+  {
+    db::Database a(cell, db::OpenMode::kMustExist);
+    db::SetSessionState(a, 2, "paused");
+  }
+  auto s = PushFiles(cell, central);
+  EXPECT_EQ(s.sessions_pushed, 1);
+  ASSERT_EQ(s.open_sessions.size(), 1u);
+  EXPECT_EQ(s.open_sessions[0], "session 2 (paused)");
+  {
+    db::Database a(cell, db::OpenMode::kMustExist);
+    db::SetSessionState(a, 2, "completed");
+  }
+  s = PushFiles(cell, central);
+  EXPECT_EQ(s.sessions_pushed, 1);
+  EXPECT_EQ(s.sessions_present, 1);
+  EXPECT_TRUE(s.open_sessions.empty());
+
+  const std::string other = dir.File("other.db");
+  {
+    db::Database b(other);
+    b.sql().exec("INSERT INTO robots(name, model_name, model_yaml) VALUES ('puma', 'x', 'x')");
+  }
+  try {
+    PushFiles(cell, other);
+    ADD_FAILURE() << "pushed onto another model";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("robot puma has another model"), std::string::npos)
+        << e.what();
+  }
+  db::Database b(other, db::OpenMode::kMustExist);
+  EXPECT_EQ(b.sql().execAndGet("SELECT count(*) FROM sessions").getInt(), 0);
+}
+
+}  // namespace armsig::testing
