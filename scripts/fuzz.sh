@@ -85,7 +85,10 @@ fi
 cmake --build build-fuzz --target armsig_fuzzers --parallel "$(nproc)"
 
 mkdir -p build-fuzz/crashes
-fuzz_dir="$(mktemp -d)"  # the targets' input files (readers that take a path)
+# The targets' input files (readers that take a path) on tmpfs when there is one: rewriting
+# a file on a disk busy with other writes (a build, a database test) can block in the
+# kernel for milliseconds, which once cut poses_fuzz and observations_fuzz to 276 exec/s.
+if [[ -d /dev/shm && -w /dev/shm ]]; then fuzz_dir="$(mktemp -d -p /dev/shm)"; else fuzz_dir="$(mktemp -d)"; fi
 trap 'rm -rf "$fuzz_dir"' EXIT
 export ARMSIG_FUZZ_DIR="$fuzz_dir"
 failed=0 total=0
