@@ -1,6 +1,8 @@
 #include "support/postgres_server.h"
 
+#include <netinet/in.h>
 #include <pwd.h>
+#include <sys/socket.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
@@ -39,6 +41,23 @@ std::string FindBinDir() {
     }
   }
   return best;
+}
+
+// A TCP port nobody listens on now (the kernel's pick for port 0); the server's socket
+// file is named after it too.
+int FreeTcpPort() {
+  const int fd = ::socket(AF_INET, SOCK_STREAM, 0);
+  sockaddr_in a{};
+  a.sin_family = AF_INET;
+  a.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
+  socklen_t size = sizeof a;
+  int port = 0;
+  if (fd >= 0 && ::bind(fd, reinterpret_cast<sockaddr*>(&a), sizeof a) == 0 &&
+      ::getsockname(fd, reinterpret_cast<sockaddr*>(&a), &size) == 0)
+    port = ntohs(a.sin_port);
+  if (fd >= 0) ::close(fd);
+  if (port == 0) port = 20000 + static_cast<int>(std::random_device{}() % 20000);
+  return port;
 }
 
 std::string ReadFile(const std::string& path) {
@@ -91,16 +110,29 @@ PostgresServer::PostgresServer() {
     if (::chown(dir_.c_str(), pw->pw_uid, pw->pw_gid) != 0)
       throw std::runtime_error("PostgreSQL test server: cannot give " + dir_ + " to " + run_as_);
   }
-  std::random_device rd;
-  port_ = 20000 + static_cast<int>(rd() % 20000);  // names the socket file only (no TCP)
+  port_ = FreeTcpPort();
   const std::string data = dir_ + "/data";
   Run(Quote(bin_ + "/initdb") + " -D " + Quote(data) + " -U " + superuser_ +
       " -A trust -E UTF8 --no-sync --no-instructions");
+  // TLS on loopback TCP for the security tests: a self-signed certificate for localhost,
+  // and the role kTlsRole admitted only over TLS with its password (every other role: trust,
+  // on the socket as before).
+  Run("openssl req -x509 -newkey rsa:2048 -nodes -days 2 -subj /CN=localhost -keyout " +
+      Quote(data + "/server.key") + " -out " + Quote(data + "/server.crt"));
+  Run("chmod 600 " + Quote(data + "/server.key"));
+  const std::string hba = ReadFile(data + "/pg_hba.conf");
+  {
+    std::ofstream out(dir_ + "/pg_hba.conf");
+    out << "hostssl all " << kTlsRole << " 127.0.0.1/32 scram-sha-256\n"
+        << "host all " << kTlsRole << " 127.0.0.1/32 reject\n"
+        << hba;
+  }
+  Run("cp " + Quote(dir_ + "/pg_hba.conf") + " " + Quote(data + "/pg_hba.conf"));
   try {
     Run(Quote(bin_ + "/pg_ctl") + " -D " + Quote(data) + " -l " + Quote(dir_ + "/server.log") +
         " -w -t 60 -o " +
         Quote("-k " + dir_ + " -p " + std::to_string(port_) +
-              " -c listen_addresses= -c fsync=off -c max_connections=200") +
+              " -c listen_addresses=127.0.0.1 -c ssl=on -c fsync=off -c max_connections=200") +
         " start");
   } catch (const std::exception& e) {
     throw std::runtime_error(std::string(e.what()) + "\nserver log:\n" +
@@ -123,6 +155,11 @@ PostgresServer::~PostgresServer() {
 std::string PostgresServer::Uri(const std::string& database) const {
   return "postgresql:///" + database + "?host=" + dir_ + "&port=" + std::to_string(port_) +
          "&user=" + superuser_;
+}
+
+std::string PostgresServer::TlsUri(const std::string& database, const std::string& sslmode) const {
+  return "postgresql://" + std::string(kTlsRole) + "@localhost:" + std::to_string(port_) + "/" +
+         database + "?sslmode=" + sslmode;
 }
 
 std::string PostgresServer::Psql(const std::string& database, const std::string& sql) const {

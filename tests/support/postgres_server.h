@@ -1,8 +1,8 @@
 // A PostgreSQL server of the tests' own (Debian's `postgresql` package): initdb into a
 // private temporary directory as an unprivileged user (the `postgres` account when the
 // tests run as root, initdb refuses root; else the current user), listening on a Unix
-// socket in that directory only (no TCP), stopped and removed when the test process
-// ends. Nothing of the machine's own clusters is touched.
+// socket in that directory (and on loopback TCP with TLS, for the security tests), stopped
+// and removed when the test process ends. Nothing of the machine's own clusters is touched.
 #pragma once
 
 #include <memory>
@@ -23,6 +23,13 @@ class PostgresServer {
   // (postgresql:///NAME?host=SOCKET_DIR&port=PORT&user=SUPERUSER).
   std::string NewDatabase(const std::string& name);
   std::string Uri(const std::string& database) const;
+  // The server also listens on 127.0.0.1:port() with TLS (ssl=on, a self-signed
+  // certificate for CN=localhost, certificate_path()). kTlsRole (created by the test that
+  // uses it, with a password) is admitted only over TLS with its password; its URI:
+  // postgresql://armsig_tls@localhost:PORT/DATABASE?sslmode=MODE.
+  static constexpr const char* kTlsRole = "armsig_tls";
+  std::string TlsUri(const std::string& database, const std::string& sslmode) const;
+  std::string certificate_path() const { return dir_ + "/data/server.crt"; }
   // Runs `sql` with psql as the superuser in `database`; returns psql's output.
   std::string Psql(const std::string& database, const std::string& sql) const;
   const std::string& socket_dir() const { return dir_; }
