@@ -5,7 +5,6 @@
 
 #include "app/command.h"
 #include "db/push.h"
-#include "db/sqlite_connection.h"
 #include "io/atomic_file.h"
 
 namespace armsig::app {
@@ -60,12 +59,11 @@ void SetupDbCommand(CLI::App& parent, const GlobalOptions& global, Runner& run) 
       ->required();
   OnExistingDatabase(push, global, run, [to](db::Database& source) {
     db::Database target(*to, db::OpenMode::kCreate);
-    db::SqliteConnection from(source.sql(), source.path());
-    db::SqliteConnection into(target.sql(), target.path());
+    db::Connection& into = target.connection();
     db::PushOptions options;
     options.source_name = source.path();
     options.stop = &StopRequested();
-    const db::PushSummary s = db::Push(from, into, options);
+    const db::PushSummary s = db::Push(source.connection(), into, options);
     std::cout << fmt::format(
         "pushed {} session(s) ({} poses, {} observations, {} points) and {} parameter set(s) "
         "to {}; {} session(s) and {} set(s) were there already\n",

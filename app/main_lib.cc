@@ -20,6 +20,7 @@
 #include "core/error.h"
 #include "core/plausibility.h"
 #include "core/text.h"
+#include "db/connection.h"
 #include "db/schema.h"
 #include "io/atomic_file.h"
 
@@ -153,7 +154,9 @@ void SetupAll(CLI::App& app, GlobalOptions& global, Runner& run) {
   app.fallthrough();
   app.set_version_flag("--version", VersionText());
   app.add_option("--db", global.db_path,
-                 "SQLite database file (default: $ARMSIG_DB, else ./armsig.db)");
+                 "The store: an SQLite file, or a PostgreSQL database as a libpq URI "
+                 "(postgresql://HOST/DB; credentials from libpq's environment, ~/.pgpass or a "
+                 "service file, never in the URI) (default: $ARMSIG_DB, else ./armsig.db)");
   app.add_flag("-v,--verbose", global.verbosity, "More log output on stderr (repeat for more)");
   app.add_flag("-q,--quiet", global.quiet, "Only warnings and errors on stderr");
   SetupDemoCommand(app, global, run);
@@ -273,6 +276,9 @@ int Main(int argc, const char* const* argv) {
     return kQualityGate;
   } catch (const SQLite::Exception& e) {
     spdlog::error("database error: {} (SQLite code {})", e.what(), e.getErrorCode());
+    return kFailure;
+  } catch (const db::DatabaseError& e) {
+    spdlog::error("database error: {}", e.what());
     return kFailure;
   } catch (const std::exception& e) {
     spdlog::error("failed: {}", e.what());

@@ -108,16 +108,13 @@ void AddRobot(db::Database& db, const std::string& name, int count, unsigned see
   for (int i = 0; i < count && i < static_cast<int>(poses.size()); ++i) {
     const int64_t pose =
         db::InsertPose(db, session, i, poses[i].id, poses[i].joints_rad, "measured", 1);
-    SQLite::Statement s(db.sql(),
-                        "INSERT INTO points(session_id, pose_id, point, x_mm, y_mm, z_mm, rays) "
-                        "VALUES (?,?,?,?,?,?,3)");
-    s.bind(1, session);
-    s.bind(2, pose);
-    s.bind(3, "target");
-    s.bind(4, poses[i].target_in_world.x());
-    s.bind(5, poses[i].target_in_world.y());
-    s.bind(6, poses[i].target_in_world.z());
-    s.exec();
+    db::PointRow point;
+    point.pose_id = pose;
+    point.point = "target";
+    point.position_mm = poses[i].target_in_world;
+    point.covariance_mm2 = Eigen::Matrix3d::Constant(NAN);  // not known
+    point.rays = 3;
+    db::InsertPoint(db, session, point);
   }
   tx.commit();
 }

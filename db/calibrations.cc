@@ -82,9 +82,9 @@ void CovarianceFromJson(const std::string& text, int64_t calibration_id, StoredC
 void CheckStoredValues(Database& db, int64_t robot_id, const StoredCalibration& c) {
   auto refuse = [&](const std::string& what) {
     std::string robot = "id " + std::to_string(robot_id);
-    SQLite::Statement name(db.sql(), "SELECT name FROM robots WHERE id = ?");
-    name.bind(1, robot_id);
-    if (name.executeStep()) robot = Quoted(name.getColumn(0).getString());
+    auto name = Sql(db, "SELECT name FROM robots WHERE id = ?");
+    name->Bind(1, robot_id);
+    if (name->Step()) robot = Quoted(name->Text(0));
     throw InputError({db.path(), 0, 0, ""},
                      "robot " + robot + ", parameter set version " + std::to_string(c.version) +
                          ": " + what +
@@ -116,128 +116,127 @@ void CheckStoredValues(Database& db, int64_t robot_id, const StoredCalibration& 
 }  // namespace
 
 std::pair<int64_t, int> InsertCalibration(Database& db, const CalibrationRecord& c) {
-  SQLite::Statement next(
-      db.sql(), "SELECT coalesce(max(version), 0) + 1 FROM calibrations WHERE robot_id = ?");
-  next.bind(1, c.robot_id);
-  next.executeStep();
-  const int version = next.getColumn(0).getInt();
+  // The next version and the active flag are read, then written: no other writer of this
+  // robot's sets in between (PostgreSQL; SQLite's write transaction already excludes).
+  LockRobotForWrite(db, c.robot_id);
+  auto next = Sql(db, "SELECT coalesce(max(version), 0) + 1 FROM calibrations WHERE robot_id = ?");
+  next->Bind(1, c.robot_id);
+  next->Step();
+  const int version = static_cast<int>(next->Int(0));
   if (c.active) {
-    SQLite::Statement off(db.sql(), "UPDATE calibrations SET active = 0 WHERE robot_id = ?");
-    off.bind(1, c.robot_id);
-    off.exec();
+    auto off = Sql(db, "UPDATE calibrations SET active = 0 WHERE robot_id = ?");
+    off->Bind(1, c.robot_id);
+    off->Execute();
   }
-  SQLite::Statement s(
-      db.sql(),
+  auto s = Sql(db,
       "INSERT INTO calibrations(robot_id, version, active, params_spec, inputs_json, options_json, "
       "rank, "
       "poses_fit, poses_validation, nominal_mean_mm, nominal_max_mm, nominal_rms_mm, fit_mean_mm, "
       "fit_max_mm, fit_rms_mm, validation_mean_mm, validation_max_mm, validation_rms_mm, "
       "report_json, world_from_base_json, covariance_json, drift_json, residual_map_json) "
-      "VALUES (?,?,?,?,?,?,?,?,?,?,?,?,?,?,?,?,?,?,?,?,?,?,?)");
-  s.bind(1, c.robot_id);
-  s.bind(2, version);
-  s.bind(3, c.active ? 1 : 0);
-  s.bind(4, c.params_spec);
-  s.bind(5, c.inputs_json);
-  s.bind(6, c.options_json);
-  s.bind(7, c.rank);
-  s.bind(8, c.poses_fit);
-  s.bind(9, c.poses_validation);
+      "VALUES (?,?,?,?,?,?,?,?,?,?,?,?,?,?,?,?,?,?,?,?,?,?,?) RETURNING id");
+  s->Bind(1, c.robot_id);
+  s->Bind(2, version);
+  s->Bind(3, c.active ? 1 : 0);
+  s->Bind(4, c.params_spec);
+  s->Bind(5, c.inputs_json);
+  s->Bind(6, c.options_json);
+  s->Bind(7, c.rank);
+  s->Bind(8, c.poses_fit);
+  s->Bind(9, c.poses_validation);
   const double stats[9] = {c.nominal_mean_mm,    c.nominal_max_mm,    c.nominal_rms_mm,
                            c.fit_mean_mm,        c.fit_max_mm,        c.fit_rms_mm,
                            c.validation_mean_mm, c.validation_max_mm, c.validation_rms_mm};
-  for (int k = 0; k < 9; ++k) BindOptional(s, 10 + k, stats[k]);
-  s.bind(19, c.report_json);
-  s.bind(20, MatrixJson(c.world_from_base));
+  for (int k = 0; k < 9; ++k) s->Bind(10 + k, stats[k]);
+  s->Bind(19, c.report_json);
+  s->Bind(20, MatrixJson(c.world_from_base));
   if (c.covariance_parameters.empty())
-    s.bind(21);
+    s->BindNull(21);
   else
-    s.bind(21, CovarianceJson(c.covariance_parameters, c.covariance));
+    s->Bind(21, CovarianceJson(c.covariance_parameters, c.covariance));
   if (c.drift_json.empty())
-    s.bind(22);
+    s->BindNull(22);
   else
-    s.bind(22, c.drift_json);
+    s->Bind(22, c.drift_json);
   if (c.residual_map_json.empty())
-    s.bind(23);
+    s->BindNull(23);
   else
-    s.bind(23, c.residual_map_json);
-  s.exec();
-  const int64_t id = db.sql().getLastInsertRowid();
-  SQLite::Statement p(db.sql(),
+    s->Bind(23, c.residual_map_json);
+  const int64_t id = InsertedId(*s, db.path() + ": a parameter set");
+  auto p = Sql(db,
                       "INSERT INTO calibration_parameters(calibration_id, name, value, unit, "
-                      "identified, sigma) VALUES (?,?,?,?,?,?)");
+                      "identified, sigma, seq) VALUES (?,?,?,?,?,?,?)");
+  int seq = 0;
   for (const auto& param : c.parameters) {
-    p.reset();
-    p.bind(1, id);
-    p.bind(2, param.name);
-    p.bind(3, param.value);
-    p.bind(4, param.unit);
-    p.bind(5, param.identified ? 1 : 0);
-    BindOptional(p, 6, param.sigma);
-    p.exec();
+    p->Bind(1, id);
+    p->Bind(2, param.name);
+    p->Bind(3, param.value);
+    p->Bind(4, param.unit);
+    p->Bind(5, param.identified ? 1 : 0);
+    p->Bind(6, param.sigma);
+    p->Bind(7, ++seq);
+    p->Execute();
   }
-  SQLite::Statement r(db.sql(),
+  auto r = Sql(db,
                       "INSERT INTO validation_residuals(calibration_id, pose_label, role, dx_mm, "
                       "dy_mm, dz_mm, distance_mm, "
                       "nominal_distance_mm) VALUES (?,?,?,?,?,?,?,?)");
   for (const auto& res : c.residuals) {
-    r.reset();
-    r.bind(1, id);
-    r.bind(2, res.pose_label);
-    r.bind(3, res.role);
-    r.bind(4, res.error_mm.x());
-    r.bind(5, res.error_mm.y());
-    r.bind(6, res.error_mm.z());
-    r.bind(7, res.error_mm.norm());
-    BindOptional(r, 8, res.nominal_distance_mm);
-    r.exec();
+    r->Bind(1, id);
+    r->Bind(2, res.pose_label);
+    r->Bind(3, res.role);
+    r->Bind(4, res.error_mm.x());
+    r->Bind(5, res.error_mm.y());
+    r->Bind(6, res.error_mm.z());
+    r->Bind(7, res.error_mm.norm());
+    r->Bind(8, res.nominal_distance_mm);
+    r->Execute();
   }
   return {id, version};
 }
 
 std::vector<StoredCalibration> CalibrationHistory(Database& db, int64_t robot_id) {
   std::vector<StoredCalibration> out;
-  SQLite::Statement q(
-      db.sql(),
+  auto q = Sql(db,
       "SELECT id, version, active, created_at, params_spec, inputs_json, coalesce(report_json,''), "
       "validation_mean_mm, validation_max_mm, world_from_base_json, covariance_json, options_json, "
       "rank, poses_fit, poses_validation, fit_mean_mm, coalesce(drift_json, ''), "
       "coalesce(residual_map_json, '') FROM calibrations "
       "WHERE robot_id = ? ORDER BY version");
-  q.bind(1, robot_id);
-  while (q.executeStep()) {
+  q->Bind(1, robot_id);
+  while (q->Step()) {
     StoredCalibration c;
-    c.id = q.getColumn(0).getInt64();
-    c.version = q.getColumn(1).getInt();
-    c.active = q.getColumn(2).getInt() != 0;
-    c.created_at = q.getColumn(3).getString();
-    c.params_spec = q.getColumn(4).getString();
-    c.inputs_json = q.getColumn(5).getString();
-    c.report_json = q.getColumn(6).getString();
-    if (!q.getColumn(7).isNull()) c.validation_mean_mm = q.getColumn(7).getDouble();
-    if (!q.getColumn(8).isNull()) c.validation_max_mm = q.getColumn(8).getDouble();
-    if (!q.getColumn(9).isNull())
-      c.world_from_base = MatrixFromJson(q.getColumn(9).getString(), c.id);
-    if (!q.getColumn(10).isNull()) CovarianceFromJson(q.getColumn(10).getString(), c.id, c);
-    c.options_json = q.getColumn(11).getString();
-    c.rank = q.getColumn(12).getInt();
-    c.poses_fit = q.getColumn(13).getInt();
-    c.poses_validation = q.getColumn(14).getInt();
-    if (!q.getColumn(15).isNull()) c.fit_mean_mm = q.getColumn(15).getDouble();
-    c.drift_json = q.getColumn(16).getString();
-    c.residual_map_json = q.getColumn(17).getString();
-    SQLite::Statement p(db.sql(),
+    c.id = q->Int(0);
+    c.version = static_cast<int>(q->Int(1));
+    c.active = static_cast<int>(q->Int(2)) != 0;
+    c.created_at = q->Text(3);
+    c.params_spec = q->Text(4);
+    c.inputs_json = q->Text(5);
+    c.report_json = q->Text(6);
+    if (!q->IsNull(7)) c.validation_mean_mm = q->Double(7);
+    if (!q->IsNull(8)) c.validation_max_mm = q->Double(8);
+    if (!q->IsNull(9))
+      c.world_from_base = MatrixFromJson(q->Text(9), c.id);
+    if (!q->IsNull(10)) CovarianceFromJson(q->Text(10), c.id, c);
+    c.options_json = q->Text(11);
+    c.rank = static_cast<int>(q->Int(12));
+    c.poses_fit = static_cast<int>(q->Int(13));
+    c.poses_validation = static_cast<int>(q->Int(14));
+    if (!q->IsNull(15)) c.fit_mean_mm = q->Double(15);
+    c.drift_json = q->Text(16);
+    c.residual_map_json = q->Text(17);
+    auto p = Sql(db,
                         "SELECT name, value, unit, identified, sigma FROM calibration_parameters "
                         "WHERE calibration_id = ? "
-                        "ORDER BY rowid");
-    p.bind(1, c.id);
-    while (p.executeStep()) {
+                        "ORDER BY seq");
+    p->Bind(1, c.id);
+    while (p->Step()) {
       CalibrationRecord::Parameter param;
-      param.name = p.getColumn(0).getString();
-      param.value = p.getColumn(1).getDouble();
-      param.unit = p.getColumn(2).getString();
-      param.identified = p.getColumn(3).getInt() != 0;
-      param.sigma = p.getColumn(4).isNull() ? NAN : p.getColumn(4).getDouble();
+      param.name = p->Text(0);
+      param.value = p->Double(1);
+      param.unit = p->Text(2);
+      param.identified = static_cast<int>(p->Int(3)) != 0;
+      param.sigma = p->IsNull(4) ? NAN : p->Double(4);
       c.parameters.push_back(param);
     }
     CheckStoredValues(db, robot_id, c);
@@ -254,47 +253,49 @@ std::optional<StoredCalibration> ActiveCalibration(Database& db, int64_t robot_i
 }
 
 bool SetActiveVersion(Database& db, int64_t robot_id, int version) {
-  SQLite::Statement exists(db.sql(),
+  LockRobotForWrite(db, robot_id);
+  auto exists = Sql(db,
                            "SELECT 1 FROM calibrations WHERE robot_id = ? AND version = ?");
-  exists.bind(1, robot_id);
-  exists.bind(2, version);
-  if (!exists.executeStep()) return false;
-  SQLite::Statement s(db.sql(),
-                      "UPDATE calibrations SET active = (version = ?) WHERE robot_id = ?");
-  s.bind(1, version);
-  s.bind(2, robot_id);
-  s.exec();
+  exists->Bind(1, robot_id);
+  exists->Bind(2, version);
+  if (!exists->Step()) return false;
+  auto s = Sql(db,
+                      "UPDATE calibrations SET active = CASE WHEN version = ? THEN 1 ELSE 0 END "
+                      "WHERE robot_id = ?");
+  s->Bind(1, version);
+  s->Bind(2, robot_id);
+  s->Execute();
   return true;
 }
 
 void RecordActivation(Database& db, int64_t robot_id, const Activation& a) {
-  SQLite::Statement s(db.sql(),
+  auto s = Sql(db,
                       "INSERT INTO activations(robot_id, version, previous_version, activated_by, "
                       "note) VALUES (?,?,?,?,?)");
-  s.bind(1, robot_id);
-  s.bind(2, a.version);
+  s->Bind(1, robot_id);
+  s->Bind(2, a.version);
   if (a.previous_version)
-    s.bind(3, *a.previous_version);
+    s->Bind(3, *a.previous_version);
   else
-    s.bind(3);
-  s.bind(4, a.activated_by);
-  s.bind(5, a.note);
-  s.exec();
+    s->BindNull(3);
+  s->Bind(4, a.activated_by);
+  s->Bind(5, a.note);
+  s->Execute();
 }
 
 std::vector<Activation> ActivationHistory(Database& db, int64_t robot_id) {
   std::vector<Activation> out;
-  SQLite::Statement q(db.sql(),
+  auto q = Sql(db,
                       "SELECT version, previous_version, activated_at, activated_by, "
                       "coalesce(note, '') FROM activations WHERE robot_id = ? ORDER BY id");
-  q.bind(1, robot_id);
-  while (q.executeStep()) {
+  q->Bind(1, robot_id);
+  while (q->Step()) {
     Activation a;
-    a.version = q.getColumn(0).getInt();
-    if (!q.getColumn(1).isNull()) a.previous_version = q.getColumn(1).getInt();
-    a.activated_at = q.getColumn(2).getString();
-    a.activated_by = q.getColumn(3).getString();
-    a.note = q.getColumn(4).getString();
+    a.version = static_cast<int>(q->Int(0));
+    if (!q->IsNull(1)) a.previous_version = static_cast<int>(q->Int(1));
+    a.activated_at = q->Text(2);
+    a.activated_by = q->Text(3);
+    a.note = q->Text(4);
     out.push_back(std::move(a));
   }
   return out;

@@ -2,6 +2,8 @@
 
 #include <spdlog/spdlog.h>
 
+#include <algorithm>
+
 namespace armsig::db {
 
 int64_t Connection::QueryInt(std::string_view sql) {
@@ -13,9 +15,10 @@ int64_t Connection::QueryInt(std::string_view sql) {
 std::string NumberedPlaceholders(std::string_view sql) {
   std::string out;
   out.reserve(sql.size() + 16);
-  int n = 0;
+  int largest = 0;
   char quote = 0;  // inside '…' or "…"
-  for (char c : sql) {
+  for (size_t k = 0; k < sql.size(); ++k) {
+    const char c = sql[k];
     if (quote) {
       if (c == quote) quote = 0;
       out += c;
@@ -23,12 +26,26 @@ std::string NumberedPlaceholders(std::string_view sql) {
       quote = c;
       out += c;
     } else if (c == '?') {
-      out += '$' + std::to_string(++n);
+      size_t end = k + 1;
+      while (end < sql.size() && sql[end] >= '0' && sql[end] <= '9') ++end;
+      const int number =
+          end > k + 1 ? std::stoi(std::string(sql.substr(k + 1, end - k - 1))) : largest + 1;
+      largest = std::max(largest, number);
+      out += '$' + std::to_string(number);
+      k = end - 1;
     } else {
       out += c;
     }
   }
   return out;
+}
+
+int64_t InsertedId(Statement& insert, const std::string& what) {
+  if (!insert.Step()) throw DatabaseError("no id returned for " + what, "", false);
+  const int64_t id = insert.Int(0);
+  while (insert.Step()) {
+  }
+  return id;
 }
 
 Transaction::Transaction(Connection& connection, TransactionKind kind) : connection_(connection) {

@@ -64,6 +64,11 @@ class Statement {
   virtual int64_t Execute() = 0;
 
   virtual int Columns() const = 0;
+  // The column's name and the type of its value in the current row (NULL: kNull). Numbers
+  // as SQL gives them: an integer column kInteger, a floating one kReal, on both backends.
+  enum class Type { kNull, kInteger, kReal, kText, kBlob };
+  virtual std::string ColumnName(int column) const = 0;
+  virtual Type ColumnType(int column) const = 0;
   virtual bool IsNull(int column) const = 0;
   virtual int64_t Int(int column) const = 0;
   virtual double Double(int column) const = 0;
@@ -101,8 +106,13 @@ class Connection {
   int64_t QueryInt(std::string_view sql);
 };
 
-// `?` placeholders as PostgreSQL's `$1…$n` (outside quoted strings and identifiers).
+// `?` placeholders as PostgreSQL's `$1…$n` (outside quoted strings and identifiers), by
+// SQLite's rules: `?NNN` is parameter NNN, a bare `?` the largest number so far plus one.
 std::string NumberedPlaceholders(std::string_view sql);
+
+// The id an `INSERT … RETURNING id` gives, the statement run to its end (SQLite keeps an
+// unfinished statement open, and a transaction with one open cannot commit).
+int64_t InsertedId(Statement& insert, const std::string& what);
 
 // A transaction that rolls back unless committed.
 class Transaction {

@@ -22,7 +22,9 @@
 #include <utility>
 
 #include "core/error.h"
+#include "db/postgres_connection.h"
 #include "db/schema.h"
+#include "db/sqlite_connection.h"
 
 namespace armsig::db {
 
@@ -380,15 +382,21 @@ SQLite::Database OpenOrExplain(const std::string& path, const OpenOptions& optio
   }
 }
 
-std::string CsvField(const SQLite::Column& column) {
-  if (column.isNull()) return "";
-  if (column.isInteger()) return std::to_string(column.getInt64());
-  if (column.isFloat()) {
-    char buffer[40];
-    std::snprintf(buffer, sizeof buffer, "%.17g", column.getDouble());
-    return buffer;
+std::string CsvField(const Statement& row, int column) {
+  switch (row.ColumnType(column)) {
+    case Statement::Type::kNull:
+      return "";
+    case Statement::Type::kInteger:
+      return std::to_string(row.Int(column));
+    case Statement::Type::kReal: {
+      char buffer[40];
+      std::snprintf(buffer, sizeof buffer, "%.17g", row.Double(column));
+      return buffer;
+    }
+    default:
+      break;
   }
-  std::string text = column.getString();
+  std::string text = row.Text(column);
   if (text.find_first_of(",\"\r\n") == std::string::npos) return text;
   std::string quoted = "\"";
   for (char c : text) {
@@ -398,46 +406,165 @@ std::string CsvField(const SQLite::Column& column) {
   return quoted + '"';
 }
 
+// The order of a table's rows in an export: insertion order.
+std::string ExportOrder(const std::string& table) {
+  return table == "calibration_parameters" ? "calibration_id, seq" : "id";
+}
+
+// PostgreSQL: the key of the advisory lock a migration holds, and the namespace of the
+// robots' write locks ("ARMS" in the high 32 bits).
+constexpr int64_t kMigrationLockKey = (int64_t{kApplicationId} << 32) | int64_t{0x5343484D};  // "SCHM"
+constexpr int64_t kRobotLockNamespace = int64_t{kApplicationId} << 32;
+
 }  // namespace
 
-Database::Database(const std::string& path, OpenOptions options)
-    : path_(path),
+Database::Database(const std::string& location, OpenOptions options)
+    : path_(location),
       busy_timeout_ms_(options.busy_timeout_ms),
-      read_only_(options.mode == OpenMode::kReadOnly),
-      db_(OpenOrExplain(path, options, created_)) {
+      read_only_(options.mode == OpenMode::kReadOnly) {
+  if (IsPostgresUri(location)) {
+    OpenPostgres(location, options);
+  } else {
+    OpenSqlite(options);
+  }
+}
+
+Database::~Database() = default;
+
+SQLite::Database& Database::sql() {
+  if (!sqlite_) {
+    throw std::logic_error(path_ + " is a PostgreSQL store: no SQLite handle (use connection())");
+  }
+  return *sqlite_;
+}
+
+void Database::OpenSqlite(const OpenOptions& options) {
+  sqlite_ = std::make_unique<SQLite::Database>(OpenOrExplain(path_, options, created_));
+  connection_ = std::make_unique<SqliteConnection>(*sqlite_, path_);
   if (read_only_) {
     // The file's connection is read-only, and an older schema was copied into memory: the
     // migration below, if any, changes only that copy.
-    db_.exec("PRAGMA foreign_keys=ON");
+    sqlite_->exec("PRAGMA foreign_keys=ON");
     if (options.migrate) Migrate();
     return;
   }
   try {
     // WAL: readers never block the writer, and a killed writer leaves the last
     // committed state. synchronous=FULL so a commit also survives a power cut.
-    RetryWhileBusy(busy_timeout_ms_, [&] { return db_.exec("PRAGMA journal_mode=WAL"); });
-    db_.exec("PRAGMA synchronous=FULL");
-    db_.exec("PRAGMA foreign_keys=ON");
+    RetryWhileBusy(busy_timeout_ms_, [&] { return sqlite_->exec("PRAGMA journal_mode=WAL"); });
+    sqlite_->exec("PRAGMA synchronous=FULL");
+    sqlite_->exec("PRAGMA foreign_keys=ON");
   } catch (const SQLite::Exception& e) {
-    throw InputError({path, 0, 0, ""},
+    throw InputError({path_, 0, 0, ""},
                      std::string("not a usable SQLite database (") + e.what() + ")");
   }
   if (options.migrate) Migrate();
 }
 
-int Database::SchemaVersion() { return db_.execAndGet("PRAGMA user_version").getInt(); }
+void Database::OpenPostgres(const std::string& uri, const OpenOptions& options) {
+  auto connection = std::make_unique<PostgresConnection>(uri);  // refuses a password in the URI
+  path_ = connection->name();
+  connection_ = std::move(connection);
+  // A lock held longer than the busy timeout is an error, as on SQLite.
+  connection_->Exec("SET lock_timeout = " + std::to_string(std::max(busy_timeout_ms_, 1)));
+  MigratePostgres(options);
+  // A command that only reads cannot write by mistake.
+  if (read_only_) connection_->Exec("SET default_transaction_read_only = on");
+}
+
+void Database::MigratePostgres(const OpenOptions& options) {
+  Connection& c = *connection_;
+  const int latest = LatestSchemaVersion();
+  auto refuse = [&](const std::string& why) { Refuse(path_, why); };
+  auto marked = [&] {
+    return c.QueryInt("SELECT count(*) FROM information_schema.tables WHERE table_schema = "
+                      "current_schema() AND table_name = 'armsig_schema'") > 0;
+  };
+  auto version = [&] {
+    auto q = c.Prepare("SELECT application_id, version FROM armsig_schema");
+    if (!q->Step()) refuse("its armsig_schema table is empty: damaged or edited; left as it is");
+    if (q->Int(0) != kApplicationId) {
+      refuse(fmt::format("armsig_schema carries the application id 0x{:08x}, not armsig's: "
+                         "left as it is",
+                         static_cast<uint32_t>(q->Int(0))));
+    }
+    return static_cast<int>(q->Int(1));
+  };
+  auto too_new = [&](int v) {
+    if (v > latest) {
+      refuse(fmt::format("schema version {} is newer than this armsig understands ({}); the "
+                         "store is left as it is: use a newer armsig",
+                         v, latest));
+    }
+  };
+  if (c.QueryInt("SELECT CASE WHEN current_schema() IS NULL THEN 1 ELSE 0 END") != 0) {
+    refuse("the connection has no current schema to keep armsig's tables in (search_path names "
+           "no existing schema; set options=-csearch_path=NAME in the URI)");
+  }
+  // Fast path: an armsig store at this version (every open but the first).
+  if (marked()) {
+    const int v = version();
+    too_new(v);
+    if (v == latest) return;
+    if (options.mode == OpenMode::kReadOnly || !options.migrate) {
+      refuse(fmt::format("schema version {} is older than this armsig's ({}); a command that "
+                         "only reads does not migrate a server's store: run a writing command "
+                         "once (armsig --db URI db init)",
+                         v, latest));
+    }
+  } else if (options.mode != OpenMode::kCreate) {
+    refuse("no armsig store in this database (this command only uses what is there and creates "
+           "none: armsig --db URI db init creates it; check --db or $ARMSIG_DB)");
+  }
+  Transaction tx(c, TransactionKind::kWrite);
+  c.Exec("SELECT pg_advisory_xact_lock(" + std::to_string(kMigrationLockKey) + ")");
+  int current = 0;
+  if (marked()) {  // looked at again under the lock: another process may have migrated
+    current = version();
+    too_new(current);
+    if (current == latest) return;  // the transaction rolls back: nothing to do
+  } else {
+    std::string clash;
+    auto q = c.Prepare(
+        "SELECT table_name FROM information_schema.tables WHERE table_schema = current_schema() "
+        "ORDER BY table_name");
+    while (q->Step()) {
+      const std::string t = q->Text(0);
+      const auto tables = TableNames();
+      if (std::find(tables.begin(), tables.end(), t) != tables.end())
+        clash += (clash.empty() ? "" : ", ") + t;
+    }
+    if (!clash.empty()) {
+      refuse("holds tables of armsig's names that armsig did not make (" + clash +
+             "); left as it is: use another database, or another schema "
+             "(options=-csearch_path=NAME in the URI)");
+    }
+    c.Exec("CREATE TABLE armsig_schema (application_id BIGINT NOT NULL, version INTEGER NOT NULL)");
+    c.Exec("INSERT INTO armsig_schema VALUES (" + std::to_string(kApplicationId) + ", 0)");
+    created_ = true;
+  }
+  for (int v = current; v < latest; ++v) c.Exec(MigrationSql(v, Backend::kPostgres));
+  c.Exec("UPDATE armsig_schema SET version = " + std::to_string(latest));
+  tx.Commit();
+}
+
+int Database::SchemaVersion() {
+  if (sqlite_) return sqlite_->execAndGet("PRAGMA user_version").getInt();
+  return static_cast<int>(connection_->QueryInt("SELECT version FROM armsig_schema"));
+}
 
 void Database::Migrate() {
   RetryWhileBusy(busy_timeout_ms_, [&] { MigrateOnce(); });
 }
 
 void Database::MigrateOnce() {
+  SQLite::Database& db = *sqlite_;
   const int latest = LatestSchemaVersion();
-  auto application_id = [&] { return db_.execAndGet("PRAGMA application_id").getInt(); };
+  auto application_id = [&] { return db.execAndGet("PRAGMA application_id").getInt(); };
   if (SchemaVersion() == latest && application_id() == kApplicationId) return;
   // An IMMEDIATE transaction takes the write lock first, so two processes opening a fresh
   // file at once cannot both migrate; the loser waits, then sees the new version.
-  SQLite::Transaction tx(db_, SQLite::TransactionBehavior::IMMEDIATE);
+  SQLite::Transaction tx(db, SQLite::TransactionBehavior::IMMEDIATE);
   // Looked at again under the lock (another process may have migrated, or replaced the file).
   const int current = SchemaVersion();
   const int id = application_id();
@@ -449,9 +576,9 @@ void Database::MigrateOnce() {
     Refuse(path_, fmt::format("another application's SQLite database (application_id 0x{:08x})",
                               static_cast<uint32_t>(id)));
   }
-  for (int v = current; v < latest; ++v) db_.exec(std::string(Migrations()[v]));
-  db_.exec("PRAGMA user_version=" + std::to_string(latest));
-  db_.exec("PRAGMA application_id=" + std::to_string(kApplicationId));
+  for (int v = current; v < latest; ++v) db.exec(MigrationSql(v, Backend::kSqlite));
+  db.exec("PRAGMA user_version=" + std::to_string(latest));
+  db.exec("PRAGMA application_id=" + std::to_string(kApplicationId));
   tx.commit();  // rolled back by the destructor when a migration throws
 }
 
@@ -459,7 +586,7 @@ std::vector<Database::TableCount> Database::RowCounts() {
   std::vector<TableCount> counts;
   for (std::string_view table : TableNames()) {
     const std::string name(table);
-    counts.push_back({name, db_.execAndGet("SELECT count(*) FROM " + name).getInt64()});
+    counts.push_back({name, connection_->QueryInt("SELECT count(*) FROM " + name)});
   }
   return counts;
 }
@@ -471,20 +598,26 @@ std::string Database::ExportCsv(const std::string& table) {
     for (std::string_view t : tables) known += (known.empty() ? "" : ", ") + std::string(t);
     throw InputError("unknown table '" + table + "' (expected one of: " + known + ")");
   }
-  SQLite::Statement query(db_, "SELECT * FROM " + table + " ORDER BY rowid");
+  auto query = connection_->Prepare("SELECT * FROM " + table + " ORDER BY " + ExportOrder(table));
+  bool row = query->Step();  // PostgreSQL knows the columns once the statement ran
   std::string out;
-  for (int c = 0; c < query.getColumnCount(); ++c) {
-    out += (c ? "," : "") + std::string(query.getColumnName(c));
-  }
+  for (int c = 0; c < query->Columns(); ++c) out += (c ? "," : "") + query->ColumnName(c);
   out += '\n';
-  while (query.executeStep()) {
-    for (int c = 0; c < query.getColumnCount(); ++c) {
+  for (; row; row = query->Step()) {
+    for (int c = 0; c < query->Columns(); ++c) {
       if (c) out += ',';
-      out += CsvField(query.getColumn(c));
+      out += CsvField(*query, c);
     }
     out += '\n';
   }
   return out;
+}
+
+void LockRobotForWrite(Connection& connection, int64_t robot_id) {
+  if (connection.backend() != Backend::kPostgres) return;
+  auto lock = connection.Prepare("SELECT pg_advisory_xact_lock(CAST(? AS BIGINT))");
+  lock->Bind(1, static_cast<int64_t>(kRobotLockNamespace | (robot_id & 0xffffffff)));
+  lock->Execute();
 }
 
 }  // namespace armsig::db

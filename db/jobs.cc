@@ -102,16 +102,6 @@ std::string JobsSchemaSql(Backend backend) {
   return out;
 }
 
-void EnsureJobsSchema(Connection& connection) {
-  if (connection.backend() != Backend::kPostgres) return;
-  Transaction tx(connection, TransactionKind::kWrite);
-  // CREATE … IF NOT EXISTS is not safe against a concurrent CREATE of the same name (both
-  // pass the check; one fails on the catalog's unique index): serialise on a fixed lock.
-  connection.Exec("SELECT pg_advisory_xact_lock(4150917742)");
-  connection.Exec(JobsSchemaSql(Backend::kPostgres));
-  tx.Commit();
-}
-
 std::string_view NowMsSql(Backend backend) {
   return backend == Backend::kSqlite
              ? "CAST((julianday('now') - 2440587.5) * 86400000.0 AS INTEGER)"
@@ -284,7 +274,8 @@ RobotLock::RobotLock(Connection& connection, const std::string& kind, const std:
     if (s->Step() && s->Text(0) == "t") break;
     if (std::chrono::steady_clock::now() >= deadline) {
       throw std::runtime_error(fmt::format(
-          "{}: another worker has held the {} lock of robot {} for more than {} s",
+          "{}: another process has held the {} lock of robot {} for more than {} s (a run of "
+          "it on some machine; --lock-wait sets how long to wait)",
           connection_.name(), kind, robot, wait_s));
     }
     std::this_thread::sleep_for(std::chrono::milliseconds(100));

@@ -47,13 +47,9 @@ struct Job {
   std::optional<int64_t> version;  // the parameter set stored (or found up to date)
 };
 
-// The jobs table's DDL for `backend` (one text, the id column's type the only difference).
-// On SQLite it is a schema migration (db/schema.cc, kJobsMigration); on PostgreSQL
-// EnsureJobsSchema runs it (IF NOT EXISTS) until the whole store is ported.
+// The jobs table's DDL for `backend` (one text, the id column's type the only difference):
+// schema migration v7 on both backends (db/schema.cc, kJobsMigration).
 std::string JobsSchemaSql(Backend backend);
-// Creates the jobs table on a PostgreSQL connection when missing (no-op on SQLite, whose
-// migration made it). Safe against concurrent callers.
-void EnsureJobsSchema(Connection& connection);
 
 // The server clock in ms since the epoch, as SQL for `backend`.
 std::string_view NowMsSql(Backend backend);
@@ -93,8 +89,9 @@ std::optional<Job> FindJob(Connection& connection, int64_t id);
 
 // Per-robot exclusion by the database: on PostgreSQL a session advisory lock
 // (pg_advisory_lock on a 64-bit hash of the kind and robot) held for the object's life,
-// so that two workers never run the same robot at once whatever machine they are on; on
-// SQLite nothing (workflows::Recalibrate takes its file lock beside the database file).
+// so that two runs never work on the same robot at once whatever machine they are on
+// (workflows::Recalibrate holds it on a PostgreSQL store); on SQLite nothing (Recalibrate
+// takes its file lock beside the database file).
 class RobotLock {
  public:
   // Waits up to `wait_s`; throws std::runtime_error when another holder keeps it longer.

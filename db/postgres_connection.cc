@@ -78,9 +78,34 @@ class PostgresStatement : public Statement {
   }
 
   int Columns() const override { return result_ ? PQnfields(result_.get()) : 0; }
+  std::string ColumnName(int column) const override {
+    const char* name = result_ ? PQfname(result_.get(), column) : nullptr;
+    return name ? name : "";
+  }
+  Type ColumnType(int column) const override {
+    if (IsNull(column)) return Type::kNull;
+    switch (PQftype(result_.get(), column)) {  // pg_type OIDs
+      case 16:    // bool
+      case 20:    // int8
+      case 21:    // int2
+      case 23:    // int4
+        return Type::kInteger;
+      case 700:   // float4
+      case 701:   // float8
+      case 1700:  // numeric
+        return Type::kReal;
+      case 17:  // bytea
+        return Type::kBlob;
+      default:
+        return Type::kText;
+    }
+  }
   bool IsNull(int column) const override { return PQgetisnull(result_.get(), row_, column); }
   int64_t Int(int column) const override {
-    return IsNull(column) ? 0 : std::atoll(PQgetvalue(result_.get(), row_, column));
+    if (IsNull(column)) return 0;
+    const char* value = PQgetvalue(result_.get(), row_, column);
+    if (PQftype(result_.get(), column) == 16) return *value == 't';  // bool
+    return std::atoll(value);
   }
   double Double(int column) const override {
     if (IsNull(column)) return 0.0;

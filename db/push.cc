@@ -11,6 +11,7 @@
 
 #include "core/error.h"
 #include "core/text.h"
+#include "db/database.h"
 
 namespace armsig::db {
 
@@ -97,7 +98,8 @@ constexpr Column kParameterColumns[] = {{"name", Kind::kText},
                                         {"value", Kind::kReal},
                                         {"unit", Kind::kText},
                                         {"identified", Kind::kInt},
-                                        {"sigma", Kind::kReal}};
+                                        {"sigma", Kind::kReal},
+                                        {"seq", Kind::kInt}};
 constexpr Column kResidualColumns[] = {{"pose_label", Kind::kText},
                                        {"role", Kind::kText},
                                        {"dx_mm", Kind::kReal},
@@ -127,14 +129,8 @@ void CopyColumns(const Statement& from, int first, Statement& to, int index,
     CopyValue(from, first + static_cast<int>(k), to, index + static_cast<int>(k), columns[k].kind);
 }
 
-// The id an INSERT … RETURNING id gives, the statement run to its end (SQLite keeps an
-// unfinished statement open, and a transaction with one open cannot commit).
 int64_t InsertedId(Statement& insert, const Connection& target, const std::string& what) {
-  if (!insert.Step()) throw DatabaseError(target.name() + ": no id for " + what, "", false);
-  const int64_t id = insert.Int(0);
-  while (insert.Step()) {
-  }
-  return id;
+  return db::InsertedId(insert, target.name() + ": " + what);
 }
 
 std::string NewUuid() {
@@ -390,6 +386,7 @@ int PushCalibration(Connection& source, Connection& target, NameMap& names, int6
   s->Bind(1, local);
   if (!s->Step()) return 0;
   const int64_t robot = names.Robot(s->Int(0));
+  LockRobotForWrite(target, robot);  // the next version: no other writer of the robot's sets
   auto next =
       target.Prepare("SELECT coalesce(max(version), 0) + 1 FROM calibrations WHERE robot_id = ?");
   next->Bind(1, robot);
@@ -408,7 +405,7 @@ int PushCalibration(Connection& source, Connection& target, NameMap& names, int6
   const int64_t calibration = InsertedId(*insert, target, "a parameter set");
   {
     auto q = source.Prepare("SELECT " + Names(kParameterColumns) +
-                            " FROM calibration_parameters WHERE calibration_id = ? ORDER BY rowid");
+                            " FROM calibration_parameters WHERE calibration_id = ? ORDER BY seq");
     q->Bind(1, local);
     auto w =
         target.Prepare("INSERT INTO calibration_parameters(calibration_id, " +
@@ -462,6 +459,7 @@ void PushActivation(Connection& source, Connection& target, NameMap& names, int6
   Transaction tx(target, TransactionKind::kWrite);
   names.Forget();
   const int64_t robot = names.Robot(local_robot);
+  LockRobotForWrite(target, robot);  // the active set read, then changed
   auto pushed =
       target.Prepare("SELECT version, active FROM calibrations WHERE robot_id = ? AND uuid = ?");
   pushed->Bind(1, robot);

@@ -1,8 +1,6 @@
 // Small binding helpers shared by the db/ table families (not part of the public API).
 #pragma once
 
-#include <SQLiteCpp/Statement.h>
-
 #include <Eigen/Core>
 #include <cmath>
 #include <cstdio>
@@ -12,23 +10,14 @@
 #include <string>
 #include <vector>
 
+#include "db/connection.h"
+#include "db/database.h"
+
 namespace armsig::db {
 
-// Binds a finite value, NULL otherwise (NaN and ±inf mean "not known").
-inline void BindOptional(SQLite::Statement& s, int index, double value) {
-  if (std::isfinite(value))
-    s.bind(index, value);
-  else
-    s.bind(index);
-}
-
-inline void BindOptional(SQLite::Statement& s, int index, const std::optional<double>& value) {
-  BindOptional(s, index, value.value_or(std::numeric_limits<double>::quiet_NaN()));
-}
-// A column as an optional number (NULL = absent).
-inline std::optional<double> OptionalDouble(const SQLite::Column& column) {
-  if (column.isNull()) return std::nullopt;
-  return column.getDouble();
+// The store's statement for `sql` (written once for both backends, `?` placeholders).
+inline std::unique_ptr<Statement> Sql(Database& db, std::string_view sql) {
+  return db.connection().Prepare(sql);
 }
 
 // A JSON array of n doubles printed exactly (%.17g).

@@ -73,6 +73,15 @@ class SqliteStatement : public Statement {
   }
 
   int Columns() const override { return s_->getColumnCount(); }
+  std::string ColumnName(int column) const override { return s_->getColumnName(column); }
+  Type ColumnType(int column) const override {
+    const auto c = s_->getColumn(column);
+    if (c.isNull()) return Type::kNull;
+    if (c.isInteger()) return Type::kInteger;
+    if (c.isFloat()) return Type::kReal;
+    if (c.isBlob()) return Type::kBlob;
+    return Type::kText;
+  }
   bool IsNull(int column) const override { return s_->isColumnNull(column); }
   int64_t Int(int column) const override { return s_->getColumn(column).getInt64(); }
   double Double(int column) const override { return s_->getColumn(column).getDouble(); }

@@ -10,6 +10,7 @@
 #include <ctime>
 #include <functional>
 #include <map>
+#include <optional>
 #include <regex>
 #include <set>
 
@@ -20,6 +21,7 @@
 #include "core/error.h"
 #include "core/text.h"
 #include "db/database.h"
+#include "db/jobs.h"
 #include "db/report_queries.h"
 #include "db/store.h"
 #include "io/atomic_file.h"
@@ -282,8 +284,14 @@ RecalibrationDecision Recalibrate(const RecalibrateOptions& o) {
   if (!robot_id)
     throw InputError({o.db_path, 0, 0, "--robot"}, UnknownRobotMessage(database.path(), o.robot));
   // One run per robot at a time (the lock guards the robot's versions); other robots of
-  // the same file recalibrate in parallel (`armsig worker --jobs N`).
-  io::FileLock lock(RobotLockPath(o.db_path, o.robot), o.lock_wait_s);
+  // the same store recalibrate in parallel (`armsig worker --jobs N`). SQLite: a file lock
+  // beside the file; PostgreSQL: an advisory lock of the server, whatever machine runs it.
+  std::optional<io::FileLock> file_lock;
+  std::optional<db::RobotLock> server_lock;
+  if (database.backend() == db::Backend::kPostgres)
+    server_lock.emplace(database.connection(), "recalibrate", o.robot, o.lock_wait_s);
+  else
+    file_lock.emplace(RobotLockPath(o.db_path, o.robot), o.lock_wait_s);
   auto log = [&](const std::string& message) {
     spdlog::info("recalibrate: {}: {}", o.robot, message);
   };

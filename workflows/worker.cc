@@ -17,23 +17,12 @@
 #include "db/database.h"
 #include "db/postgres_connection.h"
 #include "db/robots.h"
-#include "db/sqlite_connection.h"
 
 namespace armsig::workflows {
 
 namespace {
 
 constexpr char kKind[] = "recalibrate";
-
-void RefusePostgresStore(const std::string& store) {
-  if (!db::IsPostgresUri(store)) return;
-  throw InputError(
-      {"--db", 0, 0, ""},
-      "the robots, their sessions and parameter sets are not yet stored on PostgreSQL (the "
-      "store's port is the rest of issue 14); the queue is: keep --db a SQLite file and put "
-      "the queue on the server with --queue " +
-          db::RedactedUri(store));
-}
 
 // A robot's name as one folder name.
 std::string FolderName(const std::string& robot) {
@@ -44,24 +33,8 @@ std::string FolderName(const std::string& robot) {
 
 }  // namespace
 
-struct QueueConnection::Sqlite {
-  explicit Sqlite(const std::string& path) : database(path, db::OpenMode::kMustExist) {}
-  db::Database database;
-};
-
-QueueConnection::QueueConnection(const std::string& queue) {
-  if (db::IsPostgresUri(queue)) {
-    connection_ = std::make_unique<db::PostgresConnection>(queue);
-    db::EnsureJobsSchema(*connection_);
-  } else {
-    sqlite_ = std::make_unique<Sqlite>(queue);  // migrated: the jobs table is there
-    connection_ = std::make_unique<db::SqliteConnection>(sqlite_->database.sql(), queue);
-  }
-}
-
-QueueConnection::~QueueConnection() {
-  connection_.reset();  // before the database it wraps
-}
+QueueConnection::QueueConnection(const std::string& queue, db::OpenMode mode)
+    : database_(queue, mode) {}
 
 std::string RecalibrateOptionsToJson(const RecalibrateOptions& o) {
   nlohmann::json j = {{"since", o.since},
@@ -109,7 +82,6 @@ RecalibrateOptions RecalibrateOptionsFromJson(const std::string& text) {
 }
 
 std::vector<Scheduled> Schedule(const ScheduleOptions& options) {
-  RefusePostgresStore(options.store_db);
   std::vector<std::string> robots = options.robots;
   {
     db::Database store(options.store_db, db::OpenMode::kMustExist);
@@ -124,7 +96,11 @@ std::vector<Scheduled> Schedule(const ScheduleOptions& options) {
       }
     }
   }
-  QueueConnection queue(options.queue.empty() ? options.store_db : options.queue);
+  // A queue apart from the store, on a server, is made there when new; a SQLite file must
+  // exist (it is an armsig file: the store, or one made by `db init`).
+  const std::string where = options.queue.empty() ? options.store_db : options.queue;
+  QueueConnection queue(where, db::IsPostgresUri(where) ? db::OpenMode::kCreate
+                                                        : db::OpenMode::kMustExist);
   const std::string json = RecalibrateOptionsToJson(options.recalibrate);
   std::vector<Scheduled> out;
   for (const auto& robot : robots) out.push_back({robot, db::Enqueue(*queue, kKind, robot, json)});
@@ -138,7 +114,6 @@ std::string DefaultWorkerId() {
 }
 
 void WorkerOptions::Check() const {
-  RefusePostgresStore(store_db);
   if (jobs < 1 || jobs > 256) throw InputError({"--jobs", 0, 0, ""}, "expected 1 to 256");
   if (!(lease_s >= 0.05) || lease_s > 86400)
     throw InputError({"--lease-s", 0, 0, ""}, "expected a lease of 0.05 s to one day");
@@ -194,7 +169,7 @@ struct Outcome {
   std::optional<int64_t> version;
 };
 
-Outcome RunJob(const WorkerOptions& options, db::Connection& queue, const db::Job& job) {
+Outcome RunJob(const WorkerOptions& options, const db::Job& job) {
   Outcome out;
   try {
     RecalibrateOptions o = RecalibrateOptionsFromJson(job.options_json);
@@ -204,9 +179,9 @@ Outcome RunJob(const WorkerOptions& options, db::Connection& queue, const db::Jo
       o.report_dir = (std::filesystem::path(o.report_dir) / FolderName(job.robot)).string();
       std::filesystem::create_directories(o.report_dir);
     }
-    // Per-robot exclusion by the database where it can give it (PostgreSQL: an advisory
-    // lock); Recalibrate adds its file lock beside the SQLite store.
-    db::RobotLock lock(queue, kKind, job.robot, o.lock_wait_s);
+    // Per-robot exclusion: Recalibrate's own lock, where the store is (PostgreSQL: an
+    // advisory lock of the server, so workers on any machine; SQLite: a file lock beside
+    // the file, which workers on one machine share).
     const auto d = Recalibrate(o);
     out.state = d.passed() ? db::JobState::kDone : db::JobState::kRejected;
     out.result_json = JsonText(d.ToJson());
@@ -267,7 +242,7 @@ WorkerSummary RunWorker(const WorkerOptions& options) {
         Outcome outcome;
         {
           HeartbeatThread heartbeat(queue_name, *job, worker, lease_ms);
-          outcome = RunJob(options, *queue, *job);
+          outcome = RunJob(options, *job);
         }
         const bool recorded = db::Finish(*queue, job->id, worker, outcome.state,
                                          outcome.result_json, outcome.summary, outcome.error,

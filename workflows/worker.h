@@ -2,10 +2,10 @@
 // any number of workers (threads, processes, machines) drain the queue, each job running
 // workflows::Recalibrate with its gates, the outcome stored with the job (db/jobs.h).
 //
-// Where things live today: the store (robots, sessions, parameter sets) is SQLite only, so
-// `store_db` is a SQLite file; the queue is in the same file by default, or in a PostgreSQL
-// database (`queue`, a postgresql:// URI), where the claims use row locks with SKIP LOCKED
-// and each run holds the robot's advisory lock.
+// Where things live: the store (robots, sessions, parameter sets) is a SQLite file (workers
+// on one machine) or a PostgreSQL database (workers on any number of machines); the queue is
+// in the store by default, or in another armsig store (`queue`). On PostgreSQL the claims
+// use row locks with SKIP LOCKED, and each run holds the robot's advisory lock.
 #pragma once
 
 #include <atomic>
@@ -16,24 +16,23 @@
 #include <vector>
 
 #include "db/connection.h"
+#include "db/database.h"
 #include "db/jobs.h"
 #include "workflows/recalibrate.h"
 
 namespace armsig::workflows {
 
-// The queue of `queue` (a SQLite path: that armsig file, which must exist; a postgresql://
-// URI: that database, the jobs table created when missing).
+// The queue of `queue`: an armsig store (a SQLite file or a postgresql:// URI), opened
+// with `mode`.
 class QueueConnection {
  public:
-  explicit QueueConnection(const std::string& queue);
-  ~QueueConnection();
-  db::Connection& operator*() { return *connection_; }
-  db::Connection* operator->() { return connection_.get(); }
+  explicit QueueConnection(const std::string& queue,
+                           db::OpenMode mode = db::OpenMode::kMustExist);
+  db::Connection& operator*() { return database_.connection(); }
+  db::Connection* operator->() { return &database_.connection(); }
 
  private:
-  struct Sqlite;
-  std::unique_ptr<Sqlite> sqlite_;
-  std::unique_ptr<db::Connection> connection_;
+  db::Database database_;
 };
 
 // The job's options as stored with it (options_json) and back. db_path, json_path and the
@@ -42,7 +41,7 @@ std::string RecalibrateOptionsToJson(const RecalibrateOptions& options);
 RecalibrateOptions RecalibrateOptionsFromJson(const std::string& json);
 
 struct ScheduleOptions {
-  std::string store_db;        // SQLite: the robots
+  std::string store_db;        // the store of the robots (a file or a postgresql:// URI)
   std::string queue;           // "" = store_db
   std::vector<std::string> robots;  // or every robot of the store when `all`
   bool all = false;
@@ -52,11 +51,11 @@ struct Scheduled {
   std::string robot;
   db::EnqueueResult job;
 };
-// Throws InputError for an unknown robot (nothing enqueued then) or a store on PostgreSQL.
+// Throws InputError for an unknown robot (nothing enqueued then).
 std::vector<Scheduled> Schedule(const ScheduleOptions& options);
 
 struct WorkerOptions {
-  std::string store_db;  // SQLite file of the robots and their data
+  std::string store_db;  // the store of the robots and their data (file or URI)
   std::string queue;     // "" = store_db
   int jobs = 1;          // jobs run at once (threads, each with its own connections)
   bool once = false;     // stop when no job is claimable instead of polling

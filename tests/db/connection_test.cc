@@ -130,14 +130,37 @@ TEST_P(BothBackends, ConstraintViolationIsADatabaseErrorNotTransient) {
   }
 }
 
-INSTANTIATE_TEST_SUITE_P(Db, BothBackends, ::testing::Values(Backend::kSqlite, Backend::kPostgres),
-                         [](const auto& info) {
-                           return info.param == Backend::kSqlite ? "sqlite" : "postgres";
-                         });
-
 TEST(NumberedPlaceholders, NumbersOnlyPlaceholdersOutsideQuotes) {
   EXPECT_EQ(NumberedPlaceholders("SELECT ? , '?', \"?\", ?"), "SELECT $1 , '?', \"?\", $2");
   EXPECT_EQ(NumberedPlaceholders("x = 'it''s ?' AND y = ?"), "x = 'it''s ?' AND y = $1");
+  // SQLite's rules: ?NNN is parameter NNN; a bare ? the largest so far plus one.
+  EXPECT_EQ(NumberedPlaceholders("a = ?1 OR b = ?1 OR c = ?"), "a = $1 OR b = $1 OR c = $2");
+  EXPECT_EQ(NumberedPlaceholders("a = ?3, b = ?, c = ?12"), "a = $3, b = $4, c = $12");
+}
+
+// ?NNN means the same parameter on both backends (checked against what each returns).
+TEST_P(BothBackends, NumberedPlaceholdersNameOneParameterInSeveralPlaces) {
+  auto s = c().Prepare("SELECT CAST(?1 AS BIGINT) + CAST(?1 AS BIGINT), CAST(? AS BIGINT)");
+  s->Bind(1, int64_t{20});
+  s->Bind(2, int64_t{3});
+  ASSERT_TRUE(s->Step());
+  EXPECT_EQ(s->Int(0), 40);
+  EXPECT_EQ(s->Int(1), 3);
+}
+
+// Column names and value types are read alike: integers, reals, text, NULL.
+TEST_P(BothBackends, ColumnNamesAndTypes) {
+  auto s = c().Prepare("SELECT CAST(7 AS BIGINT) AS i, CAST(0.5 AS DOUBLE PRECISION) AS d, "
+                       "'x' AS t, NULL AS n");
+  ASSERT_TRUE(s->Step());
+  ASSERT_EQ(s->Columns(), 4);
+  const char* names[] = {"i", "d", "t", "n"};
+  const Statement::Type types[] = {Statement::Type::kInteger, Statement::Type::kReal,
+                                   Statement::Type::kText, Statement::Type::kNull};
+  for (int k = 0; k < 4; ++k) {
+    EXPECT_EQ(s->ColumnName(k), names[k]);
+    EXPECT_EQ(s->ColumnType(k), types[k]) << names[k];
+  }
 }
 
 TEST(PostgresUri, PasswordsNeverStandInAUriOrAMessage) {
@@ -155,6 +178,11 @@ TEST(PostgresUri, PasswordsNeverStandInAUriOrAMessage) {
     EXPECT_NE(std::string(e.what()).find("PGPASSWORD"), std::string::npos);
   }
 }
+
+INSTANTIATE_TEST_SUITE_P(Db, BothBackends, ::testing::Values(Backend::kSqlite, Backend::kPostgres),
+                         [](const auto& info) {
+                           return info.param == Backend::kSqlite ? "sqlite" : "postgres";
+                         });
 
 }  // namespace
 }  // namespace armsig::db

@@ -11,29 +11,52 @@
 #include "core/error.h"
 #include "db/calibrations.h"
 #include "db/observations.h"
+#include "db/postgres_connection.h"
 #include "db/schema.h"
+#include "support/stores.h"
 #include "test_support.h"
 
 namespace armsig::db {
 
-TEST(Database, CreatesLatestSchemaWithWalAndForeignKeys) {
-  testing::TempDir dir;
-  Database db(dir.File("lab.db"));
+// The tests of this file that are not about SQLite's file run on both backends.
+class Store : public ::testing::TestWithParam<Backend> {
+ protected:
+  std::string NewStore(const std::string& name = "lab") {
+    return testing::NewStore(GetParam(), dir_, name);
+  }
+  static void Exec(Database& db, const std::string& sql) { db.connection().Exec(sql); }
+  static int64_t Count(Database& db, const std::string& sql) {
+    return db.connection().QueryInt(sql);
+  }
+  testing::TempDir dir_;
+};
+
+TEST_P(Store, CreatesTheLatestSchemaEmpty) {
+  Database db(NewStore());
+  EXPECT_TRUE(db.created());
+  EXPECT_EQ(db.backend(), GetParam());
   EXPECT_EQ(db.SchemaVersion(), LatestSchemaVersion());
-  EXPECT_EQ(db.sql().execAndGet("PRAGMA journal_mode").getString(), "wal");
-  EXPECT_EQ(db.sql().execAndGet("PRAGMA foreign_keys").getInt(), 1);
   for (const auto& count : db.RowCounts()) EXPECT_EQ(count.rows, 0) << count.table;
   EXPECT_EQ(db.RowCounts().size(), TableNames().size());
 }
 
-TEST(Database, ReopeningDoesNotMigrateAgainAndKeepsRows) {
+TEST(Database, SqliteFileIsInWalModeWithForeignKeys) {
   testing::TempDir dir;
-  {
-    Database db(dir.File("lab.db"));
-    db.sql().exec("INSERT INTO robots(name, model_name, model_yaml) VALUES ('r1','puma760','x')");
-  }
   Database db(dir.File("lab.db"));
-  EXPECT_EQ(db.sql().execAndGet("SELECT count(*) FROM robots").getInt(), 1);
+  EXPECT_EQ(db.sql().execAndGet("PRAGMA journal_mode").getString(), "wal");
+  EXPECT_EQ(db.sql().execAndGet("PRAGMA foreign_keys").getInt(), 1);
+  EXPECT_EQ(db.sql().execAndGet("PRAGMA synchronous").getInt(), 2);  // FULL
+}
+
+TEST_P(Store, ReopeningDoesNotMigrateAgainAndKeepsRows) {
+  const std::string store = NewStore();
+  {
+    Database db(store);
+    Exec(db, "INSERT INTO robots(name, model_name, model_yaml) VALUES ('r1','puma760','x')");
+  }
+  Database db(store);
+  EXPECT_FALSE(db.created());
+  EXPECT_EQ(Count(db, "SELECT count(*) FROM robots"), 1);
 }
 
 // A file written by schema v1 (the base transform inside report_json) opens as the latest with
@@ -115,10 +138,9 @@ TEST(Database, MigratesAVersion3FileToReadingsWithTheirEnvironment) {
   EXPECT_FALSE(rows[2].temperature_c.has_value());
 }
 
-TEST(Database, CovarianceOfAParameterSetRoundTrips) {
-  testing::TempDir dir;
-  Database db(dir.File("lab.db"));
-  db.sql().exec("INSERT INTO robots(name, model_name, model_yaml) VALUES ('r1','puma760','x')");
+TEST_P(Store, CovarianceOfAParameterSetRoundTrips) {
+  Database db(NewStore());
+  Exec(db, "INSERT INTO robots(name, model_name, model_yaml) VALUES ('r1','puma760','x')");
   CalibrationRecord record;
   record.robot_id = 1;
   record.params_spec = "all";
@@ -133,13 +155,28 @@ TEST(Database, CovarianceOfAParameterSetRoundTrips) {
   EXPECT_EQ(history[0].covariance, record.covariance);  // exact: JSON keeps 17 digits
 }
 
-TEST(Database, RefusesNewerSchema) {
-  testing::TempDir dir;
+TEST_P(Store, RefusesANewerSchemaUntouched) {
+  const std::string store = NewStore();
+  const std::string newer = std::to_string(LatestSchemaVersion() + 1);
   {
-    Database db(dir.File("lab.db"));
-    db.sql().exec("PRAGMA user_version=" + std::to_string(LatestSchemaVersion() + 1));
+    Database db(store);
+    Exec(db, GetParam() == Backend::kSqlite ? "PRAGMA user_version=" + newer
+                                            : "UPDATE armsig_schema SET version = " + newer);
   }
-  EXPECT_THROW(Database(dir.File("lab.db")), InputError);
+  for (OpenMode mode : {OpenMode::kCreate, OpenMode::kMustExist, OpenMode::kReadOnly}) {
+    try {
+      Database db(store, mode);
+      ADD_FAILURE() << "opened a newer schema";
+    } catch (const InputError& e) {
+      EXPECT_NE(std::string(e.what()).find("schema version " + newer + " is newer"),
+                std::string::npos)
+          << e.what();
+    }
+  }
+  if (GetParam() == Backend::kPostgres) {  // still the newer version: nothing was written
+    auto c = std::make_unique<PostgresConnection>(store);
+    EXPECT_EQ(c->QueryInt("SELECT version FROM armsig_schema"), LatestSchemaVersion() + 1);
+  }
 }
 
 TEST(Database, RefusesAFileThatIsNotADatabase) {
@@ -148,32 +185,65 @@ TEST(Database, RefusesAFileThatIsNotADatabase) {
   EXPECT_THROW(Database(dir.File("junk.db")), InputError);
 }
 
-TEST(Database, ForeignKeysAreEnforced) {
-  testing::TempDir dir;
-  Database db(dir.File("lab.db"));
-  EXPECT_THROW(db.sql().exec("INSERT INTO sessions(robot_id) VALUES (42)"), SQLite::Exception);
+TEST_P(Store, ForeignKeysAreEnforced) {
+  Database db(NewStore());
+  try {
+    Exec(db, "INSERT INTO sessions(robot_id) VALUES (42)");
+    ADD_FAILURE() << "a session of no robot was stored";
+  } catch (const DatabaseError& e) {
+    EXPECT_FALSE(e.transient());
+  }
+  EXPECT_EQ(Count(db, "SELECT count(*) FROM sessions"), 0);
 }
 
-TEST(Database, ExportsTablesAsCsvAndRejectsUnknownTables) {
-  testing::TempDir dir;
-  Database db(dir.File("lab.db"));
-  db.sql().exec("INSERT INTO robots(name, model_name, model_yaml) VALUES ('r,1','puma760','a\"b')");
+TEST_P(Store, ExportsTablesAsCsvAndRejectsUnknownTables) {
+  Database db(NewStore());
+  Exec(db, "INSERT INTO robots(name, model_name, model_yaml) VALUES ('r,1','puma760','a\"b')");
   const std::string csv = db.ExportCsv("robots");
   EXPECT_NE(csv.find("id,name,model_name,model_yaml,created_at\n"), std::string::npos);
   EXPECT_NE(csv.find("\"r,1\""), std::string::npos);
   EXPECT_NE(csv.find("\"a\"\"b\""), std::string::npos);
   EXPECT_THROW(db.ExportCsv("robots; DROP TABLE robots"), InputError);
+  // An empty table still has its header.
+  EXPECT_EQ(db.ExportCsv("activations"),
+            "id,robot_id,version,previous_version,activated_at,activated_by,note\n");
+}
+
+// The same rows give the same CSV on both backends: numbers to the last digit, NULL empty,
+// parameters in the order they were stored (not by name).
+TEST(Database, CsvExportIsTheSameTextOnBothBackends) {
+  testing::TempDir dir;
+  std::string csv[2];
+  for (Backend backend : {Backend::kSqlite, Backend::kPostgres}) {
+    Database db(testing::NewStore(backend, dir, "csv"));
+    db.connection().Exec(
+        "INSERT INTO robots(name, model_name, model_yaml) VALUES ('r','puma760','x')");
+    CalibrationRecord record;
+    record.robot_id = 1;
+    record.params_spec = "all";
+    record.inputs_json = record.options_json = "{}";
+    record.parameters = {{"d1", "mm", 1.0 / 3.0, 2.5e-300, true},
+                         {"alpha1", "rad", -6.02214076e-7, NAN, false},
+                         {"a1", "mm", 0.1, 1e-3, true}};
+    InsertCalibration(db, record);
+    csv[backend == Backend::kPostgres] = db.ExportCsv("calibration_parameters");
+  }
+  EXPECT_EQ(csv[1], csv[0]);
+  EXPECT_EQ(csv[0],
+            "calibration_id,name,value,unit,identified,sigma,seq\n"
+            "1,d1,0.33333333333333331,mm,1,2.5000000000000001e-300,1\n"
+            "1,alpha1,-6.0221407600000002e-07,rad,0,,2\n"
+            "1,a1,0.10000000000000001,mm,1,0.001,3\n");
 }
 
 // A writer killed with SIGKILL in the middle of a transaction: the reopened file is
 // consistent and holds every committed row, and none of the uncommitted ones.
-TEST(Database, SurvivesSigkillMidTransaction) {
-  testing::TempDir dir;
-  const std::string path = dir.File("lab.db");
+TEST_P(Store, SurvivesSigkillMidTransaction) {
+  const std::string path = NewStore();
   {
     Database db(path);
-    db.sql().exec("INSERT INTO robots(name, model_name, model_yaml) VALUES ('r','puma760','')");
-    db.sql().exec("INSERT INTO sessions(robot_id) VALUES (1)");
+    Exec(db, "INSERT INTO robots(name, model_name, model_yaml) VALUES ('r','puma760','')");
+    Exec(db, "INSERT INTO sessions(robot_id) VALUES (1)");
   }
   int pipe_fd[2];
   ASSERT_EQ(::pipe(pipe_fd), 0);
@@ -184,17 +254,17 @@ TEST(Database, SurvivesSigkillMidTransaction) {
     Database db(path);
     // 50 committed transactions of 3 poses each, then one left open forever.
     for (int t = 0; t < 50; ++t) {
-      SQLite::Transaction tx(db.sql());
+      WriteTransaction tx(db);
       for (int k = 0; k < 3; ++k) {
-        db.sql().exec("INSERT INTO poses(session_id, seq, label, joints_json, status) VALUES (1, " +
-                      std::to_string(3 * t + k) + ", 'p', '[0,0,0,0,0,0]', 'measured')");
+        Exec(db, "INSERT INTO poses(session_id, seq, label, joints_json, status) VALUES (1, " +
+                     std::to_string(3 * t + k) + ", 'p', '[0,0,0,0,0,0]', 'measured')");
       }
       tx.commit();
     }
-    SQLite::Transaction open_tx(db.sql());
+    WriteTransaction open_tx(db);
     for (int k = 0; k < 1000; ++k) {
-      db.sql().exec("INSERT INTO poses(session_id, seq, label, joints_json, status) VALUES (1, " +
-                    std::to_string(1000 + k) + ", 'uncommitted', NULL, 'skipped')");
+      Exec(db, "INSERT INTO poses(session_id, seq, label, joints_json, status) VALUES (1, " +
+                   std::to_string(1000 + k) + ", 'uncommitted', NULL, 'skipped')");
     }
     const char ready = 'r';
     if (::write(pipe_fd[1], &ready, 1) != 1) _exit(3);
@@ -210,24 +280,24 @@ TEST(Database, SurvivesSigkillMidTransaction) {
   ASSERT_TRUE(WIFSIGNALED(status));
 
   Database db(path);
-  EXPECT_EQ(db.sql().execAndGet("PRAGMA integrity_check").getString(), "ok");
-  EXPECT_EQ(db.sql().execAndGet("SELECT count(*) FROM poses").getInt(), 150);
-  EXPECT_EQ(db.sql().execAndGet("SELECT count(*) FROM poses WHERE label='uncommitted'").getInt(),
-            0);
-  EXPECT_EQ(db.sql().execAndGet("SELECT max(seq) FROM poses").getInt(), 149);
+  if (GetParam() == Backend::kSqlite) {
+    EXPECT_EQ(db.sql().execAndGet("PRAGMA integrity_check").getString(), "ok");
+  }
+  EXPECT_EQ(Count(db, "SELECT count(*) FROM poses"), 150);
+  EXPECT_EQ(Count(db, "SELECT count(*) FROM poses WHERE label='uncommitted'"), 0);
+  EXPECT_EQ(Count(db, "SELECT max(seq) FROM poses"), 149);
 }
 
 // Two writers at once: the busy timeout makes the second wait instead of failing.
-TEST(Database, ConcurrentWritersWaitForEachOther) {
-  testing::TempDir dir;
-  const std::string path = dir.File("lab.db");
+TEST_P(Store, ConcurrentWritersWaitForEachOther) {
+  const std::string path = NewStore();
   { Database db(path); }
   auto writer = [&](int offset) {
     Database db(path);
     for (int i = 0; i < 100; ++i) {
-      SQLite::Transaction tx(db.sql());
-      db.sql().exec("INSERT INTO instruments(name, kind, protocol) VALUES ('i" +
-                    std::to_string(offset + i) + "', 'theodolite', 'geocom')");
+      WriteTransaction tx(db);
+      Exec(db, "INSERT INTO instruments(name, kind, protocol) VALUES ('i" +
+                   std::to_string(offset + i) + "', 'theodolite', 'geocom')");
       tx.commit();
     }
   };
@@ -235,7 +305,7 @@ TEST(Database, ConcurrentWritersWaitForEachOther) {
   a.join();
   b.join();
   Database db(path);
-  EXPECT_EQ(db.sql().execAndGet("SELECT count(*) FROM instruments").getInt(), 200);
+  EXPECT_EQ(Count(db, "SELECT count(*) FROM instruments"), 200);
 }
 
 // A command that only reads opens with kMustExist: a missing file is an input error
@@ -256,5 +326,7 @@ TEST(Database, MustExistRefusesAMissingFileAndCreatesNothing) {
   Database db(path, OpenMode::kMustExist);
   EXPECT_EQ(db.SchemaVersion(), LatestSchemaVersion());
 }
+
+ARMSIG_BOTH_BACKENDS(Store);
 
 }  // namespace armsig::db

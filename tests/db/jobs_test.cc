@@ -19,6 +19,7 @@
 #include "db/schema.h"
 #include "db/sqlite_connection.h"
 #include "support/postgres_server.h"
+#include "support/stores.h"
 #include "test_support.h"
 
 namespace armsig::db {
@@ -27,34 +28,19 @@ namespace {
 using testing::TempDir;
 using namespace std::chrono_literals;
 
-// One connection to the queue, with the SQLite database it wraps when SQLite.
+// One connection to the queue: an armsig store of either backend (the jobs table is its
+// schema's, migration v7 on both).
 struct Opened {
-  std::unique_ptr<Database> sqlite;
-  std::unique_ptr<Connection> connection;  // declared last: destroyed before the database
-  Connection& operator*() { return *connection; }
+  std::unique_ptr<Database> database;
+  Connection& operator*() { return database->connection(); }
 };
 
-Opened Open(const std::string& target) {
-  Opened o;
-  if (IsPostgresUri(target)) {
-    o.connection = std::make_unique<PostgresConnection>(target);
-    EnsureJobsSchema(*o.connection);
-  } else {
-    o.sqlite = std::make_unique<Database>(target);
-    o.connection = std::make_unique<SqliteConnection>(o.sqlite->sql(), target);
-  }
-  return o;
-}
+Opened Open(const std::string& target) { return Opened{std::make_unique<Database>(target)}; }
 
 class JobQueue : public ::testing::TestWithParam<Backend> {
  protected:
   void SetUp() override {
-    if (GetParam() == Backend::kSqlite) {
-      target_ = dir_.File("queue.db");
-    } else {
-      static int n = 0;
-      target_ = testing::PostgresServer::Shared().NewDatabase("jobs_" + std::to_string(++n));
-    }
+    target_ = testing::NewStore(GetParam(), dir_, "jobs");
     queue_ = std::make_unique<Opened>(Open(target_));
   }
   Connection& q() { return **queue_; }
@@ -63,10 +49,6 @@ class JobQueue : public ::testing::TestWithParam<Backend> {
   std::string target_;
   std::unique_ptr<Opened> queue_;
 };
-
-std::string BackendName(const ::testing::TestParamInfo<Backend>& info) {
-  return info.param == Backend::kSqlite ? "Sqlite" : "Postgres";
-}
 
 TEST(JobsSchema, IsTheSqliteMigrationAndTheSameTextOnPostgres) {
   TempDir dir;
@@ -229,7 +211,8 @@ TEST_P(JobQueue, RobotLockExcludesASecondHolderOnPostgres) {
 }
 
 INSTANTIATE_TEST_SUITE_P(BothBackends, JobQueue,
-                         ::testing::Values(Backend::kSqlite, Backend::kPostgres), BackendName);
+                         ::testing::Values(Backend::kSqlite, Backend::kPostgres),
+                         testing::BackendName);
 
 // SQLite across processes: 4 forked claimers with their own database connections drain 40
 // jobs; every job claimed exactly once (BEGIN IMMEDIATE serialises the claims).

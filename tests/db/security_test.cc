@@ -15,7 +15,7 @@
 namespace armsig::testing {
 namespace {
 
-constexpr const char* kSecret = "s3cret-Horse-Battery";
+constexpr const char* kSecret = PostgresServer::kTlsPassword;
 
 // A ~/.pgpass-style file for the TLS role, named by PGPASSFILE for this test.
 class PasswordFile {
@@ -37,17 +37,15 @@ class Security : public ::testing::Test {
  protected:
   void SetUp() override {
     auto& server = PostgresServer::Shared();
-    static bool made = false;
-    if (!made) {
-      server.Psql("postgres", std::string("CREATE ROLE ") + PostgresServer::kTlsRole +
-                                  " LOGIN PASSWORD '" + kSecret + "'");
-      server.NewDatabase("security");
-      server.Psql("security",
-                  std::string("GRANT ALL ON SCHEMA public TO ") + PostgresServer::kTlsRole);
-      made = true;
+    static std::string name;  // one database per test process (the server has the role)
+    if (name.empty()) {
+      server.NewDatabase("security", &name);
+      server.Psql(name, std::string("GRANT ALL ON SCHEMA public TO ") + PostgresServer::kTlsRole);
     }
+    database_ = name;
   }
   PostgresServer& server() { return PostgresServer::Shared(); }
+  std::string database_;
 };
 
 bool OverTls(db::PostgresConnection& c) {
@@ -61,7 +59,7 @@ bool OverTls(db::PostgresConnection& c) {
 TEST_F(Security, PasswordFromThePasswordFileAndTlsAsTheUriAsks) {
   TempDir dir;
   PasswordFile file(dir, server().port(), kSecret);
-  db::PostgresConnection c(server().TlsUri("security", "require"));
+  db::PostgresConnection c(server().TlsUri(database_, "require"));
   EXPECT_TRUE(OverTls(c));
   EXPECT_EQ(c.name().find(kSecret), std::string::npos);
 }
@@ -71,7 +69,7 @@ TEST_F(Security, PasswordFromThePasswordFileAndTlsAsTheUriAsks) {
 TEST_F(Security, VerifyFullChecksTheCertificateAgainstTheGivenRoot) {
   TempDir dir;
   PasswordFile file(dir, server().port(), kSecret);
-  db::PostgresConnection good(server().TlsUri("security", "verify-full") +
+  db::PostgresConnection good(server().TlsUri(database_, "verify-full") +
                               "&sslrootcert=" + server().certificate_path());
   EXPECT_TRUE(OverTls(good));
   ASSERT_EQ(
@@ -81,7 +79,7 @@ TEST_F(Security, VerifyFullChecksTheCertificateAgainstTheGivenRoot) {
                       .c_str()),
       0);
   try {
-    db::PostgresConnection bad(server().TlsUri("security", "verify-full") +
+    db::PostgresConnection bad(server().TlsUri(database_, "verify-full") +
                                "&sslrootcert=" + dir.File("other.crt"));
     ADD_FAILURE() << "connected with a certificate the root did not sign";
   } catch (const db::DatabaseError& e) {
@@ -96,7 +94,7 @@ TEST_F(Security, WithoutTlsTheServerRefusesTheRole) {
   TempDir dir;
   PasswordFile file(dir, server().port(), kSecret);
   try {
-    db::PostgresConnection c(server().TlsUri("security", "disable"));
+    db::PostgresConnection c(server().TlsUri(database_, "disable"));
     ADD_FAILURE() << "connected without TLS";
   } catch (const db::DatabaseError& e) {
     const std::string what = e.what();
@@ -110,7 +108,7 @@ TEST_F(Security, WithoutTlsTheServerRefusesTheRole) {
 TEST_F(Security, AWrongPasswordFailsWithoutShowingIt) {
   ::setenv("PGPASSWORD", "wrong-Staple-Password", 1);
   try {
-    db::PostgresConnection c(server().TlsUri("security", "require"));
+    db::PostgresConnection c(server().TlsUri(database_, "require"));
     ADD_FAILURE() << "connected with a wrong password";
   } catch (const db::DatabaseError& e) {
     const std::string what = e.what();
@@ -126,9 +124,9 @@ TEST_F(Security, AWrongPasswordFailsWithoutShowingIt) {
 TEST_F(Security, APasswordInTheUriIsRefusedAndNeverEchoed) {
   const std::string port = std::to_string(server().port());
   for (const std::string& uri :
-       {"postgresql://armsig_tls:" + std::string(kSecret) + "@localhost:" + port + "/security",
-        "postgresql://armsig_tls@localhost:" + port +
-            "/security?sslmode=require&password=" + kSecret}) {
+       {"postgresql://armsig_tls:" + std::string(kSecret) + "@localhost:" + port + "/" + database_,
+        "postgresql://armsig_tls@localhost:" + port + "/" + database_ +
+            "?sslmode=require&password=" + kSecret}) {
     try {
       db::PostgresConnection c(uri);
       ADD_FAILURE() << "accepted a password in the URI";
@@ -136,7 +134,7 @@ TEST_F(Security, APasswordInTheUriIsRefusedAndNeverEchoed) {
       const std::string what = e.what();
       EXPECT_NE(what.find("carries a password"), std::string::npos) << what;
       EXPECT_EQ(what.find(kSecret), std::string::npos) << what;
-      EXPECT_NE(what.find("postgresql://armsig_tls@localhost:" + port + "/security"),
+      EXPECT_NE(what.find("postgresql://armsig_tls@localhost:" + port + "/" + database_),
                 std::string::npos)
           << what;
     }

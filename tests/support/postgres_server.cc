@@ -7,9 +7,11 @@
 #include <unistd.h>
 
 #include <array>
+#include <atomic>
 #include <cstdio>
 #include <cstdlib>
 #include <filesystem>
+#include <memory>
 #include <fstream>
 #include <random>
 #include <sstream>
@@ -69,9 +71,26 @@ std::string ReadFile(const std::string& path) {
 
 }  // namespace
 
+constexpr const char* kFixtureVariable = "ARMSIG_TEST_POSTGRES";
+
 PostgresServer& PostgresServer::Shared() {
-  static PostgresServer server;
-  return server;
+  static const std::unique_ptr<PostgresServer> server([] {
+    const char* fixture = std::getenv(kFixtureVariable);
+    return fixture && *fixture ? new PostgresServer(fixture, /*attach=*/true)
+                               : new PostgresServer("", /*attach=*/false);
+  }());
+  return *server;
+}
+
+void PostgresServer::StartDetached(const std::string& dir) {
+  PostgresServer server(dir, /*attach=*/false);
+  std::ofstream(dir + "/server.env") << server.port_ << "\n";
+  server.started_ = false;  // outlives this object: StopDetached ends it
+}
+
+void PostgresServer::StopDetached(const std::string& dir) {
+  PostgresServer server(dir, /*attach=*/true);
+  server.started_ = true;  // stopped and removed by the destructor
 }
 
 std::string PostgresServer::Run(const std::string& command) const {
@@ -88,7 +107,7 @@ std::string PostgresServer::Run(const std::string& command) const {
   return out;
 }
 
-PostgresServer::PostgresServer() {
+PostgresServer::PostgresServer(std::string dir, bool attach) {
   bin_ = FindBinDir();
   if (bin_.empty()) {
     throw std::runtime_error(
@@ -101,10 +120,30 @@ PostgresServer::PostgresServer() {
       throw std::runtime_error("PostgreSQL test server: running as root and no `postgres` user");
     run_as_ = "postgres";
   }
-  std::string dir_template = "/tmp/armsig-pg-XXXXXX";
-  if (!::mkdtemp(dir_template.data()))
-    throw std::runtime_error("PostgreSQL test server: cannot make a temporary directory");
-  dir_ = dir_template;
+  if (attach) {
+    dir_ = dir;
+    std::ifstream env(dir_ + "/server.env");
+    if (!(env >> port_)) {
+      throw std::runtime_error("PostgreSQL test server: $" + std::string(kFixtureVariable) + "=" +
+                               dir_ +
+                               " names no running server (its fixture, "
+                               "armsig_test_postgres start, failed or did not run)");
+    }
+    return;
+  }
+  if (dir.empty()) {
+    std::string dir_template = "/tmp/armsig-pg-XXXXXX";
+    if (!::mkdtemp(dir_template.data()))
+      throw std::runtime_error("PostgreSQL test server: cannot make a temporary directory");
+    dir_ = dir_template;
+  } else {
+    dir_ = dir;
+    std::error_code ec;
+    if (!std::filesystem::create_directory(dir_, ec)) {
+      throw std::runtime_error("PostgreSQL test server: cannot make " + dir_ +
+                               (ec ? " (" + ec.message() + ")" : " (it exists)"));
+    }
+  }
   if (!run_as_.empty()) {
     const passwd* pw = ::getpwnam(run_as_.c_str());
     if (::chown(dir_.c_str(), pw->pw_uid, pw->pw_gid) != 0)
@@ -139,14 +178,15 @@ PostgresServer::PostgresServer() {
                              ReadFile(dir_ + "/server.log"));
   }
   started_ = true;
+  Psql("postgres", std::string("CREATE ROLE ") + kTlsRole + " LOGIN PASSWORD '" + kTlsPassword +
+                       "'");
 }
 
 PostgresServer::~PostgresServer() {
-  if (started_) {
-    try {
-      Run(Quote(bin_ + "/pg_ctl") + " -D " + Quote(dir_ + "/data") + " -m immediate -w stop");
-    } catch (...) {
-    }
+  if (!started_) return;  // attached to a fixture's server, or left running for one
+  try {
+    Run(Quote(bin_ + "/pg_ctl") + " -D " + Quote(dir_ + "/data") + " -m immediate -w stop");
+  } catch (...) {
   }
   std::error_code ec;
   if (!dir_.empty()) std::filesystem::remove_all(dir_, ec);
@@ -168,9 +208,12 @@ std::string PostgresServer::Psql(const std::string& database, const std::string&
              Quote(sql));
 }
 
-std::string PostgresServer::NewDatabase(const std::string& name) {
-  Psql("postgres", "CREATE DATABASE \"" + name + "\"");
-  return Uri(name);
+std::string PostgresServer::NewDatabase(const std::string& base, std::string* name) {
+  static std::atomic<int> count{0};
+  const std::string unique = base + "_" + std::to_string(::getpid()) + "_" + std::to_string(++count);
+  Psql("postgres", "CREATE DATABASE \"" + unique + "\"");
+  if (name) *name = unique;
+  return Uri(unique);
 }
 
 }  // namespace armsig::testing

@@ -1,8 +1,13 @@
 // A PostgreSQL server of the tests' own (Debian's `postgresql` package): initdb into a
 // private temporary directory as an unprivileged user (the `postgres` account when the
 // tests run as root, initdb refuses root; else the current user), listening on a Unix
-// socket in that directory (and on loopback TCP with TLS, for the security tests), stopped
-// and removed when the test process ends. Nothing of the machine's own clusters is touched.
+// socket in that directory (and on loopback TCP with TLS, for the security tests). Nothing
+// of the machine's own clusters is touched.
+//
+// Under ctest one server serves every test process: a fixture starts it before the first
+// test that needs it (armsig_test_postgres start DIR) and stops it after the last, and the
+// tests find it through $ARMSIG_TEST_POSTGRES=DIR. A test program run by hand, without that
+// variable, starts a server of its own, stopped and removed when the program ends.
 #pragma once
 
 #include <memory>
@@ -12,22 +17,29 @@ namespace armsig::testing {
 
 class PostgresServer {
  public:
-  // The process's one server, started on first use. Throws std::runtime_error with a
-  // loud message (what is missing, the server log) when it cannot start.
+  // The process's one server: the fixture's ($ARMSIG_TEST_POSTGRES), else one started on
+  // first use. Throws std::runtime_error with a loud message (what is missing, the server
+  // log) when it cannot start or the fixture's cannot be found.
   static PostgresServer& Shared();
+  // The fixture's two halves: a server in `dir` (made; must not exist) that outlives this
+  // process, and its end (stopped, `dir` removed).
+  static void StartDetached(const std::string& dir);
+  static void StopDetached(const std::string& dir);
   ~PostgresServer();
   PostgresServer(const PostgresServer&) = delete;
   PostgresServer& operator=(const PostgresServer&) = delete;
 
-  // A new, empty database on it; returns its libpq URI
-  // (postgresql:///NAME?host=SOCKET_DIR&port=PORT&user=SUPERUSER).
-  std::string NewDatabase(const std::string& name);
+  // A new, empty database on it, named `base` with this process's id and a count (test
+  // processes share the server); returns its libpq URI
+  // (postgresql:///NAME?host=SOCKET_DIR&port=PORT&user=SUPERUSER), and its name in `name`.
+  std::string NewDatabase(const std::string& base, std::string* name = nullptr);
   std::string Uri(const std::string& database) const;
   // The server also listens on 127.0.0.1:port() with TLS (ssl=on, a self-signed
-  // certificate for CN=localhost, certificate_path()). kTlsRole (created by the test that
-  // uses it, with a password) is admitted only over TLS with its password; its URI:
+  // certificate for CN=localhost, certificate_path()). kTlsRole (made with the server, its
+  // password kTlsPassword) is admitted only over TLS with its password; its URI:
   // postgresql://armsig_tls@localhost:PORT/DATABASE?sslmode=MODE.
   static constexpr const char* kTlsRole = "armsig_tls";
+  static constexpr const char* kTlsPassword = "s3cret-Horse-Battery";
   std::string TlsUri(const std::string& database, const std::string& sslmode) const;
   std::string certificate_path() const { return dir_ + "/data/server.crt"; }
   // Runs `sql` with psql as the superuser in `database`; returns psql's output.
@@ -37,12 +49,14 @@ class PostgresServer {
   const std::string& superuser() const { return superuser_; }
 
  private:
-  PostgresServer();
+  // Starts a server in `dir` (empty: a new temporary directory) or, `attach`, uses the one
+  // a fixture started there.
+  PostgresServer(std::string dir, bool attach);
   std::string Run(const std::string& command) const;  // as the server's user
 
   std::string bin_, dir_, run_as_, superuser_ = "armsig_test";
   int port_ = 0;
-  bool started_ = false;
+  bool started_ = false;  // by this object: stopped and removed by it
 };
 
 }  // namespace armsig::testing

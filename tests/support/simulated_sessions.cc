@@ -1,7 +1,5 @@
 #include "support/simulated_sessions.h"
 
-#include <SQLiteCpp/Transaction.h>
-
 #include <random>
 
 #include "calibration/simulation.h"
@@ -22,7 +20,7 @@ void AddSession(db::Database& db, const Eigen::VectorXd& truth, int count, unsig
   const auto poses =
       calibration::SimulatePoses(model, Eigen::Isometry3d::Identity(), truth,
                                  calibration::LabTestConfigurations(model, rng), kNoiseMm, rng);
-  SQLite::Transaction tx(db.sql());
+  db::WriteTransaction tx(db);
   const int64_t robot =
       db::EnsureRobot(db, robot_name, "puma760", ReadText(SourcePath("models/puma760.yaml")));
   const int64_t session = db::CreateSession(db, robot, lab_yaml, "", "completed", "simulated");
@@ -32,30 +30,26 @@ void AddSession(db::Database& db, const Eigen::VectorXd& truth, int count, unsig
         db::InsertPose(db, session, i, poses[i].id, poses[i].joints_rad, "measured", 1);
     Eigen::Vector3d x = poses[i].target_in_world;
     if (u(rng) < blunder_fraction) x += Eigen::Vector3d(3.0, -2.0, 1.5);  // a bad measurement
-    SQLite::Statement s(db.sql(),
-                        "INSERT INTO points(session_id, pose_id, point, x_mm, y_mm, z_mm, rays) "
-                        "VALUES (?,?,?,?,?,?,3)");
-    s.bind(1, session);
-    s.bind(2, pose);
-    s.bind(3, "target");
-    s.bind(4, x.x());
-    s.bind(5, x.y());
-    s.bind(6, x.z());
-    s.exec();
+    db::PointRow point;
+    point.pose_id = pose;
+    point.point = "target";
+    point.position_mm = x;
+    point.covariance_mm2 = Eigen::Matrix3d::Constant(NAN);  // not known
+    point.rays = 3;
+    db::InsertPoint(db, session, point);
   }
   tx.commit();
 }
 
 int ActiveVersion(const std::string& path) {
-  db::Database db(path);
-  return db.sql()
-      .execAndGet("SELECT coalesce(max(version), 0) FROM calibrations WHERE active = 1")
-      .getInt();
+  db::Database db(path, db::OpenMode::kMustExist);
+  return static_cast<int>(db.connection().QueryInt(
+      "SELECT coalesce(max(version), 0) FROM calibrations WHERE active = 1"));
 }
 
 int Versions(const std::string& path) {
-  db::Database db(path);
-  return db.sql().execAndGet("SELECT count(*) FROM calibrations").getInt();
+  db::Database db(path, db::OpenMode::kMustExist);
+  return static_cast<int>(db.connection().QueryInt("SELECT count(*) FROM calibrations"));
 }
 
 }  // namespace armsig::testing

@@ -14,8 +14,8 @@
 #include "db/database.h"
 #include "db/robots.h"
 #include "db/sessions.h"
-#include "db/sqlite_connection.h"
 #include "support/simulated_sessions.h"
+#include "support/stores.h"
 #include "test_support.h"
 #include "workflows/recalibrate.h"
 
@@ -48,12 +48,10 @@ std::map<std::string, int64_t> Counts(db::Database& database) {
   return out;
 }
 
-db::PushSummary PushFiles(const std::string& from, const std::string& to,
-                          db::Connection* cut = nullptr) {
+db::PushSummary PushFiles(const std::string& from, const std::string& to) {
   db::Database source(from, db::OpenMode::kMustExist);
   db::Database target(to);
-  db::SqliteConnection a(source.sql(), from), b(target.sql(), to);
-  return db::Push(a, cut ? *cut : b, {from, nullptr});
+  return db::Push(source.connection(), target.connection(), {from, nullptr});
 }
 
 // The robot's measured poses as the nightly job reads them, keyed by label and in the
@@ -115,6 +113,8 @@ class CutConnection : public db::Connection {
       return s_->Execute();
     }
     int Columns() const override { return s_->Columns(); }
+    std::string ColumnName(int k) const override { return s_->ColumnName(k); }
+    Type ColumnType(int k) const override { return s_->ColumnType(k); }
     bool IsNull(int k) const override { return s_->IsNull(k); }
     int64_t Int(int k) const override { return s_->Int(k); }
     double Double(int k) const override { return s_->Double(k); }
@@ -134,11 +134,14 @@ class CutConnection : public db::Connection {
 
 }  // namespace
 
+// The central store on either backend (a cell is always a SQLite file).
+class Push : public ::testing::TestWithParam<db::Backend> {};
+
 // Pushed twice: the second push stores nothing. The central store reads back the same
 // poses and the same active parameters as the cell.
-TEST(Push, TwiceDoublesNothingAndTheStoreReadsBackTheCell) {
+TEST_P(Push, TwiceDoublesNothingAndTheStoreReadsBackTheCell) {
   TempDir dir;
-  const std::string cell = dir.File("cell.db"), central = dir.File("central.db");
+  const std::string cell = dir.File("cell.db"), central = NewStore(GetParam(), dir, "central");
   MakeCell(cell);
   const auto first = PushFiles(cell, central);
   EXPECT_EQ(first.sessions_pushed, 2);
@@ -189,7 +192,7 @@ TEST(Push, TwiceDoublesNothingAndTheStoreReadsBackTheCell) {
 // The connection is cut at every possible statement in turn: each push leaves whole
 // sessions and sets or nothing of them, and the next one completes the store, every row
 // once.
-TEST(Push, ACutConnectionLeavesWholeItemsAndTheNextPushCompletes) {
+TEST_P(Push, ACutConnectionLeavesWholeItemsAndTheNextPushCompletes) {
   TempDir dir;
   const std::string cell = dir.File("cell.db");
   MakeCell(cell);
@@ -200,28 +203,27 @@ TEST(Push, ACutConnectionLeavesWholeItemsAndTheNextPushCompletes) {
   }
   int cuts = 0;
   for (int budget = 0;; budget += 23) {
-    const std::string central = dir.File("central-" + std::to_string(budget) + ".db");
+    const std::string central = NewStore(GetParam(), dir, "central" + std::to_string(budget));
     bool was_cut = false;
     {
       db::Database source(cell, db::OpenMode::kMustExist);
       db::Database target(central);
-      db::SqliteConnection a(source.sql(), cell), b(target.sql(), central);
-      CutConnection cut(b, budget);
+      CutConnection cut(target.connection(), budget);
       try {
-        db::Push(a, cut, {cell, nullptr});
+        db::Push(source.connection(), cut, {cell, nullptr});
       } catch (const db::DatabaseError& e) {
         was_cut = true;
         EXPECT_NE(std::string(e.what()).find("connection lost"), std::string::npos) << e.what();
       }
       // Whatever was stored is whole: each stored session has all of its poses.
-      auto sessions = target.sql().execAndGet(
+      const int64_t sessions = target.connection().QueryInt(
           "SELECT count(*) FROM sessions s WHERE (SELECT count(*) FROM poses p WHERE "
           "p.session_id = s.id) <> 60");
-      EXPECT_EQ(sessions.getInt(), 0) << "budget " << budget;
-      auto sets = target.sql().execAndGet(
+      EXPECT_EQ(sessions, 0) << "budget " << budget;
+      const int64_t sets = target.connection().QueryInt(
           "SELECT count(*) FROM calibrations c WHERE NOT EXISTS (SELECT 1 FROM "
           "calibration_parameters p WHERE p.calibration_id = c.id)");
-      EXPECT_EQ(sets.getInt(), 0) << "budget " << budget;
+      EXPECT_EQ(sets, 0) << "budget " << budget;
     }
     PushFiles(cell, central);
     db::Database b(central, db::OpenMode::kMustExist);
@@ -238,9 +240,9 @@ TEST(Push, ACutConnectionLeavesWholeItemsAndTheNextPushCompletes) {
 }
 
 // Open sessions wait; a robot with another model on the server is refused by name.
-TEST(Push, OpenSessionsWaitAndAnotherModelIsRefused) {
+TEST_P(Push, OpenSessionsWaitAndAnotherModelIsRefused) {
   TempDir dir;
-  const std::string cell = dir.File("cell.db"), central = dir.File("central.db");
+  const std::string cell = dir.File("cell.db"), central = NewStore(GetParam(), dir, "central");
   MakeCell(cell);
   {
     db::Database a(cell, db::OpenMode::kMustExist);
@@ -259,10 +261,11 @@ TEST(Push, OpenSessionsWaitAndAnotherModelIsRefused) {
   EXPECT_EQ(s.sessions_present, 1);
   EXPECT_TRUE(s.open_sessions.empty());
 
-  const std::string other = dir.File("other.db");
+  const std::string other = NewStore(GetParam(), dir, "other");
   {
     db::Database b(other);
-    b.sql().exec("INSERT INTO robots(name, model_name, model_yaml) VALUES ('puma', 'x', 'x')");
+    b.connection().Exec(
+        "INSERT INTO robots(name, model_name, model_yaml) VALUES ('puma', 'x', 'x')");
   }
   try {
     PushFiles(cell, other);
@@ -272,7 +275,9 @@ TEST(Push, OpenSessionsWaitAndAnotherModelIsRefused) {
         << e.what();
   }
   db::Database b(other, db::OpenMode::kMustExist);
-  EXPECT_EQ(b.sql().execAndGet("SELECT count(*) FROM sessions").getInt(), 0);
+  EXPECT_EQ(b.connection().QueryInt("SELECT count(*) FROM sessions"), 0);
 }
+
+ARMSIG_BOTH_BACKENDS(Push);
 
 }  // namespace armsig::testing
