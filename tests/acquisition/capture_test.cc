@@ -28,6 +28,7 @@
 #include "reduction/point_flags.h"
 #include "simulation/fault_matrix.h"
 #include "simulation/simulators.h"
+#include "support/stores.h"
 #include "test_support.h"
 
 namespace armsig::acquisition {
@@ -86,7 +87,24 @@ class VirtualLabFixture : public ::testing::Test {
     testing::WriteText(dir_.File("lab.yaml"), yaml);
   }
 
-  std::string Db() const { return dir_.File("lab.db"); }
+  // The store: a file, or (OnServer) a database on the tests' PostgreSQL server.
+  std::string Db() const { return store_.empty() ? dir_.File("lab.db") : store_; }
+  void OnServer() { store_ = testing::NewStore(db::Backend::kPostgres, dir_, "capture"); }
+  bool StoreMade() const {
+    if (store_.empty()) return std::filesystem::exists(Db());
+    try {
+      db::Database db(Db(), db::OpenMode::kMustExist);
+      return true;
+    } catch (const InputError&) {
+      return false;
+    }
+  }
+
+  std::string store_;
+
+  // kill -9 of the capture process at `kills` random moments or more, then --resume each
+  // time; then the session is finished and checked.
+  void KillNineThenResume(int kills);
 
   bool clustered_ = false;
   testing::TempDir dir_;
@@ -95,7 +113,13 @@ class VirtualLabFixture : public ::testing::Test {
   std::unique_ptr<simulation::ValSimulator> robot_;
 };
 
-int Count(db::Database& db, const std::string& sql) { return db.sql().execAndGet(sql).getInt(); }
+int Count(db::Database& db, const std::string& sql) {
+  return static_cast<int>(db.connection().QueryInt(sql));
+}
+std::string Text(db::Database& db, const std::string& sql) {
+  auto q = db.connection().Prepare(sql);
+  return q->Step() ? q->Text(0) : std::string();
+}
 
 // Starts args[0] with args, output to /dev/null; returns its pid (−1 on failure).
 pid_t SpawnQuietly(std::vector<std::string> args) {
@@ -142,6 +166,8 @@ std::string ResumeHint(const std::string& log) {
 
 }  // namespace
 
+// A whole session through the capture command; every reduced point where the true robot
+// put its target. On a server store too (capture on a cell machine, store in the plant).
 TEST_F(VirtualLabFixture, FullSessionStoresEveryConfigurationOnceAndReducesTheTruth) {
   Start();
   const auto r = testing::RunArmsig("--db '" + Db() + "' capture --lab '" + dir_.File("lab.yaml") +
@@ -152,21 +178,47 @@ TEST_F(VirtualLabFixture, FullSessionStoresEveryConfigurationOnceAndReducesTheTr
   EXPECT_EQ(Count(db, "SELECT count(*) FROM poses WHERE status = 'measured'"), 30);
   EXPECT_EQ(Count(db, "SELECT count(*) FROM observations"), 90);
   EXPECT_EQ(Count(db, "SELECT count(*) FROM points WHERE x_mm IS NOT NULL"), 30);
-  EXPECT_EQ(db.sql().execAndGet("SELECT state FROM sessions").getString(), "completed");
+  EXPECT_EQ(Text(db, "SELECT state FROM sessions"), "completed");
   // Every reduced point is where the true robot put its target.
-  SQLite::Statement q(db.sql(),
-                      "SELECT p.joints_json, pt.x_mm, pt.y_mm, pt.z_mm FROM poses p JOIN points pt "
-                      "ON pt.pose_id = p.id");
+  auto q = db.connection().Prepare(
+      "SELECT p.joints_json, pt.x_mm, pt.y_mm, pt.z_mm FROM poses p JOIN points pt "
+      "ON pt.pose_id = p.id");
   calibration::Kinematics kin(lab_->model());
-  while (q.executeStep()) {
-    const auto joints =
-        nlohmann::json::parse(q.getColumn(0).getString()).get<std::vector<double>>();
+  int checked = 0;
+  while (q->Step()) {
+    const auto joints = nlohmann::json::parse(q->Text(0)).get<std::vector<double>>();
     const Eigen::Vector3d truth =
         kin.Position(lab_->world_from_base(), lab_->true_params(), joints.data());
-    const Eigen::Vector3d measured(q.getColumn(1).getDouble(), q.getColumn(2).getDouble(),
-                                   q.getColumn(3).getDouble());
+    const Eigen::Vector3d measured(q->Double(1), q->Double(2), q->Double(3));
     EXPECT_LT((measured - truth).norm(), 0.06);  // 0.5″ at 3.5 m: ~0.01 mm per ray
+    ++checked;
   }
+  EXPECT_EQ(checked, 30);
+}
+
+TEST_F(VirtualLabFixture, FullSessionOnAServerStore) {
+  OnServer();
+  Start();
+  const auto r = testing::RunArmsig("--db '" + Db() + "' capture --lab '" + dir_.File("lab.yaml") +
+                                    "' --plan auto:30 --robot puma");
+  ASSERT_EQ(r.exit_code, 0) << r.err << r.out;
+  db::Database db(Db(), db::OpenMode::kMustExist);
+  EXPECT_EQ(Count(db, "SELECT count(*) FROM poses WHERE status = 'measured'"), 30);
+  EXPECT_EQ(Count(db, "SELECT count(*) FROM observations"), 90);
+  EXPECT_EQ(Text(db, "SELECT state FROM sessions"), "completed");
+  auto q = db.connection().Prepare(
+      "SELECT p.joints_json, pt.x_mm, pt.y_mm, pt.z_mm FROM poses p JOIN points pt "
+      "ON pt.pose_id = p.id");
+  calibration::Kinematics kin(lab_->model());
+  int checked = 0;
+  while (q->Step()) {
+    const auto joints = nlohmann::json::parse(q->Text(0)).get<std::vector<double>>();
+    const Eigen::Vector3d truth =
+        kin.Position(lab_->world_from_base(), lab_->true_params(), joints.data());
+    EXPECT_LT((Eigen::Vector3d(q->Double(1), q->Double(2), q->Double(3)) - truth).norm(), 0.06);
+    ++checked;
+  }
+  EXPECT_EQ(checked, 30);
 }
 
 // Triggering every instrument at once costs the slowest one, not their sum.
@@ -205,17 +257,15 @@ TEST_F(VirtualLabFixture, ConcurrentTriggeringCostsTheSlowestInstrument) {
   EXPECT_GT(s.mean_cycle_ms, 190.0);                // never faster than the slowest
 }
 
-// kill -9 of the capture process at 20+ random moments, then --resume each time: every
-// committed configuration is present exactly once and the session completes.
-TEST_F(VirtualLabFixture, KillNineAtRandomMomentsThenResume) {
+void VirtualLabFixture::KillNineThenResume(int kills_wanted) {
   Start({12, 12, 12});
   std::mt19937 rng(20261122);
   std::uniform_int_distribution<int> delay(20, 120);
   const std::string binary = ARMSIG_BINARY;
   int kills = 0;
-  for (int round = 0; round < 60 && kills < 22; ++round) {
+  for (int round = 0; round < 60 && kills < kills_wanted + 2; ++round) {
     bool have_session = false;
-    if (std::filesystem::exists(Db())) {
+    if (StoreMade()) {
       db::Database db(Db());
       have_session = Count(db, "SELECT count(*) FROM sessions") > 0;
     }
@@ -232,7 +282,7 @@ TEST_F(VirtualLabFixture, KillNineAtRandomMomentsThenResume) {
       // Planning takes a moment; start killing once the session exists.
       for (int wait = 0; wait < 1000; ++wait) {
         std::this_thread::sleep_for(10ms);
-        if (!std::filesystem::exists(Db())) continue;
+        if (!StoreMade()) continue;
         db::Database db(Db());
         if (Count(db, "SELECT count(*) FROM sessions") > 0) break;
       }
@@ -245,18 +295,20 @@ TEST_F(VirtualLabFixture, KillNineAtRandomMomentsThenResume) {
       ++kills;
     } else if (WIFEXITED(status) && WEXITSTATUS(status) == 0) {
       db::Database db(Db());
-      if (db.sql().execAndGet("SELECT state FROM sessions WHERE id = 1").getString() == "completed")
+      if (Text(db, "SELECT state FROM sessions WHERE id = 1") == "completed")
         break;
     }
   }
-  EXPECT_GE(kills, 20);
+  EXPECT_GE(kills, kills_wanted);
   // Finish the session.
   const auto last = testing::RunArmsig("--db '" + Db() + "' capture --lab '" +
                                        dir_.File("lab.yaml") + "' --resume 1");
   ASSERT_EQ(last.exit_code, 0) << last.err;
   db::Database db(Db());
-  EXPECT_EQ(db.sql().execAndGet("PRAGMA integrity_check").getString(), "ok");
-  EXPECT_EQ(db.sql().execAndGet("SELECT state FROM sessions WHERE id = 1").getString(),
+  if (store_.empty()) {
+    EXPECT_EQ(Text(db, "PRAGMA integrity_check"), "ok");
+  }
+  EXPECT_EQ(Text(db, "SELECT state FROM sessions WHERE id = 1"),
             "completed");
   EXPECT_EQ(Count(db, "SELECT count(*) FROM poses WHERE session_id = 1"), 100);
   EXPECT_EQ(Count(db, "SELECT count(DISTINCT seq) FROM poses WHERE session_id = 1"), 100);
@@ -264,10 +316,21 @@ TEST_F(VirtualLabFixture, KillNineAtRandomMomentsThenResume) {
   // Exactly three rays and one point per configuration: nothing half-written, nothing twice.
   EXPECT_EQ(Count(db,
                   "SELECT count(*) FROM (SELECT pose_id, count(*) c FROM observations GROUP BY "
-                  "pose_id) WHERE c != 3"),
+                  "pose_id) per_pose WHERE c != 3"),
             0);
   EXPECT_EQ(Count(db, "SELECT count(*) FROM observations"), 300);
   EXPECT_EQ(Count(db, "SELECT count(*) FROM points WHERE session_id = 1"), 100);
+}
+
+// kill -9 of the capture process at 20+ random moments, then --resume each time: every
+// committed configuration is present exactly once and the session completes.
+TEST_F(VirtualLabFixture, KillNineAtRandomMomentsThenResume) { KillNineThenResume(20); }
+
+// The same with the store on the server: the killed process's transaction is rolled back
+// by the server when its connection drops.
+TEST_F(VirtualLabFixture, KillNineAtRandomMomentsThenResumeOnAServerStore) {
+  OnServer();
+  KillNineThenResume(8);
 }
 
 TEST_F(VirtualLabFixture, InstrumentFaultPausesThenResumes) {
@@ -290,7 +353,7 @@ TEST_F(VirtualLabFixture, InstrumentFaultPausesThenResumes) {
   EXPECT_TRUE(paused.paused);
   EXPECT_NE(paused.pause_reason.find("AUT_NO_TARGET"), std::string::npos) << paused.pause_reason;
   EXPECT_EQ(paused.measured, 3);
-  EXPECT_EQ(db.sql().execAndGet("SELECT state FROM sessions").getString(), "paused");
+  EXPECT_EQ(Text(db, "SELECT state FROM sessions"), "paused");
   // Fixed: resume from the configuration that failed.
   const auto resumed = RunCapture(db, lab, session, devices, *controller, {});
   EXPECT_TRUE(resumed.completed);
@@ -368,7 +431,7 @@ TEST_F(VirtualLabFixture, CtrlCStopsCleanlyAndResumeCompletes) {
   EXPECT_EQ(WEXITSTATUS(status), 1);
   {
     db::Database db(Db());
-    EXPECT_EQ(db.sql().execAndGet("SELECT state FROM sessions").getString(), "paused");
+    EXPECT_EQ(Text(db, "SELECT state FROM sessions"), "paused");
     const int stored = Count(db, "SELECT count(*) FROM poses");
     EXPECT_GE(stored, 5);
     EXPECT_LT(stored, 60);
@@ -379,7 +442,7 @@ TEST_F(VirtualLabFixture, CtrlCStopsCleanlyAndResumeCompletes) {
   ASSERT_EQ(r.exit_code, 0) << r.err;
   db::Database db(Db());
   EXPECT_EQ(Count(db, "SELECT count(*) FROM poses"), 60);
-  EXPECT_EQ(db.sql().execAndGet("SELECT state FROM sessions").getString(), "completed");
+  EXPECT_EQ(Text(db, "SELECT state FROM sessions"), "completed");
 }
 
 // Ctrl-C at random moments from the very first one (before the session exists, while
@@ -419,7 +482,7 @@ TEST_F(VirtualLabFixture, CtrlCAtRandomMomentsLeavesAResumableSession) {
     if (Count(database, "SELECT count(*) FROM sessions") == 0) continue;
     ++sessions;
     const std::string state =
-        database.sql().execAndGet("SELECT state FROM sessions WHERE id = 1").getString();
+        Text(database, "SELECT state FROM sessions WHERE id = 1");
     ASSERT_TRUE(state == "paused" || state == "completed") << state << "\n" << err;
     if (state == "completed") continue;
     ++paused;
@@ -428,7 +491,7 @@ TEST_F(VirtualLabFixture, CtrlCAtRandomMomentsLeavesAResumableSession) {
     ASSERT_EQ(hint.rfind("armsig --db ", 0), 0u) << err;
     const auto r = testing::RunArmsig(hint.substr(std::string("armsig ").size()), "/");
     ASSERT_EQ(r.exit_code, 0) << hint << "\n" << r.err;
-    EXPECT_EQ(database.sql().execAndGet("SELECT state FROM sessions WHERE id = 1").getString(),
+    EXPECT_EQ(Text(database, "SELECT state FROM sessions WHERE id = 1"),
               "completed");
     EXPECT_EQ(Count(database, "SELECT count(*) FROM poses WHERE session_id = 1"), 12);
   }
@@ -459,7 +522,7 @@ TEST_F(VirtualLabFixture, ParallelRaysAreFailedNamedAndExitOne) {
                                        "--skip-on-fault");
   EXPECT_EQ(skip.exit_code, 1) << skip.out;
   db::Database db(Db());
-  EXPECT_EQ(db.sql().execAndGet("SELECT state FROM sessions").getString(), "completed");
+  EXPECT_EQ(Text(db, "SELECT state FROM sessions"), "completed");
   EXPECT_EQ(Count(db, "SELECT count(*) FROM points WHERE flags LIKE '%parallel_rays%'"), 4);
 }
 
@@ -683,7 +746,7 @@ TEST_F(VirtualLabFixture, FloodingInstrumentPausesTheSessionByItsDeadlines) {
     std::cout << simulation::FaultName(fault) << ": paused " << seconds << " s after the flood began\n";
     EXPECT_EQ(Count(db, "SELECT count(*) FROM poses"), 2);
     EXPECT_EQ(Count(db, "SELECT count(*) FROM observations"), 6);
-    EXPECT_EQ(db.sql().execAndGet("SELECT state FROM sessions").getString(), "paused");
+    EXPECT_EQ(Text(db, "SELECT state FROM sessions"), "paused");
   }
 }
 
@@ -732,7 +795,7 @@ TEST_F(VirtualLabFixture, StopDuringAFloodPausesWithinAFractionOfTheDeadline) {
   std::cout << "stopped "
             << std::chrono::duration_cast<std::chrono::milliseconds>(took).count()
             << " ms after the stop flag\n";
-  EXPECT_EQ(db.sql().execAndGet("SELECT state FROM sessions").getString(), "paused");
+  EXPECT_EQ(Text(db, "SELECT state FROM sessions"), "paused");
   EXPECT_EQ(Count(db, "SELECT count(*) FROM poses"), 2);
   EXPECT_EQ(Count(db, "SELECT count(*) FROM observations"), 6);
   // Resumed on a quiet line, the session completes.
@@ -774,7 +837,7 @@ TEST_F(VirtualLabFixture, CtrlCDuringAFloodEndsTheCaptureAtOnce) {
             << " ms after SIGINT\n";
   EXPECT_GT(sims_[1]->flood_bytes(), 0);
   db::Database db(Db());
-  EXPECT_EQ(db.sql().execAndGet("SELECT state FROM sessions").getString(), "paused");
+  EXPECT_EQ(Text(db, "SELECT state FROM sessions"), "paused");
   EXPECT_EQ(Count(db, "SELECT count(*) FROM observations"),
             3 * Count(db, "SELECT count(*) FROM poses"));
 }

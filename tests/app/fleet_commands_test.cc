@@ -15,6 +15,7 @@
 #include "db/jobs.h"
 #include "support/postgres_server.h"
 #include "support/simulated_sessions.h"
+#include "support/stores.h"
 #include "test_support.h"
 #include "workflows/worker.h"
 
@@ -29,9 +30,17 @@ nlohmann::json Jobs(const std::string& args) {
   return nlohmann::json::parse(r.out);
 }
 
-TEST(FleetCommands, ScheduleAllThenTwoWorkersStoreEveryRobotOnce) {
-  TempDir dir;
-  const std::string path = dir.File("lab.db");
+// The store (and the queue in it) on either backend: a SQLite file, or a PostgreSQL
+// database that workers on any machine share.
+class FleetCommands : public ::testing::TestWithParam<db::Backend> {
+ protected:
+  std::string NewStore() { return testing::NewStore(GetParam(), dir_, "lab"); }
+  TempDir dir_;
+};
+
+TEST_P(FleetCommands, ScheduleAllThenTwoWorkersStoreEveryRobotOnce) {
+  [[maybe_unused]] TempDir& dir = dir_;
+  const std::string path = NewStore();
   {
     db::Database database(path);
     for (int k = 0; k < 3; ++k)
@@ -75,9 +84,8 @@ TEST(FleetCommands, ScheduleAllThenTwoWorkersStoreEveryRobotOnce) {
   EXPECT_NE(text.out.find("cell1"), std::string::npos) << text.out;
 }
 
-TEST(FleetCommands, UnknownRobotIsAnInputErrorAndNothingIsQueued) {
-  TempDir dir;
-  const std::string path = dir.File("lab.db");
+TEST_P(FleetCommands, UnknownRobotIsAnInputErrorAndNothingIsQueued) {
+  const std::string path = NewStore();
   {
     db::Database database(path);
     AddSession(database, calibration::PaperTable3Parameters(), 60, 1);
@@ -91,9 +99,8 @@ TEST(FleetCommands, UnknownRobotIsAnInputErrorAndNothingIsQueued) {
 
 // A worker killed with SIGKILL in the middle of a job: after the lease another worker
 // claims it again (attempt 2), runs it, and the parameter set is stored once.
-TEST(FleetCommands, AWorkerKilledMidJobIsRetriedByAnotherAndStoredOnce) {
-  TempDir dir;
-  const std::string path = dir.File("lab.db");
+TEST_P(FleetCommands, AWorkerKilledMidJobIsRetriedByAnotherAndStoredOnce) {
+  const std::string path = NewStore();
   {
     db::Database database(path);
     AddSession(database, calibration::PaperTable3Parameters(), 200, 5);
@@ -115,10 +122,9 @@ TEST(FleetCommands, AWorkerKilledMidJobIsRetriedByAnotherAndStoredOnce) {
   bool running = false;
   for (int k = 0; k < 2000 && !running; ++k) {
     std::this_thread::sleep_for(5ms);
-    db::Database database(path);
-    running =
-        database.sql().execAndGet("SELECT count(*) FROM jobs WHERE state = 'running'").getInt() ==
-        1;
+    db::Database database(path, db::OpenMode::kMustExist);
+    running = database.connection().QueryInt(
+                  "SELECT count(*) FROM jobs WHERE state = 'running'") == 1;
   }
   ASSERT_TRUE(running);
   ::kill(pid, SIGKILL);
@@ -143,9 +149,9 @@ TEST(FleetCommands, AWorkerKilledMidJobIsRetriedByAnotherAndStoredOnce) {
 
 // SIGTERM (systemctl stop) while a polling worker runs a job: the job is finished and
 // recorded, nothing more is claimed, exit 130.
-TEST(FleetCommands, SigtermFinishesTheCurrentJobThenStops) {
-  TempDir dir;
-  const std::string path = dir.File("lab.db");
+TEST_P(FleetCommands, SigtermFinishesTheCurrentJobThenStops) {
+  [[maybe_unused]] TempDir& dir = dir_;
+  const std::string path = NewStore();
   {
     db::Database database(path);
     AddSession(database, calibration::PaperTable3Parameters(), 200, 9);
@@ -185,9 +191,11 @@ TEST(FleetCommands, SigtermFinishesTheCurrentJobThenStops) {
   EXPECT_EQ(Versions(path), 1);
 }
 
-// The queue on the PostgreSQL server (the store stays SQLite until its port): claims with
-// SKIP LOCKED, the robot's advisory lock around the run.
-TEST(FleetCommands, TheQueueOnPostgresDrainsLikeTheSqliteOne) {
+ARMSIG_BOTH_BACKENDS(FleetCommands);
+
+// The queue apart from the store, on the server (a cell's SQLite store, a plant's queue):
+// claims with SKIP LOCKED; `jobs` reads it from --db too.
+TEST(FleetQueueApart, TheQueueOnPostgresDrainsLikeTheSqliteOne) {
   TempDir dir;
   const std::string path = dir.File("lab.db");
   {
@@ -195,9 +203,7 @@ TEST(FleetCommands, TheQueueOnPostgresDrainsLikeTheSqliteOne) {
     AddSession(database, calibration::PaperTable3Parameters(), 100, 7, 0.0, "", "a");
     AddSession(database, calibration::PaperTable3Parameters(), 100, 8, 0.0, "", "b");
   }
-  static int n = 0;
-  const std::string uri =
-      PostgresServer::Shared().NewDatabase("fleet_queue_" + std::to_string(++n));
+  const std::string uri = PostgresServer::Shared().NewDatabase("fleet_queue");
   const std::string args = "--db '" + path + "' --queue '" + uri + "'";
   auto r = RunArmsig("--db '" + path +
                      "' schedule recalibrate --all --residual-model off --queue '" + uri + "'");
@@ -209,12 +215,9 @@ TEST(FleetCommands, TheQueueOnPostgresDrainsLikeTheSqliteOne) {
   const auto jobs = Jobs("--db '" + uri + "'");
   ASSERT_EQ(jobs.size(), 2u);
   for (const auto& j : jobs) EXPECT_EQ(j["state"], "done") << j.dump();
-
-  // The store itself is not yet on PostgreSQL: said so, exit 2.
-  r = RunArmsig("--db '" + uri + "' worker --once");
-  EXPECT_EQ(r.exit_code, 2);
-  EXPECT_NE(r.err.find("not yet stored on PostgreSQL"), std::string::npos) << r.err;
-  EXPECT_NE(r.err.find("--queue"), std::string::npos) << r.err;
+  // The server's database is an armsig store of its own (only its queue is used).
+  r = RunArmsig("--db '" + uri + "' robot list");
+  EXPECT_EQ(r.exit_code, 0) << r.err;
 }
 
 }  // namespace
@@ -225,9 +228,11 @@ namespace armsig::testing {
 // A cell's demo database (three theodolites: observations, station set-ups, points) pushed
 // to a central file twice: the same observations there, once; a robot of another model
 // of the same name on the target is exit 2 naming it.
-TEST(DbPushCommand, PushesADemoCellOnceAndRefusesAnotherModel) {
+class DbPushCommand : public ::testing::TestWithParam<db::Backend> {};
+
+TEST_P(DbPushCommand, PushesADemoCellOnceAndRefusesAnotherModel) {
   TempDir dir;
-  const std::string cell = dir.File("cell.db"), central = dir.File("central.db");
+  const std::string cell = dir.File("cell.db"), central = NewStore(GetParam(), dir, "central");
   ASSERT_EQ(RunArmsig("--db '" + cell + "' demo --configurations 30 --time-scale 0").exit_code, 0);
   const std::string push = "--db '" + cell + "' db push --to '" + central + "'";
   auto r = RunArmsig(push);
@@ -245,14 +250,12 @@ TEST(DbPushCommand, PushesADemoCellOnceAndRefusesAnotherModel) {
       "s.code, o.face, o.hz_rad";
   auto rows = [&](const std::string& path) {
     db::Database database(path, db::OpenMode::kMustExist);
-    SQLite::Statement q(database.sql(), readings);
+    auto q = database.connection().Prepare(readings);
     std::vector<std::string> out;
-    while (q.executeStep()) {
-      out.push_back(q.getColumn(0).getString() + " " + q.getColumn(1).getString() + " " +
-                    std::to_string(q.getColumn(2).getDouble()) + " " +
-                    std::to_string(q.getColumn(3).getDouble()) + " " +
-                    std::to_string(q.getColumn(4).getInt()) + " " +
-                    std::to_string(q.getColumn(5).getInt()));
+    while (q->Step()) {
+      out.push_back(q->Text(0) + " " + q->Text(1) + " " + std::to_string(q->Double(2)) + " " +
+                    std::to_string(q->Double(3)) + " " + std::to_string(q->Int(4)) + " " +
+                    std::to_string(q->Int(5)));
     }
     return out;
   };
@@ -260,15 +263,17 @@ TEST(DbPushCommand, PushesADemoCellOnceAndRefusesAnotherModel) {
   EXPECT_EQ(there.size(), 90u);
   EXPECT_EQ(there, rows(cell));
 
-  const std::string other = dir.File("other.db");
+  const std::string other = NewStore(GetParam(), dir, "other");
   {
     db::Database database(other);
-    database.sql().exec(
+    database.connection().Exec(
         "INSERT INTO robots(name, model_name, model_yaml) VALUES ('puma760-demo', 'x', 'x')");
   }
   r = RunArmsig("--db '" + cell + "' db push --to '" + other + "'");
   EXPECT_EQ(r.exit_code, 2) << r.err;
   EXPECT_NE(r.err.find("robot puma760-demo has another model"), std::string::npos) << r.err;
 }
+
+ARMSIG_BOTH_BACKENDS(DbPushCommand);
 
 }  // namespace armsig::testing

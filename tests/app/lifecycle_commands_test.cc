@@ -17,6 +17,8 @@
 #include "io/csv.h"
 #include "io/model_yaml.h"
 #include "io/poses_csv.h"
+#include "db/database.h"
+#include "support/stores.h"
 #include "test_support.h"
 
 namespace armsig::testing {
@@ -161,9 +163,13 @@ TEST(LifecycleCommands, RealUr10FromRegistrationToCompensationAndRollback) {
 // the data are known for (0.44–0.45 mm with the geometric model, README "Figures"); the
 // stored set's own predictions at the validation poses reproduce it; compensate and export
 // work from the active set.
-TEST(LifecycleCommands, RealUr10NightlyPathReproducesTheHeldOutFigure) {
+// On either store: the same figure from the plant's server as from the lab's file.
+class LifecycleOnStore : public ::testing::TestWithParam<db::Backend> {};
+
+TEST_P(LifecycleOnStore, RealUr10NightlyPathReproducesTheHeldOutFigure) {
   TempDir dir;
-  const std::string db = "--db '" + dir.File("lab.db") + "' ";
+  const std::string store = NewStore(GetParam(), dir, "lab");
+  const std::string db = "--db '" + store + "' ";
   ASSERT_EQ(RunArmsig(db + "robot add ur10 --model '" + SourcePath("models/ur10.yaml") + "'")
                 .exit_code,
             0);
@@ -196,13 +202,13 @@ TEST(LifecycleCommands, RealUr10NightlyPathReproducesTheHeldOutFigure) {
   const auto poses = io::ReadPosesCsv(dir.File("c.csv"), 6);
   std::map<std::string, const MeasuredPose*> by_id;
   for (const auto& p : poses) by_id[p.id] = &p;
-  SQLite::Database sql(dir.File("lab.db"), SQLite::OPEN_READONLY);
-  SQLite::Statement q(sql,
-                      "SELECT pose_label FROM validation_residuals WHERE role = 'validation'");
+  db::Database sql(store, db::OpenMode::kReadOnly);
+  auto q = sql.connection().Prepare(
+      "SELECT pose_label FROM validation_residuals WHERE role = 'validation' ORDER BY id");
   std::string joints = "pose,q1_deg,q2_deg,q3_deg,q4_deg,q5_deg,q6_deg\n";
   std::vector<const MeasuredPose*> held;
-  while (q.executeStep()) {
-    std::string label = q.getColumn(0).getString();
+  while (q->Step()) {
+    std::string label = q->Text(0);
     label = label.substr(label.find(':') + 1);  // "<session>:<label>"
     ASSERT_TRUE(by_id.count(label)) << label;
     held.push_back(by_id[label]);
@@ -246,6 +252,8 @@ TEST(LifecycleCommands, RealUr10NightlyPathReproducesTheHeldOutFigure) {
             0);
   EXPECT_TRUE(std::filesystem::exists(dir.File("report/index.html")));
 }
+
+ARMSIG_BOTH_BACKENDS(LifecycleOnStore);
 
 // A laser tracker's point table (title lines, metres, decimal commas, sigmas) and the
 // robot's joint log joined by id into a session of the robot: the session gives back the

@@ -231,8 +231,8 @@ TEST(Database, CsvExportIsTheSameTextOnBothBackends) {
   EXPECT_EQ(csv[1], csv[0]);
   EXPECT_EQ(csv[0],
             "calibration_id,name,value,unit,identified,sigma,seq\n"
-            "1,d1,0.33333333333333331,mm,1,2.5000000000000001e-300,1\n"
-            "1,alpha1,-6.0221407600000002e-07,rad,0,,2\n"
+            "1,d1,0.33333333333333331,mm,1,2.5e-300,1\n"  // %.17g, as printf gives it
+            "1,alpha1,-6.0221407599999995e-07,rad,0,,2\n"
             "1,a1,0.10000000000000001,mm,1,0.001,3\n");
 }
 

@@ -14,7 +14,9 @@
 #include "calibration/simulation.h"
 #include "core/error.h"
 #include "db/database.h"
+#include "db/schema.h"
 #include "support/simulated_sessions.h"
+#include "support/stores.h"
 #include "test_support.h"
 #include "workflows/lifecycle.h"
 
@@ -29,11 +31,25 @@ workflows::RecalibrateOptions Options(const std::string& path) {
   return o;
 }
 
+// The store's clock now, as session start times are stored.
+std::string StoreNow(db::Database& database) {
+  auto q = database.connection().Prepare("SELECT " +
+                                         std::string(db::NowIsoSql(database.backend())));
+  return q->Step() ? q->Text(0) : std::string();
+}
+
 }  // namespace
 
-TEST(Recalibrate, PassesThenRejectsPlantedBadDataKeepingTheActiveSet) {
-  TempDir dir;
-  const std::string path = dir.File("lab.db");
+// The nightly job on either store: a lab's SQLite file or the plant's server.
+class Recalibrate : public ::testing::TestWithParam<db::Backend> {
+ protected:
+  std::string NewStore() { return testing::NewStore(GetParam(), dir_, "lab"); }
+  TempDir dir_;
+};
+
+TEST_P(Recalibrate, PassesThenRejectsPlantedBadDataKeepingTheActiveSet) {
+  [[maybe_unused]] TempDir& dir = dir_;
+  const std::string path = NewStore();
   {
     db::Database database(path);
     AddSession(database, calibration::PaperTable3Parameters(), 150, 1);
@@ -64,9 +80,9 @@ TEST(Recalibrate, PassesThenRejectsPlantedBadDataKeepingTheActiveSet) {
   EXPECT_EQ(Versions(path), 1);       // and nothing was stored
 }
 
-TEST(Recalibrate, SameInputsAreUpToDate) {
-  TempDir dir;
-  const std::string path = dir.File("lab.db");
+TEST_P(Recalibrate, SameInputsAreUpToDate) {
+  [[maybe_unused]] TempDir& dir = dir_;
+  const std::string path = NewStore();
   {
     db::Database database(path);
     AddSession(database, calibration::PaperTable3Parameters(), 150, 3);
@@ -81,9 +97,9 @@ TEST(Recalibrate, SameInputsAreUpToDate) {
 
 // "Up to date" is decided by the measurements and options, not by how --since was
 // written; --since takes ISO dates only.
-TEST(Recalibrate, IdempotentOnContentAndSinceIsIso) {
-  TempDir dir;
-  const std::string path = dir.File("lab.db");
+TEST_P(Recalibrate, IdempotentOnContentAndSinceIsIso) {
+  [[maybe_unused]] TempDir& dir = dir_;
+  const std::string path = NewStore();
   {
     db::Database database(path);
     AddSession(database, calibration::PaperTable3Parameters(), 150, 13);
@@ -114,9 +130,9 @@ TEST(Recalibrate, IdempotentOnContentAndSinceIsIso) {
 
 // Every output path is checked before the database is written: a --json into a missing
 // folder or a --report over a file stores nothing.
-TEST(Recalibrate, UnwritableOutputsStoreNothing) {
-  TempDir dir;
-  const std::string path = dir.File("lab.db");
+TEST_P(Recalibrate, UnwritableOutputsStoreNothing) {
+  [[maybe_unused]] TempDir& dir = dir_;
+  const std::string path = NewStore();
   {
     db::Database database(path);
     AddSession(database, calibration::PaperTable3Parameters(), 150, 14);
@@ -136,9 +152,9 @@ TEST(Recalibrate, UnwritableOutputsStoreNothing) {
   EXPECT_EQ(Versions(path), 0);
 }
 
-TEST(Recalibrate, DetectsAPlantedDrift) {
-  TempDir dir;
-  const std::string path = dir.File("lab.db");
+TEST_P(Recalibrate, DetectsAPlantedDrift) {
+  [[maybe_unused]] TempDir& dir = dir_;
+  const std::string path = NewStore();
   const Eigen::VectorXd before = calibration::PaperTable3Parameters();
   {
     db::Database database(path);
@@ -153,7 +169,7 @@ TEST(Recalibrate, DetectsAPlantedDrift) {
   std::string since;
   {
     db::Database database(path);
-    since = database.sql().execAndGet("SELECT strftime('%Y-%m-%dT%H:%M:%fZ','now')").getString();
+    since = StoreNow(database);
     std::this_thread::sleep_for(std::chrono::milliseconds(20));
     AddSession(database, after, 150, 5);
   }
@@ -173,16 +189,16 @@ TEST(Recalibrate, DetectsAPlantedDrift) {
 // configurations, new noise), the job fitting that night's session. No night may ring
 // the drift alarm; a planted change of 0.2 mm in one link length, or of 0.5 mrad in one
 // joint axis, rings it on the first night after, naming the change in mm (or mrad).
-TEST(Recalibrate, TenNightsWithoutFalseDriftThenPlantedChangesAreFlagged) {
-  TempDir dir;
-  const std::string path = dir.File("lab.db");
+TEST_P(Recalibrate, TenNightsWithoutFalseDriftThenPlantedChangesAreFlagged) {
+  [[maybe_unused]] TempDir& dir = dir_;
+  const std::string path = NewStore();
   const auto model = Puma();
   const Eigen::VectorXd truth = calibration::PaperTable3Parameters();
   auto night = [&](const Eigen::VectorXd& robot, unsigned seed) {
     std::string since;
     {
       db::Database database(path);
-      since = database.sql().execAndGet("SELECT strftime('%Y-%m-%dT%H:%M:%fZ','now')").getString();
+      since = StoreNow(database);
       std::this_thread::sleep_for(std::chrono::milliseconds(5));
       AddSession(database, robot, 150, seed);
     }
@@ -232,9 +248,9 @@ TEST(Recalibrate, TenNightsWithoutFalseDriftThenPlantedChangesAreFlagged) {
 
 // The gates come from the lab file stored with the sessions; a malformed block there is
 // an input error (exit 2), never a silent fall-back to the defaults.
-TEST(Recalibrate, MalformedStoredRecalibrationBlockIsAnInputError) {
-  TempDir dir;
-  const std::string path = dir.File("lab.db");
+TEST_P(Recalibrate, MalformedStoredRecalibrationBlockIsAnInputError) {
+  [[maybe_unused]] TempDir& dir = dir_;
+  const std::string path = NewStore();
   const std::string lab =
       "robot:\n  model: m.yaml\n  controller: {protocol: as, port: p}\n"
       "instruments:\n  - {station: T1, protocol: geocom, port: q}\n"
@@ -256,16 +272,12 @@ TEST(Recalibrate, MalformedStoredRecalibrationBlockIsAnInputError) {
   EXPECT_NE(cli.err.find("max_validation_mean_mm"), std::string::npos) << cli.err;
 }
 
-}  // namespace armsig::testing
-
-namespace armsig::testing {
-
 // After a roll-back the nightly job does not undo the technician's choice: the inputs are
 // already fitted by a stored set (not the active one), so it is up to date; every
 // activation (the job's, the roll-back) is in the history with what it replaced.
-TEST(Recalibrate, RollbackIsRespectedAndEveryActivationIsRecorded) {
-  TempDir dir;
-  const std::string path = dir.File("lab.db");
+TEST_P(Recalibrate, RollbackIsRespectedAndEveryActivationIsRecorded) {
+  [[maybe_unused]] TempDir& dir = dir_;
+  const std::string path = NewStore();
   {
     db::Database database(path);
     AddSession(database, calibration::PaperTable3Parameters(), 120, 31);
@@ -319,6 +331,8 @@ TEST(Recalibrate, RollbackIsRespectedAndEveryActivationIsRecorded) {
   EXPECT_EQ(versions[1].drift_against, 1);
   EXPECT_EQ(versions[2].drift_against, 1);  // version 1 was active when 3 was fitted
 }
+
+ARMSIG_BOTH_BACKENDS(Recalibrate);
 
 // --since is read in the time zone it names (Z, an offset) or else in local time, and
 // becomes the UTC bound the sessions' start times are stored with.
