@@ -613,6 +613,13 @@ std::string Database::ExportCsv(const std::string& table) {
   return out;
 }
 
+void LockSessionForWrite(Database& database, int64_t session_id) {
+  if (database.backend() != Backend::kPostgres) return;
+  auto lock = database.connection().Prepare("SELECT id FROM sessions WHERE id = ? FOR UPDATE");
+  lock->Bind(1, session_id);
+  lock->Execute();
+}
+
 void LockRobotForWrite(Connection& connection, int64_t robot_id) {
   if (connection.backend() != Backend::kPostgres) return;
   auto lock = connection.Prepare("SELECT pg_advisory_xact_lock(CAST(? AS BIGINT))");

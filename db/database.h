@@ -137,6 +137,10 @@ class ReadSnapshot {
 // versioned rows (parameter sets, the active set), until this one ends. PostgreSQL: a
 // transaction advisory lock; SQLite: nothing (BEGIN IMMEDIATE already serialises writers).
 void LockRobotForWrite(Connection& connection, int64_t robot_id);
+// Inside a write transaction: waits until no other transaction writes the session's rows,
+// and keeps writers of it (a capture's next configuration) waiting until this one ends.
+// PostgreSQL: the session's row FOR UPDATE; SQLite: nothing (BEGIN IMMEDIATE).
+void LockSessionForWrite(Database& database, int64_t session_id);
 inline void LockRobotForWrite(Database& database, int64_t robot_id) {
   LockRobotForWrite(database.connection(), robot_id);
 }

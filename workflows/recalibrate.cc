@@ -296,6 +296,9 @@ RecalibrationDecision Recalibrate(const RecalibrateOptions& o) {
     spdlog::info("recalibrate: {}: {}", o.robot, message);
   };
 
+  // What the run decides on is read from one snapshot (a capture or a push may write
+  // meanwhile): the model, the gates, the poses, the stored sets.
+  std::optional<db::ReadSnapshot> snapshot(std::in_place, database);
   const auto model =
       io::ParseRobotModel(db::RobotModelYaml(database, *robot_id), "model of robot " + o.robot);
   const Gates gates = LoadGates(database, *robot_id, o);
@@ -324,6 +327,7 @@ RecalibrationDecision Recalibrate(const RecalibrateOptions& o) {
     }
   }
   const auto history = db::CalibrationHistory(database, *robot_id);
+  snapshot.reset();  // not held while fitting
   std::optional<db::StoredCalibration> current;
   for (const auto& c : history) {
     if (c.active) current = c;
@@ -552,6 +556,7 @@ RecalibrationDecision Recalibrate(const RecalibrateOptions& o) {
     input.run = &run;
     input.validation = validation;
     input.armsig_version = ARMSIG_VERSION;
+    db::ReadSnapshot report_snapshot(database);  // the report's reads agree with each other
     input.sources = LoadReportSources(database, run);
     {
       std::vector<int64_t> sessions;

@@ -35,6 +35,11 @@ ReduceSummary ReduceSession(db::Database& database, int64_t session_id,
                             const reduction::PointOptions& options) {
   ReduceSummary summary;
   summary.session = session_id;
+  // One transaction from the first read to the last write, the session locked: a capture
+  // of this session storing a configuration meanwhile waits, so that the points replaced
+  // are exactly those of the observations read (none lost, none from half a configuration).
+  db::WriteTransaction tx(database);
+  db::LockSessionForWrite(database, session_id);
   std::map<std::string, reduction::Station> stations;
   for (const auto& [code, setup] : db::LatestStationSetups(database, session_id))
     stations.emplace(code, acquisition::StationOf(setup));
@@ -92,7 +97,6 @@ ReduceSummary ReduceSession(db::Database& database, int64_t session_id,
     points.push_back(std::move(row));
     begin = end;
   }
-  db::WriteTransaction tx(database);
   db::ReplacePoints(database, session_id, points);
   tx.commit();
   return summary;
