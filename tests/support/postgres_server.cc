@@ -192,9 +192,9 @@ PostgresServer::~PostgresServer() {
   if (!dir_.empty()) std::filesystem::remove_all(dir_, ec);
 }
 
-std::string PostgresServer::Uri(const std::string& database) const {
+std::string PostgresServer::Uri(const std::string& database, const std::string& user) const {
   return "postgresql:///" + database + "?host=" + dir_ + "&port=" + std::to_string(port_) +
-         "&user=" + superuser_;
+         "&user=" + (user.empty() ? superuser_ : user);
 }
 
 std::string PostgresServer::TlsUri(const std::string& database, const std::string& sslmode) const {

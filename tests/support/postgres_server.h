@@ -33,7 +33,8 @@ class PostgresServer {
   // processes share the server); returns its libpq URI
   // (postgresql:///NAME?host=SOCKET_DIR&port=PORT&user=SUPERUSER), and its name in `name`.
   std::string NewDatabase(const std::string& base, std::string* name = nullptr);
-  std::string Uri(const std::string& database) const;
+  // Its URI on the socket, as the superuser or as `user` (any role may log in there).
+  std::string Uri(const std::string& database, const std::string& user = "") const;
   // The server also listens on 127.0.0.1:port() with TLS (ssl=on, a self-signed
   // certificate for CN=localhost, certificate_path()). kTlsRole (made with the server, its
   // password kTlsPassword) is admitted only over TLS with its password; its URI:
