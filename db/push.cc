@@ -7,7 +7,9 @@
 #include <boost/uuid/uuid_io.hpp>
 #include <map>
 #include <nlohmann/json.hpp>
+#include <functional>
 #include <optional>
+#include <variant>
 
 #include "core/error.h"
 #include "core/text.h"
@@ -41,6 +43,86 @@ void CopyValue(const Statement& from, int column, Statement& to, int index, Kind
       break;
   }
 }
+
+// A value read from the cell, kept until its batch is written.
+using Value = std::variant<std::monostate, int64_t, double, std::string>;
+
+Value ValueOf(const Statement& from, int column, Kind kind) {
+  if (from.IsNull(column)) return std::monostate{};
+  switch (kind) {
+    case Kind::kInt:
+      return from.Int(column);
+    case Kind::kReal:
+      return from.Double(column);
+    case Kind::kText:
+      return from.Text(column);
+  }
+  return std::monostate{};
+}
+
+Value ValueOf(std::optional<int64_t> id) {
+  return id ? Value(*id) : Value(std::monostate{});
+}
+
+// Rows of one table written kRows at a time: one multi-row INSERT, one round trip to a
+// server instead of one per row (a session's observations are thousands of rows).
+class BatchedInsert {
+ public:
+  static constexpr int kRows = 64;
+  // `head`: "INSERT INTO table(columns…)"; every row has `columns` values. With
+  // `returning` ("RETURNING id, seq"), `on_returned` is called with each returned row.
+  BatchedInsert(Connection& target, std::string head, int columns, std::string returning = "",
+                std::function<void(const Statement&)> on_returned = {})
+      : target_(target),
+        head_(std::move(head)),
+        columns_(columns),
+        returning_(std::move(returning)),
+        on_returned_(std::move(on_returned)) {}
+  void Row(std::vector<Value> values) {
+    values_.insert(values_.end(), std::make_move_iterator(values.begin()),
+                   std::make_move_iterator(values.end()));
+    if (static_cast<int>(values_.size()) == kRows * columns_) Flush();
+  }
+  void Flush() {
+    const int rows = static_cast<int>(values_.size()) / columns_;
+    if (rows == 0) return;
+    std::string sql = head_ + " VALUES ";
+    std::string marks = "(";
+    for (int c = 0; c < columns_; ++c) marks += c ? ",?" : "?";
+    marks += ")";
+    for (int r = 0; r < rows; ++r) sql += (r ? "," : "") + marks;
+    if (!returning_.empty()) sql += " " + returning_;
+    auto& statement = statements_[rows];
+    if (!statement) statement = target_.Prepare(sql);
+    for (size_t k = 0; k < values_.size(); ++k) {
+      const int index = static_cast<int>(k) + 1;
+      std::visit(
+          [&](const auto& v) {
+            using T = std::decay_t<decltype(v)>;
+            if constexpr (std::is_same_v<T, std::monostate>)
+              statement->BindNull(index);
+            else
+              statement->Bind(index, v);
+          },
+          values_[k]);
+    }
+    if (returning_.empty()) {
+      statement->Execute();
+    } else {
+      while (statement->Step()) on_returned_(*statement);
+    }
+    values_.clear();
+  }
+
+ private:
+  Connection& target_;
+  std::string head_;
+  int columns_;
+  std::string returning_;
+  std::function<void(const Statement&)> on_returned_;
+  std::vector<Value> values_;
+  std::map<int, std::unique_ptr<Statement>> statements_;  // by rows
+};
 
 // The copied columns of each table, beside its id and the ids that are mapped.
 constexpr Column kInstrumentColumns[] = {
@@ -303,18 +385,34 @@ void PushSession(Connection& source, Connection& target, NameMap& names, int64_t
       w->Execute();
     }
   }
-  std::map<int64_t, int64_t> poses;
+  std::map<int64_t, int64_t> poses;  // the cell's pose id → the server's
   {
+    // A session's poses are told apart by their plan index (unique per session): the
+    // server's ids come back with it.
     auto q = source.Prepare("SELECT id, " + Names(kPoseColumns) +
                             " FROM poses WHERE session_id = ? ORDER BY id");
     q->Bind(1, local);
-    auto w = target.Prepare("INSERT INTO poses(session_id, " + Names(kPoseColumns) + ") VALUES (" +
-                            Marks(kPoseColumns, 1) + ") RETURNING id");
+    std::map<int64_t, int64_t> local_by_seq, server_by_seq;
+    BatchedInsert w(target, "INSERT INTO poses(session_id, " + Names(kPoseColumns) + ")",
+                    1 + static_cast<int>(std::size(kPoseColumns)), "RETURNING seq, id",
+                    [&](const Statement& r) { server_by_seq[r.Int(0)] = r.Int(1); });
+    static_assert(std::string_view(kPoseColumns[0].name) == "seq");
     while (q->Step()) {
-      w->Bind(1, session);
-      CopyColumns(*q, 1, *w, 2, kPoseColumns);
-      poses[q->Int(0)] = InsertedId(*w, target, "a pose");
+      local_by_seq[q->Int(1)] = q->Int(0);
+      std::vector<Value> row = {session};
+      for (size_t k = 0; k < std::size(kPoseColumns); ++k)
+        row.push_back(ValueOf(*q, 1 + static_cast<int>(k), kPoseColumns[k].kind));
+      w.Row(std::move(row));
       ++summary.poses;
+    }
+    w.Flush();
+    for (const auto& [seq, id] : local_by_seq) {
+      const auto it = server_by_seq.find(seq);
+      if (it == server_by_seq.end())
+        throw DatabaseError(target.name() + ": no id for the pose of plan index " +
+                                std::to_string(seq),
+                            "", false);
+      poses[id] = it->second;
     }
   }
   auto pose_of = [&](const Statement& q, int column) -> std::optional<int64_t> {
@@ -328,33 +426,34 @@ void PushSession(Connection& source, Connection& target, NameMap& names, int64_t
         source.Prepare("SELECT pose_id, station_id, instrument_id, " + Names(kObservationColumns) +
                        " FROM observations WHERE session_id = ? ORDER BY id");
     q->Bind(1, local);
-    auto w = target.Prepare(
-        "INSERT INTO observations(session_id, pose_id, station_id, "
-        "instrument_id, " +
-        Names(kObservationColumns) + ") VALUES (" + Marks(kObservationColumns, 4) + ")");
+    BatchedInsert w(target,
+                    "INSERT INTO observations(session_id, pose_id, station_id, instrument_id, " +
+                        Names(kObservationColumns) + ")",
+                    4 + static_cast<int>(std::size(kObservationColumns)));
     while (q->Step()) {
-      w->Bind(1, session);
-      w->Bind(2, pose_of(*q, 0));
-      w->Bind(3, names.Station(q->Int(1)));
-      w->Bind(4, names.Instrument(q->OptionalInt(2)));
-      CopyColumns(*q, 3, *w, 5, kObservationColumns);
-      w->Execute();
+      std::vector<Value> row = {session, ValueOf(pose_of(*q, 0)), names.Station(q->Int(1)),
+                                ValueOf(names.Instrument(q->OptionalInt(2)))};
+      for (size_t k = 0; k < std::size(kObservationColumns); ++k)
+        row.push_back(ValueOf(*q, 3 + static_cast<int>(k), kObservationColumns[k].kind));
+      w.Row(std::move(row));
       ++summary.observations;
     }
+    w.Flush();
   }
   {
     auto q = source.Prepare("SELECT pose_id, " + Names(kPointColumns) +
                             " FROM points WHERE session_id = ? ORDER BY id");
     q->Bind(1, local);
-    auto w = target.Prepare("INSERT INTO points(session_id, pose_id, " + Names(kPointColumns) +
-                            ") VALUES (" + Marks(kPointColumns, 2) + ")");
+    BatchedInsert w(target, "INSERT INTO points(session_id, pose_id, " + Names(kPointColumns) + ")",
+                    2 + static_cast<int>(std::size(kPointColumns)));
     while (q->Step()) {
-      w->Bind(1, session);
-      w->Bind(2, pose_of(*q, 0));
-      CopyColumns(*q, 1, *w, 3, kPointColumns);
-      w->Execute();
+      std::vector<Value> row = {session, ValueOf(pose_of(*q, 0))};
+      for (size_t k = 0; k < std::size(kPointColumns); ++k)
+        row.push_back(ValueOf(*q, 1 + static_cast<int>(k), kPointColumns[k].kind));
+      w.Row(std::move(row));
       ++summary.points;
     }
+    w.Flush();
   }
   tx.Commit();
   ++summary.sessions_pushed;

@@ -202,7 +202,7 @@ TEST_P(Push, ACutConnectionLeavesWholeItemsAndTheNextPushCompletes) {
     want = Counts(a);
   }
   int cuts = 0;
-  for (int budget = 0;; budget += 23) {
+  for (int budget = 0;; budget += 13) {
     const std::string central = NewStore(GetParam(), dir, "central" + std::to_string(budget));
     bool was_cut = false;
     {
