@@ -57,6 +57,44 @@ std::optional<Eigen::Vector3d> TargetPredictor::Predict(const Eigen::VectorXd& j
   return kinematics_.Position(*base_, params_, joints_rad.data());
 }
 
+namespace {
+
+// RMS distance of points from their centroid, mm.
+double Spread(const std::vector<Eigen::Vector3d>& points) {
+  if (points.empty()) return 0.0;
+  Eigen::Vector3d mean = Eigen::Vector3d::Zero();
+  for (const auto& p : points) mean += p;
+  mean /= static_cast<double>(points.size());
+  double sum = 0.0;
+  for (const auto& p : points) sum += (p - mean).squaredNorm();
+  return std::sqrt(sum / static_cast<double>(points.size()));
+}
+
+}  // namespace
+
+std::optional<std::string> TargetPredictor::FollowProblem(double max_fit_rms_mm) const {
+  if (!fitted_ || !fit_rms_mm_) return std::nullopt;
+  const double model_spread = Spread(model_positions_);
+  const double measured_spread = Spread(measured_);
+  if (measured_spread < 0.1 * model_spread) {
+    return fmt::format(
+        "the measured target does not follow the robot: over {} configurations it stays within "
+        "{:.1f} mm (rms about its mean) while the model moves it over {:.0f} mm; is the "
+        "reflector on the robot's flange (in its nest), are the instruments aimed at the robot "
+        "and not at a fixed point, and are the model's lengths in mm?",
+        points(), measured_spread, model_spread);
+  }
+  if (*fit_rms_mm_ > max_fit_rms_mm) {
+    return fmt::format(
+        "the measured points do not follow the robot model: the best rigid robot base leaves "
+        "{:.1f} mm rms over {} configurations, more than the {:.1f} mm an uncalibrated robot may "
+        "miss by (lab file tolerances: max_base_fit_rms_mm); check the lab file's robot target "
+        "(tool offset), the model file, and the controller's joint zeros and units",
+        *fit_rms_mm_, points(), max_fit_rms_mm);
+  }
+  return std::nullopt;
+}
+
 std::string TargetPredictor::Describe() const {
   if (fitted_) {
     return fmt::format("base fitted to {} measured points (rms {:.2f} mm)", points(),

@@ -49,6 +49,13 @@ class TargetPredictor {
   const std::optional<Eigen::Isometry3d>& base() const { return base_; }
   // RMS distance of the measured points from the fitted model positions, mm.
   std::optional<double> fit_rms_mm() const { return fit_rms_mm_; }
+  // Whether the measured points follow the robot: nullopt when they do, or when there are
+  // too few to tell (no fitted base yet); otherwise what is wrong, for the operator. Two
+  // findings: the measured points stay in one place while the model's spread over the work
+  // volume (the reflector is not on the robot, or an instrument aims at a fixed point);
+  // the best rigid base leaves more than `max_fit_rms_mm` (an uncalibrated robot misses by
+  // millimetres: centimetres are a wrong tool offset, model, joint zero or unit).
+  std::optional<std::string> FollowProblem(double max_fit_rms_mm) const;
   // "the lab file's base", "base fitted to 7 measured points (rms 0.84 mm)", "no base yet
   // (2 of 3 points measured)".
   std::string Describe() const;

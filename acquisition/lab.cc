@@ -194,11 +194,18 @@ InstrumentConfig InstrumentFrom(const YamlValue& value, const std::string& sourc
 void TolerancesFrom(const YamlValue& value, Tolerances& tol, instruments::RetryPolicy& policy) {
   const YamlMap map = value.Map({"max_miss_mm", "max_repeat_mm", "readings", "max_remeasure",
                                  "settle_ms", "fault_retries", "fault_retry_delay_ms", "two_face",
-                                 "timeout_ms", "max_sigma_mm", "max_repeat_sigma"});
+                                 "timeout_ms", "max_sigma_mm", "max_repeat_sigma",
+                                 "max_base_fit_rms_mm", "max_joint_error_deg"});
   if (const auto v = map.Find("max_miss_mm")) tol.max_miss_mm = PositiveMm(*v);
   if (const auto v = map.Find("max_repeat_mm")) tol.max_repeat_mm = PositiveMm(*v);
   if (const auto v = map.Find("max_sigma_mm")) tol.max_sigma_mm = PositiveMm(*v);
   if (const auto v = map.Find("max_repeat_sigma")) tol.max_repeat_sigma = v->PositiveNumber();
+  if (const auto v = map.Find("max_base_fit_rms_mm")) tol.max_base_fit_rms_mm = PositiveMm(*v);
+  if (const auto v = map.Find("max_joint_error_deg")) {
+    tol.max_joint_error_deg = v->PositiveNumber();
+    if (tol.max_joint_error_deg > 360.0)
+      v->Fail("expected at most 360 deg, got " + v->Describe());
+  }
   if (const auto v = map.Find("readings")) tol.readings = v->Integer(1, kMaxReadings);
   if (const auto v = map.Find("max_remeasure")) tol.max_remeasure = v->Integer(0, kMaxRemeasure);
   if (const auto v = map.Find("settle_ms")) tol.settle_ms = v->Integer(0, kMaxDelayMs);
@@ -473,7 +480,9 @@ std::string FormatLabYaml(const LabFile& lab) {
       << t.fault_retry_delay_ms << YAML::Key << "two_face" << YAML::Value << t.two_face << YAML::Key
       << "timeout_ms" << YAML::Value << lab.timeout_ms << YAML::Key << "max_sigma_mm"
       << YAML::Value << t.max_sigma_mm << YAML::Key << "max_repeat_sigma" << YAML::Value
-      << t.max_repeat_sigma << YAML::EndMap << YAML::EndMap;
+      << t.max_repeat_sigma << YAML::Key << "max_base_fit_rms_mm" << YAML::Value
+      << t.max_base_fit_rms_mm << YAML::Key << "max_joint_error_deg" << YAML::Value
+      << t.max_joint_error_deg << YAML::EndMap << YAML::EndMap;
   return std::string(out.c_str()) + "\n";
 }
 

@@ -53,6 +53,16 @@ struct Tolerances {
   // again.
   double max_sigma_mm = 0.05;
   double max_repeat_sigma = 4.0;
+  // Do the measured points follow the robot? The best rigid robot base (fitted from the
+  // third point on) may leave at most this rms, mm: an uncalibrated robot misses by
+  // millimetres, a reflector that is not on the flange or a wrong tool offset by far more.
+  // The session pauses, naming what it found.
+  double max_base_fit_rms_mm = 25.0;
+  // A controller armsig moves: the joints it reads back may differ from the commanded ones
+  // by at most this (degrees) on any joint. More means the robot is not where the plan put
+  // it (another program drives it, it stopped at a limit or a fence): a fault of the
+  // configuration, retried, then the session pauses.
+  double max_joint_error_deg = 0.1;
 };
 
 // The lab file's `recalibration:` block: gates of the nightly job. An absent key is

@@ -14,13 +14,17 @@
 #include "calibration/selection.h"
 #include "calibration/simulation.h"
 #include "core/error.h"
+#include "core/plausibility.h"
 #include "core/text.h"
 #include "core/units.h"
 #include "io/csv.h"
 
 namespace armsig::acquisition {
 
-Plan ReadPlanCsv(const std::string& path, int num_joints) {
+namespace {
+
+Plan ReadPlanCsvWithin(const std::string& path, int num_joints,
+                       const calibration::RobotModel* model) {
   const io::CsvTable t = io::ReadCsvFile(path);
   std::vector<std::string> known = {"pose"};
   for (int i = 1; i <= num_joints; ++i) known.push_back("q" + std::to_string(i) + "_*");
@@ -36,12 +40,35 @@ Plan ReadPlanCsv(const std::string& path, int num_joints) {
     if (!labels.insert(c.label).second)
       throw InputError(t.Where(row, id), "duplicate pose " + Quoted(c.label));
     c.joints_rad.resize(num_joints);
-    for (int i = 0; i < num_joints; ++i)
+    for (int i = 0; i < num_joints; ++i) {
       c.joints_rad(i) = t.AngleRad(row, q[i], plausible::Quantity::kJointAngle);
+      if (model && static_cast<int>(model->joint_min_rad.size()) == num_joints &&
+          static_cast<int>(model->joint_max_rad.size()) == num_joints &&
+          (c.joints_rad(i) < model->joint_min_rad[i] || c.joints_rad(i) > model->joint_max_rad[i])) {
+        const double per = FromRad(1.0, q[i].unit);
+        throw InputError(
+            t.Where(row, q[i].index),
+            fmt::format("pose {}: joint {} at {:g} is outside the limits of model {} ({:g} to {:g} "
+                        "{}): the robot cannot go there",
+                        Quoted(c.label), i + 1, c.joints_rad(i) * per, model->name,
+                        model->joint_min_rad[i] * per, model->joint_max_rad[i] * per,
+                        plausible::UnitOf(q[i].unit).name));
+      }
+    }
     plan.push_back(std::move(c));
   }
   if (plan.empty()) throw InputError({path, 0, 0, ""}, "empty plan");
   return plan;
+}
+
+}  // namespace
+
+Plan ReadPlanCsv(const std::string& path, int num_joints) {
+  return ReadPlanCsvWithin(path, num_joints, nullptr);
+}
+
+Plan ReadPlanCsv(const std::string& path, const calibration::RobotModel& model) {
+  return ReadPlanCsvWithin(path, model.num_joints(), &model);
 }
 
 std::string FormatPlanCsv(const Plan& plan) {
@@ -135,7 +162,7 @@ Plan MakePlan(const std::string& spec, const calibration::RobotModel& model) {
     if (model.num_joints() >= 3) start(2) = 90 * kRadPerDeg;  // elbow bent, target in reach
     return SingleJointPlan(start, joint_number - 1, lo, hi, *steps);
   }
-  return ReadPlanCsv(spec, model.num_joints());
+  return ReadPlanCsv(spec, model);
 }
 
 std::string PlanToJson(const Plan& plan) {

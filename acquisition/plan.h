@@ -17,6 +17,9 @@ using Plan = std::vector<PlannedConfiguration>;
 
 // "pose,q1_deg,…,qn_deg" (any angle unit suffix). Throws InputError with line numbers.
 Plan ReadPlanCsv(const std::string& path, int num_joints);
+// The same, refusing a configuration outside the model's joint limits (when it has them):
+// the plan is sent to the robot, and a limit is where it stops short or faults.
+Plan ReadPlanCsv(const std::string& path, const calibration::RobotModel& model);
 std::string FormatPlanCsv(const Plan& plan);
 
 // `count` well-spread configurations within the joint limits: the D-optimal choice

@@ -209,20 +209,34 @@ CaptureSummary RunCapture(db::Database& db, const LabConfig& lab, int64_t sessio
     beams[i] = dynamic_cast<instruments::BeamSteering*>(devices[i].get());
     any_beam |= beams[i] != nullptr;
   }
+  // The robot base fitted to the measured points: laser trackers point their beams
+  // through it, and every session checks by it that the points follow the robot.
   std::optional<TargetPredictor> predictor;
+  predictor.emplace(
+      lab.model,
+      options.prediction_params.value_or(Eigen::VectorXd::Zero(lab.model.num_parameters())),
+      lab.robot_base);
+  // A resumed session starts from the points it has (the base is known at once).
+  for (const auto& p : db::LoadSessionPoses(db, session)) {
+    predictor->Add(p.joints_rad, p.target_in_world);
+  }
   if (any_beam) {
-    predictor.emplace(
-        lab.model,
-        options.prediction_params.value_or(Eigen::VectorXd::Zero(lab.model.num_parameters())),
-        lab.robot_base);
-    // A resumed session starts from the points it has (the base is known at once).
-    for (const auto& p : db::LoadSessionPoses(db, session)) {
-      predictor->Add(p.joints_rad, p.target_in_world);
-    }
     spdlog::info("capture: laser tracker beams point through {}{}", predictor->Describe(),
                  options.prediction_params ? " and the robot's active arm signature"
                                            : " and the nominal model");
   }
+  // Points that do not follow the robot: the session pauses before measuring more of them
+  // (what is stored stays), naming what it found.
+  const auto pause_unless_following = [&](const std::string& where) {
+    const auto problem = predictor->FollowProblem(lab.tolerances.max_base_fit_rms_mm);
+    if (!problem) return false;
+    summary.paused = true;
+    summary.pause_reason = where + ": " + *problem;
+    db::SetSessionState(db, session, "paused");
+    return true;
+  };
+  const bool stored_points_wrong =
+      pause_unless_following(fmt::format("the {} stored points of this session", predictor->points()));
   std::vector<std::optional<double>> expected_distance(devices.size());  // this configuration
   std::vector<double> last_distance(devices.size(), 0.0);
   std::atomic<int> searches{0}, operator_pointed{0};
@@ -285,6 +299,22 @@ CaptureSummary RunCapture(db::Database& db, const LabConfig& lab, int64_t sessio
     options.prompt_reflector(station, target);
     check_stop();
     return read();
+  };
+
+  // A robot armsig moved must be where it was sent: the joints read back within the lab's
+  // max_joint_error_deg of the commanded ones, else the configuration faults (retried).
+  const double max_joint_error_rad = lab.tolerances.max_joint_error_deg * kPi / 180.0;
+  auto check_joints = [&](const PlannedConfiguration& target, const Eigen::VectorXd& read) {
+    if (read.size() != target.joints_rad.size()) return;
+    Eigen::Index worst = 0;
+    const double error = (read - target.joints_rad).cwiseAbs().maxCoeff(&worst);
+    if (!(error > max_joint_error_rad)) return;
+    throw std::runtime_error(fmt::format(
+        "the controller reads joint {} at {:.4f} deg, commanded {:.4f} deg ({:.4f} deg off, "
+        "more than the lab's max_joint_error_deg {}): the robot is not where the plan put it "
+        "(another program drives it, or it stopped at a limit or a safety fence)",
+        worst + 1, read(worst) * 180.0 / kPi, target.joints_rad(worst) * 180.0 / kPi,
+        error * 180.0 / kPi, lab.tolerances.max_joint_error_deg));
   };
 
   // One parallel round: joints (optional) and every instrument at once.
@@ -363,6 +393,20 @@ CaptureSummary RunCapture(db::Database& db, const LabConfig& lab, int64_t sessio
   reduction::PointOptions point_options;
   point_options.checks.max_miss_mm = lab.tolerances.max_miss_mm;
   point_options.checks.max_repeat_mm = lab.tolerances.max_repeat_mm;
+  // The fixed-mm repeat check is the theodolites' (two of them intersect a point per
+  // round); a laser tracker's repeated readings are checked against the sigmas it states
+  // (tracker_checks), which at 10 m exceed any fixed 0.05 mm.
+  int angle_only = 0;
+  for (size_t i = 0; i < devices.size(); ++i) angle_only += beams[i] ? 0 : 1;
+  auto repeat_rays_of = [&](const std::vector<StationReading>& readings) {
+    std::vector<reduction::Ray> rays;
+    for (const auto& r : readings) {
+      if (beams[r.instrument]) continue;
+      rays.push_back(reduction::RayOf(ObservationOf(r, lab.instruments[r.instrument]),
+                                      *station_of[r.instrument], reduction::InstrumentDefaults{}));
+    }
+    return rays;
+  };
   auto rays_of = [&](const std::vector<StationReading>& readings) {
     std::vector<reduction::Ray> rays;
     for (const auto& r : readings) {
@@ -416,7 +460,7 @@ CaptureSummary RunCapture(db::Database& db, const LabConfig& lab, int64_t sessio
     return MsSince(a);
   };
 
-  for (int seq = 0; seq < static_cast<int>(plan.size()); ++seq) {
+  for (int seq = 0; seq < static_cast<int>(plan.size()) && !stored_points_wrong; ++seq) {
     if (done.count(seq)) continue;
     if (options.stop && options.stop->load()) {
       summary.stopped = true;
@@ -446,12 +490,13 @@ CaptureSummary RunCapture(db::Database& db, const LabConfig& lab, int64_t sessio
           Measurement m;
           if (measure_try == 0) m.device_ms = pointing_ms;
           round(true, m, target, 0);
+          if (controller.CanMove()) check_joints(target, m.joints);
           reduction::RayGroup group;  // every ray, and each repeated round's rays
-          group.repeats.push_back(rays_of(m.readings));
+          if (angle_only >= 2) group.repeats.push_back(repeat_rays_of(m.readings));
           for (int k = 1; k < lab.tolerances.readings; ++k) {
             Measurement again;
             round(false, again, target, k);
-            group.repeats.push_back(rays_of(again.readings));
+            if (angle_only >= 2) group.repeats.push_back(repeat_rays_of(again.readings));
             m.readings.insert(m.readings.end(), again.readings.begin(), again.readings.end());
             m.device_ms += again.device_ms;
           }
@@ -475,6 +520,11 @@ CaptureSummary RunCapture(db::Database& db, const LabConfig& lab, int64_t sessio
             break;
           }
           ++summary.remeasured;
+          spdlog::info("capture: {}: measuring again ({} of {}): {}", target.label,
+                       measure_try + 1, lab.tolerances.max_remeasure,
+                       m.point.result.status.ok()
+                           ? ToString(m.point.result.flags)
+                           : ToString(m.point.result.flags) + " " + m.point.result.status.message);
         }
       } catch (const StopRequested&) {
         stopped = true;
@@ -502,6 +552,7 @@ CaptureSummary RunCapture(db::Database& db, const LabConfig& lab, int64_t sessio
       db::SetSessionState(db, session, "paused");
       break;
     }
+    bool not_following = false;  // this configuration's point showed it
     const auto store_start = Clock::now();
     db::WriteTransaction tx(db);
     if (!accepted) {
@@ -549,13 +600,15 @@ CaptureSummary RunCapture(db::Database& db, const LabConfig& lab, int64_t sessio
                       r.reading.return_code);
         if (r.reading.distance_mm) last_distance[r.instrument] = *r.reading.distance_mm;
       }
-      if (predictor && result.status.ok() && m.point.accepted()) {
+      if (result.status.ok() && m.point.accepted()) {
         const bool had_fit = predictor->fitted();
         predictor->Add(m.joints, result.position_mm);
-        if (!had_fit && predictor->fitted()) {
+        if (any_beam && !had_fit && predictor->fitted()) {
           spdlog::info("capture: robot base {}; the tracker beams point by prediction from now on",
                        predictor->Describe().substr(5));
         }
+        not_following = pause_unless_following(
+            fmt::format("configuration {} ({} of {})", target.label, seq + 1, plan.size()));
       }
       if (m.point.accepted()) {
         ++summary.usable;
@@ -592,6 +645,7 @@ CaptureSummary RunCapture(db::Database& db, const LabConfig& lab, int64_t sessio
       p.eta_s = this_run ? p.elapsed_s / this_run * (p.total - p.done) : 0.0;
       options.progress(p);
     }
+    if (not_following) break;
   }
   summary.seconds = std::chrono::duration<double>(Clock::now() - start).count();
   if (miss_count) {
@@ -603,7 +657,7 @@ CaptureSummary RunCapture(db::Database& db, const LabConfig& lab, int64_t sessio
   summary.mean_store_ms = stores ? store_sum / stores : 0.0;
   summary.beam_searches = searches.load();
   summary.beam_operator = operator_pointed.load();
-  if (predictor) summary.beam_base = predictor->Describe();
+  if (any_beam) summary.beam_base = predictor->Describe();
   if (!summary.paused && !summary.stopped) {
     summary.completed = true;
     db::SetSessionState(db, session, "completed");

@@ -32,6 +32,10 @@ void SetupDemoCommand(CLI::App& parent, const GlobalOptions& global, Runner& run
                   "default) or tracker (one laser tracker speaking emScon on loopback TCP); "
                   "--resume keeps the session's")
       ->check(CLI::IsMember({"theodolites", "tracker"}));
+  NumberOption(sub->add_option("--seed", o->seed,
+                               "The virtual lab's noise and plan (default: 1985 plus the demo "
+                               "sessions already stored, so every run measures anew)"),
+               0, 4294967295.0);
   NumberOption(sub->add_option("--time-scale", o->time_scale,
                                "Multiplies every simulated instrument latency"),
                0.0, 100.0)

@@ -1,5 +1,6 @@
 // armsig recalibrate --robot NAME [--since …] [--select N] [--params …|auto] [--report DIR]
-// [--json OUT]: the nightly job (workflows/recalibrate.h); exit 3 when a gate fails.
+// [--json OUT]: the nightly job (workflows/recalibrate.h); exit 3 when a gate fails, 1 when
+// the fit itself failed (not converged).
 #include <fmt/format.h>
 
 #include <iostream>
@@ -27,6 +28,7 @@ int RunRecalibrate(RecalibrateCommand c, const GlobalOptions& global) {
       "{}: {} (validation mean {:.4f} mm, max {:.4f} mm on {} configurations{})\n", d.robot,
       d.Describe(), d.validation.mean_mm, d.validation.max_mm, d.validation.poses,
       d.drift ? "; DRIFT" : "");
+  if (d.outcome == workflows::RecalibrationDecision::Outcome::kFailed) return kFailure;
   return d.passed() ? kOk : kQualityGate;
 }
 
@@ -61,6 +63,10 @@ void AddRecalibrateOptions(CLI::App& sub, workflows::RecalibrateOptions& o) {
                                "Smallest change of predicted positions called drift (default: lab "
                                "file, else 0.05)"),
                0, kMaxMm);
+  NumberOption(sub.add_option("--max-iterations", o.max_iterations,
+                               "Iterations of the fit; one that needs more fails (exit 1)"),
+               1, 10000)
+      ->capture_default_str();
   NumberOption(sub.add_option("--lock-wait", o.lock_wait_s,
                                "Seconds to wait for another running recalibration"),
                0, 24 * 3600)

@@ -29,6 +29,11 @@ void SetupOrientCommand(CLI::App& parent, const GlobalOptions&, Runner& run) {
                              "Free network over these points and stations only (implies "
                              "--free-datum)"))
       ->delimiter(',');
+  NumberOption(sub->add_option("--max-sigma0", o->max_sigma0,
+                               "Gate: sigma0 a posteriori above this writes nothing, exit 3 "
+                               "(0: no gate)"),
+               0.0, 1e12)
+      ->capture_default_str();
   OutputFile(sub->add_option("--out", o->out, "Stations YAML to write"))->required();
   OutputFile(
       sub->add_option("--points", o->points_out, "Also write the adjusted target points (CSV)"));
@@ -39,7 +44,12 @@ void SetupOrientCommand(CLI::App& parent, const GlobalOptions&, Runner& run) {
       o->instrument_errors = !*no_instrument_errors;
       const auto result = workflows::OrientFiles(*o);
       std::cout << workflows::FormatOrientReport(result);
-      return result.result.status.ok() ? kOk : kFailure;
+      if (!result.result.status.ok()) return kFailure;
+      if (!result.gate_failure.empty()) {
+        std::cerr << "armsig orient: " << result.gate_failure << "\n";
+        return kQualityGate;
+      }
+      return kOk;
     };
   });
 }

@@ -202,12 +202,30 @@ PostgresConnection::PostgresConnection(const std::string& uri) : name_(RedactedU
                      "none stands on a command line or in a log: " +
                          name_);
   }
+  // A URI libpq cannot parse is the user's typo (exit 2), not an unreachable server.
+  char* parse_error = nullptr;
+  PQconninfoOption* options = PQconninfoParse(uri.c_str(), &parse_error);
+  if (!options) {
+    std::string why = parse_error ? parse_error : "out of memory";
+    if (parse_error) PQfreemem(parse_error);
+    while (!why.empty() && (why.back() == '\n' || why.back() == ' ')) why.pop_back();
+    throw InputError({"--db", 0, 0, ""},
+                     "not a PostgreSQL connection URI (postgresql://[user@]host[:port]/database"
+                     "[?param=value…]): " + name_ + ": " + why);
+  }
+  PQconninfoFree(options);
   conn_ = PQconnectdb(uri.c_str());
   if (!conn_ || PQstatus(conn_) != CONNECTION_OK) {
     std::string why = conn_ ? PQerrorMessage(conn_) : "out of memory";
     while (!why.empty() && (why.back() == '\n' || why.back() == ' ')) why.pop_back();
     if (conn_) PQfinish(conn_);
     conn_ = nullptr;
+    // libpq checks some values only as it connects ("invalid integer value "x" for
+    // connection option "port"", "invalid sslmode value"): the URI's fault, not the server's.
+    if (why.rfind("invalid ", 0) == 0) {
+      throw InputError({"--db", 0, 0, ""}, "not a usable PostgreSQL connection URI: " + name_ +
+                                               ": " + why);
+    }
     throw DatabaseError(name_ + ": cannot connect: " + why, "08000", false);
   }
   Exec("SET client_min_messages = warning");

@@ -33,6 +33,7 @@ const std::vector<std::pair<Fault, const char*>>& Names() {
       {Fault::kOutOfRange, "out-of-range"},
       {Fault::kWrongUnit, "wrong-unit"},
       {Fault::kVanish, "vanish"},
+      {Fault::kStopShort, "stop-short"},
       {Fault::kWrongCommandId, "wrong-command-id"},
       {Fault::kBeamBreak, "beam-break"},
       {Fault::kReflectorNotFound, "reflector-not-found"},

@@ -544,7 +544,11 @@ std::optional<LineSimulator::Response> ValSimulator::Handle(const std::string& l
         echo + instruments::FormatMonitorError(2008, "Wrong number of joint values.") + prompt,
         std::chrono::milliseconds(5)};
   }
-  lab_.SetJoints(command->joints_deg / to_deg);
+  Eigen::VectorXd reached = command->joints_deg / to_deg;
+  if (fault.fault == Fault::kStopShort && reached.size() >= 2) {
+    reached(1) -= (reached(1) >= 0.0 ? 2.0 : -2.0) / to_deg;
+  }
+  lab_.SetJoints(reached);
   return Response{echo + prompt, options_.motion_latency};
 }
 

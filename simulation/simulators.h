@@ -51,6 +51,8 @@ enum class Fault {
                    // negative zenith angle, VAL a joint at 1000°, counter a count at 2^31-1
   kWrongUnit,      // GSI: Hz and V words with a length unit
   kVanish,         // the port vanishes as the request arrives (the peer closes the pty)
+  kStopShort,      // VAL: a move acknowledged as usual, but the arm stops 2° short on joint 2
+                   // (a safety fence, a limit, someone holding the pendant's hold button)
   // Laser tracker (emScon) faults:
   kWrongCommandId,     // every reply echoes another command's id (a measurement: no result)
   kBeamBreak,          // StartMeasurement: accepted, then an error for it (NoDistanceSet)

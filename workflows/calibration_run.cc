@@ -63,6 +63,7 @@ CalibrationRun RunCalibration(const calibration::RobotModel& model,
   run.params_spec = settings.params;
   calibration::EstimationOptions options;
   options.robust_threshold_mm = settings.robust_threshold_mm;
+  options.max_iterations = settings.max_iterations;
   options.identifiability.relative_tolerance = settings.rank_tolerance;
   const bool auto_params = settings.params == "auto";
   try {

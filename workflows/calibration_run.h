@@ -68,6 +68,7 @@ struct CalibrateSettings {
   std::string params = "all";
   int select = 0;
   double robust_threshold_mm = 0.0;
+  int max_iterations = 50;  // Levenberg–Marquardt iterations before "not converged"
   double alpha = 0.01;
   double rank_tolerance = 1e-7;
   // Candidates narrowed to what the model identifies from configurations spread over its

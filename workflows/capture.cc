@@ -7,6 +7,7 @@
 #include <cmath>
 #include <optional>
 
+#include "acquisition/device_claims.h"
 #include "acquisition/lab.h"
 #include "acquisition/plan.h"
 #include "acquisition/session_owner.h"
@@ -95,6 +96,11 @@ CaptureOutcome RunCaptureSession(const CaptureRequest& request) {
     throw InputError({"capture", 0, 0, ""},
                      "a new session needs --plan and --robot (or --resume SESSION)");
   }
+  // The lab's devices are this capture's until it ends: a second capture on them is
+  // refused before a session is made or a byte is sent.
+  const acquisition::DeviceClaims claims = acquisition::ClaimDevices(
+      lab, fmt::format("armsig capture --lab {}{}", AbsolutePath(request.lab),
+                       session > 0 ? " --resume " + std::to_string(session) : std::string()));
   // The plan is made before the database is touched: a bad plan stores nothing.
   std::optional<acquisition::Plan> plan;
   if (session == 0) plan = acquisition::MakePlan(request.plan, lab.model);

@@ -115,6 +115,24 @@ void RemoveAbandonedScratch() {
 
 }  // namespace
 
+namespace {
+
+constexpr unsigned kFirstSeed = 1985;
+
+// Demo sessions already stored (0 when there is no database yet: nothing is created here).
+unsigned StoredDemoSessions(const std::string& db_path) {
+  try {
+    db::Database database(db_path, db::OpenMode::kReadOnly);
+    const auto robot = db::FindRobot(database, kDemoRobot);
+    if (!robot) return 0;
+    return static_cast<unsigned>(db::ListSessions(database, *robot).size());
+  } catch (const InputError&) {
+    return 0;  // no store there yet
+  }
+}
+
+}  // namespace
+
 DemoResult RunDemo(const DemoOptions& options, const DemoObserver& observer) {
   auto say = [&](const std::string& text) {
     if (observer.say) observer.say(text);
@@ -122,7 +140,8 @@ DemoResult RunDemo(const DemoOptions& options, const DemoObserver& observer) {
   using namespace std::chrono_literals;
   const auto started = std::chrono::steady_clock::now();
   const calibration::RobotModel model = io::ParseRobotModel(io::kPuma760Yaml, "built-in PUMA 760");
-  const DemoLimits limits = DemoLimitsOf(model, options.seed);
+  const unsigned seed = options.seed ? *options.seed : kFirstSeed + StoredDemoSessions(options.db_path);
+  const DemoLimits limits = DemoLimitsOf(model, seed);
   // Everything the options decide is checked before anything is created.
   std::optional<db::Database> resumed_db;
   acquisition::Plan stored_plan;
@@ -182,7 +201,7 @@ DemoResult RunDemo(const DemoOptions& options, const DemoObserver& observer) {
   } cleanup{work};
 
   // --- The virtual lab: the robot's hidden truth, its controller and the instruments.
-  std::mt19937 rng(options.seed);
+  std::mt19937 rng(seed);
   simulation::SimulatorOptions sim;
   sim.time_scale = options.time_scale;
   sim.angle_latency = 40ms;
@@ -208,7 +227,7 @@ DemoResult RunDemo(const DemoOptions& options, const DemoObserver& observer) {
     base.translate(Eigen::Vector3d(120.0, -80.0, 0.0));
     base.rotate(Eigen::AngleAxisd(0.35, Eigen::Vector3d::UnitZ()));
   }
-  simulation::VirtualLab lab(model, calibration::PaperTable3Parameters(), base, options.seed);
+  simulation::VirtualLab lab(model, calibration::PaperTable3Parameters(), base, seed);
   std::vector<reduction::Station> oriented_stations;
   if (use_tracker) {
     simulation::VirtualStation st;
@@ -216,7 +235,7 @@ DemoResult RunDemo(const DemoOptions& options, const DemoObserver& observer) {
     lab.AddStation(st);
     simulation::EmsconSimulatorOptions o;
     o.time_scale = options.time_scale;
-    o.seed = options.seed;
+    o.seed = seed;
     // The reflector is found only near the beam: within 25 mm where it points, within
     // 150 mm by a search (FindReflector).
     o.acquire_radius_mm = 25.0;
@@ -264,7 +283,7 @@ DemoResult RunDemo(const DemoOptions& options, const DemoObserver& observer) {
     say("armsig demo: virtual lab with a PUMA 760 (hidden errors: the paper's Table 3), a laser "
         "tracker\nspeaking Leica emScon on " +
         tracker->path() + " and a robot controller on a pseudo-terminal in " + work.string() +
-        "\n\n");
+        fmt::format("\n(seed {}: --seed {} repeats this run's noise and plan)\n\n", seed, seed));
     say("1. station LT1, a laser tracker: it measures direction and distance, so one station "
         "gives each point,\n   and a tracker-only lab needs no orientation by mutual pointings: "
         "the tracker's own frame is\n   the lab frame (LT1 at the origin, azimuth 0). Where the "
@@ -276,7 +295,8 @@ DemoResult RunDemo(const DemoOptions& options, const DemoObserver& observer) {
   } else {
     say("armsig demo: virtual lab with a PUMA 760 (hidden errors: the paper's Table 3), three "
         "GeoCOM\ntheodolites and a robot controller on pseudo-terminals in " +
-        work.string() + "\n\n");
+        work.string() +
+        fmt::format("\n(seed {}: --seed {} repeats this run's noise and plan)\n\n", seed, seed));
 
     // --- Station set-up: mutual pointings and a 1 m scale bar at three places, read
     // through the real GeoCOM drivers.

@@ -9,6 +9,7 @@
 #include <atomic>
 #include <functional>
 #include <nlohmann/json.hpp>
+#include <optional>
 #include <string>
 
 #include "acquisition/session.h"
@@ -27,7 +28,10 @@ struct DemoOptions {
   int configurations = 200;  // captured
   int select = 0;            // fitted (D-optimal), the rest validate; 0 = 40 % (80 of 200)
   double time_scale = 0.25;  // multiplies every simulated instrument latency
-  unsigned seed = 1985;
+  // The virtual lab's noise and plan. Unset: 1985 plus the demo sessions already in the
+  // database, so a first demo repeats the README's figures and every further run on one
+  // database measures anew (the same data night after night is no lab's).
+  std::optional<unsigned> seed;
   // Continue this stopped demo session (its stored plan; `configurations` is ignored):
   // capture what is missing, then reduce and calibrate.
   int64_t resume_session = 0;

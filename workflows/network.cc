@@ -8,6 +8,7 @@
 #include <set>
 #include <stdexcept>
 
+#include "calibration/statistics.h"
 #include "core/error.h"
 #include "core/text.h"
 #include "core/units.h"
@@ -41,6 +42,42 @@ std::vector<reduction::Station> OrientedStations(const reduction::OrientationPro
   }
   return out;
 }
+
+namespace {
+
+constexpr double kGlobalTestAlpha = 0.05;
+
+std::string Describe(const reduction::ResidualReport& r) {
+  static const char* kKinds[] = {"Hz", "V", "distance", "scale bar", "control"};
+  const bool angle = r.kind == reduction::ResidualReport::Kind::kHz ||
+                     r.kind == reduction::ResidualReport::Kind::kV;
+  return fmt::format("{:<10} {:<16} v {:>9.3f}{}  w {:>6.2f}  r {:.2f}  MDB {:.3f}{}",
+                     kKinds[static_cast<int>(r.kind)], r.label, r.residual, angle ? "\"" : " mm",
+                     r.w, r.redundancy, r.mdb, angle ? "\"" : " mm");
+}
+
+// The result with its station sigmas and point covariances scaled (a posteriori).
+class OrientationResultScaled {
+ public:
+  OrientationResultScaled(const reduction::OrientationResult& result, double scale)
+      : result_(result) {
+    if (scale == 1.0) return;
+    scaled_ = result;
+    for (auto& s : scaled_->stations) {
+      s.sigma_position_mm *= scale;
+      s.sigma_azimuth_rad *= scale;
+      s.sigma_rotation_rad *= scale;
+    }
+    for (auto& p : scaled_->points) p.covariance_mm2 *= scale * scale;
+  }
+  const reduction::OrientationResult& get() const { return scaled_ ? *scaled_ : result_; }
+
+ private:
+  const reduction::OrientationResult& result_;
+  std::optional<reduction::OrientationResult> scaled_;
+};
+
+}  // namespace
 
 OrientRun OrientFiles(const OrientFilesOptions& options) {
   OrientRun run;
@@ -102,15 +139,44 @@ OrientRun OrientFiles(const OrientFilesOptions& options) {
                   result.status.message);
     return run;
   }
+  // The global test of the adjustment; a failed one scales the sigmas it writes.
+  if (result.dof > 0) {
+    run.global_test_p =
+        calibration::ChiSquareSurvival(result.sigma0 * result.sigma0 * result.dof, result.dof);
+    if (run.global_test_p < kGlobalTestAlpha && result.sigma0 > 1.0)
+      run.sigma_scale = result.sigma0;
+  }
+  if (options.max_sigma0 > 0.0 && result.dof > 0 && result.sigma0 > options.max_sigma0) {
+    std::vector<reduction::ResidualReport> worst = result.residuals;
+    std::sort(worst.begin(), worst.end(),
+              [](const auto& a, const auto& b) { return std::abs(a.w) > std::abs(b.w); });
+    std::string suspects;
+    for (size_t k = 0; k < std::min<size_t>(3, worst.size()); ++k)
+      suspects += "\n  - " + Describe(worst[k]);
+    run.gate_failure = fmt::format(
+        "sigma0 a posteriori {:.2f} is more than {:g} times the a priori sigmas of the readings "
+        "({} degrees of freedom): a blunder in {}, or sigmas that are not the instruments'. The "
+        "largest standardised residuals:{}\nCorrect or remove the observation and orient "
+        "again (or give --max-sigma0 to accept); nothing was written",
+        result.sigma0, options.max_sigma0, result.dof, options.observations, suspects);
+    spdlog::debug("orient: {}", run.gate_failure);
+    return run;
+  }
+  OrientationResultScaled scaled(result, run.sigma_scale);
   if (!options.out.empty()) {
-    const std::string header = fmt::format(
+    std::string header = fmt::format(
         "armsig orient: {} stations from {}; datum: {}\nsigma0 {:.5f}, {} degrees of freedom",
         result.stations.size(), options.observations, result.datum, result.sigma0, result.dof);
+    if (run.sigma_scale != 1.0) {
+      header += fmt::format(
+          "\nglobal test failed (p = {:.2g}): sigmas a posteriori (a priori x {:.4f})",
+          run.global_test_p, run.sigma_scale);
+    }
     io::WriteFileAtomically(options.out,
-                            io::FormatStationsYaml(OrientedStations(problem, result), header));
+                            io::FormatStationsYaml(OrientedStations(problem, scaled.get()), header));
   }
   if (!options.points_out.empty())
-    io::WriteFileAtomically(options.points_out, FormatAdjustedPointsCsv(result.points));
+    io::WriteFileAtomically(options.points_out, FormatAdjustedPointsCsv(scaled.get().points));
   return run;
 }
 
@@ -131,19 +197,6 @@ std::string FormatInstrumentErrors(
   return text;
 }
 
-namespace {
-
-std::string Describe(const reduction::ResidualReport& r) {
-  static const char* kKinds[] = {"Hz", "V", "distance", "scale bar", "control"};
-  const bool angle = r.kind == reduction::ResidualReport::Kind::kHz ||
-                     r.kind == reduction::ResidualReport::Kind::kV;
-  return fmt::format("{:<10} {:<16} v {:>9.3f}{}  w {:>6.2f}  r {:.2f}  MDB {:.3f}{}",
-                     kKinds[static_cast<int>(r.kind)], r.label, r.residual, angle ? "\"" : " mm",
-                     r.w, r.redundancy, r.mdb, angle ? "\"" : " mm");
-}
-
-}  // namespace
-
 std::string FormatOrientReport(const OrientRun& run) {
   const reduction::OrientationResult& result = run.result;
   std::string text = FormatInstrumentErrors(run.instrument_errors);
@@ -151,12 +204,22 @@ std::string FormatOrientReport(const OrientRun& run) {
                       result.points.size(), result.datum);
   text += fmt::format(
       "sigma0 a posteriori {:.4f} (a priori 1), {} observations, {} unknowns, "
-      "{} degrees of freedom, {} iterations{}\n\n",
+      "{} degrees of freedom, {} iterations{}\n",
       result.sigma0, result.observations, result.unknowns, result.dof, result.iterations,
       result.status.ok() ? "" : " (NOT converged: " + result.status.message + ")");
+  if (result.dof > 0) {
+    text += fmt::format("global test: P(chi2 > {:.1f}) = {:.3g}{}\n", result.sigma0 * result.sigma0 * result.dof,
+                        run.global_test_p,
+                        run.sigma_scale != 1.0
+                            ? fmt::format(": failed, sigmas a posteriori (a priori x {:.4f})",
+                                          run.sigma_scale)
+                            : std::string(": passed"));
+  }
+  text += "\n";
+  const OrientationResultScaled scaled(result, run.sigma_scale);
   text += fmt::format("{:<10}{:>14}{:>14}{:>14}{:>16}{:>10}{:>10}{:>10}{:>12}\n", "station", "x_mm",
                       "y_mm", "z_mm", "azimuth_gon", "sx_mm", "sy_mm", "sz_mm", "s_az_\"");
-  for (const auto& s : result.stations) {
+  for (const auto& s : scaled.get().stations) {
     text += fmt::format(
         "{:<10}{:>14.4f}{:>14.4f}{:>14.4f}{:>16}{:>10.4f}{:>10.4f}{:>10.4f}{:>12.3f}\n", s.pose.id,
         s.pose.position_mm.x(), s.pose.position_mm.y(), s.pose.position_mm.z(),

@@ -23,6 +23,10 @@ struct OrientFilesOptions {
   bool free_datum = false;
   std::vector<std::string> datum_points;  // free network over these only (implies free)
   bool instrument_errors = true;          // estimate and apply axis errors from two faces
+  // Quality gate: σ0 a posteriori above this (the readings scatter this many times more
+  // than their a priori sigmas say: a blunder, or sigmas that are not the instrument's) writes
+  // nothing and exits 3, naming the largest standardised residuals. 0: no gate.
+  double max_sigma0 = 5.0;
   std::string out;         // stations YAML written when set (only from a converged adjustment)
   std::string points_out;  // the adjusted target points CSV, when set
 };
@@ -30,6 +34,11 @@ struct OrientFilesOptions {
 struct OrientRun {
   std::map<std::string, reduction::InstrumentErrors> instrument_errors;  // by station
   reduction::OrientationResult result;
+  // The global test: P(χ²(dof) > σ0² · dof). Below 0.05 the a priori sigmas are too small
+  // for these readings, and the written sigmas are the a posteriori ones (scaled by σ0).
+  double global_test_p = 1.0;
+  double sigma_scale = 1.0;  // what the written sigmas were multiplied by
+  std::string gate_failure;  // non-empty: the σ0 gate failed and nothing was written
 };
 
 // The oriented stations with the adjustment's σ0, degrees of freedom and method

@@ -196,6 +196,11 @@ std::string RecalibrationDecision::Describe() const {
       return previous_version ? fmt::format("rejected: a gate failed; version {} stays active",
                                             *previous_version)
                               : std::string("rejected: a gate failed; no parameter set is active");
+    case Outcome::kFailed:
+      return fmt::format("failed: {}; {}", failure,
+                         previous_version
+                             ? fmt::format("version {} stays active", *previous_version)
+                             : std::string("no parameter set is active"));
   }
   return "";
 }
@@ -215,7 +220,10 @@ nlohmann::json RecalibrationDecision::ToJson() const {
     }
     return j;
   }
-  j["decision"] = outcome == Outcome::kStored ? "stored" : "rejected";
+  j["decision"] = outcome == Outcome::kStored     ? "stored"
+                  : outcome == Outcome::kFailed ? "failed"
+                                                : "rejected";
+  if (outcome == Outcome::kFailed) j["failure"] = failure;
   j["version"] = version > 0 ? nlohmann::json(version) : nlohmann::json(nullptr);
   if (previous_version) j["previous_version"] = *previous_version;
   j["rank"] = rank;
@@ -390,6 +398,7 @@ RecalibrationDecision Recalibrate(const RecalibrateOptions& o) {
   settings.params = o.params;
   settings.model_subset = true;
   settings.residual_model = o.residual_model;
+  settings.max_iterations = o.max_iterations;
   // 60 %, at most 80 (the paper's) and 6 more for every further session: each session's
   // frame adds six base unknowns.
   const size_t most = 80 + 6 * (sessions.size() - 1);
@@ -538,6 +547,14 @@ RecalibrationDecision Recalibrate(const RecalibrateOptions& o) {
                      d.validation.poses, d.drift ? "; drift flagged" : "")});
     tx.commit();
     d.outcome = RecalibrationDecision::Outcome::kStored;
+  } else if (!run.estimate.status.ok()) {
+    // No gate can judge an estimate the solver did not finish: the gates above ran on the
+    // last step only to show how far it got.
+    d.outcome = RecalibrationDecision::Outcome::kFailed;
+    d.failure = fmt::format(
+        "the fit did not give a usable estimate ({} after {} iterations): {}",
+        run.estimate.status.code == SolveCode::kNotConverged ? "not converged" : "no solution",
+        run.estimate.iterations, run.estimate.status.message);
   } else {
     d.outcome = RecalibrationDecision::Outcome::kRejected;
   }

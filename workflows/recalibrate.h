@@ -27,6 +27,7 @@ struct RecalibrateOptions {
       drift_mm;
   std::string report_dir;  // write the HTML report here ("" = none)
   std::string json_path;   // the caller will write the decision here: checked before any write
+  int max_iterations = 50;  // of the fit; a fit that needs more fails (exit 1), not a gate
   int lock_wait_s = 600;
   bool force = false;  // refit even when a stored set already uses these inputs
 };
@@ -65,7 +66,10 @@ struct ModelDrift {
 };
 
 struct RecalibrationDecision {
-  enum class Outcome { kUpToDate, kStored, kRejected };
+  // kFailed: the fit itself did not produce a usable estimate (not converged, non-finite):
+  // no gate can judge it, nothing is stored, and a scheduler sees a failure (exit 1), not
+  // a set that validated badly (kRejected, exit 3).
+  enum class Outcome { kUpToDate, kStored, kRejected, kFailed };
   Outcome outcome = Outcome::kRejected;
   std::string robot;
   // The stored version; when up to date, the version fitted on these inputs (the active
@@ -88,9 +92,11 @@ struct RecalibrationDecision {
   std::vector<int64_t> sessions;          // the sessions fitted and validated
   nlohmann::json residual_model;          // calibrate's residual_model object (null: not fitted)
   std::string report_path;                // "" when no report was written
+  std::string failure;                    // kFailed: why the fit gave no usable estimate
 
-  bool passed() const { return outcome != Outcome::kRejected; }
-  // "stored as version 4 (active)" / "rejected: a gate failed; version 3 stays active" / …
+  bool passed() const { return outcome != Outcome::kRejected && outcome != Outcome::kFailed; }
+  // "stored as version 4 (active)" / "rejected: a gate failed; version 3 stays active" /
+  // "failed: the fit did not converge (…); version 3 stays active" / …
   std::string Describe() const;
   nlohmann::json ToJson() const;
   // The drift decision as stored with the new set (calibrations.drift_json); null when

@@ -42,6 +42,7 @@ std::string RecalibrateOptionsToJson(const RecalibrateOptions& o) {
                       {"residual_model", o.residual_model},
                       {"select", o.select},
                       {"report_dir", o.report_dir},
+                      {"max_iterations", o.max_iterations},
                       {"lock_wait_s", o.lock_wait_s},
                       {"force", o.force}};
   auto optional = [&](const char* key, const std::optional<double>& v) {
@@ -64,6 +65,7 @@ RecalibrateOptions RecalibrateOptionsFromJson(const std::string& text) {
     o.residual_model = j.value("residual_model", o.residual_model);
     o.select = j.value("select", o.select);
     o.report_dir = j.value("report_dir", o.report_dir);
+    o.max_iterations = j.value("max_iterations", o.max_iterations);
     o.lock_wait_s = j.value("lock_wait_s", o.lock_wait_s);
     o.force = j.value("force", o.force);
     auto optional = [&](const char* key, std::optional<double>& v) {
@@ -186,6 +188,11 @@ Outcome RunJob(const WorkerOptions& options, const db::Job& job) {
     out.state = d.passed() ? db::JobState::kDone : db::JobState::kRejected;
     out.result_json = JsonText(d.ToJson());
     out.summary = d.Describe();
+    if (d.outcome == RecalibrationDecision::Outcome::kFailed) {
+      out.state = db::JobState::kFailed;  // not retried: the same data fails the same way
+      out.error = d.Describe();
+      out.summary = "failed";
+    }
     if (d.version > 0) out.version = d.version;
   } catch (const std::exception& e) {
     out.state = db::JobState::kFailed;

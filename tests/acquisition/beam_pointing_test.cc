@@ -76,6 +76,39 @@ TEST(TargetPredictor, NoBaseUntilThreePointsOffALineThenTheRigidFitOfThem) {
   EXPECT_LT(worst(calibrated), 1e-6);
 }
 
+// Points that follow the robot pass (the nominal model misses the true PUMA by mm); a
+// reflector left in a nest, or points off by centimetres (a wrong tool offset), are named.
+TEST(TargetPredictor, NamesPointsThatDoNotFollowTheRobot) {
+  const Truth truth;
+  std::mt19937 rng(8);
+  const auto q = calibration::RandomConfigurations(truth.model, 30, rng);
+  const Eigen::VectorXd nominal = Eigen::VectorXd::Zero(truth.model.num_parameters());
+  TargetPredictor following(truth.model, nominal, std::nullopt);
+  TargetPredictor nest(truth.model, nominal, std::nullopt);
+  TargetPredictor scattered(truth.model, nominal, std::nullopt);
+  std::normal_distribution<double> cm(0.0, 60.0);
+  const Eigen::Vector3d nest_at(1900.0, 1200.0, -300.0);
+  for (int k = 0; k < 30; ++k) {
+    following.Add(q[k], truth.Target(q[k]));
+    nest.Add(q[k], nest_at + Eigen::Vector3d(0.01 * k, 0.0, 0.0));
+    scattered.Add(q[k], truth.Target(q[k]) + Eigen::Vector3d(cm(rng), cm(rng), cm(rng)));
+    if (k < 2) {  // too few points to tell
+      EXPECT_FALSE(nest.FollowProblem(25.0).has_value());
+    }
+  }
+  EXPECT_FALSE(following.FollowProblem(25.0).has_value()) << *following.FollowProblem(25.0);
+  EXPECT_LT(*following.fit_rms_mm(), 25.0);
+  const auto stays = nest.FollowProblem(25.0);
+  ASSERT_TRUE(stays.has_value());
+  EXPECT_NE(stays->find("does not follow the robot"), std::string::npos) << *stays;
+  const auto off = scattered.FollowProblem(25.0);
+  ASSERT_TRUE(off.has_value());
+  EXPECT_NE(off->find("do not follow the robot model"), std::string::npos) << *off;
+  EXPECT_NE(off->find("max_base_fit_rms_mm"), std::string::npos) << *off;
+  // The limit is the lab's: a generous one lets the scattered points pass.
+  EXPECT_FALSE(scattered.FollowProblem(500.0).has_value());
+}
+
 TEST(TargetPredictor, TheLabFilesBaseUntilItsOwnFitTakesOver) {
   const Truth truth;
   std::mt19937 rng(5);

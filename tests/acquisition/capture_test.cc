@@ -381,6 +381,79 @@ TEST_F(VirtualLabFixture, SkipOnFaultRecordsTheConfigurationAsSkipped) {
   EXPECT_EQ(Count(db, "SELECT count(*) FROM observations"), 12);  // none from the skipped one
 }
 
+// A robot that stops short of where it was sent (a fence, a limit, the pendant's hold):
+// the joints read back are not the commanded ones. Once, the configuration is moved
+// again and measured; for good, the session pauses naming the joint, storing nothing of
+// a configuration the robot did not reach.
+TEST_F(VirtualLabFixture, ARobotThatStopsShortIsAFaultNamingTheJoint) {
+  Start();
+  const LabConfig lab = LoadLab(dir_.File("lab.yaml"));
+  db::Database db(Db());
+  const int64_t session = CreateSession(db, lab, "puma", WellSpreadPlan(lab.model, 6, 300, 4));
+  auto devices = OpenInstruments(lab);
+  auto controller = OpenController(lab);
+  robot_->InjectOnce({simulation::Fault::kStopShort, 0});  // the first move
+  CaptureOptions options;
+  int progress = 0;
+  options.progress = [&](const Progress&) {
+    if (++progress == 2) robot_->InjectAlways({simulation::Fault::kStopShort, 0});
+  };
+  const auto s = RunCapture(db, lab, session, devices, *controller, options);
+  EXPECT_TRUE(s.paused);
+  EXPECT_EQ(s.measured, 2);
+  EXPECT_NE(s.pause_reason.find("joint 2"), std::string::npos) << s.pause_reason;
+  EXPECT_NE(s.pause_reason.find("not where the plan put it"), std::string::npos)
+      << s.pause_reason;
+  // What was stored is where the robot was sent.
+  const auto poses = db::LoadSessionPoses(db, session);
+  ASSERT_EQ(poses.size(), 2u);
+  const Plan plan = PlanFromJson(db::LoadSession(db, session)->plan_json);
+  for (const auto& p : poses) {
+    bool found = false;
+    // Within the controller's printed resolution (0.001°), far from the 2° it stopped short.
+    for (const auto& c : plan) found |= (c.joints_rad - p.joints_rad).cwiseAbs().maxCoeff() < 1e-4;
+    EXPECT_TRUE(found) << p.joints_rad.transpose();
+  }
+  robot_->ClearFaults();
+  const auto resumed = RunCapture(db, lab, session, devices, *controller, {});
+  EXPECT_TRUE(resumed.completed);
+  EXPECT_EQ(resumed.measured, 4);
+}
+
+// Two captures on the same lab at once: the second is refused before it makes a session
+// or sends a byte, naming the device and the process that holds it; the first finishes.
+TEST_F(VirtualLabFixture, ASecondCaptureOnTheSameDevicesIsRefused) {
+  Start({15, 15, 15});
+  const std::string binary = ARMSIG_BINARY;
+  const pid_t first = SpawnQuietly({binary, "--db", Db(), "capture", "--lab",
+                                    dir_.File("lab.yaml"), "--plan", "auto:40", "--robot",
+                                    "puma"});
+  ASSERT_GE(first, 0);
+  for (int wait = 0; wait < 1000; ++wait) {
+    std::this_thread::sleep_for(10ms);
+    if (!std::filesystem::exists(Db())) continue;
+    db::Database db(Db());
+    if (Count(db, "SELECT count(*) FROM poses") >= 2) break;
+  }
+  const auto second = testing::RunArmsig("--db '" + dir_.File("other.db") + "' capture --lab '" +
+                                         dir_.File("lab.yaml") + "' --plan auto:5 --robot puma");
+  EXPECT_EQ(second.exit_code, 1) << second.err;
+  EXPECT_NE(second.err.find("is in use by another armsig process"), std::string::npos)
+      << second.err;
+  EXPECT_NE(second.err.find("pid " + std::to_string(first)), std::string::npos) << second.err;
+  EXPECT_FALSE(std::filesystem::exists(dir_.File("other.db")));  // nothing made
+  int status = 0;
+  ::waitpid(first, &status, 0);
+  ASSERT_TRUE(WIFEXITED(status));
+  EXPECT_EQ(WEXITSTATUS(status), 0);
+  db::Database db(Db());
+  EXPECT_EQ(Count(db, "SELECT count(*) FROM poses"), 40);
+  // The claims went with the process: the next capture runs.
+  const auto next = testing::RunArmsig("--db '" + Db() + "' capture --lab '" +
+                                       dir_.File("lab.yaml") + "' --plan auto:3 --robot puma");
+  EXPECT_EQ(next.exit_code, 0) << next.err;
+}
+
 TEST_F(VirtualLabFixture, PortThatVanishesAndReturnsMidSession) {
   Start();
   const LabConfig lab = LoadLab(dir_.File("lab.yaml"));

@@ -55,6 +55,36 @@ TEST(MakePlan, MalformedSpecsAreInputErrorsNamingWhatWasExpected) {
   }
 }
 
+// A plan file is sent to the robot as it is: a configuration outside the model's joint
+// limits is refused at its line and column, in the file's own unit, before anything moves.
+TEST(MakePlan, AFileRowOutsideTheJointLimitsIsRefusedAtItsCell) {
+  auto model = testing::Puma();
+  model.joint_min_rad.assign(6, -160 * kRadPerDeg);
+  model.joint_max_rad.assign(6, 160 * kRadPerDeg);
+  testing::TempDir dir;
+  const std::string path = dir.File("plan.csv");
+  testing::WriteText(path,
+                     "pose,q1_deg,q2_deg,q3_deg,q4_deg,q5_deg,q6_deg\n"
+                     "P1,0,10,90,0,20,0\n"
+                     "P2,0,10,170,0,20,0\n");
+  try {
+    MakePlan(path, model);
+    FAIL() << "a configuration beyond joint 3's limit was accepted";
+  } catch (const InputError& e) {
+    EXPECT_EQ(e.where().file, path);
+    EXPECT_EQ(e.where().line, 3);
+    EXPECT_EQ(e.where().column, 4);
+    EXPECT_NE(e.message().find("joint 3 at 170 is outside the limits"), std::string::npos)
+        << e.what();
+    EXPECT_NE(e.message().find("-160 to 160 deg"), std::string::npos) << e.what();
+  }
+  // Within the limits (and without limits in the model), the same file is a plan.
+  testing::WriteText(path,
+                     "pose,q1_deg,q2_deg,q3_deg,q4_deg,q5_deg,q6_deg\n"
+                     "P1,0,10,90,0,20,0\nP2,0,10,150,0,20,0\n");
+  EXPECT_EQ(MakePlan(path, model).size(), 2u);
+}
+
 TEST(PlanJson, RoundTripsLabelsAndJointsExactly) {
   Plan plan = {{"C1", Eigen::VectorXd::LinSpaced(6, -1.0 / 3.0, 2.0)},
                {"a b", Eigen::VectorXd::Constant(6, 1e-17)}};

@@ -342,6 +342,34 @@ TEST_F(TrackerLabFixture, NoBaseAndNoOperatorPausesAtTheFirstConfiguration) {
   EXPECT_GE(s.beam_searches, 1);
 }
 
+// The reflector left in a nest beside the robot: the tracker measures a fine point at
+// every configuration, but the point does not move with the robot. The session pauses as
+// soon as the base fit shows it (three points), names it, keeps what it stored, and a
+// resume pauses again before moving the robot.
+TEST_F(TrackerLabFixture, AReflectorThatDoesNotFollowTheRobotPausesTheSession) {
+  Start({});
+  lab_->AddPoint("nest", Eigen::Vector3d(1900.0, 1200.0, -300.0));
+  lab_->Aim(0, "nest");
+  db::Database db(Db());
+  const LabConfig lab = LoadLab(dir_.File("lab.yaml"));
+  const CaptureSummary s = Run(WellSpreadPlan(lab.model, 12, 300, 9), true, db);
+  EXPECT_TRUE(s.paused);
+  EXPECT_FALSE(s.completed);
+  EXPECT_NE(s.pause_reason.find("does not follow the robot"), std::string::npos) << s.pause_reason;
+  EXPECT_NE(s.pause_reason.find("reflector"), std::string::npos) << s.pause_reason;
+  EXPECT_GE(s.measured, 3);
+  EXPECT_LE(s.measured, 4);  // three points show it (a fourth if the first three lie on a line)
+  EXPECT_EQ(Count(db, "SELECT COUNT(*) FROM points"), s.measured);
+  EXPECT_EQ(db::LoadSession(db, s.session)->state, "paused");
+  // Resumed as it is, it pauses again at once: nothing more measured.
+  auto devices = OpenInstruments(lab);
+  auto controller = OpenController(lab);
+  const CaptureSummary again = RunCapture(db, lab, s.session, devices, *controller, {});
+  EXPECT_TRUE(again.paused);
+  EXPECT_EQ(again.measured, 0);
+  EXPECT_NE(again.pause_reason.find("stored points"), std::string::npos) << again.pause_reason;
+}
+
 // Two theodolites and a tracker in one lab frame: three rays, one with a distance, so each
 // point has 4 degrees of freedom (σ0 stored); theodolite rays keep their configured
 // sigmas, the tracker's its own; every point within 0.05 mm of the truth.

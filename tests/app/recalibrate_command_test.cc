@@ -36,6 +36,31 @@ TEST(RecalibrateCommand, IsIdempotentAndSafeAgainstTwoRunsAtOnce) {
   EXPECT_EQ(Versions(path), 1);
 }
 
+// A fit the solver did not finish is a failure (exit 1) that says so, not a gate that
+// failed (exit 3): a scheduler retries or pages on 1, files a rejected set under 3. The
+// gates are not even the point: the active set stays, nothing is stored.
+TEST(RecalibrateCommand, AFitThatDoesNotConvergeFailsNamingItAndStoresNothing) {
+  TempDir dir;
+  const std::string path = dir.File("lab.db");
+  {
+    db::Database database(path);
+    AddSession(database, calibration::PaperTable3Parameters(), 150, 3);
+  }
+  const auto r = RunArmsig("--db '" + path + "' recalibrate --robot puma --max-iterations 1 " +
+                           "--json '" + dir.File("d.json") + "'");
+  EXPECT_EQ(r.exit_code, 1) << r.err;
+  EXPECT_NE((r.out + r.err).find("not converged after 1 iterations"), std::string::npos)
+      << r.out << r.err;
+  EXPECT_EQ((r.out + r.err).find("a gate failed"), std::string::npos) << r.out << r.err;
+  EXPECT_EQ(Versions(path), 0);
+  const auto j = nlohmann::json::parse(ReadText(dir.File("d.json")));
+  EXPECT_EQ(j["decision"], "failed");
+  EXPECT_NE(j["failure"].get<std::string>().find("not converged"), std::string::npos);
+  // The same data with the iterations it needs passes.
+  EXPECT_EQ(RunArmsig("--db '" + path + "' recalibrate --robot puma").exit_code, 0);
+  EXPECT_EQ(Versions(path), 1);
+}
+
 // Compensated joints land on the target in the calibrated model, and the true robot then
 // misses by about the calibration's validation error instead of the nominal millimetres.
 TEST(Compensate, RoundTripAndTheTrueRobotLands) {

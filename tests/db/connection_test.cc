@@ -6,6 +6,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <filesystem>
 #include <limits>
 
 #include "core/error.h"
@@ -176,6 +177,39 @@ TEST(PostgresUri, PasswordsNeverStandInAUriOrAMessage) {
   } catch (const InputError& e) {
     EXPECT_EQ(std::string(e.what()).find("s3cret"), std::string::npos) << e.what();
     EXPECT_NE(std::string(e.what()).find("PGPASSWORD"), std::string::npos);
+  }
+}
+
+TEST(PostgresUri, AMalformedUriIsAnInputErrorAndAMissingServerADatabaseError) {
+  try {
+    PostgresConnection c("postgresql://[::1/armsig");
+    FAIL() << "an unterminated IPv6 host was accepted";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("not a PostgreSQL connection URI"), std::string::npos)
+        << e.what();
+  }
+  // Values libpq checks only when it connects: still the user's, not the server's.
+  try {
+    PostgresConnection c("postgresql://localhost:notaport/armsig");
+    FAIL() << "a port that is not a number was accepted";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("notaport"), std::string::npos) << e.what();
+  }
+  try {
+    PostgresConnection c("postgresql:///armsig?bogus_parameter=1");
+    FAIL() << "an unknown connection parameter was accepted";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("bogus_parameter"), std::string::npos) << e.what();
+  }
+  // Well formed, but nothing listens there: the server's side, not a typo.
+  const auto dir = std::filesystem::temp_directory_path() / "armsig-no-server-here";
+  try {
+    PostgresConnection c("postgresql:///armsig?host=" + dir.string() + "&connect_timeout=2");
+    FAIL() << "connected to a server that does not exist";
+  } catch (const InputError& e) {
+    FAIL() << "a missing server reported as the user's input: " << e.what();
+  } catch (const DatabaseError& e) {
+    EXPECT_NE(std::string(e.what()).find("cannot connect"), std::string::npos) << e.what();
   }
 }
 

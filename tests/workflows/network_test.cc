@@ -4,6 +4,7 @@
 
 #include <gtest/gtest.h>
 
+#include <cmath>
 #include <filesystem>
 #include <fstream>
 
@@ -48,6 +49,23 @@ TEST(OrientFiles, K06WithScaleBarsReproducesComp3DAndWritesReadableStations) {
   EXPECT_NE(report.find("185 degrees of freedom"), std::string::npos) << report;
   const auto stations = io::ReadStationsYaml(o.out);
   ASSERT_EQ(stations.size(), 4u);
+  // The global test, by the Wilson–Hilferty approximation of χ²(185) written out here:
+  // σ0 1.163 on 185 dof fails it (p ≈ 0.001), so the written sigmas are a posteriori.
+  const double k = run.result.dof, x = run.result.sigma0 * run.result.sigma0 * k;
+  const double z = (std::cbrt(x / k) - (1.0 - 2.0 / (9.0 * k))) / std::sqrt(2.0 / (9.0 * k));
+  const double p = 0.5 * std::erfc(z / std::sqrt(2.0));
+  EXPECT_NEAR(run.global_test_p, p, 0.05 * p);
+  EXPECT_LT(run.global_test_p, 0.05);
+  EXPECT_DOUBLE_EQ(run.sigma_scale, run.result.sigma0);
+  EXPECT_NE(report.find("failed, sigmas a posteriori"), std::string::npos) << report;
+  for (size_t i = 1; i < stations.size(); ++i) {  // the first is the datum (σ 0)
+    for (int c = 0; c < 3; ++c) {
+      const double a_priori = run.result.stations[i].sigma_position_mm(c);
+      EXPECT_NEAR(stations[i].sigma_position_mm(c), a_priori * run.result.sigma0, 1e-3 * a_priori)
+          << stations[i].pose.id;
+    }
+  }
+  EXPECT_TRUE(run.gate_failure.empty());
   const auto points = io::ReadCsvFile(o.points_out);
   EXPECT_EQ(points.rows().size(), run.result.points.size());
 
