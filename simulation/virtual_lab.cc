@@ -13,11 +13,13 @@ VirtualLab::VirtualLab(calibration::RobotModel model, Eigen::VectorXd true_param
       true_params_(std::move(true_params)),
       world_from_base_(world_from_base),
       joints_(Eigen::VectorXd::Zero(model_.num_joints())),
-      rng_(seed) {}
+      seed_(seed) {}
 
 int VirtualLab::AddStation(const VirtualStation& station) {
   std::lock_guard lock(mutex_);
   stations_.push_back(station);
+  std::seed_seq stream{seed_, static_cast<unsigned>(stations_.size())};
+  rng_.emplace_back(stream);
   aim_.push_back("robot");
   face_.push_back(1);
   return static_cast<int>(stations_.size()) - 1;
@@ -82,12 +84,13 @@ AngleReading VirtualLab::Read(int station, double* distance_mm) {
   const AngleReading truth =
       reduction::PredictReading(s.pose.position_mm, s.pose.world_from_station, x);
   AngleReading r = reduction::ApplyInstrumentErrors(truth, face_.at(station), s.errors);
+  std::mt19937& rng = rng_.at(station);
   std::normal_distribution<double> angle(0.0, s.sigma_angle_rad);
-  r.hz_rad = WrapTwoPi(r.hz_rad + angle(rng_));
-  r.v_rad += angle(rng_);
+  r.hz_rad = WrapTwoPi(r.hz_rad + angle(rng));
+  r.v_rad += angle(rng);
   if (distance_mm) {
     std::normal_distribution<double> d(0.0, s.sigma_distance_mm);
-    *distance_mm = (x - s.pose.position_mm).norm() + d(rng_);
+    *distance_mm = (x - s.pose.position_mm).norm() + d(rng);
   }
   return r;
 }

@@ -60,7 +60,11 @@ class VirtualLab {
   std::vector<int> face_;
   std::map<std::string, Eigen::Vector3d> points_;
   Eigen::VectorXd joints_;
-  std::mt19937 rng_;
+  // One noise stream per station (seeded by the lab's seed and the station's index): the
+  // noise of a run does not depend on the order the instruments' threads happen to read
+  // in, so a seed repeats a run exactly.
+  unsigned seed_;
+  std::vector<std::mt19937> rng_;
 };
 
 }  // namespace armsig::simulation

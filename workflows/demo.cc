@@ -119,13 +119,16 @@ namespace {
 
 constexpr unsigned kFirstSeed = 1985;
 
-// Demo sessions already stored (0 when there is no database yet: nothing is created here).
-unsigned StoredDemoSessions(const std::string& db_path) {
+// Demo sessions already stored (0 when there is no database yet: nothing is created
+// here); resuming, those before the resumed one, so it keeps the seed it was begun with.
+unsigned StoredDemoSessions(const std::string& db_path, int64_t resumed) {
   try {
     db::Database database(db_path, db::OpenMode::kReadOnly);
     const auto robot = db::FindRobot(database, kDemoRobot);
     if (!robot) return 0;
-    return static_cast<unsigned>(db::ListSessions(database, *robot).size());
+    unsigned count = 0;
+    for (const auto& s : db::ListSessions(database, *robot)) count += resumed == 0 || s.id < resumed;
+    return count;
   } catch (const InputError&) {
     return 0;  // no store there yet
   }
@@ -140,7 +143,9 @@ DemoResult RunDemo(const DemoOptions& options, const DemoObserver& observer) {
   using namespace std::chrono_literals;
   const auto started = std::chrono::steady_clock::now();
   const calibration::RobotModel model = io::ParseRobotModel(io::kPuma760Yaml, "built-in PUMA 760");
-  const unsigned seed = options.seed ? *options.seed : kFirstSeed + StoredDemoSessions(options.db_path);
+  const unsigned seed =
+      options.seed ? *options.seed
+                   : kFirstSeed + StoredDemoSessions(options.db_path, options.resume_session);
   const DemoLimits limits = DemoLimitsOf(model, seed);
   // Everything the options decide is checked before anything is created.
   std::optional<db::Database> resumed_db;

@@ -18,6 +18,7 @@
 #include <set>
 
 #include "acquisition/lab.h"
+#include "calibration/statistics.h"
 #include "core/error.h"
 #include "db/calibrations.h"
 #include "db/observations.h"
@@ -127,6 +128,19 @@ std::optional<LinearTrend> LinearTrendOf(const std::vector<double>& x,
   t.slope = sxy / sxx;
   t.intercept = my - t.slope * mx;
   t.points = static_cast<int>(n);
+  if (n >= 3) {
+    double ss = 0.0;
+    for (size_t i = 0; i < n; ++i) {
+      const double r = y[i] - t.intercept - t.slope * x[i];
+      ss += r * r;
+    }
+    const double dof = static_cast<double>(n - 2);
+    t.sigma_slope = std::sqrt(ss / dof / sxx);
+    // t² ~ F(1, n − 2): the two-sided t test of a zero slope.
+    const double z = t.sigma_slope > 0.0 ? t.slope / t.sigma_slope
+                                         : std::numeric_limits<double>::infinity();
+    t.p_value = t.slope == 0.0 ? 1.0 : calibration::FisherFSurvival(z * z, 1.0, dof);
+  }
   return t;
 }
 
@@ -988,8 +1002,18 @@ std::string WriteReport(const std::string& dir, const ReportInput& in) {
         "to {:.3f} &deg;C; {}</p>\n",
         temperatures.size(), n, *t_lo, *t_hi,
         trend ? HtmlFormat("least-squares slope of the error distance: <span "
-                           "id=\"temperature-slope\">{:.6f}</span> mm per &deg;C",
-                           trend->slope)
+                           "id=\"temperature-slope\">{:.6f}</span> mm per &deg;C{}",
+                           trend->slope,
+                           std::isfinite(trend->sigma_slope)
+                               ? HtmlFormat(" &plusmn; <span id=\"temperature-slope-sigma\">"
+                                            "{:.6f}</span> (p = <span id=\"temperature-slope-p\">"
+                                            "{:.3g}</span>: {})",
+                                            trend->sigma_slope, trend->p_value,
+                                            trend->p_value < 0.01
+                                                ? Html("<b>significant</b>: the error changes "
+                                                       "with the temperature")
+                                                : Html("not significant at 1 %"))
+                               : Html(" (two temperatures: no significance)"))
               : Html("all at one temperature: no slope."));
   }
   html += FigureHtml(temperature_figure);
@@ -1182,10 +1206,16 @@ ReportSources LoadReportSources(db::Database& db, const CalibrationRun& run) {
         const auto lab = acquisition::ParseLabSettings(
             s.lab_yaml, fmt::format("lab file stored with session {}", s.id));
         for (const auto& i : lab.instruments) {
-          std::string d =
-              i.protocol + (i.tcp.empty() ? " on " + i.port : " over " + i.tcp) +
-              fmt::format(", sigma hz {:g}\" v {:g}\"", i.sigma_hz_arcsec, i.sigma_v_arcsec);
-          if (i.distance) d += fmt::format(", distances (sigma {:g} mm)", i.sigma_distance_mm);
+          std::string d = i.protocol + (i.tcp.empty() ? " on " + i.port : " over " + i.tcp);
+          if (i.protocol == "emscon") {
+            // A laser tracker's readings carry their own sigmas, which take the place of
+            // any a-priori ones.
+            d += fmt::format(", laser tracker, stationary mode {} ms; sigmas: each reading's own",
+                             i.measurement_time_ms);
+          } else {
+            d += fmt::format(", sigma hz {:g}\" v {:g}\"", i.sigma_hz_arcsec, i.sigma_v_arcsec);
+            if (i.distance) d += fmt::format(", distances (sigma {:g} mm)", i.sigma_distance_mm);
+          }
           instruments[{"station " + i.station, d}].push_back(s.id);
         }
       } catch (const InputError& e) {

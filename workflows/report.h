@@ -7,6 +7,7 @@
 #include <cmath>
 #include <cstdint>
 #include <map>
+#include <limits>
 #include <optional>
 #include <string>
 #include <vector>
@@ -132,6 +133,11 @@ std::string FormatChange(double value, bool millimetres);
 struct LinearTrend {
   double slope = 0.0, intercept = 0.0;
   int points = 0;
+  // From 3 points on: the slope's standard deviation (from the scatter about the line)
+  // and the two-sided p-value of "no slope" (Student's t on points − 2 degrees of
+  // freedom); with 2 points, NaN and 1.
+  double sigma_slope = std::numeric_limits<double>::quiet_NaN();
+  double p_value = 1.0;
 };
 std::optional<LinearTrend> LinearTrendOf(const std::vector<double>& x,
                                          const std::vector<double>& y);

@@ -1,4 +1,5 @@
 #include <SQLiteCpp/SQLiteCpp.h>
+#include <fmt/format.h>
 #include <fcntl.h>
 #include <gtest/gtest.h>
 #include <signal.h>
@@ -15,6 +16,7 @@
 #include <thread>
 
 #include "calibration/model.h"
+#include "db/database.h"
 #include "db/schema.h"
 #include "test_support.h"
 
@@ -327,6 +329,36 @@ TEST(Cli, DemoWithSixtyConfigurationsAndTooFew) {
   EXPECT_EQ(select.exit_code, 2) << select.err;
   EXPECT_NE(select.err.find("--select"), std::string::npos) << select.err;
   EXPECT_FALSE(std::filesystem::exists(dir.File("few.db")));
+}
+
+// The demo night after night on one database measures anew (no lab stores the same
+// readings twice: a recalibration of identical data is no test of anything); the seed it
+// names repeats a run exactly.
+TEST(Cli, RepeatedDemosMeasureAnewAndTheNamedSeedRepeatsOne) {
+  TempDir dir;
+  const std::string demo = "demo --configurations 30 --time-scale 0";
+  const auto first = RunArmsig("--db '" + dir.File("lab.db") + "' " + demo);
+  ASSERT_EQ(first.exit_code, 0) << first.err;
+  EXPECT_NE(first.out.find("seed 1985"), std::string::npos) << first.out;
+  const auto second = RunArmsig("--db '" + dir.File("lab.db") + "' " + demo);
+  ASSERT_EQ(second.exit_code, 0) << second.err;
+  EXPECT_NE(second.out.find("seed 1986"), std::string::npos) << second.out;
+  const auto again = RunArmsig("--db '" + dir.File("again.db") + "' " + demo + " --seed 1986");
+  ASSERT_EQ(again.exit_code, 0) << again.err;
+  auto readings = [](const std::string& path, int session) {
+    db::Database database(path, db::OpenMode::kReadOnly);
+    std::string all;
+    auto q = database.connection().Prepare(
+        "SELECT hz_rad, v_rad FROM observations WHERE session_id = ? ORDER BY id");
+    q->Bind(1, static_cast<int64_t>(session));
+    while (q->Step()) all += fmt::format("{:.17g} {:.17g}\n", q->Double(0), q->Double(1));
+    return all;
+  };
+  const std::string night1 = readings(dir.File("lab.db"), 1);
+  const std::string night2 = readings(dir.File("lab.db"), 2);
+  ASSERT_FALSE(night1.empty());
+  EXPECT_NE(night1, night2);
+  EXPECT_EQ(readings(dir.File("again.db"), 1), night2);
 }
 
 namespace {

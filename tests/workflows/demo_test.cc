@@ -135,6 +135,18 @@ TEST(Demo, TrackerFromTheCommandLine) {
   const auto j = nlohmann::json::parse(testing::ReadText(dir.File("d.json")));
   EXPECT_EQ(j["session"]["instrument"], "tracker");
   EXPECT_LE(j["session"]["beam"]["operator"].get<int>(), 3);
+  // The nightly job's report names the tracker's sigmas for what they are: each reading's
+  // own, not a theodolite's a-priori arc seconds.
+  const auto night = testing::RunArmsig("--db '" + dir.File("d.db") +
+                                        "' recalibrate --robot puma760-demo --report '" +
+                                        dir.File("report") + "'");
+  ASSERT_TRUE(night.exit_code == 0 || night.exit_code == 3) << night.err;
+  std::string html;
+  for (const auto& e : std::filesystem::recursive_directory_iterator(dir.File("report")))
+    if (e.path().extension() == ".html") html = testing::ReadText(e.path().string());
+  EXPECT_NE(html.find("laser tracker, stationary mode 200 ms; sigmas: each reading&#39;s own"),
+            std::string::npos);
+  EXPECT_EQ(html.find("sigma hz 0.5"), std::string::npos);
   std::cout << "tracker demo, 30 configurations: " << j["session"]["software_ms_per_configuration"]
             << " ms software and " << j["session"]["store_ms_per_configuration"]
             << " ms storing per configuration\n";

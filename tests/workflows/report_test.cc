@@ -365,6 +365,14 @@ TEST(Report, ErrorAgainstTemperatureGivesTheLeastSquaresSlope) {
   ASSERT_NE(html.find(marker), std::string::npos);
   const std::string slope = html.substr(html.find(marker) + marker.size(), 20);
   EXPECT_NEAR(std::stod(slope), line(1), 1e-6) << slope;
+  // Its sigma: s² (AᵀA)⁻¹ of the same fit.
+  const double s2 = (b - a * line).squaredNorm() / static_cast<double>(ids.size() - 2);
+  const double sigma = std::sqrt(s2 * (a.transpose() * a).inverse()(1, 1));
+  const std::string sigma_marker = "id=\"temperature-slope-sigma\">";
+  ASSERT_NE(html.find(sigma_marker), std::string::npos);
+  EXPECT_NEAR(std::stod(html.substr(html.find(sigma_marker) + sigma_marker.size(), 20)), sigma,
+              1e-6);
+  EXPECT_NE(html.find("id=\"temperature-slope-p\">"), std::string::npos);
   EXPECT_NE(html.find(std::to_string(ids.size()) + " of " + std::to_string(ids.size()) +
                       " validation poses have an air temperature"),
             std::string::npos);
@@ -381,6 +389,19 @@ TEST(Report, ErrorAgainstTemperatureGivesTheLeastSquaresSlope) {
   ASSERT_TRUE(t.has_value());
   EXPECT_NEAR(t->slope, 0.1, 1e-12);
   EXPECT_NEAR(t->intercept, -1.8, 1e-12);
+  EXPECT_NEAR(t->sigma_slope, 0.0, 1e-12);  // on the line: exact
+  EXPECT_EQ(t->p_value, 0.0);
+  // Scattered: slope 0.8, σ √(0.9 / 5), t² = 32/9 on 2 dof, whose two-sided p is
+  // 1 − t / √(2 + t²) = 0.2 exactly (Student's t with 2 degrees of freedom).
+  const auto scattered = workflows::LinearTrendOf({1.0, 2.0, 3.0, 4.0}, {1.0, 3.0, 2.0, 4.0});
+  ASSERT_TRUE(scattered.has_value());
+  EXPECT_NEAR(scattered->slope, 0.8, 1e-12);
+  EXPECT_NEAR(scattered->sigma_slope, std::sqrt(0.9 / 5.0), 1e-12);
+  EXPECT_NEAR(scattered->p_value, 0.2, 1e-9);
+  // Two points: a slope, no significance.
+  const auto two = workflows::LinearTrendOf({1.0, 2.0}, {1.0, 3.0});
+  ASSERT_TRUE(two.has_value());
+  EXPECT_TRUE(std::isnan(two->sigma_slope));
 }
 
 TEST(Report, OneErrorAgainstAngleFigurePerJoint) {
