@@ -728,6 +728,26 @@ std::string CommandName(int32_t command) {
 std::string StatusName(int32_t status) {
   return Lookup(kStatuses, std::size(kStatuses), status, "ES_RS_", "ES_RS ");
 }
+std::string StatusAdvice(int32_t status) {
+  switch (status) {
+    case status::kServerBusy:
+      return "the tracker server is busy (another command or another client)";
+    case status::kWrongParameter:
+      return "the tracker refused a parameter of the command";
+    case status::kNoDistanceSet:
+      return "no distance: the beam broke or the reflector left it";
+    case status::kTrackerNotInitialized:
+      return "the tracker is not initialised (initialise it, or power-cycle it)";
+    case status::kMeasurementStatusNotReady:
+      return "not ready to measure: no reflector in the beam (lock lost), the tracker still "
+             "warming up, or a command still running";
+    case status::kNoStationaryResult:
+      return "no stable stationary result: the reflector moved during the measurement time";
+    default:
+      return "";
+  }
+}
+
 std::string StatusChangeName(int32_t change) {
   return Lookup(kStatusChanges, std::size(kStatusChanges), change, "", "status change ");
 }

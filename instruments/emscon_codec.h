@@ -120,6 +120,9 @@ inline constexpr int32_t kInclinationSensorState = 5002;  // AT4xx: 0 off, 2 app
 // by its number ("command 777", "ES_RS 24017", "status change 4711").
 std::string CommandName(int32_t command);
 std::string StatusName(int32_t status);
+// What a status means at the tracker, in a technician's words, for the statuses a capture
+// meets ("the beam broke or the reflector left it: no distance"); "" for the others.
+std::string StatusAdvice(int32_t status);
 std::string StatusChangeName(int32_t change);
 std::string PacketTypeName(int32_t type);
 

@@ -65,9 +65,11 @@ void EmsconDevice::Record(Event::Kind kind, int32_t value, int32_t command) {
 }
 
 void EmsconDevice::ThrowStatus(int32_t command, int32_t status, const char* how) const {
-  throw InstrumentError(
-      name(), status,
-      fmt::format("{} {} {} ({})", es::CommandName(command), how, es::StatusName(status), status));
+  const std::string advice = es::StatusAdvice(status);
+  throw InstrumentError(name(), status,
+                        fmt::format("{} {} {} ({}){}", es::CommandName(command), how,
+                                    es::StatusName(status), status,
+                                    advice.empty() ? std::string() : ": " + advice));
 }
 
 std::optional<es::Packet> EmsconDevice::NextPacket(Deadline until) {

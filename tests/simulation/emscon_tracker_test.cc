@@ -348,6 +348,8 @@ TEST(EmsconCommand, ProbeAndReadJsonAgainstTheVirtualTracker) {
   EXPECT_EQ(broken.exit_code, 1);
   EXPECT_TRUE(broken.out.empty()) << broken.out;
   EXPECT_NE(broken.err.find("ES_RS_NoDistanceSet"), std::string::npos) << broken.err;
+  EXPECT_NE(broken.err.find("the beam broke or the reflector left it"), std::string::npos)
+      << broken.err;  // and what it means at the tracker
   // emscon needs --tcp.
   EXPECT_EQ(testing::RunArmsig("instrument read --protocol emscon --port /dev/null").exit_code, 2);
 }
