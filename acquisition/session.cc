@@ -225,14 +225,16 @@ CaptureSummary RunCapture(db::Database& db, const LabConfig& lab, int64_t sessio
                  options.prediction_params ? " and the robot's active arm signature"
                                            : " and the nominal model");
   }
-  // Points that do not follow the robot: the session pauses before measuring more of them
-  // (what is stored stays), naming what it found.
+  // Points that do not follow the robot: the session stops before measuring more of them
+  // and is discarded (what is stored stays, unused), naming what it found.
   const auto pause_unless_following = [&](const std::string& where) {
     const auto problem = predictor->FollowProblem(lab.tolerances.max_base_fit_rms_mm);
     if (!problem) return false;
-    summary.paused = true;
+    summary.paused = summary.discarded = true;
     summary.pause_reason = where + ": " + *problem;
-    db::SetSessionState(db, session, "paused");
+    db::WriteTransaction tx(db);
+    db::DiscardSession(db, session, "set-up check: " + summary.pause_reason);
+    tx.commit();
     return true;
   };
   const bool stored_points_wrong =

@@ -63,6 +63,9 @@ struct CaptureSummary {
   std::vector<ConfigurationVerdict> flagged_configurations, failed_configurations,
       skipped_configurations;
   bool completed = false, paused = false, stopped = false;
+  // The session's set-up check failed (its points do not follow the robot): it is paused
+  // and discarded (db::DiscardSession), so no recalibration uses its points.
+  bool discarded = false;
   std::string pause_reason;
   // Over this run's usable points only; nullopt when there is none.
   std::optional<double> mean_miss_mm, max_miss_mm;

@@ -68,6 +68,7 @@ OwnerState StateOf(const db::SessionOwner& owner) {
 
 std::string DisplayState(const std::string& stored_state,
                          const std::optional<db::SessionOwner>& owner) {
+  if (stored_state == "aborted") return "discarded";  // its measurements are not used
   if (stored_state != "running") return stored_state;
   if (!owner) return "interrupted";
   return StateOf(*owner) == OwnerState::kGone ? "interrupted" : stored_state;

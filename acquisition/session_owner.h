@@ -26,7 +26,8 @@ enum class OwnerState {
 OwnerState StateOf(const db::SessionOwner& owner);
 
 // The state `sessions` shows: a `running` session whose owner is not alive (or was never
-// recorded, before schema v4) is `interrupted`; other states are as stored.
+// recorded, before schema v4) is `interrupted`; an `aborted` one is `discarded` (its
+// measurements are not used); other states are as stored.
 std::string DisplayState(const std::string& stored_state,
                          const std::optional<db::SessionOwner>& owner);
 

@@ -74,6 +74,29 @@ void SetupLifecycleCommands(CLI::App& parent, const GlobalOptions& global, Runne
   });
 
   o = std::make_shared<LifecycleOptions>();
+  auto* discard = session->add_subcommand(
+      "discard", "Keep a session's measurements out of every recalibration (wrong set-up)");
+  NumberOption(discard->add_option("id", o->session, "Session id"), 1, kMaxId)->required();
+  NoteOption(discard->add_option("--reason", o->name, "Why (stored in the session's note)"));
+  OnExistingDatabase(discard, global, run, [o = o](db::Database& database) {
+    workflows::DiscardSession(database, o->session, o->name);
+    std::cout << fmt::format(
+        "session {} discarded: its measurements stay stored, no recalibration uses them "
+        "(armsig session restore {} undoes it)\n",
+        o->session, o->session);
+    return kOk;
+  });
+
+  o = std::make_shared<LifecycleOptions>();
+  auto* restore = session->add_subcommand("restore", "Use a discarded session's measurements again");
+  NumberOption(restore->add_option("id", o->session, "Session id"), 1, kMaxId)->required();
+  OnExistingDatabase(restore, global, run, [o = o](db::Database& database) {
+    const std::string state = workflows::RestoreSession(database, o->session);
+    std::cout << fmt::format("session {} restored ({})\n", o->session, state);
+    return kOk;
+  });
+
+  o = std::make_shared<LifecycleOptions>();
   auto* versions = parent.add_subcommand("versions", "A robot's parameter sets (* = active)");
   NameOption(versions->add_option("--robot", o->robot, "Robot name"))->required();
   versions->add_flag("--json", o->json, "Machine-readable output");

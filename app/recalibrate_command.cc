@@ -24,11 +24,14 @@ int RunRecalibrate(RecalibrateCommand c, const GlobalOptions& global) {
   const auto d = workflows::Recalibrate(c.options);
   if (!c.json.empty()) io::WriteFileAtomically(c.json, JsonText(d.ToJson(), 2) + "\n");
   if (d.outcome == workflows::RecalibrationDecision::Outcome::kUpToDate) return kOk;
+  if (d.outcome == workflows::RecalibrationDecision::Outcome::kFailed) {
+    std::cout << d.robot << ": " << d.Describe() << "\n";  // no statistics of an unfinished fit
+    return kFailure;
+  }
   std::cout << fmt::format(
       "{}: {} (validation mean {:.4f} mm, max {:.4f} mm on {} configurations{})\n", d.robot,
       d.Describe(), d.validation.mean_mm, d.validation.max_mm, d.validation.poses,
       d.drift ? "; DRIFT" : "");
-  if (d.outcome == workflows::RecalibrationDecision::Outcome::kFailed) return kFailure;
   return d.passed() ? kOk : kQualityGate;
 }
 

@@ -42,6 +42,24 @@ void SetSessionState(Database& db, int64_t session_id, const std::string& state)
   s->Execute();
 }
 
+void AppendSessionNote(Database& db, int64_t session_id, const std::string& text) {
+  auto s = Sql(db,
+               "UPDATE sessions SET note = CASE WHEN coalesce(note, '') = '' THEN ? "
+               "ELSE note || '; ' || ? END WHERE id = ?");
+  s->Bind(1, text);
+  s->Bind(2, text);
+  s->Bind(3, session_id);
+  s->Execute();
+}
+
+void DiscardSession(Database& db, int64_t session_id, const std::string& reason) {
+  auto s = Sql(db, "UPDATE sessions SET state = 'aborted', finished_at = coalesce(finished_at, " +
+                       std::string(NowIsoSql(db.backend())) + ") WHERE id = ?");
+  s->Bind(1, session_id);
+  s->Execute();
+  AppendSessionNote(db, session_id, "discarded: " + reason);
+}
+
 void SetSessionOwner(Database& db, int64_t session_id, const SessionOwner& owner) {
   auto s = Sql(db, "UPDATE sessions SET owner_pid = ?, owner_host = ?, owner_started = ? "
                    "WHERE id = ?");
@@ -117,8 +135,9 @@ std::vector<MeasuredPose> LoadRobotPoses(Database& db, int64_t robot_id, const s
   auto q = Sql(db,
                "SELECT s.id, p.label, p.joints_json, pt.x_mm, pt.y_mm, pt.z_mm, p.id FROM poses p "
                "JOIN sessions s ON s.id = p.session_id JOIN points pt ON pt.pose_id = p.id "
-               "WHERE s.robot_id = ? AND p.status = 'measured' AND pt.x_mm IS NOT NULL "
-               "AND p.joints_json IS NOT NULL AND s.started_at >= ? ORDER BY p.id");
+               "WHERE s.robot_id = ? AND s.state <> 'aborted' AND p.status = 'measured' "
+               "AND pt.x_mm IS NOT NULL AND p.joints_json IS NOT NULL AND s.started_at >= ? "
+               "ORDER BY p.id");
   q->Bind(1, robot_id);
   q->Bind(2, since);  // "" is before every time stamp
   std::vector<MeasuredPose> out;

@@ -18,6 +18,12 @@ int64_t CreateSession(Database& db, int64_t robot_id, const std::string& lab_yam
                       const std::string& plan_json, const std::string& state,
                       const std::string& note);
 void SetSessionState(Database& db, int64_t session_id, const std::string& state);
+// A session whose measurements must not be used (its set-up was wrong): state `aborted`,
+// the reason appended to its note ("discarded: …"). Its rows stay; LoadRobotPoses leaves
+// it out.
+void DiscardSession(Database& db, int64_t session_id, const std::string& reason);
+// Appends to a session's note ("; " between).
+void AppendSessionNote(Database& db, int64_t session_id, const std::string& text);
 
 // The process that runs a session (capture, demo), schema v4: its pid, host name, and a
 // token of its start (boot id and start tick), so that a reused pid is not taken for it.
@@ -57,7 +63,8 @@ int64_t InsertPose(Database& db, int64_t session_id, int seq, const std::string&
 // Plan indices already stored (measured or skipped) for a session.
 std::vector<int> StoredSeqs(Database& db, int64_t session_id);
 
-// Every measured configuration of the robot with a reduced point: joints + target.
+// Every measured configuration of the robot with a reduced point: joints + target, from
+// every session that is not discarded (`aborted`).
 // Pose ids are "<session>:<label>", and each pose's measurement frame is its session
 // (MeasuredPose::frame = the session id). `since`: lower bound on the session start as
 // stored (YYYY-MM-DDTHH:MM:SS.sssZ, UTC; empty = all). `max_pose_row` receives the newest

@@ -59,24 +59,86 @@ std::optional<Eigen::VectorXd> ActiveParameters(db::Database& db,
 
 }  // namespace
 
-acquisition::CaptureSummary CaptureInto(db::Database& db, const acquisition::LabConfig& lab,
-                                        int64_t session,
-                                        const acquisition::CaptureOptions& options) {
+namespace {
+
+// A session on opened devices; a failure leaves it paused (resumable, never running).
+acquisition::CaptureSummary CaptureWith(
+    db::Database& db, const acquisition::LabConfig& lab, int64_t session,
+    std::vector<std::unique_ptr<instruments::DistanceInstrument>>& devices,
+    instruments::RobotController& controller, const acquisition::CaptureOptions& options) {
   try {
-    auto devices = acquisition::OpenInstruments(lab);
-    auto controller = acquisition::OpenController(lab);
     const bool tracker = std::any_of(lab.instruments.begin(), lab.instruments.end(),
                                      [](const auto& i) { return i.protocol == "emscon"; });
     if (tracker && !options.prediction_params) {
       acquisition::CaptureOptions with_signature = options;
       with_signature.prediction_params = ActiveParameters(db, lab, session);
-      return acquisition::RunCapture(db, lab, session, devices, *controller, with_signature);
+      return acquisition::RunCapture(db, lab, session, devices, controller, with_signature);
     }
-    return acquisition::RunCapture(db, lab, session, devices, *controller, options);
+    return acquisition::RunCapture(db, lab, session, devices, controller, options);
+  } catch (...) {
+    db::SetSessionState(db, session, "paused");
+    throw;
+  }
+}
+
+// Asks every instrument who it is and the controller where the robot is: each device
+// answers, or the capture ends naming it (exit 1) before anything is stored. A raised stop
+// flag cuts a call short.
+void ProbeDevices(const acquisition::LabConfig& lab,
+                  std::vector<std::unique_ptr<instruments::DistanceInstrument>>& devices,
+                  instruments::RobotController& controller, const std::atomic<bool>* stop) {
+  for (auto& d : devices) d->SetInterrupt(stop);
+  controller.SetInterrupt(stop);
+  struct Release {
+    std::vector<std::unique_ptr<instruments::DistanceInstrument>>& devices;
+    instruments::RobotController& controller;
+    ~Release() {
+      for (auto& d : devices) d->SetInterrupt(nullptr);
+      controller.SetInterrupt(nullptr);
+    }
+  } release{devices, controller};
+  for (size_t i = 0; i < devices.size(); ++i) {
+    const auto& config = lab.instruments[i];
+    try {
+      const instruments::DeviceInfo info = devices[i]->Identify();
+      spdlog::info("capture: station {}: {} on {}{}{}", config.station,
+                   info.name.empty() ? config.protocol : info.name, devices[i]->name(),
+                   info.serial.empty() ? std::string() : ", serial " + info.serial,
+                   info.firmware.empty() ? std::string() : ", firmware " + info.firmware);
+    } catch (const std::exception& e) {
+      if (stop && *stop) throw;
+      throw std::runtime_error(fmt::format("station {}: the instrument does not answer ({}); "
+                                           "check that it is on and its {}; nothing was stored",
+                                           config.station, e.what(),
+                                           config.tcp.empty() ? "port" : "address"));
+    }
+  }
+  try {
+    const Eigen::VectorXd q = controller.ReadJointsRad();
+    spdlog::debug("capture: controller {}: the robot reads {} joints", controller.name(), q.size());
+  } catch (const std::exception& e) {
+    if (stop && *stop) throw;
+    throw std::runtime_error(fmt::format("the robot controller does not answer ({}); check that "
+                                         "it is on and its port; nothing was stored",
+                                         e.what()));
+  }
+}
+
+}  // namespace
+
+acquisition::CaptureSummary CaptureInto(db::Database& db, const acquisition::LabConfig& lab,
+                                        int64_t session,
+                                        const acquisition::CaptureOptions& options) {
+  std::vector<std::unique_ptr<instruments::DistanceInstrument>> devices;
+  std::unique_ptr<instruments::RobotController> controller;
+  try {
+    devices = acquisition::OpenInstruments(lab);
+    controller = acquisition::OpenController(lab);
   } catch (...) {
     db::SetSessionState(db, session, "paused");  // resumable, never left running
     throw;
   }
+  return CaptureWith(db, lab, session, devices, *controller, options);
 }
 
 CaptureOutcome RunCaptureSession(const CaptureRequest& request) {
@@ -104,6 +166,27 @@ CaptureOutcome RunCaptureSession(const CaptureRequest& request) {
   // The plan is made before the database is touched: a bad plan stores nothing.
   std::optional<acquisition::Plan> plan;
   if (session == 0) plan = acquisition::MakePlan(request.plan, lab.model);
+  // Every device answers before a session is made or claimed (a new session: before the
+  // database is touched): an instrument switched off, a wrong port or address is named
+  // now and leaves nothing behind.
+  std::vector<std::unique_ptr<instruments::DistanceInstrument>> devices;
+  std::unique_ptr<instruments::RobotController> controller;
+  // false: Ctrl-C while a device was asked (nothing changed: a new session was not made,
+  // a resumed one keeps its state).
+  const auto open_devices = [&] {
+    try {
+      devices = acquisition::OpenInstruments(lab);
+      controller = acquisition::OpenController(lab);
+      ProbeDevices(lab, devices, *controller, request.stop);
+      return true;
+    } catch (...) {
+      if (!request.stop || !*request.stop) throw;
+      out.stopped_before_start = true;
+      spdlog::warn("capture: stopped while the devices were asked; nothing was stored");
+      return false;
+    }
+  };
+  if (session == 0 && !open_devices()) return out;
   if (!opened) opened.emplace(request.db_path);  // a new session: after the inputs are read
   db::Database& database = *opened;
   if (session > 0) {
@@ -113,12 +196,24 @@ CaptureOutcome RunCaptureSession(const CaptureRequest& request) {
                        fmt::format("no session {} to resume ({} lists them)", session,
                                    Hint(database.path(), {"sessions"})));
     }
+    if (row->state == "aborted") {
+      throw InputError({database.path(), 0, 0, ""},
+                       fmt::format("session {} was discarded ({}); start a new session, or "
+                                   "{} first if its set-up was right after all",
+                                   session, row->note,
+                                   Hint(database.path(), {"session", "restore",
+                                                          std::to_string(session)})));
+    }
     if (row->state == "completed") {
       out.already_complete = out.ok = true;
       out.summary.session = session;
       return out;
     }
+  }
+  if (session > 0) {
+    if (!open_devices()) return out;
     // Refused while another live process runs it; an interrupted one is ours now.
+    const auto row = db::LoadSession(database, session);
     spdlog::debug("capture: session {} is {} (stored state {}); claiming it", session,
                   acquisition::DisplayState(row->state, row->owner), row->state);
     acquisition::ClaimSession(database, session);
@@ -143,13 +238,20 @@ CaptureOutcome RunCaptureSession(const CaptureRequest& request) {
   options.prompt_move = request.prompt_move;
   options.prompt_reflector = request.prompt_reflector;
   try {
-    out.summary = CaptureInto(database, lab, session, options);
+    out.summary = CaptureWith(database, lab, session, devices, *controller, options);
   } catch (...) {
     spdlog::info("capture: session {} paused; resume with: {}", session, out.resume_hint);
     throw;
   }
   const auto& s = out.summary;
-  if (s.paused) {
+  if (s.discarded) {
+    spdlog::error("capture: session {} discarded: {}", s.session, s.pause_reason);
+    spdlog::info(
+        "its {} stored configurations stay in the database, but no recalibration uses them; "
+        "fix the set-up and start a new session ({} if they are good after all)",
+        s.already + s.measured,
+        Hint(database.path(), {"session", "restore", std::to_string(s.session)}));
+  } else if (s.paused) {
     spdlog::error("capture: session {} paused: {}", s.session, s.pause_reason);
     spdlog::info("fix it, then resume with: {}", out.resume_hint);
   } else if (s.stopped) {

@@ -8,6 +8,7 @@
 #include <cstring>
 #include <limits>
 
+#include "acquisition/plan.h"
 #include "acquisition/session_owner.h"
 #include "core/error.h"
 #include "core/plausibility.h"
@@ -173,6 +174,53 @@ std::vector<db::SessionSummary> Sessions(db::Database& database, const std::stri
     s.state = shown;
   }
   return sessions;
+}
+
+namespace {
+
+db::SessionRow SessionToChange(db::Database& database, int64_t session_id) {
+  const auto row = db::LoadSession(database, session_id);
+  if (!row) {
+    throw InputError({database.path(), 0, 0, ""},
+                     fmt::format("no session {} ({} lists them)", session_id,
+                                 Hint(database.path(), {"sessions"})));
+  }
+  return *row;
+}
+
+}  // namespace
+
+std::string DiscardSession(db::Database& database, int64_t session_id, const std::string& reason) {
+  db::WriteTransaction tx(database);
+  const db::SessionRow row = SessionToChange(database, session_id);
+  if (row.state == "aborted") return "aborted";
+  if (row.state == "running" && row.owner &&
+      acquisition::StateOf(*row.owner) != acquisition::OwnerState::kGone) {
+    throw InputError({database.path(), 0, 0, ""},
+                     fmt::format("session {} is being captured by process {} on {}: stop it "
+                                 "first (Ctrl-C), then discard it",
+                                 session_id, row.owner->pid, row.owner->host));
+  }
+  db::DiscardSession(database, session_id, reason.empty() ? "by hand" : reason);
+  tx.commit();
+  return "aborted";
+}
+
+std::string RestoreSession(db::Database& database, int64_t session_id) {
+  db::WriteTransaction tx(database);
+  const db::SessionRow row = SessionToChange(database, session_id);
+  if (row.state != "aborted") {
+    throw InputError({database.path(), 0, 0, ""},
+                     fmt::format("session {} is not discarded (it is {})", session_id,
+                                 acquisition::DisplayState(row.state, row.owner)));
+  }
+  const size_t planned = row.plan_json.empty() ? 0 : acquisition::PlanFromJson(row.plan_json).size();
+  const size_t stored = db::StoredSeqs(database, session_id).size();
+  const std::string state = stored >= planned ? "completed" : "paused";
+  db::SetSessionState(database, session_id, state);
+  db::AppendSessionNote(database, session_id, "restored");
+  tx.commit();
+  return state;
 }
 
 std::vector<VersionInfo> Versions(db::Database& database, const std::string& robot) {

@@ -59,6 +59,15 @@ int SessionJoints(db::Database& database, int64_t session_id);
 // whose process is gone is shown `interrupted` (acquisition::DisplayState).
 std::vector<db::SessionSummary> Sessions(db::Database& database, const std::string& robot);
 
+// A session whose measurements no recalibration may use (a wrong set-up found later, a
+// reflector that was not on the robot): stored state `aborted`, shown `discarded`, the
+// reason in its note; its rows stay. Refused (InputError) for an unknown session and for
+// one a live process is capturing. `RestoreSession` undoes it: the session is `completed`
+// when every configuration of its plan is stored, else `paused`; InputError when it was
+// not discarded. Both in one write transaction; return the state now stored.
+std::string DiscardSession(db::Database& database, int64_t session_id, const std::string& reason);
+std::string RestoreSession(db::Database& database, int64_t session_id);
+
 struct VersionInfo {
   int version = 0;
   bool active = false;

@@ -192,10 +192,19 @@ std::string RecalibrationDecision::Describe() const {
                          version, poses);
     case Outcome::kStored:
       return fmt::format("stored as version {} (active)", version);
-    case Outcome::kRejected:
-      return previous_version ? fmt::format("rejected: a gate failed; version {} stays active",
-                                            *previous_version)
-                              : std::string("rejected: a gate failed; no parameter set is active");
+    case Outcome::kRejected: {
+      std::string failed;
+      for (const auto& g : gates) {
+        if (g.passed) continue;
+        failed += fmt::format("{}{} {:.4f} mm > {:.4f} mm", failed.empty() ? "" : ", ", g.name,
+                              g.value_mm, g.limit_mm);
+      }
+      return fmt::format("rejected: {}; {}",
+                         failed.empty() ? std::string("a gate failed") : "gate failed: " + failed,
+                         previous_version
+                             ? fmt::format("version {} stays active", *previous_version)
+                             : std::string("no parameter set is active"));
+    }
     case Outcome::kFailed:
       return fmt::format("failed: {}; {}", failure,
                          previous_version
@@ -318,6 +327,12 @@ RecalibrationDecision Recalibrate(const RecalibrateOptions& o) {
   {
     // Every session is a measurement frame of its own (its own set-up of the instruments);
     // one whose poses cannot place its frame adds nothing but unknowns.
+    for (const auto& s : db::ListSessions(database, *robot_id)) {
+      if (s.state == "aborted" && s.started_at >= since) {
+        spdlog::info("recalibrate: {}: session {} is discarded ({}): left out", o.robot, s.id,
+                     s.note);
+      }
+    }
     std::map<int64_t, std::vector<MeasuredPose>> by_session;
     for (auto& p : db::LoadRobotPoses(database, *robot_id, since))
       by_session[p.frame].push_back(std::move(p));
@@ -432,8 +447,15 @@ RecalibrationDecision Recalibrate(const RecalibrateOptions& o) {
       run.estimate.sigma0_mm, d.fit.mean_mm, d.validation.mean_mm, d.validation.max_mm,
       d.validation.poses);
 
-  bool pass = run.estimate.status.ok();
+  // An estimate the solver did not finish is judged by nothing: no gate, no drift.
+  const bool fit_ok = run.estimate.status.ok();
+  if (!fit_ok) {
+    log(fmt::format("the fit did not give a usable estimate ({}): no gate and no drift judged",
+                    run.estimate.status.message));
+  }
+  bool pass = fit_ok;
   auto gate = [&](const std::string& name, double value, double limit) {
+    if (!fit_ok) return;
     const bool ok = value <= limit;
     d.gates.push_back({name, value, limit, ok});
     log(fmt::format("{}: {:.4f} mm (limit {:.4f} mm) {}", name, value, limit,
@@ -443,7 +465,7 @@ RecalibrationDecision Recalibrate(const RecalibrateOptions& o) {
   gate("validation mean", d.validation.mean_mm, gates.max_mean_mm);
   gate("validation max", d.validation.max_mm, gates.max_max_mm);
   std::vector<calibration::ParameterChange> changes;
-  if (current) {
+  if (current && fit_ok) {
     // The current set on the same validation data, each session's base re-aligned on that
     // session's fit poses (the measuring frame moves between set-ups; the arm signature
     // does not), as the new fit placed each frame on them.
@@ -551,10 +573,8 @@ RecalibrationDecision Recalibrate(const RecalibrateOptions& o) {
     // No gate can judge an estimate the solver did not finish: the gates above ran on the
     // last step only to show how far it got.
     d.outcome = RecalibrationDecision::Outcome::kFailed;
-    d.failure = fmt::format(
-        "the fit did not give a usable estimate ({} after {} iterations): {}",
-        run.estimate.status.code == SolveCode::kNotConverged ? "not converged" : "no solution",
-        run.estimate.iterations, run.estimate.status.message);
+    d.failure = fmt::format("the fit did not give a usable estimate: {}",
+                            run.estimate.status.message);
   } else {
     d.outcome = RecalibrationDecision::Outcome::kRejected;
   }

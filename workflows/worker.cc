@@ -190,7 +190,9 @@ Outcome RunJob(const WorkerOptions& options, const db::Job& job) {
     out.summary = d.Describe();
     if (d.outcome == RecalibrationDecision::Outcome::kFailed) {
       out.state = db::JobState::kFailed;  // not retried: the same data fails the same way
-      out.error = d.Describe();
+      out.error = d.failure + (d.previous_version
+                                   ? fmt::format("; version {} stays active", *d.previous_version)
+                                   : std::string());
       out.summary = "failed";
     }
     if (d.version > 0) out.version = d.version;

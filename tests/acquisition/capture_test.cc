@@ -454,6 +454,35 @@ TEST_F(VirtualLabFixture, ASecondCaptureOnTheSameDevicesIsRefused) {
   EXPECT_EQ(next.exit_code, 0) << next.err;
 }
 
+// An instrument that is not there (switched off, a wrong port) is named before anything
+// is made: no database, no empty paused session; so is a silent robot controller.
+TEST_F(VirtualLabFixture, AnInstrumentThatDoesNotAnswerIsNamedBeforeASessionIsMade) {
+  Start();
+  std::string yaml = testing::ReadText(dir_.File("lab.yaml"));
+  const std::string t2 = sims_[1]->path();
+  yaml.replace(yaml.find(t2), t2.size(), dir_.File("no-such-port"));
+  testing::WriteText(dir_.File("off.yaml"), yaml);
+  const auto r = testing::RunArmsig("--db '" + Db() + "' capture --lab '" + dir_.File("off.yaml") +
+                                    "' --plan auto:5 --robot puma");
+  EXPECT_EQ(r.exit_code, 1) << r.err;
+  EXPECT_NE(r.err.find("station T2: the instrument does not answer"), std::string::npos) << r.err;
+  EXPECT_NE(r.err.find("nothing was stored"), std::string::npos) << r.err;
+  EXPECT_FALSE(StoreMade());
+  // The controller silent (every request dropped): named, nothing made.
+  robot_->InjectAlways({simulation::Fault::kDropReply, 0});
+  const auto silent = testing::RunArmsig("--db '" + Db() + "' capture --lab '" +
+                                         dir_.File("lab.yaml") + "' --plan auto:5 --robot puma");
+  EXPECT_EQ(silent.exit_code, 1) << silent.err;
+  EXPECT_NE(silent.err.find("the robot controller does not answer"), std::string::npos)
+      << silent.err;
+  EXPECT_FALSE(StoreMade());
+  robot_->ClearFaults();
+  const auto works = testing::RunArmsig("--db '" + Db() + "' capture --lab '" +
+                                        dir_.File("lab.yaml") + "' --plan auto:3 --robot puma");
+  EXPECT_EQ(works.exit_code, 0) << works.err;
+  EXPECT_NE(works.err.find("capture: station T1: "), std::string::npos) << works.err;
+}
+
 TEST_F(VirtualLabFixture, PortThatVanishesAndReturnsMidSession) {
   Start();
   const LabConfig lab = LoadLab(dir_.File("lab.yaml"));

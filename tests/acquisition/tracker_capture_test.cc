@@ -360,14 +360,40 @@ TEST_F(TrackerLabFixture, AReflectorThatDoesNotFollowTheRobotPausesTheSession) {
   EXPECT_GE(s.measured, 3);
   EXPECT_LE(s.measured, 4);  // three points show it (a fourth if the first three lie on a line)
   EXPECT_EQ(Count(db, "SELECT COUNT(*) FROM points"), s.measured);
-  EXPECT_EQ(db::LoadSession(db, s.session)->state, "paused");
-  // Resumed as it is, it pauses again at once: nothing more measured.
+  // Discarded: its rows stay, no recalibration reads them.
+  EXPECT_TRUE(s.discarded);
+  EXPECT_EQ(db::LoadSession(db, s.session)->state, "aborted");
+  EXPECT_NE(db::LoadSession(db, s.session)->note.find("discarded: set-up check"), std::string::npos);
+  EXPECT_TRUE(db::LoadRobotPoses(db, *db::FindRobot(db, "puma"), "").empty());
+  // The library run again on it stops at once: nothing more measured.
   auto devices = OpenInstruments(lab);
   auto controller = OpenController(lab);
   const CaptureSummary again = RunCapture(db, lab, s.session, devices, *controller, {});
   EXPECT_TRUE(again.paused);
   EXPECT_EQ(again.measured, 0);
   EXPECT_NE(again.pause_reason.find("stored points"), std::string::npos) << again.pause_reason;
+  devices.clear();
+  controller.reset();
+  // The command refuses to resume it, naming how to restore it; restored, its points count.
+  const auto resume = testing::RunArmsig("--db '" + Db() + "' capture --lab '" +
+                                         dir_.File("lab.yaml") + "' --resume " +
+                                         std::to_string(s.session));
+  EXPECT_EQ(resume.exit_code, 2) << resume.err;
+  EXPECT_NE(resume.err.find("was discarded"), std::string::npos) << resume.err;
+  EXPECT_NE(resume.err.find("session restore"), std::string::npos) << resume.err;
+  const auto sessions = testing::RunArmsig("--db '" + Db() + "' sessions");
+  EXPECT_NE(sessions.out.find("discarded"), std::string::npos) << sessions.out;
+  const auto restore = testing::RunArmsig("--db '" + Db() + "' session restore " +
+                                          std::to_string(s.session));
+  EXPECT_EQ(restore.exit_code, 0) << restore.err;
+  EXPECT_NE(restore.out.find("restored (paused)"), std::string::npos) << restore.out;
+  EXPECT_EQ(db::LoadRobotPoses(db, *db::FindRobot(db, "puma"), "").size(),
+            static_cast<size_t>(s.measured));
+  const auto discard = testing::RunArmsig("--db '" + Db() + "' session discard " +
+                                          std::to_string(s.session) + " --reason 'nest'");
+  EXPECT_EQ(discard.exit_code, 0) << discard.err;
+  EXPECT_TRUE(db::LoadRobotPoses(db, *db::FindRobot(db, "puma"), "").empty());
+  EXPECT_EQ(testing::RunArmsig("--db '" + Db() + "' session restore 99").exit_code, 2);
 }
 
 // Two theodolites and a tracker in one lab frame: three rays, one with a distance, so each

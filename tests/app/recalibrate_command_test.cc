@@ -49,13 +49,14 @@ TEST(RecalibrateCommand, AFitThatDoesNotConvergeFailsNamingItAndStoresNothing) {
   const auto r = RunArmsig("--db '" + path + "' recalibrate --robot puma --max-iterations 1 " +
                            "--json '" + dir.File("d.json") + "'");
   EXPECT_EQ(r.exit_code, 1) << r.err;
-  EXPECT_NE((r.out + r.err).find("not converged after 1 iterations"), std::string::npos)
+  EXPECT_NE((r.out + r.err).find("did not give a usable estimate: no convergence after 1 iterations"), std::string::npos)
       << r.out << r.err;
   EXPECT_EQ((r.out + r.err).find("a gate failed"), std::string::npos) << r.out << r.err;
   EXPECT_EQ(Versions(path), 0);
   const auto j = nlohmann::json::parse(ReadText(dir.File("d.json")));
   EXPECT_EQ(j["decision"], "failed");
-  EXPECT_NE(j["failure"].get<std::string>().find("not converged"), std::string::npos);
+  EXPECT_NE(j["failure"].get<std::string>().find("no convergence"), std::string::npos);
+  EXPECT_EQ((r.out + r.err).find("validation mean: "), std::string::npos) << r.err;  // no gate judged
   // The same data with the iterations it needs passes.
   EXPECT_EQ(RunArmsig("--db '" + path + "' recalibrate --robot puma").exit_code, 0);
   EXPECT_EQ(Versions(path), 1);

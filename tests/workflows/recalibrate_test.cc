@@ -2,6 +2,7 @@
 // a PUMA 760 whose truth the test knows.
 #include "workflows/recalibrate.h"
 
+#include <fmt/format.h>
 #include <gtest/gtest.h>
 
 #include <chrono>
@@ -74,6 +75,16 @@ TEST_P(Recalibrate, PassesThenRejectsPlantedBadDataKeepingTheActiveSet) {
   bool failed_gate = false;
   for (const auto& g : second.gates) failed_gate |= !g.passed;
   EXPECT_TRUE(failed_gate);
+  // The decision names the gate that failed, with its value and limit.
+  for (const auto& g : second.gates) {
+    if (!g.passed) {
+      EXPECT_NE(second.Describe().find(fmt::format("{} {:.4f} mm > {:.4f} mm", g.name, g.value_mm,
+                                                   g.limit_mm)),
+                std::string::npos)
+          << second.Describe();
+    }
+  }
+  EXPECT_NE(second.Describe().find("version 1 stays active"), std::string::npos);
   EXPECT_EQ(second.previous_version, 1);
   EXPECT_TRUE(second.ToJson()["version"].is_null());
   EXPECT_EQ(ActiveVersion(path), 1);  // the old set stays active
