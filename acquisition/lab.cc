@@ -439,6 +439,9 @@ std::string FormatLabYaml(const LabFile& lab) {
   const InstrumentConfig default_instrument;
   const ControllerConfig default_controller;
   YAML::Emitter out;
+  // 15 significant digits: 0.1 reads 0.1 (not 0.10000000000000001), and a base or a sigma
+  // keeps far more than any instrument resolves.
+  out << YAML::DoublePrecision(15);
   out << YAML::BeginMap << YAML::Key << "robot" << YAML::Value << YAML::BeginMap;
   out << YAML::Key << "model" << YAML::Value << lab.model_path;
   const ControllerConfig& c = lab.controller;
@@ -447,7 +450,17 @@ std::string FormatLabYaml(const LabFile& lab) {
   if (!c.port.empty()) out << YAML::Key << "port" << YAML::Value << c.port;
   if (c.baud != default_controller.baud) out << YAML::Key << "baud" << YAML::Value << c.baud;
   out << YAML::Key << "can_move" << YAML::Value << c.can_move;
-  out << YAML::EndMap << YAML::EndMap;
+  out << YAML::EndMap;
+  if (lab.robot_base) {
+    out << YAML::Key << "base" << YAML::Value << YAML::Flow << YAML::BeginSeq;
+    for (int r = 0; r < 4; ++r) {
+      out << YAML::Flow << YAML::BeginSeq;
+      for (int k = 0; k < 4; ++k) out << lab.robot_base->matrix()(r, k);
+      out << YAML::EndSeq;
+    }
+    out << YAML::EndSeq;
+  }
+  out << YAML::EndMap;
   out << YAML::Key << "instruments" << YAML::Value << YAML::BeginSeq;
   for (const auto& i : lab.instruments) {
     out << YAML::Flow << YAML::BeginMap << YAML::Key << "station" << YAML::Value << i.station

@@ -121,6 +121,7 @@ LabSettings ParseLabSettings(const std::string& text, const std::string& source)
 struct LabFile {
   std::string model_path, stations_path;
   ControllerConfig controller;
+  std::optional<Eigen::Isometry3d> robot_base;  // `robot: base:` when given
   std::vector<InstrumentConfig> instruments;
   Tolerances tolerances;
   int timeout_ms = 3000;

@@ -185,6 +185,7 @@ CaptureSummary RunCapture(db::Database& db, const LabConfig& lab, int64_t sessio
   if (!row) throw InputError({db.path(), 0, 0, ""}, "no session " + std::to_string(session));
   const Plan plan = PlanFromJson(row->plan_json);
   summary.total = static_cast<int>(plan.size());
+  summary.single_ray = devices.size() == 1;
   const auto stored = db::StoredSeqs(db, session);
   const std::set<int> done(stored.begin(), stored.end());
   summary.already = static_cast<int>(done.size());

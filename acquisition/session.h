@@ -81,6 +81,8 @@ struct CaptureSummary {
   // at the end of the run.
   int beam_predicted = 0, beam_searches = 0, beam_operator = 0;
   std::string beam_base;
+  // One instrument gives each point (a tracker alone): no second ray, no miss distance.
+  bool single_ray = false;
 };
 
 // A new session: the robot (created if new), the lab text, the plan and the stations'

@@ -32,6 +32,12 @@ void SetupDemoCommand(CLI::App& parent, const GlobalOptions& global, Runner& run
                   "default) or tracker (one laser tracker speaking emScon on loopback TCP); "
                   "--resume keeps the session's")
       ->check(CLI::IsMember({"theodolites", "tracker"}));
+  sub->add_option("--serve", o->serve_dir,
+                  "Only start the virtual lab and keep it up in this folder (lab.yaml beside "
+                  "its devices) for armsig capture by hand; nothing is captured");
+  NumberOption(sub->add_option("--seconds", o->serve_seconds,
+                               "With --serve: how long to serve (default: until Ctrl-C)"),
+               0.0, 7 * 24 * 3600.0);
   NumberOption(sub->add_option("--seed", o->seed,
                                "The virtual lab's noise and plan (default: 1985 plus the demo "
                                "sessions already stored, so every run measures anew)"),

@@ -275,7 +275,10 @@ std::string FormatCaptureSummary(const acquisition::CaptureSummary& s) {
       "failed, {} skipped; {} re-measured\n",
       s.session, s.already + s.measured + s.skipped, s.total, s.measured + s.skipped, s.already,
       s.usable, s.flagged, s.failed, s.skipped, s.remeasured);
-  if (s.mean_miss_mm) {
+  if (s.single_ray && s.usable > 0) {
+    text += "  one instrument per point: no second ray, no miss distance (each reading checked "
+            "against its own sigmas)\n";
+  } else if (s.mean_miss_mm) {
     text += fmt::format("  miss distance of the usable points: mean {:.4f} mm, max {:.4f} mm\n",
                         *s.mean_miss_mm, *s.max_miss_mm);
   } else if (s.measured > 0) {

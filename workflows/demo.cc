@@ -13,6 +13,7 @@
 #include <fstream>
 #include <optional>
 #include <random>
+#include <thread>
 
 #include "acquisition/lab.h"
 #include "acquisition/session_owner.h"
@@ -143,8 +144,13 @@ DemoResult RunDemo(const DemoOptions& options, const DemoObserver& observer) {
   using namespace std::chrono_literals;
   const auto started = std::chrono::steady_clock::now();
   const calibration::RobotModel model = io::ParseRobotModel(io::kPuma760Yaml, "built-in PUMA 760");
+  const bool serving = !options.serve_dir.empty();
+  if (serving && options.resume_session > 0) {
+    throw InputError({"--serve", 0, 0, ""}, "a served lab captures nothing: no --resume with it");
+  }
   const unsigned seed =
       options.seed ? *options.seed
+      : serving    ? kFirstSeed
                    : kFirstSeed + StoredDemoSessions(options.db_path, options.resume_session);
   const DemoLimits limits = DemoLimitsOf(model, seed);
   // Everything the options decide is checked before anything is created.
@@ -189,21 +195,32 @@ DemoResult RunDemo(const DemoOptions& options, const DemoObserver& observer) {
       options.resume_session > 0 ? static_cast<int>(stored_plan.size()) : options.configurations;
   const int select_count = DemoSelectCount(configurations, options.select, limits);
   RemoveAbandonedScratch();
-  // A fresh private directory (mkdtemp: mode 0700, a name nobody could plant in advance).
-  std::string work_template =
-      (std::filesystem::temp_directory_path() / "armsig-demo-XXXXXX").string();
-  if (!::mkdtemp(work_template.data()))
-    throw std::runtime_error("demo: cannot create a temporary directory in " +
-                             std::filesystem::temp_directory_path().string());
-  const std::filesystem::path work = work_template;
-  io::WriteFileAtomically((work / kOwnerFile).string(), std::to_string(::getpid()) + "\n");
+  std::filesystem::path work;
+  if (serving) {
+    std::error_code ec;
+    std::filesystem::create_directories(options.serve_dir, ec);
+    if (ec || !std::filesystem::is_directory(options.serve_dir)) {
+      throw InputError({"--serve", 0, 0, ""},
+                       "cannot make the folder " + options.serve_dir + " (" + ec.message() + ")");
+    }
+    work = std::filesystem::absolute(options.serve_dir);
+  } else {
+    // A fresh private directory (mkdtemp: mode 0700, a name nobody could plant in advance).
+    std::string work_template =
+        (std::filesystem::temp_directory_path() / "armsig-demo-XXXXXX").string();
+    if (!::mkdtemp(work_template.data()))
+      throw std::runtime_error("demo: cannot create a temporary directory in " +
+                               std::filesystem::temp_directory_path().string());
+    work = work_template;
+    io::WriteFileAtomically((work / kOwnerFile).string(), std::to_string(::getpid()) + "\n");
+  }
   struct Cleanup {
-    std::filesystem::path path;
+    std::filesystem::path path;  // empty: a served lab's folder stays
     ~Cleanup() {
       std::error_code ignored;
-      std::filesystem::remove_all(path, ignored);
+      if (!path.empty()) std::filesystem::remove_all(path, ignored);
     }
-  } cleanup{work};
+  } cleanup{serving ? std::filesystem::path() : work};
 
   // --- The virtual lab: the robot's hidden truth, its controller and the instruments.
   std::mt19937 rng(seed);
@@ -289,7 +306,7 @@ DemoResult RunDemo(const DemoOptions& options, const DemoObserver& observer) {
         "tracker\nspeaking Leica emScon on " +
         tracker->path() + " and a robot controller on a pseudo-terminal in " + work.string() +
         fmt::format("\n(seed {}: --seed {} repeats this run's noise and plan)\n\n", seed, seed));
-    say("1. station LT1, a laser tracker: it measures direction and distance, so one station "
+    if (!serving) say("1. station LT1, a laser tracker: it measures direction and distance, so one station "
         "gives each point,\n   and a tracker-only lab needs no orientation by mutual pointings: "
         "the tracker's own frame is\n   the lab frame (LT1 at the origin, azimuth 0). Where the "
         "robot stands in it is not known yet:\n   the first configurations are measured where the "
@@ -373,8 +390,34 @@ DemoResult RunDemo(const DemoOptions& options, const DemoObserver& observer) {
   io::WriteFileAtomically((work / "puma760.yaml").string(), io::kPuma760Yaml);
   io::WriteFileAtomically((work / "stations.yaml").string(),
                           io::FormatStationsYaml(oriented_stations, "armsig demo"));
+  if (serving && use_tracker) {
+    // Measured by hand, as a lab would: 3 mm and 1 mrad off the truth.
+    Eigen::Isometry3d given = base;
+    given.translate(Eigen::Vector3d(3.0, -2.0, 1.5));
+    given.rotate(Eigen::AngleAxisd(1e-3, Eigen::Vector3d::UnitZ()));
+    lab_file.robot_base = given;
+  }
   io::WriteFileAtomically((work / "lab.yaml").string(), acquisition::FormatLabYaml(lab_file));
   const acquisition::LabConfig lab_config = acquisition::LoadLab((work / "lab.yaml").string());
+  if (serving) {
+    say(fmt::format(
+        "virtual lab ready in {0}: lab.yaml, stations.yaml and puma760.yaml beside its devices.\n"
+        "In another terminal:\n  armsig --db lab.db capture --lab {1} --plan auto:30 --robot "
+        "puma\n{2}\n",
+        work.string(), (work / "lab.yaml").string(),
+        options.serve_seconds > 0 ? fmt::format("Serving for {:g} s (Ctrl-C ends it sooner).",
+                                                options.serve_seconds)
+                                  : std::string("Ctrl-C ends it.")));
+    const auto until = std::chrono::steady_clock::now() +
+                       std::chrono::duration<double>(options.serve_seconds);
+    while (!Stopped(options) &&
+           (options.serve_seconds <= 0 || std::chrono::steady_clock::now() < until)) {
+      std::this_thread::sleep_for(50ms);
+    }
+    DemoResult served;
+    served.completed = true;
+    return served;
+  }
 
   DemoResult result;
   if (Stopped(options) && options.resume_session == 0) {

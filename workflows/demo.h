@@ -35,6 +35,14 @@ struct DemoOptions {
   // Continue this stopped demo session (its stored plan; `configurations` is ignored):
   // capture what is missing, then reduce and calibrate.
   int64_t resume_session = 0;
+  // Serve the virtual lab instead of running the chain: its devices stay up in this
+  // folder (pseudo-terminals, the tracker's TCP port) with the lab file, stations file and
+  // model a technician would write (a tracker lab's `robot: base:` as if measured by hand,
+  // 3 mm and 1 mrad off, so the beam is pointed from the first configuration), until
+  // `serve_seconds` pass (0: until stopped). Nothing is captured and no database is opened:
+  // `armsig capture --lab DIR/lab.yaml` drives it by hand.
+  std::string serve_dir;
+  double serve_seconds = 0.0;
   // Ctrl-C: stop at the next safe point (between configurations, between stages).
   const std::atomic<bool>* stop = nullptr;
 };

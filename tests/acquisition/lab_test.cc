@@ -303,9 +303,18 @@ TEST(LabSettings, FormattedTrackerLabReadsBack) {
   tracker.measurement_time_ms = 200;
   lab.instruments.push_back(tracker);
   lab.tolerances.max_sigma_mm = 0.02;
+  lab.tolerances.max_joint_error_deg = 0.25;
+  Eigen::Isometry3d base = Eigen::Isometry3d::Identity();
+  base.translate(Eigen::Vector3d(2301.25, 1597.5, -1098.5));
+  base.rotate(Eigen::AngleAxisd(2.601, Eigen::Vector3d::UnitZ()));
+  lab.robot_base = base;
   const std::string text = FormatLabYaml(lab);
   EXPECT_EQ(text.find("sigma_hz_arcsec"), std::string::npos) << text;
+  EXPECT_NE(text.find("max_miss_mm: 0.2,"), std::string::npos) << text;  // as written by hand
   const LabSettings s = ParseLabSettings(text, "lab.yaml");
+  ASSERT_TRUE(s.robot_base.has_value());
+  EXPECT_LT((s.robot_base->matrix() - base.matrix()).cwiseAbs().maxCoeff(), 1e-9);
+  EXPECT_EQ(s.tolerances.max_joint_error_deg, 0.25);
   ASSERT_EQ(s.instruments.size(), 1u);
   EXPECT_EQ(s.instruments[0].protocol, "emscon");
   EXPECT_EQ(s.instruments[0].tcp, "127.0.0.1:7000");

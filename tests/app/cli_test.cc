@@ -464,6 +464,43 @@ TEST(Cli, DemoCtrlCAtRandomMomentsLeavesNothingBehindAndResumes) {
 
 namespace armsig::testing {
 
+// `demo --serve DIR`: the demo's virtual lab kept up for a capture by hand, with the lab
+// file a technician would write; one capture drives it like a real lab (a tracker lab's
+// base given as measured by hand, so every beam is pointed by prediction), then Ctrl-C
+// ends it and nothing was stored by it.
+TEST(Cli, ServedVirtualLabIsDrivenByAHandCapture) {
+  for (const std::string instrument : {"tracker", "theodolites"}) {
+    TempDir dir;
+    const std::string lab = dir.File("lab");
+    const pid_t served =
+        SpawnArmsig({"--db", dir.File("unused.db"), "demo", "--serve", lab, "--instrument",
+                     instrument, "--time-scale", "0", "--seconds", "120"},
+                    dir.File("serve.out"), dir.File("serve.err"), dir.path().string());
+    ASSERT_GT(served, 0);
+    for (int wait = 0; wait < 600 && ReadText(dir.File("serve.out")).find("virtual lab ready") ==
+                                          std::string::npos;
+         ++wait) {
+      std::this_thread::sleep_for(std::chrono::milliseconds(50));
+    }
+    ASSERT_NE(ReadText(dir.File("serve.out")).find("virtual lab ready"), std::string::npos)
+        << ReadText(dir.File("serve.err"));
+    EXPECT_TRUE(std::filesystem::exists(lab + "/stations.yaml"));
+    const auto r = RunArmsig("--db '" + dir.File("hand.db") + "' capture --lab '" + lab +
+                             "/lab.yaml' --plan auto:12 --robot puma");
+    EXPECT_EQ(r.exit_code, 0) << instrument << "\n" << r.err << r.out;
+    EXPECT_NE(r.out.find("12 usable"), std::string::npos) << r.out;
+    if (instrument == "tracker") {
+      EXPECT_NE(r.out.find("12 pointed at the predicted target"), std::string::npos) << r.out;
+    }
+    ::kill(served, SIGINT);
+    int status = 0;
+    ::waitpid(served, &status, 0);
+    ASSERT_TRUE(WIFEXITED(status));
+    EXPECT_EQ(WEXITSTATUS(status), 0) << ReadText(dir.File("serve.err"));
+    EXPECT_FALSE(std::filesystem::exists(dir.File("unused.db")));
+  }
+}
+
 TEST(BuiltinModels, DemoPumaIsTheShippedModelFile) {
   EXPECT_EQ(std::string(io::kPuma760Yaml), ReadText(SourcePath("models/puma760.yaml")));
 }
