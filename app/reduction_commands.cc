@@ -1,5 +1,7 @@
 // armsig orient: station set-up by bundle adjustment.
 // armsig triangulate: intersection of every target point from oriented stations.
+#include <spdlog/spdlog.h>
+
 #include <iostream>
 
 #include "app/command.h"
@@ -46,7 +48,7 @@ void SetupOrientCommand(CLI::App& parent, const GlobalOptions&, Runner& run) {
       std::cout << workflows::FormatOrientReport(result);
       if (!result.result.status.ok()) return kFailure;
       if (!result.gate_failure.empty()) {
-        std::cerr << "armsig orient: " << result.gate_failure << "\n";
+        spdlog::error("orient: {}", result.gate_failure);
         return kQualityGate;
       }
       return kOk;

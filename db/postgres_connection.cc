@@ -194,13 +194,14 @@ std::string RedactedUri(const std::string& uri) {
   return out;
 }
 
-PostgresConnection::PostgresConnection(const std::string& uri) : name_(RedactedUri(uri)) {
-  if (name_ != uri) {
+void CheckPostgresUri(const std::string& uri) {
+  const std::string name = RedactedUri(uri);
+  if (name != uri) {
     throw InputError({"--db", 0, 0, ""},
                      "the database URI carries a password; armsig takes credentials only from "
                      "where libpq looks for them (PGPASSWORD, ~/.pgpass, a service file), so "
                      "none stands on a command line or in a log: " +
-                         name_);
+                         name);
   }
   // A URI libpq cannot parse is the user's typo (exit 2), not an unreachable server.
   char* parse_error = nullptr;
@@ -211,9 +212,28 @@ PostgresConnection::PostgresConnection(const std::string& uri) : name_(RedactedU
     while (!why.empty() && (why.back() == '\n' || why.back() == ' ')) why.pop_back();
     throw InputError({"--db", 0, 0, ""},
                      "not a PostgreSQL connection URI (postgresql://[user@]host[:port]/database"
-                     "[?param=value…]): " + name_ + ": " + why);
+                     "[?param=value…]): " + name + ": " + why);
+  }
+  // Values libpq checks only as it connects, checked here too: a port that is no number.
+  std::string bad;
+  for (const PQconninfoOption* o = options; o->keyword; ++o) {
+    if (o->val && std::string(o->keyword) == "port") {
+      const std::string port = o->val;
+      for (const char c : port) {
+        if ((c < '0' || c > '9') && c != ',') bad = port;
+      }
+    }
   }
   PQconninfoFree(options);
+  if (!bad.empty()) {
+    throw InputError({"--db", 0, 0, ""},
+                     "not a usable PostgreSQL connection URI: " + name + ": the port '" + bad +
+                         "' is not a number");
+  }
+}
+
+PostgresConnection::PostgresConnection(const std::string& uri) : name_(RedactedUri(uri)) {
+  CheckPostgresUri(uri);
   conn_ = PQconnectdb(uri.c_str());
   if (!conn_ || PQstatus(conn_) != CONNECTION_OK) {
     std::string why = conn_ ? PQerrorMessage(conn_) : "out of memory";

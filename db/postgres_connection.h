@@ -19,6 +19,10 @@ namespace armsig::db {
 bool IsPostgresUri(const std::string& text);
 // The URI without a password (for messages), e.g. postgresql://job@db.plant/armsig.
 std::string RedactedUri(const std::string& uri);
+// Throws InputError (naming --db) for a URI that carries a password or that libpq cannot
+// parse; connects to nothing. Commands that do work before they open the store check
+// their --db with it first.
+void CheckPostgresUri(const std::string& uri);
 
 class PostgresConnection : public Connection {
  public:

@@ -24,6 +24,7 @@
 #include "core/text.h"
 #include "core/units.h"
 #include "db/database.h"
+#include "db/postgres_connection.h"
 #include "db/store.h"
 #include "instruments/geocom_device.h"
 #include "io/atomic_file.h"
@@ -144,6 +145,8 @@ DemoResult RunDemo(const DemoOptions& options, const DemoObserver& observer) {
   using namespace std::chrono_literals;
   const auto started = std::chrono::steady_clock::now();
   const calibration::RobotModel model = io::ParseRobotModel(io::kPuma760Yaml, "built-in PUMA 760");
+  // A --db that can never open fails now, not after the virtual lab was built and oriented.
+  if (db::IsPostgresUri(options.db_path)) db::CheckPostgresUri(options.db_path);
   const bool serving = !options.serve_dir.empty();
   if (serving && options.resume_session > 0) {
     throw InputError({"--serve", 0, 0, ""}, "a served lab captures nothing: no --resume with it");

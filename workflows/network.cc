@@ -46,6 +46,7 @@ std::vector<reduction::Station> OrientedStations(const reduction::OrientationPro
 namespace {
 
 constexpr double kGlobalTestAlpha = 0.05;
+constexpr double kSuspectSigma0 = 5.0;  // the default gate: warned about when it is lifted
 
 std::string Describe(const reduction::ResidualReport& r) {
   static const char* kKinds[] = {"Hz", "V", "distance", "scale bar", "control"};
@@ -162,6 +163,12 @@ OrientRun OrientFiles(const OrientFilesOptions& options) {
     spdlog::debug("orient: {}", run.gate_failure);
     return run;
   }
+  if (result.sigma0 > kSuspectSigma0) {
+    spdlog::warn("orient: sigma0 {:.2f}: the readings scatter {:.0f} times more than their a "
+                 "priori sigmas (a blunder, or sigmas that are not the instruments'); the "
+                 "stations are written as asked (--max-sigma0 {:g})",
+                 result.sigma0, result.sigma0, options.max_sigma0);
+  }
   OrientationResultScaled scaled(result, run.sigma_scale);
   if (!options.out.empty()) {
     std::string header = fmt::format(
@@ -230,8 +237,11 @@ std::string FormatOrientReport(const OrientRun& run) {
   }
   text += "\nvariance components (one step: sigma0 of each group = sqrt(sum v^2 / sum r))\n";
   for (const auto& g : result.groups) {
-    text += fmt::format("  {:<18} {:>5} observations  redundancy {:>8.2f}  sigma0 {:.4f}\n",
-                        g.group, g.count, g.redundancy, g.sigma0);
+    // A group without redundancy (a scale bar the network cannot check) has no σ0.
+    text += fmt::format("  {:<18} {:>5} observations  redundancy {:>8.2f}  sigma0 {}\n", g.group,
+                        g.count, g.redundancy,
+                        g.redundancy > 1e-6 ? fmt::format("{:.4f}", g.sigma0)
+                                            : std::string("- (no redundancy)"));
   }
   std::vector<reduction::ResidualReport> worst = result.residuals;
   std::sort(worst.begin(), worst.end(),

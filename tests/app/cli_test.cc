@@ -464,6 +464,14 @@ TEST(Cli, DemoCtrlCAtRandomMomentsLeavesNothingBehindAndResumes) {
 
 namespace armsig::testing {
 
+// A --db the demo could never open is refused before the virtual lab is built.
+TEST(Cli, DemoRefusesAnUnusableServerUriFirst) {
+  const auto r = RunArmsig("--db 'postgresql://localhost:badport/lab' demo --configurations 30");
+  EXPECT_EQ(r.exit_code, 2) << r.err;
+  EXPECT_NE(r.err.find("the port 'badport' is not a number"), std::string::npos) << r.err;
+  EXPECT_EQ(r.out.find("virtual lab"), std::string::npos) << r.out;
+}
+
 // `demo --serve DIR`: the demo's virtual lab kept up for a capture by hand, with the lab
 // file a technician would write; one capture drives it like a real lab (a tracker lab's
 // base given as measured by hand, so every beam is pointed by prediction), then Ctrl-C

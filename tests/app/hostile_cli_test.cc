@@ -188,6 +188,9 @@ TEST(HostileCli, OrientAdjustsRepeatedSightingsAndPoleBlundersWithoutNaN) {
                              Q(dir.File("st.yaml")));
     ASSERT_EQ(r.exit_code, 0) << file << "\n" << r.err << r.out;
     ExpectNoCeresLog(r);
+    if (blunder) {  // written as asked, not silently
+      EXPECT_NE(r.err.find("the stations are written as asked"), std::string::npos) << r.err;
+    }
     const auto stations = io::ReadStationsYaml(dir.File("st.yaml"));
     ASSERT_EQ(stations.size(), 3u);
     if (file == "orient-duplicate-datum-sighting.csv") {
