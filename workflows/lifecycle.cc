@@ -4,6 +4,7 @@
 #include <fmt/ranges.h>
 #include <spdlog/spdlog.h>
 
+#include <cmath>
 #include <cstdint>
 #include <cstring>
 #include <limits>
@@ -58,21 +59,25 @@ calibration::RobotModel RegisteredModel(db::Database& database, const std::strin
 }
 
 std::string PosesDigest(const std::vector<MeasuredPose>& poses) {
-  // FNV-1a over the bit patterns of every joint angle and target coordinate, in order.
+  // FNV-1a over every joint angle and target coordinate, in order, each on a grid far
+  // below any instrument's resolution (1e-10 rad, 1e-7 mm): the same measurements read
+  // from a file in metres and one in millimetres differ in their last bits only (a unit
+  // conversion's rounding) and are one digest.
   uint64_t hash = 0xcbf29ce484222325ULL;
-  auto add = [&](double value) {
+  auto add = [&](double value, double grid) {
+    const double steps = std::round(value / grid);
+    int64_t n = std::isfinite(steps) && std::abs(steps) < 9e18 ? static_cast<int64_t>(steps) : 0;
     uint64_t bits = 0;
-    if (value == 0.0) value = 0.0;  // -0 and +0 are one measurement
-    std::memcpy(&bits, &value, sizeof bits);
+    std::memcpy(&bits, &n, sizeof bits);
     for (int k = 0; k < 8; ++k) {
       hash ^= (bits >> (8 * k)) & 0xff;
       hash *= 0x100000001b3ULL;
     }
   };
   for (const auto& p : poses) {
-    add(static_cast<double>(p.joints_rad.size()));
-    for (int i = 0; i < p.joints_rad.size(); ++i) add(p.joints_rad(i));
-    for (int i = 0; i < 3; ++i) add(p.target_in_world(i));
+    add(static_cast<double>(p.joints_rad.size()), 1.0);
+    for (int i = 0; i < p.joints_rad.size(); ++i) add(p.joints_rad(i), 1e-10);
+    for (int i = 0; i < 3; ++i) add(p.target_in_world(i), 1e-7);
   }
   return fmt::format("{:016x}", hash);
 }

@@ -46,6 +46,20 @@ TEST(StorePosesSession, TheSameMeasurementsAreStoredOnce) {
   const auto again = workflows::StorePosesSession(database, "puma", renamed, "b.csv");
   EXPECT_TRUE(again.duplicate);
   EXPECT_EQ(again.session, first.session);
+  // The same targets read from a file in metres: the unit conversion's last-bit rounding
+  // makes no other measurement.
+  auto in_m = poses;
+  int differ = 0;
+  for (size_t k = 0; k < in_m.size(); ++k) {
+    for (int c = 0; c < 3; ++c) {
+      const double metres = poses[k].target_in_world(c) / 1000.0 * 1.0000000000000002;
+      in_m[k].target_in_world(c) = metres * 1000.0;
+      differ += in_m[k].target_in_world(c) != poses[k].target_in_world(c);
+    }
+  }
+  EXPECT_GT(differ, 0);  // the bits did change
+  EXPECT_EQ(workflows::PosesDigest(in_m), first.digest);
+  EXPECT_TRUE(workflows::StorePosesSession(database, "puma", in_m, "m.txt").duplicate);
   auto changed = poses;
   changed[17].target_in_world.z() += 0.001;
   EXPECT_NE(workflows::PosesDigest(changed), first.digest);
