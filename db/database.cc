@@ -313,6 +313,10 @@ FileKind LookBeforeWriting(const std::string& path, int busy_timeout_ms) {
       if (attempt == kAttempts || StateOf(path) == before) throw;
     } catch (const SQLite::Exception&) {
       if (attempt == kAttempts || StateOf(path) == before) throw;
+    } catch (const std::filesystem::filesystem_error&) {
+      // The -wal went while it was copied: another connection closed (its checkpoint
+      // removes the -wal, then the -shm). Look again at what is there now.
+      if (attempt == kAttempts) throw;
     }
     std::this_thread::sleep_for(std::chrono::milliseconds(5 * attempt));
   }

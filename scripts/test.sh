@@ -11,11 +11,15 @@ jobs="$(nproc)"
 scripts/build.sh build -DARMSIG_WERROR=ON -DCMAKE_CXX_FLAGS_RELWITHDEBINFO="-O2 -DNDEBUG"
 ctest --test-dir build --output-on-failure --parallel "$jobs"
 # One clang tree instrumented for AddressSanitizer + UndefinedBehaviorSanitizer and for
-# libFuzzer (ARMSIG_FUZZ implies ARMSIG_SANITIZE): the whole suite under the sanitizers,
+# libFuzzer (ARMSIG_FUZZ implies ARMSIG_SANITIZE): the suite under the sanitizers,
 # then every parser under libFuzzer for a short run (scripts/fuzz.sh 3600 is the long
 # campaign) from the same objects.
 CXX=clang++ scripts/build.sh build-fuzz -DARMSIG_WERROR=ON -DARMSIG_FUZZ=ON \
   -DARMSIG_BUILD_TESTS=ON -DARMSIG_BUILD_BENCH=OFF
+# The real-data figures (the UR10's 2,773 poses through Ceres, a minute or more each under
+# ASan, half the sanitizer pass) ran above in the gcc suite; under the sanitizers the same
+# code paths run on the smaller data of every other test.
 ASAN_OPTIONS=detect_leaks=1 UBSAN_OPTIONS=print_stacktrace=1 \
-  ctest --test-dir build-fuzz --output-on-failure --parallel "$jobs"
-scripts/fuzz.sh "${ARMSIG_FUZZ_SECONDS:-15}"
+  ctest --test-dir build-fuzz --output-on-failure --parallel "$jobs" \
+  --exclude-regex "${ARMSIG_SANITIZE_SKIP:-RealUr10|Ur10Split|ResidualMapIsStoredAppliedExportedAndReported|ServerRoles}"
+scripts/fuzz.sh "${ARMSIG_FUZZ_SECONDS:-10}"
