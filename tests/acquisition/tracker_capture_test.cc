@@ -434,6 +434,25 @@ TEST_F(TrackerLabFixture, TwoTheodolitesAndATrackerIntersectTogether) {
 // A reading whose stated sigma exceeds max_sigma_mm is flagged and measured again; so are
 // repeated readings that disagree beyond their sigmas (readings: 2), even with a repeat
 // tolerance in mm too wide to notice; one that stays poor is stored flagged.
+// The lab's fixed-mm repeat tolerance is the theodolites': a tracker's repeated readings
+// are judged by the sigmas it states only. With max_repeat_mm at 1 µm (far below the
+// tracker's own noise) a tracker-only capture re-measures nothing and flags nothing (it
+// re-measured every configuration, then stored it flagged, before).
+TEST_F(TrackerLabFixture, AFixedMmRepeatToleranceDoesNotJudgeATracker) {
+  TrackerLab setup;
+  setup.base_in_lab = true;
+  setup.tolerances += ", readings: 2, max_repeat_mm: 0.001, max_remeasure: 2";
+  Start(setup);
+  const LabConfig lab = LoadLab(dir_.File("lab.yaml"));
+  db::Database db(Db());
+  const CaptureSummary s = Run(WellSpreadPlan(lab.model, 6, 300, 13), false, db);
+  ASSERT_TRUE(s.completed) << s.pause_reason;
+  EXPECT_EQ(s.remeasured, 0);
+  EXPECT_EQ(s.usable, 6);
+  EXPECT_EQ(s.flagged, 0);
+  EXPECT_EQ(Count(db, "SELECT count(*) FROM observations"), 12);  // two readings each
+}
+
 TEST_F(TrackerLabFixture, PoorReadingsAreMeasuredAgainByTheTrackersOwnSigmas) {
   TrackerLab setup;
   setup.base_in_lab = true;
