@@ -60,29 +60,6 @@ struct StationReading {
 // Ctrl-C: the flag was raised while a configuration was being measured.
 struct StopRequested {};
 
-// Hands the stop flag to every device for the duration of a capture, so that a device
-// call in flight (a flooding port, a long move) ends within a few milliseconds.
-class InterruptScope {
- public:
-  InterruptScope(std::vector<std::unique_ptr<instruments::DistanceInstrument>>& devices,
-                 instruments::RobotController& controller, const std::atomic<bool>* stop)
-      : devices_(devices), controller_(controller) {
-    if (!stop) return;
-    for (auto& d : devices_) d->SetInterrupt(stop);
-    controller_.SetInterrupt(stop);
-  }
-  ~InterruptScope() {
-    for (auto& d : devices_) d->SetInterrupt(nullptr);
-    controller_.SetInterrupt(nullptr);
-  }
-  InterruptScope(const InterruptScope&) = delete;
-  InterruptScope& operator=(const InterruptScope&) = delete;
-
- private:
-  std::vector<std::unique_ptr<instruments::DistanceInstrument>>& devices_;
-  instruments::RobotController& controller_;
-};
-
 struct Measurement {
   Eigen::VectorXd joints;
   std::vector<StationReading> readings;  // every reading of every instrument (faces, repeats)
@@ -212,24 +189,23 @@ CaptureSummary RunCapture(db::Database& db, const LabConfig& lab, int64_t sessio
   }
   // The robot base fitted to the measured points: laser trackers point their beams
   // through it, and every session checks by it that the points follow the robot.
-  std::optional<TargetPredictor> predictor;
-  predictor.emplace(
+  TargetPredictor predictor(
       lab.model,
       options.prediction_params.value_or(Eigen::VectorXd::Zero(lab.model.num_parameters())),
       lab.robot_base);
   // A resumed session starts from the points it has (the base is known at once).
   for (const auto& p : db::LoadSessionPoses(db, session)) {
-    predictor->Add(p.joints_rad, p.target_in_world);
+    predictor.Add(p.joints_rad, p.target_in_world);
   }
   if (any_beam) {
-    spdlog::info("capture: laser tracker beams point through {}{}", predictor->Describe(),
+    spdlog::info("capture: laser tracker beams point through {}{}", predictor.Describe(),
                  options.prediction_params ? " and the robot's active arm signature"
                                            : " and the nominal model");
   }
   // Points that do not follow the robot: the session stops before measuring more of them
   // and is discarded (what is stored stays, unused), naming what it found.
   const auto pause_unless_following = [&](const std::string& where) {
-    const auto problem = predictor->FollowProblem(lab.tolerances.max_base_fit_rms_mm);
+    const auto problem = predictor.FollowProblem(lab.tolerances.max_base_fit_rms_mm);
     if (!problem) return false;
     summary.paused = summary.discarded = true;
     summary.pause_reason = where + ": " + *problem;
@@ -239,7 +215,7 @@ CaptureSummary RunCapture(db::Database& db, const LabConfig& lab, int64_t sessio
     return true;
   };
   const bool stored_points_wrong =
-      pause_unless_following(fmt::format("the {} stored points of this session", predictor->points()));
+      pause_unless_following(fmt::format("the {} stored points of this session", predictor.points()));
   std::vector<std::optional<double>> expected_distance(devices.size());  // this configuration
   std::vector<double> last_distance(devices.size(), 0.0);
   std::atomic<int> searches{0}, operator_pointed{0};
@@ -371,7 +347,7 @@ CaptureSummary RunCapture(db::Database& db, const LabConfig& lab, int64_t sessio
       q = controller.ReadJointsRad();
       device_ms += MsSince(a);
     }
-    const auto predicted = predictor->Predict(q);
+    const auto predicted = predictor.Predict(q);
     if (!predicted) return device_ms;
     std::vector<std::function<double()>> moves;
     for (size_t i = 0; i < devices.size(); ++i) {
@@ -401,18 +377,11 @@ CaptureSummary RunCapture(db::Database& db, const LabConfig& lab, int64_t sessio
   // (tracker_checks), which at 10 m exceed any fixed 0.05 mm.
   int angle_only = 0;
   for (size_t i = 0; i < devices.size(); ++i) angle_only += beams[i] ? 0 : 1;
-  auto repeat_rays_of = [&](const std::vector<StationReading>& readings) {
+  // angles_only: the theodolites' rays only (the fixed-mm repeat check's).
+  auto rays_of = [&](const std::vector<StationReading>& readings, bool angles_only = false) {
     std::vector<reduction::Ray> rays;
     for (const auto& r : readings) {
-      if (beams[r.instrument]) continue;
-      rays.push_back(reduction::RayOf(ObservationOf(r, lab.instruments[r.instrument]),
-                                      *station_of[r.instrument], reduction::InstrumentDefaults{}));
-    }
-    return rays;
-  };
-  auto rays_of = [&](const std::vector<StationReading>& readings) {
-    std::vector<reduction::Ray> rays;
-    for (const auto& r : readings) {
+      if (angles_only && beams[r.instrument]) continue;
       rays.push_back(reduction::RayOf(ObservationOf(r, lab.instruments[r.instrument]),
                                       *station_of[r.instrument], reduction::InstrumentDefaults{}));
     }
@@ -495,11 +464,11 @@ CaptureSummary RunCapture(db::Database& db, const LabConfig& lab, int64_t sessio
           round(true, m, target, 0);
           if (controller.CanMove()) check_joints(target, m.joints);
           reduction::RayGroup group;  // every ray, and each repeated round's rays
-          if (angle_only >= 2) group.repeats.push_back(repeat_rays_of(m.readings));
+          if (angle_only >= 2) group.repeats.push_back(rays_of(m.readings, true));
           for (int k = 1; k < lab.tolerances.readings; ++k) {
             Measurement again;
             round(false, again, target, k);
-            if (angle_only >= 2) group.repeats.push_back(repeat_rays_of(again.readings));
+            if (angle_only >= 2) group.repeats.push_back(rays_of(again.readings, true));
             m.readings.insert(m.readings.end(), again.readings.begin(), again.readings.end());
             m.device_ms += again.device_ms;
           }
@@ -604,11 +573,11 @@ CaptureSummary RunCapture(db::Database& db, const LabConfig& lab, int64_t sessio
         if (r.reading.distance_mm) last_distance[r.instrument] = *r.reading.distance_mm;
       }
       if (result.status.ok() && m.point.accepted()) {
-        const bool had_fit = predictor->fitted();
-        predictor->Add(m.joints, result.position_mm);
-        if (any_beam && !had_fit && predictor->fitted()) {
+        const bool had_fit = predictor.fitted();
+        predictor.Add(m.joints, result.position_mm);
+        if (any_beam && !had_fit && predictor.fitted()) {
           spdlog::info("capture: robot base {}; the tracker beams point by prediction from now on",
-                       predictor->Describe().substr(5));
+                       predictor.Describe().substr(5));
         }
         not_following = pause_unless_following(
             fmt::format("configuration {} ({} of {})", target.label, seq + 1, plan.size()));
@@ -660,7 +629,7 @@ CaptureSummary RunCapture(db::Database& db, const LabConfig& lab, int64_t sessio
   summary.mean_store_ms = stores ? store_sum / stores : 0.0;
   summary.beam_searches = searches.load();
   summary.beam_operator = operator_pointed.load();
-  if (any_beam) summary.beam_base = predictor->Describe();
+  if (any_beam) summary.beam_base = predictor.Describe();
   if (!summary.paused && !summary.stopped) {
     summary.completed = true;
     db::SetSessionState(db, session, "completed");

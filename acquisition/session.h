@@ -90,6 +90,29 @@ struct CaptureSummary {
 int64_t CreateSession(db::Database& db, const LabConfig& lab, const std::string& robot,
                       const Plan& plan);
 
+// Hands the stop flag to every device for the duration of a capture, so that a device
+// call in flight (a flooding port, a long move) ends within a few milliseconds.
+class InterruptScope {
+ public:
+  InterruptScope(std::vector<std::unique_ptr<instruments::DistanceInstrument>>& devices,
+                 instruments::RobotController& controller, const std::atomic<bool>* stop)
+      : devices_(devices), controller_(controller) {
+    if (!stop) return;
+    for (auto& d : devices_) d->SetInterrupt(stop);
+    controller_.SetInterrupt(stop);
+  }
+  ~InterruptScope() {
+    for (auto& d : devices_) d->SetInterrupt(nullptr);
+    controller_.SetInterrupt(nullptr);
+  }
+  InterruptScope(const InterruptScope&) = delete;
+  InterruptScope& operator=(const InterruptScope&) = delete;
+
+ private:
+  std::vector<std::unique_ptr<instruments::DistanceInstrument>>& devices_;
+  instruments::RobotController& controller_;
+};
+
 CaptureSummary RunCapture(
     db::Database& db, const LabConfig& lab, int64_t session,
     std::vector<std::unique_ptr<instruments::DistanceInstrument>>& instruments,

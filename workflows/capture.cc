@@ -87,16 +87,7 @@ acquisition::CaptureSummary CaptureWith(
 void ProbeDevices(const acquisition::LabConfig& lab,
                   std::vector<std::unique_ptr<instruments::DistanceInstrument>>& devices,
                   instruments::RobotController& controller, const std::atomic<bool>* stop) {
-  for (auto& d : devices) d->SetInterrupt(stop);
-  controller.SetInterrupt(stop);
-  struct Release {
-    std::vector<std::unique_ptr<instruments::DistanceInstrument>>& devices;
-    instruments::RobotController& controller;
-    ~Release() {
-      for (auto& d : devices) d->SetInterrupt(nullptr);
-      controller.SetInterrupt(nullptr);
-    }
-  } release{devices, controller};
+  const acquisition::InterruptScope interrupts(devices, controller, stop);
   for (size_t i = 0; i < devices.size(); ++i) {
     const auto& config = lab.instruments[i];
     try {
@@ -209,11 +200,8 @@ CaptureOutcome RunCaptureSession(const CaptureRequest& request) {
       out.summary.session = session;
       return out;
     }
-  }
-  if (session > 0) {
     if (!open_devices()) return out;
     // Refused while another live process runs it; an interrupted one is ours now.
-    const auto row = db::LoadSession(database, session);
     spdlog::debug("capture: session {} is {} (stored state {}); claiming it", session,
                   acquisition::DisplayState(row->state, row->owner), row->state);
     acquisition::ClaimSession(database, session);

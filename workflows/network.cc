@@ -58,25 +58,15 @@ std::string Describe(const reduction::ResidualReport& r) {
 }
 
 // The result with its station sigmas and point covariances scaled (a posteriori).
-class OrientationResultScaled {
- public:
-  OrientationResultScaled(const reduction::OrientationResult& result, double scale)
-      : result_(result) {
-    if (scale == 1.0) return;
-    scaled_ = result;
-    for (auto& s : scaled_->stations) {
-      s.sigma_position_mm *= scale;
-      s.sigma_azimuth_rad *= scale;
-      s.sigma_rotation_rad *= scale;
-    }
-    for (auto& p : scaled_->points) p.covariance_mm2 *= scale * scale;
+reduction::OrientationResult Scaled(reduction::OrientationResult result, double scale) {
+  for (auto& st : result.stations) {
+    st.sigma_position_mm *= scale;
+    st.sigma_azimuth_rad *= scale;
+    st.sigma_rotation_rad *= scale;
   }
-  const reduction::OrientationResult& get() const { return scaled_ ? *scaled_ : result_; }
-
- private:
-  const reduction::OrientationResult& result_;
-  std::optional<reduction::OrientationResult> scaled_;
-};
+  for (auto& p : result.points) p.covariance_mm2 *= scale * scale;
+  return result;
+}
 
 }  // namespace
 
@@ -169,7 +159,7 @@ OrientRun OrientFiles(const OrientFilesOptions& options) {
                  "stations are written as asked (--max-sigma0 {:g})",
                  result.sigma0, result.sigma0, options.max_sigma0);
   }
-  OrientationResultScaled scaled(result, run.sigma_scale);
+  const reduction::OrientationResult scaled = Scaled(result, run.sigma_scale);
   if (!options.out.empty()) {
     std::string header = fmt::format(
         "armsig orient: {} stations from {}; datum: {}\nsigma0 {:.5f}, {} degrees of freedom",
@@ -180,10 +170,10 @@ OrientRun OrientFiles(const OrientFilesOptions& options) {
           run.global_test_p, run.sigma_scale);
     }
     io::WriteFileAtomically(options.out,
-                            io::FormatStationsYaml(OrientedStations(problem, scaled.get()), header));
+                            io::FormatStationsYaml(OrientedStations(problem, scaled), header));
   }
   if (!options.points_out.empty())
-    io::WriteFileAtomically(options.points_out, FormatAdjustedPointsCsv(scaled.get().points));
+    io::WriteFileAtomically(options.points_out, FormatAdjustedPointsCsv(scaled.points));
   return run;
 }
 
@@ -223,10 +213,10 @@ std::string FormatOrientReport(const OrientRun& run) {
                             : std::string(": passed"));
   }
   text += "\n";
-  const OrientationResultScaled scaled(result, run.sigma_scale);
+  const reduction::OrientationResult scaled = Scaled(result, run.sigma_scale);
   text += fmt::format("{:<10}{:>14}{:>14}{:>14}{:>16}{:>10}{:>10}{:>10}{:>12}\n", "station", "x_mm",
                       "y_mm", "z_mm", "azimuth_gon", "sx_mm", "sy_mm", "sz_mm", "s_az_\"");
-  for (const auto& s : scaled.get().stations) {
+  for (const auto& s : scaled.stations) {
     text += fmt::format(
         "{:<10}{:>14.4f}{:>14.4f}{:>14.4f}{:>16}{:>10.4f}{:>10.4f}{:>10.4f}{:>12.3f}\n", s.pose.id,
         s.pose.position_mm.x(), s.pose.position_mm.y(), s.pose.position_mm.z(),
