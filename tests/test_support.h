@@ -3,12 +3,16 @@
 
 #include <gtest/gtest.h>
 
+#include <sys/wait.h>
+
+#include <chrono>
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
 #include <random>
 #include <sstream>
 #include <string>
+#include <thread>
 
 #include "calibration/model.h"
 #include "io/model_yaml.h"
@@ -72,6 +76,35 @@ inline CommandResult RunArmsig(const std::string& args, const std::string& cwd =
   result.out = ReadText(out);
   result.err = ReadText(err);
   return result;
+}
+
+// Waits for an event that `ready` observes (a session row, a line in a log), polling every
+// 2 ms. `limit` only guards against a hang: a slow or loaded machine makes a test slower,
+// never wrong. False when the limit passed first.
+template <class Predicate>
+bool WaitUntil(Predicate ready, std::chrono::milliseconds limit = std::chrono::minutes(3)) {
+  const auto until = std::chrono::steady_clock::now() + limit;
+  while (!ready()) {
+    if (std::chrono::steady_clock::now() > until) return false;
+    std::this_thread::sleep_for(std::chrono::milliseconds(2));
+  }
+  return true;
+}
+
+// A child process: waits until `ready` or until the child has ended (then `*status` holds
+// its wait status and the result is false, so the caller does not signal a reaped pid).
+template <class Predicate>
+bool WaitForChildOr(pid_t child, int* status, Predicate ready,
+                    std::chrono::milliseconds limit = std::chrono::minutes(3)) {
+  bool ended = false;
+  const bool happened = WaitUntil(
+      [&] {
+        if (ready()) return true;
+        ended = ::waitpid(child, status, WNOHANG) == child;
+        return ended;
+      },
+      limit);
+  return happened && !ended;
 }
 
 }  // namespace armsig::testing

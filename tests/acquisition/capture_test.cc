@@ -280,12 +280,12 @@ void VirtualLabFixture::KillNineThenResume(int kills_wanted) {
     ASSERT_GE(child, 0);
     if (!have_session) {
       // Planning takes a moment; start killing once the session exists.
-      for (int wait = 0; wait < 1000; ++wait) {
-        std::this_thread::sleep_for(10ms);
-        if (!StoreMade()) continue;
+      int ended = 0;
+      testing::WaitForChildOr(child, &ended, [&] {
+        if (!StoreMade()) return false;
         db::Database db(Db());
-        if (Count(db, "SELECT count(*) FROM sessions") > 0) break;
-      }
+        return Count(db, "SELECT count(*) FROM sessions") > 0;
+      });
     }
     std::this_thread::sleep_for(std::chrono::milliseconds(delay(rng)));
     int status = 0;
@@ -429,12 +429,12 @@ TEST_F(VirtualLabFixture, ASecondCaptureOnTheSameDevicesIsRefused) {
                                     dir_.File("lab.yaml"), "--plan", "auto:40", "--robot",
                                     "puma"});
   ASSERT_GE(first, 0);
-  for (int wait = 0; wait < 1000; ++wait) {
-    std::this_thread::sleep_for(10ms);
-    if (!std::filesystem::exists(Db())) continue;
+  int ended = 0;
+  ASSERT_TRUE(testing::WaitForChildOr(first, &ended, [&] {
+    if (!std::filesystem::exists(Db())) return false;
     db::Database db(Db());
-    if (Count(db, "SELECT count(*) FROM poses") >= 2) break;
-  }
+    return Count(db, "SELECT count(*) FROM poses") >= 2;
+  })) << "the first capture ended before it stored two configurations";
   const auto second = testing::RunArmsig("--db '" + dir_.File("other.db") + "' capture --lab '" +
                                          dir_.File("lab.yaml") + "' --plan auto:5 --robot puma");
   EXPECT_EQ(second.exit_code, 1) << second.err;
@@ -547,37 +547,46 @@ TEST_F(VirtualLabFixture, CtrlCStopsCleanlyAndResumeCompletes) {
   EXPECT_EQ(Text(db, "SELECT state FROM sessions"), "completed");
 }
 
-// Ctrl-C at random moments from the very first one (before the session exists, while
-// devices open, mid-capture): the session is never left running, and the resume
-// command printed, run as printed from another directory, completes it.
+// Ctrl-C at moments defined by what the capture has done, never by the clock: right after
+// the start (before the session exists, while devices answer), just after the session row
+// appears, and once a configuration is stored, each with a random extra delay. The session
+// is never left running, and the resume command printed, run as printed from another
+// directory, completes it. A slow or loaded machine only makes the test slower.
 TEST_F(VirtualLabFixture, CtrlCAtRandomMomentsLeavesAResumableSession) {
   Start({8, 8, 8});
   std::mt19937 rng(20261123);
-  std::uniform_int_distribution<int> delay(0, 400);
+  std::uniform_int_distribution<int> delay(0, 20);
   const std::string binary = ARMSIG_BINARY;
-  int sessions = 0, paused = 0;
+  int waited_sessions = 0, sessions = 0, paused = 0;
   for (int round = 0; round < 6; ++round) {
     const std::string db = dir_.File("ctrl-c-" + std::to_string(round) + ".db");
     const pid_t child = Spawn({binary, "--db", db, "capture", "--lab", dir_.File("lab.yaml"),
                                "--plan", "auto:12", "--robot", "puma"},
                               dir_.File("out"), dir_.File("err"));
     ASSERT_GE(child, 0);
-    if (round % 2 == 1) {
-      // Odd rounds: once the session exists (a loaded machine may take longer than the
-      // blind delays of the even rounds to get there), then a random moment after.
-      for (int wait = 0; wait < 1000; ++wait) {
-        std::this_thread::sleep_for(2ms);
-        if (!std::filesystem::exists(db)) continue;
-        db::Database database(db);
-        if (Count(database, "SELECT count(*) FROM sessions") > 0) break;
-      }
-      std::this_thread::sleep_for(std::chrono::milliseconds(delay(rng) / 4));
-    } else {
-      std::this_thread::sleep_for(std::chrono::milliseconds(delay(rng)));
-    }
-    ::kill(child, SIGINT);
+    auto count = [&](const char* sql) {
+      if (!std::filesystem::exists(db)) return 0;
+      db::Database database(db);
+      return Count(database, sql);
+    };
     int status = 0;
-    ::waitpid(child, &status, 0);
+    bool running = true;
+    const int moment = round % 3;  // 0: at once, 1: the session row, 2: a stored configuration
+    if (moment == 1) {
+      running = testing::WaitForChildOr(
+          child, &status, [&] { return count("SELECT count(*) FROM sessions") > 0; });
+    } else if (moment == 2) {
+      running = testing::WaitForChildOr(
+          child, &status, [&] { return count("SELECT count(*) FROM poses") > 0; });
+    }
+    ASSERT_TRUE(running || moment == 0) << "the capture ended before the moment\n"
+                                        << testing::ReadText(dir_.File("err"));
+    if (running) {
+      std::this_thread::sleep_for(std::chrono::milliseconds(delay(rng)));
+      ::kill(child, SIGINT);
+      ::waitpid(child, &status, 0);
+    }
+    if (moment != 0) ++waited_sessions;
     const std::string err = testing::ReadText(dir_.File("err"));
     if (!std::filesystem::exists(db)) continue;  // stopped before the database was opened
     db::Database database(db);
@@ -597,8 +606,10 @@ TEST_F(VirtualLabFixture, CtrlCAtRandomMomentsLeavesAResumableSession) {
               "completed");
     EXPECT_EQ(Count(database, "SELECT count(*) FROM poses WHERE session_id = 1"), 12);
   }
-  EXPECT_GE(sessions, 3);
-  EXPECT_GE(paused, 2) << "of " << sessions << " sessions";
+  // Every round that waited for the session has one; a Ctrl-C at most 20 ms after the
+  // session row or the first stored configuration of twelve finds it unfinished.
+  EXPECT_GE(sessions, waited_sessions);
+  EXPECT_GE(paused, waited_sessions / 2) << "of " << sessions << " sessions";
 }
 
 // Every ray nearly parallel: no point can be intersected. Each configuration is counted
@@ -917,12 +928,12 @@ TEST_F(VirtualLabFixture, CtrlCDuringAFloodEndsTheCaptureAtOnce) {
                              "--plan", "auto:40", "--robot", "puma"},
                             dir_.File("out"), dir_.File("err"));
   ASSERT_GE(child, 0);
-  for (int wait = 0; wait < 3000; ++wait) {
-    std::this_thread::sleep_for(10ms);
-    if (!std::filesystem::exists(Db())) continue;
+  int ended = 0;
+  ASSERT_TRUE(testing::WaitForChildOr(child, &ended, [&] {
+    if (!std::filesystem::exists(Db())) return false;
     db::Database db(Db());
-    if (Count(db, "SELECT count(*) FROM poses") >= 2) break;
-  }
+    return Count(db, "SELECT count(*) FROM poses") >= 2;
+  })) << testing::ReadText(dir_.File("err"));
   sims_[1]->InjectAlways({simulation::Fault::kFloodLines, 0});
   std::this_thread::sleep_for(500ms);  // the capture is reading the flood now
   const auto raised = std::chrono::steady_clock::now();

@@ -530,12 +530,12 @@ TEST_F(TrackerLabFixture, KillNineAtRandomMomentsThenResume) {
     const pid_t child = SpawnQuietly(args);
     ASSERT_GE(child, 0);
     if (!have_session) {
-      for (int wait = 0; wait < 1000; ++wait) {
-        std::this_thread::sleep_for(10ms);
-        if (!std::filesystem::exists(Db())) continue;
+      int ended = 0;
+      testing::WaitForChildOr(child, &ended, [&] {
+        if (!std::filesystem::exists(Db())) return false;
         db::Database db(Db());
-        if (Count(db, "SELECT count(*) FROM sessions") > 0) break;
-      }
+        return Count(db, "SELECT count(*) FROM sessions") > 0;
+      });
     }
     std::this_thread::sleep_for(std::chrono::milliseconds(delay(rng)));
     int status = 0;

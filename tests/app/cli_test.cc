@@ -415,18 +415,23 @@ TEST(Cli, DemoCtrlCAtRandomMomentsLeavesNothingBehindAndResumes) {
         SpawnArmsig({"--db", db, "demo", "--configurations", "40", "--time-scale", "0.05"},
                     dir.File("out"), dir.File("err"), tmp);
     ASSERT_GE(child, 0);
+    int status = 0;
+    bool running = true;
     if (round % 2 == 1) {
-      // Odd rounds: once the session exists (a loaded machine may take longer than the
-      // blind delays of the even rounds to get there), then a random moment after.
-      for (int wait = 0; wait < 1000 && !HasSession(db); ++wait)
-        std::this_thread::sleep_for(std::chrono::milliseconds(5));
+      // Odd rounds: once the session exists (an event: a loaded machine only takes longer
+      // to get there), then a random moment after.
+      running = WaitForChildOr(child, &status, [&] { return HasSession(db); });
+      ASSERT_TRUE(running) << ReadText(dir.File("err"));
       std::this_thread::sleep_for(std::chrono::milliseconds(delay(rng) / 10));
     } else {
+      // Even rounds: a blind moment (before the lab is built, during the capture or the
+      // calibration); every outcome must be coherent.
       std::this_thread::sleep_for(std::chrono::milliseconds(delay(rng)));
     }
-    ::kill(child, SIGINT);
-    int status = 0;
-    ::waitpid(child, &status, 0);
+    if (running) {
+      ::kill(child, SIGINT);
+      ::waitpid(child, &status, 0);
+    }
     const std::string err = ReadText(dir.File("err"));
     EXPECT_EQ(TempEntries(tmp), 0) << "round " << round << "\n" << err;
     if (!std::filesystem::exists(db)) continue;
@@ -485,11 +490,10 @@ TEST(Cli, ServedVirtualLabIsDrivenByAHandCapture) {
                      instrument, "--time-scale", "0", "--seconds", "120"},
                     dir.File("serve.out"), dir.File("serve.err"), dir.path().string());
     ASSERT_GT(served, 0);
-    for (int wait = 0; wait < 600 && ReadText(dir.File("serve.out")).find("virtual lab ready") ==
-                                          std::string::npos;
-         ++wait) {
-      std::this_thread::sleep_for(std::chrono::milliseconds(50));
-    }
+    int ended = 0;
+    WaitForChildOr(served, &ended, [&] {
+      return ReadText(dir.File("serve.out")).find("virtual lab ready") != std::string::npos;
+    });
     ASSERT_NE(ReadText(dir.File("serve.out")).find("virtual lab ready"), std::string::npos)
         << ReadText(dir.File("serve.err"));
     EXPECT_TRUE(std::filesystem::exists(lab + "/stations.yaml"));

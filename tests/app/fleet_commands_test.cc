@@ -119,13 +119,12 @@ TEST_P(FleetCommands, AWorkerKilledMidJobIsRetriedByAnotherAndStoredOnce) {
     ::_exit(127);
   }
   // Kill it as soon as it holds the job.
-  bool running = false;
-  for (int k = 0; k < 2000 && !running; ++k) {
-    std::this_thread::sleep_for(5ms);
+  int ended = 0;
+  const bool running = WaitForChildOr(pid, &ended, [&] {
     db::Database database(path, db::OpenMode::kMustExist);
-    running = database.connection().QueryInt(
-                  "SELECT count(*) FROM jobs WHERE state = 'running'") == 1;
-  }
+    return database.connection().QueryInt(
+               "SELECT count(*) FROM jobs WHERE state = 'running'") == 1;
+  });
   ASSERT_TRUE(running);
   ::kill(pid, SIGKILL);
   int status = 0;
@@ -172,11 +171,10 @@ TEST_P(FleetCommands, SigtermFinishesTheCurrentJobThenStops) {
             static_cast<char*>(nullptr));
     ::_exit(127);
   }
-  bool started = false;
-  for (int k = 0; k < 4000 && !started; ++k) {
-    std::this_thread::sleep_for(5ms);
-    started = ReadText(log).find(": recalibrate puma (attempt 1)") != std::string::npos;
-  }
+  int ended = 0;
+  const bool started = WaitForChildOr(pid, &ended, [&] {
+    return ReadText(log).find(": recalibrate puma (attempt 1)") != std::string::npos;
+  });
   if (!started) ::kill(pid, SIGKILL);
   ASSERT_TRUE(started) << ReadText(log);
   ::kill(pid, SIGTERM);
