@@ -221,7 +221,7 @@ void TolerancesFrom(const YamlValue& value, Tolerances& tol, instruments::RetryP
 
 RecalibrationSettings RecalibrationFrom(const YamlValue& value) {
   const YamlMap map = value.Map({"max_validation_mean_mm", "max_validation_max_mm", "tolerance_mm",
-                                 "drift_sigma", "drift_mm"});
+                                 "drift_sigma", "drift_mm", "window"});
   RecalibrationSettings r;
   if (const auto v = map.Find("max_validation_mean_mm")) r.max_validation_mean_mm = PositiveMm(*v);
   if (const auto v = map.Find("max_validation_max_mm")) r.max_validation_max_mm = PositiveMm(*v);
@@ -236,6 +236,11 @@ RecalibrationSettings RecalibrationFrom(const YamlValue& value) {
   if (const auto v = map.Find("drift_mm")) {
     r.drift_mm = v->NonNegativeNumber();
     if (r.drift_mm > kMaxGateMm) PositiveMm(*v);
+  }
+  if (const auto w = map.Find("window")) {
+    const YamlMap window = w->Map({"sessions", "days"});
+    if (const auto v = window.Find("sessions")) r.window_sessions = v->Integer(0, 100000);
+    if (const auto v = window.Find("days")) r.window_days = v->Integer(0, 100000);
   }
   return r;
 }

@@ -73,6 +73,9 @@ struct RecalibrationSettings {
   std::optional<double> tolerance_mm;
   std::optional<double> drift_sigma;
   std::optional<double> drift_mm;  // smallest change of predicted positions called drift
+  // `window: {sessions: N, days: D}`: the sessions a nightly fit may use — the newest N
+  // (0: no limit), started within the last D days (0: no limit).
+  std::optional<int> window_sessions, window_days;
 };
 
 // What a lab text says, read without opening the files it names: works on the lab YAML a

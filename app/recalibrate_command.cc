@@ -1,14 +1,19 @@
 // armsig recalibrate --robot NAME [--since …] [--select N] [--params …|auto] [--report DIR]
-// [--json OUT]: the nightly job (workflows/recalibrate.h); exit 3 when a gate fails, 1 when
-// the fit itself failed (not converged).
+// [--json OUT] [--notify CMD]: the nightly job (workflows/recalibrate.h). Exit codes: 0
+// stored or up to date, 4 drift (a set fitted after the change stored), 5 drift suspected
+// (too few configurations since the change; nothing stored), 3 a gate failed, 1 the fit
+// failed, 2 input.
 #include <fmt/format.h>
+#include <spdlog/spdlog.h>
 
 #include <iostream>
 
 #include "app/command.h"
+#include "core/error.h"
 #include "core/plausibility.h"
 #include "core/text.h"
 #include "io/atomic_file.h"
+#include "io/notify.h"
 #include "workflows/recalibrate.h"
 
 namespace armsig::app {
@@ -16,23 +21,73 @@ namespace armsig::app {
 struct RecalibrateCommand {
   workflows::RecalibrateOptions options;
   std::string json;
+  std::string notify;
+  double notify_timeout_s = 60;
 };
+
+namespace {
+
+// The lab's command (mail, chat) on every night a person must see — drift, a suspected
+// change, a rejected or failed fit, an input error — fed the JSON summary on stdin.
+// Its failure is logged, never hidden, and does not change the job's exit code.
+void Notify(const RecalibrateCommand& c, const nlohmann::json& summary, int exit_code) {
+  if (c.notify.empty() || exit_code == kOk) return;
+  const auto r = io::RunNotifyCommand(
+      c.notify, JsonText(summary, 2) + "\n",
+      {{"ARMSIG_ROBOT", c.options.robot},
+       {"ARMSIG_EXIT_CODE", std::to_string(exit_code)},
+       {"ARMSIG_DECISION", summary.value("decision", std::string("error"))},
+       {"ARMSIG_DRIFT_LINE", summary.value("drift_line", std::string())}},
+      std::chrono::milliseconds(static_cast<int64_t>(c.notify_timeout_s * 1000)));
+  if (r.ok()) {
+    spdlog::info("recalibrate: {}: --notify ran (exit {})", c.options.robot, exit_code);
+  } else if (!r.started) {
+    spdlog::error("recalibrate: {}: --notify {}: {}", c.options.robot, Quoted(c.notify), r.error);
+  } else if (r.timed_out) {
+    spdlog::error("recalibrate: {}: --notify {} did not finish within {} s: stopped",
+                  c.options.robot, Quoted(c.notify), c.notify_timeout_s);
+  } else {
+    spdlog::error("recalibrate: {}: --notify {} failed with exit code {}", c.options.robot,
+                  Quoted(c.notify), r.exit_code);
+  }
+}
+
+}  // namespace
 
 int RunRecalibrate(RecalibrateCommand c, const GlobalOptions& global) {
   c.options.db_path = global.DbPath();
   c.options.json_path = c.json;
-  const auto d = workflows::Recalibrate(c.options);
-  if (!c.json.empty()) io::WriteFileAtomically(c.json, JsonText(d.ToJson(), 2) + "\n");
-  if (d.outcome == workflows::RecalibrationDecision::Outcome::kUpToDate) return kOk;
-  if (d.outcome == workflows::RecalibrationDecision::Outcome::kFailed) {
-    std::cout << d.robot << ": " << d.Describe() << "\n";  // no statistics of an unfinished fit
-    return kFailure;
+  workflows::RecalibrationDecision d;
+  try {
+    d = workflows::Recalibrate(c.options);
+  } catch (const InputError& e) {
+    // The job did not run: a person must see that as much as a drift.
+    Notify(c, {{"robot", c.options.robot}, {"decision", "error"}, {"exit_code", kInputError},
+               {"error", e.what()}},
+           kInputError);
+    throw;
+  } catch (const std::exception& e) {
+    Notify(c, {{"robot", c.options.robot}, {"decision", "error"}, {"exit_code", kFailure},
+               {"error", e.what()}},
+           kFailure);
+    throw;
   }
-  std::cout << fmt::format(
-      "{}: {} (validation mean {:.4f} mm, max {:.4f} mm on {} configurations{})\n", d.robot,
-      d.Describe(), d.validation.mean_mm, d.validation.max_mm, d.validation.poses,
-      d.drift ? "; DRIFT" : "");
-  return d.passed() ? kOk : kQualityGate;
+  const nlohmann::json summary = d.ToJson();
+  if (!c.json.empty()) io::WriteFileAtomically(c.json, JsonText(summary, 2) + "\n");
+  using Outcome = workflows::RecalibrationDecision::Outcome;
+  if (d.outcome == Outcome::kFailed || d.outcome == Outcome::kDriftSuspected) {
+    std::cout << d.robot << ": " << d.Describe() << "\n";  // no statistics of an unfinished fit
+  } else if (d.outcome != Outcome::kUpToDate) {
+    std::cout << fmt::format(
+        "{}: {} (validation mean {:.4f} mm, max {:.4f} mm on {} configurations{})\n", d.robot,
+        d.Describe(), d.validation.mean_mm, d.validation.max_mm, d.validation.poses,
+        d.drift ? "; DRIFT" : "");
+  }
+  // The drift line on stdout, where a person reading the mail or the journal sees it.
+  if (const std::string line = d.DriftLine(); !line.empty()) std::cout << line << "\n";
+  std::cout.flush();
+  Notify(c, summary, d.ExitCode());
+  return d.ExitCode();
 }
 
 void AddRecalibrateOptions(CLI::App& sub, workflows::RecalibrateOptions& o) {
@@ -75,6 +130,16 @@ void AddRecalibrateOptions(CLI::App& sub, workflows::RecalibrateOptions& o) {
                0, 24 * 3600)
       ->capture_default_str();
   sub.add_flag("--force", o.force, "Refit even if the active set already uses these measurements");
+  NumberOption(sub.add_option("--window-sessions", o.window_sessions,
+                               fmt::format("Fit at most the newest N sessions (0: all; default: "
+                                           "lab file, else {})",
+                                           workflows::kDefaultWindowSessions)),
+               0, 100000);
+  NumberOption(sub.add_option("--window-days", o.window_days,
+                               fmt::format("Fit only sessions started within the last D days (0: "
+                                           "no limit; default: lab file, else {})",
+                                           workflows::kDefaultWindowDays)),
+               0, 100000);
 }
 
 void SetupRecalibrateCommand(CLI::App& parent, const GlobalOptions& global, Runner& run) {
@@ -86,6 +151,14 @@ void SetupRecalibrateCommand(CLI::App& parent, const GlobalOptions& global, Runn
   OutputDirectory(
       sub->add_option("--report", o.report_dir, "Write an HTML report into this directory"));
   OutputFile(sub->add_option("--json", c->json, "Write a JSON summary for monitoring"));
+  sub->add_option("--notify", c->notify,
+                  "Shell command run on every night a person must see (exit 1-5), the JSON "
+                  "summary on its stdin; ARMSIG_ROBOT, ARMSIG_EXIT_CODE, ARMSIG_DECISION, "
+                  "ARMSIG_DRIFT_LINE in its environment");
+  NumberOption(sub->add_option("--notify-timeout", c->notify_timeout_s,
+                                "Seconds the --notify command may take before it is stopped"),
+               0.1, 3600)
+      ->capture_default_str();
   sub->callback([&run, &global, c] { run = [&global, c] { return RunRecalibrate(*c, global); }; });
 }
 

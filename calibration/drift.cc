@@ -61,24 +61,46 @@ void AddCovariance(const FittedSet& set, Eigen::MatrixXd& sum) {
 
 }  // namespace
 
+PredictedDifference PredictDifference(const RobotModel& model, const FittedSet& a,
+                                      const FittedSet& b,
+                                      const std::vector<Eigen::VectorXd>& configurations) {
+  PredictedDifference out;
+  const int m = static_cast<int>(configurations.size());
+  out.positions_a = Positions(model, a.params, configurations, &out.jacobian);
+  const Eigen::Matrix3Xd xb = Positions(model, b.params, configurations, nullptr);
+  // b's positions rigidly onto a's (no scale): what is left is the change of the arm.
+  const Eigen::Matrix4d align = m >= 3 ? Eigen::Matrix4d(Eigen::umeyama(xb, out.positions_a, false))
+                                       : Eigen::Matrix4d::Identity();
+  const Eigen::Matrix3Xd aligned =
+      (align.topLeftCorner<3, 3>() * xb).colwise() + align.topRightCorner<3, 1>();
+  const Eigen::Matrix3Xd delta = aligned - out.positions_a;
+  out.change = Eigen::Map<const Eigen::VectorXd>(delta.data(), 3 * m);
+  // Var(Δ) = J (Σ_a + Σ_b) Jᵀ (one Jacobian: the sets differ by far less than the
+  // linearisation cares about), written G Gᵀ with G = J V diag(√λ) from the
+  // eigen-decomposition of Σ_a + Σ_b.
+  const int np = model.num_parameters();
+  out.covariance_sum = Eigen::MatrixXd::Zero(np, np);
+  AddCovariance(a, out.covariance_sum);
+  AddCovariance(b, out.covariance_sum);
+  Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eigen(out.covariance_sum);
+  out.noise_factor = out.jacobian * eigen.eigenvectors() *
+                     eigen.eigenvalues().cwiseMax(0.0).cwiseSqrt().asDiagonal();
+  return out;
+}
+
 ModelComparison CompareModels(const RobotModel& model, const FittedSet& a, const FittedSet& b,
                               const std::vector<Eigen::VectorXd>& configurations) {
   ModelComparison out;
   const int m = static_cast<int>(configurations.size());
   out.configurations = m;
   if (m == 0) return out;
-  Eigen::MatrixXd jacobian;
-  const Eigen::Matrix3Xd xa = Positions(model, a.params, configurations, &jacobian);
-  const Eigen::Matrix3Xd xb = Positions(model, b.params, configurations, nullptr);
-  // b's positions rigidly onto a's (no scale): what is left is the change of the arm.
-  const Eigen::Matrix4d align =
-      m >= 3 ? Eigen::Matrix4d(Eigen::umeyama(xb, xa, false)) : Eigen::Matrix4d::Identity();
-  const Eigen::Matrix3Xd aligned =
-      (align.topLeftCorner<3, 3>() * xb).colwise() + align.topRightCorner<3, 1>();
-  const Eigen::Matrix3Xd delta = aligned - xa;
+  const PredictedDifference predicted = PredictDifference(model, a, b, configurations);
+  const Eigen::Matrix3Xd& xa = predicted.positions_a;
+  const Eigen::MatrixXd& jacobian = predicted.jacobian;
+  const Eigen::MatrixXd& both = predicted.covariance_sum;
   double sum = 0.0, sum_sq = 0.0;
   for (int i = 0; i < m; ++i) {
-    const double d = delta.col(i).norm();
+    const double d = predicted.change.segment<3>(3 * i).norm();
     sum += d;
     sum_sq += d * d;
     if (d > out.max_mm) {
@@ -89,20 +111,12 @@ ModelComparison CompareModels(const RobotModel& model, const FittedSet& a, const
   out.mean_mm = sum / m;
   out.rms_mm = std::sqrt(sum_sq / m);
 
-  // Var(Δ) = J (Σ_a + Σ_b) Jᵀ (one Jacobian: the sets differ by far less than the
-  // linearisation cares about), written C = G Gᵀ with G = J V diag(√λ) from the
-  // eigen-decomposition of Σ_a + Σ_b; Δᵀ C⁺ Δ = ‖G⁺ Δ‖² for Δ in the range of G.
+  // Δᵀ C⁺ Δ = ‖G⁺ Δ‖² for Δ in the range of G (PredictDifference's factor).
   // Models are compared modulo a rigid motion, so both Δ and G lose their components along
   // the six small rigid motions of the positions (linearised at a's positions) first:
   // otherwise a residual rigid part of Δ meets the near-zero variance the base alignment
   // leaves in those directions.
-  const int np = model.num_parameters();
-  Eigen::MatrixXd both = Eigen::MatrixXd::Zero(np, np);
-  AddCovariance(a, both);
-  AddCovariance(b, both);
-  Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eigen(both);
-  Eigen::MatrixXd g =
-      jacobian * eigen.eigenvectors() * eigen.eigenvalues().cwiseMax(0.0).cwiseSqrt().asDiagonal();
+  Eigen::MatrixXd g = predicted.noise_factor;
   if (a.identified.empty() && b.identified.empty()) return out;
   Eigen::MatrixXd rigid(3 * m, 6);
   const Eigen::Vector3d centre = xa.rowwise().mean();
@@ -113,7 +127,7 @@ ModelComparison CompareModels(const RobotModel& model, const FittedSet& a, const
   }
   const Eigen::HouseholderQR<Eigen::MatrixXd> qr(rigid);
   const Eigen::MatrixXd basis = qr.householderQ() * Eigen::MatrixXd::Identity(3 * m, 6);
-  const Eigen::Map<const Eigen::VectorXd> stacked(delta.data(), 3 * m);
+  const Eigen::VectorXd& stacked = predicted.change;
   Eigen::VectorXd d = stacked - basis * (basis.transpose() * stacked);
   g -= basis * (basis.transpose() * g);
   // Sets stored before a robot's subset was fixed may have identified different subsets

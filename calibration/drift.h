@@ -49,6 +49,23 @@ struct ModelComparison {
   std::vector<ParameterDrift> parameters;
 };
 
+// b's predicted positions against a's at `configurations` (robot frame): b's rigidly aligned
+// onto a's (no scale: the measuring frame and the base gauge are not the robot's), the
+// difference (3 per configuration, stacked), the Jacobian of a's positions (3m × every
+// parameter), the sum of both sets' covariances over every parameter (zero where not
+// identified) and a factor of the difference's covariance under "the same robot":
+// J (Σ_a + Σ_b) Jᵀ = noise_factor · noise_factorᵀ.
+struct PredictedDifference {
+  Eigen::Matrix3Xd positions_a;
+  Eigen::MatrixXd jacobian;
+  Eigen::VectorXd change;
+  Eigen::MatrixXd covariance_sum;
+  Eigen::MatrixXd noise_factor;
+};
+PredictedDifference PredictDifference(const RobotModel& model, const FittedSet& a,
+                                      const FittedSet& b,
+                                      const std::vector<Eigen::VectorXd>& configurations);
+
 // `configurations`: joint angles (rad) spread over the work volume, the same for every
 // comparison of one robot (SpreadConfigurations). Sets with no identified parameter
 // have no uncertainty (then chi2 is 0 and p_value 1 unless the other set has one).

@@ -201,7 +201,7 @@ std::vector<StoredCalibration> CalibrationHistory(Database& db, int64_t robot_id
       "SELECT id, version, active, created_at, params_spec, inputs_json, coalesce(report_json,''), "
       "validation_mean_mm, validation_max_mm, world_from_base_json, covariance_json, options_json, "
       "rank, poses_fit, poses_validation, fit_mean_mm, coalesce(drift_json, ''), "
-      "coalesce(residual_map_json, '') FROM calibrations "
+      "coalesce(residual_map_json, ''), validation_rms_mm FROM calibrations "
       "WHERE robot_id = ? ORDER BY version");
   q->Bind(1, robot_id);
   while (q->Step()) {
@@ -225,6 +225,7 @@ std::vector<StoredCalibration> CalibrationHistory(Database& db, int64_t robot_id
     if (!q->IsNull(15)) c.fit_mean_mm = q->Double(15);
     c.drift_json = q->Text(16);
     c.residual_map_json = q->Text(17);
+    if (!q->IsNull(18)) c.validation_rms_mm = q->Double(18);
     auto p = Sql(db,
                         "SELECT name, value, unit, identified, sigma FROM calibration_parameters "
                         "WHERE calibration_id = ? "

@@ -55,7 +55,8 @@ struct StoredCalibration {
   bool active = false;
   std::string created_at, params_spec, inputs_json, options_json, report_json;
   int rank = 0, poses_fit = 0, poses_validation = 0;
-  double fit_mean_mm = NAN, validation_mean_mm = NAN, validation_max_mm = NAN;
+  double fit_mean_mm = NAN, validation_mean_mm = NAN, validation_max_mm = NAN,
+         validation_rms_mm = NAN;
   std::optional<Eigen::Isometry3d> world_from_base;  // absent in sets stored before schema v2
   std::vector<std::string> covariance_parameters;    // empty in sets stored before schema v3
   Eigen::MatrixXd covariance;

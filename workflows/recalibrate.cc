@@ -13,8 +13,10 @@
 #include <optional>
 #include <regex>
 #include <set>
+#include <tuple>
 
 #include "acquisition/lab.h"
+#include "calibration/change.h"
 #include "calibration/compensation.h"
 #include "calibration/drift.h"
 #include "calibration/identifiability.h"
@@ -39,6 +41,7 @@ namespace {
 struct Gates {
   double max_mean_mm = 0.5, max_max_mm = 2.0, tolerance_mm = 0.02, drift_sigma = 5.0,
          drift_mm = 0.05;
+  int window_sessions = kDefaultWindowSessions, window_days = kDefaultWindowDays;
 };
 
 constexpr int kDriftConfigurations = 50;     // spread over the work volume, the same every night
@@ -83,8 +86,12 @@ Gates LoadGates(db::Database& database, int64_t robot_id, const RecalibrateOptio
       g.tolerance_mm = r->tolerance_mm.value_or(g.tolerance_mm);
       g.drift_sigma = r->drift_sigma.value_or(g.drift_sigma);
       g.drift_mm = r->drift_mm.value_or(g.drift_mm);
+      g.window_sessions = r->window_sessions.value_or(g.window_sessions);
+      g.window_days = r->window_days.value_or(g.window_days);
     }
   }
+  g.window_sessions = o.window_sessions.value_or(g.window_sessions);
+  g.window_days = o.window_days.value_or(g.window_days);
   g.drift_mm = o.drift_mm.value_or(g.drift_mm);
   g.max_mean_mm = o.max_validation_mean_mm.value_or(g.max_mean_mm);
   g.max_max_mm = o.max_validation_max_mm.value_or(g.max_max_mm);
@@ -102,6 +109,49 @@ std::string StoredDigest(const db::StoredCalibration& c) {
   const auto stored = nlohmann::json::parse(c.inputs_json.empty() ? "{}" : c.inputs_json, nullptr,
                                             false);
   return stored.is_object() ? stored.value("digest", std::string()) : std::string();
+}
+
+// "2026-11-27T02:30:00.123Z" → "2026-11-27 02:30 UTC".
+std::string ShortTime(const std::string& iso) {
+  if (iso.size() < 16) return iso;
+  return iso.substr(0, 10) + " " + iso.substr(11, 5) + " UTC";
+}
+
+std::string SessionList(const std::vector<int64_t>& sessions) {
+  std::string out;
+  for (size_t k = 0; k < sessions.size(); ++k) out += (k ? ", " : "") + std::to_string(sessions[k]);
+  return (sessions.size() == 1 ? "session " : "sessions ") + out;
+}
+
+nlohmann::json CausesJson(const std::vector<NamedCause>& causes) {
+  nlohmann::json out = nlohmann::json::array();
+  for (const auto& c : causes) {
+    out.push_back({{"name", c.name},
+                   {"parameter", c.parameter},
+                   {"size", c.size},
+                   {"sigma", c.sigma},
+                   {"unit", c.unit},
+                   {"explained", c.explained},
+                   {"effect_max_mm", c.effect_max_mm},
+                   {"effect_mean_mm", c.effect_mean_mm},
+                   {"equivalent", c.equivalent},
+                   {"text", c.Describe()}});
+  }
+  return out;
+}
+
+nlohmann::json ChangeJson(const std::optional<ChangeFinding>& change) {
+  if (!change) return nullptr;
+  return {{"from_session", change->from_session ? nlohmann::json(*change->from_session)
+                                                : nlohmann::json(nullptr)},
+          {"from_started_at", change->from_started_at},
+          {"sessions", change->after},
+          {"poses", change->poses_after},
+          {"poses_needed", change->poses_needed},
+          {"effect_max_mm", change->effect_max_mm},
+          {"p_value", change->p_value},
+          {"causes", CausesJson(change->causes)},
+          {"indistinguishable_from_frame", change->indistinguishable}};
 }
 
 bool LeapYear(int y) { return (y % 4 == 0 && y % 100 != 0) || y % 400 == 0; }
@@ -192,6 +242,19 @@ std::string RecalibrationDecision::Describe() const {
                          version, poses);
     case Outcome::kStored:
       return fmt::format("stored as version {} (active)", version);
+    case Outcome::kDriftStored:
+      return fmt::format("stored as version {} (active): the robot changed{}", version,
+                         change ? fmt::format(" from session {}; fitted on {} alone",
+                                              *change->from_session, SessionList(sessions))
+                                : std::string(" (drift)"));
+    case Outcome::kDriftSuspected:
+      return fmt::format(
+          "drift suspected from session {}: {} configuration{} measured since, a fit of them "
+          "alone needs {}: measure {} more; {}",
+          change ? *change->from_session : 0, poses, poses == 1 ? "" : "s",
+          change ? change->poses_needed : 0, change ? change->poses_needed - poses : 0,
+          previous_version ? fmt::format("version {} stays active", *previous_version)
+                           : std::string("no parameter set is active"));
     case Outcome::kRejected: {
       std::string failed;
       for (const auto& g : gates) {
@@ -229,9 +292,34 @@ nlohmann::json RecalibrationDecision::ToJson() const {
     }
     return j;
   }
-  j["decision"] = outcome == Outcome::kStored     ? "stored"
-                  : outcome == Outcome::kFailed ? "failed"
-                                                : "rejected";
+  j["exit_code"] = ExitCode();
+  j["decision"] = outcome == Outcome::kStored || outcome == Outcome::kDriftStored ? "stored"
+                  : outcome == Outcome::kDriftSuspected                         ? "drift_suspected"
+                  : outcome == Outcome::kFailed                                 ? "failed"
+                                                                                : "rejected";
+  j["window"] = {{"sessions", window_sessions},
+                 {"days", window_days},
+                 {"floor_session", floor_session ? nlohmann::json(*floor_session)
+                                                 : nlohmann::json(nullptr)}};
+  j["tested"] = nlohmann::json::array();
+  for (const auto& v : tested) {
+    j["tested"].push_back({{"session", v.session},
+                           {"started_at", v.started_at},
+                           {"poses", v.poses},
+                           {"mean_mm", v.mean_mm},
+                           {"disagrees", v.disagrees},
+                           {"p_value", v.p_value},
+                           {"effect_max_mm", v.effect_max_mm},
+                           {"outlier", v.outlier}});
+  }
+  j["change"] = ChangeJson(change);
+  if (!DriftLine().empty()) j["drift_line"] = DriftLine();
+  if (outcome == Outcome::kDriftSuspected) {
+    j["version"] = nullptr;
+    if (previous_version) j["previous_version"] = *previous_version;
+    j["sessions"] = sessions;
+    return j;
+  }
   if (outcome == Outcome::kFailed) j["failure"] = failure;
   j["version"] = version > 0 ? nlohmann::json(version) : nlohmann::json(nullptr);
   if (previous_version) j["previous_version"] = *previous_version;
@@ -252,6 +340,93 @@ nlohmann::json RecalibrationDecision::ToJson() const {
   j["sessions"] = sessions;
   if (!report_path.empty()) j["report"] = report_path;
   return j;
+}
+
+std::string NamedCause::Describe() const {
+  const bool zero = name.size() > 5 && name.compare(name.size() - 5, 5, " zero") == 0;
+  std::string text = fmt::format("{} {} by {:+.3g} {}", name, zero ? "moved" : "changed", size,
+                                 unit);
+  if (sigma > 0 && std::isfinite(sigma)) text += fmt::format(" (± {:.2g})", sigma);
+  text += fmt::format(": up to {:.3f} mm at the tool, explains {:.0f} % of the change",
+                      effect_max_mm, 100.0 * explained);
+  if (!equivalent.empty()) {
+    text += "; the same on these data as ";
+    for (size_t k = 0; k < equivalent.size(); ++k) text += (k ? ", " : "") + equivalent[k];
+  }
+  return text;
+}
+
+int RecalibrationDecision::ExitCode() const {
+  switch (outcome) {
+    case Outcome::kUpToDate:
+    case Outcome::kStored:
+      return 0;
+    case Outcome::kDriftStored:
+      return 4;
+    case Outcome::kDriftSuspected:
+      return 5;
+    case Outcome::kRejected:
+      // The robot changed and the fit of the sessions since failed a gate: no usable set
+      // for the robot as it is now — as urgent as a change with too few data.
+      return change ? 5 : 3;
+    case Outcome::kFailed:
+      return 1;
+  }
+  return 1;
+}
+
+namespace {
+
+std::string CauseSummary(const std::vector<NamedCause>& causes) {
+  if (causes.empty()) return "no physical cause the model can express explains it";
+  const NamedCause& best = causes.front();
+  if (best.explained >= 0.5) return best.Describe();
+  std::string text = "no single cause explains most of it; the best: ";
+  for (size_t k = 0; k < causes.size(); ++k) text += (k ? "; " : "") + causes[k].Describe();
+  return text;
+}
+
+}  // namespace
+
+std::string RecalibrationDecision::DriftLine() const {
+  if (!drift && !change) return "";
+  const std::string stays = previous_version
+                                ? fmt::format("version {} stays active", *previous_version)
+                                : std::string("no parameter set is active");
+  if (change) {
+    const std::string from =
+        fmt::format("{} changed from session {} ({})", robot, *change->from_session,
+                    ShortTime(change->from_started_at));
+    const std::string cause = CauseSummary(change->causes);
+    if (outcome == Outcome::kDriftSuspected) {
+      return fmt::format(
+          "DRIFT SUSPECTED: {}: {}; {} configuration{} measured since, a fit of them alone needs "
+          "{}: measure {} more; {} (it misses the robot by up to {:.3f} mm now)",
+          from, cause, change->poses_after, change->poses_after == 1 ? "" : "s",
+          change->poses_needed, change->poses_needed - change->poses_after, stays,
+          change->effect_max_mm);
+    }
+    if (outcome == Outcome::kDriftStored) {
+      return fmt::format(
+          "DRIFT: {}: {}; version {}, fitted on {} ({} configurations) alone, is now active "
+          "(validation mean {:.4f} mm)",
+          from, cause, version, SessionList(sessions), poses, validation.mean_mm);
+    }
+    return fmt::format("DRIFT: {}: {}; the fit of {} since did not pass: {}; check the set-up "
+                       "and measure again",
+                       from, cause, SessionList(sessions), Describe());
+  }
+  const std::string cause = CauseSummary(causes);
+  if (model_drift) {
+    return fmt::format(
+        "DRIFT: version {} differs from version {} by up to {:.3f} mm over the work volume (p "
+        "= {:.2g}): {}; {}",
+        version > 0 ? std::to_string(version) : std::string("(this run)"),
+        previous_version.value_or(0), model_drift->max_mm, model_drift->p_value, cause,
+        outcome == Outcome::kDriftStored ? fmt::format("version {} is now active", version)
+                                         : stays);
+  }
+  return "DRIFT: " + cause;
 }
 
 nlohmann::json RecalibrationDecision::DriftJson() const {
@@ -277,6 +452,8 @@ nlohmann::json RecalibrationDecision::DriftJson() const {
                       {"previous_covariance_stored", m.previous_covariance},
                       {"same_subset", m.same_subset}};
   }
+  j["causes"] = CausesJson(causes);
+  j["change"] = ChangeJson(change);
   return j;
 }
 
@@ -291,343 +468,671 @@ std::string RobotLockPath(const std::string& db_path, const std::string& robot) 
   return db_path + ".recalibrate." + name + ".lock";
 }
 
-RecalibrationDecision Recalibrate(const RecalibrateOptions& o) {
-  // Everything the run will write is checked before anything is stored.
-  const std::string since = o.since.empty() ? std::string() : SinceToUtc(o.since);
-  if (!o.json_path.empty()) io::CheckOutputFile(o.json_path, "--json");
-  if (!o.report_dir.empty()) io::CheckOutputDirectory(o.report_dir, "--report");
-  db::Database database(o.db_path, db::OpenMode::kMustExist);
-  const auto robot_id = db::FindRobot(database, o.robot);
-  if (!robot_id)
-    throw InputError({o.db_path, 0, 0, "--robot"}, UnknownRobotMessage(database.path(), o.robot));
+namespace {
+
+// A session the night may use, with its usable configurations.
+struct WindowSession {
+  db::SessionSummary summary;
+  std::vector<MeasuredPose> poses;
+};
+
+// Configurations a run of sessions needs for a fit of its own: the job fits 60 % of them
+// and wants as many redundant equations (3 per configuration) as unknowns — the identified
+// parameters and six for every measuring frame beyond the first — and twenty at least, so
+// that the rest can validate.
+int PosesNeeded(int identified, int sessions) {
+  const int unknowns = identified + 6 * std::max(sessions - 1, 0);
+  const int fit = (2 * unknowns + 2) / 3;
+  return std::max(20, static_cast<int>(std::ceil(fit / 0.6)));
+}
+
+// The time `days` before now as session start times are stored (UTC, ISO 8601).
+std::string DaysAgoUtc(int days) {
+  const std::time_t t = std::time(nullptr) - static_cast<std::time_t>(days) * 86400;
+  std::tm out{};
+  ::gmtime_r(&t, &out);
+  return fmt::format("{:04d}-{:02d}-{:02d}T{:02d}:{:02d}:{:02d}.000Z", out.tm_year + 1900,
+                     out.tm_mon + 1, out.tm_mday, out.tm_hour, out.tm_min, out.tm_sec);
+}
+
+NamedCause NameOf(const calibration::ExplainedCause& c) {
+  NamedCause n;
+  n.name = c.cause.name;
+  n.parameter = c.cause.parameter;
+  const double scale = c.cause.scale ? 1e6 : c.cause.angle ? 1e3 : 1.0;
+  n.unit = c.cause.scale ? "ppm" : c.cause.angle ? "mrad" : "mm";
+  n.size = c.size * scale;
+  n.sigma = c.sigma * scale;
+  n.explained = c.explained;
+  n.effect_max_mm = c.effect_max_mm;
+  n.effect_mean_mm = c.effect_mean_mm;
+  n.equivalent = c.equivalent;
+  return n;
+}
+
+// The active set's error per coordinate out of sample: what a session of the same robot
+// shows against it (its validation rms over three coordinates).
+double SetSigmaMm(const db::StoredCalibration& c) {
+  if (std::isfinite(c.validation_rms_mm) && c.validation_rms_mm > 0)
+    return c.validation_rms_mm / std::sqrt(3.0);
+  // Sets stored without their rms: a 3-D error distance's rms is about 1.13 × its mean.
+  if (std::isfinite(c.validation_mean_mm) && c.validation_mean_mm > 0)
+    return 1.13 * c.validation_mean_mm / std::sqrt(3.0);
+  return 0.01;
+}
+
+// One night of the job, step by step: read the window, test its sessions against the
+// active set, choose what to fit (never across a change), fit, judge, compare, store,
+// report.
+class NightlyJob {
+ public:
+  explicit NightlyJob(const RecalibrateOptions& options) : o_(options) {}
+  RecalibrationDecision Run();
+
+ private:
+  void Log(const std::string& message) const {
+    spdlog::info("recalibrate: {}: {}", o_.robot, message);
+  }
+  void OpenAndLock();
+  void ReadInputs();
+  void SelectWindow(const std::vector<db::SessionSummary>& sessions,
+                    std::vector<MeasuredPose> poses);
+  void TestAgainstActive();
+  std::vector<MeasuredPose> FitInput() const;
+  bool UpToDate(const std::string& digest);
+  void Fit(const std::vector<MeasuredPose>& poses);
+  void JudgeGates();
+  void CompareWithActive();
+  void Store(const nlohmann::json& inputs);
+  void WriteRunReport();
+  void Gate(const std::string& name, double value, double limit);
+
+  const RecalibrateOptions& o_;
+  std::string since_;
+  std::optional<db::Database> database_;
+  int64_t robot_id_ = 0;
+  std::optional<io::FileLock> file_lock_;
+  std::optional<db::RobotLock> server_lock_;
+  calibration::RobotModel model_;
+  Gates gates_;
+  std::vector<WindowSession> window_;
+  std::string floor_started_at_;
+  std::vector<db::StoredCalibration> history_;
+  std::optional<db::StoredCalibration> current_;
+  std::vector<Eigen::VectorXd> spread_;
+  RecalibrationDecision d_;
+  std::optional<CalibrationRun> run_;
+  CalibrateSettings settings_;
+  std::vector<MeasuredPose> fit_, validation_;
+  std::vector<calibration::ParameterChange> changes_;
+  bool pass_ = false;
+};
+
+void NightlyJob::OpenAndLock() {
+  database_.emplace(o_.db_path, db::OpenMode::kMustExist);
+  const auto robot_id = db::FindRobot(*database_, o_.robot);
+  if (!robot_id) {
+    throw InputError({o_.db_path, 0, 0, "--robot"},
+                     UnknownRobotMessage(database_->path(), o_.robot));
+  }
+  robot_id_ = *robot_id;
   // One run per robot at a time (the lock guards the robot's versions); other robots of
   // the same store recalibrate in parallel (`armsig worker --jobs N`). SQLite: a file lock
   // beside the file; PostgreSQL: an advisory lock of the server, whatever machine runs it.
-  std::optional<io::FileLock> file_lock;
-  std::optional<db::RobotLock> server_lock;
-  if (database.backend() == db::Backend::kPostgres)
-    server_lock.emplace(database.connection(), "recalibrate", o.robot, o.lock_wait_s);
+  if (database_->backend() == db::Backend::kPostgres)
+    server_lock_.emplace(database_->connection(), "recalibrate", o_.robot, o_.lock_wait_s);
   else
-    file_lock.emplace(RobotLockPath(o.db_path, o.robot), o.lock_wait_s);
-  auto log = [&](const std::string& message) {
-    spdlog::info("recalibrate: {}: {}", o.robot, message);
-  };
+    file_lock_.emplace(RobotLockPath(o_.db_path, o_.robot), o_.lock_wait_s);
+}
 
-  // What the run decides on is read from one snapshot (a capture or a push may write
-  // meanwhile): the model, the gates, the poses, the stored sets.
-  std::optional<db::ReadSnapshot> snapshot(std::in_place, database);
-  const auto model =
-      io::ParseRobotModel(db::RobotModelYaml(database, *robot_id), "model of robot " + o.robot);
-  const Gates gates = LoadGates(database, *robot_id, o);
+// What the run decides on is read from one snapshot (a capture or a push may write
+// meanwhile): the model, the gates, the sessions and poses, the stored sets.
+void NightlyJob::ReadInputs() {
+  db::ReadSnapshot snapshot(*database_);
+  model_ = io::ParseRobotModel(db::RobotModelYaml(*database_, robot_id_),
+                               "model of robot " + o_.robot);
+  gates_ = LoadGates(*database_, robot_id_, o_);
   spdlog::debug(
       "recalibrate: gates: validation mean <= {} mm, max <= {} mm, tolerance {} mm, drift {} mm "
-      "/ {} sigma",
-      gates.max_mean_mm, gates.max_max_mm, gates.tolerance_mm, gates.drift_mm, gates.drift_sigma);
-  std::vector<MeasuredPose> poses;
-  {
-    // Every session is a measurement frame of its own (its own set-up of the instruments);
-    // one whose poses cannot place its frame adds nothing but unknowns.
-    for (const auto& s : db::ListSessions(database, *robot_id)) {
-      if (s.state == "aborted" && s.started_at >= since) {
-        spdlog::info("recalibrate: {}: session {} is discarded ({}): left out", o.robot, s.id,
-                     s.note);
-      }
-    }
-    std::map<int64_t, std::vector<MeasuredPose>> by_session;
-    for (auto& p : db::LoadRobotPoses(database, *robot_id, since))
-      by_session[p.frame].push_back(std::move(p));
-    for (auto& [session, list] : by_session) {
-      if (list.size() < kMinPosesPerSession) {
-        spdlog::warn(
-            "recalibrate: {}: session {} has {} usable configuration{}: too few to place its "
-            "measurement frame ({} needed); left out",
-            o.robot, session, list.size(), list.size() == 1 ? "" : "s", kMinPosesPerSession);
-        continue;
-      }
-      spdlog::debug("recalibrate: session {}: {} usable configurations (one measurement frame)",
-                    session, list.size());
-      for (auto& p : list) poses.push_back(std::move(p));
+      "/ {} sigma; window: {} sessions, {} days",
+      gates_.max_mean_mm, gates_.max_max_mm, gates_.tolerance_mm, gates_.drift_mm,
+      gates_.drift_sigma, gates_.window_sessions, gates_.window_days);
+  history_ = db::CalibrationHistory(*database_, robot_id_);
+  for (const auto& c : history_) {
+    if (c.active) current_ = c;
+  }
+  // The first session the active set allows: the change point it was fitted after.
+  if (current_) {
+    const auto inputs = nlohmann::json::parse(current_->inputs_json, nullptr, false);
+    if (inputs.is_object() && inputs.contains("floor_session") &&
+        inputs["floor_session"].is_number_integer()) {
+      d_.floor_session = inputs["floor_session"].get<int64_t>();
+      floor_started_at_ = inputs.value("floor_started_at", std::string());
     }
   }
-  const auto history = db::CalibrationHistory(database, *robot_id);
-  snapshot.reset();  // not held while fitting
-  std::optional<db::StoredCalibration> current;
-  for (const auto& c : history) {
-    if (c.active) current = c;
-  }
+  SelectWindow(db::ListSessions(*database_, robot_id_),
+               db::LoadRobotPoses(*database_, robot_id_, since_));
+}
 
-  RecalibrationDecision d;
-  d.robot = o.robot;
-  d.poses = static_cast<int>(poses.size());
-  if (current) d.previous_version = current->version;
-  const std::string digest =
-      InputDigest(poses, o.params + "|residual-model=" + o.residual_model, o.select);
-  std::set<int64_t> sessions;
-  for (const auto& p : poses) sessions.insert(p.frame);
-  d.sessions.assign(sessions.begin(), sessions.end());
-  const nlohmann::json inputs = {{"digest", digest},     {"poses", poses.size()},
-                                 {"sessions", sessions}, {"since", since},
-                                 {"params", o.params},   {"select", o.select},
-                                 {"residual_model", o.residual_model}};
-  spdlog::debug("recalibrate: inputs: {} poses from sessions {}, --params {} --select {}: digest {}",
-                poses.size(), JsonText(nlohmann::json(sessions)), o.params, o.select, digest);
-  // Idempotence on content: a stored set was already fitted on exactly these measurements
-  // with these options, however they were asked for. The active one first; else the
-  // newest other one (after `activate` chose another set: the night does not undo it).
-  if (!o.force) {
-    const db::StoredCalibration* same = nullptr;
-    for (auto it = history.rbegin(); it != history.rend(); ++it) {
-      if (StoredDigest(*it) != digest) continue;
-      spdlog::debug("recalibrate: version {}{} has this digest", it->version,
-                    it->active ? " (active)" : "");
-      if (it->active || !same) same = &*it;
-      if (it->active) break;
+// The sessions the night may use, oldest first: not discarded, at or after --since and
+// the active set's change point, with enough usable configurations to place their frame,
+// then the newest `window_sessions` started within `window_days`.
+void NightlyJob::SelectWindow(const std::vector<db::SessionSummary>& sessions,
+                              std::vector<MeasuredPose> poses) {
+  std::map<int64_t, std::vector<MeasuredPose>> by_session;
+  for (auto& p : poses) by_session[p.frame].push_back(std::move(p));
+  std::vector<WindowSession> candidates;
+  for (const auto& s : sessions) {
+    if (!since_.empty() && s.started_at < since_) continue;
+    if (s.state == "aborted") {
+      Log(fmt::format("session {} is discarded ({}): left out", s.id, s.note));
+      continue;
     }
-    if (same) {
-      d.outcome = RecalibrationDecision::Outcome::kUpToDate;
-      d.version = same->version;
-      if (current && current->version != same->version) {
-        const auto activations = db::ActivationHistory(database, *robot_id);
-        for (auto a = activations.rbegin(); a != activations.rend(); ++a) {
-          if (a->version != current->version) continue;
-          d.active_chosen_by = a->activated_by;
-          d.active_chosen_at = a->activated_at;
-          break;
-        }
+    if (d_.floor_session &&
+        (s.started_at < floor_started_at_ ||
+         (s.started_at == floor_started_at_ && s.id < *d_.floor_session))) {
+      spdlog::debug("recalibrate: session {} is from before the change at session {}: left out",
+                    s.id, *d_.floor_session);
+      continue;
+    }
+    auto it = by_session.find(s.id);
+    if (it == by_session.end()) continue;  // no usable configuration
+    if (it->second.size() < kMinPosesPerSession) {
+      spdlog::warn(
+          "recalibrate: {}: session {} has {} usable configuration{}: too few to place its "
+          "measurement frame ({} needed); left out",
+          o_.robot, s.id, it->second.size(), it->second.size() == 1 ? "" : "s",
+          kMinPosesPerSession);
+      continue;
+    }
+    candidates.push_back({s, std::move(it->second)});
+  }
+  std::stable_sort(candidates.begin(), candidates.end(), [](const auto& a, const auto& b) {
+    return std::tie(a.summary.started_at, a.summary.id) <
+           std::tie(b.summary.started_at, b.summary.id);
+  });
+  if (gates_.window_days > 0) {
+    const std::string cutoff = DaysAgoUtc(gates_.window_days);
+    std::erase_if(candidates, [&](const WindowSession& w) {
+      const bool old = w.summary.started_at < cutoff;
+      if (old) {
+        spdlog::debug("recalibrate: session {} started more than {} days ago: outside the window",
+                      w.summary.id, gates_.window_days);
       }
-      log(d.Describe());
-      return d;
+      return old;
+    });
+  }
+  if (gates_.window_sessions > 0 && candidates.size() > static_cast<size_t>(gates_.window_sessions)) {
+    const size_t drop = candidates.size() - gates_.window_sessions;
+    spdlog::debug("recalibrate: {} older session{} outside the window of the newest {}", drop,
+                  drop == 1 ? "" : "s", gates_.window_sessions);
+    candidates.erase(candidates.begin(), candidates.begin() + static_cast<std::ptrdiff_t>(drop));
+  }
+  window_ = std::move(candidates);
+  d_.window_sessions = gates_.window_sessions;
+  d_.window_days = gates_.window_days;
+}
+
+// Every session of the window against the active set, its own measuring frame placed:
+// where does the robot stop agreeing with it, and why?
+void NightlyJob::TestAgainstActive() {
+  if (!current_ || window_.empty()) return;
+  const Signature old = SignatureOf(model_, *current_);
+  calibration::FittedSet set = FittedSetOf(model_, old, *current_);
+  if (set.identified.empty()) {
+    // A set stored before covariances were: the subset its kind of fit identifies, with no
+    // uncertainty of its own (each session's scatter still judges it).
+    try {
+      set.identified = calibration::ModelIdentifiableSubset(
+          model_, calibration::ParseParameterSpec(model_, current_->params_spec));
+    } catch (const std::invalid_argument&) {
     }
+    set.covariance = Eigen::MatrixXd::Zero(set.identified.size(), set.identified.size());
+  }
+  const double sigma = SetSigmaMm(*current_);
+  calibration::ChangeTestOptions options;
+  options.significance = kDriftSignificance;
+  options.tolerance_mm = gates_.drift_mm;
+  // The set's residuals on poses, each frame placed on its own poses; poses of a frame
+  // that cannot be placed (all on one line) are left out.
+  auto against = [&](const std::vector<MeasuredPose>& poses) {
+    const auto bases = calibration::AlignFrameBases(model_, old.params, poses);
+    std::vector<MeasuredPose> placed;
+    for (const auto& p : poses) {
+      if (bases.count(p.frame)) placed.push_back(p);
+    }
+    const auto residuals = MappedResiduals(model_, bases, old.params, old.map.get(), placed);
+    return calibration::TestAgainstSet(model_, set, sigma, placed, bases, residuals, spread_,
+                                       options);
+  };
+  std::vector<bool> disagrees;
+  for (const auto& w : window_) {
+    const auto t = against(w.poses);
+    SessionVerdict v;
+    v.session = w.summary.id;
+    v.started_at = w.summary.started_at;
+    v.poses = t.poses;
+    v.mean_mm = t.mean_mm;
+    v.disagrees = t.poses > 0 && t.disagrees;
+    v.p_value = t.p_value;
+    v.effect_max_mm = t.effect_max_mm;
+    spdlog::debug(
+        "recalibrate: session {} ({} configurations) against version {}: mean {:.4f} mm, a "
+        "change of up to {:.3f} mm, p = {:.2g}: {}",
+        v.session, v.poses, current_->version, v.mean_mm, v.effect_max_mm, v.p_value,
+        v.disagrees ? "DISAGREES" : "agrees");
+    if (!t.explanation.causes.empty()) {
+      const auto& top = t.explanation.causes.front();
+      spdlog::debug("recalibrate: session {}: refit {} (p = {:.3g}, up to {:.3f} mm); best single "
+                    "cause {} ({:+.4g} ± {:.2g}, chi2 {:.3g}, up to {:.3f} mm, explains {:.0f} %)",
+                    v.session, t.refit ? "made" : "not made (too few configurations)",
+                    t.comparison.p_value, t.comparison.max_mm, top.cause.name, top.size,
+                    top.sigma, top.chi2, top.effect_max_mm, 100 * top.explained);
+    }
+    disagrees.push_back(v.disagrees);
+    d_.tested.push_back(v);
+  }
+  const auto point = calibration::LocateChange(disagrees);
+  for (int i : point.outliers) {
+    d_.tested[i].outlier = true;
+    Log(fmt::format(
+        "session {} disagrees with version {} (a change of up to {:.3f} mm) while a later "
+        "session agrees: a set-up fault, not the robot; left out of this fit ({} keeps it out "
+        "for good)",
+        d_.tested[i].session, current_->version, d_.tested[i].effect_max_mm,
+        Hint(database_->path(), {"session", "discard", std::to_string(d_.tested[i].session)})));
+  }
+  if (point.first_changed < 0) return;
+  ChangeFinding change;
+  std::vector<MeasuredPose> after;
+  for (size_t i = point.first_changed; i < window_.size(); ++i) {
+    change.after.push_back(window_[i].summary.id);
+    after.insert(after.end(), window_[i].poses.begin(), window_[i].poses.end());
+  }
+  change.from_session = window_[point.first_changed].summary.id;
+  change.from_started_at = window_[point.first_changed].summary.started_at;
+  change.poses_after = static_cast<int>(after.size());
+  change.poses_needed =
+      PosesNeeded(static_cast<int>(set.identified.size()), static_cast<int>(change.after.size()));
+  // The change explained on every session since at once.
+  const auto t = against(after);
+  for (const auto& c : t.explanation.causes) change.causes.push_back(NameOf(c));
+  change.indistinguishable = t.explanation.indistinguishable_from_frame;
+  change.effect_max_mm = t.effect_max_mm;
+  change.p_value = t.p_value;
+  d_.change = std::move(change);
+  Log(fmt::format("the robot disagrees with version {} from session {} on ({} configurations)",
+                  current_->version, *d_.change->from_session, d_.change->poses_after));
+}
+
+// What the night fits: the sessions after a change alone, else the window less its
+// outliers.
+std::vector<MeasuredPose> NightlyJob::FitInput() const {
+  std::set<int64_t> use;
+  if (d_.change) {
+    use.insert(d_.change->after.begin(), d_.change->after.end());
   } else {
-    spdlog::debug("recalibrate: --force: refitting whatever is stored");
+    for (const auto& w : window_) use.insert(w.summary.id);
+    for (const auto& v : d_.tested) {
+      if (v.outlier) use.erase(v.session);
+    }
   }
-  if (poses.size() < 20) {
-    throw InputError({o.db_path, 0, 0, "--robot"},
-                     fmt::format("robot {} has {} measured configurations{}; a recalibration "
-                                 "needs at least 20 (some to fit, the rest to validate); {} "
-                                 "lists its sessions",
-                                 o.robot, poses.size(), since.empty() ? "" : " since " + since,
-                                 Hint(database.path(), {"sessions", "--robot", o.robot})));
+  std::vector<MeasuredPose> poses;
+  for (const auto& w : window_) {
+    if (use.count(w.summary.id)) poses.insert(poses.end(), w.poses.begin(), w.poses.end());
   }
-  CalibrateSettings settings;
-  settings.params = o.params;
-  settings.model_subset = true;
-  settings.residual_model = o.residual_model;
-  settings.max_iterations = o.max_iterations;
+  return poses;
+}
+
+// Idempotence on content: a stored set was already fitted on exactly these measurements
+// with these options, however they were asked for. The active one first; else the newest
+// other one (after `activate` chose another set: the night does not undo it).
+bool NightlyJob::UpToDate(const std::string& digest) {
+  const db::StoredCalibration* same = nullptr;
+  for (auto it = history_.rbegin(); it != history_.rend(); ++it) {
+    if (StoredDigest(*it) != digest) continue;
+    spdlog::debug("recalibrate: version {}{} has this digest", it->version,
+                  it->active ? " (active)" : "");
+    if (it->active || !same) same = &*it;
+    if (it->active) break;
+  }
+  if (!same) return false;
+  d_.outcome = RecalibrationDecision::Outcome::kUpToDate;
+  d_.version = same->version;
+  if (current_ && current_->version != same->version) {
+    const auto activations = db::ActivationHistory(*database_, robot_id_);
+    for (auto a = activations.rbegin(); a != activations.rend(); ++a) {
+      if (a->version != current_->version) continue;
+      d_.active_chosen_by = a->activated_by;
+      d_.active_chosen_at = a->activated_at;
+      break;
+    }
+  }
+  Log(d_.Describe());
+  return true;
+}
+
+void NightlyJob::Fit(const std::vector<MeasuredPose>& poses) {
+  const std::set<int64_t> sessions(d_.sessions.begin(), d_.sessions.end());
+  settings_.params = o_.params;
+  settings_.model_subset = true;
+  settings_.residual_model = o_.residual_model;
+  settings_.max_iterations = o_.max_iterations;
   // 60 %, at most 80 (the paper's) and 6 more for every further session: each session's
   // frame adds six base unknowns.
   const size_t most = 80 + 6 * (sessions.size() - 1);
-  settings.select =
-      o.select > 0
-          ? o.select
+  settings_.select =
+      o_.select > 0
+          ? o_.select
           : static_cast<int>(std::min<size_t>(most, std::max<size_t>(poses.size() * 6 / 10, 10)));
-  log(fmt::format("{} configurations from {} session{}: fitting {} ({}), validating on the rest",
-                  poses.size(), sessions.size(), sessions.size() == 1 ? "" : "s", settings.select,
-                  o.params));
-  const CalibrationRun run = RunCalibration(model, poses, {}, settings);
-  std::vector<MeasuredPose> fit, validation;
-  {
-    const std::set<std::string> fit_ids(run.fit_pose_ids.begin(), run.fit_pose_ids.end());
-    const std::set<std::string> validation_ids(run.validation_pose_ids.begin(),
-                                               run.validation_pose_ids.end());
-    for (const auto& p : poses) {
-      if (fit_ids.count(p.id)) fit.push_back(p);
-      if (validation_ids.count(p.id)) validation.push_back(p);
-    }
+  Log(fmt::format("{} configurations from {}: fitting {} ({}), validating on the rest",
+                  poses.size(), SessionList(d_.sessions), settings_.select, o_.params));
+  run_.emplace(RunCalibration(model_, poses, {}, settings_));
+  const CalibrationRun& run = *run_;
+  const std::set<std::string> fit_ids(run.fit_pose_ids.begin(), run.fit_pose_ids.end());
+  const std::set<std::string> validation_ids(run.validation_pose_ids.begin(),
+                                             run.validation_pose_ids.end());
+  for (const auto& p : poses) {
+    if (fit_ids.count(p.id)) fit_.push_back(p);
+    if (validation_ids.count(p.id)) validation_.push_back(p);
   }
-  d.validation = StatsOf(run.validation_residuals);
-  d.residual_model = CalibrationJson(model, run)["residual_model"];
-  d.fit = run.estimate.fit;
-  d.nominal = run.estimate.nominal;
-  d.rank = run.estimate.identifiability.rank;
+  d_.validation = StatsOf(run.validation_residuals);
+  d_.residual_model = CalibrationJson(model_, run)["residual_model"];
+  d_.fit = run.estimate.fit;
+  d_.nominal = run.estimate.nominal;
+  d_.rank = run.estimate.identifiability.rank;
   spdlog::debug(
       "recalibrate: fit {} ({} iterations): rank {}, sigma0 {:.4f} mm, fit mean {:.4f} mm; "
       "validation mean {:.4f} mm, max {:.4f} mm on {} configurations",
-      run.estimate.status.ok() ? "converged" : "NOT converged", run.estimate.iterations, d.rank,
-      run.estimate.sigma0_mm, d.fit.mean_mm, d.validation.mean_mm, d.validation.max_mm,
-      d.validation.poses);
-
+      run.estimate.status.ok() ? "converged" : "NOT converged", run.estimate.iterations, d_.rank,
+      run.estimate.sigma0_mm, d_.fit.mean_mm, d_.validation.mean_mm, d_.validation.max_mm,
+      d_.validation.poses);
+  pass_ = run.estimate.status.ok();
   // An estimate the solver did not finish is judged by nothing: no gate, no drift.
-  const bool fit_ok = run.estimate.status.ok();
-  if (!fit_ok) {
-    log(fmt::format("the fit did not give a usable estimate ({}): no gate and no drift judged",
+  if (!pass_) {
+    Log(fmt::format("the fit did not give a usable estimate ({}): no gate and no drift judged",
                     run.estimate.status.message));
   }
-  bool pass = fit_ok;
-  auto gate = [&](const std::string& name, double value, double limit) {
-    if (!fit_ok) return;
-    const bool ok = value <= limit;
-    d.gates.push_back({name, value, limit, ok});
-    log(fmt::format("{}: {:.4f} mm (limit {:.4f} mm) {}", name, value, limit,
-                    ok ? "passed" : "FAILED"));
-    pass = pass && ok;
-  };
-  gate("validation mean", d.validation.mean_mm, gates.max_mean_mm);
-  gate("validation max", d.validation.max_mm, gates.max_max_mm);
-  std::vector<calibration::ParameterChange> changes;
-  if (current && fit_ok) {
-    // The current set on the same validation data, each session's base re-aligned on that
-    // session's fit poses (the measuring frame moves between set-ups; the arm signature
-    // does not), as the new fit placed each frame on them.
-    const Signature old = SignatureOf(model, *current);
-    calibration::FrameBases old_bases = calibration::AlignFrameBases(model, old.params, fit);
-    {
-      std::vector<MeasuredPose> unplaced;
-      for (const auto& p : validation) {
-        if (!old_bases.count(p.frame)) unplaced.push_back(p);
-      }
-      for (const auto& [frame, base] : calibration::AlignFrameBases(model, old.params, unplaced))
-        old_bases[frame] = base;
-    }
-    bool placed = !validation.empty();
-    for (const auto& p : validation) placed = placed && old_bases.count(p.frame) > 0;
-    if (placed) {
-      // With its residual map when it has one: the set as predict and compensate use it.
-      d.previous_on_same_data =
-          StatsOf(MappedResiduals(model, old_bases, old.params, old.map.get(), validation));
-      spdlog::debug(
-          "recalibrate: version {} on the same validation data ({} frames re-aligned): mean "
-          "{:.4f} mm, max {:.4f} mm",
-          current->version, old_bases.size(), d.previous_on_same_data->mean_mm,
-          d.previous_on_same_data->max_mm);
-      gate(fmt::format("not worse than version {} on the same data (+{:.3f} mm)", current->version,
-                       gates.tolerance_mm),
-           d.validation.mean_mm, d.previous_on_same_data->mean_mm + gates.tolerance_mm);
-    } else {
-      spdlog::debug("recalibrate: version {} could not be placed in every frame: no comparison "
-                    "on the same data",
-                    current->version);
-    }
-    // Drift: do the two models put the arm in different places, beyond what both fits'
-    // uncertainty explains and by more than the tolerance?
-    const calibration::FittedSet now{run.estimate.params, run.estimate.identifiability.identified,
-                                     run.estimate.covariance};
-    calibration::FittedSet before = FittedSetOf(model, old, *current);
-    ModelDrift m;
-    m.previous_covariance = !before.identified.empty();
-    if (!m.previous_covariance) {
-      // Stored before covariances were: take this fit's (same lab, same procedure).
-      before.identified = now.identified;
-      before.covariance = now.covariance;
-    }
-    const auto c = calibration::CompareModels(
-        model, before, now, calibration::SpreadConfigurations(model, kDriftConfigurations));
-    m.configurations = c.configurations;
-    m.max_mm = c.max_mm;
-    m.mean_mm = c.mean_mm;
-    m.rms_mm = c.rms_mm;
-    m.chi2 = c.chi2;
-    m.dof = c.dof;
-    m.p_value = c.p_value;
-    m.same_subset = c.shared_shape_space;
-    m.significant = c.p_value < kDriftSignificance;
-    m.tolerance_mm = gates.drift_mm;
-    d.drift = m.significant && m.max_mm > m.tolerance_mm;
-    d.model_drift = m;
-    log(fmt::format(
-        "{}: against version {} the predicted positions differ by up to {:.3f} mm (mean {:.3f} "
-        "mm) over {} configurations spread over the work volume; chi2 {:.1f} on {} dof (p = "
-        "{:.2g}), tolerance {:.3f} mm{}",
-        d.drift ? "DRIFT" : "no drift", current->version, m.max_mm, m.mean_mm, m.configurations,
-        m.chi2, m.dof, m.p_value, m.tolerance_mm,
-        m.same_subset ? ""
-                      : fmt::format("; the two sets estimate different parameters: chi2 only "
-                                    "on the shape changes both can make (version {}: {})",
-                                    current->version, current->params_spec)));
-    // Per parameter: on the parameters both sets identified, in one gauge (the rigid
-    // part the two base alignments put into the parameters taken out).
-    const auto names = model.ParameterNames();
-    for (const auto& p : c.parameters) {
-      changes.push_back({p.parameter, p.change, p.z});
-      d.max_abs_sigmas = std::max(d.max_abs_sigmas, std::abs(p.z));
-      if (d.drift && std::abs(p.z) > gates.drift_sigma) {
-        d.drifted.push_back({names[p.parameter], p.change, p.z});
-        const bool angle = model.UnitOf(p.parameter) == calibration::ParameterUnit::kRad;
-        log(fmt::format("drift: {} changed by {:+.4f} {} ({:.1f} sigma)", names[p.parameter],
-                        angle ? p.change * 1e3 : p.change, angle ? "mrad" : "mm", p.z));
-      }
-    }
-  }
-
-  if (pass) {
-    const nlohmann::json options = {{"select", settings.select},
-                                    {"params", o.params},
-                                    {"gates",
-                                     {{"max_mean_mm", gates.max_mean_mm},
-                                      {"max_max_mm", gates.max_max_mm},
-                                      {"tolerance_mm", gates.tolerance_mm},
-                                      {"drift_sigma", gates.drift_sigma},
-                                      {"drift_mm", gates.drift_mm}}}};
-    db::CalibrationRecord record = CalibrationRecordOf(model, run, *robot_id, inputs, options, true);
-    if (d.previous_version) record.drift_json = JsonText(d.DriftJson());
-    db::WriteTransaction tx(database);
-    d.version = db::InsertCalibration(database, record).second;
-    db::RecordActivation(
-        database, *robot_id,
-        {d.version, d.previous_version, "", "recalibrate",
-         fmt::format("validation mean {:.4f} mm on {} configurations{}", d.validation.mean_mm,
-                     d.validation.poses, d.drift ? "; drift flagged" : "")});
-    tx.commit();
-    d.outcome = RecalibrationDecision::Outcome::kStored;
-  } else if (!run.estimate.status.ok()) {
-    // No gate can judge an estimate the solver did not finish: the gates above ran on the
-    // last step only to show how far it got.
-    d.outcome = RecalibrationDecision::Outcome::kFailed;
-    d.failure = fmt::format("the fit did not give a usable estimate: {}",
-                            run.estimate.status.message);
-  } else {
-    d.outcome = RecalibrationDecision::Outcome::kRejected;
-  }
-  log(d.Describe());
-
-  if (!o.report_dir.empty()) {
-    ReportInput input;
-    input.robot = o.robot;
-    input.version = d.version;
-    input.decision = d.Describe();
-    for (const auto& g : d.gates) {
-      input.gates.push_back(fmt::format("{}: {:.4f} mm (limit {:.4f} mm) {}", g.name, g.value_mm,
-                                        g.limit_mm, g.passed ? "passed" : "FAILED"));
-    }
-    input.model = &model;
-    input.run = &run;
-    input.validation = validation;
-    input.armsig_version = ARMSIG_VERSION;
-    db::ReadSnapshot report_snapshot(database);  // the report's reads agree with each other
-    input.sources = LoadReportSources(database, run);
-    {
-      std::vector<int64_t> sessions;
-      for (const auto& s : input.sources.sessions) sessions.push_back(s.id);
-      input.temperature_c = db::PoseTemperatures(database, sessions);
-    }
-    input.history = ReportHistoryOf(database, *robot_id);
-    if (d.version == 0) {
-      ReportHistoryPoint rejected{0, "this run (rejected)", d.validation.mean_mm, run.params_spec,
-                                  false};
-      rejected.drift = d.drift;
-      input.history.push_back(rejected);
-    }
-    if (current) {
-      input.previous_version = current->version;
-      input.previous_params_spec = current->params_spec;
-    }
-    input.changes = changes;
-    input.drift = d.drift;
-    if (d.model_drift) {
-      const auto& m = *d.model_drift;
-      input.changes_note = fmt::format(
-          "{}: against version {}, the positions the two models predict over {} configurations "
-          "spread over the work volume differ by up to {:.3f} mm (mean {:.3f} mm) after aligning "
-          "bases; chi2 {:.1f} on {} degrees of freedom (p = {:.2g}); drift needs p < 0.001 and "
-          "more than {:.3f} mm. Parameter changes are shown in one gauge (the rigid part of the "
-          "two base alignments removed).",
-          d.drift ? "DRIFT" : "No drift", *d.previous_version, m.configurations, m.max_mm,
-          m.mean_mm, m.chi2, m.dof, m.p_value, m.tolerance_mm);
-    }
-    d.report_path = WriteReport(o.report_dir, input);
-    log("report: " + d.report_path);
-  }
-  return d;
 }
+
+void NightlyJob::Gate(const std::string& name, double value, double limit) {
+  if (!run_->estimate.status.ok()) return;
+  const bool ok = value <= limit;
+  d_.gates.push_back({name, value, limit, ok});
+  Log(fmt::format("{}: {:.4f} mm (limit {:.4f} mm) {}", name, value, limit,
+                  ok ? "passed" : "FAILED"));
+  pass_ = pass_ && ok;
+}
+
+void NightlyJob::JudgeGates() {
+  Gate("validation mean", d_.validation.mean_mm, gates_.max_mean_mm);
+  Gate("validation max", d_.validation.max_mm, gates_.max_max_mm);
+}
+
+// The new set against the active one: on the same validation data (a gate), and by the
+// positions both predict over the work volume (drift), the difference named by its causes.
+void NightlyJob::CompareWithActive() {
+  if (!current_ || !run_->estimate.status.ok()) return;
+  // The current set on the same validation data, each session's base re-aligned on that
+  // session's fit poses (the measuring frame moves between set-ups; the arm signature
+  // does not), as the new fit placed each frame on them.
+  const Signature old = SignatureOf(model_, *current_);
+  calibration::FrameBases old_bases = calibration::AlignFrameBases(model_, old.params, fit_);
+  {
+    std::vector<MeasuredPose> unplaced;
+    for (const auto& p : validation_) {
+      if (!old_bases.count(p.frame)) unplaced.push_back(p);
+    }
+    for (const auto& [frame, base] : calibration::AlignFrameBases(model_, old.params, unplaced))
+      old_bases[frame] = base;
+  }
+  bool placed = !validation_.empty();
+  for (const auto& p : validation_) placed = placed && old_bases.count(p.frame) > 0;
+  if (placed) {
+    // With its residual map when it has one: the set as predict and compensate use it.
+    d_.previous_on_same_data =
+        StatsOf(MappedResiduals(model_, old_bases, old.params, old.map.get(), validation_));
+    spdlog::debug(
+        "recalibrate: version {} on the same validation data ({} frames re-aligned): mean "
+        "{:.4f} mm, max {:.4f} mm",
+        current_->version, old_bases.size(), d_.previous_on_same_data->mean_mm,
+        d_.previous_on_same_data->max_mm);
+    Gate(fmt::format("not worse than version {} on the same data (+{:.3f} mm)", current_->version,
+                     gates_.tolerance_mm),
+         d_.validation.mean_mm, d_.previous_on_same_data->mean_mm + gates_.tolerance_mm);
+  } else {
+    spdlog::debug("recalibrate: version {} could not be placed in every frame: no comparison "
+                  "on the same data",
+                  current_->version);
+  }
+  // Drift: do the two models put the arm in different places, beyond what both fits'
+  // uncertainty explains and by more than the tolerance?
+  const CalibrationRun& run = *run_;
+  const calibration::FittedSet now{run.estimate.params, run.estimate.identifiability.identified,
+                                   run.estimate.covariance};
+  calibration::FittedSet before = FittedSetOf(model_, old, *current_);
+  ModelDrift m;
+  m.previous_covariance = !before.identified.empty();
+  if (!m.previous_covariance) {
+    // Stored before covariances were: take this fit's (same lab, same procedure).
+    before.identified = now.identified;
+    before.covariance = now.covariance;
+  }
+  const auto c = calibration::CompareModels(model_, before, now, spread_);
+  m.configurations = c.configurations;
+  m.max_mm = c.max_mm;
+  m.mean_mm = c.mean_mm;
+  m.rms_mm = c.rms_mm;
+  m.chi2 = c.chi2;
+  m.dof = c.dof;
+  m.p_value = c.p_value;
+  m.same_subset = c.shared_shape_space;
+  m.significant = c.p_value < kDriftSignificance;
+  m.tolerance_mm = gates_.drift_mm;
+  // A change found in the sessions is drift whatever the two fits' scatter says.
+  d_.drift = (m.significant && m.max_mm > m.tolerance_mm) || d_.change.has_value();
+  d_.model_drift = m;
+  Log(fmt::format(
+      "{}: against version {} the predicted positions differ by up to {:.3f} mm (mean {:.3f} "
+      "mm) over {} configurations spread over the work volume; chi2 {:.1f} on {} dof (p = "
+      "{:.2g}), tolerance {:.3f} mm{}",
+      d_.drift ? "DRIFT" : "no drift", current_->version, m.max_mm, m.mean_mm, m.configurations,
+      m.chi2, m.dof, m.p_value, m.tolerance_mm,
+      m.same_subset ? ""
+                    : fmt::format("; the two sets estimate different parameters: chi2 only "
+                                  "on the shape changes both can make (version {}: {})",
+                                  current_->version, current_->params_spec)));
+  // Per parameter: on the parameters both sets identified, in one gauge (the rigid part
+  // the two base alignments put into the parameters taken out).
+  const auto names = model_.ParameterNames();
+  for (const auto& p : c.parameters) {
+    changes_.push_back({p.parameter, p.change, p.z});
+    d_.max_abs_sigmas = std::max(d_.max_abs_sigmas, std::abs(p.z));
+    if (d_.drift && std::abs(p.z) > gates_.drift_sigma) {
+      d_.drifted.push_back({names[p.parameter], p.change, p.z});
+      const bool angle = model_.UnitOf(p.parameter) == calibration::ParameterUnit::kRad;
+      spdlog::debug("recalibrate: drift: {} changed by {:+.4f} {} ({:.1f} sigma)",
+                    names[p.parameter], angle ? p.change * 1e3 : p.change, angle ? "mrad" : "mm",
+                    p.z);
+    }
+  }
+  if (d_.drift) {
+    // What physically changed between the two sets, one cause at a time.
+    const auto explanation = calibration::ExplainDifference(
+        model_, before.params, calibration::SetDifference(model_, before, now, spread_), spread_);
+    for (const auto& cause : explanation.causes) d_.causes.push_back(NameOf(cause));
+    for (const auto& cause : d_.causes) Log("drift: " + cause.Describe());
+  }
+}
+
+void NightlyJob::Store(const nlohmann::json& inputs) {
+  const CalibrationRun& run = *run_;
+  const nlohmann::json options = {{"select", settings_.select},
+                                  {"params", o_.params},
+                                  {"gates",
+                                   {{"max_mean_mm", gates_.max_mean_mm},
+                                    {"max_max_mm", gates_.max_max_mm},
+                                    {"tolerance_mm", gates_.tolerance_mm},
+                                    {"drift_sigma", gates_.drift_sigma},
+                                    {"drift_mm", gates_.drift_mm}}},
+                                  {"window",
+                                   {{"sessions", gates_.window_sessions},
+                                    {"days", gates_.window_days}}}};
+  db::CalibrationRecord record =
+      CalibrationRecordOf(model_, run, robot_id_, inputs, options, true);
+  if (d_.previous_version) record.drift_json = JsonText(d_.DriftJson());
+  std::string note = fmt::format("validation mean {:.4f} mm on {} configurations",
+                                 d_.validation.mean_mm, d_.validation.poses);
+  if (d_.change) {
+    note += fmt::format("; drift: changed from session {}", *d_.change->from_session);
+    if (!d_.change->causes.empty()) note += ": " + d_.change->causes.front().Describe();
+  } else if (d_.drift) {
+    note += "; drift flagged";
+    if (!d_.causes.empty()) note += ": " + d_.causes.front().Describe();
+  }
+  db::WriteTransaction tx(*database_);
+  d_.version = db::InsertCalibration(*database_, record).second;
+  db::RecordActivation(*database_, robot_id_,
+                       {d_.version, d_.previous_version, "", "recalibrate", note});
+  tx.commit();
+  d_.outcome = d_.drift ? RecalibrationDecision::Outcome::kDriftStored
+                        : RecalibrationDecision::Outcome::kStored;
+}
+
+void NightlyJob::WriteRunReport() {
+  const CalibrationRun& run = *run_;
+  ReportInput input;
+  input.robot = o_.robot;
+  input.version = d_.version;
+  input.decision = d_.Describe();
+  for (const auto& g : d_.gates) {
+    input.gates.push_back(fmt::format("{}: {:.4f} mm (limit {:.4f} mm) {}", g.name, g.value_mm,
+                                      g.limit_mm, g.passed ? "passed" : "FAILED"));
+  }
+  input.model = &model_;
+  input.run = &run;
+  input.validation = validation_;
+  input.armsig_version = ARMSIG_VERSION;
+  db::ReadSnapshot report_snapshot(*database_);  // the report's reads agree with each other
+  input.sources = LoadReportSources(*database_, run);
+  {
+    std::vector<int64_t> sessions;
+    for (const auto& s : input.sources.sessions) sessions.push_back(s.id);
+    input.temperature_c = db::PoseTemperatures(*database_, sessions);
+  }
+  input.history = ReportHistoryOf(*database_, robot_id_);
+  if (d_.version == 0) {
+    ReportHistoryPoint rejected{0, "this run (rejected)", d_.validation.mean_mm, run.params_spec,
+                                false};
+    rejected.drift = d_.drift;
+    input.history.push_back(rejected);
+  }
+  if (current_) {
+    input.previous_version = current_->version;
+    input.previous_params_spec = current_->params_spec;
+  }
+  input.changes = changes_;
+  input.drift = d_.drift;
+  input.drift_line = d_.DriftLine();
+  for (const auto& v : d_.tested) {
+    input.window.push_back({v.session, v.started_at, v.poses, v.mean_mm, v.effect_max_mm,
+                            v.p_value, v.disagrees, v.outlier});
+  }
+  for (const auto& c : d_.change ? d_.change->causes : d_.causes)
+    input.causes.push_back(c.Describe());
+  if (d_.model_drift) {
+    const auto& m = *d_.model_drift;
+    input.changes_note = fmt::format(
+        "{}: against version {}, the positions the two models predict over {} configurations "
+        "spread over the work volume differ by up to {:.3f} mm (mean {:.3f} mm) after aligning "
+        "bases; chi2 {:.1f} on {} degrees of freedom (p = {:.2g}); drift needs p < 0.001 and "
+        "more than {:.3f} mm. Parameter changes are shown in one gauge (the rigid part of the "
+        "two base alignments removed).",
+        d_.drift ? "DRIFT" : "No drift", *d_.previous_version, m.configurations, m.max_mm,
+        m.mean_mm, m.chi2, m.dof, m.p_value, m.tolerance_mm);
+  }
+  d_.report_path = WriteReport(o_.report_dir, input);
+  Log("report: " + d_.report_path);
+}
+
+RecalibrationDecision NightlyJob::Run() {
+  // Everything the run will write is checked before anything is stored.
+  since_ = o_.since.empty() ? std::string() : SinceToUtc(o_.since);
+  if (!o_.json_path.empty()) io::CheckOutputFile(o_.json_path, "--json");
+  if (!o_.report_dir.empty()) io::CheckOutputDirectory(o_.report_dir, "--report");
+  OpenAndLock();
+  ReadInputs();
+  d_.robot = o_.robot;
+  if (current_) d_.previous_version = current_->version;
+  spread_ = calibration::SpreadConfigurations(model_, kDriftConfigurations);
+  TestAgainstActive();
+  if (d_.change && d_.change->poses_after < d_.change->poses_needed) {
+    // Too few configurations since the change for a fit of their own; a fit reaching back
+    // before it would blend two robots.
+    d_.outcome = RecalibrationDecision::Outcome::kDriftSuspected;
+    d_.drift = true;
+    d_.poses = d_.change->poses_after;
+    d_.sessions = d_.change->after;
+    Log(d_.Describe());
+    return d_;
+  }
+  const std::vector<MeasuredPose> poses = FitInput();
+  d_.poses = static_cast<int>(poses.size());
+  {
+    std::set<int64_t> sessions;
+    for (const auto& p : poses) sessions.insert(p.frame);
+    d_.sessions.assign(sessions.begin(), sessions.end());
+  }
+  const std::string digest =
+      InputDigest(poses, o_.params + "|residual-model=" + o_.residual_model, o_.select);
+  nlohmann::json inputs = {{"digest", digest},         {"poses", poses.size()},
+                           {"sessions", d_.sessions},  {"since", since_},
+                           {"params", o_.params},      {"select", o_.select},
+                           {"residual_model", o_.residual_model}};
+  // The change point the set was fitted after (a new one, or the active set's): the
+  // windows of the nights after it never reach back before it.
+  if (d_.change) {
+    inputs["floor_session"] = *d_.change->from_session;
+    inputs["floor_started_at"] = d_.change->from_started_at;
+  } else if (d_.floor_session) {
+    inputs["floor_session"] = *d_.floor_session;
+    inputs["floor_started_at"] = floor_started_at_;
+  }
+  spdlog::debug("recalibrate: inputs: {} poses from sessions {}, --params {} --select {}: digest {}",
+                poses.size(), JsonText(nlohmann::json(d_.sessions)), o_.params, o_.select, digest);
+  if (!o_.force && UpToDate(digest)) return d_;
+  if (o_.force) spdlog::debug("recalibrate: --force: refitting whatever is stored");
+  if (poses.size() < 20) {
+    throw InputError(
+        {o_.db_path, 0, 0, "--robot"},
+        fmt::format("robot {} has {} measured configurations{} in its window; a recalibration "
+                    "needs at least 20 (some to fit, the rest to validate); {} lists its sessions",
+                    o_.robot, poses.size(), since_.empty() ? "" : " since " + since_,
+                    Hint(database_->path(), {"sessions", "--robot", o_.robot})));
+  }
+  Fit(poses);
+  JudgeGates();
+  CompareWithActive();
+  if (pass_) {
+    Store(inputs);
+  } else if (!run_->estimate.status.ok()) {
+    // No gate can judge an estimate the solver did not finish.
+    d_.outcome = RecalibrationDecision::Outcome::kFailed;
+    d_.failure = fmt::format("the fit did not give a usable estimate: {}",
+                             run_->estimate.status.message);
+  } else {
+    d_.outcome = RecalibrationDecision::Outcome::kRejected;
+  }
+  Log(d_.Describe());
+  if (!o_.report_dir.empty()) WriteRunReport();
+  return d_;
+}
+
+}  // namespace
+
+RecalibrationDecision Recalibrate(const RecalibrateOptions& options) {
+  return NightlyJob(options).Run();
+}
+
 
 }  // namespace armsig::workflows

@@ -25,6 +25,9 @@ struct RecalibrateOptions {
   // Gates; unset = the lab file's `recalibration:` block, else the defaults below.
   std::optional<double> max_validation_mean_mm, max_validation_max_mm, tolerance_mm, drift_sigma,
       drift_mm;
+  // The window of sessions a fit may use; unset = the lab file's `recalibration: window:`,
+  // else the newest kDefaultWindowSessions started within kDefaultWindowDays (0: no limit).
+  std::optional<int> window_sessions, window_days;
   std::string report_dir;  // write the HTML report here ("" = none)
   std::string json_path;   // the caller will write the decision here: checked before any write
   int max_iterations = 50;  // of the fit; a fit that needs more fails (exit 1), not a gate
@@ -38,6 +41,9 @@ struct RecalibrateOptions {
 // offset from UTC (±HH:MM, ±HHMM, ±HH). Anything else, an impossible calendar date
 // (2026-02-30, 2026-11-31) included, is an InputError naming the value.
 std::string SinceToUtc(const std::string& text);
+
+inline constexpr int kDefaultWindowSessions = 10;
+inline constexpr int kDefaultWindowDays = 90;
 
 struct Gate {
   std::string name;
@@ -65,11 +71,50 @@ struct ModelDrift {
   bool same_subset = true;          // false: chi2 on the shape changes both subsets can make
 };
 
+// One session of the window tested against the active set (calibration::TestAgainstSet).
+struct SessionVerdict {
+  int64_t session = 0;
+  std::string started_at;
+  int poses = 0;
+  double mean_mm = 0.0;  // the active set's error distances on it, its own frame placed
+  bool disagrees = false;
+  double p_value = 1.0, effect_max_mm = 0.0;
+  bool outlier = false;  // disagrees, but a later session agrees: left out of the fit
+};
+
+// A physical cause of a change, as the decision names it (calibration::ExplainedCause).
+struct NamedCause {
+  std::string name, parameter;
+  std::string unit;     // mrad | mm | ppm
+  double size = 0.0;    // in `unit`
+  double sigma = 0.0;   // in `unit`
+  double explained = 0.0;  // share of the difference it explains alone (0–1)
+  double effect_max_mm = 0.0, effect_mean_mm = 0.0;
+  std::vector<std::string> equivalent;
+  // "joint 2 zero moved by +0.349 mrad (up to 0.31 mm at the tool; explains 99 %)"
+  std::string Describe() const;
+};
+
+// What the robot did over the window, from the active set's point of view.
+struct ChangeFinding {
+  std::optional<int64_t> from_session;  // the first session after the change
+  std::string from_started_at;
+  std::vector<int64_t> after;           // the sessions from the change on
+  int poses_after = 0;                  // their usable configurations
+  int poses_needed = 0;                 // for a fit of them alone
+  std::vector<NamedCause> causes;       // best first
+  std::vector<std::string> indistinguishable;  // causes a moved measuring frame makes alike
+  double effect_max_mm = 0.0, p_value = 1.0;
+};
+
 struct RecalibrationDecision {
   // kFailed: the fit itself did not produce a usable estimate (not converged, non-finite):
   // no gate can judge it, nothing is stored, and a scheduler sees a failure (exit 1), not
-  // a set that validated badly (kRejected, exit 3).
-  enum class Outcome { kUpToDate, kStored, kRejected, kFailed };
+  // a set that validated badly (kRejected, exit 3). kDriftStored: the robot changed and a
+  // set fitted on the sessions after the change alone is stored and active (exit 4).
+  // kDriftSuspected: the newest sessions disagree with the active set but do not yet hold
+  // enough configurations for a fit of their own; nothing is stored (exit 5).
+  enum class Outcome { kUpToDate, kStored, kDriftStored, kDriftSuspected, kRejected, kFailed };
   Outcome outcome = Outcome::kRejected;
   std::string robot;
   // The stored version; when up to date, the version fitted on these inputs (the active
@@ -90,11 +135,29 @@ struct RecalibrationDecision {
   double max_abs_sigmas = 0.0;            // per parameter, on the subset both sets share
   std::vector<DriftedParameter> drifted;  // those beyond drift_sigma, largest first
   std::vector<int64_t> sessions;          // the sessions fitted and validated
+  // The window: its limits, the first session the active set allows (a confirmed change
+  // point), every session in it tested against the active set, and what they showed.
+  int window_sessions = 0, window_days = 0;
+  std::optional<int64_t> floor_session;
+  std::vector<SessionVerdict> tested;
+  std::optional<ChangeFinding> change;
+  // The set's difference from the active one explained (when a set was fitted and there
+  // was an active one to compare with and drift was flagged).
+  std::vector<NamedCause> causes;
   nlohmann::json residual_model;          // calibrate's residual_model object (null: not fitted)
   std::string report_path;                // "" when no report was written
   std::string failure;                    // kFailed: why the fit gave no usable estimate
 
-  bool passed() const { return outcome != Outcome::kRejected && outcome != Outcome::kFailed; }
+  bool passed() const {
+    return outcome == Outcome::kUpToDate || outcome == Outcome::kStored ||
+           outcome == Outcome::kDriftStored;
+  }
+  // The exit code a scheduler acts on: 0 stored or up to date, 4 drift (a new set stored),
+  // 5 drift suspected (more data needed), 3 rejected by a gate, 1 failed.
+  int ExitCode() const;
+  // The line a person must see on a drift night ("" when there was no drift): what
+  // changed, from when, the named cause and what was done about it.
+  std::string DriftLine() const;
   // "stored as version 4 (active)" / "rejected: a gate failed; version 3 stays active" /
   // "failed: the fit did not converge (…); version 3 stays active" / …
   std::string Describe() const;

@@ -1111,6 +1111,36 @@ std::string WriteReport(const std::string& dir, const ReportInput& in) {
     }
   }
 
+  // The window's sessions against the set active before the run.
+  if (!in.window.empty() || !in.drift_line.empty()) {
+    html += Html("<h2>The sessions against the active set</h2>\n");
+    if (!in.drift_line.empty())
+      html += HtmlFormat("<p class=\"bad\" id=\"drift-line\">{}</p>\n", in.drift_line);
+    if (!in.causes.empty()) {
+      html += Html("<p>Physical causes, each fitted alone against the change:</p>\n<ol id=\"causes\">\n");
+      for (const auto& c : in.causes) html += HtmlFormat("<li>{}</li>\n", c);
+      html += Html("</ol>\n");
+    }
+    if (!in.window.empty()) {
+      html += HtmlFormat(
+          "<table id=\"window\"><tr><th class=\"num\">session</th><th>started</th><th "
+          "class=\"num\">configurations</th><th class=\"num\">mean error under version {} "
+          "(mm)</th><th class=\"num\">change up to (mm)</th><th class=\"num\">p</th><th>verdict</th>"
+          "</tr>\n",
+          in.previous_version.value_or(0));
+      for (const auto& w : in.window) {
+        html += HtmlFormat(
+            "<tr><td class=\"num\">{}</td><td>{}</td><td class=\"num\">{}</td><td "
+            "class=\"num\">{:.4f}</td><td class=\"num\">{:.3f}</td><td class=\"num\">{:.2g}</td><td{}>{}</td></tr>\n",
+            w.session, w.started_at, w.poses, w.mean_mm, w.effect_max_mm, w.p_value,
+            w.disagrees ? Html(" class=\"bad\"") : Html(),
+            w.outlier ? "disagrees (an outlier: left out)"
+                      : w.disagrees ? "disagrees" : "agrees");
+      }
+      html += Html("</table>\n");
+    }
+  }
+
   // History of versions.
   html += Html("<h2>Drift against earlier versions</h2>\n") + FigureHtml(drift_figure);
   if (!in.history.empty()) {

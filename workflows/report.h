@@ -81,6 +81,18 @@ struct ReportInput {
   std::vector<calibration::ParameterChange> changes;
   std::string changes_note;
   bool drift = false;
+  // The nightly job's window: every session tested against the set active before the run
+  // (calibration::TestAgainstSet), the drift line, and the named causes, best first.
+  struct WindowTest {
+    int64_t session = 0;
+    std::string started_at;
+    int poses = 0;
+    double mean_mm = 0.0, effect_max_mm = 0.0, p_value = 1.0;
+    bool disagrees = false, outlier = false;
+  };
+  std::vector<WindowTest> window{};
+  std::string drift_line{};
+  std::vector<std::string> causes{};
 };
 
 // Writes DIR/index.html and DIR/*.png; returns the HTML path. Throws on I/O failure.

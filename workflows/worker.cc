@@ -53,6 +53,8 @@ std::string RecalibrateOptionsToJson(const RecalibrateOptions& o) {
   optional("tolerance_mm", o.tolerance_mm);
   optional("drift_sigma", o.drift_sigma);
   optional("drift_mm", o.drift_mm);
+  if (o.window_sessions) j["window_sessions"] = *o.window_sessions;
+  if (o.window_days) j["window_days"] = *o.window_days;
   return JsonText(j);
 }
 
@@ -76,6 +78,8 @@ RecalibrateOptions RecalibrateOptionsFromJson(const std::string& text) {
     optional("tolerance_mm", o.tolerance_mm);
     optional("drift_sigma", o.drift_sigma);
     optional("drift_mm", o.drift_mm);
+    if (j.contains("window_sessions")) o.window_sessions = j.at("window_sessions").get<int>();
+    if (j.contains("window_days")) o.window_days = j.at("window_days").get<int>();
   } catch (const nlohmann::json::exception& e) {
     throw InputError({"jobs.options_json", 0, 0, ""},
                      std::string("malformed job options (") + e.what() + ")");
@@ -188,6 +192,9 @@ Outcome RunJob(const WorkerOptions& options, const db::Job& job) {
     out.state = d.passed() ? db::JobState::kDone : db::JobState::kRejected;
     out.result_json = JsonText(d.ToJson());
     out.summary = d.Describe();
+    // A drift night is done (a set was stored) or rejected (drift suspected, nothing
+    // stored); either way its summary leads with the drift line a person must see.
+    if (const std::string line = d.DriftLine(); !line.empty()) out.summary = line;
     if (d.outcome == RecalibrationDecision::Outcome::kFailed) {
       out.state = db::JobState::kFailed;  // not retried: the same data fails the same way
       out.error = d.failure + (d.previous_version

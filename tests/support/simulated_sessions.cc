@@ -14,11 +14,12 @@ constexpr double kNoiseMm = 0.01;
 
 // One session of `count` configurations of the true robot, stored like a capture.
 void AddSession(db::Database& db, const Eigen::VectorXd& truth, int count, unsigned seed,
-                double blunder_fraction, const std::string& lab_yaml, const std::string& robot_name) {
+                double blunder_fraction, const std::string& lab_yaml, const std::string& robot_name,
+                const Eigen::Isometry3d& world_from_base) {
   const auto model = Puma();
   std::mt19937 rng(seed);
   const auto poses =
-      calibration::SimulatePoses(model, Eigen::Isometry3d::Identity(), truth,
+      calibration::SimulatePoses(model, world_from_base, truth,
                                  calibration::LabTestConfigurations(model, rng), kNoiseMm, rng);
   db::WriteTransaction tx(db);
   const int64_t robot =
@@ -39,6 +40,17 @@ void AddSession(db::Database& db, const Eigen::VectorXd& truth, int count, unsig
     db::InsertPoint(db, session, point);
   }
   tx.commit();
+}
+
+Eigen::Isometry3d NightFrame(unsigned seed) {
+  std::mt19937 rng(seed * 7919u + 17u);
+  std::uniform_real_distribution<double> offset(-400.0, 400.0), angle(-0.5, 0.5);
+  Eigen::Isometry3d frame = Eigen::Isometry3d::Identity();
+  frame.linear() = (Eigen::AngleAxisd(angle(rng), Eigen::Vector3d::UnitZ()) *
+                    Eigen::AngleAxisd(0.05 * angle(rng), Eigen::Vector3d::UnitX()))
+                       .toRotationMatrix();
+  frame.translation() = Eigen::Vector3d(offset(rng), offset(rng), 0.1 * offset(rng));
+  return frame;
 }
 
 int ActiveVersion(const std::string& path) {
