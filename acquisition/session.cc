@@ -18,6 +18,8 @@
 #include "acquisition/records.h"
 #include "acquisition/session_owner.h"
 #include "core/error.h"
+#include "core/text.h"
+#include "io/model_yaml.h"
 #include "core/units.h"
 #include "db/store.h"
 #include "reduction/intersection.h"
@@ -31,6 +33,23 @@ using Clock = std::chrono::steady_clock;
 int64_t CreateSession(db::Database& db, const LabConfig& lab, const std::string& robot,
                       const Plan& plan) {
   db::WriteTransaction tx(db);
+  if (const auto registered = db::FindRobot(db, robot)) {
+    // The robot is what was registered: a lab file naming another model (an edited link
+    // length, another robot's file) would store measurements of one arm under another.
+    const auto model = io::ParseRobotModel(db::RobotModelYaml(db, *registered),
+                                           "model of robot " + robot);
+    const auto differences = calibration::ModelDifferences(lab.model, model);
+    if (!differences.empty()) {
+      std::string list;
+      for (const auto& d : differences) list += (list.empty() ? "" : "; ") + d;
+      throw InputError({lab.robot_model_path, 0, 0, ""},
+                       fmt::format("the lab's robot model differs from robot {} as registered "
+                                   "({} against the registered): {}; correct the lab file's "
+                                   "model, or register the changed arm under a new name "
+                                   "(armsig robot add NAME --model FILE)",
+                                   Quoted(robot), lab.robot_model_path, list));
+    }
+  }
   const int64_t robot_id = db::EnsureRobot(db, robot, lab.model.name, lab.model_yaml);
   const int64_t session = db::CreateSession(db, robot_id, lab.text, PlanToJson(plan), "running",
                                             "capture from " + lab.source);

@@ -7,6 +7,7 @@
 #include <CLI/CLI.hpp>
 #include <atomic>
 #include <functional>
+#include <optional>
 #include <string>
 
 #include "db/database.h"
@@ -67,6 +68,8 @@ CLI::Option* NoteOption(CLI::Option* option);
 CLI::Option* NumberOption(CLI::Option* option, double min, double max);
 // The same check for an option that takes a list of numbers (--seed-deg 0,-90,90).
 CLI::Validator NumberCheck(double min, double max);
+// `--set N`: a stored parameter set (version) of the robot instead of the active one.
+CLI::Option* AddSetOption(CLI::App& sub, std::optional<int>& set);
 // Bounds for counts and ids given on the command line.
 inline constexpr double kMaxPoses = 1e6;                // configurations of one session or fit
 inline constexpr double kMaxId = 9.007199254740992e15;  // 2^53: a database row id

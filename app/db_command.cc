@@ -71,6 +71,9 @@ void SetupDbCommand(CLI::App& parent, const GlobalOptions& global, Runner& run) 
         s.sessions_present, s.sets_present);
     if (s.robots_created) std::cout << fmt::format("new robots there: {}\n", s.robots_created);
     for (const auto& v : s.versions) std::cout << "  parameter set " << v << " there\n";
+    if (s.activations_pushed)
+      std::cout << fmt::format("activations (the history of active sets) pushed: {}\n",
+                               s.activations_pushed);
     if (s.activated) std::cout << fmt::format("active sets made active there: {}\n", s.activated);
     for (const auto& open : s.open_sessions)
       std::cout << "  not pushed, still open: " << open << " (pushed once finished)\n";

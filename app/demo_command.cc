@@ -42,6 +42,10 @@ void SetupDemoCommand(CLI::App& parent, const GlobalOptions& global, Runner& run
                                "The virtual lab's noise and plan (default: 1985 plus the demo "
                                "sessions already stored, so every run measures anew)"),
                0, 4294967295.0);
+  sub->add_option("--change", o->changes,
+                  "Plant a change in the virtual robot (repeatable), to rehearse the nightly "
+                  "job: joint2_zero=0.02deg, link2_length=0.2mm, a parameter such as a3=-50um; "
+                  "units mm, um, deg, mrad, urad, rad");
   NumberOption(sub->add_option("--time-scale", o->time_scale,
                                "Multiplies every simulated instrument latency"),
                0.0, 100.0)

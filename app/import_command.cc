@@ -50,7 +50,10 @@ void SetupImportCommand(CLI::App& parent, const GlobalOptions& global, Runner& r
       "A pose table with named columns (e.g. the IPA UR10 laser-tracker CSVs), or a laser "
       "tracker's point table joined with the robot's joint log, to the SPEC poses CSV, or into "
       "the database as a session of a robot");
-  p->add_option("file", poses->file, "Input pose table CSV (or give --points and --joints)");
+  p->add_option("file", poses->file,
+                "Input: a poses CSV (pose,q1_deg,…,x_mm,y_mm,z_mm: no options needed), a pose "
+                "table with --preset or --joint-columns/--xyz-columns, or give --points and "
+                "--joints");
   OutputFile(p->add_option("--out", poses->out, "Output poses CSV"));
   NameOption(p->add_option(
       "--robot", poses->robot,
@@ -83,9 +86,10 @@ void SetupImportCommand(CLI::App& parent, const GlobalOptions& global, Runner& r
       ->check(CLI::IsMember({"mm", "m", "inch"}));
   p->add_option("--joint-columns", poses->joint_columns,
                 "Joint columns in joint order, comma-separated");
-  p->add_option("--joint-unit", poses->joint_unit, "Unit of --joint-columns: deg | gon | rad")
-      ->check(CLI::IsMember({"deg", "gon", "rad"}))
-      ->capture_default_str();
+  p->add_option("--joint-unit", poses->joint_unit,
+                "Unit of joint columns without a _deg/_gon/_rad suffix: deg | gon | rad "
+                "(default rad; a joint log: deg); a suffix it contradicts is refused")
+      ->check(CLI::IsMember({"deg", "gon", "rad"}));
   p->add_option("--xyz-columns", poses->xyz_columns, "Measured x,y,z columns, comma-separated");
   NumberOption(
       p->add_option("--length-scale", poses->length_scale, "Factor to mm (1000 for metres)"), 1e-6,

@@ -103,6 +103,14 @@ CLI::Option* NumberOption(CLI::Option* option, double min, double max) {
   return option->check(NumberCheck(min, max));
 }
 
+CLI::Option* AddSetOption(CLI::App& sub, std::optional<int>& set) {
+  return NumberOption(
+      sub.add_option("--set", set,
+                     "A stored parameter set by its version (armsig versions); default: the "
+                     "active one"),
+      1, 1e9);
+}
+
 CLI::Validator NumberCheck(double min, double max) {
   const std::string range = fmt::format("{:g} to {:g}", min, max);
   return CLI::Validator(
@@ -253,6 +261,15 @@ int Main(int argc, const char* const* argv) {
   SetupAll(app, global, run);
   try {
     app.parse(argc, argv);
+  } catch (const CLI::CallForVersion& e) {
+    // `--version` after a command (it falls through to the program's own): a script asking
+    // for parameter set 3 must not get the program's version and exit 0.
+    if (!app.get_subcommands().empty()) {
+      std::cerr << "armsig: error: --version after a command is the program's version (armsig "
+                   "--version); a stored parameter set is chosen with --set N\n";
+      return kInputError;
+    }
+    return app.exit(e);
   } catch (const CLI::ParseError& e) {
     const int code = app.exit(e);  // prints help / version / the usage error
     return code == 0 ? kOk : kInputError;

@@ -72,8 +72,21 @@ int RunRecalibrate(RecalibrateCommand c, const GlobalOptions& global) {
            kFailure);
     throw;
   }
+  if (!c.json.empty()) {
+    // The summary follows the commit (it names the stored version): a failure to write it
+    // is said with what was stored, never taken for the run's.
+    try {
+      io::WriteFileAtomically(c.json, JsonText(d.ToJson(), 2) + "\n");
+    } catch (const std::exception& e) {
+      if (d.version <= 0) throw;
+      d.output_error += (d.output_error.empty() ? "" : "; ") +
+                        fmt::format("version {} is stored, but the summary could not be "
+                                    "written to {}: {}",
+                                    d.version, c.json, e.what());
+      spdlog::error("recalibrate: {}: {}", d.robot, d.output_error);
+    }
+  }
   const nlohmann::json summary = d.ToJson();
-  if (!c.json.empty()) io::WriteFileAtomically(c.json, JsonText(summary, 2) + "\n");
   using Outcome = workflows::RecalibrationDecision::Outcome;
   if (d.outcome == Outcome::kFailed || d.outcome == Outcome::kDriftSuspected) {
     std::cout << d.robot << ": " << d.Describe() << "\n";  // no statistics of an unfinished fit
@@ -85,6 +98,7 @@ int RunRecalibrate(RecalibrateCommand c, const GlobalOptions& global) {
   }
   // The drift line on stdout, where a person reading the mail or the journal sees it.
   if (const std::string line = d.DriftLine(); !line.empty()) std::cout << line << "\n";
+  if (!d.output_error.empty()) std::cout << d.robot << ": " << d.output_error << "\n";
   std::cout.flush();
   Notify(c, summary, d.ExitCode());
   return d.ExitCode();

@@ -1,7 +1,8 @@
-// Using the active arm signature:
-//   armsig predict    --robot NAME --joints J.csv [--out P.csv] [--frame robot|measurement]
-//   armsig compensate --robot NAME --targets T.csv --out J.csv [--frame …] [--seed-deg …]
-//   armsig export     --robot NAME --format json|model|urdf --out FILE [--frame …]
+// Using an arm signature (the active one, or a stored one with --set N):
+//   armsig predict    --robot NAME [--set N] --joints J.csv [--out P.csv] [--frame robot|measurement]
+//   armsig compensate --robot NAME [--set N] --targets T.csv --out J.csv [--frame …] [--seed-deg …]
+//   armsig export     --robot NAME [--set N] --format json|model|urdf --out FILE [--frame …]
+//   armsig report     --robot NAME [--set N] --out DIR
 #include <fmt/format.h>
 #include <spdlog/spdlog.h>
 
@@ -11,6 +12,7 @@
 #include "core/units.h"
 #include "io/atomic_file.h"
 #include "workflows/signature.h"
+#include "workflows/stored_report.h"
 
 namespace armsig::app {
 
@@ -18,6 +20,7 @@ namespace {
 
 struct SignatureOptions {
   std::string robot, joints, targets, out, format, frame = "robot";
+  std::optional<int> set;  // --set N: a stored version (default: the active one)
   std::vector<double> seed_deg;
   bool map_sigma = false;
 };
@@ -25,6 +28,7 @@ struct SignatureOptions {
 CLI::App* Command(CLI::App& parent, const char* name, const char* help, SignatureOptions& o) {
   auto* sub = parent.add_subcommand(name, help);
   NameOption(sub->add_option("--robot", o.robot, "Robot name"))->required();
+  AddSetOption(*sub, o.set);
   sub->add_option("--frame", o.frame, "robot | measurement")
       ->check(CLI::IsMember({"robot", "measurement"}))
       ->capture_default_str();
@@ -42,7 +46,7 @@ void SetupSignatureCommands(CLI::App& parent, const GlobalOptions& global, Runne
                     "Fill map_sigma_mm: the residual map's predictive sigma per configuration");
   OutputFile(predict->add_option("--out", p->out, "Positions CSV (default: stdout)"));
   OnDatabaseToRead(predict, global, run, [p](db::Database& database) {
-    const auto active = workflows::LoadActiveSignature(database, p->robot);
+    const auto active = workflows::LoadSignature(database, p->robot, p->set);
     const std::string csv =
         workflows::PredictCsv(active, workflows::FrameOf(active, p->frame), p->joints, p->map_sigma);
     if (p->out.empty())
@@ -66,7 +70,7 @@ void SetupSignatureCommands(CLI::App& parent, const GlobalOptions& global, Runne
       ->delimiter(',')
       ->check(NumberCheck(-720.0, 720.0));
   OnDatabaseToRead(compensate, global, run, [c](db::Database& database) {
-    const auto active = workflows::LoadActiveSignature(database, c->robot);
+    const auto active = workflows::LoadSignature(database, c->robot, c->set);
     std::optional<Eigen::VectorXd> seed;
     if (!c->seed_deg.empty()) {
       seed = Eigen::Map<const Eigen::VectorXd>(c->seed_deg.data(), c->seed_deg.size()) * kRadPerDeg;
@@ -96,12 +100,26 @@ void SetupSignatureCommands(CLI::App& parent, const GlobalOptions& global, Runne
       ->required();
   OutputFile(exp->add_option("--out", e->out, "File to write"))->required();
   OnDatabaseToRead(exp, global, run, [e](db::Database& database) {
-    const auto active = workflows::LoadActiveSignature(database, e->robot);
+    const auto active = workflows::LoadSignature(database, e->robot, e->set);
     const auto result = workflows::ExportSignature(active, e->robot, e->format, e->frame);
     if (!result.warning.empty()) spdlog::warn("export: {}", result.warning);
     io::WriteFileAtomically(e->out, result.text);
     std::cout << "armsig export: " << e->format << " of " << e->robot << " version "
               << active.signature.version << " -> " << e->out << "\n";
+    return kOk;
+  });
+
+  auto r = std::make_shared<SignatureOptions>();
+  auto* report = parent.add_subcommand(
+      "report", "The HTML report of a stored parameter set (the active one, or --set N)");
+  NameOption(report->add_option("--robot", r->robot, "Robot name"))->required();
+  AddSetOption(*report, r->set);
+  OutputDirectory(report->add_option("--out", r->out, "Folder for index.html and its figures"))
+      ->required();
+  OnDatabaseToRead(report, global, run, [r](db::Database& database) {
+    const auto written = workflows::WriteStoredReport(database, r->robot, r->set, r->out);
+    std::cout << fmt::format("armsig report: {} version {} -> {}\n", r->robot, written.version,
+                             written.path);
     return kOk;
   });
 }

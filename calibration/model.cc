@@ -1,5 +1,8 @@
 #include "calibration/model.h"
 
+#include <fmt/format.h>
+#include <fmt/ranges.h>
+
 #include <cmath>
 #include <stdexcept>
 #include <string>
@@ -253,6 +256,53 @@ Eigen::Matrix<double, 3, Eigen::Dynamic> Kinematics::JointJacobian() const {
   Eigen::Matrix<double, 3, Eigen::Dynamic> j(3, n);
   for (int i = 0; i < n; ++i) j.col(i) = g_rot_[i].col(2).cross(x_ - h_origin_[i]);
   return j;
+}
+
+std::vector<std::string> ModelDifferences(const RobotModel& a, const RobotModel& b,
+                                          double tolerance_mm) {
+  std::vector<std::string> out;
+  auto transform = [&](const std::string& what, const Eigen::Isometry3d& x,
+                       const Eigen::Isometry3d& y) {
+    static constexpr const char* kAxis[3] = {"x", "y", "z"};
+    for (int k = 0; k < 3; ++k) {
+      if (std::abs(x.translation()(k) - y.translation()(k)) > tolerance_mm) {
+        out.push_back(fmt::format("{} translation {}: {:.6g} mm against {:.6g} mm", what, kAxis[k],
+                                  x.translation()(k), y.translation()(k)));
+      }
+    }
+    if (!x.linear().isApprox(y.linear(), 1e-9)) {
+      out.push_back(fmt::format("{} rotation: [{}] against [{}]", what,
+                                fmt::join(x.linear().reshaped<Eigen::RowMajor>(), " "),
+                                fmt::join(y.linear().reshaped<Eigen::RowMajor>(), " ")));
+    }
+  };
+  if (a.num_joints() != b.num_joints()) {
+    out.push_back(fmt::format("{} joints against {}", a.num_joints(), b.num_joints()));
+    return out;
+  }
+  for (size_t k = 0; k < a.links.size(); ++k) {
+    transform(fmt::format("link {} (N{})", k + 1, k + 2), a.links[k], b.links[k]);
+  }
+  if (a.base.has_value() != b.base.has_value()) {
+    out.push_back(fmt::format("base: {} against {}", a.base ? "a matrix" : "auto",
+                              b.base ? "a matrix" : "auto"));
+  } else if (a.base) {
+    transform("base (N1)", *a.base, *b.base);
+  }
+  for (int k = 0; k < 3; ++k) {
+    if (std::abs(a.tool_mm(k) - b.tool_mm(k)) > tolerance_mm) {
+      out.push_back(fmt::format("tool_mm[{}]: {:.6g} mm against {:.6g} mm", k, a.tool_mm(k),
+                                b.tool_mm(k)));
+    }
+  }
+  if (a.nongeometric != b.nongeometric) {
+    out.push_back(fmt::format("non-geometric terms: {} against {} (or defined differently)",
+                              a.nongeometric.size(), b.nongeometric.size()));
+  }
+  if (!a.gravity_in_base.isApprox(b.gravity_in_base, 1e-9)) out.push_back("gravity direction");
+  if (a.joint_min_rad != b.joint_min_rad || a.joint_max_rad != b.joint_max_rad)
+    out.push_back("joint limits");
+  return out;
 }
 
 }  // namespace armsig::calibration

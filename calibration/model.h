@@ -78,6 +78,13 @@ struct RobotModel {
   int IndexOf(const std::string& name) const;
 };
 
+// How two models of one robot differ, one line per differing value ("link 2 (N3)
+// translation x: 650.3 mm against 650 mm"; `a` first), to `tolerance_mm` for lengths and
+// 1e-9 for matrix entries and angles. Empty when they describe the same arm (names and
+// the way the file was written do not count).
+std::vector<std::string> ModelDifferences(const RobotModel& a, const RobotModel& b,
+                                          double tolerance_mm = 1e-6);
+
 // The value f_k(θ̄) of every non-geometric term of `model` for the encoder angles
 // (model.nongeometric.size() values into `values`). One pass of the nominal chain when
 // the model has gravity-torque terms.

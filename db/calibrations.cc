@@ -195,6 +195,13 @@ std::pair<int64_t, int> InsertCalibration(Database& db, const CalibrationRecord&
   return {id, version};
 }
 
+void SetDriftJson(Database& db, int64_t calibration_id, const std::string& drift_json) {
+  auto q = Sql(db, "UPDATE calibrations SET drift_json = ? WHERE id = ?");
+  q->Bind(1, drift_json);
+  q->Bind(2, calibration_id);
+  q->Execute();
+}
+
 std::vector<StoredCalibration> CalibrationHistory(Database& db, int64_t robot_id) {
   std::vector<StoredCalibration> out;
   auto q = Sql(db,

@@ -48,6 +48,8 @@ struct CalibrationRecord {
 // Stores a calibration as the robot's next version (one transaction by the caller);
 // `active` makes it the robot's only active set. Returns {id, version}.
 std::pair<int64_t, int> InsertCalibration(Database& db, const CalibrationRecord& record);
+// Replaces a stored set's drift decision (inside the transaction that stored it).
+void SetDriftJson(Database& db, int64_t calibration_id, const std::string& drift_json);
 
 struct StoredCalibration {
   int64_t id = 0;

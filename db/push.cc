@@ -332,7 +332,7 @@ class NameMap {
 // transaction): their identity on every server they are pushed to.
 void AssignUuids(Connection& source) {
   Transaction tx(source, TransactionKind::kWrite);
-  for (const char* table : {"sessions", "calibrations"}) {
+  for (const char* table : {"sessions", "calibrations", "activations"}) {
     std::vector<int64_t> ids;
     auto q = source.Prepare(
         std::string("SELECT id FROM ") + table + " WHERE uuid IS NULL" +
@@ -464,13 +464,16 @@ void PushSession(Connection& source, Connection& target, NameMap& names, int64_t
 std::string ServerInputs(Connection& source, Connection& target, const std::string& inputs_json) {
   auto j = nlohmann::json::parse(inputs_json, nullptr, /*allow_exceptions=*/false);
   if (!j.is_object() || !j.contains("sessions") || !j["sessions"].is_array()) return inputs_json;
-  for (auto& id : j["sessions"]) {
-    if (!id.is_number_integer()) continue;
+  auto on_server = [&](nlohmann::json& id) {
+    if (!id.is_number_integer()) return;
     auto s = source.Prepare("SELECT uuid FROM sessions WHERE id = ?");
     s->Bind(1, id.get<int64_t>());
-    if (!s->Step() || s->IsNull(0)) continue;
+    if (!s->Step() || s->IsNull(0)) return;
     if (const auto server = ServerIdOf(target, "sessions", s->Text(0))) id = *server;
-  }
+  };
+  for (auto& id : j["sessions"]) on_server(id);
+  // The change point the set was fitted after (the nightly job's window starts there).
+  if (j.contains("floor_session")) on_server(j["floor_session"]);
   return JsonText(j);
 }
 
@@ -546,54 +549,91 @@ int PushCalibration(Connection& source, Connection& target, NameMap& names, int6
   return version;
 }
 
-// Makes the cell's active set the server's active one when it is newer than the server's.
-void PushActivation(Connection& source, Connection& target, NameMap& names, int64_t local_robot,
-                    const PushOptions& options, PushSummary& summary) {
-  auto s = source.Prepare(
-      "SELECT uuid, version, created_at FROM calibrations WHERE robot_id = ? AND active = 1");
-  s->Bind(1, local_robot);
-  if (!s->Step() || s->IsNull(0)) return;
-  const std::string uuid = s->Text(0), created_at = s->Text(2);
-  const int local_version = static_cast<int>(s->Int(1));
+// The cell's activation history of one robot — every activation with who made it, when,
+// why and what it replaced, in the server's version numbers — and its active state, which
+// the server takes unless it holds a later activation of its own. Activations already on
+// the server (by UUID) are not repeated.
+void PushActivations(Connection& source, Connection& target, NameMap& names, int64_t local_robot,
+                     PushSummary& summary) {
+  std::map<int, std::string> uuid_of;  // the cell's version → its set's UUID
+  std::optional<std::string> active_uuid;
+  {
+    auto q = source.Prepare("SELECT version, uuid, active FROM calibrations WHERE robot_id = ?");
+    q->Bind(1, local_robot);
+    while (q->Step()) {
+      if (q->IsNull(1)) continue;
+      uuid_of[static_cast<int>(q->Int(0))] = q->Text(1);
+      if (q->Int(2) == 1) active_uuid = q->Text(1);
+    }
+  }
   Transaction tx(target, TransactionKind::kWrite);
   names.Forget();
   const int64_t robot = names.Robot(local_robot);
-  LockRobotForWrite(target, robot);  // the active set read, then changed
-  auto pushed =
-      target.Prepare("SELECT version, active FROM calibrations WHERE robot_id = ? AND uuid = ?");
-  pushed->Bind(1, robot);
-  pushed->Bind(2, uuid);
-  if (!pushed->Step() || pushed->Int(1) == 1) return;  // not there, or already active
-  const int version = static_cast<int>(pushed->Int(0));
-  auto active = target.Prepare(
-      "SELECT version, created_at FROM calibrations WHERE robot_id = ? AND active = 1");
-  active->Bind(1, robot);
-  std::optional<int> previous;
-  if (active->Step()) {
-    if (active->Text(1) > created_at) return;  // the server's own set is newer
-    previous = static_cast<int>(active->Int(0));
+  LockRobotForWrite(target, robot);  // the history and the active set, read then changed
+  auto version_there = [&](std::optional<int> local) -> std::optional<int> {
+    if (!local || !uuid_of.count(*local)) return std::nullopt;
+    auto v = target.Prepare("SELECT version FROM calibrations WHERE robot_id = ? AND uuid = ?");
+    v->Bind(1, robot);
+    v->Bind(2, uuid_of.at(*local));
+    if (!v->Step()) return std::nullopt;
+    return static_cast<int>(v->Int(0));
+  };
+  std::string latest_here;
+  auto a = source.Prepare(
+      "SELECT uuid, version, previous_version, activated_at, activated_by, note FROM activations "
+      "WHERE robot_id = ? ORDER BY id");
+  a->Bind(1, local_robot);
+  auto insert = target.Prepare(
+      "INSERT INTO activations(robot_id, version, previous_version, activated_at, activated_by, "
+      "note, uuid) VALUES (?,?,?,?,?,?,?)");
+  while (a->Step()) {
+    latest_here = std::max(latest_here, a->Text(3));
+    if (a->IsNull(0) || ServerIdOf(target, "activations", a->Text(0))) continue;
+    const auto version = version_there(static_cast<int>(a->Int(1)));
+    if (!version) continue;  // its set is not on the server
+    const auto previous =
+        version_there(a->IsNull(2) ? std::nullopt : std::optional<int>(static_cast<int>(a->Int(2))));
+    insert->Bind(1, robot);
+    insert->Bind(2, static_cast<int64_t>(*version));
+    if (previous)
+      insert->Bind(3, static_cast<int64_t>(*previous));
+    else
+      insert->BindNull(3);
+    insert->Bind(4, a->Text(3));
+    insert->Bind(5, a->Text(4));
+    if (a->IsNull(5))
+      insert->BindNull(6);
+    else
+      insert->Bind(6, a->Text(5));
+    insert->Bind(7, a->Text(0));
+    insert->Execute();
+    ++summary.activations_pushed;
   }
-  auto off = target.Prepare("UPDATE calibrations SET active = 0 WHERE robot_id = ? AND active = 1");
-  off->Bind(1, robot);
-  off->Execute();
-  auto on = target.Prepare("UPDATE calibrations SET active = 1 WHERE robot_id = ? AND version = ?");
-  on->Bind(1, robot);
-  on->Bind(2, version);
-  on->Execute();
-  auto record = target.Prepare(
-      "INSERT INTO activations(robot_id, version, previous_version, activated_by, note) "
-      "VALUES (?,?,?,'activate',?)");
-  record->Bind(1, robot);
-  record->Bind(2, version);
-  if (previous)
-    record->Bind(3, static_cast<int64_t>(*previous));
-  else
-    record->BindNull(3);
-  record->Bind(
-      4, fmt::format("pushed from {} (version {} there)", options.source_name, local_version));
-  record->Execute();
+  // The active state as in the cell, unless the server chose later by itself.
+  if (active_uuid) {
+    auto version = target.Prepare(
+        "SELECT version, active FROM calibrations WHERE robot_id = ? AND uuid = ?");
+    version->Bind(1, robot);
+    version->Bind(2, *active_uuid);
+    auto later = target.Prepare(
+        "SELECT count(*) FROM activations WHERE robot_id = ? AND activated_at > ?");
+    later->Bind(1, robot);
+    later->Bind(2, latest_here);
+    later->Step();
+    if (version->Step() && version->Int(1) == 0 && later->Int(0) == 0) {
+      auto off =
+          target.Prepare("UPDATE calibrations SET active = 0 WHERE robot_id = ? AND active = 1");
+      off->Bind(1, robot);
+      off->Execute();
+      auto on =
+          target.Prepare("UPDATE calibrations SET active = 1 WHERE robot_id = ? AND version = ?");
+      on->Bind(1, robot);
+      on->Bind(2, version->Int(0));
+      on->Execute();
+      ++summary.activated;
+    }
+  }
   tx.Commit();
-  ++summary.activated;
 }
 
 }  // namespace
@@ -648,15 +688,15 @@ PushSummary Push(Connection& source, Connection& target, const PushOptions& opti
     const int version = PushCalibration(source, target, names, c.id, c.uuid, summary);
     summary.versions.push_back(fmt::format("{} -> v{}", c.label, version));
   }
-  auto robots = source.Prepare("SELECT DISTINCT robot_id FROM calibrations WHERE active = 1");
-  std::vector<int64_t> active_robots;
-  while (robots->Step()) active_robots.push_back(robots->Int(0));
-  for (const int64_t robot : active_robots) {
+  auto robots = source.Prepare("SELECT DISTINCT robot_id FROM calibrations ORDER BY robot_id");
+  std::vector<int64_t> with_sets;
+  while (robots->Step()) with_sets.push_back(robots->Int(0));
+  for (const int64_t robot : with_sets) {
     if (stopping()) {
       summary.stopped = true;
       return summary;
     }
-    PushActivation(source, target, names, robot, options, summary);
+    PushActivations(source, target, names, robot, summary);
   }
   return summary;
 }

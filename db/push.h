@@ -34,7 +34,9 @@ struct PushOptions {
 struct PushSummary {
   int sessions_pushed = 0, sessions_present = 0;
   int64_t poses = 0, observations = 0, points = 0;  // rows the pushed sessions carried
-  int sets_pushed = 0, sets_present = 0, activated = 0;
+  int sets_pushed = 0, sets_present = 0;
+  int activations_pushed = 0;  // rows of the cell's activation history new to the server
+  int activated = 0;           // robots whose active set the server took from the cell
   int robots_created = 0;
   std::vector<std::string> open_sessions;  // "session 7 (paused)": not pushed
   std::vector<std::string> versions;       // "puma v3 -> v5": local to server version

@@ -71,4 +71,24 @@ std::vector<InstrumentSummary> SessionInstruments(Database& db, int64_t session_
   return out;
 }
 
+std::vector<StoredResidual> LoadStoredResiduals(Database& db, int64_t calibration_id) {
+  auto q = db.connection().Prepare(
+      "SELECT pose_label, role, dx_mm, dy_mm, dz_mm, distance_mm, nominal_distance_mm FROM "
+      "validation_residuals WHERE calibration_id = ? ORDER BY id");
+  q->Bind(1, calibration_id);
+  std::vector<StoredResidual> out;
+  while (q->Step()) {
+    StoredResidual r;
+    r.pose_label = q->Text(0);
+    r.role = q->Text(1);
+    r.dx_mm = q->Double(2);
+    r.dy_mm = q->Double(3);
+    r.dz_mm = q->Double(4);
+    r.distance_mm = q->Double(5);
+    if (!q->IsNull(6)) r.nominal_distance_mm = q->Double(6);
+    out.push_back(std::move(r));
+  }
+  return out;
+}
+
 }  // namespace armsig::db

@@ -35,4 +35,14 @@ struct InstrumentSummary {
 // The instruments a session's observations name, or whose stations it observed from.
 std::vector<InstrumentSummary> SessionInstruments(Database& db, int64_t session_id);
 
+// A stored parameter set's residuals (schema: validation_residuals), in stored order:
+// each fit and validation configuration's error vector (model − measured, as fitted) and
+// the nominal model's error distance there.
+struct StoredResidual {
+  std::string pose_label, role;  // role: fit | validation
+  double dx_mm = 0.0, dy_mm = 0.0, dz_mm = 0.0, distance_mm = 0.0;
+  double nominal_distance_mm = NAN;
+};
+std::vector<StoredResidual> LoadStoredResiduals(Database& db, int64_t calibration_id);
+
 }  // namespace armsig::db

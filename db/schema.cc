@@ -242,6 +242,13 @@ ALTER TABLE calibration_parameters ADD COLUMN seq INTEGER;  -- the parameter's p
 UPDATE calibration_parameters SET seq = rowid;
 )sql";
 
+// Schema v10 (`db push` carries the activation history): an activation gets a UUID the
+// first time it is pushed, so a second push recognises it; NULL until then.
+constexpr std::string_view kSchemaV10 = R"sql(
+ALTER TABLE activations ADD COLUMN uuid TEXT;
+CREATE UNIQUE INDEX activations_by_uuid ON activations(uuid);
+)sql";
+
 // PostgreSQL's text of the migrations whose SQLite text does not translate word for word
 // (PostgresDdl): v2 and v9 fill their new column from what only SQLite has (json_extract,
 // rowid). A PostgreSQL store is created by an armsig of schema v9 or later, in one
@@ -288,9 +295,9 @@ constexpr std::array<std::string_view, 13> kTables = {"robots",
 
 std::span<const std::string_view> Migrations() {
   static const std::string jobs = JobsSchemaSql(Backend::kSqlite);
-  static const std::array<std::string_view, 9> migrations = [] {
-    std::array<std::string_view, 9> m = {kSchemaV1, kSchemaV2, kSchemaV3, kSchemaV4, kSchemaV5,
-                                         kSchemaV6, {},        kSchemaV8, kSchemaV9};
+  static const std::array<std::string_view, 10> migrations = [] {
+    std::array<std::string_view, 10> m = {kSchemaV1, kSchemaV2, kSchemaV3, kSchemaV4, kSchemaV5,
+                                          kSchemaV6, {},        kSchemaV8, kSchemaV9, kSchemaV10};
     m[kJobsMigration - 1] = jobs;
     return m;
   }();

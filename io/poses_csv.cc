@@ -10,14 +10,34 @@
 
 namespace armsig::io {
 
-std::vector<MeasuredPose> ReadPosesCsv(const std::string& path, int num_joints) {
+std::vector<MeasuredPose> ReadPosesCsv(const std::string& path, int num_joints,
+                                       std::optional<AngleUnit> joint_unit) {
   const CsvTable table = ReadCsvFile(path);
+  if (num_joints < 0) {
+    num_joints = 0;
+    while (table.FindAngleColumn("q" + std::to_string(num_joints + 1))) ++num_joints;
+    if (num_joints == 0) {
+      throw InputError(table.HeaderWhere(0),
+                       "expected the poses header pose,q1_deg,…,qn_deg,x_mm,y_mm,z_mm (joint "
+                       "columns q1, q2, … with a unit suffix _deg, _gon or _rad)");
+    }
+  }
   std::vector<std::string> known = {"pose", "x_mm", "y_mm", "z_mm"};
   for (int i = 1; i <= num_joints; ++i) known.push_back("q" + std::to_string(i) + "_*");
   table.RefuseUnreadUnits(known);
   const int id_col = table.Column("pose");
   std::vector<AngleColumn> q;
-  for (int i = 1; i <= num_joints; ++i) q.push_back(table.AngleColumnOf("q" + std::to_string(i)));
+  for (int i = 1; i <= num_joints; ++i) {
+    q.push_back(table.AngleColumnOf("q" + std::to_string(i)));
+    if (joint_unit && q.back().unit != *joint_unit) {
+      throw InputError(table.HeaderWhere(q.back().index),
+                       "column " + Quoted(q.back().name) + " is in " +
+                           std::string(AngleUnitSuffix(q.back().unit).substr(1)) +
+                           " by its name, but --joint-unit " +
+                           std::string(AngleUnitSuffix(*joint_unit).substr(1)) +
+                           " was given: leave --joint-unit out (the suffix gives the unit)");
+    }
+  }
   const int x = table.Column("x_mm"), y = table.Column("y_mm"), z = table.Column("z_mm");
   if (const auto extra = table.FindAngleColumn("q" + std::to_string(num_joints + 1))) {
     throw InputError(table.HeaderWhere(extra->index),
@@ -115,7 +135,20 @@ std::vector<MeasuredPose> ImportPoses(const std::string& path, const PoseImportO
                      "comma needs ';' or tab as the delimiter)");
   }
   std::vector<int> q;
-  for (const auto& name : options.joint_columns) q.push_back(table.Column(name));
+  std::vector<AngleUnit> q_unit;
+  for (const auto& name : options.joint_columns) {
+    q.push_back(table.Column(name));
+    const auto suffix = AngleUnitFromSuffix(name);
+    if (suffix && options.joint_unit && *suffix != *options.joint_unit) {
+      throw InputError(table.HeaderWhere(q.back()),
+                       "column " + Quoted(name) + " is in " +
+                           std::string(AngleUnitSuffix(*suffix).substr(1)) +
+                           " by its name, but --joint-unit " +
+                           std::string(AngleUnitSuffix(*options.joint_unit).substr(1)) +
+                           " was given: leave --joint-unit out (the suffix gives the unit)");
+    }
+    q_unit.push_back(suffix ? *suffix : options.joint_unit.value_or(AngleUnit::kRad));
+  }
   int xyz[3];
   for (int k = 0; k < 3; ++k) xyz[k] = table.Column(options.xyz_columns[k]);
   const int id_col = options.id_column.empty() ? -1 : table.Column(options.id_column);
@@ -134,7 +167,7 @@ std::vector<MeasuredPose> ImportPoses(const std::string& path, const PoseImportO
     using plausible::Quantity;
     for (size_t i = 0; i < q.size(); ++i) {
       pose.joints_rad(i) =
-          table.Number(row, q[i], Quantity::kJointAngle, plausible::UnitOf(options.joint_unit));
+          table.Number(row, q[i], Quantity::kJointAngle, plausible::UnitOf(q_unit[i]));
     }
     for (int k = 0; k < 3; ++k) {
       pose.target_in_world(k) = table.Number(row, xyz[k], Quantity::kCoordinate, length_unit);

@@ -1,5 +1,6 @@
 #include "workflows/demo.h"
 
+
 #include <fmt/format.h>
 #include <signal.h>
 #include <spdlog/spdlog.h>
@@ -13,6 +14,7 @@
 #include <fstream>
 #include <optional>
 #include <random>
+#include <regex>
 #include <thread>
 
 #include "acquisition/lab.h"
@@ -51,6 +53,73 @@ constexpr const char* kDemoRobot = "puma760-demo";
 bool Stopped(const DemoOptions& options) { return options.stop && options.stop->load(); }
 
 }  // namespace
+
+Eigen::VectorXd ParsePlantedChanges(const calibration::RobotModel& model,
+                                    const std::vector<std::string>& changes) {
+  Eigen::VectorXd delta = Eigen::VectorXd::Zero(model.num_parameters());
+  static const std::regex form(R"(^([A-Za-z][A-Za-z0-9_]*)=([+-]?[0-9]*\.?[0-9]+(?:[eE][+-]?[0-9]+)?)(mm|um|deg|mrad|urad|rad)$)");
+  for (const auto& text : changes) {
+    std::smatch m;
+    if (!std::regex_match(text, m, form)) {
+      throw InputError({"--change", 0, 0, ""},
+                       Quoted(text) + ": expected NAME=VALUE with a unit, e.g. "
+                                      "joint2_zero=0.02deg, link2_length=0.2mm or a3=-50um");
+    }
+    const std::string name = m[1].str(), unit = m[3].str();
+    const double number = std::stod(m[2].str());
+    const bool length = unit == "mm" || unit == "um";
+    const double value = unit == "mm"     ? number
+                         : unit == "um"   ? number * 1e-3
+                         : unit == "deg"  ? number * kRadPerDeg
+                         : unit == "mrad" ? number * 1e-3
+                         : unit == "urad" ? number * 1e-6
+                                          : number;
+    // The change's direction in parameter space, and whether it is a length.
+    Eigen::VectorXd direction = Eigen::VectorXd::Zero(model.num_parameters());
+    bool is_length = false;
+    std::smatch alias;
+    static const std::regex zero(R"(^joint([0-9]+)_zero$)"), link(R"(^link([0-9]+)_length$)");
+    if (std::regex_match(name, alias, zero)) {
+      const int joint = std::stoi(alias[1].str());
+      if (joint < 1 || joint > model.num_joints()) {
+        throw InputError({"--change", 0, 0, ""},
+                         fmt::format("{}: the robot has joints 1 to {}", Quoted(text),
+                                     model.num_joints()));
+      }
+      direction(6 * (joint - 1) + 5) = 1.0;
+    } else if (std::regex_match(name, alias, link)) {
+      const int number_of_link = std::stoi(alias[1].str());
+      if (number_of_link < 1 || number_of_link >= model.num_joints() ||
+          model.links[number_of_link - 1].translation().norm() <= 1.0) {
+        throw InputError({"--change", 0, 0, ""},
+                         fmt::format("{}: expected a link 1 to {} with a nominal length",
+                                     Quoted(text), model.num_joints() - 1));
+      }
+      const Eigen::Isometry3d& n = model.links[number_of_link - 1];
+      direction.segment<3>(6 * number_of_link) =
+          n.rotation().transpose() * n.translation().normalized();
+      is_length = true;
+    } else {
+      const int index = model.IndexOf(name);
+      if (index < 0) {
+        throw InputError({"--change", 0, 0, ""},
+                         Quoted(text) + ": no parameter " + Quoted(name) +
+                             " (expected jointN_zero, linkN_length or a parameter name such as "
+                             "gamma2, a3, h1)");
+      }
+      direction(index) = 1.0;
+      is_length = model.UnitOf(index) == calibration::ParameterUnit::kMm;
+    }
+    if (is_length != length) {
+      throw InputError({"--change", 0, 0, ""},
+                       fmt::format("{}: {} is {}, expected a value in {}", Quoted(text), name,
+                                   is_length ? "a length" : "an angle",
+                                   is_length ? "mm or um" : "deg, mrad, urad or rad"));
+    }
+    delta += value * direction;
+  }
+  return delta;
+}
 
 DemoLimits DemoLimitsOf(const calibration::RobotModel& model, unsigned seed) {
   // Configurations spread over the joint limits, two per parameter: the model's
@@ -252,7 +321,14 @@ DemoResult RunDemo(const DemoOptions& options, const DemoObserver& observer) {
     base.translate(Eigen::Vector3d(120.0, -80.0, 0.0));
     base.rotate(Eigen::AngleAxisd(0.35, Eigen::Vector3d::UnitZ()));
   }
-  simulation::VirtualLab lab(model, calibration::PaperTable3Parameters(), base, seed);
+  // The truth: the paper's errors, and what --change plants on top of them.
+  const Eigen::VectorXd planted = ParsePlantedChanges(model, options.changes);
+  simulation::VirtualLab lab(model, calibration::PaperTable3Parameters() + planted, base, seed);
+  if (!options.changes.empty()) {
+    std::string list;
+    for (const auto& c : options.changes) list += (list.empty() ? "" : ", ") + c;
+    say(fmt::format("The virtual robot is changed: {} (planted in its hidden errors).\n", list));
+  }
   std::vector<reduction::Station> oriented_stations;
   if (use_tracker) {
     simulation::VirtualStation st;

@@ -43,9 +43,20 @@ struct DemoOptions {
   // `armsig capture --lab DIR/lab.yaml` drives it by hand.
   std::string serve_dir;
   double serve_seconds = 0.0;
+  // Changes planted in the virtual robot's truth (`--change joint2_zero=0.02deg`,
+  // ParsePlantedChanges), to rehearse what the nightly job does when a robot changes.
+  std::vector<std::string> changes;
   // Ctrl-C: stop at the next safe point (between configurations, between stages).
   const std::atomic<bool>* stop = nullptr;
 };
+
+// The change of every parameter that `changes` plant: each NAME=VALUE, NAME a parameter of
+// the model (gamma2, a3, h1, …) or jointN_zero (= gammaN) or linkN_length (link N, from
+// joint N to joint N+1, longer along its nominal direction), VALUE a number with its unit:
+// mm or um for a length, deg, mrad, urad or rad for an angle. InputError naming --change
+// and what was expected otherwise.
+Eigen::VectorXd ParsePlantedChanges(const calibration::RobotModel& model,
+                                    const std::vector<std::string>& changes);
 
 // How few configurations the demo's calibration can use, from the model: the fit needs
 // more equations (3 per configuration) than the model has identifiable parameters

@@ -31,6 +31,21 @@ std::vector<std::string> SplitList(const std::string& text) {
   return out;
 }
 
+AngleUnit JointUnit(const ImportPosesRequest& r) {
+  const auto unit = AngleUnitFromSuffix("_" + r.joint_unit);
+  if (!unit) {
+    throw InputError({"--joint-unit", 0, 0, ""},
+                     "expected deg, gon or rad, got " + Quoted(r.joint_unit));
+  }
+  return *unit;
+}
+
+// A file in the poses format armsig writes (`session export`, `import poses --out`): no
+// preset and no columns named. Its header says everything.
+bool IsPosesCsv(const ImportPosesRequest& r) {
+  return r.preset.empty() && r.joint_columns.empty() && r.xyz_columns.empty();
+}
+
 io::PoseImportOptions ImportOptionsOf(const ImportPosesRequest& r) {
   io::PoseImportOptions import;
   if (r.preset == "ur-ipa") {
@@ -50,11 +65,7 @@ io::PoseImportOptions ImportOptionsOf(const ImportPosesRequest& r) {
     throw InputError({"--delimiter", 0, 0, ""}, "expected one character or 'tab'");
   }
   if (r.decimal_comma) import.decimal_comma = true;
-  if (r.preset.empty() || r.joint_unit != "rad") {
-    const auto unit = AngleUnitFromSuffix("_" + r.joint_unit);
-    if (!unit) throw InputError({"--joint-unit", 0, 0, ""}, "expected deg, gon or rad");
-    import.joint_unit = *unit;
-  }
+  if (!r.joint_unit.empty()) import.joint_unit = JointUnit(r);
   if (!(r.length_scale > 0.0 && r.length_scale < 1e6)) {  // NaN fails too
     throw InputError({"--length-scale", 0, 0, ""},
                      fmt::format("expected a positive factor to mm (1000 for metres, 25.4 for "
@@ -93,9 +104,7 @@ io::JoinedPoses JoinTrackerExport(const ImportPosesRequest& r, int num_joints) {
   io::JointLogOptions log;
   log.num_joints = num_joints;
   log.joint_columns = SplitList(r.joint_columns);
-  const auto unit = AngleUnitFromSuffix("_" + r.joint_unit);
-  if (!unit) throw InputError({"--joint-unit", 0, 0, ""}, "expected deg, gon or rad");
-  log.joint_unit = *unit;
+  if (!r.joint_unit.empty()) log.joint_unit = JointUnit(r);
   io::JoinOptions join;
   if (r.match == "time") {
     join.by = io::JoinBy::kTime;
@@ -144,6 +153,19 @@ ImportPosesResult ImportPosesFile(const ImportPosesRequest& request) {
     poses = std::move(joined.poses);
     covariances = std::move(joined.covariances_mm2);
     result.unused_joint_rows = joined.unused_joint_rows;
+  } else if (IsPosesCsv(request)) {
+    // The poses format itself: ids from `pose`, units from the suffixes.
+    if (!request.id_column.empty() || request.length_scale != 1.0 || request.decimal_comma ||
+        !request.delimiter.empty()) {
+      throw InputError({request.file, 0, 0, ""},
+                       "--id, --length-scale, --delimiter and --decimal-comma describe a pose "
+                       "table's columns: give --joint-columns and --xyz-columns with them (a "
+                       "poses CSV, pose,q1_deg,…,x_mm,y_mm,z_mm, needs no options)");
+    }
+    poses = io::ReadPosesCsv(request.file, num_joints > 0 ? num_joints : -1,
+                             request.joint_unit.empty()
+                                 ? std::nullopt
+                                 : std::optional<AngleUnit>(JointUnit(request)));
   } else {
     poses = io::ImportPoses(request.file, ImportOptionsOf(request));
   }

@@ -19,7 +19,9 @@ struct ImportPosesRequest {
   std::string preset;                      // "ur-ipa" or empty
   std::string joint_columns, xyz_columns;  // comma-separated column names
   std::string id_column, delimiter;        // delimiter: one character or "tab"
-  std::string joint_unit = "rad";          // deg | gon | rad
+  // deg | gon | rad; "" = the columns' unit suffixes (_deg, _gon, _rad), else rad (a pose
+  // table) or deg (a joint log). A suffix it contradicts is refused.
+  std::string joint_unit;
   bool decimal_comma = false;
   double length_scale = 1.0;     // factor to mm
   bool allow_duplicate = false;  // store a copy of poses a session of the robot already holds

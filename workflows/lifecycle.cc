@@ -252,6 +252,8 @@ std::vector<VersionInfo> Versions(db::Database& database, const std::string& rob
         }
       }
       if (inputs.contains("since") && inputs["since"].is_string()) v.since = inputs["since"];
+      if (inputs.contains("floor_session") && inputs["floor_session"].is_number_integer())
+        v.floor_session = inputs["floor_session"].get<int64_t>();
     }
     const auto drift =
         nlohmann::json::parse(c.drift_json.empty() ? "null" : c.drift_json, nullptr, false);
@@ -259,6 +261,17 @@ std::vector<VersionInfo> Versions(db::Database& database, const std::string& rob
       v.drift = drift["flag"].get<bool>();
       if (drift.contains("against") && drift["against"].is_number_integer())
         v.drift_against = drift["against"].get<int>();
+      // The cause named: of the change found in the sessions, else of the two sets' difference.
+      const auto* causes = &drift["causes"];
+      if (drift.contains("change") && drift["change"].is_object()) {
+        const auto& change = drift["change"];
+        if (change.contains("from_session") && change["from_session"].is_number_integer())
+          v.change_from_session = change["from_session"].get<int64_t>();
+        if (change.contains("causes")) causes = &change["causes"];
+      }
+      if (causes->is_array() && !causes->empty() && (*causes)[0].is_object() &&
+          (*causes)[0].contains("text") && (*causes)[0]["text"].is_string())
+        v.cause = (*causes)[0]["text"].get<std::string>();
     }
     out.push_back(std::move(v));
   }
@@ -351,6 +364,15 @@ std::string FormatVersions(const std::vector<VersionInfo>& versions, bool json,
         activated,
         v.drift && *v.drift ? fmt::format("  DRIFT against v{}", v.drift_against.value_or(0))
                             : std::string());
+    if (v.drift && *v.drift && (v.change_from_session || !v.cause.empty())) {
+      text += fmt::format(
+          "      {}{}\n",
+          v.change_from_session
+              ? fmt::format("the robot changed from session {}; fitted on the sessions since: ",
+                            *v.change_from_session)
+              : std::string(),
+          Printable(v.cause.empty() ? std::string("no cause named") : v.cause));
+    }
   }
   return text;
 }
@@ -396,7 +418,11 @@ nlohmann::json ToJson(const VersionInfo& v) {
   nlohmann::json drift = nullptr;
   if (v.drift) {
     drift = {{"flag", *v.drift},
-             {"against", v.drift_against ? nlohmann::json(*v.drift_against) : nlohmann::json()}};
+             {"against", v.drift_against ? nlohmann::json(*v.drift_against) : nlohmann::json()},
+             {"change_from_session", v.change_from_session
+                                         ? nlohmann::json(*v.change_from_session)
+                                         : nlohmann::json()},
+             {"cause", v.cause.empty() ? nlohmann::json() : nlohmann::json(v.cause)}};
   }
   return {{"version", v.version},
           {"active", v.active},
@@ -411,7 +437,9 @@ nlohmann::json ToJson(const VersionInfo& v) {
           {"sessions", v.sessions},
           {"since", v.since},
           {"activations", activations},
-          {"drift", drift}};
+          {"drift", drift},
+          {"floor_session",
+           v.floor_session ? nlohmann::json(*v.floor_session) : nlohmann::json(nullptr)}};
 }
 
 }  // namespace armsig::workflows

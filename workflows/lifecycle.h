@@ -79,6 +79,11 @@ struct VersionInfo {
   std::vector<db::Activation> activations{};  // every time it was made active, oldest first
   std::optional<bool> drift{};  // its drift decision against the set before, when made
   std::optional<int> drift_against{};
+  // The nightly job's record: the change point it was fitted after (the first session its
+  // window and every later window may use) and the named cause of the drift, when any.
+  std::optional<int64_t> floor_session{};
+  std::optional<int64_t> change_from_session{};
+  std::string cause{};
 };
 // Every parameter set of a robot, oldest first. InputError for an unknown robot.
 std::vector<VersionInfo> Versions(db::Database& database, const std::string& robot);

@@ -33,6 +33,7 @@
 #include "workflows/hint.h"
 #include "workflows/report.h"
 #include "workflows/signature.h"
+#include "workflows/stored_report.h"
 
 namespace armsig::workflows {
 
@@ -136,6 +137,21 @@ nlohmann::json CausesJson(const std::vector<NamedCause>& causes) {
                    {"effect_mean_mm", c.effect_mean_mm},
                    {"equivalent", c.equivalent},
                    {"text", c.Describe()}});
+  }
+  return out;
+}
+
+nlohmann::json TestedJson(const std::vector<SessionVerdict>& tested) {
+  nlohmann::json out = nlohmann::json::array();
+  for (const auto& v : tested) {
+    out.push_back({{"session", v.session},
+                   {"started_at", v.started_at},
+                   {"poses", v.poses},
+                   {"mean_mm", v.mean_mm},
+                   {"disagrees", v.disagrees},
+                   {"p_value", v.p_value},
+                   {"effect_max_mm", v.effect_max_mm},
+                   {"outlier", v.outlier}});
   }
   return out;
 }
@@ -282,6 +298,9 @@ nlohmann::json RecalibrationDecision::ToJson() const {
   j["robot"] = robot;
   j["poses"] = poses;
   if (outcome == Outcome::kUpToDate) {
+    j["exit_code"] = ExitCode();
+    if (!output_error.empty()) j["output_error"] = output_error;
+    if (!report_path.empty()) j["report"] = report_path;
     j["decision"] = "up_to_date";
     j["version"] = version;
     j["active_version"] =
@@ -293,6 +312,7 @@ nlohmann::json RecalibrationDecision::ToJson() const {
     return j;
   }
   j["exit_code"] = ExitCode();
+  if (!output_error.empty()) j["output_error"] = output_error;
   j["decision"] = outcome == Outcome::kStored || outcome == Outcome::kDriftStored ? "stored"
                   : outcome == Outcome::kDriftSuspected                         ? "drift_suspected"
                   : outcome == Outcome::kFailed                                 ? "failed"
@@ -301,17 +321,7 @@ nlohmann::json RecalibrationDecision::ToJson() const {
                  {"days", window_days},
                  {"floor_session", floor_session ? nlohmann::json(*floor_session)
                                                  : nlohmann::json(nullptr)}};
-  j["tested"] = nlohmann::json::array();
-  for (const auto& v : tested) {
-    j["tested"].push_back({{"session", v.session},
-                           {"started_at", v.started_at},
-                           {"poses", v.poses},
-                           {"mean_mm", v.mean_mm},
-                           {"disagrees", v.disagrees},
-                           {"p_value", v.p_value},
-                           {"effect_max_mm", v.effect_max_mm},
-                           {"outlier", v.outlier}});
-  }
+  j["tested"] = TestedJson(tested);
   j["change"] = ChangeJson(change);
   if (!DriftLine().empty()) j["drift_line"] = DriftLine();
   if (outcome == Outcome::kDriftSuspected) {
@@ -360,7 +370,7 @@ int RecalibrationDecision::ExitCode() const {
   switch (outcome) {
     case Outcome::kUpToDate:
     case Outcome::kStored:
-      return 0;
+      return output_error.empty() ? 0 : 6;
     case Outcome::kDriftStored:
       return 4;
     case Outcome::kDriftSuspected:
@@ -454,6 +464,8 @@ nlohmann::json RecalibrationDecision::DriftJson() const {
   }
   j["causes"] = CausesJson(causes);
   j["change"] = ChangeJson(change);
+  j["tested"] = TestedJson(tested);
+  if (const std::string line = DriftLine(); !line.empty()) j["drift_line"] = line;
   return j;
 }
 
@@ -545,6 +557,7 @@ class NightlyJob {
   void CompareWithActive();
   void Store(const nlohmann::json& inputs);
   void WriteRunReport();
+  void WriteOutput(const std::function<void()>& write);
   void Gate(const std::string& name, double value, double limit);
 
   const RecalibrateOptions& o_;
@@ -980,7 +993,6 @@ void NightlyJob::Store(const nlohmann::json& inputs) {
                                     {"days", gates_.window_days}}}};
   db::CalibrationRecord record =
       CalibrationRecordOf(model_, run, robot_id_, inputs, options, true);
-  if (d_.previous_version) record.drift_json = JsonText(d_.DriftJson());
   std::string note = fmt::format("validation mean {:.4f} mm on {} configurations",
                                  d_.validation.mean_mm, d_.validation.poses);
   if (d_.change) {
@@ -990,13 +1002,16 @@ void NightlyJob::Store(const nlohmann::json& inputs) {
     note += "; drift flagged";
     if (!d_.causes.empty()) note += ": " + d_.causes.front().Describe();
   }
+  d_.outcome = d_.drift ? RecalibrationDecision::Outcome::kDriftStored
+                        : RecalibrationDecision::Outcome::kStored;
   db::WriteTransaction tx(*database_);
-  d_.version = db::InsertCalibration(*database_, record).second;
+  const auto [id, version] = db::InsertCalibration(*database_, record);
+  d_.version = version;
+  // The drift decision names the version it made: written once the version is known.
+  if (d_.previous_version) db::SetDriftJson(*database_, id, JsonText(d_.DriftJson()));
   db::RecordActivation(*database_, robot_id_,
                        {d_.version, d_.previous_version, "", "recalibrate", note});
   tx.commit();
-  d_.outcome = d_.drift ? RecalibrationDecision::Outcome::kDriftStored
-                        : RecalibrationDecision::Outcome::kStored;
 }
 
 void NightlyJob::WriteRunReport() {
@@ -1100,7 +1115,15 @@ RecalibrationDecision NightlyJob::Run() {
   }
   spdlog::debug("recalibrate: inputs: {} poses from sessions {}, --params {} --select {}: digest {}",
                 poses.size(), JsonText(nlohmann::json(d_.sessions)), o_.params, o_.select, digest);
-  if (!o_.force && UpToDate(digest)) return d_;
+  if (!o_.force && UpToDate(digest)) {
+    // A report the night that stored the set could not write is written now.
+    if (!o_.report_dir.empty() && !HasReportOf(o_.report_dir, o_.robot, d_.version))
+      WriteOutput([&] {
+        d_.report_path = WriteStoredReport(*database_, o_.robot, d_.version, o_.report_dir).path;
+        Log(fmt::format("report of version {}: {}", d_.version, d_.report_path));
+      });
+    return d_;
+  }
   if (o_.force) spdlog::debug("recalibrate: --force: refitting whatever is stored");
   if (poses.size() < 20) {
     throw InputError(
@@ -1124,8 +1147,32 @@ RecalibrationDecision NightlyJob::Run() {
     d_.outcome = RecalibrationDecision::Outcome::kRejected;
   }
   Log(d_.Describe());
-  if (!o_.report_dir.empty()) WriteRunReport();
+  if (!o_.report_dir.empty()) {
+    // This run holds the robot's lock: temporary files in its report folder are a stopped
+    // run's.
+    RemoveReportDebris(o_.report_dir, 0.0);
+    if (d_.version > 0)
+      WriteOutput([&] { WriteRunReport(); });
+    else
+      WriteRunReport();  // nothing stored: a report that fails is the run's failure
+  }
   return d_;
+}
+
+// An output that can only follow the commit: its failure is said with the stored version
+// and the command that writes it later, not taken for the run's.
+void NightlyJob::WriteOutput(const std::function<void()>& write) {
+  try {
+    write();
+  } catch (const std::exception& e) {
+    d_.output_error = fmt::format(
+        "version {} is stored, but its report could not be written to {}: {}; write it with "
+        "{} (or run the job again)",
+        d_.version, o_.report_dir, e.what(),
+        Hint(database_->path(), {"report", "--robot", o_.robot, "--set",
+                                 std::to_string(d_.version), "--out", o_.report_dir}));
+    spdlog::error("recalibrate: {}: {}", o_.robot, d_.output_error);
+  }
 }
 
 }  // namespace

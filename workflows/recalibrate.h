@@ -146,6 +146,9 @@ struct RecalibrationDecision {
   std::vector<NamedCause> causes;
   nlohmann::json residual_model;          // calibrate's residual_model object (null: not fitted)
   std::string report_path;                // "" when no report was written
+  // A set was stored but an output that can only follow the commit (the report) could not
+  // be written: what failed, and the command that writes it (exit 6 instead of 0).
+  std::string output_error;
   std::string failure;                    // kFailed: why the fit gave no usable estimate
 
   bool passed() const {
@@ -153,7 +156,8 @@ struct RecalibrationDecision {
            outcome == Outcome::kDriftStored;
   }
   // The exit code a scheduler acts on: 0 stored or up to date, 4 drift (a new set stored),
-  // 5 drift suspected (more data needed), 3 rejected by a gate, 1 failed.
+  // 5 drift suspected (more data needed), 3 rejected by a gate, 1 failed, 6 stored (or up
+  // to date) but its report could not be written (`output_error`).
   int ExitCode() const;
   // The line a person must see on a drift night ("" when there was no drift): what
   // changed, from when, the named cause and what was done about it.

@@ -415,9 +415,35 @@ figcaption{font-size:0.85em;color:#555}
 
 }  // namespace
 
+std::string ReportSetMarker(const std::string& robot, int version) {
+  if (version <= 0) return "";
+  return HtmlFormat("<meta name=\"armsig-set\" content=\"{} {}\">\n", robot, version).str();
+}
+
+int RemoveReportDebris(const std::string& dir, double min_age_s) {
+  namespace fs = std::filesystem;
+  std::error_code error;
+  int removed = 0;
+  const auto now = fs::file_time_type::clock::now();
+  for (const auto& entry : fs::directory_iterator(dir, error)) {
+    const std::string name = entry.path().filename().string();
+    const size_t at = name.rfind(".tmp.");
+    if (at == std::string::npos || name.size() != at + 11) continue;  // NAME.tmp.XXXXXX
+    const std::string base = name.substr(0, at);
+    if (base != "index.html" && !base.ends_with(".png")) continue;  // only the report's files
+    const auto written = entry.last_write_time(error);
+    if (error || std::chrono::duration<double>(now - written).count() < min_age_s) continue;
+    if (fs::remove(entry.path(), error)) ++removed;
+  }
+  return removed;
+}
+
 std::string WriteReport(const std::string& dir, const ReportInput& in) {
   if (!in.run || !in.model) throw std::logic_error("WriteReport: no run or model");
   std::filesystem::create_directories(dir);
+  if (const int removed = RemoveReportDebris(dir, 60.0))
+    spdlog::info("report: removed {} temporary file{} a stopped writer left in {}", removed,
+                 removed == 1 ? "" : "s", dir);
   const auto& run = *in.run;
   const auto& model = *in.model;
   const auto names = model.ParameterNames();
@@ -827,8 +853,8 @@ std::string WriteReport(const std::string& dir, const ReportInput& in) {
   // ---- The page ---- (every text through Html: escaped unless it is a literal here)
   Html html = HtmlFormat(
       "<!doctype html>\n<html><head><meta charset=\"utf-8\"><title>armsig report: {}</title>\n"
-      "<style>{}</style>\n</head><body>\n",
-      in.robot, Html::Trusted(kStyle));
+      "{}<style>{}</style>\n</head><body>\n",
+      in.robot, Html::Trusted(ReportSetMarker(in.robot, in.version)), Html::Trusted(kStyle));
   html += HtmlFormat("<h1>Recalibration of {}</h1>\n", in.robot);
   html += HtmlFormat("<p class=\"{}\"><b>{}</b></p>\n", in.version > 0 ? Html("good") : Html("bad"),
                      in.decision);

@@ -96,7 +96,16 @@ struct ReportInput {
 };
 
 // Writes DIR/index.html and DIR/*.png; returns the HTML path. Throws on I/O failure.
+// Temporary files a crashed writer left beside them (older than a minute) are removed.
 std::string WriteReport(const std::string& dir, const ReportInput& input);
+
+// The text index.html carries to say which robot's which version it reports (a <meta>
+// element of its head); "" for a run that stored nothing.
+std::string ReportSetMarker(const std::string& robot, int version);
+
+// Removes the temporary files (NAME.tmp.XXXXXX, io/atomic_file.h) of the report's own
+// files left in DIR by a writer that died, when older than `min_age_s`. Returns how many.
+int RemoveReportDebris(const std::string& dir, double min_age_s);
 
 // The sessions behind the run's pose ids ("<session>:<label>", as db::LoadRobotPoses
 // names them), with their dates, the instruments of their stored lab files and of the

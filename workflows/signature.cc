@@ -45,6 +45,28 @@ Signature SignatureOf(const calibration::RobotModel& model, const db::StoredCali
   return s;
 }
 
+ActiveSignature LoadSignature(db::Database& database, const std::string& robot,
+                              std::optional<int> version) {
+  if (!version) return LoadActiveSignature(database, robot);
+  const auto id = db::FindRobot(database, robot);
+  if (!id) throw InputError({database.path(), 0, 0, "--robot"}, UnknownRobotMessage(database.path(), robot));
+  const auto history = db::CalibrationHistory(database, *id);
+  for (const auto& c : history) {
+    if (c.version != *version) continue;
+    ActiveSignature out{
+        io::ParseRobotModel(db::RobotModelYaml(database, *id), "model of robot " + robot), {}};
+    out.signature = SignatureOf(out.model, c);
+    return out;
+  }
+  throw InputError({"--set", 0, 0, ""},
+                   history.empty()
+                       ? "robot " + ShellWord(robot) + " has no stored parameter set"
+                       : fmt::format("robot {} has no version {} (versions {} to {}: {})",
+                                     ShellWord(robot), *version, history.front().version,
+                                     history.back().version,
+                                     Hint(database.path(), {"versions", "--robot", robot})));
+}
+
 ActiveSignature LoadActiveSignature(db::Database& database, const std::string& robot) {
   const auto id = db::FindRobot(database, robot);
   if (!id) throw InputError({database.path(), 0, 0, "--robot"}, UnknownRobotMessage(database.path(), robot));

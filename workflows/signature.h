@@ -31,6 +31,10 @@ struct ActiveSignature {
 };
 // Throws InputError naming the robot when it is unknown or has no active set.
 ActiveSignature LoadActiveSignature(db::Database& database, const std::string& robot);
+// A stored set in use (`--set N`): version `version` of the robot, active or not; the
+// active one when nullopt. InputError naming the versions there are for an unknown one.
+ActiveSignature LoadSignature(db::Database& database, const std::string& robot,
+                              std::optional<int> version);
 
 // The frame positions are given in: "robot" (its aligned base, N1 = I) or "measurement"
 // (the measuring frame of the data the set was fitted on). Throws InputError otherwise.

@@ -1,0 +1,334 @@
+#include "workflows/stored_report.h"
+
+#include <fmt/format.h>
+#include <spdlog/spdlog.h>
+
+#include <cmath>
+#include <filesystem>
+#include <map>
+#include <nlohmann/json.hpp>
+#include <set>
+
+#include "calibration/drift.h"
+#include "calibration/estimation.h"
+#include "calibration/identifiability.h"
+#include "calibration/residual_map.h"
+#include "core/error.h"
+#include "core/text.h"
+#include "db/calibrations.h"
+#include "db/report_queries.h"
+#include "db/robots.h"
+#include "db/sessions.h"
+#include "db/store.h"
+#include "io/atomic_file.h"
+#include "io/model_yaml.h"
+#include "io/residual_map_json.h"
+#include "workflows/calibration_run.h"
+#include "workflows/hint.h"
+#include "workflows/report.h"
+#include "workflows/signature.h"
+
+namespace armsig::workflows {
+
+namespace {
+
+constexpr int kDriftConfigurations = 50;  // as the nightly job compares sets
+
+calibration::ErrorStats StatsOfDistances(const std::vector<double>& distances) {
+  return calibration::Summarise(distances);
+}
+
+// The set's identified parameters with its covariance, as the nightly job compares sets.
+calibration::FittedSet FittedSetOf(const calibration::RobotModel& model, const Signature& sig,
+                                   const db::StoredCalibration& stored) {
+  calibration::FittedSet set;
+  set.params = sig.params;
+  for (const auto& name : stored.covariance_parameters)
+    set.identified.push_back(model.IndexOf(name));
+  set.covariance = stored.covariance;
+  return set;
+}
+
+// The residual map as the run held it: its decision and cross-validation from the stored
+// calibrate JSON, the map itself from the stored map.
+std::optional<calibration::ResidualMapFit> StoredMapFit(const db::StoredCalibration& set,
+                                                        const std::string& source) {
+  const auto report = nlohmann::json::parse(set.report_json.empty() ? "{}" : set.report_json,
+                                            nullptr, false);
+  if (!report.is_object() || !report.contains("residual_model") ||
+      !report["residual_model"].is_object())
+    return std::nullopt;
+  const auto& j = report["residual_model"];
+  calibration::ResidualMapFit fit;
+  fit.used = j.value("used", false);
+  fit.decision = j.value("decision", std::string());
+  auto number = [&](const char* key) {
+    return j.contains(key) && j[key].is_number() ? j[key].get<double>() : NAN;
+  };
+  fit.cv_mean_mm_parametric = number("cv_mean_mm_parametric");
+  fit.cv_mean_mm_with_map = number("cv_mean_mm_with_map");
+  if (j.contains("grid") && j["grid"].is_array()) {
+    for (const auto& g : j["grid"]) {
+      if (!g.is_object()) continue;
+      fit.grid.push_back({g.value("length_scale", 0.0), g.value("regularisation", 0.0),
+                          g.value("cv_mean_mm", 0.0)});
+    }
+  }
+  if (!set.residual_map_json.empty()) {
+    fit.map = io::ResidualMapFromJson(nlohmann::json::parse(set.residual_map_json), source);
+  }
+  return fit;
+}
+
+// The gates as the run judged them, from the options it stored and the set's figures.
+std::vector<std::string> StoredGates(const db::StoredCalibration& set) {
+  std::vector<std::string> out;
+  const auto options = nlohmann::json::parse(set.options_json.empty() ? "{}" : set.options_json,
+                                             nullptr, false);
+  if (!options.is_object() || !options.contains("gates") || !options["gates"].is_object())
+    return out;
+  const auto& g = options["gates"];
+  auto line = [&](const char* name, double value, const char* key) {
+    if (!g.contains(key) || !g[key].is_number() || !std::isfinite(value)) return;
+    const double limit = g[key].get<double>();
+    out.push_back(fmt::format("{}: {:.4f} mm (limit {:.4f} mm) {}", name, value, limit,
+                              value <= limit ? "passed" : "FAILED"));
+  };
+  line("validation mean", set.validation_mean_mm, "max_mean_mm");
+  line("validation max", set.validation_max_mm, "max_max_mm");
+  return out;
+}
+
+}  // namespace
+
+bool HasReportOf(const std::string& dir, const std::string& robot, int version) {
+  std::error_code error;
+  const std::string index = dir + "/index.html";
+  if (!std::filesystem::is_regular_file(index, error)) return false;
+  try {
+    return io::ReadWholeFile(index, {std::size_t{64} << 20, "a report"})
+               .find(ReportSetMarker(robot, version)) != std::string::npos;
+  } catch (const std::exception&) {
+    return false;
+  }
+}
+
+StoredReport WriteStoredReport(db::Database& database, const std::string& robot,
+                               std::optional<int> version, const std::string& dir) {
+  io::CheckOutputDirectory(dir, "--out");
+  db::ReadSnapshot snapshot(database);  // every read of the report agrees with the others
+  const auto robot_id = db::FindRobot(database, robot);
+  if (!robot_id) {
+    throw InputError({database.path(), 0, 0, "--robot"},
+                     UnknownRobotMessage(database.path(), robot));
+  }
+  const ActiveSignature loaded = LoadSignature(database, robot, version);
+  const calibration::RobotModel& model = loaded.model;
+  const Signature& sig = loaded.signature;
+  const auto history = db::CalibrationHistory(database, *robot_id);
+  const db::StoredCalibration* set = nullptr;
+  for (const auto& c : history) {
+    if (c.version == sig.version) set = &c;
+  }
+  if (!set) throw std::logic_error("WriteStoredReport: the loaded set is not in the history");
+  const auto rows = db::LoadStoredResiduals(database, set->id);
+  if (rows.empty()) {
+    throw InputError({"--set", 0, 0, ""},
+                     fmt::format("version {} of robot {} has no recorded residuals: no report "
+                                 "can be made of it",
+                                 set->version, ShellWord(robot)));
+  }
+
+  // The configurations behind the residuals, as the run named them ("<session>:<label>").
+  std::map<std::string, MeasuredPose> by_id;
+  for (auto& p : db::LoadRobotPoses(database, *robot_id, "")) by_id.emplace(p.id, std::move(p));
+  StoredReport out;
+  out.version = set->version;
+  CalibrationRun run;
+  run.params_spec = set->params_spec;
+  std::vector<MeasuredPose> fit, validation;
+  std::vector<double> fit_distances, fit_nominal, validation_nominal;
+  for (const auto& r : rows) {
+    const auto pose = by_id.find(r.pose_label);
+    if (r.role == "fit") {
+      run.fit_pose_ids.push_back(r.pose_label);
+      fit_distances.push_back(r.distance_mm);
+      if (std::isfinite(r.nominal_distance_mm)) fit_nominal.push_back(r.nominal_distance_mm);
+      if (pose != by_id.end()) fit.push_back(pose->second);
+      continue;
+    }
+    if (pose == by_id.end()) {
+      ++out.missing_poses;
+      continue;
+    }
+    run.validation_pose_ids.push_back(r.pose_label);
+    run.validation_residuals.emplace_back(r.dx_mm, r.dy_mm, r.dz_mm);
+    validation_nominal.push_back(r.nominal_distance_mm);
+    validation.push_back(pose->second);
+  }
+  if (out.missing_poses > 0) {
+    spdlog::warn("report: {} validation configuration{} of version {} are no longer stored (a "
+                 "discarded or deleted session): left out",
+                 out.missing_poses, out.missing_poses == 1 ? "" : "s", set->version);
+  }
+
+  // The estimate as stored: parameters, sigmas, what was identified, the fit's figures.
+  calibration::EstimationResult& estimate = run.estimate;
+  estimate.params = sig.params;
+  estimate.sigmas = sig.sigmas;
+  estimate.fit = StatsOfDistances(fit_distances);
+  estimate.nominal = StatsOfDistances(fit_nominal);
+  auto& id = estimate.identifiability;
+  try {
+    id.candidates = calibration::ParseParameterSpec(model, set->params_spec);
+  } catch (const std::invalid_argument&) {
+    for (int k = 0; k < model.num_parameters(); ++k) id.candidates.push_back(k);
+  }
+  for (int k = 0; k < model.num_parameters(); ++k) {
+    const bool identified = k < static_cast<int>(set->parameters.size()) &&
+                            set->parameters[k].identified;
+    if (identified) id.identified.push_back(k);
+  }
+  for (int k : id.candidates) {
+    if (std::find(id.identified.begin(), id.identified.end(), k) == id.identified.end())
+      id.unidentified.push_back(k);
+  }
+  id.rank = set->rank;
+  // Each frame placed on its fitted configurations with the stored parameters (the fit
+  // estimated them with the parameters; they are not stored).
+  calibration::FrameBases bases = calibration::AlignFrameBases(model, sig.params, fit);
+  {
+    std::vector<MeasuredPose> unplaced;
+    for (const auto& p : validation) {
+      if (!bases.count(p.frame)) unplaced.push_back(p);
+    }
+    for (const auto& [frame, base] : calibration::AlignFrameBases(model, sig.params, unplaced))
+      bases[frame] = base;
+  }
+  if (!fit.empty() && !id.identified.empty()) {
+    std::vector<Eigen::VectorXd> joints;
+    for (const auto& p : fit) joints.push_back(p.joints_rad);
+    const auto first = bases.count(fit.front().frame) ? bases.at(fit.front().frame)
+                                                      : Eigen::Isometry3d::Identity();
+    const auto analysis = calibration::AnalyseJacobian(
+        calibration::StackedJacobian(model, first, sig.params, joints), id.identified);
+    id.condition_number = analysis.condition_number;
+  }
+  // The nominal model's validation errors: their stored distances, in the directions the
+  // nominal model errs with the frames placed as above.
+  {
+    std::vector<MeasuredPose> placed;
+    for (const auto& p : validation) {
+      if (bases.count(p.frame)) placed.push_back(p);
+    }
+    const auto nominal = placed.size() == validation.size()
+                             ? calibration::Residuals(model, bases,
+                                                      Eigen::VectorXd::Zero(model.num_parameters()),
+                                                      validation)
+                             : std::vector<Eigen::Vector3d>(validation.size(),
+                                                            Eigen::Vector3d::UnitX());
+    for (size_t i = 0; i < validation.size(); ++i) {
+      const double norm = nominal[i].norm();
+      const Eigen::Vector3d direction = norm > 0 ? Eigen::Vector3d(nominal[i] / norm)
+                                                 : Eigen::Vector3d::UnitX();
+      run.validation_nominal_residuals.push_back(
+          direction * (std::isfinite(validation_nominal[i]) ? validation_nominal[i] : norm));
+    }
+  }
+  run.residual_map = StoredMapFit(*set, fmt::format("robot {} version {}", robot, set->version));
+  if (run.map_used() && sig.map && validation.size() == run.validation_residuals.size()) {
+    bool placed = true;
+    for (const auto& p : validation) placed = placed && bases.count(p.frame);
+    if (placed) {
+      run.validation_parametric_residuals =
+          calibration::Residuals(model, bases, sig.params, validation);
+      MappedResiduals(model, bases, sig.params, sig.map.get(), validation,
+                      &run.validation_map_extrapolated);
+      for (const auto& p : validation) {
+        const double latent = sig.map->CorrectionSigmaMm(p.joints_rad.data());
+        const double noise = run.residual_map->map.noise_sigma_mm;
+        run.validation_map_sigma_mm.push_back(std::sqrt(latent * latent + noise * noise));
+      }
+    }
+  }
+
+  ReportInput input;
+  input.robot = robot;
+  input.version = set->version;
+  input.armsig_version = ARMSIG_VERSION;
+  std::string made_active;
+  for (const auto& a : db::ActivationHistory(database, *robot_id)) {
+    if (a.version == set->version)
+      made_active = fmt::format(" (made active by {} at {})", a.activated_by, a.activated_at);
+  }
+  input.decision = fmt::format("version {} as stored on {}{}{}", set->version, set->created_at,
+                               made_active, set->active ? "; active now" : "; not active now");
+  input.gates = StoredGates(*set);
+  input.model = &model;
+  input.run = &run;
+  input.validation = validation;
+  input.sources = LoadReportSources(database, run);
+  {
+    std::vector<int64_t> sessions;
+    for (const auto& s : input.sources.sessions) sessions.push_back(s.id);
+    input.temperature_c = db::PoseTemperatures(database, sessions);
+  }
+  input.history = ReportHistoryOf(database, *robot_id);
+  // The change against the set active before this one was stored.
+  const auto drift = nlohmann::json::parse(set->drift_json.empty() ? "null" : set->drift_json,
+                                           nullptr, false);
+  std::optional<int> previous;
+  if (drift.is_object() && drift.contains("against") && drift["against"].is_number_integer())
+    previous = drift["against"].get<int>();
+  for (const auto& c : history) {
+    if (!previous || c.version != *previous) continue;
+    input.previous_version = c.version;
+    input.previous_params_spec = c.params_spec;
+    const Signature before = SignatureOf(model, c);
+    const auto comparison = calibration::CompareModels(
+        model, FittedSetOf(model, before, c), FittedSetOf(model, sig, *set),
+        calibration::SpreadConfigurations(model, kDriftConfigurations));
+    for (const auto& p : comparison.parameters)
+      input.changes.push_back({p.parameter, p.change, p.z});
+  }
+  if (drift.is_object()) {
+    input.drift = drift.value("flag", false);
+    if (drift.contains("causes") && drift["causes"].is_array()) {
+      for (const auto& c : drift["causes"]) {
+        if (c.is_object() && c.contains("text") && c["text"].is_string())
+          input.causes.push_back(c["text"].get<std::string>());
+      }
+    }
+    if (drift.contains("change") && drift["change"].is_object()) {
+      const auto& change = drift["change"];
+      if (change.contains("causes") && change["causes"].is_array()) {
+        input.causes.clear();
+        for (const auto& c : change["causes"]) {
+          if (c.is_object() && c.contains("text") && c["text"].is_string())
+            input.causes.push_back(c["text"].get<std::string>());
+        }
+      }
+    }
+    if (drift.contains("drift_line") && drift["drift_line"].is_string())
+      input.drift_line = drift["drift_line"].get<std::string>();
+    if (drift.contains("tested") && drift["tested"].is_array()) {
+      for (const auto& t : drift["tested"]) {
+        if (!t.is_object()) continue;
+        ReportInput::WindowTest w;
+        w.session = t.value("session", int64_t{0});
+        w.started_at = t.value("started_at", std::string());
+        w.poses = t.value("poses", 0);
+        w.mean_mm = t.value("mean_mm", 0.0);
+        w.effect_max_mm = t.value("effect_max_mm", 0.0);
+        w.p_value = t.value("p_value", 1.0);
+        w.disagrees = t.value("disagrees", false);
+        w.outlier = t.value("outlier", false);
+        input.window.push_back(w);
+      }
+    }
+  }
+  out.path = WriteReport(dir, input);
+  return out;
+}
+
+}  // namespace armsig::workflows
