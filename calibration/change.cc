@@ -10,6 +10,7 @@
 #include <boost/math/distributions/chi_squared.hpp>
 #include <cmath>
 #include <map>
+#include <optional>
 #include <stdexcept>
 
 namespace armsig::calibration {
@@ -111,7 +112,8 @@ double ChiSquareSurvival(double chi2, int dof) {
 
 }  // namespace
 
-std::vector<Cause> CandidateCauses(const RobotModel& model) {
+std::vector<Cause> CandidateCauses(const RobotModel& model,
+                                   const std::optional<std::vector<int>>& terms) {
   const int n = model.num_joints();
   const int np = model.num_parameters();
   const auto names = model.ParameterNames();
@@ -152,6 +154,7 @@ std::vector<Cause> CandidateCauses(const RobotModel& model) {
   }
   for (size_t k = 0; k < model.nongeometric.size(); ++k) {
     const int index = model.num_geometric() + static_cast<int>(k);
+    if (terms && std::find(terms->begin(), terms->end(), index) == terms->end()) continue;
     single(fmt::format("joint {} term {}", model.nongeometric[k].joint + 1,
                        model.nongeometric[k].name),
            index, true, 0);
@@ -161,8 +164,8 @@ std::vector<Cause> CandidateCauses(const RobotModel& model) {
 }
 
 Explanation ExplainDifference(const RobotModel& model, const Eigen::VectorXd& params,
-                              const Difference& difference,
-                              const std::vector<Eigen::VectorXd>& spread, int best) {
+                              const Difference& difference, int best,
+                              const std::optional<std::vector<int>>& terms) {
   const int m = static_cast<int>(difference.configurations.size());
   if (difference.world_from_base.size() != static_cast<size_t>(m) ||
       difference.group.size() != static_cast<size_t>(m) || difference.change.size() != 3 * m) {
@@ -170,7 +173,7 @@ Explanation ExplainDifference(const RobotModel& model, const Eigen::VectorXd& pa
                                 "change differ in size");
   }
   Explanation out;
-  const std::vector<Cause> all = CandidateCauses(model);
+  const std::vector<Cause> all = CandidateCauses(model, terms);
   if (m == 0) return out;
   const Columns columns =
       CauseColumns(model, params, difference.configurations, difference.world_from_base,
@@ -209,13 +212,8 @@ Explanation ExplainDifference(const RobotModel& model, const Eigen::VectorXd& pa
     out.explainable_sum_squares = std::min(explained, out.sum_squares);
   }
 
-  // Effects over the work volume, one rigid motion free.
-  const std::vector<Eigen::Isometry3d> identity(spread.size(), Eigen::Isometry3d::Identity());
-  const std::vector<int> one_group(spread.size(), 0);
-  const Columns effects = CauseColumns(model, params, spread, identity, one_group, all);
-  const Eigen::MatrixXd spread_rigid = RigidBasis(effects.positions, one_group);
-
   std::vector<ExplainedCause> ranked;
+  std::vector<double> reduction_of;  // what each explains alone, uncapped: the ranking
   for (int c : kept) {
     const Eigen::VectorXd& col = projected.col(c);
     const double norm2 = col.squaredNorm();
@@ -229,25 +227,25 @@ Explanation ExplainDifference(const RobotModel& model, const Eigen::VectorXd& pa
     e.chi2 = e.sigma > 0 ? (e.size / e.sigma) * (e.size / e.sigma)
                          : std::numeric_limits<double>::infinity();
     const double reduction = e.size * e.size * norm2;
+    reduction_of.push_back(reduction);
     e.explained = out.explainable_sum_squares > 0
                       ? std::min(reduction / out.explainable_sum_squares, 1.0)
                       : 0.0;
-    if (!spread.empty()) {
-      const Eigen::VectorXd effect = RemoveRigid(spread_rigid, effects.causes.col(c) * e.size);
-      double sum = 0.0;
-      for (size_t s = 0; s < spread.size(); ++s) {
-        const double v = effect.segment<3>(3 * s).norm();
-        e.effect_max_mm = std::max(e.effect_max_mm, v);
-        sum += v;
-      }
-      e.effect_mean_mm = sum / static_cast<double>(spread.size());
+    // Its effect where it was measured: the cause's column (each frame's rigid motion
+    // already out) at its size.
+    double sum = 0.0;
+    for (int i = 0; i < m; ++i) {
+      const double v = std::abs(e.size) * col.segment<3>(3 * i).norm();
+      e.effect_max_mm = std::max(e.effect_max_mm, v);
+      sum += v;
     }
+    e.effect_mean_mm = sum / m;
     ranked.push_back(std::move(e));
   }
   std::vector<int> order(ranked.size());
   for (size_t k = 0; k < order.size(); ++k) order[k] = static_cast<int>(k);
   std::stable_sort(order.begin(), order.end(),
-                   [&](int x, int y) { return ranked[x].explained > ranked[y].explained; });
+                   [&](int x, int y) { return reduction_of[x] > reduction_of[y]; });
   // The best distinct causes; a cause that looks the same as one already listed on these
   // data is named beside it.
   // The best distinct causes; a cause that looks the same as one already listed on these
@@ -280,7 +278,7 @@ Explanation ExplainDifference(const RobotModel& model, const Eigen::VectorXd& pa
       break;
     }
     // Past `best`, only equivalents of what is listed are still collected.
-    if (equivalent || static_cast<int>(out.causes.size()) >= best) continue;
+    if (equivalent || (best >= 0 && static_cast<int>(out.causes.size()) >= best)) continue;
     listed.push_back(column);
     out.causes.push_back(ranked[r]);
   }
@@ -308,45 +306,60 @@ void ChangeTestOptions::Check() const {
 namespace {
 
 // The set's identified parameters refitted on the poses by one linearised least-squares
-// step, with each frame's base free: the set the poses alone would give, with the
-// covariance their own scatter gives it.
+// step, each frame's base free (placed first on its own poses): the set the poses alone
+// give, with the covariance their own scatter gives it. nullopt without redundancy.
 std::optional<FittedSet> Refit(const RobotModel& model, const FittedSet& set,
-                               const std::vector<MeasuredPose>& poses, const FrameBases& bases,
-                               const Eigen::VectorXd& change, const std::vector<int>& group) {
-  const int m = static_cast<int>(poses.size());
+                               const std::vector<MeasuredPose>& poses) {
   const int k = static_cast<int>(set.identified.size());
-  const int groups = m ? *std::max_element(group.begin(), group.end()) + 1 : 0;
-  // Room to spare: at least as many redundant equations as parameters, and ten.
+  const FrameBases bases = AlignFrameBases(model, set.params, poses);
+  std::vector<MeasuredPose> placed;
+  for (const auto& p : poses) {
+    if (bases.count(p.frame)) placed.push_back(p);
+  }
+  const int m = static_cast<int>(placed.size());
+  std::map<int64_t, int> group_of;
+  for (const auto& p : placed) group_of.emplace(p.frame, 0);
+  int groups = 0;
+  for (auto& [frame, g] : group_of) g = groups++;
   if (k == 0 || 3 * m - k - 6 * groups < std::max(10, k)) return std::nullopt;
   Kinematics kin(model);
   Eigen::Matrix<double, 3, Eigen::Dynamic> jacobian(3, model.num_parameters());
   std::vector<Eigen::Vector3d> positions(m);
+  std::vector<int> group(m);
+  Eigen::VectorXd change(3 * m);
   Eigen::MatrixXd a(3 * m, k + 6 * groups);
   for (int i = 0; i < m; ++i) {
-    positions[i] = kin.PositionAndJacobian(bases.at(poses[i].frame), set.params,
-                                           poses[i].joints_rad.data(), jacobian);
+    positions[i] = kin.PositionAndJacobian(bases.at(placed[i].frame), set.params,
+                                           placed[i].joints_rad.data(), jacobian);
     a.block(3 * i, 0, 3, k) = jacobian(Eigen::all, set.identified);
+    change.segment<3>(3 * i) = placed[i].target_in_world - positions[i];
+    group[i] = group_of.at(placed[i].frame);
   }
-  // The frames' small rigid motions (not orthonormalised: only their span matters here).
   a.rightCols(6 * groups) = RigidBasis(positions, group);
   const Eigen::VectorXd norms = a.colwise().norm().transpose().cwiseMax(1e-300);
   const Eigen::MatrixXd scaled = a * norms.cwiseInverse().asDiagonal();
-  Eigen::CompleteOrthogonalDecomposition<Eigen::MatrixXd> cod(scaled);
-  cod.setThreshold(1e-10);
-  const int rank = static_cast<int>(cod.rank());
+  const Eigen::BDCSVD<Eigen::MatrixXd> svd(scaled, Eigen::ComputeThinU | Eigen::ComputeThinV);
+  const Eigen::VectorXd& sv = svd.singularValues();
+  Eigen::VectorXd inverse = Eigen::VectorXd::Zero(sv.size());
+  int rank = 0;
+  for (int c = 0; c < sv.size(); ++c) {
+    if (sv(c) > 1e-10 * sv(0)) {
+      inverse(c) = 1.0 / sv(c);
+      ++rank;
+    }
+  }
   const int dof = 3 * m - rank;
   if (dof < 10) return std::nullopt;
-  const Eigen::VectorXd x = cod.solve(change);
+  const Eigen::VectorXd x =
+      svd.matrixV() * (inverse.asDiagonal() * (svd.matrixU().transpose() * change));
   const double sigma2 = (change - scaled * x).squaredNorm() / dof;
-  // Cov(x) = σ² (AᵀA)⁺ on the scaled columns; the parameters' block, unscaled.
-  const Eigen::MatrixXd pinv = cod.pseudoInverse();
-  const Eigen::MatrixXd covariance_scaled = sigma2 * pinv * pinv.transpose();
+  // Cov(x) = σ² V S⁻² Vᵀ on the scaled columns; the parameters' block, unscaled.
+  const Eigen::MatrixXd vs = svd.matrixV() * inverse.asDiagonal();
+  const Eigen::MatrixXd covariance_scaled = sigma2 * vs * vs.transpose();
   FittedSet out;
   out.identified = set.identified;
   out.params = set.params;
-  Eigen::VectorXd step(k);
-  for (int c = 0; c < k; ++c) step(c) = x(c) / norms(c);
-  out.params(set.identified) += step;
+  for (int c = 0; c < k; ++c) out.params(set.identified[c]) += x(c) / norms(c);
   const Eigen::VectorXd inv = norms.head(k).cwiseInverse();
   out.covariance = inv.asDiagonal() * covariance_scaled.topLeftCorner(k, k) * inv.asDiagonal();
   return out;
@@ -371,33 +384,33 @@ Eigen::MatrixXd PredictionFactor(const RobotModel& model, const FittedSet& set,
   return out;
 }
 
-}  // namespace
-
-SessionTest TestAgainstSet(const RobotModel& model, const FittedSet& set, double set_sigma_mm,
-                           const std::vector<MeasuredPose>& poses, const FrameBases& bases,
-                           const std::vector<Eigen::Vector3d>& residuals,
-                           const std::vector<Eigen::VectorXd>& spread,
-                           const ChangeTestOptions& options) {
-  options.Check();
-  if (residuals.size() != poses.size())
-    throw std::invalid_argument("TestAgainstSet: one residual per pose");
+// The poses' residuals under the reference, each frame placed on its own poses, as a
+// difference of every cause to explain (all of them, ranked).
+SessionTest Explain(const RobotModel& model, const ChangeReference& reference,
+                    const std::vector<MeasuredPose>& poses) {
   SessionTest out;
-  out.poses = static_cast<int>(poses.size());
+  const FrameBases bases = AlignFrameBases(model, reference.set.params, poses);
+  std::vector<MeasuredPose> placed;
+  for (const auto& p : poses) {
+    if (bases.count(p.frame)) placed.push_back(p);
+  }
   std::map<int64_t, int> group_of;
-  for (const auto& p : poses) group_of.emplace(p.frame, 0);
+  for (const auto& p : placed) group_of.emplace(p.frame, 0);
   for (auto& [frame, g] : group_of) {
     g = static_cast<int>(out.frames.size());
     out.frames.push_back(frame);
   }
-  if (poses.empty()) return out;
+  out.poses = static_cast<int>(placed.size());
+  if (placed.empty()) return out;
+  const auto residuals = Residuals(model, bases, reference.set.params, placed);
   Difference difference;
   difference.change.resize(3 * out.poses);
   double sum = 0.0, sum2 = 0.0;
   for (int i = 0; i < out.poses; ++i) {
-    difference.configurations.push_back(poses[i].joints_rad);
-    difference.world_from_base.push_back(bases.at(poses[i].frame));
-    difference.group.push_back(group_of.at(poses[i].frame));
-    // What the robot does now beyond what the set predicts: measured − model.
+    difference.configurations.push_back(placed[i].joints_rad);
+    difference.world_from_base.push_back(bases.at(placed[i].frame));
+    difference.group.push_back(group_of.at(placed[i].frame));
+    // What the robot does now beyond what the reference predicts: measured − model.
     difference.change.segment<3>(3 * i) = -residuals[i];
     const double e = residuals[i].norm();
     sum += e;
@@ -405,46 +418,77 @@ SessionTest TestAgainstSet(const RobotModel& model, const FittedSet& set, double
   }
   out.mean_mm = sum / out.poses;
   out.rms_mm = std::sqrt(sum2 / out.poses);
-
-  // The refit of every identified parameter, judged as the nightly job judges two sets.
-  if (const auto refit = Refit(model, set, poses, bases, difference.change, difference.group)) {
-    out.refit = true;
-    out.comparison = CompareModels(model, set, *refit, spread);
-    out.refit_disagrees = out.comparison.p_value < options.significance / 2 &&
-                          out.comparison.max_mm > options.tolerance_mm;
-    out.p_value = std::min(1.0, 2 * out.comparison.p_value);
-    out.effect_max_mm = out.comparison.max_mm;
-  }
-
-  // Single causes: the measurements' noise of the set's own size, or of the session's when
-  // it shows more (a worse set-up must not read as a changed robot), and the uncertainty of
-  // the set's own predictions at these configurations (a set fitted on few poses
-  // extrapolates poorly: that is not the robot changing).
-  difference.sigma_mm = set_sigma_mm;
-  difference.noise_factor = PredictionFactor(model, set, poses, bases);
-  Explanation first = ExplainDifference(model, set.params, difference, spread);
-  const int groups = static_cast<int>(out.frames.size());
-  const int dof = 3 * out.poses - 6 * groups - first.candidates;
+  // The measurements' noise: the reference's, or the session's own when it shows more (a
+  // worse set-up must not read as a changed robot); and the uncertainty of the reference's
+  // predictions at these configurations (a set fitted on few poses extrapolates poorly:
+  // that is not the robot changing).
+  difference.sigma_mm = reference.sigma_mm;
+  difference.noise_factor = PredictionFactor(model, reference.set, placed, bases);
+  out.explanation = ExplainDifference(model, reference.set.params, difference, -1, reference.terms);
+  const int dof = 3 * out.poses - 6 * static_cast<int>(out.frames.size()) -
+                  out.explanation.candidates;
   if (dof >= 10) {
     const double own = std::sqrt(
-        std::max(first.sum_squares - first.explainable_sum_squares, 0.0) / dof);
-    if (own > set_sigma_mm) {
+        std::max(out.explanation.sum_squares - out.explanation.explainable_sum_squares, 0.0) / dof);
+    if (own > reference.sigma_mm) {
       difference.sigma_mm = own;
-      first = ExplainDifference(model, set.params, difference, spread);
+      out.explanation =
+          ExplainDifference(model, reference.set.params, difference, -1, reference.terms);
     }
   }
-  out.explanation = std::move(first);
-  if (!out.explanation.causes.empty()) {
-    const ExplainedCause& top = out.explanation.causes.front();
-    // The best of `candidates` causes: Bonferroni over all of them.
-    const double level = options.significance / 2 / std::max(out.explanation.candidates, 1);
-    const double p = ChiSquareSurvival(top.chi2, 1);
-    out.cause_disagrees = p < level && top.effect_max_mm > options.tolerance_mm;
-    const double adjusted = std::min(1.0, 2.0 * p * out.explanation.candidates);
-    out.p_value = out.refit ? std::min(out.p_value, adjusted) : adjusted;
-    out.effect_max_mm = std::max(out.effect_max_mm, top.effect_max_mm);
+  return out;
+}
+
+}  // namespace
+
+ChangeReference MakeChangeReference(const RobotModel& model, const FittedSet& set,
+                                    double sigma_mm, const std::vector<MeasuredPose>& poses,
+                                    const std::optional<std::vector<int>>& terms) {
+  ChangeReference out;
+  out.set = set;
+  out.sigma_mm = sigma_mm;
+  out.terms = terms;
+  if (const auto refit = Refit(model, set, poses)) out.set = *refit;
+  std::map<int64_t, std::vector<MeasuredPose>> by_frame;
+  for (const auto& p : poses) by_frame[p.frame].push_back(p);
+  out.sessions = static_cast<int>(by_frame.size());
+  // The overdispersion: how much more the single-cause estimates of the reference's own
+  // sessions scatter than their noise says — the mean of every cause's χ² over every
+  // session (≈ 1 for white residuals; more where the model leaves systematic residuals).
+  // From two sessions on (one session's estimates are its own fit's).
+  if (by_frame.size() >= 2) {
+    double sum = 0.0;
+    int count = 0;
+    for (const auto& [frame, session] : by_frame) {
+      for (const auto& c : Explain(model, out, session).explanation.causes) {
+        if (!std::isfinite(c.chi2)) continue;
+        sum += c.chi2;
+        ++count;
+      }
+    }
+    if (count > 0) out.overdispersion = std::max(1.0, sum / count);
   }
-  out.disagrees = out.refit_disagrees || out.cause_disagrees;
+  return out;
+}
+
+SessionTest TestAgainstReference(const RobotModel& model, const ChangeReference& reference,
+                                 const std::vector<MeasuredPose>& poses,
+                                 const ChangeTestOptions& options) {
+  options.Check();
+  SessionTest out = Explain(model, reference, poses);
+  const auto& causes = out.explanation.causes;
+  if (causes.empty()) return out;
+  // The most significant cause, judged against the reference's own scatter; Bonferroni
+  // over all of them.
+  const ExplainedCause* top = &causes.front();
+  for (const auto& c : causes) {
+    if (c.chi2 > top->chi2) top = &c;
+  }
+  out.chi2 = top->chi2 / reference.overdispersion;
+  const int k = std::max(out.explanation.candidates, 1);
+  out.p_value = std::min(1.0, k * ChiSquareSurvival(out.chi2, 1));
+  out.effect_max_mm = top->effect_max_mm;
+  out.disagrees = out.p_value < options.significance && out.effect_max_mm > options.tolerance_mm;
   return out;
 }
 

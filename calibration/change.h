@@ -1,17 +1,18 @@
 // Has the robot changed since a parameter set was fitted, from which session on, and why?
 //
-// Sessions measured after a set are tested against it one by one: each session's own
-// measuring frame is placed on its poses (a set-up moves between sessions; the robot's
-// signature does not), and what is left is tested two ways — a linearised refit of the
-// set's identified parameters on the session, compared with the set by the positions both
-// predict over the work volume (calibration/drift.h), and, for sessions too small for
-// that, the single physical causes below. A difference is then explained by those causes:
-// each joint's zero, each axis's tilt, each link's length and offsets, the tool, the
-// model's non-geometric terms and the instrument's scale, each fitted alone against the
-// difference with the measuring frame free, ranked by how much of it each explains.
+// Sessions are tested against a reference: the active set refitted on every configuration of
+// the sessions it was fitted on, so that what those sessions say the robot is (not the
+// selection the fit used) is what a new session is held to. Each session's own measuring
+// frame is placed on its poses (a set-up moves between sessions; the robot's signature does
+// not), and its residuals are tested against the single physical causes below — each
+// joint's zero, each axis's tilt, each link's length and offsets, the tool, the model's
+// non-geometric terms, the instrument's scale — each fitted alone with the frame free, with
+// the scatter the reference sessions themselves show between them (real robots leave
+// systematic residuals that a white-noise model would take for a change).
 #pragma once
 
 #include <Eigen/Core>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -40,7 +41,10 @@ struct Cause {
 // Every cause a lab meets that the model can express: per joint its zero (γ), its axis
 // tilts (α, β) and its position (a, b, c); per link with a nominal length (> 1 mm) that
 // length; the tool's offsets and length; each non-geometric term; the instrument's scale.
-std::vector<Cause> CandidateCauses(const RobotModel& model);
+// `terms`: the non-geometric terms (parameter indices) that may be causes — those the fitted
+// sets estimate; nullopt: every term of the model.
+std::vector<Cause> CandidateCauses(const RobotModel& model,
+                                   const std::optional<std::vector<int>>& terms = std::nullopt);
 
 // Differences to explain: at each configuration (encoder angles), an observed change of the
 // target position (3 per configuration, in the frame of `positions`) with the rotation
@@ -67,8 +71,8 @@ struct ExplainedCause {
   // explains alone (1: all of it), on the data given.
   double explained = 0.0;
   double chi2 = 0.0;  // (size / sigma)², one degree of freedom
-  // Its effect at the tool over configurations spread over the work volume, a rigid
-  // motion of the whole removed (mm).
+  // Its effect at the tool over the difference's configurations, each group's rigid motion
+  // removed (mm).
   double effect_max_mm = 0.0, effect_mean_mm = 0.0;
   // Other causes with the same effect on these data (indistinguishable from this one).
   std::vector<std::string> equivalent;
@@ -85,10 +89,11 @@ struct Explanation {
 };
 
 // Each cause fitted alone to `difference` (at the parameters `params`), each group's rigid
-// motion free. `spread`: configurations over the work volume for the effect in mm.
+// motion free; its effect in mm over the difference's own configurations. `best` causes are
+// kept (every cause with `best` < 0).
 Explanation ExplainDifference(const RobotModel& model, const Eigen::VectorXd& params,
-                              const Difference& difference,
-                              const std::vector<Eigen::VectorXd>& spread, int best = 3);
+                              const Difference& difference, int best = 3,
+                              const std::optional<std::vector<int>>& terms = std::nullopt);
 
 // The difference of two fitted sets as ExplainDifference takes it: b's predicted positions
 // less a's over `spread`, after the rigid alignment CompareModels makes, with the noise of
@@ -97,37 +102,44 @@ Difference SetDifference(const RobotModel& model, const FittedSet& a, const Fitt
                          const std::vector<Eigen::VectorXd>& spread);
 
 struct ChangeTestOptions {
-  double significance = 1e-3;  // of each session's test (both ways together)
+  double significance = 1e-3;  // of each session's test (Bonferroni over the causes)
   double tolerance_mm = 0.05;  // a change whose effect stays below this is no change
   void Check() const;
 };
 
-// One group of poses (a session, or several) against a set.
+// What sessions are held to: a set, the measurement noise per coordinate a session of the
+// same robot shows at least, and how much more the single-cause estimates scatter between
+// the reference's own sessions than that noise says (≥ 1).
+struct ChangeReference {
+  FittedSet set;
+  double sigma_mm = 0.0;
+  double overdispersion = 1.0;
+  int sessions = 0;  // reference sessions it was made from (0: the set as given)
+  std::optional<std::vector<int>> terms;  // the non-geometric terms that may be causes
+};
+
+// The set refitted by one linearised least-squares step on every pose of `poses` (the
+// sessions it was fitted on; each frame free), with the overdispersion of single causes
+// between those sessions. With no poses, the set as given (overdispersion 1).
+ChangeReference MakeChangeReference(const RobotModel& model, const FittedSet& set,
+                                    double sigma_mm, const std::vector<MeasuredPose>& poses,
+                                    const std::optional<std::vector<int>>& terms = std::nullopt);
+
+// One group of poses (a session, or several) against the reference.
 struct SessionTest {
   std::vector<int64_t> frames;
   int poses = 0;
-  double mean_mm = 0.0, rms_mm = 0.0;  // the set's error distances on them (own frames)
-  // The refit of the set's identified parameters: run when the poses hold enough
-  // equations (3 per pose) for them and every frame with room to spare.
-  bool refit = false;
-  ModelComparison comparison;  // the refitted set against the set (when refit)
-  bool refit_disagrees = false;
-  Explanation explanation;  // the single causes, against the same residuals
-  bool cause_disagrees = false;
-  double p_value = 1.0;      // the smaller of the two tests' (each at half the level)
-  double effect_max_mm = 0.0;  // the larger of the two tests' predicted effects
+  double mean_mm = 0.0, rms_mm = 0.0;  // the reference's error distances (own frames placed)
+  Explanation explanation;   // the single causes, best first (every cause)
+  double chi2 = 0.0;         // of the most significant cause, over the overdispersion
+  double p_value = 1.0;      // Bonferroni over the causes
+  double effect_max_mm = 0.0;  // that cause's effect at the tool on these configurations
   bool disagrees = false;
 };
 
-// Residuals of the poses under the set (`residuals`: model, with the set's residual map
-// where it applies, − measured; each frame's base from `bases`), tested. `set_sigma_mm`:
-// the set's own error per coordinate out of sample (its validation rms / √3), the noise a
-// session of the same robot shows; a session that shows more is judged by its own.
-SessionTest TestAgainstSet(const RobotModel& model, const FittedSet& set, double set_sigma_mm,
-                           const std::vector<MeasuredPose>& poses, const FrameBases& bases,
-                           const std::vector<Eigen::Vector3d>& residuals,
-                           const std::vector<Eigen::VectorXd>& spread,
-                           const ChangeTestOptions& options = {});
+SessionTest TestAgainstReference(const RobotModel& model, const ChangeReference& reference,
+                                 const std::vector<MeasuredPose>& poses,
+                                 const ChangeTestOptions& options = {});
 
 // Where a run of sessions changed: `disagrees` per session in time order. The change point
 // is the first session of the last unbroken run of disagreeing sessions that reaches the

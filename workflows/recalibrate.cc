@@ -522,6 +522,21 @@ NamedCause NameOf(const calibration::ExplainedCause& c) {
   return n;
 }
 
+// The non-geometric terms a set of this --params estimates: the only terms that may be
+// named as causes (nullopt: the spec cannot be read, every term).
+std::optional<std::vector<int>> TermsOf(const calibration::RobotModel& model,
+                                        const std::string& params_spec) {
+  try {
+    std::vector<int> terms;
+    for (int k : calibration::ParseParameterSpec(model, params_spec)) {
+      if (k >= model.num_geometric()) terms.push_back(k);
+    }
+    return terms;
+  } catch (const std::invalid_argument&) {
+    return std::nullopt;
+  }
+}
+
 // The active set's error per coordinate out of sample: what a session of the same robot
 // shows against it (its validation rms over three coordinates).
 double SetSigmaMm(const db::StoredCalibration& c) {
@@ -702,21 +717,36 @@ void NightlyJob::TestAgainstActive() {
     }
     set.covariance = Eigen::MatrixXd::Zero(set.identified.size(), set.identified.size());
   }
-  const double sigma = SetSigmaMm(*current_);
+  // The reference: the active set refitted on every configuration of its own sessions
+  // still in the window (what they say the robot is, not the selection its fit used), with
+  // the scatter those sessions show between them.
+  std::set<int64_t> own;
+  {
+    const auto inputs = nlohmann::json::parse(current_->inputs_json, nullptr, false);
+    if (inputs.is_object() && inputs.contains("sessions") && inputs["sessions"].is_array()) {
+      for (const auto& id : inputs["sessions"]) {
+        if (id.is_number_integer()) own.insert(id.get<int64_t>());
+      }
+    }
+  }
+  std::vector<MeasuredPose> reference_poses;
+  for (const auto& w : window_) {
+    if (own.count(w.summary.id))
+      reference_poses.insert(reference_poses.end(), w.poses.begin(), w.poses.end());
+  }
+  const calibration::ChangeReference reference = calibration::MakeChangeReference(
+      model_, set, SetSigmaMm(*current_), reference_poses, TermsOf(model_, current_->params_spec));
+  spdlog::debug(
+      "recalibrate: sessions judged against version {} refitted on its {} session{} in the "
+      "window ({} configurations): noise {:.4f} mm per coordinate, their single causes "
+      "scatter {:.2f} times as much as that noise says",
+      current_->version, reference.sessions, reference.sessions == 1 ? "" : "s",
+      reference_poses.size(), reference.sigma_mm, std::sqrt(reference.overdispersion));
   calibration::ChangeTestOptions options;
   options.significance = kDriftSignificance;
   options.tolerance_mm = gates_.drift_mm;
-  // The set's residuals on poses, each frame placed on its own poses; poses of a frame
-  // that cannot be placed (all on one line) are left out.
   auto against = [&](const std::vector<MeasuredPose>& poses) {
-    const auto bases = calibration::AlignFrameBases(model_, old.params, poses);
-    std::vector<MeasuredPose> placed;
-    for (const auto& p : poses) {
-      if (bases.count(p.frame)) placed.push_back(p);
-    }
-    const auto residuals = MappedResiduals(model_, bases, old.params, old.map.get(), placed);
-    return calibration::TestAgainstSet(model_, set, sigma, placed, bases, residuals, spread_,
-                                       options);
+    return calibration::TestAgainstReference(model_, reference, poses, options);
   };
   std::vector<bool> disagrees;
   for (const auto& w : window_) {
@@ -730,17 +760,16 @@ void NightlyJob::TestAgainstActive() {
     v.p_value = t.p_value;
     v.effect_max_mm = t.effect_max_mm;
     spdlog::debug(
-        "recalibrate: session {} ({} configurations) against version {}: mean {:.4f} mm, a "
-        "change of up to {:.3f} mm, p = {:.2g}: {}",
+        "recalibrate: session {} ({} configurations) against version {}: mean {:.4f} mm; most "
+        "significant cause changes it by up to {:.3f} mm, p = {:.2g}: {}",
         v.session, v.poses, current_->version, v.mean_mm, v.effect_max_mm, v.p_value,
         v.disagrees ? "DISAGREES" : "agrees");
     if (!t.explanation.causes.empty()) {
       const auto& top = t.explanation.causes.front();
-      spdlog::debug("recalibrate: session {}: refit {} (p = {:.3g}, up to {:.3f} mm); best single "
-                    "cause {} ({:+.4g} ± {:.2g}, chi2 {:.3g}, up to {:.3f} mm, explains {:.0f} %)",
-                    v.session, t.refit ? "made" : "not made (too few configurations)",
-                    t.comparison.p_value, t.comparison.max_mm, top.cause.name, top.size,
-                    top.sigma, top.chi2, top.effect_max_mm, 100 * top.explained);
+      spdlog::debug("recalibrate: session {}: best single cause {} ({:+.4g} ± {:.2g}, chi2 {:.3g}, "
+                    "up to {:.3f} mm, explains {:.0f} %)",
+                    v.session, top.cause.name, top.size, top.sigma, top.chi2, top.effect_max_mm,
+                    100 * top.explained);
     }
     disagrees.push_back(v.disagrees);
     d_.tested.push_back(v);
@@ -769,7 +798,10 @@ void NightlyJob::TestAgainstActive() {
       PosesNeeded(static_cast<int>(set.identified.size()), static_cast<int>(change.after.size()));
   // The change explained on every session since at once.
   const auto t = against(after);
-  for (const auto& c : t.explanation.causes) change.causes.push_back(NameOf(c));
+  for (const auto& c : t.explanation.causes) {
+    if (change.causes.size() == 3) break;
+    change.causes.push_back(NameOf(c));
+  }
   change.indistinguishable = t.explanation.indistinguishable_from_frame;
   change.effect_max_mm = t.effect_max_mm;
   change.p_value = t.p_value;
@@ -972,7 +1004,8 @@ void NightlyJob::CompareWithActive() {
   if (d_.drift) {
     // What physically changed between the two sets, one cause at a time.
     const auto explanation = calibration::ExplainDifference(
-        model_, before.params, calibration::SetDifference(model_, before, now, spread_), spread_);
+        model_, before.params, calibration::SetDifference(model_, before, now, spread_), 3,
+        TermsOf(model_, run.params_spec));
     for (const auto& cause : explanation.causes) d_.causes.push_back(NameOf(cause));
     for (const auto& cause : d_.causes) Log("drift: " + cause.Describe());
   }

@@ -612,6 +612,34 @@ TEST_F(VirtualLabFixture, CtrlCAtRandomMomentsLeavesAResumableSession) {
   EXPECT_GE(paused, waited_sessions / 2) << "of " << sessions << " sessions";
 }
 
+// A lab file whose robot model differs from the registered robot's (the upper arm edited
+// from 650 to 650.3 mm) is refused before anything is stored, naming the differing value;
+// the registered robot's own model file is accepted.
+TEST_F(VirtualLabFixture, ALabModelThatDiffersFromTheRegisteredRobotIsRefused) {
+  Start();
+  const std::string db = "--db '" + Db() + "' ";
+  const auto first = testing::RunArmsig(db + "capture --lab '" + dir_.File("lab.yaml") +
+                                        "' --plan auto:3 --robot puma");
+  ASSERT_EQ(first.exit_code, 0) << first.err;
+  std::string model = testing::ReadText(testing::SourcePath("models/puma760.yaml"));
+  const std::string link = "[[1,0,0,650]";
+  ASSERT_NE(model.find(link), std::string::npos);
+  model.replace(model.find(link), link.size(), "[[1,0,0,650.3]");
+  testing::WriteText(dir_.File("edited.yaml"), model);
+  std::string lab = testing::ReadText(dir_.File("lab.yaml"));
+  const std::string shipped = testing::SourcePath("models/puma760.yaml");
+  lab.replace(lab.find(shipped), shipped.size(), dir_.File("edited.yaml"));
+  testing::WriteText(dir_.File("edited-lab.yaml"), lab);
+  const auto edited = testing::RunArmsig(db + "capture --lab '" + dir_.File("edited-lab.yaml") +
+                                         "' --plan auto:3 --robot puma");
+  EXPECT_EQ(edited.exit_code, 2) << edited.err;
+  EXPECT_NE(edited.err.find("differs from robot 'puma' as registered"), std::string::npos)
+      << edited.err;
+  EXPECT_NE(edited.err.find("650.3 mm against 650 mm"), std::string::npos) << edited.err;
+  db::Database database(Db());
+  EXPECT_EQ(Count(database, "SELECT count(*) FROM sessions"), 1);
+}
+
 // Every ray nearly parallel: no point can be intersected. Each configuration is counted
 // failed and named, no miss distance is invented, and the exit code is 1, with
 // --skip-on-fault too (nothing usable was captured).

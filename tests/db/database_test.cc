@@ -233,7 +233,7 @@ TEST_P(Store, ExportsTablesAsCsvAndRejectsUnknownTables) {
   EXPECT_THROW(db.ExportCsv("robots; DROP TABLE robots"), InputError);
   // An empty table still has its header.
   EXPECT_EQ(db.ExportCsv("activations"),
-            "id,robot_id,version,previous_version,activated_at,activated_by,note\n");
+            "id,robot_id,version,previous_version,activated_at,activated_by,note,uuid\n");
 }
 
 // The same rows give the same CSV on both backends: numbers to the last digit, NULL empty,

@@ -17,6 +17,7 @@
 #include "support/simulated_sessions.h"
 #include "support/stores.h"
 #include "test_support.h"
+#include "workflows/lifecycle.h"
 #include "workflows/recalibrate.h"
 
 namespace armsig::testing {
@@ -183,10 +184,14 @@ TEST_P(Push, TwiceDoublesNothingAndTheStoreReadsBackTheCell) {
     EXPECT_NE(std::find(server_sessions.begin(), server_sessions.end(), id.get<int64_t>()),
               server_sessions.end());
   }
-  // The activation on the server says where the set came from.
+  // The activation on the server is the cell's: who made the set active, when and why.
   const auto history = db::ActivationHistory(b, *robot_b);
+  const auto history_a = db::ActivationHistory(a, *robot_a);
   ASSERT_EQ(history.size(), 1u);
-  EXPECT_NE(history[0].note.find("pushed from " + cell), std::string::npos) << history[0].note;
+  ASSERT_EQ(history_a.size(), 1u);
+  EXPECT_EQ(history[0].activated_by, "recalibrate");
+  EXPECT_EQ(history[0].note, history_a[0].note);
+  EXPECT_EQ(history[0].activated_at, history_a[0].activated_at);
 }
 
 // The connection is cut at every possible statement in turn: each push leaves whole
@@ -276,6 +281,48 @@ TEST_P(Push, OpenSessionsWaitAndAnotherModelIsRefused) {
   }
   db::Database b(other, db::OpenMode::kMustExist);
   EXPECT_EQ(b.connection().QueryInt("SELECT count(*) FROM sessions"), 0);
+}
+
+// The activation history as it is in the cell — every activation with who made it, when,
+// why and what it replaced (in the server's version numbers) — and the cell's active set,
+// also after a roll-back there; a second push changes nothing.
+TEST_P(Push, CarriesEveryActivationAndTheActiveStateOnce) {
+  TempDir dir;
+  const std::string cell = dir.File("cell.db"), central = NewStore(GetParam(), dir, "central");
+  MakeCell(cell);
+  {
+    db::Database database(cell);
+    AddSession(database, calibration::PaperTable3Parameters(), 60, 3);
+  }
+  ASSERT_EQ(workflows::Recalibrate(Nightly(cell)).outcome,
+            workflows::RecalibrationDecision::Outcome::kStored);
+  {
+    db::Database database(cell);
+    workflows::Activate(database, "puma", 1, "version 2 moved the tool");  // a roll-back
+  }
+  const auto first = PushFiles(cell, central);
+  EXPECT_EQ(first.activations_pushed, 3);
+  EXPECT_EQ(first.activated, 1);
+  const auto second = PushFiles(cell, central);
+  EXPECT_EQ(second.activations_pushed, 0);
+  EXPECT_EQ(second.activated, 0);
+  db::Database a(cell, db::OpenMode::kMustExist), b(central, db::OpenMode::kMustExist);
+  const auto history_a = db::ActivationHistory(a, *db::FindRobot(a, "puma"));
+  const auto history_b = db::ActivationHistory(b, *db::FindRobot(b, "puma"));
+  ASSERT_EQ(history_b.size(), history_a.size());
+  for (size_t k = 0; k < history_a.size(); ++k) {
+    // One push into an empty server: the versions keep their numbers.
+    EXPECT_EQ(history_b[k].version, history_a[k].version) << k;
+    EXPECT_EQ(history_b[k].previous_version, history_a[k].previous_version) << k;
+    EXPECT_EQ(history_b[k].activated_by, history_a[k].activated_by) << k;
+    EXPECT_EQ(history_b[k].activated_at, history_a[k].activated_at) << k;
+    EXPECT_EQ(history_b[k].note, history_a[k].note) << k;
+  }
+  EXPECT_EQ(history_b.back().activated_by, "activate");
+  EXPECT_EQ(history_b.back().note, "version 2 moved the tool");
+  const auto active_b = db::ActiveCalibration(b, *db::FindRobot(b, "puma"));
+  ASSERT_TRUE(active_b.has_value());
+  EXPECT_EQ(active_b->version, 1);
 }
 
 ARMSIG_BOTH_BACKENDS(Push);
