@@ -23,6 +23,7 @@ struct CalibrateOptions {
 int RunCalibrate(const CalibrateOptions& options, const GlobalOptions&) {
   // Read and check every input before computing or writing anything.
   const calibration::RobotModel model = io::LoadRobotModel(options.model);
+  workflows::ParamsOf(model, options.settings.params);  // a typo is refused before the data
   const auto poses = io::ReadPosesCsv(options.poses, model.num_joints());
   std::vector<MeasuredPose> holdout;
   if (!options.validate.empty()) holdout = io::ReadPosesCsv(options.validate, model.num_joints());
@@ -52,10 +53,9 @@ void SetupCalibrateCommand(CLI::App& parent, const GlobalOptions& global, Runner
                       "Keep the N best-spread poses (D-optimal) for the fit, validate on the rest"),
       0, kMaxPoses);
   sub->add_option("--validate", options->validate, "Held-out poses CSV to validate on");
-  sub->add_option("--residual-model", options->settings.residual_model,
+  ChoiceOption(sub->add_option("--residual-model", options->settings.residual_model,
                   "auto: a cross-validated residual map after the parametric fit, used only "
-                  "when it clearly helps; off: parametric only")
-      ->check(CLI::IsMember({"auto", "off"}))
+                  "when it clearly helps; off: parametric only"), {"auto", "off"})
       ->capture_default_str();
   OutputFile(sub->add_option("--json", options->json, "Write the result as JSON"));
   NumberOption(sub->add_option("--robust", options->settings.robust_threshold_mm,

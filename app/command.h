@@ -9,6 +9,7 @@
 #include <functional>
 #include <optional>
 #include <string>
+#include <vector>
 
 #include "db/database.h"
 #include "workflows/recalibrate.h"
@@ -68,6 +69,13 @@ CLI::Option* NoteOption(CLI::Option* option);
 CLI::Option* NumberOption(CLI::Option* option, double min, double max);
 // The same check for an option that takes a list of numbers (--seed-deg 0,-90,90).
 CLI::Validator NumberCheck(double min, double max);
+// An option that takes one of `choices`: refused at parse time (exit 2) with the choices and
+// the nearest one ("expected robot or measurement, got 'robt' (did you mean 'robot'?)");
+// the bash completion offers the choices.
+CLI::Option* ChoiceOption(CLI::Option* option, std::vector<std::string> choices);
+// The choices ChoiceOption gave `option` (empty for any other option).
+const std::vector<std::string>& ChoicesOf(const CLI::Option* option);
+
 // `--set N`: a stored parameter set (version) of the robot instead of the active one.
 CLI::Option* AddSetOption(CLI::App& sub, std::optional<int>& set);
 // Bounds for counts and ids given on the command line.

@@ -27,11 +27,10 @@ void SetupDemoCommand(CLI::App& parent, const GlobalOptions& global, Runner& run
   NumberOption(sub->add_option("--resume", o->resume_session,
                                "Continue a stopped demo session: capture the rest, then calibrate"),
                1, kMaxId);
-  sub->add_option("--instrument", o->instrument,
+  ChoiceOption(sub->add_option("--instrument", o->instrument,
                   "theodolites (three GeoCOM theodolites, oriented by mutual pointings; the "
                   "default) or tracker (one laser tracker speaking emScon on loopback TCP); "
-                  "--resume keeps the session's")
-      ->check(CLI::IsMember({"theodolites", "tracker"}));
+                  "--resume keeps the session's"), {"theodolites", "tracker"});
   sub->add_option("--serve", o->serve_dir,
                   "Only start the virtual lab and keep it up in this folder (lab.yaml beside "
                   "its devices) for armsig capture by hand; nothing is captured");

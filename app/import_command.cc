@@ -58,10 +58,9 @@ void SetupImportCommand(CLI::App& parent, const GlobalOptions& global, Runner& r
   NameOption(p->add_option(
       "--robot", poses->robot,
       "Store the poses as a new session of this registered robot (armsig robot add)"));
-  p->add_option("--preset", poses->preset,
+  ChoiceOption(p->add_option("--preset", poses->preset,
                 "ur-ipa: ';', decimal comma, shoulder_pan_joint…wrist_3_joint (rad), "
-                "measurement_x/y/z (mm)")
-      ->check(CLI::IsMember({"ur-ipa"}));
+                "measurement_x/y/z (mm)"), {"ur-ipa"});
   p->add_option("--points", poses->points,
                 "A laser tracker's point table (name, X, Y, Z [, sigmas, time]: the text/CSV "
                 "export of SpatialAnalyzer, Leica, Metrolog, PolyWorks…)")
@@ -70,10 +69,9 @@ void SetupImportCommand(CLI::App& parent, const GlobalOptions& global, Runner& r
                 "The robot's joint log CSV (pose id and/or time column, q1_deg… or "
                 "--joint-columns), joined with --points")
       ->check(CLI::ExistingFile);
-  p->add_option("--match", poses->match,
+  ChoiceOption(p->add_option("--match", poses->match,
                 "Join points and joint readings by point/pose id, or by time stamp (the nearest "
-                "within --time-tolerance-s)")
-      ->check(CLI::IsMember({"id", "time"}))
+                "within --time-tolerance-s)"), {"id", "time"})
       ->capture_default_str();
   // A day at most: joint readings and tracker points of one session.
   NumberOption(p->add_option("--time-tolerance-s", poses->time_tolerance_s,
@@ -81,15 +79,13 @@ void SetupImportCommand(CLI::App& parent, const GlobalOptions& global, Runner& r
                              "reading's time"),
                1e-6, 86400.0)
       ->capture_default_str();
-  p->add_option("--points-unit", poses->points_unit,
-                "The point table's length unit when the file names none")
-      ->check(CLI::IsMember({"mm", "m", "inch"}));
+  ChoiceOption(p->add_option("--points-unit", poses->points_unit,
+                "The point table's length unit when the file names none"), {"mm", "m", "inch"});
   p->add_option("--joint-columns", poses->joint_columns,
                 "Joint columns in joint order, comma-separated");
-  p->add_option("--joint-unit", poses->joint_unit,
+  ChoiceOption(p->add_option("--joint-unit", poses->joint_unit,
                 "Unit of joint columns without a _deg/_gon/_rad suffix: deg | gon | rad "
-                "(default rad; a joint log: deg); a suffix it contradicts is refused")
-      ->check(CLI::IsMember({"deg", "gon", "rad"}));
+                "(default rad; a joint log: deg); a suffix it contradicts is refused"), {"deg", "gon", "rad"});
   p->add_option("--xyz-columns", poses->xyz_columns, "Measured x,y,z columns, comma-separated");
   NumberOption(
       p->add_option("--length-scale", poses->length_scale, "Factor to mm (1000 for metres)"), 1e-6,

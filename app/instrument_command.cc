@@ -24,8 +24,7 @@ void SetupInstrumentCommand(CLI::App& parent, const GlobalOptions&, Runner& run)
                                               : "Take one measurement");
     a->add_option("--port", o->port, "Serial port (or pty) path");
     a->add_option("--tcp", o->tcp, "HOST:PORT instead of a serial port");
-    a->add_option("--protocol", o->protocol, "geocom | gsi | val | as | emscon")
-        ->check(CLI::IsMember({"geocom", "gsi", "val", "as", "emscon"}))
+    ChoiceOption(a->add_option("--protocol", o->protocol, "geocom | gsi | val | as | emscon"), {"geocom", "gsi", "val", "as", "emscon"})
         ->capture_default_str();
     NumberOption(a->add_option("--baud", o->baud, "Baud rate"), 50, 4000000)->capture_default_str();
     NumberOption(a->add_option("--timeout-ms", o->timeout_ms,

@@ -11,6 +11,7 @@
 #include <cstdlib>
 #include <filesystem>
 #include <iostream>
+#include <map>
 #include <memory>
 #include <mutex>
 
@@ -100,7 +101,46 @@ CLI::Option* NoteOption(CLI::Option* option) {
 CLI::Option* OutputDirectory(CLI::Option* option) { return CheckedOutput(option, true); }
 
 CLI::Option* NumberOption(CLI::Option* option, double min, double max) {
-  return option->check(NumberCheck(min, max));
+  // Plain value names in --help, the manual and the completion: "--select N", not CLI11's
+  // "INT:NUMBER 0 to 1e+06"; the range is in the message of a refused value.
+  const std::string type = option->get_type_name();
+  option->check(NumberCheck(min, max));
+  option->type_name(type.find("INT") != std::string::npos ? "N" : "NUMBER");
+  return option;
+}
+
+namespace {
+// The choices of every ChoiceOption: the command line is built once per process (or per
+// test), and options live as long as their App.
+std::map<const CLI::Option*, std::vector<std::string>>& ChoiceRegistry() {
+  static std::map<const CLI::Option*, std::vector<std::string>> registry;
+  return registry;
+}
+}  // namespace
+
+CLI::Option* ChoiceOption(CLI::Option* option, std::vector<std::string> choices) {
+  std::string list;
+  for (size_t k = 0; k < choices.size(); ++k)
+    list += (k == 0 ? "" : k + 1 == choices.size() ? " or " : ", ") + choices[k];
+  option->check(CLI::Validator(
+      [choices, list](std::string& text) -> std::string {
+        if (std::find(choices.begin(), choices.end(), text) != choices.end()) return {};
+        const auto nearest = NearestKey(text, choices);
+        return "expected " + list + ", got " + Quoted(text) +
+               (nearest ? " (did you mean " + Quoted(*nearest) + "?)" : std::string());
+      },
+      "", "one of the choices"));
+  std::string type;
+  for (const auto& c : choices) type += (type.empty() ? "" : "|") + c;
+  option->type_name(type);
+  ChoiceRegistry()[option] = std::move(choices);
+  return option;
+}
+
+const std::vector<std::string>& ChoicesOf(const CLI::Option* option) {
+  static const std::vector<std::string> none;
+  const auto it = ChoiceRegistry().find(option);
+  return it == ChoiceRegistry().end() ? none : it->second;
 }
 
 CLI::Option* AddSetOption(CLI::App& sub, std::optional<int>& set) {
@@ -127,7 +167,7 @@ CLI::Validator NumberCheck(double min, double max) {
         }
         return {};
       },
-      "NUMBER " + range, "number in range");
+      "", "number in range");
 }
 
 void OnExistingDatabase(CLI::App* sub, const GlobalOptions& global, Runner& run,
@@ -185,7 +225,7 @@ void SetupAll(CLI::App& app, GlobalOptions& global, Runner& run) {
   auto what = std::make_shared<std::string>();
   generate->add_option("what", *what, "man | bash-completion")
       ->required()
-      ->check(CLI::IsMember({"man", "bash-completion"}));
+      ->check(CLI::IsMember({"man", "bash-completion"}));  // hidden: the build's own
   generate->callback([&app, &run, what] {
     run = [&app, what] {
       std::cout << (*what == "man" ? ManPage(app, ARMSIG_VERSION, ARMSIG_GIT_DATE)
@@ -251,6 +291,89 @@ void RouteCeresLogging() {
 
 }  // namespace
 
+namespace {
+
+// Every option a command accepts: its own and (global options go up) its parents'.
+std::vector<const CLI::Option*> OptionsOf(const CLI::App* command) {
+  std::vector<const CLI::Option*> out;
+  for (const CLI::App* app = command; app; app = app->get_parent()) {
+    for (const CLI::Option* option : app->get_options()) out.push_back(option);
+  }
+  return out;
+}
+
+const CLI::Option* FindOption(const CLI::App* command, const std::string& token) {
+  const bool is_long = token.rfind("--", 0) == 0;
+  const std::string name = token.substr(is_long ? 2 : 1);
+  for (const CLI::Option* option : OptionsOf(command)) {
+    const auto& names = is_long ? option->get_lnames() : option->get_snames();
+    if (std::find(names.begin(), names.end(), name) != names.end()) return option;
+  }
+  return nullptr;
+}
+
+std::string CommandPath(const CLI::App* command) {
+  std::string path;
+  for (const CLI::App* app = command; app && app->get_parent(); app = app->get_parent())
+    path = app->get_name() + (path.empty() ? "" : " " + path);
+  return path.empty() ? "armsig" : "armsig " + path;
+}
+
+// What was typed wrong, in the user's words: an unknown command or option named with the
+// nearest valid one; else CLI11's own message. Found by walking the arguments the way the
+// parser does (commands, then options with their values).
+std::string ParseErrorText(const CLI::App& app, const CLI::ParseError& error, int argc,
+                           const char* const* argv) {
+  const CLI::App* command = &app;
+  for (int k = 1; k < argc; ++k) {
+    const std::string token = argv[k];
+    if (token == "--") break;
+    if (token.size() > 1 && token[0] == '-' && token != "-") {
+      const std::string bare = token.substr(0, token.find('='));
+      const CLI::Option* option = FindOption(command, bare);
+      if (!option) {
+        std::vector<std::string> names;
+        for (const CLI::Option* o : OptionsOf(command)) {
+          for (const auto& l : o->get_lnames()) names.push_back("--" + l);
+        }
+        const auto nearest = NearestKey(bare, names);
+        return fmt::format("{}: unknown option {}{}", CommandPath(command), Quoted(bare),
+                           nearest ? " (did you mean " + Quoted(*nearest) + "?)"
+                                   : "; " + CommandPath(command) + " --help lists the options");
+      }
+      // An option's value is the next word unless it came with '=' or the option is a flag.
+      if (bare == token && option->get_type_size_min() > 0 && option->get_expected_min() > 0)
+        ++k;
+      continue;
+    }
+    const auto subcommands = command->get_subcommands([](const CLI::App*) { return true; });
+    const CLI::App* next = nullptr;
+    for (const CLI::App* sub : subcommands) {
+      if (sub->get_name() == token) next = sub;
+    }
+    if (next) {
+      command = next;
+      continue;
+    }
+    bool takes_positionals = false;
+    for (const CLI::Option* o : command->get_options()) takes_positionals |= o->get_positional();
+    if (!subcommands.empty() && !takes_positionals) {
+      std::vector<std::string> names;
+      for (const CLI::App* sub : subcommands) {
+        if (!sub->get_group().empty()) names.push_back(sub->get_name());
+      }
+      const auto nearest = NearestKey(token, names);
+      return fmt::format("unknown command {}{}", Quoted(CommandPath(command) + " " + token),
+                         nearest ? " (did you mean " + Quoted(CommandPath(command) + " " +
+                                                              *nearest) + "?)"
+                                 : "; " + CommandPath(command) + " --help lists the commands");
+    }
+  }
+  return error.what();
+}
+
+}  // namespace
+
 int Main(int argc, const char* const* argv) {
   CLI::App app{
       "armsig: measure an industrial robot with external instruments and fit its arm signature "
@@ -271,8 +394,9 @@ int Main(int argc, const char* const* argv) {
     }
     return app.exit(e);
   } catch (const CLI::ParseError& e) {
-    const int code = app.exit(e);  // prints help / version / the usage error
-    return code == 0 ? kOk : kInputError;
+    if (e.get_exit_code() == 0) return app.exit(e);  // --help
+    std::cerr << "armsig: error: " << ParseErrorText(app, e, argc, argv) << "\n";
+    return kInputError;
   }
   auto logger = std::make_shared<spdlog::logger>("armsig", std::make_shared<PrintableSink>());
   spdlog::set_default_logger(logger);

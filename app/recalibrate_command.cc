@@ -110,10 +110,9 @@ void AddRecalibrateOptions(CLI::App& sub, workflows::RecalibrateOptions& o) {
       sub.add_option("--select", o.select, "Configurations to fit (default, 0: 60 %, at most 80)"),
       0, kMaxPoses);
   sub.add_option("--params", o.params, "geometric | all | auto | list")->capture_default_str();
-  sub.add_option("--residual-model", o.residual_model,
+  ChoiceOption(sub.add_option("--residual-model", o.residual_model,
                   "auto: a cross-validated residual map stored with the set when it clearly "
-                  "helps; off: parametric only")
-      ->check(CLI::IsMember({"auto", "off"}))
+                  "helps; off: parametric only"), {"auto", "off"})
       ->capture_default_str();
   // Gates and drift thresholds: mm within a robot cell, sigmas within reason; a gate of 0
   // or less could never pass, a NaN would pass everything.

@@ -29,8 +29,7 @@ CLI::App* Command(CLI::App& parent, const char* name, const char* help, Signatur
   auto* sub = parent.add_subcommand(name, help);
   NameOption(sub->add_option("--robot", o.robot, "Robot name"))->required();
   AddSetOption(*sub, o.set);
-  sub->add_option("--frame", o.frame, "robot | measurement")
-      ->check(CLI::IsMember({"robot", "measurement"}))
+  ChoiceOption(sub->add_option("--frame", o.frame, "robot | measurement"), {"robot", "measurement"})
       ->capture_default_str();
   return sub;
 }
@@ -95,8 +94,7 @@ void SetupSignatureCommands(CLI::App& parent, const GlobalOptions& global, Runne
   auto e = std::make_shared<SignatureOptions>();
   auto* exp = Command(parent, "export",
                       "The active arm signature as JSON, a corrected model YAML or a URDF", *e);
-  exp->add_option("--format", e->format, "json | model | urdf")
-      ->check(CLI::IsMember({"json", "model", "urdf"}))
+  ChoiceOption(exp->add_option("--format", e->format, "json | model | urdf"), {"json", "model", "urdf"})
       ->required();
   OutputFile(exp->add_option("--out", e->out, "File to write"))->required();
   OnDatabaseToRead(exp, global, run, [e](db::Database& database) {

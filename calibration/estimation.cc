@@ -1,5 +1,7 @@
 #include "calibration/estimation.h"
 
+#include "core/text.h"
+
 #include <Eigen/Cholesky>
 #include <Eigen/Geometry>
 #include <Eigen/SVD>
@@ -48,12 +50,18 @@ std::vector<int> ParseParameterSpec(const RobotModel& model, const std::string& 
     } else if (int index = model.IndexOf(token); index >= 0) {
       chosen.insert(index);
     } else {
-      std::string known = "geometric, all, compliance, harmonics";
-      for (size_t i = model.num_geometric(); i < names.size(); ++i) known += ", " + names[i];
+      std::vector<std::string> words = {"geometric", "all", "compliance", "harmonics"};
+      words.insert(words.end(), names.begin(), names.end());
+      const auto nearest = NearestKey(token, words);
+      std::string terms;
+      for (size_t i = model.num_geometric(); i < names.size(); ++i)
+        terms += (terms.empty() ? "" : ", ") + names[i];
       throw std::invalid_argument(
-          "unknown parameter '" + token + "' (expected geometric, all, compliance, harmonics, " +
-          "a parameter name such as a1 … c" + std::to_string(model.num_joints() + 1) +
-          ", or one of: " + known + ")");
+          "unknown parameter " + Quoted(token) +
+          (nearest ? " (did you mean " + Quoted(*nearest) + "?)" : std::string()) +
+          "; expected geometric, all, compliance, harmonics or parameter names (a1 … c" +
+          std::to_string(model.num_joints() + 1) +
+          (terms.empty() ? std::string() : ", " + terms) + ")");
     }
   }
   if (!any) throw std::invalid_argument("empty parameter list");

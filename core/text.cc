@@ -1,5 +1,9 @@
 #include "core/text.h"
 
+#include <algorithm>
+#include <limits>
+#include <numeric>
+#include <vector>
 #include <cstdio>
 
 namespace armsig {
@@ -164,6 +168,44 @@ std::string Quoted(std::string_view text, std::size_t max_bytes) {
   if (text.size() <= max_bytes) return "'" + Printable(text) + "'";
   return "'" + Printable(TruncateUtf8(text, max_bytes)) + "…' (" + std::to_string(text.size()) +
          " bytes)";
+}
+
+int EditDistance(std::string_view a, std::string_view b) {
+  // Wagner–Fischer, one row.
+  std::vector<int> row(b.size() + 1);
+  std::iota(row.begin(), row.end(), 0);
+  for (size_t i = 1; i <= a.size(); ++i) {
+    int diagonal = row[0];
+    row[0] = static_cast<int>(i);
+    for (size_t j = 1; j <= b.size(); ++j) {
+      const int substitution = diagonal + (a[i - 1] == b[j - 1] ? 0 : 1);
+      diagonal = row[j];
+      row[j] = std::min({row[j] + 1, row[j - 1] + 1, substitution});
+    }
+  }
+  return row[b.size()];
+}
+
+std::optional<std::string> NearestKey(std::string_view word,
+                                      const std::vector<std::string_view>& candidates) {
+  std::optional<std::string> best;
+  int best_distance = std::numeric_limits<int>::max();
+  for (const auto& candidate : candidates) {
+    const int d = EditDistance(word, candidate);
+    if (d < best_distance) {
+      best_distance = d;
+      best = std::string(candidate);
+    }
+  }
+  // A typo changes a few characters; beyond that the suggestion would be a guess.
+  const int limit = std::max<int>(2, static_cast<int>(word.size()) / 3);
+  if (best_distance > limit) return std::nullopt;
+  return best;
+}
+
+std::optional<std::string> NearestKey(std::string_view word,
+                                      const std::vector<std::string>& candidates) {
+  return NearestKey(word, std::vector<std::string_view>(candidates.begin(), candidates.end()));
 }
 
 }  // namespace armsig

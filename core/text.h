@@ -12,6 +12,7 @@
 #include <optional>
 #include <string>
 #include <string_view>
+#include <vector>
 
 namespace armsig {
 
@@ -52,5 +53,14 @@ template <typename Json>
 std::string JsonText(const Json& json, int indent = -1) {
   return json.dump(indent, ' ', false, Json::error_handler_t::replace);
 }
+
+// Levenshtein distance (insertions, deletions, substitutions), for "did you mean".
+int EditDistance(std::string_view a, std::string_view b);
+// The candidate nearest to `word`, when near enough to be a likely typo of it (a few
+// characters: at most max(2, |word| / 3) edits); nullopt otherwise.
+std::optional<std::string> NearestKey(std::string_view word,
+                                      const std::vector<std::string_view>& candidates);
+std::optional<std::string> NearestKey(std::string_view word,
+                                      const std::vector<std::string>& candidates);
 
 }  // namespace armsig

@@ -271,38 +271,6 @@ YamlValue YamlDocument::Root() const {
 
 // --- Key suggestions
 
-int EditDistance(std::string_view a, std::string_view b) {
-  // Wagner–Fischer, one row.
-  std::vector<int> row(b.size() + 1);
-  std::iota(row.begin(), row.end(), 0);
-  for (size_t i = 1; i <= a.size(); ++i) {
-    int diagonal = row[0];
-    row[0] = static_cast<int>(i);
-    for (size_t j = 1; j <= b.size(); ++j) {
-      const int substitution = diagonal + (a[i - 1] == b[j - 1] ? 0 : 1);
-      diagonal = row[j];
-      row[j] = std::min({row[j] + 1, row[j - 1] + 1, substitution});
-    }
-  }
-  return row[b.size()];
-}
-
-std::optional<std::string> NearestKey(std::string_view key,
-                                      const std::vector<std::string_view>& allowed) {
-  std::optional<std::string> best;
-  int best_distance = std::numeric_limits<int>::max();
-  for (const auto& candidate : allowed) {
-    const int d = EditDistance(key, candidate);
-    if (d < best_distance) {
-      best_distance = d;
-      best = std::string(candidate);
-    }
-  }
-  // A typo changes a few characters; beyond that the suggestion would be a guess.
-  const int limit = std::max<int>(2, static_cast<int>(key.size()) / 3);
-  if (best_distance > limit) return std::nullopt;
-  return best;
-}
 
 // --- Emitting
 

@@ -10,6 +10,8 @@
 //   if (auto name = root.Find("name")) model.name = name->Text();
 #pragma once
 
+#include "core/text.h"
+
 #include <yaml-cpp/yaml.h>
 
 #include <Eigen/Core>
@@ -129,11 +131,6 @@ class YamlDocument {
   std::string source_;
 };
 
-// Levenshtein distance (insertions, deletions, substitutions), for key suggestions.
-int EditDistance(std::string_view a, std::string_view b);
-// The allowed key nearest to `key`, when near enough to be a likely typo.
-std::optional<std::string> NearestKey(std::string_view key,
-                                      const std::vector<std::string_view>& allowed);
 
 // Numbers for YAML::Emitter: the shortest text that reads back to the same double
 // (yaml-cpp 0.7 itself writes 17 significant digits: 0.1 → 0.10000000000000001).

@@ -55,6 +55,14 @@ CalibrationRun::MapValidation CalibrationRun::map_validation() const {
   return v;
 }
 
+std::vector<int> ParamsOf(const calibration::RobotModel& model, const std::string& spec) {
+  try {
+    return calibration::ParseParameterSpec(model, spec == "auto" ? "all" : spec);
+  } catch (const std::invalid_argument& e) {
+    throw InputError({"--params", 0, 0, ""}, e.what());
+  }
+}
+
 CalibrationRun RunCalibration(const calibration::RobotModel& model,
                               const std::vector<MeasuredPose>& poses,
                               const std::vector<MeasuredPose>& holdout,
@@ -66,12 +74,7 @@ CalibrationRun RunCalibration(const calibration::RobotModel& model,
   options.max_iterations = settings.max_iterations;
   options.identifiability.relative_tolerance = settings.rank_tolerance;
   const bool auto_params = settings.params == "auto";
-  try {
-    options.parameters =
-        calibration::ParseParameterSpec(model, auto_params ? "all" : settings.params);
-  } catch (const std::invalid_argument& e) {
-    throw InputError({"--params", 0, 0, ""}, e.what());
-  }
+  options.parameters = ParamsOf(model, settings.params);
   std::optional<calibration::IdentifiabilityReport> model_report;
   if (settings.model_subset) {
     model_report =

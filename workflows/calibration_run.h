@@ -79,6 +79,11 @@ struct CalibrateSettings {
   // cross-validated error beats the parametric model's by a clear margin; "off": never.
   std::string residual_model = "auto";
 };
+// The --params spec's parameters of `model` ("auto": all of them, the candidates), as
+// RunCalibration reads it; InputError naming --params (with the nearest valid word) for a
+// spec the model cannot take. Called before any data is read.
+std::vector<int> ParamsOf(const calibration::RobotModel& model, const std::string& spec);
+
 CalibrationRun RunCalibration(const calibration::RobotModel& model,
                               const std::vector<MeasuredPose>& poses,
                               const std::vector<MeasuredPose>& holdout,

@@ -2,7 +2,9 @@
 
 #include <filesystem>
 
+#include "core/text.h"
 #include "db/postgres_connection.h"
+#include "db/robots.h"
 
 namespace armsig::workflows {
 
@@ -36,7 +38,15 @@ std::string Hint(const std::string& db_path, const std::vector<std::string>& wor
   return out;
 }
 
-std::string UnknownRobotMessage(const std::string& db_path, const std::string& robot) {
+std::string UnknownRobotMessage(db::Database& database, const std::string& robot) {
+  const std::string& db_path = database.path();
+  std::vector<std::string> names;
+  for (const auto& r : db::ListRobots(database)) names.push_back(r.name);
+  if (const auto nearest = NearestKey(robot, names)) {
+    return "no robot " + ShellWord(robot) + " in the database (did you mean " +
+           ShellWord(*nearest) + "? a new robot is registered with " +
+           Hint(db_path, {"robot", "add", robot, "--model", "MODEL.yaml"}) + ")";
+  }
   return "no robot " + ShellWord(robot) + " in the database (register it: " +
          Hint(db_path, {"robot", "add", robot, "--model", "MODEL.yaml"}) + "; " +
          Hint(db_path, {"robot", "list"}) + " shows the robots)";

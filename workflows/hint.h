@@ -3,6 +3,8 @@
 // path, and every word is quoted for a POSIX shell when it needs to be.
 #pragma once
 
+#include "db/database.h"
+
 #include <initializer_list>
 #include <string>
 #include <vector>
@@ -19,9 +21,10 @@ std::string ShellWord(const std::string& word);
 std::string Hint(const std::string& db_path, std::initializer_list<std::string> words);
 std::string Hint(const std::string& db_path, const std::vector<std::string>& words);
 
-// "no robot 'NAME' in the database (register it: armsig --db … robot add NAME --model
-// MODEL.yaml; armsig --db … robot list shows the robots)": MODEL.yaml is the one word to
-// replace.
-std::string UnknownRobotMessage(const std::string& db_path, const std::string& robot);
+// "no robot 'pumaa' in the database (did you mean 'puma'?)" when a registered robot's name
+// is a likely typo of it, else "no robot 'NAME' in the database (register it: armsig --db …
+// robot add NAME --model MODEL.yaml; armsig --db … robot list shows the robots)":
+// MODEL.yaml is the one word to replace.
+std::string UnknownRobotMessage(db::Database& database, const std::string& robot);
 
 }  // namespace armsig::workflows

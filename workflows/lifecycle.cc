@@ -27,7 +27,7 @@ int64_t RobotId(db::Database& database, const std::string& robot) {
   const auto id = db::FindRobot(database, robot);
   if (!id) {
     throw InputError({database.path(), 0, 0, "--robot"},
-                     UnknownRobotMessage(database.path(), robot));
+                     UnknownRobotMessage(database, robot));
   }
   return *id;
 }

@@ -601,7 +601,7 @@ void NightlyJob::OpenAndLock() {
   const auto robot_id = db::FindRobot(*database_, o_.robot);
   if (!robot_id) {
     throw InputError({o_.db_path, 0, 0, "--robot"},
-                     UnknownRobotMessage(database_->path(), o_.robot));
+                     UnknownRobotMessage(*database_, o_.robot));
   }
   robot_id_ = *robot_id;
   // One run per robot at a time (the lock guards the robot's versions); other robots of
@@ -619,6 +619,7 @@ void NightlyJob::ReadInputs() {
   db::ReadSnapshot snapshot(*database_);
   model_ = io::ParseRobotModel(db::RobotModelYaml(*database_, robot_id_),
                                "model of robot " + o_.robot);
+  ParamsOf(model_, o_.params);  // a typo in --params is refused before any data is read
   gates_ = LoadGates(*database_, robot_id_, o_);
   spdlog::debug(
       "recalibrate: gates: validation mean <= {} mm, max <= {} mm, tolerance {} mm, drift {} mm "

@@ -49,7 +49,7 @@ ActiveSignature LoadSignature(db::Database& database, const std::string& robot,
                               std::optional<int> version) {
   if (!version) return LoadActiveSignature(database, robot);
   const auto id = db::FindRobot(database, robot);
-  if (!id) throw InputError({database.path(), 0, 0, "--robot"}, UnknownRobotMessage(database.path(), robot));
+  if (!id) throw InputError({database.path(), 0, 0, "--robot"}, UnknownRobotMessage(database, robot));
   const auto history = db::CalibrationHistory(database, *id);
   for (const auto& c : history) {
     if (c.version != *version) continue;
@@ -69,7 +69,7 @@ ActiveSignature LoadSignature(db::Database& database, const std::string& robot,
 
 ActiveSignature LoadActiveSignature(db::Database& database, const std::string& robot) {
   const auto id = db::FindRobot(database, robot);
-  if (!id) throw InputError({database.path(), 0, 0, "--robot"}, UnknownRobotMessage(database.path(), robot));
+  if (!id) throw InputError({database.path(), 0, 0, "--robot"}, UnknownRobotMessage(database, robot));
   const auto active = db::ActiveCalibration(database, *id);
   if (!active) {
     throw InputError({database.path(), 0, 0, "--robot"},

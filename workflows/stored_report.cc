@@ -120,7 +120,7 @@ StoredReport WriteStoredReport(db::Database& database, const std::string& robot,
   const auto robot_id = db::FindRobot(database, robot);
   if (!robot_id) {
     throw InputError({database.path(), 0, 0, "--robot"},
-                     UnknownRobotMessage(database.path(), robot));
+                     UnknownRobotMessage(database, robot));
   }
   const ActiveSignature loaded = LoadSignature(database, robot, version);
   const calibration::RobotModel& model = loaded.model;

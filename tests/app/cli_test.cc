@@ -518,3 +518,45 @@ TEST(BuiltinModels, DemoPumaIsTheShippedModelFile) {
 }
 
 }  // namespace armsig::testing
+
+namespace armsig::testing {
+
+// A typo is named with the nearest valid word, on one line with the error prefix, exit 2:
+// a command, a nested command, an option (before a required one is missed), a choice, a
+// robot, a --params word (before any data is read).
+TEST(Cli, TyposAreNamedWithTheNearestValidWord) {
+  TempDir dir;
+  struct Case {
+    std::string args, expected;
+  };
+  for (const Case& c : {
+           Case{"recalibrat --robot x", "unknown command 'armsig recalibrat' (did you mean 'armsig recalibrate'?)"},
+           Case{"robot ad x --model m.yaml", "unknown command 'armsig robot ad' (did you mean 'armsig robot add'?)"},
+           Case{"demo --configuration 50", "armsig demo: unknown option '--configuration' (did you mean '--configurations'?)"},
+           Case{"activate --verison 3 --robot p", "armsig activate: unknown option '--verison' (did you mean '--version'?)"},
+           Case{"sessions --robt p", "armsig sessions: unknown option '--robt' (did you mean '--robot'?)"},
+           Case{"predict --robot p --frame robt --joints j.csv", "--frame: expected robot or measurement, got 'robt' (did you mean 'robot'?)"},
+           Case{"calibrate --model '" + SourcePath("models/puma760.yaml") + "' --poses missing.csv --params geometrc",
+                "unknown parameter 'geometrc' (did you mean 'geometric'?)"},
+       }) {
+    const auto r = RunArmsig(c.args, dir.path().string());
+    EXPECT_EQ(r.exit_code, 2) << c.args;
+    EXPECT_EQ(r.err.rfind("armsig: error: ", 0), 0u) << c.args << "\n" << r.err;
+    EXPECT_NE(r.err.find(c.expected), std::string::npos) << c.args << "\n" << r.err;
+  }
+  // A robot name one letter off: the registered one is suggested.
+  const std::string db = "--db '" + dir.File("lab.db") + "' ";
+  ASSERT_EQ(RunArmsig(db + "robot add puma --model '" + SourcePath("models/puma760.yaml") + "'")
+                .exit_code,
+            0);
+  const auto robot = RunArmsig(db + "versions --robot pumaa");
+  EXPECT_EQ(robot.exit_code, 2);
+  EXPECT_NE(robot.err.find("no robot pumaa in the database (did you mean puma?"), std::string::npos)
+      << robot.err;
+  // The manual's value names are plain words.
+  const auto help = RunArmsig("demo --help");
+  EXPECT_NE(help.out.find("--configurations N"), std::string::npos) << help.out;
+  EXPECT_EQ(help.out.find("INT:"), std::string::npos) << help.out;
+}
+
+}  // namespace armsig::testing

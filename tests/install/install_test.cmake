@@ -78,6 +78,9 @@ complete("recalibrate" armsig reca)
 complete("add|list" armsig --db x.db robot "")
 complete("--drift-mm|--drift-sigma" armsig recalibrate --dri)
 complete("poses" armsig import po)
+# An option with named choices completes them.
+complete("robot|measurement" armsig predict --frame "")
+complete("geocom|gsi" armsig instrument probe --protocol g)
 
 # The installed program runs the main job, and uses the installed models.
 run("${armsig}" --db "${WORK_DIR}/lab.db" demo --configurations 60 --time-scale 0.02)
