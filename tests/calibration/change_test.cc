@@ -90,7 +90,8 @@ TEST(ExplainDifference, NamesAPlantedCauseWithItsSizeAndItsEffectAtTheTool) {
   };
   for (const Case& c : {Case{"joint 2 zero", 0.02 * kRadPerDeg}, Case{"joint 5 zero", -1e-3},
                         Case{"link 2 length", 0.2}, Case{"joint 3 axis tilt about y", 0.5e-3}}) {
-    const Cause* planted = Find(CandidateCauses(model), c.cause);
+    const std::vector<Cause> causes = CandidateCauses(model);
+    const Cause* planted = Find(causes, c.cause);
     ASSERT_NE(planted, nullptr) << c.cause;
     const Eigen::VectorXd after = before + c.size * planted->direction;
     const Explanation e = ExplainDifference(
