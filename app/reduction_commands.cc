@@ -67,10 +67,14 @@ void SetupTriangulateCommand(CLI::App& parent, const GlobalOptions&, Runner& run
   sub->add_flag("--no-reject", *no_reject, "Report blunders but keep every ray");
   sub->add_flag("--no-instrument-errors", *no_instrument_errors,
                 "Do not estimate and apply axis errors from two-face readings");
-  NumberOption(sub->add_option("--critical-w", o->critical_w, "Critical standardised residual"),
-               1.0, 100.0)
-      ->capture_default_str();
-  sub->callback([&run, o, no_reject, no_instrument_errors] {
+  auto critical_w = std::make_shared<double>(0.0);
+  auto* critical = NumberOption(
+      sub->add_option("--critical-w", *critical_w,
+                      "Critical standardised residual of every test (default: from a 0.1 % "
+                      "significance level of each point's adjustment)"),
+      1.0, 100.0);
+  sub->callback([&run, o, no_reject, no_instrument_errors, critical_w, critical] {
+    if (critical->count() > 0) o->critical_w = *critical_w;
     run = [o, no_reject, no_instrument_errors] {
       o->reject_blunders = !*no_reject;
       o->instrument_errors = !*no_instrument_errors;

@@ -12,7 +12,7 @@
 namespace armsig::reduction {
 
 void IntersectionOptions::Check() const {
-  if (!(critical_w > 0)) throw std::invalid_argument("critical_w must be > 0");
+  snooping.Check();
   if (!(min_ray_angle_rad >= 0)) throw std::invalid_argument("min_ray_angle_rad must be ≥ 0");
   if (max_iterations < 1) throw std::invalid_argument("max_iterations must be ≥ 1");
 }
@@ -220,9 +220,15 @@ void Intersect(std::span<const Ray> rays, const IntersectionOptions& options,
     }
 
     result.covariance_mm2 = q;
+    int tests = 0;
+    for (int k = 0; k < n; ++k) tests += active[k] ? rows[k].count : 0;
+    const SnoopLevels levels = options.snooping.Levels(tests);
     int observations = 0;
     double vtpv = 0.0;
-    int worst = -1;
+    // The tested rows of the active rays (data snooping's candidates; a ray is one group).
+    double tested_w[3 * 64], tested_r[3 * 64];
+    int tested_ray[3 * 64], tested_row[3 * 64];
+    int tested = 0;
     double worst_w = 0.0;
     result.max_miss_mm = 0.0;
     for (int k = 0; k < n; ++k) {
@@ -252,13 +258,14 @@ void Intersect(std::span<const Ray> rays, const IntersectionOptions& options,
         const double safe = std::max(redundancy, 1e-12);
         const double inv_sqrt = 1.0 / std::sqrt(safe);
         w[i] = redundancy > 1e-6 ? row.r(i) * inv_sqrt : 0.0;
-        if (i == 0) rr.mdb_hz_arcsec = sigma_across * options.delta0 * inv_sqrt * kArcsecPerRad;
-        if (i == 1)
-          rr.mdb_v_arcsec = rays[k].sigma_v_rad * options.delta0 * inv_sqrt * kArcsecPerRad;
-        if (std::abs(w[i]) > worst_w) {
-          worst_w = std::abs(w[i]);
-          worst = k;
-        }
+        if (i == 0) rr.mdb_hz_arcsec = sigma_across * levels.delta0 * inv_sqrt * kArcsecPerRad;
+        if (i == 1) rr.mdb_v_arcsec = rays[k].sigma_v_rad * levels.delta0 * inv_sqrt * kArcsecPerRad;
+        tested_w[tested] = w[i];
+        tested_r[tested] = std::max(0.0, redundancy);
+        tested_ray[tested] = k;
+        tested_row[tested] = i;
+        ++tested;
+        worst_w = std::max(worst_w, std::abs(w[i]));
       }
       rr.w_hz = w[0];
       rr.w_v = w[1];
@@ -270,17 +277,32 @@ void Intersect(std::span<const Ray> rays, const IntersectionOptions& options,
     int used = 0;
     for (int k = 0; k < n; ++k) used += active[k];
     result.rays_used = used;
-    if (worst < 0 || worst_w <= options.critical_w) break;
-    // Reject the worst ray only if what remains still has redundancy to check itself.
-    const bool worst_has_distance = rays[worst].distance_mm.has_value();
-    const int remaining_observations = observations - (worst_has_distance ? 3 : 2);
-    if (!options.reject_blunders || remaining_observations - 3 < 1) {
-      result.flags.Set(PointFlag::kBlunderSuspected);
+    if (!(worst_w > levels.critical_w)) break;  // the usual case: no blunder
+    SnoopCandidate candidates[3 * 64];
+    for (int c = 0; c < tested; ++c) {
+      candidates[c] = {tested_w[c], tested_r[c], tested_ray[c], rows[tested_ray[c]].count, false};
+    }
+    // ρ_ij = Qvv_ij / √(r_i r_j), Qvv_ij = −a_i Q a_jᵀ (whitened rows).
+    auto correlation = [&](int i, int j) {
+      const auto a_i = rows[tested_ray[i]].a.row(tested_row[i]);
+      const auto a_j = rows[tested_ray[j]].a.row(tested_row[j]);
+      const double scale = std::sqrt(tested_r[i] * tested_r[j]);
+      return scale > 0 ? -(a_i * q * a_j.transpose())(0, 0) / scale : 0.0;
+    };
+    const SnoopDecision decision = DecideRejection(
+        std::span<const SnoopCandidate>(candidates, tested), result.dof, options.snooping, levels,
+        correlation);
+    if (decision.remove.empty()) {
+      if (!decision.undecided.empty()) result.flags.Set(PointFlag::kBlunderSuspected);
       break;
     }
-    active[worst] = false;
-    out[worst].rejected = true;
-    ++result.rejected;
+    for (int c : decision.remove) {
+      const int ray = tested_ray[c];
+      if (!active[ray]) continue;
+      active[ray] = false;
+      out[ray].rejected = true;
+      ++result.rejected;
+    }
     result.flags.Set(PointFlag::kBlunderRejected);
   }
 }

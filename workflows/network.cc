@@ -236,7 +236,7 @@ std::string FormatOrientReport(const OrientRun& run) {
   std::vector<reduction::ResidualReport> worst = result.residuals;
   std::sort(worst.begin(), worst.end(),
             [](const auto& a, const auto& b) { return std::abs(a.w) > std::abs(b.w); });
-  const double critical = reduction::OrientationOptions{}.critical_w;
+  const double critical = result.levels.critical_w;
   text += fmt::format("\nlargest standardised residuals (|w| > {} is a suspected blunder):\n",
                       critical);
   for (size_t k = 0; k < std::min<size_t>(8, worst.size()); ++k) {
@@ -294,8 +294,8 @@ TriangulateRun TriangulateFiles(const TriangulateFilesOptions& options) {
     run.points[pos->second].observations.push_back(static_cast<int>(k));
   }
   reduction::PointOptions point_options;  // no tolerances: no miss or repeat checks
-  point_options.intersection.reject_blunders = options.reject_blunders;
-  point_options.intersection.critical_w = options.critical_w;
+  point_options.intersection.snooping.reject = options.reject_blunders;
+  point_options.intersection.snooping.critical_w = options.critical_w;
   reduction::ReducedPoint reduced;
   for (size_t p = 0; p < run.points.size(); ++p) {
     reduction::IntersectPoint(groups[p], point_options, reduced);

@@ -61,7 +61,7 @@ std::string FormatAdjustedPointsCsv(const std::vector<reduction::PointEstimate>&
 struct TriangulateFilesOptions {
   std::string stations, observations;
   bool reject_blunders = true;
-  double critical_w = reduction::IntersectionOptions{}.critical_w;
+  std::optional<double> critical_w;  // else from the significance level of each point
   bool instrument_errors = true;
   std::string out;  // points CSV written when set
 };
