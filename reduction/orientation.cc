@@ -156,6 +156,7 @@ RemovedObservation RemovalOf(const OrientationProblem& problem, const ResidualRo
   } else {
     r.station = problem.observations[row.source].station;
     r.point = problem.observations[row.source].point;
+    r.line = problem.observations[row.source].source_line;
   }
   return r;
 }

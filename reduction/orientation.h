@@ -84,13 +84,16 @@ struct RemovedObservation {
   std::string station;   // empty for a scale bar or a control point
   std::string point;     // the target (a station's id for a mutual pointing); "A:B" for a bar
   std::string label;     // as in ResidualReport
+  int line = 0;          // the observation's line in its file, when known
   double w = 0.0;           // its standardised residual when it was removed
   double redundancy = 0.0;  // and its redundancy number then
   double sigma = 0.0;       // a priori: arcsec for angles, mm for lengths
   // Its estimated error: observed − predicted by the final adjustment (arcsec or mm; for a
   // control point the length of the 3D discrepancy).
   double error = 0.0;
-  int round = 0;  // the adjustment that found it (1: the first)
+  // The adjustment that found it (1: the first; 0: set aside at the robust start as a
+  // mistake, its w then the test from its predicted residual).
+  int round = 0;
   // Removed with it because the data cannot tell which of them is wrong ("Hz 4->202").
   std::vector<std::string> twins;
 };
