@@ -9,8 +9,8 @@
 // The significance level α is the adjustment's: the probability that snooping removes a
 // good observation from an adjustment without blunders. Each of its n tests is made at
 // α0 = 1 − (1 − α)^(1/n) (Šidák), k = Φ⁻¹(1 − α0/2): with α = 0.1 %, one test alone has
-// k = 3.29 (Baarda's α0 = 0.1 %), the 6 tests of a three-ray point k = 3.76, K06's 389
-// k = 4.70. A per-test α0 of 0.1 % would remove a good observation from a network of 400
+// k = 3.29 (Baarda's α0 = 0.1 %), the 6 tests of a three-ray point k = 3.76, K06's 359
+// k = 4.69. A per-test α0 of 0.1 % would remove a good observation from a network of 400
 // in one adjustment out of three. δ0 = k + Φ⁻¹(β0) is the non-centrality a blunder must
 // reach to be found with probability β0 (the power, 80 %): the minimal detectable bias is
 // MDB_i = σ_i δ0 / √r_i.
