@@ -137,6 +137,9 @@ class Tests {
 // The data-snooping decision on one adjustment (reduction/data_snooping.h).
 SnoopDecision DecideOn(const Adjustment& a, const OrientationOptions& options,
                        const SnoopLevels& levels) {
+  bool fails = false;  // the usual case, no failing test, without the correlations' set-up
+  for (const auto& r : a.statistics.residuals) fails |= std::abs(r.w) > levels.critical_w;
+  if (!fails) return {};
   Tests tests(a, options.keep);
   return DecideRejection(tests.candidates, a.dof(), options.snooping, levels, tests.Function());
 }
@@ -161,6 +164,23 @@ RemovedObservation RemovalOf(const OrientationProblem& problem, const ResidualRo
   return r;
 }
 
+// Whether a reading misses the initial values by more than kStartOutlierRad (a distance by
+// more than that fraction of itself): a blunder the start left in.
+bool SomeReadingMisses(const OrientationProblem& problem, const IndexedNetwork& network,
+                       BundleUnknowns& unknowns) {
+  for (const auto& o : network.obs) {
+    for (Kind kind : {Kind::kHz, Kind::kV}) {
+      const double e = ObservedMinusPredicted(problem, network, unknowns, {kind, o.source});
+      if (!(std::abs(e) * kRadPerArcsec <= kStartOutlierRad)) return true;
+    }
+    if (o.distance) {
+      const double e = ObservedMinusPredicted(problem, network, unknowns, {Kind::kDistance, o.source});
+      if (!(std::abs(e) <= kStartOutlierRad * *o.distance)) return true;
+    }
+  }
+  return false;
+}
+
 // The robust start: one adjustment from the initial values with Cauchy's loss at the
 // critical value of one test (reduction/data_snooping.h), where a blunder's pull fades with
 // its size, so that the least-squares adjustments start near the network without it
@@ -171,7 +191,8 @@ void RobustStart(const OrientationProblem& problem, const IndexedNetwork& networ
   const BundleUnknowns initial = unknowns;
   Bundle robust = BuildBundle(problem, network, unknowns, {},
                               options.snooping.Levels(1).pair_critical_w);
-  if (!SolveBundle(robust, unknowns, options.max_iterations).failure.empty()) {
+  constexpr double kStartTolerance = 1e-8;  // the least-squares adjustments go to 1e-14
+  if (!SolveBundle(robust, unknowns, options.max_iterations, kStartTolerance).failure.empty()) {
     robust.problem.reset();  // it points into `unknowns`
     unknowns = initial;
   }
@@ -427,7 +448,9 @@ std::optional<Adjustment> AdjustWithSnooping(const OrientationProblem& problem,
                                              const OrientationOptions& options,
                                              BundleUnknowns& unknowns, OrientationResult& result) {
   GrossMistakes gross;
-  if (options.snooping.reject) {  // testing only: one least-squares adjustment, as it was
+  // Testing only: one least-squares adjustment, as it was. Initial values that every reading
+  // fits within kStartOutlierRad need no robust start either.
+  if (options.snooping.reject && SomeReadingMisses(problem, network, unknowns)) {
     RobustStart(problem, network, options, unknowns);
     gross = GrossAtRobustStart(problem, network, options, unknowns);
   }

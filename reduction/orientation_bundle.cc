@@ -167,13 +167,14 @@ Bundle BuildBundle(const OrientationProblem& problem, const IndexedNetwork& netw
   return bundle;
 }
 
-BundleSolve SolveBundle(Bundle& bundle, const BundleUnknowns& u, int max_iterations) {
+BundleSolve SolveBundle(Bundle& bundle, const BundleUnknowns& u, int max_iterations,
+                        double tolerance) {
   ceres::Solver::Options options;
   options.linear_solver_type = ceres::DENSE_SCHUR;
   options.max_num_iterations = max_iterations;
-  options.function_tolerance = 1e-14;
-  options.gradient_tolerance = 1e-14;
-  options.parameter_tolerance = 1e-14;
+  options.function_tolerance = tolerance;
+  options.gradient_tolerance = tolerance;
+  options.parameter_tolerance = tolerance;
   options.num_threads = 1;
   options.logging_type = ceres::SILENT;
   ceres::Solver::Summary summary;
@@ -292,10 +293,9 @@ std::optional<SingleObservation> SingleOf(const OrientationProblem& problem,
     single.sigma = bar.sigma_mm;
     return single;
   }
-  const auto it = std::find_if(network.obs.begin(), network.obs.end(),
-                               [&](const auto& o) { return o.source == key.index; });
-  if (it == network.obs.end()) return std::nullopt;
-  const IndexedObservation& o = *it;
+  const int at = network.obs_of_source.at(key.index);
+  if (at < 0) return std::nullopt;
+  const IndexedObservation& o = network.obs[at];
   double* point = TargetOf(o, u);
   if (!point) return std::nullopt;
   if (key.kind == Kind::kDistance) {

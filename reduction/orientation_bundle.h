@@ -66,7 +66,10 @@ struct BundleSolve {
   bool converged = false;
   std::string failure;  // non-empty: the solve failed or an estimate is not finite
 };
-BundleSolve SolveBundle(Bundle& bundle, const BundleUnknowns& unknowns, int max_iterations);
+// `tolerance`: Ceres's relative function, gradient and parameter tolerances (a start needs
+// less than a result).
+BundleSolve SolveBundle(Bundle& bundle, const BundleUnknowns& unknowns, int max_iterations,
+                        double tolerance = 1e-14);
 
 // The adjustment linearised at its solution.
 struct Linearisation {

@@ -145,11 +145,6 @@ bool ResectPolar(const std::vector<Eigen::Vector3d>& points,
 }
 
 
-// Beyond this angle (about 2 gon) a ray cannot be one of its point's rays, even in the
-// rough geometry of initial values: a blunder (a misread digit, a confused face, a wrong
-// point), left out of a start so that it cannot carry the others away.
-constexpr double kStartOutlierRad = 0.03;
-
 // Sine of the angle by which the ray from `origin` along `dir` misses `x`; a point behind
 // the station misses by 1 (90°) or more.
 double RayMiss(const Eigen::Vector3d& origin, const Eigen::Vector3d& dir, const Eigen::Vector3d& x) {
@@ -295,7 +290,8 @@ class StartFinder {
     if (!apart) return false;
     auto world_dirs = [&](double az) {
       std::vector<Eigen::Vector3d> world(dirs.size());
-      for (size_t k = 0; k < dirs.size(); ++k) world[k] = LevelledRotation(az) * dirs[k];
+      const Eigen::Matrix3d r = LevelledRotation(az);
+      for (size_t k = 0; k < dirs.size(); ++k) world[k] = r * dirs[k];
       return world;
     };
     // The azimuth whose lines meet best, each line's miss truncated (one wrong ray cannot
@@ -359,51 +355,60 @@ class StartFinder {
                                                const Obs* ji,
                                                const std::vector<Eigen::Vector3d>& u,
                                                const std::vector<Eigen::Vector3d>& w) const {
-    auto coplanarity = [&](double a, const Eigen::Vector3d& b, size_t k) {
-      return b.normalized().dot(u[k].cross(LevelledRotation(a) * w[k]));
+    auto coplanarity = [&](const Eigen::Matrix3d& r, const Eigen::Vector3d& b, size_t k) {
+      return b.dot(u[k].cross(r * w[k]));
     };
     auto cost = [&](double a, const Eigen::Vector3d& b) {
+      const Eigen::Matrix3d r = LevelledRotation(a);
+      const Eigen::Vector3d unit = b.normalized();
       double c = 0.0;
-      for (size_t k = 0; k < u.size(); ++k) c += Truncated(coplanarity(a, b, k));
+      for (size_t k = 0; k < u.size(); ++k) c += Truncated(coplanarity(r, unit, k));
       return c;
     };
-    std::vector<RelativePose> candidates;
-
+    // Generated in order of cost; the first that every common point agrees with is taken.
+    std::vector<std::function<std::optional<RelativePose>()>> generators;
     if (ij && ji) {
-      // The azimuth of j→i is that of i→j plus 200 gon.
-      const Eigen::Vector3d b = ri * DirInStation(*ij);
-      candidates.push_back({WrapTwoPi(std::atan2(b.x(), b.y()) + kPi - ji->hz), b});
+      generators.push_back([&]() -> std::optional<RelativePose> {
+        // The azimuth of j→i is that of i→j plus 200 gon.
+        const Eigen::Vector3d b = ri * DirInStation(*ij);
+        return RelativePose{WrapTwoPi(std::atan2(b.x(), b.y()) + kPi - ji->hz), b};
+      });
     }
     if (ij) {
-      const Eigen::Vector3d b = ri * DirInStation(*ij);
-      candidates.push_back({BestAzimuth([&](double a) { return cost(a, b); }), b});
+      generators.push_back([&]() -> std::optional<RelativePose> {
+        const Eigen::Vector3d b = ri * DirInStation(*ij);
+        return RelativePose{BestAzimuth([&](double a) { return cost(a, b); }), b};
+      });
     }
     if (ji) {
-      auto b_of = [&](double a) -> Eigen::Vector3d {
-        return -(LevelledRotation(a) * DirInStation(*ji));
-      };
-      const double a = BestAzimuth([&](double x) { return cost(x, b_of(x)); });
-      candidates.push_back({a, b_of(a)});
+      generators.push_back([&]() -> std::optional<RelativePose> {
+        auto b_of = [&](double a) -> Eigen::Vector3d {
+          return -(LevelledRotation(a) * DirInStation(*ji));
+        };
+        const double a = BestAzimuth([&](double x) { return cost(x, b_of(x)); });
+        return RelativePose{a, b_of(a)};
+      });
     }
-    if (u.size() >= 3) {
-      if (auto pose = CoplanarPose(u, w)) candidates.push_back(*pose);
-    }
-    if (candidates.empty()) return std::nullopt;
-    const RelativePose* best = &candidates[0];
+    if (u.size() >= 3) generators.push_back([&] { return CoplanarPose(u, w); });
+    std::optional<RelativePose> best;
     int best_agree = -1;
     double best_cost = INFINITY;
-    for (const auto& c : candidates) {
+    for (const auto& generate : generators) {
+      const std::optional<RelativePose> c = generate();
+      if (!c) continue;
       int agree = 0;
+      const Eigen::Matrix3d r = LevelledRotation(c->azimuth);
       for (size_t k = 0; k < u.size(); ++k)
-        agree += std::abs(coplanarity(c.azimuth, c.baseline, k)) <= kStartOutlierRad;
-      const double total = cost(c.azimuth, c.baseline);
+        agree += std::abs(coplanarity(r, c->baseline.normalized(), k)) <= kStartOutlierRad;
+      const double total = cost(c->azimuth, c->baseline);
       if (agree > best_agree || (agree == best_agree && total < best_cost)) {
-        best = &c;
+        best = c;
         best_agree = agree;
         best_cost = total;
       }
+      if (agree == static_cast<int>(u.size())) break;
     }
-    return *best;
+    return best;
   }
 
   // The common rays alone (three or more): the azimuth at which their coplanarity normals
@@ -413,14 +418,16 @@ class StartFinder {
                                                   const std::vector<Eigen::Vector3d>& w) {
     auto null_vector = [&](double a) {
       Eigen::MatrixXd m(u.size(), 3);
-      for (size_t k = 0; k < u.size(); ++k) m.row(k) = u[k].cross(LevelledRotation(a) * w[k]).transpose();
+      const Eigen::Matrix3d r = LevelledRotation(a);
+      for (size_t k = 0; k < u.size(); ++k) m.row(k) = u[k].cross(r * w[k]).transpose();
       Eigen::JacobiSVD<Eigen::MatrixXd> svd(m, Eigen::ComputeFullV);
       return Eigen::Vector3d(svd.matrixV().col(2));
     };
     const double az = BestAzimuth([&](double a) {
       const Eigen::Vector3d b = null_vector(a);
+      const Eigen::Matrix3d r = LevelledRotation(a);
       double c = 0.0;
-      for (size_t k = 0; k < u.size(); ++k) c += Truncated(b.dot(u[k].cross(LevelledRotation(a) * w[k])));
+      for (size_t k = 0; k < u.size(); ++k) c += Truncated(b.dot(u[k].cross(r * w[k])));
       return c;
     });
     Eigen::Vector3d baseline = null_vector(az);

@@ -16,6 +16,11 @@
 
 namespace armsig::reduction {
 
+// Beyond this angle (about 2 gon) a ray cannot be one of its point's rays, even in the
+// rough geometry of initial values: a blunder (a misread digit, a confused face, a wrong
+// point), left out of a start so that it cannot carry the others away.
+inline constexpr double kStartOutlierRad = 0.03;
+
 struct StationState {
   bool placed = false;
   bool levelled = true;

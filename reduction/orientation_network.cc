@@ -135,6 +135,7 @@ IndexedNetwork IndexNetwork(const OrientationProblem& problem, std::vector<std::
     network.fixed_control += !c.sigma_mm.has_value();
   }
   network.use_control = problem.control.size() >= 2;
+  network.obs_of_source.assign(problem.observations.size(), -1);
   for (size_t k = 0; k < problem.observations.size(); ++k) {
     const Observation& o = problem.observations[k];
     IndexedObservation x;
@@ -157,6 +158,7 @@ IndexedNetwork IndexNetwork(const OrientationProblem& problem, std::vector<std::
       network.rays_of_point[o.point].push_back(static_cast<int>(network.obs.size()));
       network.stations_of_point[o.point].insert(x.station);
     }
+    network.obs_of_source[k] = static_cast<int>(network.obs.size());
     network.obs.push_back(x);
   }
   // Points that cannot be determined: one ray without distance and not a control point.

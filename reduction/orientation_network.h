@@ -34,6 +34,7 @@ struct IndexedNetwork {
   std::vector<Station> station_info;  // id and a-priori sigmas
   std::map<std::string, ControlPoint> control;
   std::vector<IndexedObservation> obs;
+  std::vector<int> obs_of_source;  // index into obs of each problem observation (−1: refused)
   std::map<std::string, std::vector<int>> rays_of_point;  // indices into obs
   std::map<std::string, std::set<int>> stations_of_point;
   std::set<std::string> usable;  // points with two rays, a distance, or control
