@@ -90,6 +90,17 @@ TEST(OrientationSnooping, K06CleanIsTodaysResult) {
   for (const auto& r : snooped.residuals) worst = std::max(worst, std::abs(r.w));
   EXPECT_LT(worst, snooped.levels.critical_w);
   EXPECT_GT(worst, 4.3);
+  // Each test at Baarda's per-test α0 = 0.1 % (k = 3.29 for every one of the 359) instead:
+  // the real network's own readings go, and the stations move with them.
+  OrientationOptions per_test;
+  per_test.snooping.critical_w = 3.2905267314919255;
+  const OrientationResult strict = Orient(k06, per_test);
+  ASSERT_TRUE(strict.status.ok());
+  EXPECT_GE(strict.removed.size(), 2u);
+  const auto [moved, turned] = StationDifference(strict, today);
+  EXPECT_GT(moved, 0.005);
+  std::printf("  per-test alpha0 0.1 %%: %zu readings removed, stations %.1f um, %.2f\"\n",
+              strict.removed.size(), moved * 1000.0, turned);
 }
 
 // The issue's three cases and more sizes and kinds: every planted blunder named as removed,
