@@ -39,11 +39,31 @@ void SetupOrientCommand(CLI::App& parent, const GlobalOptions&, Runner& run) {
   OutputFile(sub->add_option("--out", o->out, "Stations YAML to write"))->required();
   OutputFile(
       sub->add_option("--points", o->points_out, "Also write the adjusted target points (CSV)"));
+  OutputFile(sub->add_option("--json", o->json_out,
+                             "Also write the adjustment and its data snooping as JSON"));
   sub->add_flag("--no-instrument-errors", *no_instrument_errors,
                 "Do not estimate and apply axis errors from two-face readings");
-  sub->callback([&run, o, no_instrument_errors] {
-    run = [o, no_instrument_errors] {
+  auto no_reject = std::make_shared<bool>(false);
+  sub->add_flag("--no-reject", *no_reject,
+                "Test the observations for blunders and report them, but remove none");
+  sub->add_option("--keep", o->keep,
+                  "Never remove this observation: STATION->POINT (its Hz, V, distance), a scale "
+                  "bar A:B or a control point's id; repeatable")
+      ->check(CLI::Validator(
+          [](const std::string& s) {
+            return s.empty() ? std::string("expected STATION->POINT, A:B or a control point")
+                             : std::string();
+          },
+          "OBS"));
+  NumberOption(sub->add_option("--alpha", o->alpha,
+                               "Significance level of the blunder tests for the whole adjustment "
+                               "(the chance that a network without blunders loses a reading)"),
+               1e-12, 0.5)
+      ->capture_default_str();
+  sub->callback([&run, o, no_instrument_errors, no_reject] {
+    run = [o, no_instrument_errors, no_reject] {
       o->instrument_errors = !*no_instrument_errors;
+      o->reject = !*no_reject;
       const auto result = workflows::OrientFiles(*o);
       std::cout << workflows::FormatOrientReport(result);
       if (!result.result.status.ok()) return kFailure;
@@ -67,10 +87,14 @@ void SetupTriangulateCommand(CLI::App& parent, const GlobalOptions&, Runner& run
   sub->add_flag("--no-reject", *no_reject, "Report blunders but keep every ray");
   sub->add_flag("--no-instrument-errors", *no_instrument_errors,
                 "Do not estimate and apply axis errors from two-face readings");
-  NumberOption(sub->add_option("--critical-w", o->critical_w, "Critical standardised residual"),
-               1.0, 100.0)
-      ->capture_default_str();
-  sub->callback([&run, o, no_reject, no_instrument_errors] {
+  auto critical_w = std::make_shared<double>(0.0);
+  auto* critical = NumberOption(
+      sub->add_option("--critical-w", *critical_w,
+                      "Critical standardised residual of every test (default: from a 0.1 % "
+                      "significance level of each point's adjustment)"),
+      1.0, 100.0);
+  sub->callback([&run, o, no_reject, no_instrument_errors, critical_w, critical] {
+    if (critical->count() > 0) o->critical_w = *critical_w;
     run = [o, no_reject, no_instrument_errors] {
       o->reject_blunders = !*no_reject;
       o->instrument_errors = !*no_instrument_errors;

@@ -160,7 +160,24 @@ std::vector<reduction::Station> ParseStationsList(const YamlValue& list) {
 std::vector<reduction::Station> ParseStationsYaml(const std::string& text,
                                                   const std::string& source) {
   return YamlDocument::Parse(text, source).Read([](const YamlValue& root) {
-    return ParseStationsList(root.Map({"stations"}).Required("stations", "a list of stations"));
+    // Not a mapping: refused as "expected a mapping with stations" (what a file must have).
+    const YamlMap map = root.IsMap() ? root.Map({"stations", "removed_observations"})
+                                     : root.Map({"stations"});
+    // What the orientation removed (FormatStationsYaml): checked, not needed to use the
+    // stations.
+    if (const auto removed = map.Find("removed_observations")) {
+      for (const YamlValue& item : removed->List()) {
+        const YamlMap r =
+            item.Map({"station", "point", "kind", "error_arcsec", "error_mm", "w", "line"});
+        r.Required("point", "the observation's point").Text();
+        const std::string kind = r.Required("kind", "hz, v, distance, scale_bar or control").Name();
+        if (kind != "hz" && kind != "v" && kind != "distance" && kind != "scale_bar" &&
+            kind != "control")
+          r.Required("kind", "").Fail("expected hz, v, distance, scale_bar or control");
+        if (const auto w = r.Find("w")) w->Number();
+      }
+    }
+    return ParseStationsList(map.Required("stations", "a list of stations"));
   });
 }
 
@@ -168,8 +185,14 @@ std::vector<reduction::Station> ReadStationsYaml(const std::string& path) {
   return ParseStationsYaml(ReadWholeFile(path, kYamlFileLimit), path);
 }
 
+std::string KindKey(reduction::ResidualReport::Kind kind) {
+  static const char* kKeys[] = {"hz", "v", "distance", "scale_bar", "control"};
+  return kKeys[static_cast<int>(kind)];
+}
+
 std::string FormatStationsYaml(const std::vector<reduction::Station>& stations,
-                               const std::string& header_comment) {
+                               const std::string& header_comment,
+                               const std::vector<reduction::RemovedObservation>& removed) {
   YAML::Emitter out;
   if (!header_comment.empty()) out << YAML::Comment(header_comment);
   out << YAML::BeginMap << YAML::Key << "stations" << YAML::Value << YAML::BeginSeq;
@@ -219,7 +242,26 @@ std::string FormatStationsYaml(const std::vector<reduction::Station>& stations,
     }
     out << YAML::EndMap;
   }
-  out << YAML::EndSeq << YAML::EndMap;
+  out << YAML::EndSeq;
+  if (!removed.empty()) {
+    out << YAML::Key << "removed_observations" << YAML::Value << YAML::BeginSeq;
+    for (const auto& r : removed) {
+      using Kind = reduction::ResidualReport::Kind;
+      const bool angle = r.kind == Kind::kHz || r.kind == Kind::kV;
+      out << YAML::Flow << YAML::BeginMap;
+      if (!r.station.empty())
+        out << YAML::Key << "station" << YAML::Value << YAML::DoubleQuoted << r.station;
+      out << YAML::Key << "point" << YAML::Value << YAML::DoubleQuoted << r.point;
+      out << YAML::Key << "kind" << YAML::Value << KindKey(r.kind);
+      out << YAML::Key << (angle ? "error_arcsec" : "error_mm") << YAML::Value
+          << YamlNumber(r.error);
+      out << YAML::Key << "w" << YAML::Value << YamlNumber(r.w);
+      if (r.line > 0) out << YAML::Key << "line" << YAML::Value << r.line;
+      out << YAML::EndMap;
+    }
+    out << YAML::EndSeq;
+  }
+  out << YAML::EndMap;
   return std::string(out.c_str()) + "\n";
 }
 

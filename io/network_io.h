@@ -25,9 +25,15 @@ std::vector<reduction::Station> ReadStationsYaml(const std::string& path);
 std::vector<reduction::Station> ParseStationsYaml(const std::string& text,
                                                   const std::string& source);
 std::vector<reduction::Station> ParseStationsList(const YamlValue& list);
-// Written with YAML::Emitter; ReadStationsYaml reads it back to the same doubles.
+// Written with YAML::Emitter; ReadStationsYaml reads it back to the same doubles. The
+// observations data snooping removed from the orientation follow the stations as
+// `removed_observations: [{station, point, kind, error_arcsec | error_mm, w, line}]`
+// (kind hz, v, distance, scale_bar or control; a scale bar's point is "A:B").
 std::string FormatStationsYaml(const std::vector<reduction::Station>& stations,
-                               const std::string& header_comment);
+                               const std::string& header_comment,
+                               const std::vector<reduction::RemovedObservation>& removed = {});
+// "hz", "v", "distance", "scale_bar", "control": the kind's key in files.
+std::string KindKey(reduction::ResidualReport::Kind kind);
 
 // point,x_mm,y_mm,z_mm[,sx_mm,sy_mm,sz_mm] (sigmas make the point weighted, else fixed).
 std::vector<reduction::ControlPoint> ReadControlCsv(const std::string& path);

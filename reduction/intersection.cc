@@ -12,7 +12,7 @@
 namespace armsig::reduction {
 
 void IntersectionOptions::Check() const {
-  if (!(critical_w > 0)) throw std::invalid_argument("critical_w must be > 0");
+  snooping.Check();
   if (!(min_ray_angle_rad >= 0)) throw std::invalid_argument("min_ray_angle_rad must be ≥ 0");
   if (max_iterations < 1) throw std::invalid_argument("max_iterations must be ≥ 1");
 }
@@ -96,6 +96,190 @@ inline void Linearise(const Ray& ray, double hz_obs, double v_obs, const Eigen::
 
 }  // namespace
 
+namespace {
+
+// One point's rays as the intersection works on them: fixed-size, so that a loop over many
+// points does not allocate.
+struct RayWork {
+  int n = 0;
+  double hz[64], v[64];   // face I
+  Eigen::Vector3d u[64];  // world directions
+  bool active[64];        // not rejected
+  RayRows rows[64];
+  bool has_distance = false;
+  // The tested rows of the active rays (data snooping's candidates; a ray is one group).
+  double tested_w[3 * 64], tested_r[3 * 64];
+  int tested_ray[3 * 64], tested_row[3 * 64];
+  int tested = 0;
+};
+
+// Face-I readings and world directions; the reason the rays cannot be intersected, if any.
+std::optional<SolveStatus> Prepare(std::span<const Ray> rays, const IntersectionOptions& options,
+                                   RayWork& work) {
+  const int n = work.n = static_cast<int>(rays.size());
+  if (n > 64) throw std::invalid_argument("more than 64 rays for one point");
+  work.has_distance = false;
+  for (int k = 0; k < n; ++k) {
+    const AngleReading face1 = ToFaceOne(rays[k].reading);
+    work.hz[k] = face1.hz_rad;
+    work.v[k] = face1.v_rad;
+    work.u[k] = rays[k].world_from_station * DirectionInStation(face1);
+    work.has_distance |= rays[k].distance_mm.has_value();
+    work.active[k] = true;
+  }
+  for (int k = 0; k < n; ++k) {
+    const Ray& ray = rays[k];
+    const bool finite = ray.station_mm.allFinite() && ray.world_from_station.allFinite() &&
+                        std::isfinite(work.hz[k]) && std::isfinite(work.v[k]) &&
+                        std::isfinite(ray.sigma_hz_rad) && std::isfinite(ray.sigma_v_rad) &&
+                        (!ray.distance_mm ||
+                         (std::isfinite(*ray.distance_mm) && std::isfinite(ray.sigma_distance_mm)));
+    if (!finite) return SolveStatus{SolveCode::kNonFinite, "ray " + std::to_string(k + 1) + " is not finite"};
+  }
+  if (n == 0 || (n == 1 && !work.has_distance)) {
+    return SolveStatus{SolveCode::kTooFewObservations, n == 0 ? "no ray" : "one ray and no distance"};
+  }
+  if (!work.has_distance) {
+    double largest = 0.0;
+    for (int a = 0; a < n; ++a) {
+      for (int b = a + 1; b < n; ++b) largest = std::max(largest, work.u[a].cross(work.u[b]).norm());
+    }
+    if (std::asin(std::min(1.0, largest)) < options.min_ray_angle_rad) {
+      return SolveStatus{SolveCode::kDegenerate,
+                         "rays nearly parallel (largest angle " +
+                             std::to_string(std::asin(std::min(1.0, largest)) / kRadPerDeg) +
+                             " deg)"};
+    }
+  }
+  return std::nullopt;
+}
+
+// Closed-form start: polar points where distances exist, else the closest point of all rays:
+// Σ (I − uuᵀ) X = Σ (I − uuᵀ) S.
+Eigen::Vector3d ClosedFormStart(std::span<const Ray> rays, const RayWork& work) {
+  Eigen::Vector3d x = Eigen::Vector3d::Zero();
+  if (work.has_distance) {
+    int count = 0;
+    for (int k = 0; k < work.n; ++k) {
+      if (rays[k].distance_mm) {
+        x += rays[k].station_mm + *rays[k].distance_mm * work.u[k];
+        ++count;
+      }
+    }
+    return x / count;
+  }
+  Eigen::Matrix3d m = Eigen::Matrix3d::Zero();
+  Eigen::Vector3d b = Eigen::Vector3d::Zero();
+  for (int k = 0; k < work.n; ++k) {
+    const Eigen::Matrix3d p = Eigen::Matrix3d::Identity() - work.u[k] * work.u[k].transpose();
+    m += p;
+    b += p * rays[k].station_mm;
+  }
+  return m.ldlt().solve(b);
+}
+
+// Gauss–Newton on the active rays from x. The last iteration's rows also serve the
+// statistics: its step is below a nanometre, so its Jacobian is the solution's and the
+// residuals follow linearly (r + A·δ, exact to second order). Returns the iterations.
+int GaussNewton(std::span<const Ray> rays, const IntersectionOptions& options, RayWork& work,
+                Eigen::Vector3d& x, Eigen::Matrix3d& q, Eigen::Vector3d& step, bool& converged) {
+  converged = false;
+  int it = 0;
+  step.setZero();
+  for (; it < options.max_iterations && !converged; ++it) {
+    Eigen::Matrix3d normal = Eigen::Matrix3d::Zero();
+    Eigen::Vector3d g = Eigen::Vector3d::Zero();
+    for (int k = 0; k < work.n; ++k) {
+      if (!work.active[k]) continue;
+      Linearise(rays[k], work.hz[k], work.v[k], x, work.rows[k]);
+      normal.noalias() += work.rows[k].a.transpose() * work.rows[k].a;
+      g.noalias() += work.rows[k].a.transpose() * work.rows[k].r;
+    }
+    q = normal.inverse();
+    step = -q * g;
+    x += step;
+    converged = step.squaredNorm() < 1e-12;  // 1 nm
+  }
+  return it;
+}
+
+// Residuals, miss distances, standardised residuals and minimal detectable biases of every
+// ray at the solution x; σ0 and degrees of freedom of the active ones, whose tests are kept
+// in `work` for data snooping. Returns the largest |w|.
+double TestRays(std::span<const Ray> rays, RayWork& work, const Eigen::Vector3d& x,
+                const Eigen::Matrix3d& q, const Eigen::Vector3d& step, const SnoopLevels& levels,
+                IntersectionResult& result) {
+  int observations = 0;
+  double vtpv = 0.0, worst_w = 0.0;
+  work.tested = 0;
+  result.max_miss_mm = 0.0;
+  for (int k = 0; k < work.n; ++k) {
+    RayRows& row = work.rows[k];
+    if (work.active[k]) {
+      row.r.noalias() += row.a * step;
+    } else {
+      Linearise(rays[k], work.hz[k], work.v[k], x, row);
+    }
+    RayResult& rr = result.rays[k];
+    // The first row's sigma: sigma_hz, or sigma_v across the line of sight at a pole.
+    const double sigma_across = NearPole(work.v[k]) ? rays[k].sigma_v_rad : rays[k].sigma_hz_rad;
+    rr.hz_arcsec = row.r(0) * sigma_across * kArcsecPerRad;
+    rr.v_arcsec = row.r(1) * rays[k].sigma_v_rad * kArcsecPerRad;
+    rr.distance_mm = row.count == 3 ? std::optional<double>(row.r(2) * rays[k].sigma_distance_mm)
+                                    : std::nullopt;
+    const Eigen::Vector3d to_point = x - rays[k].station_mm;
+    rr.miss_mm = (to_point - to_point.dot(work.u[k]) * work.u[k]).norm();
+    if (!work.active[k]) continue;
+    observations += row.count;
+    result.max_miss_mm = std::max(result.max_miss_mm, rr.miss_mm);
+    double w[3] = {0, 0, 0};
+    for (int i = 0; i < row.count; ++i) {
+      vtpv += row.r(i) * row.r(i);
+      // Redundancy number r_i = 1 − a_i Q a_iᵀ (whitened).
+      const double redundancy = 1.0 - row.a.row(i) * q * row.a.row(i).transpose();
+      const double inv_sqrt = 1.0 / std::sqrt(std::max(redundancy, 1e-12));
+      w[i] = redundancy > 1e-6 ? row.r(i) * inv_sqrt : 0.0;
+      if (i == 0) rr.mdb_hz_arcsec = sigma_across * levels.delta0 * inv_sqrt * kArcsecPerRad;
+      if (i == 1) rr.mdb_v_arcsec = rays[k].sigma_v_rad * levels.delta0 * inv_sqrt * kArcsecPerRad;
+      work.tested_w[work.tested] = w[i];
+      work.tested_r[work.tested] = std::max(0.0, redundancy);
+      work.tested_ray[work.tested] = k;
+      work.tested_row[work.tested] = i;
+      ++work.tested;
+      worst_w = std::max(worst_w, std::abs(w[i]));
+    }
+    rr.w_hz = w[0];
+    rr.w_v = w[1];
+    rr.w_distance = w[2];
+  }
+  result.dof = observations - 3;
+  result.sigma0 = result.dof > 0 ? std::sqrt(vtpv / result.dof) : 0.0;
+  return worst_w;
+}
+
+// The data-snooping decision on the tested rows (reduction/data_snooping.h): rays to reject.
+SnoopDecision DecideOnRays(const RayWork& work, const Eigen::Matrix3d& q, int dof,
+                           const IntersectionOptions& options, const SnoopLevels& levels) {
+  SnoopCandidate candidates[3 * 64];
+  for (int c = 0; c < work.tested; ++c) {
+    candidates[c] = {work.tested_w[c], work.tested_r[c], work.tested_ray[c],
+                     work.rows[work.tested_ray[c]].count, false};
+  }
+  // ρ_ij = Qvv_ij / √(r_i r_j), Qvv_ij = −a_i Q a_jᵀ (whitened rows).
+  auto correlation = [&](int i, int j) {
+    const auto a_i = work.rows[work.tested_ray[i]].a.row(work.tested_row[i]);
+    const auto a_j = work.rows[work.tested_ray[j]].a.row(work.tested_row[j]);
+    const double scale = std::sqrt(work.tested_r[i] * work.tested_r[j]);
+    return scale > 0 ? -(a_i * q * a_j.transpose())(0, 0) / scale : 0.0;
+  };
+  return DecideRejection(std::span<const SnoopCandidate>(candidates, work.tested), dof,
+                         options.snooping, levels, correlation);
+}
+
+}  // namespace
+
+// Prepare, start, then rounds of Gauss–Newton and data snooping: a round rejects the rays the
+// policy can decide, until no test fails or what fails cannot be decided.
 void Intersect(std::span<const Ray> rays, const IntersectionOptions& options,
                IntersectionResult& result) {
   const int n = static_cast<int>(rays.size());
@@ -107,180 +291,47 @@ void Intersect(std::span<const Ray> rays, const IntersectionOptions& options,
   result.sigma0 = 0.0;
   result.dof = 0;
   result.max_miss_mm = 0.0;
-
-  // Face-I readings and world directions.
-  Eigen::Vector3d origin_sum = Eigen::Vector3d::Zero();
-  double hz[64], v[64];
-  Eigen::Vector3d u[64];
-  if (n > 64) throw std::invalid_argument("more than 64 rays for one point");
-  bool has_distance = false;
-  for (int k = 0; k < n; ++k) {
-    const AngleReading face1 = ToFaceOne(rays[k].reading);
-    hz[k] = face1.hz_rad;
-    v[k] = face1.v_rad;
-    u[k] = rays[k].world_from_station * DirectionInStation(face1);
-    has_distance |= rays[k].distance_mm.has_value();
-    origin_sum += rays[k].station_mm;
-  }
-  auto fail = [&](SolveCode code, std::string message) {
-    result.status = {code, std::move(message)};
+  auto fail = [&](SolveStatus status) {
+    result.status = std::move(status);
     result.flags = FlagsOf(result.status);
     result.position_mm.setConstant(std::numeric_limits<double>::quiet_NaN());
     result.covariance_mm2.setConstant(std::numeric_limits<double>::quiet_NaN());
     result.rays_used = 0;
   };
-  for (int k = 0; k < n; ++k) {
-    const Ray& ray = rays[k];
-    const bool finite = ray.station_mm.allFinite() && ray.world_from_station.allFinite() &&
-                        std::isfinite(hz[k]) && std::isfinite(v[k]) &&
-                        std::isfinite(ray.sigma_hz_rad) && std::isfinite(ray.sigma_v_rad) &&
-                        (!ray.distance_mm ||
-                         (std::isfinite(*ray.distance_mm) && std::isfinite(ray.sigma_distance_mm)));
-    if (!finite) {
-      fail(SolveCode::kNonFinite, "ray " + std::to_string(k + 1) + " is not finite");
-      return;
-    }
-  }
-  if (n == 0 || (n == 1 && !has_distance)) {
-    fail(SolveCode::kTooFewObservations, n == 0 ? "no ray" : "one ray and no distance");
-    return;
-  }
-  if (!has_distance) {
-    double largest = 0.0;
-    for (int a = 0; a < n; ++a) {
-      for (int b = a + 1; b < n; ++b) largest = std::max(largest, u[a].cross(u[b]).norm());
-    }
-    if (std::asin(std::min(1.0, largest)) < options.min_ray_angle_rad) {
-      fail(SolveCode::kDegenerate,
-           "rays nearly parallel (largest angle " +
-               std::to_string(std::asin(std::min(1.0, largest)) / kRadPerDeg) + " deg)");
-      return;
-    }
-  }
-
-  std::vector<RayResult>& out = result.rays;
-  bool active[64];
-  for (int k = 0; k < n; ++k) active[k] = true;
-
-  // Closed-form start: polar points where distances exist, else the closest point of
-  // all rays: Σ (I − uuᵀ) X = Σ (I − uuᵀ) S.
-  Eigen::Vector3d x = Eigen::Vector3d::Zero();
-  if (has_distance) {
-    int count = 0;
-    for (int k = 0; k < n; ++k) {
-      if (rays[k].distance_mm) {
-        x += rays[k].station_mm + *rays[k].distance_mm * u[k];
-        ++count;
-      }
-    }
-    x /= count;
-  } else {
-    Eigen::Matrix3d m = Eigen::Matrix3d::Zero();
-    Eigen::Vector3d b = Eigen::Vector3d::Zero();
-    for (int k = 0; k < n; ++k) {
-      const Eigen::Matrix3d p = Eigen::Matrix3d::Identity() - u[k] * u[k].transpose();
-      m += p;
-      b += p * rays[k].station_mm;
-    }
-    x = m.ldlt().solve(b);
-  }
-
-  RayRows rows[64];
-  Eigen::Matrix3d normal;
+  RayWork work;  // 14 kB on the stack, nothing allocated
+  if (auto refused = Prepare(rays, options, work)) return fail(*refused);
+  Eigen::Vector3d x = ClosedFormStart(rays, work);
   for (int round = 0; round <= n; ++round) {
-    // Gauss–Newton on the active rays. The last iteration's rows also serve the
-    // statistics: its step is below a nanometre, so its Jacobian is the solution's and
-    // the residuals follow linearly (r + A·δ, exact to second order).
-    bool converged = false;
-    int it = 0;
-    Eigen::Vector3d step = Eigen::Vector3d::Zero();
     Eigen::Matrix3d q;
-    for (; it < options.max_iterations && !converged; ++it) {
-      normal.setZero();
-      Eigen::Vector3d g = Eigen::Vector3d::Zero();
-      for (int k = 0; k < n; ++k) {
-        if (!active[k]) continue;
-        Linearise(rays[k], hz[k], v[k], x, rows[k]);
-        normal.noalias() += rows[k].a.transpose() * rows[k].a;
-        g.noalias() += rows[k].a.transpose() * rows[k].r;
-      }
-      q = normal.inverse();
-      step = -q * g;
-      x += step;
-      converged = step.squaredNorm() < 1e-12;  // 1 nm
-    }
-    result.iterations += it;
-    if (!x.allFinite() || !q.allFinite()) {
-      fail(SolveCode::kNonFinite, "the estimate is not finite");
-      return;
-    }
-    if (!converged) {
-      fail(SolveCode::kNotConverged, "no convergence");
-      return;
-    }
-
+    Eigen::Vector3d step;
+    bool converged = false;
+    result.iterations += GaussNewton(rays, options, work, x, q, step, converged);
+    if (!x.allFinite() || !q.allFinite())
+      return fail({SolveCode::kNonFinite, "the estimate is not finite"});
+    if (!converged) return fail({SolveCode::kNotConverged, "no convergence"});
     result.covariance_mm2 = q;
-    int observations = 0;
-    double vtpv = 0.0;
-    int worst = -1;
-    double worst_w = 0.0;
-    result.max_miss_mm = 0.0;
+    int tests = 0, used = 0;
     for (int k = 0; k < n; ++k) {
-      RayRows& row = rows[k];
-      if (active[k]) {
-        row.r.noalias() += row.a * step;
-      } else {
-        Linearise(rays[k], hz[k], v[k], x, row);
-      }
-      RayResult& rr = out[k];
-      // The first row's sigma: sigma_hz, or sigma_v across the line of sight at a pole.
-      const double sigma_across = NearPole(v[k]) ? rays[k].sigma_v_rad : rays[k].sigma_hz_rad;
-      rr.hz_arcsec = row.r(0) * sigma_across * kArcsecPerRad;
-      rr.v_arcsec = row.r(1) * rays[k].sigma_v_rad * kArcsecPerRad;
-      rr.distance_mm = row.count == 3 ? std::optional<double>(row.r(2) * rays[k].sigma_distance_mm)
-                                      : std::nullopt;
-      const Eigen::Vector3d to_point = x - rays[k].station_mm;
-      rr.miss_mm = (to_point - to_point.dot(u[k]) * u[k]).norm();
-      if (!active[k]) continue;
-      observations += row.count;
-      result.max_miss_mm = std::max(result.max_miss_mm, rr.miss_mm);
-      double w[3] = {0, 0, 0};
-      for (int i = 0; i < row.count; ++i) {
-        vtpv += row.r(i) * row.r(i);
-        // Redundancy number r_i = 1 − a_i Q a_iᵀ (whitened).
-        const double redundancy = 1.0 - row.a.row(i) * q * row.a.row(i).transpose();
-        const double safe = std::max(redundancy, 1e-12);
-        const double inv_sqrt = 1.0 / std::sqrt(safe);
-        w[i] = redundancy > 1e-6 ? row.r(i) * inv_sqrt : 0.0;
-        if (i == 0) rr.mdb_hz_arcsec = sigma_across * options.delta0 * inv_sqrt * kArcsecPerRad;
-        if (i == 1)
-          rr.mdb_v_arcsec = rays[k].sigma_v_rad * options.delta0 * inv_sqrt * kArcsecPerRad;
-        if (std::abs(w[i]) > worst_w) {
-          worst_w = std::abs(w[i]);
-          worst = k;
-        }
-      }
-      rr.w_hz = w[0];
-      rr.w_v = w[1];
-      rr.w_distance = w[2];
+      tests += work.active[k] ? work.rows[k].count : 0;
+      used += work.active[k];
     }
-    result.dof = observations - 3;
-    result.sigma0 = result.dof > 0 ? std::sqrt(vtpv / result.dof) : 0.0;
+    const SnoopLevels levels = options.snooping.Levels(tests);
+    const double worst_w = TestRays(rays, work, x, q, step, levels, result);
     result.position_mm = x;
-    int used = 0;
-    for (int k = 0; k < n; ++k) used += active[k];
     result.rays_used = used;
-    if (worst < 0 || worst_w <= options.critical_w) break;
-    // Reject the worst ray only if what remains still has redundancy to check itself.
-    const bool worst_has_distance = rays[worst].distance_mm.has_value();
-    const int remaining_observations = observations - (worst_has_distance ? 3 : 2);
-    if (!options.reject_blunders || remaining_observations - 3 < 1) {
-      result.flags.Set(PointFlag::kBlunderSuspected);
+    if (!(worst_w > levels.critical_w)) break;  // the usual case: no blunder
+    const SnoopDecision decision = DecideOnRays(work, q, result.dof, options, levels);
+    if (decision.remove.empty()) {
+      if (!decision.undecided.empty()) result.flags.Set(PointFlag::kBlunderSuspected);
       break;
     }
-    active[worst] = false;
-    out[worst].rejected = true;
-    ++result.rejected;
+    for (int c : decision.remove) {
+      const int ray = work.tested_ray[c];
+      if (!work.active[ray]) continue;
+      work.active[ray] = false;
+      result.rays[ray].rejected = true;
+      ++result.rejected;
+    }
     result.flags.Set(PointFlag::kBlunderRejected);
   }
 }

@@ -1,8 +1,8 @@
 // Intersection of the rays of one target point: a closed-form start (closest point of
 // the rays, or a polar point where a distance is measured), then weighted least squares
 // on the observed Hz, V (and slope distances), with covariance, per-ray residuals and
-// Baarda's data snooping: a blunder ray is reported and, when enough rays remain,
-// rejected.
+// Baarda's data snooping (reduction/data_snooping.h, the policy orient shares): a blunder
+// ray is reported and, when the policy can decide it, rejected.
 #pragma once
 
 #include <Eigen/Core>
@@ -13,6 +13,7 @@
 
 #include "core/error.h"
 #include "core/types.h"
+#include "reduction/data_snooping.h"
 #include "reduction/network.h"
 #include "reduction/point_flags.h"
 
@@ -33,9 +34,9 @@ Ray RayOf(const Observation& observation, const Station& station,
           const InstrumentDefaults& defaults);
 
 struct IntersectionOptions {
-  bool reject_blunders = true;
-  double critical_w = 3.29;            // |w| beyond this is a blunder (α0 = 0.1 %, two-sided)
-  double delta0 = 4.13;                // non-centrality for the MDB (α0 = 0.1 %, β0 = 80 %)
+  // The blunder policy of every adjustment (α0 = 0.1 %, β0 = 80 %); a rejected blunder
+  // takes its whole ray out (snooping.reject = false: test and flag only).
+  DataSnooping snooping;
   double min_ray_angle_rad = 3.49e-3;  // 0.2°: rays closer than this are "nearly parallel"
   int max_iterations = 10;
   void Check() const;

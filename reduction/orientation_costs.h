@@ -59,6 +59,31 @@ struct AngleResidual {
   double hz, v, sigma_hz, sigma_v;
 };
 
+// One component of AngleResidual (0: Hz, or across the line of sight at a pole; 1: V), for a
+// reading whose other component data snooping removed.
+template <int kOrientationSize>
+struct AngleComponentResidual {
+  AngleComponentResidual(double hz, double v, double sigma_hz, double sigma_v, int component)
+      : both(hz, v, sigma_hz, sigma_v), component(component) {}
+
+  template <typename T>
+  bool operator()(const T* station, const T* orientation, const T* point, T* residual) const {
+    T r[2];
+    if (!both(station, orientation, point, r)) return false;
+    residual[0] = r[component];
+    return true;
+  }
+
+  static ceres::CostFunction* Create(double hz, double v, double sigma_hz, double sigma_v,
+                                     int component) {
+    return new ceres::AutoDiffCostFunction<AngleComponentResidual, 1, 3, kOrientationSize, 3>(
+        new AngleComponentResidual(hz, v, sigma_hz, sigma_v, component));
+  }
+
+  AngleResidual<kOrientationSize> both;
+  int component;
+};
+
 // A slope distance, or a scale-bar length, between two 3-vectors.
 struct LengthResidual {
   LengthResidual(double length, double sigma) : length(length), sigma(sigma) {}

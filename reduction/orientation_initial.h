@@ -12,33 +12,14 @@
 
 #include "reduction/network.h"
 #include "reduction/orientation.h"
+#include "reduction/orientation_network.h"
 
 namespace armsig::reduction {
 
-// One observation of an orientation problem, indexed: face-I reading and sigmas resolved.
-struct IndexedObservation {
-  int station = 0;
-  int target_station = -1;  // mutual pointing
-  std::string point;
-  double hz = 0.0, v = 0.0;
-  std::optional<double> distance;
-  EffectiveSigmas sigma{};
-  int source = 0;  // index into problem.observations
-};
-
-// The problem indexed by Orient: stations (problem order, then order of appearance),
-// observations, which rays see which point.
-struct IndexedNetwork {
-  std::vector<std::string> station_ids;
-  std::map<std::string, int> station_index;
-  std::vector<Station> station_info;  // id and a-priori sigmas
-  std::map<std::string, ControlPoint> control;
-  std::vector<IndexedObservation> obs;
-  std::map<std::string, std::vector<int>> rays_of_point;  // indices into obs
-  std::map<std::string, std::set<int>> stations_of_point;
-  std::set<std::string> usable;  // points with two rays, a distance, or control
-  bool use_control = false;      // two or more control points fix the datum
-};
+// Beyond this angle (about 2 gon) a ray cannot be one of its point's rays, even in the
+// rough geometry of initial values: a blunder (a misread digit, a confused face, a wrong
+// point), left out of a start so that it cannot carry the others away.
+inline constexpr double kStartOutlierRad = 0.03;
 
 struct StationState {
   bool placed = false;

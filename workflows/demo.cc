@@ -439,10 +439,16 @@ DemoResult RunDemo(const DemoOptions& options, const DemoObserver& observer) {
     if (!oriented.status.ok())
       throw std::runtime_error("demo: orientation failed: " + oriented.status.message);
     drivers.clear();
+    std::string removed;
+    for (const auto& m : oriented.removed)
+      removed += fmt::format("{}{} {}", removed.empty() ? "" : ", ", reduction::KindName(m.kind),
+                             m.label);
     std::string text = fmt::format(
         "1. stations oriented from {} readings (mutual pointings, 3 bar set-ups): sigma0 {:.3f}, "
-        "{} degrees of freedom\n",
-        setup.observations.size(), oriented.sigma0, oriented.dof);
+        "{} degrees of freedom, {}\n",
+        setup.observations.size(), oriented.sigma0, oriented.dof,
+        removed.empty() ? std::string("no reading removed by data snooping")
+                        : "removed as blunders: " + removed);
     for (const auto& s : oriented.stations) {
       text += fmt::format(
           "   {}  x {:9.3f}  y {:9.3f}  z {:8.3f} mm  azimuth {:9.5f} gon  (sigma {:.3f} mm, "

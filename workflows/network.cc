@@ -1,6 +1,7 @@
 #include "workflows/network.h"
 
 #include <fmt/format.h>
+#include <nlohmann/json.hpp>
 #include <spdlog/spdlog.h>
 
 #include <algorithm>
@@ -48,13 +49,129 @@ namespace {
 constexpr double kGlobalTestAlpha = 0.05;
 constexpr double kSuspectSigma0 = 5.0;  // the default gate: warned about when it is lifted
 
+using Kind = reduction::ResidualReport::Kind;
+
+bool IsAngle(Kind kind) { return kind == Kind::kHz || kind == Kind::kV; }
+
 std::string Describe(const reduction::ResidualReport& r) {
-  static const char* kKinds[] = {"Hz", "V", "distance", "scale bar", "control"};
-  const bool angle = r.kind == reduction::ResidualReport::Kind::kHz ||
-                     r.kind == reduction::ResidualReport::Kind::kV;
+  const bool angle = IsAngle(r.kind);
   return fmt::format("{:<10} {:<16} v {:>9.3f}{}  w {:>6.2f}  r {:.2f}  MDB {:.3f}{}",
-                     kKinds[static_cast<int>(r.kind)], r.label, r.residual, angle ? "\"" : " mm",
-                     r.w, r.redundancy, r.mdb, angle ? "\"" : " mm");
+                     reduction::KindName(r.kind), r.label, r.residual, angle ? "\"" : " mm", r.w,
+                     r.redundancy, r.mdb, angle ? "\"" : " mm");
+}
+
+// "Hz 1->202 (obs.csv:4)": a reading with its file and line, a scale bar or control point.
+std::string Named(Kind kind, const std::string& label, int observation, const OrientRun& run) {
+  std::string text = std::string(reduction::KindName(kind)) + " " + label;
+  if (kind != Kind::kScaleBar && kind != Kind::kControl && observation >= 0 &&
+      observation < static_cast<int>(run.lines.size()) && run.lines[observation] > 0)
+    text += fmt::format(" ({}:{})", run.observations, run.lines[observation]);
+  return text;
+}
+
+// The observations --keep names: "STATION->POINT" (every reading of that sighting), "A:B"
+// (a scale bar, either way round) or a control point's id.
+reduction::KeptObservations KeptFrom(const std::vector<std::string>& keep,
+                                     const reduction::OrientationProblem& problem,
+                                     const std::string& observations) {
+  reduction::KeptObservations kept;
+  for (const std::string& what : keep) {
+    bool found = false;
+    if (const size_t arrow = what.find("->"); arrow != std::string::npos) {
+      const std::string station = what.substr(0, arrow), point = what.substr(arrow + 2);
+      for (size_t k = 0; k < problem.observations.size(); ++k) {
+        if (problem.observations[k].station == station && problem.observations[k].point == point) {
+          kept.observations.insert(static_cast<int>(k));
+          found = true;
+        }
+      }
+    } else if (const size_t colon = what.find(':'); colon != std::string::npos) {
+      const std::string a = what.substr(0, colon), b = what.substr(colon + 1);
+      for (size_t k = 0; k < problem.scale_bars.size(); ++k) {
+        const auto& bar = problem.scale_bars[k];
+        if ((bar.from == a && bar.to == b) || (bar.from == b && bar.to == a)) {
+          kept.scale_bars.insert(static_cast<int>(k));
+          found = true;
+        }
+      }
+    } else {
+      for (size_t k = 0; k < problem.control.size(); ++k) {
+        if (problem.control[k].id == what) {
+          kept.control.insert(static_cast<int>(k));
+          found = true;
+        }
+      }
+    }
+    if (!found) {
+      throw InputError({"--keep", 0, 0, ""},
+                       "--keep " + Quoted(what) + ": no such sighting in " + observations +
+                           ", scale bar or control point (expected STATION->POINT, A:B or a "
+                           "control point's id" +
+                           (!what.empty() && what.back() == '-'
+                                ? std::string("; quote it, --keep 'S->P': the shell takes an "
+                                              "unquoted > for a redirection")
+                                : std::string()) +
+                           ")");
+    }
+  }
+  return kept;
+}
+
+// The snooping gate: observations that fail the test and stay (said, not removed) would
+// distort the stations; nothing is written and they are named.
+std::string UndecidedGate(const OrientRun& run) {
+  std::string named;
+  for (const auto& u : run.result.undecided) {
+    if (u.why == reduction::Undecided::kRejectionOff) continue;
+    named += "\n  - " + Named(u.observation.kind, u.observation.label, u.observation.observation, run) +
+             fmt::format(" w {:.2f}: {}", u.observation.w, reduction::Explain(u.why));
+    if (!u.twins.empty()) {
+      std::string twins;
+      for (const auto& t : u.twins)
+        twins += (twins.empty() ? "" : ", ") + Named(t.kind, t.label, t.observation, run);
+      named += " (cannot be told from " + twins + ")";
+    }
+  }
+  if (named.empty()) return {};
+  return "observations fail the blunder test and could not be removed:" + named +
+         "\nCheck them: correct or remove them (or the scale bar), or --keep those that are "
+         "right; nothing was written";
+}
+
+// "data snooping: alpha 0.1 % for the adjustment, 359 tests at 2.8e-06 (critical |w| 4.69),
+// beta0 80 % (delta0 5.53), 2 adjustments".
+std::string SnoopingSummary(const OrientRun& run) {
+  const auto& r = run.result;
+  const reduction::DataSnooping defaults;
+  return fmt::format(
+      "data snooping{}: alpha {:g} % for the adjustment, {} tests at {:.2g} each (critical |w| "
+      "{:.2f}), beta0 {:g} % (delta0 {:.2f}), {} adjustment{}",
+      run.reject ? "" : " (test only, --no-reject)",
+      run.alpha * 100.0, r.levels.tests, r.levels.alpha0, r.levels.critical_w,
+      defaults.beta0 * 100.0, r.levels.delta0, r.adjustments, r.adjustments == 1 ? "" : "s");
+}
+
+// One removed observation: "Hz 1->202 (obs.csv:4) w -63.85 r 0.25, error +328.6\"".
+std::string RemovedLine(const reduction::RemovedObservation& m, const OrientRun& run) {
+  std::string text = Named(m.kind, m.label, m.observation, run) +
+                     fmt::format(" w {:.2f} r {:.2f}, error {:+.{}f}{}", m.w, m.redundancy, m.error,
+                                 IsAngle(m.kind) ? 1 : 3, IsAngle(m.kind) ? "\"" : " mm");
+  if (m.round == 0) text += " [a mistake: set aside at the robust start, its test from the rest]";
+  if (!m.twins.empty()) {
+    std::string twins;
+    for (const auto& t : m.twins) twins += (twins.empty() ? "" : ", ") + t;
+    text += " [with " + twins + ": the data cannot tell which of them is wrong]";
+  }
+  return text;
+}
+
+// The stations file's header lines on data snooping.
+std::string SnoopingHeader(const OrientRun& run) {
+  std::string text = "\n" + SnoopingSummary(run);
+  if (run.result.removed.empty()) return text + "; nothing removed";
+  text += fmt::format("; {} removed (error = observed - adjusted):", run.result.removed.size());
+  for (const auto& m : run.result.removed) text += "\n  " + RemovedLine(m, run);
+  return text;
 }
 
 // The result with its station sigmas and point covariances scaled (a posteriori).
@@ -108,7 +225,15 @@ OrientRun OrientFiles(const OrientFilesOptions& options) {
   }
   problem.free_datum = options.free_datum || !options.datum_points.empty();
   problem.datum_points.insert(options.datum_points.begin(), options.datum_points.end());
-  run.result = reduction::Orient(problem);
+  reduction::OrientationOptions adjustment;
+  adjustment.snooping.reject = options.reject;
+  adjustment.snooping.alpha = options.alpha;
+  adjustment.keep = KeptFrom(options.keep, problem, options.observations);
+  run.observations = options.observations;
+  run.alpha = options.alpha;
+  run.reject = options.reject;
+  for (const auto& o : problem.observations) run.lines.push_back(o.source_line);
+  run.result = reduction::Orient(problem, adjustment);
   if (!run.result.refusals.empty()) {
     std::string why;
     for (const auto& r : run.result.refusals) why += "\n  - " + r;
@@ -137,7 +262,13 @@ OrientRun OrientFiles(const OrientFilesOptions& options) {
     if (run.global_test_p < kGlobalTestAlpha && result.sigma0 > 1.0)
       run.sigma_scale = result.sigma0;
   }
-  if (options.max_sigma0 > 0.0 && result.dof > 0 && result.sigma0 > options.max_sigma0) {
+  auto write_json = [&] {
+    if (!options.json_out.empty())
+      io::WriteFileAtomically(options.json_out, FormatOrientJson(run));
+  };
+  run.gate_failure = UndecidedGate(run);
+  if (run.gate_failure.empty() && options.max_sigma0 > 0.0 && result.dof > 0 &&
+      result.sigma0 > options.max_sigma0) {
     std::vector<reduction::ResidualReport> worst = result.residuals;
     std::sort(worst.begin(), worst.end(),
               [](const auto& a, const auto& b) { return std::abs(a.w) > std::abs(b.w); });
@@ -150,6 +281,9 @@ OrientRun OrientFiles(const OrientFilesOptions& options) {
         "largest standardised residuals:{}\nCorrect or remove the observation and orient "
         "again (or give --max-sigma0 to accept); nothing was written",
         result.sigma0, options.max_sigma0, result.dof, options.observations, suspects);
+  }
+  write_json();
+  if (!run.gate_failure.empty()) {
     spdlog::debug("orient: {}", run.gate_failure);
     return run;
   }
@@ -169,8 +303,9 @@ OrientRun OrientFiles(const OrientFilesOptions& options) {
           "\nglobal test failed (p = {:.2g}): sigmas a posteriori (a priori x {:.4f})",
           run.global_test_p, run.sigma_scale);
     }
-    io::WriteFileAtomically(options.out,
-                            io::FormatStationsYaml(OrientedStations(problem, scaled), header));
+    header += SnoopingHeader(run);
+    io::WriteFileAtomically(
+        options.out, io::FormatStationsYaml(OrientedStations(problem, scaled), header, result.removed));
   }
   if (!options.points_out.empty())
     io::WriteFileAtomically(options.points_out, FormatAdjustedPointsCsv(scaled.points));
@@ -233,11 +368,30 @@ std::string FormatOrientReport(const OrientRun& run) {
                         g.redundancy > 1e-6 ? fmt::format("{:.4f}", g.sigma0)
                                             : std::string("- (no redundancy)"));
   }
+  text += "\n" + SnoopingSummary(run) + "\n";
+  if (!result.removed.empty()) {
+    text += fmt::format("removed as blunders ({}; error = observed - adjusted):\n",
+                        result.removed.size());
+    for (const auto& m : result.removed) text += "  " + RemovedLine(m, run) + "\n";
+  }
+  for (const auto& u : result.undecided) {
+    if (u.why == reduction::Undecided::kRejectionOff) continue;
+    text += "NOT removed: " +
+            Named(u.observation.kind, u.observation.label, u.observation.observation, run) +
+            fmt::format(" w {:.2f} r {:.2f}: {}", u.observation.w, u.observation.redundancy,
+                        reduction::Explain(u.why));
+    std::string twins;
+    for (const auto& t : u.twins)
+      twins += (twins.empty() ? "" : ", ") + Named(t.kind, t.label, t.observation, run);
+    text += twins.empty() ? "\n" : " (cannot be told from " + twins + ")\n";
+  }
+  if (result.removal_limit_reached)
+    text += "snooping stopped at its limit on removals (5 % of the observations)\n";
   std::vector<reduction::ResidualReport> worst = result.residuals;
   std::sort(worst.begin(), worst.end(),
             [](const auto& a, const auto& b) { return std::abs(a.w) > std::abs(b.w); });
-  const double critical = reduction::OrientationOptions{}.critical_w;
-  text += fmt::format("\nlargest standardised residuals (|w| > {} is a suspected blunder):\n",
+  const double critical = result.levels.critical_w;
+  text += fmt::format("\nlargest standardised residuals (|w| > {:.2f} is a suspected blunder):\n",
                       critical);
   for (size_t k = 0; k < std::min<size_t>(8, worst.size()); ++k) {
     text +=
@@ -246,6 +400,86 @@ std::string FormatOrientReport(const OrientRun& run) {
   for (const auto& [id, why] : result.excluded_points)
     text += "point " + id + " not adjusted: " + why + "\n";
   return text;
+}
+
+std::string FormatOrientJson(const OrientRun& run) {
+  using nlohmann::json;
+  const reduction::OrientationResult& r = run.result;
+  const reduction::OrientationResult scaled = Scaled(r, run.sigma_scale);
+  auto vec = [](const Eigen::Vector3d& v) { return json::array({v.x(), v.y(), v.z()}); };
+  auto finite = [](double x) { return std::isfinite(x) ? json(x) : json(nullptr); };
+  json stations = json::array();
+  for (const auto& s : scaled.stations) {
+    json j = {{"id", s.pose.id}, {"position_mm", vec(s.pose.position_mm)},
+              {"sigma_position_mm", vec(s.sigma_position_mm)}};
+    if (s.pose.levelled) {
+      j["azimuth_rad"] = s.pose.azimuth_rad;
+      j["sigma_azimuth_rad"] = s.sigma_azimuth_rad;
+    } else {
+      json rows = json::array();
+      for (int i = 0; i < 3; ++i) rows.push_back(vec(s.pose.world_from_station.row(i).transpose()));
+      j["rotation"] = rows;
+      j["sigma_rotation_rad"] = vec(s.sigma_rotation_rad);
+    }
+    stations.push_back(j);
+  }
+  auto line_of = [&](Kind kind, int observation) -> json {
+    if (kind == Kind::kScaleBar || kind == Kind::kControl || observation < 0 ||
+        observation >= static_cast<int>(run.lines.size()) || run.lines[observation] <= 0)
+      return nullptr;
+    return run.lines[observation];
+  };
+  json removed = json::array();
+  for (const auto& m : r.removed) {
+    json j = {{"station", m.station.empty() ? json(nullptr) : json(m.station)},
+              {"point", m.point},
+              {"kind", io::KindKey(m.kind)},
+              {"line", line_of(m.kind, m.observation)},
+              {"w", finite(m.w)},
+              {"redundancy", finite(m.redundancy)},
+              {"adjustment", m.round},
+              {"twins", m.twins}};
+    if (IsAngle(m.kind))
+      j["error_rad"] = finite(m.error * kRadPerArcsec);
+    else
+      j["error_mm"] = finite(m.error);
+    removed.push_back(j);
+  }
+  json undecided = json::array();
+  for (const auto& u : r.undecided) {
+    json twins = json::array();
+    for (const auto& t : u.twins) twins.push_back(std::string(reduction::KindName(t.kind)) + " " + t.label);
+    undecided.push_back({{"kind", io::KindKey(u.observation.kind)},
+                         {"label", u.observation.label},
+                         {"line", line_of(u.observation.kind, u.observation.observation)},
+                         {"w", finite(u.observation.w)},
+                         {"redundancy", finite(u.observation.redundancy)},
+                         {"why", reduction::Explain(u.why)},
+                         {"twins", twins}});
+  }
+  const json doc = {
+      {"sigma0", r.sigma0},
+      {"dof", r.dof},
+      {"observations", r.observations},
+      {"unknowns", r.unknowns},
+      {"global_test_p", run.global_test_p},
+      {"sigma_scale", run.sigma_scale},
+      {"datum", r.datum},
+      {"stations", stations},
+      {"snooping",
+       {{"reject", run.reject},
+        {"alpha", run.alpha},
+        {"beta0", reduction::DataSnooping{}.beta0},
+        {"tests", r.levels.tests},
+        {"alpha0", r.levels.alpha0},
+        {"critical_w", r.levels.critical_w},
+        {"delta0", r.levels.delta0},
+        {"adjustments", r.adjustments},
+        {"removed", removed},
+        {"undecided", undecided},
+        {"removal_limit_reached", r.removal_limit_reached}}},
+      {"gate_failure", run.gate_failure.empty() ? json(nullptr) : json(run.gate_failure)}};
+  return JsonText(doc, 2) + "\n";
 }
 
 std::string FormatAdjustedPointsCsv(const std::vector<reduction::PointEstimate>& points) {
@@ -294,8 +528,8 @@ TriangulateRun TriangulateFiles(const TriangulateFilesOptions& options) {
     run.points[pos->second].observations.push_back(static_cast<int>(k));
   }
   reduction::PointOptions point_options;  // no tolerances: no miss or repeat checks
-  point_options.intersection.reject_blunders = options.reject_blunders;
-  point_options.intersection.critical_w = options.critical_w;
+  point_options.intersection.snooping.reject = options.reject_blunders;
+  point_options.intersection.snooping.critical_w = options.critical_w;
   reduction::ReducedPoint reduced;
   for (size_t p = 0; p < run.points.size(); ++p) {
     reduction::IntersectPoint(groups[p], point_options, reduced);

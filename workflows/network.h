@@ -27,8 +27,15 @@ struct OrientFilesOptions {
   // than their a priori sigmas say: a blunder, or sigmas that are not the instrument's) writes
   // nothing and exits 3, naming the largest standardised residuals. 0: no gate.
   double max_sigma0 = 5.0;
+  // Data snooping (reduction/data_snooping.h): false = test and report only (--no-reject);
+  // the adjustment's significance level; readings forced in (--keep): "STATION->POINT"
+  // (its Hz, V and distance), a scale bar "A:B" or a control point's id.
+  bool reject = true;
+  double alpha = reduction::DataSnooping{}.alpha;
+  std::vector<std::string> keep;
   std::string out;         // stations YAML written when set (only from a converged adjustment)
   std::string points_out;  // the adjusted target points CSV, when set
+  std::string json_out;    // the adjustment as JSON, when set (also when a gate fails)
 };
 
 struct OrientRun {
@@ -38,7 +45,13 @@ struct OrientRun {
   // for these readings, and the written sigmas are the a posteriori ones (scaled by σ0).
   double global_test_p = 1.0;
   double sigma_scale = 1.0;  // what the written sigmas were multiplied by
-  std::string gate_failure;  // non-empty: the σ0 gate failed and nothing was written
+  // Non-empty: a gate failed (an observation fails the blunder test and could not be
+  // removed, or σ0 beyond --max-sigma0) and no stations file was written.
+  std::string gate_failure;
+  std::string observations;  // the file, and the line of each of its observations
+  std::vector<int> lines;
+  double alpha = reduction::DataSnooping{}.alpha;  // the snooping's significance level
+  bool reject = true;                               // false: test only (--no-reject)
 };
 
 // The oriented stations with the adjustment's σ0, degrees of freedom and method
@@ -52,8 +65,11 @@ std::vector<reduction::Station> OrientedStations(const reduction::OrientationPro
 // are unknown stations.
 OrientRun OrientFiles(const OrientFilesOptions& options);
 // What `orient` prints: axis errors, the stations with sigmas, variance components, the
-// largest standardised residuals (suspected blunders marked), points left out.
+// observations data snooping removed and those it could not decide, the largest
+// standardised residuals (suspected blunders marked), points left out.
 std::string FormatOrientReport(const OrientRun& run);
+// The --json document: the adjustment, the stations, the data snooping.
+std::string FormatOrientJson(const OrientRun& run);
 
 // The adjusted target points as CSV: coordinates, sigmas, 95 % ellipsoid semi-axes.
 std::string FormatAdjustedPointsCsv(const std::vector<reduction::PointEstimate>& points);
@@ -61,7 +77,7 @@ std::string FormatAdjustedPointsCsv(const std::vector<reduction::PointEstimate>&
 struct TriangulateFilesOptions {
   std::string stations, observations;
   bool reject_blunders = true;
-  double critical_w = reduction::IntersectionOptions{}.critical_w;
+  std::optional<double> critical_w;  // else from the significance level of each point
   bool instrument_errors = true;
   std::string out;  // points CSV written when set
 };

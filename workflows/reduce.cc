@@ -177,7 +177,7 @@ std::vector<ReduceSummary> ReduceSessions(db::Database& database, int64_t sessio
   std::vector<ReduceSummary> out;
   for (int64_t id : sessions) {
     reduction::PointOptions options;
-    options.intersection.reject_blunders = reject_blunders;
+    options.intersection.snooping.reject = reject_blunders;
     options.checks = SessionChecks(database, id);
     out.push_back(ReduceSession(database, id, options));
     spdlog::debug("reduce: session {}: {} points reduced, {} not", id, out.back().reduced,

@@ -343,6 +343,11 @@ TEST(Cli, RepeatedDemosMeasureAnewAndTheNamedSeedRepeatsOne) {
   const auto second = RunArmsig("--db '" + dir.File("lab.db") + "' " + demo);
   ASSERT_EQ(second.exit_code, 0) << second.err;
   EXPECT_NE(second.out.find("seed 1986"), std::string::npos) << second.out;
+  // The virtual lab's orientation (real GeoCOM drivers, 0.5″ readings, no blunder): data
+  // snooping removes nothing.
+  for (const auto* night : {&first, &second})
+    EXPECT_NE(night->out.find("no reading removed by data snooping"), std::string::npos)
+        << night->out;
   const auto again = RunArmsig("--db '" + dir.File("again.db") + "' " + demo + " --seed 1986");
   ASSERT_EQ(again.exit_code, 0) << again.err;
   auto readings = [](const std::string& path, int session) {

@@ -171,20 +171,38 @@ TEST(HostileCli, OrientAdjustsRepeatedSightingsAndPoleBlundersWithoutNaN) {
     TempDir dir;
     const bool blunder = file != "orient-duplicate-datum-sighting.csv";
     if (blunder) {
-      // σ0 in the thousands: the gate refuses to write stations a blunder distorts, and
-      // names the blunder (the largest standardised residual) as the observation to fix.
-      const auto refused = RunArmsig("orient --observations " + Fault(file) +
-                                     " --scale-bar A:B=1000 --out " + Q(dir.File("st.yaml")));
+      // Tested only (--no-reject): σ0 in the thousands, the gate refuses to write stations a
+      // blunder distorts, and names the blunder (the largest standardised residual).
+      const auto refused =
+          RunArmsig("orient --observations " + Fault(file) + " --scale-bar A:B=1000 --no-reject --out " +
+                    Q(dir.File("st.yaml")));
       EXPECT_EQ(refused.exit_code, 3) << file << "\n" << refused.err << refused.out;
       EXPECT_NE(refused.err.find("sigma0 a posteriori"), std::string::npos) << refused.err;
       EXPECT_NE(refused.err.find("S2->T1"), std::string::npos) << refused.err;
       EXPECT_NE(refused.err.find("nothing was written"), std::string::npos) << refused.err;
       EXPECT_FALSE(std::filesystem::exists(dir.File("st.yaml")));
       ExpectNoCeresLog(refused);
+      // Snooping sets the reading (Hz, V at the pole) aside and names it. At the zenith the
+      // distance goes too; at the nadir it cannot be told from the one scale bar (the only
+      // other scale), so it is said and nothing is written.
+      const auto snooped = RunArmsig("orient --observations " + Fault(file) +
+                                     " --scale-bar A:B=1000 --out " + Q(dir.File("st.yaml")));
+      EXPECT_NE(snooped.out.find("removed as blunders"), std::string::npos) << snooped.out;
+      EXPECT_NE(snooped.out.find("Hz S2->T1"), std::string::npos) << snooped.out;
+      EXPECT_NE(snooped.out.find("V S2->T1"), std::string::npos) << snooped.out;
+      if (snooped.exit_code == 3) {
+        EXPECT_NE(snooped.err.find("could not be removed"), std::string::npos) << snooped.err;
+        EXPECT_NE(snooped.err.find("distance S2->T1"), std::string::npos) << snooped.err;
+        EXPECT_FALSE(std::filesystem::exists(dir.File("st.yaml")));
+      } else {
+        EXPECT_EQ(snooped.exit_code, 0) << file << "\n" << snooped.err;
+        EXPECT_NE(snooped.out.find("distance S2->T1"), std::string::npos) << snooped.out;
+      }
+      ExpectNoCeresLog(snooped);
     }
-    // Accepted as it is (--max-sigma0 0: no gate), it is adjusted without NaN.
+    // Accepted as it is (--no-reject --max-sigma0 0: no gate), it is adjusted without NaN.
     const auto r = RunArmsig("orient --observations " + Fault(file) + " --scale-bar A:B=1000 " +
-                             (blunder ? "--max-sigma0 0 " : "") + "--out " +
+                             (blunder ? "--no-reject --max-sigma0 0 " : "") + "--out " +
                              Q(dir.File("st.yaml")));
     ASSERT_EQ(r.exit_code, 0) << file << "\n" << r.err << r.out;
     ExpectNoCeresLog(r);

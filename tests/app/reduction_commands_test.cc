@@ -6,6 +6,8 @@
 #include <Eigen/Geometry>
 #include <filesystem>
 #include <fstream>
+#include <nlohmann/json.hpp>
+#include <sstream>
 
 #include "core/units.h"
 #include "db/database.h"
@@ -122,6 +124,101 @@ TEST(OrientCommand, TrackerSetUpFromControlPointsThroughTheCommandLine) {
   EXPECT_EQ(refused.exit_code, 2) << refused.err;
   EXPECT_NE(refused.err.find("LT1"), std::string::npos) << refused.err;
   EXPECT_FALSE(std::filesystem::exists(dir.File("st.yaml")));
+}
+
+namespace {
+
+// K06's observations with `delta` added to column `column` (2 hz_gon, 3 v_gon) of the line of
+// `station`'s sighting of `point`.
+std::string K06With(const std::vector<std::tuple<std::string, std::string, int, double>>& plants) {
+  std::ifstream in(DataPath("networks/k06/observations.csv"));
+  std::string text, line;
+  while (std::getline(in, line)) {
+    for (const auto& [station, point, column, delta] : plants) {
+      if (line.rfind(point + "," + station + ",", 0) != 0) continue;
+      std::vector<std::string> fields;
+      std::stringstream split(line);
+      for (std::string f; std::getline(split, f, ',');) fields.push_back(f);
+      fields[column] = fmt::format("{:.5f}", std::stod(fields[column]) + delta);
+      line.clear();
+      for (size_t k = 0; k < fields.size(); ++k) line += (k ? "," : "") + fields[k];
+    }
+    text += line + "\n";
+  }
+  return text;
+}
+
+std::string K06Bars() {
+  std::string bars;
+  std::ifstream in(DataPath("networks/k06/scale_bars.txt"));
+  for (std::string line; std::getline(in, line);) bars += " --scale-bar " + line;
+  return bars + " --scale-bar-sigma-mm 0.005";
+}
+
+}  // namespace
+
+// The three cases, as a metrologist would meet them: each planted reading is
+// removed and named (report, stations file, JSON), the stations are written (exit 0) within
+// 5 µm and 0.5″ of the clean ones; tested only (--no-reject) they are as before.
+TEST(OrientCommand, K06BlundersAreRemovedNamedAndTheStationsWritten) {
+  TempDir dir;
+  const std::string bars = K06Bars();
+  auto orient = [&](const std::string& obs, const std::string& extra) {
+    return RunArmsig("orient --observations '" + obs + "'" + bars + " --out '" +
+                     dir.File("st.yaml") + "' --json '" + dir.File("st.json") + "'" + extra);
+  };
+  WriteText(dir.File("clean.csv"), K06With({}));
+  ASSERT_EQ(orient(dir.File("clean.csv"), "").exit_code, 0);
+  const auto clean = io::ReadStationsYaml(dir.File("st.yaml"));
+  const std::vector<std::pair<std::string, std::vector<std::tuple<std::string, std::string, int, double>>>>
+      cases = {{"Hz 1->202 +0.1 gon", {{"1", "202", 2, 0.1}}},
+               {"Hz 1->202 +0.02 gon, V 2->204 +0.01 gon", {{"1", "202", 2, 0.02}, {"2", "204", 3, 0.01}}},
+               {"Hz 1->202 +1 gon", {{"1", "202", 2, 1.0}}}};
+  for (const auto& [name, plants] : cases) {
+    std::filesystem::remove(dir.File("st.yaml"));
+    WriteText(dir.File("obs.csv"), K06With(plants));
+    const auto r = orient(dir.File("obs.csv"), "");
+    ASSERT_EQ(r.exit_code, 0) << name << "\n" << r.err;
+    const auto stations = io::ReadStationsYaml(dir.File("st.yaml"));
+    const std::string yaml = ReadText(dir.File("st.yaml"));
+    const auto json = nlohmann::json::parse(ReadText(dir.File("st.json")));
+    for (const auto& [station, point, column, delta] : plants) {
+      const std::string kind = column == 2 ? "Hz" : "V";
+      EXPECT_NE(r.out.find(kind + " " + station + "->" + point), std::string::npos) << r.out;
+      EXPECT_NE(yaml.find(fmt::format("{{station: \"{}\", point: \"{}\", kind: {}", station, point,
+                                      column == 2 ? "hz" : "v")),
+                std::string::npos)
+          << yaml;
+      bool in_json = false;
+      for (const auto& m : json["snooping"]["removed"])
+        in_json |= m["station"] == station && m["point"] == point &&
+                   m["kind"] == (column == 2 ? "hz" : "v");
+      EXPECT_TRUE(in_json) << json.dump(2);
+    }
+    for (size_t s = 0; s < clean.size(); ++s) {
+      EXPECT_LT((stations[s].pose.position_mm - clean[s].pose.position_mm).norm(), 0.0055) << name;
+      EXPECT_LT(std::abs(WrapPi(stations[s].pose.azimuth_rad - clean[s].pose.azimuth_rad)),
+                0.5 * kRadPerArcsec)
+          << name;
+    }
+  }
+  // Tested only: nothing removed. The 1-gon reading is refused by the σ0 gate as before.
+  WriteText(dir.File("obs.csv"), K06With({{"1", "202", 2, 1.0}}));
+  const auto tested = orient(dir.File("obs.csv"), " --no-reject");
+  EXPECT_EQ(tested.exit_code, 3) << tested.err;
+  EXPECT_NE(tested.err.find("Hz         1->202"), std::string::npos) << tested.err;
+  const auto json = nlohmann::json::parse(ReadText(dir.File("st.json")));
+  EXPECT_TRUE(json["snooping"]["removed"].empty());
+  EXPECT_FALSE(json["gate_failure"].is_null());
+  // Kept in by the user, who vouches for it: never removed; what contradicts it goes instead
+  // (here 202's other readings, until the kept one is all that places 202).
+  const auto kept = orient(dir.File("obs.csv"), " --keep '1->202'");
+  EXPECT_EQ(kept.exit_code, 0) << kept.err;
+  for (const auto& m : nlohmann::json::parse(ReadText(dir.File("st.json")))["snooping"]["removed"])
+    EXPECT_FALSE(m["station"] == "1" && m["point"] == "202") << m.dump();
+  const auto unknown = orient(dir.File("obs.csv"), " --keep '1->999'");
+  EXPECT_EQ(unknown.exit_code, 2);
+  EXPECT_NE(unknown.err.find("--keep '1->999': no such sighting"), std::string::npos) << unknown.err;
 }
 
 TEST(TriangulateCommand, MalformedAngleNamesLineAndColumn) {

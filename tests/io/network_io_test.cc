@@ -93,6 +93,38 @@ TEST(StationsYaml, MisspeltKeyIsRefusedWithLineAndSuggestion) {
                "st.yaml:1:1: unknown key 'station' (did you mean 'stations'?)");
 }
 
+// The observations orient's data snooping removed travel with the stations: written after
+// them, read back (checked) with them.
+TEST(StationsYaml, RemovedObservationsAreWrittenAndReadBack) {
+  reduction::Station a;
+  a.pose.id = "1";
+  reduction::RemovedObservation hz;
+  hz.kind = reduction::ResidualReport::Kind::kHz;
+  hz.station = "1";
+  hz.point = "202";
+  hz.error = 328.6;
+  hz.w = -63.85;
+  hz.line = 4;
+  reduction::RemovedObservation bar;
+  bar.kind = reduction::ResidualReport::Kind::kScaleBar;
+  bar.point = "2007:2046";
+  bar.error = 0.47;
+  bar.w = -8.3;
+  const std::string text = FormatStationsYaml({a}, "", {hz, bar});
+  EXPECT_NE(text.find("removed_observations:\n  - {station: \"1\", point: \"202\", kind: hz, "
+                      "error_arcsec: 328.6, w: -63.85, line: 4}\n  - {point: \"2007:2046\", kind: "
+                      "scale_bar, error_mm: 0.47, w: -8.3}"),
+            std::string::npos)
+      << text;
+  EXPECT_EQ(ParseStationsYaml(text, "st.yaml").size(), 1u);
+  EXPECT_EQ(FormatStationsYaml({a}, "").find("removed_observations"), std::string::npos);
+  const InputError e = StationsRefusal(
+      "stations:\n  - {id: A, position_mm: [0, 0, 0], azimuth_gon: 0}\n"
+      "removed_observations:\n  - {point: P, kind: hz, wrong: 1}\n");
+  EXPECT_NE(std::string(e.what()).find("st.yaml:4:"), std::string::npos) << e.what();
+  EXPECT_NE(std::string(e.what()).find("unknown key 'wrong'"), std::string::npos) << e.what();
+}
+
 TEST(StationsYaml, RefusesWhatIsNotAStationSetUp) {
   const std::string head = "stations:\n  - {id: A, position_mm: [0, 0, 0], azimuth_gon: 1}\n";
   {

@@ -21,7 +21,7 @@ TEST(Intersection, ErrorIsConsistentWithPropagatedPrecision) {
   IntersectionResult r;
   // Data snooping at α0 = 0.1 % per observation would reject ~24 clean rays here.
   IntersectionOptions keep_all;
-  keep_all.reject_blunders = false;
+  keep_all.snooping.reject = false;
   for (int k = 0; k < n; ++k) {
     const Eigen::Vector3d truth = lab.RandomTarget();
     const Ray rays[3] = {lab.RayTo(0, truth), lab.RayTo(1, truth), lab.RayTo(2, truth)};
@@ -40,7 +40,7 @@ TEST(Intersection, SigmaZeroAPosterioriMatchesTheNoise) {
   double sum_sq = 0.0;
   int dof = 0;
   IntersectionOptions keep_all;
-  keep_all.reject_blunders = false;
+  keep_all.snooping.reject = false;
   for (int k = 0; k < 2000; ++k) {
     const Eigen::Vector3d truth = lab.RandomTarget();
     const Ray rays[3] = {lab.RayTo(0, truth), lab.RayTo(1, truth), lab.RayTo(2, truth)};
@@ -117,7 +117,7 @@ TEST(Intersection, DistancesGivePointsAloneAndCombineWithAngles) {
     EXPECT_LT((a.position_mm - truth).norm(), 0.1);
     const Ray mixed[3] = {tracker, lab.RayTo(1, truth), lab.RayTo(2, truth)};
     IntersectionOptions keep_all;
-    keep_all.reject_blunders = false;
+    keep_all.snooping.reject = false;
     const auto m = Intersect(mixed, keep_all);
     const Eigen::Vector3d e = m.position_mm - truth;
     chi2 += e.dot(m.covariance_mm2.inverse() * e) / n;

@@ -145,20 +145,31 @@ TEST(Orientation, LaserTrackerDistancesGiveTheScaleWithoutBars) {
   EXPECT_TRUE(has_distance_group);
 }
 
-TEST(Orientation, PlantedBlunderStandsOutInTheResiduals) {
+TEST(Orientation, PlantedBlunderStandsOutInTheResidualsAndIsRemoved) {
   SimLab lab(3, 8);
   std::vector<Eigen::Vector3d> bars;
   auto problem = MutualLab(lab, bars);
-  problem.observations[20].reading.hz_rad += 25.0 * kRadPerArcsec;
-  const auto r = Orient(problem);
-  ASSERT_TRUE(r.status.ok());
+  problem.observations[20].reading.hz_rad += 25.0 * kRadPerArcsec;  // 50 σ
+  OrientationOptions test_only;
+  test_only.snooping.reject = false;
+  const auto tested = Orient(problem, test_only);
+  ASSERT_TRUE(tested.status.ok());
   const ResidualReport* worst = nullptr;
-  for (const auto& res : r.residuals) {
+  for (const auto& res : tested.residuals) {
     if (!worst || std::abs(res.w) > std::abs(worst->w)) worst = &res;
   }
   EXPECT_EQ(worst->observation, 20);
   EXPECT_EQ(worst->kind, ResidualReport::Kind::kHz);
-  EXPECT_GT(std::abs(worst->w), 3.29);
+  EXPECT_GT(std::abs(worst->w), tested.levels.critical_w);
+  EXPECT_TRUE(tested.removed.empty());
+  // Snooping removes it, and only it; its estimated error is the planted 25″.
+  const auto r = Orient(problem);
+  ASSERT_TRUE(r.status.ok());
+  ASSERT_EQ(r.removed.size(), 1u);
+  EXPECT_EQ(r.removed[0].observation, 20);
+  EXPECT_EQ(r.removed[0].kind, ResidualReport::Kind::kHz);
+  EXPECT_NEAR(r.removed[0].error, 25.0, 2.0);  // ± a few σ of 0.5″
+  EXPECT_EQ(r.dof, tested.dof - 1);
 }
 
 TEST(Orientation, RefusesANetworkWithoutScale) {

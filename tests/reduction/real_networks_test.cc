@@ -50,7 +50,7 @@ std::map<std::string, IntersectionResult> TriangulateAll(const std::string& netw
     rays[o.point].push_back(RayOf(o, *by_id.at(o.station), InstrumentDefaults{}));
   }
   IntersectionOptions options;
-  options.reject_blunders = false;  // the sources kept every ray
+  options.snooping.reject = false;  // the sources kept every ray
   std::map<std::string, IntersectionResult> out;
   for (const auto& [id, list] : rays) out[id] = Intersect(list, options);
   return out;

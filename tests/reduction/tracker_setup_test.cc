@@ -46,7 +46,11 @@ struct SetUpError {
 
 // One trial: a tracker (levelled or tilted by `tilt_rad`) 2.5–3.5 m from `count` control
 // points in a 2 m volume, the control coordinates known to 0.02 mm (weighted).
-SetUpError TrackerFromControlPoints(unsigned seed, int count, double tilt_rad) {
+struct ControlSetUp {
+  Station truth;
+  OrientationProblem problem;
+};
+ControlSetUp MakeControlSetUp(unsigned seed, int count, double tilt_rad) {
   std::mt19937 rng(seed);
   std::uniform_real_distribution<double> u(-1.0, 1.0);
   Station truth;
@@ -77,6 +81,11 @@ SetUpError TrackerFromControlPoints(unsigned seed, int count, double tilt_rad) {
     c.sigma_mm = Eigen::Vector3d::Constant(control_sigma);
     p.control.push_back(c);
   }
+  return {truth, p};
+}
+
+SetUpError TrackerFromControlPoints(unsigned seed, int count, double tilt_rad) {
+  const auto [truth, p] = MakeControlSetUp(seed, count, tilt_rad);
   const OrientationResult r = Orient(p);
   EXPECT_TRUE(r.status.ok()) << r.status.message << (r.refusals.empty() ? "" : r.refusals[0]);
   SetUpError e;
@@ -213,6 +222,43 @@ TEST(PolarChecks, CovarianceLargestSigmaAndDisagreementAgreeWithDirectComputatio
   const Eigen::Vector3d delta = 0.05 * eig.eigenvectors().col(1);
   EXPECT_NEAR(NormalisedDisagreement(PolarPoint(r, d) + delta, c, PolarPoint(r, d), c),
               0.05 / std::sqrt(2.0 * eig.eigenvalues()(1)), 1e-9);
+}
+
+}  // namespace armsig::reduction
+
+namespace armsig::reduction {
+
+// The set-up is the orientation, and snoops as it does (reduction/data_snooping.h): a wrong
+// distance, a mis-pointed reading or a control point typed 5 mm off is removed, named, and
+// the pose comes back within its sigmas.
+TEST(TrackerSetUp, ABlunderInItsReadingsOrItsControlIsRemovedAndNamed) {
+  using Kind = ResidualReport::Kind;
+  for (int blunder = 0; blunder < 3; ++blunder) {
+    auto [truth, p] = MakeControlSetUp(31 + blunder, 6, 0.3);
+    Kind kind = Kind::kDistance;
+    if (blunder == 0) *p.observations[2].distance_mm += 2.0;  // 100 σ
+    if (blunder == 1) {
+      p.observations[2].reading.hz_rad += 0.01;  // 0.64 gon
+      kind = Kind::kHz;
+    }
+    if (blunder == 2) {
+      p.control[2].position_mm.x() += 5.0;
+      kind = Kind::kControl;
+    }
+    const OrientationResult r = Orient(p);
+    ASSERT_TRUE(r.status.ok()) << r.status.message;
+    ASSERT_FALSE(r.removed.empty()) << blunder;
+    EXPECT_EQ(r.removed[0].kind, kind) << blunder;
+    EXPECT_EQ(r.removed[0].observation, 2) << blunder;
+    EXPECT_TRUE(r.undecided.empty()) << blunder;
+    const Station& s = r.stations[0];
+    const Eigen::Vector3d z =
+        (s.pose.position_mm - truth.pose.position_mm).cwiseQuotient(s.sigma_position_mm);
+    EXPECT_LT(z.cwiseAbs().maxCoeff(), 4.5) << blunder;
+    const Eigen::AngleAxisd error(s.pose.world_from_station.transpose() *
+                                  truth.pose.world_from_station);
+    EXPECT_LT(error.angle(), 4.5 * s.sigma_rotation_rad.norm()) << blunder;
+  }
 }
 
 }  // namespace armsig::reduction

@@ -79,6 +79,29 @@ TEST(OrientFiles, K06WithScaleBarsReproducesComp3DAndWritesReadableStations) {
   EXPECT_EQ(io::ReadCsvFile(t.out).rows().size(), 54u);
 }
 
+// An observation that fails the blunder test and cannot be removed (the nadir reading's
+// distance and the only scale bar, which the data cannot tell apart) is a gate: no stations
+// file, the JSON says why.
+TEST(OrientFiles, AnUndecidedBlunderWritesNoStations) {
+  TempDir dir;
+  OrientFilesOptions o;
+  o.observations = DataPath("faults/orient-nadir-blunder.csv");
+  o.scale_bars = {"A:B=1000"};
+  o.out = dir.File("st.yaml");
+  o.json_out = dir.File("st.json");
+  const OrientRun run = OrientFiles(o);
+  ASSERT_TRUE(run.result.status.ok()) << run.result.status.message;
+  ASSERT_FALSE(run.result.undecided.empty());
+  EXPECT_NE(run.gate_failure.find("could not be removed"), std::string::npos) << run.gate_failure;
+  EXPECT_NE(run.gate_failure.find("distance S2->T1"), std::string::npos) << run.gate_failure;
+  EXPECT_FALSE(std::filesystem::exists(o.out));
+  const std::string json = testing::ReadText(o.json_out);
+  EXPECT_NE(json.find("\"gate_failure\": \"observations fail the blunder test"), std::string::npos)
+      << json;
+  const std::string report = FormatOrientReport(run);
+  EXPECT_NE(report.find("NOT removed: distance S2->T1"), std::string::npos) << report;
+}
+
 TEST(OrientFiles, NetworkWithoutScaleIsRefusedAndNothingWritten) {
   TempDir dir;
   // k06's angles without its 11 slope distances and without the scale bars: no scale.
