@@ -11,6 +11,7 @@
 #include <unistd.h>
 
 #include <chrono>
+#include <cstdio>
 #include <nlohmann/json.hpp>
 
 #include "calibration/simulation.h"
@@ -50,6 +51,7 @@ class SilentListener {
 
 // The binary with `args`, its stdout and stderr into files; the child's pid.
 pid_t Spawn(const std::vector<std::string>& args, const std::string& out, const std::string& err) {
+  std::fflush(nullptr);  // nothing buffered is written twice
   const pid_t pid = ::fork();
   if (pid == 0) {
     const int o = ::open(out.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
