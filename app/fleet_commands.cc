@@ -20,8 +20,8 @@ namespace armsig::app {
 namespace {
 
 constexpr char kQueueHelp[] =
-    "Where the queue lives: a postgresql:// URI or key/value string (credentials from libpq's environment, "
-    "~/.pgpass or a service file) or a SQLite file (default: the --db file)";
+    "Where the queue lives: a postgresql:// URI or key/value string (credentials from libpq's "
+    "environment, ~/.pgpass or a service file) or a SQLite file (default: the --db file)";
 
 struct ScheduleCommand {
   workflows::ScheduleOptions options;
@@ -64,9 +64,7 @@ nlohmann::json JobJson(const db::Job& j) {
   return out;
 }
 
-std::string QueueName(const std::string& queue) {
-  return db::StoreName(queue);
-}
+std::string QueueName(const std::string& queue) { return db::StoreName(queue); }
 
 int RunSchedule(ScheduleCommand c, const GlobalOptions& global) {
   c.options.store_db = global.DbPath();

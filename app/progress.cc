@@ -29,9 +29,9 @@ io::ReadProgressFn TerminalReadProgress() {
     if (done && !state->shown) return;  // a short read: nothing to show
     state->last = now;
     state->shown = true;
-    const double percent = p.total_bytes ? 100.0 * static_cast<double>(p.bytes) /
-                                               static_cast<double>(p.total_bytes)
-                                         : 100.0;
+    const double percent =
+        p.total_bytes ? 100.0 * static_cast<double>(p.bytes) / static_cast<double>(p.total_bytes)
+                      : 100.0;
     std::fprintf(stderr, "\r%s: %3.0f%% (%.0f of %.0f MB, %lld rows)%s",
                  Printable(p.source).c_str(), percent, p.bytes / 1e6, p.total_bytes / 1e6,
                  static_cast<long long>(p.rows), done ? "\n" : "");

@@ -87,8 +87,7 @@ bool Release(Connection& connection, int64_t id, const std::string& worker);
 // Hands a claimed job back after an infrastructure fault interrupted its attempt (its store
 // went away; workflows/worker.h): queued again, the attempt not counted, `why` in the error
 // column until the next claim. False when not ours.
-bool Requeue(Connection& connection, int64_t id, const std::string& worker,
-             const std::string& why);
+bool Requeue(Connection& connection, int64_t id, const std::string& worker, const std::string& why);
 
 // Every job, oldest first (at most `limit`, the newest of them, when limit > 0).
 std::vector<Job> ListJobs(Connection& connection, int limit = 0);

@@ -25,8 +25,8 @@ bool IsUri(std::string_view text) {
 std::optional<std::string_view> SchemeOf(std::string_view text) {
   if (text.empty() || !std::isalpha(static_cast<unsigned char>(text[0]))) return std::nullopt;
   size_t k = 1;
-  while (k < text.size() && (std::isalnum(static_cast<unsigned char>(text[k])) ||
-                             text[k] == '+' || text[k] == '-' || text[k] == '.'))
+  while (k < text.size() && (std::isalnum(static_cast<unsigned char>(text[k])) || text[k] == '+' ||
+                             text[k] == '-' || text[k] == '.'))
     ++k;
   if (k >= text.size() || text[k] != ':') return std::nullopt;
   return text.substr(0, k);
@@ -247,18 +247,19 @@ void CheckStoreAddress(std::string_view location, std::string_view option) {
                              name + ": " + why);
   }
   if (SetsSecret(options.get())) {
-    Refuse(option, "the database address carries a password (libpq reads one from it); "
-                   "armsig takes credentials only from PGPASSWORD, ~/.pgpass or a service "
-                   "file: " + name);
+    Refuse(option,
+           "the database address carries a password (libpq reads one from it); "
+           "armsig takes credentials only from PGPASSWORD, ~/.pgpass or a service "
+           "file: " +
+               name);
   }
   // Values libpq checks only as it connects, checked here too: a port that is no number.
   for (const PQconninfoOption* o = options.get(); o->keyword; ++o) {
     if (!o->val || std::string_view(o->keyword) != "port") continue;
     for (const char* c = o->val; *c; ++c) {
       if ((*c < '0' || *c > '9') && *c != ',') {
-        Refuse(option, "not a usable PostgreSQL connection " +
-                           std::string(uri ? "URI" : "string") + ": " + name + ": the port '" +
-                           o->val + "' is not a number");
+        Refuse(option, "not a usable PostgreSQL connection " + std::string(uri ? "URI" : "string") +
+                           ": " + name + ": the port '" + o->val + "' is not a number");
       }
     }
   }

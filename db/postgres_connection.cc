@@ -271,10 +271,11 @@ void PostgresConnection::ThrowResult(pg_result* result, std::string_view what) {
     PQfinish(conn_);
     conn_ = nullptr;
   }
-  if (state == "57014") message += " (statement_timeout; options=-c statement_timeout=… in the address sets it)";
-  throw DatabaseError(
-      fmt::format("{}: {} ({}{})", name_, message, what, state.empty() ? "" : ", SQLSTATE " + state),
-      state, Transient(state), lost);
+  if (state == "57014")
+    message += " (statement_timeout; options=-c statement_timeout=… in the address sets it)";
+  throw DatabaseError(fmt::format("{}: {} ({}{})", name_, message, what,
+                                  state.empty() ? "" : ", SQLSTATE " + state),
+                      state, Transient(state), lost);
 }
 
 void PostgresConnection::WaitForSocket(bool write, Clock::time_point deadline,
@@ -320,8 +321,10 @@ pg_result* PostgresConnection::Await(std::string_view what) {
     if (!r) break;
     const auto status = PQresultStatus(r);
     if (status != PGRES_COMMAND_OK && status != PGRES_TUPLES_OK && status != PGRES_EMPTY_QUERY) {
-      if (!error) error.reset(r);  // the first error; the rest of the command did not run
-      else PQclear(r);
+      if (!error)
+        error.reset(r);  // the first error; the rest of the command did not run
+      else
+        PQclear(r);
     } else {
       last.reset(r);
     }

@@ -33,9 +33,9 @@ namespace armsig::db {
 
 // A command's limits on a server (defaults: what most commands need).
 struct ServerTimeouts {
-  int connect_s = 10;          // libpq connect_timeout, unless the address or the environment sets it
-  int statement_ms = 60000;    // statement_timeout
-  int lock_ms = 10000;         // lock_timeout: the same 10 s as SQLite's busy timeout
+  int connect_s = 10;        // libpq connect_timeout, unless the address or the environment sets it
+  int statement_ms = 60000;  // statement_timeout
+  int lock_ms = 10000;       // lock_timeout: the same 10 s as SQLite's busy timeout
 };
 
 class PostgresConnection : public Connection {

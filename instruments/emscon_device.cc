@@ -412,8 +412,9 @@ namespace {
 // σ of a point (mm, root of the summed component variances) from a result's sigmas:
 // spherical (Hz, V in rad, distance in mm) or Cartesian (mm).
 double PointSigmaMm(const es::MeasResult& m, bool spherical, double to_rad) {
-  if (!spherical) return std::sqrt(m.std_dev[0] * m.std_dev[0] + m.std_dev[1] * m.std_dev[1] +
-                                   m.std_dev[2] * m.std_dev[2]);
+  if (!spherical)
+    return std::sqrt(m.std_dev[0] * m.std_dev[0] + m.std_dev[1] * m.std_dev[1] +
+                     m.std_dev[2] * m.std_dev[2]);
   const double d = m.value[2], v = m.value[1] * to_rad;
   const double across = m.std_dev[0] * to_rad * d * std::abs(std::sin(v));
   const double up = m.std_dev[1] * to_rad * d;
@@ -461,9 +462,10 @@ void EmsconDevice::CheckConventionWith(const es::MeasResult& scc, Deadline until
   const double tolerance = std::max(kConventionToleranceMm, 10.0 * sigma);
   if (apart <= tolerance) {
     convention_checked_ = true;
-    spdlog::info("{}: coordinate convention checked: the reflector read as SCC and as RHR "
-                 "agrees ({:.4f} mm apart, tolerance {:.3f} mm)",
-                 name(), apart, tolerance);
+    spdlog::info(
+        "{}: coordinate convention checked: the reflector read as SCC and as RHR "
+        "agrees ({:.4f} mm apart, tolerance {:.3f} mm)",
+        name(), apart, tolerance);
     return;
   }
   const std::string other = OtherReadingThatMatches(s, cartesian, tolerance);
@@ -476,8 +478,8 @@ void EmsconDevice::CheckConventionWith(const es::MeasResult& scc, Deadline until
           "zenith angle), read as Cartesian (RHR) at ({:.3f}, {:.3f}, {:.3f}) mm: {:.3f} mm "
           "apart (tolerance {:.3f} mm). {}The tracker's readings cannot be used: nothing is "
           "measured with it (instruments/EMSCON.md §7)",
-          s.hz_rad, s.v_rad, s.distance_mm, from_scc.x(), from_scc.y(), from_scc.z(),
-          cartesian.x(), cartesian.y(), cartesian.z(), apart, tolerance,
+          s.hz_rad, s.v_rad, s.distance_mm, from_scc.x(), from_scc.y(), from_scc.z(), cartesian.x(),
+          cartesian.y(), cartesian.z(), apart, tolerance,
           other.empty() ? std::string()
                         : "The two agree if the SCC values are read with " + other + ". "));
 }

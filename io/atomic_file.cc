@@ -193,8 +193,7 @@ InputFile::InputFile(const std::string& path, FileLimit limit) : path_(path), li
   if (size_ > limit.max_bytes) {
     ::close(fd_);
     throw InputError({path, 0, 0, ""}, "is larger than " + std::string(limit.format) +
-                                           " armsig reads (at most " + Size(limit.max_bytes) +
-                                           ")");
+                                           " armsig reads (at most " + Size(limit.max_bytes) + ")");
   }
 }
 
@@ -211,8 +210,8 @@ std::size_t InputFile::Read(char* buffer, std::size_t size) {
     read_ += static_cast<std::size_t>(n);
     if (read_ > limit_.max_bytes) {  // it grew while read
       throw InputError({path_, 0, 0, ""}, "is larger than " + std::string(limit_.format) +
-                                              " armsig reads (at most " +
-                                              Size(limit_.max_bytes) + ")");
+                                              " armsig reads (at most " + Size(limit_.max_bytes) +
+                                              ")");
     }
     return static_cast<std::size_t>(n);
   }

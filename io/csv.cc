@@ -141,9 +141,8 @@ enum class Scan { kRecord, kEnd, kMore };
 // record runs into the end of `text` and more may follow (`at_eof` false): nothing moved,
 // the caller appends more text and scans again from the same place. `delimiter` '\0' is
 // guessed from the header line (the first record).
-Scan ScanRecord(std::string_view text, bool at_eof, std::size_t& pos, int& line_no,
-                char& delimiter, const CsvOptions& options, const std::string& source,
-                CsvRow& row) {
+Scan ScanRecord(std::string_view text, bool at_eof, std::size_t& pos, int& line_no, char& delimiter,
+                const CsvOptions& options, const std::string& source, CsvRow& row) {
   std::size_t i = pos;
   int line = line_no;
   // Blank lines and comments at record start.
@@ -262,8 +261,8 @@ CsvTable ParseCsv(std::string_view text, std::string source, CsvOptions options)
   std::size_t i = 0;
   int line = 1;
   char delimiter = options.delimiter;
-  for (CsvRow row; ScanRecord(text, true, i, line, delimiter, options, source, row) ==
-                   Scan::kRecord;) {
+  for (CsvRow row;
+       ScanRecord(text, true, i, line, delimiter, options, source, row) == Scan::kRecord;) {
     records.push_back(std::move(row));
   }
   if (records.empty()) throw InputError({source, 0, 0, ""}, kEmptyFile);
@@ -310,8 +309,7 @@ bool CsvReader::Fill() {
   at_ = 0;
   if (buffer_.size() > kMaxCsvRecordBytes) {
     int line = line_;  // the record's: past the line ends before it
-    for (std::size_t k = 0; k < buffer_.size() && (buffer_[k] == '\n' || buffer_[k] == '\r');
-         ++k) {
+    for (std::size_t k = 0; k < buffer_.size() && (buffer_[k] == '\n' || buffer_[k] == '\r'); ++k) {
       if (buffer_[k] == '\n' || k + 1 >= buffer_.size() || buffer_[k + 1] != '\n') ++line;
     }
     throw InputError({file_->path(), line, 0, ""},
@@ -337,8 +335,7 @@ bool CsvReader::NextRecord(CsvRow& row, bool header_done) {
     std::size_t i = at_;
     int line = line_;
     char delimiter = delimiter_;
-    const Scan scan = ScanRecord(buffer_, eof_, i, line, delimiter,
-                                 requested_, file_->path(), row);
+    const Scan scan = ScanRecord(buffer_, eof_, i, line, delimiter, requested_, file_->path(), row);
     if (scan == Scan::kMore) {
       Fill();
       continue;
@@ -366,8 +363,8 @@ CsvColumns::CsvColumns(std::string source, std::vector<std::string> header, CsvO
   SetHeader(std::move(source), std::move(header), options, header_line);
 }
 
-void CsvColumns::SetHeader(std::string source, std::vector<std::string> header,
-                           CsvOptions options, int header_line) {
+void CsvColumns::SetHeader(std::string source, std::vector<std::string> header, CsvOptions options,
+                           int header_line) {
   source_ = std::move(source);
   header_ = std::move(header);
   options_ = options;
@@ -481,7 +478,7 @@ std::optional<double> CsvColumns::OptionalNumber(const CsvRow& row, int column) 
 }
 
 double CsvColumns::Number(const CsvRow& row, int column, plausible::Quantity quantity,
-                        plausible::Unit unit) const {
+                          plausible::Unit unit) const {
   const double value = Number(row, column);
   if (auto why = plausible::Check(quantity, value, unit))
     throw InputError(Where(row, column), *why);
@@ -489,14 +486,14 @@ double CsvColumns::Number(const CsvRow& row, int column, plausible::Quantity qua
 }
 
 std::optional<double> CsvColumns::OptionalNumber(const CsvRow& row, int column,
-                                               plausible::Quantity quantity,
-                                               plausible::Unit unit) const {
+                                                 plausible::Quantity quantity,
+                                                 plausible::Unit unit) const {
   if (Trim(row.fields.at(column)).empty()) return std::nullopt;
   return Number(row, column, quantity, unit);
 }
 
 double CsvColumns::AngleRad(const CsvRow& row, const AngleColumn& column,
-                          plausible::Quantity quantity) const {
+                            plausible::Quantity quantity) const {
   return Number(row, column.index, quantity, plausible::UnitOf(column.unit));
 }
 

@@ -153,7 +153,7 @@ class CsvReader : public CsvColumns {
   std::unique_ptr<InputFile> file_;
   CsvOptions requested_;
   std::string buffer_;
-  std::size_t at_ = 0;       // the next record's first byte in buffer_
+  std::size_t at_ = 0;        // the next record's first byte in buffer_
   std::size_t consumed_ = 0;  // bytes of the file before buffer_
   int line_ = 1;
   char delimiter_ = '\0';

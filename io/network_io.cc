@@ -18,8 +18,8 @@
 namespace armsig::io {
 
 std::vector<reduction::Observation> ReadObservationsCsv(const std::string& path,
-                                                       std::vector<std::string>* pose_labels,
-                                                       ReadProgressFn progress) {
+                                                        std::vector<std::string>* pose_labels,
+                                                        ReadProgressFn progress) {
   CsvReader t(path, {}, std::move(progress));
   t.RefuseUnreadUnits({"point", "station", "hz_*", "v_*", "face", "distance_mm", "sigma_hz_arcsec",
                        "sigma_v_arcsec", "sigma_distance_mm"});

@@ -5,10 +5,10 @@
 #include <string>
 #include <vector>
 
+#include "io/csv.h"
 #include "io/yaml_reader.h"
 #include "reduction/intersection.h"
 #include "reduction/network.h"
-#include "io/csv.h"
 #include "reduction/orientation.h"
 
 namespace armsig::io {

@@ -76,8 +76,8 @@ Eigen::Vector3d PointOf(double hz, double v, double d, int32_t type,
     case SphericalConvention::kClockwiseFromY:
       return es::PointFromSpherical({hz, v, d});
     case SphericalConvention::kElevation:
-      return d * Eigen::Vector3d(std::cos(v) * std::cos(hz), std::cos(v) * std::sin(hz),
-                                 std::sin(v));
+      return d *
+             Eigen::Vector3d(std::cos(v) * std::cos(hz), std::cos(v) * std::sin(hz), std::sin(v));
     case SphericalConvention::kPublic:
       break;
   }

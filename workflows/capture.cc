@@ -118,11 +118,12 @@ void ProbeDevices(const acquisition::LabConfig& lab,
           fmt::format("station {}: {}; nothing was stored", config.station, e.what()));
     } catch (const instruments::InstrumentError& e) {
       if (stop && *stop) throw;
-      spdlog::info("capture: station {}: {}; the tracker's coordinate convention is checked "
-                   "with its first reading",
-                   config.station,
-                   beam->ReflectorLost(e.code()) ? "no reflector in the beam yet"
-                                                 : "no reading yet (" + std::string(e.what()) + ")");
+      spdlog::info(
+          "capture: station {}: {}; the tracker's coordinate convention is checked "
+          "with its first reading",
+          config.station,
+          beam->ReflectorLost(e.code()) ? "no reflector in the beam yet"
+                                        : "no reading yet (" + std::string(e.what()) + ")");
     }
   }
   try {

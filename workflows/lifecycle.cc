@@ -105,10 +105,10 @@ PosesSessionWriter::PosesSessionWriter(db::Database& database, const std::string
 
 void PosesSessionWriter::Add(const MeasuredPose& pose, const Eigen::Matrix3d* covariance_mm2) {
   if (pose.joints_rad.size() != num_joints_) {
-    throw InputError({source_, 0, 0, ""},
-                     "pose " + pose.id + " has " + std::to_string(pose.joints_rad.size()) +
-                         " joints; robot " + robot_ + "'s model " + model_name_ + " has " +
-                         std::to_string(num_joints_));
+    throw InputError({source_, 0, 0, ""}, "pose " + pose.id + " has " +
+                                              std::to_string(pose.joints_rad.size()) +
+                                              " joints; robot " + robot_ + "'s model " +
+                                              model_name_ + " has " + std::to_string(num_joints_));
   }
   const int64_t pose_id = db::InsertPose(database_, session_, static_cast<int>(count_), pose.id,
                                          pose.joints_rad, "measured", 1);
@@ -135,16 +135,18 @@ StoredPoses PosesSessionWriter::Finish(bool allow_duplicate) {
     spdlog::trace("import poses: session {} ({} poses): digest {}", s.id, s.measured, digest);
     if (digest != result.digest) continue;
     if (allow_duplicate) {
-      spdlog::warn("import poses: session {} already holds these {} poses; storing them again "
-                   "(--allow-duplicate)",
-                   s.id, count_);
+      spdlog::warn(
+          "import poses: session {} already holds these {} poses; storing them again "
+          "(--allow-duplicate)",
+          s.id, count_);
       break;
     }
     result.session = s.id;
     result.duplicate = true;
-    spdlog::info("import poses: robot {}: these {} poses are already stored as session {}; "
-                 "nothing stored (--allow-duplicate stores them again)",
-                 robot_, count_, s.id);
+    spdlog::info(
+        "import poses: robot {}: these {} poses are already stored as session {}; "
+        "nothing stored (--allow-duplicate stores them again)",
+        robot_, count_, s.id);
     return result;  // the transaction rolls back: nothing of this import stays
   }
   tx_.commit();

@@ -113,8 +113,7 @@ ImportObservationsResult ImportObservations(db::Database& database,
   const auto stations = io::ReadStationsYaml(options.stations);
   // The optional pose column groups rows into robot configurations.
   std::vector<std::string> pose_labels;
-  const auto observations =
-      io::ReadObservationsCsv(options.file, &pose_labels, options.progress);
+  const auto observations = io::ReadObservationsCsv(options.file, &pose_labels, options.progress);
   const bool pose_column = !pose_labels.empty();
   std::map<std::string, const reduction::Station*> by_id;
   for (const auto& s : stations) by_id[s.pose.id] = &s;

@@ -6,16 +6,16 @@
 
 #include <chrono>
 #include <cmath>
-#include <limits>
 #include <condition_variable>
 #include <exception>
 #include <filesystem>
+#include <limits>
 #include <mutex>
 #include <nlohmann/json.hpp>
 #include <thread>
 
-#include "core/text.h"
 #include "core/error.h"
+#include "core/text.h"
 #include "db/database.h"
 #include "db/postgres_address.h"
 #include "db/robots.h"
@@ -118,8 +118,8 @@ std::vector<Scheduled> Schedule(const ScheduleOptions& options) {
   // A queue apart from the store, on a server, is made there when new; a SQLite file must
   // exist (it is an armsig file: the store, or one made by `db init`).
   const std::string where = options.queue.empty() ? options.store_db : options.queue;
-  QueueConnection queue(where, db::IsPostgresAddress(where) ? db::OpenMode::kCreate
-                                                        : db::OpenMode::kMustExist);
+  QueueConnection queue(
+      where, db::IsPostgresAddress(where) ? db::OpenMode::kCreate : db::OpenMode::kMustExist);
   const std::string json = RecalibrateOptionsToJson(options.recalibrate);
   std::vector<Scheduled> out;
   for (const auto& robot : robots) out.push_back({robot, db::Enqueue(*queue, kKind, robot, json)});
@@ -295,8 +295,10 @@ WorkerSummary RunWorker(const WorkerOptions& options) {
           fmt::format("attempt {} was interrupted by the infrastructure, queued again: {}",
                       job.attempts, outcome.error));
       std::lock_guard lock(mutex);
-      if (ours) ++summary.interrupted;
-      else ++summary.lost;
+      if (ours)
+        ++summary.interrupted;
+      else
+        ++summary.lost;
       spdlog::warn("worker {}: job {} ({}): {}: {}", worker, job.id, job.robot,
                    ours ? "interrupted by the infrastructure, handed back to the queue"
                         : "interrupted, and its lease went to another worker meanwhile",
@@ -319,8 +321,7 @@ WorkerSummary RunWorker(const WorkerOptions& options) {
     if (outcome.state == db::JobState::kRejected) ++summary.rejected;
     if (outcome.state == db::JobState::kFailed) {
       ++summary.failed;
-      spdlog::error("worker {}: job {} ({}) failed: {}", worker, job.id, job.robot,
-                    outcome.error);
+      spdlog::error("worker {}: job {} ({}) failed: {}", worker, job.id, job.robot, outcome.error);
     }
     if (options.on_finished && finished) options.on_finished(*finished);
   };
@@ -384,8 +385,8 @@ WorkerSummary RunWorker(const WorkerOptions& options) {
           unrecorded.reset();
           if (!outcome.interrupted) {
             outage.Over();
-          } else if (!outage.Wait(worker, "the store of job " + std::to_string(job->id) +
-                                              " went away")) {
+          } else if (!outage.Wait(worker,
+                                  "the store of job " + std::to_string(job->id) + " went away")) {
             break;
           }
         } catch (const db::DatabaseError& e) {
@@ -393,9 +394,10 @@ WorkerSummary RunWorker(const WorkerOptions& options) {
           queue.reset();
           if (!outage.Wait(worker, std::string("the queue's server went away: ") + e.what())) {
             if (unrecorded) {
-              spdlog::warn("worker {}: stopped before job {}'s outcome could be recorded; the "
-                           "job is claimable again once its lease expires",
-                           worker, unrecorded->first.id);
+              spdlog::warn(
+                  "worker {}: stopped before job {}'s outcome could be recorded; the "
+                  "job is claimable again once its lease expires",
+                  worker, unrecorded->first.id);
             }
             break;
           }

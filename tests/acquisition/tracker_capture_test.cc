@@ -410,8 +410,8 @@ TEST_F(TrackerLabFixture, ATrackerOfAnotherConventionIsRefusedBeforeAnythingIsSt
   setup.acquire_radius_mm = 0.0;  // the reflector is in the beam at the set-up
   setup.convention = simulation::SphericalConvention::kClockwiseFromY;
   Start(setup);
-  const auto r = testing::RunArmsig("--db '" + Db() + "' capture --lab '" +
-                                    dir_.File("lab.yaml") + "' --plan auto:10 --robot puma");
+  const auto r = testing::RunArmsig("--db '" + Db() + "' capture --lab '" + dir_.File("lab.yaml") +
+                                    "' --plan auto:10 --robot puma");
   EXPECT_EQ(r.exit_code, 1) << r.err << r.out;
   EXPECT_NE(r.err.find("station LT1"), std::string::npos) << r.err;
   EXPECT_NE(r.err.find("coordinate convention self-check failed"), std::string::npos) << r.err;

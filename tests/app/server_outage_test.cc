@@ -138,14 +138,15 @@ TEST(ServerOutage, APollingWorkerRidesOutARestartAndAFrozenServer) {
   const auto server = PostgresServer::StartPrivate();
   Thaw thaw{*server};
   // Short limits in the address: statements 2 s (the client gives up after 3 s), connects 2 s.
-  const std::string uri = server->NewDatabase("outage") +
-                          "&connect_timeout=2&options=-c%20statement_timeout%3D2000";
+  const std::string uri =
+      server->NewDatabase("outage") + "&connect_timeout=2&options=-c%20statement_timeout%3D2000";
   {
     db::Database database(uri);
     AddSession(database, calibration::PaperTable3Parameters(), 60, 5);
   }
   auto schedule = [&] {
-    const auto r = RunArmsig("--db '" + uri + "' schedule recalibrate --robot puma "
+    const auto r = RunArmsig("--db '" + uri +
+                             "' schedule recalibrate --robot puma "
                              "--residual-model off --force");
     ASSERT_EQ(r.exit_code, 0) << r.err;
   };
@@ -213,8 +214,10 @@ TEST(ServerOutage, AStoreOutageUnderASqliteQueueFailsNoJob) {
   }
   const std::string queue = dir.File("queue.db");
   ASSERT_EQ(RunArmsig("--db '" + queue + "' db init").exit_code, 0);
-  auto r = RunArmsig("--db '" + uri + "' schedule recalibrate --robot puma --residual-model off "
-                     "--queue '" + queue + "'");
+  auto r = RunArmsig("--db '" + uri +
+                     "' schedule recalibrate --robot puma --residual-model off "
+                     "--queue '" +
+                     queue + "'");
   ASSERT_EQ(r.exit_code, 0) << r.err;
   server->Stop();
   const std::string out = dir.File("out"), log = dir.File("log");

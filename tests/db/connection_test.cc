@@ -262,9 +262,9 @@ TEST(PostgresAddress, KeyValueStringsAreServerAddressesNeverFiles) {
   EXPECT_FALSE(IsPostgresAddress("/data/lab 1.db"));
   EXPECT_NO_THROW(CheckStoreAddress("host=db.plant dbname=armsig sslmode=require"));
   EXPECT_NO_THROW(CheckStoreAddress("./run=3.db"));
-  for (const char* bad : {"run=3.db", "host=db.plant dbname", "hots=db.plant dbname=x",
-                                 "mysql://db.plant/armsig", "postgresql:/db.plant/armsig",
-                                 "postgresql://[::1/armsig", "host=db port=five dbname=x"}) {
+  for (const char* bad :
+       {"run=3.db", "host=db.plant dbname", "hots=db.plant dbname=x", "mysql://db.plant/armsig",
+        "postgresql:/db.plant/armsig", "postgresql://[::1/armsig", "host=db port=five dbname=x"}) {
     try {
       CheckStoreAddress(bad, "--to");
       ADD_FAILURE() << "accepted " << bad;
@@ -279,8 +279,8 @@ TEST(PostgresAddress, AKeyValueStringOpensTheServersStore) {
   auto& server = testing::PostgresServer::Shared();
   std::string name;
   server.NewDatabase("keyvalue", &name);
-  const std::string address = "host=" + server.socket_dir() + " port=" +
-                              std::to_string(server.port()) + " dbname=" + name +
+  const std::string address = "host=" + server.socket_dir() +
+                              " port=" + std::to_string(server.port()) + " dbname=" + name +
                               " user=" + server.superuser();
   Database store(address);
   EXPECT_EQ(store.backend(), Backend::kPostgres);
@@ -304,8 +304,8 @@ TEST(PostgresTimeouts, EachConnectionRunsUnderItsCommandsLimitsUnlessTheAddressS
   };
   EXPECT_EQ(show(ours, "statement_timeout"), "45000");
   EXPECT_EQ(show(ours, "lock_timeout"), "7000");
-  PostgresConnection theirs(uri + "&options=-c%20statement_timeout%3D1500%20-c%20lock_timeout%3D900",
-                            limits);
+  PostgresConnection theirs(
+      uri + "&options=-c%20statement_timeout%3D1500%20-c%20lock_timeout%3D900", limits);
   EXPECT_TRUE(theirs.timeouts_from_user());
   EXPECT_EQ(theirs.statement_timeout_ms(), 1500);
   EXPECT_EQ(show(theirs, "statement_timeout"), "1500");

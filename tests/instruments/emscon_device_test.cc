@@ -59,8 +59,8 @@ struct FakeTracker {
     if (coordinate_system != es::coordinate_system::kRHR) return es::EncodePacket(result);
     const double rad = *es::RadiansPer(angle_unit);
     const double hz = result.value[0] * rad, v = result.value[1] * rad, d = result.value[2];
-    const Eigen::Vector3d p = wrong_convention ? es::PointFromSpherical({hz, v, d})
-                                               : es::PointFromScc({hz, v, d});
+    const Eigen::Vector3d p =
+        wrong_convention ? es::PointFromSpherical({hz, v, d}) : es::PointFromScc({hz, v, d});
     es::MeasResult cartesian = result;
     cartesian.value = {p.x(), p.y(), p.z()};
     cartesian.std_dev = {0.01, 0.01, 0.01};
@@ -190,10 +190,9 @@ TEST(EmsconDevice, ConnectSetsEveryStateExplicitlyInOrder) {
   rig.tracker.received.clear();
   rig.device->Measure();
   EXPECT_EQ(rig.tracker.Commands(),
-            (std::vector<int32_t>{es::StartMeasurement::kCommand,
-                                  es::SetCoordinateSystemType::kCommand,
-                                  es::StartMeasurement::kCommand,
-                                  es::SetCoordinateSystemType::kCommand}));
+            (std::vector<int32_t>{
+                es::StartMeasurement::kCommand, es::SetCoordinateSystemType::kCommand,
+                es::StartMeasurement::kCommand, es::SetCoordinateSystemType::kCommand}));
   EXPECT_EQ(std::get<es::SetCoordinateSystemType>(rig.tracker.received[1]).type,
             es::coordinate_system::kRHR);
   EXPECT_EQ(std::get<es::SetCoordinateSystemType>(rig.tracker.received[3]).type,

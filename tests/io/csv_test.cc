@@ -220,9 +220,8 @@ TEST(CsvReader, ReadsWhatParseCsvReadsWhateverThePieces) {
 // Its refusals are ParseCsv's, at the same file:line:column.
 TEST(CsvReader, RefusesWhatParseCsvRefusesAtTheSamePlace) {
   testing::TempDir dir;
-  for (const std::string text :
-       {"a,b\n1,2\n3\n", "a,b\n1,\"open\n", "a,a\n1,2\n", "", "# only a comment\n",
-        "a,b\n1,2,5\n"}) {
+  for (const std::string text : {"a,b\n1,2\n3\n", "a,b\n1,\"open\n", "a,a\n1,2\n", "",
+                                 "# only a comment\n", "a,b\n1,2,5\n"}) {
     const std::string path = dir.File("bad.csv");
     testing::WriteText(path, text);
     const std::string whole = Message([&] { ParseCsv(text, path); });

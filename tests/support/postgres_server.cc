@@ -2,19 +2,18 @@
 
 #include <netinet/in.h>
 #include <pwd.h>
+#include <signal.h>
 #include <sys/socket.h>
 #include <sys/wait.h>
 #include <unistd.h>
-
-#include <signal.h>
 
 #include <array>
 #include <atomic>
 #include <cstdio>
 #include <cstdlib>
 #include <filesystem>
-#include <memory>
 #include <fstream>
+#include <memory>
 #include <random>
 #include <sstream>
 #include <stdexcept>
@@ -172,8 +171,8 @@ PostgresServer::PostgresServer(std::string dir, bool attach) {
   Run("cp " + Quote(dir_ + "/pg_hba.conf") + " " + Quote(data + "/pg_hba.conf"));
   StartProcess();
   started_ = true;
-  Psql("postgres", std::string("CREATE ROLE ") + kTlsRole + " LOGIN PASSWORD '" + kTlsPassword +
-                       "'");
+  Psql("postgres",
+       std::string("CREATE ROLE ") + kTlsRole + " LOGIN PASSWORD '" + kTlsPassword + "'");
 }
 
 void PostgresServer::StartProcess() {
