@@ -23,11 +23,12 @@ struct CalibrateOptions {
 int RunCalibrate(const CalibrateOptions& options, const GlobalOptions&) {
   // Read and check every input before computing or writing anything.
   const calibration::RobotModel model = io::LoadRobotModel(options.model);
-  const auto poses = io::ReadPosesCsv(options.poses, model.num_joints(), std::nullopt, TerminalReadProgress());
+  const auto poses =
+      io::ReadPosesCsv(options.poses, model.num_joints(), std::nullopt, TerminalReadProgress());
   std::vector<MeasuredPose> holdout;
   if (!options.validate.empty())
     holdout = io::ReadPosesCsv(options.validate, model.num_joints(), std::nullopt,
-                             TerminalReadProgress());
+                               TerminalReadProgress());
 
   const workflows::CalibrationRun run =
       workflows::RunCalibration(model, poses, holdout, options.settings);

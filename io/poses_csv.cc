@@ -65,8 +65,7 @@ class SeenIds {
 
 }  // namespace
 
-void ReadPosesStreamed(const std::string& path, int num_joints,
-                       std::optional<AngleUnit> joint_unit,
+void ReadPosesStreamed(const std::string& path, int num_joints, std::optional<AngleUnit> joint_unit,
                        const std::function<void(const MeasuredPose&, int line)>& sink,
                        ReadProgressFn progress) {
   CsvReader table(path, {}, std::move(progress));

@@ -29,8 +29,7 @@ inline constexpr int kMaxPosesInMemory = 100000;
 // pose id, or no rows.
 // `joint_unit`: what the caller was told the joints are in; a q column whose suffix says
 // otherwise is refused (InputError naming the column), never read in another unit.
-void ReadPosesStreamed(const std::string& path, int num_joints,
-                       std::optional<AngleUnit> joint_unit,
+void ReadPosesStreamed(const std::string& path, int num_joints, std::optional<AngleUnit> joint_unit,
                        const std::function<void(const MeasuredPose&, int line)>& sink,
                        ReadProgressFn progress = nullptr);
 // The same into memory, at most kMaxPosesInMemory poses (InputError at the row past it).

@@ -156,11 +156,10 @@ ImportPosesResult ImportPoseTable(const ImportPosesRequest& request, db::Databas
                        "table's columns: give --joint-columns and --xyz-columns with them (a "
                        "poses CSV, pose,q1_deg,…,x_mm,y_mm,z_mm, needs no options)");
     }
-    io::ReadPosesStreamed(request.file, num_joints > 0 ? num_joints : -1,
-                          request.joint_unit.empty()
-                              ? std::nullopt
-                              : std::optional<AngleUnit>(JointUnit(request)),
-                          take, request.progress);
+    io::ReadPosesStreamed(
+        request.file, num_joints > 0 ? num_joints : -1,
+        request.joint_unit.empty() ? std::nullopt : std::optional<AngleUnit>(JointUnit(request)),
+        take, request.progress);
   } else {
     io::ImportPosesStreamed(request.file, ImportOptionsOf(request), take, request.progress);
   }
