@@ -29,8 +29,12 @@ constexpr double kMinHumidity = 0.0, kMaxHumidity = 100.0;
 // that plus this margin (still never past the call's deadline).
 constexpr Millis kMeasurementMargin{200};
 
-// The convention self-check's least tolerance: two readings of one still reflector.
+// The convention self-check's tolerance: two readings of one still reflector agree to the
+// tracker's accuracy (about 10 µm per metre); a wrong convention moves the point by a good
+// part of its distance (a mirror image), so the check allows 2 mm per metre (turbulent
+// air, a reflector not quite still), at least 0.5 mm, or 10 stated sigmas if more.
 constexpr double kConventionToleranceMm = 0.5;
+constexpr double kConventionTolerancePerMm = 2e-3;
 
 std::string CodeText(int code) {
   // Transport failures carry GeoCOM client codes, tracker answers emScon statuses.
@@ -459,7 +463,8 @@ void EmsconDevice::CheckConventionWith(const es::MeasResult& scc, Deadline until
   const Eigen::Vector3d cartesian(rhr.value[0], rhr.value[1], rhr.value[2]);
   const double apart = (from_scc - cartesian).norm();
   const double sigma = std::hypot(PointSigmaMm(scc, true, to_rad), PointSigmaMm(rhr, false, 1.0));
-  const double tolerance = std::max(kConventionToleranceMm, 10.0 * sigma);
+  const double tolerance = std::max({kConventionToleranceMm, 10.0 * sigma,
+                                     kConventionTolerancePerMm * cartesian.norm()});
   if (apart <= tolerance) {
     convention_checked_ = true;
     spdlog::info(

@@ -11,8 +11,9 @@
 //
 // The convention self-check: the first reading on a connection is taken again in RHR
 // (Cartesian): SetCoordinateSystemType RHR → StartMeasurement → SetCoordinateSystemType
-// SCC. The SCC reading converted by the convention and the RHR point must agree within 10
-// times their stated sigmas (at least 0.5 mm), else ConventionMismatch names both points,
+// SCC. The SCC reading converted by the convention and the RHR point must agree within
+// 2 mm per metre of distance (at least 0.5 mm, or 10 stated sigmas if more: a wrong
+// convention mirrors the point), else ConventionMismatch names both points,
 // how far apart they are, and which other reading of the SCC values would match.
 //
 // One command in flight; its answer must echo its command id. Packets the server pushes

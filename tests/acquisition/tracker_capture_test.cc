@@ -559,6 +559,7 @@ TEST_F(TrackerLabFixture, KillNineAtRandomMomentsThenResume) {
   std::uniform_int_distribution<int> delay(20, 120);
   const std::string binary = ARMSIG_BINARY;
   int kills = 0;
+  int runs = 1;  // the captures started, the last one below included
   for (int round = 0; round < 60 && kills < 22; ++round) {
     bool have_session = false;
     if (std::filesystem::exists(Db())) {
@@ -574,6 +575,7 @@ TEST_F(TrackerLabFixture, KillNineAtRandomMomentsThenResume) {
     }
     const pid_t child = SpawnQuietly(args);
     ASSERT_GE(child, 0);
+    ++runs;
     if (!have_session) {
       int ended = 0;
       testing::WaitForChildOr(child, &ended, [&] {
@@ -614,7 +616,10 @@ TEST_F(TrackerLabFixture, KillNineAtRandomMomentsThenResume) {
             0);
   EXPECT_EQ(Count(db, "SELECT count(*) FROM points WHERE session_id = 1 AND x_mm IS NOT NULL"),
             60);
-  EXPECT_EQ(tracker_->state().not_found, 0);  // every beam pointed where the reflector was
+  // Every beam pointed where the reflector was: no search. (A run's set-up check reads
+  // wherever the beam was left, which may miss: at most once per run.)
+  EXPECT_EQ(tracker_->state().searches, 0);
+  EXPECT_LE(tracker_->state().not_found, runs);
 }
 
 }  // namespace armsig::acquisition
