@@ -472,7 +472,9 @@ void Database::OpenSqlite(const OpenOptions& options) {
 void Database::OpenPostgres(const std::string& uri, const OpenOptions& options) {
   // A lock held longer than the busy timeout is an error, as on SQLite.
   ServerTimeouts timeouts;
-  timeouts.statement_ms = options.statement_timeout_ms;
+  timeouts.statement_ms = options.statement_timeout_ms > 0 ? options.statement_timeout_ms
+                         : read_only_                     ? 10 * 60 * 1000
+                                                          : 60 * 1000;
   timeouts.lock_ms = std::max(busy_timeout_ms_, 1);
   auto connection = std::make_unique<PostgresConnection>(uri, timeouts);  // refuses a password
   path_ = connection->name();

@@ -45,8 +45,9 @@ struct OpenOptions {
   bool migrate = true;          // apply forward migrations (kReadOnly: in the in-memory copy)
   int busy_timeout_ms = 10000;  // wait this long for another writer's lock
   // PostgreSQL: the longest a statement may run (statement_timeout) unless the address sets
-  // one (db/postgres_connection.h); the client waits no longer for an answer.
-  int statement_timeout_ms = 60000;
+  // one (db/postgres_connection.h); the client waits no longer for an answer. 0: by the
+  // mode, 10 min for a command that only reads (a whole table exported), 60 s otherwise.
+  int statement_timeout_ms = 0;
 };
 
 // PRAGMA application_id of an armsig database: "ARMS" in ASCII.
