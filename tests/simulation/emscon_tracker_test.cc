@@ -159,7 +159,7 @@ TEST(VirtualTracker, EveryCall) {
   EXPECT_TRUE(rig.device->CompensatorOn());
   EXPECT_EQ(rig.device->Reflectors().size(), 4u);
   rig.device->FindReflector(3000.0);
-  // GoPosition: the point the tracker turns to is the one asked for (SCW both ways).
+  // GoPosition: the point the tracker turns to is the one asked for (SCC both ways).
   const Eigen::Vector3d predicted(-1200.0, 2500.0, 700.0);
   rig.device->GoPosition(predicted);
   ASSERT_TRUE(rig.sim->state().go_position_mm);
