@@ -517,6 +517,8 @@ CaptureSummary RunCapture(db::Database& db, const LabConfig& lab, int64_t sessio
                            ? ToString(m.point.result.flags)
                            : ToString(m.point.result.flags) + " " + m.point.result.status.message);
         }
+      } catch (const instruments::ConventionMismatch&) {
+        throw;  // no reading of that tracker can be used: the capture ends here
       } catch (const StopRequested&) {
         stopped = true;
       } catch (const std::exception& e) {

@@ -24,9 +24,12 @@ int RunCalibrate(const CalibrateOptions& options, const GlobalOptions&) {
   // Read and check every input before computing or writing anything.
   const calibration::RobotModel model = io::LoadRobotModel(options.model);
   workflows::ParamsOf(model, options.settings.params);  // a typo is refused before the data
-  const auto poses = io::ReadPosesCsv(options.poses, model.num_joints());
+  const auto poses =
+      io::ReadPosesCsv(options.poses, model.num_joints(), std::nullopt, TerminalReadProgress());
   std::vector<MeasuredPose> holdout;
-  if (!options.validate.empty()) holdout = io::ReadPosesCsv(options.validate, model.num_joints());
+  if (!options.validate.empty())
+    holdout = io::ReadPosesCsv(options.validate, model.num_joints(), std::nullopt,
+                               TerminalReadProgress());
 
   const workflows::CalibrationRun run =
       workflows::RunCalibration(model, poses, holdout, options.settings);

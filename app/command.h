@@ -12,6 +12,7 @@
 #include <vector>
 
 #include "db/database.h"
+#include "io/csv.h"
 #include "workflows/recalibrate.h"
 
 namespace armsig::app {
@@ -62,6 +63,13 @@ CLI::Option* OutputDirectory(CLI::Option* option);
 // likewise beyond 1000 bytes (core/plausibility.h).
 CLI::Option* NameOption(CLI::Option* option);
 CLI::Option* NoteOption(CLI::Option* option);
+// A store's address (--db, --to, --queue): an SQLite file, or a PostgreSQL server's URI or
+// key/value string read strictly (db/postgres_address.h): one that carries a password or
+// that libpq cannot read is refused at parse time (exit 2), without its secrets.
+CLI::Option* StoreOption(CLI::Option* option);
+// How far a long read has come, on stderr when it is a terminal (nullptr otherwise): a
+// line redrawn in place, shown once the read has taken a second (app/progress.cc).
+io::ReadProgressFn TerminalReadProgress();
 // A number given on the command line (every numeric option of every command is declared
 // through here): finite — "nan", "inf" and "1e999" are refused, which CLI11's own Range
 // lets through — and within [min, max]; refused at parse time (exit 2) naming the option

@@ -55,7 +55,9 @@ void SetupDbCommand(CLI::App& parent, const GlobalOptions& global, Runner& run) 
       "push",
       "Copy this database's finished sessions and parameter sets into another store "
       "(idempotent: run it again, nothing doubles; an interrupted push resumes)");
-  push->add_option("--to", *to, "The central store: a PostgreSQL URI or an SQLite file")
+  StoreOption(push->add_option(
+                  "--to", *to,
+                  "The central store: a PostgreSQL URI or key/value string, or an SQLite file"))
       ->required();
   OnExistingDatabase(push, global, run, [to](db::Database& source) {
     db::Database target(*to, db::OpenMode::kCreate);

@@ -12,7 +12,7 @@
 
 #include "app/command.h"
 #include "core/text.h"
-#include "db/postgres_connection.h"
+#include "db/postgres_address.h"
 #include "workflows/worker.h"
 
 namespace armsig::app {
@@ -20,8 +20,8 @@ namespace armsig::app {
 namespace {
 
 constexpr char kQueueHelp[] =
-    "Where the queue lives: a postgresql:// URI (credentials from libpq's environment, "
-    "~/.pgpass or a service file) or a SQLite file (default: the --db file)";
+    "Where the queue lives: a postgresql:// URI or key/value string (credentials from libpq's "
+    "environment, ~/.pgpass or a service file) or a SQLite file (default: the --db file)";
 
 struct ScheduleCommand {
   workflows::ScheduleOptions options;
@@ -64,16 +64,15 @@ nlohmann::json JobJson(const db::Job& j) {
   return out;
 }
 
-std::string QueueName(const std::string& queue) {
-  return db::IsPostgresUri(queue) ? db::RedactedUri(queue) : queue;
-}
+std::string QueueName(const std::string& queue) { return db::StoreName(queue); }
 
 int RunSchedule(ScheduleCommand c, const GlobalOptions& global) {
   c.options.store_db = global.DbPath();
   if (c.options.queue.empty()) c.options.queue = c.options.store_db;
   const auto scheduled = workflows::Schedule(c.options);
   if (scheduled.empty()) {
-    std::cout << fmt::format("no robots in {}: nothing scheduled\n", c.options.store_db);
+    std::cout << fmt::format("no robots in {}: nothing scheduled\n",
+                             db::StoreName(c.options.store_db));
     return kOk;
   }
   for (const auto& s : scheduled) {
@@ -101,8 +100,12 @@ int RunWorkerCommand(WorkerCommand c, const GlobalOptions& global) {
               << std::flush;
   };
   const auto s = workflows::RunWorker(c.options);
-  spdlog::info("worker: {} done, {} rejected, {} failed{}{}", s.done, s.rejected, s.failed,
+  spdlog::info("worker: {} done, {} rejected, {} failed{}{}{}", s.done, s.rejected, s.failed,
                s.lost ? fmt::format(", {} lost to other workers", s.lost) : "",
+               s.interrupted ? fmt::format(", {} attempts interrupted by server outages and "
+                                           "queued again",
+                                           s.interrupted)
+                             : "",
                s.stopped ? "; stopped on request" : "");
   if (s.stopped) return kStopped;
   if (s.failed) return kFailure;
@@ -157,7 +160,7 @@ void SetupFleetCommands(CLI::App& parent, const GlobalOptions& global, Runner& r
     OutputDirectory(sub->add_option("--report-dir", r.report_dir,
                                     "Each robot's HTML report into DIR/ROBOT (as the worker sees "
                                     "the path)"));
-    sub->add_option("--queue", o.queue, kQueueHelp);
+    StoreOption(sub->add_option("--queue", o.queue, kQueueHelp));
     sub->callback([&run, &global, c, robot, all, sub] {
       if (robot->count() == 0 && all->count() == 0)
         throw CLI::RequiredError(sub->get_name() + ": --robot NAME or --all");
@@ -185,7 +188,7 @@ void SetupFleetCommands(CLI::App& parent, const GlobalOptions& global, Runner& r
     NumberOption(sub->add_option("--poll-s", o.poll_s, "Pause between looks at an empty queue"),
                  0.01, 3600.0)
         ->capture_default_str();
-    sub->add_option("--queue", o.queue, kQueueHelp);
+    StoreOption(sub->add_option("--queue", o.queue, kQueueHelp));
     sub->callback([&run, &global, c] { run = [&global, c] { return RunWorkerCommand(*c, global); }; });
   }
   {
@@ -193,7 +196,7 @@ void SetupFleetCommands(CLI::App& parent, const GlobalOptions& global, Runner& r
     auto* sub = parent.add_subcommand("jobs", "The queue: every job, its state and result");
     sub->add_flag("--json", c->json, "Machine-readable output");
     sub->add_option("--limit", c->limit, "Only the newest N jobs")->check(CLI::Range(0, 1000000));
-    sub->add_option("--queue", c->queue, kQueueHelp);
+    StoreOption(sub->add_option("--queue", c->queue, kQueueHelp));
     sub->callback([&run, &global, c] { run = [&global, c] { return RunJobs(*c, global); }; });
   }
 }

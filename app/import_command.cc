@@ -28,6 +28,7 @@ void SetupImportObservations(CLI::App& import, const GlobalOptions& global, Runn
   sub->callback([&run, &global, o] {
     run = [&global, o] {
       db::Database database(global.DbPath());
+      o->progress = TerminalReadProgress();
       const auto r = workflows::ImportObservations(database, *o);
       std::cout << fmt::format(
           "session {}: {} observations, {} stations, {} poses imported into {}\n", r.session,
@@ -100,6 +101,7 @@ void SetupImportCommand(CLI::App& parent, const GlobalOptions& global, Runner& r
     run = [&global, poses] {
       workflows::ImportPosesRequest request = *poses;
       request.db_path = global.DbPath();
+      request.progress = TerminalReadProgress();
       const auto r = workflows::ImportPosesFile(request);
       const std::string source =
           request.points.empty() ? request.file : request.points + " and " + request.joints;

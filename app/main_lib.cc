@@ -22,6 +22,7 @@
 #include "core/plausibility.h"
 #include "core/text.h"
 #include "db/connection.h"
+#include "db/postgres_address.h"
 #include "db/schema.h"
 #include "io/atomic_file.h"
 
@@ -99,6 +100,20 @@ CLI::Option* NoteOption(CLI::Option* option) {
       "note"));
 }
 CLI::Option* OutputDirectory(CLI::Option* option) { return CheckedOutput(option, true); }
+
+CLI::Option* StoreOption(CLI::Option* option) {
+  const std::string name = option->get_name();
+  return option->check(CLI::Validator(
+      [name](std::string& text) -> std::string {
+        try {
+          db::CheckStoreAddress(text, name);
+          return {};
+        } catch (const InputError& e) {
+          return e.message();  // CLI11 prefixes the option's name
+        }
+      },
+      "STORE", "store address"));
+}
 
 CLI::Option* NumberOption(CLI::Option* option, double min, double max) {
   // Plain value names in --help, the manual and the completion: "--select N", not CLI11's
@@ -201,10 +216,12 @@ void SetupAll(CLI::App& app, GlobalOptions& global, Runner& run) {
   // its parent. Inherited by every subcommand created after this line, so it comes first.
   app.fallthrough();
   app.set_version_flag("--version", VersionText());
-  app.add_option("--db", global.db_path,
-                 "The store: an SQLite file, or a PostgreSQL database as a libpq URI "
-                 "(postgresql://HOST/DB; credentials from libpq's environment, ~/.pgpass or a "
-                 "service file, never in the URI) (default: $ARMSIG_DB, else ./armsig.db)");
+  StoreOption(app.add_option(
+      "--db", global.db_path,
+      "The store: an SQLite file, or a PostgreSQL database as a libpq URI "
+      "(postgresql://HOST/DB) or key/value string ('host=HOST dbname=DB'); credentials from "
+      "libpq's environment, ~/.pgpass or a service file, never in the address (default: "
+      "$ARMSIG_DB, else ./armsig.db)"));
   app.add_flag("-v,--verbose", global.verbosity, "More log output on stderr (repeat for more)");
   app.add_flag("-q,--quiet", global.quiet, "Only warnings and errors on stderr");
   SetupDemoCommand(app, global, run);

@@ -6,6 +6,11 @@
 
 namespace armsig::db {
 
+bool IsInfrastructureFault(const std::exception& error) {
+  const auto* e = dynamic_cast<const DatabaseError*>(&error);
+  return e && (e->connection_lost() || e->transient());
+}
+
 int64_t Connection::QueryInt(std::string_view sql) {
   auto s = Prepare(sql);
   if (!s->Step()) throw DatabaseError(name() + ": no row from " + std::string(sql), "", false);

@@ -19,18 +19,31 @@ enum class Backend { kSqlite, kPostgres };
 
 // Any error a backend reports. `transient`: the statement lost a race with another writer
 // (SQLite busy/locked after its timeout, PostgreSQL serialization failure or deadlock);
-// the caller may retry the whole transaction.
+// the caller may retry the whole transaction. `connection_lost`: the server could not be
+// reached, went away, restarted or stopped answering (db/postgres_connection.h); what the
+// statement did is unknown, and the work may be retried on a new connection.
 class DatabaseError : public std::runtime_error {
  public:
-  DatabaseError(const std::string& message, std::string code, bool transient)
-      : std::runtime_error(message), code_(std::move(code)), transient_(transient) {}
+  DatabaseError(const std::string& message, std::string code, bool transient,
+                bool connection_lost = false)
+      : std::runtime_error(message),
+        code_(std::move(code)),
+        transient_(transient),
+        connection_lost_(connection_lost) {}
   const std::string& code() const { return code_; }  // SQLite's result code or a SQLSTATE
   bool transient() const { return transient_; }
+  bool connection_lost() const { return connection_lost_; }
 
  private:
   std::string code_;
   bool transient_;
+  bool connection_lost_;
 };
+
+// Whether `error` is a fault of the infrastructure rather than of the work: a lost or
+// unreachable server (connection_lost) or a lost race (transient). Work that failed so is
+// retried, never recorded as failed.
+bool IsInfrastructureFault(const std::exception& error);
 
 // A prepared statement: bind (1-based), step through the rows, read columns (0-based).
 // Binding again after the last row re-runs it with the new values.

@@ -15,6 +15,8 @@
 #include <cstring>
 #include <filesystem>
 #include <fstream>
+#include <functional>
+#include <memory>
 #include <random>
 #include <set>
 #include <stdexcept>
@@ -419,6 +421,7 @@ std::string ExportOrder(const std::string& table) {
 // robots' write locks ("ARMS" in the high 32 bits).
 constexpr int64_t kMigrationLockKey = (int64_t{kApplicationId} << 32) | int64_t{0x5343484D};  // "SCHM"
 constexpr int64_t kRobotLockNamespace = int64_t{kApplicationId} << 32;
+constexpr int kMigrationStatementTimeoutMs = 30 * 60 * 1000;
 
 }  // namespace
 
@@ -426,7 +429,8 @@ Database::Database(const std::string& location, OpenOptions options)
     : path_(location),
       busy_timeout_ms_(options.busy_timeout_ms),
       read_only_(options.mode == OpenMode::kReadOnly) {
-  if (IsPostgresUri(location)) {
+  CheckStoreAddress(location);
+  if (IsPostgresAddress(location)) {
     OpenPostgres(location, options);
   } else {
     OpenSqlite(options);
@@ -466,11 +470,15 @@ void Database::OpenSqlite(const OpenOptions& options) {
 }
 
 void Database::OpenPostgres(const std::string& uri, const OpenOptions& options) {
-  auto connection = std::make_unique<PostgresConnection>(uri);  // refuses a password in the URI
+  // A lock held longer than the busy timeout is an error, as on SQLite.
+  ServerTimeouts timeouts;
+  timeouts.statement_ms = options.statement_timeout_ms > 0 ? options.statement_timeout_ms
+                         : read_only_                     ? 10 * 60 * 1000
+                                                          : 60 * 1000;
+  timeouts.lock_ms = std::max(busy_timeout_ms_, 1);
+  auto connection = std::make_unique<PostgresConnection>(uri, timeouts);  // refuses a password
   path_ = connection->name();
   connection_ = std::move(connection);
-  // A lock held longer than the busy timeout is an error, as on SQLite.
-  connection_->Exec("SET lock_timeout = " + std::to_string(std::max(busy_timeout_ms_, 1)));
   MigratePostgres(options);
   // A command that only reads cannot write by mistake.
   if (read_only_) connection_->Exec("SET default_transaction_read_only = on");
@@ -520,6 +528,18 @@ void Database::MigratePostgres(const OpenOptions& options) {
     refuse("no armsig store in this database (this command only uses what is there and creates "
            "none: armsig --db URI db init creates it; check --db or $ARMSIG_DB)");
   }
+  // A migration rewrites whole tables: its statements get half an hour (a stopped server
+  // still ends the wait then), the command's own limit after it.
+  auto& server = static_cast<PostgresConnection&>(c);
+  const int command_limit = server.statement_timeout_ms();
+  server.SetStatementTimeout(kMigrationStatementTimeoutMs);
+  const std::unique_ptr<void, std::function<void(void*)>> restore(&server, [&](void*) {
+    try {
+      server.SetStatementTimeout(command_limit);
+    } catch (const DatabaseError&) {
+      // A lost connection: this store's opening fails anyway.
+    }
+  });
   Transaction tx(c, TransactionKind::kWrite);
   c.Exec("SELECT pg_advisory_xact_lock(" + std::to_string(kMigrationLockKey) + ")");
   int current = 0;

@@ -1,7 +1,7 @@
 // The armsig store: an SQLite file (the embedded default, one per lab) or a PostgreSQL
-// database (a plant's central server, `postgresql://…`), behind one interface. Every
-// statement of db/ runs through connection() (db/connection.h); the schema is brought to
-// the latest version on open, by the same migrations on both backends.
+// database (a plant's central server, `postgresql://…` or `host=… dbname=…`), behind one
+// interface. Every statement of db/ runs through connection() (db/connection.h); the schema
+// is brought to the latest version on open, by the same migrations on both backends.
 //
 // SQLite: WAL mode, foreign keys on, a busy timeout. A file is looked at read-only before
 // anything is written to it: armsig's own databases carry PRAGMA application_id =
@@ -44,6 +44,10 @@ struct OpenOptions {
   OpenMode mode = OpenMode::kCreate;
   bool migrate = true;          // apply forward migrations (kReadOnly: in the in-memory copy)
   int busy_timeout_ms = 10000;  // wait this long for another writer's lock
+  // PostgreSQL: the longest a statement may run (statement_timeout) unless the address sets
+  // one (db/postgres_connection.h); the client waits no longer for an answer. 0: by the
+  // mode, 10 min for a command that only reads (a whole table exported), 60 s otherwise.
+  int statement_timeout_ms = 0;
 };
 
 // PRAGMA application_id of an armsig database: "ARMS" in ASCII.

@@ -235,6 +235,16 @@ bool Release(Connection& c, int64_t id, const std::string& worker) {
   return s->Execute() == 1;
 }
 
+bool Requeue(Connection& c, int64_t id, const std::string& worker, const std::string& why) {
+  auto s = c.Prepare(
+      "UPDATE jobs SET state = 'queued', attempts = attempts - 1, started_ms = NULL, "
+      "lease_expires_ms = NULL, error = ? WHERE id = ? AND worker = ? AND state = 'running'");
+  s->Bind(1, why);
+  s->Bind(2, id);
+  s->Bind(3, worker);
+  return s->Execute() == 1;
+}
+
 std::vector<Job> ListJobs(Connection& c, int limit) {
   std::string sql = fmt::format("SELECT {} FROM jobs", kColumns);
   if (limit > 0)

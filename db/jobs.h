@@ -7,7 +7,9 @@
 // with the result. A worker that vanishes (killed, machine gone) stops heartbeating: once its
 // lease has expired the job is claimable again and the next claim counts another attempt;
 // after `max_attempts` claims the job is failed instead of claimed. Release hands a claimed
-// job back (a worker told to stop before it began the work) without counting the attempt.
+// job back (a worker told to stop before it began the work) without counting the attempt;
+// Requeue likewise when the attempt was cut short by the infrastructure (its store went
+// away), with the reason.
 //
 // Claimers never take the same job: on PostgreSQL the candidate row is locked with
 // `SELECT … FOR UPDATE SKIP LOCKED` inside the write transaction (concurrent claimers skip
@@ -82,6 +84,10 @@ bool Finish(Connection& connection, int64_t id, const std::string& worker, JobSt
             std::optional<int64_t> version);
 // Hands a claimed job back to the queue without counting the attempt; false when not ours.
 bool Release(Connection& connection, int64_t id, const std::string& worker);
+// Hands a claimed job back after an infrastructure fault interrupted its attempt (its store
+// went away; workflows/worker.h): queued again, the attempt not counted, `why` in the error
+// column until the next claim. False when not ours.
+bool Requeue(Connection& connection, int64_t id, const std::string& worker, const std::string& why);
 
 // Every job, oldest first (at most `limit`, the newest of them, when limit > 0).
 std::vector<Job> ListJobs(Connection& connection, int limit = 0);

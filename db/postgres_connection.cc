@@ -1,11 +1,16 @@
 #include "db/postgres_connection.h"
 
 #include <fmt/format.h>
+#include <poll.h>
 #include <postgresql/libpq-fe.h>
 
+#include <algorithm>
+#include <cerrno>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
+#include <cstring>
+#include <optional>
 #include <vector>
 
 #include "core/error.h"
@@ -14,25 +19,23 @@ namespace armsig::db {
 
 namespace {
 
+using Clock = std::chrono::steady_clock;
+
 // SQLSTATEs of a lost race: serialization failure, deadlock, lock not available.
 bool Transient(const std::string& sqlstate) {
   return sqlstate == "40001" || sqlstate == "40P01" || sqlstate == "55P03";
 }
 
-[[noreturn]] void ThrowResult(const std::string& name, PGresult* result, pg_conn* conn,
-                              std::string_view what) {
-  std::string state, message;
-  if (result) {
-    if (const char* s = PQresultErrorField(result, PG_DIAG_SQLSTATE)) state = s;
-    message = PQresultErrorMessage(result);
-    PQclear(result);
-  } else {
-    message = PQerrorMessage(conn);
-  }
-  while (!message.empty() && (message.back() == '\n' || message.back() == ' ')) message.pop_back();
-  throw DatabaseError(
-      fmt::format("{}: {} ({}{})", name, message, what, state.empty() ? "" : ", SQLSTATE " + state),
-      state, Transient(state));
+// SQLSTATEs of a server that went away: connection exceptions (class 08), and the server
+// shutting down, crashed or still starting (57P01…57P03).
+bool ServerWentAway(const std::string& sqlstate) {
+  return sqlstate.rfind("08", 0) == 0 || sqlstate == "57P01" || sqlstate == "57P02" ||
+         sqlstate == "57P03";
+}
+
+std::string Trimmed(std::string text) {
+  while (!text.empty() && (text.back() == '\n' || text.back() == ' ')) text.pop_back();
+  return text;
 }
 
 struct ResultDeleter {
@@ -149,13 +152,8 @@ class PostgresStatement : public Statement {
       values[k] = values_[k] ? values_[k]->data() : nullptr;
       lengths[k] = values_[k] ? static_cast<int>(values_[k]->size()) : 0;
     }
-    PGresult* r =
-        PQexecPrepared(connection_.raw(), statement_->c_str(), static_cast<int>(values.size()),
-                       values.data(), lengths.data(), formats_.data(), 0);
-    const auto status = r ? PQresultStatus(r) : PGRES_FATAL_ERROR;
-    if (status != PGRES_TUPLES_OK && status != PGRES_COMMAND_OK)
-      ThrowResult(connection_.name(), r, connection_.raw(), sql_);
-    result_.reset(r);
+    result_.reset(connection_.ExecPrepared(*statement_, static_cast<int>(values.size()),
+                                           values.data(), lengths.data(), formats_.data(), sql_));
   }
 
   PostgresConnection& connection_;
@@ -169,99 +167,193 @@ class PostgresStatement : public Statement {
 
 }  // namespace
 
-bool IsPostgresUri(const std::string& text) {
-  return text.rfind("postgresql://", 0) == 0 || text.rfind("postgres://", 0) == 0;
-}
-
-std::string RedactedUri(const std::string& uri) {
-  std::string out = uri;
-  // postgresql://user:secret@host → postgresql://user@host
-  const size_t scheme = out.find("://");
-  if (scheme != std::string::npos) {
-    const size_t at = out.find('@', scheme + 3);
-    const size_t slash = out.find('/', scheme + 3);
-    if (at != std::string::npos && (slash == std::string::npos || at < slash)) {
-      const size_t colon = out.find(':', scheme + 3);
-      if (colon != std::string::npos && colon < at) out.erase(colon, at - colon);
-    }
-  }
-  // …?password=secret&… → …?…
-  for (size_t p; (p = out.find("password=")) != std::string::npos;) {
-    const size_t end = out.find('&', p);
-    out.erase(p, end == std::string::npos ? std::string::npos : end - p + 1);
-  }
-  while (!out.empty() && (out.back() == '&' || out.back() == '?')) out.pop_back();
-  return out;
-}
-
-void CheckPostgresUri(const std::string& uri) {
-  const std::string name = RedactedUri(uri);
-  if (name != uri) {
-    throw InputError({"--db", 0, 0, ""},
-                     "the database URI carries a password; armsig takes credentials only from "
-                     "where libpq looks for them (PGPASSWORD, ~/.pgpass, a service file), so "
-                     "none stands on a command line or in a log: " +
-                         name);
-  }
-  // A URI libpq cannot parse is the user's typo (exit 2), not an unreachable server.
-  char* parse_error = nullptr;
-  PQconninfoOption* options = PQconninfoParse(uri.c_str(), &parse_error);
-  if (!options) {
-    std::string why = parse_error ? parse_error : "out of memory";
-    if (parse_error) PQfreemem(parse_error);
-    while (!why.empty() && (why.back() == '\n' || why.back() == ' ')) why.pop_back();
-    throw InputError({"--db", 0, 0, ""},
-                     "not a PostgreSQL connection URI (postgresql://[user@]host[:port]/database"
-                     "[?param=value…]): " + name + ": " + why);
-  }
-  // Values libpq checks only as it connects, checked here too: a port that is no number.
-  std::string bad;
-  for (const PQconninfoOption* o = options; o->keyword; ++o) {
-    if (o->val && std::string(o->keyword) == "port") {
-      const std::string port = o->val;
-      for (const char c : port) {
-        if ((c < '0' || c > '9') && c != ',') bad = port;
-      }
-    }
-  }
-  PQconninfoFree(options);
-  if (!bad.empty()) {
-    throw InputError({"--db", 0, 0, ""},
-                     "not a usable PostgreSQL connection URI: " + name + ": the port '" + bad +
-                         "' is not a number");
-  }
-}
-
-PostgresConnection::PostgresConnection(const std::string& uri) : name_(RedactedUri(uri)) {
-  CheckPostgresUri(uri);
-  conn_ = PQconnectdb(uri.c_str());
-  if (!conn_ || PQstatus(conn_) != CONNECTION_OK) {
-    std::string why = conn_ ? PQerrorMessage(conn_) : "out of memory";
-    while (!why.empty() && (why.back() == '\n' || why.back() == ' ')) why.pop_back();
-    if (conn_) PQfinish(conn_);
-    conn_ = nullptr;
-    // libpq checks some values only as it connects ("invalid integer value "x" for
-    // connection option "port"", "invalid sslmode value"): the URI's fault, not the server's.
-    if (why.rfind("invalid ", 0) == 0) {
-      throw InputError({"--db", 0, 0, ""}, "not a usable PostgreSQL connection URI: " + name_ +
-                                               ": " + why);
-    }
-    throw DatabaseError(name_ + ": cannot connect: " + why, "08000", false);
-  }
-  Exec("SET client_min_messages = warning");
+PostgresConnection::PostgresConnection(const std::string& address, ServerTimeouts timeouts)
+    : name_(RedactedAddress(address)) {
+  CheckStoreAddress(address);
+  Connect(address, timeouts);
+  ApplyTimeouts(timeouts);
 }
 
 PostgresConnection::~PostgresConnection() {
   if (conn_) PQfinish(conn_);
 }
 
+void PostgresConnection::Connect(const std::string& address, const ServerTimeouts& timeouts) {
+  // Armsig's defaults first, the address last: what the address sets wins (libpq takes the
+  // last value of a keyword, and expands the address given as dbname into its parameters).
+  const std::string connect_s = std::to_string(std::max(timeouts.connect_s, 2));
+  std::vector<const char*> keys, values;
+  auto add = [&](const char* key, const char* value) {
+    keys.push_back(key);
+    values.push_back(value);
+  };
+  if (!std::getenv("PGCONNECT_TIMEOUT")) add("connect_timeout", connect_s.c_str());
+  add("keepalives", "1");
+  add("keepalives_idle", "30");
+  add("keepalives_interval", "10");
+  add("keepalives_count", "3");
+  add("tcp_user_timeout", "60000");
+  add("dbname", address.c_str());
+  add(nullptr, nullptr);
+  conn_ = PQconnectdbParams(keys.data(), values.data(), /*expand_dbname=*/1);
+  if (!conn_ || PQstatus(conn_) != CONNECTION_OK) {
+    const std::string why = Trimmed(conn_ ? PQerrorMessage(conn_) : "out of memory");
+    if (conn_) PQfinish(conn_);
+    conn_ = nullptr;
+    // libpq checks some values only as it connects ("invalid integer value "x" for
+    // connection option "port"", "invalid sslmode value"): the address's fault, not the
+    // server's.
+    if (why.rfind("invalid ", 0) == 0) {
+      throw InputError({"--db", 0, 0, ""},
+                       "not a usable PostgreSQL connection address: " + name_ + ": " + why);
+    }
+    throw DatabaseError(name_ + ": cannot connect: " + why, "08001", false,
+                        /*connection_lost=*/true);
+  }
+  // The socket in non-blocking mode: every wait is a poll() with the client's deadline.
+  if (PQsetnonblocking(conn_, 1) != 0) Lost(Trimmed(PQerrorMessage(conn_)), "connect");
+}
+
+void PostgresConnection::ApplyTimeouts(const ServerTimeouts& timeouts) {
+  statement_ms_ = timeouts.statement_ms;  // the client's wait for this first look
+  // A timeout the user set (the address's options, PGOPTIONS, the role, the database, the
+  // server's configuration) is kept; armsig sets its own where the server has its default.
+  std::string set = "SET client_min_messages = warning";
+  statement_timeout_ours_ = false;
+  {
+    auto s = Prepare(
+        "SELECT name, setting, source FROM pg_settings WHERE name IN ('statement_timeout', "
+        "'lock_timeout')");
+    while (s->Step()) {
+      const std::string name = s->Text(0);
+      const bool ours = s->Text(2) == "default";
+      const int wanted = name == "statement_timeout" ? timeouts.statement_ms : timeouts.lock_ms;
+      if (ours) set += fmt::format("; SET {} = {}", name, std::max(wanted, 0));
+      if (name == "statement_timeout") {
+        statement_timeout_ours_ = ours;
+        statement_ms_ = ours ? std::max(wanted, 0) : static_cast<int>(s->Int(1));
+      }
+    }
+  }
+  Exec(set);
+}
+
+void PostgresConnection::SetStatementTimeout(int ms) {
+  if (!statement_timeout_ours_ || ms == statement_ms_) return;
+  Exec(fmt::format("SET statement_timeout = {}", std::max(ms, 0)));
+  statement_ms_ = std::max(ms, 0);
+}
+
+std::chrono::milliseconds PostgresConnection::ClientWait() const {
+  if (statement_ms_ <= 0) return std::chrono::milliseconds::zero();
+  const int grace = std::clamp(statement_ms_ / 4, 1000, 10000);
+  return std::chrono::milliseconds(int64_t{statement_ms_} + grace);
+}
+
+void PostgresConnection::Lost(const std::string& why, std::string_view what) {
+  if (conn_) PQfinish(conn_);  // the server ends the session (and its transaction) itself
+  conn_ = nullptr;
+  throw DatabaseError(fmt::format("{}: {} ({})", name_, why, what), "08006", false,
+                      /*connection_lost=*/true);
+}
+
+void PostgresConnection::ThrowResult(pg_result* result, std::string_view what) {
+  std::string state, message;
+  if (result) {
+    if (const char* s = PQresultErrorField(result, PG_DIAG_SQLSTATE)) state = s;
+    message = PQresultErrorMessage(result);
+    PQclear(result);
+  }
+  if (message.empty() && conn_) message = PQerrorMessage(conn_);
+  message = Trimmed(message);
+  const bool lost = !conn_ || PQstatus(conn_) == CONNECTION_BAD || ServerWentAway(state);
+  if (lost && conn_) {
+    PQfinish(conn_);
+    conn_ = nullptr;
+  }
+  if (state == "57014")
+    message += " (statement_timeout; options=-c statement_timeout=… in the address sets it)";
+  throw DatabaseError(fmt::format("{}: {} ({}{})", name_, message, what,
+                                  state.empty() ? "" : ", SQLSTATE " + state),
+                      state, Transient(state), lost);
+}
+
+void PostgresConnection::WaitForSocket(bool write, Clock::time_point deadline,
+                                       std::string_view what) {
+  pollfd p{PQsocket(conn_), static_cast<short>(write ? POLLOUT : POLLIN), 0};
+  for (;;) {
+    int wait_ms = -1;
+    if (deadline != Clock::time_point::max()) {
+      const auto left =
+          std::chrono::duration_cast<std::chrono::milliseconds>(deadline - Clock::now()).count();
+      if (left <= 0) {
+        const auto wait = ClientWait();
+        Lost(fmt::format("the server did not answer within {:.0f} s (statement_timeout {:.0f} s "
+                         "and {:.0f} s of grace): it is stopped, overloaded or cut off; the "
+                         "connection is closed and what the statement did is unknown",
+                         wait.count() / 1000.0, statement_ms_ / 1000.0,
+                         (wait.count() - statement_ms_) / 1000.0),
+             what);
+      }
+      wait_ms = static_cast<int>(std::min<int64_t>(left, 1000));
+    }
+    const int n = ::poll(&p, 1, wait_ms);
+    if (n > 0) return;
+    if (n < 0 && errno != EINTR) Lost(std::string("poll: ") + std::strerror(errno), what);
+  }
+}
+
+pg_result* PostgresConnection::Await(std::string_view what) {
+  const auto wait = ClientWait();
+  const auto deadline = wait.count() > 0 ? Clock::now() + wait : Clock::time_point::max();
+  for (int f; (f = PQflush(conn_)) != 0;) {
+    if (f < 0) Lost(Trimmed(PQerrorMessage(conn_)), what);
+    WaitForSocket(true, deadline, what);
+    if (!PQconsumeInput(conn_)) Lost(Trimmed(PQerrorMessage(conn_)), what);
+  }
+  Result last, error;
+  for (;;) {
+    while (PQisBusy(conn_)) {
+      WaitForSocket(false, deadline, what);
+      if (!PQconsumeInput(conn_)) Lost(Trimmed(PQerrorMessage(conn_)), what);
+    }
+    PGresult* r = PQgetResult(conn_);
+    if (!r) break;
+    const auto status = PQresultStatus(r);
+    if (status != PGRES_COMMAND_OK && status != PGRES_TUPLES_OK && status != PGRES_EMPTY_QUERY) {
+      if (!error)
+        error.reset(r);  // the first error; the rest of the command did not run
+      else
+        PQclear(r);
+    } else {
+      last.reset(r);
+    }
+  }
+  if (error) ThrowResult(error.release(), what);
+  if (!last) {
+    if (PQstatus(conn_) == CONNECTION_BAD) Lost(Trimmed(PQerrorMessage(conn_)), what);
+    ThrowResult(nullptr, what);
+  }
+  return last.release();
+}
+
+pg_result* PostgresConnection::ExecPrepared(const std::string& statement, int count,
+                                            const char* const* values, const int* lengths,
+                                            const int* formats, const std::string& sql) {
+  if (!conn_) Lost("the connection to the server was lost earlier", sql);
+  if (!PQsendQueryPrepared(conn_, statement.c_str(), count, values, lengths, formats, 0))
+    ThrowResult(nullptr, sql);
+  return Await(sql);
+}
+
 const std::string& PostgresConnection::Prepared(const std::string& numbered_sql) {
   auto it = prepared_.find(numbered_sql);
   if (it != prepared_.end()) return it->second;
-  const std::string statement = "armsig_" + std::to_string(prepared_.size() + 1);
-  Result r(PQprepare(conn_, statement.c_str(), numbered_sql.c_str(), 0, nullptr));
-  if (!r || PQresultStatus(r.get()) != PGRES_COMMAND_OK)
-    ThrowResult(name_, r.release(), conn_, numbered_sql);
+  if (!conn_) Lost("the connection to the server was lost earlier", numbered_sql);
+  const std::string statement = "armsig_" + std::to_string(++prepared_count_);
+  if (!PQsendPrepare(conn_, statement.c_str(), numbered_sql.c_str(), 0, nullptr))
+    ThrowResult(nullptr, numbered_sql);
+  Result r(Await(numbered_sql));
   return prepared_.emplace(numbered_sql, statement).first->second;
 }
 
@@ -270,10 +362,9 @@ std::unique_ptr<Statement> PostgresConnection::Prepare(std::string_view sql) {
 }
 
 void PostgresConnection::Exec(std::string_view sql) {
-  Result r(PQexec(conn_, std::string(sql).c_str()));
-  const auto status = r ? PQresultStatus(r.get()) : PGRES_FATAL_ERROR;
-  if (status != PGRES_COMMAND_OK && status != PGRES_TUPLES_OK)
-    ThrowResult(name_, r.release(), conn_, sql);
+  if (!conn_) Lost("the connection to the server was lost earlier", sql);
+  if (!PQsendQuery(conn_, std::string(sql).c_str())) ThrowResult(nullptr, sql);
+  Result r(Await(sql));
 }
 
 void PostgresConnection::Begin(TransactionKind kind) {
@@ -283,6 +374,9 @@ void PostgresConnection::Begin(TransactionKind kind) {
 
 void PostgresConnection::Commit() { Exec("COMMIT"); }
 
-void PostgresConnection::Rollback() { Exec("ROLLBACK"); }
+void PostgresConnection::Rollback() {
+  if (!conn_) return;  // the server rolled the transaction back when the connection ended
+  Exec("ROLLBACK");
+}
 
 }  // namespace armsig::db

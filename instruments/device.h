@@ -61,6 +61,16 @@ class InstrumentError : public std::runtime_error {
   int code_;
 };
 
+// A set-up self-check found that the instrument does not report what its driver reads:
+// the same point read in two of its coordinate-system types disagrees (a laser tracker
+// whose spherical readings follow another convention). Code 3074: no reading can be
+// trusted; never retried, the capture refuses to start.
+class ConventionMismatch : public InstrumentError {
+ public:
+  ConventionMismatch(std::string device, const std::string& message)
+      : InstrumentError(std::move(device), 3074, message) {}
+};
+
 // A reply that decodes but cannot be a reading: a value outside what the instrument or
 // robot can report (a zenith angle below 0, Hz beyond a full circle, a joint beyond
 // ±720°, a negative distance), usually a reply in other units or another command's
@@ -131,6 +141,11 @@ class BeamSteering {
   // Whether a failed measurement's code means the beam is not on the reflector (no
   // reflector where the beam points, a broken beam) rather than a fault of the instrument.
   virtual bool ReflectorLost(int code) const = 0;
+  // The set-up's self-check of the reading convention (once per connection): the
+  // reflector where the beam is, read in two coordinate-system types, must be one point.
+  // Throws ConventionMismatch when they disagree, an InstrumentError with a ReflectorLost
+  // code when no reflector is in the beam (the check then comes with the first reading).
+  virtual void CheckConvention() = 0;
 };
 
 class RobotController : public Interruptible {

@@ -1161,4 +1161,16 @@ Spherical SphericalFromPoint(const Eigen::Vector3d& p) {
   return {hz, std::acos(std::clamp(p.z() / d, -1.0, 1.0)), d};
 }
 
+Eigen::Vector3d PointFromScc(const SphericalCcw& s) {
+  const double sv = std::sin(s.v_rad);
+  return s.distance_mm *
+         Eigen::Vector3d(sv * std::cos(s.hz_rad), sv * std::sin(s.hz_rad), std::cos(s.v_rad));
+}
+
+SphericalCcw SccFromPoint(const Eigen::Vector3d& p) {
+  const double d = p.norm();
+  if (!(d > 0.0)) return {};
+  return {std::atan2(p.y(), p.x()), std::acos(std::clamp(p.z() / d, -1.0, 1.0)), d};
+}
+
 }  // namespace armsig::instruments::emscon

@@ -370,16 +370,27 @@ std::optional<double> FromCelsius(double celsius, int32_t temperature_unit);
 std::optional<double> ToHectopascal(double value, int32_t pressure_unit);
 std::optional<double> FromHectopascal(double hpa, int32_t pressure_unit);
 
-// armsig's theodolite frame (SPEC "Conventions"): origin at the tracker's axes, z up along
-// the standing axis, y towards horizontal circle zero, x = y × z; Hz grows clockwise seen
-// from above (Hz = π/2 along +x), V is the zenith angle. With coordinate system type SCW
-// the tracker reports dVal1 = Hz, dVal2 = V, dVal3 = slope distance in this convention
-// (EMSCON.md §7), so a point is (d sin V sin Hz, d sin V cos Hz, d cos V).
+// armsig's theodolite frame (the interface reference's "Conventions"): origin at the
+// instrument's axes, z up along the standing axis, y towards horizontal circle zero,
+// x = y × z; Hz grows clockwise seen from above (Hz = π/2 along +x), V is the zenith angle.
+// A point is (d sin V sin Hz, d sin V cos Hz, d cos V). A tracker station's frame is the
+// tracker's own Cartesian frame (RHR): its readings are these angles of the RHR point.
 struct Spherical {
   double hz_rad = 0, v_rad = 0, distance_mm = 0;
 };
 Eigen::Vector3d PointFromSpherical(const Spherical& s);
 // Hz in [0, 2π), V in [0, π], distance ≥ 0; the origin gives all zeros.
 Spherical SphericalFromPoint(const Eigen::Vector3d& point_mm);
+
+// The tracker's spherical counter-clockwise type (SCC, coordinate_system::kSCC) as public
+// emScon clients read and write it (instruments/EMSCON.md §7): dVal1 = Hz = atan2(y, x),
+// counter-clockwise from the tracker's +x; dVal2 = V = acos(z / d), the zenith angle;
+// dVal3 = d, the slope distance; (x, y, z) the tracker's RHR frame. Any Hz (±2π) is read.
+struct SphericalCcw {
+  double hz_rad = 0, v_rad = 0, distance_mm = 0;
+};
+Eigen::Vector3d PointFromScc(const SphericalCcw& s);
+// Hz in (−π, π] (atan2), V in [0, π], distance ≥ 0; the origin gives all zeros.
+SphericalCcw SccFromPoint(const Eigen::Vector3d& point_mm);
 
 }  // namespace armsig::instruments::emscon

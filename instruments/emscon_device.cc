@@ -9,6 +9,7 @@
 #include <stdexcept>
 
 #include "core/error.h"
+#include "core/plausibility.h"
 #include "core/text.h"
 #include "instruments/line_retry.h"
 
@@ -27,6 +28,13 @@ constexpr double kMinHumidity = 0.0, kMaxHumidity = 100.0;
 // A tracker's result arrives after its measurement time; an attempt never waits less than
 // that plus this margin (still never past the call's deadline).
 constexpr Millis kMeasurementMargin{200};
+
+// The convention self-check's tolerance: two readings of one still reflector agree to the
+// tracker's accuracy (about 10 µm per metre); a wrong convention moves the point by a good
+// part of its distance (a mirror image), so the check allows 2 mm per metre (turbulent
+// air, a reflector not quite still), at least 0.5 mm, or 10 stated sigmas if more.
+constexpr double kConventionToleranceMm = 0.5;
+constexpr double kConventionTolerancePerMm = 2e-3;
 
 std::string CodeText(int code) {
   // Transport failures carry GeoCOM client codes, tracker answers emScon statuses.
@@ -232,7 +240,7 @@ Clock::duration EmsconDevice::Configure(Deadline deadline) {
   settings.send_reflector_position = false;
   settings.try_measurement_mode = false;
   Exchange(es::SetSystemSettings{settings}, deadline);
-  Exchange(es::SetCoordinateSystemType{es::coordinate_system::kSCW}, deadline);
+  Exchange(es::SetCoordinateSystemType{es::coordinate_system::kSCC}, deadline);
   Exchange(es::SetMeasurementMode{es::meas_mode::kStationary}, deadline);
   Exchange(es::SetStationaryModeParams{options_.measurement_time_ms, options_.use_adm}, deadline);
   std::optional<int32_t> reflector = options_.reflector_id;
@@ -259,9 +267,10 @@ Clock::duration EmsconDevice::Configure(Deadline deadline) {
     reflector_id_ = id->value;
   }
   configured_ = true;
+  convention_checked_ = false;  // with the first reading on this connection
   ++stats_.configurations;
   spdlog::info(
-      "{}: set up: mm, {}, °C, mbar, %RH; spherical clockwise (SCW); stationary {} ms{}; "
+      "{}: set up: mm, {}, °C, mbar, %RH; spherical counter-clockwise (SCC); stationary {} ms{}; "
       "reflector {}",
       name(),
       options_.angle_unit == es::angle_unit::kRadian
@@ -299,7 +308,7 @@ es::SystemStatus EmsconDevice::Status() {
       false);
 }
 
-Reading EmsconDevice::ReadingOf(const es::MeasResult& m) const {
+void EmsconDevice::CheckResult(const es::MeasResult& m) const {
   if (m.status != es::status::kAllOk)
     ThrowStatus(es::StartMeasurement::kCommand, m.status, "result:");
   if (m.meas_mode != es::meas_mode::kStationary) {
@@ -312,16 +321,25 @@ Reading EmsconDevice::ReadingOf(const es::MeasResult& m) const {
       !std::isfinite(m.pressure) || !std::isfinite(m.humidity)) {
     throw InstrumentError(name(), 3074, "a result with a value that is not a finite number");
   }
-  const double to_rad = *es::RadiansPer(options_.angle_unit);
-  es::Spherical s{m.value[0] * to_rad, m.value[1] * to_rad, m.value[2]};  // SCW, mm
-  CheckAngles(name(), s.hz_rad, s.v_rad);
-  CheckDistance(name(), s.distance_mm);
   for (int i = 0; i < 3; ++i) {
     if (!(m.std_dev[i] >= 0.0)) {
       throw ReadingRangeError(name(), "standard deviation " + std::to_string(i + 1), m.std_dev[i],
-                              0.0, HUGE_VAL, i < 2 ? "angle unit" : "mm");
+                              0.0, HUGE_VAL, "as the value");
     }
   }
+}
+
+Reading EmsconDevice::ReadingOf(const es::MeasResult& m) const {
+  CheckResult(m);
+  const double to_rad = *es::RadiansPer(options_.angle_unit);
+  // SCC (set up so): Hz counter-clockwise from +x in (−2π, 2π), V the zenith angle.
+  const es::SphericalCcw scc{m.value[0] * to_rad, m.value[1] * to_rad, m.value[2]};
+  constexpr double kTurn = 2.0 * std::numbers::pi;
+  if (!(std::abs(scc.hz_rad) <= kTurn))
+    throw ReadingRangeError(name(), "Hz (SCC)", scc.hz_rad, -kTurn, kTurn, "rad");
+  if (!plausible::IsPlausible(plausible::Quantity::kZenithAngle, scc.v_rad))
+    throw ReadingRangeError(name(), "V (zenith angle)", scc.v_rad, 0.0, kTurn, "rad");
+  CheckDistance(name(), scc.distance_mm);
   if (!(m.temperature >= kMinTemperatureC && m.temperature <= kMaxTemperatureC))
     throw ReadingRangeError(name(), "temperature", m.temperature, kMinTemperatureC,
                             kMaxTemperatureC, "°C");
@@ -330,51 +348,145 @@ Reading EmsconDevice::ReadingOf(const es::MeasResult& m) const {
                             "hPa");
   if (!(m.humidity >= kMinHumidity && m.humidity <= kMaxHumidity))
     throw ReadingRangeError(name(), "humidity", m.humidity, kMinHumidity, kMaxHumidity, "%RH");
+  // The station frame is the tracker's RHR frame: armsig's Hz (clockwise from +y) of the
+  // point is π/2 − Hz(SCC); V is the same zenith angle.
+  const Eigen::Vector3d point = es::PointFromScc(scc);
+  const es::Spherical s = es::SphericalFromPoint(point);
+  CheckAngles(name(), s.hz_rad, s.v_rad);
   Reading r;
   r.time = std::chrono::system_clock::now();
   r.angles = {s.hz_rad, s.v_rad, s.v_rad > std::numbers::pi ? 2 : 1};
   r.distance_mm = s.distance_mm;
-  r.point_in_instrument_mm = es::PointFromSpherical(s);
+  r.point_in_instrument_mm = point;
   r.sigma = ReadingSigmas{m.std_dev[0] * to_rad, m.std_dev[1] * to_rad, m.std_dev[2]};
   r.environment = Environment{m.temperature, m.pressure, m.humidity};
   return r;
 }
 
+es::MeasResult EmsconDevice::MeasureResult(Deadline share) {
+  // A result comes after the measurement time: an attempt waits at least that long, never
+  // past the call's deadline.
+  const Deadline until = std::min(
+      call_deadline_,
+      std::max(share, Clock::now() + Millis(options_.measurement_time_ms) + kMeasurementMargin));
+  constexpr int32_t id = es::StartMeasurement::kCommand;
+  ++stats_.commands;
+  last_sent_ = id;
+  transport_->Write(es::EncodeRequest(es::StartMeasurement{}), until);
+  for (;;) {
+    const auto packet = NextPacket(until);
+    if (!packet) continue;
+    if (const auto* a = std::get_if<es::CommandAnswer>(&*packet)) {
+      if (a->command != id) {
+        ++stats_.stale_answers;
+        ++stale_in_call_;
+        continue;
+      }
+      if (a->status == es::status::kServerBusy) throw Busy{es::CommandName(id)};
+      if (a->status != es::status::kAllOk) ThrowStatus(id, a->status, "answered");
+      continue;  // accepted; the result follows
+    }
+    if (const auto* e = std::get_if<es::ErrorResponse>(&*packet)) {
+      if (e->command != id) {
+        Record(Event::Kind::kUnsolicitedError, e->status, e->command);
+        continue;
+      }
+      if (e->status == es::status::kServerBusy) throw Busy{es::CommandName(id)};
+      ThrowStatus(id, e->status, "failed:");
+    }
+    return std::get<es::MeasResult>(*packet);
+  }
+}
+
 Reading EmsconDevice::Measure() {
   return WithRetries(es::StartMeasurement::kCommand, CallDeadline(), [&](Deadline share) {
-    // A result comes after the measurement time: an attempt waits at least that long, never
-    // past the call's deadline.
-    const Deadline until = std::min(
-        call_deadline_,
-        std::max(share, Clock::now() + Millis(options_.measurement_time_ms) + kMeasurementMargin));
-    constexpr int32_t id = es::StartMeasurement::kCommand;
-    ++stats_.commands;
-    last_sent_ = id;
-    transport_->Write(es::EncodeRequest(es::StartMeasurement{}), until);
-    for (;;) {
-      const auto packet = NextPacket(until);
-      if (!packet) continue;
-      if (const auto* a = std::get_if<es::CommandAnswer>(&*packet)) {
-        if (a->command != id) {
-          ++stats_.stale_answers;
-          ++stale_in_call_;
-          continue;
-        }
-        if (a->status == es::status::kServerBusy) throw Busy{es::CommandName(id)};
-        if (a->status != es::status::kAllOk) ThrowStatus(id, a->status, "answered");
-        continue;  // accepted; the result follows
-      }
-      if (const auto* e = std::get_if<es::ErrorResponse>(&*packet)) {
-        if (e->command != id) {
-          Record(Event::Kind::kUnsolicitedError, e->status, e->command);
-          continue;
-        }
-        if (e->status == es::status::kServerBusy) throw Busy{es::CommandName(id)};
-        ThrowStatus(id, e->status, "failed:");
-      }
-      return ReadingOf(std::get<es::MeasResult>(*packet));
-    }
+    const es::MeasResult m = MeasureResult(share);
+    Reading r = ReadingOf(m);
+    if (!convention_checked_) CheckConventionWith(m, share);
+    return r;
   });
+}
+
+void EmsconDevice::CheckConvention() {
+  if (!convention_checked_) Measure();
+}
+
+namespace {
+
+// σ of a point (mm, root of the summed component variances) from a result's sigmas:
+// spherical (Hz, V in rad, distance in mm) or Cartesian (mm).
+double PointSigmaMm(const es::MeasResult& m, bool spherical, double to_rad) {
+  if (!spherical)
+    return std::sqrt(m.std_dev[0] * m.std_dev[0] + m.std_dev[1] * m.std_dev[1] +
+                     m.std_dev[2] * m.std_dev[2]);
+  const double d = m.value[2], v = m.value[1] * to_rad;
+  const double across = m.std_dev[0] * to_rad * d * std::abs(std::sin(v));
+  const double up = m.std_dev[1] * to_rad * d;
+  return std::sqrt(across * across + up * up + m.std_dev[2] * m.std_dev[2]);
+}
+
+// Which other reading of the SCC values (hz, v, d) would give `cartesian`: named in the
+// self-check's message, so a lab sees at once what the tracker does.
+std::string OtherReadingThatMatches(const es::SphericalCcw& s, const Eigen::Vector3d& cartesian,
+                                    double tolerance_mm) {
+  const double d = s.distance_mm, sh = std::sin(s.hz_rad), ch = std::cos(s.hz_rad);
+  const double sv = std::sin(s.v_rad), cv = std::cos(s.v_rad);
+  const struct {
+    const char* what;
+    Eigen::Vector3d point;
+  } candidates[] = {
+      {"Hz clockwise from +y (a theodolite's circle)", d * Eigen::Vector3d(sv * sh, sv * ch, cv)},
+      {"Hz clockwise from +x", d * Eigen::Vector3d(sv * ch, -sv * sh, cv)},
+      {"V an elevation above the horizon, not a zenith angle",
+       d * Eigen::Vector3d(cv * ch, cv * sh, sv)},
+      {"Hz clockwise from +y and V an elevation", d * Eigen::Vector3d(cv * sh, cv * ch, sv)},
+  };
+  for (const auto& c : candidates) {
+    if ((c.point - cartesian).norm() <= tolerance_mm) return c.what;
+  }
+  return "";
+}
+
+}  // namespace
+
+void EmsconDevice::CheckConventionWith(const es::MeasResult& scc, Deadline until) {
+  const double to_rad = *es::RadiansPer(options_.angle_unit);
+  // Set up again (SCC) should anything below fail before SCC is set back.
+  configured_ = false;
+  Exchange(es::SetCoordinateSystemType{es::coordinate_system::kRHR}, until);
+  const es::MeasResult rhr = MeasureResult(until);
+  Exchange(es::SetCoordinateSystemType{es::coordinate_system::kSCC}, until);
+  configured_ = true;
+  CheckResult(rhr);
+  const es::SphericalCcw s{scc.value[0] * to_rad, scc.value[1] * to_rad, scc.value[2]};
+  const Eigen::Vector3d from_scc = es::PointFromScc(s);
+  const Eigen::Vector3d cartesian(rhr.value[0], rhr.value[1], rhr.value[2]);
+  const double apart = (from_scc - cartesian).norm();
+  const double sigma = std::hypot(PointSigmaMm(scc, true, to_rad), PointSigmaMm(rhr, false, 1.0));
+  const double tolerance = std::max({kConventionToleranceMm, 10.0 * sigma,
+                                     kConventionTolerancePerMm * cartesian.norm()});
+  if (apart <= tolerance) {
+    convention_checked_ = true;
+    spdlog::info(
+        "{}: coordinate convention checked: the reflector read as SCC and as RHR "
+        "agrees ({:.4f} mm apart, tolerance {:.3f} mm)",
+        name(), apart, tolerance);
+    return;
+  }
+  const std::string other = OtherReadingThatMatches(s, cartesian, tolerance);
+  throw ConventionMismatch(
+      name(),
+      fmt::format(
+          "the coordinate convention self-check failed: the reflector read as spherical "
+          "counter-clockwise (SCC: Hz {:.6f} rad, V {:.6f} rad, {:.3f} mm) is at ({:.3f}, "
+          "{:.3f}, {:.3f}) mm by the convention armsig reads (Hz = atan2(y, x) from +x, V the "
+          "zenith angle), read as Cartesian (RHR) at ({:.3f}, {:.3f}, {:.3f}) mm: {:.3f} mm "
+          "apart (tolerance {:.3f} mm). {}The tracker's readings cannot be used: nothing is "
+          "measured with it (instruments/EMSCON.md §7)",
+          s.hz_rad, s.v_rad, s.distance_mm, from_scc.x(), from_scc.y(), from_scc.z(), cartesian.x(),
+          cartesian.y(), cartesian.z(), apart, tolerance,
+          other.empty() ? std::string()
+                        : "The two agree if the SCC values are read with " + other + ". "));
 }
 
 Reading EmsconDevice::MeasureAngles() {
@@ -419,7 +531,7 @@ bool EmsconDevice::CompensatorOn() {
 void EmsconDevice::GoPosition(const Eigen::Vector3d& point_in_instrument_mm) {
   if (!point_in_instrument_mm.allFinite())
     throw InstrumentError(name(), 3074, "GoPosition: the point is not finite");
-  const es::Spherical s = es::SphericalFromPoint(point_in_instrument_mm);
+  const es::SphericalCcw s = es::SccFromPoint(point_in_instrument_mm);  // SCC, as set up
   const double per_rad = 1.0 / *es::RadiansPer(options_.angle_unit);
   WithRetries(es::GoPosition::kCommand, CallDeadline(), [&](Deadline until) {
     return Exchange(es::GoPosition{s.hz_rad * per_rad, s.v_rad * per_rad, s.distance_mm,

@@ -4,9 +4,17 @@
 // state: SetUnits (mm, rad, °C, mbar, %RH) → GetSystemStatus → Initialize when the tracker
 // is not initialised (or when asked) → GetSystemSettings → SetSystemSettings (no user
 // transformation or station orientation applied, unsolicited errors on, no position
-// stream, no try mode) → SetCoordinateSystemType (SCW: spherical, Hz clockwise) →
-// SetMeasurementMode (stationary) → SetStationaryModeParams → SetReflector (when one is
-// configured) or GetReflector (the active one is read and recorded).
+// stream, no try mode) → SetCoordinateSystemType (SCC: spherical counter-clockwise, the
+// convention public clients confirm, emscon::PointFromScc) → SetMeasurementMode
+// (stationary) → SetStationaryModeParams → SetReflector (when one is configured) or
+// GetReflector (the active one is read and recorded).
+//
+// The convention self-check: the first reading on a connection is taken again in RHR
+// (Cartesian): SetCoordinateSystemType RHR → StartMeasurement → SetCoordinateSystemType
+// SCC. The SCC reading converted by the convention and the RHR point must agree within
+// 2 mm per metre of distance (at least 0.5 mm, or 10 stated sigmas if more: a wrong
+// convention mirrors the point), else ConventionMismatch names both points,
+// how far apart they are, and which other reading of the SCC values would match.
 //
 // One command in flight; its answer must echo its command id. Packets the server pushes
 // between a command and its answer (status changes, unsolicited errors, reflector
@@ -65,13 +73,16 @@ class EmsconDevice : public DistanceInstrument, public BeamSteering {
   void ChangeFace() override;
   bool CompensatorOn() override;  // AT4xx inclination sensor state (system parameter 5002)
   // Points the beam at a predicted position in the instrument frame (mm), as Hz, V,
-  // distance in SCW (GoPosition).
+  // distance in SCC (GoPosition).
   void GoPosition(const Eigen::Vector3d& point_in_instrument_mm) override;
   // Searches the reflector around the beam's direction at about this distance.
   void FindReflector(double approx_distance_mm) override;
   // 37 NoDistanceSet (the beam broke) and 10004 MeasurementStatusNotReady (no reflector in
   // the beam).
   bool ReflectorLost(int code) const override;
+  // Measure() once, unless this connection's readings were checked already.
+  void CheckConvention() override;
+  bool convention_checked() const { return convention_checked_; }
   Environment GetEnvironment();  // GetEnvironmentParams, °C, hPa, %RH
   emscon::SystemStatus Status();
   std::vector<emscon::ReflectorInfo> Reflectors();  // GetReflectors (one reply each)
@@ -121,12 +132,19 @@ class EmsconDevice : public DistanceInstrument, public BeamSteering {
   std::vector<emscon::ReflectorInfo> ReadReflectors(Deadline until);
   void Record(Event::Kind kind, int32_t value, int32_t command);
   [[noreturn]] void ThrowStatus(int32_t command, int32_t status, const char* how) const;
+  // One stationary result (StartMeasurement → SingleMeasResult), refused unless it is a
+  // reading: status AllOK, stationary, no try mode, every value finite.
+  emscon::MeasResult MeasureResult(Deadline share);
+  void CheckResult(const emscon::MeasResult& m) const;
   Reading ReadingOf(const emscon::MeasResult& m) const;
+  // The self-check against the SCC result `scc` just read (see above).
+  void CheckConventionWith(const emscon::MeasResult& scc, Deadline until);
 
   std::unique_ptr<PacketTransport> transport_;
   RetryPolicy policy_;
   EmsconOptions options_;
   bool configured_ = false;
+  bool convention_checked_ = false;  // on this connection
   bool opened_before_ = false;
   std::optional<int32_t> reflector_id_;
   std::deque<Event> events_;

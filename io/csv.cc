@@ -2,6 +2,7 @@
 
 #include <spdlog/spdlog.h>
 
+#include <algorithm>
 #include <charconv>
 #include <cmath>
 #include <set>
@@ -123,96 +124,116 @@ std::string CsvEscape(std::string_view field) {
   return out;
 }
 
-CsvTable ParseCsv(std::string_view text, std::string source, CsvOptions options) {
-  if (text.starts_with("\xEF\xBB\xBF")) text.remove_prefix(3);
+namespace {
 
-  // Split into records, honouring quotes (a quoted field may span lines).
+void CheckDelimiterOption(const CsvOptions& options, const std::string& source) {
   if (options.delimiter != '\0' && options.delimiter != ',' && options.delimiter != ';' &&
       options.delimiter != '\t') {
     throw InputError({source, 0, 0, ""}, std::string("unsupported delimiter '") +
                                              options.delimiter + "' (expected ',', ';' or tab)");
   }
-  std::vector<CsvRow> records;
-  int line = 1;
-  size_t i = 0;
-  char delimiter = options.delimiter;
-  bool header_done = false;
-  while (i < text.size()) {
-    // Skip blank lines and comments at record start.
-    if (text[i] == '\n' || text[i] == '\r') {
-      if (text[i] == '\r' && i + 1 < text.size() && text[i + 1] == '\n') ++i;
+}
+
+enum class Scan { kRecord, kEnd, kMore };
+
+// The next record of `text` from `pos` (blank lines and comment lines skipped): kRecord with
+// `row` filled and `pos`, `line` moved past it; kEnd at the end of the text; kMore when the
+// record runs into the end of `text` and more may follow (`at_eof` false): nothing moved,
+// the caller appends more text and scans again from the same place. `delimiter` '\0' is
+// guessed from the header line (the first record).
+Scan ScanRecord(std::string_view text, bool at_eof, std::size_t& pos, int& line_no, char& delimiter,
+                const CsvOptions& options, const std::string& source, CsvRow& row) {
+  std::size_t i = pos;
+  int line = line_no;
+  // Blank lines and comments at record start.
+  for (;;) {
+    if (i >= text.size()) {
+      if (!at_eof) return Scan::kMore;
+      pos = i;
+      line_no = line;
+      return Scan::kEnd;
+    }
+    const char c = text[i];
+    if (c == '\n' || c == '\r') {
+      if (c == '\r' && i + 1 >= text.size() && !at_eof) return Scan::kMore;
+      if (c == '\r' && i + 1 < text.size() && text[i + 1] == '\n') ++i;
       ++i;
       ++line;
       continue;
     }
-    if (options.skip_comment_lines && text[i] == '#') {
-      while (i < text.size() && text[i] != '\n' && text[i] != '\r') ++i;
+    if (options.skip_comment_lines && c == '#') {
+      const std::size_t eol = text.find_first_of("\r\n", i);
+      if (eol == std::string_view::npos && !at_eof) return Scan::kMore;
+      i = eol == std::string_view::npos ? text.size() : eol;
       continue;
     }
-    if (!header_done && delimiter == '\0') {
-      size_t eol = text.find_first_of("\r\n", i);
-      delimiter = GuessDelimiter(text.substr(i, eol == std::string_view::npos ? eol : eol - i));
-    }
-    CsvRow row;
-    row.line = line;
-    std::string field;
-    bool quoted = false;
-    bool field_was_quoted = false;
-    for (;;) {
-      if (i >= text.size()) {
-        if (quoted) {
-          throw InputError({source, row.line, static_cast<int>(row.fields.size()) + 1, ""},
-                           "unterminated quoted field (expected a closing '\"')");
-        }
-        break;
-      }
-      const char c = text[i];
+    break;
+  }
+  if (delimiter == '\0') {  // the header line tells
+    const std::size_t eol = text.find_first_of("\r\n", i);
+    if (eol == std::string_view::npos && !at_eof) return Scan::kMore;
+    delimiter = GuessDelimiter(text.substr(i, eol == std::string_view::npos ? eol : eol - i));
+  }
+  row.line = line;
+  row.fields.clear();
+  std::string field;
+  bool quoted = false;
+  bool field_was_quoted = false;
+  for (;;) {
+    if (i >= text.size()) {
+      if (!at_eof) return Scan::kMore;
       if (quoted) {
-        if (c == '"') {
-          if (i + 1 < text.size() && text[i + 1] == '"') {
-            field += '"';
-            i += 2;
-            continue;
-          }
-          quoted = false;
-          ++i;
+        throw InputError({source, row.line, static_cast<int>(row.fields.size()) + 1, ""},
+                         "unterminated quoted field (expected a closing '\"')");
+      }
+      break;
+    }
+    const char c = text[i];
+    if (quoted) {
+      // '"' and '\r' look one character ahead.
+      if ((c == '"' || c == '\r') && i + 1 >= text.size() && !at_eof) return Scan::kMore;
+      if (c == '"') {
+        if (i + 1 < text.size() && text[i + 1] == '"') {
+          field += '"';
+          i += 2;
           continue;
         }
-        if (c == '\n') ++line;
-        if (c == '\r' && !(i + 1 < text.size() && text[i + 1] == '\n')) ++line;
-        field += c;
+        quoted = false;
         ++i;
         continue;
       }
-      if (c == '"' && Trim(field).empty()) {
-        quoted = true;
-        field_was_quoted = true;
-        field.clear();
-        ++i;
-        continue;
-      }
-      if (c == delimiter) {
-        row.fields.push_back(field_was_quoted ? field : std::string(Trim(field)));
-        field.clear();
-        field_was_quoted = false;
-        ++i;
-        continue;
-      }
-      if (c == '\r' || c == '\n') break;  // end of record; the newline is consumed above
+      if (c == '\n') ++line;
+      if (c == '\r' && !(i + 1 < text.size() && text[i + 1] == '\n')) ++line;
       field += c;
       ++i;
+      continue;
     }
-    row.fields.push_back(field_was_quoted ? field : std::string(Trim(field)));
-    records.push_back(std::move(row));
-    header_done = true;
+    if (c == '"' && Trim(field).empty()) {
+      quoted = true;
+      field_was_quoted = true;
+      field.clear();
+      ++i;
+      continue;
+    }
+    if (c == delimiter) {
+      row.fields.push_back(field_was_quoted ? field : std::string(Trim(field)));
+      field.clear();
+      field_was_quoted = false;
+      ++i;
+      continue;
+    }
+    if (c == '\r' || c == '\n') break;  // end of record; the newline is consumed above
+    field += c;
+    ++i;
   }
+  row.fields.push_back(field_was_quoted ? field : std::string(Trim(field)));
+  pos = i;
+  line_no = line;
+  return Scan::kRecord;
+}
 
-  if (records.empty()) {
-    throw InputError({source, 0, 0, ""}, "empty file (expected a header line and data rows)");
-  }
-  std::vector<std::string> header = std::move(records.front().fields);
-  const int header_line = records.front().line;
-  records.erase(records.begin());
+void CheckHeader(const std::string& source, const std::vector<std::string>& header,
+                 int header_line) {
   for (size_t c = 0; c < header.size(); ++c) {
     if (header[c].empty()) {
       throw InputError({source, header_line, static_cast<int>(c) + 1, ""},
@@ -227,6 +248,28 @@ CsvTable ParseCsv(std::string_view text, std::string source, CsvOptions options)
       }
     }
   }
+}
+
+constexpr const char* kEmptyFile = "empty file (expected a header line and data rows)";
+
+}  // namespace
+
+CsvTable ParseCsv(std::string_view text, std::string source, CsvOptions options) {
+  if (text.starts_with("\xEF\xBB\xBF")) text.remove_prefix(3);
+  CheckDelimiterOption(options, source);
+  std::vector<CsvRow> records;
+  std::size_t i = 0;
+  int line = 1;
+  char delimiter = options.delimiter;
+  for (CsvRow row;
+       ScanRecord(text, true, i, line, delimiter, options, source, row) == Scan::kRecord;) {
+    records.push_back(std::move(row));
+  }
+  if (records.empty()) throw InputError({source, 0, 0, ""}, kEmptyFile);
+  std::vector<std::string> header = std::move(records.front().fields);
+  const int header_line = records.front().line;
+  records.erase(records.begin());
+  CheckHeader(source, header, header_line);
   if (delimiter == '\0') delimiter = ',';
   for (const CsvRow& row : records) {
     if (row.fields.size() != header.size()) ThrowFieldCount(source, row, header.size(), delimiter);
@@ -242,32 +285,115 @@ CsvTable ReadCsvFile(const std::string& path, CsvOptions options) {
   return table;
 }
 
+CsvReader::CsvReader(const std::string& path, CsvOptions options, ReadProgressFn progress)
+    : file_(std::make_unique<InputFile>(path, kCsvStreamLimit)),
+      requested_(options),
+      delimiter_(options.delimiter),
+      progress_(std::move(progress)) {
+  CheckDelimiterOption(options, path);
+  CsvRow header;
+  if (!NextRecord(header, false)) throw InputError({path, 0, 0, ""}, kEmptyFile);
+  CheckHeader(path, header.fields, header.line);
+  if (delimiter_ == '\0') delimiter_ = ',';
+  options.delimiter = delimiter_;
+  SetHeader(path, std::move(header.fields), options, header.line);
+}
+
+CsvReader::~CsvReader() = default;
+
+bool CsvReader::Fill() {
+  if (eof_) return false;
+  // Keep only the record being read, then append the next piece of the file.
+  consumed_ += at_;
+  buffer_.erase(0, at_);
+  at_ = 0;
+  if (buffer_.size() > kMaxCsvRecordBytes) {
+    int line = line_;  // the record's: past the line ends before it
+    for (std::size_t k = 0; k < buffer_.size() && (buffer_[k] == '\n' || buffer_[k] == '\r'); ++k) {
+      if (buffer_[k] == '\n' || k + 1 >= buffer_.size() || buffer_[k + 1] != '\n') ++line;
+    }
+    throw InputError({file_->path(), line, 0, ""},
+                     "a record longer than 1 MiB (an unterminated quoted field, or not a CSV "
+                     "file): armsig reads records of at most 1 MiB");
+  }
+  const std::size_t kPiece = std::max<std::size_t>(requested_.read_piece_bytes, 1);
+  const std::size_t before = buffer_.size();
+  buffer_.resize(before + kPiece);
+  const std::size_t n = file_->Read(buffer_.data() + before, kPiece);
+  buffer_.resize(before + n);
+  if (n == 0) eof_ = true;
+  if (!bom_checked_ && (buffer_.size() >= 3 || eof_)) {  // a UTF-8 BOM before the header
+    bom_checked_ = true;
+    if (buffer_.starts_with("\xEF\xBB\xBF")) at_ = 3;
+  }
+  if (progress_) progress_({file_->path(), consumed_ + at_, file_->size(), rows_});
+  return true;
+}
+
+bool CsvReader::NextRecord(CsvRow& row, bool header_done) {
+  for (;;) {
+    std::size_t i = at_;
+    int line = line_;
+    char delimiter = delimiter_;
+    const Scan scan = ScanRecord(buffer_, eof_, i, line, delimiter, requested_, file_->path(), row);
+    if (scan == Scan::kMore) {
+      Fill();
+      continue;
+    }
+    if (!header_done) delimiter_ = delimiter;
+    at_ = i;
+    line_ = line;
+    return scan == Scan::kRecord;
+  }
+}
+
+bool CsvReader::Next(CsvRow& row) {
+  if (!NextRecord(row, true)) {
+    if (progress_) progress_({file_->path(), file_->size(), file_->size(), rows_});
+    return false;
+  }
+  if (row.fields.size() != header().size())
+    ThrowFieldCount(source(), row, header().size(), delimiter());
+  ++rows_;
+  return true;
+}
+
+CsvColumns::CsvColumns(std::string source, std::vector<std::string> header, CsvOptions options,
+                       int header_line) {
+  SetHeader(std::move(source), std::move(header), options, header_line);
+}
+
+void CsvColumns::SetHeader(std::string source, std::vector<std::string> header, CsvOptions options,
+                           int header_line) {
+  source_ = std::move(source);
+  header_ = std::move(header);
+  options_ = options;
+  header_line_ = header_line;
+}
+
 CsvTable::CsvTable(std::string source, std::vector<std::string> header, std::vector<CsvRow> rows,
                    CsvOptions options, int header_line)
-    : source_(std::move(source)),
-      header_(std::move(header)),
-      rows_(std::move(rows)),
-      options_(options),
-      header_line_(header_line) {}
+    : CsvColumns(std::move(source), std::move(header), options, header_line),
+      rows_(std::move(rows)) {}
 
-SourceLocation CsvTable::HeaderWhere(int column) const {
+SourceLocation CsvColumns::HeaderWhere(int column) const {
   return {source_, header_line_, column + 1, header_.at(column)};
 }
 
-std::optional<int> CsvTable::FindColumn(std::string_view name) const {
+std::optional<int> CsvColumns::FindColumn(std::string_view name) const {
   for (size_t c = 0; c < header_.size(); ++c) {
     if (header_[c] == name) return static_cast<int>(c);
   }
   return std::nullopt;
 }
 
-int CsvTable::Column(std::string_view name) const {
+int CsvColumns::Column(std::string_view name) const {
   if (auto c = FindColumn(name)) return *c;
   throw InputError({source_, header_line_, 0, ""},
                    "missing column " + Quoted(std::string(name)) + " in the header");
 }
 
-std::optional<AngleColumn> CsvTable::FindAngleColumn(std::string_view base) const {
+std::optional<AngleColumn> CsvColumns::FindAngleColumn(std::string_view base) const {
   std::optional<AngleColumn> found;
   for (AngleUnit unit : {AngleUnit::kGon, AngleUnit::kDeg, AngleUnit::kRad}) {
     std::string name = std::string(base) + std::string(AngleUnitSuffix(unit));
@@ -297,7 +423,7 @@ std::string_view QuantityOf(std::string_view name) {
 
 }  // namespace
 
-void CsvTable::RefuseUnreadUnits(const std::vector<std::string>& known) const {
+void CsvColumns::RefuseUnreadUnits(const std::vector<std::string>& known) const {
   for (size_t c = 0; c < header_.size(); ++c) {
     const std::string& column = header_[c];
     bool is_known = false;
@@ -324,18 +450,18 @@ void CsvTable::RefuseUnreadUnits(const std::vector<std::string>& known) const {
   }
 }
 
-AngleColumn CsvTable::AngleColumnOf(std::string_view base) const {
+AngleColumn CsvColumns::AngleColumnOf(std::string_view base) const {
   if (auto c = FindAngleColumn(base)) return *c;
   const std::string b(base);
   throw InputError({source_, header_line_, 0, ""}, "missing column '" + b + "_deg', '" + b +
                                                        "_gon' or '" + b + "_rad' in the header");
 }
 
-SourceLocation CsvTable::Where(const CsvRow& row, int column) const {
+SourceLocation CsvColumns::Where(const CsvRow& row, int column) const {
   return {source_, row.line, column + 1, header_.at(column)};
 }
 
-double CsvTable::Number(const CsvRow& row, int column) const {
+double CsvColumns::Number(const CsvRow& row, int column) const {
   const std::string& field = row.fields.at(column);
   if (auto v = ParseNumber(field, decimal_comma())) return *v;
   if (field.empty()) throw InputError(Where(row, column), "expected a number, the field is empty");
@@ -346,32 +472,32 @@ double CsvTable::Number(const CsvRow& row, int column) const {
   throw InputError(Where(row, column), "expected a finite number, got " + Quoted(field));
 }
 
-std::optional<double> CsvTable::OptionalNumber(const CsvRow& row, int column) const {
+std::optional<double> CsvColumns::OptionalNumber(const CsvRow& row, int column) const {
   if (Trim(row.fields.at(column)).empty()) return std::nullopt;
   return Number(row, column);
 }
 
-double CsvTable::Number(const CsvRow& row, int column, plausible::Quantity quantity,
-                        plausible::Unit unit) const {
+double CsvColumns::Number(const CsvRow& row, int column, plausible::Quantity quantity,
+                          plausible::Unit unit) const {
   const double value = Number(row, column);
   if (auto why = plausible::Check(quantity, value, unit))
     throw InputError(Where(row, column), *why);
   return value * unit.to_internal;
 }
 
-std::optional<double> CsvTable::OptionalNumber(const CsvRow& row, int column,
-                                               plausible::Quantity quantity,
-                                               plausible::Unit unit) const {
+std::optional<double> CsvColumns::OptionalNumber(const CsvRow& row, int column,
+                                                 plausible::Quantity quantity,
+                                                 plausible::Unit unit) const {
   if (Trim(row.fields.at(column)).empty()) return std::nullopt;
   return Number(row, column, quantity, unit);
 }
 
-double CsvTable::AngleRad(const CsvRow& row, const AngleColumn& column,
-                          plausible::Quantity quantity) const {
+double CsvColumns::AngleRad(const CsvRow& row, const AngleColumn& column,
+                            plausible::Quantity quantity) const {
   return Number(row, column.index, quantity, plausible::UnitOf(column.unit));
 }
 
-int CsvTable::Integer(const CsvRow& row, int column) const {
+int CsvColumns::Integer(const CsvRow& row, int column) const {
   std::string_view field = Trim(row.fields.at(column));
   int value = 0;
   auto [ptr, ec] = std::from_chars(field.data(), field.data() + field.size(), value);
@@ -381,11 +507,11 @@ int CsvTable::Integer(const CsvRow& row, int column) const {
   return value;
 }
 
-const std::string& CsvTable::Text(const CsvRow& row, int column) const {
+const std::string& CsvColumns::Text(const CsvRow& row, int column) const {
   return row.fields.at(column);
 }
 
-const std::string& CsvTable::Name(const CsvRow& row, int column) const {
+const std::string& CsvColumns::Name(const CsvRow& row, int column) const {
   const std::string& text = row.fields.at(column);
   if (auto why = plausible::CheckName(text)) throw InputError(Where(row, column), *why);
   return text;

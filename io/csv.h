@@ -5,9 +5,15 @@
 //   comma-separated file it is refused with file:line:column and that reason;
 // - quoted fields ("" escapes, may span lines), CRLF and CR line ends, a UTF-8 BOM,
 //   '#' comment lines, and the SPEC's unit suffixes.
+// Large inputs (poses, observations) are read row by row (CsvReader), small ones whole
+// (CsvTable); both by the same record scanner.
 #pragma once
 
+#include <cstddef>
+#include <cstdint>
+#include <functional>
 #include <initializer_list>
+#include <memory>
 #include <optional>
 #include <string>
 #include <string_view>
@@ -16,12 +22,14 @@
 #include "core/error.h"
 #include "core/plausibility.h"
 #include "core/units.h"
+#include "io/atomic_file.h"
 
 namespace armsig::io {
 
 struct CsvOptions {
   char delimiter = '\0';           // ',', ';' or '\t'; '\0' = detect from the header line
   bool skip_comment_lines = true;  // lines starting with '#'
+  std::size_t read_piece_bytes = std::size_t{1} << 20;  // CsvReader: bytes read at a time
 };
 
 // Whether numbers may use a decimal comma with this delimiter (';' or tab).
@@ -38,17 +46,18 @@ struct AngleColumn {
   std::string name;  // full column name, e.g. "q3_deg"
 };
 
-class CsvTable {
+// A CSV input's header and what its readers ask of the fields of a row: columns by name,
+// numbers, angles and names with file:line:column in every message.
+class CsvColumns {
  public:
-  CsvTable(std::string source, std::vector<std::string> header, std::vector<CsvRow> rows,
-           CsvOptions options, int header_line = 1);
+  CsvColumns(std::string source, std::vector<std::string> header, CsvOptions options,
+             int header_line = 1);
 
   const std::string& source() const { return source_; }
   const std::vector<std::string>& header() const { return header_; }
   int header_line() const { return header_line_; }  // 1-based; after leading comment lines
   // Where a header column is: file:header_line:column (name).
   SourceLocation HeaderWhere(int column) const;
-  const std::vector<CsvRow>& rows() const { return rows_; }
   char delimiter() const { return options_.delimiter; }
   bool decimal_comma() const { return DecimalCommaAllowed(options_.delimiter); }
 
@@ -89,12 +98,69 @@ class CsvTable {
   // columns are the file's own (SPEC: extra columns are ignored).
   void RefuseUnreadUnits(const std::vector<std::string>& known) const;
 
+ protected:
+  CsvColumns() = default;
+  void SetHeader(std::string source, std::vector<std::string> header, CsvOptions options,
+                 int header_line);
+
  private:
   std::string source_;
   std::vector<std::string> header_;
-  std::vector<CsvRow> rows_;
   CsvOptions options_;
   int header_line_ = 1;
+};
+
+// A whole CSV input in memory (small files: plans, control points, joint logs).
+class CsvTable : public CsvColumns {
+ public:
+  CsvTable(std::string source, std::vector<std::string> header, std::vector<CsvRow> rows,
+           CsvOptions options, int header_line = 1);
+  const std::vector<CsvRow>& rows() const { return rows_; }
+
+ private:
+  std::vector<CsvRow> rows_;
+};
+
+// The longest record a CSV reader takes (a quoted field may span lines): far beyond any row
+// of armsig's formats; a longer one is an unterminated quote or not a CSV file.
+inline constexpr std::size_t kMaxCsvRecordBytes = std::size_t{1} << 20;  // 1 MiB
+
+// How far a long read has come, for a progress line (app/: on stderr when it is a terminal).
+struct ReadProgress {
+  std::string source;
+  std::size_t bytes = 0, total_bytes = 0;  // read so far, and the file's size
+  int64_t rows = 0;
+};
+using ReadProgressFn = std::function<void(const ReadProgress&)>;
+
+// A CSV file read one row at a time, by the rules of ParseCsv: memory for one record (at
+// most kMaxCsvRecordBytes) and a 1 MiB buffer whatever the file's size (kCsvStreamLimit).
+class CsvReader : public CsvColumns {
+ public:
+  // Opens the file (as ReadWholeFile: a regular file) and reads its header. Throws
+  // InputError as ParseCsv does.
+  explicit CsvReader(const std::string& path, CsvOptions options = {},
+                     ReadProgressFn progress = nullptr);
+  ~CsvReader();
+  // The next data row, its field count checked against the header; false at the end.
+  bool Next(CsvRow& row);
+  int64_t rows_read() const { return rows_; }
+
+ private:
+  bool NextRecord(CsvRow& row, bool header_done);
+  bool Fill();  // reads more of the file; false at its end
+
+  std::unique_ptr<InputFile> file_;
+  CsvOptions requested_;
+  std::string buffer_;
+  std::size_t at_ = 0;        // the next record's first byte in buffer_
+  std::size_t consumed_ = 0;  // bytes of the file before buffer_
+  int line_ = 1;
+  char delimiter_ = '\0';
+  bool eof_ = false;
+  bool bom_checked_ = false;
+  int64_t rows_ = 0;
+  ReadProgressFn progress_;
 };
 
 // Parses CSV text; `source` names it in messages. The first non-comment line is the header.

@@ -17,8 +17,10 @@
 
 namespace armsig::io {
 
-std::vector<reduction::Observation> ReadObservationsCsv(const std::string& path) {
-  const CsvTable t = ReadCsvFile(path);
+std::vector<reduction::Observation> ReadObservationsCsv(const std::string& path,
+                                                        std::vector<std::string>* pose_labels,
+                                                        ReadProgressFn progress) {
+  CsvReader t(path, {}, std::move(progress));
   t.RefuseUnreadUnits({"point", "station", "hz_*", "v_*", "face", "distance_mm", "sigma_hz_arcsec",
                        "sigma_v_arcsec", "sigma_distance_mm"});
   const int point = t.Column("point"), station = t.Column("station");
@@ -27,8 +29,10 @@ std::vector<reduction::Observation> ReadObservationsCsv(const std::string& path)
   const auto distance = t.FindColumn("distance_mm");
   const auto s_hz = t.FindColumn("sigma_hz_arcsec"), s_v = t.FindColumn("sigma_v_arcsec");
   const auto s_d = t.FindColumn("sigma_distance_mm");
+  const auto pose = pose_labels ? t.FindColumn("pose") : std::nullopt;
   std::vector<reduction::Observation> out;
-  for (const CsvRow& row : t.rows()) {
+  for (CsvRow row; t.Next(row);) {
+    if (pose) pose_labels->push_back(t.Name(row, *pose));
     reduction::Observation o;
     if (t.Text(row, point).empty()) throw InputError(t.Where(row, point), "expected a point id");
     if (t.Text(row, station).empty()) {

@@ -5,6 +5,7 @@
 #include <string>
 #include <vector>
 
+#include "io/csv.h"
 #include "io/yaml_reader.h"
 #include "reduction/intersection.h"
 #include "reduction/network.h"
@@ -13,8 +14,12 @@
 namespace armsig::io {
 
 // point,station,hz_*,v_*[,face,distance_mm,sigma_hz_arcsec,sigma_v_arcsec,sigma_distance_mm].
-// V > 200 gon without a face column is face II (SPEC).
-std::vector<reduction::Observation> ReadObservationsCsv(const std::string& path);
+// V > 200 gon without a face column is face II (SPEC). Read row by row (io::CsvReader): the
+// memory is the observations'. `pose_labels`: each row's `pose` column (a name), when the
+// file has one; else left empty.
+std::vector<reduction::Observation> ReadObservationsCsv(
+    const std::string& path, std::vector<std::string>* pose_labels = nullptr,
+    ReadProgressFn progress = nullptr);
 
 // stations: [{id, position_mm, azimuth_* | rotation, sigma_hz_arcsec?, sigma_v_arcsec?,
 //             sigma_position_mm?, sigma_azimuth_arcsec? | sigma_rotation_arcsec?}]

@@ -1,8 +1,14 @@
 #include "io/poses_csv.h"
 
+#include <fmt/format.h>
+
+#include <algorithm>
 #include <cstdio>
+#include <map>
+#include <optional>
 #include <set>
 #include <stdexcept>
+#include <unordered_set>
 
 #include "core/error.h"
 #include "core/text.h"
@@ -10,9 +16,59 @@
 
 namespace armsig::io {
 
-std::vector<MeasuredPose> ReadPosesCsv(const std::string& path, int num_joints,
-                                       std::optional<AngleUnit> joint_unit) {
-  const CsvTable table = ReadCsvFile(path);
+namespace {
+
+// The ids of a table read row by row, 16 bytes each (a 64-bit FNV-1a hash and the line):
+// a repeated id is found once the file has been read. Only rows whose hashes meet are
+// compared by their text, which takes one more pass over the file (`rescan`).
+class SeenIds {
+ public:
+  void Add(std::string_view id, int line) { seen_.push_back({Hash(id), line}); }
+
+  // Throws InputError at the first row whose id an earlier row has. `rescan(visit)` reads
+  // the table again, calling visit(id, row, table) for each row.
+  using Visit = std::function<void(const std::string&, const CsvRow&, const CsvColumns&)>;
+  void Check(const std::function<void(const Visit&)>& rescan, int id_column) {
+    std::sort(seen_.begin(), seen_.end());
+    std::unordered_set<uint64_t> met;
+    for (size_t k = 1; k < seen_.size(); ++k) {
+      if (seen_[k].hash == seen_[k - 1].hash) met.insert(seen_[k].hash);
+    }
+    seen_.clear();
+    seen_.shrink_to_fit();
+    if (met.empty()) return;
+    std::map<std::string, int> first_line;  // ids of the rows whose hashes met
+    rescan([&](const std::string& id, const CsvRow& row, const CsvColumns& table) {
+      if (!met.count(Hash(id))) return;
+      if (!first_line.emplace(id, row.line).second) {
+        throw InputError(table.Where(row, id_column), "duplicate pose id " + Quoted(id));
+      }
+    });
+  }
+
+ private:
+  static uint64_t Hash(std::string_view id) {
+    uint64_t h = 1469598103934665603ull;
+    for (unsigned char c : id) {
+      h ^= c;
+      h *= 1099511628211ull;
+    }
+    return h;
+  }
+  struct Entry {
+    uint64_t hash;
+    int line;
+    bool operator<(const Entry& o) const { return hash != o.hash ? hash < o.hash : line < o.line; }
+  };
+  std::vector<Entry> seen_;
+};
+
+}  // namespace
+
+void ReadPosesStreamed(const std::string& path, int num_joints, std::optional<AngleUnit> joint_unit,
+                       const std::function<void(const MeasuredPose&, int line)>& sink,
+                       ReadProgressFn progress) {
+  CsvReader table(path, {}, std::move(progress));
   if (num_joints < 0) {
     num_joints = 0;
     while (table.FindAngleColumn("q" + std::to_string(num_joints + 1))) ++num_joints;
@@ -45,18 +101,16 @@ std::vector<MeasuredPose> ReadPosesCsv(const std::string& path, int num_joints,
                          std::to_string(num_joints) + " joints (expected q1…q" +
                          std::to_string(num_joints) + ")");
   }
-  std::vector<MeasuredPose> poses;
-  std::set<std::string> ids;
-  for (const CsvRow& row : table.rows()) {
-    MeasuredPose pose;
+  SeenIds ids;
+  MeasuredPose pose;
+  pose.joints_rad.resize(num_joints);
+  int64_t count = 0;
+  for (CsvRow row; table.Next(row);) {
     if (table.Text(row, id_col).empty()) {
       throw InputError(table.Where(row, id_col), "expected a pose id");
     }
     pose.id = table.Name(row, id_col);
-    if (!ids.insert(pose.id).second) {
-      throw InputError(table.Where(row, id_col), "duplicate pose id " + Quoted(pose.id));
-    }
-    pose.joints_rad.resize(num_joints);
+    ids.Add(pose.id, row.line);
     using plausible::Quantity;
     for (int i = 0; i < num_joints; ++i) {
       pose.joints_rad(i) = table.AngleRad(row, q[i], Quantity::kJointAngle);
@@ -64,34 +118,69 @@ std::vector<MeasuredPose> ReadPosesCsv(const std::string& path, int num_joints,
     pose.target_in_world = {table.Number(row, x, Quantity::kCoordinate),
                             table.Number(row, y, Quantity::kCoordinate),
                             table.Number(row, z, Quantity::kCoordinate)};
-    poses.push_back(std::move(pose));
+    sink(pose, row.line);
+    ++count;
   }
-  if (poses.empty())
+  if (count == 0)
     throw InputError({path, 0, 0, ""}, "no poses (expected data rows after the header)");
+  ids.Check(
+      [&](const SeenIds::Visit& visit) {
+        CsvReader again(path);
+        for (CsvRow row; again.Next(row);) visit(again.Text(row, id_col), row, again);
+      },
+      id_col);
+}
+
+std::vector<MeasuredPose> ReadPosesCsv(const std::string& path, int num_joints,
+                                       std::optional<AngleUnit> joint_unit,
+                                       ReadProgressFn progress) {
+  std::vector<MeasuredPose> poses;
+  ReadPosesStreamed(
+      path, num_joints, joint_unit,
+      [&](const MeasuredPose& pose, int line) {
+        if (poses.size() >= static_cast<size_t>(kMaxPosesInMemory)) {
+          throw InputError(
+              {path, line, 0, ""},
+              fmt::format("more than {} poses: a fit holds at most {} in memory (every pose adds "
+                          "to its Jacobian); take every k-th row of the file, or store it with "
+                          "`armsig import poses` (any length, read row by row)",
+                          kMaxPosesInMemory, kMaxPosesInMemory));
+        }
+        poses.push_back(pose);
+      },
+      std::move(progress));
   return poses;
 }
 
-std::string FormatPosesCsv(const std::vector<MeasuredPose>& poses, int num_joints) {
+std::string PosesCsvHeader(int num_joints) {
   std::string out = "pose";
+  for (int i = 1; i <= num_joints; ++i) out += ",q" + std::to_string(i) + "_deg";
+  return out + ",x_mm,y_mm,z_mm\n";
+}
+
+std::string PosesCsvRow(const MeasuredPose& pose) {
+  std::string out = CsvEscape(pose.id);
+  char buffer[64];
+  for (int i = 0; i < pose.joints_rad.size(); ++i) {
+    std::snprintf(buffer, sizeof buffer, ",%.12g", FromRad(pose.joints_rad(i), AngleUnit::kDeg));
+    out += buffer;
+  }
+  for (int k = 0; k < 3; ++k) {
+    std::snprintf(buffer, sizeof buffer, ",%.9g", pose.target_in_world(k));
+    out += buffer;
+  }
+  return out + '\n';
+}
+
+std::string FormatPosesCsv(const std::vector<MeasuredPose>& poses, int num_joints) {
   const int n = num_joints >= 0  ? num_joints
                 : poses.empty() ? 0
                                 : static_cast<int>(poses[0].joints_rad.size());
-  for (int i = 1; i <= n; ++i) out += ",q" + std::to_string(i) + "_deg";
-  out += ",x_mm,y_mm,z_mm\n";
-  char buffer[64];
+  std::string out = PosesCsvHeader(n);
   for (const auto& pose : poses) {
-    out += CsvEscape(pose.id);
     if (pose.joints_rad.size() != n)
       throw std::invalid_argument("FormatPosesCsv: pose " + pose.id + " has another joint count");
-    for (int i = 0; i < n; ++i) {
-      std::snprintf(buffer, sizeof buffer, ",%.12g", FromRad(pose.joints_rad(i), AngleUnit::kDeg));
-      out += buffer;
-    }
-    for (int k = 0; k < 3; ++k) {
-      std::snprintf(buffer, sizeof buffer, ",%.9g", pose.target_in_world(k));
-      out += buffer;
-    }
-    out += '\n';
+    out += PosesCsvRow(pose);
   }
   return out;
 }
@@ -107,7 +196,9 @@ PoseImportOptions PoseImportOptions::UrIpa() {
   return o;
 }
 
-std::vector<MeasuredPose> ImportPoses(const std::string& path, const PoseImportOptions& options) {
+namespace {
+
+void CheckImportOptions(const PoseImportOptions& options) {
   if (options.joint_columns.empty()) throw InputError("no joint columns given (--joint-columns)");
   if (options.xyz_columns.size() != 3) throw InputError("expected three position columns (--xyz-columns)");
   // Each column names one quantity: a joint given twice, or a column that is a joint and a
@@ -126,9 +217,17 @@ std::vector<MeasuredPose> ImportPoses(const std::string& path, const PoseImportO
       }
     }
   }
+}
+
+}  // namespace
+
+void ImportPosesStreamed(const std::string& path, const PoseImportOptions& options,
+                         const std::function<void(const MeasuredPose&, int line)>& sink,
+                         ReadProgressFn progress) {
+  CheckImportOptions(options);
   CsvOptions csv;
   csv.delimiter = options.delimiter;
-  const CsvTable table = ReadCsvFile(path, csv);
+  CsvReader table(path, csv, std::move(progress));
   if (options.decimal_comma && !table.decimal_comma()) {
     throw InputError({path, 1, 0, ""},
                      "decimal commas were asked for, but the file is comma-separated (a decimal "
@@ -155,15 +254,14 @@ std::vector<MeasuredPose> ImportPoses(const std::string& path, const PoseImportO
   // The file's length unit: mm unless --length-scale says otherwise.
   const plausible::Unit length_unit{options.length_scale_to_mm == 1.0 ? "mm" : "(file units)",
                                     options.length_scale_to_mm};
-  std::vector<MeasuredPose> poses;
-  std::set<std::string> ids;
-  for (const CsvRow& row : table.rows()) {
-    MeasuredPose pose;
-    pose.id = id_col >= 0 ? table.Name(row, id_col) : std::to_string(poses.size() + 1);
-    if (!ids.insert(pose.id).second) {
-      throw InputError(table.Where(row, id_col), "duplicate pose id " + Quoted(pose.id));
-    }
-    pose.joints_rad.resize(q.size());
+  SeenIds ids;
+  int64_t count = 0;
+  MeasuredPose pose;
+  pose.joints_rad.resize(q.size());
+  for (CsvRow row; table.Next(row);) {
+    ++count;
+    pose.id = id_col >= 0 ? table.Name(row, id_col) : std::to_string(count);
+    if (id_col >= 0) ids.Add(pose.id, row.line);
     using plausible::Quantity;
     for (size_t i = 0; i < q.size(); ++i) {
       pose.joints_rad(i) =
@@ -172,9 +270,20 @@ std::vector<MeasuredPose> ImportPoses(const std::string& path, const PoseImportO
     for (int k = 0; k < 3; ++k) {
       pose.target_in_world(k) = table.Number(row, xyz[k], Quantity::kCoordinate, length_unit);
     }
-    poses.push_back(std::move(pose));
+    sink(pose, row.line);
   }
-  if (poses.empty()) throw InputError({path, 0, 0, ""}, "no data rows");
+  if (count == 0) throw InputError({path, 0, 0, ""}, "no data rows");
+  ids.Check(
+      [&](const SeenIds::Visit& visit) {
+        CsvReader again(path, csv);
+        for (CsvRow row; again.Next(row);) visit(again.Text(row, id_col), row, again);
+      },
+      id_col);
+}
+
+std::vector<MeasuredPose> ImportPoses(const std::string& path, const PoseImportOptions& options) {
+  std::vector<MeasuredPose> poses;
+  ImportPosesStreamed(path, options, [&](const MeasuredPose& p, int) { poses.push_back(p); });
   return poses;
 }
 

@@ -3,27 +3,47 @@
 // IPA UR10 laser-tracker files (';', decimal comma, named columns).
 #pragma once
 
+#include <functional>
 #include <optional>
 #include <string>
 #include <vector>
 
 #include "core/types.h"
 #include "core/units.h"
+#include "io/csv.h"
 
 namespace armsig::io {
 
+// The most poses a command holds in memory to fit them (`calibrate --poses`, `--validate`):
+// the fit's Jacobian alone takes 3 rows of 6n+3+k doubles per pose (1 kB for a six-joint
+// robot), the solver several times that. A longer file is refused at the row past it,
+// before the memory runs out; `import poses` streams a file of any length into the store.
+inline constexpr int kMaxPosesInMemory = 100000;
+
 // Reads poses for a robot of `num_joints` joints (−1: as many as the header's q1, q2, …
-// columns). Throws InputError (file, line, column) for a missing column, a malformed
-// number, a duplicate pose id, or no rows.
+// columns), row by row (CsvReader), each pose handed to `sink` as it is read (with its
+// line): memory for
+// one row and 16 bytes per row for the check that ids are unique (made when the file has
+// been read: a repeated id then throws, and the caller drops what `sink` kept). Throws
+// InputError (file, line, column) for a missing column, a malformed number, a duplicate
+// pose id, or no rows.
 // `joint_unit`: what the caller was told the joints are in; a q column whose suffix says
 // otherwise is refused (InputError naming the column), never read in another unit.
+void ReadPosesStreamed(const std::string& path, int num_joints, std::optional<AngleUnit> joint_unit,
+                       const std::function<void(const MeasuredPose&, int line)>& sink,
+                       ReadProgressFn progress = nullptr);
+// The same into memory, at most kMaxPosesInMemory poses (InputError at the row past it).
 std::vector<MeasuredPose> ReadPosesCsv(const std::string& path, int num_joints,
-                                       std::optional<AngleUnit> joint_unit = std::nullopt);
+                                       std::optional<AngleUnit> joint_unit = std::nullopt,
+                                       ReadProgressFn progress = nullptr);
 
 // Writes the SPEC's poses CSV (angles in degrees, full precision). `num_joints`: the q
 // columns of the header (−1: as many as the first pose has), so that a file without a
 // pose still has the full header.
 std::string FormatPosesCsv(const std::vector<MeasuredPose>& poses, int num_joints = -1);
+// Its header line and one row (both ending in a newline), for a file written row by row.
+std::string PosesCsvHeader(int num_joints);
+std::string PosesCsvRow(const MeasuredPose& pose);
 
 struct PoseImportOptions {
   char delimiter = '\0';  // ',', ';' or '\t'; '\0' = detect (io/csv.h)
@@ -42,6 +62,12 @@ struct PoseImportOptions {
   static PoseImportOptions UrIpa();
 };
 
+// A foreign pose table read row by row, as ReadPosesStreamed. Throws InputError as
+// ImportPoses.
+void ImportPosesStreamed(const std::string& path, const PoseImportOptions& options,
+                         const std::function<void(const MeasuredPose&, int line)>& sink,
+                         ReadProgressFn progress = nullptr);
+// The whole table in memory.
 std::vector<MeasuredPose> ImportPoses(const std::string& path, const PoseImportOptions& options);
 
 }  // namespace armsig::io

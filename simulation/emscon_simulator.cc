@@ -2,6 +2,8 @@
 
 #include <spdlog/spdlog.h>
 
+#include <algorithm>
+#include <array>
 #include <cmath>
 #include <limits>
 #include <numbers>
@@ -46,6 +48,41 @@ constexpr KnownReflector kReflectors[] = {
 int32_t OtherCommand(int32_t command) { return command == 10 ? 62 : 10; }
 
 std::string Noise() { return std::string("\x13\xfe~#garbage\r\n\x07", 13); }
+
+// A point (tracker frame, mm) as spherical values (Hz, V in rad, d in mm) of coordinate
+// system type SCC or SCW, by `convention` (SphericalConvention), and back.
+std::array<double, 3> SphericalOf(const Eigen::Vector3d& p, int32_t type,
+                                  SphericalConvention convention) {
+  const double d = p.norm();
+  if (!(d > 0.0)) return {0.0, 0.0, 0.0};
+  const double zenith = std::acos(std::clamp(p.z() / d, -1.0, 1.0));
+  if (type == es::coordinate_system::kSCW) return {std::atan2(-p.y(), p.x()), zenith, d};
+  switch (convention) {
+    case SphericalConvention::kClockwiseFromY:
+      return {std::atan2(p.x(), p.y()), zenith, d};
+    case SphericalConvention::kElevation:
+      return {std::atan2(p.y(), p.x()), std::asin(std::clamp(p.z() / d, -1.0, 1.0)), d};
+    case SphericalConvention::kPublic:
+      break;
+  }
+  const es::SphericalCcw scc = es::SccFromPoint(p);
+  return {scc.hz_rad, scc.v_rad, scc.distance_mm};
+}
+
+Eigen::Vector3d PointOf(double hz, double v, double d, int32_t type,
+                        SphericalConvention convention) {
+  if (type == es::coordinate_system::kSCW) return es::PointFromScc({-hz, v, d});
+  switch (convention) {
+    case SphericalConvention::kClockwiseFromY:
+      return es::PointFromSpherical({hz, v, d});
+    case SphericalConvention::kElevation:
+      return d *
+             Eigen::Vector3d(std::cos(v) * std::cos(hz), std::cos(v) * std::sin(hz), std::sin(v));
+    case SphericalConvention::kPublic:
+      break;
+  }
+  return es::PointFromScc({hz, v, d});
+}
 
 }  // namespace
 
@@ -392,9 +429,8 @@ std::vector<EmsconSimulator::Step> EmsconSimulator::Answer(const es::Request& re
             if (s.coordinate_system == es::coordinate_system::kRHR) {
               s.go_position_mm = Eigen::Vector3d(r.val1, r.val2, r.val3) * mm;
             } else {
-              double hz = r.val1 * rad;
-              if (s.coordinate_system == es::coordinate_system::kSCC) hz = -hz;
-              s.go_position_mm = es::PointFromSpherical({hz, r.val2 * rad, r.val3 * mm});
+              s.go_position_mm = PointOf(r.val1 * rad, r.val2 * rad, r.val3 * mm,
+                                         s.coordinate_system, options_.scc_convention);
             }
             if (s.go_position_mm->norm() > 0.0) s.beam = s.go_position_mm->normalized();
             ++s.go_positions;
@@ -502,7 +538,6 @@ es::MeasResult EmsconSimulator::MeasureNow(bool out_of_range) {
   std::normal_distribution<double> noise(0.0, SigmaMm(truth.norm()) * noise_factor);
   Eigen::Vector3d p = truth + Eigen::Vector3d(noise(rng_), noise(rng_), noise(rng_));
   if (s.settings.apply_transformation) p.x() += kUserTransformationShiftMm;
-  const es::Spherical sph = es::SphericalFromPoint(p);
   const double mm = *es::MillimetresPer(s.units.length);
   const double rad = *es::RadiansPer(s.units.angle);
   es::MeasResult m;
@@ -514,13 +549,10 @@ es::MeasResult EmsconSimulator::MeasureNow(bool out_of_range) {
       m.std_dev[i] = stated / mm;
     }
   } else {
-    double hz = sph.hz_rad;
-    if (s.coordinate_system == es::coordinate_system::kSCC && hz > 0.0) {
-      hz = 2.0 * std::numbers::pi - hz;
-    }
-    m.value = {hz / rad, sph.v_rad / rad, sph.distance_mm / mm};
-    m.std_dev = {stated / (sph.distance_mm * std::sin(sph.v_rad)) / rad,
-                 stated / sph.distance_mm / rad, stated / mm};
+    const auto [hz, v, d] = SphericalOf(p, s.coordinate_system, options_.scc_convention);
+    const double sin_zenith = std::sqrt(std::max(0.0, 1.0 - std::pow(p.z() / d, 2)));
+    m.value = {hz / rad, v / rad, d / mm};
+    m.std_dev = {stated / (d * sin_zenith) / rad, stated / d / rad, stated / mm};
   }
   if (out_of_range) m.value[1] = -m.value[1];
   m.std_total = std::sqrt(3.0) * stated / mm;

@@ -2,7 +2,8 @@
 // (a Boost.Asio acceptor on its own thread), answering through the same codec as the
 // driver (instruments/emscon_codec.h). It measures the true position of what its station
 // of the VirtualLab is aimed at, with the noise model below, in the units, coordinate
-// system type, measurement mode and system settings the client set. It starts in a state
+// system type (RHR Cartesian, SCC, SCW: SphericalConvention), measurement mode and system
+// settings the client set. It starts in a state
 // that is deliberately not armsig's (metres, gon, °F, mmHg, Cartesian, continuous mode, a
 // user transformation applied, not initialised), so a driver that assumes any of it
 // measures wrong or not at all.
@@ -41,7 +42,16 @@
 
 namespace armsig::simulation {
 
+// How the virtual tracker writes (and, for GoPosition, reads) spherical values. kPublic:
+// SCC as public emScon clients read it (instruments/emscon_codec.h PointFromScc: Hz =
+// atan2(y, x) counter-clockwise from +x, V the zenith angle, d). The others are a tracker
+// whose SCC follows another convention, for the driver's self-check: Hz clockwise from +y
+// (armsig's theodolite circle), or V an elevation above the horizon. SCW, which no public
+// source fixes, is written as Hz clockwise from +x (the mirror of SCC), V the zenith angle.
+enum class SphericalConvention { kPublic, kClockwiseFromY, kElevation };
+
 struct EmsconSimulatorOptions {
+  SphericalConvention scc_convention = SphericalConvention::kPublic;
   double time_scale = 1.0;  // multiplies every latency (0 = answer at once)
   std::chrono::milliseconds command_latency{2};
   std::chrono::milliseconds motion_latency{100};      // GoPosition, ChangeFace, FindReflector

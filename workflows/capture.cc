@@ -104,6 +104,28 @@ void ProbeDevices(const acquisition::LabConfig& lab,
                                            config.tcp.empty() ? "port" : "address"));
     }
   }
+  // A laser tracker checks its reading convention now (the reflector where its beam is,
+  // read in two coordinate-system types); with no reflector in the beam (or no reading
+  // yet), it checks with its first reading, still before that reading is stored.
+  for (size_t i = 0; i < devices.size(); ++i) {
+    auto* beam = dynamic_cast<instruments::BeamSteering*>(devices[i].get());
+    if (!beam) continue;
+    const auto& config = lab.instruments[i];
+    try {
+      beam->CheckConvention();
+    } catch (const instruments::ConventionMismatch& e) {
+      throw std::runtime_error(
+          fmt::format("station {}: {}; nothing was stored", config.station, e.what()));
+    } catch (const instruments::InstrumentError& e) {
+      if (stop && *stop) throw;
+      spdlog::info(
+          "capture: station {}: {}; the tracker's coordinate convention is checked "
+          "with its first reading",
+          config.station,
+          beam->ReflectorLost(e.code()) ? "no reflector in the beam yet"
+                                        : "no reading yet (" + std::string(e.what()) + ")");
+    }
+  }
   try {
     const Eigen::VectorXd q = controller.ReadJointsRad();
     spdlog::debug("capture: controller {}: the robot reads {} joints", controller.name(), q.size());

@@ -215,7 +215,7 @@ DemoResult RunDemo(const DemoOptions& options, const DemoObserver& observer) {
   const auto started = std::chrono::steady_clock::now();
   const calibration::RobotModel model = io::ParseRobotModel(io::kPuma760Yaml, "built-in PUMA 760");
   // A --db that can never open fails now, not after the virtual lab was built and oriented.
-  if (db::IsPostgresUri(options.db_path)) db::CheckPostgresUri(options.db_path);
+  db::CheckStoreAddress(options.db_path);
   const bool serving = !options.serve_dir.empty();
   if (serving && options.resume_session > 0) {
     throw InputError({"--serve", 0, 0, ""}, "a served lab captures nothing: no --resume with it");

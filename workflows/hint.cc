@@ -32,7 +32,7 @@ std::string Hint(const std::string& db_path, std::initializer_list<std::string> 
 std::string Hint(const std::string& db_path, const std::vector<std::string>& words) {
   // A server's store as its URI (without a password), a file as an absolute path.
   const std::string store =
-      db::IsPostgresUri(db_path) ? db::RedactedUri(db_path) : AbsolutePath(db_path);
+      db::IsPostgresAddress(db_path) ? db::RedactedAddress(db_path) : AbsolutePath(db_path);
   std::string out = "armsig --db " + ShellWord(store);
   for (const auto& w : words) out += " " + ShellWord(w);
   return out;

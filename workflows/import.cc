@@ -128,6 +128,55 @@ io::JoinedPoses JoinTrackerExport(const ImportPosesRequest& r, int num_joints) {
   return joined;
 }
 
+// A pose table (the poses format itself, or a table with named columns), read row by row:
+// each pose goes into the store's transaction and the --out file as it is read, so memory
+// does not grow with the file; both are kept only when the whole file was read without a
+// fault (a repeated id is found at the end).
+ImportPosesResult ImportPoseTable(const ImportPosesRequest& request, db::Database* database,
+                                  int num_joints) {
+  ImportPosesResult result;
+  std::optional<PosesSessionWriter> store;
+  if (database) store.emplace(*database, request.robot, request.file);
+  std::optional<io::AtomicFileWriter> out;
+  if (!request.out.empty()) out.emplace(request.out);
+  const auto take = [&](const MeasuredPose& pose, int) {
+    if (store) store->Add(pose);
+    if (out) {
+      if (result.poses == 0) out->Write(io::PosesCsvHeader(pose.joints_rad.size()));
+      out->Write(io::PosesCsvRow(pose));
+    }
+    ++result.poses;
+  };
+  if (IsPosesCsv(request)) {
+    // The poses format itself: ids from `pose`, units from the suffixes.
+    if (!request.id_column.empty() || request.length_scale != 1.0 || request.decimal_comma ||
+        !request.delimiter.empty()) {
+      throw InputError({request.file, 0, 0, ""},
+                       "--id, --length-scale, --delimiter and --decimal-comma describe a pose "
+                       "table's columns: give --joint-columns and --xyz-columns with them (a "
+                       "poses CSV, pose,q1_deg,…,x_mm,y_mm,z_mm, needs no options)");
+    }
+    io::ReadPosesStreamed(
+        request.file, num_joints > 0 ? num_joints : -1,
+        request.joint_unit.empty() ? std::nullopt : std::optional<AngleUnit>(JointUnit(request)),
+        take, request.progress);
+  } else {
+    io::ImportPosesStreamed(request.file, ImportOptionsOf(request), take, request.progress);
+  }
+  // The file first: should it fail, nothing is stored yet.
+  if (out) {
+    out->Commit();
+    spdlog::info("import poses: {} poses from {} to {}", result.poses, request.file, request.out);
+  }
+  if (store) {
+    const auto stored = store->Finish(request.allow_duplicate);
+    result.session = stored.session;
+    result.duplicate = stored.duplicate;
+    result.db_path = database->path();
+  }
+  return result;
+}
+
 }  // namespace
 
 ImportPosesResult ImportPosesFile(const ImportPosesRequest& request) {
@@ -146,41 +195,21 @@ ImportPosesResult ImportPosesFile(const ImportPosesRequest& request) {
     database.emplace(request.db_path, db::OpenMode::kMustExist);
     num_joints = RegisteredModel(*database, request.robot).num_joints();
   }
-  std::vector<MeasuredPose> poses;
-  std::vector<Eigen::Matrix3d> covariances;
-  if (tracker) {
-    io::JoinedPoses joined = JoinTrackerExport(request, num_joints);
-    poses = std::move(joined.poses);
-    covariances = std::move(joined.covariances_mm2);
-    result.unused_joint_rows = joined.unused_joint_rows;
-  } else if (IsPosesCsv(request)) {
-    // The poses format itself: ids from `pose`, units from the suffixes.
-    if (!request.id_column.empty() || request.length_scale != 1.0 || request.decimal_comma ||
-        !request.delimiter.empty()) {
-      throw InputError({request.file, 0, 0, ""},
-                       "--id, --length-scale, --delimiter and --decimal-comma describe a pose "
-                       "table's columns: give --joint-columns and --xyz-columns with them (a "
-                       "poses CSV, pose,q1_deg,…,x_mm,y_mm,z_mm, needs no options)");
-    }
-    poses = io::ReadPosesCsv(request.file, num_joints > 0 ? num_joints : -1,
-                             request.joint_unit.empty()
-                                 ? std::nullopt
-                                 : std::optional<AngleUnit>(JointUnit(request)));
-  } else {
-    poses = io::ImportPoses(request.file, ImportOptionsOf(request));
-  }
-  result.poses = poses.size();
-  const std::string source = tracker ? request.points + " + " + request.joints : request.file;
+  if (!tracker) return ImportPoseTable(request, database ? &*database : nullptr, num_joints);
+  io::JoinedPoses joined = JoinTrackerExport(request, num_joints);
+  result.unused_joint_rows = joined.unused_joint_rows;
+  result.poses = joined.poses.size();
+  const std::string source = request.points + " + " + request.joints;
   if (database) {
-    const auto stored = StorePosesSession(*database, request.robot, poses, source,
-                                          request.allow_duplicate, covariances);
+    const auto stored = StorePosesSession(*database, request.robot, joined.poses, source,
+                                          request.allow_duplicate, joined.covariances_mm2);
     result.session = stored.session;
     result.duplicate = stored.duplicate;
     result.db_path = database->path();
   }
   if (!request.out.empty()) {
-    io::WriteFileAtomically(request.out, io::FormatPosesCsv(poses));
-    spdlog::info("import poses: {} poses from {} to {}", poses.size(), source, request.out);
+    io::WriteFileAtomically(request.out, io::FormatPosesCsv(joined.poses));
+    spdlog::info("import poses: {} poses from {} to {}", joined.poses.size(), source, request.out);
   }
   return result;
 }

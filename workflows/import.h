@@ -4,6 +4,8 @@
 #include <cstdint>
 #include <string>
 
+#include "io/csv.h"
+
 namespace armsig::workflows {
 
 // `import poses`: a pose table with named columns (a preset, or columns named on the
@@ -25,6 +27,7 @@ struct ImportPosesRequest {
   bool decimal_comma = false;
   double length_scale = 1.0;     // factor to mm
   bool allow_duplicate = false;  // store a copy of poses a session of the robot already holds
+  io::ReadProgressFn progress;   // how far a pose table has been read
 };
 struct ImportPosesResult {
   size_t poses = 0;
@@ -33,7 +36,9 @@ struct ImportPosesResult {
   int unused_joint_rows = 0;   // --points/--joints: joint readings no point took
   std::string db_path;         // where it was stored
 };
-// Reads and checks the whole file before storing or writing anything.
+// Reads and checks the whole file before anything is kept: a pose table is read row by row
+// into the store's transaction and the --out file (memory does not grow with it), both
+// kept only when the whole file was read; a tracker's point table and joint log whole.
 ImportPosesResult ImportPosesFile(const ImportPosesRequest& request);
 
 // `import gsi`: a Leica GSI-8/16 file to the observations CSV; returns a one-line summary.

@@ -58,90 +58,112 @@ calibration::RobotModel RegisteredModel(db::Database& database, const std::strin
                              "model of robot " + robot);
 }
 
-std::string PosesDigest(const std::vector<MeasuredPose>& poses) {
+void PosesDigester::Add(const MeasuredPose& pose) {
   // FNV-1a over every joint angle and target coordinate, in order, each on a grid far
   // below any instrument's resolution (1e-10 rad, 1e-7 mm): the same measurements read
   // from a file in metres and one in millimetres differ in their last bits only (a unit
   // conversion's rounding) and are one digest.
-  uint64_t hash = 0xcbf29ce484222325ULL;
   auto add = [&](double value, double grid) {
     const double steps = std::round(value / grid);
     int64_t n = std::isfinite(steps) && std::abs(steps) < 9e18 ? static_cast<int64_t>(steps) : 0;
     uint64_t bits = 0;
     std::memcpy(&bits, &n, sizeof bits);
     for (int k = 0; k < 8; ++k) {
-      hash ^= (bits >> (8 * k)) & 0xff;
-      hash *= 0x100000001b3ULL;
+      hash_ ^= (bits >> (8 * k)) & 0xff;
+      hash_ *= 0x100000001b3ULL;
     }
   };
-  for (const auto& p : poses) {
-    add(static_cast<double>(p.joints_rad.size()), 1.0);
-    for (int i = 0; i < p.joints_rad.size(); ++i) add(p.joints_rad(i), 1e-10);
-    for (int i = 0; i < 3; ++i) add(p.target_in_world(i), 1e-7);
+  add(static_cast<double>(pose.joints_rad.size()), 1.0);
+  for (int i = 0; i < pose.joints_rad.size(); ++i) add(pose.joints_rad(i), 1e-10);
+  for (int i = 0; i < 3; ++i) add(pose.target_in_world(i), 1e-7);
+}
+
+std::string PosesDigester::Hex() const { return fmt::format("{:016x}", hash_); }
+
+std::string PosesDigest(const std::vector<MeasuredPose>& poses) {
+  PosesDigester digest;
+  for (const auto& p : poses) digest.Add(p);
+  return digest.Hex();
+}
+
+PosesSessionWriter::PosesSessionWriter(db::Database& database, const std::string& robot,
+                                       const std::string& source)
+    : database_(database),
+      robot_(robot),
+      source_(source),
+      robot_id_(RobotId(database, robot)),
+      tx_(database) {  // the look for a copy and the insert: one writer at a time
+  const auto model =
+      io::ParseRobotModel(db::RobotModelYaml(database, robot_id_), "model of robot " + robot);
+  num_joints_ = model.num_joints();
+  model_name_ = model.name;
+  session_ = db::CreateSession(database, robot_id_, "", "", "completed",
+                               // The file name is input: shown in the note, never obeyed.
+                               std::string(TruncateUtf8("poses imported from " + Printable(source),
+                                                        plausible::kMaxNoteLength)));
+}
+
+void PosesSessionWriter::Add(const MeasuredPose& pose, const Eigen::Matrix3d* covariance_mm2) {
+  if (pose.joints_rad.size() != num_joints_) {
+    throw InputError({source_, 0, 0, ""}, "pose " + pose.id + " has " +
+                                              std::to_string(pose.joints_rad.size()) +
+                                              " joints; robot " + robot_ + "'s model " +
+                                              model_name_ + " has " + std::to_string(num_joints_));
   }
-  return fmt::format("{:016x}", hash);
+  const int64_t pose_id = db::InsertPose(database_, session_, static_cast<int>(count_), pose.id,
+                                         pose.joints_rad, "measured", 1);
+  db::PointRow point;
+  point.pose_id = pose_id;
+  point.point = "target";
+  point.position_mm = pose.target_in_world;
+  point.covariance_mm2.setConstant(std::numeric_limits<double>::quiet_NaN());
+  if (covariance_mm2) point.covariance_mm2 = *covariance_mm2;
+  db::InsertPoint(database_, session_, point);
+  digest_.Add(pose);
+  ++count_;
+}
+
+StoredPoses PosesSessionWriter::Finish(bool allow_duplicate) {
+  if (count_ == 0) throw InputError({source_, 0, 0, ""}, "no poses to store");
+  StoredPoses result;
+  result.digest = digest_.Hex();
+  spdlog::debug("import poses: {} poses from {}: content digest {}", count_, source_,
+                result.digest);
+  for (const auto& s : db::ListSessions(database_, robot_id_)) {
+    if (s.id == session_ || s.measured != static_cast<int>(count_)) continue;
+    const std::string digest = PosesDigest(db::LoadSessionPoses(database_, s.id));
+    spdlog::trace("import poses: session {} ({} poses): digest {}", s.id, s.measured, digest);
+    if (digest != result.digest) continue;
+    if (allow_duplicate) {
+      spdlog::warn(
+          "import poses: session {} already holds these {} poses; storing them again "
+          "(--allow-duplicate)",
+          s.id, count_);
+      break;
+    }
+    result.session = s.id;
+    result.duplicate = true;
+    spdlog::info(
+        "import poses: robot {}: these {} poses are already stored as session {}; "
+        "nothing stored (--allow-duplicate stores them again)",
+        robot_, count_, s.id);
+    return result;  // the transaction rolls back: nothing of this import stays
+  }
+  tx_.commit();
+  spdlog::info("robot {}: session {} stores {} measured poses from {}", robot_, session_, count_,
+               source_);
+  result.session = session_;
+  return result;
 }
 
 StoredPoses StorePosesSession(db::Database& database, const std::string& robot,
                               const std::vector<MeasuredPose>& poses, const std::string& source,
                               bool allow_duplicate,
                               const std::vector<Eigen::Matrix3d>& covariances_mm2) {
-  const int64_t robot_id = RobotId(database, robot);
-  const auto model =
-      io::ParseRobotModel(db::RobotModelYaml(database, robot_id), "model of robot " + robot);
-  for (const auto& p : poses) {
-    if (p.joints_rad.size() != model.num_joints()) {
-      throw InputError({source, 0, 0, ""},
-                       "pose " + p.id + " has " + std::to_string(p.joints_rad.size()) +
-                           " joints; robot " + robot + "'s model " + model.name + " has " +
-                           std::to_string(model.num_joints()));
-    }
-  }
-  if (poses.empty()) throw InputError({source, 0, 0, ""}, "no poses to store");
-  StoredPoses result;
-  result.digest = PosesDigest(poses);
-  spdlog::debug("import poses: {} poses from {}: content digest {}", poses.size(), source,
-                result.digest);
-  db::WriteTransaction tx(database);  // the look for a copy and the insert: one writer at a time
-  for (const auto& s : db::ListSessions(database, robot_id)) {
-    if (s.measured != static_cast<int>(poses.size())) continue;
-    const std::string digest = PosesDigest(db::LoadSessionPoses(database, s.id));
-    spdlog::trace("import poses: session {} ({} poses): digest {}", s.id, s.measured, digest);
-    if (digest != result.digest) continue;
-    if (allow_duplicate) {
-      spdlog::warn("import poses: session {} already holds these {} poses; storing them again "
-                   "(--allow-duplicate)",
-                   s.id, poses.size());
-      break;
-    }
-    result.session = s.id;
-    result.duplicate = true;
-    spdlog::info("import poses: robot {}: these {} poses are already stored as session {}; "
-                 "nothing stored (--allow-duplicate stores them again)",
-                 robot, poses.size(), s.id);
-    return result;
-  }
-  const int64_t session =
-      db::CreateSession(database, robot_id, "", "", "completed",
-                        // The file name is input: shown in the note, never obeyed.
-                        std::string(TruncateUtf8("poses imported from " + Printable(source),
-                                                 plausible::kMaxNoteLength)));
-  for (size_t k = 0; k < poses.size(); ++k) {
-    const int64_t pose = db::InsertPose(database, session, static_cast<int>(k), poses[k].id,
-                                        poses[k].joints_rad, "measured", 1);
-    db::PointRow point;
-    point.pose_id = pose;
-    point.point = "target";
-    point.position_mm = poses[k].target_in_world;
-    point.covariance_mm2.setConstant(std::numeric_limits<double>::quiet_NaN());
-    if (k < covariances_mm2.size()) point.covariance_mm2 = covariances_mm2[k];
-    db::InsertPoint(database, session, point);
-  }
-  tx.commit();
-  spdlog::info("robot {}: session {} stores {} measured poses from {}", robot, session,
-               poses.size(), source);
-  result.session = session;
-  return result;
+  PosesSessionWriter writer(database, robot, source);
+  for (size_t k = 0; k < poses.size(); ++k)
+    writer.Add(poses[k], k < covariances_mm2.size() ? &covariances_mm2[k] : nullptr);
+  return writer.Finish(allow_duplicate);
 }
 
 std::vector<MeasuredPose> SessionPoses(db::Database& database, int64_t session_id) {

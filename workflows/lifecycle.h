@@ -30,6 +30,15 @@ calibration::RobotModel RegisteredModel(db::Database& database, const std::strin
 // What measured poses are: their joints and targets, in order (not their ids), as a
 // stable 64-bit FNV-1a digest in hex. Equal digests = the same measurements.
 std::string PosesDigest(const std::vector<MeasuredPose>& poses);
+// The same, one pose at a time.
+class PosesDigester {
+ public:
+  void Add(const MeasuredPose& pose);
+  std::string Hex() const;
+
+ private:
+  uint64_t hash_ = 0xcbf29ce484222325ULL;
+};
 
 struct StoredPoses {
   int64_t session = 0;     // the new session, or the one that already holds these poses
@@ -47,6 +56,29 @@ StoredPoses StorePosesSession(db::Database& database, const std::string& robot,
                               const std::vector<MeasuredPose>& poses, const std::string& source,
                               bool allow_duplicate = false,
                               const std::vector<Eigen::Matrix3d>& covariances_mm2 = {});
+
+// StorePosesSession one pose at a time (a file read row by row): the write transaction and
+// the session begin with the writer, each Add stores a pose, Finish commits (or, when the
+// poses are a copy of a stored session, rolls back and names it). A writer destroyed
+// before Finish stores nothing.
+class PosesSessionWriter {
+ public:
+  PosesSessionWriter(db::Database& database, const std::string& robot, const std::string& source);
+  void Add(const MeasuredPose& pose, const Eigen::Matrix3d* covariance_mm2 = nullptr);
+  StoredPoses Finish(bool allow_duplicate);
+  size_t poses() const { return count_; }
+
+ private:
+  db::Database& database_;
+  std::string robot_, source_;
+  int64_t robot_id_ = 0;
+  int num_joints_ = 0;
+  std::string model_name_;
+  db::WriteTransaction tx_;
+  int64_t session_ = 0;
+  size_t count_ = 0;
+  PosesDigester digest_;
+};
 
 // A session's measured poses with their reduced targets (pose ids = the session's labels).
 // InputError for an unknown session.

@@ -111,10 +111,10 @@ std::string ImportNote(const std::string& file) {
 ImportObservationsResult ImportObservations(db::Database& database,
                                             const ImportObservationsOptions& options) {
   const auto stations = io::ReadStationsYaml(options.stations);
-  const auto observations = io::ReadObservationsCsv(options.file);
   // The optional pose column groups rows into robot configurations.
-  const io::CsvTable table = io::ReadCsvFile(options.file);
-  const auto pose_column = table.FindColumn("pose");
+  std::vector<std::string> pose_labels;
+  const auto observations = io::ReadObservationsCsv(options.file, &pose_labels, options.progress);
+  const bool pose_column = !pose_labels.empty();
   std::map<std::string, const reduction::Station*> by_id;
   for (const auto& s : stations) by_id[s.pose.id] = &s;
   for (const auto& o : observations) {
@@ -140,7 +140,7 @@ ImportObservationsResult ImportObservations(db::Database& database,
     const auto& o = observations[k];
     std::optional<int64_t> pose_id;
     if (pose_column) {
-      const std::string& label = table.Name(table.rows()[k], *pose_column);
+      const std::string& label = pose_labels[k];
       auto it = pose_ids.find(label);
       if (it == pose_ids.end()) {
         const int seq = static_cast<int>(pose_ids.size());

@@ -6,6 +6,7 @@
 #include <vector>
 
 #include "db/database.h"
+#include "io/csv.h"
 #include "reduction/intersection.h"
 
 namespace armsig::workflows {
@@ -43,6 +44,7 @@ struct ImportObservationsOptions {
   std::string stations;  // stations YAML
   std::string robot = "unassigned";
   std::string note;
+  io::ReadProgressFn progress;  // how far the file has been read
 };
 
 struct ImportObservationsResult {

@@ -5,17 +5,19 @@
 #include <unistd.h>
 
 #include <chrono>
+#include <cmath>
 #include <condition_variable>
 #include <exception>
 #include <filesystem>
+#include <limits>
 #include <mutex>
 #include <nlohmann/json.hpp>
 #include <thread>
 
-#include "core/text.h"
 #include "core/error.h"
+#include "core/text.h"
 #include "db/database.h"
-#include "db/postgres_connection.h"
+#include "db/postgres_address.h"
 #include "db/robots.h"
 
 namespace armsig::workflows {
@@ -33,8 +35,19 @@ std::string FolderName(const std::string& robot) {
 
 }  // namespace
 
+namespace {
+
+db::OpenOptions QueueOptions(db::OpenMode mode) {
+  db::OpenOptions o;
+  o.mode = mode;
+  o.statement_timeout_ms = 15000;
+  return o;
+}
+
+}  // namespace
+
 QueueConnection::QueueConnection(const std::string& queue, db::OpenMode mode)
-    : database_(queue, mode) {}
+    : database_(queue, QueueOptions(mode)) {}
 
 std::string RecalibrateOptionsToJson(const RecalibrateOptions& o) {
   nlohmann::json j = {{"since", o.since},
@@ -97,7 +110,7 @@ std::vector<Scheduled> Schedule(const ScheduleOptions& options) {
     } else {
       for (const auto& robot : robots) {
         if (!db::FindRobot(store, robot))
-          throw InputError({options.store_db, 0, 0, "--robot"},
+          throw InputError({store.path(), 0, 0, "--robot"},
                            "no robot named '" + robot + "' (see `armsig robot list`)");
       }
     }
@@ -105,8 +118,8 @@ std::vector<Scheduled> Schedule(const ScheduleOptions& options) {
   // A queue apart from the store, on a server, is made there when new; a SQLite file must
   // exist (it is an armsig file: the store, or one made by `db init`).
   const std::string where = options.queue.empty() ? options.store_db : options.queue;
-  QueueConnection queue(where, db::IsPostgresUri(where) ? db::OpenMode::kCreate
-                                                        : db::OpenMode::kMustExist);
+  QueueConnection queue(
+      where, db::IsPostgresAddress(where) ? db::OpenMode::kCreate : db::OpenMode::kMustExist);
   const std::string json = RecalibrateOptionsToJson(options.recalibrate);
   std::vector<Scheduled> out;
   for (const auto& robot : robots) out.push_back({robot, db::Enqueue(*queue, kKind, robot, json)});
@@ -173,6 +186,7 @@ struct Outcome {
   db::JobState state = db::JobState::kFailed;
   std::string result_json, summary, error;
   std::optional<int64_t> version;
+  bool interrupted = false;  // an infrastructure fault cut the attempt short (`error` says how)
 };
 
 Outcome RunJob(const WorkerOptions& options, const db::Job& job) {
@@ -204,12 +218,58 @@ Outcome RunJob(const WorkerOptions& options, const db::Job& job) {
     }
     if (d.version > 0) out.version = d.version;
   } catch (const std::exception& e) {
-    out.state = db::JobState::kFailed;
     out.error = e.what();
+    // The store went away (or the run lost a race): the work is not at fault, and the job
+    // is handed back to the queue rather than failed.
+    out.interrupted = db::IsInfrastructureFault(e);
+    out.state = db::JobState::kFailed;
     out.summary = "failed";
   }
   return out;
 }
+
+// A server outage as the worker rides it out: waits 0.5 s, 1 s, 2 s … up to 15 s between
+// tries; ends the worker when the outage lasts longer than its limit.
+class Outage {
+ public:
+  Outage(const WorkerOptions& options, std::function<bool()> stopping)
+      : stopping_(std::move(stopping)),
+        limit_s_(options.max_outage_s >= 0 ? options.max_outage_s
+                 : options.once            ? 60.0
+                                           : std::numeric_limits<double>::infinity()) {}
+
+  // Waits before the next try; false when told to stop meanwhile. Throws when the outage
+  // has lasted longer than the limit.
+  bool Wait(const std::string& worker, const std::string& what) {
+    const auto now = std::chrono::steady_clock::now();
+    if (!since_) since_ = now;
+    const double lasted = std::chrono::duration<double>(now - *since_).count();
+    if (lasted > limit_s_) {
+      throw std::runtime_error(fmt::format(
+          "worker {}: giving up after a server outage of {:.0f} s (at most {:.0f} s with "
+          "--once): {}",
+          worker, lasted, limit_s_, what));
+    }
+    const double delay = std::min(15.0, 0.5 * std::pow(2.0, tries_++));
+    spdlog::warn("worker {}: {}; trying again in {:.1f} s", worker, what, delay);
+    const auto until = now + std::chrono::milliseconds(static_cast<int64_t>(delay * 1000));
+    while (std::chrono::steady_clock::now() < until) {
+      if (stopping_()) return false;
+      std::this_thread::sleep_for(std::chrono::milliseconds(50));
+    }
+    return !stopping_();
+  }
+  void Over() {
+    since_.reset();
+    tries_ = 0;
+  }
+
+ private:
+  std::function<bool()> stopping_;
+  double limit_s_;
+  std::optional<std::chrono::steady_clock::time_point> since_;
+  int tries_ = 0;
+};
 
 }  // namespace
 
@@ -225,62 +285,123 @@ WorkerSummary RunWorker(const WorkerOptions& options) {
   std::exception_ptr error;
   std::atomic<bool> abort{false};
 
+  // Records a job's outcome in the queue (throws DatabaseError when the queue's server is
+  // gone: the caller records it again once it is back).
+  auto record = [&](db::Connection& queue, const std::string& worker, const db::Job& job,
+                    const Outcome& outcome) {
+    if (outcome.interrupted) {
+      const bool ours = db::Requeue(
+          queue, job.id, worker,
+          fmt::format("attempt {} was interrupted by the infrastructure, queued again: {}",
+                      job.attempts, outcome.error));
+      std::lock_guard lock(mutex);
+      if (ours)
+        ++summary.interrupted;
+      else
+        ++summary.lost;
+      spdlog::warn("worker {}: job {} ({}): {}: {}", worker, job.id, job.robot,
+                   ours ? "interrupted by the infrastructure, handed back to the queue"
+                        : "interrupted, and its lease went to another worker meanwhile",
+                   outcome.error);
+      return;
+    }
+    const bool recorded = db::Finish(queue, job.id, worker, outcome.state, outcome.result_json,
+                                     outcome.summary, outcome.error, outcome.version);
+    const auto finished = db::FindJob(queue, job.id);
+    std::lock_guard lock(mutex);
+    if (!recorded) {
+      ++summary.lost;
+      spdlog::warn(
+          "worker {}: job {} ({}): finished after its lease went to another worker; this "
+          "run's outcome ({}) is not recorded with the job",
+          worker, job.id, job.robot, db::ToString(outcome.state));
+      return;
+    }
+    if (outcome.state == db::JobState::kDone) ++summary.done;
+    if (outcome.state == db::JobState::kRejected) ++summary.rejected;
+    if (outcome.state == db::JobState::kFailed) {
+      ++summary.failed;
+      spdlog::error("worker {}: job {} ({}) failed: {}", worker, job.id, job.robot, outcome.error);
+    }
+    if (options.on_finished && finished) options.on_finished(*finished);
+  };
+
   auto loop = [&](int index) {
     try {
       const std::string worker =
           options.jobs == 1 ? base_id : fmt::format("{}/{}", base_id, index + 1);
-      QueueConnection queue(queue_name);
-      while (!stopping() && !abort) {
-        std::optional<db::Job> job;
+      // The first connection fails at once (a wrong address, a server that is not there);
+      // a connection lost later is opened again.
+      auto queue = std::make_unique<QueueConnection>(queue_name);
+      Outage outage(options, [&] { return stopping() || abort; });
+      std::optional<std::pair<db::Job, Outcome>> unrecorded;  // finished, not yet recorded
+      while (!abort) {
         try {
-          job = db::Claim(*queue, worker, lease_ms, options.max_attempts);
+          if (!queue) {
+            queue = std::make_unique<QueueConnection>(queue_name);
+            spdlog::info("worker {}: the queue {} answers again", worker,
+                         db::StoreName(queue_name));
+            std::lock_guard lock(mutex);
+            ++summary.reconnects;
+          }
+          if (unrecorded) {
+            record(**queue, worker, unrecorded->first, unrecorded->second);
+            unrecorded.reset();
+          }
+          if (stopping()) break;
+          std::optional<db::Job> job;
+          try {
+            job = db::Claim(**queue, worker, lease_ms, options.max_attempts);
+          } catch (const db::DatabaseError& e) {
+            if (!e.transient()) throw;
+            spdlog::debug("worker {}: claim lost a race, again: {}", worker, e.what());
+            continue;
+          }
+          if (!job) {
+            outage.Over();
+            if (options.once) break;
+            const auto until =
+                std::chrono::steady_clock::now() +
+                std::chrono::milliseconds(static_cast<int64_t>(options.poll_s * 1000));
+            while (!stopping() && !abort && std::chrono::steady_clock::now() < until)
+              std::this_thread::sleep_for(std::chrono::milliseconds(50));
+            continue;
+          }
+          if (stopping()) {  // told to stop between the claim and the work: hand it back
+            db::Release(**queue, job->id, worker);
+            spdlog::info("worker {}: job {} ({}) handed back to the queue", worker, job->id,
+                         job->robot);
+            break;
+          }
+          spdlog::info("worker {}: job {}: recalibrate {} (attempt {})", worker, job->id,
+                       job->robot, job->attempts);
+          Outcome outcome;
+          {
+            HeartbeatThread heartbeat(queue_name, *job, worker, lease_ms);
+            outcome = RunJob(options, *job);
+          }
+          unrecorded.emplace(*job, outcome);
+          record(**queue, worker, *job, outcome);
+          unrecorded.reset();
+          if (!outcome.interrupted) {
+            outage.Over();
+          } else if (!outage.Wait(worker,
+                                  "the store of job " + std::to_string(job->id) + " went away")) {
+            break;
+          }
         } catch (const db::DatabaseError& e) {
-          if (!e.transient()) throw;
-          spdlog::debug("worker {}: claim lost a race, again: {}", worker, e.what());
-          continue;
+          if (!e.connection_lost()) throw;
+          queue.reset();
+          if (!outage.Wait(worker, std::string("the queue's server went away: ") + e.what())) {
+            if (unrecorded) {
+              spdlog::warn(
+                  "worker {}: stopped before job {}'s outcome could be recorded; the "
+                  "job is claimable again once its lease expires",
+                  worker, unrecorded->first.id);
+            }
+            break;
+          }
         }
-        if (!job) {
-          if (options.once) break;
-          const auto until = std::chrono::steady_clock::now() +
-                             std::chrono::milliseconds(static_cast<int64_t>(options.poll_s * 1000));
-          while (!stopping() && !abort && std::chrono::steady_clock::now() < until)
-            std::this_thread::sleep_for(std::chrono::milliseconds(50));
-          continue;
-        }
-        if (stopping()) {  // told to stop between the claim and the work: hand it back
-          db::Release(*queue, job->id, worker);
-          spdlog::info("worker {}: job {} ({}) handed back to the queue", worker, job->id,
-                       job->robot);
-          break;
-        }
-        spdlog::info("worker {}: job {}: recalibrate {} (attempt {})", worker, job->id, job->robot,
-                     job->attempts);
-        Outcome outcome;
-        {
-          HeartbeatThread heartbeat(queue_name, *job, worker, lease_ms);
-          outcome = RunJob(options, *job);
-        }
-        const bool recorded = db::Finish(*queue, job->id, worker, outcome.state,
-                                         outcome.result_json, outcome.summary, outcome.error,
-                                         outcome.version);
-        const auto finished = db::FindJob(*queue, job->id);
-        std::lock_guard lock(mutex);
-        if (!recorded) {
-          ++summary.lost;
-          spdlog::warn(
-              "worker {}: job {} ({}): finished after its lease went to another worker; this "
-              "run's outcome ({}) is not recorded with the job",
-              worker, job->id, job->robot, db::ToString(outcome.state));
-          continue;
-        }
-        if (outcome.state == db::JobState::kDone) ++summary.done;
-        if (outcome.state == db::JobState::kRejected) ++summary.rejected;
-        if (outcome.state == db::JobState::kFailed) {
-          ++summary.failed;
-          spdlog::error("worker {}: job {} ({}) failed: {}", worker, job->id, job->robot,
-                        outcome.error);
-        }
-        if (options.on_finished && finished) options.on_finished(*finished);
       }
     } catch (...) {
       std::lock_guard lock(mutex);

@@ -6,6 +6,13 @@
 // on one machine) or a PostgreSQL database (workers on any number of machines); the queue is
 // in the store by default, or in another armsig store (`queue`). On PostgreSQL the claims
 // use row locks with SKIP LOCKED, and each run holds the robot's advisory lock.
+//
+// A server that goes away (restarted, stopped, cut off: db::IsInfrastructureFault) fails no
+// job and ends no polling worker: a job whose store went away during its run is handed back
+// to the queue (db::Requeue: the attempt not counted, the reason in its error column) and
+// retried; a lost queue connection is opened again, waiting 0.5 s, 1 s, 2 s … up to 15 s
+// between tries, and the outcome of a job that finished meanwhile is recorded then. A
+// polling worker waits out any outage; with `once` it gives up after max_outage_s.
 #pragma once
 
 #include <atomic>
@@ -26,6 +33,7 @@ namespace armsig::workflows {
 // with `mode`.
 class QueueConnection {
  public:
+  // A queue's statements are short: on a server each has 15 s (db::OpenOptions).
   explicit QueueConnection(const std::string& queue,
                            db::OpenMode mode = db::OpenMode::kMustExist);
   db::Connection& operator*() { return database_.connection(); }
@@ -62,6 +70,9 @@ struct WorkerOptions {
   double lease_s = 300;  // a claim's lease; heartbeats renew it every lease/3
   int max_attempts = 3;  // claims of a job whose workers vanished before it is failed
   double poll_s = 5;     // pause between looks at an empty queue (without `once`)
+  // An outage of the queue's or the store's server longer than this ends the worker
+  // (exit 1); < 0: never without `once`, 60 s with it.
+  double max_outage_s = -1;
   const std::atomic<bool>* stop = nullptr;  // set: finish the current job, claim no more
   // Called after each job (from the worker's threads, serialised).
   std::function<void(const db::Job&)> on_finished;
@@ -72,6 +83,8 @@ struct WorkerOptions {
 struct WorkerSummary {
   int done = 0, rejected = 0, failed = 0;
   int lost = 0;  // finished after the lease was lost to another worker (not recorded)
+  int interrupted = 0;  // attempts cut short by a server outage, the job queued again
+  int reconnects = 0;   // queue connections opened again after a server outage
   bool stopped = false;
 };
 WorkerSummary RunWorker(const WorkerOptions& options);

@@ -4,13 +4,17 @@
 
 #include <SQLiteCpp/Database.h>
 #include <gtest/gtest.h>
+#include <signal.h>
 
+#include <chrono>
 #include <cmath>
 #include <filesystem>
 #include <limits>
 
 #include "core/error.h"
+#include "db/database.h"
 #include "db/postgres_connection.h"
+#include "db/schema.h"
 #include "db/sqlite_connection.h"
 #include "support/postgres_server.h"
 #include "test_support.h"
@@ -165,11 +169,11 @@ TEST_P(BothBackends, ColumnNamesAndTypes) {
 }
 
 TEST(PostgresUri, PasswordsNeverStandInAUriOrAMessage) {
-  EXPECT_EQ(RedactedUri("postgresql://job:s3cret@db.plant:5432/armsig"),
+  EXPECT_EQ(RedactedAddress("postgresql://job:s3cret@db.plant:5432/armsig"),
             "postgresql://job@db.plant:5432/armsig");
-  EXPECT_EQ(RedactedUri("postgresql:///armsig?host=/tmp&password=s3cret&user=a"),
+  EXPECT_EQ(RedactedAddress("postgresql:///armsig?host=/tmp&password=s3cret&user=a"),
             "postgresql:///armsig?host=/tmp&user=a");
-  EXPECT_EQ(RedactedUri("postgresql://db/armsig?sslmode=require"),
+  EXPECT_EQ(RedactedAddress("postgresql://db/armsig?sslmode=require"),
             "postgresql://db/armsig?sslmode=require");
   try {
     PostgresConnection c("postgresql://job:s3cret@localhost/armsig");
@@ -211,6 +215,131 @@ TEST(PostgresUri, AMalformedUriIsAnInputErrorAndAMissingServerADatabaseError) {
   } catch (const DatabaseError& e) {
     EXPECT_NE(std::string(e.what()).find("cannot connect"), std::string::npos) << e.what();
   }
+}
+
+// Every spelling of a password key that libpq reads is refused before anything connects,
+// and no message shows the secret: percent-encoded keys, other cases, sslpassword, and
+// key/value strings (quoted values, spaces around '=').
+TEST(PostgresAddress, EveryEncodedPasswordKeyIsRefusedAndNeverEchoed) {
+  const std::string secret = "Tr0ub4dor";
+  for (const std::string& address :
+       {"postgresql://db.plant/armsig?pass%77ord=" + secret,
+        "postgresql://db.plant/armsig?%70assword=" + secret,
+        "postgresql://db.plant/armsig?%70%61%73%73%77%6f%72%64=" + secret,
+        "postgresql://db.plant/armsig?sslmode=require&PASSWORD=" + secret,
+        "postgresql://db.plant/armsig?sslpassword=" + secret,
+        "postgresql://db.plant/armsig?ssl%70assword=" + secret,
+        "postgresql://job:" + secret + "@db.plant/armsig",
+        "postgres://job:" + secret + "@db.plant:5432/armsig?sslmode=require",
+        "host=db.plant password=" + secret + " dbname=armsig",
+        "host=db.plant password = '" + secret + " x' dbname=armsig",
+        "host=db.plant dbname=armsig sslpassword=" + secret,
+        "  host=db.plant\tpassword=" + secret}) {
+    try {
+      CheckStoreAddress(address);
+      ADD_FAILURE() << "accepted " << address;
+    } catch (const InputError& e) {
+      const std::string what = e.what();
+      EXPECT_NE(what.find("password"), std::string::npos) << what;
+      EXPECT_EQ(what.find(secret), std::string::npos) << what;
+    }
+    EXPECT_EQ(RedactedAddress(address).find(secret), std::string::npos) << address;
+  }
+  EXPECT_EQ(RedactedAddress("postgresql://db.plant/armsig?pass%77ord=x&sslmode=require"),
+            "postgresql://db.plant/armsig?sslmode=require");
+  EXPECT_EQ(RedactedAddress("host=db.plant password='a b' dbname=armsig"),
+            "host=db.plant dbname=armsig");
+}
+
+// A libpq key/value string is a server address, never a file name: parsed, or refused.
+// Anything else is a file; a file named like key=value is given as ./key=value.
+TEST(PostgresAddress, KeyValueStringsAreServerAddressesNeverFiles) {
+  EXPECT_TRUE(IsPostgresAddress("host=db.plant dbname=armsig"));
+  EXPECT_TRUE(IsPostgresAddress(" dbname = armsig"));
+  EXPECT_TRUE(IsPostgresAddress("postgresql:///armsig"));
+  EXPECT_FALSE(IsPostgresAddress("armsig.db"));
+  EXPECT_FALSE(IsPostgresAddress("./run=3.db"));
+  EXPECT_FALSE(IsPostgresAddress("/data/lab 1.db"));
+  EXPECT_NO_THROW(CheckStoreAddress("host=db.plant dbname=armsig sslmode=require"));
+  EXPECT_NO_THROW(CheckStoreAddress("./run=3.db"));
+  for (const char* bad :
+       {"run=3.db", "host=db.plant dbname", "hots=db.plant dbname=x", "mysql://db.plant/armsig",
+        "postgresql:/db.plant/armsig", "postgresql://[::1/armsig", "host=db port=five dbname=x"}) {
+    try {
+      CheckStoreAddress(bad, "--to");
+      ADD_FAILURE() << "accepted " << bad;
+    } catch (const InputError& e) {
+      EXPECT_NE(std::string(e.what()).find("--to"), std::string::npos) << e.what();
+    }
+  }
+}
+
+// A key/value string connects like a URI; the store is named by it, without secrets.
+TEST(PostgresAddress, AKeyValueStringOpensTheServersStore) {
+  auto& server = testing::PostgresServer::Shared();
+  std::string name;
+  server.NewDatabase("keyvalue", &name);
+  const std::string address = "host=" + server.socket_dir() +
+                              " port=" + std::to_string(server.port()) + " dbname=" + name +
+                              " user=" + server.superuser();
+  Database store(address);
+  EXPECT_EQ(store.backend(), Backend::kPostgres);
+  EXPECT_EQ(store.path(), address);
+  EXPECT_EQ(store.SchemaVersion(), LatestSchemaVersion());
+}
+
+// Armsig's limits when the address sets none; the address's own when it does.
+TEST(PostgresTimeouts, EachConnectionRunsUnderItsCommandsLimitsUnlessTheAddressSetsThem) {
+  const std::string uri = testing::PostgresServer::Shared().NewDatabase("timeouts");
+  ServerTimeouts limits;
+  limits.statement_ms = 45000;
+  limits.lock_ms = 7000;
+  PostgresConnection ours(uri, limits);
+  EXPECT_FALSE(ours.timeouts_from_user());
+  EXPECT_EQ(ours.statement_timeout_ms(), 45000);
+  auto show = [](Connection& c, const char* name) {
+    auto s = c.Prepare(std::string("SELECT setting FROM pg_settings WHERE name = '") + name + "'");
+    EXPECT_TRUE(s->Step());
+    return s->Text(0);
+  };
+  EXPECT_EQ(show(ours, "statement_timeout"), "45000");
+  EXPECT_EQ(show(ours, "lock_timeout"), "7000");
+  PostgresConnection theirs(
+      uri + "&options=-c%20statement_timeout%3D1500%20-c%20lock_timeout%3D900", limits);
+  EXPECT_TRUE(theirs.timeouts_from_user());
+  EXPECT_EQ(theirs.statement_timeout_ms(), 1500);
+  EXPECT_EQ(show(theirs, "statement_timeout"), "1500");
+  EXPECT_EQ(show(theirs, "lock_timeout"), "900");
+}
+
+// A server process that is stopped (SIGSTOP) takes the statement and never answers: the
+// client gives up at statement_timeout and its grace (1 s + 1 s here), closes the
+// connection and says so (connection_lost: the work may be retried); before, it waited for
+// good.
+TEST(PostgresTimeouts, AFrozenServerEndsTheStatementAtTheClientsDeadline) {
+  const std::string uri = testing::PostgresServer::Shared().NewDatabase("frozen") +
+                          "&options=-c%20statement_timeout%3D1000";
+  PostgresConnection c(uri);
+  const auto backend = static_cast<pid_t>(c.QueryInt("SELECT pg_backend_pid()"));
+  ASSERT_EQ(::kill(backend, SIGSTOP), 0);
+  const auto start = std::chrono::steady_clock::now();
+  try {
+    c.QueryInt("SELECT 1");
+    ADD_FAILURE() << "a frozen server answered";
+  } catch (const DatabaseError& e) {
+    EXPECT_TRUE(e.connection_lost()) << e.what();
+    EXPECT_TRUE(IsInfrastructureFault(e));
+    EXPECT_NE(std::string(e.what()).find("did not answer within 2 s"), std::string::npos)
+        << e.what();
+  }
+  const double seconds =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  ::kill(backend, SIGCONT);
+  EXPECT_GE(seconds, 1.9);
+  EXPECT_LT(seconds, 10.0);
+  // The connection is closed: later statements fail at once, a rollback is a no-op.
+  EXPECT_THROW(c.QueryInt("SELECT 1"), DatabaseError);
+  EXPECT_NO_THROW(c.Rollback());
 }
 
 INSTANTIATE_TEST_SUITE_P(Db, BothBackends, ::testing::Values(Backend::kSqlite, Backend::kPostgres),

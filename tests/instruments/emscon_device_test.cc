@@ -5,8 +5,10 @@
 // Hz/V/distance mapping.
 #include "instruments/emscon_device.h"
 
+#include <fmt/format.h>
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <functional>
 #include <map>
 #include <numbers>
@@ -29,16 +31,22 @@ RetryPolicy Fast() {
 }
 
 // A scripted tracker: answers every command AllOK (with the payloads the driver asks for),
-// a StartMeasurement with `result`. Per-command overrides replace the whole answer.
+// a StartMeasurement with `result` (SCC values) in the coordinate system type set: in RHR
+// the point those values are by the public convention (emscon::PointFromScc), or, with
+// `wrong_convention`, by a theodolite's (Hz clockwise from +y). Per-command overrides
+// replace the whole answer.
 struct FakeTracker {
   es::MeasResult result;
   int32_t processor_status = es::tracker_processor_status::kInitialized;
+  int32_t coordinate_system = es::coordinate_system::kRHR;
+  int32_t angle_unit = es::angle_unit::kRadian;
+  bool wrong_convention = false;
   std::map<int32_t, std::function<std::vector<std::string>()>> overrides;
   std::vector<es::Request> received;
   size_t chunk = 0;  // > 0: deliver the answer in chunks of this many bytes
 
   FakeTracker() {
-    // Hz 1.25 rad, V 1.5 rad, 4000 mm (SCW), sigmas, 21.5 °C, 1002.5 hPa, 38 %RH.
+    // Hz 1.25 rad, V 1.5 rad, 4000 mm (SCC), sigmas, 21.5 °C, 1002.5 hPa, 38 %RH.
     result.value = {1.25, 1.5, 4000.0};
     result.std_dev = {2e-6, 3e-6, 0.01};
     result.temperature = 21.5;
@@ -46,11 +54,27 @@ struct FakeTracker {
     result.humidity = 38.0;
   }
 
+  // The result packet in the coordinate system type set.
+  std::string ResultPacket() const {
+    if (coordinate_system != es::coordinate_system::kRHR) return es::EncodePacket(result);
+    const double rad = *es::RadiansPer(angle_unit);
+    const double hz = result.value[0] * rad, v = result.value[1] * rad, d = result.value[2];
+    const Eigen::Vector3d p =
+        wrong_convention ? es::PointFromSpherical({hz, v, d}) : es::PointFromScc({hz, v, d});
+    es::MeasResult cartesian = result;
+    cartesian.value = {p.x(), p.y(), p.z()};
+    cartesian.std_dev = {0.01, 0.01, 0.01};
+    return es::EncodePacket(cartesian);
+  }
+
   std::vector<std::string> Answer(std::string_view bytes) {
     const auto d = es::DecodeRequest(bytes);
     EXPECT_TRUE(d.request) << d.why;
     if (!d.request) return {};
     received.push_back(*d.request);
+    if (const auto* c = std::get_if<es::SetCoordinateSystemType>(&*d.request))
+      coordinate_system = c->type;
+    if (const auto* u = std::get_if<es::SetUnits>(&*d.request)) angle_unit = u->units.angle;
     const int32_t id = es::CommandOf(*d.request);
     std::vector<std::string> out;
     if (auto it = overrides.find(id); it != overrides.end()) {
@@ -90,7 +114,7 @@ struct FakeTracker {
           break;
       }
       out.push_back(es::EncodePacket(a));
-      if (id == es::StartMeasurement::kCommand) out.push_back(es::EncodePacket(result));
+      if (id == es::StartMeasurement::kCommand) out.push_back(ResultPacket());
     }
     if (chunk == 0) return out;
     std::string all;
@@ -157,11 +181,24 @@ TEST(EmsconDevice, ConnectSetsEveryStateExplicitlyInOrder) {
   EXPECT_FALSE(settings.try_measurement_mode);
   EXPECT_EQ(settings.weather_monitor_status, 2);  // kept as read
   EXPECT_TRUE(settings.has_nivel);                // kept as read
-  EXPECT_EQ(std::get<es::SetCoordinateSystemType>(r[4]).type, es::coordinate_system::kSCW);
+  EXPECT_EQ(std::get<es::SetCoordinateSystemType>(r[4]).type, es::coordinate_system::kSCC);
   EXPECT_EQ(std::get<es::SetMeasurementMode>(r[5]).mode, es::meas_mode::kStationary);
   EXPECT_EQ(std::get<es::SetStationaryModeParams>(r[6]).meas_time_ms, 500);
   EXPECT_EQ(rig.device->reflector_id(), 3);
-  // Once set up, a measurement is one command.
+  // The first reading is read again in RHR (the convention self-check), then SCC is set
+  // back.
+  rig.tracker.received.clear();
+  rig.device->Measure();
+  EXPECT_EQ(rig.tracker.Commands(),
+            (std::vector<int32_t>{
+                es::StartMeasurement::kCommand, es::SetCoordinateSystemType::kCommand,
+                es::StartMeasurement::kCommand, es::SetCoordinateSystemType::kCommand}));
+  EXPECT_EQ(std::get<es::SetCoordinateSystemType>(rig.tracker.received[1]).type,
+            es::coordinate_system::kRHR);
+  EXPECT_EQ(std::get<es::SetCoordinateSystemType>(rig.tracker.received[3]).type,
+            es::coordinate_system::kSCC);
+  EXPECT_TRUE(rig.device->convention_checked());
+  // Once set up and checked, a measurement is one command.
   rig.tracker.received.clear();
   rig.device->Measure();
   EXPECT_EQ(rig.tracker.Commands(), std::vector<int32_t>{es::StartMeasurement::kCommand});
@@ -210,19 +247,22 @@ TEST(EmsconDevice, ReflectorByIdOrByName) {
   }
 }
 
-// Result → reading: SCW values are Hz, V, distance in the SPEC theodolite frame.
+// Result → reading: SCC values (Hz counter-clockwise from the tracker's +x, V the zenith
+// angle, d) are the point d (sin V cos Hz, sin V sin Hz, cos V) of the tracker's frame; the
+// reading's angles are the theodolite convention's of that point (Hz clockwise from +y:
+// π/2 − Hz).
 TEST(EmsconDevice, ReadingCarriesAnglesDistancePointSigmasAndEnvironment) {
   Rig rig;
   const auto before = std::chrono::system_clock::now();
   const Reading r = rig.device->Measure();
-  EXPECT_DOUBLE_EQ(r.angles.hz_rad, 1.25);
-  EXPECT_DOUBLE_EQ(r.angles.v_rad, 1.5);
+  EXPECT_NEAR(r.angles.hz_rad, std::numbers::pi / 2 - 1.25, 1e-12);
+  EXPECT_NEAR(r.angles.v_rad, 1.5, 1e-12);
   EXPECT_EQ(r.angles.face, 1);
   ASSERT_TRUE(r.distance_mm);
-  EXPECT_DOUBLE_EQ(*r.distance_mm, 4000.0);
+  EXPECT_NEAR(*r.distance_mm, 4000.0, 1e-9);
   ASSERT_TRUE(r.point_in_instrument_mm);
-  EXPECT_NEAR(r.point_in_instrument_mm->x(), 4000.0 * std::sin(1.5) * std::sin(1.25), 1e-9);
-  EXPECT_NEAR(r.point_in_instrument_mm->y(), 4000.0 * std::sin(1.5) * std::cos(1.25), 1e-9);
+  EXPECT_NEAR(r.point_in_instrument_mm->x(), 4000.0 * std::sin(1.5) * std::cos(1.25), 1e-9);
+  EXPECT_NEAR(r.point_in_instrument_mm->y(), 4000.0 * std::sin(1.5) * std::sin(1.25), 1e-9);
   EXPECT_NEAR(r.point_in_instrument_mm->z(), 4000.0 * std::cos(1.5), 1e-9);
   ASSERT_TRUE(r.sigma);
   EXPECT_DOUBLE_EQ(r.sigma->hz_rad, 2e-6);
@@ -241,12 +281,12 @@ TEST(EmsconDevice, AnglesInDegreesWhenRadiansAreNotAvailable) {
   EmsconOptions degrees;
   degrees.angle_unit = es::angle_unit::kDegree;
   Rig rig(degrees);
-  rig.tracker.result.value = {90.0, 45.0, 1000.0};
+  rig.tracker.result.value = {30.0, 45.0, 1000.0};
   rig.tracker.result.std_dev = {1e-4, 2e-4, 0.01};
   const Reading r = rig.device->Measure();
   EXPECT_EQ(std::get<es::SetUnits>(rig.tracker.received[0]).units.angle, es::angle_unit::kDegree);
-  EXPECT_DOUBLE_EQ(r.angles.hz_rad, std::numbers::pi / 2);
-  EXPECT_DOUBLE_EQ(r.angles.v_rad, std::numbers::pi / 4);
+  EXPECT_NEAR(r.angles.hz_rad, std::numbers::pi / 3, 1e-12);  // π/2 − 30°
+  EXPECT_NEAR(r.angles.v_rad, std::numbers::pi / 4, 1e-12);
   EXPECT_DOUBLE_EQ(r.sigma->hz_rad, 1e-4 * std::numbers::pi / 180);
 }
 
@@ -254,7 +294,7 @@ TEST(EmsconDevice, AnglesInDegreesWhenRadiansAreNotAvailable) {
 // command arrive between StartMeasurement and its result: recorded, never the answer.
 TEST(EmsconDevice, AsynchronousPacketsBetweenCommandAndAnswerAreRecordedNotTaken) {
   Rig rig;
-  rig.device->Connect();
+  rig.device->CheckConvention();  // set up, the first reading checked
   rig.tracker.overrides[es::StartMeasurement::kCommand] = [&] {
     return std::vector<std::string>{
         es::EncodePacket(es::StatusChange{es::status_change::kMeasStatusBusy}),
@@ -263,7 +303,7 @@ TEST(EmsconDevice, AsynchronousPacketsBetweenCommandAndAnswerAreRecordedNotTaken
         es::EncodePacket(es::CommandAnswer{es::StartMeasurement::kCommand, 0, {}}),
         es::EncodePacket(es::ReflectorPosition{0, {1, 2, 3}}),
         es::EncodePacket(es::StatusChange{es::status_change::kMeasStatusReady}),
-        es::EncodePacket(rig.tracker.result)};
+        rig.tracker.ResultPacket()};
   };
   const Reading r = rig.device->Measure();
   EXPECT_DOUBLE_EQ(*r.distance_mm, 4000.0);
@@ -284,8 +324,8 @@ TEST(EmsconDevice, ResultsSplitAcrossReadsOrSharingOneRead) {
     Rig rig;
     rig.tracker.chunk = chunk;
     const Reading r = rig.device->Measure();
-    EXPECT_DOUBLE_EQ(r.angles.hz_rad, 1.25) << chunk;
-    EXPECT_DOUBLE_EQ(*r.distance_mm, 4000.0) << chunk;
+    EXPECT_NEAR(r.angles.hz_rad, std::numbers::pi / 2 - 1.25, 1e-12) << chunk;
+    EXPECT_NEAR(*r.distance_mm, 4000.0, 1e-9) << chunk;
     if (chunk == 5) {
       EXPECT_GT(rig.transport->reads(), 40);
     }
@@ -345,7 +385,7 @@ TEST(EmsconDevice, ResultsThatAreNoReadingAreRefused) {
 
 TEST(EmsconDevice, TrackerErrorsAreTypedWithTheirStatus) {
   Rig rig;
-  rig.device->Connect();
+  rig.device->CheckConvention();  // set up, the first reading checked
   // Beam broken during the measurement: ErrorResponse for StartMeasurement.
   rig.tracker.overrides[es::StartMeasurement::kCommand] = [] {
     return std::vector<std::string>{
@@ -370,14 +410,14 @@ TEST(EmsconDevice, TrackerErrorsAreTypedWithTheirStatus) {
 
 TEST(EmsconDevice, ServerBusyIsRetriedThenTyped) {
   Rig rig;
-  rig.device->Connect();
+  rig.device->CheckConvention();  // set up, the first reading checked
   int busy = 2;
   rig.tracker.overrides[es::StartMeasurement::kCommand] = [&]() -> std::vector<std::string> {
     if (busy-- > 0) {
       return {es::EncodePacket(es::CommandAnswer{es::StartMeasurement::kCommand, 1, {}})};
     }
     return {es::EncodePacket(es::CommandAnswer{es::StartMeasurement::kCommand, 0, {}}),
-            es::EncodePacket(rig.tracker.result)};
+            rig.tracker.ResultPacket()};
   };
   EXPECT_DOUBLE_EQ(*rig.device->Measure().distance_mm, 4000.0);
   EXPECT_EQ(rig.device->statistics().busy, 2);
@@ -389,7 +429,7 @@ TEST(EmsconDevice, ServerBusyIsRetriedThenTyped) {
 // an unsolicited error the tracker sent meanwhile.
 TEST(EmsconDevice, SilenceTimesOutNamingAnUnsolicitedError) {
   Rig rig;
-  rig.device->Connect();
+  rig.device->CheckConvention();  // set up, the first reading checked
   rig.tracker.overrides[es::StartMeasurement::kCommand] = [] {
     return std::vector<std::string>{
         es::EncodePacket(es::CommandAnswer{es::StartMeasurement::kCommand, 0, {}}),
@@ -418,13 +458,51 @@ TEST(EmsconDevice, ALostConnectionIsReopenedAndSetUpAgain) {
 
 TEST(EmsconDevice, GoPositionSendsHzVDistanceOfThePoint) {
   Rig rig;
-  const Eigen::Vector3d point(-1000.0, 0.0, 1000.0);  // west, 45° above the horizon
+  const Eigen::Vector3d point(-1000.0, 0.0, 1000.0);  // along −x, 45° above the horizon
   rig.device->GoPosition(point);
   const auto& go = std::get<es::GoPosition>(rig.tracker.received.back());
-  EXPECT_NEAR(go.val1, 1.5 * std::numbers::pi, 1e-12);   // Hz 300 gon
+  EXPECT_NEAR(go.val1, std::numbers::pi, 1e-12);         // SCC: atan2(0, −1000)
   EXPECT_NEAR(go.val2, 0.25 * std::numbers::pi, 1e-12);  // V 50 gon
   EXPECT_NEAR(go.val3, std::sqrt(2.0) * 1000.0, 1e-9);
   EXPECT_EQ(CodeOf([&] { rig.device->GoPosition({std::nan(""), 0, 0}); }), 3074);
+}
+
+// The first reading on a connection is read again in RHR: a tracker whose SCC values are
+// not what the driver reads (here: Hz clockwise from +y, a theodolite's circle) is
+// refused, naming both points and the reading that would match, and no reading comes
+// from it; a tracker of the public convention passes.
+TEST(EmsconDevice, TheSelfCheckRefusesATrackerOfAnotherSphericalConvention) {
+  Rig rig;
+  rig.tracker.wrong_convention = true;
+  try {
+    rig.device->Measure();
+    FAIL() << "expected ConventionMismatch";
+  } catch (const ConventionMismatch& e) {
+    EXPECT_EQ(e.code(), 3074);
+    const std::string what = e.what();
+    EXPECT_NE(what.find("self-check failed"), std::string::npos) << what;
+    // By the public convention, and as the RHR reading (the theodolite convention's point).
+    const double sv = 4000.0 * std::sin(1.5);
+    EXPECT_NE(what.find(fmt::format("({:.3f}, {:.3f},", sv * std::cos(1.25), sv * std::sin(1.25))),
+              std::string::npos)
+        << what;
+    EXPECT_NE(what.find(fmt::format("({:.3f}, {:.3f},", sv * std::sin(1.25), sv * std::cos(1.25))),
+              std::string::npos)
+        << what;
+    EXPECT_NE(what.find("read with Hz clockwise from +y"), std::string::npos) << what;
+  }
+  EXPECT_FALSE(rig.device->convention_checked());
+  EXPECT_THROW(rig.device->Measure(), ConventionMismatch);  // checked again, refused again
+  // The tracker is left in SCC.
+  const auto& r = rig.tracker.received;
+  const auto last = std::find_if(r.rbegin(), r.rend(), [](const es::Request& q) {
+    return std::holds_alternative<es::SetCoordinateSystemType>(q);
+  });
+  ASSERT_NE(last, r.rend());
+  EXPECT_EQ(std::get<es::SetCoordinateSystemType>(*last).type, es::coordinate_system::kSCC);
+  rig.tracker.wrong_convention = false;
+  EXPECT_NO_THROW(rig.device->Measure());
+  EXPECT_TRUE(rig.device->convention_checked());
 }
 
 TEST(EmsconDevice, FaceCompensatorEnvironmentStatusAndReflectors) {

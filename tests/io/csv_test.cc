@@ -3,6 +3,8 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <functional>
+#include <vector>
 
 #include "core/error.h"
 #include "test_support.h"
@@ -158,6 +160,87 @@ TEST(Csv, MissingColumnIsNamed) {
 
 TEST(Csv, MissingFileIsAnInputError) {
   EXPECT_THROW(ReadCsvFile("/nonexistent/file.csv"), InputError);
+}
+
+namespace {
+
+// Every row of `path` read by CsvReader with `piece` bytes at a time.
+std::vector<CsvRow> ReadRows(const std::string& path, std::size_t piece, CsvOptions options = {}) {
+  options.read_piece_bytes = piece;
+  CsvReader reader(path, options);
+  std::vector<CsvRow> rows;
+  for (CsvRow row; reader.Next(row);) rows.push_back(row);
+  return rows;
+}
+
+std::string Message(const std::function<void()>& f) {
+  try {
+    f();
+  } catch (const InputError& e) {
+    return e.what();
+  }
+  return "no error";
+}
+
+}  // namespace
+
+// The row-by-row reader is ParseCsv, whatever the pieces it reads the file in: a BOM, quoted
+// fields over lines with "" escapes, CRLF, a lone CR, comments, blank lines; the same
+// fields, the same line numbers, the same header and delimiter.
+TEST(CsvReader, ReadsWhatParseCsvReadsWhateverThePieces) {
+  const std::string text =
+      "\xEF\xBB\xBF# a comment\r\n\r\n"
+      "point;note;x_mm\r\n"
+      "P1;\"a; b\";1,5\r\n"
+      "\"P2\";\"say \"\"hi\"\"\r\nover lines\";-2e-3\r"
+      "P3;\"\";7\n"
+      "# between\n\n"
+      "P4;  spaced  ;8";
+  testing::TempDir dir;
+  const std::string path = dir.File("t.csv");
+  testing::WriteText(path, text);
+  const CsvTable whole = ParseCsv(text, path);
+  ASSERT_EQ(whole.rows().size(), 4u);
+  for (std::size_t piece : {1, 2, 3, 5, 7, 64, 1 << 20}) {
+    const auto rows = ReadRows(path, piece);
+    ASSERT_EQ(rows.size(), whole.rows().size()) << piece;
+    for (std::size_t k = 0; k < rows.size(); ++k) {
+      EXPECT_EQ(rows[k].fields, whole.rows()[k].fields) << piece << " row " << k;
+      EXPECT_EQ(rows[k].line, whole.rows()[k].line) << piece << " row " << k;
+    }
+    CsvOptions o;
+    o.read_piece_bytes = piece;
+    const CsvReader reader(path, o);
+    EXPECT_EQ(reader.header(), whole.header());
+    EXPECT_EQ(reader.header_line(), whole.header_line());
+    EXPECT_EQ(reader.delimiter(), ';');
+  }
+}
+
+// Its refusals are ParseCsv's, at the same file:line:column.
+TEST(CsvReader, RefusesWhatParseCsvRefusesAtTheSamePlace) {
+  testing::TempDir dir;
+  for (const std::string text : {"a,b\n1,2\n3\n", "a,b\n1,\"open\n", "a,a\n1,2\n", "",
+                                 "# only a comment\n", "a,b\n1,2,5\n"}) {
+    const std::string path = dir.File("bad.csv");
+    testing::WriteText(path, text);
+    const std::string whole = Message([&] { ParseCsv(text, path); });
+    for (std::size_t piece : {1, 3, 1 << 20}) {
+      EXPECT_EQ(Message([&] { ReadRows(path, piece); }), whole) << text << " piece " << piece;
+    }
+    EXPECT_NE(whole, "no error") << text;
+  }
+}
+
+// A record longer than 1 MiB (an unterminated quote in a large file) is refused naming its
+// line, having read no more than the limit into memory.
+TEST(CsvReader, ARecordLongerThanTheLimitIsRefused) {
+  testing::TempDir dir;
+  const std::string path = dir.File("long.csv");
+  testing::WriteText(path, "a,b\n1,2\n3,\"" + std::string(kMaxCsvRecordBytes + 10, 'x'));
+  const std::string what = Message([&] { ReadRows(path, 1 << 16); });
+  EXPECT_NE(what.find("long.csv:3"), std::string::npos) << what.substr(0, 200);
+  EXPECT_NE(what.find("longer than 1 MiB"), std::string::npos) << what.substr(0, 200);
 }
 
 }  // namespace armsig::io

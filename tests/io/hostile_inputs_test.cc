@@ -338,10 +338,16 @@ TEST(HostileInputs, EchoedValuesAreQuotedEscapedAndCut) {
       std::string(Refusal([&] { ReadObservationsCsv(dir.File("n.csv")); }).what()).find("\\0"),
       std::string::npos);
   WriteText(dir.File("big.csv"),
-            "point,station,hz_gon,v_gon\nP,S1," + std::string(50'000'000, '9') + "x,100\n");
+            "point,station,hz_gon,v_gon\nP,S1," + std::string(500'000, '9') + "x,100\n");
   const std::string big = Refusal([&] { ReadObservationsCsv(dir.File("big.csv")); }).what();
   EXPECT_LT(big.size(), 400u);
-  EXPECT_NE(big.find("(50000001 bytes)"), std::string::npos) << big;
+  EXPECT_NE(big.find("(500001 bytes)"), std::string::npos) << big;
+  // A record beyond the readers' limit (1 MiB) is refused before its value is looked at.
+  WriteText(dir.File("huge.csv"),
+            "point,station,hz_gon,v_gon\nP,S1," + std::string(50'000'000, '9') + "x,100\n");
+  const std::string huge = Refusal([&] { ReadObservationsCsv(dir.File("huge.csv")); }).what();
+  EXPECT_LT(huge.size(), 400u);
+  EXPECT_NE(huge.find("huge.csv:2: a record longer than 1 MiB"), std::string::npos) << huge;
   // YAML values and keys too.
   const std::string yaml = Refusal([] {
                              ParseRobotModel(

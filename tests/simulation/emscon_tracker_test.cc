@@ -103,7 +103,8 @@ TEST(VirtualTracker, DriverSetsEveryStateAndMeasuresTheTruth) {
   rig.ExpectTruth(r);
   const auto after = rig.sim->state();
   EXPECT_EQ(after.units, es::Units{});  // mm, rad, °C, mbar, %RH
-  EXPECT_EQ(after.coordinate_system, es::coordinate_system::kSCW);
+  EXPECT_EQ(after.coordinate_system, es::coordinate_system::kSCC);  // RHR only for the check
+  EXPECT_TRUE(rig.device->convention_checked());
   EXPECT_EQ(after.meas_mode, es::meas_mode::kStationary);
   EXPECT_EQ(after.meas_time_ms, 100);
   EXPECT_TRUE(after.initialized);
@@ -158,7 +159,7 @@ TEST(VirtualTracker, EveryCall) {
   EXPECT_TRUE(rig.device->CompensatorOn());
   EXPECT_EQ(rig.device->Reflectors().size(), 4u);
   rig.device->FindReflector(3000.0);
-  // GoPosition: the point the tracker turns to is the one asked for (SCW both ways).
+  // GoPosition: the point the tracker turns to is the one asked for (SCC both ways).
   const Eigen::Vector3d predicted(-1200.0, 2500.0, 700.0);
   rig.device->GoPosition(predicted);
   ASSERT_TRUE(rig.sim->state().go_position_mm);
@@ -373,7 +374,10 @@ TEST(EmsconCommand, SimulateServesAReader) {
   });
   instruments::RetryPolicy policy;
   policy.timeout = 3000ms;
-  instruments::EmsconDevice device(instruments::MakeEmsconTcpTransport("127.0.0.1", port), policy);
+  instruments::EmsconOptions options;
+  options.measurement_time_ms = 50;  // the first reading is two (the convention self-check)
+  instruments::EmsconDevice device(instruments::MakeEmsconTcpTransport("127.0.0.1", port), policy,
+                                   options);
   instruments::Reading r;
   const auto until = std::chrono::steady_clock::now() + 3s;
   for (;;) {  // the program takes a moment to start listening

@@ -2,6 +2,7 @@
 
 #include <netinet/in.h>
 #include <pwd.h>
+#include <signal.h>
 #include <sys/socket.h>
 #include <sys/wait.h>
 #include <unistd.h>
@@ -11,11 +12,12 @@
 #include <cstdio>
 #include <cstdlib>
 #include <filesystem>
-#include <memory>
 #include <fstream>
+#include <memory>
 #include <random>
 #include <sstream>
 #include <stdexcept>
+#include <vector>
 
 namespace armsig::testing {
 
@@ -167,9 +169,16 @@ PostgresServer::PostgresServer(std::string dir, bool attach) {
         << hba;
   }
   Run("cp " + Quote(dir_ + "/pg_hba.conf") + " " + Quote(data + "/pg_hba.conf"));
+  StartProcess();
+  started_ = true;
+  Psql("postgres",
+       std::string("CREATE ROLE ") + kTlsRole + " LOGIN PASSWORD '" + kTlsPassword + "'");
+}
+
+void PostgresServer::StartProcess() {
   try {
-    Run(Quote(bin_ + "/pg_ctl") + " -D " + Quote(data) + " -l " + Quote(dir_ + "/server.log") +
-        " -w -t 60 -o " +
+    Run(Quote(bin_ + "/pg_ctl") + " -D " + Quote(dir_ + "/data") + " -l " +
+        Quote(dir_ + "/server.log") + " -w -t 60 -o " +
         Quote("-k " + dir_ + " -p " + std::to_string(port_) +
               " -c listen_addresses=127.0.0.1 -c ssl=on -c fsync=off -c max_connections=200") +
         " start");
@@ -177,9 +186,39 @@ PostgresServer::PostgresServer(std::string dir, bool attach) {
     throw std::runtime_error(std::string(e.what()) + "\nserver log:\n" +
                              ReadFile(dir_ + "/server.log"));
   }
-  started_ = true;
-  Psql("postgres", std::string("CREATE ROLE ") + kTlsRole + " LOGIN PASSWORD '" + kTlsPassword +
-                       "'");
+}
+
+std::unique_ptr<PostgresServer> PostgresServer::StartPrivate() {
+  return std::unique_ptr<PostgresServer>(new PostgresServer("", /*attach=*/false));
+}
+
+void PostgresServer::Stop() {
+  Run(Quote(bin_ + "/pg_ctl") + " -D " + Quote(dir_ + "/data") + " -m fast -w stop");
+}
+
+void PostgresServer::Start() { StartProcess(); }
+
+void PostgresServer::SignalAll(int signal) {
+  // The postmaster's pid is the first line of postmaster.pid; its children are the rest.
+  std::ifstream pid_file(dir_ + "/data/postmaster.pid");
+  pid_t postmaster = 0;
+  if (!(pid_file >> postmaster) || postmaster <= 0)
+    throw std::runtime_error("PostgreSQL test server: no postmaster.pid in " + dir_);
+  std::vector<pid_t> pids{postmaster};
+  for (const auto& entry : std::filesystem::directory_iterator("/proc")) {
+    const std::string name = entry.path().filename();
+    if (name.find_first_not_of("0123456789") != std::string::npos) continue;
+    std::ifstream stat(entry.path() / "stat");
+    std::string line;
+    std::getline(stat, line);
+    const size_t close = line.rfind(')');
+    if (close == std::string::npos) continue;
+    std::istringstream rest(line.substr(close + 2));
+    char state = 0;
+    pid_t parent = 0;
+    if (rest >> state >> parent && parent == postmaster) pids.push_back(std::stoi(name));
+  }
+  for (const pid_t pid : pids) ::kill(pid, signal);
 }
 
 PostgresServer::~PostgresServer() {

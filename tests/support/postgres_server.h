@@ -25,6 +25,9 @@ class PostgresServer {
   // process, and its end (stopped, `dir` removed).
   static void StartDetached(const std::string& dir);
   static void StopDetached(const std::string& dir);
+  // A server of the calling test's own, stopped and removed with the object: for tests that
+  // stop, freeze or restart their server (the shared one serves every other test).
+  static std::unique_ptr<PostgresServer> StartPrivate();
   ~PostgresServer();
   PostgresServer(const PostgresServer&) = delete;
   PostgresServer& operator=(const PostgresServer&) = delete;
@@ -45,6 +48,12 @@ class PostgresServer {
   std::string certificate_path() const { return dir_ + "/data/server.crt"; }
   // Runs `sql` with psql as the superuser in `database`; returns psql's output.
   std::string Psql(const std::string& database, const std::string& sql) const;
+  // Stops the server (pg_ctl stop -m fast: every connection ends) and starts it again on
+  // the same port and data directory.
+  void Stop();
+  void Start();
+  // Sends `signal` to every process of the server (SIGSTOP freezes it, SIGCONT thaws it).
+  void SignalAll(int signal);
   const std::string& socket_dir() const { return dir_; }
   int port() const { return port_; }
   const std::string& superuser() const { return superuser_; }
@@ -54,6 +63,7 @@ class PostgresServer {
   // a fixture started there.
   PostgresServer(std::string dir, bool attach);
   std::string Run(const std::string& command) const;  // as the server's user
+  void StartProcess();
 
   std::string bin_, dir_, run_as_, superuser_ = "armsig_test";
   int port_ = 0;
