@@ -14,6 +14,7 @@
 #include <memory>
 #include <mutex>
 
+#include "app/checked_stdout.h"
 #include "app/command.h"
 #include "app/manual.h"
 #include "armsig_git.h"
@@ -35,6 +36,7 @@ std::string GlobalOptions::DbPath() const {
 namespace {
 
 std::atomic<bool> g_stop{false};
+std::atomic<bool> g_only_reads{false};  // OnlyReads: the command changes nothing
 std::atomic<int> g_signals{0};
 
 void OnStopSignal(int signal) {
@@ -142,10 +144,19 @@ void OnExistingDatabase(CLI::App* sub, const GlobalOptions& global, Runner& run,
 
 void OnDatabaseToRead(CLI::App* sub, const GlobalOptions& global, Runner& run,
                       std::function<int(db::Database&)> job) {
+  OnlyReads(sub);
   sub->callback([&run, &global, job] {
-    run = [&global, job] {
+    run = [&global, job]() -> int {
       db::Database database(global.DbPath(), db::OpenMode::kReadOnly);
-      return job(database);
+      const int code = job(database);
+      if (database.ChangedWhileRead()) {
+        spdlog::error("{}: another process wrote to the database while this command read it "
+                      "(a large write reached the file): what was printed may mix the states "
+                      "before and after; run the command again",
+                      database.path());
+        return kFailure;
+      }
+      return code;
     };
   });
 }
@@ -186,6 +197,7 @@ void SetupAll(CLI::App& app, GlobalOptions& global, Runner& run) {
   generate->add_option("what", *what, "man | bash-completion")
       ->required()
       ->check(CLI::IsMember({"man", "bash-completion"}));
+  OnlyReads(generate);
   generate->callback([&app, &run, what] {
     run = [&app, what] {
       std::cout << (*what == "man" ? ManPage(app, ARMSIG_VERSION, ARMSIG_GIT_DATE)
@@ -249,9 +261,15 @@ void RouteCeresLogging() {
   });
 }
 
-}  // namespace
+void SetUpLogging() {
+  auto logger = std::make_shared<spdlog::logger>("armsig", std::make_shared<PrintableSink>());
+  spdlog::set_default_logger(logger);
+  RouteCeresLogging();
+  spdlog::set_pattern("armsig: %^%l%$: %v");
+}
 
-int Main(int argc, const char* const* argv) {
+// Parses argv and runs the chosen command: every exception becomes its exit code.
+int ParseAndRun(int argc, const char* const* argv) {
   CLI::App app{
       "armsig: measure an industrial robot with external instruments and fit its arm signature "
       "(Chen & Chao error model)",
@@ -271,13 +289,10 @@ int Main(int argc, const char* const* argv) {
     }
     return app.exit(e);
   } catch (const CLI::ParseError& e) {
+    g_only_reads = true;  // nothing ran
     const int code = app.exit(e);  // prints help / version / the usage error
     return code == 0 ? kOk : kInputError;
   }
-  auto logger = std::make_shared<spdlog::logger>("armsig", std::make_shared<PrintableSink>());
-  spdlog::set_default_logger(logger);
-  RouteCeresLogging();
-  spdlog::set_pattern("armsig: %^%l%$: %v");
   // Progress and decisions (info) by default; -q keeps warnings, -v adds the details.
   spdlog::set_level(global.quiet            ? spdlog::level::warn
                     : global.verbosity >= 2 ? spdlog::level::trace
@@ -288,6 +303,14 @@ int Main(int argc, const char* const* argv) {
   } catch (const InputError& e) {
     spdlog::error("{}", e.what());
     return kInputError;
+  } catch (const StoredButOutputError& e) {
+    spdlog::error("{}", e.what());
+    return kStoredOutputFailed;
+  } catch (const OutputError& e) {
+    // A command that stores says itself what it stored before its output failed.
+    spdlog::error("{}{}", e.what(),
+                  g_only_reads ? "; the command only reads: nothing was stored or changed" : "");
+    return kFailure;
   } catch (const QualityGateError& e) {
     spdlog::error("quality gate failed: {}", e.what());
     return kQualityGate;
@@ -301,6 +324,27 @@ int Main(int argc, const char* const* argv) {
     spdlog::error("failed: {}", e.what());
     return kFailure;
   }
+}
+
+}  // namespace
+
+CLI::App* OnlyReads(CLI::App* sub) {
+  sub->parse_complete_callback([] { g_only_reads = true; });
+  return sub;
+}
+
+int Main(int argc, const char* const* argv) {
+  SetUpLogging();
+  // The one place every command's standard output is checked, to its last byte.
+  CheckedStdout out(STDOUT_FILENO);
+  std::streambuf* const previous = std::cout.rdbuf(&out);
+  const int code = ParseAndRun(argc, argv);
+  std::cout.flush();
+  const auto failure = out.Finish();
+  std::cout.rdbuf(previous);
+  if (!failure) return code;
+  spdlog::error("{}", DescribeStdoutFailure(*failure, g_only_reads, code));
+  return kFailure;
 }
 
 }  // namespace armsig::app

@@ -18,7 +18,7 @@ void SetupOrientCommand(CLI::App& parent, const GlobalOptions&, Runner& run) {
   sub->add_option("--scale-bar", o->scale_bars, "A:B=LEN_MM, repeatable");
   NumberOption(sub->add_option("--scale-bar-sigma-mm", o->scale_bar_sigma_mm,
                                "Sigma of every scale-bar length"),
-               1e-9, plausible::kMaxSigmaMm)  // a sigma: > 0, finite
+               plausible::kMinSigmaMm, plausible::kMaxSigmaMm)  // as every sigma
       ->capture_default_str();
   sub->add_option("--control", o->control, "Control points CSV: point,x_mm,y_mm,z_mm[,sx_mm,...]");
   NameOption(sub->add_option("--unlevelled", o->unlevelled,
@@ -41,6 +41,7 @@ void SetupOrientCommand(CLI::App& parent, const GlobalOptions&, Runner& run) {
       sub->add_option("--points", o->points_out, "Also write the adjusted target points (CSV)"));
   sub->add_flag("--no-instrument-errors", *no_instrument_errors,
                 "Do not estimate and apply axis errors from two-face readings");
+  OnlyReads(sub);
   sub->callback([&run, o, no_instrument_errors] {
     run = [o, no_instrument_errors] {
       o->instrument_errors = !*no_instrument_errors;
@@ -70,6 +71,7 @@ void SetupTriangulateCommand(CLI::App& parent, const GlobalOptions&, Runner& run
   NumberOption(sub->add_option("--critical-w", o->critical_w, "Critical standardised residual"),
                1.0, 100.0)
       ->capture_default_str();
+  OnlyReads(sub);
   sub->callback([&run, o, no_reject, no_instrument_errors] {
     run = [o, no_reject, no_instrument_errors] {
       o->reject_blunders = !*no_reject;

@@ -1,6 +1,7 @@
 #include "io/atomic_file.h"
 
 #include <fcntl.h>
+#include <sys/file.h>
 #include <sys/stat.h>
 #include <unistd.h>
 
@@ -30,60 +31,136 @@ mode_t CurrentUmask() {
 
 }  // namespace
 
-void WriteFileAtomically(const std::string& path, std::string_view content) {
+namespace {
+
+constexpr char kTmpInfix[] = ".tmp.";
+constexpr std::size_t kTmpSuffixLength = 6;  // mkostemp's XXXXXX
+
+std::string FolderOf(const std::string& path) {
+  const std::string folder = std::filesystem::path(path).parent_path().string();
+  return folder.empty() ? std::string(".") : folder;
+}
+
+[[noreturn]] void ThrowOutputError(const std::string& path, const std::string& what, int error) {
+  throw OutputError(path + ": " + what + " (" + std::strerror(error) + "); " + path +
+                    " was not changed");
+}
+
+// Whether the file at `name` in `dir` is still the one open as `fd`.
+bool SameFile(int dir, const char* name, int fd) {
+  struct stat by_name {}, open {};
+  return ::fstatat(dir, name, &by_name, AT_SYMLINK_NOFOLLOW) == 0 && ::fstat(fd, &open) == 0 &&
+         by_name.st_dev == open.st_dev && by_name.st_ino == open.st_ino;
+}
+
+}  // namespace
+
+int RemoveStaleTemporaries(const std::string& path) {
+  const std::string folder = FolderOf(path);
+  const std::string prefix = std::filesystem::path(path).filename().string() + kTmpInfix;
+  const int dir = ::open(folder.c_str(), O_RDONLY | O_DIRECTORY | O_CLOEXEC);
+  if (dir < 0) return 0;
+  int removed = 0;
+  std::error_code ec;
+  for (const auto& entry : std::filesystem::directory_iterator(folder, ec)) {
+    const std::string name = entry.path().filename().string();
+    if (name.size() != prefix.size() + kTmpSuffixLength || name.rfind(prefix, 0) != 0) continue;
+    struct stat st {};
+    if (::fstatat(dir, name.c_str(), &st, AT_SYMLINK_NOFOLLOW) != 0 || !S_ISREG(st.st_mode) ||
+        st.st_uid != ::geteuid()) {
+      continue;  // not a file of ours: left alone
+    }
+    const int fd =
+        ::openat(dir, name.c_str(), O_RDONLY | O_NOFOLLOW | O_NONBLOCK | O_CLOEXEC | O_NOCTTY);
+    if (fd < 0) continue;
+    // Locked: its writer lives (and removes or renames it). Unlocked: its writer died.
+    if (::flock(fd, LOCK_EX | LOCK_NB) == 0 && SameFile(dir, name.c_str(), fd) &&
+        ::unlinkat(dir, name.c_str(), 0) == 0) {
+      ++removed;
+    }
+    ::close(fd);
+  }
+  ::close(dir);
+  return removed;
+}
+
+PreparedFile::PreparedFile(std::string path, std::string_view content) : path_(std::move(path)) {
+  RemoveStaleTemporaries(path_);
   // The temporary file gets a name nobody can guess and is created with O_EXCL (mkostemp),
   // so a symlink or file planted in the folder is never followed or overwritten: a job
   // running as root cannot be made to write anywhere but `path`.
-  std::string tmp = path + ".tmp.XXXXXX";
-  const int fd = ::mkostemp(tmp.data(), O_CLOEXEC);
-  if (fd < 0) {
-    throw std::runtime_error(path + ": cannot write (" + std::strerror(errno) + ")");
+  for (;;) {
+    tmp_ = path_ + kTmpInfix + std::string(kTmpSuffixLength, 'X');
+    fd_ = ::mkostemp(tmp_.data(), O_CLOEXEC);
+    if (fd_ < 0) ThrowOutputError(path_, "cannot write", errno);
+    // Locked while this writer lives; a cleaner that took it between mkostemp and flock has
+    // removed it: made again.
+    if (::flock(fd_, LOCK_EX) == 0 && SameFile(AT_FDCWD, tmp_.c_str(), fd_)) break;
+    ::close(fd_);
   }
   auto fail = [&](const std::string& what) {
-    const std::string reason = std::strerror(errno);
-    ::close(fd);
-    ::unlink(tmp.c_str());
-    throw std::runtime_error(path + ": " + what + " (" + reason + ")");
+    const int error = errno;
+    ::unlink(tmp_.c_str());
+    ::close(fd_);
+    fd_ = -1;
+    ThrowOutputError(path_, what, error);
   };
   // mkostemp creates the file 0600; an output file is readable like any other (umask'ed
   // 0644 as open(2) would have made it).
   const mode_t mask = CurrentUmask();
-  if (::fchmod(fd, 0644 & ~mask) != 0) fail("cannot set the file mode");
-  size_t written = 0;
+  if (::fchmod(fd_, 0644 & ~mask) != 0) fail("cannot set the file mode");
+  std::size_t written = 0;
   while (written < content.size()) {
-    const ssize_t n = ::write(fd, content.data() + written, content.size() - written);
+    const ssize_t n = ::write(fd_, content.data() + written, content.size() - written);
     if (n < 0) {
       if (errno == EINTR) continue;
       fail("write failed");
     }
-    written += static_cast<size_t>(n);
+    written += static_cast<std::size_t>(n);
   }
-  if (::fsync(fd) != 0) fail("cannot flush to disk");
-  if (::close(fd) != 0) {
-    const std::string reason = std::strerror(errno);
-    ::unlink(tmp.c_str());
-    throw std::runtime_error(path + ": write failed (" + reason + ")");
+  if (::fsync(fd_) != 0) fail("write failed (flushing to disk)");
+}
+
+PreparedFile::PreparedFile(PreparedFile&& other) noexcept
+    : path_(std::move(other.path_)), tmp_(std::move(other.tmp_)), fd_(other.fd_) {
+  other.fd_ = -1;
+}
+
+PreparedFile::~PreparedFile() {
+  if (fd_ < 0) return;
+  ::unlink(tmp_.c_str());
+  ::close(fd_);
+}
+
+void PreparedFile::Commit() {
+  if (fd_ < 0) throw std::logic_error(path_ + ": committed twice");
+  // Renamed while still open and locked (a cleaner never takes a finished file); closed after.
+  if (::rename(tmp_.c_str(), path_.c_str()) != 0) {
+    const int error = errno;
+    ::unlink(tmp_.c_str());
+    ::close(fd_);
+    fd_ = -1;
+    ThrowOutputError(path_, "cannot rename into place", error);
   }
-  if (::rename(tmp.c_str(), path.c_str()) != 0) {
-    const std::string reason = std::strerror(errno);
-    ::unlink(tmp.c_str());
-    throw std::runtime_error(path + ": cannot rename into place (" + reason + ")");
-  }
+  const int close_result = ::close(fd_);
+  const int close_error = errno;
+  fd_ = -1;
   // The rename itself survives a power cut once the folder is flushed.
-  const std::string folder = std::filesystem::path(path).parent_path().string();
-  const int dir = ::open(folder.empty() ? "." : folder.c_str(), O_RDONLY | O_DIRECTORY | O_CLOEXEC);
+  const int dir = ::open(FolderOf(path_).c_str(), O_RDONLY | O_DIRECTORY | O_CLOEXEC);
   if (dir >= 0) {
     ::fsync(dir);
     ::close(dir);
   }
+  if (close_result != 0 && close_error != EINTR) {
+    throw OutputError(path_ + ": write failed (" + std::strerror(close_error) + ")");
+  }
+}
+
+void WriteFileAtomically(const std::string& path, std::string_view content) {
+  PreparedFile(path, content).Commit();
 }
 
 namespace {
-
-std::string ParentOf(const std::string& path) {
-  const std::filesystem::path parent = std::filesystem::path(path).parent_path();
-  return parent.empty() ? std::string(".") : parent.string();
-}
 
 void CheckWritableFolder(const std::string& folder, const std::string& path,
                          const std::string& option) {
@@ -106,7 +183,7 @@ void CheckOutputFile(const std::string& path, const std::string& option) {
     throw InputError({option, 0, 0, ""},
                      path + " is a folder; expected a file name (nothing was stored)");
   }
-  CheckWritableFolder(ParentOf(path), path, option);
+  CheckWritableFolder(FolderOf(path), path, option);
 }
 
 void CheckOutputDirectory(const std::string& path, const std::string& option) {
@@ -118,7 +195,7 @@ void CheckOutputDirectory(const std::string& path, const std::string& option) {
   if (std::filesystem::exists(path, error)) {
     throw InputError({option, 0, 0, ""}, path + " exists and is not a folder (nothing was stored)");
   }
-  CheckWritableFolder(ParentOf(path), path, option);
+  CheckWritableFolder(FolderOf(path), path, option);
 }
 
 namespace {

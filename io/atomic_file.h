@@ -8,8 +8,39 @@
 
 namespace armsig::io {
 
-// Throws std::runtime_error naming the path when it cannot be written.
+// An output file made ready before what it reports is stored, and put in place after:
+// constructing it writes the whole content to a temporary file beside the target
+// (`TARGET.tmp.XXXXXX`, mkostemp: O_EXCL and a name nobody can guess, so nothing planted
+// there is followed or overwritten) and flushes it to disk; Commit() renames it over the
+// target and flushes the folder. Destroyed without Commit(), the temporary file is removed.
+// The temporary file is locked (flock) while its writer lives: one left by a process that
+// died before it could remove it (kill -9, a power cut) is unlocked, and the next writer of
+// the same target removes it. Throws OutputError (core/error.h) naming the target and the
+// system's reason ("No space left on device"); the target is then as it was.
+class PreparedFile {
+ public:
+  PreparedFile(std::string path, std::string_view content);
+  ~PreparedFile();
+  PreparedFile(PreparedFile&& other) noexcept;
+  PreparedFile& operator=(PreparedFile&&) = delete;
+  PreparedFile(const PreparedFile&) = delete;
+  PreparedFile& operator=(const PreparedFile&) = delete;
+
+  void Commit();
+  const std::string& path() const { return path_; }
+
+ private:
+  std::string path_;
+  std::string tmp_;
+  int fd_ = -1;
+};
+
+// PreparedFile(path, content).Commit(). Throws OutputError naming the path.
 void WriteFileAtomically(const std::string& path, std::string_view content);
+
+// Removes the temporary files of `path` (`PATH.tmp.XXXXXX`, this user's) that no living
+// writer holds: what a killed writer left. Returns how many were removed.
+int RemoveStaleTemporaries(const std::string& path);
 // Checks, before any work is stored, that `path` can be written later: its folder
 // exists and is writable, and the path is not a folder. Throws InputError naming the
 // option (e.g. "--json") and the path.

@@ -171,6 +171,10 @@ ImportPosesResult ImportPosesFile(const ImportPosesRequest& request) {
   }
   result.poses = poses.size();
   const std::string source = tracker ? request.points + " + " + request.joints : request.file;
+  // The CSV is written in full before the session is stored and put in place after: a full
+  // disk stores nothing.
+  std::optional<io::PreparedFile> out;
+  if (!request.out.empty()) out.emplace(request.out, io::FormatPosesCsv(poses));
   if (database) {
     const auto stored = StorePosesSession(*database, request.robot, poses, source,
                                           request.allow_duplicate, covariances);
@@ -178,8 +182,17 @@ ImportPosesResult ImportPosesFile(const ImportPosesRequest& request) {
     result.duplicate = stored.duplicate;
     result.db_path = database->path();
   }
-  if (!request.out.empty()) {
-    io::WriteFileAtomically(request.out, io::FormatPosesCsv(poses));
+  if (out) {
+    try {
+      out->Commit();
+    } catch (const OutputError& e) {
+      if (!database || result.duplicate) throw;
+      throw StoredButOutputError(fmt::format(
+          "session {}: {} poses of robot {} stored in {}; the poses CSV could not be written: {} "
+          "(armsig session export {} --poses FILE writes it)",
+          result.session, result.poses, request.robot, Printable(result.db_path), e.what(),
+          result.session));
+    }
     spdlog::info("import poses: {} poses from {} to {}", poses.size(), source, request.out);
   }
   return result;
