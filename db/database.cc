@@ -565,6 +565,13 @@ void Database::OpenSqlite(const OpenOptions& options) {
     sqlite_->exec("PRAGMA synchronous=FULL");
     sqlite_->exec("PRAGMA foreign_keys=ON");
   } catch (const SQLite::Exception& e) {
+    // The system's reason first (a full disk is not a damaged file).
+    const std::string reason = SqliteSystemReason(sqlite_->getHandle(), e.getExtendedErrorCode());
+    if (!reason.empty()) {
+      throw DatabaseError(path_ + ": cannot be opened for writing (" + reason + "; SQLite: " +
+                              e.what() + "); nothing was written",
+                          std::to_string(e.getErrorCode()), false);
+    }
     throw InputError({path_, 0, 0, ""},
                      std::string("not a usable SQLite database (") + e.what() + ")");
   }

@@ -1,8 +1,7 @@
 // Outputs checked to the last byte, through the real binary: every command that prints,
-// with its standard output on a full device (/dev/full), and output files on a full file
-// system (a tmpfs of a few kB in a private mount namespace). A lost output is exit code 1
-// with a message that names the output and the disk-full reason and says what the command
-// did; never exit 0 with the output silently cut.
+// with its standard output on a full device (/dev/full). A lost output is exit code 1 with a
+// message that names the output and the disk-full reason and says what the command did;
+// never exit 0 with the output silently cut. (Full file systems: full_disk_test.cc.)
 #include <gtest/gtest.h>
 #include <sys/file.h>
 #include <fcntl.h>
@@ -32,13 +31,6 @@ CommandResult RunWithStdout(const std::string& args, const std::string& stdout_t
   result.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
   result.err = ReadText(err);
   return result;
-}
-
-// Whether `script` can run in a private mount namespace as (namespace) root: unshare -rm,
-// which needs no privilege where user namespaces are allowed, and works as root.
-bool PrivateMountsWork() {
-  return std::system("unshare -rm sh -c 'mount -t tmpfs -o size=4k tmpfs /mnt' >/dev/null 2>&1") ==
-         0;
 }
 
 struct Case {
@@ -148,43 +140,6 @@ TEST(CheckedStdout, OutputWithRoomIsWrittenWhole) {
   // 160 configurations of two simulated sessions (and the imported session's four), a header.
   EXPECT_GE(std::count(text.begin(), text.end(), '\n'), 161);
   EXPECT_EQ(text.back(), '\n');
-}
-
-// Standard output into a file on a full file system (a tmpfs of 8 kB): the export is cut at
-// 8 kB, and the command says so (exit 1) instead of exit 0 with a third of the rows. An
-// output file (--out) on the same full file system is not written at all, and no temporary
-// file is left behind.
-TEST(CheckedStdout, AFullFileSystemIsNamedForStandardOutputAndForOutputFiles) {
-  if (!PrivateMountsWork()) GTEST_SKIP() << "no private mount namespace here (unshare -rm)";
-  TempDir dir;
-  const LabDatabase lab = CopyLabDatabase(dir.path().string());
-  const std::string full = dir.File("full");
-  std::filesystem::create_directories(full);
-  // The messages and exit codes go beside the tmpfs, which has no room for them.
-  const std::string binary = Q(ARMSIG_BINARY), at = dir.path().string() + "/";
-  const std::string script =
-      "mount -t tmpfs -o size=8k tmpfs " + Q(full) + " && cd " + Q(full) + " && " + binary +
-      " --db " + Q(lab.path) + " db export poses --csv > poses.csv 2> " + Q(at + "err1") +
-      "; echo $? > " + Q(at + "rc1") + "; " + binary + " --db " + Q(lab.path) +
-      " db export poses --out out.csv 2> " + Q(at + "err2") + "; echo $? > " + Q(at + "rc2") +
-      "; ls -a > " + Q(at + "listing");
-  WriteText(dir.File("script.sh"), script + "\n");
-  ASSERT_EQ(std::system(("unshare -rm sh " + Q(dir.File("script.sh"))).c_str()), 0);
-  EXPECT_EQ(ReadText(dir.File("rc1")), "1\n");
-  const std::string err1 = ReadText(dir.File("err1"));
-  EXPECT_NE(err1.find("standard output: write failed (No space left on device) after "),
-            std::string::npos)
-      << err1;
-  EXPECT_NE(err1.find("bytes: the output is incomplete"), std::string::npos)
-      << err1;
-  EXPECT_EQ(ReadText(dir.File("rc2")), "1\n");
-  const std::string err2 = ReadText(dir.File("err2"));
-  EXPECT_NE(err2.find("out.csv: write failed (No space left on device); out.csv was not changed"),
-            std::string::npos)
-      << err2;
-  EXPECT_NE(err2.find("nothing was stored or changed"), std::string::npos) << err2;
-  // Nothing left but the cut standard output and the messages: no out.csv, no temporary file.
-  EXPECT_EQ(ReadText(dir.File("listing")), ".\n..\nposes.csv\n");
 }
 
 // A temporary output file a killed writer left (unlocked) is removed by the next writer of
