@@ -115,7 +115,10 @@ DeviceClaims::~DeviceClaims() {
 std::string DeviceLockDir() {
   if (const char* dir = std::getenv("ARMSIG_DEVICE_LOCK_DIR"); dir && *dir) return dir;
   struct stat st {};
-  if (::geteuid() == 0 || (::lstat(kSharedFolder, &st) == 0 && S_ISDIR(st.st_mode)))
+  // Root makes the shared folder; a user uses it when it is there for them (the package
+  // makes it at boot, 1777).
+  if (::geteuid() == 0 ||
+      (::lstat(kSharedFolder, &st) == 0 && S_ISDIR(st.st_mode) && ::access(kSharedFolder, W_OK) == 0))
     return kSharedFolder;
   if (const char* runtime = std::getenv("XDG_RUNTIME_DIR");
       runtime && *runtime && ::stat(runtime, &st) == 0 && S_ISDIR(st.st_mode) &&

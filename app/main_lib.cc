@@ -280,6 +280,7 @@ int ParseAndRun(int argc, const char* const* argv) {
   try {
     app.parse(argc, argv);
   } catch (const CLI::CallForVersion& e) {
+    g_only_reads = true;  // nothing ran
     // `--version` after a command (it falls through to the program's own): a script asking
     // for parameter set 3 must not get the program's version and exit 0.
     if (!app.get_subcommands().empty()) {

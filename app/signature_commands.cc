@@ -120,7 +120,7 @@ void SetupSignatureCommands(CLI::App& parent, const GlobalOptions& global, Runne
   OnDatabaseToRead(report, global, run, [r](db::Database& database) {
     const auto written = workflows::WriteStoredReport(database, r->robot, r->set, r->out);
     std::cout << fmt::format("armsig report: {} version {} -> {}\n", r->robot, written.version,
-                             written.path);
+                             Printable(written.path));
     return kOk;
   });
 }

@@ -397,6 +397,10 @@ SQLite::Database OpenForReading(const std::string& path, const OpenOptions& opti
     copy.executeStep();  // every page
     return 0;
   });
+  if (*lock_fd >= 0) {  // the command reads the copy: the file may change now
+    ::close(*lock_fd);
+    *lock_fd = -1;
+  }
   return memory;
 }
 

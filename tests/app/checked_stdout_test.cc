@@ -68,6 +68,7 @@ TEST(CheckedStdout, EveryCommandThatPrintsFailsOnAFullDeviceSayingWhatItDid) {
            Q(out + "-joints.csv"),
        true},
       {"export", db + "export --robot puma --format json --out " + Q(out + ".json"), true},
+      {"report", db + "report --robot puma --out " + Q(out + "-report"), true},
       {"calibrate", "calibrate --model " + Q(lab.model_yaml) + " --poses " + Q(lab.poses_csv),
        true},
       {"triangulate",

@@ -50,6 +50,7 @@ std::vector<std::string> ReadingCommands(const LabDatabase& lab, const std::stri
           "compensate --robot puma --targets " + Q(lab.targets_csv) + " --out " +
               Q(out + "/joints.csv"),
           "export --robot puma --format json --out " + Q(out + "/signature.json"),
+          "report --robot puma --set 1 --out " + Q(out + "/report"),
           "jobs",
           "jobs --json"};
 }
