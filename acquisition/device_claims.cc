@@ -117,8 +117,8 @@ std::string DeviceLockDir() {
   struct stat st {};
   // Root makes the shared folder; a user uses it when it is there for them (the package
   // makes it at boot, 1777).
-  if (::geteuid() == 0 ||
-      (::lstat(kSharedFolder, &st) == 0 && S_ISDIR(st.st_mode) && ::access(kSharedFolder, W_OK) == 0))
+  if (::geteuid() == 0 || (::lstat(kSharedFolder, &st) == 0 && S_ISDIR(st.st_mode) &&
+                           ::access(kSharedFolder, W_OK) == 0))
     return kSharedFolder;
   if (const char* runtime = std::getenv("XDG_RUNTIME_DIR");
       runtime && *runtime && ::stat(runtime, &st) == 0 && S_ISDIR(st.st_mode) &&
@@ -269,15 +269,15 @@ DeviceClaims ClaimDevices(const LabConfig& lab, const std::string& what,
       fd = ::openat(dir, name.c_str(), O_RDWR | O_CREAT | kFlags, 0644);
       if (fd < 0 && errno == EACCES) fd = ::openat(dir, name.c_str(), O_RDONLY | kFlags);
       if (fd < 0) {
-        throw std::runtime_error(fmt::format(
-            "{}: cannot open the claim of {} ({}{})", Printable(path), device,
-            std::strerror(errno), errno == ELOOP ? ": a symbolic link, refused" : ""));
+        throw std::runtime_error(fmt::format("{}: cannot open the claim of {} ({}{})",
+                                             Printable(path), device, std::strerror(errno),
+                                             errno == ELOOP ? ": a symbolic link, refused" : ""));
       }
       struct stat st {};
       if (::fstat(fd, &st) != 0 || !S_ISREG(st.st_mode)) {
         ::close(fd);
-        throw std::runtime_error(fmt::format(
-            "{}: the claim of {} is not a regular file; refused", Printable(path), device));
+        throw std::runtime_error(fmt::format("{}: the claim of {} is not a regular file; refused",
+                                             Printable(path), device));
       }
       if (::flock(fd, LOCK_EX | LOCK_NB) != 0) {
         const Holder holder = HolderOf(fd);

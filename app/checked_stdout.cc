@@ -95,8 +95,9 @@ std::string DescribeStdoutFailure(const CheckedStdout::Failure& failure, bool on
                         failure.written + failure.lost);
   }
   if (only_reads) {
-    return text + ". The command only reads: nothing was stored or changed; run it again where "
-                  "the output has room";
+    return text +
+           ". The command only reads: nothing was stored or changed; run it again where "
+           "the output has room";
   }
   text += fmt::format(". The command did its work (exit code {} but for this), and that stays done",
                       command_exit_code);

@@ -25,10 +25,10 @@ class CheckedStdout final : public std::streambuf {
   CheckedStdout& operator=(const CheckedStdout&) = delete;
 
   struct Failure {
-    std::string reason;      // strerror of the failed write or close
-    std::size_t written;     // bytes that reached the output
-    std::size_t lost;        // bytes that did not
-    std::string lost_text;   // the first kKeptBytes of them
+    std::string reason;     // strerror of the failed write or close
+    std::size_t written;    // bytes that reached the output
+    std::size_t lost;       // bytes that did not
+    std::string lost_text;  // the first kKeptBytes of them
   };
   // Writes what is buffered, then closes the descriptor and puts /dev/null in its place
   // (nothing later can write into a descriptor the process opens next). nullopt when

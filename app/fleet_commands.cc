@@ -64,8 +64,10 @@ nlohmann::json JobJson(const db::Job& j, const std::string& queue) {
                         {"version", j.version ? nlohmann::json(*j.version) : nlohmann::json()},
                         {"summary", j.summary.empty() ? nlohmann::json() : nlohmann::json(j.summary)},
                         {"error", j.error.empty() ? nlohmann::json() : nlohmann::json(j.error)}};
-  out["options"] = db::ParseStoredJson(j.options_json, {QueueName(queue), "jobs", j.id, "options_json"});
-  out["result"] = db::ParseStoredJson(j.result_json, {QueueName(queue), "jobs", j.id, "result_json"});
+  out["options"] =
+      db::ParseStoredJson(j.options_json, {QueueName(queue), "jobs", j.id, "options_json"});
+  out["result"] =
+      db::ParseStoredJson(j.result_json, {QueueName(queue), "jobs", j.id, "result_json"});
   return out;
 }
 
@@ -82,8 +84,8 @@ int RunSchedule(ScheduleCommand c, const GlobalOptions& global) {
     if (s.job.created)
       std::cout << fmt::format("job {}: recalibrate {} queued\n", s.job.id, Printable(s.robot));
     else
-      std::cout << fmt::format("job {}: recalibrate {} is already {}: not queued twice\n",
-                               s.job.id, Printable(s.robot), db::ToString(s.job.state));
+      std::cout << fmt::format("job {}: recalibrate {} is already {}: not queued twice\n", s.job.id,
+                               Printable(s.robot), db::ToString(s.job.state));
   }
   const auto queued = std::count_if(scheduled.begin(), scheduled.end(),
                                     [](const workflows::Scheduled& s) { return s.job.created; });
@@ -98,10 +100,9 @@ int RunWorkerCommand(WorkerCommand c, const GlobalOptions& global) {
   std::mutex print;
   c.options.on_finished = [&print](const db::Job& j) {
     std::lock_guard lock(print);
-    std::cout << fmt::format("job {}: {}: {}{}\n", j.id, Printable(j.robot), db::ToString(j.state),
-                             j.summary.empty() || j.summary == "failed"
-                                 ? ""
-                                 : " — " + Printable(j.summary))
+    std::cout << fmt::format(
+                     "job {}: {}: {}{}\n", j.id, Printable(j.robot), db::ToString(j.state),
+                     j.summary.empty() || j.summary == "failed" ? "" : " — " + Printable(j.summary))
               << std::flush;
   };
   const auto s = workflows::RunWorker(c.options);

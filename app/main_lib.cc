@@ -150,10 +150,11 @@ void OnDatabaseToRead(CLI::App* sub, const GlobalOptions& global, Runner& run,
       db::Database database(global.DbPath(), db::OpenMode::kReadOnly);
       const int code = job(database);
       if (database.ChangedWhileRead()) {
-        spdlog::error("{}: another process wrote to the database while this command read it "
-                      "(a large write reached the file): what was printed may mix the states "
-                      "before and after; run the command again",
-                      database.path());
+        spdlog::error(
+            "{}: another process wrote to the database while this command read it "
+            "(a large write reached the file): what was printed may mix the states "
+            "before and after; run the command again",
+            database.path());
         return kFailure;
       }
       return code;
@@ -290,7 +291,7 @@ int ParseAndRun(int argc, const char* const* argv) {
     }
     return app.exit(e);
   } catch (const CLI::ParseError& e) {
-    g_only_reads = true;  // nothing ran
+    g_only_reads = true;           // nothing ran
     const int code = app.exit(e);  // prints help / version / the usage error
     return code == 0 ? kOk : kInputError;
   }

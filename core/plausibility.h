@@ -41,7 +41,7 @@ inline constexpr double kMaxJointRad = 4.0 * kPi;
 // that the adjustment overflows into a "non_finite" point that names no sigma. The same
 // floor for every column and key that gives a sigma (observations, control points, tracker
 // point tables, lab and stations files, --scale-bar-sigma-mm).
-inline constexpr double kMinSigmaMm = 1e-6;                    // 1 nm
+inline constexpr double kMinSigmaMm = 1e-6;                   // 1 nm
 inline constexpr double kMinSigmaRad = 1e-4 * kRadPerArcsec;  // 0.0001 arc second
 inline constexpr double kMaxSigmaMm = kMaxLengthMm;
 inline constexpr double kMaxSigmaRad = 2.0 * kPi;

@@ -212,7 +212,9 @@ std::vector<StoredCalibration> CalibrationHistory(Database& db, int64_t robot_id
     c.report_json = q->Text(6);
     if (!q->IsNull(7)) c.validation_mean_mm = q->Double(7);
     if (!q->IsNull(8)) c.validation_max_mm = q->Double(8);
-    auto cell = [&](const char* column) { return JsonCell{db.path(), "calibrations", c.id, column}; };
+    auto cell = [&](const char* column) {
+      return JsonCell{db.path(), "calibrations", c.id, column};
+    };
     if (!q->IsNull(9)) c.world_from_base = MatrixFromJson(q->Text(9), cell("world_from_base_json"));
     if (!q->IsNull(10)) CovarianceFromJson(q->Text(10), cell("covariance_json"), c);
     c.options_json = q->Text(11);

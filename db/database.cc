@@ -2,9 +2,9 @@
 
 #include <SQLiteCpp/Backup.h>
 #include <SQLiteCpp/Transaction.h>
+#include <fcntl.h>
 #include <fmt/format.h>
 #include <sqlite3.h>
-#include <fcntl.h>
 #include <sys/stat.h>
 #include <sys/statvfs.h>
 #include <unistd.h>
@@ -350,8 +350,8 @@ constexpr off_t kSqliteSharedSize = 510;
 // - not in WAL mode: an ordinary read-only connection (its locks are on the file itself).
 // A file of an older schema (or an older armsig file without application_id) is copied into
 // memory and migrated there: the command reads the current schema, the file is not written.
-SQLite::Database OpenForReading(const std::string& path, const OpenOptions& options,
-                                int* lock_fd, FileState* state) {
+SQLite::Database OpenForReading(const std::string& path, const OpenOptions& options, int* lock_fd,
+                                FileState* state) {
   const FileState before = StateOf(path);
   const bool wal_mode = CheckHeader(path, static_cast<uintmax_t>(std::max<off_t>(before.size, 0)));
   std::error_code ec;
@@ -389,8 +389,7 @@ SQLite::Database OpenForReading(const std::string& path, const OpenOptions& opti
     return std::pair<int, int32_t>(file.execAndGet("PRAGMA user_version").getInt(),
                                    file.execAndGet("PRAGMA application_id").getInt());
   });
-  if (!scratch && version == LatestSchemaVersion() && application_id == kApplicationId)
-    return file;
+  if (!scratch && version == LatestSchemaVersion() && application_id == kApplicationId) return file;
   SQLite::Database memory(":memory:", SQLite::OPEN_READWRITE | SQLite::OPEN_CREATE);
   RetryWhileBusy(options.busy_timeout_ms, [&] {
     SQLite::Backup copy(memory, file);
@@ -422,7 +421,8 @@ void RefuseReadOnly(const std::string& path, bool exists) {
   } else if (wal && ::access((path + "-wal").c_str(), W_OK) != 0) {
     why = "its " + path + "-wal is not writable by this user";
   } else if (shm && ::access((path + "-shm").c_str(), W_OK) != 0) {
-    why = "its " + path + "-shm is not writable by this user (delete it when no armsig process "
+    why = "its " + path +
+          "-shm is not writable by this user (delete it when no armsig process "
           "uses the database)";
   } else if (!(wal && shm) && ::access(folder.c_str(), W_OK) != 0) {
     why = "its folder " + folder + " is not writable by this user (SQLite makes the " +
@@ -572,8 +572,8 @@ void Database::OpenSqlite(const OpenOptions& options) {
     // The system's reason first (a full disk is not a damaged file).
     const std::string reason = SqliteSystemReason(sqlite_->getHandle(), e.getExtendedErrorCode());
     if (!reason.empty()) {
-      throw DatabaseError(path_ + ": cannot be opened for writing (" + reason + "; SQLite: " +
-                              e.what() + "); nothing was written",
+      throw DatabaseError(path_ + ": cannot be opened for writing (" + reason +
+                              "; SQLite: " + e.what() + "); nothing was written",
                           std::to_string(e.getErrorCode()), false);
     }
     throw InputError({path_, 0, 0, ""},

@@ -109,8 +109,8 @@ class Database {
   bool created_ = false;
   bool read_only_ = false;
   std::unique_ptr<UnlockedRead> unlocked_read_;  // a file read immutable: its lock, its state
-  std::unique_ptr<SQLite::Database> sqlite_;      // SQLite only
-  std::unique_ptr<Connection> connection_;    // declared after sqlite_: closed before it
+  std::unique_ptr<SQLite::Database> sqlite_;     // SQLite only
+  std::unique_ptr<Connection> connection_;       // declared after sqlite_: closed before it
 };
 
 // A write transaction; every write transaction of armsig is one of these. SQLite: BEGIN

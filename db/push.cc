@@ -5,9 +5,9 @@
 
 #include <boost/uuid/random_generator.hpp>
 #include <boost/uuid/uuid_io.hpp>
+#include <functional>
 #include <map>
 #include <nlohmann/json.hpp>
-#include <functional>
 #include <optional>
 #include <variant>
 
@@ -464,7 +464,8 @@ void PushSession(Connection& source, Connection& target, NameMap& names, int64_t
 // were not pushed, open ones, are left as they were and so are the digest's).
 std::string ServerInputs(Connection& source, Connection& target, const std::string& inputs_json,
                          int64_t calibration) {
-  auto j = ParseStoredJson(inputs_json, {source.name(), "calibrations", calibration, "inputs_json"});
+  auto j =
+      ParseStoredJson(inputs_json, {source.name(), "calibrations", calibration, "inputs_json"});
   if (!j.is_object() || !j.contains("sessions") || !j["sessions"].is_array()) return inputs_json;
   auto on_server = [&](nlohmann::json& id) {
     if (!id.is_number_integer()) return;

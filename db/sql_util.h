@@ -35,8 +35,7 @@ inline std::string JsonArray(const double* v, int n) {
 // A stored 3x3 row-major matrix (a point's covariance in mm², a station's rotation);
 // nullopt when empty. Throws InputError naming the cell when it is not nine numbers
 // (db/stored_json.h).
-inline std::optional<Eigen::Matrix3d> ParseMatrix3(const std::string& text,
-                                                      const JsonCell& cell) {
+inline std::optional<Eigen::Matrix3d> ParseMatrix3(const std::string& text, const JsonCell& cell) {
   if (text.empty()) return std::nullopt;
   const auto j = ParseStoredJson(text, cell);
   if (!j.is_array() || j.size() != 9) RefuseStoredJson(cell, "expected nine numbers");

@@ -11,9 +11,8 @@ namespace armsig::db {
 
 std::string SqliteSystemReason(sqlite3* handle, int code) {
   const int primary = code & 0xff;
-  if (handle == nullptr ||
-      (primary != SQLITE_FULL && primary != SQLITE_IOERR && primary != SQLITE_CANTOPEN &&
-       primary != SQLITE_READONLY)) {
+  if (handle == nullptr || (primary != SQLITE_FULL && primary != SQLITE_IOERR &&
+                            primary != SQLITE_CANTOPEN && primary != SQLITE_READONLY)) {
     return "";
   }
   const int error = sqlite3_system_errno(handle);

@@ -42,9 +42,9 @@ std::string JsonCell::Describe() const {
 }
 
 void RefuseStoredJson(const JsonCell& cell, const std::string& why) {
-  throw InputError({cell.store, 0, 0, ""},
-                   cell.Describe() + ": " + why +
-                       " (an edited or damaged database; armsig leaves it as it is)");
+  throw InputError(
+      {cell.store, 0, 0, ""},
+      cell.Describe() + ": " + why + " (an edited or damaged database; armsig leaves it as it is)");
 }
 
 void CheckStoredJsonText(std::string_view text, const JsonCell& cell) {

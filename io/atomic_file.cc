@@ -48,7 +48,8 @@ std::string FolderOf(const std::string& path) {
 
 // Whether the file at `name` in `dir` is still the one open as `fd`.
 bool SameFile(int dir, const char* name, int fd) {
-  struct stat by_name {}, open {};
+  struct stat by_name {
+  }, open{};
   return ::fstatat(dir, name, &by_name, AT_SYMLINK_NOFOLLOW) == 0 && ::fstat(fd, &open) == 0 &&
          by_name.st_dev == open.st_dev && by_name.st_ino == open.st_ino;
 }

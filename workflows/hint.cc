@@ -5,7 +5,6 @@
 #include <filesystem>
 
 #include "core/text.h"
-
 #include "db/postgres_connection.h"
 
 namespace armsig::workflows {

@@ -228,11 +228,10 @@ std::string RestoreSession(db::Database& database, int64_t session_id) {
                                  acquisition::DisplayState(row.state, row.owner)));
   }
   const size_t planned =
-      row.plan_json.empty()
-          ? 0
-          : acquisition::PlanFromJson(row.plan_json,
-                                      {database.path(), "sessions", session_id, "plan_json"})
-                .size();
+      row.plan_json.empty() ? 0
+                            : acquisition::PlanFromJson(row.plan_json, {database.path(), "sessions",
+                                                                        session_id, "plan_json"})
+                                  .size();
   const size_t stored = db::StoredSeqs(database, session_id).size();
   const std::string state = stored >= planned ? "completed" : "paused";
   db::SetSessionState(database, session_id, state);

@@ -639,7 +639,8 @@ void NightlyJob::ReadInputs() {
     if (inputs.is_object() && inputs.contains("floor_session") &&
         inputs["floor_session"].is_number_integer()) {
       d_.floor_session = inputs["floor_session"].get<int64_t>();
-      floor_started_at_ = inputs.value("floor_started_at", std::string());
+      if (inputs.contains("floor_started_at") && inputs["floor_started_at"].is_string())
+        floor_started_at_ = inputs["floor_started_at"].get<std::string>();
     }
   }
   SelectWindow(db::ListSessions(*database_, robot_id_),

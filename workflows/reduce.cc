@@ -199,8 +199,9 @@ std::string FormatReduceSummaries(const std::vector<ReduceSummary>& summaries,
   std::string text;
   for (const auto& s : summaries) {
     if (s.observations == 0) {
-      text += fmt::format("session {}: no observations to reduce; its {} measured points are kept\n",
-                          s.session, s.kept_points);
+      text +=
+          fmt::format("session {}: no observations to reduce; its {} measured points are kept\n",
+                      s.session, s.kept_points);
       continue;
     }
     text += fmt::format(

@@ -85,8 +85,7 @@ TEST(DeviceClaims, AFolderOthersCanWriteWithoutTheStickyBitIsRefused) {
       << why;
   ::chmod(claims.c_str(), 0770);
   why = Refusal(claims);
-  EXPECT_NE(why.find("writable by its group without the sticky bit (mode 0770)"),
-            std::string::npos)
+  EXPECT_NE(why.find("writable by its group without the sticky bit (mode 0770)"), std::string::npos)
       << why;
   // Shared and sticky, like /tmp and /run/lock: nobody removes another's claim there.
   ::chmod(claims.c_str(), 01777);

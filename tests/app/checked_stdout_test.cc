@@ -2,9 +2,9 @@
 // with its standard output on a full device (/dev/full). A lost output is exit code 1 with a
 // message that names the output and the disk-full reason and says what the command did;
 // never exit 0 with the output silently cut. (Full file systems: full_disk_test.cc.)
+#include <fcntl.h>
 #include <gtest/gtest.h>
 #include <sys/file.h>
-#include <fcntl.h>
 #include <unistd.h>
 
 #include <filesystem>

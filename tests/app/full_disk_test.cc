@@ -38,20 +38,19 @@ TEST(FullDisk, StandardOutputAndAnOutputFileOnAFullFileSystemAreNamed) {
   std::filesystem::create_directories(full);
   // The messages and exit codes go beside the tmpfs, which has no room for them.
   const std::string binary = Q(ARMSIG_BINARY), at = dir.path().string() + "/";
-  const std::string script =
-      "mount -t tmpfs -o size=8k tmpfs " + Q(full) + " && cd " + Q(full) + " && " + binary +
-      " --db " + Q(lab.path) + " db export poses --csv > poses.csv 2> " + Q(at + "err1") +
-      "; echo $? > " + Q(at + "rc1") + "; " + binary + " --db " + Q(lab.path) +
-      " db export poses --out out.csv 2> " + Q(at + "err2") + "; echo $? > " + Q(at + "rc2") +
-      "; ls -a > " + Q(at + "listing");
+  const std::string script = "mount -t tmpfs -o size=8k tmpfs " + Q(full) + " && cd " + Q(full) +
+                             " && " + binary + " --db " + Q(lab.path) +
+                             " db export poses --csv > poses.csv 2> " + Q(at + "err1") +
+                             "; echo $? > " + Q(at + "rc1") + "; " + binary + " --db " +
+                             Q(lab.path) + " db export poses --out out.csv 2> " + Q(at + "err2") +
+                             "; echo $? > " + Q(at + "rc2") + "; ls -a > " + Q(at + "listing");
   RunPrivately(dir, script);
   EXPECT_EQ(ReadText(dir.File("rc1")), "1\n");
   const std::string err1 = ReadText(dir.File("err1"));
   EXPECT_NE(err1.find("standard output: write failed (No space left on device) after "),
             std::string::npos)
       << err1;
-  EXPECT_NE(err1.find("bytes: the output is incomplete"), std::string::npos)
-      << err1;
+  EXPECT_NE(err1.find("bytes: the output is incomplete"), std::string::npos) << err1;
   EXPECT_EQ(ReadText(dir.File("rc2")), "1\n");
   const std::string err2 = ReadText(dir.File("err2"));
   EXPECT_NE(err2.find("out.csv: write failed (No space left on device); out.csv was not changed"),
@@ -61,7 +60,6 @@ TEST(FullDisk, StandardOutputAndAnOutputFileOnAFullFileSystemAreNamed) {
   // Nothing left but the cut standard output and the messages: no out.csv, no temporary file.
   EXPECT_EQ(ReadText(dir.File("listing")), ".\n..\nposes.csv\n");
 }
-
 
 // The database on a file system that fills during a write: an import of 20,000 readings
 // fails naming the full disk (not "disk I/O error" or "not a usable SQLite database"),
@@ -85,9 +83,8 @@ TEST(FullDisk, ADatabaseWriteOnAFullDiskIsNamedAndStoresNothing) {
                         "import observations " + Q(dir.File("many.csv")) + " --stations " +
                         Q(lab.stations_yaml) + " 2> " + Q(at + "err") + "; echo $? > " +
                         Q(at + "rc") + "; " + armsig + "db export observations > " +
-                        Q(at + "after.csv") + " 2>&1; " + armsig + "db info > " +
-                        Q(at + "info") + " 2>&1; cp " + Q(full + "/lab.db") + " " +
-                        Q(at + "after.db"));
+                        Q(at + "after.csv") + " 2>&1; " + armsig + "db info > " + Q(at + "info") +
+                        " 2>&1; cp " + Q(full + "/lab.db") + " " + Q(at + "after.db"));
   EXPECT_EQ(ReadText(dir.File("rc")), "1\n");
   const std::string err = ReadText(dir.File("err"));
   EXPECT_NE(err.find("No space left on device"), std::string::npos) << err;

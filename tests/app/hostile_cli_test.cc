@@ -430,11 +430,14 @@ TEST(HostileCli, FileNamesWithControlCharactersAreEscapedOnStandardOutput) {
                 .exit_code,
             0);
   const std::string poses = dir.File("p.csv");
-  WriteText(poses, "pose,q1_deg,q2_deg,q3_deg,q4_deg,q5_deg,q6_deg,x_mm,y_mm,z_mm\n"
-                   "1,0,10,20,0,30,0,500,600,700\n2,5,15,25,5,35,5,510,610,690\n");
-  r = RunArmsig(db + "import poses p.csv --joint-columns q1_deg,q2_deg,q3_deg,q4_deg,q5_deg,"
-                     "q6_deg --joint-unit deg --xyz-columns x_mm,y_mm,z_mm --id pose --robot r "
-                     "--out " + odd + ".csv",
+  WriteText(poses,
+            "pose,q1_deg,q2_deg,q3_deg,q4_deg,q5_deg,q6_deg,x_mm,y_mm,z_mm\n"
+            "1,0,10,20,0,30,0,500,600,700\n2,5,15,25,5,35,5,510,610,690\n");
+  r = RunArmsig(db +
+                    "import poses p.csv --joint-columns q1_deg,q2_deg,q3_deg,q4_deg,q5_deg,"
+                    "q6_deg --joint-unit deg --xyz-columns x_mm,y_mm,z_mm --id pose --robot r "
+                    "--out " +
+                    odd + ".csv",
                 dir.path().string());
   ASSERT_EQ(r.exit_code, 0) << r.err;
   EXPECT_EQ(r.out.find('\x1b'), std::string::npos) << r.out;

@@ -61,8 +61,7 @@ std::vector<std::string> WritingCommands(const LabDatabase& lab) {
           "reduce",
           "activate --robot puma --version 1",
           "session discard 2",
-          "import observations " + Q(lab.observations_csv) + " --stations " +
-              Q(lab.stations_yaml),
+          "import observations " + Q(lab.observations_csv) + " --stations " + Q(lab.stations_yaml),
           "recalibrate --robot puma --force",
           "schedule recalibrate --robot puma"};
 }
@@ -115,8 +114,8 @@ TEST(ReadOnlyStore, EveryReadingCommandWorksOnAReadOnlyMountAndEveryWriterSaysRe
   const auto commands = ReadingCommands(lab, out);
   const auto expected = ReferenceOutputs(ReadingCommands(reference, out), reference.path);
   const auto before = Listing(ro_dir.path().string());
-  const auto got = RunOnReadOnlyMount(commands, ro_dir.path().string(), lab.path,
-                                      results.path().string());
+  const auto got =
+      RunOnReadOnlyMount(commands, ro_dir.path().string(), lab.path, results.path().string());
   for (size_t k = 0; k < commands.size(); ++k) {
     SCOPED_TRACE(commands[k]);
     EXPECT_EQ(got[k].exit_code, 0) << got[k].err;
@@ -154,8 +153,8 @@ TEST(ReadOnlyStore, AReaderOnAReadOnlyMountSeesWhatALiveWriterCommitted) {
   ASSERT_TRUE(std::filesystem::exists(lab.path + "-wal"));
   ASSERT_TRUE(std::filesystem::exists(lab.path + "-shm"));
   const auto before = Listing(dir.path().string());
-  const auto got = RunOnReadOnlyMount({"robot list"}, dir.path().string(), lab.path,
-                                      results.path().string());
+  const auto got =
+      RunOnReadOnlyMount({"robot list"}, dir.path().string(), lab.path, results.path().string());
   EXPECT_EQ(got[0].exit_code, 0) << got[0].err;
   EXPECT_NE(got[0].out.find("renamed"), std::string::npos) << got[0].out;
   EXPECT_EQ(Listing(dir.path().string()), before);
@@ -203,8 +202,8 @@ TEST(ReadOnlyStore, AFolderWithoutWritePermission) {
   }
   TempDir dir, out;
   const LabDatabase lab = CopyLabDatabase(dir.path().string());
-  std::filesystem::permissions(dir.path(), std::filesystem::perms::owner_read |
-                                               std::filesystem::perms::owner_exec);
+  std::filesystem::permissions(
+      dir.path(), std::filesystem::perms::owner_read | std::filesystem::perms::owner_exec);
   for (const auto& c : ReadingCommands(lab, out.path().string())) {
     const auto r = RunArmsig("--db " + Q(lab.path) + " " + c);
     EXPECT_EQ(r.exit_code, 0) << c << "\n" << r.err;

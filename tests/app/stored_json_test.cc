@@ -3,10 +3,9 @@
 // table, row and column, promptly; before, such a value crashed `jobs --json` after 24 s at
 // 7.9 GB, made 10,000 levels a 200 MB printout, and an array where a number belongs a bare
 // "type_error.302".
+#include <SQLiteCpp/SQLiteCpp.h>
 #include <gtest/gtest.h>
 #include <sys/wait.h>
-
-#include <SQLiteCpp/SQLiteCpp.h>
 
 #include <string>
 #include <vector>

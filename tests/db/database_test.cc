@@ -351,7 +351,8 @@ TEST(Database, AnImmutableReadHoldsOffTheClosingCheckpointAndSeesAnotherOne) {
   EXPECT_FALSE(std::filesystem::exists(path + "-shm"));  // immutable: nothing made
   {
     Database writer(path, OpenMode::kMustExist);
-    writer.connection().Exec("INSERT INTO robots(name, model_name, model_yaml) VALUES ('a', '', '')");
+    writer.connection().Exec(
+        "INSERT INTO robots(name, model_name, model_yaml) VALUES ('a', '', '')");
   }
   EXPECT_TRUE(std::filesystem::exists(path + "-wal"));  // not checkpointed under the reader
   EXPECT_FALSE(reader.ChangedWhileRead());

@@ -102,8 +102,7 @@ TEST(HostileInputs, JointAnglesBeyond720DegreesAndHugeLengthsInEveryCsvReader) {
   WriteText(dir.File("o.csv"), "point,station,hz_gon,v_gon,sigma_hz_arcsec\nP,S1,10,100,0\n");
   e = Refusal([&] { ReadObservationsCsv(dir.File("o.csv")); });
   EXPECT_EQ(e.where().column, 5);
-  EXPECT_NE(e.message().find("an angular sigma from 0.0001 arcsec"), std::string::npos)
-      << e.what();
+  EXPECT_NE(e.message().find("an angular sigma from 0.0001 arcsec"), std::string::npos) << e.what();
 
   WriteText(dir.File("c.csv"), "point,x_mm,y_mm,z_mm\nC1,0,-3e11,0\n");
   e = Refusal([&] { ReadControlCsv(dir.File("c.csv")); });
@@ -162,8 +161,7 @@ TEST(HostileInputs, StationsOutsideAKilometreOrWithZeroSigmasAreRefused) {
         "stations:\n  - {id: S1, position_mm: [0, 0, 0], azimuth_gon: 0, sigma_hz_arcsec: 0}\n",
         "s.yaml");
   });
-  EXPECT_NE(e.message().find("an angular sigma from 0.0001 arcsec"), std::string::npos)
-      << e.what();
+  EXPECT_NE(e.message().find("an angular sigma from 0.0001 arcsec"), std::string::npos) << e.what();
 }
 
 // A sigma is a weight's root: 1e-31 mm weighed 1e62 and the adjustment overflowed into a
@@ -202,9 +200,10 @@ TEST(HostileInputs, EverySigmaColumnHasTheSameFloorNamedWhenRefused) {
   EXPECT_EQ(e.where().column, 6);
   EXPECT_NE(e.message().find("expected a sigma from 1e-06 mm"), std::string::npos) << e.what();
   e = Refusal([] {
-    ParseStationsYaml("stations:\n  - {id: S1, position_mm: [0, 0, 0], azimuth_gon: 0, "
-                      "sigma_v_arcsec: 1e-5}\n",
-                      "s.yaml");
+    ParseStationsYaml(
+        "stations:\n  - {id: S1, position_mm: [0, 0, 0], azimuth_gon: 0, "
+        "sigma_v_arcsec: 1e-5}\n",
+        "s.yaml");
   });
   EXPECT_NE(e.message().find("expected an angular sigma from 0.0001 arcsec"), std::string::npos)
       << e.what();

@@ -11,10 +11,10 @@
 namespace armsig::testing {
 
 struct LabDatabase {
-  std::string path;        // the copy: lab.db in the caller's folder
-  std::string joints_csv;  // a predict input for robot puma
-  std::string targets_csv;  // a compensate input for robot puma
-  std::string poses_csv;    // a calibrate input for the PUMA model
+  std::string path;                             // the copy: lab.db in the caller's folder
+  std::string joints_csv;                       // a predict input for robot puma
+  std::string targets_csv;                      // a compensate input for robot puma
+  std::string poses_csv;                        // a calibrate input for the PUMA model
   std::string stations_yaml, observations_csv;  // the imported session's files
   std::string model_yaml;                       // models/puma760.yaml
   int64_t simulated_session = 0;                // a session of poses and reduced points
