@@ -175,14 +175,17 @@ std::string PlanToJson(const Plan& plan) {
   return JsonText(j);
 }
 
-Plan PlanFromJson(const std::string& json) {
-  Plan plan;
-  for (const auto& item : nlohmann::json::parse(json)) {
-    const auto q = item["joints_rad"].get<std::vector<double>>();
-    plan.push_back(
-        {item["label"].get<std::string>(), Eigen::Map<const Eigen::VectorXd>(q.data(), q.size())});
-  }
-  return plan;
+Plan PlanFromJson(const std::string& json, const db::JsonCell& where) {
+  return db::ReadStoredJson(json, where, [&](const nlohmann::json& items) {
+    if (!items.is_array()) db::RefuseStoredJson(where, "expected a list of configurations");
+    Plan plan;
+    for (const auto& item : items) {
+      const auto q = item.at("joints_rad").get<std::vector<double>>();
+      plan.push_back({item.at("label").get<std::string>(),
+                      Eigen::Map<const Eigen::VectorXd>(q.data(), q.size())});
+    }
+    return plan;
+  });
 }
 
 }  // namespace armsig::acquisition

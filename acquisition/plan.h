@@ -6,6 +6,7 @@
 #include <vector>
 
 #include "calibration/model.h"
+#include "db/stored_json.h"
 
 namespace armsig::acquisition {
 
@@ -36,6 +37,9 @@ Plan MakePlan(const std::string& spec, const calibration::RobotModel& model);
 
 // JSON array of {label, joints_rad} (stored with the session so it can be resumed).
 std::string PlanToJson(const Plan& plan);
-Plan PlanFromJson(const std::string& json);
+// A plan as stored with its session (sessions.plan_json): input like a file, refused with an
+// InputError naming `where` when it is not such a list (db/stored_json.h).
+Plan PlanFromJson(const std::string& json,
+                  const db::JsonCell& where = {"the database", "sessions", 0, "plan_json"});
 
 }  // namespace armsig::acquisition

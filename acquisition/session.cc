@@ -179,7 +179,7 @@ CaptureSummary RunCapture(db::Database& db, const LabConfig& lab, int64_t sessio
   summary.session = session;
   const auto row = db::LoadSession(db, session);
   if (!row) throw InputError({db.path(), 0, 0, ""}, "no session " + std::to_string(session));
-  const Plan plan = PlanFromJson(row->plan_json);
+  const Plan plan = PlanFromJson(row->plan_json, {db.path(), "sessions", session, "plan_json"});
   summary.total = static_cast<int>(plan.size());
   summary.single_ray = devices.size() == 1;
   const auto stored = db::StoredSeqs(db, session);

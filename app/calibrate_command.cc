@@ -74,6 +74,7 @@ void SetupCalibrateCommand(CLI::App& parent, const GlobalOptions& global, Runner
                       "Relative pivot below which a scaled Jacobian column counts as dependent"),
       1e-15, 0.1)
       ->capture_default_str();
+  OnlyReads(sub);
   sub->callback([&run, &global, options] {
     run = [&global, options] { return RunCalibrate(*options, global); };
   });

@@ -18,7 +18,16 @@
 namespace armsig::app {
 
 // kStopped: a Ctrl-C (or SIGTERM, SIGHUP) stopped the work, left resumable (128 + SIGINT).
-enum ExitCode : int { kOk = 0, kFailure = 1, kInputError = 2, kQualityGate = 3, kStopped = 130 };
+// kStoredOutputFailed: the work is stored, an output that follows it could not be written
+// (StoredButOutputError, core/error.h).
+enum ExitCode : int {
+  kOk = 0,
+  kFailure = 1,
+  kInputError = 2,
+  kQualityGate = 3,
+  kStoredOutputFailed = 6,
+  kStopped = 130
+};
 
 struct GlobalOptions {
   std::string db_path;  // --db; empty = $ARMSIG_DB, else ./armsig.db
@@ -90,6 +99,11 @@ CLI::Option* AddSetOption(CLI::App& sub, std::optional<int>& set);
 inline constexpr double kMaxPoses = 1e6;                // configurations of one session or fit
 inline constexpr double kMaxId = 9.007199254740992e15;  // 2^53: a database row id
 
+// Marks a command that stores and changes nothing (it reads the store or converts files):
+// when one of its outputs cannot be written, the message says that nothing was changed.
+// OnDatabaseToRead marks its commands itself.
+CLI::App* OnlyReads(CLI::App* sub);
+
 // Sets `sub`'s job to `job(database)` on the existing database --db names (a command that
 // adds to what is there: a missing file is refused, never created).
 void OnExistingDatabase(CLI::App* sub, const GlobalOptions& global, Runner& run,
@@ -106,7 +120,9 @@ std::string VersionText();
 void SetupAll(CLI::App& app, GlobalOptions& global, Runner& run);
 
 // Parses argv and runs the chosen command; every exception becomes its exit code with
-// a message on stderr. What main() does, callable from tests.
+// a message on stderr. Standard output is checked to its last byte (app/checked_stdout.h)
+// and closed at the end: a failed write is exit code 1 with a message naming it and saying
+// what the command did. What main() does.
 int Main(int argc, const char* const* argv);
 
 }  // namespace armsig::app

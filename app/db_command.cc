@@ -4,6 +4,7 @@
 #include <iostream>
 
 #include "app/command.h"
+#include "core/text.h"
 #include "db/push.h"
 #include "io/atomic_file.h"
 
@@ -18,7 +19,7 @@ void SetupDbCommand(CLI::App& parent, const GlobalOptions& global, Runner& run) 
   init->callback([&run, &global] {
     run = [&global] {
       db::Database database(global.DbPath());
-      std::cout << database.path()
+      std::cout << Printable(database.path())
                 << (database.created() ? ": new armsig database, schema v"
                                        : ": already an armsig database, schema v")
                 << database.SchemaVersion() << "\n";
@@ -27,7 +28,7 @@ void SetupDbCommand(CLI::App& parent, const GlobalOptions& global, Runner& run) 
   });
   auto* info = db->add_subcommand("info", "Schema version and row counts of every table");
   OnDatabaseToRead(info, global, run, [](db::Database& database) {
-    std::cout << "database      " << database.path() << "\n"
+    std::cout << "database      " << Printable(database.path()) << "\n"
               << "schema        v" << database.SchemaVersion() << "\n";
     for (const auto& count : database.RowCounts()) {
       std::cout << "  " << count.table << std::string(24 - count.table.size(), ' ') << count.rows
@@ -69,16 +70,16 @@ void SetupDbCommand(CLI::App& parent, const GlobalOptions& global, Runner& run) 
     std::cout << fmt::format(
         "pushed {} session(s) ({} poses, {} observations, {} points) and {} parameter set(s) "
         "to {}; {} session(s) and {} set(s) were there already\n",
-        s.sessions_pushed, s.poses, s.observations, s.points, s.sets_pushed, into.name(),
+        s.sessions_pushed, s.poses, s.observations, s.points, s.sets_pushed, Printable(into.name()),
         s.sessions_present, s.sets_present);
     if (s.robots_created) std::cout << fmt::format("new robots there: {}\n", s.robots_created);
-    for (const auto& v : s.versions) std::cout << "  parameter set " << v << " there\n";
+    for (const auto& v : s.versions) std::cout << "  parameter set " << Printable(v) << " there\n";
     if (s.activations_pushed)
       std::cout << fmt::format("activations (the history of active sets) pushed: {}\n",
                                s.activations_pushed);
     if (s.activated) std::cout << fmt::format("active sets made active there: {}\n", s.activated);
     for (const auto& open : s.open_sessions)
-      std::cout << "  not pushed, still open: " << open << " (pushed once finished)\n";
+      std::cout << "  not pushed, still open: " << Printable(open) << " (pushed once finished)\n";
     if (s.stopped) {
       std::cout << "stopped: what was pushed is complete; run it again to push the rest\n";
       return kStopped;

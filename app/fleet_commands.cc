@@ -13,6 +13,7 @@
 #include "app/command.h"
 #include "core/text.h"
 #include "db/postgres_address.h"
+#include "db/stored_json.h"
 #include "workflows/worker.h"
 
 namespace armsig::app {
@@ -41,7 +42,10 @@ std::string Time(const std::optional<int64_t>& ms) {
   return ms ? db::IsoUtcFromMs(*ms) : std::string();
 }
 
-nlohmann::json JobJson(const db::Job& j) {
+std::string QueueName(const std::string& queue) { return db::StoreName(queue); }
+
+// A job as JSON; its stored options and result are input (db/stored_json.h).
+nlohmann::json JobJson(const db::Job& j, const std::string& queue) {
   auto optional_time = [](const std::optional<int64_t>& ms) {
     return ms ? nlohmann::json(db::IsoUtcFromMs(*ms)) : nlohmann::json();
   };
@@ -58,13 +62,12 @@ nlohmann::json JobJson(const db::Job& j) {
                         {"version", j.version ? nlohmann::json(*j.version) : nlohmann::json()},
                         {"summary", j.summary.empty() ? nlohmann::json() : nlohmann::json(j.summary)},
                         {"error", j.error.empty() ? nlohmann::json() : nlohmann::json(j.error)}};
-  out["options"] = nlohmann::json::parse(j.options_json, nullptr, false);
-  out["result"] = j.result_json.empty() ? nlohmann::json()
-                                        : nlohmann::json::parse(j.result_json, nullptr, false);
+  out["options"] =
+      db::ParseStoredJson(j.options_json, {QueueName(queue), "jobs", j.id, "options_json"});
+  out["result"] =
+      db::ParseStoredJson(j.result_json, {QueueName(queue), "jobs", j.id, "result_json"});
   return out;
 }
-
-std::string QueueName(const std::string& queue) { return db::StoreName(queue); }
 
 int RunSchedule(ScheduleCommand c, const GlobalOptions& global) {
   c.options.store_db = global.DbPath();
@@ -72,15 +75,15 @@ int RunSchedule(ScheduleCommand c, const GlobalOptions& global) {
   const auto scheduled = workflows::Schedule(c.options);
   if (scheduled.empty()) {
     std::cout << fmt::format("no robots in {}: nothing scheduled\n",
-                             db::StoreName(c.options.store_db));
+                             Printable(QueueName(c.options.store_db)));
     return kOk;
   }
   for (const auto& s : scheduled) {
     if (s.job.created)
-      std::cout << fmt::format("job {}: recalibrate {} queued\n", s.job.id, s.robot);
+      std::cout << fmt::format("job {}: recalibrate {} queued\n", s.job.id, Printable(s.robot));
     else
-      std::cout << fmt::format("job {}: recalibrate {} is already {}: not queued twice\n",
-                               s.job.id, s.robot, db::ToString(s.job.state));
+      std::cout << fmt::format("job {}: recalibrate {} is already {}: not queued twice\n", s.job.id,
+                               Printable(s.robot), db::ToString(s.job.state));
   }
   const auto queued = std::count_if(scheduled.begin(), scheduled.end(),
                                     [](const workflows::Scheduled& s) { return s.job.created; });
@@ -95,8 +98,9 @@ int RunWorkerCommand(WorkerCommand c, const GlobalOptions& global) {
   std::mutex print;
   c.options.on_finished = [&print](const db::Job& j) {
     std::lock_guard lock(print);
-    std::cout << fmt::format("job {}: {}: {}{}\n", j.id, j.robot, db::ToString(j.state),
-                             j.summary.empty() || j.summary == "failed" ? "" : " — " + j.summary)
+    std::cout << fmt::format(
+                     "job {}: {}: {}{}\n", j.id, Printable(j.robot), db::ToString(j.state),
+                     j.summary.empty() || j.summary == "failed" ? "" : " — " + Printable(j.summary))
               << std::flush;
   };
   const auto s = workflows::RunWorker(c.options);
@@ -115,16 +119,16 @@ int RunWorkerCommand(WorkerCommand c, const GlobalOptions& global) {
 
 int RunJobs(const JobsCommand& c, const GlobalOptions& global) {
   const std::string queue = c.queue.empty() ? global.DbPath() : c.queue;
-  workflows::QueueConnection connection(queue);
+  workflows::QueueConnection connection(queue, db::OpenMode::kReadOnly);
   const auto jobs = db::ListJobs(*connection, c.limit);
   if (c.json) {
     nlohmann::json out = nlohmann::json::array();
-    for (const auto& j : jobs) out.push_back(JobJson(j));
+    for (const auto& j : jobs) out.push_back(JobJson(j, queue));
     std::cout << JsonText(out, 2) << "\n";
     return kOk;
   }
   if (jobs.empty()) {
-    std::cout << fmt::format("no jobs in {}\n", QueueName(queue));
+    std::cout << fmt::format("no jobs in {}\n", Printable(QueueName(queue)));
     return kOk;
   }
   std::cout << fmt::format("{:>5}  {:<16} {:<9} {:>3}  {:<24} {:<20} {:<20} {}\n", "id", "robot",
@@ -133,10 +137,10 @@ int RunJobs(const JobsCommand& c, const GlobalOptions& global) {
     std::string result = j.error.empty() ? j.summary : j.error;
     if (j.state == db::JobState::kRunning && j.lease_expires_ms)
       result = "lease until " + Time(j.lease_expires_ms);
-    std::cout << fmt::format("{:>5}  {:<16} {:<9} {:>3}  {:<24} {:<20} {:<20} {}\n", j.id, j.robot,
-                             db::ToString(j.state), j.attempts, j.worker,
-                             Time(j.created_ms).substr(0, 19), Time(j.finished_ms).substr(0, 19),
-                             result);
+    std::cout << fmt::format("{:>5}  {:<16} {:<9} {:>3}  {:<24} {:<20} {:<20} {}\n", j.id,
+                             Printable(j.robot), db::ToString(j.state), j.attempts,
+                             Printable(j.worker), Time(j.created_ms).substr(0, 19),
+                             Time(j.finished_ms).substr(0, 19), Printable(result));
   }
   return kOk;
 }
@@ -197,6 +201,7 @@ void SetupFleetCommands(CLI::App& parent, const GlobalOptions& global, Runner& r
     sub->add_flag("--json", c->json, "Machine-readable output");
     sub->add_option("--limit", c->limit, "Only the newest N jobs")->check(CLI::Range(0, 1000000));
     StoreOption(sub->add_option("--queue", c->queue, kQueueHelp));
+    OnlyReads(sub);
     sub->callback([&run, &global, c] { run = [&global, c] { return RunJobs(*c, global); }; });
   }
 }

@@ -8,6 +8,7 @@
 #include <iostream>
 
 #include "app/command.h"
+#include "core/text.h"
 #include "workflows/import.h"
 #include "workflows/reduce.h"
 
@@ -32,7 +33,7 @@ void SetupImportObservations(CLI::App& import, const GlobalOptions& global, Runn
       const auto r = workflows::ImportObservations(database, *o);
       std::cout << fmt::format(
           "session {}: {} observations, {} stations, {} poses imported into {}\n", r.session,
-          r.observations, r.stations, r.poses, database.path());
+          r.observations, r.stations, r.poses, Printable(database.path()));
       return kOk;
     };
   });
@@ -103,15 +104,15 @@ void SetupImportCommand(CLI::App& parent, const GlobalOptions& global, Runner& r
       request.db_path = global.DbPath();
       request.progress = TerminalReadProgress();
       const auto r = workflows::ImportPosesFile(request);
-      const std::string source =
-          request.points.empty() ? request.file : request.points + " and " + request.joints;
+      const std::string source = Printable(
+          request.points.empty() ? request.file : request.points + " and " + request.joints);
       if (r.duplicate) {
         std::cout << fmt::format(
             "{} poses of robot {} from {}: already stored as session {} in {}; nothing stored\n",
-            r.poses, request.robot, source, r.session, r.db_path);
+            r.poses, request.robot, source, r.session, Printable(r.db_path));
       } else if (r.session > 0) {
         std::cout << fmt::format("session {}: {} poses of robot {} from {} stored in {}\n",
-                                 r.session, r.poses, request.robot, source, r.db_path);
+                                 r.session, r.poses, request.robot, source, Printable(r.db_path));
       }
       return kOk;
     };
@@ -123,6 +124,7 @@ void SetupImportCommand(CLI::App& parent, const GlobalOptions& global, Runner& r
   g->add_option("file", (*gsi)[0], "GSI file")->required();
   NameOption(g->add_option("--station", (*gsi)[1], "Station id for every observation"))->required();
   OutputFile(g->add_option("--out", (*gsi)[2], "Observations CSV to write"))->required();
+  OnlyReads(g);
   g->callback([&run, gsi] {
     run = [gsi] {
       spdlog::info("{}", workflows::ImportGsiFile((*gsi)[0], (*gsi)[1], (*gsi)[2]));

@@ -6,6 +6,7 @@
 #include <iostream>
 
 #include "app/command.h"
+#include "core/text.h"
 #include "instruments/device.h"
 #include "workflows/instrument.h"
 #include "workflows/virtual_instrument.h"
@@ -35,6 +36,7 @@ void SetupInstrumentCommand(CLI::App& parent, const GlobalOptions&, Runner& run)
     a->add_flag("--crc", o->crc, "GeoCOM: CRC-16 on every frame");
     a->add_flag("--distance", o->distance, "read: measure the distance too");
     a->add_flag("--json", o->json, "Machine-readable output");
+    OnlyReads(a);
     a->callback([&run, o] {
       run = [o] {
         try {
@@ -62,12 +64,13 @@ void SetupInstrumentCommand(CLI::App& parent, const GlobalOptions&, Runner& run)
                 "partial, wrong-trid, bad-crc, no-crc, busy, error, other-reply, out-of-range, "
                 "wrong-unit, vanish, noise; emscon also wrong-command-id, beam-break, "
                 "reflector-not-found, status-between, status-inside");
+  OnlyReads(s);
   s->callback([&run, o] {
     run = [o] {
       workflows::SimulateRequest request = *o;
       request.stop = &StopRequested();
       const int64_t served = workflows::RunVirtualInstrument(request, [&](const std::string& path) {
-        std::cout << fmt::format("virtual {} instrument on {}{}", request.protocol, path,
+        std::cout << fmt::format("virtual {} instrument on {}{}", request.protocol, Printable(path),
                                  request.seconds > 0 ? fmt::format(" for {} s", request.seconds)
                                                      : std::string(" until Ctrl-C"))
                   << std::endl;

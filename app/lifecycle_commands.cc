@@ -6,6 +6,7 @@
 #include <iostream>
 
 #include "app/command.h"
+#include "core/text.h"
 #include "io/atomic_file.h"
 #include "io/poses_csv.h"
 #include "workflows/lifecycle.h"
@@ -37,7 +38,7 @@ void SetupLifecycleCommands(CLI::App& parent, const GlobalOptions& global, Runne
         const bool added = workflows::RegisterRobot(database, o->name, o->model);
         std::cout << fmt::format("robot {} {} in {}\n", o->name,
                                  added ? "registered" : "already registered with this model",
-                                 database.path());
+                                 Printable(database.path()));
         return kOk;
       };
     });
@@ -69,7 +70,8 @@ void SetupLifecycleCommands(CLI::App& parent, const GlobalOptions& global, Runne
     const auto poses = workflows::SessionPoses(database, o->session);
     io::WriteFileAtomically(
         o->poses, io::FormatPosesCsv(poses, workflows::SessionJoints(database, o->session)));
-    std::cout << fmt::format("session {}: {} poses -> {}\n", o->session, poses.size(), o->poses);
+    std::cout << fmt::format("session {}: {} poses -> {}\n", o->session, poses.size(),
+                             Printable(o->poses));
     return kOk;
   });
 

@@ -15,6 +15,7 @@
 #include <memory>
 #include <mutex>
 
+#include "app/checked_stdout.h"
 #include "app/command.h"
 #include "app/manual.h"
 #include "armsig_git.h"
@@ -37,6 +38,7 @@ std::string GlobalOptions::DbPath() const {
 namespace {
 
 std::atomic<bool> g_stop{false};
+std::atomic<bool> g_only_reads{false};  // OnlyReads: the command changes nothing
 std::atomic<int> g_signals{0};
 
 void OnStopSignal(int signal) {
@@ -197,10 +199,20 @@ void OnExistingDatabase(CLI::App* sub, const GlobalOptions& global, Runner& run,
 
 void OnDatabaseToRead(CLI::App* sub, const GlobalOptions& global, Runner& run,
                       std::function<int(db::Database&)> job) {
+  OnlyReads(sub);
   sub->callback([&run, &global, job] {
-    run = [&global, job] {
+    run = [&global, job]() -> int {
       db::Database database(global.DbPath(), db::OpenMode::kReadOnly);
-      return job(database);
+      const int code = job(database);
+      if (database.ChangedWhileRead()) {
+        spdlog::error(
+            "{}: another process wrote to the database while this command read it "
+            "(a large write reached the file): what was printed may mix the states "
+            "before and after; run the command again",
+            database.path());
+        return kFailure;
+      }
+      return code;
     };
   });
 }
@@ -242,7 +254,8 @@ void SetupAll(CLI::App& app, GlobalOptions& global, Runner& run) {
   auto what = std::make_shared<std::string>();
   generate->add_option("what", *what, "man | bash-completion")
       ->required()
-      ->check(CLI::IsMember({"man", "bash-completion"}));  // hidden: the build's own
+      ->check(CLI::IsMember({"man", "bash-completion"}));
+  OnlyReads(generate);
   generate->callback([&app, &run, what] {
     run = [&app, what] {
       std::cout << (*what == "man" ? ManPage(app, ARMSIG_VERSION, ARMSIG_GIT_DATE)
@@ -306,9 +319,12 @@ void RouteCeresLogging() {
   });
 }
 
-}  // namespace
-
-namespace {
+void SetUpLogging() {
+  auto logger = std::make_shared<spdlog::logger>("armsig", std::make_shared<PrintableSink>());
+  spdlog::set_default_logger(logger);
+  RouteCeresLogging();
+  spdlog::set_pattern("armsig: %^%l%$: %v");
+}
 
 // Every option a command accepts: its own and (global options go up) its parents'.
 std::vector<const CLI::Option*> OptionsOf(const CLI::App* command) {
@@ -389,9 +405,8 @@ std::string ParseErrorText(const CLI::App& app, const CLI::ParseError& error, in
   return error.what();
 }
 
-}  // namespace
-
-int Main(int argc, const char* const* argv) {
+// Parses argv and runs the chosen command: every exception becomes its exit code.
+int ParseAndRun(int argc, const char* const* argv) {
   CLI::App app{
       "armsig: measure an industrial robot with external instruments and fit its arm signature "
       "(Chen & Chao error model)",
@@ -402,6 +417,7 @@ int Main(int argc, const char* const* argv) {
   try {
     app.parse(argc, argv);
   } catch (const CLI::CallForVersion& e) {
+    g_only_reads = true;  // nothing ran
     // `--version` after a command (it falls through to the program's own): a script asking
     // for parameter set 3 must not get the program's version and exit 0.
     if (!app.get_subcommands().empty()) {
@@ -411,14 +427,11 @@ int Main(int argc, const char* const* argv) {
     }
     return app.exit(e);
   } catch (const CLI::ParseError& e) {
+    g_only_reads = true;  // nothing ran
     if (e.get_exit_code() == 0) return app.exit(e);  // --help
     std::cerr << "armsig: error: " << ParseErrorText(app, e, argc, argv) << "\n";
     return kInputError;
   }
-  auto logger = std::make_shared<spdlog::logger>("armsig", std::make_shared<PrintableSink>());
-  spdlog::set_default_logger(logger);
-  RouteCeresLogging();
-  spdlog::set_pattern("armsig: %^%l%$: %v");
   // Progress and decisions (info) by default; -q keeps warnings, -v adds the details.
   spdlog::set_level(global.quiet            ? spdlog::level::warn
                     : global.verbosity >= 2 ? spdlog::level::trace
@@ -429,6 +442,14 @@ int Main(int argc, const char* const* argv) {
   } catch (const InputError& e) {
     spdlog::error("{}", e.what());
     return kInputError;
+  } catch (const StoredButOutputError& e) {
+    spdlog::error("{}", e.what());
+    return kStoredOutputFailed;
+  } catch (const OutputError& e) {
+    // A command that stores says itself what it stored before its output failed.
+    spdlog::error("{}{}", e.what(),
+                  g_only_reads ? "; the command only reads: nothing was stored or changed" : "");
+    return kFailure;
   } catch (const QualityGateError& e) {
     spdlog::error("quality gate failed: {}", e.what());
     return kQualityGate;
@@ -442,6 +463,27 @@ int Main(int argc, const char* const* argv) {
     spdlog::error("failed: {}", e.what());
     return kFailure;
   }
+}
+
+}  // namespace
+
+CLI::App* OnlyReads(CLI::App* sub) {
+  sub->parse_complete_callback([] { g_only_reads = true; });
+  return sub;
+}
+
+int Main(int argc, const char* const* argv) {
+  SetUpLogging();
+  // The one place every command's standard output is checked, to its last byte.
+  CheckedStdout out(STDOUT_FILENO);
+  std::streambuf* const previous = std::cout.rdbuf(&out);
+  const int code = ParseAndRun(argc, argv);
+  std::cout.flush();
+  const auto failure = out.Finish();
+  std::cout.rdbuf(previous);
+  if (!failure) return code;
+  spdlog::error("{}", DescribeStdoutFailure(*failure, g_only_reads, code));
+  return kFailure;
 }
 
 }  // namespace armsig::app

@@ -18,7 +18,7 @@ void SetupOrientCommand(CLI::App& parent, const GlobalOptions&, Runner& run) {
   sub->add_option("--scale-bar", o->scale_bars, "A:B=LEN_MM, repeatable");
   NumberOption(sub->add_option("--scale-bar-sigma-mm", o->scale_bar_sigma_mm,
                                "Sigma of every scale-bar length"),
-               1e-9, plausible::kMaxSigmaMm)  // a sigma: > 0, finite
+               plausible::kMinSigmaMm, plausible::kMaxSigmaMm)  // as every sigma
       ->capture_default_str();
   sub->add_option("--control", o->control, "Control points CSV: point,x_mm,y_mm,z_mm[,sx_mm,...]");
   NameOption(sub->add_option("--unlevelled", o->unlevelled,
@@ -60,6 +60,7 @@ void SetupOrientCommand(CLI::App& parent, const GlobalOptions&, Runner& run) {
                                "(the chance that a network without blunders loses a reading)"),
                1e-12, 0.5)
       ->capture_default_str();
+  OnlyReads(sub);
   sub->callback([&run, o, no_instrument_errors, no_reject] {
     run = [o, no_instrument_errors, no_reject] {
       o->instrument_errors = !*no_instrument_errors;
@@ -93,6 +94,7 @@ void SetupTriangulateCommand(CLI::App& parent, const GlobalOptions&, Runner& run
                       "Critical standardised residual of every test (default: from a 0.1 % "
                       "significance level of each point's adjustment)"),
       1.0, 100.0);
+  OnlyReads(sub);
   sub->callback([&run, o, no_reject, no_instrument_errors, critical_w, critical] {
     if (critical->count() > 0) o->critical_w = *critical_w;
     run = [o, no_reject, no_instrument_errors] {

@@ -9,6 +9,7 @@
 #include <iostream>
 
 #include "app/command.h"
+#include "core/text.h"
 #include "core/units.h"
 #include "io/atomic_file.h"
 #include "workflows/signature.h"
@@ -87,7 +88,7 @@ void SetupSignatureCommands(CLI::App& parent, const GlobalOptions& global, Runne
     std::cout << fmt::format(
         "{} targets, {} compensated with arm signature version {}, {} unreachable -> {}\n",
         result.targets, result.targets - result.unreachable.size(), active.signature.version,
-        result.unreachable.size(), c->out);
+        result.unreachable.size(), Printable(c->out));
     return result.unreachable.empty() ? kOk : kFailure;
   });
 
@@ -103,7 +104,7 @@ void SetupSignatureCommands(CLI::App& parent, const GlobalOptions& global, Runne
     if (!result.warning.empty()) spdlog::warn("export: {}", result.warning);
     io::WriteFileAtomically(e->out, result.text);
     std::cout << "armsig export: " << e->format << " of " << e->robot << " version "
-              << active.signature.version << " -> " << e->out << "\n";
+              << active.signature.version << " -> " << Printable(e->out) << "\n";
     return kOk;
   });
 
@@ -117,7 +118,7 @@ void SetupSignatureCommands(CLI::App& parent, const GlobalOptions& global, Runne
   OnDatabaseToRead(report, global, run, [r](db::Database& database) {
     const auto written = workflows::WriteStoredReport(database, r->robot, r->set, r->out);
     std::cout << fmt::format("armsig report: {} version {} -> {}\n", r->robot, written.version,
-                             written.path);
+                             Printable(written.path));
     return kOk;
   });
 }

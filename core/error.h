@@ -13,6 +13,9 @@
 // - A quality gate that fails after the work ran throws `QualityGateError` (exit code 3).
 // - Transport and database failures (a port that vanished, SQLite's own errors) are
 //   std::runtime_error / SQLite::Exception: exit code 1.
+// - An output that cannot be written (a full disk, a quota, an I/O error) throws
+//   `OutputError` naming the file and the system's reason: exit code 1, and the command
+//   says what it did and did not do.
 #pragma once
 
 #include <stdexcept>
@@ -45,6 +48,21 @@ class InputError : public std::runtime_error {
 class QualityGateError : public std::runtime_error {
  public:
   using std::runtime_error::runtime_error;
+};
+
+// An output file could not be written. what() reads "FILE: write failed (No space left on
+// device); FILE was not changed".
+class OutputError : public std::runtime_error {
+ public:
+  using std::runtime_error::runtime_error;
+};
+
+// What was asked is stored (a session, a parameter set), and then an output that could only
+// follow it could not be written (exit code 6). what() says what was stored, which output
+// failed and why, and how to write it again.
+class StoredButOutputError : public OutputError {
+ public:
+  using OutputError::OutputError;
 };
 
 std::string FormatLocation(const SourceLocation& where);

@@ -104,9 +104,10 @@ bool IsPlausible(Quantity quantity, double value) {
     case Quantity::kJointAngle:
       return std::abs(value) <= kMaxJointRad;
     case Quantity::kSigmaLength:
-      return value > 0 && value <= kMaxSigmaMm;
+      return value >= kMinSigmaMm && value <= kMaxSigmaMm;
     case Quantity::kSigmaAngle:
-      return value > 0 && value <= kMaxSigmaRad;
+      // The floor given in arc seconds converts to it less a rounding ulp.
+      return value >= kMinSigmaRad * (1 - 1e-14) && value <= kMaxSigmaRad;
   }
   return false;
 }
@@ -130,9 +131,10 @@ std::string Expected(Quantity quantity, Unit unit) {
       return "a finite joint angle within ±" + Range(kMaxJointRad, unit) +
              (std::string_view(unit.name) == "deg" ? "" : " (±720 deg)");
     case Quantity::kSigmaLength:
-      return "a sigma > 0 and ≤ " + Range(kMaxSigmaMm, unit);
+      return "a sigma from " + Range(kMinSigmaMm, unit) + " to " + Range(kMaxSigmaMm, unit);
     case Quantity::kSigmaAngle:
-      return "an angular sigma > 0 and ≤ " + Range(kMaxSigmaRad, unit) + " (one turn)";
+      return "an angular sigma from " + Range(kMinSigmaRad, unit) + " to " +
+             Range(kMaxSigmaRad, unit) + " (one turn)";
   }
   return "a plausible value";
 }

@@ -35,7 +35,14 @@ inline constexpr double kMaxAngleRad = 4.0 * kPi;
 inline constexpr double kFullCircleRad = 2.0 * kPi;
 // Joint values: within ±720 deg (multi-turn wrist joints reach ±360 deg and more).
 inline constexpr double kMaxJointRad = 4.0 * kPi;
-// A-priori sigmas: > 0, and no larger than the quantity's own range.
+// A-priori sigmas: no larger than the quantity's own range, and no smaller than a floor far
+// below any instrument (a laser tracker's interferometer resolves 0.1 µm, the best
+// theodolite 0.1 arc second): a sigma is a weight's root, 1/σ², and 1e-31 mm weighs 1e62, so
+// that the adjustment overflows into a "non_finite" point that names no sigma. The same
+// floor for every column and key that gives a sigma (observations, control points, tracker
+// point tables, lab and stations files, --scale-bar-sigma-mm).
+inline constexpr double kMinSigmaMm = 1e-6;                   // 1 nm
+inline constexpr double kMinSigmaRad = 1e-4 * kRadPerArcsec;  // 0.0001 arc second
 inline constexpr double kMaxSigmaMm = kMaxLengthMm;
 inline constexpr double kMaxSigmaRad = 2.0 * kPi;
 
@@ -47,8 +54,8 @@ enum class Quantity {
   kCircleReading,  // rad, [0, full circle]: a horizontal circle reading Hz
   kZenithAngle,    // rad, [0, full circle]: a vertical circle reading V (zenith angle)
   kJointAngle,     // rad
-  kSigmaLength,    // mm, > 0
-  kSigmaAngle,     // rad, > 0
+  kSigmaLength,    // mm, from kMinSigmaMm
+  kSigmaAngle,     // rad, from kMinSigmaRad
 };
 
 // Names (robots, models, parameter and term names, station, point and pose ids) and notes

@@ -20,21 +20,14 @@ std::string MatrixJson(const Eigen::Isometry3d& t) {
   return JsonText(rows);
 }
 
-Eigen::Isometry3d MatrixFromJson(const std::string& text, int64_t calibration_id) {
-  const auto rows = nlohmann::json::parse(text, nullptr, false);
-  if (!rows.is_array() || rows.size() != 4)
-    throw std::runtime_error("calibration " + std::to_string(calibration_id) +
-                             ": world_from_base is not a 4x4 matrix");
+Eigen::Isometry3d MatrixFromJson(const std::string& text, const JsonCell& cell) {
+  const auto rows = ParseStoredJson(text, cell);
+  if (!rows.is_array() || rows.size() != 4) RefuseStoredJson(cell, "expected a 4x4 matrix");
   Eigen::Isometry3d t = Eigen::Isometry3d::Identity();
   for (int r = 0; r < 4; ++r) {
-    if (!rows[r].is_array() || rows[r].size() != 4)
-      throw std::runtime_error("calibration " + std::to_string(calibration_id) +
-                               ": world_from_base is not a 4x4 matrix");
+    if (!rows[r].is_array() || rows[r].size() != 4) RefuseStoredJson(cell, "expected a 4x4 matrix");
     for (int c = 0; c < 4; ++c) {
-      if (!rows[r][c].is_number()) {
-        throw std::runtime_error("calibration " + std::to_string(calibration_id) +
-                                 ": world_from_base holds something that is not a number");
-      }
+      if (!rows[r][c].is_number()) RefuseStoredJson(cell, "expected a 4x4 matrix of numbers");
       t.matrix()(r, c) = rows[r][c].get<double>();
     }
   }
@@ -52,12 +45,9 @@ std::string CovarianceJson(const std::vector<std::string>& names, const Eigen::M
   return JsonText(nlohmann::json{{"parameters", names}, {"matrix", rows}});
 }
 
-void CovarianceFromJson(const std::string& text, int64_t calibration_id, StoredCalibration& c) {
-  const auto j = nlohmann::json::parse(text, nullptr, false);
-  const auto fail = [&] {
-    throw std::runtime_error("calibration " + std::to_string(calibration_id) +
-                             ": covariance_json is not {parameters, matrix}");
-  };
+void CovarianceFromJson(const std::string& text, const JsonCell& cell, StoredCalibration& c) {
+  const auto j = ParseStoredJson(text, cell);
+  const auto fail = [&] { RefuseStoredJson(cell, "expected {parameters, matrix}"); };
   if (!j.is_object() || !j.contains("parameters") || !j.contains("matrix")) fail();
   const auto& names = j["parameters"];
   const auto& rows = j["matrix"];
@@ -222,9 +212,11 @@ std::vector<StoredCalibration> CalibrationHistory(Database& db, int64_t robot_id
     c.report_json = q->Text(6);
     if (!q->IsNull(7)) c.validation_mean_mm = q->Double(7);
     if (!q->IsNull(8)) c.validation_max_mm = q->Double(8);
-    if (!q->IsNull(9))
-      c.world_from_base = MatrixFromJson(q->Text(9), c.id);
-    if (!q->IsNull(10)) CovarianceFromJson(q->Text(10), c.id, c);
+    auto cell = [&](const char* column) {
+      return JsonCell{db.path(), "calibrations", c.id, column};
+    };
+    if (!q->IsNull(9)) c.world_from_base = MatrixFromJson(q->Text(9), cell("world_from_base_json"));
+    if (!q->IsNull(10)) CovarianceFromJson(q->Text(10), cell("covariance_json"), c);
     c.options_json = q->Text(11);
     c.rank = static_cast<int>(q->Int(12));
     c.poses_fit = static_cast<int>(q->Int(13));
@@ -233,6 +225,13 @@ std::vector<StoredCalibration> CalibrationHistory(Database& db, int64_t robot_id
     c.drift_json = q->Text(16);
     c.residual_map_json = q->Text(17);
     if (!q->IsNull(18)) c.validation_rms_mm = q->Double(18);
+    // Kept as text and read where they are used: bounded now, so that any later parse or
+    // print of them is.
+    CheckStoredJsonText(c.inputs_json, cell("inputs_json"));
+    CheckStoredJsonText(c.report_json, cell("report_json"));
+    CheckStoredJsonText(c.options_json, cell("options_json"));
+    CheckStoredJsonText(c.drift_json, cell("drift_json"));
+    CheckStoredJsonText(c.residual_map_json, cell("residual_map_json"));
     auto p = Sql(db,
                         "SELECT name, value, unit, identified, sigma FROM calibration_parameters "
                         "WHERE calibration_id = ? "

@@ -2,9 +2,11 @@
 
 #include <SQLiteCpp/Backup.h>
 #include <SQLiteCpp/Transaction.h>
+#include <fcntl.h>
 #include <fmt/format.h>
 #include <sqlite3.h>
 #include <sys/stat.h>
+#include <sys/statvfs.h>
 #include <unistd.h>
 
 #include <algorithm>
@@ -17,6 +19,7 @@
 #include <fstream>
 #include <functional>
 #include <memory>
+#include <optional>
 #include <random>
 #include <set>
 #include <stdexcept>
@@ -330,32 +333,112 @@ FileKind LookBeforeWriting(const std::string& path, int busy_timeout_ms) {
          "creates nothing (armsig db init makes it a lab database; check --db or $ARMSIG_DB)");
 }
 
-// A read-only connection for a command that only reads. A file of an older schema (or an
-// older armsig file without application_id) is copied into memory and migrated there: the
-// command reads the current schema, the file is not written.
-SQLite::Database OpenForReading(const std::string& path, const OpenOptions& options) {
-  auto open = [&] {
-    return SQLite::Database(UriPath(path) + "?mode=ro",
-                            SQLite::OPEN_READONLY | SQLite::OPEN_URI | SQLite::OPEN_FULLMUTEX,
-                            options.busy_timeout_ms);
-  };
-  SQLite::Database file = open();
+// SQLite's lock bytes (os.h): a connection that has the file open holds a read lock on the
+// SHARED range; the last one to close takes a write lock there before it checkpoints the
+// -wal into the file and removes it.
+constexpr off_t kSqliteSharedFirst = 0x40000000 + 2;
+constexpr off_t kSqliteSharedSize = 510;
+
+// A connection for a command that only reads, which creates nothing beside the file (no -wal,
+// no -shm: a reader could not remove them again, and on a read-only folder or mount it could
+// not create them, "unable to open database file"):
+// - a WAL-mode file with its -wal and -shm (a writer has it open, or one crashed): an
+//   ordinary read-only connection, which uses both as they are;
+// - a -wal without its -shm (a copied database): a private copy, in memory;
+// - no -wal (no connection has the file open): immutable, under SQLite's shared lock taken on
+//   the file by hand (`lock_fd`), so that a writer that opens the file meanwhile cannot
+//   checkpoint into it when it closes; `state` is the file's state then, for
+//   Database::ChangedWhileRead;
+// - not in WAL mode: an ordinary read-only connection (its locks are on the file itself).
+// A file of an older schema (or an older armsig file without application_id) is copied into
+// memory and migrated there: the command reads the current schema, the file is not written.
+SQLite::Database OpenForReading(const std::string& path, const OpenOptions& options, int* lock_fd,
+                                FileState* state) {
+  const FileState before = StateOf(path);
+  const bool wal_mode = CheckHeader(path, static_cast<uintmax_t>(std::max<off_t>(before.size, 0)));
+  std::error_code ec;
+  const bool shm = std::filesystem::exists(path + "-shm", ec);
+  std::optional<ScratchFolder> scratch;
+  std::string open_path = path, parameters = "?mode=ro";
+  if (wal_mode && before.wal && !shm) {
+    scratch.emplace();
+    open_path = scratch->path() + "/copy.db";
+    std::filesystem::copy_file(path, open_path);
+    std::filesystem::copy_file(path + "-wal", open_path + "-wal");
+  } else if (wal_mode && !before.wal) {
+    const int fd = ::open(path.c_str(), O_RDONLY | O_CLOEXEC);
+    // An open file description lock: closing it releases only it, never the locks SQLite
+    // connections of this process hold on the file (a POSIX record lock would).
+    struct flock shared {};
+    shared.l_type = F_RDLCK;
+    shared.l_whence = SEEK_SET;
+    shared.l_start = kSqliteSharedFirst;
+    shared.l_len = kSqliteSharedSize;
+    if (fd >= 0 && ::fcntl(fd, F_OFD_SETLK, &shared) == 0 &&
+        !std::filesystem::exists(path + "-wal", ec)) {
+      *lock_fd = fd;
+      *state = before;
+      parameters = "?mode=ro&immutable=1";
+    } else if (fd >= 0) {
+      ::close(fd);  // a writer holds it now: it has made the -wal and -shm, used as they are
+    }
+  }
+  SQLite::Database file(UriPath(open_path) + parameters,
+                        SQLite::OPEN_READONLY | SQLite::OPEN_URI | SQLite::OPEN_FULLMUTEX,
+                        options.busy_timeout_ms);
   const auto [version, application_id] = RetryWhileBusy(options.busy_timeout_ms, [&] {
     SQLite::Transaction snapshot(file);
     return std::pair<int, int32_t>(file.execAndGet("PRAGMA user_version").getInt(),
                                    file.execAndGet("PRAGMA application_id").getInt());
   });
-  if (version == LatestSchemaVersion() && application_id == kApplicationId) return file;
+  if (!scratch && version == LatestSchemaVersion() && application_id == kApplicationId) return file;
   SQLite::Database memory(":memory:", SQLite::OPEN_READWRITE | SQLite::OPEN_CREATE);
   RetryWhileBusy(options.busy_timeout_ms, [&] {
     SQLite::Backup copy(memory, file);
     copy.executeStep();  // every page
     return 0;
   });
+  if (*lock_fd >= 0) {  // the command reads the copy: the file may change now
+    ::close(*lock_fd);
+    *lock_fd = -1;
+  }
   return memory;
 }
 
-SQLite::Database OpenOrExplain(const std::string& path, const OpenOptions& options, bool& created) {
+// A command that writes, on a store it cannot write: said plainly, before SQLite would say
+// "attempt to write a readonly database", "unable to open database file" or "disk I/O error".
+void RefuseReadOnly(const std::string& path, bool exists) {
+  const std::string folder = std::filesystem::path(path).parent_path().empty()
+                                 ? std::string(".")
+                                 : std::filesystem::path(path).parent_path().string();
+  std::error_code ec;
+  const bool wal = std::filesystem::exists(path + "-wal", ec);
+  const bool shm = std::filesystem::exists(path + "-shm", ec);
+  std::string why;
+  struct statvfs fs {};
+  if (::statvfs(exists ? path.c_str() : folder.c_str(), &fs) == 0 && (fs.f_flag & ST_RDONLY)) {
+    why = "it lies on a read-only file system (a read-only mount)";
+  } else if (exists && ::access(path.c_str(), W_OK) != 0) {
+    why = std::string("the file is not writable by this user (") + std::strerror(errno) + ")";
+  } else if (wal && ::access((path + "-wal").c_str(), W_OK) != 0) {
+    why = "its " + path + "-wal is not writable by this user";
+  } else if (shm && ::access((path + "-shm").c_str(), W_OK) != 0) {
+    why = "its " + path +
+          "-shm is not writable by this user (delete it when no armsig process "
+          "uses the database)";
+  } else if (!(wal && shm) && ::access(folder.c_str(), W_OK) != 0) {
+    why = "its folder " + folder + " is not writable by this user (SQLite makes the " +
+          (exists ? "-wal and -shm files beside the database" : "database file") + " there)";
+  }
+  if (why.empty()) return;
+  Refuse(path, "read-only: " + why +
+                   "; this command writes to the store, nothing was written (the commands that "
+                   "only read, such as sessions, versions, robot list, db info, db export and "
+                   "predict, work on it as it is)");
+}
+
+SQLite::Database OpenOrExplain(const std::string& path, const OpenOptions& options, bool& created,
+                               int* lock_fd, FileState* state) {
   std::error_code ec;
   const bool exists = std::filesystem::exists(path, ec);
   if (options.mode != OpenMode::kCreate && !exists) {
@@ -379,7 +462,8 @@ SQLite::Database OpenOrExplain(const std::string& path, const OpenOptions& optio
   }
   created = empty;
   try {
-    if (options.mode == OpenMode::kReadOnly) return OpenForReading(path, options);
+    if (options.mode == OpenMode::kReadOnly) return OpenForReading(path, options, lock_fd, state);
+    RefuseReadOnly(path, exists);
     const int flags = SQLite::OPEN_READWRITE | SQLite::OPEN_FULLMUTEX |
                       (options.mode == OpenMode::kCreate ? SQLite::OPEN_CREATE : 0);
     return SQLite::Database(path, flags, options.busy_timeout_ms);
@@ -425,6 +509,15 @@ constexpr int kMigrationStatementTimeoutMs = 30 * 60 * 1000;
 
 }  // namespace
 
+// The lock and state of a file read immutable (OpenForReading).
+struct Database::UnlockedRead {
+  int fd = -1;
+  FileState state;
+  ~UnlockedRead() {
+    if (fd >= 0) ::close(fd);
+  }
+};
+
 Database::Database(const std::string& location, OpenOptions options)
     : path_(location),
       busy_timeout_ms_(options.busy_timeout_ms),
@@ -437,7 +530,21 @@ Database::Database(const std::string& location, OpenOptions options)
   }
 }
 
-Database::~Database() = default;
+Database::~Database() {
+  // The connection first, then the lock that kept writers from checkpointing under it.
+  connection_.reset();
+  sqlite_.reset();
+  unlocked_read_.reset();
+}
+
+bool Database::ChangedWhileRead() const {
+  if (!unlocked_read_) return false;
+  const FileState now = StateOf(path_);
+  const FileState& then = unlocked_read_->state;
+  return now.device != then.device || now.inode != then.inode || now.size != then.size ||
+         now.modified.tv_sec != then.modified.tv_sec ||
+         now.modified.tv_nsec != then.modified.tv_nsec;
+}
 
 SQLite::Database& Database::sql() {
   if (!sqlite_) {
@@ -447,7 +554,10 @@ SQLite::Database& Database::sql() {
 }
 
 void Database::OpenSqlite(const OpenOptions& options) {
-  sqlite_ = std::make_unique<SQLite::Database>(OpenOrExplain(path_, options, created_));
+  unlocked_read_ = std::make_unique<UnlockedRead>();
+  sqlite_ = std::make_unique<SQLite::Database>(
+      OpenOrExplain(path_, options, created_, &unlocked_read_->fd, &unlocked_read_->state));
+  if (unlocked_read_->fd < 0) unlocked_read_.reset();
   connection_ = std::make_unique<SqliteConnection>(*sqlite_, path_);
   if (read_only_) {
     // The file's connection is read-only, and an older schema was copied into memory: the
@@ -463,6 +573,13 @@ void Database::OpenSqlite(const OpenOptions& options) {
     sqlite_->exec("PRAGMA synchronous=FULL");
     sqlite_->exec("PRAGMA foreign_keys=ON");
   } catch (const SQLite::Exception& e) {
+    // The system's reason first (a full disk is not a damaged file).
+    const std::string reason = SqliteSystemReason(sqlite_->getHandle(), e.getExtendedErrorCode());
+    if (!reason.empty()) {
+      throw DatabaseError(path_ + ": cannot be opened for writing (" + reason +
+                              "; SQLite: " + e.what() + "); nothing was written",
+                          std::to_string(e.getErrorCode()), false);
+    }
     throw InputError({path_, 0, 0, ""},
                      std::string("not a usable SQLite database (") + e.what() + ")");
   }

@@ -81,6 +81,12 @@ class Database {
   // database had no armsig schema).
   bool created() const { return created_; }
   bool read_only() const { return read_only_; }
+  // A command that only reads reads a file no connection has open immutable (nothing is
+  // made beside it, so it works on read-only folders and mounts), under SQLite's shared
+  // lock so that a writer that opens it meanwhile does not checkpoint into it when it
+  // closes. Only a writer that fills its -wal past the checkpoint size (4 MB) while this
+  // reads still changes the file: then this is true, and what was read may mix two states.
+  bool ChangedWhileRead() const;
   int SchemaVersion();
 
   struct TableCount {
@@ -100,12 +106,15 @@ class Database {
   void MigrateOnce();
   void MigratePostgres(const OpenOptions& options);
 
+  struct UnlockedRead;
+
   std::string path_;
   int busy_timeout_ms_ = 0;
   bool created_ = false;
   bool read_only_ = false;
-  std::unique_ptr<SQLite::Database> sqlite_;  // SQLite only
-  std::unique_ptr<Connection> connection_;    // declared after sqlite_: closed before it
+  std::unique_ptr<UnlockedRead> unlocked_read_;  // a file read immutable: its lock, its state
+  std::unique_ptr<SQLite::Database> sqlite_;     // SQLite only
+  std::unique_ptr<Connection> connection_;       // declared after sqlite_: closed before it
 };
 
 // A write transaction; every write transaction of armsig is one of these. SQLite: BEGIN

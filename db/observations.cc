@@ -59,13 +59,13 @@ int64_t InsertStationSetup(Database& db, std::optional<int64_t> session_id,
 std::map<std::string, StationSetupRow> LatestStationSetups(Database& db, int64_t session_id) {
   std::map<std::string, StationSetupRow> out;
   // Session-less set-ups first, then the session's own: later rows overwrite earlier.
-  auto s = Sql(
-      db,
-      "SELECT st.code, x_mm, y_mm, z_mm, levelled, azimuth_rad, rotation_json, sx_mm, sy_mm, "
-      "sz_mm, s_azimuth_rad, sigma0, dof, method, sigma_hz_rad, sigma_v_rad "
-      "FROM station_setups su JOIN stations st ON st.id = su.station_id "
-      "WHERE su.session_id = ? OR su.session_id IS NULL "
-      "ORDER BY (su.session_id IS NOT NULL), su.id");
+  auto s =
+      Sql(db,
+          "SELECT st.code, x_mm, y_mm, z_mm, levelled, azimuth_rad, rotation_json, sx_mm, sy_mm, "
+          "sz_mm, s_azimuth_rad, sigma0, dof, method, sigma_hz_rad, sigma_v_rad, su.id "
+          "FROM station_setups su JOIN stations st ON st.id = su.station_id "
+          "WHERE su.session_id = ? OR su.session_id IS NULL "
+          "ORDER BY (su.session_id IS NOT NULL), su.id");
   s->Bind(1, session_id);
   while (s->Step()) {
     StationSetupRow r;
@@ -79,13 +79,13 @@ std::map<std::string, StationSetupRow> LatestStationSetups(Database& db, int64_t
       r.pose.world_from_station =
           Eigen::AngleAxisd(-r.pose.azimuth_rad, Eigen::Vector3d::UnitZ()).toRotationMatrix();
     } else {
-      const std::string json = s->Text(6);
-      double m[9];
-      if (std::sscanf(json.c_str(), "[%lf,%lf,%lf,%lf,%lf,%lf,%lf,%lf,%lf]", &m[0], &m[1], &m[2],
-                      &m[3], &m[4], &m[5], &m[6], &m[7], &m[8]) != 9) {
-        throw std::runtime_error("station set-up of " + r.station + ": malformed rotation_json");
-      }
-      r.pose.world_from_station = Eigen::Map<Eigen::Matrix<double, 3, 3, Eigen::RowMajor>>(m);
+      // Written as nine numbers (JsonArray), the same shape as a point's covariance.
+      const auto m =
+          ParseMatrix3(s->Text(6), {db.path(), "station_setups", s->Int(16), "rotation_json"});
+      if (!m)
+        RefuseStoredJson({db.path(), "station_setups", s->Int(16), "rotation_json"},
+                         "expected nine numbers (a rotation of a station not levelled)");
+      r.pose.world_from_station = *m;
     }
     r.sigma_position_mm = {s->Double(7), s->Double(8),
                            s->Double(9)};
@@ -201,9 +201,9 @@ void InsertPoint(Database& db, int64_t session_id, const PointRow& p) {
 
 std::vector<PointRow> LoadPoints(Database& db, int64_t session_id) {
   auto q = Sql(db,
-                      "SELECT pose_id, point, x_mm, y_mm, z_mm, coalesce(covariance_json, ''), "
-                      "rays, rejected_rays, sigma0, miss_mm, flags FROM points "
-                      "WHERE session_id = ? ORDER BY pose_id, point");
+               "SELECT pose_id, point, x_mm, y_mm, z_mm, coalesce(covariance_json, ''), "
+               "rays, rejected_rays, sigma0, miss_mm, flags, id FROM points "
+               "WHERE session_id = ? ORDER BY pose_id, point");
   q->Bind(1, session_id);
   std::vector<PointRow> out;
   while (q->Step()) {
@@ -214,7 +214,8 @@ std::vector<PointRow> LoadPoints(Database& db, int64_t session_id) {
       p.position_mm = Eigen::Vector3d(q->Double(2), q->Double(3),
                                       q->Double(4));
     }
-    if (auto c = ParseCovariance(q->Text(5))) p.covariance_mm2 = *c;
+    if (auto c = ParseMatrix3(q->Text(5), {db.path(), "points", q->Int(11), "covariance_json"}))
+      p.covariance_mm2 = *c;
     p.rays = static_cast<int>(q->Int(6));
     p.rejected_rays = static_cast<int>(q->Int(7));
     if (!q->IsNull(8)) p.sigma0 = q->Double(8);

@@ -5,15 +5,16 @@
 
 #include <boost/uuid/random_generator.hpp>
 #include <boost/uuid/uuid_io.hpp>
+#include <functional>
 #include <map>
 #include <nlohmann/json.hpp>
-#include <functional>
 #include <optional>
 #include <variant>
 
 #include "core/error.h"
 #include "core/text.h"
 #include "db/database.h"
+#include "db/stored_json.h"
 
 namespace armsig::db {
 
@@ -461,8 +462,10 @@ void PushSession(Connection& source, Connection& target, NameMap& names, int64_t
 
 // The session ids a parameter set's inputs name, as the server's (ids of sessions that
 // were not pushed, open ones, are left as they were and so are the digest's).
-std::string ServerInputs(Connection& source, Connection& target, const std::string& inputs_json) {
-  auto j = nlohmann::json::parse(inputs_json, nullptr, /*allow_exceptions=*/false);
+std::string ServerInputs(Connection& source, Connection& target, const std::string& inputs_json,
+                         int64_t calibration) {
+  auto j =
+      ParseStoredJson(inputs_json, {source.name(), "calibrations", calibration, "inputs_json"});
   if (!j.is_object() || !j.contains("sessions") || !j["sessions"].is_array()) return inputs_json;
   auto on_server = [&](nlohmann::json& id) {
     if (!id.is_number_integer()) return;
@@ -502,7 +505,7 @@ int PushCalibration(Connection& source, Connection& target, NameMap& names, int6
   insert->Bind(3, 0);
   CopyColumns(*s, 2, *insert, 4, kCalibrationColumns);
   // inputs_json (the second copied column) with the server's session ids
-  insert->Bind(5, ServerInputs(source, target, s->Text(3)));
+  insert->Bind(5, ServerInputs(source, target, s->Text(3), local));
   insert->Bind(static_cast<int>(std::size(kCalibrationColumns)) + 4, uuid);
   const int64_t calibration = InsertedId(*insert, target, "a parameter set");
   {

@@ -146,8 +146,7 @@ std::vector<MeasuredPose> LoadRobotPoses(Database& db, int64_t robot_id, const s
     MeasuredPose pose;
     pose.frame = q->Int(0);
     pose.id = std::to_string(pose.frame) + ":" + q->Text(1);
-    const auto joints = nlohmann::json::parse(q->Text(2)).get<std::vector<double>>();
-    pose.joints_rad = Eigen::Map<const Eigen::VectorXd>(joints.data(), joints.size());
+    pose.joints_rad = ParseJoints(q->Text(2), {db.path(), "poses", q->Int(6), "joints_json"});
     pose.target_in_world = {q->Double(3), q->Double(4), q->Double(5)};
     newest = std::max<int64_t>(newest, q->Int(6));
     out.push_back(std::move(pose));
@@ -160,7 +159,8 @@ std::vector<MeasuredPose> LoadSessionPoses(Database& db, int64_t session_id,
                                            std::vector<Eigen::Matrix3d>* covariances) {
   auto q = Sql(db,
                "SELECT p.label, p.joints_json, pt.x_mm, pt.y_mm, pt.z_mm, "
-               "coalesce(pt.covariance_json, '') FROM poses p JOIN points pt ON pt.pose_id = p.id "
+               "coalesce(pt.covariance_json, ''), p.id, pt.id FROM poses p "
+               "JOIN points pt ON pt.pose_id = p.id "
                "WHERE p.session_id = ? AND pt.x_mm IS NOT NULL AND p.joints_json IS NOT NULL "
                "ORDER BY p.seq");
   q->Bind(1, session_id);
@@ -169,11 +169,12 @@ std::vector<MeasuredPose> LoadSessionPoses(Database& db, int64_t session_id,
     MeasuredPose pose;
     pose.id = q->Text(0);
     pose.frame = session_id;
-    const auto joints = nlohmann::json::parse(q->Text(1)).get<std::vector<double>>();
-    pose.joints_rad = Eigen::Map<const Eigen::VectorXd>(joints.data(), joints.size());
+    pose.joints_rad = ParseJoints(q->Text(1), {db.path(), "poses", q->Int(6), "joints_json"});
     pose.target_in_world = {q->Double(2), q->Double(3), q->Double(4)};
     if (covariances) {
-      covariances->push_back(ParseCovariance(q->Text(5)).value_or(Eigen::Matrix3d::Constant(NAN)));
+      covariances->push_back(
+          ParseMatrix3(q->Text(5), {db.path(), "points", q->Int(7), "covariance_json"})
+              .value_or(Eigen::Matrix3d::Constant(NAN)));
     }
     out.push_back(std::move(pose));
   }

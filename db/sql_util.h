@@ -12,6 +12,7 @@
 
 #include "db/connection.h"
 #include "db/database.h"
+#include "db/stored_json.h"
 
 namespace armsig::db {
 
@@ -31,17 +32,32 @@ inline std::string JsonArray(const double* v, int n) {
   return out + "]";
 }
 
-// A stored 3x3 row-major covariance (mm²); nullopt when empty or not nine numbers.
-inline std::optional<Eigen::Matrix3d> ParseCovariance(const std::string& text) {
+// A stored 3x3 row-major matrix (a point's covariance in mm², a station's rotation);
+// nullopt when empty. Throws InputError naming the cell when it is not nine numbers
+// (db/stored_json.h).
+inline std::optional<Eigen::Matrix3d> ParseMatrix3(const std::string& text, const JsonCell& cell) {
   if (text.empty()) return std::nullopt;
-  const auto j = nlohmann::json::parse(text, nullptr, /*allow_exceptions=*/false);
-  if (!j.is_array() || j.size() != 9) return std::nullopt;
+  const auto j = ParseStoredJson(text, cell);
+  if (!j.is_array() || j.size() != 9) RefuseStoredJson(cell, "expected nine numbers");
   Eigen::Matrix3d c;
   for (int k = 0; k < 9; ++k) {
-    if (!j[k].is_number()) return std::nullopt;
+    if (!j[k].is_number()) RefuseStoredJson(cell, "expected nine numbers");
     c(k / 3, k % 3) = j[k].get<double>();
   }
   return c;
+}
+
+// A stored list of joint angles (rad). Throws InputError naming the cell when it is not a
+// list of numbers.
+inline Eigen::VectorXd ParseJoints(const std::string& text, const JsonCell& cell) {
+  const auto j = ParseStoredJson(text, cell);
+  if (!j.is_array() || j.empty()) RefuseStoredJson(cell, "expected a list of joint angles");
+  Eigen::VectorXd q(static_cast<Eigen::Index>(j.size()));
+  for (std::size_t k = 0; k < j.size(); ++k) {
+    if (!j[k].is_number()) RefuseStoredJson(cell, "expected a list of joint angles (numbers)");
+    q(static_cast<Eigen::Index>(k)) = j[k].get<double>();
+  }
+  return q;
 }
 
 }  // namespace armsig::db

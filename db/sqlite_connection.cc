@@ -3,15 +3,38 @@
 #include <SQLiteCpp/Statement.h>
 #include <sqlite3.h>
 
+#include <cerrno>
 #include <cmath>
+#include <cstring>
 
 namespace armsig::db {
 
-void ThrowSqliteError(const std::string& name, const std::exception& e) {
+std::string SqliteSystemReason(sqlite3* handle, int code) {
+  const int primary = code & 0xff;
+  if (handle == nullptr || (primary != SQLITE_FULL && primary != SQLITE_IOERR &&
+                            primary != SQLITE_CANTOPEN && primary != SQLITE_READONLY)) {
+    return "";
+  }
+  const int error = sqlite3_system_errno(handle);
+  if (error != 0) return std::strerror(error);
+  // SQLite reports a short write as SQLITE_FULL and clears the errno it came with.
+  return primary == SQLITE_FULL ? std::strerror(ENOSPC) : "";
+}
+
+void ThrowSqliteError(const std::string& name, const std::exception& e, sqlite3* handle) {
   if (const auto* s = dynamic_cast<const SQLite::Exception*>(&e)) {
     const int code = s->getErrorCode();
-    throw DatabaseError(name + ": " + s->what() + " (SQLite code " + std::to_string(code) + ")",
-                        std::to_string(code), code == SQLITE_BUSY || code == SQLITE_LOCKED);
+    std::string text = name + ": " + s->what();
+    if (const std::string reason = SqliteSystemReason(handle, s->getExtendedErrorCode());
+        !reason.empty()) {
+      text += " (" + reason + ")";
+    }
+    text += " (SQLite code " + std::to_string(code) + ")";
+    if (handle != nullptr && (code == SQLITE_FULL || code == SQLITE_IOERR) &&
+        sqlite3_get_autocommit(handle) != 0) {
+      text += "; the transaction was rolled back, nothing of it was stored";
+    }
+    throw DatabaseError(text, std::to_string(code), code == SQLITE_BUSY || code == SQLITE_LOCKED);
   }
   throw DatabaseError(name + ": " + e.what(), "", false);
 }
@@ -21,11 +44,11 @@ namespace {
 class SqliteStatement : public Statement {
  public:
   SqliteStatement(SQLite::Database& db, std::string_view sql, const std::string& name)
-      : name_(name) {
+      : name_(name), handle_(db.getHandle()) {
     try {
       s_.emplace(db, std::string(sql));
     } catch (const std::exception& e) {
-      ThrowSqliteError(name_, e);
+      ThrowSqliteError(name_, e, handle_);
     }
   }
 
@@ -58,7 +81,7 @@ class SqliteStatement : public Statement {
       ran_ = true;
       return s_->executeStep();
     } catch (const std::exception& e) {
-      ThrowSqliteError(name_, e);
+      ThrowSqliteError(name_, e, handle_);
     }
   }
   int64_t Execute() override {
@@ -68,7 +91,7 @@ class SqliteStatement : public Statement {
       }
       return s_->getChanges();
     } catch (const std::exception& e) {
-      ThrowSqliteError(name_, e);
+      ThrowSqliteError(name_, e, handle_);
     }
   }
 
@@ -102,6 +125,7 @@ class SqliteStatement : public Statement {
   }
 
   std::string name_;
+  sqlite3* handle_;
   std::optional<SQLite::Statement> s_;
   bool ran_ = false;
 };
@@ -116,7 +140,7 @@ void SqliteConnection::Exec(std::string_view sql) {
   try {
     db_.exec(std::string(sql));
   } catch (const std::exception& e) {
-    ThrowSqliteError(name_, e);
+    ThrowSqliteError(name_, e, db_.getHandle());
   }
 }
 
@@ -128,6 +152,11 @@ void SqliteConnection::Begin(TransactionKind kind) {
 
 void SqliteConnection::Commit() { Exec("COMMIT"); }
 
-void SqliteConnection::Rollback() { Exec("ROLLBACK"); }
+void SqliteConnection::Rollback() {
+  // After SQLITE_FULL or an I/O error SQLite may have rolled the transaction back itself: a
+  // ROLLBACK then fails ("no transaction is active"), which is no news.
+  if (sqlite3_get_autocommit(db_.getHandle()) != 0) return;
+  Exec("ROLLBACK");
+}
 
 }  // namespace armsig::db

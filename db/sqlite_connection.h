@@ -24,7 +24,13 @@ class SqliteConnection : public Connection {
   std::string name_;
 };
 
-// SQLiteCpp's exception as a DatabaseError (busy and locked are transient).
-[[noreturn]] void ThrowSqliteError(const std::string& name, const std::exception& e);
+// SQLiteCpp's exception as a DatabaseError (busy and locked are transient). With the
+// connection's handle, a failed system call behind it is named ("database or disk is full
+// (No space left on device); the transaction was rolled back, nothing of it was stored").
+[[noreturn]] void ThrowSqliteError(const std::string& name, const std::exception& e,
+                                   sqlite3* handle = nullptr);
+// The system's reason behind an SQLite error code, when there is one: "No space left on
+// device" for SQLITE_FULL or an I/O error from ENOSPC; "" otherwise.
+std::string SqliteSystemReason(sqlite3* handle, int code);
 
 }  // namespace armsig::db

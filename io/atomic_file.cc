@@ -1,6 +1,7 @@
 #include "io/atomic_file.h"
 
 #include <fcntl.h>
+#include <sys/file.h>
 #include <sys/stat.h>
 #include <unistd.h>
 
@@ -30,14 +31,73 @@ mode_t CurrentUmask() {
 
 }  // namespace
 
-AtomicFileWriter::AtomicFileWriter(std::string path)
-    : path_(std::move(path)), tmp_(path_ + ".tmp.XXXXXX") {
+namespace {
+
+constexpr char kTmpInfix[] = ".tmp.";
+constexpr std::size_t kTmpSuffixLength = 6;  // mkostemp's XXXXXX
+
+std::string FolderOf(const std::string& path) {
+  const std::string folder = std::filesystem::path(path).parent_path().string();
+  return folder.empty() ? std::string(".") : folder;
+}
+
+[[noreturn]] void ThrowOutputError(const std::string& path, const std::string& what, int error) {
+  throw OutputError(path + ": " + what + " (" + std::strerror(error) + "); " + path +
+                    " was not changed");
+}
+
+// Whether the file at `name` in `dir` is still the one open as `fd`.
+bool SameFile(int dir, const char* name, int fd) {
+  struct stat by_name {
+  }, open{};
+  return ::fstatat(dir, name, &by_name, AT_SYMLINK_NOFOLLOW) == 0 && ::fstat(fd, &open) == 0 &&
+         by_name.st_dev == open.st_dev && by_name.st_ino == open.st_ino;
+}
+
+}  // namespace
+
+int RemoveStaleTemporaries(const std::string& path) {
+  const std::string folder = FolderOf(path);
+  const std::string prefix = std::filesystem::path(path).filename().string() + kTmpInfix;
+  const int dir = ::open(folder.c_str(), O_RDONLY | O_DIRECTORY | O_CLOEXEC);
+  if (dir < 0) return 0;
+  int removed = 0;
+  std::error_code ec;
+  for (const auto& entry : std::filesystem::directory_iterator(folder, ec)) {
+    const std::string name = entry.path().filename().string();
+    if (name.size() != prefix.size() + kTmpSuffixLength || name.rfind(prefix, 0) != 0) continue;
+    struct stat st {};
+    if (::fstatat(dir, name.c_str(), &st, AT_SYMLINK_NOFOLLOW) != 0 || !S_ISREG(st.st_mode) ||
+        st.st_uid != ::geteuid()) {
+      continue;  // not a file of ours: left alone
+    }
+    const int fd =
+        ::openat(dir, name.c_str(), O_RDONLY | O_NOFOLLOW | O_NONBLOCK | O_CLOEXEC | O_NOCTTY);
+    if (fd < 0) continue;
+    // Locked: its writer lives (and removes or renames it). Unlocked: its writer died.
+    if (::flock(fd, LOCK_EX | LOCK_NB) == 0 && SameFile(dir, name.c_str(), fd) &&
+        ::unlinkat(dir, name.c_str(), 0) == 0) {
+      ++removed;
+    }
+    ::close(fd);
+  }
+  ::close(dir);
+  return removed;
+}
+
+PreparedFile::PreparedFile(std::string path) : path_(std::move(path)) {
+  RemoveStaleTemporaries(path_);
   // The temporary file gets a name nobody can guess and is created with O_EXCL (mkostemp),
   // so a symlink or file planted in the folder is never followed or overwritten: a job
   // running as root cannot be made to write anywhere but `path`.
-  fd_ = ::mkostemp(tmp_.data(), O_CLOEXEC);
-  if (fd_ < 0) {
-    throw std::runtime_error(path_ + ": cannot write (" + std::strerror(errno) + ")");
+  for (;;) {
+    tmp_ = path_ + kTmpInfix + std::string(kTmpSuffixLength, 'X');
+    fd_ = ::mkostemp(tmp_.data(), O_CLOEXEC);
+    if (fd_ < 0) ThrowOutputError(path_, "cannot write", errno);
+    // Locked while this writer lives; a cleaner that took it between mkostemp and flock has
+    // removed it: made again.
+    if (::flock(fd_, LOCK_EX) == 0 && SameFile(AT_FDCWD, tmp_.c_str(), fd_)) break;
+    ::close(fd_);
   }
   // mkostemp creates the file 0600; an output file is readable like any other (umask'ed
   // 0644 as open(2) would have made it).
@@ -45,75 +105,86 @@ AtomicFileWriter::AtomicFileWriter(std::string path)
   if (::fchmod(fd_, 0644 & ~mask) != 0) Fail("cannot set the file mode");
 }
 
-AtomicFileWriter::~AtomicFileWriter() {
-  if (fd_ >= 0) ::close(fd_);
-  if (!committed_) ::unlink(tmp_.c_str());
+PreparedFile::PreparedFile(std::string path, std::string_view content)
+    : PreparedFile(std::move(path)) {
+  buffer_ = content;
+  Ready();
 }
 
-void AtomicFileWriter::Fail(const std::string& what) {
-  const std::string reason = std::strerror(errno);
-  if (fd_ >= 0) ::close(fd_);
-  fd_ = -1;
+PreparedFile::PreparedFile(PreparedFile&& other) noexcept
+    : path_(std::move(other.path_)),
+      tmp_(std::move(other.tmp_)),
+      buffer_(std::move(other.buffer_)),
+      fd_(other.fd_),
+      ready_(other.ready_) {
+  other.fd_ = -1;
+}
+
+PreparedFile::~PreparedFile() {
+  if (fd_ < 0) return;
   ::unlink(tmp_.c_str());
-  throw std::runtime_error(path_ + ": " + what + " (" + reason + ")");
+  ::close(fd_);
 }
 
-void AtomicFileWriter::Write(std::string_view text) {
+void PreparedFile::Fail(const std::string& what) {
+  const int error = errno;
+  ::unlink(tmp_.c_str());
+  ::close(fd_);
+  fd_ = -1;
+  ThrowOutputError(path_, what, error);
+}
+
+void PreparedFile::Write(std::string_view text) {
+  if (ready_) throw std::logic_error(path_ + ": written after it was made ready");
   buffer_.append(text);
-  if (buffer_.size() >= (std::size_t{1} << 20)) Flush();
+  if (buffer_.size() >= (std::size_t{1} << 20)) WriteBuffer();
 }
 
-void AtomicFileWriter::Flush() {
-  if (fd_ < 0) throw std::runtime_error(path_ + ": written after a failure");
-  size_t written = 0;
+void PreparedFile::WriteBuffer() {
+  if (fd_ < 0) throw std::logic_error(path_ + ": written after a failure");
+  std::size_t written = 0;
   while (written < buffer_.size()) {
     const ssize_t n = ::write(fd_, buffer_.data() + written, buffer_.size() - written);
     if (n < 0) {
       if (errno == EINTR) continue;
       Fail("write failed");
     }
-    written += static_cast<size_t>(n);
+    written += static_cast<std::size_t>(n);
   }
   buffer_.clear();
 }
 
-void AtomicFileWriter::Commit() {
-  Flush();
-  if (::fsync(fd_) != 0) Fail("cannot flush to disk");
-  const int fd = fd_;
+void PreparedFile::Ready() {
+  if (ready_) return;
+  WriteBuffer();
+  if (::fsync(fd_) != 0) Fail("write failed (flushing to disk)");
+  ready_ = true;
+}
+
+void PreparedFile::Commit() {
+  if (fd_ < 0) throw std::logic_error(path_ + ": committed twice");
+  Ready();
+  // Renamed while still open and locked (a cleaner never takes a finished file); closed after.
+  if (::rename(tmp_.c_str(), path_.c_str()) != 0) Fail("cannot rename into place");
+  const int close_result = ::close(fd_);
+  const int close_error = errno;
   fd_ = -1;
-  if (::close(fd) != 0) {
-    const std::string reason = std::strerror(errno);
-    ::unlink(tmp_.c_str());
-    throw std::runtime_error(path_ + ": write failed (" + reason + ")");
-  }
-  if (::rename(tmp_.c_str(), path_.c_str()) != 0) {
-    const std::string reason = std::strerror(errno);
-    ::unlink(tmp_.c_str());
-    throw std::runtime_error(path_ + ": cannot rename into place (" + reason + ")");
-  }
-  committed_ = true;
   // The rename itself survives a power cut once the folder is flushed.
-  const std::string folder = std::filesystem::path(path_).parent_path().string();
-  const int dir = ::open(folder.empty() ? "." : folder.c_str(), O_RDONLY | O_DIRECTORY | O_CLOEXEC);
+  const int dir = ::open(FolderOf(path_).c_str(), O_RDONLY | O_DIRECTORY | O_CLOEXEC);
   if (dir >= 0) {
     ::fsync(dir);
     ::close(dir);
   }
+  if (close_result != 0 && close_error != EINTR) {
+    throw OutputError(path_ + ": write failed (" + std::strerror(close_error) + ")");
+  }
 }
 
 void WriteFileAtomically(const std::string& path, std::string_view content) {
-  AtomicFileWriter out(path);
-  out.Write(content);
-  out.Commit();
+  PreparedFile(path, content).Commit();
 }
 
 namespace {
-
-std::string ParentOf(const std::string& path) {
-  const std::filesystem::path parent = std::filesystem::path(path).parent_path();
-  return parent.empty() ? std::string(".") : parent.string();
-}
 
 void CheckWritableFolder(const std::string& folder, const std::string& path,
                          const std::string& option) {
@@ -136,7 +207,7 @@ void CheckOutputFile(const std::string& path, const std::string& option) {
     throw InputError({option, 0, 0, ""},
                      path + " is a folder; expected a file name (nothing was stored)");
   }
-  CheckWritableFolder(ParentOf(path), path, option);
+  CheckWritableFolder(FolderOf(path), path, option);
 }
 
 void CheckOutputDirectory(const std::string& path, const std::string& option) {
@@ -148,7 +219,7 @@ void CheckOutputDirectory(const std::string& path, const std::string& option) {
   if (std::filesystem::exists(path, error)) {
     throw InputError({option, 0, 0, ""}, path + " exists and is not a folder (nothing was stored)");
   }
-  CheckWritableFolder(ParentOf(path), path, option);
+  CheckWritableFolder(FolderOf(path), path, option);
 }
 
 namespace {

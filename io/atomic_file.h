@@ -8,29 +8,49 @@
 
 namespace armsig::io {
 
-// Throws std::runtime_error naming the path when it cannot be written.
-void WriteFileAtomically(const std::string& path, std::string_view content);
-
-// The same for an output written piece by piece (a file larger than the memory one would
-// give it): Write appends (1 MiB buffered), Commit makes the file appear whole; a writer
-// destroyed without Commit leaves nothing behind.
-class AtomicFileWriter {
+// An output file made ready before what it reports is stored, and put in place after: it is
+// written to a temporary file beside the target (`TARGET.tmp.XXXXXX`, mkostemp: O_EXCL and a
+// name nobody can guess, so nothing planted there is followed or overwritten), whole
+// (`PreparedFile(path, content)`) or piece by piece (`Write`, 1 MiB buffered: a file larger
+// than the memory one would give it); Ready() flushes it to disk, Commit() (ready first)
+// renames it over the target and flushes the folder. Destroyed without Commit(), the
+// temporary file is removed. The temporary file is locked (flock) while its writer lives:
+// one left by a process that died before it could remove it (kill -9, a power cut) is
+// unlocked, and the next writer of the same target removes it. Throws OutputError
+// (core/error.h) naming the target and the system's reason ("No space left on device"); the
+// target is then as it was.
+class PreparedFile {
  public:
-  explicit AtomicFileWriter(std::string path);  // throws std::runtime_error
-  ~AtomicFileWriter();
-  AtomicFileWriter(const AtomicFileWriter&) = delete;
-  AtomicFileWriter& operator=(const AtomicFileWriter&) = delete;
+  explicit PreparedFile(std::string path);
+  PreparedFile(std::string path, std::string_view content);
+  ~PreparedFile();
+  PreparedFile(PreparedFile&& other) noexcept;
+  PreparedFile& operator=(PreparedFile&&) = delete;
+  PreparedFile(const PreparedFile&) = delete;
+  PreparedFile& operator=(const PreparedFile&) = delete;
+
   void Write(std::string_view text);
+  void Ready();
   void Commit();
+  const std::string& path() const { return path_; }
 
  private:
-  void Flush();
+  void WriteBuffer();
   [[noreturn]] void Fail(const std::string& what);
 
-  std::string path_, tmp_, buffer_;
+  std::string path_;
+  std::string tmp_;
+  std::string buffer_;
   int fd_ = -1;
-  bool committed_ = false;
+  bool ready_ = false;
 };
+
+// PreparedFile(path, content).Commit(). Throws OutputError naming the path.
+void WriteFileAtomically(const std::string& path, std::string_view content);
+
+// Removes the temporary files of `path` (`PATH.tmp.XXXXXX`, this user's) that no living
+// writer holds: what a killed writer left. Returns how many were removed.
+int RemoveStaleTemporaries(const std::string& path);
 // Checks, before any work is stored, that `path` can be written later: its folder
 // exists and is writable, and the path is not a folder. Throws InputError naming the
 // option (e.g. "--json") and the path.

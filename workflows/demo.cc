@@ -237,7 +237,8 @@ DemoResult RunDemo(const DemoOptions& options, const DemoObserver& observer) {
                        fmt::format("no demo session {} (robot {}) to resume",
                                    options.resume_session, kDemoRobot));
     }
-    stored_plan = acquisition::PlanFromJson(row->plan_json);
+    stored_plan = acquisition::PlanFromJson(
+        row->plan_json, {resumed_db->path(), "sessions", options.resume_session, "plan_json"});
     stored_lab_yaml = row->lab_yaml;
     if (row->state != "completed") {
       // Refused while another live process runs it (exit 2, naming the pid).
@@ -694,7 +695,7 @@ DemoResult RunDemo(const DemoOptions& options, const DemoObserver& observer) {
       std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count();
   say(text);
   say(fmt::format("\nDone in {:.1f} s. The database stays for inspection: {} ({})\n", seconds,
-                  database.path(), Hint(database.path(), {"db", "info"})));
+                  Printable(database.path()), Hint(database.path(), {"db", "info"})));
 
   {
     nlohmann::json& out = result.json;
@@ -715,8 +716,17 @@ DemoResult RunDemo(const DemoOptions& options, const DemoObserver& observer) {
     }
     out["stages"] = stages;
   }
-  if (!options.json_path.empty())
-    io::WriteFileAtomically(options.json_path, JsonText(result.json, 2) + "\n");
+  if (!options.json_path.empty()) {
+    try {
+      io::WriteFileAtomically(options.json_path, JsonText(result.json, 2) + "\n");
+    } catch (const OutputError& e) {
+      // Everything the JSON summarises is stored by now: said, with its own exit code.
+      throw StoredButOutputError(fmt::format(
+          "the demo is done and stored (session {} and its parameter sets in {}); its JSON "
+          "summary could not be written: {}",
+          session, Printable(database.path()), e.what()));
+    }
+  }
   result.completed = true;
   result.seconds = seconds;
   return result;

@@ -1,5 +1,7 @@
 #include "workflows/hint.h"
 
+#include <fmt/format.h>
+
 #include <filesystem>
 
 #include "core/text.h"
@@ -19,6 +21,22 @@ std::string ShellWord(const std::string& word) {
       word.find_first_not_of("abcdefghijklmnopqrstuvwxyzABCDEFGHIJKLMNOPQRSTUVWXYZ0123456789"
                              "_-./:=@%+,") == std::string::npos) {
     return word;
+  }
+  if (Printable(word) != word) {
+    // A control character or a byte that is not UTF-8: bash's $'…', every such byte as
+    // \xHH, so that the printed command is one inert line that still pastes as the word.
+    std::string out = "$'";
+    for (const unsigned char c : word) {
+      if (c == '\'' || c == '\\') {
+        out += '\\';
+        out += static_cast<char>(c);
+      } else if (c < 0x20 || c >= 0x7f) {
+        out += fmt::format("\\x{:02x}", c);
+      } else {
+        out += static_cast<char>(c);
+      }
+    }
+    return out + "'";
   }
   std::string out = "'";
   for (char c : word) out += c == '\'' ? std::string("'\\''") : std::string(1, c);

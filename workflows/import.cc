@@ -128,6 +128,23 @@ io::JoinedPoses JoinTrackerExport(const ImportPosesRequest& r, int num_joints) {
   return joined;
 }
 
+// Puts the --out file in place once the session is stored: should that fail, the session is
+// stored all the same and the error says so (exit 6) and how to write the file again.
+void CommitAfterStore(std::optional<io::PreparedFile>& out, const ImportPosesRequest& request,
+                      const ImportPosesResult& result) {
+  if (!out) return;
+  try {
+    out->Commit();
+  } catch (const OutputError& e) {
+    if (result.db_path.empty() || result.duplicate) throw;
+    throw StoredButOutputError(fmt::format(
+        "session {}: {} poses of robot {} stored in {}; the poses CSV could not be written: {} "
+        "(armsig session export {} --poses FILE writes it)",
+        result.session, result.poses, request.robot, Printable(result.db_path), e.what(),
+        result.session));
+  }
+}
+
 // A pose table (the poses format itself, or a table with named columns), read row by row:
 // each pose goes into the store's transaction and the --out file as it is read, so memory
 // does not grow with the file; both are kept only when the whole file was read without a
@@ -137,7 +154,7 @@ ImportPosesResult ImportPoseTable(const ImportPosesRequest& request, db::Databas
   ImportPosesResult result;
   std::optional<PosesSessionWriter> store;
   if (database) store.emplace(*database, request.robot, request.file);
-  std::optional<io::AtomicFileWriter> out;
+  std::optional<io::PreparedFile> out;
   if (!request.out.empty()) out.emplace(request.out);
   const auto take = [&](const MeasuredPose& pose, int) {
     if (store) store->Add(pose);
@@ -163,16 +180,18 @@ ImportPosesResult ImportPoseTable(const ImportPosesRequest& request, db::Databas
   } else {
     io::ImportPosesStreamed(request.file, ImportOptionsOf(request), take, request.progress);
   }
-  // The file first: should it fail, nothing is stored yet.
-  if (out) {
-    out->Commit();
-    spdlog::info("import poses: {} poses from {} to {}", result.poses, request.file, request.out);
-  }
+  // The file is written in full before the session is stored and put in place after: a full
+  // disk stores nothing.
+  if (out) out->Ready();
   if (store) {
     const auto stored = store->Finish(request.allow_duplicate);
     result.session = stored.session;
     result.duplicate = stored.duplicate;
     result.db_path = database->path();
+  }
+  CommitAfterStore(out, request, result);
+  if (out) {
+    spdlog::info("import poses: {} poses from {} to {}", result.poses, request.file, request.out);
   }
   return result;
 }
@@ -200,6 +219,8 @@ ImportPosesResult ImportPosesFile(const ImportPosesRequest& request) {
   result.unused_joint_rows = joined.unused_joint_rows;
   result.poses = joined.poses.size();
   const std::string source = request.points + " + " + request.joints;
+  std::optional<io::PreparedFile> out;
+  if (!request.out.empty()) out.emplace(request.out, io::FormatPosesCsv(joined.poses));
   if (database) {
     const auto stored = StorePosesSession(*database, request.robot, joined.poses, source,
                                           request.allow_duplicate, joined.covariances_mm2);
@@ -207,8 +228,8 @@ ImportPosesResult ImportPosesFile(const ImportPosesRequest& request) {
     result.duplicate = stored.duplicate;
     result.db_path = database->path();
   }
-  if (!request.out.empty()) {
-    io::WriteFileAtomically(request.out, io::FormatPosesCsv(joined.poses));
+  CommitAfterStore(out, request, result);
+  if (out) {
     spdlog::info("import poses: {} poses from {} to {}", joined.poses.size(), source, request.out);
   }
   return result;

@@ -49,7 +49,7 @@ std::string ReadController(const InstrumentRequest& o, const instruments::RetryP
     std::vector<double> joints(q.data(), q.data() + q.size());
     return JsonText(nlohmann::json{{"controller", robot->name()}, {"joints_rad", joints}}) + "\n";
   }
-  std::string text = fmt::format("{}: {} joints (deg):", robot->name(), q.size());
+  std::string text = fmt::format("{}: {} joints (deg):", Printable(robot->name()), q.size());
   for (int i = 0; i < q.size(); ++i) text += fmt::format(" {:.3f}", q(i) / kRadPerDeg);
   return text + "\n";
 }
@@ -78,17 +78,18 @@ std::string QueryInstrument(const InstrumentRequest& o) {
                                      {"firmware", info.firmware}}) +
              "\n";
     }
-    return fmt::format("{}: {} serial {} firmware {}\n", device->name(), info.name, info.serial,
-                       info.firmware);
+    // What a device says is shown, never obeyed (an escape sequence in its name).
+    return fmt::format("{}: {} serial {} firmware {}\n", Printable(device->name()),
+                       Printable(info.name), Printable(info.serial), Printable(info.firmware));
   }
   const bool distance = o.distance || o.protocol == "emscon";  // a tracker always has one
   const auto r = distance ? device->MeasureDistanceAndAngles() : device->MeasureAngles();
   if (o.json) return JsonText(ReadingJson(r, device->name())) + "\n";
-  return fmt::format("{}: Hz {:.5f} gon  V {:.5f} gon  face {}{}{}\n", device->name(),
+  return fmt::format("{}: Hz {:.5f} gon  V {:.5f} gon  face {}{}{}\n", Printable(device->name()),
                      FromRad(r.angles.hz_rad, AngleUnit::kGon),
                      FromRad(r.angles.v_rad, AngleUnit::kGon), r.angles.face,
                      r.distance_mm ? fmt::format("  distance {:.3f} mm", *r.distance_mm) : "",
-                     r.note.empty() ? "" : "  (" + r.note + ")");
+                     r.note.empty() ? "" : "  (" + Printable(r.note) + ")");
 }
 
 }  // namespace armsig::workflows

@@ -4,6 +4,7 @@
 #include <fmt/ranges.h>
 #include <spdlog/spdlog.h>
 
+#include <charconv>
 #include <cmath>
 #include <cstdint>
 #include <cstring>
@@ -15,6 +16,7 @@
 #include "core/plausibility.h"
 #include "core/text.h"
 #include "db/store.h"
+#include "db/stored_json.h"
 #include "io/atomic_file.h"
 #include "io/model_yaml.h"
 #include "workflows/hint.h"
@@ -30,6 +32,12 @@ int64_t RobotId(db::Database& database, const std::string& robot) {
                      UnknownRobotMessage(database, robot));
   }
   return *id;
+}
+
+// A session id stored as text by older versions ("12"); false when it is not one.
+bool ParseId(const std::string& text, int64_t* id) {
+  const auto [end, error] = std::from_chars(text.data(), text.data() + text.size(), *id);
+  return error == std::errc() && end == text.data() + text.size() && *id > 0;
 }
 
 }  // namespace
@@ -241,7 +249,11 @@ std::string RestoreSession(db::Database& database, int64_t session_id) {
                      fmt::format("session {} is not discarded (it is {})", session_id,
                                  acquisition::DisplayState(row.state, row.owner)));
   }
-  const size_t planned = row.plan_json.empty() ? 0 : acquisition::PlanFromJson(row.plan_json).size();
+  const size_t planned =
+      row.plan_json.empty() ? 0
+                            : acquisition::PlanFromJson(row.plan_json, {database.path(), "sessions",
+                                                                        session_id, "plan_json"})
+                                  .size();
   const size_t stored = db::StoredSeqs(database, session_id).size();
   const std::string state = stored >= planned ? "completed" : "paused";
   db::SetSessionState(database, session_id, state);
@@ -265,12 +277,14 @@ std::vector<VersionInfo> Versions(db::Database& database, const std::string& rob
     v.fit_mean_mm = c.fit_mean_mm;
     v.validation_mean_mm = c.validation_mean_mm;
     v.validation_max_mm = c.validation_max_mm;
-    const auto inputs = nlohmann::json::parse(c.inputs_json, nullptr, false);
+    const auto inputs =
+        db::ParseStoredJson(c.inputs_json, {database.path(), "calibrations", c.id, "inputs_json"});
     if (inputs.is_object()) {
       if (inputs.contains("sessions") && inputs["sessions"].is_array()) {
         for (const auto& s : inputs["sessions"]) {  // ids, stored as text by older versions
+          int64_t id = 0;
           if (s.is_number_integer()) v.sessions.push_back(s.get<int64_t>());
-          if (s.is_string()) v.sessions.push_back(std::stoll(s.get<std::string>()));
+          if (s.is_string() && ParseId(s.get<std::string>(), &id)) v.sessions.push_back(id);
         }
       }
       if (inputs.contains("since") && inputs["since"].is_string()) v.since = inputs["since"];
@@ -278,7 +292,7 @@ std::vector<VersionInfo> Versions(db::Database& database, const std::string& rob
         v.floor_session = inputs["floor_session"].get<int64_t>();
     }
     const auto drift =
-        nlohmann::json::parse(c.drift_json.empty() ? "null" : c.drift_json, nullptr, false);
+        db::ParseStoredJson(c.drift_json, {database.path(), "calibrations", c.id, "drift_json"});
     if (drift.is_object() && drift.contains("flag") && drift["flag"].is_boolean()) {
       v.drift = drift["flag"].get<bool>();
       if (drift.contains("against") && drift["against"].is_number_integer())
@@ -336,7 +350,7 @@ std::string JsonArray(const auto& items) {
 std::string FormatRobots(const std::vector<db::RobotRow>& robots, bool json,
                          const std::string& db_path) {
   if (json) return JsonArray(robots);
-  if (robots.empty()) return "no robots in " + db_path + "\n";
+  if (robots.empty()) return "no robots in " + Printable(db_path) + "\n";
   std::string text;
   for (const auto& r : robots) {
     text +=

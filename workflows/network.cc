@@ -294,21 +294,26 @@ OrientRun OrientFiles(const OrientFilesOptions& options) {
                  result.sigma0, result.sigma0, options.max_sigma0);
   }
   const reduction::OrientationResult scaled = Scaled(result, run.sigma_scale);
+  // Both files are written in full before either is put in place: a full disk leaves
+  // neither, not a stations file without its points.
+  std::vector<io::PreparedFile> outputs;
   if (!options.out.empty()) {
     std::string header = fmt::format(
         "armsig orient: {} stations from {}; datum: {}\nsigma0 {:.5f}, {} degrees of freedom",
-        result.stations.size(), options.observations, result.datum, result.sigma0, result.dof);
+        result.stations.size(), Printable(options.observations), result.datum, result.sigma0,
+        result.dof);
     if (run.sigma_scale != 1.0) {
       header += fmt::format(
           "\nglobal test failed (p = {:.2g}): sigmas a posteriori (a priori x {:.4f})",
           run.global_test_p, run.sigma_scale);
     }
     header += SnoopingHeader(run);
-    io::WriteFileAtomically(
-        options.out, io::FormatStationsYaml(OrientedStations(problem, scaled), header, result.removed));
+    outputs.emplace_back(options.out, io::FormatStationsYaml(OrientedStations(problem, scaled),
+                                                             header, result.removed));
   }
   if (!options.points_out.empty())
-    io::WriteFileAtomically(options.points_out, FormatAdjustedPointsCsv(scaled.points));
+    outputs.emplace_back(options.points_out, FormatAdjustedPointsCsv(scaled.points));
+  for (auto& output : outputs) output.Commit();
   return run;
 }
 
@@ -570,7 +575,8 @@ TriangulateRun TriangulateFiles(const TriangulateFilesOptions& options) {
 std::string FormatTriangulateSummary(const TriangulateRun& run, const std::string& out) {
   return FormatInstrumentErrors(run.instrument_errors) +
          fmt::format("{} points intersected, {} not, {} rays rejected as blunders -> {}\n",
-                     run.intersected, run.points.size() - run.intersected, run.rejected_rays, out);
+                     run.intersected, run.points.size() - run.intersected, run.rejected_rays,
+                     Printable(out));
 }
 
 }  // namespace armsig::workflows

@@ -107,9 +107,13 @@ nlohmann::json Stats(const calibration::ErrorStats& s) {
 
 // A calibration's stored inputs digest ("" when none was recorded).
 std::string StoredDigest(const db::StoredCalibration& c) {
+  // Bounded when the set was loaded (db::CalibrationHistory); an edited value of another
+  // type counts as none.
   const auto stored = nlohmann::json::parse(c.inputs_json.empty() ? "{}" : c.inputs_json, nullptr,
                                             false);
-  return stored.is_object() ? stored.value("digest", std::string()) : std::string();
+  return stored.is_object() && stored.contains("digest") && stored["digest"].is_string()
+             ? stored["digest"].get<std::string>()
+             : std::string();
 }
 
 // "2026-11-27T02:30:00.123Z" → "2026-11-27 02:30 UTC".
@@ -636,7 +640,8 @@ void NightlyJob::ReadInputs() {
     if (inputs.is_object() && inputs.contains("floor_session") &&
         inputs["floor_session"].is_number_integer()) {
       d_.floor_session = inputs["floor_session"].get<int64_t>();
-      floor_started_at_ = inputs.value("floor_started_at", std::string());
+      if (inputs.contains("floor_started_at") && inputs["floor_started_at"].is_string())
+        floor_started_at_ = inputs["floor_started_at"].get<std::string>();
     }
   }
   SelectWindow(db::ListSessions(*database_, robot_id_),

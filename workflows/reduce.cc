@@ -45,6 +45,13 @@ ReduceSummary ReduceSession(db::Database& database, int64_t session_id,
     stations.emplace(code, acquisition::StationOf(setup));
   const auto observations = db::LoadObservations(database, session_id);
   summary.observations = static_cast<int64_t>(observations.size());
+  // A session of measured points without readings (imported poses, a tracker's point table):
+  // nothing to reduce, and its points are its measurements; replacing them with none would
+  // lose them.
+  if (observations.empty()) {
+    summary.kept_points = db::LoadPoints(database, session_id).size();
+    return summary;
+  }
   // The flags stored with the points this reduction replaces, by (pose, point).
   std::map<std::pair<std::optional<int64_t>, std::string>, reduction::PointFlags> stored;
   for (const auto& p : db::LoadPoints(database, session_id)) {
@@ -188,9 +195,15 @@ std::vector<ReduceSummary> ReduceSessions(db::Database& database, int64_t sessio
 
 std::string FormatReduceSummaries(const std::vector<ReduceSummary>& summaries,
                                   const std::string& db_path) {
-  if (summaries.empty()) return "no sessions in " + db_path + "\n";
+  if (summaries.empty()) return "no sessions in " + Printable(db_path) + "\n";
   std::string text;
   for (const auto& s : summaries) {
+    if (s.observations == 0) {
+      text +=
+          fmt::format("session {}: no observations to reduce; its {} measured points are kept\n",
+                      s.session, s.kept_points);
+      continue;
+    }
     text += fmt::format(
         "session {}: {} observations -> {} points reduced, {} not ({} rays rejected as "
         "blunders)\n",

@@ -15,6 +15,8 @@ struct ReduceSummary {
   int64_t session = 0;
   int64_t observations = 0;
   int64_t reduced = 0, failed = 0, rejected_rays = 0;
+  // A session without observations: its stored points (measured, not reduced), kept.
+  std::size_t kept_points = 0;
 };
 
 // The checks a session's points are flagged against: the tolerances of the lab file

@@ -1205,7 +1205,8 @@ std::vector<ReportHistoryPoint> ReportHistoryOf(db::Database& db, int64_t robot_
                              h.active};
     const auto drift = nlohmann::json::parse(h.drift_json.empty() ? "null" : h.drift_json,
                                              nullptr, false);
-    point.drift = drift.is_object() && drift.value("flag", false);
+    point.drift = drift.is_object() && drift.contains("flag") && drift["flag"].is_boolean() &&
+                  drift["flag"].get<bool>();
     for (const auto& a : activations) {
       if (a.version == h.version) point.activations.push_back({a.activated_at, a.activated_by});
     }

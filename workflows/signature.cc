@@ -30,7 +30,9 @@ Signature SignatureOf(const calibration::RobotModel& model, const db::StoredCali
   }
   s.world_from_base = stored.world_from_base;
   if (!stored.residual_map_json.empty()) {
-    const std::string source = fmt::format("residual map of parameter set {}", stored.version);
+    const std::string source =
+        fmt::format("table calibrations, row {}, column residual_map_json (parameter set {})",
+                    stored.id, stored.version);
     const auto json = nlohmann::json::parse(stored.residual_map_json, nullptr, false);
     if (json.is_discarded())
       throw InputError({source, 0, 0, ""}, "the stored map is not JSON (a damaged database?)");

@@ -20,6 +20,7 @@
 #include "db/robots.h"
 #include "db/sessions.h"
 #include "db/store.h"
+#include "db/stored_json.h"
 #include "io/atomic_file.h"
 #include "io/model_yaml.h"
 #include "io/residual_map_json.h"
@@ -51,40 +52,46 @@ calibration::FittedSet FittedSetOf(const calibration::RobotModel& model, const S
 
 // The residual map as the run held it: its decision and cross-validation from the stored
 // calibrate JSON, the map itself from the stored map.
+// Stored JSON is input (db/stored_json.h): a value of another type is refused naming its cell.
 std::optional<calibration::ResidualMapFit> StoredMapFit(const db::StoredCalibration& set,
                                                         const std::string& source) {
-  const auto report = nlohmann::json::parse(set.report_json.empty() ? "{}" : set.report_json,
-                                            nullptr, false);
-  if (!report.is_object() || !report.contains("residual_model") ||
-      !report["residual_model"].is_object())
-    return std::nullopt;
-  const auto& j = report["residual_model"];
-  calibration::ResidualMapFit fit;
-  fit.used = j.value("used", false);
-  fit.decision = j.value("decision", std::string());
-  auto number = [&](const char* key) {
-    return j.contains(key) && j[key].is_number() ? j[key].get<double>() : NAN;
-  };
-  fit.cv_mean_mm_parametric = number("cv_mean_mm_parametric");
-  fit.cv_mean_mm_with_map = number("cv_mean_mm_with_map");
-  if (j.contains("grid") && j["grid"].is_array()) {
-    for (const auto& g : j["grid"]) {
-      if (!g.is_object()) continue;
-      fit.grid.push_back({g.value("length_scale", 0.0), g.value("regularisation", 0.0),
-                          g.value("cv_mean_mm", 0.0)});
-    }
-  }
-  if (!set.residual_map_json.empty()) {
-    fit.map = io::ResidualMapFromJson(nlohmann::json::parse(set.residual_map_json), source);
-  }
-  return fit;
+  return db::ReadStoredJson(
+      set.report_json, {source, "calibrations", set.id, "report_json"},
+      [&](const nlohmann::json& report) -> std::optional<calibration::ResidualMapFit> {
+        if (!report.is_object() || !report.contains("residual_model") ||
+            !report["residual_model"].is_object())
+          return std::nullopt;
+        const auto& j = report["residual_model"];
+        calibration::ResidualMapFit fit;
+        fit.used = j.value("used", false);
+        fit.decision = j.value("decision", std::string());
+        auto number = [&](const char* key) {
+          return j.contains(key) && j[key].is_number() ? j[key].get<double>() : NAN;
+        };
+        fit.cv_mean_mm_parametric = number("cv_mean_mm_parametric");
+        fit.cv_mean_mm_with_map = number("cv_mean_mm_with_map");
+        if (j.contains("grid") && j["grid"].is_array()) {
+          for (const auto& g : j["grid"]) {
+            if (!g.is_object()) continue;
+            fit.grid.push_back({g.value("length_scale", 0.0), g.value("regularisation", 0.0),
+                                g.value("cv_mean_mm", 0.0)});
+          }
+        }
+        if (!set.residual_map_json.empty()) {
+          fit.map = io::ResidualMapFromJson(
+              db::ParseStoredJson(set.residual_map_json,
+                                  {source, "calibrations", set.id, "residual_map_json"}),
+              source);
+        }
+        return fit;
+      });
 }
 
 // The gates as the run judged them, from the options it stored and the set's figures.
 std::vector<std::string> StoredGates(const db::StoredCalibration& set) {
   std::vector<std::string> out;
-  const auto options = nlohmann::json::parse(set.options_json.empty() ? "{}" : set.options_json,
-                                             nullptr, false);
+  const auto options = db::ParseStoredJson(
+      set.options_json, {"the database", "calibrations", set.id, "options_json"});
   if (!options.is_object() || !options.contains("gates") || !options["gates"].is_object())
     return out;
   const auto& g = options["gates"];

@@ -19,6 +19,7 @@
 #include "db/database.h"
 #include "db/postgres_address.h"
 #include "db/robots.h"
+#include "db/stored_json.h"
 
 namespace armsig::workflows {
 
@@ -71,10 +72,11 @@ std::string RecalibrateOptionsToJson(const RecalibrateOptions& o) {
   return JsonText(j);
 }
 
-RecalibrateOptions RecalibrateOptionsFromJson(const std::string& text) {
+RecalibrateOptions RecalibrateOptionsFromJson(const std::string& text, int64_t job) {
   RecalibrateOptions o;
-  try {
-    const auto j = nlohmann::json::parse(text);
+  const db::JsonCell cell{"the queue", "jobs", job, "options_json"};
+  db::ReadStoredJson(text, cell, [&](const nlohmann::json& j) {
+    if (!j.is_object()) db::RefuseStoredJson(cell, "expected the job's options (an object)");
     o.since = j.value("since", o.since);
     o.params = j.value("params", o.params);
     o.residual_model = j.value("residual_model", o.residual_model);
@@ -93,10 +95,8 @@ RecalibrateOptions RecalibrateOptionsFromJson(const std::string& text) {
     optional("drift_mm", o.drift_mm);
     if (j.contains("window_sessions")) o.window_sessions = j.at("window_sessions").get<int>();
     if (j.contains("window_days")) o.window_days = j.at("window_days").get<int>();
-  } catch (const nlohmann::json::exception& e) {
-    throw InputError({"jobs.options_json", 0, 0, ""},
-                     std::string("malformed job options (") + e.what() + ")");
-  }
+    return 0;
+  });
   return o;
 }
 
@@ -192,7 +192,7 @@ struct Outcome {
 Outcome RunJob(const WorkerOptions& options, const db::Job& job) {
   Outcome out;
   try {
-    RecalibrateOptions o = RecalibrateOptionsFromJson(job.options_json);
+    RecalibrateOptions o = RecalibrateOptionsFromJson(job.options_json, job.id);
     o.db_path = options.store_db;
     o.robot = job.robot;
     if (!o.report_dir.empty()) {

@@ -46,7 +46,9 @@ class QueueConnection {
 // The job's options as stored with it (options_json) and back. db_path, json_path and the
 // report directory's per-robot subfolder are the worker's business, not stored.
 std::string RecalibrateOptionsToJson(const RecalibrateOptions& options);
-RecalibrateOptions RecalibrateOptionsFromJson(const std::string& json);
+// Throws InputError naming `job` (its row of the jobs table) when the stored text is not
+// such options (db/stored_json.h).
+RecalibrateOptions RecalibrateOptionsFromJson(const std::string& json, int64_t job = 0);
 
 struct ScheduleOptions {
   std::string store_db;        // the store of the robots (a file or a postgresql:// URI)

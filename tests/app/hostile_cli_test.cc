@@ -434,5 +434,39 @@ TEST(HostileCli, AStoredParameterThatIsNotFiniteIsExit2NamingTheVersion) {
       << r.err;
 }
 
+// File names are input too: a database, an output file and an imported file whose names
+// hold an escape sequence and a newline are echoed on standard output escaped, on one line.
+TEST(HostileCli, FileNamesWithControlCharactersAreEscapedOnStandardOutput) {
+  TempDir dir;
+  const std::string odd = "\"$(printf 'a\\033[2Jb\\nc')\"";  // a, ESC [2J, b, newline, c
+  const std::string db = "--db " + Q(dir.path().string()) + "/" + odd + ".db ";
+  auto r = RunArmsig(db + "db init", dir.path().string());
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_NE(r.out.find("a\\x1b[2Jb\\nc.db: new armsig database"), std::string::npos) << r.out;
+  EXPECT_EQ(r.out.find('\x1b'), std::string::npos) << r.out;
+  EXPECT_EQ(std::count(r.out.begin(), r.out.end(), '\n'), 1) << r.out;
+  ASSERT_EQ(RunArmsig(db + "robot add r --model " + Q(SourcePath("models/puma760.yaml")),
+                      dir.path().string())
+                .exit_code,
+            0);
+  const std::string poses = dir.File("p.csv");
+  WriteText(poses,
+            "pose,q1_deg,q2_deg,q3_deg,q4_deg,q5_deg,q6_deg,x_mm,y_mm,z_mm\n"
+            "1,0,10,20,0,30,0,500,600,700\n2,5,15,25,5,35,5,510,610,690\n");
+  r = RunArmsig(db +
+                    "import poses p.csv --joint-columns q1_deg,q2_deg,q3_deg,q4_deg,q5_deg,"
+                    "q6_deg --joint-unit deg --xyz-columns x_mm,y_mm,z_mm --id pose --robot r "
+                    "--out " +
+                    odd + ".csv",
+                dir.path().string());
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_EQ(r.out.find('\x1b'), std::string::npos) << r.out;
+  EXPECT_EQ(std::count(r.out.begin(), r.out.end(), '\n'), 1) << r.out;
+  r = RunArmsig(db + "session export 1 --poses " + odd + "-back.csv", dir.path().string());
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_NE(r.out.find("-> a\\x1b[2Jb\\nc-back.csv"), std::string::npos) << r.out;
+  EXPECT_EQ(std::count(r.out.begin(), r.out.end(), '\n'), 1) << r.out;
+}
+
 }  // namespace
 }  // namespace armsig::testing

@@ -337,6 +337,33 @@ TEST_P(Store, ConcurrentWritersWaitForEachOther) {
 
 // A command that only reads opens with kMustExist: a missing file is an input error
 // naming it, and nothing is created; an existing database opens as usual.
+// A reading command reads a file no connection has open immutable (nothing made beside it),
+// holding SQLite's shared lock: a writer that opens and closes the file meanwhile cannot
+// checkpoint into it on close (its commit waits in the -wal for the next writer, lost to
+// nobody), and one that checkpoints while the reader reads (a -wal past 4 MB; here by hand)
+// is seen: ChangedWhileRead.
+TEST(Database, AnImmutableReadHoldsOffTheClosingCheckpointAndSeesAnotherOne) {
+  testing::TempDir dir;
+  const std::string path = dir.File("lab.db");
+  { Database created(path); }
+  ASSERT_FALSE(std::filesystem::exists(path + "-wal"));
+  Database reader(path, OpenMode::kReadOnly);
+  EXPECT_FALSE(std::filesystem::exists(path + "-shm"));  // immutable: nothing made
+  {
+    Database writer(path, OpenMode::kMustExist);
+    writer.connection().Exec(
+        "INSERT INTO robots(name, model_name, model_yaml) VALUES ('a', '', '')");
+  }
+  EXPECT_TRUE(std::filesystem::exists(path + "-wal"));  // not checkpointed under the reader
+  EXPECT_FALSE(reader.ChangedWhileRead());
+  {
+    Database writer(path, OpenMode::kMustExist);
+    EXPECT_EQ(writer.connection().QueryInt("SELECT count(*) FROM robots"), 1);
+    writer.connection().Exec("PRAGMA wal_checkpoint(FULL)");
+  }
+  EXPECT_TRUE(reader.ChangedWhileRead());
+}
+
 TEST(Database, MustExistRefusesAMissingFileAndCreatesNothing) {
   testing::TempDir dir;
   const std::string path = dir.File("typo.db");

@@ -102,7 +102,7 @@ TEST(HostileInputs, JointAnglesBeyond720DegreesAndHugeLengthsInEveryCsvReader) {
   WriteText(dir.File("o.csv"), "point,station,hz_gon,v_gon,sigma_hz_arcsec\nP,S1,10,100,0\n");
   e = Refusal([&] { ReadObservationsCsv(dir.File("o.csv")); });
   EXPECT_EQ(e.where().column, 5);
-  EXPECT_NE(e.message().find("sigma > 0"), std::string::npos) << e.what();
+  EXPECT_NE(e.message().find("an angular sigma from 0.0001 arcsec"), std::string::npos) << e.what();
 
   WriteText(dir.File("c.csv"), "point,x_mm,y_mm,z_mm\nC1,0,-3e11,0\n");
   e = Refusal([&] { ReadControlCsv(dir.File("c.csv")); });
@@ -161,7 +161,52 @@ TEST(HostileInputs, StationsOutsideAKilometreOrWithZeroSigmasAreRefused) {
         "stations:\n  - {id: S1, position_mm: [0, 0, 0], azimuth_gon: 0, sigma_hz_arcsec: 0}\n",
         "s.yaml");
   });
-  EXPECT_NE(e.message().find("sigma > 0"), std::string::npos) << e.what();
+  EXPECT_NE(e.message().find("an angular sigma from 0.0001 arcsec"), std::string::npos) << e.what();
+}
+
+// A sigma is a weight's root: 1e-31 mm weighed 1e62 and the adjustment overflowed into a
+// "non_finite" point naming no sigma, while 1e-320 arcsec in another column was refused. One
+// floor for every sigma column (1 nm, 0.0001 arc second), refused at the cell that breaks it,
+// in the column's unit; the floor itself is accepted.
+TEST(HostileInputs, EverySigmaColumnHasTheSameFloorNamedWhenRefused) {
+  TempDir dir;
+  const std::string header =
+      "point,station,hz_gon,v_gon,distance_mm,sigma_hz_arcsec,sigma_v_arcsec,sigma_distance_mm\n";
+  const struct {
+    std::string row;
+    int column;
+    std::string expected;
+  } cases[] = {
+      {"P,S1,10,100,2000,1,1,1e-31", 8, "expected a sigma from 1e-06 mm to 1000000 mm, got 1e-31"},
+      {"P,S1,10,100,2000,1,1,1e-7", 8, "expected a sigma from 1e-06 mm"},
+      {"P,S1,10,100,2000,1e-320,1,1", 6, "expected an angular sigma from 0.0001 arcsec"},
+      {"P,S1,10,100,2000,1,5e-5,1", 7, "expected an angular sigma from 0.0001 arcsec"},
+  };
+  for (const auto& c : cases) {
+    WriteText(dir.File("o.csv"), header + c.row + "\n");
+    const InputError e = Refusal([&] { ReadObservationsCsv(dir.File("o.csv")); });
+    EXPECT_EQ(e.where().line, 2) << c.row;
+    EXPECT_EQ(e.where().column, c.column) << c.row;
+    EXPECT_NE(e.message().find(c.expected), std::string::npos) << e.what();
+  }
+  WriteText(dir.File("o.csv"), header + "P,S1,10,100,2000,0.0001,0.0001,1e-6\n");
+  const auto floor = ReadObservationsCsv(dir.File("o.csv"));
+  ASSERT_EQ(floor.size(), 1u);
+  ASSERT_TRUE(floor[0].sigma_distance_mm.has_value());
+  EXPECT_DOUBLE_EQ(*floor[0].sigma_distance_mm, 1e-6);
+  // The control points' sigma columns, and a stations file's sigma keys, the same floor.
+  WriteText(dir.File("c.csv"), "point,x_mm,y_mm,z_mm,sx_mm,sy_mm,sz_mm\nC1,0,0,0,1,1e-9,1\n");
+  InputError e = Refusal([&] { ReadControlCsv(dir.File("c.csv")); });
+  EXPECT_EQ(e.where().column, 6);
+  EXPECT_NE(e.message().find("expected a sigma from 1e-06 mm"), std::string::npos) << e.what();
+  e = Refusal([] {
+    ParseStationsYaml(
+        "stations:\n  - {id: S1, position_mm: [0, 0, 0], azimuth_gon: 0, "
+        "sigma_v_arcsec: 1e-5}\n",
+        "s.yaml");
+  });
+  EXPECT_NE(e.message().find("expected an angular sigma from 0.0001 arcsec"), std::string::npos)
+      << e.what();
 }
 
 // Every YAML file of a wrong shape: exit 2 material (an InputError) with the file, line

@@ -7,9 +7,11 @@
 #include <cmath>
 #include <thread>
 
+#include "calibration/simulation.h"
 #include "core/error.h"
 #include "db/store.h"
 #include "io/csv.h"
+#include "support/simulated_sessions.h"
 #include "support/stores.h"
 #include "test_support.h"
 
@@ -52,6 +54,28 @@ TEST(ReduceSessions, ImportedRealNetworkReducesIdempotentlyToGnuGama) {
   EXPECT_GE(compared, 10);
   EXPECT_NE(FormatReduceSummaries(ReduceSessions(database, imported.session, true), database.path())
                 .find("18 points reduced"),
+            std::string::npos);
+}
+
+// A session of measured points without readings (poses imported from a laser tracker's
+// export) has nothing to reduce: `armsig reduce` keeps its points. Before, it replaced them
+// with none, and the robot then had "0 measured configurations".
+TEST(ReduceSessions, ASessionOfImportedPointsKeepsThem) {
+  TempDir dir;
+  db::Database database(dir.File("lab.db"));
+  testing::AddSession(database, calibration::PaperTable3Parameters(), 30, 5);
+  ImportObservationsOptions o;
+  o.file = DataPath("networks/barta-phase_1-2TK/observations.csv");
+  o.stations = DataPath("networks/barta-phase_1-2TK/stations.yaml");
+  ImportObservations(database, o);
+  const auto summaries = ReduceSessions(database, 0, /*reject_blunders=*/false);
+  ASSERT_EQ(summaries.size(), 2u);
+  EXPECT_EQ(summaries[0].observations, 0);
+  EXPECT_EQ(summaries[0].kept_points, 30u);
+  EXPECT_EQ(summaries[1].reduced, 18);
+  EXPECT_EQ(db::LoadSessionPoses(database, 1).size(), 30u);
+  EXPECT_NE(FormatReduceSummaries(summaries, "lab.db")
+                .find("session 1: no observations to reduce; its 30 measured points are kept"),
             std::string::npos);
 }
 
