@@ -35,13 +35,13 @@ namespace {
 // ---- The cube: an oblique view (x right, y receding at 30°, z up) ----
 
 Figure CubeFigure(const std::string& dir, const iso::TestCube& cube, const Iso9283Evaluation& e) {
-  cv::Mat image(440, 900, CV_8UC3, cv::Scalar(255, 255, 255));
+  cv::Mat image(440, 960, CV_8UC3, cv::Scalar(255, 255, 255));
   Text(image,
        fmt::format("Test cube: edge {:.1f} mm, centre ({:.1f}, {:.1f}, {:.1f}) mm, robot frame",
                    cube.edge_mm, cube.centre_mm.x(), cube.centre_mm.y(), cube.centre_mm.z()),
        {20, 24}, 0.55);
   const double scale = 250.0 / cube.edge_mm;  // px per mm
-  const cv::Point origin(330, 250);
+  const cv::Point origin(310, 250);
   auto project = [&](const Eigen::Vector3d& x) {
     const Eigen::Vector3d d = x - cube.centre_mm;
     return cv::Point(origin.x + static_cast<int>(std::lround(scale * (d.x() + 0.45 * d.y() * 0.866))),
@@ -82,14 +82,14 @@ Figure CubeFigure(const std::string& dir, const iso::TestCube& cube, const Iso92
     Text(image,
          fmt::format("{}  ({:.1f}, {:.1f}, {:.1f}) mm", p.name, p.commanded_mm.x(),
                      p.commanded_mm.y(), p.commanded_mm.z()),
-         {640, y});
+         {610, y});
     y += 22;
   }
   y += 10;
   for (const std::string line :
        {"shaded: measuring plane C1-C2-C7-C8", "P2...P5 at 10 % of the diagonal", "from C1, C2, C7, C8",
         "a cycle: P1 P5 P4 P3 P2"}) {
-    Text(image, line, {640, y}, 0.4, Align::kLeft, kGrey);
+    Text(image, line, {610, y}, 0.4, Align::kLeft, kGrey);
     y += 20;
   }
   return Save(dir, "cube.png", "The test cube and its measuring plane", image);
@@ -143,8 +143,8 @@ void ScatterPanel(cv::Mat& image, const cv::Rect& box, const iso::PointData& dat
     const cv::Point tip = at(u.x() * reach, u.y() * reach);
     cv::arrowedLine(image, at(u.x() * reach * 0.55, u.y() * reach * 0.55), tip, kRed, 2,
                     cv::LINE_AA, 0, 0.25);
-    Text(image, fmt::format("cmd {:.3f}", c.norm()), tip + cv::Point(u.x() > 0 ? -70 : 4, u.y() > 0 ? 16 : -6),
-         0.36, Align::kLeft, kRed);
+    Text(image, fmt::format("commanded {:.3f} mm off", c.norm()), {box.x + 5, box.y + 14}, 0.36,
+         Align::kLeft, kRed);
   }
 }
 
@@ -170,7 +170,7 @@ Figure ScatterFigure(const std::string& dir, const std::string& file, const std:
   DrawMarker(image, {30, legend_y - 4}, Marker::kCircle, kBlue, 3);
   Text(image, "attained (mm from the barycentre +)", {40, legend_y});
   DrawMarker(image, {330, legend_y - 4}, Marker::kDiamond, kRed, 4);
-  Text(image, "commanded (arrow: outside the view, at the distance shown)", {342, legend_y});
+  Text(image, "commanded (an arrow towards it when outside the view)", {342, legend_y});
   cv::circle(image, {770, legend_y - 4}, 6, kOrange, 1, cv::LINE_AA);
   Text(image, "RP", {782, legend_y});
   Text(image, "top row: x-y (from above); bottom row: x-z (from the side)", {20, 42}, 0.4,

@@ -21,6 +21,7 @@
 #include "io/model_yaml.h"
 #include "workflows/hint.h"
 #include "workflows/iso9283_page.h"
+#include "workflows/report.h"
 #include "workflows/signature.h"
 
 namespace armsig::workflows {
@@ -267,15 +268,8 @@ std::string Conditions(db::Database& db, const SessionTest& t, Iso9283PageInput&
     json["temperature_c"] = {{"mean", sum / c.size()}, {"min", *lo}, {"max", *hi}};
   }
   nlohmann::json instruments = nlohmann::json::array();
-  for (const auto& i : db::SessionInstruments(db, t.id)) {
-    std::string sigma;
-    if (i.sigma_hz_arcsec) sigma += fmt::format("σ Hz {:g}″", *i.sigma_hz_arcsec);
-    if (i.sigma_v_arcsec) sigma += fmt::format("{}σ V {:g}″", sigma.empty() ? "" : ", ", *i.sigma_v_arcsec);
-    if (i.sigma_distance_mm)
-      sigma += fmt::format("{}σ distance {:g} mm", sigma.empty() ? "" : ", ", *i.sigma_distance_mm);
-    page.instruments.push_back(fmt::format("{}: {} ({}{}){}", i.name, i.kind, i.protocol,
-                                           i.serial_number.empty() ? "" : ", serial " + i.serial_number,
-                                           sigma.empty() ? "" : "; " + sigma));
+  for (const auto& i : LoadReportSources(db, std::vector<int64_t>{t.id}).instruments) {
+    page.instruments.push_back(i.name + ": " + i.description);
     instruments.push_back(page.instruments.back());
   }
   json["instruments"] = instruments;

@@ -112,6 +112,8 @@ int RemoveReportDebris(const std::string& dir, double min_age_s);
 // names them), with their dates, the instruments of their stored lab files and of the
 // instruments table, and their stations' latest orientation.
 ReportSources LoadReportSources(db::Database& db, const CalibrationRun& run);
+// The same for sessions given by id (no pose counts): what the ISO 9283 page names.
+ReportSources LoadReportSources(db::Database& db, const std::vector<int64_t>& session_ids);
 
 // ---- The pieces of the page, exposed for tests ----
 
