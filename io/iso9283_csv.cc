@@ -60,6 +60,11 @@ std::optional<Eigen::Vector3d> OrientationOf(const CsvTable& t, const CsvRow& ro
   return Eigen::Vector3d(t.AngleRad(row, *p.a), t.AngleRad(row, *p.b), t.AngleRad(row, *p.c));
 }
 
+// A name that may be left empty (a via point's point, the one approach).
+std::string OptionalName(const CsvTable& t, const CsvRow& row, int column) {
+  return t.Text(row, column).empty() ? std::string() : t.Name(row, column);
+}
+
 const std::string& PointName(const CsvTable& t, const CsvRow& row, int column) {
   const std::string& name = t.Name(row, column);
   if (name.empty()) throw InputError(t.Where(row, column), "expected a point name");
@@ -100,7 +105,7 @@ std::vector<AttainedRow> ReadAttainedCsv(const std::string& path) {
   for (const CsvRow& row : t.rows()) {
     AttainedRow a;
     a.point = PointName(t, row, id);
-    if (approach) a.approach = t.Name(row, *approach);
+    if (approach) a.approach = OptionalName(t, row, *approach);
     if (cycle) {
       a.cycle = t.Integer(row, *cycle);
       if (a.cycle < 1)
@@ -167,14 +172,14 @@ std::vector<Iso9283PlanRow> ReadIso9283PlanCsv(const std::string& path, int num_
     if (r.pose.empty()) throw InputError(t.Where(row, pose), "expected a pose label");
     if (!labels.insert(r.pose).second)
       throw InputError(t.Where(row, pose), "duplicate pose " + Quoted(r.pose));
-    r.point = t.Name(row, point);
+    r.point = OptionalName(t, row, point);
     if (!r.point.empty()) {
       r.cycle = t.Integer(row, cycle);
       if (r.cycle < 1)
         throw InputError(t.Where(row, cycle),
                          fmt::format("expected a cycle number from 1, got {}", r.cycle));
     }
-    if (approach) r.approach = t.Name(row, *approach);
+    if (approach) r.approach = OptionalName(t, row, *approach);
     r.target_mm = {t.Number(row, x, Quantity::kCoordinate), t.Number(row, y, Quantity::kCoordinate),
                    t.Number(row, z, Quantity::kCoordinate)};
     r.joints_rad.resize(num_joints);
