@@ -31,7 +31,8 @@ int RunIso9283Plan(const Iso9283PlanCommandOptions& o, db::Database& db) {
   workflows::Iso9283PlanOptions options = o.plan;
   auto vector3 = [](const std::vector<double>& v, const char* option, int count) {
     if (static_cast<int>(v.size()) != count)
-      throw InputError({option, 0, 0, ""}, fmt::format("expected {} numbers, got {}", count, v.size()));
+      throw InputError({option, 0, 0, ""},
+                       fmt::format("expected {} numbers, got {}", count, v.size()));
     return Eigen::Vector3d(v[0], v[1], v[2]);
   };
   if (!o.cube.empty()) {
@@ -49,15 +50,16 @@ int RunIso9283Plan(const Iso9283PlanCommandOptions& o, db::Database& db) {
   }
   const auto robot_id = db::FindRobot(db, o.robot);
   if (!robot_id)
-    throw InputError({db.path(), 0, 0, "--robot"}, workflows::UnknownRobotMessage(db.path(), o.robot));
-  const auto model = io::ParseRobotModel(db::RobotModelYaml(db, *robot_id), "model of robot " + o.robot);
+    throw InputError({db.path(), 0, 0, "--robot"},
+                     workflows::UnknownRobotMessage(db.path(), o.robot));
+  const auto model =
+      io::ParseRobotModel(db::RobotModelYaml(db, *robot_id), "model of robot " + o.robot);
   std::optional<workflows::ActiveSignature> signature;
   if (options.compensated) signature = workflows::LoadActiveSignature(db, o.robot);
   const auto plan =
       workflows::MakeIso9283Plan(model, o.robot, options, signature ? &*signature : nullptr);
   io::WriteFileAtomically(o.out, plan.csv);
-  std::cout << workflows::FormatIso9283PlanSummary(plan, o.out)
-            << "capture it: "
+  std::cout << workflows::FormatIso9283PlanSummary(plan, o.out) << "capture it: "
             << workflows::Hint(db.path(), {"capture", "--lab", "LAB.yaml", "--plan",
                                            workflows::AbsolutePath(o.out), "--robot", o.robot})
             << "\n";
@@ -69,13 +71,14 @@ void SetupIso9283PlanCommand(CLI::App& iso, const GlobalOptions& global, Runner&
   auto* sub = iso.add_subcommand(
       "plan", "The ISO 9283 test plan: cube, P1-P5, cycles, joints by the model's inverse");
   NameOption(sub->add_option("--robot", o->robot, "Robot name"))->required();
-  auto* cube = sub->add_option("--cube", o->cube, "The cube: centre and edge, CX,CY,CZ,EDGE_MM "
-                                                  "(robot frame)")
+  auto* cube = sub->add_option("--cube", o->cube,
+                               "The cube: centre and edge, CX,CY,CZ,EDGE_MM "
+                               "(robot frame)")
                    ->delimiter(',')
                    ->expected(4)
                    ->check(NumberCheck(-plausible::kMaxLengthMm, plausible::kMaxLengthMm));
-  auto* automatic = sub->add_flag("--auto", o->auto_cube,
-                                  "The largest cube the model reaches around --centre");
+  auto* automatic =
+      sub->add_flag("--auto", o->auto_cube, "The largest cube the model reaches around --centre");
   cube->excludes(automatic);
   sub->add_option("--centre", o->centre,
                   "Centre of the --auto cube, X,Y,Z mm (default: the target at the seed posture)")
@@ -98,10 +101,12 @@ void SetupIso9283PlanCommand(CLI::App& iso, const GlobalOptions& global, Runner&
                                "Distance of the via points of --approach"),
                1.0, 2000.0)
       ->capture_default_str();
-  sub->add_option("--seed-deg", o->seed_deg, "Start of the inverse for P1, q1,…,qn deg (default 0,0,90,0,30,0)")
+  sub->add_option("--seed-deg", o->seed_deg,
+                  "Start of the inverse for P1, q1,…,qn deg (default 0,0,90,0,30,0)")
       ->delimiter(',')
       ->check(NumberCheck(-720.0, 720.0));
-  OutputFile(sub->add_option("--out", o->out, "The plan CSV (capture --plan reads it)"))->required();
+  OutputFile(sub->add_option("--out", o->out, "The plan CSV (capture --plan reads it)"))
+      ->required();
   OnDatabaseToRead(sub, global, run, [o](db::Database& db) { return RunIso9283Plan(*o, db); });
 }
 

@@ -40,12 +40,14 @@ void SetupIso9283ReportCommand(CLI::App& iso, const GlobalOptions& global, Runne
   sub->add_flag("--align", o->report.align,
                 "Rigid best fit of the barycentres onto the commanded positions (reported) "
                 "instead of the robot's frame");
-  NumberOption(sub->add_option("--load-kg", o->load_kg, "Load during the test (stated on the page)"),
-               0.0, 1e5);
+  NumberOption(
+      sub->add_option("--load-kg", o->load_kg, "Load during the test (stated on the page)"), 0.0,
+      1e5);
   NumberOption(sub->add_option("--speed-percent", o->speed_percent,
                                "Speed during the test, % of rated (stated on the page)"),
                0.0, 1000.0);
-  OutputDirectory(sub->add_option("--out", o->report.out_dir, "Folder of the HTML page"))->required();
+  OutputDirectory(sub->add_option("--out", o->report.out_dir, "Folder of the HTML page"))
+      ->required();
   OutputFile(sub->add_option("--json", o->json, "The figures as JSON"));
   OnDatabaseToRead(sub, global, run, [o](db::Database& db) { return RunIso9283Report(*o, db); });
 }

@@ -85,7 +85,8 @@ PointFigures EvaluatePoint(const PointData& point) {
     const Eigen::Vector3d reference =
         point.commanded_orientation_rad.value_or(*point.samples.front().orientation_rad);
     for (const auto& s : point.samples)
-      for (int k = 0; k < 3; ++k) deviation[k].push_back(WrapPi((*s.orientation_rad)(k) - reference(k)));
+      for (int k = 0; k < 3; ++k)
+        deviation[k].push_back(WrapPi((*s.orientation_rad)(k)-reference(k)));
     Eigen::Vector3d mean, sd;
     for (int k = 0; k < 3; ++k) {
       const MeanSd m = MeanAndSd(deviation[k]);
@@ -111,7 +112,8 @@ PointFigures EvaluatePoint(const PointData& point) {
       for (int j : members) {
         group.push_back(x[j]);
         if (oriented)
-          for (int k = 0; k < 3; ++k) angle(k) += deviation[k][j] / static_cast<double>(members.size());
+          for (int k = 0; k < 3; ++k)
+            angle(k) += deviation[k][j] / static_cast<double>(members.size());
       }
       centres.push_back(Barycentre(group));
       angles.push_back(angle);

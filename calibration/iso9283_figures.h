@@ -61,10 +61,10 @@ double PoseRepeatability(const std::vector<Eigen::Vector3d>& positions_mm);
 
 struct DistanceFigures {
   std::string from, to;
-  int n = 0;                  // cycles in which both points were attained
-  double commanded_mm = 0.0;  // D_c
-  double mean_mm = 0.0;       // D̄
-  double ad_mm = 0.0;         // D̄ − D_c
+  int n = 0;                         // cycles in which both points were attained
+  double commanded_mm = 0.0;         // D_c
+  double mean_mm = 0.0;              // D̄
+  double ad_mm = 0.0;                // D̄ − D_c
   double s_d_mm = NAN, rd_mm = NAN;  // n ≥ 2
   std::vector<double> d_mm;          // D_j per cycle
 };

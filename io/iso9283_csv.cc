@@ -31,8 +31,8 @@ struct PositionColumns {
 };
 
 PositionColumns PositionColumnsOf(const CsvTable& t) {
-  t.RefuseUnreadUnits({"point", "pose", "cycle", "approach", "x_mm", "y_mm", "z_mm", "a_*", "b_*",
-                       "c_*"});
+  t.RefuseUnreadUnits(
+      {"point", "pose", "cycle", "approach", "x_mm", "y_mm", "z_mm", "a_*", "b_*", "c_*"});
   PositionColumns p;
   p.x = t.Column("x_mm");
   p.y = t.Column("y_mm");
@@ -119,11 +119,11 @@ std::vector<AttainedRow> ReadAttainedCsv(const std::string& path) {
     a.line = row.line;
     const auto [it, fresh] = seen.emplace(std::make_tuple(a.point, a.cycle, a.approach), row.line);
     if (!fresh) {
-      throw InputError(t.Where(row, cycle.value_or(id)),
-                       fmt::format("point {} cycle {}{} is given twice (first on line {})",
-                                   Quoted(a.point), a.cycle,
-                                   a.approach.empty() ? "" : " approach " + Quoted(a.approach),
-                                   it->second));
+      throw InputError(
+          t.Where(row, cycle.value_or(id)),
+          fmt::format("point {} cycle {}{} is given twice (first on line {})", Quoted(a.point),
+                      a.cycle, a.approach.empty() ? "" : " approach " + Quoted(a.approach),
+                      it->second));
     }
     out.push_back(std::move(a));
   }
@@ -146,8 +146,8 @@ std::string FormatIso9283PlanCsv(const std::vector<Iso9283PlanRow>& rows,
   out += "\n";
   for (const auto& r : rows) {
     out += fmt::format("{},{},{},{},{:.6f},{:.6f},{:.6f}", CsvEscape(r.pose), CsvEscape(r.point),
-                       r.cycle > 0 ? std::to_string(r.cycle) : std::string(),
-                       CsvEscape(r.approach), r.target_mm.x(), r.target_mm.y(), r.target_mm.z());
+                       r.cycle > 0 ? std::to_string(r.cycle) : std::string(), CsvEscape(r.approach),
+                       r.target_mm.x(), r.target_mm.y(), r.target_mm.z());
     for (int i = 0; i < n; ++i) out += fmt::format(",{:.8f}", r.joints_rad(i) / kRadPerDeg);
     out += "\n";
   }

@@ -59,8 +59,8 @@ namespace {
 constexpr int kFont = cv::FONT_HERSHEY_SIMPLEX;
 }  // namespace
 
-void Text(cv::Mat& image, const std::string& text, cv::Point at, double scale,
-          Align align, const cv::Scalar& color) {
+void Text(cv::Mat& image, const std::string& text, cv::Point at, double scale, Align align,
+          const cv::Scalar& color) {
   int baseline = 0;
   const cv::Size size = cv::getTextSize(text, kFont, scale, 1, &baseline);
   if (align == Align::kCenter) at.x -= size.width / 2;
@@ -181,12 +181,12 @@ std::string Now() {
                      std::chrono::floor<std::chrono::seconds>(std::chrono::system_clock::now()));
 }
 
-Plot::Plot(int width, int height, const std::string& title, Axis x, Axis y, const std::string& xlabel,
-     const std::string& ylabel)
-  : image(height, width, CV_8UC3, cv::Scalar(255, 255, 255)),
-    area(70, 56, width - 70 - 20, height - 56 - 52),
-    x_(std::move(x)),
-    y_(std::move(y)) {
+Plot::Plot(int width, int height, const std::string& title, Axis x, Axis y,
+           const std::string& xlabel, const std::string& ylabel)
+    : image(height, width, CV_8UC3, cv::Scalar(255, 255, 255)),
+      area(70, 56, width - 70 - 20, height - 56 - 52),
+      x_(std::move(x)),
+      y_(std::move(y)) {
   Text(image, title, {area.x, 20}, 0.55);
   Text(image, ylabel, {8, area.y - 10});
   Text(image, xlabel, {area.x + area.width / 2, height - 10}, 0.45, Align::kCenter);

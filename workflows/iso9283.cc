@@ -36,7 +36,8 @@ std::string Mm(const Eigen::Vector3d& v) {
 
 std::string Degrees(const Eigen::VectorXd& q) {
   std::string out;
-  for (int i = 0; i < q.size(); ++i) out += fmt::format("{}{:.3f}", i ? ", " : "", q(i) / kRadPerDeg);
+  for (int i = 0; i < q.size(); ++i)
+    out += fmt::format("{}{:.3f}", i ? ", " : "", q(i) / kRadPerDeg);
   return out;
 }
 
@@ -118,17 +119,19 @@ Iso9283Plan MakeIso9283Plan(const calibration::RobotModel& model, const std::str
   }
   if (!centre_solution.status.ok()) {
     throw InputError({o.orientation_rad ? "--orientation" : where, 0, 0, ""},
-                     fmt::format("the centre {} mm cannot be reached by model {}{}: {}",
-                                 Mm(centre), model.name,
-                                 o.orientation_rad ? " with that tool orientation" : "",
+                     fmt::format("the centre {} mm cannot be reached by model {}{}: {}", Mm(centre),
+                                 model.name, o.orientation_rad ? " with that tool orientation" : "",
                                  centre_solution.status.message));
   }
   const Eigen::VectorXd q_centre = centre_solution.joints_rad;
   if (!(o.orientation_rad && n == 6))
-    plan.tool_rotation = calibration::LastLinkRotation(model, Eigen::Isometry3d::Identity(), zero, q_centre);
+    plan.tool_rotation =
+        calibration::LastLinkRotation(model, Eigen::Isometry3d::Identity(), zero, q_centre);
   if (o.orientation_rad && n != 6)
-    spdlog::warn("iso9283 plan: model {} has {} joints: the tool orientation cannot be held, "
-                 "only the positions are commanded", model.name, n);
+    spdlog::warn(
+        "iso9283 plan: model {} has {} joints: the tool orientation cannot be held, "
+        "only the positions are commanded",
+        model.name, n);
   const NominalInverse inverse(model, plan.tool_rotation);
 
   auto reachable = [&](const iso::TestCube& cube) {
@@ -152,9 +155,10 @@ Iso9283Plan MakeIso9283Plan(const calibration::RobotModel& model, const std::str
   }
   for (const auto& c : iso::CubeCorners(plan.cube)) {
     if (const auto s = inverse.Solve(c, q_centre, centre); !s.status.ok()) {
-      spdlog::warn("iso9283 plan: corner {} mm of the cube is not within the model's reach ({}): "
-                   "the standard's cube lies in the working space",
-                   Mm(c), s.status.message);
+      spdlog::warn(
+          "iso9283 plan: corner {} mm of the cube is not within the model's reach ({}): "
+          "the standard's cube lies in the working space",
+          Mm(c), s.status.message);
     }
   }
 
@@ -162,9 +166,9 @@ Iso9283Plan MakeIso9283Plan(const calibration::RobotModel& model, const std::str
   std::map<std::string, const Iso9283PlannedPoint*> by_name;
   auto compensate = [&](const Eigen::Vector3d& target, const Eigen::VectorXd& nominal,
                         const std::string& what) {
-    const auto s = calibration::SolveJoints(model, Eigen::Isometry3d::Identity(),
-                                            signature->signature.params, target, nominal, {},
-                                            signature->signature.map.get());
+    const auto s =
+        calibration::SolveJoints(model, Eigen::Isometry3d::Identity(), signature->signature.params,
+                                 target, nominal, {}, signature->signature.map.get());
     if (!s.status.ok()) {
       throw InputError({"--compensated", 0, 0, ""},
                        fmt::format("{} {} mm: the calibrated robot cannot reach it ({})", what,
@@ -176,7 +180,8 @@ Iso9283Plan MakeIso9283Plan(const calibration::RobotModel& model, const std::str
     Iso9283PlannedPoint planned;
     planned.name = p.name;
     planned.target_mm = p.position_mm;
-    const auto s = p.name == "P1" ? centre_solution : inverse.Solve(p.position_mm, q_centre, centre);
+    const auto s =
+        p.name == "P1" ? centre_solution : inverse.Solve(p.position_mm, q_centre, centre);
     if (!s.status.ok()) {
       throw InputError({where, 0, 0, ""},
                        fmt::format("test point {} at {} mm cannot be reached by model {}: {}",
@@ -186,7 +191,8 @@ Iso9283Plan MakeIso9283Plan(const calibration::RobotModel& model, const std::str
     if (o.compensated) {
       planned.joints_rad = compensate(p.position_mm, s.joints_rad, "test point " + p.name);
       planned.compensation_mm =
-          (kin.Position(Eigen::Isometry3d::Identity(), zero, planned.joints_rad.data()) - p.position_mm)
+          (kin.Position(Eigen::Isometry3d::Identity(), zero, planned.joints_rad.data()) -
+           p.position_mm)
               .norm();
     }
     plan.points.push_back(std::move(planned));
@@ -200,13 +206,14 @@ Iso9283Plan MakeIso9283Plan(const calibration::RobotModel& model, const std::str
     for (size_t i = 0; i < plan.points.size(); ++i) {
       for (int k = 0; k < 3; ++k) {
         const Eigen::Vector3d via = plan.points[i].target_mm + o.approach_mm * iso::ApproachSide(k);
-        const auto s = inverse.Solve(via, plan.points[i].nominal_joints_rad, plan.points[i].target_mm);
+        const auto s =
+            inverse.Solve(via, plan.points[i].nominal_joints_rad, plan.points[i].target_mm);
         if (!s.status.ok()) {
-          throw InputError({"--approach-mm", 0, 0, ""},
-                           fmt::format("the via point of {} on its +{} side, {} mm, cannot be "
-                                       "reached: {}",
-                                       plan.points[i].name, iso::ApproachName(k), Mm(via),
-                                       s.status.message));
+          throw InputError(
+              {"--approach-mm", 0, 0, ""},
+              fmt::format("the via point of {} on its +{} side, {} mm, cannot be "
+                          "reached: {}",
+                          plan.points[i].name, iso::ApproachName(k), Mm(via), s.status.message));
         }
         via_targets[i][k] = via;
         via_joints[i][k] =
@@ -242,8 +249,9 @@ Iso9283Plan MakeIso9283Plan(const calibration::RobotModel& model, const std::str
                         o.approach_mm)
           : std::string(),
       abc.x(), abc.y(), abc.z(),
-      o.compensated ? fmt::format("compensated with arm signature version {}", plan.signature_version)
-                    : std::string("the nominal model's inverse"));
+      o.compensated
+          ? fmt::format("compensated with arm signature version {}", plan.signature_version)
+          : std::string("the nominal model's inverse"));
   plan.csv = io::FormatIso9283PlanCsv(plan.rows, comment);
   return plan;
 }
@@ -252,7 +260,8 @@ std::string FormatIso9283PlanSummary(const Iso9283Plan& plan, const std::string&
   std::string out = fmt::format("ISO 9283 test cube: centre {} mm, edge {:.1f} mm\n",
                                 Mm(plan.cube.centre_mm), plan.cube.edge_mm);
   for (const auto& p : plan.points) {
-    out += fmt::format("  {}  {} mm   joints {} deg", p.name, Mm(p.target_mm), Degrees(p.joints_rad));
+    out +=
+        fmt::format("  {}  {} mm   joints {} deg", p.name, Mm(p.target_mm), Degrees(p.joints_rad));
     if (plan.signature_version > 0)
       out += fmt::format("   (compensation {:.3f} mm)", p.compensation_mm);
     out += "\n";
@@ -262,10 +271,11 @@ std::string FormatIso9283PlanSummary(const Iso9283Plan& plan, const std::string&
                        plan.points[pair.to].name,
                        (plan.points[pair.from].target_mm - plan.points[pair.to].target_mm).norm());
   }
-  out += fmt::format("{} configurations -> {} ({})\n", plan.rows.size(), out_path,
-                     plan.signature_version > 0
-                         ? fmt::format("compensated with arm signature version {}", plan.signature_version)
-                         : std::string("nominal joints"));
+  out += fmt::format(
+      "{} configurations -> {} ({})\n", plan.rows.size(), out_path,
+      plan.signature_version > 0
+          ? fmt::format("compensated with arm signature version {}", plan.signature_version)
+          : std::string("nominal joints"));
   return out;
 }
 
@@ -315,8 +325,10 @@ Iso9283Evaluation EvaluateIso9283(std::vector<iso::PointData> points, bool align
   }
   for (const auto& pair : iso::kDistancePairs) {
     const std::string a = fmt::format("P{}", pair.from + 1), b = fmt::format("P{}", pair.to + 1);
-    const auto ia = std::find_if(points.begin(), points.end(), [&](auto& p) { return p.name == a; });
-    const auto ib = std::find_if(points.begin(), points.end(), [&](auto& p) { return p.name == b; });
+    const auto ia =
+        std::find_if(points.begin(), points.end(), [&](auto& p) { return p.name == a; });
+    const auto ib =
+        std::find_if(points.begin(), points.end(), [&](auto& p) { return p.name == b; });
     if (ia == points.end() || ib == points.end()) continue;
     if (auto d = iso::EvaluateDistance(*ia, *ib)) e.distances.push_back(std::move(*d));
   }
@@ -337,13 +349,14 @@ Iso9283Evaluation EvaluateIso9283Files(const std::string& commanded_csv,
   for (const auto& a : attained) {
     const auto it = index.find(a.point);
     if (it == index.end()) {
-      throw InputError({attained_csv, a.line, 0, ""},
-                       "point " + Quoted(a.point) + " is not in the commanded poses " +
-                           commanded_csv);
+      throw InputError(
+          {attained_csv, a.line, 0, ""},
+          "point " + Quoted(a.point) + " is not in the commanded poses " + commanded_csv);
     }
     int approach = 0;
     if (!a.approach.empty()) {
-      approach = approaches.emplace(a.approach, static_cast<int>(approaches.size()) + 1).first->second;
+      approach =
+          approaches.emplace(a.approach, static_cast<int>(approaches.size()) + 1).first->second;
     }
     points[it->second].samples.push_back({a.cycle, approach, a.position_mm, a.orientation_rad});
   }
@@ -356,7 +369,9 @@ namespace {
 nlohmann::json Vec(const Eigen::Vector3d& v, double scale = 1.0) {
   return {v.x() * scale, v.y() * scale, v.z() * scale};
 }
-nlohmann::json NumberOrNull(double v) { return std::isfinite(v) ? nlohmann::json(v) : nlohmann::json(); }
+nlohmann::json NumberOrNull(double v) {
+  return std::isfinite(v) ? nlohmann::json(v) : nlohmann::json();
+}
 
 }  // namespace
 
@@ -417,13 +432,13 @@ nlohmann::json Iso9283Json(const Iso9283Evaluation& e) {
   }
   const Eigen::Isometry3d& t = e.frame.commanded_from_attained;
   nlohmann::json rotation = nlohmann::json::array();
-  for (int r = 0; r < 3; ++r) rotation.push_back({t.linear()(r, 0), t.linear()(r, 1), t.linear()(r, 2)});
-  nlohmann::json alignment = {
-      {"method", e.frame.method},
-      {"detail", e.frame.detail},
-      {"rotation", rotation},
-      {"rotation_deg", Eigen::AngleAxisd(t.linear()).angle() * deg},
-      {"translation_mm", Vec(t.translation())}};
+  for (int r = 0; r < 3; ++r)
+    rotation.push_back({t.linear()(r, 0), t.linear()(r, 1), t.linear()(r, 2)});
+  nlohmann::json alignment = {{"method", e.frame.method},
+                              {"detail", e.frame.detail},
+                              {"rotation", rotation},
+                              {"rotation_deg", Eigen::AngleAxisd(t.linear()).angle() * deg},
+                              {"translation_mm", Vec(t.translation())}};
   if (e.frame.fit) {
     alignment["rms_mm"] = e.frame.fit->rms_mm;
     alignment["residuals_mm"] = e.frame.fit->residual_mm;
@@ -439,7 +454,8 @@ std::string FormatIso9283Figures(const Iso9283Evaluation& e) {
                                     [](const auto& f) { return f.rp_abc_rad.has_value(); });
   if (e.points.size() <= 20) {
     out += fmt::format("{:<8}{:>5}{:>10}{:>10}{:>10}{:>10}{:>10}{:>22}{}\n", "point", "n", "AP mm",
-                       "APx", "APy", "APz", "RP mm", "RP 95 % bootstrap", oriented ? "   RPa RPb RPc deg" : "");
+                       "APx", "APy", "APz", "RP mm", "RP 95 % bootstrap",
+                       oriented ? "   RPa RPb RPc deg" : "");
     for (size_t i = 0; i < e.points.size(); ++i) {
       const auto& f = e.points[i];
       const auto& iv = e.rp_intervals[i];
@@ -464,7 +480,8 @@ std::string FormatIso9283Figures(const Iso9283Evaluation& e) {
         "{} points: AP mean {:.4f} mm, median {:.4f} mm, 95 % {:.4f} mm, max {:.4f} mm (every "
         "point in --json)\n",
         ap.size(), sum / ap.size(), ap[(ap.size() - 1) / 2],
-        ap[std::min(ap.size() - 1, static_cast<size_t>(std::ceil(0.95 * ap.size())) - 1)], ap.back());
+        ap[std::min(ap.size() - 1, static_cast<size_t>(std::ceil(0.95 * ap.size())) - 1)],
+        ap.back());
   }
   for (const auto& d : e.distances) {
     out += fmt::format("distance {}-{}: n {}, commanded {:.4f} mm, AD {:+.4f} mm, RD {}\n", d.from,

@@ -49,7 +49,7 @@ struct Iso9283PlanOptions {
 struct Iso9283PlannedPoint {
   std::string name;
   Eigen::Vector3d target_mm = Eigen::Vector3d::Zero();  // robot frame
-  Eigen::VectorXd nominal_joints_rad, joints_rad;      // joints_rad: the plan's (compensated or not)
+  Eigen::VectorXd nominal_joints_rad, joints_rad;  // joints_rad: the plan's (compensated or not)
   double compensation_mm = 0.0;  // how far the nominal model puts the target at joints_rad
 };
 
@@ -89,7 +89,7 @@ struct Iso9283Evaluation {
   std::vector<calibration::iso9283::PointData> data;
   std::vector<calibration::iso9283::PointFigures> points;
   std::vector<std::optional<calibration::iso9283::Interval>> rp_intervals;  // per point
-  std::vector<calibration::iso9283::DistanceFigures> distances;  // P2–P4, then P3–P5
+  std::vector<calibration::iso9283::DistanceFigures> distances;             // P2–P4, then P3–P5
   Iso9283Frame frame;
   std::vector<std::string> notes;
 };

@@ -44,8 +44,9 @@ Figure CubeFigure(const std::string& dir, const iso::TestCube& cube, const Iso92
   const cv::Point origin(310, 250);
   auto project = [&](const Eigen::Vector3d& x) {
     const Eigen::Vector3d d = x - cube.centre_mm;
-    return cv::Point(origin.x + static_cast<int>(std::lround(scale * (d.x() + 0.45 * d.y() * 0.866))),
-                     origin.y - static_cast<int>(std::lround(scale * (d.z() + 0.45 * d.y() * 0.5))));
+    return cv::Point(
+        origin.x + static_cast<int>(std::lround(scale * (d.x() + 0.45 * d.y() * 0.866))),
+        origin.y - static_cast<int>(std::lround(scale * (d.z() + 0.45 * d.y() * 0.5))));
   };
   const auto c = iso::CubeCorners(cube);
   // The measuring plane C1–C2–C7–C8, shaded.
@@ -55,12 +56,13 @@ Figure CubeFigure(const std::string& dir, const iso::TestCube& cube, const Iso92
   cv::addWeighted(overlay, 0.6, image, 0.4, 0.0, image);
   const int edges[12][2] = {{0, 1}, {1, 2}, {2, 3}, {3, 0}, {4, 5}, {5, 6},
                             {6, 7}, {7, 4}, {0, 4}, {1, 5}, {2, 6}, {3, 7}};
-  for (const auto& edge : edges) cv::line(image, project(c[edge[0]]), project(c[edge[1]]), kInk, 1, cv::LINE_AA);
+  for (const auto& edge : edges)
+    cv::line(image, project(c[edge[0]]), project(c[edge[1]]), kInk, 1, cv::LINE_AA);
   cv::line(image, project(c[0]), project(c[6]), kGrey, 1, cv::LINE_AA);  // the diagonals
   cv::line(image, project(c[1]), project(c[7]), kGrey, 1, cv::LINE_AA);
   for (int k = 0; k < 8; ++k) {
-    Text(image, fmt::format("C{}", k + 1), project(c[k]) + cv::Point(k % 4 < 2 ? -24 : 6, k < 4 ? -6 : 16),
-         0.4, Align::kLeft, kGrey);
+    Text(image, fmt::format("C{}", k + 1),
+         project(c[k]) + cv::Point(k % 4 < 2 ? -24 : 6, k < 4 ? -6 : 16), 0.4, Align::kLeft, kGrey);
   }
   for (const auto& p : e.points) {
     const cv::Point at = project(p.commanded_mm);
@@ -74,7 +76,8 @@ Figure CubeFigure(const std::string& dir, const iso::TestCube& cube, const Iso92
   auto axis = [&](const Eigen::Vector3d& d) { return project(centre + d * len) - project(centre); };
   const char* names[3] = {"x", "y", "z"};
   for (int k = 0; k < 3; ++k) {
-    cv::arrowedLine(image, axes, axes + axis(Eigen::Vector3d::Unit(k)), kInk, 1, cv::LINE_AA, 0, 0.15);
+    cv::arrowedLine(image, axes, axes + axis(Eigen::Vector3d::Unit(k)), kInk, 1, cv::LINE_AA, 0,
+                    0.15);
     Text(image, names[k], axes + axis(Eigen::Vector3d::Unit(k)) * 1.25, 0.45);
   }
   int y = 80;
@@ -87,8 +90,8 @@ Figure CubeFigure(const std::string& dir, const iso::TestCube& cube, const Iso92
   }
   y += 10;
   for (const std::string line :
-       {"shaded: measuring plane C1-C2-C7-C8", "P2...P5 at 10 % of the diagonal", "from C1, C2, C7, C8",
-        "a cycle: P1 P5 P4 P3 P2"}) {
+       {"shaded: measuring plane C1-C2-C7-C8", "P2...P5 at 10 % of the diagonal",
+        "from C1, C2, C7, C8", "a cycle: P1 P5 P4 P3 P2"}) {
     Text(image, line, {610, y}, 0.4, Align::kLeft, kGrey);
     y += 20;
   }
@@ -127,7 +130,8 @@ void ScatterPanel(cv::Mat& image, const cv::Rect& box, const iso::PointData& dat
     Text(image, TickLabel(t, step), at(-extent, t) + cv::Point(-4, 4), 0.33, Align::kRight);
   }
   cv::rectangle(image, box, kInk);
-  Text(image, fmt::format("d{} mm", names[h]), {box.x + box.width - 34, box.y + box.height + 30}, 0.36);
+  Text(image, fmt::format("d{} mm", names[h]), {box.x + box.width - 34, box.y + box.height + 30},
+       0.36);
   Text(image, fmt::format("d{}", names[v]), {box.x - 40, box.y + 10}, 0.36);
   if (std::isfinite(f.rp_mm))
     cv::circle(image, centre, static_cast<int>(std::lround(f.rp_mm * px)), kOrange, 1, cv::LINE_AA);
@@ -192,8 +196,9 @@ Html FiguresTable(const std::string& id, const Iso9283Evaluation& e) {
       "<th class=\"num\">l&#772; mm</th><th class=\"num\">S<sub>l</sub> mm</th>"
       "<th class=\"num\">RP mm</th><th class=\"num\">RP, 95 % bootstrap</th>{}{}</tr>\n",
       id,
-      oriented ? Html("<th class=\"num\">APa/b/c deg</th><th class=\"num\">RPa/b/c deg (&plusmn;)</th>")
-               : Html(),
+      oriented
+          ? Html("<th class=\"num\">APa/b/c deg</th><th class=\"num\">RPa/b/c deg (&plusmn;)</th>")
+          : Html(),
       vap ? Html("<th class=\"num\">vAP mm</th>") : Html());
   for (size_t i = 0; i < e.points.size(); ++i) {
     const auto& f = e.points[i];
@@ -201,7 +206,8 @@ Html FiguresTable(const std::string& id, const Iso9283Evaluation& e) {
     Html orientation;
     if (oriented) {
       auto triple = [](const std::optional<Eigen::Vector3d>& v) {
-        return v ? Deg(v->x()) + Html(" / ") + Deg(v->y()) + Html(" / ") + Deg(v->z()) : Html("&mdash;");
+        return v ? Deg(v->x()) + Html(" / ") + Deg(v->y()) + Html(" / ") + Deg(v->z())
+                 : Html("&mdash;");
       };
       orientation = HtmlFormat("<td class=\"num\">{}</td><td class=\"num\">{}</td>",
                                triple(f.ap_abc_rad), triple(f.rp_abc_rad));
@@ -227,7 +233,8 @@ Html FiguresTable(const std::string& id, const Iso9283Evaluation& e) {
     for (const auto& d : e.distances) {
       h += HtmlFormat(
           "<tr><td>{}&ndash;{}</td><td class=\"num\">{}</td><td class=\"num\">{}</td><td "
-          "class=\"num\">{}</td><td class=\"num\"><b>{}</b></td><td class=\"num\"><b>{}</b></td></tr>\n",
+          "class=\"num\">{}</td><td class=\"num\"><b>{}</b></td><td "
+          "class=\"num\"><b>{}</b></td></tr>\n",
           d.from, d.to, d.n, Num(d.commanded_mm, 3), Num(d.mean_mm, 4), Num(d.ad_mm), Num(d.rd_mm));
     }
     h += "</table>\n";
@@ -253,8 +260,9 @@ Html ComparisonTable(const Iso9283PageInput& in) {
       for (const auto& p : after->points)
         if (p.name == f.name) g = &p;
     }
-    const Html predicted =
-        i < in.test.predicted_ap_mm.size() ? Num(in.test.predicted_ap_mm[i].norm()) : Html("&mdash;");
+    const Html predicted = i < in.test.predicted_ap_mm.size()
+                               ? Num(in.test.predicted_ap_mm[i].norm())
+                               : Html("&mdash;");
     h += HtmlFormat(
         "<tr><td>{}</td><td class=\"num\">{}</td><td class=\"num\">{}</td><td "
         "class=\"num\"><b>{}</b></td><td class=\"num\">{}</td><td class=\"num\">{}</td></tr>\n",
@@ -304,10 +312,11 @@ std::string WriteIso9283Page(const std::string& dir, const Iso9283PageInput& in)
   body += "<h2>Conditions</h2>\n<table id=\"conditions\">\n";
   body += row("Load", in.load_kg ? HtmlFormat("{} kg", fmt::format("{:g}", *in.load_kg))
                                  : Html("not stated (--load-kg)"));
-  body += row("Speed", in.speed_percent
-                           ? HtmlFormat("{} % of rated speed", fmt::format("{:g}", *in.speed_percent))
-                           : Html("not stated (--speed-percent)"));
-  body += row("Temperature", in.temperature.empty() ? Html("not measured") : Html::Text(in.temperature));
+  body += row("Speed", in.speed_percent ? HtmlFormat("{} % of rated speed",
+                                                     fmt::format("{:g}", *in.speed_percent))
+                                        : Html("not stated (--speed-percent)"));
+  body += row("Temperature",
+              in.temperature.empty() ? Html("not measured") : Html::Text(in.temperature));
   Html instruments;
   for (const auto& i : in.instruments) instruments += HtmlFormat("{}<br>", i);
   body += row("Instruments", instruments.empty() ? Html("&mdash;") : instruments);
@@ -317,17 +326,16 @@ std::string WriteIso9283Page(const std::string& dir, const Iso9283PageInput& in)
   if (in.cube) body += FigureHtml(CubeFigure(dir, *in.cube, e));
   body += "<h2>Figures: " + Html::Text(in.test.title) + "</h2>\n";
   body += FiguresTable("figures", e);
-  body += FigureHtml(ScatterFigure(dir, "scatter.png",
-                                   "The five points: attained positions around their barycentre (" +
-                                       in.test.title + ")",
-                                   e));
+  body += FigureHtml(ScatterFigure(
+      dir, "scatter.png",
+      "The five points: attained positions around their barycentre (" + in.test.title + ")", e));
   if (in.compensated && in.compensated->figures) {
     body += "<h2>Figures: " + Html::Text(in.compensated->title) + "</h2>\n";
     body += FiguresTable("compensated", *in.compensated->figures);
-    body += FigureHtml(ScatterFigure(dir, "scatter-compensated.png",
-                                     "The five points with compensation (" +
-                                         in.compensated->title + ")",
-                                     *in.compensated->figures));
+    body += FigureHtml(
+        ScatterFigure(dir, "scatter-compensated.png",
+                      "The five points with compensation (" + in.compensated->title + ")",
+                      *in.compensated->figures));
   }
   if (in.signature) {
     body += "<h2>Calibration: predicted and attained</h2>\n";
@@ -338,7 +346,8 @@ std::string WriteIso9283Page(const std::string& dir, const Iso9283PageInput& in)
       "x<sub>j</sub>: the barycentre x&#772;; pose accuracy AP = |x&#772; &minus; x<sub>c</sub>| "
       "(APx, APy, APz its components); pose repeatability RP = l&#772; + 3 S<sub>l</sub> with "
       "l<sub>j</sub> = |x<sub>j</sub> &minus; x&#772;| and S<sub>l</sub> the standard deviation "
-      "of the l<sub>j</sub> on n &minus; 1; orientation APa = a&#772; &minus; a<sub>c</sub> and RPa "
+      "of the l<sub>j</sub> on n &minus; 1; orientation APa = a&#772; &minus; a<sub>c</sub> and "
+      "RPa "
       "= &plusmn;3 S<sub>a</sub>. Distance accuracy AD = D&#772; &minus; D<sub>c</sub> over the "
       "cycles' distances D<sub>j</sub> = |x<sub>Aj</sub> &minus; x<sub>Bj</sub>|, RD = &plusmn;3 "
       "S<sub>D</sub>. vAP: the largest distance between the barycentres of the approach "

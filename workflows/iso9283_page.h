@@ -43,7 +43,7 @@ struct Iso9283PageInput {
   std::optional<Iso9283PageSignature> signature;
   // Conditions, as stated or measured.
   std::optional<double> load_kg, speed_percent;
-  std::string temperature;               // "20.7 °C (20.6–20.9) at the tracker", "" = not measured
+  std::string temperature;  // "20.7 °C (20.6–20.9) at the tracker", "" = not measured
   std::vector<std::string> instruments;  // one line each, with its stated uncertainty
   std::string point_precision;           // "mean 3-D σ of a measured point 0.018 mm"
 };

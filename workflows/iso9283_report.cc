@@ -41,7 +41,8 @@ std::optional<Iso9283Label> ParseIso9283Label(const std::string& label) {
   if (ec != std::errc() || end != cycle.data() + cycle.size() || l.cycle < 1) return std::nullopt;
   if (dash != std::string::npos) {
     l.approach = label.substr(dash + 1);
-    if (l.approach.empty() || l.approach.find('-') != std::string::npos) return std::nullopt;  // "-via"
+    if (l.approach.empty() || l.approach.find('-') != std::string::npos)
+      return std::nullopt;  // "-via"
   }
   return l;
 }
@@ -76,8 +77,8 @@ SessionTest LoadTest(db::Database& db, int64_t session, int64_t robot_id, const 
   if (!row) throw InputError({db.path(), 0, 0, "--session"}, fmt::format("no session {}", session));
   if (row->robot != robot) {
     throw InputError({db.path(), 0, 0, "--session"},
-                     fmt::format("session {} is of robot {}, not {}", session, ShellWord(row->robot),
-                                 ShellWord(robot)));
+                     fmt::format("session {} is of robot {}, not {}", session,
+                                 ShellWord(row->robot), ShellWord(robot)));
   }
   (void)robot_id;
   t.row = *row;
@@ -135,7 +136,8 @@ SessionTest LoadTest(db::Database& db, int64_t session, int64_t robot_id, const 
     }
     int approach = 0;
     if (!c.approach.empty())
-      approach = approaches.emplace(c.approach, static_cast<int>(approaches.size()) + 1).first->second;
+      approach =
+          approaches.emplace(c.approach, static_cast<int>(approaches.size()) + 1).first->second;
     t.points[it->second].samples.push_back({c.cycle, approach, pose.target_in_world, std::nullopt});
     t.joints[it->second].push_back(pose.joints_rad);
   }
@@ -159,9 +161,10 @@ SessionTest LoadTest(db::Database& db, int64_t session, int64_t robot_id, const 
   t.points = std::move(points);
   t.joints = std::move(joints);
   if (other > 0) {
-    t.notes.push_back(fmt::format("{} measured configurations are no test poses (via points of "
-                                  "the multi-directional test, or others): left out",
-                                  other));
+    t.notes.push_back(
+        fmt::format("{} measured configurations are no test poses (via points of "
+                    "the multi-directional test, or others): left out",
+                    other));
   }
   if (nominal_targets > 0) {
     t.notes.push_back(fmt::format(
@@ -181,19 +184,20 @@ Iso9283Frame FrameOf(const SessionTest& t, const calibration::RobotModel& model,
     std::vector<Eigen::VectorXd> joints;
     std::vector<Eigen::Vector3d> measured, predicted;
     for (const auto& p : t.poses) joints.push_back(p.joints_rad);
-    const auto positions =
-        calibration::PredictPositions(model, Eigen::Isometry3d::Identity(), signature->signature.params,
-                                      signature->signature.map.get(), joints);
+    const auto positions = calibration::PredictPositions(model, Eigen::Isometry3d::Identity(),
+                                                         signature->signature.params,
+                                                         signature->signature.map.get(), joints);
     for (size_t i = 0; i < t.poses.size(); ++i) {
       measured.push_back(t.poses[i].target_in_world);
       predicted.push_back(positions[i].position_mm);
     }
     const auto fit = iso::AlignRigidly(measured, predicted);
     if (!fit) {
-      throw InputError({db_path, 0, 0, "--session"},
-                       fmt::format("session {}: its measured configurations cannot locate the robot "
-                                   "(fewer than three, or on one line); use --align",
-                                   t.id));
+      throw InputError(
+          {db_path, 0, 0, "--session"},
+          fmt::format("session {}: its measured configurations cannot locate the robot "
+                      "(fewer than three, or on one line); use --align",
+                      t.id));
     }
     frame.method = "arm signature";
     frame.commanded_from_attained = fit->commanded_from_attained;
@@ -205,11 +209,10 @@ Iso9283Frame FrameOf(const SessionTest& t, const calibration::RobotModel& model,
         signature->signature.version, t.poses.size(), fit->rms_mm);
     return frame;
   }
-  const auto settings =
-      t.row.lab_yaml.empty()
-          ? std::nullopt
-          : std::optional(acquisition::ParseLabSettings(t.row.lab_yaml,
-                                                        fmt::format("lab file of session {}", t.id)));
+  const auto settings = t.row.lab_yaml.empty()
+                            ? std::nullopt
+                            : std::optional(acquisition::ParseLabSettings(
+                                  t.row.lab_yaml, fmt::format("lab file of session {}", t.id)));
   if (settings && settings->robot_base) {
     frame.method = "lab base";
     frame.commanded_from_attained = settings->robot_base->inverse();
@@ -225,7 +228,8 @@ Iso9283Frame FrameOf(const SessionTest& t, const calibration::RobotModel& model,
 }
 
 Iso9283Evaluation Evaluate(SessionTest& t, const calibration::RobotModel& model,
-                           const ActiveSignature* signature, bool align, const std::string& db_path) {
+                           const ActiveSignature* signature, bool align,
+                           const std::string& db_path) {
   Iso9283Evaluation e;
   if (align) {
     e = EvaluateIso9283(t.points, true);
@@ -293,7 +297,8 @@ std::string Conditions(db::Database& db, const SessionTest& t, Iso9283PageInput&
 
 Iso9283ReportResult RunIso9283Report(db::Database& db, const Iso9283ReportOptions& o) {
   const auto robot_id = db::FindRobot(db, o.robot);
-  if (!robot_id) throw InputError({db.path(), 0, 0, "--robot"}, UnknownRobotMessage(db.path(), o.robot));
+  if (!robot_id)
+    throw InputError({db.path(), 0, 0, "--robot"}, UnknownRobotMessage(db.path(), o.robot));
   const calibration::RobotModel model =
       io::ParseRobotModel(db::RobotModelYaml(db, *robot_id), "model of robot " + o.robot);
   std::optional<ActiveSignature> signature;
@@ -316,7 +321,8 @@ Iso9283ReportResult RunIso9283Report(db::Database& db, const Iso9283ReportOption
     std::map<std::string, Eigen::Vector3d> targets;
     for (const auto& p : test.points) targets[p.name] = p.commanded_mm;
     after = LoadTest(db, o.compensated_session, *robot_id, o.robot, model, nullptr, &targets);
-    result.compensated = Evaluate(*after, model, signature ? &*signature : nullptr, o.align, db.path());
+    result.compensated =
+        Evaluate(*after, model, signature ? &*signature : nullptr, o.align, db.path());
   }
 
   // The page and the JSON.
@@ -338,17 +344,17 @@ Iso9283ReportResult RunIso9283Report(db::Database& db, const Iso9283ReportOption
   Conditions(db, test, page, conditions);
   result.json["conditions"] = conditions;
   if (after) {
-    page.compensated = Iso9283PageTest{"compensated program", o.compensated_session,
-                                       after->started_at, &*result.compensated, {}};
+    page.compensated = Iso9283PageTest{
+        "compensated program", o.compensated_session, after->started_at, &*result.compensated, {}};
     nlohmann::json c = Iso9283Json(*result.compensated);
     c["session"] = o.compensated_session;
     result.json["compensated"] = c;
   }
   if (signature) {
     page.test.predicted_ap_mm = PredictedAp(test, model, *signature);
-    page.signature = Iso9283PageSignature{stored->version, stored->params_spec,
-                                          stored->poses_validation, stored->validation_mean_mm,
-                                          stored->validation_max_mm};
+    page.signature =
+        Iso9283PageSignature{stored->version, stored->params_spec, stored->poses_validation,
+                             stored->validation_mean_mm, stored->validation_max_mm};
     nlohmann::json predicted = nlohmann::json::array();
     for (size_t i = 0; i < test.points.size(); ++i) {
       const Eigen::Vector3d& ap = page.test.predicted_ap_mm[i];
@@ -368,12 +374,13 @@ Iso9283ReportResult RunIso9283Report(db::Database& db, const Iso9283ReportOption
 
   // The text.
   std::string& text = result.text;
-  text = fmt::format("ISO 9283 test of robot {}, session {} ({} test poses of {} measured "
-                     "configurations)\n",
-                     o.robot, o.session,
-                     std::accumulate(result.test.points.begin(), result.test.points.end(), 0,
-                                     [](int s, const auto& f) { return s + f.n; }),
-                     test.poses.size());
+  text = fmt::format(
+      "ISO 9283 test of robot {}, session {} ({} test poses of {} measured "
+      "configurations)\n",
+      o.robot, o.session,
+      std::accumulate(result.test.points.begin(), result.test.points.end(), 0,
+                      [](int s, const auto& f) { return s + f.n; }),
+      test.poses.size());
   text += FormatIso9283Figures(result.test);
   if (result.compensated) {
     text += fmt::format("\nwith compensation, session {}:\n", o.compensated_session);
@@ -385,10 +392,10 @@ Iso9283ReportResult RunIso9283Report(db::Database& db, const Iso9283ReportOption
       text += fmt::format("{} {} {:.4f}", i ? "," : "", test.points[i].name,
                           page.test.predicted_ap_mm[i].norm());
     }
-    text += fmt::format(" mm for the nominal program; its held-out validation: mean {:.4f} mm, max "
-                        "{:.4f} mm on {} configurations\n",
-                        stored->validation_mean_mm, stored->validation_max_mm,
-                        stored->poses_validation);
+    text += fmt::format(
+        " mm for the nominal program; its held-out validation: mean {:.4f} mm, max "
+        "{:.4f} mm on {} configurations\n",
+        stored->validation_mean_mm, stored->validation_max_mm, stored->poses_validation);
   }
   if (!o.out_dir.empty()) {
     result.html_path = WriteIso9283Page(o.out_dir, page);

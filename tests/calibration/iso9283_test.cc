@@ -63,8 +63,12 @@ TEST(Iso9283Cube, LargestEdgeIsFoundByBisectionToTheTolerance) {
   EXPECT_LE(edge, 123.4);
   EXPECT_GT(edge, 123.4 - 0.5);
   EXPECT_LT(calls, 20);
-  EXPECT_EQ(LargestCubeEdge({0, 0, 0}, [](const TestCube&) { return false; }, 10, 100, 1), 0.0);
-  EXPECT_EQ(LargestCubeEdge({0, 0, 0}, [](const TestCube&) { return true; }, 10, 100, 1), 100.0);
+  EXPECT_EQ(LargestCubeEdge(
+                {0, 0, 0}, [](const TestCube&) { return false; }, 10, 100, 1),
+            0.0);
+  EXPECT_EQ(LargestCubeEdge(
+                {0, 0, 0}, [](const TestCube&) { return true; }, 10, 100, 1),
+            100.0);
 }
 
 // Cycles whose barycentre is exactly `centre` and whose distances from it are exactly
@@ -119,10 +123,12 @@ TEST(Iso9283Figures, ApAndRpOfCyclesWithAKnownBarycentreAndSpread) {
 TEST(Iso9283Figures, GaussianCyclesMatchAnIndependentComputation) {
   std::mt19937 rng(42);
   std::normal_distribution<double> noise(0.0, 0.03);
-  const Eigen::Vector3d commanded(812.5, -40.0, 933.0), truth = commanded + Eigen::Vector3d(0.8, 0.1, -0.5);
+  const Eigen::Vector3d commanded(812.5, -40.0, 933.0),
+      truth = commanded + Eigen::Vector3d(0.8, 0.1, -0.5);
   PointData p{"P3", commanded, std::nullopt, {}};
   for (int j = 1; j <= 30; ++j)
-    p.samples.push_back({j, 0, truth + Eigen::Vector3d(noise(rng), noise(rng), noise(rng)), std::nullopt});
+    p.samples.push_back(
+        {j, 0, truth + Eigen::Vector3d(noise(rng), noise(rng), noise(rng)), std::nullopt});
   const auto f = EvaluatePoint(p);
   // Written out in long double, with S_l from Σl² − n·l̄² (another formula for the same sum).
   long double b[3] = {0, 0, 0};
@@ -185,9 +191,10 @@ TEST(Iso9283Figures, DistanceAccuracyAndRepeatabilityPairTheCycles) {
   for (int j = 0; j < 4; ++j) {
     const Eigen::Vector3d start = a.commanded_mm + Eigen::Vector3d(0.1 * j, -0.05 * j, 0.02);
     a.samples.push_back({j + 1, 0, start, std::nullopt});
-    b.samples.push_back({j + 1, 0, start + (commanded_distance + 0.05 + delta[j]) * u, std::nullopt});
+    b.samples.push_back(
+        {j + 1, 0, start + (commanded_distance + 0.05 + delta[j]) * u, std::nullopt});
   }
-  std::swap(b.samples[0], b.samples[3]);  // paired by cycle, not by order
+  std::swap(b.samples[0], b.samples[3]);                      // paired by cycle, not by order
   a.samples.push_back({9, 0, a.commanded_mm, std::nullopt});  // cycle 9: P4 missing, not paired
   const auto d = EvaluateDistance(a, b);
   ASSERT_TRUE(d);
@@ -196,7 +203,10 @@ TEST(Iso9283Figures, DistanceAccuracyAndRepeatabilityPairTheCycles) {
   EXPECT_NEAR(d->ad_mm, 0.05, 1e-9);
   EXPECT_NEAR(d->s_d_mm, std::sqrt(0.004 / 3.0), 1e-9);
   EXPECT_NEAR(d->rd_mm, 3.0 * std::sqrt(0.004 / 3.0), 1e-9);
-  PointData none{"P5", Eigen::Vector3d::Zero(), std::nullopt, {{42, 0, Eigen::Vector3d::Zero(), std::nullopt}}};
+  PointData none{"P5",
+                 Eigen::Vector3d::Zero(),
+                 std::nullopt,
+                 {{42, 0, Eigen::Vector3d::Zero(), std::nullopt}}};
   EXPECT_FALSE(EvaluateDistance(a, none));
 }
 
@@ -214,7 +224,8 @@ TEST(Iso9283Figures, VapIsTheLargestDistanceBetweenTheApproachBarycentres) {
   ASSERT_TRUE(f.vap_mm);
   EXPECT_EQ(f.approaches, 3);
   EXPECT_NEAR(*f.vap_mm, std::hypot(0.03, 0.06), 1e-12);  // between centres 2 and 3
-  PointData single{"P2", Eigen::Vector3d::Zero(), std::nullopt, {{1, 0, Eigen::Vector3d::Zero(), std::nullopt}}};
+  PointData single{
+      "P2", Eigen::Vector3d::Zero(), std::nullopt, {{1, 0, Eigen::Vector3d::Zero(), std::nullopt}}};
   EXPECT_FALSE(EvaluatePoint(single).vap_mm);
 }
 
@@ -280,8 +291,8 @@ TEST(Iso9283Figures, RigidAlignmentRecoversAPlantedFrameAndTurnsOrientations) {
   const Eigen::Vector3d abc = Eigen::Vector3d(30.0, -20.0, 100.0) * kRadPerDeg;
   EXPECT_TRUE(AbcFromRotation(RotationFromAbc(abc)).isApprox(abc, 1e-12));
   PointData p{"P1", commanded[0], abc, {}};
-  p.samples.push_back({1, 0, attained[0],
-                       AbcFromRotation(measuring_from_robot.linear() * RotationFromAbc(abc))});
+  p.samples.push_back(
+      {1, 0, attained[0], AbcFromRotation(measuring_from_robot.linear() * RotationFromAbc(abc))});
   TransformSamples(p, fit->commanded_from_attained);
   EXPECT_LT((p.samples[0].position_mm - commanded[0]).norm(), 1e-9);
   EXPECT_TRUE(p.samples[0].orientation_rad->isApprox(abc, 1e-9));
@@ -306,7 +317,8 @@ TEST(PoseSolver, ReachesAPositionAndAnOrientationOfTheNominalPuma) {
   Eigen::VectorXd seed = truth + Eigen::VectorXd::Constant(6, 0.15);
   const auto s = SolvePose(model, Eigen::Isometry3d::Identity(), zero, x, r, seed);
   ASSERT_TRUE(s.status.ok()) << s.status.message;
-  EXPECT_LT((kin.Position(Eigen::Isometry3d::Identity(), zero, s.joints_rad.data()) - x).norm(), 1e-5);
+  EXPECT_LT((kin.Position(Eigen::Isometry3d::Identity(), zero, s.joints_rad.data()) - x).norm(),
+            1e-5);
   EXPECT_LT(Eigen::AngleAxisd(kin.LastRotation() * r.transpose()).angle(), 1e-8);
   // The joint axes are what the orientation turns about: a finite difference of the last
   // frame by each joint is the axis (as a rotation vector), to first order.
@@ -322,7 +334,8 @@ TEST(PoseSolver, ReachesAPositionAndAnOrientationOfTheNominalPuma) {
     EXPECT_LT((turn.angle() * turn.axis() / 1e-6 - axes.col(i)).norm(), 1e-5) << "joint " << i + 1;
   }
   // Out of reach: 5 m away.
-  const auto far = SolvePose(model, Eigen::Isometry3d::Identity(), zero, Eigen::Vector3d(5000, 0, 0), r, seed);
+  const auto far =
+      SolvePose(model, Eigen::Isometry3d::Identity(), zero, Eigen::Vector3d(5000, 0, 0), r, seed);
   EXPECT_EQ(far.status.code, SolveCode::kNotConverged);
 }
 

@@ -1,9 +1,8 @@
 // The real UR10 laser-tracker data (tests/data/ur10-ipa, MIT): calibrate on part of
 // series C and validate on the held-out poses; the issue-13 figures on its fixed split;
 // series D's goals as ISO 9283 accuracy points before and after the series C signature.
-#include <gtest/gtest.h>
-
 #include <fmt/format.h>
+#include <gtest/gtest.h>
 
 #include <algorithm>
 #include <cmath>
@@ -163,8 +162,8 @@ ApSummary AccuracyPoints(const std::vector<Eigen::Vector3d>& commanded,
   EXPECT_TRUE(fit);
   std::vector<double> ap;
   for (size_t i = 0; i < attained.size(); ++i) {
-    iso9283::PointData p{std::to_string(i + 1), commanded[i], std::nullopt,
-                         {{1, 0, attained[i], std::nullopt}}};
+    iso9283::PointData p{
+        std::to_string(i + 1), commanded[i], std::nullopt, {{1, 0, attained[i], std::nullopt}}};
     iso9283::TransformSamples(p, fit->commanded_from_attained);
     ap.push_back(iso9283::EvaluatePoint(p).ap_mm);
   }
@@ -179,8 +178,9 @@ ApSummary AccuracyPoints(const std::vector<Eigen::Vector3d>& commanded,
 
 TEST(RealUr10SeriesD, AccuracyPointsBeforeAndAfterTheSeriesCSignature) {
   const auto model = testing::Ur10();
-  const auto c = io::ImportPoses(testing::DataPath("ur10-ipa/series_C-measurements_random_poses.csv"),
-                                 io::PoseImportOptions::UrIpa());
+  const auto c =
+      io::ImportPoses(testing::DataPath("ur10-ipa/series_C-measurements_random_poses.csv"),
+                      io::PoseImportOptions::UrIpa());
   EstimationOptions o;
   o.parameters = ParseParameterSpec(model, "geometric");
   const auto signature = Estimate(model, c, o);
@@ -206,10 +206,11 @@ TEST(RealUr10SeriesD, AccuracyPointsBeforeAndAfterTheSeriesCSignature) {
   // to (so what remains is the signature's own error on these goals).
   const ApSummary before = AccuracyPoints(commanded, attained);
   const ApSummary after = AccuracyPoints(predicted, attained);
-  std::cout << fmt::format("series D, 632 goals: AP before mean {:.3f} median {:.3f} 95 % {:.3f} max "
-                           "{:.3f} mm; after mean {:.3f} median {:.3f} 95 % {:.3f} max {:.3f} mm\n",
-                           before.mean, before.median, before.p95, before.max, after.mean,
-                           after.median, after.p95, after.max);
+  std::cout << fmt::format(
+      "series D, 632 goals: AP before mean {:.3f} median {:.3f} 95 % {:.3f} max "
+      "{:.3f} mm; after mean {:.3f} median {:.3f} 95 % {:.3f} max {:.3f} mm\n",
+      before.mean, before.median, before.p95, before.max, after.mean, after.median, after.p95,
+      after.max);
   // The goals are the robot's own inverse of the nominal model (the goal and the nominal
   // position of the recorded joints agree to 0.1 mm), so before is the nominal error left
   // after the best rigid frame: about a millimetre over this compact volume.

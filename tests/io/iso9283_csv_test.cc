@@ -47,8 +47,7 @@ TEST(Iso9283Csv, ReadsCommandedPosesWithOrientationInAnyUnit) {
 
 TEST(Iso9283Csv, AttainedCyclesAreNumberedInFileOrderWhenTheFileGivesNone) {
   testing::TempDir dir;
-  testing::WriteText(dir.File("a.csv"),
-                     "point,x_mm,y_mm,z_mm\nP1,1,2,3\nP2,4,5,6\nP1,1.1,2,3\n");
+  testing::WriteText(dir.File("a.csv"), "point,x_mm,y_mm,z_mm\nP1,1,2,3\nP2,4,5,6\nP1,1.1,2,3\n");
   const auto a = ReadAttainedCsv(dir.File("a.csv"));
   ASSERT_EQ(a.size(), 3u);
   EXPECT_EQ(a[0].cycle, 1);
@@ -67,7 +66,8 @@ TEST(Iso9283Csv, MalformedRowsAreRefusedAtTheirLine) {
   auto refusal = [&](const std::string& text, bool attained) {
     testing::WriteText(dir.File("f.csv"), text);
     return Refusal([&] {
-      attained ? (void)ReadAttainedCsv(dir.File("f.csv")) : (void)ReadCommandedCsv(dir.File("f.csv"));
+      attained ? (void)ReadAttainedCsv(dir.File("f.csv"))
+               : (void)ReadCommandedCsv(dir.File("f.csv"));
     });
   };
   EXPECT_NE(refusal("point,x_mm,y_mm,z_mm\nP1,1,2,3\nP1,1,2,3\n", false).find("f.csv:3"),
@@ -77,9 +77,11 @@ TEST(Iso9283Csv, MalformedRowsAreRefusedAtTheirLine) {
             std::string::npos);
   EXPECT_NE(refusal("point,cycle,x_mm,y_mm,z_mm\nP1,0,1,2,3\n", true).find("f.csv:2"),
             std::string::npos);
-  EXPECT_NE(refusal("point,x_mm,y_mm,z_mm\nP1,1,two,3\n", false).find("f.csv:2"), std::string::npos);
-  EXPECT_NE(refusal("point,x_mm,y_mm,z_mm,a_deg,b_deg\nP1,1,2,3,0,0\n", false).find("all of a, b and c"),
+  EXPECT_NE(refusal("point,x_mm,y_mm,z_mm\nP1,1,two,3\n", false).find("f.csv:2"),
             std::string::npos);
+  EXPECT_NE(
+      refusal("point,x_mm,y_mm,z_mm,a_deg,b_deg\nP1,1,2,3,0,0\n", false).find("all of a, b and c"),
+      std::string::npos);
   EXPECT_NE(refusal("point,x_m,y_mm,z_mm\nP1,1,2,3\n", false).find("x_m"), std::string::npos);
   EXPECT_NE(refusal("name,x_mm,y_mm,z_mm\nP1,1,2,3\n", false).find("'point'"), std::string::npos);
   EXPECT_NE(refusal("point,x_mm,y_mm,z_mm\n", true).find("no attained poses"), std::string::npos);

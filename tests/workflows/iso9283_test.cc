@@ -57,7 +57,9 @@ TEST(Iso9283Plan, NominalPlanReachesEveryTargetWithOneToolOrientation) {
     EXPECT_EQ(r.cycle, static_cast<int>(k / 5) + 1);
     const int index = r.point[1] - '1';
     EXPECT_LT((r.target_mm - points[index].position_mm).norm(), 1e-9);
-    EXPECT_LT((kin.Position(Eigen::Isometry3d::Identity(), zero, r.joints_rad.data()) - r.target_mm).norm(), 1e-5);
+    EXPECT_LT((kin.Position(Eigen::Isometry3d::Identity(), zero, r.joints_rad.data()) - r.target_mm)
+                  .norm(),
+              1e-5);
     EXPECT_LT(Eigen::AngleAxisd(kin.LastRotation() * plan.tool_rotation.transpose()).angle(), 1e-8);
     const auto label = ParseIso9283Label(r.pose);
     ASSERT_TRUE(label) << r.pose;
@@ -118,8 +120,8 @@ TEST(Iso9283Plan, CompensatedPlanLandsTheCalibratedModelOnTheTargets) {
   EXPECT_EQ(plan.signature_version, 7);
   calibration::Kinematics kin(model);
   for (const auto& p : plan.points) {
-    const Eigen::Vector3d calibrated =
-        kin.Position(Eigen::Isometry3d::Identity(), signature.signature.params, p.joints_rad.data());
+    const Eigen::Vector3d calibrated = kin.Position(
+        Eigen::Isometry3d::Identity(), signature.signature.params, p.joints_rad.data());
     EXPECT_LT((calibrated - p.target_mm).norm(), 1e-5) << p.name;
     // The correction the nominal program would have missed by: the paper's errors, mm.
     EXPECT_GT(p.compensation_mm, 1.0) << p.name;
@@ -190,8 +192,9 @@ TEST(Iso9283Evaluate, FilesGiveTheFiguresInOneFrameOrAfterARigidBestFit) {
   // The JSON shape of the interface reference.
   const auto j = Iso9283Json(aligned);
   ASSERT_EQ(j["points"].size(), 5u);
-  for (const char* key : {"point", "n", "barycentre_mm", "AP_mm", "APx_mm", "APy_mm", "APz_mm",
-                          "RP_mm", "APa_deg", "APb_deg", "APc_deg", "RPa_deg", "RPb_deg", "RPc_deg"})
+  for (const char* key :
+       {"point", "n", "barycentre_mm", "AP_mm", "APx_mm", "APy_mm", "APz_mm", "RP_mm", "APa_deg",
+        "APb_deg", "APc_deg", "RPa_deg", "RPb_deg", "RPc_deg"})
     EXPECT_TRUE(j["points"][0].contains(key)) << key;
   EXPECT_EQ(j["points"][0]["barycentre_mm"].size(), 3u);
   EXPECT_NEAR(j["points"][2]["RP_mm"].get<double>(), rp, 1e-7);
@@ -253,8 +256,8 @@ class Iso9283VirtualLab : public ::testing::Test {
   void Start(double repeatability_mm) {
     base_.translate(Eigen::Vector3d(2300.0, 1600.0, -1100.0));
     base_.rotate(Eigen::AngleAxisd(2.6, Eigen::Vector3d::UnitZ()));
-    lab_ = std::make_unique<simulation::VirtualLab>(testing::Puma(),
-                                                    calibration::PaperTable3Parameters(), base_, 17);
+    lab_ = std::make_unique<simulation::VirtualLab>(
+        testing::Puma(), calibration::PaperTable3Parameters(), base_, 17);
     lab_->SetRepeatability(repeatability_mm);
     simulation::VirtualStation lt1;
     lt1.pose.id = "LT1";  // at the origin, levelled, azimuth 0: its frame is the lab frame
@@ -356,8 +359,9 @@ TEST_F(Iso9283VirtualLab, APlantedRepeatabilityGivesTheRpTheStatisticsPredict) {
 TEST_F(Iso9283VirtualLab, AKinematicErrorShowsAsApAndCompensationBringsItToTheRepeatabilityFloor) {
   Start(0.03);
   // The lab calibrates the robot first: 40 well-spread configurations, the nightly fit.
-  testing::WriteText(dir_.File("spread.csv"), acquisition::FormatPlanCsv(
-                                                   acquisition::WellSpreadPlan(testing::Puma(), 40, 800, 3)));
+  testing::WriteText(
+      dir_.File("spread.csv"),
+      acquisition::FormatPlanCsv(acquisition::WellSpreadPlan(testing::Puma(), 40, 800, 3)));
   Capture(dir_.File("spread.csv"));
   RecalibrateOptions fit;
   fit.db_path = Db();
@@ -404,7 +408,8 @@ TEST_F(Iso9283VirtualLab, AKinematicErrorShowsAsApAndCompensationBringsItToTheRe
     Eigen::Vector3d truth = Eigen::Vector3d::Zero();
     for (const auto& row : iso_plan) {
       if (row.label.substr(0, 2) != before.name) continue;
-      truth += robot_from_world * kin.Position(base_, lab_->true_params(), row.joints_rad.data()) / 10.0;
+      truth +=
+          robot_from_world * kin.Position(base_, lab_->true_params(), row.joints_rad.data()) / 10.0;
     }
     const double true_ap = (truth - before.commanded_mm).norm();
     EXPECT_GT(before.ap_mm, 1.0) << before.name;  // the paper's errors: millimetres
@@ -427,14 +432,16 @@ TEST_F(Iso9283VirtualLab, AKinematicErrorShowsAsApAndCompensationBringsItToTheRe
   EXPECT_NEAR(rp_after, rp_before, 0.35 * rp_before);
   // The page: every figure embedded is the PNG beside it.
   const std::string html = testing::ReadText(report.html_path);
-  for (const char* id : {"id=\"figures\"", "id=\"compensated\"", "id=\"comparison\"", "id=\"conditions\"",
-                         "5 kg", "Held-out validation of arm signature version 1"})
+  for (const char* id :
+       {"id=\"figures\"", "id=\"compensated\"", "id=\"comparison\"", "id=\"conditions\"", "5 kg",
+        "Held-out validation of arm signature version 1"})
     EXPECT_NE(html.find(id), std::string::npos) << id;
   int figures = 0;
-  for (size_t at = html.find("base64,"); at != std::string::npos; at = html.find("base64,", at + 1)) {
+  for (size_t at = html.find("base64,"); at != std::string::npos;
+       at = html.find("base64,", at + 1)) {
     const size_t end = html.find('"', at);
-    const cv::Mat image = cv::imdecode(testing::DecodeBase64(html.substr(at + 7, end - at - 7)),
-                                       cv::IMREAD_COLOR);
+    const cv::Mat image =
+        cv::imdecode(testing::DecodeBase64(html.substr(at + 7, end - at - 7)), cv::IMREAD_COLOR);
     EXPECT_FALSE(image.empty());
     ++figures;
   }
