@@ -310,13 +310,11 @@ Iso9283Evaluation EvaluateIso9283(std::vector<iso::PointData> points, bool align
         "absorbs the rigid part of the pose error",
         attained.size(), fit->rms_mm);
   }
-  std::map<std::string, size_t> index;
   for (const auto& p : points) {
     if (p.samples.empty()) {
       e.notes.push_back("point " + p.name + " was never attained: left out");
       continue;
     }
-    index[p.name] = e.points.size();
     e.data.push_back(p);
     e.points.push_back(iso::EvaluatePoint(p));
     std::vector<Eigen::Vector3d> x;

@@ -270,6 +270,12 @@ Html ComparisonTable(const Iso9283PageInput& in) {
         g ? Num(g->rp_mm) : Html("&mdash;"));
   }
   h += "</table>\n";
+  if (before.frame.method == "rigid best fit") {
+    h += Html(
+        "<p class=\"note\">The measured AP is taken after a rigid best fit, which removes the "
+        "rigid part of the error; the signature's prediction keeps it. Without --align both are in "
+        "the robot's frame.</p>\n");
+  }
   if (in.signature) {
     const auto& s = *in.signature;
     h += HtmlFormat(

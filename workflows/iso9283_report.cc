@@ -67,7 +67,7 @@ struct Commanded {
   Eigen::Vector3d target_mm = Eigen::Vector3d::Zero();
 };
 
-SessionTest LoadTest(db::Database& db, int64_t session, int64_t robot_id, const std::string& robot,
+SessionTest LoadTest(db::Database& db, int64_t session, const std::string& robot,
                      const calibration::RobotModel& model,
                      const std::map<std::string, Commanded>* plan_file,
                      const std::map<std::string, Eigen::Vector3d>* targets_by_point) {
@@ -80,7 +80,6 @@ SessionTest LoadTest(db::Database& db, int64_t session, int64_t robot_id, const 
                      fmt::format("session {} is of robot {}, not {}", session,
                                  ShellWord(row->robot), ShellWord(robot)));
   }
-  (void)robot_id;
   t.row = *row;
   for (const auto& s : db::LoadSessionSummaries(db, {session})) t.started_at = s.started_at;
   t.poses = db::LoadSessionPoses(db, session, &t.covariances);
@@ -311,7 +310,7 @@ Iso9283ReportResult RunIso9283Report(db::Database& db, const Iso9283ReportOption
     for (const auto& r : io::ReadIso9283PlanCsv(o.commanded_csv, model.num_joints()))
       (*plan_file)[r.pose] = {r.point, r.approach, r.cycle, r.target_mm};
   }
-  SessionTest test = LoadTest(db, o.session, *robot_id, o.robot, model,
+  SessionTest test = LoadTest(db, o.session, o.robot, model,
                               plan_file ? &*plan_file : nullptr, nullptr);
   Iso9283ReportResult result;
   result.test = Evaluate(test, model, signature ? &*signature : nullptr, o.align, db.path());
@@ -320,7 +319,7 @@ Iso9283ReportResult RunIso9283Report(db::Database& db, const Iso9283ReportOption
   if (o.compensated_session > 0) {
     std::map<std::string, Eigen::Vector3d> targets;
     for (const auto& p : test.points) targets[p.name] = p.commanded_mm;
-    after = LoadTest(db, o.compensated_session, *robot_id, o.robot, model, nullptr, &targets);
+    after = LoadTest(db, o.compensated_session, o.robot, model, nullptr, &targets);
     result.compensated =
         Evaluate(*after, model, signature ? &*signature : nullptr, o.align, db.path());
   }

@@ -356,6 +356,35 @@ TEST_F(Iso9283VirtualLab, APlantedRepeatabilityGivesTheRpTheStatisticsPredict) {
   EXPECT_EQ(report.json["alignment"]["method"], "rigid best fit");
 }
 
+TEST_F(Iso9283VirtualLab, TheMultiDirectionalTestGivesVapAndLeavesTheViaPointsOut) {
+  Start(0.03);
+  Iso9283PlanOptions o;
+  o.cube = kCube;
+  o.cycles = 3;
+  o.multi_directional = true;
+  const int64_t session = Capture(PlanFile(o, "iso-vap.csv"));
+  db::Database db(Db(), db::OpenMode::kReadOnly);
+  Iso9283ReportOptions r;
+  r.robot = "puma";
+  r.session = session;
+  r.align = true;
+  const auto report = RunIso9283Report(db, r);
+  ASSERT_EQ(report.test.points.size(), 5u);
+  for (const auto& f : report.test.points) {
+    EXPECT_EQ(f.n, 9) << f.name;  // 3 cycles × 3 directions; the 45 via points left out
+    EXPECT_EQ(f.approaches, 3) << f.name;
+    ASSERT_TRUE(f.vap_mm) << f.name;
+    // The virtual robot has no direction-dependent error: the directions' barycentres
+    // (3 poses each, σ ≈ 0.034 mm per axis) differ by their own scatter only.
+    EXPECT_GT(*f.vap_mm, 0.0);
+    EXPECT_LT(*f.vap_mm, 0.2) << f.name;
+  }
+  EXPECT_NE(report.json["notes"].dump().find("45 measured configurations are no test poses"),
+            std::string::npos)
+      << report.json["notes"];
+  EXPECT_TRUE(report.json["points"][0].contains("vAP_mm"));
+}
+
 TEST_F(Iso9283VirtualLab, AKinematicErrorShowsAsApAndCompensationBringsItToTheRepeatabilityFloor) {
   Start(0.03);
   // The lab calibrates the robot first: 40 well-spread configurations, the nightly fit.
