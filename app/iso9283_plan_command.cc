@@ -75,7 +75,6 @@ void SetupIso9283PlanCommand(CLI::App& iso, const GlobalOptions& global, Runner&
                                "The cube: centre and edge, CX,CY,CZ,EDGE_MM "
                                "(robot frame)")
                    ->delimiter(',')
-                   ->expected(4)
                    ->check(NumberCheck(-plausible::kMaxLengthMm, plausible::kMaxLengthMm));
   auto* automatic =
       sub->add_flag("--auto", o->auto_cube, "The largest cube the model reaches around --centre");
@@ -83,13 +82,11 @@ void SetupIso9283PlanCommand(CLI::App& iso, const GlobalOptions& global, Runner&
   sub->add_option("--centre", o->centre,
                   "Centre of the --auto cube, X,Y,Z mm (default: the target at the seed posture)")
       ->delimiter(',')
-      ->expected(3)
       ->check(NumberCheck(-plausible::kMaxLengthMm, plausible::kMaxLengthMm));
   sub->add_option("--orientation", o->orientation_deg,
                   "Tool orientation at every pose, A,B,C deg (last link frame, R = Rz(C) Ry(B) "
                   "Rx(A); default: the orientation the inverse gives P1)")
       ->delimiter(',')
-      ->expected(3)
       ->check(NumberCheck(-360.0, 360.0));
   NumberOption(sub->add_option("--cycles", o->plan.cycles, "Cycles (the standard: 30)"), 1, 10000)
       ->capture_default_str();

@@ -149,6 +149,9 @@ TEST(Iso9283Commands, RefusalsAreExitTwoNamingWhatIsWrong) {
   const auto far = RunArmsig(db + "iso9283 plan --robot puma --cube 5000,0,0,100" + out);
   EXPECT_EQ(far.exit_code, 2);
   EXPECT_NE(far.err.find("cannot be reached"), std::string::npos) << far.err;
+  const auto three = RunArmsig(db + "iso9283 plan --robot puma --cube 600,100,700" + out);
+  EXPECT_EQ(three.exit_code, 2);
+  EXPECT_NE(three.err.find("expected 4 numbers, got 3"), std::string::npos) << three.err;
   const auto both = RunArmsig(db + "iso9283 plan --robot puma --cube 600,100,700,400 --auto" + out);
   EXPECT_EQ(both.exit_code, 2);
   const auto neither = RunArmsig(db + "iso9283 plan --robot puma" + out);
