@@ -26,10 +26,18 @@ namespace {
 Plan ReadPlanCsvWithin(const std::string& path, int num_joints,
                        const calibration::RobotModel* model) {
   const io::CsvTable t = io::ReadCsvFile(path);
-  std::vector<std::string> known = {"pose"};
+  std::vector<std::string> known = {"pose", "x_mm", "y_mm", "z_mm"};
   for (int i = 1; i <= num_joints; ++i) known.push_back("q" + std::to_string(i) + "_*");
   t.RefuseUnreadUnits(known);
   const int id = t.Column("pose");
+  // A target only when all three coordinates are there (one or two is a broken file).
+  const std::optional<int> tx = t.FindColumn("x_mm"), ty = t.FindColumn("y_mm"),
+                           tz = t.FindColumn("z_mm");
+  const int target_columns = !!tx + !!ty + !!tz;
+  if (target_columns != 0 && target_columns != 3) {
+    throw InputError({path, t.header_line(), 0, ""},
+                     "give the target as all of x_mm, y_mm and z_mm, or none of them");
+  }
   std::vector<io::AngleColumn> q;
   for (int i = 1; i <= num_joints; ++i) q.push_back(t.AngleColumnOf("q" + std::to_string(i)));
   Plan plan;
@@ -54,6 +62,12 @@ Plan ReadPlanCsvWithin(const std::string& path, int num_joints,
                         model->joint_min_rad[i] * per, model->joint_max_rad[i] * per,
                         plausible::UnitOf(q[i].unit).name));
       }
+    }
+    if (target_columns == 3) {
+      using plausible::Quantity;
+      c.target_mm = Eigen::Vector3d(t.Number(row, *tx, Quantity::kCoordinate),
+                                    t.Number(row, *ty, Quantity::kCoordinate),
+                                    t.Number(row, *tz, Quantity::kCoordinate));
     }
     plan.push_back(std::move(c));
   }
@@ -168,9 +182,12 @@ Plan MakePlan(const std::string& spec, const calibration::RobotModel& model) {
 std::string PlanToJson(const Plan& plan) {
   nlohmann::json j = nlohmann::json::array();
   for (const auto& c : plan) {
-    j.push_back({{"label", c.label},
-                 {"joints_rad", std::vector<double>(c.joints_rad.data(),
-                                                    c.joints_rad.data() + c.joints_rad.size())}});
+    nlohmann::json item = {
+        {"label", c.label},
+        {"joints_rad",
+         std::vector<double>(c.joints_rad.data(), c.joints_rad.data() + c.joints_rad.size())}};
+    if (c.target_mm) item["target_mm"] = {c.target_mm->x(), c.target_mm->y(), c.target_mm->z()};
+    j.push_back(std::move(item));
   }
   return JsonText(j);
 }
@@ -181,8 +198,14 @@ Plan PlanFromJson(const std::string& json, const db::JsonCell& where) {
     Plan plan;
     for (const auto& item : items) {
       const auto q = item.at("joints_rad").get<std::vector<double>>();
-      plan.push_back({item.at("label").get<std::string>(),
-                      Eigen::Map<const Eigen::VectorXd>(q.data(), q.size())});
+      PlannedConfiguration c{item.at("label").get<std::string>(),
+                             Eigen::Map<const Eigen::VectorXd>(q.data(), q.size())};
+      if (item.contains("target_mm")) {
+        const auto x = item.at("target_mm").get<std::vector<double>>();
+        if (x.size() != 3) db::RefuseStoredJson(where, "expected target_mm as [x, y, z]");
+        c.target_mm = Eigen::Vector3d(x[0], x[1], x[2]);
+      }
+      plan.push_back(std::move(c));
     }
     return plan;
   });

@@ -2,6 +2,7 @@
 #pragma once
 
 #include <Eigen/Core>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -13,10 +14,15 @@ namespace armsig::acquisition {
 struct PlannedConfiguration {
   std::string label;
   Eigen::VectorXd joints_rad;
+  // Where the plan means the target to be, in the robot frame (mm), when it says so (the
+  // x_mm, y_mm, z_mm columns of an ISO 9283 plan): kept with the session, so its
+  // evaluation knows the commanded positions. Capture does not use it.
+  std::optional<Eigen::Vector3d> target_mm{};
 };
 using Plan = std::vector<PlannedConfiguration>;
 
-// "pose,q1_deg,…,qn_deg" (any angle unit suffix). Throws InputError with line numbers.
+// "pose,q1_deg,…,qn_deg" (any angle unit suffix), with the target x_mm, y_mm, z_mm when
+// the file gives all three. Throws InputError with line numbers.
 Plan ReadPlanCsv(const std::string& path, int num_joints);
 // The same, refusing a configuration outside the model's joint limits (when it has them):
 // the plan is sent to the robot, and a limit is where it stops short or faults.
@@ -35,7 +41,8 @@ Plan SingleJointPlan(const Eigen::VectorXd& start, int joint, double lo_rad, dou
 // "FILE.csv", "auto:N" or "single-joint:J:STEPS" (J 1-based; sweep ±150° or the limits).
 Plan MakePlan(const std::string& spec, const calibration::RobotModel& model);
 
-// JSON array of {label, joints_rad} (stored with the session so it can be resumed).
+// JSON array of {label, joints_rad[, target_mm]} (stored with the session so it can be
+// resumed).
 std::string PlanToJson(const Plan& plan);
 // A plan as stored with its session (sessions.plan_json): input like a file, refused with an
 // InputError naming `where` when it is not such a list (db/stored_json.h).

@@ -55,6 +55,11 @@ void SetupDbCommand(CLI::App& parent, const GlobalOptions& global, Runner& run);
 void SetupSignatureCommands(CLI::App& parent, const GlobalOptions& global, Runner& run);
 void SetupLifecycleCommands(CLI::App& parent, const GlobalOptions& global, Runner& run);
 void SetupFleetCommands(CLI::App& parent, const GlobalOptions& global, Runner& run);
+// armsig iso9283 plan | report | evaluate (one file each, under the `iso9283` command).
+void SetupIso9283Commands(CLI::App& parent, const GlobalOptions& global, Runner& run);
+void SetupIso9283PlanCommand(CLI::App& iso9283, const GlobalOptions& global, Runner& run);
+void SetupIso9283ReportCommand(CLI::App& iso9283, const GlobalOptions& global, Runner& run);
+void SetupIso9283EvaluateCommand(CLI::App& iso9283, const GlobalOptions& global, Runner& run);
 
 // Ctrl-C, SIGTERM (systemctl stop, kill) and SIGHUP (a closed terminal) ask the running
 // command to stop at its next safe point; the first call installs the handlers. A

@@ -45,6 +45,11 @@ void SetupDemoCommand(CLI::App& parent, const GlobalOptions& global, Runner& run
                   "Plant a change in the virtual robot (repeatable), to rehearse the nightly "
                   "job: joint2_zero=0.02deg, link2_length=0.2mm, a parameter such as a3=-50um; "
                   "units mm, um, deg, mrad, urad, rad");
+  NumberOption(sub->add_option("--repeatability-mm", o->repeatability_mm,
+                               "The virtual robot's own repeatability: every move lands N(0, "
+                               "sigma^2) per axis off, apart from the instruments' noise"),
+               0.0, 10.0)
+      ->capture_default_str();
   NumberOption(sub->add_option("--time-scale", o->time_scale,
                                "Multiplies every simulated instrument latency"),
                0.0, 100.0)

@@ -249,6 +249,7 @@ void SetupAll(CLI::App& app, GlobalOptions& global, Runner& run) {
   SetupSignatureCommands(app, global, run);
   SetupLifecycleCommands(app, global, run);
   SetupFleetCommands(app, global, run);
+  SetupIso9283Commands(app, global, run);
   // Hidden (no group): the build runs it to make the manual page and the completion.
   auto* generate = app.add_subcommand("generate", "Manual page or bash completion")->group("");
   auto what = std::make_shared<std::string>();

@@ -99,19 +99,25 @@ JointSolution SolveJoints(const RobotModel& model, const Eigen::Isometry3d& worl
                 fmt::format("no joint angles reach the target (closest {:.3f} mm)", s.residual_mm)};
     return s;
   }
-  if (static_cast<int>(model.joint_min_rad.size()) == n) {
-    for (int i = 0; i < n; ++i) {
-      if (s.joints_rad(i) < model.joint_min_rad[i] || s.joints_rad(i) > model.joint_max_rad[i]) {
-        s.status = {
-            SolveCode::kOutOfRange,
-            fmt::format("joint {} at {:.2f} deg, outside its limits [{:.2f}, {:.2f}]", i + 1,
-                        s.joints_rad(i) / kRadPerDeg, model.joint_min_rad[i] / kRadPerDeg,
-                        model.joint_max_rad[i] / kRadPerDeg)};
-        return s;
-      }
+  s.status = JointLimitStatus(model, s.joints_rad);
+  return s;
+}
+
+SolveStatus JointLimitStatus(const RobotModel& model, const Eigen::VectorXd& q) {
+  const int n = model.num_joints();
+  if (static_cast<int>(model.joint_min_rad.size()) != n ||
+      static_cast<int>(model.joint_max_rad.size()) != n || q.size() != n) {
+    return {};
+  }
+  for (int i = 0; i < n; ++i) {
+    if (q(i) < model.joint_min_rad[i] || q(i) > model.joint_max_rad[i]) {
+      return {SolveCode::kOutOfRange,
+              fmt::format("joint {} at {:.2f} deg, outside its limits [{:.2f}, {:.2f}]", i + 1,
+                          q(i) / kRadPerDeg, model.joint_min_rad[i] / kRadPerDeg,
+                          model.joint_max_rad[i] / kRadPerDeg)};
     }
   }
-  return s;
+  return {};
 }
 
 RobotModel CorrectedModel(const RobotModel& model, const Eigen::VectorXd& params,

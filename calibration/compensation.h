@@ -54,6 +54,9 @@ JointSolution SolveJoints(const RobotModel& model, const Eigen::Isometry3d& worl
                           const Eigen::VectorXd& seed_rad, const JointSolveOptions& options = {},
                           const ResidualMap* map = nullptr);
 
+// kOk, or kOutOfRange naming the first joint outside the model's limits (when it has them).
+SolveStatus JointLimitStatus(const RobotModel& model, const Eigen::VectorXd& joints_rad);
+
 // The model with the parameters folded in: N_i' = N_i·H_i (N_1' = base·H_1), tool
 // x̄' = x̄ + [a b c], h-terms kept as fixed values. Its nominal is the calibrated robot.
 RobotModel CorrectedModel(const RobotModel& model, const Eigen::VectorXd& params,

@@ -305,4 +305,11 @@ std::vector<std::string> ModelDifferences(const RobotModel& a, const RobotModel&
   return out;
 }
 
+Eigen::Matrix<double, 3, Eigen::Dynamic> Kinematics::JointAxes() const {
+  const int n = model_.num_joints();
+  Eigen::Matrix<double, 3, Eigen::Dynamic> axes(3, n);
+  for (int i = 0; i < n; ++i) axes.col(i) = g_rot_[i].col(2);
+  return axes;
+}
+
 }  // namespace armsig::calibration

@@ -127,6 +127,12 @@ class Kinematics {
   // Used by compensation (inverse kinematics on the calibrated model).
   Eigen::Matrix<double, 3, Eigen::Dynamic> JointJacobian() const;
 
+  // The rotation of the last link frame (world from link n) and the joint axes in the world
+  // frame (3 × n: ∂ω/∂θ_i), from the last evaluation. Used to solve for a whole pose (the
+  // ISO 9283 plan keeps the tool's orientation).
+  const Eigen::Matrix3d& LastRotation() const { return last_rot_; }
+  Eigen::Matrix<double, 3, Eigen::Dynamic> JointAxes() const;
+
   // True joint angles for the encoder angles under the model's h-terms.
   void TrueJointAngles(const Eigen::VectorXd& params, const double* joints_rad, double* true_rad);
 

@@ -13,7 +13,17 @@ VirtualLab::VirtualLab(calibration::RobotModel model, Eigen::VectorXd true_param
       true_params_(std::move(true_params)),
       world_from_base_(world_from_base),
       joints_(Eigen::VectorXd::Zero(model_.num_joints())),
-      seed_(seed) {}
+      seed_(seed) {
+  // The robot's stream: its own seed sequence, apart from every station's.
+  std::seed_seq robot_stream{seed_, 0x726f626fu};
+  robot_rng_.seed(robot_stream);
+}
+
+void VirtualLab::SetRepeatability(double sigma_mm) {
+  if (!(sigma_mm >= 0.0)) throw std::invalid_argument("virtual lab: repeatability must be >= 0");
+  std::lock_guard lock(mutex_);
+  repeatability_mm_ = sigma_mm;
+}
 
 int VirtualLab::AddStation(const VirtualStation& station) {
   std::lock_guard lock(mutex_);
@@ -53,6 +63,10 @@ int VirtualLab::Face(int station) const {
 void VirtualLab::SetJoints(const Eigen::VectorXd& joints_rad) {
   std::lock_guard lock(mutex_);
   joints_ = joints_rad;
+  if (repeatability_mm_ > 0.0) {
+    std::normal_distribution<double> off(0.0, repeatability_mm_);
+    landed_off_ = Eigen::Vector3d(off(robot_rng_), off(robot_rng_), off(robot_rng_));
+  }
 }
 
 Eigen::VectorXd VirtualLab::Joints() const {
@@ -63,7 +77,7 @@ Eigen::VectorXd VirtualLab::Joints() const {
 Eigen::Vector3d VirtualLab::TruePositionLocked(const std::string& target) const {
   if (target == "robot") {
     calibration::Kinematics kin(model_);
-    return kin.Position(world_from_base_, true_params_, joints_.data());
+    return kin.Position(world_from_base_, true_params_, joints_.data()) + landed_off_;
   }
   if (auto it = points_.find(target); it != points_.end()) return it->second;
   for (const auto& s : stations_) {

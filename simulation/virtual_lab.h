@@ -35,6 +35,11 @@ class VirtualLab {
   std::string AimedAt(int station) const;
   void SetFace(int station, int face);
   int Face(int station) const;
+  // The robot's own repeatability, distinct from the instruments' noise: every move
+  // (SetJoints) lands N(0, σ²) per axis off the true kinematics, and stays there while the
+  // robot stands, whatever the instruments read. 0 (the default): the robot lands exactly.
+  // Drawn from a stream of its own, so the instruments' noise does not change with it.
+  void SetRepeatability(double sigma_mm);
   void SetJoints(const Eigen::VectorXd& joints_rad);
   Eigen::VectorXd Joints() const;
 
@@ -60,6 +65,9 @@ class VirtualLab {
   std::vector<int> face_;
   std::map<std::string, Eigen::Vector3d> points_;
   Eigen::VectorXd joints_;
+  double repeatability_mm_ = 0.0;
+  Eigen::Vector3d landed_off_ = Eigen::Vector3d::Zero();  // this move's repeatability error
+  std::mt19937 robot_rng_;
   // One noise stream per station (seeded by the lab's seed and the station's index): the
   // noise of a run does not depend on the order the instruments' threads happen to read
   // in, so a seed repeats a run exactly.

@@ -330,6 +330,7 @@ DemoResult RunDemo(const DemoOptions& options, const DemoObserver& observer) {
     for (const auto& c : options.changes) list += (list.empty() ? "" : ", ") + c;
     say(fmt::format("The virtual robot is changed: {} (planted in its hidden errors).\n", list));
   }
+  lab.SetRepeatability(options.repeatability_mm);
   std::vector<reduction::Station> oriented_stations;
   if (use_tracker) {
     simulation::VirtualStation st;

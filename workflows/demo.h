@@ -28,6 +28,9 @@ struct DemoOptions {
   int configurations = 200;  // captured
   int select = 0;            // fitted (D-optimal), the rest validate; 0 = 40 % (80 of 200)
   double time_scale = 0.25;  // multiplies every simulated instrument latency
+  // The virtual robot's own repeatability (mm per axis): every move lands this far off at
+  // random, apart from the instruments' noise (simulation::VirtualLab::SetRepeatability).
+  double repeatability_mm = 0.0;
   // The virtual lab's noise and plan. Unset: 1985 plus the demo sessions already in the
   // database, so a first demo repeats the README's figures and every further run on one
   // database measures anew (the same data night after night is no lab's).

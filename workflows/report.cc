@@ -24,9 +24,12 @@
 #include "db/observations.h"
 #include "db/report_queries.h"
 #include "io/atomic_file.h"
+#include "workflows/figures.h"
 #include "workflows/html.h"
 
 namespace armsig::workflows {
+
+using namespace figures;  // the drawing pieces (workflows/figures.h)
 
 // ---- Numbers ----
 
@@ -78,37 +81,6 @@ std::vector<int> WorstResiduals(const std::vector<Eigen::Vector3d>& residuals, i
   return order;
 }
 
-namespace {
-
-// 1, 2 or 5 × 10^k, the smallest not below `raw`.
-double NiceStep(double raw) {
-  const double magnitude = std::pow(10.0, std::floor(std::log10(raw)));
-  for (double m : {1.0, 2.0, 5.0}) {
-    if (m * magnitude >= raw * (1 - 1e-9)) return m * magnitude;
-  }
-  return 10.0 * magnitude;
-}
-
-// 1, 2 or 5 × 10^k, the largest not above `value`.
-double NiceBelow(double value) {
-  const double magnitude = std::pow(10.0, std::floor(std::log10(value)));
-  for (double m : {5.0, 2.0}) {
-    if (m * magnitude <= value * (1 + 1e-9)) return m * magnitude;
-  }
-  return magnitude;
-}
-
-}  // namespace
-
-std::vector<double> NiceTicks(double lo, double hi, int max_ticks) {
-  if (!(hi > lo)) hi = lo + 1.0;
-  const double step = NiceStep((hi - lo) / std::max(max_ticks, 1));
-  const double first = std::floor(lo / step + 1e-9), last = std::ceil(hi / step - 1e-9);
-  std::vector<double> ticks;
-  for (double k = first; k <= last; k += 1.0) ticks.push_back(k * step);
-  return ticks;
-}
-
 std::optional<LinearTrend> LinearTrendOf(const std::vector<double>& x,
                                          const std::vector<double>& y) {
   const size_t n = std::min(x.size(), y.size());
@@ -144,18 +116,6 @@ std::optional<LinearTrend> LinearTrendOf(const std::vector<double>& x,
   return t;
 }
 
-std::vector<int> IntegerTicks(int largest, int max_ticks) {
-  largest = std::max(largest, 1);
-  const int step = std::max(1, static_cast<int>(std::lround(NiceStep(static_cast<double>(largest) /
-                                                                     std::max(max_ticks, 1)))));
-  std::vector<int> ticks;
-  for (int t = 0;; t += step) {
-    ticks.push_back(t);
-    if (t >= largest) break;
-  }
-  return ticks;
-}
-
 Histogram HistogramOf(const std::vector<double>& distances_mm, int bins) {
   Histogram h;
   const double top =
@@ -176,244 +136,6 @@ std::string ParamsKind(const std::string& spec) {
   if (spec == "all" || spec == "geometric" || spec == "auto") return spec;
   return spec.empty() ? "unknown" : "list";
 }
-
-namespace {
-
-// ---- Drawing ----
-
-const cv::Scalar kInk(40, 40, 40), kGrid(228, 228, 228), kRed(60, 60, 220), kGreen(70, 150, 40),
-    kBlue(190, 110, 30), kGrey(160, 160, 160), kOrange(0, 140, 240), kPurple(150, 60, 140),
-    kTeal(140, 140, 0);
-constexpr int kFont = cv::FONT_HERSHEY_SIMPLEX;
-constexpr double kDegPerRad = 180.0 / std::numbers::pi;
-
-enum class Align { kLeft, kCenter, kRight };
-
-void Text(cv::Mat& image, const std::string& text, cv::Point at, double scale = 0.4,
-          Align align = Align::kLeft, const cv::Scalar& color = kInk) {
-  int baseline = 0;
-  const cv::Size size = cv::getTextSize(text, kFont, scale, 1, &baseline);
-  if (align == Align::kCenter) at.x -= size.width / 2;
-  if (align == Align::kRight) at.x -= size.width;
-  cv::putText(image, text, at, kFont, scale, color, 1, cv::LINE_AA);
-}
-
-int TextWidth(const std::string& text, double scale = 0.4) {
-  int baseline = 0;
-  return cv::getTextSize(text, kFont, scale, 1, &baseline).width;
-}
-
-enum class Marker { kCircle, kSquare, kTriangle, kDiamond, kLine };
-
-void DrawMarker(cv::Mat& image, cv::Point c, Marker marker, const cv::Scalar& color, int r = 4) {
-  switch (marker) {
-    case Marker::kCircle:
-      cv::circle(image, c, r, color, cv::FILLED, cv::LINE_AA);
-      break;
-    case Marker::kSquare:
-      cv::rectangle(image, c - cv::Point(r, r), c + cv::Point(r, r), color, cv::FILLED);
-      break;
-    case Marker::kTriangle: {
-      const std::vector<cv::Point> p = {c + cv::Point(0, -r - 1), c + cv::Point(r + 1, r),
-                                        c + cv::Point(-r - 1, r)};
-      cv::fillConvexPoly(image, p, color, cv::LINE_AA);
-      break;
-    }
-    case Marker::kDiamond: {
-      const std::vector<cv::Point> p = {c + cv::Point(0, -r - 1), c + cv::Point(r + 1, 0),
-                                        c + cv::Point(0, r + 1), c + cv::Point(-r - 1, 0)};
-      cv::fillConvexPoly(image, p, color, cv::LINE_AA);
-      break;
-    }
-    case Marker::kLine:
-      cv::line(image, c - cv::Point(2 * r, 0), c + cv::Point(2 * r, 0), color, 2, cv::LINE_AA);
-      break;
-  }
-}
-
-struct LegendEntry {
-  Marker marker;
-  cv::Scalar color;
-  std::string text;
-};
-
-struct Axis {
-  double lo = 0.0, hi = 1.0;
-  bool log = false;
-  std::vector<double> ticks;
-  std::vector<std::string> labels;
-};
-
-std::string TickLabel(double value, double step) {
-  const int decimals = std::max(0, static_cast<int>(-std::floor(std::log10(step) + 1e-9)));
-  if (std::abs(value) < step * 1e-6) value = 0.0;  // no "-0.00"
-  return fmt::format("{:.{}f}", value, decimals);
-}
-
-Axis LinearAxis(double lo, double hi, int max_ticks) {
-  Axis a;
-  a.ticks = NiceTicks(lo, hi, max_ticks);
-  a.lo = a.ticks.front();
-  a.hi = a.ticks.back();
-  const double step = a.ticks.size() > 1 ? a.ticks[1] - a.ticks[0] : 1.0;
-  for (double t : a.ticks) a.labels.push_back(TickLabel(t, step));
-  return a;
-}
-
-Axis IntegerAxis(int largest, int max_ticks) {
-  Axis a;
-  for (int t : IntegerTicks(largest, max_ticks)) {
-    a.ticks.push_back(t);
-    a.labels.push_back(std::to_string(t));
-  }
-  a.lo = a.ticks.front();
-  a.hi = a.ticks.back();
-  return a;
-}
-
-Axis LogAxis(double lo, double hi) {
-  Axis a;
-  a.log = true;
-  const int first = static_cast<int>(std::floor(std::log10(std::max(lo, 1e-6))));
-  const int last = std::max(first + 1, static_cast<int>(std::ceil(std::log10(std::max(hi, 1e-6)))));
-  for (int d = first; d <= last; ++d) {
-    a.ticks.push_back(std::pow(10.0, d));
-    a.labels.push_back(fmt::format("{:g}", std::pow(10.0, d)));
-  }
-  a.lo = a.ticks.front();
-  a.hi = a.ticks.back();
-  return a;
-}
-
-// A plotting area with ticked axes; the title and legend sit above it, so the legend
-// covers no data.
-class Plot {
- public:
-  Plot(int width, int height, const std::string& title, Axis x, Axis y, const std::string& xlabel,
-       const std::string& ylabel)
-      : image(height, width, CV_8UC3, cv::Scalar(255, 255, 255)),
-        area(70, 56, width - 70 - 20, height - 56 - 52),
-        x_(std::move(x)),
-        y_(std::move(y)) {
-    Text(image, title, {area.x, 20}, 0.55);
-    Text(image, ylabel, {8, area.y - 10});
-    Text(image, xlabel, {area.x + area.width / 2, height - 10}, 0.45, Align::kCenter);
-    for (size_t k = 0; k < x_.ticks.size(); ++k) {
-      const int px = X(x_.ticks[k]);
-      cv::line(image, {px, area.y}, {px, area.y + area.height}, kGrid);
-      cv::line(image, {px, area.y + area.height}, {px, area.y + area.height + 4}, kInk);
-      Text(image, x_.labels[k], {px, area.y + area.height + 18}, 0.4, Align::kCenter);
-    }
-    for (size_t k = 0; k < y_.ticks.size(); ++k) {
-      const int py = Y(y_.ticks[k]);
-      cv::line(image, {area.x, py}, {area.x + area.width, py}, kGrid);
-      cv::line(image, {area.x - 4, py}, {area.x, py}, kInk);
-      Text(image, y_.labels[k], {area.x - 7, py + 4}, 0.4, Align::kRight);
-    }
-    cv::rectangle(image, area, kInk);
-  }
-
-  int X(double x) const {
-    return area.x + static_cast<int>(std::lround(Fraction(x_, x) * area.width));
-  }
-  int Y(double y) const {
-    return area.y + area.height - static_cast<int>(std::lround(Fraction(y_, y) * area.height));
-  }
-  cv::Point At(double x, double y) const { return {X(x), Y(y)}; }
-
-  // One row above the plotting area, right of the y label.
-  void Legend(const std::vector<LegendEntry>& entries) {
-    cv::Point at(area.x + 10, area.y - 14);
-    for (const auto& e : entries) {
-      DrawMarker(image, at + cv::Point(5, -4), e.marker, e.color);
-      Text(image, e.text, at + cv::Point(16, 0));
-      at.x += 16 + TextWidth(e.text) + 22;
-    }
-  }
-
-  cv::Mat image;
-  cv::Rect area;
-
- private:
-  static double Fraction(const Axis& a, double v) {
-    if (a.log) {
-      return (std::log10(std::max(v, 1e-12)) - std::log10(a.lo)) /
-             (std::log10(a.hi) - std::log10(a.lo));
-    }
-    return (v - a.lo) / (a.hi - a.lo);
-  }
-  Axis x_, y_;
-};
-
-std::string Base64(const std::vector<uchar>& data) {
-  static const char* table = "ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
-  std::string out;
-  out.reserve((data.size() + 2) / 3 * 4);
-  for (size_t i = 0; i < data.size(); i += 3) {
-    const uint32_t b = (data[i] << 16) | ((i + 1 < data.size() ? data[i + 1] : 0) << 8) |
-                       (i + 2 < data.size() ? data[i + 2] : 0);
-    out += table[(b >> 18) & 63];
-    out += table[(b >> 12) & 63];
-    out += i + 1 < data.size() ? table[(b >> 6) & 63] : '=';
-    out += i + 2 < data.size() ? table[b & 63] : '=';
-  }
-  return out;
-}
-
-struct Figure {
-  std::string file, title, png_base64;
-};
-
-Figure Save(const std::string& dir, const std::string& file, const std::string& title,
-            const cv::Mat& image) {
-  std::vector<uchar> png;
-  if (!cv::imencode(".png", image, png)) throw std::runtime_error("cannot encode " + file);
-  io::WriteFileAtomically(dir + "/" + file, std::string(png.begin(), png.end()));
-  return {file, title, Base64(png)};
-}
-
-Html FigureHtml(const Figure& f) {
-  // The base64 text is the program's own encoding of its PNG: trusted markup.
-  return HtmlFormat(
-      "<figure><img alt=\"{}\" src=\"data:image/png;base64,{}\"><figcaption>{}</figcaption>"
-      "</figure>\n",
-      f.title, Html::Trusted(f.png_base64), f.title);
-}
-
-Html Num(double v, int decimals = 4) {
-  if (std::abs(v) < 0.5 * std::pow(10.0, -decimals)) v = 0.0;  // no "-0.0000"
-  return std::isfinite(v) ? Html::Text(fmt::format("{:.{}f}", v, decimals)) : Html("&mdash;");
-}
-
-std::string Now() {
-  return fmt::format("{:%Y-%m-%dT%H:%M:%SZ}",
-                     std::chrono::floor<std::chrono::seconds>(std::chrono::system_clock::now()));
-}
-
-const char* kStyle = R"css(
-body{font-family:sans-serif;margin:2em;max-width:960px;color:#222}
-h1{font-size:1.5em}h2{font-size:1.2em;margin-top:1.6em;break-after:avoid;page-break-after:avoid}
-table{border-collapse:collapse;margin:0.8em 0}
-td,th{border:1px solid #ccc;padding:3px 8px;text-align:left;vertical-align:top}
-th{background:#f4f4f4}
-td.num,th.num{text-align:right;white-space:nowrap;font-variant-numeric:tabular-nums}
-.nowrap{white-space:nowrap}
-table.header th{white-space:nowrap}
-.bad{color:#b00}.good{color:#070}.note{font-style:italic}
-figure{margin:1em 0;break-inside:avoid;page-break-inside:avoid}
-figure img{max-width:100%;border:1px solid #eee;display:block}
-figcaption{font-size:0.85em;color:#555}
-.joints{display:flex;flex-wrap:wrap;gap:8px}.joints figure{margin:0.3em 0}
-@page{size:A4;margin:14mm}
-@media print{
-  body{margin:0;max-width:none;font-size:9pt}
-  figure img{max-width:100%;height:auto}
-  table{break-inside:avoid;page-break-inside:avoid}
-  .joints figure{width:48%}
-}
-)css";
-
-}  // namespace
 
 std::string ReportSetMarker(const std::string& robot, int version) {
   if (version <= 0) return "";
@@ -854,7 +576,7 @@ std::string WriteReport(const std::string& dir, const ReportInput& in) {
   Html html = HtmlFormat(
       "<!doctype html>\n<html><head><meta charset=\"utf-8\"><title>armsig report: {}</title>\n"
       "{}<style>{}</style>\n</head><body>\n",
-      in.robot, Html::Trusted(ReportSetMarker(in.robot, in.version)), Html::Trusted(kStyle));
+      in.robot, Html::Trusted(ReportSetMarker(in.robot, in.version)), Html::Trusted(kPageStyle));
   html += HtmlFormat("<h1>Recalibration of {}</h1>\n", in.robot);
   html += HtmlFormat("<p class=\"{}\"><b>{}</b></p>\n", in.version > 0 ? Html("good") : Html("bad"),
                      in.decision);
@@ -1232,8 +954,14 @@ std::string FormatChange(double value, bool millimetres) {
          " " + unit;
 }
 
+namespace {
+// The sessions with their fitted and validated pose counts: dates, the instruments of
+// their stored lab files and of the instruments table, their stations' latest set-ups.
+ReportSources LoadSessionSources(db::Database& db,
+                                 const std::map<int64_t, std::pair<int, int>>& counts);
+}  // namespace
+
 ReportSources LoadReportSources(db::Database& db, const CalibrationRun& run) {
-  ReportSources out;
   // Pose ids are "<session>:<label>" (db::LoadRobotPoses).
   std::map<int64_t, std::pair<int, int>> counts;  // session → fitted, validated
   auto count = [&](const std::vector<std::string>& ids, bool fit) {
@@ -1251,13 +979,27 @@ ReportSources LoadReportSources(db::Database& db, const CalibrationRun& run) {
   };
   count(run.fit_pose_ids, true);
   count(run.validation_pose_ids, false);
+  return LoadSessionSources(db, counts);
+}
+
+ReportSources LoadReportSources(db::Database& db, const std::vector<int64_t>& session_ids) {
+  std::map<int64_t, std::pair<int, int>> counts;
+  for (int64_t id : session_ids) counts[id] = {0, 0};
+  return LoadSessionSources(db, counts);
+}
+
+namespace {
+
+ReportSources LoadSessionSources(db::Database& db,
+                                 const std::map<int64_t, std::pair<int, int>>& counts) {
+  ReportSources out;
   std::vector<int64_t> ids;
   for (const auto& [id, c] : counts) ids.push_back(id);
 
   std::map<std::pair<std::string, std::string>, std::vector<int64_t>> instruments;
   for (const auto& s : db::LoadSessionSummaries(db, ids)) {
-    out.sessions.push_back({s.id, s.started_at, s.finished_at, s.state, s.note, counts[s.id].first,
-                            counts[s.id].second});
+    const auto [fitted, validated] = counts.at(s.id);
+    out.sessions.push_back({s.id, s.started_at, s.finished_at, s.state, s.note, fitted, validated});
     if (!s.lab_yaml.empty()) {
       try {
         const auto lab = acquisition::ParseLabSettings(
@@ -1298,5 +1040,7 @@ ReportSources LoadReportSources(db::Database& db, const CalibrationRun& run) {
   }
   return out;
 }
+
+}  // namespace
 
 }  // namespace armsig::workflows

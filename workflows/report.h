@@ -15,6 +15,7 @@
 #include "calibration/compensation.h"
 #include "db/database.h"
 #include "workflows/calibration_run.h"
+#include "workflows/figures.h"
 
 namespace armsig::workflows {
 
@@ -111,6 +112,8 @@ int RemoveReportDebris(const std::string& dir, double min_age_s);
 // names them), with their dates, the instruments of their stored lab files and of the
 // instruments table, and their stations' latest orientation.
 ReportSources LoadReportSources(db::Database& db, const CalibrationRun& run);
+// The same for sessions given by id (no pose counts): what the ISO 9283 page names.
+ReportSources LoadReportSources(db::Database& db, const std::vector<int64_t>& session_ids);
 
 // ---- The pieces of the page, exposed for tests ----
 
@@ -131,10 +134,7 @@ std::vector<AxisStatistics> ResidualStatistics(const std::vector<Eigen::Vector3d
 // Indices of the `count` largest error distances, largest first (ties: lower index first).
 std::vector<int> WorstResiduals(const std::vector<Eigen::Vector3d>& residuals, int count);
 
-// Axis ticks: steps of 1, 2 or 5 × 10^k covering [lo, hi] with about `max_ticks` steps.
-std::vector<double> NiceTicks(double lo, double hi, int max_ticks);
-// Count ticks 0, s, 2s, … (s = 1, 2, 5, 10, …) up to the first ≥ `largest`.
-std::vector<int> IntegerTicks(int largest, int max_ticks = 6);
+// NiceTicks and IntegerTicks: workflows/figures.h.
 
 // The histogram of error distances as drawn: equal bins from 0, integer counts and the
 // integer ticks of its count axis.

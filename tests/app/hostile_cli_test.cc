@@ -304,7 +304,9 @@ TEST(HostileCli, EveryNumericOptionOfEveryCommandIsRangeChecked) {
     walk(&app, {});
   }
   ASSERT_GT(numeric.size(), 20u);  // calibrate, recalibrate, orient, triangulate, demo, …
-  const std::set<std::string> negative_allowed = {"--seed-deg"};
+  // Joint angles, coordinates and orientation angles may be negative.
+  const std::set<std::string> negative_allowed = {"--seed-deg", "--cube", "--centre",
+                                                  "--orientation"};
   for (const auto& option : numeric) {
     std::vector<std::string> values = {"nan", "inf", "1e999", "1e300", "-1"};
     if (!option.positional) values.push_back("-inf");

@@ -26,31 +26,6 @@
 namespace armsig::testing {
 namespace {
 
-// RFC 4648 base64, written here independently of the product's encoder.
-std::vector<uchar> DecodeBase64(const std::string& text) {
-  auto value = [](char c) -> int {
-    if (c >= 'A' && c <= 'Z') return c - 'A';
-    if (c >= 'a' && c <= 'z') return c - 'a' + 26;
-    if (c >= '0' && c <= '9') return c - '0' + 52;
-    if (c == '+') return 62;
-    if (c == '/') return 63;
-    return -1;
-  };
-  std::vector<uchar> out;
-  int bits = 0, buffer = 0;
-  for (char c : text) {
-    const int v = value(c);
-    if (v < 0) continue;  // '=' padding
-    buffer = (buffer << 6) | v;
-    bits += 6;
-    if (bits >= 8) {
-      bits -= 8;
-      out.push_back(static_cast<uchar>((buffer >> bits) & 0xff));
-    }
-  }
-  return out;
-}
-
 struct Fixture {
   calibration::RobotModel model = Puma();
   std::vector<MeasuredPose> poses;

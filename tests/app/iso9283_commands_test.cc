@@ -1,0 +1,189 @@
+// The ISO 9283 commands through the program: a plan for a registered robot, its poses
+// measured elsewhere and imported as a session, the report (refused without a frame, then
+// with the reported rigid fit), the file evaluation, and what each refuses with exit 2.
+#include <fmt/format.h>
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <filesystem>
+#include <nlohmann/json.hpp>
+#include <random>
+
+#include "calibration/simulation.h"
+#include "core/units.h"
+#include "io/iso9283_csv.h"
+#include "test_support.h"
+
+namespace armsig::testing {
+namespace {
+
+// RP = l̄ + 3 S_l (S_l on n − 1), written out here.
+double RpOf(const std::vector<Eigen::Vector3d>& x) {
+  Eigen::Vector3d b = Eigen::Vector3d::Zero();
+  for (const auto& p : x) b += p / static_cast<double>(x.size());
+  std::vector<double> l;
+  double mean = 0.0;
+  for (const auto& p : x) {
+    l.push_back((p - b).norm());
+    mean += l.back() / static_cast<double>(x.size());
+  }
+  double squares = 0.0;
+  for (double v : l) squares += (v - mean) * (v - mean);
+  return mean + 3.0 * std::sqrt(squares / static_cast<double>(x.size() - 1));
+}
+
+TEST(Iso9283Commands, PlanMeasureImportReportAndEvaluate) {
+  TempDir dir;
+  const std::string db = "--db '" + dir.File("lab.db") + "' ";
+  ASSERT_EQ(RunArmsig(db + "robot add puma --model '" + SourcePath("models/puma760.yaml") + "'")
+                .exit_code,
+            0);
+  const auto plan =
+      RunArmsig(db + "iso9283 plan --robot puma --cube 600,100,700,400 --cycles 6 --out '" +
+                dir.File("plan.csv") + "'");
+  ASSERT_EQ(plan.exit_code, 0) << plan.err;
+  EXPECT_NE(plan.out.find("30 configurations"), std::string::npos) << plan.out;
+  EXPECT_NE(plan.out.find("distance P2-P4: 554.256 mm"), std::string::npos) << plan.out;
+
+  // Measured elsewhere: the true robot (the paper's errors) with 0.05 mm of scatter, in a
+  // tracker frame 2 m away and turned; the poses CSV keeps the plan's labels.
+  const auto model = Puma();
+  const auto rows = io::ReadIso9283PlanCsv(dir.File("plan.csv"), 6);
+  Eigen::Isometry3d tracker_from_robot = Eigen::Isometry3d::Identity();
+  tracker_from_robot.translate(Eigen::Vector3d(2000.0, -300.0, 100.0));
+  tracker_from_robot.rotate(Eigen::AngleAxisd(1.1, Eigen::Vector3d::UnitZ()));
+  std::mt19937 rng(4);
+  std::normal_distribution<double> noise(0.0, 0.05);
+  calibration::Kinematics kin(model);
+  const Eigen::VectorXd truth = calibration::PaperTable3Parameters();
+  std::string poses = "pose,q1_deg,q2_deg,q3_deg,q4_deg,q5_deg,q6_deg,x_mm,y_mm,z_mm\n";
+  std::map<std::string, std::vector<Eigen::Vector3d>> attained;
+  for (const auto& r : rows) {
+    const Eigen::Vector3d x =
+        tracker_from_robot *
+        (kin.Position(Eigen::Isometry3d::Identity(), truth, r.joints_rad.data()) +
+         Eigen::Vector3d(noise(rng), noise(rng), noise(rng)));
+    attained[r.point].push_back(x);
+    poses += r.pose;
+    for (int i = 0; i < 6; ++i) poses += fmt::format(",{:.10f}", r.joints_rad(i) / kRadPerDeg);
+    poses += fmt::format(",{:.6f},{:.6f},{:.6f}\n", x.x(), x.y(), x.z());
+  }
+  WriteText(dir.File("measured.csv"), poses);
+  const auto imported = RunArmsig(db + "import poses '" + dir.File("measured.csv") +
+                                  "' --robot puma --id pose --joint-columns "
+                                  "q1_deg,q2_deg,q3_deg,q4_deg,q5_deg,q6_deg --joint-unit deg "
+                                  "--xyz-columns x_mm,y_mm,z_mm");
+  ASSERT_EQ(imported.exit_code, 0) << imported.err;
+
+  // No signature, no lab file: the robot's frame is unknown, and the report says how to go on.
+  const auto unframed =
+      RunArmsig(db + "iso9283 report --robot puma --session 1 --out '" + dir.File("r0") + "'");
+  EXPECT_EQ(unframed.exit_code, 2);
+  EXPECT_NE(unframed.err.find("--align"), std::string::npos) << unframed.err;
+  EXPECT_FALSE(std::filesystem::exists(dir.File("r0/index.html")));
+
+  const auto report =
+      RunArmsig(db + "iso9283 report --robot puma --session 1 --align --speed-percent 100 --out '" +
+                dir.File("report") + "' --json '" + dir.File("report.json") + "'");
+  ASSERT_EQ(report.exit_code, 0) << report.err;
+  EXPECT_NE(report.out.find("rigid best fit"), std::string::npos) << report.out;
+  EXPECT_TRUE(std::filesystem::exists(dir.File("report/index.html")));
+  const auto j = nlohmann::json::parse(ReadText(dir.File("report.json")));
+  ASSERT_EQ(j["points"].size(), 5u);
+  for (const auto& p : j["points"]) {
+    EXPECT_EQ(p["n"], 6);
+    // RP does not depend on the frame: the tracker-frame positions give it directly.
+    EXPECT_NEAR(p["RP_mm"].get<double>(), RpOf(attained[p["point"]]), 1e-6) << p["point"];
+  }
+  EXPECT_EQ(j["alignment"]["method"], "rigid best fit");
+  EXPECT_EQ(j["conditions"]["speed_percent"], 100.0);
+  EXPECT_EQ(j["distance"]["from"], "P2");
+  // The imported session kept no targets: the nominal positions of the planned joints stand
+  // in (said in a note), which for a nominal plan are the plan's targets: --commanded agrees.
+  EXPECT_NE(j["notes"].dump().find("no stored target"), std::string::npos) << j["notes"];
+  const auto given = RunArmsig(
+      db + "iso9283 report --robot puma --session 1 --align --commanded '" + dir.File("plan.csv") +
+      "' --out '" + dir.File("report2") + "' --json '" + dir.File("report2.json") + "'");
+  ASSERT_EQ(given.exit_code, 0) << given.err;
+  const auto j2 = nlohmann::json::parse(ReadText(dir.File("report2.json")));
+  for (int k = 0; k < 5; ++k)
+    EXPECT_NEAR(j2["points"][k]["AP_mm"].get<double>(), j["points"][k]["AP_mm"].get<double>(),
+                1e-4);
+
+  // The same data as files: commanded P1…P5 and the attained cycles.
+  std::string commanded = "point,x_mm,y_mm,z_mm\n", cycles = "point,cycle,x_mm,y_mm,z_mm\n";
+  for (const auto& r : rows) {
+    if (r.cycle == 1)
+      commanded +=
+          fmt::format("{},{},{},{}\n", r.point, r.target_mm.x(), r.target_mm.y(), r.target_mm.z());
+  }
+  std::map<std::string, int> cycle;
+  for (const auto& r : rows) {
+    const Eigen::Vector3d& x = attained[r.point][cycle[r.point]++];
+    cycles += fmt::format("{},{},{:.6f},{:.6f},{:.6f}\n", r.point, r.cycle, x.x(), x.y(), x.z());
+  }
+  WriteText(dir.File("commanded.csv"), commanded);
+  WriteText(dir.File("attained.csv"), cycles);
+  const auto evaluated =
+      RunArmsig("iso9283 evaluate --commanded '" + dir.File("commanded.csv") + "' --attained '" +
+                dir.File("attained.csv") + "' --align --json '" + dir.File("e.json") + "'");
+  ASSERT_EQ(evaluated.exit_code, 0) << evaluated.err;
+  const auto je = nlohmann::json::parse(ReadText(dir.File("e.json")));
+  ASSERT_EQ(je["points"].size(), 5u);
+  for (const auto& p : je["points"]) {  // in the file's order: P1 P5 P4 P3 P2
+    const auto& q = j2["points"][p["point"].get<std::string>()[1] - '1'];
+    ASSERT_EQ(q["point"], p["point"]);
+    EXPECT_NEAR(p["AP_mm"].get<double>(), q["AP_mm"].get<double>(), 1e-4);
+    EXPECT_NEAR(p["RP_mm"].get<double>(), q["RP_mm"].get<double>(), 1e-5);
+  }
+  EXPECT_NEAR(je["distance"]["AD_mm"].get<double>(), j2["distance"]["AD_mm"].get<double>(), 1e-4);
+}
+
+TEST(Iso9283Commands, RefusalsAreExitTwoNamingWhatIsWrong) {
+  TempDir dir;
+  const std::string db = "--db '" + dir.File("lab.db") + "' ";
+  ASSERT_EQ(RunArmsig(db + "robot add puma --model '" + SourcePath("models/puma760.yaml") + "'")
+                .exit_code,
+            0);
+  const std::string out = " --out '" + dir.File("p.csv") + "'";
+  const auto far = RunArmsig(db + "iso9283 plan --robot puma --cube 5000,0,0,100" + out);
+  EXPECT_EQ(far.exit_code, 2);
+  EXPECT_NE(far.err.find("cannot be reached"), std::string::npos) << far.err;
+  const auto three = RunArmsig(db + "iso9283 plan --robot puma --cube 600,100,700" + out);
+  EXPECT_EQ(three.exit_code, 2);
+  EXPECT_NE(three.err.find("expected 4 numbers, got 3"), std::string::npos) << three.err;
+  const auto both = RunArmsig(db + "iso9283 plan --robot puma --cube 600,100,700,400 --auto" + out);
+  EXPECT_EQ(both.exit_code, 2);
+  const auto neither = RunArmsig(db + "iso9283 plan --robot puma" + out);
+  EXPECT_EQ(neither.exit_code, 2);
+  EXPECT_NE(neither.err.find("--auto"), std::string::npos) << neither.err;
+  const auto uncalibrated =
+      RunArmsig(db + "iso9283 plan --robot puma --cube 600,100,700,400 --compensated" + out);
+  EXPECT_EQ(uncalibrated.exit_code, 2);
+  EXPECT_NE(uncalibrated.err.find("no active parameter set"), std::string::npos)
+      << uncalibrated.err;
+  EXPECT_FALSE(std::filesystem::exists(dir.File("p.csv")));
+  const auto unknown = RunArmsig(db + "iso9283 report --robot puma --session 9 --align --out '" +
+                                 dir.File("r") + "'");
+  EXPECT_EQ(unknown.exit_code, 2);
+  EXPECT_NE(unknown.err.find("no session 9"), std::string::npos) << unknown.err;
+  WriteText(dir.File("c.csv"), "point,x_mm,y_mm,z_mm\nP1,0,0,0\n");
+  WriteText(dir.File("a.csv"), "point,cycle,x_mm,y_mm,z_mm\nP1,1,0,0,0\nP1,x,0,0,0\n");
+  const auto bad =
+      RunArmsig("iso9283 evaluate --commanded '" + dir.File("c.csv") + "' --attained '" +
+                dir.File("a.csv") + "' --json '" + dir.File("e.json") + "'");
+  EXPECT_EQ(bad.exit_code, 2);
+  EXPECT_NE(bad.err.find("a.csv:3"), std::string::npos) << bad.err;
+  EXPECT_FALSE(std::filesystem::exists(dir.File("e.json")));
+  // Three commanded points on one line cannot fix a frame.
+  WriteText(dir.File("line.csv"), "point,x_mm,y_mm,z_mm\nA,0,0,0\nB,1,0,0\nC,2,0,0\n");
+  WriteText(dir.File("on.csv"), "point,x_mm,y_mm,z_mm\nA,0,0,0\nB,1,0,0\nC,2,0,0\n");
+  const auto line =
+      RunArmsig("iso9283 evaluate --commanded '" + dir.File("line.csv") + "' --attained '" +
+                dir.File("on.csv") + "' --align --json '" + dir.File("e.json") + "'");
+  EXPECT_EQ(line.exit_code, 2);
+  EXPECT_NE(line.err.find("not on one"), std::string::npos) << line.err;
+}
+
+}  // namespace
+}  // namespace armsig::testing

@@ -1,0 +1,494 @@
+#include "workflows/iso9283.h"
+
+#include <fmt/format.h>
+#include <spdlog/spdlog.h>
+
+#include <algorithm>
+#include <cmath>
+#include <map>
+
+#include "calibration/compensation.h"
+#include "calibration/pose_solver.h"
+#include "core/error.h"
+#include "core/text.h"
+#include "core/units.h"
+#include "workflows/hint.h"
+
+namespace armsig::workflows {
+
+namespace iso = calibration::iso9283;
+
+namespace {
+
+// 0, 0, 90°, 0, 30°, 0: the elbow bent (the target well inside the reach) and, on a
+// six-joint arm, the wrist off its singularity (joint 5 at zero lines up joints 4 and 6,
+// where holding the tool's orientation would leave them free).
+Eigen::VectorXd DefaultSeed(int n) {
+  Eigen::VectorXd seed = Eigen::VectorXd::Zero(n);
+  if (n >= 3) seed(2) = kPi / 2;
+  if (n == 6) seed(4) = kPi / 6;
+  return seed;
+}
+
+std::string Mm(const Eigen::Vector3d& v) {
+  return fmt::format("({:.3f}, {:.3f}, {:.3f})", v.x(), v.y(), v.z());
+}
+
+std::string Degrees(const Eigen::VectorXd& q) {
+  std::string out;
+  for (int i = 0; i < q.size(); ++i)
+    out += fmt::format("{}{:.3f}", i ? ", " : "", q(i) / kRadPerDeg);
+  return out;
+}
+
+// The nominal model's inverse for one pose: position and tool orientation for a six-joint
+// arm, the position alone otherwise (fewer joints cannot hold an orientation too).
+class NominalInverse {
+ public:
+  NominalInverse(const calibration::RobotModel& model, const Eigen::Matrix3d& rotation)
+      : model_(model), rotation_(rotation), zero_(Eigen::VectorXd::Zero(model.num_parameters())) {}
+  // From `seed` (the solution at `from_mm`); when the damped least squares stalls in a
+  // local minimum on the way, again along the straight line from `from_mm` in small
+  // steps, each from the last one's joints (a continuation: it follows one branch).
+  calibration::JointSolution Solve(const Eigen::Vector3d& target_mm, const Eigen::VectorXd& seed,
+                                   const Eigen::Vector3d& from_mm) const {
+    calibration::JointSolution s = SolveOnce(target_mm, seed);
+    if (s.status.code != SolveCode::kNotConverged) return s;
+    constexpr int kSteps = 10;
+    Eigen::VectorXd q = seed;
+    for (int k = 1; k <= kSteps; ++k) {
+      s = SolveOnce(from_mm + (target_mm - from_mm) * k / kSteps, q);
+      if (s.status.code == SolveCode::kNotConverged || s.status.code == SolveCode::kNonFinite)
+        return s;
+      q = s.joints_rad;
+    }
+    return s;
+  }
+
+ private:
+  calibration::JointSolution SolveOnce(const Eigen::Vector3d& target_mm,
+                                       const Eigen::VectorXd& seed) const {
+    if (model_.num_joints() == 6) {
+      return calibration::SolvePose(model_, Eigen::Isometry3d::Identity(), zero_, target_mm,
+                                    rotation_, seed);
+    }
+    return calibration::SolveJoints(model_, Eigen::Isometry3d::Identity(), zero_, target_mm, seed);
+  }
+
+  const calibration::RobotModel& model_;
+  Eigen::Matrix3d rotation_;
+  Eigen::VectorXd zero_;
+};
+
+std::string CycleLabel(int cycle, int cycles) {
+  return cycles < 100 ? fmt::format("{:02d}", cycle) : fmt::format("{:03d}", cycle);
+}
+
+}  // namespace
+
+Iso9283Plan MakeIso9283Plan(const calibration::RobotModel& model, const std::string& robot,
+                            const Iso9283PlanOptions& o, const ActiveSignature* signature) {
+  if (o.cycles < 1) throw InputError({"--cycles", 0, 0, ""}, "expected at least one cycle");
+  if (o.compensated && !signature) {
+    throw InputError({"--compensated", 0, 0, ""},
+                     "robot " + ShellWord(robot) +
+                         " has no active arm signature to compensate with (fit one with "
+                         "recalibrate, or plan without --compensated)");
+  }
+  const int n = model.num_joints();
+  const Eigen::VectorXd zero = Eigen::VectorXd::Zero(model.num_parameters());
+  const Eigen::VectorXd seed = o.seed_rad.value_or(DefaultSeed(n));
+  if (seed.size() != n)
+    throw InputError({"--seed-deg", 0, 0, ""}, fmt::format("expected {} joint angles", n));
+  calibration::Kinematics kin(model);
+  const Eigen::Vector3d centre =
+      o.cube ? o.cube->centre_mm
+             : o.centre_mm.value_or(kin.Position(Eigen::Isometry3d::Identity(), zero, seed.data()));
+  const char* where = o.cube ? "--cube" : "--centre";
+
+  // P1 first: it fixes the tool orientation of every pose (unless --orientation does).
+  Iso9283Plan plan;
+  calibration::JointSolution centre_solution;
+  if (o.orientation_rad && n == 6) {
+    plan.tool_rotation = iso::RotationFromAbc(*o.orientation_rad);
+    centre_solution = calibration::SolvePose(model, Eigen::Isometry3d::Identity(), zero, centre,
+                                             plan.tool_rotation, seed);
+  } else {
+    centre_solution =
+        calibration::SolveJoints(model, Eigen::Isometry3d::Identity(), zero, centre, seed);
+  }
+  if (!centre_solution.status.ok()) {
+    throw InputError({o.orientation_rad ? "--orientation" : where, 0, 0, ""},
+                     fmt::format("the centre {} mm cannot be reached by model {}{}: {}", Mm(centre),
+                                 model.name, o.orientation_rad ? " with that tool orientation" : "",
+                                 centre_solution.status.message));
+  }
+  const Eigen::VectorXd q_centre = centre_solution.joints_rad;
+  if (!(o.orientation_rad && n == 6))
+    plan.tool_rotation =
+        calibration::LastLinkRotation(model, Eigen::Isometry3d::Identity(), zero, q_centre);
+  if (o.orientation_rad && n != 6)
+    spdlog::warn(
+        "iso9283 plan: model {} has {} joints: the tool orientation cannot be held, "
+        "only the positions are commanded",
+        model.name, n);
+  const NominalInverse inverse(model, plan.tool_rotation);
+
+  auto reachable = [&](const iso::TestCube& cube) {
+    for (const auto& c : iso::CubeCorners(cube))
+      if (!inverse.Solve(c, q_centre, centre).status.ok()) return false;
+    for (const auto& p : iso::TestPoints(cube))
+      if (!inverse.Solve(p.position_mm, q_centre, centre).status.ok()) return false;
+    return true;
+  };
+  if (o.cube) {
+    plan.cube = *o.cube;
+  } else {
+    const double edge = iso::LargestCubeEdge(centre, reachable, 10.0, 4000.0, 1.0);
+    if (edge <= 0.0) {
+      throw InputError({"--centre", 0, 0, ""},
+                       fmt::format("--auto: not even a 10 mm cube around {} mm is within the reach "
+                                   "of model {} with this tool orientation",
+                                   Mm(centre), model.name));
+    }
+    plan.cube = {centre, std::floor(edge / 10.0) * 10.0};
+  }
+  for (const auto& c : iso::CubeCorners(plan.cube)) {
+    if (const auto s = inverse.Solve(c, q_centre, centre); !s.status.ok()) {
+      spdlog::warn(
+          "iso9283 plan: corner {} mm of the cube is not within the model's reach ({}): "
+          "the standard's cube lies in the working space",
+          Mm(c), s.status.message);
+    }
+  }
+
+  // P1…P5: nominal joints by the inverse, then (with --compensated) the signature's.
+  std::map<std::string, const Iso9283PlannedPoint*> by_name;
+  auto compensate = [&](const Eigen::Vector3d& target, const Eigen::VectorXd& nominal,
+                        const std::string& what) {
+    const auto s =
+        calibration::SolveJoints(model, Eigen::Isometry3d::Identity(), signature->signature.params,
+                                 target, nominal, {}, signature->signature.map.get());
+    if (!s.status.ok()) {
+      throw InputError({"--compensated", 0, 0, ""},
+                       fmt::format("{} {} mm: the calibrated robot cannot reach it ({})", what,
+                                   Mm(target), s.status.message));
+    }
+    return s.joints_rad;
+  };
+  for (const auto& p : iso::TestPoints(plan.cube)) {
+    Iso9283PlannedPoint planned;
+    planned.name = p.name;
+    planned.target_mm = p.position_mm;
+    const auto s =
+        p.name == "P1" ? centre_solution : inverse.Solve(p.position_mm, q_centre, centre);
+    if (!s.status.ok()) {
+      throw InputError({where, 0, 0, ""},
+                       fmt::format("test point {} at {} mm cannot be reached by model {}: {}",
+                                   p.name, Mm(p.position_mm), model.name, s.status.message));
+    }
+    planned.nominal_joints_rad = planned.joints_rad = s.joints_rad;
+    if (o.compensated) {
+      planned.joints_rad = compensate(p.position_mm, s.joints_rad, "test point " + p.name);
+      planned.compensation_mm =
+          (kin.Position(Eigen::Isometry3d::Identity(), zero, planned.joints_rad.data()) -
+           p.position_mm)
+              .norm();
+    }
+    plan.points.push_back(std::move(planned));
+  }
+  if (o.compensated) plan.signature_version = signature->signature.version;
+
+  // The multi-directional test's via points, per point and side.
+  std::vector<std::array<Eigen::VectorXd, 3>> via_joints(plan.points.size());
+  std::vector<std::array<Eigen::Vector3d, 3>> via_targets(plan.points.size());
+  if (o.multi_directional) {
+    for (size_t i = 0; i < plan.points.size(); ++i) {
+      for (int k = 0; k < 3; ++k) {
+        const Eigen::Vector3d via = plan.points[i].target_mm + o.approach_mm * iso::ApproachSide(k);
+        const auto s =
+            inverse.Solve(via, plan.points[i].nominal_joints_rad, plan.points[i].target_mm);
+        if (!s.status.ok()) {
+          throw InputError(
+              {"--approach-mm", 0, 0, ""},
+              fmt::format("the via point of {} on its +{} side, {} mm, cannot be "
+                          "reached: {}",
+                          plan.points[i].name, iso::ApproachName(k), Mm(via), s.status.message));
+        }
+        via_targets[i][k] = via;
+        via_joints[i][k] =
+            o.compensated ? compensate(via, s.joints_rad, "via point") : s.joints_rad;
+      }
+    }
+  }
+  for (int c = 1; c <= o.cycles; ++c) {
+    for (int index : iso::kCycleOrder) {
+      const auto& p = plan.points[index];
+      const std::string label = p.name + "-" + CycleLabel(c, o.cycles);
+      if (!o.multi_directional) {
+        plan.rows.push_back({label, p.name, c, "", p.target_mm, p.joints_rad});
+        continue;
+      }
+      for (int k = 0; k < 3; ++k) {
+        const std::string side = iso::ApproachName(k);
+        plan.rows.push_back(
+            {label + "-" + side + "-via", "", 0, "", via_targets[index][k], via_joints[index][k]});
+        plan.rows.push_back({label + "-" + side, p.name, c, side, p.target_mm, p.joints_rad});
+      }
+    }
+  }
+  const Eigen::Vector3d abc = iso::AbcFromRotation(plan.tool_rotation) / kRadPerDeg;
+  const std::string comment = fmt::format(
+      "armsig iso9283 plan: robot {} (model {}); cube centre {} mm, edge {:.1f} mm\n"
+      "measuring plane C1-C2-C7-C8; P2, P3, P4, P5 at 10 % of the diagonal from C1, C2, C7, C8\n"
+      "{} cycles in the order P1 P5 P4 P3 P2{}; tool orientation a {:.4f}, b {:.4f}, c {:.4f} deg\n"
+      "joints: {}; targets x_mm, y_mm, z_mm in the robot frame",
+      robot, model.name, Mm(plan.cube.centre_mm), plan.cube.edge_mm, o.cycles,
+      o.multi_directional
+          ? fmt::format(", each point approached from its +x, +y and +z side ({:g} mm via points)",
+                        o.approach_mm)
+          : std::string(),
+      abc.x(), abc.y(), abc.z(),
+      o.compensated
+          ? fmt::format("compensated with arm signature version {}", plan.signature_version)
+          : std::string("the nominal model's inverse"));
+  plan.csv = io::FormatIso9283PlanCsv(plan.rows, comment);
+  return plan;
+}
+
+std::string FormatIso9283PlanSummary(const Iso9283Plan& plan, const std::string& out_path) {
+  std::string out = fmt::format("ISO 9283 test cube: centre {} mm, edge {:.1f} mm\n",
+                                Mm(plan.cube.centre_mm), plan.cube.edge_mm);
+  for (const auto& p : plan.points) {
+    out +=
+        fmt::format("  {}  {} mm   joints {} deg", p.name, Mm(p.target_mm), Degrees(p.joints_rad));
+    if (plan.signature_version > 0)
+      out += fmt::format("   (compensation {:.3f} mm)", p.compensation_mm);
+    out += "\n";
+  }
+  for (const auto& pair : iso::kDistancePairs) {
+    out += fmt::format("  distance {}-{}: {:.3f} mm\n", plan.points[pair.from].name,
+                       plan.points[pair.to].name,
+                       (plan.points[pair.from].target_mm - plan.points[pair.to].target_mm).norm());
+  }
+  out += fmt::format(
+      "{} configurations -> {} ({})\n", plan.rows.size(), out_path,
+      plan.signature_version > 0
+          ? fmt::format("compensated with arm signature version {}", plan.signature_version)
+          : std::string("nominal joints"));
+  return out;
+}
+
+// ---- The figures ----
+
+Iso9283Evaluation EvaluateIso9283(std::vector<iso::PointData> points, bool align,
+                                  const Iso9283Frame& frame) {
+  Iso9283Evaluation e;
+  e.frame = frame;
+  if (align) {
+    std::vector<Eigen::Vector3d> attained, commanded;
+    for (const auto& p : points) {
+      if (p.samples.empty()) continue;
+      Eigen::Vector3d sum = Eigen::Vector3d::Zero();
+      for (const auto& s : p.samples) sum += s.position_mm;
+      attained.push_back(sum / static_cast<double>(p.samples.size()));
+      commanded.push_back(p.commanded_mm);
+    }
+    const auto fit = iso::AlignRigidly(attained, commanded);
+    if (!fit) {
+      throw InputError({"--align", 0, 0, ""},
+                       fmt::format("a rigid best fit needs three or more test points not on one "
+                                   "line (got {})",
+                                   attained.size()));
+    }
+    for (auto& p : points) iso::TransformSamples(p, fit->commanded_from_attained);
+    e.frame.method = "rigid best fit";
+    e.frame.commanded_from_attained = fit->commanded_from_attained;
+    e.frame.fit = fit;
+    e.frame.detail = fmt::format(
+        "rigid best fit of the {} barycentres onto the commanded positions (rms {:.4f} mm): it "
+        "absorbs the rigid part of the pose error",
+        attained.size(), fit->rms_mm);
+  }
+  for (const auto& p : points) {
+    if (p.samples.empty()) {
+      e.notes.push_back("point " + p.name + " was never attained: left out");
+      continue;
+    }
+    e.data.push_back(p);
+    e.points.push_back(iso::EvaluatePoint(p));
+    std::vector<Eigen::Vector3d> x;
+    for (const auto& s : p.samples) x.push_back(s.position_mm);
+    e.rp_intervals.push_back(iso::BootstrapRpInterval(x));
+  }
+  for (const auto& pair : iso::kDistancePairs) {
+    const std::string a = fmt::format("P{}", pair.from + 1), b = fmt::format("P{}", pair.to + 1);
+    const auto ia =
+        std::find_if(points.begin(), points.end(), [&](auto& p) { return p.name == a; });
+    const auto ib =
+        std::find_if(points.begin(), points.end(), [&](auto& p) { return p.name == b; });
+    if (ia == points.end() || ib == points.end()) continue;
+    if (auto d = iso::EvaluateDistance(*ia, *ib)) e.distances.push_back(std::move(*d));
+  }
+  return e;
+}
+
+Iso9283Evaluation EvaluateIso9283Files(const std::string& commanded_csv,
+                                       const std::string& attained_csv, bool align) {
+  const auto commanded = io::ReadCommandedCsv(commanded_csv);
+  const auto attained = io::ReadAttainedCsv(attained_csv);
+  std::vector<iso::PointData> points;
+  std::map<std::string, size_t> index;
+  for (const auto& c : commanded) {
+    index[c.point] = points.size();
+    points.push_back({c.point, c.position_mm, c.orientation_rad, {}});
+  }
+  std::map<std::string, int> approaches;  // name → 1, 2, … by first appearance
+  for (const auto& a : attained) {
+    const auto it = index.find(a.point);
+    if (it == index.end()) {
+      throw InputError(
+          {attained_csv, a.line, 0, ""},
+          "point " + Quoted(a.point) + " is not in the commanded poses " + commanded_csv);
+    }
+    int approach = 0;
+    if (!a.approach.empty()) {
+      approach =
+          approaches.emplace(a.approach, static_cast<int>(approaches.size()) + 1).first->second;
+    }
+    points[it->second].samples.push_back({a.cycle, approach, a.position_mm, a.orientation_rad});
+  }
+  Iso9283Evaluation e = EvaluateIso9283(std::move(points), align);
+  return e;
+}
+
+namespace {
+
+nlohmann::json Vec(const Eigen::Vector3d& v, double scale = 1.0) {
+  return {v.x() * scale, v.y() * scale, v.z() * scale};
+}
+nlohmann::json NumberOrNull(double v) {
+  return std::isfinite(v) ? nlohmann::json(v) : nlohmann::json();
+}
+
+}  // namespace
+
+nlohmann::json Iso9283Json(const Iso9283Evaluation& e) {
+  nlohmann::json points = nlohmann::json::array();
+  const double deg = 1.0 / kRadPerDeg;
+  for (size_t i = 0; i < e.points.size(); ++i) {
+    const auto& f = e.points[i];
+    nlohmann::json p = {{"point", f.name},
+                        {"n", f.n},
+                        {"commanded_mm", Vec(f.commanded_mm)},
+                        {"barycentre_mm", Vec(f.barycentre_mm)},
+                        {"AP_mm", f.ap_mm},
+                        {"APx_mm", f.ap_xyz_mm.x()},
+                        {"APy_mm", f.ap_xyz_mm.y()},
+                        {"APz_mm", f.ap_xyz_mm.z()},
+                        {"RP_mm", NumberOrNull(f.rp_mm)},
+                        {"l_mean_mm", NumberOrNull(f.mean_l_mm)},
+                        {"S_l_mm", NumberOrNull(f.s_l_mm)}};
+    const auto& interval = e.rp_intervals[i];
+    p["RP_interval_mm"] = interval ? nlohmann::json{interval->lo, interval->hi} : nlohmann::json();
+    if (f.ap_abc_rad) {
+      p["APa_deg"] = f.ap_abc_rad->x() * deg;
+      p["APb_deg"] = f.ap_abc_rad->y() * deg;
+      p["APc_deg"] = f.ap_abc_rad->z() * deg;
+    }
+    if (f.rp_abc_rad) {
+      p["RPa_deg"] = f.rp_abc_rad->x() * deg;
+      p["RPb_deg"] = f.rp_abc_rad->y() * deg;
+      p["RPc_deg"] = f.rp_abc_rad->z() * deg;
+    }
+    if (f.vap_mm) {
+      p["vAP_mm"] = *f.vap_mm;
+      p["approaches"] = f.approaches;
+    }
+    if (f.vap_abc_rad) {
+      p["vAPa_deg"] = f.vap_abc_rad->x() * deg;
+      p["vAPb_deg"] = f.vap_abc_rad->y() * deg;
+      p["vAPc_deg"] = f.vap_abc_rad->z() * deg;
+    }
+    points.push_back(std::move(p));
+  }
+  nlohmann::json out = {{"points", points}};
+  nlohmann::json distances = nlohmann::json::array();
+  for (const auto& d : e.distances) {
+    distances.push_back({{"from", d.from},
+                         {"to", d.to},
+                         {"n", d.n},
+                         {"commanded_mm", d.commanded_mm},
+                         {"mean_mm", d.mean_mm},
+                         {"AD_mm", d.ad_mm},
+                         {"RD_mm", NumberOrNull(d.rd_mm)},
+                         {"S_D_mm", NumberOrNull(d.s_d_mm)}});
+  }
+  if (!distances.empty()) {
+    out["distance"] = distances.front();
+    out["distances"] = distances;
+  }
+  const Eigen::Isometry3d& t = e.frame.commanded_from_attained;
+  nlohmann::json rotation = nlohmann::json::array();
+  for (int r = 0; r < 3; ++r)
+    rotation.push_back({t.linear()(r, 0), t.linear()(r, 1), t.linear()(r, 2)});
+  nlohmann::json alignment = {{"method", e.frame.method},
+                              {"detail", e.frame.detail},
+                              {"rotation", rotation},
+                              {"rotation_deg", Eigen::AngleAxisd(t.linear()).angle() * deg},
+                              {"translation_mm", Vec(t.translation())}};
+  if (e.frame.fit) {
+    alignment["rms_mm"] = e.frame.fit->rms_mm;
+    alignment["residuals_mm"] = e.frame.fit->residual_mm;
+  }
+  out["alignment"] = alignment;
+  if (!e.notes.empty()) out["notes"] = e.notes;
+  return out;
+}
+
+std::string FormatIso9283Figures(const Iso9283Evaluation& e) {
+  std::string out;
+  const bool oriented = std::any_of(e.points.begin(), e.points.end(),
+                                    [](const auto& f) { return f.rp_abc_rad.has_value(); });
+  if (e.points.size() <= 20) {
+    out += fmt::format("{:<8}{:>5}{:>10}{:>10}{:>10}{:>10}{:>10}{:>22}{}\n", "point", "n", "AP mm",
+                       "APx", "APy", "APz", "RP mm", "RP 95 % bootstrap",
+                       oriented ? "   RPa RPb RPc deg" : "");
+    for (size_t i = 0; i < e.points.size(); ++i) {
+      const auto& f = e.points[i];
+      const auto& iv = e.rp_intervals[i];
+      out += fmt::format("{:<8}{:>5}{:>10.4f}{:>10.4f}{:>10.4f}{:>10.4f}{:>10}{:>22}", f.name, f.n,
+                         f.ap_mm, f.ap_xyz_mm.x(), f.ap_xyz_mm.y(), f.ap_xyz_mm.z(),
+                         std::isfinite(f.rp_mm) ? fmt::format("{:.4f}", f.rp_mm) : "-",
+                         iv ? fmt::format("{:.4f} - {:.4f}", iv->lo, iv->hi) : "-");
+      if (f.rp_abc_rad) {
+        out += fmt::format("   {:.4f} {:.4f} {:.4f}", f.rp_abc_rad->x() / kRadPerDeg,
+                           f.rp_abc_rad->y() / kRadPerDeg, f.rp_abc_rad->z() / kRadPerDeg);
+      }
+      if (f.vap_mm) out += fmt::format("   vAP {:.4f} mm", *f.vap_mm);
+      out += "\n";
+    }
+  } else {
+    std::vector<double> ap;
+    for (const auto& f : e.points) ap.push_back(f.ap_mm);
+    std::sort(ap.begin(), ap.end());
+    double sum = 0.0;
+    for (double v : ap) sum += v;
+    out += fmt::format(
+        "{} points: AP mean {:.4f} mm, median {:.4f} mm, 95 % {:.4f} mm, max {:.4f} mm (every "
+        "point in --json)\n",
+        ap.size(), sum / ap.size(), ap[(ap.size() - 1) / 2],
+        ap[std::min(ap.size() - 1, static_cast<size_t>(std::ceil(0.95 * ap.size())) - 1)],
+        ap.back());
+  }
+  for (const auto& d : e.distances) {
+    out += fmt::format("distance {}-{}: n {}, commanded {:.4f} mm, AD {:+.4f} mm, RD {}\n", d.from,
+                       d.to, d.n, d.commanded_mm, d.ad_mm,
+                       std::isfinite(d.rd_mm) ? fmt::format("{:.4f} mm", d.rd_mm) : "-");
+  }
+  out += "frame: " + (e.frame.detail.empty() ? e.frame.method : e.frame.detail) + "\n";
+  for (const auto& n : e.notes) out += "note: " + n + "\n";
+  return out;
+}
+
+}  // namespace armsig::workflows
