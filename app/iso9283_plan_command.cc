@@ -51,7 +51,7 @@ int RunIso9283Plan(const Iso9283PlanCommandOptions& o, db::Database& db) {
   const auto robot_id = db::FindRobot(db, o.robot);
   if (!robot_id)
     throw InputError({db.path(), 0, 0, "--robot"},
-                     workflows::UnknownRobotMessage(db.path(), o.robot));
+                     workflows::UnknownRobotMessage(db, o.robot));
   const auto model =
       io::ParseRobotModel(db::RobotModelYaml(db, *robot_id), "model of robot " + o.robot);
   std::optional<workflows::ActiveSignature> signature;

@@ -299,7 +299,7 @@ std::string Conditions(db::Database& db, const SessionTest& t, Iso9283PageInput&
 Iso9283ReportResult RunIso9283Report(db::Database& db, const Iso9283ReportOptions& o) {
   const auto robot_id = db::FindRobot(db, o.robot);
   if (!robot_id)
-    throw InputError({db.path(), 0, 0, "--robot"}, UnknownRobotMessage(db.path(), o.robot));
+    throw InputError({db.path(), 0, 0, "--robot"}, UnknownRobotMessage(db, o.robot));
   const calibration::RobotModel model =
       io::ParseRobotModel(db::RobotModelYaml(db, *robot_id), "model of robot " + o.robot);
   std::optional<ActiveSignature> signature;
