@@ -1,22 +1,28 @@
 #!/usr/bin/env bash
-# Installs what armsig needs from Debian 12's packages. Checks first, so a second
-# run costs nothing. Run as root or with sudo available.
+# Installs what armsig needs from Debian 12's packages (with --tests: what its test suite
+# needs too). Checks first, so a second run costs nothing. Run as root or with sudo available.
 set -euo pipefail
 
+# What the program needs to build and run (scripts/demo.sh).
 PACKAGES=(
-  build-essential cmake ninja-build pkg-config
+  build-essential clang cmake ninja-build pkg-config
   libeigen3-dev libceres-dev
   libboost-dev libboost-system-dev
   libsqlite3-dev sqlite3 libsqlitecpp-dev
   libopencv-core-dev libopencv-imgproc-dev libopencv-imgcodecs-dev
   libyaml-cpp-dev nlohmann-json3-dev libcli11-dev
   libspdlog-dev libfmt-dev
-  libgtest-dev libgmock-dev libbenchmark-dev
-  chromium  # report rendering test (headless)
-  dpkg-dev file groff-base  # the .deb (cpack, dpkg-shlibdeps) and the manual page check
-  clang  # libFuzzer targets (fuzz/)
-  libpq-dev postgresql  # the PostgreSQL backend; the tests start a server of their own
+  libpq-dev  # the PostgreSQL backend
 )
+# What the test suite needs besides (scripts/setup.sh --tests, from scripts/test.sh).
+if [[ "${1:-}" == "--tests" ]]; then
+  PACKAGES+=(
+    libgtest-dev libgmock-dev libbenchmark-dev
+    chromium  # report rendering test (headless)
+    dpkg-dev file groff-base  # the .deb (cpack, dpkg-shlibdeps) and the manual page check
+    postgresql  # the tests start a server of their own
+  )
+fi
 
 missing=()
 for p in "${PACKAGES[@]}"; do
