@@ -93,7 +93,7 @@ bool UsableSigmas(const std::optional<instruments::ReadingSigmas>& s) {
 
 // A reading of the capture's target as an observation: with the sigmas the instrument
 // stated with it (a laser tracker), else its configured ones.
-reduction::Observation ObservationOf(const StationReading& r, const InstrumentConfig& c) {
+reduction::Observation TargetObservation(const StationReading& r, const InstrumentConfig& c) {
   reduction::Observation o;
   o.point = "target";
   o.station = c.station;
@@ -108,6 +108,46 @@ reduction::Observation ObservationOf(const StationReading& r, const InstrumentCo
     o.sigma_distance_mm = r.reading.sigma->distance_mm;
   }
   return o;
+}
+
+// A reading as stored: the observation with the instrument's own record of it (when its
+// answer arrived, its warning, its return code, the air at it) and the instrument's id.
+db::ObservationRow StoredReading(const StationReading& r, const InstrumentConfig& c,
+                                 int64_t pose, int64_t instrument_id) {
+  db::ObservationRow row = ObservationRowOf(TargetObservation(r, c), pose, r.reading.return_code);
+  if (const auto& air = r.reading.environment) {
+    row.temperature_c = air->temperature_c;
+    row.pressure_hpa = air->pressure_hpa;
+    row.humidity_percent = air->humidity_percent;
+  }
+  if (r.reading.time.time_since_epoch().count() > 0) {
+    row.measured_at = db::MeasuredAt(r.reading.time);
+  }
+  row.note = r.reading.note;
+  row.instrument_id = instrument_id;
+  return row;
+}
+
+// An instrument as the instruments table records it: named by its model and serial number
+// when it gave them (the same instrument on another port or station is the same row), else
+// by its protocol and port.
+db::InstrumentRow InstrumentRowOf(const InstrumentConfig& c, const instruments::DeviceInfo& who) {
+  db::InstrumentRow row;
+  row.protocol = c.protocol;
+  row.port = c.tcp.empty() ? c.port : c.tcp;
+  row.kind = c.protocol == "emscon" ? "laser_tracker" : c.distance ? "total_station" : "theodolite";
+  row.serial_number = who.serial;
+  row.firmware = who.firmware;
+  const std::string model = who.name.empty() ? c.protocol : who.name;
+  row.name = who.serial.empty() ? fmt::format("{} at {}", model, row.port)
+                                : fmt::format("{} {}", model, who.serial);
+  // A laser tracker's readings carry their own sigmas, which take the place of a-priori ones.
+  if (c.protocol != "emscon") {
+    row.sigma_hz_arcsec = c.sigma_hz_arcsec;
+    row.sigma_v_arcsec = c.sigma_v_arcsec;
+    if (c.distance) row.sigma_distance_mm = c.sigma_distance_mm;
+  }
+  return row;
 }
 
 // A tracker searches at the distance the prediction gives, else at its last reading's,
@@ -172,490 +212,618 @@ class Crew {
 
 }  // namespace
 
-CaptureSummary RunCapture(db::Database& db, const LabConfig& lab, int64_t session,
-                          std::vector<std::unique_ptr<instruments::DistanceInstrument>>& devices,
-                          instruments::RobotController& controller, const CaptureOptions& options) {
-  CaptureSummary summary;
-  summary.session = session;
-  const auto row = db::LoadSession(db, session);
-  if (!row) throw InputError({db.path(), 0, 0, ""}, "no session " + std::to_string(session));
-  const Plan plan = PlanFromJson(row->plan_json, {db.path(), "sessions", session, "plan_json"});
-  summary.total = static_cast<int>(plan.size());
-  summary.single_ray = devices.size() == 1;
-  const auto stored = db::StoredSeqs(db, session);
-  const std::set<int> done(stored.begin(), stored.end());
-  summary.already = static_cast<int>(done.size());
-  db::SetSessionOwner(db, session, ThisProcess());
-  db::SetSessionState(db, session, "running");
+namespace {
 
-  // Stations by instrument.
-  std::vector<const reduction::Station*> station_of(devices.size(), nullptr);
-  for (size_t i = 0; i < devices.size(); ++i) {
-    for (const auto& s : lab.stations) {
-      if (s.pose.id == lab.instruments[i].station) station_of[i] = &s;
-    }
-    if (!station_of[i])
-      throw InputError({lab.source, 0, 0, "stations"},
-                       "no oriented station " + lab.instruments[i].station);
-  }
+using Devices = std::vector<std::unique_ptr<instruments::DistanceInstrument>>;
 
-  // Laser trackers point their beams at the predicted target before measuring.
-  std::vector<instruments::BeamSteering*> beams(devices.size(), nullptr);
-  bool any_beam = false;
-  for (size_t i = 0; i < devices.size(); ++i) {
-    beams[i] = dynamic_cast<instruments::BeamSteering*>(devices[i].get());
-    any_beam |= beams[i] != nullptr;
-  }
-  // The robot base fitted to the measured points: laser trackers point their beams
-  // through it, and every session checks by it that the points follow the robot.
-  TargetPredictor predictor(
-      lab.model,
-      options.prediction_params.value_or(Eigen::VectorXd::Zero(lab.model.num_parameters())),
-      lab.robot_base);
-  // A resumed session starts from the points it has (the base is known at once).
-  for (const auto& p : db::LoadSessionPoses(db, session)) {
-    predictor.Add(p.joints_rad, p.target_in_world);
-  }
-  if (any_beam) {
-    spdlog::info("capture: laser tracker beams point through {}{}", predictor.Describe(),
-                 options.prediction_params ? " and the robot's active arm signature"
-                                           : " and the nominal model");
-  }
-  // Points that do not follow the robot: the session stops before measuring more of them
-  // and is discarded (what is stored stays, unused), naming what it found.
-  const auto pause_unless_following = [&](const std::string& where) {
-    const auto problem = predictor.FollowProblem(lab.tolerances.max_base_fit_rms_mm);
-    if (!problem) return false;
-    summary.paused = summary.discarded = true;
-    summary.pause_reason = where + ": " + *problem;
-    db::WriteTransaction tx(db);
-    db::DiscardSession(db, session, "set-up check: " + summary.pause_reason);
-    tx.commit();
-    return true;
-  };
-  const bool stored_points_wrong =
-      pause_unless_following(fmt::format("the {} stored points of this session", predictor.points()));
-  std::vector<std::optional<double>> expected_distance(devices.size());  // this configuration
-  std::vector<double> last_distance(devices.size(), 0.0);
-  std::atomic<int> searches{0}, operator_pointed{0};
+// One run of a capture session, step by step: set up (the plan, what is stored, the
+// stations, the beams, the robot base from the points already measured), then for every
+// configuration not stored: move, settle, point the beams, measure in parallel rounds
+// (repeats, faces), intersect and check on the spot, re-measure, retry faults, store in one
+// transaction, check that the points follow the robot, report progress.
+class CaptureRun {
+ public:
+  CaptureRun(db::Database& db, const LabConfig& lab, int64_t session, Devices& devices,
+             instruments::RobotController& controller, const CaptureOptions& options);
+  CaptureSummary Run();
 
-  const InterruptScope interrupts(devices, controller, options.stop);
-  const auto stopping = [&] { return options.stop && options.stop->load(); };
-  // Between device calls: a raised stop flag ends the configuration.
-  const auto check_stop = [&] {
-    if (stopping()) throw StopRequested{};
-  };
-  // A wait that a raised stop flag cuts short.
-  const auto sleep_unless_stopped = [&](int ms) {
-    const auto end = Clock::now() + std::chrono::milliseconds(ms);
-    for (auto now = Clock::now(); now < end; now = Clock::now()) {
-      check_stop();
-      std::this_thread::sleep_for(
-          std::min<Clock::duration>(end - now, std::chrono::milliseconds(10)));
-    }
-    check_stop();
-  };
-
-  const auto start = Clock::now();
-  double miss_sum = 0.0, max_miss = 0.0;  // over usable points
-  int miss_count = 0;
-  double cycle_sum = 0.0, overhead_sum = 0.0, store_sum = 0.0;
-  int cycles = 0, stores = 0;
-
-  // A tracker's reading: where its beam points; when the reflector is not there, a search
-  // around the beam (FindReflector), then the operator.
-  auto measure = [&](size_t i, const PlannedConfiguration& target) {
-    auto& device = *devices[i];
-    auto read = [&] {
-      return lab.instruments[i].distance ? device.MeasureDistanceAndAngles()
-                                         : device.MeasureAngles();
-    };
-    instruments::BeamSteering* beam = beams[i];
-    if (!beam) return read();
-    const std::string& station = lab.instruments[i].station;
-    try {
-      return read();
-    } catch (const instruments::InstrumentError& e) {
-      if (!beam->ReflectorLost(e.code()) || stopping()) throw;
-      spdlog::debug("capture: {} {}: no reflector in the beam ({}); searching", target.label,
-                    station, e.what());
-    }
-    ++searches;
-    const double around = expected_distance[i].value_or(
-        last_distance[i] > 0.0 ? last_distance[i] : kDefaultSearchDistanceMm);
-    try {
-      beam->FindReflector(around);
-      return read();
-    } catch (const instruments::InstrumentError& e) {
-      if (!beam->ReflectorLost(e.code()) || stopping() || !options.prompt_reflector) throw;
-      spdlog::info(
-          "capture: {} {}: the reflector was not found around the beam ({}); asking the "
-          "operator to point the beam at it",
-          target.label, station, e.what());
-    }
-    ++operator_pointed;
-    options.prompt_reflector(station, target);
-    check_stop();
-    return read();
-  };
-
-  // A robot armsig moved must be where it was sent: the joints read back within the lab's
-  // max_joint_error_deg of the commanded ones, else the configuration faults (retried).
-  const double max_joint_error_rad = lab.tolerances.max_joint_error_deg * kPi / 180.0;
-  auto check_joints = [&](const PlannedConfiguration& target, const Eigen::VectorXd& read) {
-    if (read.size() != target.joints_rad.size()) return;
-    Eigen::Index worst = 0;
-    const double error = (read - target.joints_rad).cwiseAbs().maxCoeff(&worst);
-    if (!(error > max_joint_error_rad)) return;
-    throw std::runtime_error(fmt::format(
-        "the controller reads joint {} at {:.4f} deg, commanded {:.4f} deg ({:.4f} deg off, "
-        "more than the lab's max_joint_error_deg {}): the robot is not where the plan put it "
-        "(another program drives it, or it stopped at a limit or a safety fence)",
-        worst + 1, read(worst) * 180.0 / kPi, target.joints_rad(worst) * 180.0 / kPi,
-        error * 180.0 / kPi, lab.tolerances.max_joint_error_deg));
-  };
-
-  // One parallel round: joints (optional) and every instrument at once.
-  Crew crew(devices.size());
-  auto round = [&](bool with_joints, Measurement& m, const PlannedConfiguration& target,
-                   int round_index) {
-    check_stop();
-    using Timed = std::pair<instruments::Reading, double>;
-    std::vector<std::function<Timed()>> reads;
-    for (size_t i = 0; i < devices.size(); ++i) {
-      reads.push_back([&, i] {
-        const auto a = Clock::now();
-        auto r = measure(i, target);
-        return std::make_pair(r, MsSince(a));
-      });
-    }
-    std::future<Eigen::VectorXd> joints;
-    if (with_joints) joints = crew.Spawn([&] { return controller.ReadJointsRad(); });
-    std::exception_ptr failure;
-    std::vector<Timed> done_reads;
-    try {
-      done_reads = crew.Together(reads);
-    } catch (...) {
-      failure = std::current_exception();
-    }
-    if (with_joints) {
-      try {
-        m.joints = joints.get();
-      } catch (...) {
-        if (!failure) failure = std::current_exception();
-      }
-    }
-    if (failure) std::rethrow_exception(failure);
-    double slowest = 0.0;
-    for (size_t i = 0; i < done_reads.size(); ++i) {
-      m.readings.push_back({done_reads[i].first, static_cast<int>(i), round_index});
-      slowest = std::max(slowest, done_reads[i].second);
-    }
-    m.device_ms += slowest;
-  };
-
-  // Every tracker's beam at the target the model predicts for this configuration; returns
-  // the device time (the slowest GoPosition, and the joint reading it needed).
-  auto point_beams = [&](const PlannedConfiguration& target) {
-    std::fill(expected_distance.begin(), expected_distance.end(), std::nullopt);
-    if (!any_beam) return 0.0;
-    const auto a = Clock::now();
-    double device_ms = 0.0;
-    Eigen::VectorXd q = target.joints_rad;
-    if (!controller.CanMove()) {  // the operator moved it: where it is, not where it was asked
-      q = controller.ReadJointsRad();
-      device_ms += MsSince(a);
-    }
-    const auto predicted = predictor.Predict(q);
-    if (!predicted) return device_ms;
-    std::vector<std::function<double()>> moves;
-    for (size_t i = 0; i < devices.size(); ++i) {
-      if (!beams[i]) continue;
-      const auto& pose = station_of[i]->pose;
-      const Eigen::Vector3d in_instrument =
-          pose.world_from_station.transpose() * (*predicted - pose.position_mm);
-      expected_distance[i] = in_instrument.norm();
-      moves.push_back([&, i, in_instrument] {
-        const auto t = Clock::now();
-        beams[i]->GoPosition(in_instrument);
-        return MsSince(t);
-      });
-      ++summary.beam_predicted;
-    }
-    double slowest = 0.0;
-    for (const double ms : crew.Together(moves)) slowest = std::max(slowest, ms);
-    return device_ms + slowest;
-  };
-
-  // The point's checks are the lab's tolerances.
-  reduction::PointOptions point_options;
-  point_options.checks.max_miss_mm = lab.tolerances.max_miss_mm;
-  point_options.checks.max_repeat_mm = lab.tolerances.max_repeat_mm;
-  // The fixed-mm repeat check is the theodolites' (two of them intersect a point per
-  // round); a laser tracker's repeated readings are checked against the sigmas it states
-  // (tracker_checks), which at 10 m exceed any fixed 0.05 mm.
-  int angle_only = 0;
-  for (size_t i = 0; i < devices.size(); ++i) angle_only += beams[i] ? 0 : 1;
-  // angles_only: the theodolites' rays only (the fixed-mm repeat check's).
-  auto rays_of = [&](const std::vector<StationReading>& readings, bool angles_only = false) {
-    std::vector<reduction::Ray> rays;
-    for (const auto& r : readings) {
-      if (angles_only && beams[r.instrument]) continue;
-      rays.push_back(reduction::RayOf(ObservationOf(r, lab.instruments[r.instrument]),
-                                      *station_of[r.instrument], reduction::InstrumentDefaults{}));
-    }
-    return rays;
-  };
-  // A tracker's readings against the sigmas it stated: each one's largest sigma, and its
-  // repeated readings (same face) against each other.
-  auto tracker_checks = [&](Measurement& m) {
-    if (!any_beam || !m.point.result.status.ok()) return;
-    std::map<std::pair<int, int>, std::vector<std::pair<Eigen::Vector3d, Eigen::Matrix3d>>> seen;
-    bool sigma_exceeded = false, repeat_exceeded = false;
-    for (const auto& r : m.readings) {
-      if (!beams[r.instrument] || !UsableSigmas(r.reading.sigma) || !r.reading.distance_mm)
-        continue;
-      const auto& s = *r.reading.sigma;
-      const Eigen::Matrix3d c = reduction::PolarCovariance(r.reading.angles, *r.reading.distance_mm,
-                                                           {s.hz_rad, s.v_rad, s.distance_mm});
-      const double sigma = reduction::LargestSigmaMm(c);
-      if (sigma > lab.tolerances.max_sigma_mm) {
-        sigma_exceeded = true;
-        spdlog::debug("capture: {}: a reading states sigma {:.4f} mm > {} mm",
-                      lab.instruments[r.instrument].station, sigma, lab.tolerances.max_sigma_mm);
-      }
-      const Eigen::Vector3d p = reduction::PolarPoint(r.reading.angles, *r.reading.distance_mm);
-      for (const auto& [q, cq] : seen[{r.instrument, r.reading.angles.face}]) {
-        const double k = reduction::NormalisedDisagreement(p, c, q, cq);
-        if (k > lab.tolerances.max_repeat_sigma) {
-          repeat_exceeded = true;
-          spdlog::debug("capture: {}: repeated readings {:.4f} mm apart, {:.1f} sigma",
-                        lab.instruments[r.instrument].station, (p - q).norm(), k);
-        }
-      }
-      seen[{r.instrument, r.reading.angles.face}].push_back({p, c});
-    }
-    if (sigma_exceeded) m.point.result.flags.Set(reduction::PointFlag::kSigmaExceeded);
-    if (repeat_exceeded) m.point.result.flags.Set(reduction::PointFlag::kRepeatExceeded);
-  };
-  auto turn_faces = [&] {
-    check_stop();
-    const auto a = Clock::now();
-    std::vector<std::function<int()>> turns;
-    for (auto& d : devices)
-      turns.push_back([&d] {
-        d->ChangeFace();
-        return 0;
-      });
-    crew.Together(turns);
-    return MsSince(a);
-  };
-
-  for (int seq = 0; seq < static_cast<int>(plan.size()) && !stored_points_wrong; ++seq) {
-    if (done.count(seq)) continue;
-    if (options.stop && options.stop->load()) {
-      summary.stopped = true;
-      db::SetSessionState(db, session, "paused");
-      break;
-    }
-    const PlannedConfiguration& target = plan[seq];
+ private:
+  // What one configuration came to: a measurement kept (usable or not), or a fault, or a
+  // stop before anything was kept.
+  struct Outcome {
     std::optional<Measurement> accepted;
     int attempts = 0;
     std::string fault;
     bool stopped = false;
-    for (int fault_try = 0; fault_try <= lab.tolerances.fault_retries && !accepted && !stopped;
-         ++fault_try) {
-      try {
-        if (fault_try > 0) sleep_unless_stopped(lab.tolerances.fault_retry_delay_ms);
-        check_stop();
-        if (controller.CanMove())
-          controller.MoveTo(target.joints_rad);
-        else if (options.prompt_move)
-          options.prompt_move(target);
-        sleep_unless_stopped(lab.tolerances.settle_ms);
-        auto cycle_start = Clock::now();
-        const double pointing_ms = point_beams(target);
-        for (int measure_try = 0; measure_try <= lab.tolerances.max_remeasure; ++measure_try) {
-          ++attempts;
-          if (measure_try > 0) cycle_start = Clock::now();
-          Measurement m;
-          if (measure_try == 0) m.device_ms = pointing_ms;
-          round(true, m, target, 0);
-          if (controller.CanMove()) check_joints(target, m.joints);
-          reduction::RayGroup group;  // every ray, and each repeated round's rays
-          if (angle_only >= 2) group.repeats.push_back(rays_of(m.readings, true));
-          for (int k = 1; k < lab.tolerances.readings; ++k) {
-            Measurement again;
-            round(false, again, target, k);
-            if (angle_only >= 2) group.repeats.push_back(rays_of(again.readings, true));
-            m.readings.insert(m.readings.end(), again.readings.begin(), again.readings.end());
-            m.device_ms += again.device_ms;
-          }
-          if (lab.tolerances.two_face) {
-            m.device_ms += turn_faces();
-            Measurement face2;
-            round(false, face2, target, lab.tolerances.readings);
-            m.readings.insert(m.readings.end(), face2.readings.begin(), face2.readings.end());
-            m.device_ms += face2.device_ms;
-            m.device_ms += turn_faces();
-          }
-          group.rays = rays_of(m.readings);
-          reduction::IntersectPoint(group, point_options, m.point);
-          tracker_checks(m);
-          const double cycle_ms = MsSince(cycle_start);
-          cycle_sum += cycle_ms;
-          overhead_sum += std::max(0.0, cycle_ms - m.device_ms);
-          ++cycles;
-          if (m.point.accepted() || measure_try == lab.tolerances.max_remeasure) {
-            accepted = std::move(m);
-            break;
-          }
-          ++summary.remeasured;
-          spdlog::info("capture: {}: measuring again ({} of {}): {}", target.label,
-                       measure_try + 1, lab.tolerances.max_remeasure,
-                       m.point.result.status.ok()
-                           ? ToString(m.point.result.flags)
-                           : ToString(m.point.result.flags) + " " + m.point.result.status.message);
-        }
-      } catch (const instruments::ConventionMismatch&) {
-        throw;  // no reading of that tracker can be used: the capture ends here
-      } catch (const StopRequested&) {
-        stopped = true;
-      } catch (const std::exception& e) {
-        // A device call the stop flag interrupted (or that failed while it was raised)
-        // is no fault of the configuration: the session stops.
-        if (stopping()) {
-          stopped = true;
-        } else {
-          fault = e.what();
-        }
-      }
-    }
+  };
 
-    if (stopped && !accepted) {
+  void SetUp();
+  instruments::DeviceInfo Identity(size_t i) const;
+  bool PauseUnlessFollowing(const std::string& where);
+  bool Stopping() const { return options_.stop && options_.stop->load(); }
+  void CheckStop() const {
+    if (Stopping()) throw StopRequested{};
+  }
+  void SleepUnlessStopped(int ms) const;
+  instruments::Reading Measure(size_t i, const PlannedConfiguration& target);
+  void CheckJoints(const PlannedConfiguration& target, const Eigen::VectorXd& read) const;
+  void Round(bool with_joints, Measurement& m, const PlannedConfiguration& target,
+             int round_index);
+  double PointBeams(const PlannedConfiguration& target);
+  double TurnFaces();
+  std::vector<reduction::Ray> RaysOf(const std::vector<StationReading>& readings,
+                                     bool angles_only = false) const;
+  void TrackerChecks(Measurement& m) const;
+  Measurement MeasureOnce(const PlannedConfiguration& target, double pointing_ms,
+                          std::chrono::steady_clock::time_point cycle_start);
+  Outcome MeasureConfiguration(const PlannedConfiguration& target);
+  bool Store(int seq, const PlannedConfiguration& target, const Outcome& outcome);
+  void StoreMeasurement(int seq, const PlannedConfiguration& target, const Outcome& outcome);
+  void Count(const PlannedConfiguration& target, const Measurement& m);
+  void ReportProgress(const PlannedConfiguration& target, const Outcome& outcome);
+  CaptureSummary Finish();
+
+  db::Database& db_;
+  const LabConfig& lab_;
+  const int64_t session_;
+  Devices& devices_;
+  instruments::RobotController& controller_;
+  const CaptureOptions& options_;
+  CaptureSummary summary_;
+  Plan plan_;
+  std::set<int> done_;
+  std::vector<const reduction::Station*> station_of_;
+  std::vector<int64_t> instrument_ids_;  // the instruments table's row of each device
+  // Laser trackers point their beams at the predicted target before measuring.
+  std::vector<instruments::BeamSteering*> beams_;
+  bool any_beam_ = false;
+  int angle_only_ = 0;  // instruments that measure angles only (theodolites)
+  // The robot base fitted to the measured points: laser trackers point their beams
+  // through it, and every session checks by it that the points follow the robot.
+  TargetPredictor predictor_;
+  std::vector<std::optional<double>> expected_distance_;  // this configuration
+  std::vector<double> last_distance_;
+  std::atomic<int> searches_{0}, operator_pointed_{0};
+  Crew crew_;
+  reduction::PointOptions point_options_;
+  const double max_joint_error_rad_;
+  Clock::time_point start_;
+  double miss_sum_ = 0.0, max_miss_ = 0.0;  // over usable points
+  int miss_count_ = 0;
+  double cycle_sum_ = 0.0, overhead_sum_ = 0.0, store_sum_ = 0.0;
+  int cycles_ = 0, stores_ = 0;
+};
+
+CaptureRun::CaptureRun(db::Database& db, const LabConfig& lab, int64_t session, Devices& devices,
+                       instruments::RobotController& controller, const CaptureOptions& options)
+    : db_(db),
+      lab_(lab),
+      session_(session),
+      devices_(devices),
+      controller_(controller),
+      options_(options),
+      station_of_(devices.size(), nullptr),
+      beams_(devices.size(), nullptr),
+      predictor_(lab.model,
+                 options.prediction_params.value_or(
+                     Eigen::VectorXd::Zero(lab.model.num_parameters())),
+                 lab.robot_base),
+      expected_distance_(devices.size()),
+      last_distance_(devices.size(), 0.0),
+      crew_(devices.size()),
+      max_joint_error_rad_(lab.tolerances.max_joint_error_deg * kPi / 180.0) {
+  summary_.session = session;
+  // The point's checks are the lab's tolerances. The fixed-mm repeat check is the
+  // theodolites' (two of them intersect a point per round); a laser tracker's repeated
+  // readings are checked against the sigmas it states (TrackerChecks), which at 10 m
+  // exceed any fixed 0.05 mm.
+  point_options_.checks.max_miss_mm = lab.tolerances.max_miss_mm;
+  point_options_.checks.max_repeat_mm = lab.tolerances.max_repeat_mm;
+}
+
+void CaptureRun::SetUp() {
+  const auto row = db::LoadSession(db_, session_);
+  if (!row) throw InputError({db_.path(), 0, 0, ""}, "no session " + std::to_string(session_));
+  plan_ = PlanFromJson(row->plan_json, {db_.path(), "sessions", session_, "plan_json"});
+  summary_.total = static_cast<int>(plan_.size());
+  summary_.single_ray = devices_.size() == 1;
+  const auto stored = db::StoredSeqs(db_, session_);
+  done_ = std::set<int>(stored.begin(), stored.end());
+  summary_.already = static_cast<int>(done_.size());
+  db::SetSessionOwner(db_, session_, ThisProcess());
+  db::SetSessionState(db_, session_, "running");
+  for (size_t i = 0; i < devices_.size(); ++i) {
+    for (const auto& s : lab_.stations) {
+      if (s.pose.id == lab_.instruments[i].station) station_of_[i] = &s;
+    }
+    if (!station_of_[i]) {
+      throw InputError({lab_.source, 0, 0, "stations"},
+                       "no oriented station " + lab_.instruments[i].station);
+    }
+    beams_[i] = dynamic_cast<instruments::BeamSteering*>(devices_[i].get());
+    any_beam_ |= beams_[i] != nullptr;
+    angle_only_ += beams_[i] ? 0 : 1;
+    instrument_ids_.push_back(
+        db::EnsureInstrument(db_, InstrumentRowOf(lab_.instruments[i], Identity(i))));
+  }
+  // A resumed session starts from the points it has (the base is known at once).
+  for (const auto& p : db::LoadSessionPoses(db_, session_)) {
+    predictor_.Add(p.joints_rad, p.target_in_world);
+  }
+  if (any_beam_) {
+    spdlog::info("capture: laser tracker beams point through {}{}", predictor_.Describe(),
+                 options_.prediction_params ? " and the robot's active arm signature"
+                                            : " and the nominal model");
+  }
+}
+
+// What instrument `i` said it is when it was probed before the run (CaptureOptions); one
+// not probed is named by its protocol and port. Not asked here: a run's requests are its
+// measurements.
+instruments::DeviceInfo CaptureRun::Identity(size_t i) const {
+  return i < options_.identities.size() ? options_.identities[i] : instruments::DeviceInfo{};
+}
+
+// Points that do not follow the robot: the session stops before measuring more of them
+// and is discarded (what is stored stays, unused), naming what it found.
+bool CaptureRun::PauseUnlessFollowing(const std::string& where) {
+  const auto problem = predictor_.FollowProblem(lab_.tolerances.max_base_fit_rms_mm);
+  if (!problem) return false;
+  summary_.paused = summary_.discarded = true;
+  summary_.pause_reason = where + ": " + *problem;
+  db::WriteTransaction tx(db_);
+  db::DiscardSession(db_, session_, "set-up check: " + summary_.pause_reason);
+  tx.commit();
+  return true;
+}
+
+// A wait that a raised stop flag cuts short.
+void CaptureRun::SleepUnlessStopped(int ms) const {
+  const auto end = Clock::now() + std::chrono::milliseconds(ms);
+  for (auto now = Clock::now(); now < end; now = Clock::now()) {
+    CheckStop();
+    std::this_thread::sleep_for(std::min<Clock::duration>(end - now, std::chrono::milliseconds(10)));
+  }
+  CheckStop();
+}
+
+// A tracker's reading: where its beam points; when the reflector is not there, a search
+// around the beam (FindReflector), then the operator.
+instruments::Reading CaptureRun::Measure(size_t i, const PlannedConfiguration& target) {
+  auto& device = *devices_[i];
+  auto read = [&] {
+    return lab_.instruments[i].distance ? device.MeasureDistanceAndAngles()
+                                        : device.MeasureAngles();
+  };
+  instruments::BeamSteering* beam = beams_[i];
+  if (!beam) return read();
+  const std::string& station = lab_.instruments[i].station;
+  try {
+    return read();
+  } catch (const instruments::InstrumentError& e) {
+    if (!beam->ReflectorLost(e.code()) || Stopping()) throw;
+    spdlog::debug("capture: {} {}: no reflector in the beam ({}); searching", target.label,
+                  station, e.what());
+  }
+  ++searches_;
+  const double around = expected_distance_[i].value_or(
+      last_distance_[i] > 0.0 ? last_distance_[i] : kDefaultSearchDistanceMm);
+  try {
+    beam->FindReflector(around);
+    return read();
+  } catch (const instruments::InstrumentError& e) {
+    if (!beam->ReflectorLost(e.code()) || Stopping() || !options_.prompt_reflector) throw;
+    spdlog::info(
+        "capture: {} {}: the reflector was not found around the beam ({}); asking the "
+        "operator to point the beam at it",
+        target.label, station, e.what());
+  }
+  ++operator_pointed_;
+  options_.prompt_reflector(station, target);
+  CheckStop();
+  return read();
+}
+
+// A robot armsig moved must be where it was sent: the joints read back within the lab's
+// max_joint_error_deg of the commanded ones, else the configuration faults (retried).
+void CaptureRun::CheckJoints(const PlannedConfiguration& target,
+                             const Eigen::VectorXd& read) const {
+  if (read.size() != target.joints_rad.size()) return;
+  Eigen::Index worst = 0;
+  const double error = (read - target.joints_rad).cwiseAbs().maxCoeff(&worst);
+  if (!(error > max_joint_error_rad_)) return;
+  throw std::runtime_error(fmt::format(
+      "the controller reads joint {} at {:.4f} deg, commanded {:.4f} deg ({:.4f} deg off, "
+      "more than the lab's max_joint_error_deg {}): the robot is not where the plan put it "
+      "(another program drives it, or it stopped at a limit or a safety fence)",
+      worst + 1, read(worst) * 180.0 / kPi, target.joints_rad(worst) * 180.0 / kPi,
+      error * 180.0 / kPi, lab_.tolerances.max_joint_error_deg));
+}
+
+// One parallel round: the joints (optional) and every instrument at once.
+void CaptureRun::Round(bool with_joints, Measurement& m, const PlannedConfiguration& target,
+                       int round_index) {
+  CheckStop();
+  using Timed = std::pair<instruments::Reading, double>;
+  std::vector<std::function<Timed()>> reads;
+  for (size_t i = 0; i < devices_.size(); ++i) {
+    reads.push_back([&, i] {
+      const auto a = Clock::now();
+      auto r = Measure(i, target);
+      return std::make_pair(r, MsSince(a));
+    });
+  }
+  std::future<Eigen::VectorXd> joints;
+  if (with_joints) joints = crew_.Spawn([&] { return controller_.ReadJointsRad(); });
+  std::exception_ptr failure;
+  std::vector<Timed> done_reads;
+  try {
+    done_reads = crew_.Together(reads);
+  } catch (...) {
+    failure = std::current_exception();
+  }
+  if (with_joints) {
+    try {
+      m.joints = joints.get();
+    } catch (...) {
+      if (!failure) failure = std::current_exception();
+    }
+  }
+  if (failure) std::rethrow_exception(failure);
+  double slowest = 0.0;
+  for (size_t i = 0; i < done_reads.size(); ++i) {
+    m.readings.push_back({done_reads[i].first, static_cast<int>(i), round_index});
+    slowest = std::max(slowest, done_reads[i].second);
+  }
+  m.device_ms += slowest;
+}
+
+// Every tracker's beam at the target the model predicts for this configuration; returns
+// the device time (the slowest GoPosition, and the joint reading it needed).
+double CaptureRun::PointBeams(const PlannedConfiguration& target) {
+  std::fill(expected_distance_.begin(), expected_distance_.end(), std::nullopt);
+  if (!any_beam_) return 0.0;
+  const auto a = Clock::now();
+  double device_ms = 0.0;
+  Eigen::VectorXd q = target.joints_rad;
+  if (!controller_.CanMove()) {  // the operator moved it: where it is, not where it was asked
+    q = controller_.ReadJointsRad();
+    device_ms += MsSince(a);
+  }
+  const auto predicted = predictor_.Predict(q);
+  if (!predicted) return device_ms;
+  std::vector<std::function<double()>> moves;
+  for (size_t i = 0; i < devices_.size(); ++i) {
+    if (!beams_[i]) continue;
+    const auto& pose = station_of_[i]->pose;
+    const Eigen::Vector3d in_instrument =
+        pose.world_from_station.transpose() * (*predicted - pose.position_mm);
+    expected_distance_[i] = in_instrument.norm();
+    moves.push_back([&, i, in_instrument] {
+      const auto t = Clock::now();
+      beams_[i]->GoPosition(in_instrument);
+      return MsSince(t);
+    });
+    ++summary_.beam_predicted;
+  }
+  double slowest = 0.0;
+  for (const double ms : crew_.Together(moves)) slowest = std::max(slowest, ms);
+  return device_ms + slowest;
+}
+
+double CaptureRun::TurnFaces() {
+  CheckStop();
+  const auto a = Clock::now();
+  std::vector<std::function<int()>> turns;
+  for (auto& d : devices_) {
+    turns.push_back([&d] {
+      d->ChangeFace();
+      return 0;
+    });
+  }
+  crew_.Together(turns);
+  return MsSince(a);
+}
+
+// The readings' rays; angles_only: the theodolites' (the fixed-mm repeat check's).
+std::vector<reduction::Ray> CaptureRun::RaysOf(const std::vector<StationReading>& readings,
+                                               bool angles_only) const {
+  std::vector<reduction::Ray> rays;
+  for (const auto& r : readings) {
+    if (angles_only && beams_[r.instrument]) continue;
+    rays.push_back(reduction::RayOf(TargetObservation(r, lab_.instruments[r.instrument]),
+                                    *station_of_[r.instrument], reduction::InstrumentDefaults{}));
+  }
+  return rays;
+}
+
+// A tracker's readings against the sigmas it stated: each one's largest sigma, and its
+// repeated readings (same face) against each other.
+void CaptureRun::TrackerChecks(Measurement& m) const {
+  if (!any_beam_ || !m.point.result.status.ok()) return;
+  std::map<std::pair<int, int>, std::vector<std::pair<Eigen::Vector3d, Eigen::Matrix3d>>> seen;
+  bool sigma_exceeded = false, repeat_exceeded = false;
+  for (const auto& r : m.readings) {
+    if (!beams_[r.instrument] || !UsableSigmas(r.reading.sigma) || !r.reading.distance_mm)
+      continue;
+    const auto& s = *r.reading.sigma;
+    const Eigen::Matrix3d c = reduction::PolarCovariance(r.reading.angles, *r.reading.distance_mm,
+                                                         {s.hz_rad, s.v_rad, s.distance_mm});
+    const double sigma = reduction::LargestSigmaMm(c);
+    if (sigma > lab_.tolerances.max_sigma_mm) {
+      sigma_exceeded = true;
+      spdlog::debug("capture: {}: a reading states sigma {:.4f} mm > {} mm",
+                    lab_.instruments[r.instrument].station, sigma, lab_.tolerances.max_sigma_mm);
+    }
+    const Eigen::Vector3d p = reduction::PolarPoint(r.reading.angles, *r.reading.distance_mm);
+    for (const auto& [q, cq] : seen[{r.instrument, r.reading.angles.face}]) {
+      const double k = reduction::NormalisedDisagreement(p, c, q, cq);
+      if (k > lab_.tolerances.max_repeat_sigma) {
+        repeat_exceeded = true;
+        spdlog::debug("capture: {}: repeated readings {:.4f} mm apart, {:.1f} sigma",
+                      lab_.instruments[r.instrument].station, (p - q).norm(), k);
+      }
+    }
+    seen[{r.instrument, r.reading.angles.face}].push_back({p, c});
+  }
+  if (sigma_exceeded) m.point.result.flags.Set(reduction::PointFlag::kSigmaExceeded);
+  if (repeat_exceeded) m.point.result.flags.Set(reduction::PointFlag::kRepeatExceeded);
+}
+
+// Every reading of one measurement of the configuration (the rounds of repeats, both faces
+// when the lab wants them), intersected and checked on the spot.
+Measurement CaptureRun::MeasureOnce(const PlannedConfiguration& target, double pointing_ms,
+                                    Clock::time_point cycle_start) {
+  Measurement m;
+  m.device_ms = pointing_ms;
+  Round(true, m, target, 0);
+  if (controller_.CanMove()) CheckJoints(target, m.joints);
+  reduction::RayGroup group;  // every ray, and each repeated round's rays
+  if (angle_only_ >= 2) group.repeats.push_back(RaysOf(m.readings, true));
+  for (int k = 1; k < lab_.tolerances.readings; ++k) {
+    Measurement again;
+    Round(false, again, target, k);
+    if (angle_only_ >= 2) group.repeats.push_back(RaysOf(again.readings, true));
+    m.readings.insert(m.readings.end(), again.readings.begin(), again.readings.end());
+    m.device_ms += again.device_ms;
+  }
+  if (lab_.tolerances.two_face) {
+    m.device_ms += TurnFaces();
+    Measurement face2;
+    Round(false, face2, target, lab_.tolerances.readings);
+    m.readings.insert(m.readings.end(), face2.readings.begin(), face2.readings.end());
+    m.device_ms += face2.device_ms;
+    m.device_ms += TurnFaces();
+  }
+  group.rays = RaysOf(m.readings);
+  reduction::IntersectPoint(group, point_options_, m.point);
+  TrackerChecks(m);
+  const double cycle_ms = MsSince(cycle_start);
+  cycle_sum_ += cycle_ms;
+  overhead_sum_ += std::max(0.0, cycle_ms - m.device_ms);
+  ++cycles_;
+  return m;
+}
+
+// Move, settle, point, measure — again while the point is beyond the tolerances (up to
+// max_remeasure), and from the start after a fault (up to fault_retries).
+CaptureRun::Outcome CaptureRun::MeasureConfiguration(const PlannedConfiguration& target) {
+  Outcome out;
+  for (int fault_try = 0;
+       fault_try <= lab_.tolerances.fault_retries && !out.accepted && !out.stopped; ++fault_try) {
+    try {
+      if (fault_try > 0) SleepUnlessStopped(lab_.tolerances.fault_retry_delay_ms);
+      CheckStop();
+      if (controller_.CanMove())
+        controller_.MoveTo(target.joints_rad);
+      else if (options_.prompt_move)
+        options_.prompt_move(target);
+      SleepUnlessStopped(lab_.tolerances.settle_ms);
+      auto cycle_start = Clock::now();
+      const double pointing_ms = PointBeams(target);
+      for (int measure_try = 0; measure_try <= lab_.tolerances.max_remeasure; ++measure_try) {
+        ++out.attempts;
+        if (measure_try > 0) cycle_start = Clock::now();
+        Measurement m = MeasureOnce(target, measure_try == 0 ? pointing_ms : 0.0, cycle_start);
+        if (m.point.accepted() || measure_try == lab_.tolerances.max_remeasure) {
+          out.accepted = std::move(m);
+          break;
+        }
+        ++summary_.remeasured;
+        spdlog::info("capture: {}: measuring again ({} of {}): {}", target.label, measure_try + 1,
+                     lab_.tolerances.max_remeasure,
+                     m.point.result.status.ok()
+                         ? ToString(m.point.result.flags)
+                         : ToString(m.point.result.flags) + " " + m.point.result.status.message);
+      }
+    } catch (const instruments::ConventionMismatch&) {
+      throw;  // no reading of that tracker can be used: the capture ends here
+    } catch (const StopRequested&) {
+      out.stopped = true;
+    } catch (const std::exception& e) {
+      // A device call the stop flag interrupted (or that failed while it was raised) is no
+      // fault of the configuration: the session stops.
+      if (Stopping())
+        out.stopped = true;
+      else
+        out.fault = e.what();
+    }
+  }
+  return out;
+}
+
+// The configuration's joints, raw readings and reduced point in one transaction; then the
+// check that the points follow the robot. Returns true when they do not (the session
+// stops).
+bool CaptureRun::Store(int seq, const PlannedConfiguration& target, const Outcome& outcome) {
+  if (!outcome.accepted) {
+    db::WriteTransaction tx(db_);
+    db::InsertPose(db_, session_, seq, target.label, std::nullopt, "skipped", outcome.attempts);
+    tx.commit();
+    spdlog::debug("capture: {} skipped after {} attempt(s): {}", target.label, outcome.attempts,
+                  outcome.fault);
+    ++summary_.skipped;
+    summary_.skipped_configurations.push_back({target.label, outcome.fault});
+    return false;
+  }
+  StoreMeasurement(seq, target, outcome);
+  const Measurement& m = *outcome.accepted;
+  const reduction::IntersectionResult& result = m.point.result;
+  bool not_following = false;
+  if (result.status.ok() && m.point.accepted()) {
+    const bool had_fit = predictor_.fitted();
+    predictor_.Add(m.joints, result.position_mm);
+    if (any_beam_ && !had_fit && predictor_.fitted()) {
+      spdlog::info("capture: robot base {}; the tracker beams point by prediction from now on",
+                   predictor_.Describe().substr(5));
+    }
+    not_following = PauseUnlessFollowing(
+        fmt::format("configuration {} ({} of {})", target.label, seq + 1, plan_.size()));
+  }
+  Count(target, m);
+  return not_following;
+}
+
+void CaptureRun::StoreMeasurement(int seq, const PlannedConfiguration& target,
+                                  const Outcome& outcome) {
+  const Measurement& m = *outcome.accepted;
+  const auto store_start = Clock::now();
+  db::WriteTransaction tx(db_);
+  const int64_t pose =
+      db::InsertPose(db_, session_, seq, target.label, m.joints, "measured", outcome.attempts);
+  std::vector<db::ObservationRow> rows;
+  for (const auto& r : m.readings) {
+    rows.push_back(StoredReading(r, lab_.instruments[r.instrument], pose,
+                                 instrument_ids_[static_cast<size_t>(r.instrument)]));
+  }
+  db::InsertObservations(db_, session_, rows);
+  const reduction::IntersectionResult& result = m.point.result;
+  // Append this configuration's point (other sessions' points are untouched).
+  db::InsertPoint(db_, session_,
+                  PointRowOf(pose, "target", static_cast<int>(m.readings.size()), result,
+                             result.flags));
+  tx.commit();
+  store_sum_ += MsSince(store_start);
+  ++stores_;
+  ++summary_.measured;
+  const std::string flags = ToString(result.flags);
+  spdlog::debug("capture: {} stored: {} readings, {} attempt(s), point {}{}, miss {:.4f} mm",
+                target.label, m.readings.size(), outcome.attempts,
+                result.status.ok() ? "intersected" : "not intersected",
+                flags.empty() ? "" : " [" + flags + "]", result.max_miss_mm);
+  for (const auto& r : m.readings) {
+    spdlog::trace("capture: {} {}: Hz {:.8f} V {:.8f} rad{} code {}", target.label,
+                  lab_.instruments[r.instrument].station, r.reading.angles.hz_rad,
+                  r.reading.angles.v_rad,
+                  r.reading.distance_mm ? fmt::format(" d {:.4f} mm", *r.reading.distance_mm)
+                                        : std::string(),
+                  r.reading.return_code);
+    if (r.reading.distance_mm) last_distance_[r.instrument] = *r.reading.distance_mm;
+  }
+}
+
+// A measured configuration is usable, flagged (beyond the tolerances after re-measuring)
+// or failed (no point).
+void CaptureRun::Count(const PlannedConfiguration& target, const Measurement& m) {
+  const reduction::IntersectionResult& result = m.point.result;
+  if (m.point.accepted()) {
+    ++summary_.usable;
+    miss_sum_ += result.max_miss_mm;
+    ++miss_count_;
+    max_miss_ = std::max(max_miss_, result.max_miss_mm);
+  } else if (result.status.ok()) {
+    ++summary_.flagged;
+    summary_.flagged_configurations.push_back({target.label, ToString(result.flags)});
+  } else {
+    ++summary_.failed;  // the readings are kept, the point is not usable
+    summary_.failed_configurations.push_back(
+        {target.label, ToString(result.flags) + ": " + result.status.message});
+  }
+}
+
+void CaptureRun::ReportProgress(const PlannedConfiguration& target, const Outcome& outcome) {
+  if (!options_.progress) return;
+  Progress p;
+  p.done = summary_.already + summary_.measured + summary_.skipped;
+  p.total = summary_.total;
+  p.skipped = summary_.skipped;
+  p.flagged = summary_.flagged;
+  p.failed = summary_.failed;
+  p.remeasured = summary_.remeasured;
+  p.label = target.label;
+  p.last_miss_mm = outcome.accepted && outcome.accepted->point.accepted()
+                       ? std::optional(outcome.accepted->point.result.max_miss_mm)
+                       : std::nullopt;
+  if (miss_count_ > 0) {
+    p.mean_miss_mm = miss_sum_ / miss_count_;
+    p.max_miss_mm = max_miss_;
+  }
+  p.elapsed_s = std::chrono::duration<double>(Clock::now() - start_).count();
+  const int this_run = summary_.measured + summary_.skipped;
+  p.eta_s = this_run ? p.elapsed_s / this_run * (p.total - p.done) : 0.0;
+  options_.progress(p);
+}
+
+CaptureSummary CaptureRun::Finish() {
+  summary_.seconds = std::chrono::duration<double>(Clock::now() - start_).count();
+  if (miss_count_) {
+    summary_.mean_miss_mm = miss_sum_ / miss_count_;
+    summary_.max_miss_mm = max_miss_;
+  }
+  summary_.mean_cycle_ms = cycles_ ? cycle_sum_ / cycles_ : 0.0;
+  summary_.mean_overhead_ms = cycles_ ? overhead_sum_ / cycles_ : 0.0;
+  summary_.mean_store_ms = stores_ ? store_sum_ / stores_ : 0.0;
+  summary_.beam_searches = searches_.load();
+  summary_.beam_operator = operator_pointed_.load();
+  if (any_beam_) summary_.beam_base = predictor_.Describe();
+  if (!summary_.paused && !summary_.stopped) {
+    summary_.completed = true;
+    db::SetSessionState(db_, session_, "completed");
+  }
+  return summary_;
+}
+
+CaptureSummary CaptureRun::Run() {
+  SetUp();
+  const bool stored_points_wrong = PauseUnlessFollowing(
+      fmt::format("the {} stored points of this session", predictor_.points()));
+  const InterruptScope interrupts(devices_, controller_, options_.stop);
+  start_ = Clock::now();
+  for (int seq = 0; seq < static_cast<int>(plan_.size()) && !stored_points_wrong; ++seq) {
+    if (done_.count(seq)) continue;
+    if (Stopping()) {
+      summary_.stopped = true;
+      db::SetSessionState(db_, session_, "paused");
+      break;
+    }
+    const PlannedConfiguration& target = plan_[seq];
+    const Outcome outcome = MeasureConfiguration(target);
+    if (outcome.stopped && !outcome.accepted) {
       // Nothing of this configuration is stored: --resume measures it again.
-      summary.stopped = true;
-      db::SetSessionState(db, session, "paused");
+      summary_.stopped = true;
+      db::SetSessionState(db_, session_, "paused");
       break;
     }
-    if (!accepted && !options.skip_on_fault) {
-      summary.paused = true;
-      summary.pause_reason = "configuration " + target.label + " (" + std::to_string(seq + 1) +
-                             " of " + std::to_string(plan.size()) + "): " + fault;
-      db::SetSessionState(db, session, "paused");
+    if (!outcome.accepted && !options_.skip_on_fault) {
+      summary_.paused = true;
+      summary_.pause_reason = "configuration " + target.label + " (" + std::to_string(seq + 1) +
+                              " of " + std::to_string(plan_.size()) + "): " + outcome.fault;
+      db::SetSessionState(db_, session_, "paused");
       break;
     }
-    bool not_following = false;  // this configuration's point showed it
-    const auto store_start = Clock::now();
-    db::WriteTransaction tx(db);
-    if (!accepted) {
-      db::InsertPose(db, session, seq, target.label, std::nullopt, "skipped", attempts);
-      tx.commit();
-      spdlog::debug("capture: {} skipped after {} attempt(s): {}", target.label, attempts, fault);
-      ++summary.skipped;
-      summary.skipped_configurations.push_back({target.label, fault});
-    } else {
-      const Measurement& m = *accepted;
-      const int64_t pose =
-          db::InsertPose(db, session, seq, target.label, m.joints, "measured", attempts);
-      std::vector<db::ObservationRow> rows;
-      for (const auto& r : m.readings) {
-        db::ObservationRow o = ObservationRowOf(ObservationOf(r, lab.instruments[r.instrument]),
-                                                pose, r.reading.return_code);
-        if (const auto& air = r.reading.environment) {
-          o.temperature_c = air->temperature_c;
-          o.pressure_hpa = air->pressure_hpa;
-          o.humidity_percent = air->humidity_percent;
-        }
-        rows.push_back(std::move(o));
-      }
-      db::InsertObservations(db, session, rows);
-      const reduction::IntersectionResult& result = m.point.result;
-      const db::PointRow point =
-          PointRowOf(pose, "target", static_cast<int>(m.readings.size()), result, result.flags);
-      // Append this configuration's point (other sessions' points are untouched).
-      db::InsertPoint(db, session, point);
-      tx.commit();
-      store_sum += MsSince(store_start);
-      ++stores;
-      ++summary.measured;
-      const std::string flags = ToString(result.flags);
-      spdlog::debug("capture: {} stored: {} readings, {} attempt(s), point {}{}, miss {:.4f} mm",
-                    target.label, m.readings.size(), attempts,
-                    result.status.ok() ? "intersected" : "not intersected",
-                    flags.empty() ? "" : " [" + flags + "]", result.max_miss_mm);
-      for (const auto& r : m.readings) {
-        spdlog::trace("capture: {} {}: Hz {:.8f} V {:.8f} rad{} code {}", target.label,
-                      lab.instruments[r.instrument].station, r.reading.angles.hz_rad,
-                      r.reading.angles.v_rad,
-                      r.reading.distance_mm ? fmt::format(" d {:.4f} mm", *r.reading.distance_mm)
-                                            : std::string(),
-                      r.reading.return_code);
-        if (r.reading.distance_mm) last_distance[r.instrument] = *r.reading.distance_mm;
-      }
-      if (result.status.ok() && m.point.accepted()) {
-        const bool had_fit = predictor.fitted();
-        predictor.Add(m.joints, result.position_mm);
-        if (any_beam && !had_fit && predictor.fitted()) {
-          spdlog::info("capture: robot base {}; the tracker beams point by prediction from now on",
-                       predictor.Describe().substr(5));
-        }
-        not_following = pause_unless_following(
-            fmt::format("configuration {} ({} of {})", target.label, seq + 1, plan.size()));
-      }
-      if (m.point.accepted()) {
-        ++summary.usable;
-        miss_sum += result.max_miss_mm;
-        ++miss_count;
-        max_miss = std::max(max_miss, result.max_miss_mm);
-      } else if (result.status.ok()) {
-        ++summary.flagged;  // intersected, but beyond the tolerances after re-measuring
-        summary.flagged_configurations.push_back({target.label, ToString(result.flags)});
-      } else {
-        ++summary.failed;  // no point: the readings are kept, the point is not usable
-        summary.failed_configurations.push_back(
-            {target.label, ToString(result.flags) + ": " + result.status.message});
-      }
-    }
-    if (options.progress) {
-      Progress p;
-      p.done = summary.already + summary.measured + summary.skipped;
-      p.total = summary.total;
-      p.skipped = summary.skipped;
-      p.flagged = summary.flagged;
-      p.failed = summary.failed;
-      p.remeasured = summary.remeasured;
-      p.label = target.label;
-      p.last_miss_mm = accepted && accepted->point.accepted()
-                           ? std::optional(accepted->point.result.max_miss_mm)
-                           : std::nullopt;
-      if (miss_count > 0) {
-        p.mean_miss_mm = miss_sum / miss_count;
-        p.max_miss_mm = max_miss;
-      }
-      p.elapsed_s = std::chrono::duration<double>(Clock::now() - start).count();
-      const int this_run = summary.measured + summary.skipped;
-      p.eta_s = this_run ? p.elapsed_s / this_run * (p.total - p.done) : 0.0;
-      options.progress(p);
-    }
+    const bool not_following = Store(seq, target, outcome);
+    ReportProgress(target, outcome);
     if (not_following) break;
   }
-  summary.seconds = std::chrono::duration<double>(Clock::now() - start).count();
-  if (miss_count) {
-    summary.mean_miss_mm = miss_sum / miss_count;
-    summary.max_miss_mm = max_miss;
-  }
-  summary.mean_cycle_ms = cycles ? cycle_sum / cycles : 0.0;
-  summary.mean_overhead_ms = cycles ? overhead_sum / cycles : 0.0;
-  summary.mean_store_ms = stores ? store_sum / stores : 0.0;
-  summary.beam_searches = searches.load();
-  summary.beam_operator = operator_pointed.load();
-  if (any_beam) summary.beam_base = predictor.Describe();
-  if (!summary.paused && !summary.stopped) {
-    summary.completed = true;
-    db::SetSessionState(db, session, "completed");
-  }
-  return summary;
+  return Finish();
+}
+
+}  // namespace
+
+CaptureSummary RunCapture(db::Database& db, const LabConfig& lab, int64_t session,
+                          Devices& devices, instruments::RobotController& controller,
+                          const CaptureOptions& options) {
+  return CaptureRun(db, lab, session, devices, controller, options).Run();
 }
 
 }  // namespace armsig::acquisition

@@ -17,6 +17,7 @@
 #include "acquisition/lab.h"
 #include "acquisition/plan.h"
 #include "db/database.h"
+#include "instruments/device.h"
 
 namespace armsig::acquisition {
 
@@ -44,6 +45,9 @@ struct CaptureOptions {
   // The model's parameters to predict where a tracker's beam should point (the robot's
   // active arm signature); the nominal model when absent.
   std::optional<Eigen::VectorXd> prediction_params;
+  // What each instrument said it is when the capture began (model, serial number, firmware:
+  // workflows' ProbeDevices), for the instruments table; by device, may be shorter.
+  std::vector<instruments::DeviceInfo> identities;
 };
 
 // A configuration that gave no usable point, and why (its point flags, or the fault).

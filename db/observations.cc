@@ -1,9 +1,13 @@
 #include "db/observations.h"
 
+#include <fmt/chrono.h>
+#include <fmt/format.h>
+
 #include <cmath>
 #include <cstdio>
 
 #include "core/units.h"
+#include "db/schema.h"
 #include "db/sql_util.h"
 
 namespace armsig::db {
@@ -20,6 +24,40 @@ int64_t EnsureStation(Database& db, const std::string& code) {
   find->Bind(1, code);
   if (find->Step()) return find->Int(0);
   throw DatabaseError(db.path() + ": station " + code + " was neither stored nor found", "",
+                      false);
+}
+
+int64_t EnsureInstrument(Database& db, const InstrumentRow& i) {
+  auto find = Sql(db, "SELECT id, port, firmware FROM instruments WHERE name = ?");
+  find->Bind(1, i.name);
+  if (find->Step()) {
+    const int64_t id = find->Int(0);
+    if (find->Text(1) != i.port || find->Text(2) != i.firmware) {
+      auto update = Sql(db, "UPDATE instruments SET port = ?, firmware = ? WHERE id = ?");
+      update->Bind(1, i.port);
+      update->Bind(2, i.firmware);
+      update->Bind(3, id);
+      update->Execute();
+    }
+    return id;
+  }
+  auto s = Sql(db,
+               "INSERT INTO instruments(name, kind, protocol, port, serial_number, firmware, "
+               "sigma_hz_arcsec, sigma_v_arcsec, sigma_distance_mm) VALUES (?,?,?,?,?,?,?,?,?) "
+               "ON CONFLICT (name) DO NOTHING");
+  s->Bind(1, i.name);
+  s->Bind(2, i.kind);
+  s->Bind(3, i.protocol);
+  s->Bind(4, i.port);
+  s->Bind(5, i.serial_number);
+  s->Bind(6, i.firmware);
+  s->Bind(7, i.sigma_hz_arcsec);
+  s->Bind(8, i.sigma_v_arcsec);
+  s->Bind(9, i.sigma_distance_mm);
+  s->Execute();
+  find->Bind(1, i.name);
+  if (find->Step()) return find->Int(0);
+  throw DatabaseError(db.path() + ": instrument " + i.name + " was neither stored nor found", "",
                       false);
 }
 
@@ -100,13 +138,22 @@ std::map<std::string, StationSetupRow> LatestStationSetups(Database& db, int64_t
   return out;
 }
 
+std::string MeasuredAt(std::chrono::system_clock::time_point time) {
+  const auto ms = std::chrono::floor<std::chrono::milliseconds>(time);
+  const auto seconds = std::chrono::floor<std::chrono::seconds>(ms);
+  return fmt::format("{:%Y-%m-%dT%H:%M:%S}.{:03d}Z", seconds,
+                     static_cast<int>((ms - seconds).count()));
+}
+
 void InsertObservations(Database& db, int64_t session_id, const std::vector<ObservationRow>& rows) {
   std::map<std::string, int64_t> station_ids;
   auto s = Sql(
       db,
       "INSERT INTO observations(session_id, pose_id, point, station_id, hz_rad, v_rad, "
       "distance_mm, face, sigma_hz_arcsec, sigma_v_arcsec, sigma_distance_mm, return_code, "
-      "temperature_c, pressure_hpa, humidity_percent) VALUES (?,?,?,?,?,?,?,?,?,?,?,?,?,?,?)");
+      "temperature_c, pressure_hpa, humidity_percent, measured_at, note, instrument_id) "
+      "VALUES (?,?,?,?,?,?,?,?,?,?,?,?,?,?,?,COALESCE(?," +
+          std::string(NowIsoSql(db.backend())) + "),?,?)");
   for (const auto& r : rows) {
     auto it = station_ids.find(r.station);
     if (it == station_ids.end())
@@ -134,6 +181,18 @@ void InsertObservations(Database& db, int64_t session_id, const std::vector<Obse
     s->Bind(13, r.temperature_c);
     s->Bind(14, r.pressure_hpa);
     s->Bind(15, r.humidity_percent);
+    if (r.measured_at)
+      s->Bind(16, *r.measured_at);
+    else
+      s->BindNull(16);
+    if (r.note.empty())
+      s->BindNull(17);
+    else
+      s->Bind(17, r.note);
+    if (r.instrument_id)
+      s->Bind(18, *r.instrument_id);
+    else
+      s->BindNull(18);
     s->Execute();
   }
 }
@@ -144,7 +203,8 @@ std::vector<ObservationRow> LoadObservations(Database& db, int64_t session_id) {
       db,
       "SELECT o.pose_id, o.point, st.code, o.hz_rad, o.v_rad, o.distance_mm, o.face, "
       "o.sigma_hz_arcsec, o.sigma_v_arcsec, o.sigma_distance_mm, o.return_code, "
-      "o.temperature_c, o.pressure_hpa, o.humidity_percent "
+      "o.temperature_c, o.pressure_hpa, o.humidity_percent, o.measured_at, o.note, "
+      "o.instrument_id "
       "FROM observations o JOIN stations st ON st.id = o.station_id "
       "WHERE o.session_id = ? ORDER BY o.pose_id, o.point, o.id");
   s->Bind(1, session_id);
@@ -162,6 +222,9 @@ std::vector<ObservationRow> LoadObservations(Database& db, int64_t session_id) {
     r.temperature_c = s->OptionalDouble(11);
     r.pressure_hpa = s->OptionalDouble(12);
     r.humidity_percent = s->OptionalDouble(13);
+    r.measured_at = s->Text(14);
+    if (!s->IsNull(15)) r.note = s->Text(15);
+    if (!s->IsNull(16)) r.instrument_id = s->Int(16);
     out.push_back(std::move(r));
   }
   return out;

@@ -2,6 +2,7 @@
 #pragma once
 
 #include <Eigen/Core>
+#include <chrono>
 #include <cstdint>
 #include <limits>
 #include <map>
@@ -15,6 +16,19 @@
 namespace armsig::db {
 
 int64_t EnsureStation(Database& db, const std::string& code);
+
+// An instrument as it identified itself when a capture began (the `instruments` table).
+struct InstrumentRow {
+  std::string name;      // unique: the model and serial number, else the protocol and port
+  std::string kind;      // theodolite | total_station | laser_tracker
+  std::string protocol;  // geocom | gsi | emscon
+  std::string port;      // serial path or HOST:PORT
+  std::string serial_number, firmware;
+  std::optional<double> sigma_hz_arcsec, sigma_v_arcsec, sigma_distance_mm;
+};
+// The id of the instrument of that name, stored first when it is new (its port and firmware
+// brought up to date when they changed: a firmware update is part of the record).
+int64_t EnsureInstrument(Database& db, const InstrumentRow& instrument);
 
 struct StationSetupRow {
   std::string station;  // code
@@ -42,7 +56,15 @@ struct ObservationRow {
   int return_code = 0;
   // The air at the instrument when it measured (laser trackers report it), °C, hPa, %RH.
   std::optional<double> temperature_c, pressure_hpa, humidity_percent;
+  // When the instrument's answer arrived (ISO 8601 UTC, milliseconds, as `measured_at`
+  // stores it); absent: the time it is stored (readings imported from a file).
+  std::optional<std::string> measured_at;
+  std::string note;                    // the instrument's warning with a valid reading
+  std::optional<int64_t> instrument_id;  // EnsureInstrument's id; absent for imported readings
 };
+// A time as `measured_at` stores it (the database's own default does the same): ISO 8601
+// UTC with milliseconds, 2026-11-27T13:04:14.123Z, so that stored times sort as text.
+std::string MeasuredAt(std::chrono::system_clock::time_point time);
 // Inserts with one prepared statement (station ids resolved once).
 void InsertObservations(Database& db, int64_t session_id, const std::vector<ObservationRow>& rows);
 // Every observation of a session, ordered by pose and point.

@@ -157,7 +157,8 @@ constexpr Column kObservationColumns[] = {{"point", Kind::kText},
                                           {"measured_at", Kind::kText},
                                           {"temperature_c", Kind::kReal},
                                           {"pressure_hpa", Kind::kReal},
-                                          {"humidity_percent", Kind::kReal}};
+                                          {"humidity_percent", Kind::kReal},
+                                          {"note", Kind::kText}};
 constexpr Column kPointColumns[] = {{"point", Kind::kText},  {"x_mm", Kind::kReal},
                                     {"y_mm", Kind::kReal},   {"z_mm", Kind::kReal},
                                     {"sx_mm", Kind::kReal},  {"sy_mm", Kind::kReal},

@@ -249,6 +249,14 @@ ALTER TABLE activations ADD COLUMN uuid TEXT;
 CREATE UNIQUE INDEX activations_by_uuid ON activations(uuid);
 )sql";
 
+// Schema v11: a reading keeps the instrument's warning that came with it (GeoCOM 1283/1284:
+// data valid, accuracy not guaranteed); `measured_at` and `instrument_id` are filled by the
+// capture from then on (the time the instrument's answer arrived, the instrument as it
+// identified itself).
+constexpr std::string_view kSchemaV11 = R"sql(
+ALTER TABLE observations ADD COLUMN note TEXT;  -- the instrument's warning with the reading
+)sql";
+
 // PostgreSQL's text of the migrations whose SQLite text does not translate word for word
 // (PostgresDdl): v2 and v9 fill their new column from what only SQLite has (json_extract,
 // rowid). A PostgreSQL store is created by an armsig of schema v9 or later, in one
@@ -295,9 +303,10 @@ constexpr std::array<std::string_view, 13> kTables = {"robots",
 
 std::span<const std::string_view> Migrations() {
   static const std::string jobs = JobsSchemaSql(Backend::kSqlite);
-  static const std::array<std::string_view, 10> migrations = [] {
-    std::array<std::string_view, 10> m = {kSchemaV1, kSchemaV2, kSchemaV3, kSchemaV4, kSchemaV5,
-                                          kSchemaV6, {},        kSchemaV8, kSchemaV9, kSchemaV10};
+  static const std::array<std::string_view, 11> migrations = [] {
+    std::array<std::string_view, 11> m = {kSchemaV1, kSchemaV2,  kSchemaV3, kSchemaV4,
+                                          kSchemaV5, kSchemaV6,  {},        kSchemaV8,
+                                          kSchemaV9, kSchemaV10, kSchemaV11};
     m[kJobsMigration - 1] = jobs;
     return m;
   }();

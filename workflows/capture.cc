@@ -84,14 +84,17 @@ acquisition::CaptureSummary CaptureWith(
 // Asks every instrument who it is and the controller where the robot is: each device
 // answers, or the capture ends naming it (exit 1) before anything is stored. A raised stop
 // flag cuts a call short.
-void ProbeDevices(const acquisition::LabConfig& lab,
-                  std::vector<std::unique_ptr<instruments::DistanceInstrument>>& devices,
-                  instruments::RobotController& controller, const std::atomic<bool>* stop) {
+std::vector<instruments::DeviceInfo> ProbeDevices(
+    const acquisition::LabConfig& lab,
+    std::vector<std::unique_ptr<instruments::DistanceInstrument>>& devices,
+    instruments::RobotController& controller, const std::atomic<bool>* stop) {
   const acquisition::InterruptScope interrupts(devices, controller, stop);
+  std::vector<instruments::DeviceInfo> identities;
   for (size_t i = 0; i < devices.size(); ++i) {
     const auto& config = lab.instruments[i];
     try {
       const instruments::DeviceInfo info = devices[i]->Identify();
+      identities.push_back(info);
       spdlog::info("capture: station {}: {} on {}{}{}", config.station,
                    info.name.empty() ? config.protocol : info.name, devices[i]->name(),
                    info.serial.empty() ? std::string() : ", serial " + info.serial,
@@ -135,6 +138,7 @@ void ProbeDevices(const acquisition::LabConfig& lab,
                                          "it is on and its port; nothing was stored",
                                          e.what()));
   }
+  return identities;
 }
 
 }  // namespace
@@ -144,14 +148,16 @@ acquisition::CaptureSummary CaptureInto(db::Database& db, const acquisition::Lab
                                         const acquisition::CaptureOptions& options) {
   std::vector<std::unique_ptr<instruments::DistanceInstrument>> devices;
   std::unique_ptr<instruments::RobotController> controller;
+  acquisition::CaptureOptions identified = options;
   try {
     devices = acquisition::OpenInstruments(lab);
     controller = acquisition::OpenController(lab);
+    identified.identities = ProbeDevices(lab, devices, *controller, options.stop);
   } catch (...) {
     db::SetSessionState(db, session, "paused");  // resumable, never left running
     throw;
   }
-  return CaptureWith(db, lab, session, devices, *controller, options);
+  return CaptureWith(db, lab, session, devices, *controller, identified);
 }
 
 CaptureOutcome RunCaptureSession(const CaptureRequest& request) {
@@ -184,13 +190,14 @@ CaptureOutcome RunCaptureSession(const CaptureRequest& request) {
   // now and leaves nothing behind.
   std::vector<std::unique_ptr<instruments::DistanceInstrument>> devices;
   std::unique_ptr<instruments::RobotController> controller;
+  std::vector<instruments::DeviceInfo> identities;
   // false: Ctrl-C while a device was asked (nothing changed: a new session was not made,
   // a resumed one keeps its state).
   const auto open_devices = [&] {
     try {
       devices = acquisition::OpenInstruments(lab);
       controller = acquisition::OpenController(lab);
-      ProbeDevices(lab, devices, *controller, request.stop);
+      identities = ProbeDevices(lab, devices, *controller, request.stop);
       return true;
     } catch (...) {
       if (!request.stop || !*request.stop) throw;
@@ -247,6 +254,7 @@ CaptureOutcome RunCaptureSession(const CaptureRequest& request) {
   options.progress = request.progress;
   options.prompt_move = request.prompt_move;
   options.prompt_reflector = request.prompt_reflector;
+  options.identities = identities;
   try {
     out.summary = CaptureWith(database, lab, session, devices, *controller, options);
   } catch (...) {

@@ -8,6 +8,7 @@
 #include <filesystem>
 #include <future>
 #include <map>
+#include <set>
 #include <nlohmann/json.hpp>
 #include <random>
 #include <thread>
@@ -19,6 +20,7 @@
 #include "core/error.h"
 #include "core/units.h"
 #include "db/database.h"
+#include "db/observations.h"
 #include "db/store.h"
 #include "instruments/geocom_device.h"
 #include "io/atomic_file.h"
@@ -64,7 +66,7 @@ class VirtualLabFixture : public ::testing::Test {
       o.angle_latency = std::chrono::milliseconds(latency_ms[s]);
       o.motion_latency = 5ms;
       sims_.push_back(std::make_unique<simulation::GeoComSimulator>(
-          *lab_, s, dir_.File("T" + std::to_string(s + 1)), o));
+          *lab_, s, dir_.File("T" + std::to_string(s + 1)), o, "TDRA6000", 358120 + s));
       sims_.back()->Start();
     }
     simulation::SimulatorOptions o;
@@ -255,6 +257,89 @@ TEST_F(VirtualLabFixture, ConcurrentTriggeringCostsTheSlowestInstrument) {
   EXPECT_GT(sequential_ms, 440.0);                  // 100 + 150 + 200
   EXPECT_LT(s.mean_cycle_ms, 0.7 * sequential_ms);  // ≈ 200 + overhead, far below 450
   EXPECT_GT(s.mean_cycle_ms, 190.0);                // never faster than the slowest
+}
+
+// A reading keeps its own record on the way to the database: the time its instrument's
+// answer arrived (not the time it was stored), the instrument's warning with valid data,
+// and the instrument as it identified itself (the instruments table).
+TEST_F(VirtualLabFixture, AReadingIsStoredWithItsTimeItsWarningAndItsInstrument) {
+  Start();
+  LabConfig lab = LoadLab(dir_.File("lab.yaml"));
+  lab.tolerances.readings = 2;  // two rounds: each instrument answers twice, 10 ms apart
+  db::Database db(Db());
+  const Plan plan = WellSpreadPlan(lab.model, 4, 300, 1);
+  const int64_t session = CreateSession(db, lab, "puma", plan);
+  auto devices = OpenInstruments(lab);
+  auto controller = OpenController(lab);
+  std::vector<instruments::DeviceInfo> identities;
+  for (auto& d : devices) identities.push_back(d->Identify());
+  CaptureOptions options;
+  options.identities = identities;
+  // Station T2 warns with every measurement (GeoCOM 1284: data valid, accuracy not
+  // guaranteed) from now on.
+  sims_[1]->InjectAlways({simulation::Fault::kWarningCode, 1284});
+  const std::string before = db::MeasuredAt(std::chrono::system_clock::now());
+  const auto s = RunCapture(db, lab, session, devices, *controller, options);
+  ASSERT_TRUE(s.completed);
+  const auto rows = db::LoadObservations(db, session);
+  ASSERT_EQ(rows.size(), 24u);
+  std::map<std::string, std::set<int64_t>> instruments_of_station;
+  // The seconds of the day of a stored time (2026-11-27T13:04:14.123Z).
+  const auto seconds_of = [](const std::string& t) {
+    return std::stod(t.substr(11, 2)) * 3600 + std::stod(t.substr(14, 2)) * 60 +
+           std::stod(t.substr(17, 6));
+  };
+  std::map<std::pair<int64_t, std::string>, std::vector<double>> answers;
+  for (const auto& r : rows) {
+    ASSERT_TRUE(r.measured_at.has_value());
+    EXPECT_GE(*r.measured_at, before);
+    answers[{*r.pose_id, r.station}].push_back(seconds_of(*r.measured_at));
+    ASSERT_TRUE(r.instrument_id.has_value());
+    instruments_of_station[r.station].insert(*r.instrument_id);
+    if (r.station == "T2") {
+      EXPECT_EQ(r.return_code, 1284);
+      EXPECT_NE(r.note.find("TMC_ACCURACY_GUARANTEE"), std::string::npos) << r.note;
+    } else {
+      EXPECT_EQ(r.return_code, 0);
+      EXPECT_TRUE(r.note.empty()) << r.note;
+    }
+  }
+  // An instrument's two answers to one configuration are its latency apart (at least
+  // 10 ms, the simulated instrument's), where the rows were stored at once in one
+  // transaction: the stored times are the instruments'.
+  for (const auto& [key, times] : answers) {
+    ASSERT_EQ(times.size(), 2u);
+    EXPECT_GE(std::abs(times[1] - times[0]), 0.009) << key.second;
+  }
+  // Each reading was received before its configuration's pose was stored, and the
+  // configurations one after another.
+  auto q = db.connection().Prepare(
+      "SELECT max(o.measured_at) <= p.captured_at, min(o.measured_at) FROM observations o JOIN "
+      "poses p ON p.id = o.pose_id GROUP BY p.id ORDER BY p.seq");
+  std::string previous;
+  while (q->Step()) {
+    EXPECT_EQ(q->Int(0), 1);
+    EXPECT_GT(q->Text(1), previous);
+    previous = q->Text(1);
+  }
+  // One instrument per station, as it said it was: the serial number it gave.
+  ASSERT_EQ(instruments_of_station.size(), 3u);
+  for (size_t i = 0; i < 3; ++i) {
+    const std::string station = lab.instruments[i].station;
+    ASSERT_EQ(instruments_of_station[station].size(), 1u) << station;
+    auto row = db.connection().Prepare(
+        "SELECT name, kind, protocol, serial_number, port FROM instruments WHERE id = ?");
+    row->Bind(1, *instruments_of_station[station].begin());
+    ASSERT_TRUE(row->Step());
+    EXPECT_EQ(row->Text(1), "theodolite");
+    EXPECT_EQ(row->Text(2), "geocom");
+    EXPECT_EQ(row->Text(3), identities[i].serial);
+    EXPECT_FALSE(identities[i].serial.empty());
+    EXPECT_NE(row->Text(0).find(identities[i].serial), std::string::npos) << row->Text(0);
+    EXPECT_EQ(row->Text(4), lab.instruments[i].port);
+  }
+  // A second run of the same instruments finds them: no new rows.
+  EXPECT_EQ(Count(db, "SELECT count(*) FROM instruments"), 3);
 }
 
 void VirtualLabFixture::KillNineThenResume(int kills_wanted) {
