@@ -21,6 +21,7 @@
 #include "core/units.h"
 #include "db/database.h"
 #include "db/observations.h"
+#include "db/push.h"
 #include "db/store.h"
 #include "instruments/geocom_device.h"
 #include "io/atomic_file.h"
@@ -340,6 +341,51 @@ TEST_F(VirtualLabFixture, AReadingIsStoredWithItsTimeItsWarningAndItsInstrument)
   }
   // A second run of the same instruments finds them: no new rows.
   EXPECT_EQ(Count(db, "SELECT count(*) FROM instruments"), 3);
+}
+
+// An instrument that answers 3 s before the configuration is stored (the slowest of the
+// three takes that long): its readings keep their own time, not the insert's, and their
+// time, warning and instrument go on with `db push`.
+TEST_F(VirtualLabFixture, AReadingStoredSecondsAfterItsAnswerKeepsItsTimeThroughPush) {
+  Start({10, 10, 3000});
+  LabConfig lab = LoadLab(dir_.File("lab.yaml"));
+  lab.policy.timeout = 10s;  // T3 answers after 3 s
+  int64_t session = 0;
+  {
+    db::Database db(Db());
+    session = CreateSession(db, lab, "puma", WellSpreadPlan(lab.model, 2, 300, 1));
+    auto devices = OpenInstruments(lab);
+    auto controller = OpenController(lab);
+    CaptureOptions options;
+    for (auto& d : devices) options.identities.push_back(d->Identify());
+    sims_[0]->InjectOnce({simulation::Fault::kWarningCode, 1283});
+    ASSERT_TRUE(RunCapture(db, lab, session, devices, *controller, options).completed);
+  }
+  const std::string pushed = dir_.File("central.db");
+  {
+    db::Database source(Db(), db::OpenMode::kMustExist);
+    db::Database target(pushed);
+    db::Push(source.connection(), target.connection(), {Db(), nullptr});
+  }
+  for (const std::string& path : {Db(), pushed}) {
+    db::Database db(path, db::OpenMode::kMustExist);
+    auto q = db.connection().Prepare(
+        "SELECT (julianday(p.captured_at) - julianday(o.measured_at)) * 86400, o.note, i.name "
+        "FROM observations o JOIN poses p ON p.id = o.pose_id JOIN stations s ON "
+        "s.id = o.station_id LEFT JOIN instruments i ON i.id = o.instrument_id "
+        "WHERE s.code = 'T1' ORDER BY p.seq");
+    int rows = 0;
+    while (q->Step()) {
+      EXPECT_GT(q->Double(0), 2.5) << path;  // answered ~3 s before the pose was stored
+      EXPECT_LT(q->Double(0), 60.0) << path;
+      if (rows == 0) {
+        EXPECT_NE(q->Text(1).find("TMC_NO_FULL_CORRECTION"), std::string::npos) << q->Text(1);
+      }
+      EXPECT_EQ(q->Text(2), "TDRA6000 358120") << path;
+      ++rows;
+    }
+    EXPECT_EQ(rows, 2) << path;
+  }
 }
 
 void VirtualLabFixture::KillNineThenResume(int kills_wanted) {
