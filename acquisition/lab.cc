@@ -1,5 +1,6 @@
 #include "acquisition/lab.h"
 
+#include <fmt/format.h>
 #include <yaml-cpp/yaml.h>
 
 #include <algorithm>
@@ -331,6 +332,13 @@ std::string ReadNamedFile(const std::string& path, const SourceLocation& where,
 
 LabSettings ParseLabSettings(const std::string& text, const std::string& source) {
   return Parse(text, source).settings;
+}
+
+std::optional<LabSettings> StoredLabSettings(const std::string& lab_yaml, int64_t session,
+                                             const std::string& db_path) {
+  if (lab_yaml.empty()) return std::nullopt;
+  return ParseLabSettings(lab_yaml,
+                          fmt::format("lab file stored with session {} in {}", session, db_path));
 }
 
 LabConfig ParseLab(const std::string& text, const std::string& source) {

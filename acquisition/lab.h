@@ -117,6 +117,13 @@ LabConfig LoadLab(const std::string& path);
 LabConfig ParseLab(const std::string& text, const std::string& source);
 // The same checks on the text alone; relative paths resolve against `source`'s folder.
 LabSettings ParseLabSettings(const std::string& text, const std::string& source);
+// The settings of the lab file a session was captured with (sessions.lab_yaml), the one
+// reader of every command that uses them (reduce, recalibrate, the reports): nullopt for a
+// session stored without one (imported poses); a stored text that no longer reads is an
+// InputError naming the session and the database ("lab file stored with session 4 in
+// lab.db:3:7: …").
+std::optional<LabSettings> StoredLabSettings(const std::string& lab_yaml, int64_t session,
+                                             const std::string& db_path);
 
 // A lab file's text (YAML::Emitter) from its parts, as a technician would write it: the
 // model and stations by file name, every instrument and the controller with the keys

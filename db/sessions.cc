@@ -215,12 +215,13 @@ std::vector<SessionSummary> ListSessions(Database& db, std::optional<int64_t> ro
   return out;
 }
 
-std::string LatestLabYaml(Database& db, int64_t robot_id) {
+std::optional<SessionLab> LatestLabYaml(Database& db, int64_t robot_id) {
   auto q = Sql(db,
-               "SELECT lab_yaml FROM sessions WHERE robot_id = ? AND coalesce(lab_yaml, '') "
+               "SELECT id, lab_yaml FROM sessions WHERE robot_id = ? AND coalesce(lab_yaml, '') "
                "<> '' ORDER BY id DESC LIMIT 1");
   q->Bind(1, robot_id);
-  return q->Step() ? q->Text(0) : std::string();
+  if (!q->Step()) return std::nullopt;
+  return SessionLab{q->Int(0), q->Text(1)};
 }
 
 }  // namespace armsig::db

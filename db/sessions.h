@@ -55,7 +55,12 @@ struct SessionSummary {
 std::vector<SessionSummary> ListSessions(Database& db, std::optional<int64_t> robot_id);
 
 // The lab file stored with the robot's newest session that has one ("" if none).
-std::string LatestLabYaml(Database& db, int64_t robot_id);
+// The newest session of the robot stored with a lab file, and that file's text.
+struct SessionLab {
+  int64_t session = 0;
+  std::string lab_yaml;
+};
+std::optional<SessionLab> LatestLabYaml(Database& db, int64_t robot_id);
 
 int64_t InsertPose(Database& db, int64_t session_id, int seq, const std::string& label,
                    const std::optional<Eigen::VectorXd>& joints_rad, const std::string& status,

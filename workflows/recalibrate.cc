@@ -77,11 +77,10 @@ calibration::FittedSet FittedSetOf(const calibration::RobotModel& model, const S
 Gates LoadGates(db::Database& database, int64_t robot_id, const RecalibrateOptions& o) {
   Gates g;
   // A malformed block is an input error (never a silent fall-back to the defaults).
-  const std::string lab = db::LatestLabYaml(database, robot_id);
-  if (!lab.empty()) {
+  if (const auto lab = db::LatestLabYaml(database, robot_id)) {
     const auto settings =
-        acquisition::ParseLabSettings(lab, "lab file stored with robot " + o.robot + "'s sessions");
-    if (const auto& r = settings.recalibration) {
+        acquisition::StoredLabSettings(lab->lab_yaml, lab->session, database.path());
+    if (const auto& r = settings->recalibration) {
       g.max_mean_mm = r->max_validation_mean_mm.value_or(g.max_mean_mm);
       g.max_max_mm = r->max_validation_max_mm.value_or(g.max_max_mm);
       g.tolerance_mm = r->tolerance_mm.value_or(g.tolerance_mm);

@@ -23,11 +23,11 @@ namespace armsig::workflows {
 reduction::PointChecks SessionChecks(db::Database& database, int64_t session_id) {
   reduction::PointChecks checks;
   const auto session = db::LoadSession(database, session_id);
-  if (!session || session->lab_yaml.empty()) return checks;
-  const auto lab = acquisition::ParseLabSettings(
-      session->lab_yaml, "lab file stored with session " + std::to_string(session_id));
-  checks.max_miss_mm = lab.tolerances.max_miss_mm;
-  checks.max_repeat_mm = lab.tolerances.max_repeat_mm;
+  if (!session) return checks;
+  const auto lab = acquisition::StoredLabSettings(session->lab_yaml, session_id, database.path());
+  if (!lab) return checks;
+  checks.max_miss_mm = lab->tolerances.max_miss_mm;
+  checks.max_repeat_mm = lab->tolerances.max_repeat_mm;
   return checks;
 }
 

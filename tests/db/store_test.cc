@@ -176,7 +176,8 @@ TEST_P(TypedStore, EveryTypedRowReadsBackExactly) {
   EXPECT_EQ(summaries[0].flagged, 1);
   EXPECT_EQ(ListSessions(db, std::nullopt).size(), 1u);
   EXPECT_TRUE(ListSessions(db, robot + 1000).empty());
-  EXPECT_EQ(LatestLabYaml(db, robot), "lab: yaml");
+  ASSERT_TRUE(LatestLabYaml(db, robot).has_value());
+  EXPECT_EQ(LatestLabYaml(db, robot)->lab_yaml, "lab: yaml");
   {
     WriteTransaction finish(db);
     SetSessionState(db, session, "completed");
