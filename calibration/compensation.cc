@@ -7,6 +7,7 @@
 #include <cmath>
 #include <stdexcept>
 
+#include "calibration/damped_step.h"
 #include "calibration/residual_map.h"
 #include "core/plausibility.h"
 #include "core/text.h"
@@ -67,25 +68,14 @@ JointSolution SolveJoints(const RobotModel& model, const Eigen::Isometry3d& worl
     return x;
   };
   Eigen::MatrixXd j;
-  double best = INFINITY;
-  int stalled = 0;
+  StallWatch watch;
   for (; s.iterations < options.max_iterations; ++s.iterations) {
     const Eigen::Vector3d x = position(s.joints_rad, &j);
     const Eigen::Vector3d e = target_mm - x;
     s.residual_mm = e.norm();
     if (s.residual_mm < options.tolerance_mm) break;
-    const double lambda = options.damping_mm * std::min(1.0, s.residual_mm / 10.0);
-    const Eigen::Matrix3d jjt = j * j.transpose() + lambda * lambda * Eigen::Matrix3d::Identity();
-    Eigen::VectorXd step = j.transpose() * jjt.ldlt().solve(e);
-    const double largest = step.cwiseAbs().maxCoeff();
-    if (largest > options.max_step_rad) step *= options.max_step_rad / largest;
-    s.joints_rad += step;
-    if (s.residual_mm < best * 0.999) {
-      best = s.residual_mm;
-      stalled = 0;
-    } else if (++stalled > 20) {
-      break;
-    }
+    s.joints_rad += DampedJointStep(j, e, s.residual_mm, options);
+    if (watch.Stalled(s.residual_mm)) break;
   }
   s.residual_mm = (target_mm - position(s.joints_rad, nullptr)).norm();
   if (!std::isfinite(s.residual_mm) || !s.joints_rad.allFinite()) {

@@ -5,6 +5,7 @@
 #include <Eigen/Cholesky>
 #include <cmath>
 
+#include "calibration/damped_step.h"
 #include "core/units.h"
 
 namespace armsig::calibration {
@@ -32,24 +33,12 @@ JointSolution SolvePose(const RobotModel& model, const Eigen::Isometry3d& world_
     j.bottomRows<3>() = kPoseLeverMm * kin.JointAxes();
     return e.norm();
   };
-  double best = INFINITY;
-  int stalled = 0;
+  StallWatch watch;
   for (; s.iterations < options.max_iterations; ++s.iterations) {
     s.residual_mm = evaluate(s.joints_rad);
     if (!(s.residual_mm >= options.tolerance_mm)) break;  // converged, or not a number
-    const double lambda = options.damping_mm * std::min(1.0, s.residual_mm / 10.0);
-    const Eigen::MatrixXd jjt =
-        j * j.transpose() + lambda * lambda * Eigen::MatrixXd::Identity(6, 6);
-    Eigen::VectorXd step = j.transpose() * jjt.ldlt().solve(e);
-    const double largest = step.cwiseAbs().maxCoeff();
-    if (largest > options.max_step_rad) step *= options.max_step_rad / largest;
-    s.joints_rad += step;
-    if (s.residual_mm < best * 0.999) {
-      best = s.residual_mm;
-      stalled = 0;
-    } else if (++stalled > 20) {
-      break;
-    }
+    s.joints_rad += DampedJointStep(j, e, s.residual_mm, options);
+    if (watch.Stalled(s.residual_mm)) break;
   }
   s.residual_mm = evaluate(s.joints_rad);
   if (!std::isfinite(s.residual_mm) || !s.joints_rad.allFinite()) {

@@ -101,6 +101,15 @@ std::optional<es::Packet> EmsconDevice::NextPacket(Deadline until) {
   return p;
 }
 
+void EmsconDevice::FailUnlessUnsolicited(const es::ErrorResponse& e, int32_t id) {
+  if (e.command != id) {
+    Record(Event::Kind::kUnsolicitedError, e.status, e.command);
+    return;
+  }
+  if (e.status == es::status::kServerBusy) throw Busy{es::CommandName(id)};
+  ThrowStatus(id, e.status, "failed:");
+}
+
 es::CommandAnswer EmsconDevice::Exchange(const es::Request& request, Deadline until) {
   const int32_t id = es::CommandOf(request);
   ++stats_.commands;
@@ -122,12 +131,8 @@ es::CommandAnswer EmsconDevice::Exchange(const es::Request& request, Deadline un
       return *a;
     }
     if (const auto* e = std::get_if<es::ErrorResponse>(&*packet)) {
-      if (e->command != id) {
-        Record(Event::Kind::kUnsolicitedError, e->status, e->command);
-        continue;
-      }
-      if (e->status == es::status::kServerBusy) throw Busy{es::CommandName(id)};
-      ThrowStatus(id, e->status, "failed:");
+      FailUnlessUnsolicited(*e, id);
+      continue;
     }
     ++stats_.stale_results;  // a measurement result nobody asked for now
   }
@@ -387,12 +392,8 @@ es::MeasResult EmsconDevice::MeasureResult(Deadline share) {
       continue;  // accepted; the result follows
     }
     if (const auto* e = std::get_if<es::ErrorResponse>(&*packet)) {
-      if (e->command != id) {
-        Record(Event::Kind::kUnsolicitedError, e->status, e->command);
-        continue;
-      }
-      if (e->status == es::status::kServerBusy) throw Busy{es::CommandName(id)};
-      ThrowStatus(id, e->status, "failed:");
+      FailUnlessUnsolicited(*e, id);
+      continue;
     }
     return std::get<es::MeasResult>(*packet);
   }

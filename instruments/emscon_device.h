@@ -132,6 +132,9 @@ class EmsconDevice : public DistanceInstrument, public BeamSteering {
   std::vector<emscon::ReflectorInfo> ReadReflectors(Deadline until);
   void Record(Event::Kind kind, int32_t value, int32_t command);
   [[noreturn]] void ThrowStatus(int32_t command, int32_t status, const char* how) const;
+  // An error packet while command `id` waits for its answer: another command's (unsolicited:
+  // recorded, the wait goes on) or this command's failure (thrown: Busy, or its status).
+  void FailUnlessUnsolicited(const emscon::ErrorResponse& e, int32_t id);
   // One stationary result (StartMeasurement → SingleMeasResult), refused unless it is a
   // reading: status AllOK, stationary, no try mode, every value finite.
   emscon::MeasResult MeasureResult(Deadline share);
