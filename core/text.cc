@@ -170,6 +170,12 @@ std::string Quoted(std::string_view text, std::size_t max_bytes) {
          " bytes)";
 }
 
+std::string_view Trim(std::string_view text, std::string_view characters) {
+  const std::size_t first = text.find_first_not_of(characters);
+  if (first == std::string_view::npos) return {};
+  return text.substr(first, text.find_last_not_of(characters) - first + 1);
+}
+
 int EditDistance(std::string_view a, std::string_view b) {
   // Wagner–Fischer, one row.
   std::vector<int> row(b.size() + 1);

@@ -56,6 +56,11 @@ std::string JsonText(const Json& json, int indent = -1) {
 
 // Levenshtein distance (insertions, deletions, substitutions), for "did you mean".
 int EditDistance(std::string_view a, std::string_view b);
+
+// `text` without the `characters` it begins and ends with (by default blanks, tabs and line
+// ends). Each reader names the set its format allows: a GSI or robot line " \r\n", a CSV
+// field " \t".
+std::string_view Trim(std::string_view text, std::string_view characters = " \t\r\n");
 // The candidate nearest to `word`, when near enough to be a likely typo of it (a few
 // characters: at most max(2, |word| / 3) edits); nullopt otherwise.
 std::optional<std::string> NearestKey(std::string_view word,

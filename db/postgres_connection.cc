@@ -14,6 +14,7 @@
 #include <vector>
 
 #include "core/error.h"
+#include "core/text.h"
 
 namespace armsig::db {
 
@@ -33,10 +34,8 @@ bool ServerWentAway(const std::string& sqlstate) {
          sqlstate == "57P03";
 }
 
-std::string Trimmed(std::string text) {
-  while (!text.empty() && (text.back() == '\n' || text.back() == ' ')) text.pop_back();
-  return text;
-}
+// libpq's messages end with a line feed.
+std::string Trimmed(std::string_view text) { return std::string(Trim(text, "\n ")); }
 
 struct ResultDeleter {
   void operator()(PGresult* r) const { PQclear(r); }

@@ -315,14 +315,6 @@ Word TextWord(int wi, std::string_view text, bool gsi16) {
 
 namespace {
 
-std::string_view Trim(std::string_view s) {
-  while (!s.empty() && (s.front() == ' ' || s.front() == '\r' || s.front() == '\n'))
-    s.remove_prefix(1);
-  while (!s.empty() && (s.back() == ' ' || s.back() == '\r' || s.back() == '\n'))
-    s.remove_suffix(1);
-  return s;
-}
-
 std::optional<int> SmallInteger(std::string_view s) {
   auto v = Integer(s);
   if (!v || *v > 1000000) return std::nullopt;
@@ -338,7 +330,7 @@ std::string FormatOnlineRequest(const OnlineRequest& q) {
 }
 
 std::optional<OnlineRequest> ParseOnlineRequest(std::string_view line, std::string* why) {
-  const std::string_view text = Trim(line);
+  const std::string_view text = Trim(line, " \r\n");
   auto fail = [&](std::string m) -> std::optional<OnlineRequest> {
     if (why) *why = std::move(m);
     return std::nullopt;
@@ -390,7 +382,7 @@ std::string FormatOnlineReply(const OnlineReply& r) {
 }
 
 std::optional<OnlineReply> ParseOnlineReply(std::string_view line, std::string* why) {
-  const std::string_view text = Trim(line);
+  const std::string_view text = Trim(line, " \r\n");
   auto fail = [&](std::string m) -> std::optional<OnlineReply> {
     if (why) *why = std::move(m);
     return std::nullopt;
@@ -417,6 +409,6 @@ std::optional<OnlineReply> ParseOnlineReply(std::string_view line, std::string* 
   return r;
 }
 
-std::string Describe(const OnlineReply& r) { return std::string(Trim(FormatOnlineReply(r))); }
+std::string Describe(const OnlineReply& r) { return std::string(Trim(FormatOnlineReply(r), " \r\n")); }
 
 }  // namespace armsig::instruments::gsi

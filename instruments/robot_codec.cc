@@ -146,14 +146,6 @@ std::string FormatWhere(const Eigen::VectorXd& joints_deg, const Eigen::VectorXd
 
 namespace {
 
-std::string_view TrimLine(std::string_view s) {
-  while (!s.empty() && (s.front() == ' ' || s.front() == '\r' || s.front() == '\n'))
-    s.remove_prefix(1);
-  while (!s.empty() && (s.back() == ' ' || s.back() == '\r' || s.back() == '\n'))
-    s.remove_suffix(1);
-  return s;
-}
-
 std::string Upper(std::string_view s) {
   std::string out(s);
   for (char& c : out) c = static_cast<char>(std::toupper(static_cast<unsigned char>(c)));
@@ -178,7 +170,7 @@ std::optional<MonitorCommand> ParseMonitorCommand(std::string_view line, std::st
     if (why) *why = std::move(m);
     return std::nullopt;
   };
-  const std::string text = Upper(TrimLine(line));
+  const std::string text = Upper(Trim(line, " \r\n"));
   MonitorCommand command;
   if (text == "WHERE" || text == "WH" || text == "WHERE 3") return command;
   constexpr std::string_view kJMove = "DO JMOVE #[";
@@ -192,7 +184,7 @@ std::optional<MonitorCommand> ParseMonitorCommand(std::string_view line, std::st
   while (pos <= list.size()) {
     size_t comma = list.find(',', pos);
     if (comma == std::string_view::npos) comma = list.size();
-    const std::string item(TrimLine(list.substr(pos, comma - pos)));
+    const std::string item(Trim(list.substr(pos, comma - pos), " \r\n"));
     auto v = Number(item);
     if (!v) {
       return fail("DO JMOVE: joint value " + std::to_string(values.size() + 1) +
@@ -251,7 +243,7 @@ std::optional<CounterRequest> ParseCounterRequest(std::string_view line, std::st
     if (why) *why = std::move(m);
     return std::nullopt;
   };
-  const std::string_view text = TrimLine(line);
+  const std::string_view text = Trim(line, " \r\n");
   CounterRequest q;
   if (text.size() < 3 || (text[0] != 'R' && text[0] != 'W' && text[0] != 'S'))
     return fail("expected R<reg>, W<reg><value> or S<reg> (reg 2 hex digits), got " +

@@ -29,12 +29,6 @@ char GuessDelimiter(std::string_view header_line) {
   return ',';
 }
 
-std::string_view Trim(std::string_view s) {
-  while (!s.empty() && (s.front() == ' ' || s.front() == '\t')) s.remove_prefix(1);
-  while (!s.empty() && (s.back() == ' ' || s.back() == '\t')) s.remove_suffix(1);
-  return s;
-}
-
 bool AllDigits(std::string_view s) {
   return !s.empty() && s.find_first_not_of("0123456789") == std::string_view::npos;
 }
@@ -95,7 +89,7 @@ constexpr const char* kDecimalCommaHint =
 bool DecimalCommaAllowed(char delimiter) { return delimiter == ';' || delimiter == '\t'; }
 
 std::optional<double> ParseNumber(std::string_view text, bool decimal_comma) {
-  text = Trim(text);
+  text = Trim(text, " \t");
   if (text.empty()) return std::nullopt;
   std::string buffer;
   if (decimal_comma && text.find(',') != std::string_view::npos) {
@@ -208,7 +202,7 @@ Scan ScanRecord(std::string_view text, bool at_eof, std::size_t& pos, int& line_
       ++i;
       continue;
     }
-    if (c == '"' && Trim(field).empty()) {
+    if (c == '"' && Trim(field, " \t").empty()) {
       quoted = true;
       field_was_quoted = true;
       field.clear();
@@ -216,7 +210,7 @@ Scan ScanRecord(std::string_view text, bool at_eof, std::size_t& pos, int& line_
       continue;
     }
     if (c == delimiter) {
-      row.fields.push_back(field_was_quoted ? field : std::string(Trim(field)));
+      row.fields.push_back(field_was_quoted ? field : std::string(Trim(field, " \t")));
       field.clear();
       field_was_quoted = false;
       ++i;
@@ -226,7 +220,7 @@ Scan ScanRecord(std::string_view text, bool at_eof, std::size_t& pos, int& line_
     field += c;
     ++i;
   }
-  row.fields.push_back(field_was_quoted ? field : std::string(Trim(field)));
+  row.fields.push_back(field_was_quoted ? field : std::string(Trim(field, " \t")));
   pos = i;
   line_no = line;
   return Scan::kRecord;
@@ -473,7 +467,7 @@ double CsvColumns::Number(const CsvRow& row, int column) const {
 }
 
 std::optional<double> CsvColumns::OptionalNumber(const CsvRow& row, int column) const {
-  if (Trim(row.fields.at(column)).empty()) return std::nullopt;
+  if (Trim(row.fields.at(column), " \t").empty()) return std::nullopt;
   return Number(row, column);
 }
 
@@ -488,7 +482,7 @@ double CsvColumns::Number(const CsvRow& row, int column, plausible::Quantity qua
 std::optional<double> CsvColumns::OptionalNumber(const CsvRow& row, int column,
                                                  plausible::Quantity quantity,
                                                  plausible::Unit unit) const {
-  if (Trim(row.fields.at(column)).empty()) return std::nullopt;
+  if (Trim(row.fields.at(column), " \t").empty()) return std::nullopt;
   return Number(row, column, quantity, unit);
 }
 
@@ -498,7 +492,7 @@ double CsvColumns::AngleRad(const CsvRow& row, const AngleColumn& column,
 }
 
 int CsvColumns::Integer(const CsvRow& row, int column) const {
-  std::string_view field = Trim(row.fields.at(column));
+  std::string_view field = Trim(row.fields.at(column), " \t");
   int value = 0;
   auto [ptr, ec] = std::from_chars(field.data(), field.data() + field.size(), value);
   if (field.empty() || ec != std::errc() || ptr != field.data() + field.size()) {

@@ -18,6 +18,7 @@
 #include "core/error.h"
 #include "core/plausibility.h"
 #include "io/csv.h"
+#include "core/text.h"
 
 namespace armsig::io {
 
@@ -47,22 +48,19 @@ const char* ToString(LengthUnit unit) {
 
 namespace {
 
+// What std::isspace calls white space: a tracker export's fields and lines are trimmed of it.
+constexpr std::string_view kBlank = " \t\n\v\f\r";
+
 std::string Lower(std::string_view s) {
   std::string out(s);
   for (char& c : out) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
   return out;
 }
 
-std::string_view Trim(std::string_view s) {
-  while (!s.empty() && std::isspace(static_cast<unsigned char>(s.front()))) s.remove_prefix(1);
-  while (!s.empty() && std::isspace(static_cast<unsigned char>(s.back()))) s.remove_suffix(1);
-  return s;
-}
-
 }  // namespace
 
 std::optional<LengthUnit> LengthUnitFromText(std::string_view text) {
-  const std::string t = Lower(Trim(text));
+  const std::string t = Lower(Trim(text, kBlank));
   if (t == "mm" || t == "millimeter" || t == "millimeters" || t == "millimetre" ||
       t == "millimetres")
     return LengthUnit::kMm;
@@ -94,7 +92,7 @@ bool ParseDigits(std::string_view s, int& value) {
 }  // namespace
 
 std::optional<TimeStamp> ParseTimeStamp(std::string_view text) {
-  text = Trim(text);
+  text = Trim(text, kBlank);
   if (text.empty()) return std::nullopt;
   if (auto v = ParseNumber(text, false)) return TimeStamp{*v, false};
   if (auto v = ParseNumber(text, true)) return TimeStamp{*v, false};
@@ -167,7 +165,7 @@ std::vector<Line> SplitLines(std::string_view text) {
       // column is the name), not indentation: keep it when the line has anything else.
       std::string_view raw = text.substr(start, i - start);
       while (!raw.empty() && raw.front() == ' ') raw.remove_prefix(1);
-      lines.push_back({number, Trim(raw).empty() ? std::string() : std::string(raw)});
+      lines.push_back({number, Trim(raw, kBlank).empty() ? std::string() : std::string(raw)});
       while (!lines.back().text.empty() &&
              std::isspace(static_cast<unsigned char>(lines.back().text.back()))) {
         lines.back().text.pop_back();
@@ -245,7 +243,7 @@ std::vector<std::string> Split(std::string_view line, Delimiter d) {
       while (i < line.size() && !is_sep(line[i])) field += line[i++];  // text after the quote
     } else {
       while (i < line.size() && !is_sep(line[i])) field += line[i++];
-      field = std::string(Trim(field));
+      field = std::string(Trim(field, kBlank));
     }
     fields.push_back(std::move(field));
     if (i >= line.size()) break;
@@ -299,7 +297,7 @@ struct ColumnName {
 // "X [mm]" → x, mm; "x_m" → x, m; "Sigma X (mm)" → sigmax, mm; "σX" → sigmax; "Point Name" →
 // pointname; "Date/Time" → datetime.
 ColumnName Classify(std::string_view raw) {
-  std::string text = Lower(Trim(raw));
+  std::string text = Lower(Trim(raw, kBlank));
   for (size_t at = text.find("\xCF\x83"); at != std::string::npos; at = text.find("\xCF\x83"))
     text.replace(at, 2, "sigma");
   ColumnName out;
@@ -311,7 +309,7 @@ ColumnName Classify(std::string_view raw) {
       const char close = open == '[' ? ']' : ')';
       const size_t end = text.find(close, i);
       if (end != std::string::npos) {
-        const std::string inside(Trim(std::string_view(text).substr(i + 1, end - i - 1)));
+        const std::string inside(Trim(std::string_view(text).substr(i + 1, end - i - 1), kBlank));
         if (auto u = LengthUnitFromText(inside)) {
           out.unit = u;
         } else if (inside == "s" || inside == "sec" || inside == "seconds") {
@@ -329,7 +327,7 @@ ColumnName Classify(std::string_view raw) {
   for (const char sep : {'_', ' '}) {
     const size_t at = name.rfind(sep);
     if (at == std::string::npos || at == 0) continue;
-    const std::string suffix(Trim(std::string_view(name).substr(at + 1)));
+    const std::string suffix(Trim(std::string_view(name).substr(at + 1), kBlank));
     if (auto u = LengthUnitFromText(suffix); u && !out.unit) {
       out.unit = u;
       name.resize(at);
@@ -386,7 +384,7 @@ std::vector<std::string> MergeHeaderWords(std::vector<std::string> fields, size_
           (w.starts_with("[") || w.starts_with("(")) && LengthUnitFromText(Trim(
                                                             std::string_view(w).substr(
                                                                 1, w.size() >= 2 ? w.size() - 2
-                                                                                 : 0)));
+                                                                                 : 0), kBlank));
       const std::string joined = fields[k - 1] + " " + w;
       if (annotation || Classify(joined).role != Role::kOther) {
         fields[k - 1] = joined;
@@ -480,9 +478,9 @@ std::optional<std::vector<std::optional<LengthUnit>>> UnitsLine(
   std::vector<std::optional<LengthUnit>> units;
   bool any = false;
   for (const auto& raw : fields) {
-    std::string f(Trim(raw));
+    std::string f(Trim(raw, kBlank));
     if (f.size() >= 2 && (f.front() == '[' || f.front() == '(')) f = f.substr(1, f.size() - 2);
-    f = std::string(Trim(f));
+    f = std::string(Trim(f, kBlank));
     if (auto u = LengthUnitFromText(f)) {
       units.push_back(u);
       any = true;

@@ -141,6 +141,24 @@ std::vector<instruments::DeviceInfo> ProbeDevices(
   return identities;
 }
 
+// What each instrument says it is, for the instruments table: one that does not say (or a
+// Ctrl-C while it is asked: the run then stops at its first configuration) is named by its
+// protocol and port.
+std::vector<instruments::DeviceInfo> Identities(
+    std::vector<std::unique_ptr<instruments::DistanceInstrument>>& devices,
+    instruments::RobotController& controller, const std::atomic<bool>* stop) {
+  const acquisition::InterruptScope interrupts(devices, controller, stop);
+  std::vector<instruments::DeviceInfo> out(devices.size());
+  for (size_t i = 0; i < devices.size() && !(stop && *stop); ++i) {
+    try {
+      out[i] = devices[i]->Identify();
+    } catch (const std::exception& e) {
+      spdlog::debug("capture: {}: no identity ({})", devices[i]->name(), e.what());
+    }
+  }
+  return out;
+}
+
 }  // namespace
 
 acquisition::CaptureSummary CaptureInto(db::Database& db, const acquisition::LabConfig& lab,
@@ -152,7 +170,7 @@ acquisition::CaptureSummary CaptureInto(db::Database& db, const acquisition::Lab
   try {
     devices = acquisition::OpenInstruments(lab);
     controller = acquisition::OpenController(lab);
-    identified.identities = ProbeDevices(lab, devices, *controller, options.stop);
+    identified.identities = Identities(devices, *controller, options.stop);
   } catch (...) {
     db::SetSessionState(db, session, "paused");  // resumable, never left running
     throw;

@@ -120,4 +120,16 @@ TEST(Plausibility, CircleReadingsZenithAnglesAndDistancesHaveOneRule) {
 }
 
 }  // namespace
+
+// One Trim, each reader naming the characters its format allows around a value.
+TEST(Trim, RemovesOnlyTheNamedCharactersAtBothEnds) {
+  EXPECT_EQ(Trim("  a b \t\r\n"), "a b");
+  EXPECT_EQ(Trim("\t 12.5 \t", " \t"), "12.5");
+  EXPECT_EQ(Trim("\t12.5\r\n", " \r\n"), "\t12.5");  // a tab is a GSI line's content
+  EXPECT_EQ(Trim(" \r\n "), "");
+  EXPECT_EQ(Trim(""), "");
+  EXPECT_EQ(Trim("x"), "x");
+  EXPECT_EQ(Trim("\vx\f", " \t\n\v\f\r"), "x");
+}
+
 }  // namespace armsig
