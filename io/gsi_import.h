@@ -1,5 +1,5 @@
-// Leica GSI files to angle observations (SPEC `armsig import gsi`): word 11 point, 21 Hz,
-// 22 V, 31 slope distance, every unit the format defines.
+// Leica GSI files to angle observations (`armsig import gsi`, docs/reference/file-formats.md):
+// word 11 point, 21 Hz, 22 V, 31 slope distance, every unit the format defines.
 #pragma once
 
 #include <string>
