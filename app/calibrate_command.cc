@@ -45,8 +45,9 @@ void SetupCalibrateCommand(CLI::App& parent, const GlobalOptions& global, Runner
   auto options = std::make_shared<CalibrateOptions>();
   auto* sub = parent.add_subcommand(
       "calibrate", "Fit the robot's error parameters to measured poses (paper eq. 8-15)");
-  sub->add_option("--model", options->model, "Robot model YAML")->required();
+  sub->add_option("--model", options->model, "Robot model YAML")->type_name("FILE")->required();
   sub->add_option("--poses", options->poses, "Poses CSV: pose,q1_deg,...,x_mm,y_mm,z_mm")
+      ->type_name("FILE")
       ->required();
   sub->add_option("--params", options->settings.params,
                   "geometric | all | auto | list such as geometric,h3,h4")
@@ -55,7 +56,8 @@ void SetupCalibrateCommand(CLI::App& parent, const GlobalOptions& global, Runner
       sub->add_option("--select", options->settings.select,
                       "Keep the N best-spread poses (D-optimal) for the fit, validate on the rest"),
       0, kMaxPoses);
-  sub->add_option("--validate", options->validate, "Held-out poses CSV to validate on");
+  sub->add_option("--validate", options->validate, "Held-out poses CSV to validate on")
+      ->type_name("FILE");
   ChoiceOption(sub->add_option("--residual-model", options->settings.residual_model,
                   "auto: a cross-validated residual map after the parametric fit, used only "
                   "when it clearly helps; off: parametric only"), {"auto", "off"})

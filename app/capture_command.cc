@@ -41,8 +41,9 @@ void PromptReflector(const std::string& station, const acquisition::PlannedConfi
 void SetupCaptureCommand(CLI::App& parent, const GlobalOptions& global, Runner& run) {
   auto o = std::make_shared<workflows::CaptureRequest>();
   auto* sub = parent.add_subcommand("capture", "Run a capture session with the lab's instruments");
-  sub->add_option("--lab", o->lab, "Lab configuration YAML")->required();
-  sub->add_option("--plan", o->plan, "PLAN.csv, auto:N (well spread) or single-joint:J:STEPS");
+  sub->add_option("--lab", o->lab, "Lab configuration YAML")->type_name("FILE")->required();
+  sub->add_option("--plan", o->plan, "PLAN.csv, auto:N (well spread) or single-joint:J:STEPS")
+      ->type_name("PLAN");
   NameOption(sub->add_option("--robot", o->robot, "Robot name (created in the database if new)"));
   NumberOption(sub->add_option("--resume", o->resume, "Continue this session where it stopped"), 1,
                kMaxId);

@@ -1,7 +1,7 @@
 // The command-line face of armsig. Each command has a Setup… that declares its CLI11
 // subcommand and a Run… that takes the parsed options and returns an exit code, so
-// tests call Run… without a shell. Exit codes (SPEC): 0 ok, 1 failure, 2 usage or
-// input error, 3 a quality gate failed.
+// tests call Run… without a shell. Exit codes (docs/reference/cli.md): 0 ok, 1 failure,
+// 2 usage or input error, 3 a quality gate failed.
 #pragma once
 
 #include <CLI/CLI.hpp>

@@ -33,7 +33,8 @@ void SetupDemoCommand(CLI::App& parent, const GlobalOptions& global, Runner& run
                   "--resume keeps the session's"), {"theodolites", "tracker"});
   sub->add_option("--serve", o->serve_dir,
                   "Only start the virtual lab and keep it up in this folder (lab.yaml beside "
-                  "its devices) for armsig capture by hand; nothing is captured");
+                  "its devices) for armsig capture by hand; nothing is captured")
+      ->type_name("DIR");
   NumberOption(sub->add_option("--seconds", o->serve_seconds,
                                "With --serve: how long to serve (default: until Ctrl-C)"),
                0.0, 7 * 24 * 3600.0);

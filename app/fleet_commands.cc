@@ -1,7 +1,7 @@
 // armsig schedule recalibrate (--robot NAME… | --all) [recalibrate options] [--queue URI]
 // armsig worker [--jobs N] [--once] [--lease-s S] [--queue URI]
 // armsig jobs [--json] [--queue URI]
-// The nightly job as a queue (workflows/worker.h); exit codes per SPEC.
+// The nightly job as a queue (workflows/worker.h); exit codes as docs/reference/cli.md.
 #include <fmt/format.h>
 #include <spdlog/spdlog.h>
 

@@ -23,7 +23,7 @@ void SetupImportObservations(CLI::App& import, const GlobalOptions& global, Runn
       "Angle observations CSV (optional 'pose' column) into a new session, with "
       "the stations' set-ups");
   sub->add_option("file", o->file, "Observations CSV")->required();
-  sub->add_option("--stations", o->stations, "Stations YAML")->required();
+  sub->add_option("--stations", o->stations, "Stations YAML")->type_name("FILE")->required();
   NameOption(sub->add_option("--robot", o->robot, "Robot name"))->capture_default_str();
   NoteOption(sub->add_option("--note", o->note, "Session note"));
   sub->callback([&run, &global, o] {
@@ -50,7 +50,7 @@ void SetupImportCommand(CLI::App& parent, const GlobalOptions& global, Runner& r
   auto* p = sub->add_subcommand(
       "poses",
       "A pose table with named columns (e.g. the IPA UR10 laser-tracker CSVs), or a laser "
-      "tracker's point table joined with the robot's joint log, to the SPEC poses CSV, or into "
+      "tracker's point table joined with the robot's joint log, to armsig's poses CSV, or into "
       "the database as a session of a robot");
   p->add_option("file", poses->file,
                 "Input: a poses CSV (pose,q1_deg,…,x_mm,y_mm,z_mm: no options needed), a pose "

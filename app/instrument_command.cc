@@ -23,8 +23,8 @@ void SetupInstrumentCommand(CLI::App& parent, const GlobalOptions&, Runner& run)
     auto* a = sub->add_subcommand(action, std::string(action) == "probe"
                                               ? "Identify the instrument (name, serial, firmware)"
                                               : "Take one measurement");
-    a->add_option("--port", o->port, "Serial port (or pty) path");
-    a->add_option("--tcp", o->tcp, "HOST:PORT instead of a serial port");
+    a->add_option("--port", o->port, "Serial port (or pty) path")->type_name("PATH");
+    a->add_option("--tcp", o->tcp, "HOST:PORT instead of a serial port")->type_name("ADDRESS");
     ChoiceOption(a->add_option("--protocol", o->protocol, "geocom | gsi | val | as | emscon"), {"geocom", "gsi", "val", "as", "emscon"})
         ->capture_default_str();
     NumberOption(a->add_option("--baud", o->baud, "Baud rate"), 50, 4000000)->capture_default_str();
@@ -54,8 +54,10 @@ void SetupInstrumentCommand(CLI::App& parent, const GlobalOptions&, Runner& run)
       "simulate", "Start a virtual instrument on a pseudo-terminal for manual trials");
   s->add_option("--protocol", o->protocol, "geocom | gsi | val | as | emscon")
       ->capture_default_str();
-  s->add_option("--tcp", o->tcp, "emscon: HOST:PORT to listen on (e.g. 127.0.0.1:7000)");
+  s->add_option("--tcp", o->tcp, "emscon: HOST:PORT to listen on (e.g. 127.0.0.1:7000)")
+      ->type_name("ADDRESS");
   s->add_option("--link", o->link, "Path of the port to create (a symlink to the pty)")
+      ->type_name("PATH")
       ->capture_default_str();
   NumberOption(s->add_option("--seconds", o->seconds, "Stop after this many seconds (0: Ctrl-C)"),
                0, 1e6);

@@ -25,9 +25,11 @@ void SetupIso9283EvaluateCommand(CLI::App& iso, const GlobalOptions&, Runner& ru
   auto* sub = iso.add_subcommand(
       "evaluate", "ISO 9283 figures from files: commanded and attained poses from anywhere");
   sub->add_option("--commanded", o->commanded, "CSV: point,x_mm,y_mm,z_mm[,a_deg,b_deg,c_deg]")
+      ->type_name("FILE")
       ->required();
   sub->add_option("--attained", o->attained,
                   "CSV: point,cycle,x_mm,y_mm,z_mm[,a_deg,b_deg,c_deg][,approach]")
+      ->type_name("FILE")
       ->required();
   sub->add_flag("--align", o->align,
                 "Rigid best fit of the measuring frame onto the commanded one (reported)");

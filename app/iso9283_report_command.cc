@@ -36,7 +36,8 @@ void SetupIso9283ReportCommand(CLI::App& iso, const GlobalOptions& global, Runne
                                "The same test run with the compensated plan"),
                1, kMaxId);
   sub->add_option("--commanded", o->report.commanded_csv,
-                  "The plan CSV, when the session's stored plan has no targets");
+                  "The plan CSV, when the session's stored plan has no targets")
+      ->type_name("FILE");
   sub->add_flag("--align", o->report.align,
                 "Rigid best fit of the barycentres onto the commanded positions (reported) "
                 "instead of the robot's frame");

@@ -31,7 +31,7 @@ void SetupLifecycleCommands(CLI::App& parent, const GlobalOptions& global, Runne
     auto o = std::make_shared<LifecycleOptions>();
     auto* add = robot->add_subcommand("add", "Register a robot with its model file");
     NameOption(add->add_option("name", o->name, "Robot name"))->required();
-    add->add_option("--model", o->model, "Robot model YAML")->required();
+    add->add_option("--model", o->model, "Robot model YAML")->type_name("FILE")->required();
     add->callback([&run, &global, o] {
       run = [&global, o] {
         db::Database database(global.DbPath());

@@ -250,17 +250,24 @@ void SetupAll(CLI::App& app, GlobalOptions& global, Runner& run) {
   SetupLifecycleCommands(app, global, run);
   SetupFleetCommands(app, global, run);
   SetupIso9283Commands(app, global, run);
-  // Hidden (no group): the build runs it to make the manual page and the completion.
-  auto* generate = app.add_subcommand("generate", "Manual page or bash completion")->group("");
+  // Hidden (no group): the build runs it to make the manual page and the completion, a test
+  // to keep docs/reference/commands.md current.
+  auto* generate =
+      app.add_subcommand("generate", "Manual page, bash completion or command reference")->group("");
   auto what = std::make_shared<std::string>();
-  generate->add_option("what", *what, "man | bash-completion")
+  generate->add_option("what", *what, "man | bash-completion | markdown")
       ->required()
-      ->check(CLI::IsMember({"man", "bash-completion"}));
+      ->check(CLI::IsMember({"man", "bash-completion", "markdown"}));
   OnlyReads(generate);
   generate->callback([&app, &run, what] {
     run = [&app, what] {
-      std::cout << (*what == "man" ? ManPage(app, ARMSIG_VERSION, ARMSIG_GIT_DATE)
-                                   : BashCompletion(app));
+      if (*what == "man") {
+        std::cout << ManPage(app, ARMSIG_VERSION, ARMSIG_GIT_DATE);
+      } else if (*what == "markdown") {
+        std::cout << MarkdownReference(app);
+      } else {
+        std::cout << BashCompletion(app);
+      }
       return kOk;
     };
   });

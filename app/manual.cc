@@ -7,6 +7,7 @@
 #include <fmt/format.h>
 
 #include <algorithm>
+#include <cctype>
 #include <set>
 #include <string>
 #include <vector>
@@ -48,14 +49,35 @@ std::string Roff(const std::string& text) {
   return out;
 }
 
-std::string OptionLabel(const CLI::Option* option) {
-  if (option->get_positional()) return option->get_name(true);
+// The value an option takes, in plain words: N, NUMBER, FILE, DIR, NAME, STORE, TEXT or the
+// choices, not CLI11's type strings ("TEXT:FILE", "FLOAT"); "NUMBER,…" for a comma-separated
+// list, "TEXT …" for several values.
+std::string ValueName(const CLI::Option* option) {
+  std::string type = option->get_type_name();
+  if (const auto colon = type.rfind(':'); colon != std::string::npos) type = type.substr(colon + 1);
+  if (type == "FLOAT") type = "NUMBER";
+  if (type == "INT" || type == "UINT") type = "N";
+  if (type.empty()) type = "VALUE";
+  if (option->get_delimiter() == ',') return type + ",…";
+  if (option->get_items_expected_max() > 1) return type + " …";
+  return type;
+}
+
+std::string OptionNames(const CLI::Option* option) {
+  if (option->get_positional()) {  // by its name: FILE, ID, TABLE
+    std::string name = option->get_name(true);
+    for (char& c : name) c = static_cast<char>(std::toupper(static_cast<unsigned char>(c)));
+    return name;
+  }
   std::string label;
   for (const auto& s : option->get_snames()) label += (label.empty() ? "-" : ", -") + s;
   for (const auto& l : option->get_lnames()) label += (label.empty() ? "--" : ", --") + l;
-  if (option->get_expected_min() > 0 && !option->get_type_name().empty()) {
-    label += " " + option->get_type_name();
-  }
+  return label;
+}
+
+std::string OptionLabel(const CLI::Option* option) {
+  std::string label = OptionNames(option);
+  if (!option->get_positional() && option->get_expected_min() > 0) label += " " + ValueName(option);
   return label;
 }
 
@@ -79,6 +101,94 @@ void CollectCommands(const CLI::App& app, const std::string& path,
   for (const auto* sub : Subcommands(app)) {
     CollectCommands(*sub, path.empty() ? sub->get_name() : path + " " + sub->get_name(), out);
   }
+}
+
+// Markdown text: characters that would start emphasis, a link, a tag or code are escaped,
+// and in a table cell the column bar.
+std::string MarkdownText(const std::string& text, bool in_table = false) {
+  std::string out;
+  for (char c : text) {
+    if (c == '\\' || c == '*' || c == '_' || c == '`' || c == '<' || c == '[' || c == ']' ||
+        (in_table && c == '|')) {
+      out += '\\';
+    }
+    out += c;
+  }
+  return out;
+}
+
+// An inline code span that holds any text (a longer fence when the text has backticks).
+std::string Code(const std::string& text) {
+  return text.find('`') == std::string::npos ? "`" + text + "`" : "`` " + text + " ``";
+}
+
+// GitHub's heading anchor of "armsig robot add": lower case, spaces to hyphens.
+std::string Anchor(const std::string& heading) {
+  std::string out;
+  for (char c : heading) {
+    if (c == ' ') {
+      out += '-';
+    } else if (std::isalnum(static_cast<unsigned char>(c)) || c == '-' || c == '_') {
+      out += static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+    }
+  }
+  return out;
+}
+
+// "armsig orient --observations TEXT --out FILE [OPTIONS]": the command, its positionals
+// and required options, then what may follow.
+std::string Synopsis(const CLI::App& app, const std::string& path) {
+  std::string line = path;
+  if (!Subcommands(app).empty()) return line + " COMMAND …";
+  bool optional = false;
+  for (const auto* option : Options(app)) {
+    if (option->get_positional()) {
+      line += " " + (option->get_required() ? OptionNames(option) : "[" + OptionNames(option) + "]");
+    } else if (option->get_required()) {
+      line += " " + OptionLabel(option);
+    } else {
+      optional = true;
+    }
+  }
+  return optional ? line + " [OPTIONS]" : line;
+}
+
+void MarkdownOption(const CLI::Option* option, std::string& out) {
+  std::string text = "- " + Code(OptionLabel(option));
+  std::string notes;
+  if (option->get_required()) notes += "required";
+  text += notes.empty() ? "" : " (" + notes + ")";
+  text += " — " + MarkdownText(option->get_description());
+  if (!text.empty() && text.back() != '.') text += ".";
+  if (const auto& choices = ChoicesOf(option); !choices.empty()) {
+    std::string list;
+    for (const auto& c : choices) list += (list.empty() ? "" : ", ") + Code(c);
+    text += " One of " + list + ".";
+  }
+  if (!option->get_default_str().empty() && option->get_expected_min() > 0) {
+    text += " Default: " + Code(option->get_default_str()) + ".";
+  }
+  out += text + "\n";
+}
+
+void MarkdownCommand(const CLI::App& app, const std::string& path, std::string& out) {
+  out += "\n## " + path + "\n\n" + MarkdownText(app.get_description()) + "\n\n";
+  out += "```\n" + Synopsis(app, path) + "\n```\n";
+  const auto subs = Subcommands(app);
+  if (!subs.empty()) {
+    out += "\n";
+    for (const auto* sub : subs) {
+      const std::string sub_path = path + " " + sub->get_name();
+      out += "- [" + Code(sub_path) + "](#" + Anchor(sub_path) + ") — " +
+             MarkdownText(sub->get_description()) + "\n";
+    }
+  }
+  const auto options = Options(app);
+  if (!options.empty()) {
+    out += "\n";
+    for (const auto* option : options) MarkdownOption(option, out);
+  }
+  for (const auto* sub : subs) MarkdownCommand(*sub, path + " " + sub->get_name(), out);
 }
 
 }  // namespace
@@ -118,6 +228,34 @@ std::string ManPage(const CLI::App& app, const std::string& version, const std::
       ".TP\n.I /lib/systemd/system/armsig\\-recalibrate@.service\nthe nightly recalibration "
       "of one robot, with its .timer\n";
   out += ".SH SEE ALSO\nThe README of the armsig sources.\n";
+  return out;
+}
+
+std::string MarkdownReference(const CLI::App& app) {
+  std::string out =
+      "<!-- Generated from the program's own command line by `armsig generate markdown`: do not "
+      "edit.\n     After changing a command: build/armsig generate markdown > "
+      "docs/reference/commands.md -->\n"
+      "# Command reference\n\n"
+      "Every command of armsig with its options, as the program itself declares them (the "
+      "same source as `armsig COMMAND --help` and `man armsig`). What all commands share — "
+      "the store, where output goes, logs, signals and exit codes — is in "
+      "[the command-line conventions](cli.md); the files they read and write are in "
+      "[file formats](file-formats.md).\n\n"
+      "```\narmsig [--db STORE] [-q | -v | -vv] [--version] COMMAND …\n"
+      "armsig COMMAND --help\n```\n\n"
+      "## Global options\n\nAccepted before or after the command name.\n\n";
+  for (const auto* option : Options(app)) MarkdownOption(option, out);
+  out += "\n## Commands\n\n| command | what it does |\n| --- | --- |\n";
+  std::vector<std::pair<std::string, const CLI::App*>> commands;
+  CollectCommands(app, "", commands);
+  for (const auto& [path, command] : commands) {
+    if (path.empty()) continue;
+    const std::string full = "armsig " + path;
+    out += "| [" + Code(full) + "](#" + Anchor(full) + ") | " +
+           MarkdownText(command->get_description(), true) + " |\n";
+  }
+  for (const auto* sub : Subcommands(app)) MarkdownCommand(*sub, "armsig " + sub->get_name(), out);
   return out;
 }
 

@@ -105,7 +105,8 @@ int RunRecalibrate(RecalibrateCommand c, const GlobalOptions& global) {
 }
 
 void AddRecalibrateOptions(CLI::App& sub, workflows::RecalibrateOptions& o) {
-  sub.add_option("--since", o.since, "Only sessions started at or after this ISO date/time");
+  sub.add_option("--since", o.since, "Only sessions started at or after this ISO date/time")
+      ->type_name("DATE");
   NumberOption(
       sub.add_option("--select", o.select, "Configurations to fit (default, 0: 60 %, at most 80)"),
       0, kMaxPoses);
@@ -165,9 +166,10 @@ void SetupRecalibrateCommand(CLI::App& parent, const GlobalOptions& global, Runn
       sub->add_option("--report", o.report_dir, "Write an HTML report into this directory"));
   OutputFile(sub->add_option("--json", c->json, "Write a JSON summary for monitoring"));
   sub->add_option("--notify", c->notify,
-                  "Shell command run on every night a person must see (exit 1-5), the JSON "
-                  "summary on its stdin; ARMSIG_ROBOT, ARMSIG_EXIT_CODE, ARMSIG_DECISION, "
-                  "ARMSIG_DRIFT_LINE in its environment");
+                  "Shell command run on every night a person must see (any exit code but 0), "
+                  "the JSON summary on its stdin; ARMSIG_ROBOT, ARMSIG_EXIT_CODE, "
+                  "ARMSIG_DECISION, ARMSIG_DRIFT_LINE in its environment")
+      ->type_name("COMMAND");
   NumberOption(sub->add_option("--notify-timeout", c->notify_timeout_s,
                                 "Seconds the --notify command may take before it is stopped"),
                0.1, 3600)

@@ -14,13 +14,16 @@ void SetupOrientCommand(CLI::App& parent, const GlobalOptions&, Runner& run) {
   auto o = std::make_shared<workflows::OrientFilesOptions>();
   auto no_instrument_errors = std::make_shared<bool>(false);
   auto* sub = parent.add_subcommand("orient", "Orient the stations (bundle adjustment)");
-  sub->add_option("--observations", o->observations, "Angle observations CSV")->required();
+  sub->add_option("--observations", o->observations, "Angle observations CSV")
+      ->type_name("FILE")
+      ->required();
   sub->add_option("--scale-bar", o->scale_bars, "A:B=LEN_MM, repeatable");
   NumberOption(sub->add_option("--scale-bar-sigma-mm", o->scale_bar_sigma_mm,
                                "Sigma of every scale-bar length"),
                plausible::kMinSigmaMm, plausible::kMaxSigmaMm)  // as every sigma
       ->capture_default_str();
-  sub->add_option("--control", o->control, "Control points CSV: point,x_mm,y_mm,z_mm[,sx_mm,...]");
+  sub->add_option("--control", o->control, "Control points CSV: point,x_mm,y_mm,z_mm[,sx_mm,...]")
+      ->type_name("FILE");
   NameOption(sub->add_option("--unlevelled", o->unlevelled,
                              "Stations whose rotation is free (not levelled)"));
   NameOption(sub->add_option("--datum-station", o->datum_station,
@@ -82,8 +85,10 @@ void SetupTriangulateCommand(CLI::App& parent, const GlobalOptions&, Runner& run
   auto no_reject = std::make_shared<bool>(false);
   auto no_instrument_errors = std::make_shared<bool>(false);
   auto* sub = parent.add_subcommand("triangulate", "Intersect the rays of every target point");
-  sub->add_option("--stations", o->stations, "Stations YAML")->required();
-  sub->add_option("--observations", o->observations, "Angle observations CSV")->required();
+  sub->add_option("--stations", o->stations, "Stations YAML")->type_name("FILE")->required();
+  sub->add_option("--observations", o->observations, "Angle observations CSV")
+      ->type_name("FILE")
+      ->required();
   OutputFile(sub->add_option("--out", o->out, "Points CSV to write"))->required();
   sub->add_flag("--no-reject", *no_reject, "Report blunders but keep every ray");
   sub->add_flag("--no-instrument-errors", *no_instrument_errors,

@@ -41,7 +41,7 @@ void SetupSignatureCommands(CLI::App& parent, const GlobalOptions& global, Runne
   auto p = std::make_shared<SignatureOptions>();
   auto* predict = Command(
       parent, "predict", "Calibrated target positions for joint angles (active arm signature)", *p);
-  predict->add_option("--joints", p->joints, "CSV: pose,q1_deg,…")->required();
+  predict->add_option("--joints", p->joints, "CSV: pose,q1_deg,…")->type_name("FILE")->required();
   predict->add_flag("--map-sigma", p->map_sigma,
                     "Fill map_sigma_mm: the residual map's predictive sigma per configuration");
   OutputFile(predict->add_option("--out", p->out, "Positions CSV (default: stdout)"));
@@ -62,6 +62,7 @@ void SetupSignatureCommands(CLI::App& parent, const GlobalOptions& global, Runne
   compensate
       ->add_option("--targets", c->targets,
                    "CSV: point,x_mm,y_mm,z_mm[,q1_deg,… the nominal program]")
+      ->type_name("FILE")
       ->required();
   OutputFile(compensate->add_option("--out", c->out, "Joints CSV"))->required();
   compensate

@@ -9,16 +9,18 @@
 
 namespace armsig {
 
-// One theodolite reading, as observed (face I or II), SPEC "Theodolite frame".
+// One theodolite reading, as observed (face I or II), in the theodolite frame of
+// docs/reference/conventions.md.
 struct AngleReading {
   double hz_rad = 0.0;  // clockwise from circle zero
   double v_rad = 0.0;   // zenith angle
   int face = 1;         // 1 or 2
 };
 
-// The face a reading is on when the file or device does not say: SPEC "a reading with
-// V > 200 gon is face II". The nadir itself (V = 200 gon given in gon or deg, which
-// converts to π plus a rounding ulp) is face I, as is anything within 1e-12 rad of it.
+// The face a reading is on when the file or device does not say: "a reading with V > 200
+// gon is face II" (docs/reference/conventions.md). The nadir itself (V = 200 gon given in
+// gon or deg, which converts to π plus a rounding ulp) is face I, as is anything within
+// 1e-12 rad of it.
 inline int FaceOfZenithAngle(double v_rad) {
   return v_rad > 3.14159265358979323846 + 1e-12 ? 2 : 1;
 }
@@ -34,7 +36,7 @@ struct MeasuredPose {
   int64_t frame = 0;
 };
 
-// Station pose: world point = position + R · instrument point (SPEC "Station pose").
+// Station pose: world point = position + R · instrument point (docs/reference/conventions.md).
 struct StationPose {
   std::string id;
   Eigen::Vector3d position_mm = Eigen::Vector3d::Zero();

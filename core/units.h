@@ -1,5 +1,5 @@
 // Angle and length units. Inside armsig everything is mm and rad; files carry
-// their unit in the column or key name (SPEC "Conventions").
+// their unit in the column or key name (docs/reference/conventions.md).
 #pragma once
 
 #include <numbers>

@@ -1,4 +1,4 @@
-// The SPEC's poses CSV (pose, q1_deg…q6_deg, x_mm, y_mm, z_mm).
+// The poses CSV (pose, q1_deg…q6_deg, x_mm, y_mm, z_mm; docs/reference/file-formats.md).
 #include "fuzz/fuzz_support.h"
 #include "io/poses_csv.h"
 

@@ -38,7 +38,8 @@ struct Reading {
   int return_code = 0;
   std::string note;  // e.g. "TMC_ACCURACY_GUARANTEE: data valid, accuracy not guaranteed"
   std::chrono::system_clock::time_point time;  // when the driver received it
-  // The point in the instrument frame (SPEC theodolite frame: z up, y circle zero), mm:
+  // The point in the instrument frame (the theodolite frame of
+  // docs/reference/conventions.md: z up, y circle zero), mm:
   // distance × (sin V sin Hz, sin V cos Hz, cos V).
   std::optional<Eigen::Vector3d> point_in_instrument_mm;
   std::optional<ReadingSigmas> sigma;

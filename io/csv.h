@@ -4,7 +4,7 @@
 // - a decimal comma ("1,5") is accepted only when the delimiter is ';' or tab; in a
 //   comma-separated file it is refused with file:line:column and that reason;
 // - quoted fields ("" escapes, may span lines), CRLF and CR line ends, a UTF-8 BOM,
-//   '#' comment lines, and the SPEC's unit suffixes.
+//   '#' comment lines, and the unit suffixes of docs/reference/conventions.md.
 // Large inputs (poses, observations) are read row by row (CsvReader), small ones whole
 // (CsvTable); both by the same record scanner.
 #pragma once
@@ -95,7 +95,7 @@ class CsvColumns {
   // unread and use a default: distance_m or distance next to a known distance_mm,
   // sigma_hz_mgon next to sigma_hz_arcsec, hz_grad next to an angle column given as "hz_*"
   // (any of _gon, _deg, _rad). Names without a unit ("point") are not checked; other
-  // columns are the file's own (SPEC: extra columns are ignored).
+  // columns are the file's own (extra columns are ignored: docs/reference/file-formats.md).
   void RefuseUnreadUnits(const std::vector<std::string>& known) const;
 
  protected:

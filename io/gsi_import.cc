@@ -2,7 +2,9 @@
 
 #include <fmt/format.h>
 
+#include <algorithm>
 #include <cmath>
+#include <optional>
 
 #include "core/error.h"
 #include "core/plausibility.h"
@@ -107,12 +109,26 @@ GsiImport ImportGsi(const std::string& path, const std::string& station) {
 }
 
 std::string FormatObservationsCsv(const std::vector<reduction::Observation>& observations) {
-  std::string out = "point,station,hz_gon,v_gon,face,distance_mm\n";
+  // The sigma columns only when a reading carries its own; an empty cell is the station's
+  // sigma, else the instrument's default, as the observations reader takes it.
+  const bool sigmas = std::any_of(observations.begin(), observations.end(), [](const auto& o) {
+    return o.sigma_hz_rad || o.sigma_v_rad || o.sigma_distance_mm;
+  });
+  auto cell = [](const std::optional<double>& value, double unit) {
+    return value ? fmt::format("{:.6g}", *value / unit) : std::string();
+  };
+  std::string out = "point,station,hz_gon,v_gon,face,distance_mm";
+  out += sigmas ? ",sigma_hz_arcsec,sigma_v_arcsec,sigma_distance_mm\n" : "\n";
   for (const auto& o : observations) {
-    out += fmt::format("{},{},{:.9f},{:.9f},{},{}\n", CsvEscape(o.point), CsvEscape(o.station),
+    out += fmt::format("{},{},{:.9f},{:.9f},{},{}", CsvEscape(o.point), CsvEscape(o.station),
                        FromRad(o.reading.hz_rad, AngleUnit::kGon),
                        FromRad(o.reading.v_rad, AngleUnit::kGon), o.reading.face,
                        o.distance_mm ? fmt::format("{:.4f}", *o.distance_mm) : "");
+    if (sigmas) {
+      out += fmt::format(",{},{},{}", cell(o.sigma_hz_rad, kRadPerArcsec),
+                         cell(o.sigma_v_rad, kRadPerArcsec), cell(o.sigma_distance_mm, 1.0));
+    }
+    out += "\n";
   }
   return out;
 }

@@ -1,5 +1,5 @@
-// Leica GSI files to angle observations (SPEC `armsig import gsi`): word 11 point, 21 Hz,
-// 22 V, 31 slope distance, every unit the format defines.
+// Leica GSI files to angle observations (`armsig import gsi`, docs/reference/file-formats.md):
+// word 11 point, 21 Hz, 22 V, 31 slope distance, every unit the format defines.
 #pragma once
 
 #include <string>
@@ -24,6 +24,8 @@ GsiImport ImportGsi(const std::string& path, const std::string& station);
 GsiImport ParseGsiImport(std::string_view text, const std::string& source,
                          const std::string& station);
 
+// The angle observations CSV (the interface reference, docs/reference/file-formats.md), with
+// the sigma columns when a reading carries its own.
 std::string FormatObservationsCsv(const std::vector<reduction::Observation>& observations);
 
 }  // namespace armsig::io

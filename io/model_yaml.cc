@@ -46,7 +46,7 @@ Eigen::Isometry3d DhRow(const YamlValue& value) {
     }
   }
   if (!alpha) row.Fail("missing 'alpha_deg' (or alpha_gon, alpha_rad)");
-  // SPEC: N(i+1) = Tz(d_i)·Tx(a_i)·Rx(α_i).
+  // docs/reference/conventions.md: N(i+1) = Tz(d_i)·Tx(a_i)·Rx(α_i).
   Eigen::Isometry3d t = Eigen::Isometry3d::Identity();
   t.translate(Eigen::Vector3d(0, 0, d));
   t.translate(Eigen::Vector3d(a, 0, 0));

@@ -1,4 +1,4 @@
-// Robot model files (SPEC "Robot model (YAML)"). Two ways to give the links:
+// Robot model files (docs/reference/file-formats.md). Two ways to give the links:
 //   links: [4x4 row-major, …]            N2…Nn, the paper's form
 //   dh: [{d_mm, a_mm, alpha_deg|_rad|_gon}, …]   standard Denavit–Hartenberg, one row per
 //       joint, mapped as N(i+1) = Tz(d_i)·Tx(a_i)·Rx(α_i) and the last row folded into x̄.

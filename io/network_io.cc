@@ -51,7 +51,7 @@ std::vector<reduction::Observation> ReadObservationsCsv(const std::string& path,
       }
       o.reading.face = f;
     } else {
-      o.reading.face = FaceOfZenithAngle(o.reading.v_rad);  // SPEC: V > 200 gon is face II
+      o.reading.face = FaceOfZenithAngle(o.reading.v_rad);  // V > 200 gon is face II
     }
     if (distance) {
       o.distance_mm = t.OptionalNumber(row, *distance, Quantity::kDistance);

@@ -1,5 +1,6 @@
-// Network files (SPEC "Files"): angle observations CSV, stations YAML, control points
-// CSV, scale bars ("A:B=LEN_MM"). Readers throw InputError with file, line and column.
+// Network files (docs/reference/file-formats.md): angle observations CSV, stations YAML,
+// control points CSV, scale bars ("A:B=LEN_MM"). Readers throw InputError with file, line
+// and column.
 #pragma once
 
 #include <string>
@@ -14,9 +15,9 @@
 namespace armsig::io {
 
 // point,station,hz_*,v_*[,face,distance_mm,sigma_hz_arcsec,sigma_v_arcsec,sigma_distance_mm].
-// V > 200 gon without a face column is face II (SPEC). Read row by row (io::CsvReader): the
-// memory is the observations'. `pose_labels`: each row's `pose` column (a name), when the
-// file has one; else left empty.
+// V > 200 gon without a face column is face II (docs/reference/conventions.md). Read row by
+// row (io::CsvReader): the memory is the observations'. `pose_labels`: each row's `pose`
+// column (a name), when the file has one; else left empty.
 std::vector<reduction::Observation> ReadObservationsCsv(
     const std::string& path, std::vector<std::string>* pose_labels = nullptr,
     ReadProgressFn progress = nullptr);

@@ -1,5 +1,5 @@
-// Poses (SPEC "Poses (CSV)"): pose,q1_deg,…,qn_deg,x_mm,y_mm,z_mm (any angle unit
-// suffix, extra columns ignored), and the import of foreign pose tables such as the
+// Poses (docs/reference/file-formats.md): pose,q1_deg,…,qn_deg,x_mm,y_mm,z_mm (any angle
+// unit suffix, extra columns ignored), and the import of foreign pose tables such as the
 // IPA UR10 laser-tracker files (';', decimal comma, named columns).
 #pragma once
 
@@ -37,7 +37,7 @@ std::vector<MeasuredPose> ReadPosesCsv(const std::string& path, int num_joints,
                                        std::optional<AngleUnit> joint_unit = std::nullopt,
                                        ReadProgressFn progress = nullptr);
 
-// Writes the SPEC's poses CSV (angles in degrees, full precision). `num_joints`: the q
+// Writes the poses CSV (angles in degrees, full precision). `num_joints`: the q
 // columns of the header (−1: as many as the first pose has), so that a file without a
 // pose still has the full header.
 std::string FormatPosesCsv(const std::vector<MeasuredPose>& poses, int num_joints = -1);

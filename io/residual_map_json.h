@@ -16,7 +16,7 @@ namespace armsig::io {
 
 nlohmann::json ResidualMapToJson(const calibration::ResidualMapData& map);
 
-// The calibrate JSON's `residual_model` object (SPEC):
+// The calibrate JSON's `residual_model` object (docs/reference/file-formats.md):
 //   {"used": true, "kind": "gaussian_kernel_ridge", "cv_mean_mm_parametric": 0.420,
 //    "cv_mean_mm_with_map": 0.311, "decision": "…",
 //    "hyperparameters": {"length_scale": 0.5, "regularisation": 0.1, "noise_sigma_mm": 0.086,

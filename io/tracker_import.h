@@ -80,7 +80,7 @@ PointTable ParsePointTable(std::string_view text, const std::string& source,
 // The robot's joint log: a CSV (io/csv.h: ',', ';' or tab, decimal comma with ';' or tab)
 // with a pose id column (`pose`, `point`, `id`, `name` or `label`) and/or a time column
 // (`time`, `timestamp`, `time_stamp`, `datetime`, `time_s`), and the joints: `q1_deg` …
-// (any angle unit suffix, SPEC poses style), or the named columns in `joint_columns` in
+// (any angle unit suffix, as in the poses CSV), or the named columns in `joint_columns` in
 // `joint_unit`.
 struct JointLogOptions {
   int num_joints = 0;  // 0: as many q1, q2, … columns as there are

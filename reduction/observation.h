@@ -1,4 +1,4 @@
-// Theodolite observation model (SPEC "Theodolite frame"): z up along the standing
+// Theodolite observation model (docs/reference/conventions.md): z up along the standing
 // axis, y towards circle zero, Hz clockwise seen from above, V the zenith angle.
 #pragma once
 

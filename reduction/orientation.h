@@ -31,7 +31,7 @@ struct OrientationProblem {
   InstrumentDefaults defaults;
   // Free network: give the covariance in the minimum-trace datum over these points and
   // stations (inner constraints: 3 translations + rotation about z). Empty with
-  // free_datum = every point and station. Coordinates stay in the SPEC frame (they
+  // free_datum = every point and station. Coordinates stay in the datum frame (they
   // differ only by that 4-parameter transformation).
   bool free_datum = false;
   std::set<std::string> datum_points;

@@ -1,5 +1,5 @@
 // Human and machine output of a calibration: the paper's Table 1–3 layout and the
-// SPEC's calibrate JSON.
+// calibrate JSON of docs/reference/file-formats.md.
 #pragma once
 
 #include <limits>

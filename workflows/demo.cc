@@ -31,6 +31,7 @@
 #include "instruments/geocom_device.h"
 #include "io/atomic_file.h"
 #include "io/builtin_models.h"
+#include "io/gsi_import.h"
 #include "io/model_yaml.h"
 #include "io/network_io.h"
 #include "reduction/observation.h"
@@ -440,6 +441,12 @@ DemoResult RunDemo(const DemoOptions& options, const DemoObserver& observer) {
     const auto oriented = reduction::Orient(setup);
     if (!oriented.status.ok())
       throw std::runtime_error("demo: orientation failed: " + oriented.status.message);
+    // A served lab keeps the readings it was oriented from, so a technician can orient it
+    // again by hand (armsig orient --observations orientation.csv --scale-bar BAR1a:BAR1b=1000 …).
+    if (serving) {
+      io::WriteFileAtomically((work / "orientation.csv").string(),
+                              io::FormatObservationsCsv(setup.observations));
+    }
     drivers.clear();
     std::string removed;
     for (const auto& m : oriented.removed)

@@ -9,7 +9,7 @@
 namespace armsig::workflows {
 
 // `import poses`: a pose table with named columns (a preset, or columns named on the
-// command line) converted to the SPEC poses CSV (`out`) and/or stored as a new session of
+// command line) converted to armsig's poses CSV (`out`) and/or stored as a new session of
 // a registered robot (`robot`, in the database at `db_path`, which must exist).
 struct ImportPosesRequest {
   std::string file, out, robot, db_path;

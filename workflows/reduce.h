@@ -42,7 +42,7 @@ std::string FormatReduceSummaries(const std::vector<ReduceSummary>& summaries,
                                   const std::string& db_path);
 
 struct ImportObservationsOptions {
-  std::string file;      // observations CSV (SPEC), optional `pose` column
+  std::string file;      // observations CSV (docs/reference/file-formats.md), `pose` optional
   std::string stations;  // stations YAML
   std::string robot = "unassigned";
   std::string note;

@@ -148,8 +148,8 @@ TEST(Cli, GlobalOptionsAnywhere) {
   const auto after = RunArmsig("db export robots --csv --db " + db + " -q");
   EXPECT_EQ(after.exit_code, 0) << after.err;
   EXPECT_EQ(after.out, before.out);
-  // The SPEC's own form: `armsig demo --db x.db` (a refused option set: fails fast, after
-  // parsing, naming the demo's minimum; nothing is created).
+  // The interface reference's form: `armsig demo --db x.db` (a refused option set: fails
+  // fast, after parsing, naming the demo's minimum; nothing is created).
   const auto demo = RunArmsig("demo --db '" + dir.File("d.db") + "' --configurations 3");
   EXPECT_EQ(demo.exit_code, 2) << demo.err;
   EXPECT_NE(demo.err.find("--configurations"), std::string::npos) << demo.err;
@@ -267,7 +267,7 @@ TEST(Cli, SemicolonDecimalCommaFilesThroughEveryReader) {
   ASSERT_EQ(orient.exit_code, 0) << orient.err;
   EXPECT_NE(orient.out.find("185 degrees of freedom"), std::string::npos) << orient.out;
 
-  // Poses: the SPEC's CSV of a simulated PUMA, as written by `import poses`.
+  // Poses: the poses CSV of a simulated PUMA, as written by `import poses`.
   std::string poses = "pose,q1_deg,q2_deg,q3_deg,q4_deg,q5_deg,q6_deg,x_mm,y_mm,z_mm\n";
   const auto model = Puma();
   calibration::Kinematics kin(model);

@@ -477,7 +477,8 @@ TEST(EmsconCodec, UnitFactors) {
   EXPECT_FALSE(ToHectopascal(1.0, 7));
 }
 
-// SPEC theodolite frame: Hz clockwise from +y seen from above (Hz = 100 gon along +x),
+// The theodolite frame (docs/reference/conventions.md): Hz clockwise from +y seen from
+// above (Hz = 100 gon along +x),
 // V the zenith angle.
 TEST(EmsconCodec, SphericalMappingFollowsTheTheodoliteFrame) {
   const double pi = std::numbers::pi;

@@ -298,7 +298,7 @@ TEST(HostileInputs, AmbiguousCsvHeadersAreRefusedNamingBothColumns) {
   EXPECT_NE(e.message().find("expected q1_gon, q1_deg or q1_rad"), std::string::npos) << e.what();
   WriteText(dir.File("c.csv"), "point,x_mm,y_mm,z_mm,sx_m\nC,1,2,3,0.001\n");
   EXPECT_EQ(Refusal([&] { ReadControlCsv(dir.File("c.csv")); }).where().column, 5);
-  // Extra columns of other names are still the file's own (SPEC).
+  // Extra columns of other names are still the file's own (docs/reference/file-formats.md).
   WriteText(dir.File("p.csv"),
             "pose,q1_deg,x_mm,y_mm,z_mm,operator,temperature_c\na,1,2,3,4,ann,20\n");
   EXPECT_EQ(ReadPosesCsv(dir.File("p.csv"), 1).size(), 1u);

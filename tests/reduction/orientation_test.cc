@@ -11,7 +11,8 @@ using testing::SimLab;
 
 namespace {
 
-// The truth in the SPEC datum: the first station's frame (origin, circle zero = +y).
+// The truth in the datum of docs/reference/conventions.md: the first station's frame
+// (origin, circle zero = +y).
 struct DatumFrame {
   Eigen::Vector3d origin;
   Eigen::Matrix3d datum_from_world;

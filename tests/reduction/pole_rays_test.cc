@@ -174,7 +174,8 @@ TEST(PoleRays, ARepeatedSightingOfTheDatumStationOrients) {
   }
   const OrientationResult r = Orient(problem);
   ASSERT_TRUE(r.status.ok()) << r.status.message;
-  // The result is in the SPEC datum: station 0's frame (its centre the origin, its circle
+  // The result is in the datum of docs/reference/conventions.md: station 0's frame (its
+  // centre the origin, its circle
   // zero the +y axis).
   const auto& first = lab.stations[0].pose;
   const Eigen::Vector3d truth = first.world_from_station.transpose() *

@@ -112,7 +112,8 @@ TEST(VirtualTracker, DriverSetsEveryStateAndMeasuresTheTruth) {
   EXPECT_FALSE(after.settings.apply_station_orientation);
   EXPECT_TRUE(after.settings.send_unsolicited_messages);
   EXPECT_EQ(rig.device->reflector_id(), 1);
-  // Hz, V and the distance are the SPEC theodolite reading of the target from the station.
+  // Hz, V and the distance are the theodolite reading (docs/reference/conventions.md) of the
+  // target from the station.
   const auto& pose = rig.lab->station(0).pose;
   const Eigen::Vector3d target = rig.lab->TruePosition("robot");
   const AngleReading truth =
