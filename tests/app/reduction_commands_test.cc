@@ -214,7 +214,8 @@ TEST(OrientCommand, K06BlundersAreRemovedNamedAndTheStationsWritten) {
   // (here 202's other readings, until the kept one is all that places 202).
   const auto kept = orient(dir.File("obs.csv"), " --keep '1->202'");
   EXPECT_EQ(kept.exit_code, 0) << kept.err;
-  for (const auto& m : nlohmann::json::parse(ReadText(dir.File("st.json")))["snooping"]["removed"])
+  const auto kept_json = nlohmann::json::parse(ReadText(dir.File("st.json")));
+  for (const auto& m : kept_json["snooping"]["removed"])
     EXPECT_FALSE(m["station"] == "1" && m["point"] == "202") << m.dump();
   const auto unknown = orient(dir.File("obs.csv"), " --keep '1->999'");
   EXPECT_EQ(unknown.exit_code, 2);
