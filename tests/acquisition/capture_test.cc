@@ -650,13 +650,12 @@ TEST_F(VirtualLabFixture, CtrlCStopsCleanlyAndResumeCompletes) {
       "--plan", "auto:60", "--robot", "puma"};
   const pid_t child = SpawnQuietly(args);
   ASSERT_GE(child, 0);
-  // Interrupt once some configurations are stored.
-  for (int wait = 0; wait < 1000; ++wait) {
-    std::this_thread::sleep_for(10ms);
-    if (!std::filesystem::exists(Db())) continue;
+  // Interrupt once some configurations are stored (an event, however slow the machine).
+  ASSERT_TRUE(testing::WaitUntil([&] {
+    if (!std::filesystem::exists(Db())) return false;
     db::Database db(Db());
-    if (Count(db, "SELECT count(*) FROM poses") >= 5) break;
-  }
+    return Count(db, "SELECT count(*) FROM poses") >= 5;
+  })) << "the capture stored no 5 configurations";
   ::kill(child, SIGINT);
   int status = 0;
   ::waitpid(child, &status, 0);
