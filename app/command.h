@@ -12,6 +12,7 @@
 #include <vector>
 
 #include "db/database.h"
+#include "acquisition/session.h"
 #include "io/csv.h"
 #include "workflows/recalibrate.h"
 
@@ -84,6 +85,12 @@ CLI::Option* StoreOption(CLI::Option* option);
 // How far a long read has come, on stderr when it is a terminal (nullptr otherwise): a
 // line redrawn in place, shown once the read has taken a second (app/progress.cc).
 io::ReadProgressFn TerminalReadProgress();
+// The terminal's width in columns: of `fd` (TIOCGWINSZ), else $COLUMNS, else 80.
+int TerminalColumns(int fd);
+// A capture's progress line on stderr as wide as the terminal, redrawn in place; nullptr
+// when stderr is not a terminal (no bar in a log or a pipe). `clear_when_done`: the line is
+// erased after the last configuration (the demo), else it stays (capture ends it).
+std::function<void(const acquisition::Progress&)> TerminalCaptureProgress(bool clear_when_done);
 // A number given on the command line (every numeric option of every command is declared
 // through here): finite — "nan", "inf" and "1e999" are refused, which CLI11's own Range
 // lets through — and within [min, max]; refused at parse time (exit 2) naming the option

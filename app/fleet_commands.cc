@@ -12,6 +12,7 @@
 
 #include "app/command.h"
 #include "core/text.h"
+#include "core/wording.h"
 #include "db/postgres_address.h"
 #include "db/stored_json.h"
 #include "workflows/worker.h"
@@ -139,8 +140,8 @@ int RunJobs(const JobsCommand& c, const GlobalOptions& global) {
       result = "lease until " + Time(j.lease_expires_ms);
     std::cout << fmt::format("{:>5}  {:<16} {:<9} {:>3}  {:<24} {:<20} {:<20} {}\n", j.id,
                              Printable(j.robot), db::ToString(j.state), j.attempts,
-                             Printable(j.worker), Time(j.created_ms).substr(0, 19),
-                             Time(j.finished_ms).substr(0, 19), Printable(result));
+                             Printable(j.worker), TimeToTheSecond(Time(j.created_ms)),
+                             TimeToTheSecond(Time(j.finished_ms)), Printable(result));
   }
   return kOk;
 }

@@ -1,16 +1,46 @@
-// The progress line of a long read on stderr (a terminal only): "poses.csv: 45% (123 of
-// 270 MB, 1,234,567 rows)", redrawn at most five times a second, shown only once a read has
-// taken a second, and ended with a newline.
+// Progress lines on stderr, on a terminal only, redrawn in place and as wide as the
+// terminal: a long read ("poses.csv: 45% (123 of 270 MB, 1,234,567 rows)", shown once a
+// read has taken a second, at most five times a second, ended with a newline) and a
+// capture's progress (workflows::FormatCaptureProgress).
+#include <sys/ioctl.h>
 #include <unistd.h>
 
 #include <chrono>
 #include <cstdio>
 #include <memory>
 
+#include <cstdlib>
+#include <iostream>
+#include <string>
+
 #include "app/command.h"
 #include "core/text.h"
+#include "workflows/capture.h"
 
 namespace armsig::app {
+
+int TerminalColumns(int fd) {
+  struct winsize size {};
+  if (::ioctl(fd, TIOCGWINSZ, &size) == 0 && size.ws_col > 0) return size.ws_col;
+  if (const char* columns = std::getenv("COLUMNS")) {
+    char* end = nullptr;
+    const long n = std::strtol(columns, &end, 10);
+    if (end != columns && *end == '\0' && n > 0 && n < 10000) return static_cast<int>(n);
+  }
+  return 80;
+}
+
+std::function<void(const acquisition::Progress&)> TerminalCaptureProgress(bool clear_when_done) {
+  if (!::isatty(STDERR_FILENO)) return nullptr;
+  return [clear_when_done](const acquisition::Progress& p) {
+    // One column short of the width: a line that fills it would wrap on some terminals.
+    const int width = TerminalColumns(STDERR_FILENO) - 1;
+    // "\x1b[K": the rest of the line erased, whatever the last, longer line left there.
+    std::cerr << "\r" << workflows::FormatCaptureProgress(p, width) << "\x1b[K";
+    if (clear_when_done && p.total > 0 && p.done >= p.total) std::cerr << "\r\x1b[K";
+    std::cerr << std::flush;
+  };
+}
 
 io::ReadProgressFn TerminalReadProgress() {
   if (!::isatty(STDERR_FILENO)) return nullptr;
