@@ -41,7 +41,7 @@ namespace {
 
 struct Gates {
   double max_mean_mm = 0.5, max_max_mm = 2.0, tolerance_mm = 0.02, drift_sigma = 5.0,
-         drift_mm = 0.05;
+         drift_mm = kDefaultDriftMm;
   int window_sessions = kDefaultWindowSessions, window_days = kDefaultWindowDays;
 };
 
@@ -60,17 +60,6 @@ std::string InputDigest(const std::vector<MeasuredPose>& poses, const std::strin
     for (int i = 0; i < 3; ++i) text += fmt::format(",{:.17g}", p.target_in_world(i));
   }
   return fmt::format("{:016x}", std::hash<std::string>{}(text));
-}
-
-// A stored set as CompareModels wants it: its identified parameters and their covariance.
-calibration::FittedSet FittedSetOf(const calibration::RobotModel& model, const Signature& sig,
-                                   const db::StoredCalibration& stored) {
-  calibration::FittedSet set;
-  set.params = sig.params;
-  for (const auto& name : stored.covariance_parameters)
-    set.identified.push_back(model.IndexOf(name));
-  set.covariance = stored.covariance;
-  return set;
 }
 
 // Gates from the latest session's lab file (`recalibration:` block), then the options.
@@ -1074,6 +1063,18 @@ void NightlyJob::WriteRunReport() {
     input.temperature_c = db::PoseTemperatures(*database_, sessions);
   }
   input.history = ReportHistoryOf(*database_, robot_id_);
+  input.drift_history = ReportDriftOf(*database_, model_, robot_id_, gates_.drift_mm);
+  if (d_.version == 0 && current_) {
+    // This run, not stored: against the active set, as its drift decision was taken.
+    const calibration::FittedSet now{run.estimate.params, run.estimate.identifiability.identified,
+                                     run.estimate.covariance};
+    ReportDriftPoint point = DriftPointOf(
+        model_, FittedSetOf(model_, SignatureOf(model_, *current_), *current_), now, spread_);
+    point.version = 0;
+    point.against = current_->version;
+    point.drift = d_.drift;
+    input.drift_history.points.push_back(point);
+  }
   if (d_.version == 0) {
     ReportHistoryPoint rejected{0, "this run (rejected)", d_.validation.mean_mm, run.params_spec,
                                 false};

@@ -26,6 +26,7 @@
 #include "io/residual_map_json.h"
 #include "workflows/calibration_run.h"
 #include "workflows/hint.h"
+#include "workflows/recalibrate.h"
 #include "workflows/report.h"
 #include "workflows/signature.h"
 
@@ -33,21 +34,9 @@ namespace armsig::workflows {
 
 namespace {
 
-constexpr int kDriftConfigurations = 50;  // as the nightly job compares sets
 
 calibration::ErrorStats StatsOfDistances(const std::vector<double>& distances) {
   return calibration::Summarise(distances);
-}
-
-// The set's identified parameters with its covariance, as the nightly job compares sets.
-calibration::FittedSet FittedSetOf(const calibration::RobotModel& model, const Signature& sig,
-                                   const db::StoredCalibration& stored) {
-  calibration::FittedSet set;
-  set.params = sig.params;
-  for (const auto& name : stored.covariance_parameters)
-    set.identified.push_back(model.IndexOf(name));
-  set.covariance = stored.covariance;
-  return set;
 }
 
 // The residual map as the run held it: its decision and cross-validation from the stored
@@ -104,6 +93,17 @@ std::vector<std::string> StoredGates(const db::StoredCalibration& set) {
   line("validation mean", set.validation_mean_mm, "max_mean_mm");
   line("validation max", set.validation_max_mm, "max_max_mm");
   return out;
+}
+
+// The drift gate (mm) the run stored with its options; the nightly job's default when the
+// set stored none (a demo's, an import's).
+double StoredDriftTolerance(const db::StoredCalibration& set) {
+  const auto options = db::ParseStoredJson(
+      set.options_json, {"the database", "calibrations", set.id, "options_json"});
+  if (options.is_object() && options.contains("gates") && options["gates"].is_object() &&
+      options["gates"].contains("drift_mm") && options["gates"]["drift_mm"].is_number())
+    return options["gates"]["drift_mm"].get<double>();
+  return kDefaultDriftMm;
 }
 
 }  // namespace
@@ -281,6 +281,7 @@ StoredReport WriteStoredReport(db::Database& database, const std::string& robot,
     input.temperature_c = db::PoseTemperatures(database, sessions);
   }
   input.history = ReportHistoryOf(database, *robot_id);
+  input.drift_history = ReportDriftOf(database, model, *robot_id, StoredDriftTolerance(*set));
   // The change against the set active before this one was stored.
   const auto drift = nlohmann::json::parse(set->drift_json.empty() ? "null" : set->drift_json,
                                            nullptr, false);
@@ -294,7 +295,7 @@ StoredReport WriteStoredReport(db::Database& database, const std::string& robot,
     const Signature before = SignatureOf(model, c);
     const auto comparison = calibration::CompareModels(
         model, FittedSetOf(model, before, c), FittedSetOf(model, sig, *set),
-        calibration::SpreadConfigurations(model, kDriftConfigurations));
+        calibration::SpreadConfigurations(model, kReportDriftConfigurations));
     for (const auto& p : comparison.parameters)
       input.changes.push_back({p.parameter, p.change, p.z});
   }
