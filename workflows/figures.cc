@@ -190,6 +190,7 @@ Plot::Plot(int width, int height, const std::string& title, Axis x, Axis y,
       x_(std::move(x)),
       y_(std::move(y)) {
   DrawTitleRow();
+  Text(image, ylabel_, {8, area.y - 10});
   Text(image, xlabel, {area.x + area.width / 2, height - 10}, 0.45, Align::kCenter);
   for (size_t k = 0; k < x_.ticks.size(); ++k) {
     const int px = X(x_.ticks[k]);
@@ -214,7 +215,6 @@ void Plot::DrawTitleRow() {
   Text(image, title_, {area.x, kTitleBaseline}, 0.55);
   if (!caption_.empty())
     Text(image, caption_, {area.x + area.width, kTitleBaseline}, 0.4, Align::kRight);
-  Text(image, ylabel_, {8, area.y - 10});
 }
 
 void Plot::Caption(const std::string& text) {

@@ -251,8 +251,8 @@ Html TemperatureSection(const ReportData& data, const std::optional<Figure>& fig
   }
   html += HtmlFormat(
       "<p id=\"temperature-trend\">{} of {} validation poses have an air temperature, {:.3f} "
-      "to {:.3f} &deg;C (a span of {:.2f} &deg;C); {}</p>\n",
-      t.size(), data.distances.size(), *lo, *hi, *hi - *lo, slope);
+      "to {:.3f} &deg;C; {}</p>\n",
+      t.size(), data.distances.size(), *lo, *hi, slope);
   if (figure) html += FigureHtml(*figure);
   return html;
 }

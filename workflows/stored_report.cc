@@ -149,6 +149,28 @@ StoredReport WriteStoredReport(db::Database& database, const std::string& robot,
   // The configurations behind the residuals, as the run named them ("<session>:<label>").
   std::map<std::string, MeasuredPose> by_id;
   for (auto& p : db::LoadRobotPoses(database, *robot_id, "")) by_id.emplace(p.id, std::move(p));
+  // A run on one session's poses (the demo's) named them by their bare label: found in the
+  // sessions the set's inputs name.
+  std::vector<std::string> input_sessions;
+  {
+    const auto inputs = db::ParseStoredJson(
+        set->inputs_json, {"the database", "calibrations", set->id, "inputs_json"});
+    if (inputs.is_object() && inputs.contains("sessions") && inputs["sessions"].is_array()) {
+      for (const auto& s : inputs["sessions"]) {
+        if (s.is_string()) input_sessions.push_back(s.get<std::string>());
+        if (s.is_number_integer()) input_sessions.push_back(std::to_string(s.get<int64_t>()));
+      }
+    }
+  }
+  auto find_pose = [&](const std::string& label) {
+    auto it = by_id.find(label);
+    if (it != by_id.end() || label.find(':') != std::string::npos) return it;
+    for (const auto& session : input_sessions) {
+      it = by_id.find(session + ":" + label);
+      if (it != by_id.end()) return it;
+    }
+    return by_id.end();
+  };
   StoredReport out;
   out.version = set->version;
   CalibrationRun run;
@@ -156,9 +178,9 @@ StoredReport WriteStoredReport(db::Database& database, const std::string& robot,
   std::vector<MeasuredPose> fit, validation;
   std::vector<double> fit_distances, fit_nominal, validation_nominal;
   for (const auto& r : rows) {
-    const auto pose = by_id.find(r.pose_label);
+    const auto pose = find_pose(r.pose_label);
     if (r.role == "fit") {
-      run.fit_pose_ids.push_back(r.pose_label);
+      run.fit_pose_ids.push_back(pose != by_id.end() ? pose->first : r.pose_label);
       fit_distances.push_back(r.distance_mm);
       if (std::isfinite(r.nominal_distance_mm)) fit_nominal.push_back(r.nominal_distance_mm);
       if (pose != by_id.end()) fit.push_back(pose->second);
@@ -168,7 +190,7 @@ StoredReport WriteStoredReport(db::Database& database, const std::string& robot,
       ++out.missing_poses;
       continue;
     }
-    run.validation_pose_ids.push_back(r.pose_label);
+    run.validation_pose_ids.push_back(pose->first);  // "<session>:<label>", as the sources read them
     run.validation_residuals.emplace_back(r.dx_mm, r.dy_mm, r.dz_mm);
     validation_nominal.push_back(r.nominal_distance_mm);
     validation.push_back(pose->second);

@@ -127,6 +127,18 @@ TEST_F(DemoOutput, VersionsSessionsAndJobsShowTimesWithTheirZone) {
   }
 }
 
+// The report of a demo's set (`armsig report`): the run named its poses by their bare
+// labels (one session's), and the report still finds every validation pose.
+TEST_F(DemoOutput, TheReportOfADemoSetFindsItsValidationPoses) {
+  ASSERT_EQ(result_->exit_code, 0) << result_->err;
+  const auto r = RunArmsig("--db '" + dir_->File("demo.db") + "' report --robot puma760-demo --out '" +
+                           dir_->File("report") + "'");
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_EQ(r.err.find("no longer stored"), std::string::npos) << r.err;
+  EXPECT_NE(ReadText(dir_->File("report/index.html")).find("on the 36 validation poses"),
+            std::string::npos);
+}
+
 // calibrate's tables: whole rows within 100 columns; every sigma of an identified parameter
 // with two significant digits (never "0.000"), and equal to the JSON's sigma to that rounding.
 TEST(CalibrateOutput, SigmasHaveSignificantDigitsAndTheTablesFit) {
