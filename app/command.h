@@ -1,7 +1,8 @@
 // The command-line face of armsig. Each command has a Setup… that declares its CLI11
 // subcommand and a Run… that takes the parsed options and returns an exit code, so
 // tests call Run… without a shell. Exit codes (docs/reference/cli.md): 0 ok, 1 failure,
-// 2 usage or input error, 3 a quality gate failed.
+// 2 usage or input error, 3 a quality gate failed, 130 stopped by a signal (every command
+// that a Ctrl-C, SIGTERM or SIGHUP stops, its work left resumable).
 #pragma once
 
 #include <CLI/CLI.hpp>
@@ -18,7 +19,8 @@
 
 namespace armsig::app {
 
-// kStopped: a Ctrl-C (or SIGTERM, SIGHUP) stopped the work, left resumable (128 + SIGINT).
+// kStopped: a Ctrl-C (or SIGTERM, SIGHUP) stopped the work, left resumable (128 + SIGINT):
+// capture, demo (a served lab too), db push, worker, instrument simulate alike.
 // kStoredOutputFailed: the work is stored, an output that follows it could not be written
 // (StoredButOutputError, core/error.h).
 enum ExitCode : int {

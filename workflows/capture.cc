@@ -16,6 +16,7 @@
 #include "core/error.h"
 #include "core/text.h"
 #include "core/text_layout.h"
+#include "core/wording.h"
 #include "db/database.h"
 #include "db/store.h"
 #include "workflows/hint.h"
@@ -311,9 +312,9 @@ CaptureOutcome RunCaptureSession(const CaptureRequest& request) {
 
 std::string FormatCaptureSummary(const acquisition::CaptureSummary& s) {
   std::string text = fmt::format(
-      "session {}: {} of {} configurations stored ({} now, {} before): {} usable, {} flagged, {} "
-      "failed, {} skipped; {} re-measured\n",
-      s.session, s.already + s.measured + s.skipped, s.total, s.measured + s.skipped, s.already,
+      "session {}: {} of {} stored ({} now, {} before): {} usable, {} flagged, {} failed, {} "
+      "skipped; {} re-measured\n",
+      s.session, s.already + s.measured + s.skipped, Count(s.total, "configuration"), s.measured + s.skipped, s.already,
       s.usable, s.flagged, s.failed, s.skipped, s.remeasured);
   if (s.single_ray && s.usable > 0) {
     text += "  one instrument per point: no second ray, no miss distance (each reading checked "
