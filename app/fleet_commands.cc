@@ -142,9 +142,8 @@ int RunJobs(const JobsCommand& c, const GlobalOptions& global) {
     if (j.state == db::JobState::kRunning && j.lease_expires_ms)
       result = "lease until " + Time(j.lease_expires_ms);
     const std::string line = fmt::format(
-        "{:>5}  {:<16} {:<9} {:>3}  {:<20} {:<20}", j.id, Printable(j.robot),
-        db::ToString(j.state), j.attempts, TimeToTheSecond(Time(j.created_ms)),
-        TimeToTheSecond(Time(j.finished_ms)));
+        "{:>5}  {:<16} {:<9} {:>3}  {:<20} {:<20}", j.id, Printable(j.robot), db::ToString(j.state),
+        j.attempts, TimeToTheSecond(Time(j.created_ms)), TimeToTheSecond(Time(j.finished_ms)));
     std::string more = Printable(result);
     if (!j.worker.empty()) more = Printable(j.worker) + ": " + more;
     if (more.empty()) {

@@ -7,10 +7,9 @@
 
 #include <chrono>
 #include <cstdio>
-#include <memory>
-
 #include <cstdlib>
 #include <iostream>
+#include <memory>
 #include <string>
 
 #include "app/command.h"

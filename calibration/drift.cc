@@ -103,8 +103,7 @@ PredictedDifference PredictDifference(const RobotModel& model, const FittedSet& 
   return out;
 }
 
-DifferenceProfile ProfileDifference(const RobotModel& model, const FittedSet& a,
-                                    const FittedSet& b,
+DifferenceProfile ProfileDifference(const RobotModel& model, const FittedSet& a, const FittedSet& b,
                                     const std::vector<Eigen::VectorXd>& configurations) {
   DifferenceProfile out;
   const int m = static_cast<int>(configurations.size());
@@ -120,9 +119,9 @@ DifferenceProfile ProfileDifference(const RobotModel& model, const FittedSet& a,
     const double distance = delta.norm();
     // Var(|Δ|) ≈ uᵀ C u along u = Δ/|Δ| (linearised); at Δ = 0, the largest direction's.
     const Eigen::Matrix3d c = g.middleRows<3>(3 * i) * g.middleRows<3>(3 * i).transpose();
-    const double variance = distance > 0.0
-                                ? (delta / distance).dot(c * (delta / distance))
-                                : Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d>(c).eigenvalues()(2);
+    const double variance =
+        distance > 0.0 ? (delta / distance).dot(c * (delta / distance))
+                       : Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d>(c).eigenvalues()(2);
     out.distance_mm.push_back(distance);
     out.sigma_mm.push_back(std::sqrt(std::max(variance, 0.0)));
     if (out.worst < 0 || distance > out.distance_mm[out.worst]) out.worst = i;

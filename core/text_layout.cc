@@ -44,7 +44,8 @@ std::string TextTable::Render(int width, int indent, int gap) const {
     if (first > 1) out += "\n";
     auto line = [&](const std::vector<std::string>& cells) {
       std::string text = std::string(indent, ' ') + pad(cells[0], widths[0], false);
-      for (size_t c = first; c < last; ++c) text += std::string(gap, ' ') + pad(cells[c], widths[c], true);
+      for (size_t c = first; c < last; ++c)
+        text += std::string(gap, ' ') + pad(cells[c], widths[c], true);
       while (!text.empty() && text.back() == ' ') text.pop_back();
       out += text + "\n";
     };

@@ -61,13 +61,16 @@ std::string PValueText(double p) {
 
 std::string TimeToTheSecond(std::string_view iso) {
   // YYYY-MM-DDTHH:MM:SS, then an optional fraction, then the zone (Z or ±hh[:]mm) or none.
-  auto digit = [&](size_t i) { return i < iso.size() && std::isdigit(static_cast<unsigned char>(iso[i])); };
+  auto digit = [&](size_t i) {
+    return i < iso.size() && std::isdigit(static_cast<unsigned char>(iso[i]));
+  };
   static constexpr const char* kShape = "dddd-dd-ddTdd:dd:dd";
   if (iso.size() < 19) return std::string(iso);
   for (size_t i = 0; i < 19; ++i) {
     const char want = kShape[i];
-    const bool ok = want == 'd' ? digit(i) : want == 'T' ? (iso[i] == 'T' || iso[i] == ' ')
-                                                         : iso[i] == want;
+    const bool ok = want == 'd'   ? digit(i)
+                    : want == 'T' ? (iso[i] == 'T' || iso[i] == ' ')
+                                  : iso[i] == want;
     if (!ok) return std::string(iso);
   }
   size_t at = 19;

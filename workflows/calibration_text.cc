@@ -83,9 +83,9 @@ std::string IdentifiabilityText(const calibration::RobotModel& model, const Cali
   const auto names = model.ParameterNames();
   std::string out;
   if (id.structural_rank >= 0 && id.structural_rank != id.rank) {
-    out += fmt::format(
-        "warning: these data identify {}, the model {} on well-spread configurations\n",
-        Count(id.rank, "parameter"), id.structural_rank);
+    out +=
+        fmt::format("warning: these data identify {}, the model {} on well-spread configurations\n",
+                    Count(id.rank, "parameter"), id.structural_rank);
   }
   for (const auto& frozen : id.frozen_joints) {
     std::string affected;
@@ -175,8 +175,9 @@ std::string ErrorDistanceText(const CalibrationRun& run) {
 std::string FormatCalibrationReport(const calibration::RobotModel& model,
                                     const CalibrationRun& run) {
   const auto& id = run.estimate.identifiability;
-  std::string out = fmt::format("Arm signature of {}: {} of {} parameters identified (params: {})\n\n",
-                                model.name, id.rank, id.candidates.size(), run.params_spec);
+  std::string out =
+      fmt::format("Arm signature of {}: {} of {} parameters identified (params: {})\n\n",
+                  model.name, id.rank, id.candidates.size(), run.params_spec);
   out += ParameterTableText(model, run, false);
   out += NonGeometricText(model, run);
   out += fmt::format(

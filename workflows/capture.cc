@@ -314,8 +314,8 @@ std::string FormatCaptureSummary(const acquisition::CaptureSummary& s) {
   std::string text = fmt::format(
       "session {}: {} of {} stored ({} now, {} before): {} usable, {} flagged, {} failed, {} "
       "skipped; {} re-measured\n",
-      s.session, s.already + s.measured + s.skipped, Count(s.total, "configuration"), s.measured + s.skipped, s.already,
-      s.usable, s.flagged, s.failed, s.skipped, s.remeasured);
+      s.session, s.already + s.measured + s.skipped, Count(s.total, "configuration"),
+      s.measured + s.skipped, s.already, s.usable, s.flagged, s.failed, s.skipped, s.remeasured);
   if (s.single_ray && s.usable > 0) {
     text += "  one instrument per point: no second ray, no miss distance (each reading checked "
             "against its own sigmas)\n";

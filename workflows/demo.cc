@@ -24,8 +24,8 @@
 #include "core/error.h"
 #include "core/text.h"
 #include "core/text_layout.h"
-#include "core/wording.h"
 #include "core/units.h"
+#include "core/wording.h"
 #include "db/database.h"
 #include "db/postgres_connection.h"
 #include "db/store.h"
@@ -208,8 +208,8 @@ unsigned StoredDemoSessions(const std::string& db_path, int64_t resumed) {
 std::string DemoProgressionText(const std::vector<CalibrationRun>& runs, double noise_floor_mm) {
   if (runs.empty()) return "";
   static const char* kPaper[] = {"1 (2)", "0.5 (1)", "0.27 (0.6)"};
-  TextTable table({"params", "identified", "fit mean (max) mm", "validation mean (max) mm",
-                   "paper (fit)"});
+  TextTable table(
+      {"params", "identified", "fit mean (max) mm", "validation mean (max) mm", "paper (fit)"});
   auto mean_max = [](const calibration::ErrorStats& s) {
     return fmt::format("{:.3f} ({:.2f})", s.mean_mm, s.max_mm);
   };
@@ -219,17 +219,17 @@ std::string DemoProgressionText(const std::vector<CalibrationRun>& runs, double 
                 "5.9 (10)"});
   for (size_t k = 0; k < runs.size(); ++k) {
     const auto& e = runs[k].estimate;
-    table.AddRow({runs[k].params_spec,
-                  fmt::format("{} of {}", e.identifiability.rank,
-                              e.identifiability.candidates.size()),
-                  mean_max(e.fit), mean_max(StatsOf(runs[k].validation_residuals)),
-                  k < 3 ? kPaper[k] : ""});
+    table.AddRow(
+        {runs[k].params_spec,
+         fmt::format("{} of {}", e.identifiability.rank, e.identifiability.candidates.size()),
+         mean_max(e.fit), mean_max(StatsOf(runs[k].validation_residuals)), k < 3 ? kPaper[k] : ""});
   }
   const int fit = static_cast<int>(runs[0].fit_pose_ids.size()),
             validated = static_cast<int>(runs[0].validation_pose_ids.size());
-  return fmt::format("The paper's progression, from this session's own data ({} fitted, {} "
-                     "validated):\n",
-                     fit, validated) +
+  return fmt::format(
+             "The paper's progression, from this session's own data ({} fitted, {} "
+             "validated):\n",
+             fit, validated) +
          table.Render(kTextWidth, 2) +
          fmt::format("  measurement noise floor (mean 3-D error of a reduced point): {:.3f} mm\n",
                      noise_floor_mm);
@@ -239,8 +239,8 @@ std::string DemoOrientationText(const reduction::OrientationProblem& setup,
                                 const reduction::OrientationResult& oriented) {
   std::string removed;
   for (const auto& m : oriented.removed)
-    removed += fmt::format("{}{} {}", removed.empty() ? "" : ", ", reduction::KindName(m.kind),
-                           m.label);
+    removed +=
+        fmt::format("{}{} {}", removed.empty() ? "" : ", ", reduction::KindName(m.kind), m.label);
   std::string text = fmt::format(
       "1. stations oriented from {} (mutual pointings, 3 bar set-ups): sigma0 {:.3f}, {}, {}\n",
       Count(static_cast<int64_t>(setup.observations.size()), "reading"), oriented.sigma0,
@@ -266,8 +266,8 @@ std::string DemoCaptureText(const acquisition::CaptureSummary& captured, bool tr
       for (const auto& v : *list)
         names += (names.empty() ? "" : ", ") + v.label + " (" + v.why + ")";
     text += fmt::format("   {} left out ({} failed, {} flagged): {}\n",
-                        Count(captured.failed + captured.flagged, "configuration"),
-                        captured.failed, captured.flagged, names);
+                        Count(captured.failed + captured.flagged, "configuration"), captured.failed,
+                        captured.flagged, names);
   }
   text += fmt::format(
       "2. session {}: {} captured in {:.1f} s ({:.1f} ms each, {:.2f} ms of it software, {:.2f} "
@@ -392,7 +392,7 @@ class DemoRun {
   bool use_tracker_ = false;
   int select_count_ = 0;
   std::optional<db::Database> database_;  // opened at once when resuming
-  acquisition::Plan stored_plan_;          // a resumed session's
+  acquisition::Plan stored_plan_;         // a resumed session's
   std::string stored_lab_yaml_;
   // The lab (BuildLab).
   std::optional<DemoFolder> folder_;
@@ -421,7 +421,7 @@ void DemoRun::CheckOptions() {
   }
   seed_ = options_.seed ? *options_.seed
           : serving_    ? kFirstSeed
-                        : kFirstSeed + StoredDemoSessions(options_.db_path, options_.resume_session);
+                     : kFirstSeed + StoredDemoSessions(options_.db_path, options_.resume_session);
   limits_ = DemoLimitsOf(model_, seed_);
   if (options_.resume_session > 0) OpenResumedSession();
   if (!options_.instrument.empty() && options_.instrument != "theodolites" &&
@@ -434,17 +434,17 @@ void DemoRun::CheckOptions() {
     // The session keeps the instruments it was captured with.
     const bool stored_tracker = stored_lab_yaml_.find("emscon") != std::string::npos;
     if (!options_.instrument.empty() && stored_tracker != use_tracker_) {
-      throw InputError({"--instrument", 0, 0, ""},
-                       fmt::format("demo session {} was captured with {}; resume it without "
-                                   "--instrument or with --instrument {}",
-                                   options_.resume_session,
-                                   stored_tracker ? "a laser tracker" : "theodolites",
-                                   stored_tracker ? "tracker" : "theodolites"));
+      throw InputError(
+          {"--instrument", 0, 0, ""},
+          fmt::format("demo session {} was captured with {}; resume it without "
+                      "--instrument or with --instrument {}",
+                      options_.resume_session, stored_tracker ? "a laser tracker" : "theodolites",
+                      stored_tracker ? "tracker" : "theodolites"));
     }
     use_tracker_ = stored_tracker;
   }
-  const int configurations = options_.resume_session > 0 ? static_cast<int>(stored_plan_.size())
-                                                         : options_.configurations;
+  const int configurations =
+      options_.resume_session > 0 ? static_cast<int>(stored_plan_.size()) : options_.configurations;
   select_count_ = DemoSelectCount(configurations, options_.select, limits_);
 }
 
@@ -454,8 +454,8 @@ void DemoRun::OpenResumedSession() {
   const auto row = db::LoadSession(*database_, options_.resume_session);
   if (!row || row->robot != kDemoRobot) {
     throw InputError({database_->path(), 0, 0, ""},
-                     fmt::format("no demo session {} (robot {}) to resume",
-                                 options_.resume_session, kDemoRobot));
+                     fmt::format("no demo session {} (robot {}) to resume", options_.resume_session,
+                                 kDemoRobot));
   }
   stored_plan_ = acquisition::PlanFromJson(
       row->plan_json, {database_->path(), "sessions", options_.resume_session, "plan_json"});
@@ -540,11 +540,11 @@ DemoResult DemoRun::Serve() {
       "In another terminal:\n  armsig --db lab.db capture --lab {1} --plan auto:30 --robot "
       "puma\n{2}\n",
       folder, (lab_->folder() / "lab.yaml").string(),
-      options_.serve_seconds > 0 ? fmt::format("Serving for {:g} s (Ctrl-C ends it sooner).",
-                                               options_.serve_seconds)
-                                 : std::string("Ctrl-C ends it.")));
-  const auto until = std::chrono::steady_clock::now() +
-                     std::chrono::duration<double>(options_.serve_seconds);
+      options_.serve_seconds > 0
+          ? fmt::format("Serving for {:g} s (Ctrl-C ends it sooner).", options_.serve_seconds)
+          : std::string("Ctrl-C ends it.")));
+  const auto until =
+      std::chrono::steady_clock::now() + std::chrono::duration<double>(options_.serve_seconds);
   while (!Stopped(options_) &&
          (options_.serve_seconds <= 0 || std::chrono::steady_clock::now() < until)) {
     std::this_thread::sleep_for(50ms);
@@ -577,8 +577,8 @@ bool DemoRun::Capture() {
                  : acquisition::CreateSession(database, lab_config_, kDemoRobot, plan_);
   result_.session = session_;
   {
-    std::vector<std::string> words = {"demo", "--resume", std::to_string(session_),
-                                      "--time-scale", fmt::format("{}", options_.time_scale)};
+    std::vector<std::string> words = {"demo", "--resume", std::to_string(session_), "--time-scale",
+                                      fmt::format("{}", options_.time_scale)};
     if (options_.select > 0)
       words.insert(words.end(), {"--select", std::to_string(options_.select)});
     if (!options_.json_path.empty())
@@ -641,8 +641,7 @@ void DemoRun::SelectConfigurations() {
         "demo: {} usable points of {} configurations: too few to fit and validate (need {})",
         poses_.size(), plan_.size(), limits_.min_configurations));
   }
-  const auto selected =
-      calibration::SelectConfigurations(model_, joints, id.identified, selection);
+  const auto selected = calibration::SelectConfigurations(model_, joints, id.identified, selection);
   std::vector<char> chosen(poses_.size(), 0);
   for (int i : selected.selected) chosen[i] = 1;
   for (size_t i = 0; i < poses_.size(); ++i) (chosen[i] ? fit_ : validation_).push_back(poses_[i]);

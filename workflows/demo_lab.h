@@ -22,11 +22,11 @@
 namespace armsig::workflows {
 
 struct DemoLabOptions {
-  bool tracker = false;       // one laser tracker instead of three theodolites
-  unsigned seed = 1985;       // the instruments' noise
-  double time_scale = 0.25;   // multiplies every simulated instrument latency
+  bool tracker = false;      // one laser tracker instead of three theodolites
+  unsigned seed = 1985;      // the instruments' noise
+  double time_scale = 0.25;  // multiplies every simulated instrument latency
   double repeatability_mm = 0.0;
-  Eigen::VectorXd planted;    // added to the paper's Table 3 (empty: nothing planted)
+  Eigen::VectorXd planted;       // added to the paper's Table 3 (empty: nothing planted)
   std::filesystem::path folder;  // the devices' links and the lab files
 };
 

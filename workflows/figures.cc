@@ -259,8 +259,7 @@ void Plot::Legend(const std::vector<LegendEntry>& entries) {
 
 int Plot::RowBelow(int height) {
   const int top = image.rows;
-  cv::copyMakeBorder(image, image, 0, height, 0, 0, cv::BORDER_CONSTANT,
-                     cv::Scalar(255, 255, 255));
+  cv::copyMakeBorder(image, image, 0, height, 0, 0, cv::BORDER_CONSTANT, cv::Scalar(255, 255, 255));
   return top;
 }
 

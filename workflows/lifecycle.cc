@@ -381,8 +381,8 @@ std::string FormatSessions(const std::vector<db::SessionSummary>& sessions, bool
   std::string text;
   for (const auto& s : sessions) {
     text += OneLineOrTwo(
-        fmt::format("{:>4}  {:<14} {:<9} {}  {} measured, {} skipped, {} usable, {} flagged",
-                    s.id, Printable(s.robot), Printable(s.state),
+        fmt::format("{:>4}  {:<14} {:<9} {}  {} measured, {} skipped, {} usable, {} flagged", s.id,
+                    Printable(s.robot), Printable(s.state),
                     Printable(TimeToTheSecond(s.started_at)), s.measured, s.skipped, s.usable,
                     s.flagged),
         Printable(s.note));
@@ -407,18 +407,17 @@ std::string FormatVersions(const std::vector<VersionInfo>& versions, bool json,
     }
     if (v.drift && *v.drift)
       activated += fmt::format("  DRIFT against v{}", v.drift_against.value_or(0));
-    text += fmt::format(
-        "{} v{:<3} {}  params {:<9} rank {:>2}  fitted on {} of {}\n", v.active ? "*" : " ",
-        v.version, Printable(TimeToTheSecond(v.created_at)), Printable(v.params_spec), v.rank,
-        Count(v.poses_fit, "pose"),
-        v.sessions.empty()
-            ? std::string("sessions not recorded")
-            : fmt::format("{} {}", v.sessions.size() == 1 ? "session" : "sessions",
-                          fmt::join(v.sessions, ",")));
-    text += OneLineOrTwo(fmt::format("       validation mean {:.4f} max {:.4f} mm on {}",
-                                     v.validation_mean_mm, v.validation_max_mm,
-                                     Count(v.poses_validation, "pose")),
-                         activated);
+    text += fmt::format("{} v{:<3} {}  params {:<9} rank {:>2}  fitted on {} of {}\n",
+                        v.active ? "*" : " ", v.version, Printable(TimeToTheSecond(v.created_at)),
+                        Printable(v.params_spec), v.rank, Count(v.poses_fit, "pose"),
+                        v.sessions.empty()
+                            ? std::string("sessions not recorded")
+                            : fmt::format("{} {}", v.sessions.size() == 1 ? "session" : "sessions",
+                                          fmt::join(v.sessions, ",")));
+    text += OneLineOrTwo(
+        fmt::format("       validation mean {:.4f} max {:.4f} mm on {}", v.validation_mean_mm,
+                    v.validation_max_mm, Count(v.poses_validation, "pose")),
+        activated);
     if (v.drift && *v.drift && (v.change_from_session || !v.cause.empty())) {
       text += fmt::format(
           "       {}{}\n",

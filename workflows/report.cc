@@ -72,8 +72,8 @@ std::string WriteReport(const std::string& dir, const ReportInput& in) {
   html += Html("<h2>Error against each joint angle</h2>\n<div class=\"joints\">\n");
   for (const auto& f : joints) html += FigureHtml(f);
   html += Html("</div>\n");
-  html += ParameterSection(data) + ChangeSection(data) + WindowSection(in) +
-          HistorySection(in, drift);
+  html +=
+      ParameterSection(data) + ChangeSection(data) + WindowSection(in) + HistorySection(in, drift);
   html += Html("</body></html>\n");
   const std::string path = dir + "/index.html";
   io::WriteFileAtomically(path, html.str());

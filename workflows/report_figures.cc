@@ -45,8 +45,8 @@ Figure ErrorsFigure(const std::string& dir, const CalibrationRun& run) {
          IntegerAxis(static_cast<int>(std::max<size_t>(n, 1)), 10), LogAxis(lo, hi),
          "validation configuration (number)", "mm");
   for (size_t i = 0; i < n; ++i) {
-    DrawMarker(p.image, p.At(i + 1.0, run.validation_nominal_residuals[i].norm()),
-               Marker::kCircle, kRed, 3);
+    DrawMarker(p.image, p.At(i + 1.0, run.validation_nominal_residuals[i].norm()), Marker::kCircle,
+               kRed, 3);
     DrawMarker(p.image, p.At(i + 1.0, residuals[i].norm()), Marker::kSquare, kGreen, 3);
   }
   p.Legend({{Marker::kCircle, kRed, "nominal model"},
@@ -98,8 +98,8 @@ Figure VectorsFigure(const std::string& dir, const std::vector<Eigen::Vector3d>&
     if (b >= a) span = std::max(span, (b - a) * 1.15);
   }
   const double magnify = 0.08 * span / largest;  // the largest residual: 8 % of the view
-  Text(image, "Residual vectors (calibrated model - measured) at the validation targets",
-       {70, 20}, 0.55);
+  Text(image, "Residual vectors (calibrated model - measured) at the validation targets", {70, 20},
+       0.55);
   double px_per_mm = 1.0;
   for (int panel = 0; panel < 2; ++panel) {
     const int axis = panel == 0 ? 1 : 2;
@@ -138,10 +138,9 @@ Figure VectorsFigure(const std::string& dir, const std::vector<Eigen::Vector3d>&
       Text(image, TickLabel(t, step), {box.x - 5, y + 4}, 0.38, Align::kRight);
     }
     cv::rectangle(image, box, kInk);
-    Text(
-        image,
-        panel == 0 ? "top view: x (mm) across, y (mm) up" : "side view: x (mm) across, z (mm) up",
-        {box.x, box.y - 8}, 0.45);
+    Text(image,
+         panel == 0 ? "top view: x (mm) across, y (mm) up" : "side view: x (mm) across, z (mm) up",
+         {box.x, box.y - 8}, 0.45);
     Text(image, "x (mm)", {box.x + box.width / 2, box.y + box.height + 34}, 0.4, Align::kCenter);
     Text(image, std::string(vertical) + " (mm)", {box.x - 60, box.y - 8 + 0}, 0.4);
     // Coordinate axes of the measuring frame (directions), bottom left.
@@ -228,8 +227,7 @@ std::optional<Figure> ResidualMapFigure(const std::string& dir,
   Plot p(900, 360, "Residual map: cross-validated mean error on the fit poses",
          LinearAxis(lo * 0.9, hi * 1.1, 6), LinearAxis(std::max(0.0, bottom * 0.9), top * 1.05, 5),
          "length scale (scaled joint features)", "mm");
-  const Marker markers[] = {Marker::kCircle, Marker::kSquare, Marker::kTriangle,
-                            Marker::kDiamond};
+  const Marker markers[] = {Marker::kCircle, Marker::kSquare, Marker::kTriangle, Marker::kDiamond};
   const cv::Scalar colors[] = {kBlue, kOrange, kPurple, kTeal, kGrey};
   std::vector<LegendEntry> legend;
   int k = 0;
@@ -260,8 +258,7 @@ std::optional<Figure> ResidualMapFigure(const std::string& dir,
   }
   if (!m.map.centres_rad.empty()) {
     // The chosen (length scale, regularisation): a ring around its point.
-    cv::circle(p.image, p.At(m.map.length_scale, m.cv_mean_mm_with_map), 10, kInk, 1,
-               cv::LINE_AA);
+    cv::circle(p.image, p.At(m.map.length_scale, m.cv_mean_mm_with_map), 10, kInk, 1, cv::LINE_AA);
     Text(p.image, "ring: chosen", {p.area.x + p.area.width, 20}, 0.4, Align::kRight);
   }
   p.Legend(legend);
@@ -270,8 +267,7 @@ std::optional<Figure> ResidualMapFigure(const std::string& dir,
 
 std::optional<Figure> TemperatureFigure(const std::string& dir,
                                         const std::vector<double>& temperatures_c,
-                                        const std::vector<double>& errors_mm,
-                                        int validation_poses,
+                                        const std::vector<double>& errors_mm, int validation_poses,
                                         const std::optional<LinearTrend>& trend) {
   if (temperatures_c.empty()) return std::nullopt;
   double lo = *std::min_element(temperatures_c.begin(), temperatures_c.end());
@@ -288,10 +284,9 @@ std::optional<Figure> TemperatureFigure(const std::string& dir,
   for (size_t k = 0; k < temperatures_c.size(); ++k) {
     DrawMarker(p.image, p.At(temperatures_c[k], errors_mm[k]), Marker::kCircle, kBlue, 3);
   }
-  std::vector<LegendEntry> legend = {
-      {Marker::kCircle, kBlue,
-       fmt::format("validation poses with a temperature: {} of {}", temperatures_c.size(),
-                   validation_poses)}};
+  std::vector<LegendEntry> legend = {{Marker::kCircle, kBlue,
+                                      fmt::format("validation poses with a temperature: {} of {}",
+                                                  temperatures_c.size(), validation_poses)}};
   if (trend) {
     cv::line(p.image, p.At(axis.lo, trend->intercept + trend->slope * axis.lo),
              p.At(axis.hi, trend->intercept + trend->slope * axis.hi), kRed, 2, cv::LINE_AA);
@@ -381,16 +376,18 @@ std::optional<Figure> DriftFigure(const std::string& dir, const ReportDrift& dri
                                        [](const auto& a) { return a.by == "activate"; });
       any_by_hand |= by_hand;
       const cv::Point tip(p.X(x_of(h.version)), top_y + 5);
-      const std::vector<cv::Point> triangle = {tip, tip + cv::Point(-6, 11), tip + cv::Point(6, 11)};
+      const std::vector<cv::Point> triangle = {tip, tip + cv::Point(-6, 11),
+                                               tip + cv::Point(6, 11)};
       cv::fillConvexPoly(p.image, triangle, by_hand ? kPurple : kGreen, cv::LINE_AA);
       if (h.active) cv::circle(p.image, tip + cv::Point(0, 7), 10, kInk, 1, cv::LINE_AA);
     }
     p.Note(std::string("triangle: the version was made active (ringed: active now)") +
            (any_by_hand ? "; purple: by armsig activate" : ""));
   }
-  p.Note(fmt::format("each point: the largest |dx| over {} configurations spread over the work "
-                     "volume, the two sets' positions rigidly aligned",
-                     drift.configurations));
+  p.Note(
+      fmt::format("each point: the largest |dx| over {} configurations spread over the work "
+                  "volume, the two sets' positions rigidly aligned",
+                  drift.configurations));
   return Save(dir, "drift.png", "Drift: how far each version moved the arm", p.image);
 }
 

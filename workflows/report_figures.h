@@ -24,8 +24,7 @@ figures::Figure HistogramFigure(const std::string& dir, const std::vector<double
 // The residual vectors at the validation targets: top view (x, y) and side view (x, z) on
 // equal scales, arrows magnified with a scale bar. `poses[i]`: residual i's pose (null when
 // not known: left out).
-figures::Figure VectorsFigure(const std::string& dir,
-                              const std::vector<Eigen::Vector3d>& residuals,
+figures::Figure VectorsFigure(const std::string& dir, const std::vector<Eigen::Vector3d>& residuals,
                               const std::vector<const MeasuredPose*>& poses);
 // How far each version moved the arm (ReportDrift): the largest predicted-position
 // difference against the set it is compared with, ±2σ, and the tolerance line; the

@@ -35,8 +35,8 @@ struct ReportHistoryPoint {
 // configurations spread over the work volume, its positions rigidly aligned onto the
 // other's (calibration::ProfileDifference).
 struct ReportDriftPoint {
-  int version = 0;  // 0: this run (not stored)
-  int against = 0;  // the version it is compared with
+  int version = 0;            // 0: this run (not stored)
+  int against = 0;            // the version it is compared with
   double max_mm = NAN;        // the largest |Δx| over the configurations
   double mean_mm = NAN;       // their mean |Δx|
   double sigma_max_mm = NAN;  // the standard deviation of the largest |Δx|, both sets' own

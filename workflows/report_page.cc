@@ -16,8 +16,7 @@ namespace armsig::workflows {
 
 using namespace figures;  // Num, Now, FigureHtml, kPageStyle (workflows/figures.h)
 
-ReportData::ReportData(const ReportInput& input)
-    : in(input), model(*input.model), run(*input.run) {
+ReportData::ReportData(const ReportInput& input) : in(input), model(*input.model), run(*input.run) {
   const auto& residuals = run.validation_residuals;
   distances = calibration::Distances(residuals);
   std::map<std::string, const MeasuredPose*> by_id;
@@ -65,8 +64,7 @@ Html HeaderSection(const ReportData& data) {
                        nowrap ? Html(" class=\"nowrap\"") : Html(), value);
   };
   html += "<table class=\"header\">\n";
-  row("Date", "generated-at", Html::Text(in.generated_at.empty() ? Now() : in.generated_at),
-      true);
+  row("Date", "generated-at", Html::Text(in.generated_at.empty() ? Now() : in.generated_at), true);
   row("armsig version", "armsig-version",
       in.armsig_version.empty() ? Html("not known") : Html::Text(in.armsig_version), true);
   row("Robot", "robot",
@@ -79,9 +77,8 @@ Html HeaderSection(const ReportData& data) {
   for (const auto& s : in.sources.sessions) {
     sessions += HtmlFormat(
         "<div>session {}: {} &ndash; {} ({}), {} fitted + {} validation poses{}</div>", s.id,
-        s.started_at, s.finished_at.empty() ? std::string("not finished") : s.finished_at,
-        s.state, s.poses_fit, s.poses_validation,
-        s.note.empty() ? Html() : Html(", ") + Html::Text(s.note));
+        s.started_at, s.finished_at.empty() ? std::string("not finished") : s.finished_at, s.state,
+        s.poses_fit, s.poses_validation, s.note.empty() ? Html() : Html(", ") + Html::Text(s.note));
   }
   row("Sessions used", "sessions", sessions.empty() ? Html("not known") : sessions);
   Html instruments;
@@ -98,20 +95,19 @@ Html HeaderSection(const ReportData& data) {
     std::string sessions, stations;
     for (int64_t s : g.sessions) sessions += (sessions.empty() ? "" : ", ") + std::to_string(s);
     for (const auto& s : g.stations) stations += (stations.empty() ? "" : ", ") + s;
-    sigma0 += HtmlFormat(
-        "<div>{} {}, {} {}: {}</div>", g.sessions.size() == 1 ? "session" : "sessions", sessions,
-        g.stations.size() == 1 ? "station" : "stations", stations,
-        g.sigma0 ? HtmlFormat("&sigma;<sub>0</sub> = {:.3f} ({} dof{})", *g.sigma0, g.dof,
-                              g.method.empty() ? std::string() : ", " + g.method)
-                 : Html("&sigma;<sub>0</sub> not stored"));
+    sigma0 +=
+        HtmlFormat("<div>{} {}, {} {}: {}</div>", g.sessions.size() == 1 ? "session" : "sessions",
+                   sessions, g.stations.size() == 1 ? "station" : "stations", stations,
+                   g.sigma0 ? HtmlFormat("&sigma;<sub>0</sub> = {:.3f} ({} dof{})", *g.sigma0,
+                                         g.dof, g.method.empty() ? std::string() : ", " + g.method)
+                            : Html("&sigma;<sub>0</sub> not stored"));
   }
   row("Orientation &sigma;<sub>0</sub>", "sigma0",
       sigma0.empty() ? Html("not stored (no station set-ups with these sessions)") : sigma0);
   row("Rank", "rank",
       HtmlFormat("{} of {} candidate parameters{}", id.rank, id.candidates.size(),
-                 id.structural_rank >= 0
-                     ? fmt::format(" (structural rank {})", id.structural_rank)
-                     : std::string()),
+                 id.structural_rank >= 0 ? fmt::format(" (structural rank {})", id.structural_rank)
+                                         : std::string()),
       true);
   row("Condition number", "condition-number", HtmlFormat("{:.4g}", id.condition_number), true);
   std::string unidentified;
@@ -245,9 +241,8 @@ Html TemperatureSection(const ReportData& data, const std::optional<Figure>& fig
         "&plusmn; <span id=\"temperature-slope-sigma\">{}</span> mm per &deg;C (<span "
         "id=\"temperature-slope-p\">{}</span>: {}).",
         trend.slope, decimals, Significant(trend.sigma_slope, 2), PValueText(trend.p_value),
-        trend.p_value < 0.01
-            ? Html("<b>significant</b>: the error changes with the temperature")
-            : Html("not significant at 1 %"));
+        trend.p_value < 0.01 ? Html("<b>significant</b>: the error changes with the temperature")
+                             : Html("not significant at 1 %"));
   }
   html += HtmlFormat(
       "<p id=\"temperature-trend\">{} of {} validation poses have an air temperature, {:.3f} "
@@ -260,8 +255,8 @@ Html TemperatureSection(const ReportData& data, const std::optional<Figure>& fig
 std::vector<Sigma0Group> Sigma0Groups(const std::vector<ReportStationSetup>& setups) {
   // Per session, its stations grouped by equal figures (σ0 to the digits shown).
   auto key_of = [](const ReportStationSetup& s) {
-    return std::make_tuple(s.sigma0 ? fmt::format("{:.3f}", *s.sigma0) : std::string("-"),
-                           s.dof, s.method);
+    return std::make_tuple(s.sigma0 ? fmt::format("{:.3f}", *s.sigma0) : std::string("-"), s.dof,
+                           s.method);
   };
   using Key = decltype(key_of(setups.front()));
   std::vector<int64_t> session_order;
@@ -270,8 +265,8 @@ std::vector<Sigma0Group> Sigma0Groups(const std::vector<ReportStationSetup>& set
     auto& groups = per_session[s.session_id];
     if (groups.empty()) session_order.push_back(s.session_id);
     const Key key = key_of(s);
-    auto it = std::find_if(groups.begin(), groups.end(),
-                           [&](const auto& g) { return g.first == key; });
+    auto it =
+        std::find_if(groups.begin(), groups.end(), [&](const auto& g) { return g.first == key; });
     if (it == groups.end()) {
       groups.push_back({key, Sigma0Group{{s.session_id}, {}, s.sigma0, s.dof, s.method}});
       it = std::prev(groups.end());
@@ -284,10 +279,12 @@ std::vector<Sigma0Group> Sigma0Groups(const std::vector<ReportStationSetup>& set
   std::vector<std::vector<size_t>> members;  // indices into `out` of each signature's groups
   for (int64_t session : session_order) {
     std::vector<std::pair<Key, std::vector<std::string>>> signature;
-    for (const auto& [key, group] : per_session[session]) signature.push_back({key, group.stations});
+    for (const auto& [key, group] : per_session[session])
+      signature.push_back({key, group.stations});
     const auto same = std::find(signatures.begin(), signatures.end(), signature);
     if (same != signatures.end()) {
-      for (size_t index : members[same - signatures.begin()]) out[index].sessions.push_back(session);
+      for (size_t index : members[same - signatures.begin()])
+        out[index].sessions.push_back(session);
       continue;
     }
     signatures.push_back(signature);
@@ -306,9 +303,9 @@ namespace {
 // decimal (at least three).
 Html ValueAndSigma(double value, double sigma) {
   const int decimals = DecimalsForSigma(sigma, 3);
-  return HtmlFormat("{:.{}f} &plusmn; {}", std::abs(value) < 0.5 * std::pow(10.0, -decimals)
-                                               ? 0.0 : value,
-                    decimals, Significant(sigma, 2));
+  return HtmlFormat("{:.{}f} &plusmn; {}",
+                    std::abs(value) < 0.5 * std::pow(10.0, -decimals) ? 0.0 : value, decimals,
+                    Significant(sigma, 2));
 }
 
 }  // namespace
@@ -341,11 +338,10 @@ Html ParameterSection(const ReportData& data) {
         continue;
       }
       const double scale = r < 3 ? 1.0 : 1e3;
-      html += identified[k]
-                  ? HtmlFormat("<td class=\"num\" id=\"param-{}\">{}</td>", names[k],
-                               ValueAndSigma(run.estimate.params(k) * scale,
-                                             run.estimate.sigmas(k) * scale))
-                  : Html("<td class=\"num\">&mdash;</td>");
+      html += identified[k] ? HtmlFormat("<td class=\"num\" id=\"param-{}\">{}</td>", names[k],
+                                         ValueAndSigma(run.estimate.params(k) * scale,
+                                                       run.estimate.sigmas(k) * scale))
+                            : Html("<td class=\"num\">&mdash;</td>");
     }
     html += "</tr>\n";
   }
@@ -354,12 +350,12 @@ Html ParameterSection(const ReportData& data) {
       "i = {}: the tool, lengths only.</p>\n",
       joints + 1);
   for (int k = model.num_geometric(); k < model.num_parameters(); ++k) {
-    html += identified[k]
-                ? HtmlFormat("<p id=\"param-{}\">{} = {} &times; 10<sup>-3</sup> rad</p>\n",
-                             names[k], names[k],
-                             ValueAndSigma(run.estimate.params(k) * 1e3,
-                                           run.estimate.sigmas(k) * 1e3))
-                : HtmlFormat("<p>{}: not identified</p>\n", names[k]);
+    html +=
+        identified[k]
+            ? HtmlFormat("<p id=\"param-{}\">{} = {} &times; 10<sup>-3</sup> rad</p>\n", names[k],
+                         names[k],
+                         ValueAndSigma(run.estimate.params(k) * 1e3, run.estimate.sigmas(k) * 1e3))
+            : HtmlFormat("<p>{}: not identified</p>\n", names[k]);
   }
   return html;
 }
@@ -408,8 +404,8 @@ Html ChangeSection(const ReportData& data) {
       const bool mm = model.UnitOf(c.parameter) == calibration::ParameterUnit::kMm;
       html += HtmlFormat(
           "<tr><td>{}</td><td class=\"num\">{}</td><td class=\"num{}\">{:.1f}</td></tr>\n",
-          names[c.parameter], FormatChange(c.change, mm),
-          std::abs(c.z) > 5 ? Html(" bad") : Html(), c.z);
+          names[c.parameter], FormatChange(c.change, mm), std::abs(c.z) > 5 ? Html(" bad") : Html(),
+          c.z);
     }
     html += "</table>\n";
   }
@@ -422,8 +418,8 @@ Html WindowSection(const ReportInput& in) {
   if (!in.drift_line.empty())
     html += HtmlFormat("<p class=\"bad\" id=\"drift-line\">{}</p>\n", in.drift_line);
   if (!in.causes.empty()) {
-    html += Html(
-        "<p>Physical causes, each fitted alone against the change:</p>\n<ol id=\"causes\">\n");
+    html +=
+        Html("<p>Physical causes, each fitted alone against the change:</p>\n<ol id=\"causes\">\n");
     for (const auto& c : in.causes) html += HtmlFormat("<li>{}</li>\n", c);
     html += Html("</ol>\n");
   }
@@ -508,9 +504,9 @@ Html HistorySection(const ReportInput& in, const std::optional<Figure>& drift_fi
         "class=\"num\">{}</td><td class=\"drift\">{}</td><td class=\"activated\">{}</td>"
         "<td>{}</td></tr>\n",
         h.version > 0 ? std::to_string(h.version) : std::string("this run"), h.created_at,
-        h.params_spec.empty() ? std::string("not known") : h.params_spec,
-        Num(h.validation_mean_mm), h.drift ? Html("<span class=\"bad\">DRIFT</span>") : Html(),
-        activations, h.active ? "active" : "");
+        h.params_spec.empty() ? std::string("not known") : h.params_spec, Num(h.validation_mean_mm),
+        h.drift ? Html("<span class=\"bad\">DRIFT</span>") : Html(), activations,
+        h.active ? "active" : "");
   }
   return html + Html("</table>\n");
 }
@@ -528,7 +524,7 @@ std::string FormatChange(double value, bool millimetres) {
   const std::string text = fmt::format("{:.{}f}", shown, decimals);
   // A value that rounds to zero at six decimals is shown as zero, without a sign.
   return (text.find_first_not_of("-0.") == std::string::npos ? fmt::format("{:.{}f}", 0.0, decimals)
-                                                              : text) +
+                                                             : text) +
          " " + unit;
 }
 

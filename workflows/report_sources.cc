@@ -22,8 +22,8 @@ std::vector<ReportHistoryPoint> ReportHistoryOf(db::Database& db, int64_t robot_
   for (const auto& h : db::CalibrationHistory(db, robot_id)) {
     ReportHistoryPoint point{h.version, h.created_at, h.validation_mean_mm, h.params_spec,
                              h.active};
-    const auto drift = nlohmann::json::parse(h.drift_json.empty() ? "null" : h.drift_json,
-                                             nullptr, false);
+    const auto drift =
+        nlohmann::json::parse(h.drift_json.empty() ? "null" : h.drift_json, nullptr, false);
     point.drift = drift.is_object() && drift.contains("flag") && drift["flag"].is_boolean() &&
                   drift["flag"].get<bool>();
     for (const auto& a : activations) {
@@ -34,8 +34,8 @@ std::vector<ReportHistoryPoint> ReportHistoryOf(db::Database& db, int64_t robot_
   return out;
 }
 
-ReportDrift ReportDriftOf(db::Database& db, const calibration::RobotModel& model,
-                          int64_t robot_id, double tolerance_mm) {
+ReportDrift ReportDriftOf(db::Database& db, const calibration::RobotModel& model, int64_t robot_id,
+                          double tolerance_mm) {
   ReportDrift out;
   out.tolerance_mm = tolerance_mm;
   const auto spread = calibration::SpreadConfigurations(model, kReportDriftConfigurations);
@@ -58,9 +58,9 @@ ReportDrift ReportDriftOf(db::Database& db, const calibration::RobotModel& model
     previous = &c;
     if (!against) continue;
     try {
-      ReportDriftPoint point = DriftPointOf(
-          model, FittedSetOf(model, SignatureOf(model, *against), *against),
-          FittedSetOf(model, SignatureOf(model, c), c), spread);
+      ReportDriftPoint point =
+          DriftPointOf(model, FittedSetOf(model, SignatureOf(model, *against), *against),
+                       FittedSetOf(model, SignatureOf(model, c), c), spread);
       point.version = c.version;
       point.against = against->version;
       point.drift = decision.is_object() && decision.contains("flag") &&
@@ -68,8 +68,8 @@ ReportDrift ReportDriftOf(db::Database& db, const calibration::RobotModel& model
       out.points.push_back(point);
     } catch (const InputError& e) {
       // A set of another model (the robot's model file changed): not comparable.
-      spdlog::debug("report: version {} against {} not compared: {}", c.version,
-                    against->version, e.what());
+      spdlog::debug("report: version {} against {} not compared: {}", c.version, against->version,
+                    e.what());
     }
   }
   return out;

@@ -22,8 +22,8 @@ inline constexpr int kReportDriftConfigurations = 50;
 // Every stored version against the set its drift decision was taken against (the one
 // active before it), else the version before it (DriftPointOf); `tolerance_mm` the drift
 // gate to draw. A version of another model than `model` is left out.
-ReportDrift ReportDriftOf(db::Database& db, const calibration::RobotModel& model,
-                          int64_t robot_id, double tolerance_mm);
+ReportDrift ReportDriftOf(db::Database& db, const calibration::RobotModel& model, int64_t robot_id,
+                          double tolerance_mm);
 
 // The sessions behind the run's pose ids ("<session>:<label>", as db::LoadRobotPoses
 // names them), with their dates, the instruments of their stored lab files and of the

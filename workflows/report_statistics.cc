@@ -88,8 +88,8 @@ std::optional<LinearTrend> LinearTrendOf(const std::vector<double>& x,
     const double dof = static_cast<double>(n - 2);
     t.sigma_slope = std::sqrt(ss / dof / sxx);
     // t² ~ F(1, n − 2): the two-sided t test of a zero slope.
-    const double z = t.sigma_slope > 0.0 ? t.slope / t.sigma_slope
-                                         : std::numeric_limits<double>::infinity();
+    const double z =
+        t.sigma_slope > 0.0 ? t.slope / t.sigma_slope : std::numeric_limits<double>::infinity();
     t.p_value = t.slope == 0.0 ? 1.0 : calibration::FisherFSurvival(z * z, 1.0, dof);
   }
   return t;
@@ -131,14 +131,14 @@ std::string TemperatureTrendRefusal(const std::vector<double>& temperatures_c) {
   const auto [lo, hi] = std::minmax_element(temperatures_c.begin(), temperatures_c.end());
   const double span = *hi - *lo;
   if (span < kMinTrendSpanC) {
-    return fmt::format("the temperatures span only {:.2f} °C; a slope needs at least {:g} °C",
-                       span, kMinTrendSpanC);
+    return fmt::format("the temperatures span only {:.2f} °C; a slope needs at least {:g} °C", span,
+                       kMinTrendSpanC);
   }
   if (static_cast<int>(temperatures_c.size()) < kMinTrendPoints) {
     return fmt::format("only {} a temperature; a slope needs at least {}",
-                       temperatures_c.size() == 1 ? std::string("1 pose has")
-                                                  : fmt::format("{} poses have",
-                                                                temperatures_c.size()),
+                       temperatures_c.size() == 1
+                           ? std::string("1 pose has")
+                           : fmt::format("{} poses have", temperatures_c.size()),
                        kMinTrendPoints);
   }
   return "";

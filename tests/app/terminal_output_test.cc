@@ -45,9 +45,9 @@ class DemoOutput : public ::testing::Test {
  protected:
   static void SetUpTestSuite() {
     dir_ = new TempDir;
-    result_ = new CommandResult(RunArmsig("--db '" + dir_->File("demo.db") +
-                                          "' demo --configurations 60 --time-scale 0",
-                                          dir_->path().string()));
+    result_ = new CommandResult(
+        RunArmsig("--db '" + dir_->File("demo.db") + "' demo --configurations 60 --time-scale 0",
+                  dir_->path().string()));
   }
   static void TearDownTestSuite() {
     delete result_;
@@ -86,12 +86,12 @@ TEST_F(DemoOutput, ResidualMapDecisionIsSaidOnceInWordsThatAgreeWithItsNumbers) 
   std::smatch m;
   ASSERT_TRUE(std::regex_search(
       line, m,
-      std::regex(R"(([0-9.]+) mm with the map, ([0-9.]+) mm without it: (only )?([0-9.]+) % (better|worse))")))
+      std::regex(
+          R"(([0-9.]+) mm with the map, ([0-9.]+) mm without it: (only )?([0-9.]+) % (better|worse))")))
       << line;
   const double with = std::stod(m[1]), without = std::stod(m[2]), percent = std::stod(m[4]);
   EXPECT_EQ(m[5] == "better", with < without) << line;
-  EXPECT_NEAR(percent, 100.0 * std::abs(with / without - 1.0), 0.1 + 100 * 5e-5 / without)
-      << line;
+  EXPECT_NEAR(percent, 100.0 * std::abs(with / without - 1.0), 0.1 + 100 * 5e-5 / without) << line;
   const bool used = line.rfind("residual map used", 0) == 0;
   EXPECT_EQ(used, m[5] == "better" && percent >= 5.0) << line;
   EXPECT_EQ(line.find("not used: needs"), std::string::npos) << line;
@@ -102,7 +102,10 @@ TEST_F(DemoOutput, CountsTakeTheirPlural) {
   std::smatch m;
   // "1 rays", "1 stations", "1 configurations": a count of one with a plural noun.
   const std::string out = std::regex_replace(result_->out, std::regex(R"(\s+)"), " ");
-  EXPECT_FALSE(std::regex_search(out, m, std::regex(R"(\b1 (rays|stations|configurations|points|readings|observations|iterations|degrees)\b)")))
+  EXPECT_FALSE(std::regex_search(
+      out, m,
+      std::regex(
+          R"(\b1 (rays|stations|configurations|points|readings|observations|iterations|degrees)\b)")))
       << m[0];
   EXPECT_NE(out.find("degrees of freedom"), std::string::npos);
 }
@@ -131,8 +134,8 @@ TEST_F(DemoOutput, VersionsSessionsAndJobsShowTimesWithTheirZone) {
 // labels (one session's), and the report still finds every validation pose.
 TEST_F(DemoOutput, TheReportOfADemoSetFindsItsValidationPoses) {
   ASSERT_EQ(result_->exit_code, 0) << result_->err;
-  const auto r = RunArmsig("--db '" + dir_->File("demo.db") + "' report --robot puma760-demo --out '" +
-                           dir_->File("report") + "'");
+  const auto r = RunArmsig("--db '" + dir_->File("demo.db") +
+                           "' report --robot puma760-demo --out '" + dir_->File("report") + "'");
   ASSERT_EQ(r.exit_code, 0) << r.err;
   EXPECT_EQ(r.err.find("no longer stored"), std::string::npos) << r.err;
   EXPECT_NE(ReadText(dir_->File("report/index.html")).find("on the 36 validation poses"),
@@ -149,9 +152,9 @@ TEST(CalibrateOutput, SigmasHaveSignificantDigitsAndTheTablesFit) {
       model, Eigen::Isometry3d::Identity(), calibration::PaperTable3Parameters(),
       calibration::RandomConfigurations(model, 160, rng), 0.002, rng);
   WriteText(dir.File("poses.csv"), io::FormatPosesCsv(poses));
-  const auto r = RunArmsig("calibrate --model '" + SourcePath("models/puma760.yaml") +
-                           "' --poses '" + dir.File("poses.csv") + "' --select 80 --json '" +
-                           dir.File("out.json") + "'");
+  const auto r =
+      RunArmsig("calibrate --model '" + SourcePath("models/puma760.yaml") + "' --poses '" +
+                dir.File("poses.csv") + "' --select 80 --json '" + dir.File("out.json") + "'");
   ASSERT_EQ(r.exit_code, 0) << r.err;
   ExpectLinesFit(r.out, dir.path().string());
   const auto j = nlohmann::json::parse(ReadText(dir.File("out.json")));
@@ -160,8 +163,8 @@ TEST(CalibrateOutput, SigmasHaveSignificantDigitsAndTheTablesFit) {
   size_t k = 0;
   while (k < lines.size() && lines[k].rfind("sigma, i =", 0) != 0) ++k;
   ASSERT_LT(k, lines.size()) << r.out;
-  const char* rows[] = {"a_i (mm)", "b_i (mm)", "c_i (mm)", "alpha_i (1e-3 rad)",
-                        "beta_i (1e-3 rad)", "gamma_i (1e-3 rad)"};
+  const char* rows[] = {"a_i (mm)",           "b_i (mm)",          "c_i (mm)",
+                        "alpha_i (1e-3 rad)", "beta_i (1e-3 rad)", "gamma_i (1e-3 rad)"};
   int checked = 0;
   for (int row = 0; row < 6; ++row) {
     const std::string& line = lines[k + 1 + row];
@@ -190,8 +193,8 @@ namespace {
 
 // Runs armsig with its stderr on a pseudo-terminal `columns` wide (stdout to `out`); returns
 // what the terminal received and the exit status.
-std::string RunOnTerminal(const std::vector<std::string>& args, int columns,
-                          const std::string& out, int* status) {
+std::string RunOnTerminal(const std::vector<std::string>& args, int columns, const std::string& out,
+                          int* status) {
   int master = -1, slave = -1;
   struct winsize size {};
   size.ws_row = 24;
@@ -232,10 +235,9 @@ std::string RunOnTerminal(const std::vector<std::string>& args, int columns,
 TEST(TerminalProgress, FitsTheTerminalAndIsAbsentOffIt) {
   TempDir dir;
   int status = 0;
-  const std::string terminal =
-      RunOnTerminal({"--db", dir.File("pty.db"), "demo", "--configurations", "25",
-                     "--time-scale", "0"},
-                    50, dir.File("out"), &status);
+  const std::string terminal = RunOnTerminal(
+      {"--db", dir.File("pty.db"), "demo", "--configurations", "25", "--time-scale", "0"}, 50,
+      dir.File("out"), &status);
   ASSERT_TRUE(WIFEXITED(status) && WEXITSTATUS(status) == 0) << terminal;
   int redraws = 0;
   std::string segment;
@@ -259,8 +261,8 @@ TEST(TerminalProgress, FitsTheTerminalAndIsAbsentOffIt) {
   check();
   EXPECT_GE(redraws, 25) << terminal;
 
-  const auto off = RunArmsig("--db '" + dir.File("file.db") +
-                             "' demo --configurations 25 --time-scale 0");
+  const auto off =
+      RunArmsig("--db '" + dir.File("file.db") + "' demo --configurations 25 --time-scale 0");
   ASSERT_EQ(off.exit_code, 0) << off.err;
   EXPECT_EQ(off.err.find('\r'), std::string::npos) << off.err;
   EXPECT_EQ(off.err.find("ETA"), std::string::npos) << off.err;
@@ -288,8 +290,8 @@ TEST(Interrupted, AServedInstrumentStoppedByCtrlCExits130) {
   ::waitpid(child, &status, 0);
   ASSERT_TRUE(WIFEXITED(status)) << status;
   EXPECT_EQ(WEXITSTATUS(status), 130) << ReadText(err);
-  const auto timed = RunArmsig("instrument simulate --protocol geocom --link '" +
-                               dir.File("tps2") + "' --seconds 0.1");
+  const auto timed = RunArmsig("instrument simulate --protocol geocom --link '" + dir.File("tps2") +
+                               "' --seconds 0.1");
   EXPECT_EQ(timed.exit_code, 0) << timed.err;
 }
 

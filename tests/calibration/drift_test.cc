@@ -89,9 +89,9 @@ TEST(ProfileDifference, DistancesAndSigmasMatchKinematicsAndMonteCarlo) {
   auto aligned_difference = [&](const Eigen::VectorXd& pa, const Eigen::VectorXd& pb) {
     const Eigen::Matrix3Xd xa = positions(pa), xb = positions(pb);
     const Eigen::Matrix4d t = Eigen::umeyama(xb, xa, false);
-    return Eigen::Matrix3Xd(((t.topLeftCorner<3, 3>() * xb).colwise() +
-                             Eigen::Vector3d(t.topRightCorner<3, 1>())) -
-                            xa);
+    return Eigen::Matrix3Xd(
+        ((t.topLeftCorner<3, 3>() * xb).colwise() + Eigen::Vector3d(t.topRightCorner<3, 1>())) -
+        xa);
   };
   const Eigen::Matrix3Xd delta = aligned_difference(a.params, b.params);
   int worst = 0;

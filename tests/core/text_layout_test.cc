@@ -71,7 +71,7 @@ TEST(TextLayout, LongLinesWrapAtSpacesWithAHangingIndent) {
   const auto lines = Lines(wrapped);
   ASSERT_EQ(lines.size(), 4u) << wrapped;
   for (const auto& l : lines) EXPECT_LE(DisplayWidth(l), 60) << l;
-  EXPECT_EQ(lines[1].rfind("  ", 0), 0u);  // hanging indent
+  EXPECT_EQ(lines[1].rfind("  ", 0), 0u);        // hanging indent
   EXPECT_EQ(lines[3], "   T1  x     0.000  y");  // a short line keeps its spacing
   EXPECT_EQ(wrapped.back(), '\n');
   // Nothing lost: the words are the same.

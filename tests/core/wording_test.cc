@@ -50,7 +50,8 @@ TEST(Wording, SignificantDigitsReadBackWithinHalfAUnitOfTheLastDigit) {
       ASSERT_EQ(text.find('e'), std::string::npos) << value;
       const double back = std::strtod(text.c_str(), nullptr);
       const size_t point = text.find('.');
-      const int decimals = point == std::string::npos ? 0 : static_cast<int>(text.size() - point - 1);
+      const int decimals =
+          point == std::string::npos ? 0 : static_cast<int>(text.size() - point - 1);
       EXPECT_LE(std::abs(back - value), 0.5 * std::pow(10.0, -decimals) * (1 + 1e-9))
           << value << " " << text;
       if (decimals > 0) {  // (an integer's trailing zeros are not all significant)

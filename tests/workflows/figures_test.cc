@@ -11,8 +11,8 @@ namespace armsig::workflows::figures {
 namespace {
 
 Plot Drawn(bool legend, bool note) {
-  Plot p(600, 300, "A figure", LinearAxis(0, 10, 5), LinearAxis(0, 1, 4),
-         "the x axis title (mm)", "mm");
+  Plot p(600, 300, "A figure", LinearAxis(0, 10, 5), LinearAxis(0, 1, 4), "the x axis title (mm)",
+         "mm");
   DrawMarker(p.image, p.At(5, 0.5), Marker::kCircle, kBlue, 4);
   DrawMarker(p.image, p.At(9.5, 0.95), Marker::kSquare, kRed, 4);
   if (legend) {
@@ -22,8 +22,9 @@ Plot Drawn(bool legend, bool note) {
               {Marker::kDiamond, kGreen, "a fourth entry with a long text"}});
   }
   if (note) {
-    p.Note("a note under the axis title that is longer than the figure is wide, so that it "
-           "has to wrap onto a second row and a third one too if the words need it");
+    p.Note(
+        "a note under the axis title that is longer than the figure is wide, so that it "
+        "has to wrap onto a second row and a third one too if the words need it");
   }
   return p;
 }

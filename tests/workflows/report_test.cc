@@ -355,7 +355,8 @@ TEST(Report, ErrorAgainstTemperatureGivesTheLeastSquaresSlope) {
     if (at == std::string::npos) return std::string();
     return html.substr(at + marker.size(), html.find('<', at + marker.size()) - at - marker.size());
   };
-  const std::string slope = span_text("temperature-slope"), shown_sigma = span_text("temperature-slope-sigma");
+  const std::string slope = span_text("temperature-slope"),
+                    shown_sigma = span_text("temperature-slope-sigma");
   ASSERT_FALSE(slope.empty()) << html;
   ASSERT_FALSE(shown_sigma.empty());
   const int decimals = static_cast<int>(slope.size() - slope.find('.') - 1);
@@ -380,7 +381,8 @@ TEST(Report, ErrorAgainstTemperatureGivesTheLeastSquaresSlope) {
 
   // A steady room (0.01 °C): the points are drawn, but no slope over a span that cannot
   // show one, and the page says why.
-  for (const auto& [id, t] : temperatures) f.input.temperature_c[id] = 20.0 + 0.01 * (t - 20.1) / 2.0;
+  for (const auto& [id, t] : temperatures)
+    f.input.temperature_c[id] = 20.0 + 0.01 * (t - 20.1) / 2.0;
   const std::string steady = ReadText(workflows::WriteReport(dir.File("steady"), f.input));
   EXPECT_EQ(steady.find("temperature-slope"), std::string::npos);
   EXPECT_NE(steady.find("the temperatures span only 0.01 °C; a slope needs at least 1 °C"),
@@ -560,16 +562,15 @@ TEST(Report, DriftPanelShowsHowFarEachVersionMovedTheArm) {
   std::mt19937 rng(17);
   Eigen::VectorXd changed = calibration::PaperTable3Parameters();
   changed(6 * 1 + 5) += 3e-4;
-  const auto poses = calibration::SimulatePoses(
-      model, Eigen::Isometry3d::Identity(), changed,
-      calibration::RandomConfigurations(model, 120, rng), 0.02, rng);
+  const auto poses =
+      calibration::SimulatePoses(model, Eigen::Isometry3d::Identity(), changed,
+                                 calibration::RandomConfigurations(model, 120, rng), 0.02, rng);
   workflows::CalibrateSettings settings;
   settings.select = 60;
   const auto second = workflows::RunCalibration(model, poses, {}, settings);
   const calibration::FittedSet a{f.run.estimate.params, f.run.estimate.identifiability.identified,
                                  f.run.estimate.covariance};
-  const calibration::FittedSet b{second.estimate.params,
-                                 second.estimate.identifiability.identified,
+  const calibration::FittedSet b{second.estimate.params, second.estimate.identifiability.identified,
                                  second.estimate.covariance};
   const auto spread = calibration::SpreadConfigurations(model, 50);
   workflows::ReportDriftPoint point = workflows::DriftPointOf(model, a, b, spread);
