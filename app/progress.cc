@@ -5,6 +5,8 @@
 #include <sys/ioctl.h>
 #include <unistd.h>
 
+#include <fmt/format.h>
+
 #include <chrono>
 #include <cstdio>
 #include <cstdlib>
@@ -14,6 +16,7 @@
 
 #include "app/command.h"
 #include "core/text.h"
+#include "core/text_layout.h"
 #include "workflows/capture.h"
 
 namespace armsig::app {
@@ -41,6 +44,23 @@ std::function<void(const acquisition::Progress&)> TerminalCaptureProgress(bool c
   };
 }
 
+namespace {
+
+// The last `columns` columns of `text`, "…" in front when it was cut ("" for no room).
+std::string LastColumns(const std::string& text, int columns) {
+  if (DisplayWidth(text) <= columns) return text;
+  if (columns < 2) return "";
+  size_t at = text.size();
+  int kept = 0;
+  while (at > 0 && kept < columns - 1) {
+    --at;
+    if ((static_cast<unsigned char>(text[at]) & 0xc0) != 0x80) ++kept;  // a character's start
+  }
+  return "…" + text.substr(at);
+}
+
+}  // namespace
+
 io::ReadProgressFn TerminalReadProgress() {
   if (!::isatty(STDERR_FILENO)) return nullptr;
   using Clock = std::chrono::steady_clock;
@@ -61,9 +81,14 @@ io::ReadProgressFn TerminalReadProgress() {
     const double percent =
         p.total_bytes ? 100.0 * static_cast<double>(p.bytes) / static_cast<double>(p.total_bytes)
                       : 100.0;
-    std::fprintf(stderr, "\r%s: %3.0f%% (%.0f of %.0f MB, %lld rows)%s",
-                 Printable(p.source).c_str(), percent, p.bytes / 1e6, p.total_bytes / 1e6,
-                 static_cast<long long>(p.rows), done ? "\n" : "");
+    // Within the terminal's width: the file's name gives way first (its end kept).
+    const int width = TerminalColumns(STDERR_FILENO) - 1;
+    const std::string figures = fmt::format(": {:3.0f}% ({:.0f} of {:.0f} MB, {} rows)", percent,
+                                            p.bytes / 1e6, p.total_bytes / 1e6, p.rows);
+    const std::string line =
+        LastColumns(Printable(p.source), width - DisplayWidth(figures)) + figures;
+    const std::string shown(TruncateUtf8(line, static_cast<size_t>(std::max(width, 0))));
+    std::fprintf(stderr, "\r%s\x1b[K%s", shown.c_str(), done ? "\n" : "");
     std::fflush(stderr);
   };
 }
