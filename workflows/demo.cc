@@ -595,7 +595,16 @@ bool DemoRun::Capture() {
       tracker->GuideBeamToReflector();
     };
   }
-  captured_ = CaptureInto(database, lab_config_, session_, capture);
+  try {
+    captured_ = CaptureInto(database, lab_config_, session_, capture);
+  } catch (const std::exception& e) {
+    // Ctrl-C while the devices were asked who they are cuts the call short: stopped, the
+    // session paused (CaptureInto), as a stop between configurations.
+    if (!Stopped(options_)) throw;
+    spdlog::debug("demo: stopped while the devices were asked: {}", e.what());
+    Say(fmt::format("stopped: session {} is paused before its devices measured\n", session_));
+    return false;
+  }
   if (captured_.stopped) {
     Say(fmt::format("stopped: session {} is paused after {} of {} configurations\n", session_,
                     captured_.measured + captured_.skipped + captured_.already, captured_.total));
