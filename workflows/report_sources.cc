@@ -123,9 +123,9 @@ ReportSources LoadSessionSources(db::Database& db,
     out.sessions.push_back({s.id, s.started_at, s.finished_at, s.state, s.note, fitted, validated});
     if (!s.lab_yaml.empty()) {
       try {
-        const auto lab = acquisition::ParseLabSettings(
-            s.lab_yaml, fmt::format("lab file stored with session {}", s.id));
-        for (const auto& i : lab.instruments) {
+        const auto lab = acquisition::StoredLabSettings(s.lab_yaml, s.id, db.path());
+        for (const auto& i :
+             lab ? lab->instruments : std::vector<acquisition::InstrumentConfig>{}) {
           std::string d = i.protocol + (i.tcp.empty() ? " on " + i.port : " over " + i.tcp);
           if (i.protocol == "emscon") {
             // A laser tracker's readings carry their own sigmas, which take the place of
