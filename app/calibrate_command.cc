@@ -9,6 +9,7 @@
 #include "io/model_yaml.h"
 #include "io/poses_csv.h"
 #include "workflows/calibration_run.h"
+#include "workflows/calibration_text.h"
 
 namespace armsig::app {
 

@@ -56,10 +56,8 @@ void SetupCaptureCommand(CLI::App& parent, const GlobalOptions& global, Runner& 
       workflows::CaptureRequest request = *o;
       request.db_path = global.DbPath();
       request.stop = &StopRequested();  // Ctrl-C from the first moment
-      const bool tty = ::isatty(STDERR_FILENO);
-      request.progress = [tty](const acquisition::Progress& p) {
-        if (tty) std::cerr << "\r" << workflows::FormatCaptureProgress(p) << "   " << std::flush;
-      };
+      request.progress = TerminalCaptureProgress(false);
+      const bool tty = request.progress != nullptr;
       request.prompt_move = PromptMove;
       if (::isatty(STDIN_FILENO)) request.prompt_reflector = PromptReflector;
       const auto outcome = workflows::RunCaptureSession(request);
@@ -70,6 +68,9 @@ void SetupCaptureCommand(CLI::App& parent, const GlobalOptions& global, Runner& 
       if (tty) std::cerr << "\n";
       if (!outcome.stopped_before_start)
         std::cout << workflows::FormatCaptureSummary(outcome.summary);
+      // Ctrl-C (or SIGTERM, SIGHUP): the session is paused, resumable; 130 as every command
+      // a signal stops.
+      if (outcome.stopped_before_start || outcome.summary.stopped) return kStopped;
       return outcome.ok ? kOk : kFailure;
     };
   });

@@ -1,7 +1,8 @@
 // The command-line face of armsig. Each command has a Setup… that declares its CLI11
 // subcommand and a Run… that takes the parsed options and returns an exit code, so
 // tests call Run… without a shell. Exit codes (docs/reference/cli.md): 0 ok, 1 failure,
-// 2 usage or input error, 3 a quality gate failed.
+// 2 usage or input error, 3 a quality gate failed, 130 stopped by a signal (every command
+// that a Ctrl-C, SIGTERM or SIGHUP stops, its work left resumable).
 #pragma once
 
 #include <CLI/CLI.hpp>
@@ -12,12 +13,14 @@
 #include <vector>
 
 #include "db/database.h"
+#include "acquisition/session.h"
 #include "io/csv.h"
 #include "workflows/recalibrate.h"
 
 namespace armsig::app {
 
-// kStopped: a Ctrl-C (or SIGTERM, SIGHUP) stopped the work, left resumable (128 + SIGINT).
+// kStopped: a Ctrl-C (or SIGTERM, SIGHUP) stopped the work, left resumable (128 + SIGINT):
+// capture, demo (a served lab too), db push, worker, instrument simulate alike.
 // kStoredOutputFailed: the work is stored, an output that follows it could not be written
 // (StoredButOutputError, core/error.h).
 enum ExitCode : int {
@@ -84,6 +87,12 @@ CLI::Option* StoreOption(CLI::Option* option);
 // How far a long read has come, on stderr when it is a terminal (nullptr otherwise): a
 // line redrawn in place, shown once the read has taken a second (app/progress.cc).
 io::ReadProgressFn TerminalReadProgress();
+// The terminal's width in columns: of `fd` (TIOCGWINSZ), else $COLUMNS, else 80.
+int TerminalColumns(int fd);
+// A capture's progress line on stderr as wide as the terminal, redrawn in place; nullptr
+// when stderr is not a terminal (no bar in a log or a pipe). `clear_when_done`: the line is
+// erased after the last configuration (the demo), else it stays (capture ends it).
+std::function<void(const acquisition::Progress&)> TerminalCaptureProgress(bool clear_when_done);
 // A number given on the command line (every numeric option of every command is declared
 // through here): finite — "nan", "inf" and "1e999" are refused, which CLI11's own Range
 // lets through — and within [min, max]; refused at parse time (exit 2) naming the option

@@ -4,6 +4,7 @@
 #include <iostream>
 
 #include "app/command.h"
+#include "core/wording.h"
 #include "core/text.h"
 #include "db/push.h"
 #include "io/atomic_file.h"
@@ -68,10 +69,11 @@ void SetupDbCommand(CLI::App& parent, const GlobalOptions& global, Runner& run) 
     options.stop = &StopRequested();
     const db::PushSummary s = db::Push(source.connection(), into, options);
     std::cout << fmt::format(
-        "pushed {} session(s) ({} poses, {} observations, {} points) and {} parameter set(s) "
-        "to {}; {} session(s) and {} set(s) were there already\n",
-        s.sessions_pushed, s.poses, s.observations, s.points, s.sets_pushed, Printable(into.name()),
-        s.sessions_present, s.sets_present);
+        "pushed {} ({}, {}, {}) and {} to {}; {} and {} were there already\n",
+        Count(s.sessions_pushed, "session"), Count(s.poses, "pose"),
+        Count(s.observations, "observation"), Count(s.points, "point"),
+        Count(s.sets_pushed, "parameter set"), Printable(into.name()),
+        Count(s.sessions_present, "session"), Count(s.sets_present, "set"));
     if (s.robots_created) std::cout << fmt::format("new robots there: {}\n", s.robots_created);
     for (const auto& v : s.versions) std::cout << "  parameter set " << Printable(v) << " there\n";
     if (s.activations_pushed)

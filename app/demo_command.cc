@@ -62,17 +62,9 @@ void SetupDemoCommand(CLI::App& parent, const GlobalOptions& global, Runner& run
       options.stop = &StopRequested();
       workflows::DemoObserver observer;
       observer.say = [](const std::string& text) { std::cout << text << std::flush; };
-      if (::isatty(STDERR_FILENO)) {
-        observer.progress = [](const acquisition::Progress& p) {
-          std::cerr << fmt::format("\r   capturing {}/{}  miss {}  ETA {:.0f} s   ", p.done,
-                                   p.total,
-                                   p.last_miss_mm ? fmt::format("{:.4f} mm", *p.last_miss_mm)
-                                                  : std::string("-"),
-                                   p.eta_s)
-                    << (p.done == p.total ? "\r" + std::string(60, ' ') + "\r" : "") << std::flush;
-        };
-      }
+      observer.progress = TerminalCaptureProgress(true);
       const auto result = workflows::RunDemo(options, observer);
+      if (observer.progress) std::cerr << "\r\x1b[K" << std::flush;  // a stopped capture's line
       if (result.completed) return kOk;
       if (!result.resume_hint.empty())
         spdlog::warn("demo: stopped; resume with: {}", result.resume_hint);

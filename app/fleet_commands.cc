@@ -12,6 +12,8 @@
 
 #include "app/command.h"
 #include "core/text.h"
+#include "core/text_layout.h"
+#include "core/wording.h"
 #include "db/postgres_address.h"
 #include "db/stored_json.h"
 #include "workflows/worker.h"
@@ -131,16 +133,26 @@ int RunJobs(const JobsCommand& c, const GlobalOptions& global) {
     std::cout << fmt::format("no jobs in {}\n", Printable(QueueName(queue)));
     return kOk;
   }
-  std::cout << fmt::format("{:>5}  {:<16} {:<9} {:>3}  {:<24} {:<20} {:<20} {}\n", "id", "robot",
-                           "state", "try", "worker", "created", "finished", "result");
+  // A job a line (within 100 columns), its worker and result after it when they fit, else on
+  // the next line.
+  std::cout << fmt::format("{:>5}  {:<16} {:<9} {:>3}  {:<20} {:<20} {}\n", "id", "robot", "state",
+                           "try", "created", "finished", "worker: result");
   for (const auto& j : jobs) {
     std::string result = j.error.empty() ? j.summary : j.error;
     if (j.state == db::JobState::kRunning && j.lease_expires_ms)
       result = "lease until " + Time(j.lease_expires_ms);
-    std::cout << fmt::format("{:>5}  {:<16} {:<9} {:>3}  {:<24} {:<20} {:<20} {}\n", j.id,
-                             Printable(j.robot), db::ToString(j.state), j.attempts,
-                             Printable(j.worker), Time(j.created_ms).substr(0, 19),
-                             Time(j.finished_ms).substr(0, 19), Printable(result));
+    const std::string line = fmt::format(
+        "{:>5}  {:<16} {:<9} {:>3}  {:<20} {:<20}", j.id, Printable(j.robot), db::ToString(j.state),
+        j.attempts, TimeToTheSecond(Time(j.created_ms)), TimeToTheSecond(Time(j.finished_ms)));
+    std::string more = Printable(result);
+    if (!j.worker.empty()) more = Printable(j.worker) + ": " + more;
+    if (more.empty()) {
+      std::cout << line << "\n";
+    } else if (DisplayWidth(line) + 1 + DisplayWidth(more) <= 100) {
+      std::cout << line << " " << more << "\n";
+    } else {
+      std::cout << line << "\n" << WrapLines("       " + more, 100, 2) << "\n";
+    }
   }
   return kOk;
 }

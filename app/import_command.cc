@@ -9,6 +9,7 @@
 
 #include "app/command.h"
 #include "core/text.h"
+#include "core/wording.h"
 #include "workflows/import.h"
 #include "workflows/reduce.h"
 
@@ -32,8 +33,9 @@ void SetupImportObservations(CLI::App& import, const GlobalOptions& global, Runn
       o->progress = TerminalReadProgress();
       const auto r = workflows::ImportObservations(database, *o);
       std::cout << fmt::format(
-          "session {}: {} observations, {} stations, {} poses imported into {}\n", r.session,
-          r.observations, r.stations, r.poses, Printable(database.path()));
+          "session {}: {}, {}, {} imported into {}\n", r.session,
+          Count(r.observations, "observation"), Count(r.stations, "station"),
+          Count(r.poses, "pose"), Printable(database.path()));
       return kOk;
     };
   });

@@ -78,7 +78,7 @@ void SetupInstrumentCommand(CLI::App& parent, const GlobalOptions&, Runner& run)
                   << std::endl;
       });
       std::cout << served << " requests served\n";
-      return kOk;
+      return StopRequested() ? kStopped : kOk;  // Ctrl-C: 130, as every command it stops
     };
   });
 }

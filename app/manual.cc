@@ -219,7 +219,13 @@ std::string ManPage(const CLI::App& app, const std::string& version, const std::
       "paused capture, unreachable targets)\n"
       ".TP\n.B 2\nusage or input error: the message names the file, line, column and what "
       "was expected; nothing is written\n"
-      ".TP\n.B 3\na quality gate failed (the active arm signature stays active)\n";
+      ".TP\n.B 3\na quality gate failed (the active arm signature stays active)\n"
+      ".TP\n.B 4\nrecalibrate: drift; a set fitted after the change is stored and active\n"
+      ".TP\n.B 5\nrecalibrate: drift suspected, not enough data after the change; nothing "
+      "stored\n"
+      ".TP\n.B 6\nthe work is stored, but an output that follows it could not be written\n"
+      ".TP\n.B 130\nstopped by Ctrl\\-C, SIGTERM or SIGHUP at a safe point; the work is left "
+      "resumable (every command)\n";
   out +=
       ".SH ENVIRONMENT\n.TP\n.B ARMSIG_DB\nthe database when \\-\\-db is not given "
       "(else ./armsig.db)\n";

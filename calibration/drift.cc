@@ -59,6 +59,21 @@ void AddCovariance(const FittedSet& set, Eigen::MatrixXd& sum) {
     for (int c = 0; c < k; ++c) sum(set.identified[r], set.identified[c]) += set.covariance(r, c);
 }
 
+// Orthonormal basis (3m × 6) of the six small rigid motions of `positions` (linearised
+// about them): what a rigid alignment of one set of positions onto another absorbs.
+Eigen::MatrixXd RigidMotionBasis(const Eigen::Matrix3Xd& positions) {
+  const int m = static_cast<int>(positions.cols());
+  Eigen::MatrixXd rigid(3 * m, 6);
+  const Eigen::Vector3d centre = positions.rowwise().mean();
+  for (int i = 0; i < m; ++i) {
+    const Eigen::Vector3d x = positions.col(i) - centre;
+    rigid.block<3, 3>(3 * i, 0) << 0, x.z(), -x.y(), -x.z(), 0, x.x(), x.y(), -x.x(), 0;
+    rigid.block<3, 3>(3 * i, 3).setIdentity();
+  }
+  const Eigen::HouseholderQR<Eigen::MatrixXd> qr(rigid);
+  return qr.householderQ() * Eigen::MatrixXd::Identity(3 * m, 6);
+}
+
 }  // namespace
 
 PredictedDifference PredictDifference(const RobotModel& model, const FittedSet& a,
@@ -85,6 +100,32 @@ PredictedDifference PredictDifference(const RobotModel& model, const FittedSet& 
   Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eigen(out.covariance_sum);
   out.noise_factor = out.jacobian * eigen.eigenvectors() *
                      eigen.eigenvalues().cwiseMax(0.0).cwiseSqrt().asDiagonal();
+  return out;
+}
+
+DifferenceProfile ProfileDifference(const RobotModel& model, const FittedSet& a, const FittedSet& b,
+                                    const std::vector<Eigen::VectorXd>& configurations) {
+  DifferenceProfile out;
+  const int m = static_cast<int>(configurations.size());
+  if (m == 0) return out;
+  const PredictedDifference predicted = PredictDifference(model, a, b, configurations);
+  Eigen::MatrixXd g = predicted.noise_factor;
+  if (m >= 3) {
+    const Eigen::MatrixXd basis = RigidMotionBasis(predicted.positions_a);
+    g -= basis * (basis.transpose() * g);
+  }
+  for (int i = 0; i < m; ++i) {
+    const Eigen::Vector3d delta = predicted.change.segment<3>(3 * i);
+    const double distance = delta.norm();
+    // Var(|Δ|) ≈ uᵀ C u along u = Δ/|Δ| (linearised); at Δ = 0, the largest direction's.
+    const Eigen::Matrix3d c = g.middleRows<3>(3 * i) * g.middleRows<3>(3 * i).transpose();
+    const double variance =
+        distance > 0.0 ? (delta / distance).dot(c * (delta / distance))
+                       : Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d>(c).eigenvalues()(2);
+    out.distance_mm.push_back(distance);
+    out.sigma_mm.push_back(std::sqrt(std::max(variance, 0.0)));
+    if (out.worst < 0 || distance > out.distance_mm[out.worst]) out.worst = i;
+  }
   return out;
 }
 
@@ -118,15 +159,7 @@ ModelComparison CompareModels(const RobotModel& model, const FittedSet& a, const
   // leaves in those directions.
   Eigen::MatrixXd g = predicted.noise_factor;
   if (a.identified.empty() && b.identified.empty()) return out;
-  Eigen::MatrixXd rigid(3 * m, 6);
-  const Eigen::Vector3d centre = xa.rowwise().mean();
-  for (int i = 0; i < m; ++i) {
-    const Eigen::Vector3d x = xa.col(i) - centre;
-    rigid.block<3, 3>(3 * i, 0) << 0, x.z(), -x.y(), -x.z(), 0, x.x(), x.y(), -x.x(), 0;
-    rigid.block<3, 3>(3 * i, 3).setIdentity();
-  }
-  const Eigen::HouseholderQR<Eigen::MatrixXd> qr(rigid);
-  const Eigen::MatrixXd basis = qr.householderQ() * Eigen::MatrixXd::Identity(3 * m, 6);
+  const Eigen::MatrixXd basis = RigidMotionBasis(xa);
   const Eigen::VectorXd& stacked = predicted.change;
   Eigen::VectorXd d = stacked - basis * (basis.transpose() * stacked);
   g -= basis * (basis.transpose() * g);

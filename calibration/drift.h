@@ -66,6 +66,18 @@ PredictedDifference PredictDifference(const RobotModel& model, const FittedSet& 
                                       const FittedSet& b,
                                       const std::vector<Eigen::VectorXd>& configurations);
 
+// The difference at each configuration, as a drift figure draws it: |Δx| after the rigid
+// alignment (PredictDifference), and the standard deviation of |Δx| along Δx from both
+// sets' covariances, less what the alignment absorbs (the six small rigid motions of the
+// positions). `worst`: the configuration with the largest |Δx| (−1 for none).
+struct DifferenceProfile {
+  std::vector<double> distance_mm, sigma_mm;
+  int worst = -1;
+};
+DifferenceProfile ProfileDifference(const RobotModel& model, const FittedSet& a,
+                                    const FittedSet& b,
+                                    const std::vector<Eigen::VectorXd>& configurations);
+
 // `configurations`: joint angles (rad) spread over the work volume, the same for every
 // comparison of one robot (SpreadConfigurations). Sets with no identified parameter
 // have no uncertainty (then chi2 is 0 and p_value 1 unless the other set has one).

@@ -654,13 +654,24 @@ ResidualMapFit FitResidualMap(const RobotModel& model, const EstimationResult& f
 
   result.used =
       result.cv_mean_mm_with_map <= (1.0 - options.required_gain) * result.cv_mean_mm_parametric;
+  // In plain words, the comparison that decided (the caller says "used" or "not used").
+  const double change =
+      100.0 * (result.cv_mean_mm_with_map / result.cv_mean_mm_parametric - 1.0);
+  char verdict[96];
+  if (result.used) {
+    std::snprintf(verdict, sizeof verdict, "%.1f %% better (the map is used from %.0f %% on)",
+                  -change, 100.0 * options.required_gain);
+  } else if (change < 0.0) {
+    std::snprintf(verdict, sizeof verdict, "only %.1f %% better, less than the %.0f %% needed",
+                  -change, 100.0 * options.required_gain);
+  } else {
+    std::snprintf(verdict, sizeof verdict, "%.1f %% worse with the map", change);
+  }
   char text[256];
   std::snprintf(text, sizeof text,
-                "%d-fold cross-validation on %d fit poses: %.4f mm with the map against %.4f mm "
-                "parametric (%+.1f %%; %s needs %.0f %% better)",
-                folds, mt, result.cv_mean_mm_with_map, result.cv_mean_mm_parametric,
-                100.0 * (result.cv_mean_mm_with_map / result.cv_mean_mm_parametric - 1.0),
-                result.used ? "used:" : "not used:", 100.0 * options.required_gain);
+                "%d-fold cross-validation on %d fit poses: %.4f mm with the map, %.4f mm without "
+                "it: %s",
+                folds, mt, result.cv_mean_mm_with_map, result.cv_mean_mm_parametric, verdict);
   result.decision = text;
   return result;
 }

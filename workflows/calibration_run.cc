@@ -216,7 +216,9 @@ CalibrationRun RunCalibration(const calibration::RobotModel& model,
   if (settings.residual_model == "auto" && run.estimate.status.ok()) {
     run.residual_map = calibration::FitResidualMap(model, run.estimate, fit);
     const auto& m = *run.residual_map;
-    spdlog::info("calibration: residual map {}: {}", m.used ? "used" : "not used", m.decision);
+    // Said once, by the caller: in calibrate's and the demo's table (FormatCalibrationReport),
+    // in the nightly job's log.
+    spdlog::debug("calibration: residual map {}: {}", m.used ? "used" : "not used", m.decision);
     if (m.used && !validation.empty()) {
       const calibration::ResidualMap map(m.map);
       run.validation_parametric_residuals = run.validation_residuals;
@@ -247,156 +249,6 @@ CalibrationRun RunCalibration(const calibration::RobotModel& model,
     }
   }
   return run;
-}
-
-std::string FormatCalibrationReport(const calibration::RobotModel& model,
-                                    const CalibrationRun& run) {
-  const auto& est = run.estimate;
-  const int n = model.num_joints();
-  const auto names = model.ParameterNames();
-  std::vector<char> identified(model.num_parameters(), 0), asked(model.num_parameters(), 0);
-  for (int i : est.identifiability.identified) identified[i] = 1;
-  for (int i : est.identifiability.candidates) asked[i] = 1;
-
-  std::string out;
-  out += fmt::format("Arm signature of {}: {} of {} parameters identified (params: {})\n\n",
-                     model.name, est.identifiability.rank, est.identifiability.candidates.size(),
-                     run.params_spec);
-  auto table = [&](bool sigma) {
-    std::string t = fmt::format("{:<16}", sigma ? "sigma  i=" : "i=");
-    for (int i = 1; i <= n + 1; ++i) t += fmt::format("{:>10}", i);
-    t += "\n";
-    static const char* kRows[] = {"a_i (mm)",           "b_i (mm)",          "c_i (mm)",
-                                  "alpha_i (1e-3 rad)", "beta_i (1e-3 rad)", "gamma_i (1e-3 rad)"};
-    for (int r = 0; r < 6; ++r) {
-      t += fmt::format("{:<16}", kRows[r]);
-      if (std::string(kRows[r]).size() > 16) t += "\n" + std::string(16, ' ');
-      for (int i = 0; i <= n; ++i) {
-        int index = -1;
-        if (i < n)
-          index = 6 * i + r;
-        else if (r < 3)
-          index = 6 * n + r;
-        if (index < 0) {
-          t += fmt::format("{:>10}", "");
-          continue;
-        }
-        const double scale = r < 3 ? 1.0 : 1e3;
-        if (!asked[index]) {
-          t += fmt::format("{:>10}", "off");
-        } else if (!identified[index]) {
-          t += fmt::format("{:>10}", "—");
-        } else {
-          const double v = sigma ? est.sigmas(index) : est.params(index);
-          t += fmt::format("{:>10.3f}", v * scale);
-        }
-      }
-      t += "\n";
-    }
-    return t;
-  };
-  out += table(false);
-  const int g = model.num_geometric();
-  for (int k = g; k < model.num_parameters(); ++k) {
-    if (!asked[k]) continue;
-    if (identified[k]) {
-      out += fmt::format("{} = {:.3f} × 10⁻³ rad  (σ {:.3f})\n", names[k], est.params(k) * 1e3,
-                         est.sigmas(k) * 1e3);
-    } else {
-      out += fmt::format("{} = —  (not identifiable)\n", names[k]);
-    }
-  }
-  out += "— not identifiable from these data (kept at 0); off: not asked for (--params)\n\n";
-  out += table(true);
-  out += "\n";
-
-  // Identifiability.
-  const auto& id = est.identifiability;
-  if (id.structural_rank >= 0 && id.structural_rank != id.rank) {
-    out += fmt::format(
-        "warning: these data identify {} parameters, the model {} on well-spread "
-        "configurations\n",
-        id.rank, id.structural_rank);
-  }
-  for (const auto& frozen : id.frozen_joints) {
-    std::string affected;
-    for (int p : frozen.affected) affected += (affected.empty() ? "" : " ") + names[p];
-    out += fmt::format(
-        "warning: joint {} never moves in these data (range {:.4f} deg); its "
-        "motion would separate: {}\n",
-        frozen.joint + 1, frozen.range_rad * 180.0 / std::numbers::pi, affected);
-  }
-  if (!id.dependencies.empty()) {
-    out += "left out (depends on):";
-    int shown = 0;
-    for (const auto& dep : id.dependencies) {
-      out += fmt::format("{}{}", shown++ % 4 == 0 ? "\n  " : "; ", names[dep.parameter]);
-      std::string on;
-      for (size_t k = 0; k < std::min<size_t>(3, dep.on.size()); ++k) {
-        on += (k ? "," : "") + names[dep.on[k].first];
-      }
-      out += on.empty() ? " (no effect on the target)" : " (" + on + ")";
-    }
-    out += "\n";
-  }
-  out += fmt::format("condition number of the scaled Jacobian {:.3g}\n", id.condition_number);
-  if (run.selection) {
-    out += fmt::format(
-        "selection: {} of {} configurations, D-optimal (greedy + {} exchanges), "
-        "log det {:.2f}, O1 {:.4g}, condition number {:.3g}\n",
-        run.selection->selected.size(), run.selection_candidates, run.selection->exchanges,
-        run.selection->log_det, run.selection->o1, run.selection->condition_number);
-  }
-  if (run.auto_terms) {
-    for (const auto& t : run.auto_terms->tests) {
-      out += fmt::format("F-test +{}: F({},{}) = {:.2f}, p = {:.3g} {}\n", t.added, t.df_added,
-                         t.df_residual, t.f, t.p_value, t.significant ? "significant" : "-");
-    }
-  }
-  if (!est.downweighted.empty()) {
-    std::string ids;
-    for (int i : est.downweighted) ids += (ids.empty() ? "" : " ") + run.fit_pose_ids[i];
-    out += fmt::format("blunder poses (robust loss down-weighted them): {}\n", ids);
-  }
-  out += fmt::format(
-      "fit: {} after {} iterations, sigma0 {:.4f} mm per coordinate, "
-      "redundancy {}\n\n",
-      est.status.ok() ? "converged" : "NOT converged", est.iterations, est.sigma0_mm,
-      est.redundancy);
-
-  out += fmt::format("{:<28}{:>8}{:>10}{:>10}{:>10}\n", "error distance (mm)", "poses", "mean",
-                     "max", "rms");
-  auto line = [&](const char* label, const calibration::ErrorStats& s) {
-    out += fmt::format("{:<28}{:>8}{:>10.3f}{:>10.3f}{:>10.3f}\n", label, s.poses, s.mean_mm,
-                       s.max_mm, s.rms_mm);
-  };
-  line("nominal, fit poses", est.nominal);
-  line("calibrated, fit poses", est.fit);
-  if (!run.validation_residuals.empty()) {
-    line("nominal, validation", StatsOf(run.validation_nominal_residuals));
-    if (run.map_used() && !run.validation_parametric_residuals.empty()) {
-      line("parametric, validation", StatsOf(run.validation_parametric_residuals));
-      line("with map, validation", StatsOf(run.validation_residuals));
-    } else {
-      line("calibrated, validation", StatsOf(run.validation_residuals));
-    }
-  }
-  if (run.residual_map) {
-    const auto& m = *run.residual_map;
-    out += fmt::format("residual map: {} — {}", m.used ? "used" : "not used", m.decision);
-    if (!m.map.centres_rad.empty()) {
-      out += fmt::format(" (length scale {:.3g}, regularisation {:.3g}, {} centres)",
-                         m.map.length_scale, m.map.regularisation, m.map.centres_rad.size());
-    }
-    out += "\n";
-    if (const auto v = run.map_validation(); run.map_used() && v.poses > 0) {
-      out += fmt::format(
-          "  validation: predictive sigma {:.4f} mm per coordinate on average; {} of {} poses "
-          "outside the map's support (parametric prediction, flagged)\n",
-          v.mean_sigma_mm, v.outside, v.poses);
-    }
-  }
-  return out;
 }
 
 nlohmann::json CalibrationJson(const calibration::RobotModel& model, const CalibrationRun& run) {

@@ -89,10 +89,7 @@ CalibrationRun RunCalibration(const calibration::RobotModel& model,
                               const std::vector<MeasuredPose>& holdout,
                               const CalibrateSettings& settings);
 
-// Parameter table in the paper's layout (a, b, c in mm; α, β, γ in 1e-3 rad), with
-// sigmas, then h-terms, identifiability and error distances.
-std::string FormatCalibrationReport(const calibration::RobotModel& model,
-                                    const CalibrationRun& run);
+// FormatCalibrationReport, the run as text: workflows/calibration_text.h.
 
 // Residuals (model − measured) of poses, each in its frame's base, with a residual map's
 // correction where the pose is inside its support (`map` null: parametric). `outside`

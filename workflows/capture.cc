@@ -6,12 +6,17 @@
 #include <algorithm>
 #include <cmath>
 #include <optional>
+#include <string>
+#include <vector>
 
 #include "acquisition/device_claims.h"
 #include "acquisition/lab.h"
 #include "acquisition/plan.h"
 #include "acquisition/session_owner.h"
 #include "core/error.h"
+#include "core/text.h"
+#include "core/text_layout.h"
+#include "core/wording.h"
 #include "db/database.h"
 #include "db/store.h"
 #include "workflows/hint.h"
@@ -307,10 +312,10 @@ CaptureOutcome RunCaptureSession(const CaptureRequest& request) {
 
 std::string FormatCaptureSummary(const acquisition::CaptureSummary& s) {
   std::string text = fmt::format(
-      "session {}: {} of {} configurations stored ({} now, {} before): {} usable, {} flagged, {} "
-      "failed, {} skipped; {} re-measured\n",
-      s.session, s.already + s.measured + s.skipped, s.total, s.measured + s.skipped, s.already,
-      s.usable, s.flagged, s.failed, s.skipped, s.remeasured);
+      "session {}: {} of {} stored ({} now, {} before): {} usable, {} flagged, {} failed, {} "
+      "skipped; {} re-measured\n",
+      s.session, s.already + s.measured + s.skipped, Count(s.total, "configuration"),
+      s.measured + s.skipped, s.already, s.usable, s.flagged, s.failed, s.skipped, s.remeasured);
   if (s.single_ray && s.usable > 0) {
     text += "  one instrument per point: no second ray, no miss distance (each reading checked "
             "against its own sigmas)\n";
@@ -340,15 +345,33 @@ std::string FormatCaptureSummary(const acquisition::CaptureSummary& s) {
   return text;
 }
 
-std::string FormatCaptureProgress(const acquisition::Progress& p) {
-  const int width = 30;
-  const int filled = p.total ? width * p.done / p.total : width;
-  return fmt::format(
-      "[{}{}] {}/{} {:<10} miss {} mm (mean {}, max {}) remeasured {} flagged {} failed {} "
-      "skipped {} ETA {}",
-      std::string(filled, '#'), std::string(width - filled, ' '), p.done, p.total, p.label,
-      Mm(p.last_miss_mm), Mm(p.mean_miss_mm), Mm(p.max_miss_mm), p.remeasured, p.flagged, p.failed,
-      p.skipped, Duration(p.eta_s));
+std::string FormatCaptureProgress(const acquisition::Progress& p, int width) {
+  // What must be there, then what is added while it fits, most useful first; the bar takes
+  // what is left (up to 30 columns, none below 10).
+  std::string line = fmt::format("{}/{} {}", p.done, p.total, p.label);
+  const std::string eta = " ETA " + Duration(p.eta_s);
+  std::vector<std::string> extras = {fmt::format(" miss {} mm", Mm(p.last_miss_mm))};
+  if (p.flagged) extras.push_back(fmt::format(" flagged {}", p.flagged));
+  if (p.failed) extras.push_back(fmt::format(" failed {}", p.failed));
+  if (p.skipped) extras.push_back(fmt::format(" skipped {}", p.skipped));
+  if (p.remeasured) extras.push_back(fmt::format(" remeasured {}", p.remeasured));
+  extras.push_back(fmt::format(" (mean {}, max {})", Mm(p.mean_miss_mm), Mm(p.max_miss_mm)));
+  const int kBarMin = 10 + 3, kBarMax = 30 + 3;  // "[" bar "] "
+  int used = DisplayWidth(line) + DisplayWidth(eta);
+  for (const auto& extra : extras) {
+    const int w = DisplayWidth(extra);
+    if (used + w + kBarMin > width) continue;  // a later, shorter one may still fit
+    line += extra;
+    used += w;
+  }
+  line += eta;
+  const int bar = std::min(kBarMax, width - used) - 3;
+  if (bar >= kBarMin - 3) {
+    const int filled = p.total ? bar * p.done / p.total : bar;
+    line = "[" + std::string(filled, '#') + std::string(bar - filled, ' ') + "] " + line;
+  }
+  if (DisplayWidth(line) > width) line = std::string(TruncateUtf8(line, std::max(width, 0)));
+  return line;
 }
 
 }  // namespace armsig::workflows

@@ -49,7 +49,9 @@ CaptureOutcome RunCaptureSession(const CaptureRequest& request);
 // The end-of-run summary: usable, flagged, failed and skipped configurations, each one
 // that is not usable named with its reason.
 std::string FormatCaptureSummary(const acquisition::CaptureSummary& s);
-// The one-line live progress (for a terminal).
-std::string FormatCaptureProgress(const acquisition::Progress& p);
+// The one-line live progress for a terminal `width` columns wide: done/total, the
+// configuration, ETA, then what fits of the miss distances and counts, and a bar in what is
+// left (none on a narrow terminal). Never longer than `width`.
+std::string FormatCaptureProgress(const acquisition::Progress& p, int width);
 
 }  // namespace armsig::workflows

@@ -14,6 +14,8 @@
 
 #include "acquisition/session.h"
 #include "calibration/model.h"
+#include "reduction/orientation.h"
+#include "workflows/calibration_run.h"
 
 namespace armsig::workflows {
 
@@ -91,6 +93,18 @@ struct DemoResult {
   nlohmann::json json;      // the --json document (also written to json_path)
   std::string resume_hint;  // when stopped after the session was created
 };
+
+// The narrative's parts that carry figures, each line at most 100 columns.
+// Step 1 for theodolites: the readings, σ0, degrees of freedom, blunders removed, and each
+// station's position and azimuth with their sigmas.
+std::string DemoOrientationText(const reduction::OrientationProblem& setup,
+                                const reduction::OrientationResult& oriented);
+// Step 2: the configurations captured (those left out named), their timing, the miss
+// distance (theodolites) or how the beam was pointed (a tracker).
+std::string DemoCaptureText(const acquisition::CaptureSummary& captured, bool tracker);
+// The closing table: nominal and each stage's fit and validation mean (max) against the
+// paper's, and the measurement noise floor.
+std::string DemoProgressionText(const std::vector<CalibrationRun>& runs, double noise_floor_mm);
 
 // Checks the options (DemoSelectCount) before anything is created. The virtual lab lives
 // in a private directory under $TMPDIR (armsig-demo-XXXXXX, holding its owner's pid),

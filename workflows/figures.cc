@@ -185,10 +185,12 @@ Plot::Plot(int width, int height, const std::string& title, Axis x, Axis y,
            const std::string& xlabel, const std::string& ylabel)
     : image(height, width, CV_8UC3, cv::Scalar(255, 255, 255)),
       area(70, 56, width - 70 - 20, height - 56 - 52),
+      title_(title),
+      ylabel_(ylabel),
       x_(std::move(x)),
       y_(std::move(y)) {
-  Text(image, title, {area.x, 20}, 0.55);
-  Text(image, ylabel, {8, area.y - 10});
+  DrawTitleRow();
+  Text(image, ylabel_, {8, area.y - 10});
   Text(image, xlabel, {area.x + area.width / 2, height - 10}, 0.45, Align::kCenter);
   for (size_t k = 0; k < x_.ticks.size(); ++k) {
     const int px = X(x_.ticks[k]);
@@ -205,13 +207,81 @@ Plot::Plot(int width, int height, const std::string& title, Axis x, Axis y,
   cv::rectangle(image, area, kInk);
 }
 
+namespace {
+constexpr int kTitleBaseline = 20, kLegendRow = 18, kNoteRow = 18;
+}  // namespace
+
+void Plot::DrawTitleRow() {
+  Text(image, title_, {area.x, kTitleBaseline}, 0.55);
+  if (!caption_.empty())
+    Text(image, caption_, {area.x + area.width, kTitleBaseline}, 0.4, Align::kRight);
+}
+
+void Plot::Caption(const std::string& text) {
+  caption_ = text;
+  Text(image, caption_, {area.x + area.width, kTitleBaseline}, 0.4, Align::kRight);
+}
+
 void Plot::Legend(const std::vector<LegendEntry>& entries) {
-  cv::Point at(area.x + 10, area.y - 14);
+  // Rows of entries, each within the image (an entry wider than a row gets one of its own).
+  const int left = area.x + 10, right = image.cols - 10;
+  std::vector<std::vector<const LegendEntry*>> rows(1);
+  int x = left;
   for (const auto& e : entries) {
-    DrawMarker(image, at + cv::Point(5, -4), e.marker, e.color);
-    Text(image, e.text, at + cv::Point(16, 0));
-    at.x += 16 + TextWidth(e.text) + 22;
+    const int width = 16 + TextWidth(e.text) + 22;
+    if (x > left && x + width - 22 > right) {
+      rows.emplace_back();
+      x = left;
+    }
+    rows.back().push_back(&e);
+    x += width;
   }
+  const int extra = kLegendRow * (static_cast<int>(rows.size()) - 1);
+  if (extra > 0) {
+    // Room above: everything drawn so far moves down with the area; the title row is
+    // drawn again at the top.
+    cv::copyMakeBorder(image, image, extra, 0, 0, 0, cv::BORDER_CONSTANT,
+                       cv::Scalar(255, 255, 255));
+    area.y += extra;
+    cv::rectangle(image, cv::Rect(0, 0, image.cols, kTitleBaseline + extra + 6),
+                  cv::Scalar(255, 255, 255), cv::FILLED);
+    DrawTitleRow();
+  }
+  for (size_t r = 0; r < rows.size(); ++r) {
+    cv::Point at(left, area.y - 14 - kLegendRow * static_cast<int>(rows.size() - 1 - r));
+    for (const auto* e : rows[r]) {
+      DrawMarker(image, at + cv::Point(5, -4), e->marker, e->color);
+      Text(image, e->text, at + cv::Point(16, 0));
+      at.x += 16 + TextWidth(e->text) + 22;
+    }
+  }
+}
+
+int Plot::RowBelow(int height) {
+  const int top = image.rows;
+  cv::copyMakeBorder(image, image, 0, height, 0, 0, cv::BORDER_CONSTANT, cv::Scalar(255, 255, 255));
+  return top;
+}
+
+void Plot::Note(const std::string& text) {
+  // Words to a row while they fit between the area's left edge and the image's right.
+  const int width = image.cols - 10 - area.x;
+  std::string row;
+  auto flush = [&] {
+    const int top = RowBelow(kNoteRow);
+    Text(image, row, {area.x, top + kNoteRow - 6}, 0.4);
+    row.clear();
+  };
+  size_t at = 0;
+  while (at < text.size()) {
+    size_t end = text.find(' ', at);
+    if (end == std::string::npos) end = text.size();
+    const std::string word = text.substr(at, end - at);
+    if (!row.empty() && TextWidth(row + " " + word) > width) flush();
+    row += (row.empty() ? "" : " ") + word;
+    at = end + 1;
+  }
+  if (!row.empty()) flush();
 }
 
 }  // namespace figures

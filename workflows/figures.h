@@ -58,8 +58,9 @@ Axis LinearAxis(double lo, double hi, int max_ticks);
 Axis IntegerAxis(int largest, int max_ticks);
 Axis LogAxis(double lo, double hi);
 
-// A plotting area with ticked axes; the title and legend sit above it, so the legend
-// covers no data.
+// A plotting area with ticked axes. The title (and a caption at its right) and the
+// legend sit above the area, the axis titles beside and below it, notes below those: the
+// image grows to give each its own room, so no text covers data or another text.
 class Plot {
  public:
   Plot(int width, int height, const std::string& title, Axis x, Axis y, const std::string& xlabel,
@@ -73,13 +74,24 @@ class Plot {
   }
   cv::Point At(double x, double y) const { return {X(x), Y(y)}; }
 
-  // One row above the plotting area, right of the y label.
+  // Rows above the plotting area, as many as the entries need within the image's width
+  // (the image grows at the top for each row after the first; everything drawn so far
+  // moves down with the area).
   void Legend(const std::vector<LegendEntry>& entries);
+  // A short text at the right of the title row ("ring: the chosen one").
+  void Caption(const std::string& text);
+  // A row of its own below the axis title, `height` pixels tall (the image grows at the
+  // bottom); returns the y of its top. Note: a text in such rows, wrapped at words to the
+  // image's width.
+  int RowBelow(int height);
+  void Note(const std::string& text);
 
   cv::Mat image;
   cv::Rect area;
 
  private:
+  void DrawTitleRow();
+  std::string title_, ylabel_, caption_;
   static double Fraction(const Axis& a, double v) {
     if (a.log) {
       return (std::log10(std::max(v, 1e-12)) - std::log10(a.lo)) /

@@ -15,6 +15,8 @@
 #include "core/error.h"
 #include "core/plausibility.h"
 #include "core/text.h"
+#include "core/text_layout.h"
+#include "core/wording.h"
 #include "db/store.h"
 #include "db/stored_json.h"
 #include "io/atomic_file.h"
@@ -362,19 +364,33 @@ std::string FormatRobots(const std::vector<db::RobotRow>& robots, bool json,
   return text;
 }
 
+namespace {
+
+// `line` and `more` on one line when it fits 100 columns, else `more` on the next, indented.
+std::string OneLineOrTwo(const std::string& line, const std::string& more) {
+  if (more.empty()) return line + "\n";
+  if (DisplayWidth(line) + 2 + DisplayWidth(more) <= 100) return line + "  " + more + "\n";
+  return line + "\n      " + more + "\n";
+}
+
+}  // namespace
+
 std::string FormatSessions(const std::vector<db::SessionSummary>& sessions, bool json) {
   if (json) return JsonArray(sessions);
   if (sessions.empty()) return "no sessions\n";
   std::string text;
   for (const auto& s : sessions) {
-    text += fmt::format(
-        "{:>4}  {:<16} {:<11} {}  {:>4} measured {:>3} skipped {:>4} usable ({} flagged)  {}\n",
-        s.id, Printable(s.robot), Printable(s.state), Printable(s.started_at.substr(0, 19)),
-        s.measured, s.skipped, s.usable, s.flagged, Printable(s.note));
+    text += OneLineOrTwo(
+        fmt::format("{:>4}  {:<14} {:<9} {}  {} measured, {} skipped, {} usable, {} flagged", s.id,
+                    Printable(s.robot), Printable(s.state),
+                    Printable(TimeToTheSecond(s.started_at)), s.measured, s.skipped, s.usable,
+                    s.flagged),
+        Printable(s.note));
   }
-  return text;
+  return WrapLines(text, 100, 6);
 }
 
+// Two lines a version: what it is, then how it validated and its life cycle.
 std::string FormatVersions(const std::vector<VersionInfo>& versions, bool json,
                            const std::string& robot) {
   if (json) return JsonArray(versions);
@@ -384,25 +400,27 @@ std::string FormatVersions(const std::vector<VersionInfo>& versions, bool json,
     std::string activated = "never active";
     if (!v.activations.empty()) {
       const auto& a = v.activations.back();
-      activated = fmt::format("activated {} by {}", Printable(a.activated_at.substr(0, 19)),
+      activated = fmt::format("activated {} by {}", Printable(TimeToTheSecond(a.activated_at)),
                               Printable(a.activated_by));
       if (v.activations.size() > 1)
         activated += fmt::format(" ({} times)", v.activations.size());
     }
-    text += fmt::format(
-        "{} v{:<3} {}  params {:<9} rank {:>2}  fit {:>3} poses  validation mean {:.4f} max "
-        "{:.4f} mm on {}  sessions {}  {}{}\n",
-        v.active ? "*" : " ", v.version, Printable(v.created_at.substr(0, 19)),
-        Printable(v.params_spec), v.rank, v.poses_fit, v.validation_mean_mm, v.validation_max_mm,
-        v.poses_validation,
-        v.sessions.empty() ? std::string("(not recorded)")
-                           : fmt::format("{}", fmt::join(v.sessions, ",")),
-        activated,
-        v.drift && *v.drift ? fmt::format("  DRIFT against v{}", v.drift_against.value_or(0))
-                            : std::string());
+    if (v.drift && *v.drift)
+      activated += fmt::format("  DRIFT against v{}", v.drift_against.value_or(0));
+    text += fmt::format("{} v{:<3} {}  params {:<9} rank {:>2}  fitted on {} of {}\n",
+                        v.active ? "*" : " ", v.version, Printable(TimeToTheSecond(v.created_at)),
+                        Printable(v.params_spec), v.rank, Count(v.poses_fit, "pose"),
+                        v.sessions.empty()
+                            ? std::string("sessions not recorded")
+                            : fmt::format("{} {}", v.sessions.size() == 1 ? "session" : "sessions",
+                                          fmt::join(v.sessions, ",")));
+    text += OneLineOrTwo(
+        fmt::format("       validation mean {:.4f} max {:.4f} mm on {}", v.validation_mean_mm,
+                    v.validation_max_mm, Count(v.poses_validation, "pose")),
+        activated);
     if (v.drift && *v.drift && (v.change_from_session || !v.cause.empty())) {
       text += fmt::format(
-          "      {}{}\n",
+          "       {}{}\n",
           v.change_from_session
               ? fmt::format("the robot changed from session {}; fitted on the sessions since: ",
                             *v.change_from_session)
@@ -410,7 +428,7 @@ std::string FormatVersions(const std::vector<VersionInfo>& versions, bool json,
           Printable(v.cause.empty() ? std::string("no cause named") : v.cause));
     }
   }
-  return text;
+  return WrapLines(text, 100, 9);
 }
 
 nlohmann::json ToJson(const db::RobotRow& r) {

@@ -1,3 +1,4 @@
+#include "core/wording.h"
 #include "workflows/network.h"
 
 #include <fmt/format.h>
@@ -299,9 +300,10 @@ OrientRun OrientFiles(const OrientFilesOptions& options) {
   std::vector<io::PreparedFile> outputs;
   if (!options.out.empty()) {
     std::string header = fmt::format(
-        "armsig orient: {} stations from {}; datum: {}\nsigma0 {:.5f}, {} degrees of freedom",
-        result.stations.size(), Printable(options.observations), result.datum, result.sigma0,
-        result.dof);
+        "armsig orient: {} from {}; datum: {}\nsigma0 {:.5f}, {}",
+        Count(static_cast<int64_t>(result.stations.size()), "station"),
+        Printable(options.observations), result.datum, result.sigma0,
+        Count(result.dof, "degree of freedom", "degrees of freedom"));
     if (run.sigma_scale != 1.0) {
       header += fmt::format(
           "\nglobal test failed (p = {:.2g}): sigmas a posteriori (a priori x {:.4f})",
@@ -337,12 +339,15 @@ std::string FormatInstrumentErrors(
 std::string FormatOrientReport(const OrientRun& run) {
   const reduction::OrientationResult& result = run.result;
   std::string text = FormatInstrumentErrors(run.instrument_errors);
-  text += fmt::format("Orientation of {} stations, {} target points ({})\n", result.stations.size(),
-                      result.points.size(), result.datum);
+  text += fmt::format("Orientation of {}, {} ({})\n",
+                      Count(static_cast<int64_t>(result.stations.size()), "station"),
+                      Count(static_cast<int64_t>(result.points.size()), "target point"),
+                      result.datum);
   text += fmt::format(
-      "sigma0 a posteriori {:.4f} (a priori 1), {} observations, {} unknowns, "
-      "{} degrees of freedom, {} iterations{}\n",
-      result.sigma0, result.observations, result.unknowns, result.dof, result.iterations,
+      "sigma0 a posteriori {:.4f} (a priori 1), {}, {}, {}, {}{}\n", result.sigma0,
+      Count(result.observations, "observation"), Count(result.unknowns, "unknown"),
+      Count(result.dof, "degree of freedom", "degrees of freedom"),
+      Count(result.iterations, "iteration"),
       result.status.ok() ? "" : " (NOT converged: " + result.status.message + ")");
   if (result.dof > 0) {
     text += fmt::format("global test: P(chi2 > {:.1f}) = {:.3g}{}\n", result.sigma0 * result.sigma0 * result.dof,
@@ -574,9 +579,9 @@ TriangulateRun TriangulateFiles(const TriangulateFilesOptions& options) {
 
 std::string FormatTriangulateSummary(const TriangulateRun& run, const std::string& out) {
   return FormatInstrumentErrors(run.instrument_errors) +
-         fmt::format("{} points intersected, {} not, {} rays rejected as blunders -> {}\n",
-                     run.intersected, run.points.size() - run.intersected, run.rejected_rays,
-                     Printable(out));
+         fmt::format("{} intersected, {} not, {} rejected as blunders -> {}\n",
+                     Count(run.intersected, "point"), run.points.size() - run.intersected,
+                     Count(run.rejected_rays, "ray"), Printable(out));
 }
 
 }  // namespace armsig::workflows

@@ -22,6 +22,7 @@
 #include "calibration/identifiability.h"
 #include "core/error.h"
 #include "core/text.h"
+#include "core/wording.h"
 #include "db/database.h"
 #include "db/jobs.h"
 #include "db/report_queries.h"
@@ -41,7 +42,7 @@ namespace {
 
 struct Gates {
   double max_mean_mm = 0.5, max_max_mm = 2.0, tolerance_mm = 0.02, drift_sigma = 5.0,
-         drift_mm = 0.05;
+         drift_mm = kDefaultDriftMm;
   int window_sessions = kDefaultWindowSessions, window_days = kDefaultWindowDays;
 };
 
@@ -60,17 +61,6 @@ std::string InputDigest(const std::vector<MeasuredPose>& poses, const std::strin
     for (int i = 0; i < 3; ++i) text += fmt::format(",{:.17g}", p.target_in_world(i));
   }
   return fmt::format("{:016x}", std::hash<std::string>{}(text));
-}
-
-// A stored set as CompareModels wants it: its identified parameters and their covariance.
-calibration::FittedSet FittedSetOf(const calibration::RobotModel& model, const Signature& sig,
-                                   const db::StoredCalibration& stored) {
-  calibration::FittedSet set;
-  set.params = sig.params;
-  for (const auto& name : stored.covariance_parameters)
-    set.identified.push_back(model.IndexOf(name));
-  set.covariance = stored.covariance;
-  return set;
 }
 
 // Gates from the latest session's lab file (`recalibration:` block), then the options.
@@ -432,10 +422,10 @@ std::string RecalibrationDecision::DriftLine() const {
   const std::string cause = CauseSummary(causes);
   if (model_drift) {
     return fmt::format(
-        "DRIFT: version {} differs from version {} by up to {:.3f} mm over the work volume (p "
-        "= {:.2g}): {}; {}",
+        "DRIFT: version {} differs from version {} by up to {:.3f} mm over the work volume ({}): "
+        "{}; {}",
         version > 0 ? std::to_string(version) : std::string("(this run)"),
-        previous_version.value_or(0), model_drift->max_mm, model_drift->p_value, cause,
+        previous_version.value_or(0), model_drift->max_mm, PValueText(model_drift->p_value), cause,
         outcome == Outcome::kDriftStored ? fmt::format("version {} is now active", version)
                                          : stays);
   }
@@ -879,6 +869,10 @@ void NightlyJob::Fit(const std::vector<MeasuredPose>& poses) {
                   poses.size(), SessionList(d_.sessions), settings_.select, o_.params));
   run_.emplace(RunCalibration(model_, poses, {}, settings_));
   const CalibrationRun& run = *run_;
+  if (run.residual_map) {  // the nightly log is where this run says it (once)
+    Log(fmt::format("residual map {}: {}", run.residual_map->used ? "used" : "not used",
+                    run.residual_map->decision));
+  }
   const std::set<std::string> fit_ids(run.fit_pose_ids.begin(), run.fit_pose_ids.end());
   const std::set<std::string> validation_ids(run.validation_pose_ids.begin(),
                                              run.validation_pose_ids.end());
@@ -984,10 +978,10 @@ void NightlyJob::CompareWithActive() {
   d_.model_drift = m;
   Log(fmt::format(
       "{}: against version {} the predicted positions differ by up to {:.3f} mm (mean {:.3f} "
-      "mm) over {} configurations spread over the work volume; chi2 {:.1f} on {} dof (p = "
-      "{:.2g}), tolerance {:.3f} mm{}",
+      "mm) over {} configurations spread over the work volume; chi2 {:.1f} on {} dof ({}), "
+      "tolerance {:.3f} mm{}",
       d_.drift ? "DRIFT" : "no drift", current_->version, m.max_mm, m.mean_mm, m.configurations,
-      m.chi2, m.dof, m.p_value, m.tolerance_mm,
+      m.chi2, m.dof, PValueText(m.p_value), m.tolerance_mm,
       m.same_subset ? ""
                     : fmt::format("; the two sets estimate different parameters: chi2 only "
                                   "on the shape changes both can make (version {}: {})",
@@ -1074,6 +1068,18 @@ void NightlyJob::WriteRunReport() {
     input.temperature_c = db::PoseTemperatures(*database_, sessions);
   }
   input.history = ReportHistoryOf(*database_, robot_id_);
+  input.drift_history = ReportDriftOf(*database_, model_, robot_id_, gates_.drift_mm);
+  if (d_.version == 0 && current_) {
+    // This run, not stored: against the active set, as its drift decision was taken.
+    const calibration::FittedSet now{run.estimate.params, run.estimate.identifiability.identified,
+                                     run.estimate.covariance};
+    ReportDriftPoint point = DriftPointOf(
+        model_, FittedSetOf(model_, SignatureOf(model_, *current_), *current_), now, spread_);
+    point.version = 0;
+    point.against = current_->version;
+    point.drift = d_.drift;
+    input.drift_history.points.push_back(point);
+  }
   if (d_.version == 0) {
     ReportHistoryPoint rejected{0, "this run (rejected)", d_.validation.mean_mm, run.params_spec,
                                 false};
@@ -1098,11 +1104,11 @@ void NightlyJob::WriteRunReport() {
     input.changes_note = fmt::format(
         "{}: against version {}, the positions the two models predict over {} configurations "
         "spread over the work volume differ by up to {:.3f} mm (mean {:.3f} mm) after aligning "
-        "bases; chi2 {:.1f} on {} degrees of freedom (p = {:.2g}); drift needs p < 0.001 and "
+        "bases; chi2 {:.1f} on {} degrees of freedom ({}); drift needs p < 0.001 and "
         "more than {:.3f} mm. Parameter changes are shown in one gauge (the rigid part of the "
         "two base alignments removed).",
         d_.drift ? "DRIFT" : "No drift", *d_.previous_version, m.configurations, m.max_mm,
-        m.mean_mm, m.chi2, m.dof, m.p_value, m.tolerance_mm);
+        m.mean_mm, m.chi2, m.dof, PValueText(m.p_value), m.tolerance_mm);
   }
   d_.report_path = WriteReport(o_.report_dir, input);
   Log("report: " + d_.report_path);

@@ -44,6 +44,8 @@ std::string SinceToUtc(const std::string& text);
 
 inline constexpr int kDefaultWindowSessions = 10;
 inline constexpr int kDefaultWindowDays = 90;
+// Drift needs the two sets' predicted positions to differ by more than this (mm) too.
+inline constexpr double kDefaultDriftMm = 0.05;
 
 struct Gate {
   std::string name;

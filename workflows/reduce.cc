@@ -1,3 +1,4 @@
+#include "core/wording.h"
 #include "workflows/reduce.h"
 
 #include <fmt/format.h>
@@ -204,10 +205,9 @@ std::string FormatReduceSummaries(const std::vector<ReduceSummary>& summaries,
                       s.session, s.kept_points);
       continue;
     }
-    text += fmt::format(
-        "session {}: {} observations -> {} points reduced, {} not ({} rays rejected as "
-        "blunders)\n",
-        s.session, s.observations, s.reduced, s.failed, s.rejected_rays);
+    text += fmt::format("session {}: {} -> {} reduced, {} not ({} rejected as blunders)\n",
+                        s.session, Count(s.observations, "observation"),
+                        Count(s.reduced, "point"), s.failed, Count(s.rejected_rays, "ray"));
   }
   return text;
 }

@@ -47,6 +47,16 @@ Signature SignatureOf(const calibration::RobotModel& model, const db::StoredCali
   return s;
 }
 
+calibration::FittedSet FittedSetOf(const calibration::RobotModel& model, const Signature& sig,
+                                   const db::StoredCalibration& stored) {
+  calibration::FittedSet set;
+  set.params = sig.params;
+  for (const auto& name : stored.covariance_parameters)
+    set.identified.push_back(model.IndexOf(name));
+  set.covariance = stored.covariance;
+  return set;
+}
+
 ActiveSignature LoadSignature(db::Database& database, const std::string& robot,
                               std::optional<int> version) {
   if (!version) return LoadActiveSignature(database, robot);

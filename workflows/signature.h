@@ -8,6 +8,7 @@
 #include <string>
 #include <vector>
 
+#include "calibration/drift.h"
 #include "calibration/model.h"
 #include "calibration/residual_map.h"
 #include "db/database.h"
@@ -24,6 +25,10 @@ struct Signature {
 };
 
 Signature SignatureOf(const calibration::RobotModel& model, const db::StoredCalibration& stored);
+// The stored set as two sets are compared (calibration::CompareModels): its parameters,
+// its identified ones and their covariance (none for a set stored before covariances were).
+calibration::FittedSet FittedSetOf(const calibration::RobotModel& model, const Signature& sig,
+                                   const db::StoredCalibration& stored);
 
 struct ActiveSignature {
   calibration::RobotModel model;

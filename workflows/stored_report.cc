@@ -26,6 +26,7 @@
 #include "io/residual_map_json.h"
 #include "workflows/calibration_run.h"
 #include "workflows/hint.h"
+#include "workflows/recalibrate.h"
 #include "workflows/report.h"
 #include "workflows/signature.h"
 
@@ -33,21 +34,9 @@ namespace armsig::workflows {
 
 namespace {
 
-constexpr int kDriftConfigurations = 50;  // as the nightly job compares sets
 
 calibration::ErrorStats StatsOfDistances(const std::vector<double>& distances) {
   return calibration::Summarise(distances);
-}
-
-// The set's identified parameters with its covariance, as the nightly job compares sets.
-calibration::FittedSet FittedSetOf(const calibration::RobotModel& model, const Signature& sig,
-                                   const db::StoredCalibration& stored) {
-  calibration::FittedSet set;
-  set.params = sig.params;
-  for (const auto& name : stored.covariance_parameters)
-    set.identified.push_back(model.IndexOf(name));
-  set.covariance = stored.covariance;
-  return set;
 }
 
 // The residual map as the run held it: its decision and cross-validation from the stored
@@ -106,6 +95,17 @@ std::vector<std::string> StoredGates(const db::StoredCalibration& set) {
   return out;
 }
 
+// The drift gate (mm) the run stored with its options; the nightly job's default when the
+// set stored none (a demo's, an import's).
+double StoredDriftTolerance(const db::StoredCalibration& set) {
+  const auto options = db::ParseStoredJson(
+      set.options_json, {"the database", "calibrations", set.id, "options_json"});
+  if (options.is_object() && options.contains("gates") && options["gates"].is_object() &&
+      options["gates"].contains("drift_mm") && options["gates"]["drift_mm"].is_number())
+    return options["gates"]["drift_mm"].get<double>();
+  return kDefaultDriftMm;
+}
+
 }  // namespace
 
 bool HasReportOf(const std::string& dir, const std::string& robot, int version) {
@@ -120,103 +120,123 @@ bool HasReportOf(const std::string& dir, const std::string& robot, int version) 
   }
 }
 
-StoredReport WriteStoredReport(db::Database& database, const std::string& robot,
-                               std::optional<int> version, const std::string& dir) {
-  io::CheckOutputDirectory(dir, "--out");
-  db::ReadSnapshot snapshot(database);  // every read of the report agrees with the others
-  const auto robot_id = db::FindRobot(database, robot);
-  if (!robot_id) {
-    throw InputError({database.path(), 0, 0, "--robot"},
-                     UnknownRobotMessage(database, robot));
-  }
-  const ActiveSignature loaded = LoadSignature(database, robot, version);
-  const calibration::RobotModel& model = loaded.model;
-  const Signature& sig = loaded.signature;
-  const auto history = db::CalibrationHistory(database, *robot_id);
-  const db::StoredCalibration* set = nullptr;
-  for (const auto& c : history) {
-    if (c.version == sig.version) set = &c;
-  }
-  if (!set) throw std::logic_error("WriteStoredReport: the loaded set is not in the history");
-  const auto rows = db::LoadStoredResiduals(database, set->id);
-  if (rows.empty()) {
-    throw InputError({"--set", 0, 0, ""},
-                     fmt::format("version {} of robot {} has no recorded residuals: no report "
-                                 "can be made of it",
-                                 set->version, ShellWord(robot)));
-  }
+namespace {
 
-  // The configurations behind the residuals, as the run named them ("<session>:<label>").
-  std::map<std::string, MeasuredPose> by_id;
-  for (auto& p : db::LoadRobotPoses(database, *robot_id, "")) by_id.emplace(p.id, std::move(p));
-  StoredReport out;
-  out.version = set->version;
+// The run as its stored residuals tell it: the configurations behind them (as the run
+// named them, "<session>:<label>"), their residuals and distances; `missing_poses` counts
+// validation configurations no longer stored.
+struct StoredRun {
   CalibrationRun run;
-  run.params_spec = set->params_spec;
   std::vector<MeasuredPose> fit, validation;
   std::vector<double> fit_distances, fit_nominal, validation_nominal;
+  int missing_poses = 0;
+};
+
+StoredRun StoredRunOf(db::Database& database, int64_t robot_id, const db::StoredCalibration& set,
+                      const std::vector<db::StoredResidual>& rows) {
+  StoredRun out;
+  out.run.params_spec = set.params_spec;
+  // The configurations behind the residuals, as the run named them ("<session>:<label>").
+  std::map<std::string, MeasuredPose> by_id;
+  for (auto& p : db::LoadRobotPoses(database, robot_id, "")) by_id.emplace(p.id, std::move(p));
+  // A run on one session's poses (the demo's) named them by their bare label: found in the
+  // sessions the set's inputs name.
+  std::vector<std::string> input_sessions;
+  {
+    const auto inputs = db::ParseStoredJson(
+        set.inputs_json, {"the database", "calibrations", set.id, "inputs_json"});
+    if (inputs.is_object() && inputs.contains("sessions") && inputs["sessions"].is_array()) {
+      for (const auto& s : inputs["sessions"]) {
+        if (s.is_string()) input_sessions.push_back(s.get<std::string>());
+        if (s.is_number_integer()) input_sessions.push_back(std::to_string(s.get<int64_t>()));
+      }
+    }
+  }
+  auto find_pose = [&](const std::string& label) {
+    auto it = by_id.find(label);
+    if (it != by_id.end() || label.find(':') != std::string::npos) return it;
+    for (const auto& session : input_sessions) {
+      it = by_id.find(session + ":" + label);
+      if (it != by_id.end()) return it;
+    }
+    return by_id.end();
+  };
   for (const auto& r : rows) {
-    const auto pose = by_id.find(r.pose_label);
+    const auto pose = find_pose(r.pose_label);
     if (r.role == "fit") {
-      run.fit_pose_ids.push_back(r.pose_label);
-      fit_distances.push_back(r.distance_mm);
-      if (std::isfinite(r.nominal_distance_mm)) fit_nominal.push_back(r.nominal_distance_mm);
-      if (pose != by_id.end()) fit.push_back(pose->second);
+      out.run.fit_pose_ids.push_back(pose != by_id.end() ? pose->first : r.pose_label);
+      out.fit_distances.push_back(r.distance_mm);
+      if (std::isfinite(r.nominal_distance_mm)) out.fit_nominal.push_back(r.nominal_distance_mm);
+      if (pose != by_id.end()) out.fit.push_back(pose->second);
       continue;
     }
     if (pose == by_id.end()) {
       ++out.missing_poses;
       continue;
     }
-    run.validation_pose_ids.push_back(r.pose_label);
-    run.validation_residuals.emplace_back(r.dx_mm, r.dy_mm, r.dz_mm);
-    validation_nominal.push_back(r.nominal_distance_mm);
-    validation.push_back(pose->second);
+    // "<session>:<label>", as the sources read them.
+    out.run.validation_pose_ids.push_back(pose->first);
+    out.run.validation_residuals.emplace_back(r.dx_mm, r.dy_mm, r.dz_mm);
+    out.validation_nominal.push_back(r.nominal_distance_mm);
+    out.validation.push_back(pose->second);
   }
   if (out.missing_poses > 0) {
-    spdlog::warn("report: {} validation configuration{} of version {} are no longer stored (a "
-                 "discarded or deleted session): left out",
-                 out.missing_poses, out.missing_poses == 1 ? "" : "s", set->version);
+    spdlog::warn(
+        "report: {} validation configuration{} of version {} are no longer stored (a "
+        "discarded or deleted session): left out",
+        out.missing_poses, out.missing_poses == 1 ? "" : "s", set.version);
   }
 
-  // The estimate as stored: parameters, sigmas, what was identified, the fit's figures.
-  calibration::EstimationResult& estimate = run.estimate;
+  return out;
+}
+
+// The estimate as stored: parameters, sigmas, what was identified, the fit's figures.
+void RestoreEstimate(const calibration::RobotModel& model, const Signature& sig,
+                     const db::StoredCalibration& set, StoredRun& out) {
+  calibration::EstimationResult& estimate = out.run.estimate;
   estimate.params = sig.params;
   estimate.sigmas = sig.sigmas;
-  estimate.fit = StatsOfDistances(fit_distances);
-  estimate.nominal = StatsOfDistances(fit_nominal);
+  estimate.fit = StatsOfDistances(out.fit_distances);
+  estimate.nominal = StatsOfDistances(out.fit_nominal);
   auto& id = estimate.identifiability;
   try {
-    id.candidates = calibration::ParseParameterSpec(model, set->params_spec);
+    id.candidates = calibration::ParseParameterSpec(model, set.params_spec);
   } catch (const std::invalid_argument&) {
     for (int k = 0; k < model.num_parameters(); ++k) id.candidates.push_back(k);
   }
   for (int k = 0; k < model.num_parameters(); ++k) {
-    const bool identified = k < static_cast<int>(set->parameters.size()) &&
-                            set->parameters[k].identified;
+    const bool identified =
+        k < static_cast<int>(set.parameters.size()) && set.parameters[k].identified;
     if (identified) id.identified.push_back(k);
   }
   for (int k : id.candidates) {
     if (std::find(id.identified.begin(), id.identified.end(), k) == id.identified.end())
       id.unidentified.push_back(k);
   }
-  id.rank = set->rank;
+  id.rank = set.rank;
+}
+
+// The frames placed with the stored parameters, the condition number, the nominal model's
+// validation errors and the residual map's, as the run had them.
+void RestoreValidation(const calibration::RobotModel& model, const Signature& sig,
+                       const db::StoredCalibration& set, const std::string& robot, StoredRun& out) {
+  auto& id = out.run.estimate.identifiability;
   // Each frame placed on its fitted configurations with the stored parameters (the fit
   // estimated them with the parameters; they are not stored).
-  calibration::FrameBases bases = calibration::AlignFrameBases(model, sig.params, fit);
+  calibration::FrameBases bases = calibration::AlignFrameBases(model, sig.params, out.fit);
   {
     std::vector<MeasuredPose> unplaced;
-    for (const auto& p : validation) {
+    for (const auto& p : out.validation) {
       if (!bases.count(p.frame)) unplaced.push_back(p);
     }
     for (const auto& [frame, base] : calibration::AlignFrameBases(model, sig.params, unplaced))
       bases[frame] = base;
   }
-  if (!fit.empty() && !id.identified.empty()) {
+  if (!out.fit.empty() && !id.identified.empty()) {
     std::vector<Eigen::VectorXd> joints;
-    for (const auto& p : fit) joints.push_back(p.joints_rad);
-    const auto first = bases.count(fit.front().frame) ? bases.at(fit.front().frame)
-                                                      : Eigen::Isometry3d::Identity();
+    for (const auto& p : out.fit) joints.push_back(p.joints_rad);
+    const auto first = bases.count(out.fit.front().frame) ? bases.at(out.fit.front().frame)
+                                                          : Eigen::Isometry3d::Identity();
     const auto analysis = calibration::AnalyseJacobian(
         calibration::StackedJacobian(model, first, sig.params, joints), id.identified);
     id.condition_number = analysis.condition_number;
@@ -225,65 +245,50 @@ StoredReport WriteStoredReport(db::Database& database, const std::string& robot,
   // nominal model errs with the frames placed as above.
   {
     std::vector<MeasuredPose> placed;
-    for (const auto& p : validation) {
+    for (const auto& p : out.validation) {
       if (bases.count(p.frame)) placed.push_back(p);
     }
-    const auto nominal = placed.size() == validation.size()
-                             ? calibration::Residuals(model, bases,
-                                                      Eigen::VectorXd::Zero(model.num_parameters()),
-                                                      validation)
-                             : std::vector<Eigen::Vector3d>(validation.size(),
-                                                            Eigen::Vector3d::UnitX());
-    for (size_t i = 0; i < validation.size(); ++i) {
+    const auto nominal =
+        placed.size() == out.validation.size()
+            ? calibration::Residuals(model, bases, Eigen::VectorXd::Zero(model.num_parameters()),
+                                     out.validation)
+            : std::vector<Eigen::Vector3d>(out.validation.size(), Eigen::Vector3d::UnitX());
+    for (size_t i = 0; i < out.validation.size(); ++i) {
       const double norm = nominal[i].norm();
       const Eigen::Vector3d direction = norm > 0 ? Eigen::Vector3d(nominal[i] / norm)
                                                  : Eigen::Vector3d::UnitX();
-      run.validation_nominal_residuals.push_back(
-          direction * (std::isfinite(validation_nominal[i]) ? validation_nominal[i] : norm));
+      out.run.validation_nominal_residuals.push_back(
+          direction *
+          (std::isfinite(out.validation_nominal[i]) ? out.validation_nominal[i] : norm));
     }
   }
-  run.residual_map = StoredMapFit(*set, fmt::format("robot {} version {}", robot, set->version));
-  if (run.map_used() && sig.map && validation.size() == run.validation_residuals.size()) {
+  out.run.residual_map = StoredMapFit(set, fmt::format("robot {} version {}", robot, set.version));
+  if (out.run.map_used() && sig.map &&
+      out.validation.size() == out.run.validation_residuals.size()) {
     bool placed = true;
-    for (const auto& p : validation) placed = placed && bases.count(p.frame);
+    for (const auto& p : out.validation) placed = placed && bases.count(p.frame);
     if (placed) {
-      run.validation_parametric_residuals =
-          calibration::Residuals(model, bases, sig.params, validation);
-      MappedResiduals(model, bases, sig.params, sig.map.get(), validation,
-                      &run.validation_map_extrapolated);
-      for (const auto& p : validation) {
+      out.run.validation_parametric_residuals =
+          calibration::Residuals(model, bases, sig.params, out.validation);
+      MappedResiduals(model, bases, sig.params, sig.map.get(), out.validation,
+                      &out.run.validation_map_extrapolated);
+      for (const auto& p : out.validation) {
         const double latent = sig.map->CorrectionSigmaMm(p.joints_rad.data());
-        const double noise = run.residual_map->map.noise_sigma_mm;
-        run.validation_map_sigma_mm.push_back(std::sqrt(latent * latent + noise * noise));
+        const double noise = out.run.residual_map->map.noise_sigma_mm;
+        out.run.validation_map_sigma_mm.push_back(std::sqrt(latent * latent + noise * noise));
       }
     }
   }
+}
 
-  ReportInput input;
-  input.robot = robot;
-  input.version = set->version;
-  input.armsig_version = ARMSIG_VERSION;
-  std::string made_active;
-  for (const auto& a : db::ActivationHistory(database, *robot_id)) {
-    if (a.version == set->version)
-      made_active = fmt::format(" (made active by {} at {})", a.activated_by, a.activated_at);
-  }
-  input.decision = fmt::format("version {} as stored on {}{}{}", set->version, set->created_at,
-                               made_active, set->active ? "; active now" : "; not active now");
-  input.gates = StoredGates(*set);
-  input.model = &model;
-  input.run = &run;
-  input.validation = validation;
-  input.sources = LoadReportSources(database, run);
-  {
-    std::vector<int64_t> sessions;
-    for (const auto& s : input.sources.sessions) sessions.push_back(s.id);
-    input.temperature_c = db::PoseTemperatures(database, sessions);
-  }
-  input.history = ReportHistoryOf(database, *robot_id);
+// The change against the set active before this one was stored, and the drift decision as
+// stored (its causes, drift line and window).
+void AddStoredDecision(const calibration::RobotModel& model, const Signature& sig,
+                       const db::StoredCalibration& set,
+                       const std::vector<db::StoredCalibration>& history, ReportInput& input) {
   // The change against the set active before this one was stored.
-  const auto drift = nlohmann::json::parse(set->drift_json.empty() ? "null" : set->drift_json,
-                                           nullptr, false);
+  const auto drift =
+      nlohmann::json::parse(set.drift_json.empty() ? "null" : set.drift_json, nullptr, false);
   std::optional<int> previous;
   if (drift.is_object() && drift.contains("against") && drift["against"].is_number_integer())
     previous = drift["against"].get<int>();
@@ -293,8 +298,8 @@ StoredReport WriteStoredReport(db::Database& database, const std::string& robot,
     input.previous_params_spec = c.params_spec;
     const Signature before = SignatureOf(model, c);
     const auto comparison = calibration::CompareModels(
-        model, FittedSetOf(model, before, c), FittedSetOf(model, sig, *set),
-        calibration::SpreadConfigurations(model, kDriftConfigurations));
+        model, FittedSetOf(model, before, c), FittedSetOf(model, sig, set),
+        calibration::SpreadConfigurations(model, kReportDriftConfigurations));
     for (const auto& p : comparison.parameters)
       input.changes.push_back({p.parameter, p.change, p.z});
   }
@@ -334,6 +339,67 @@ StoredReport WriteStoredReport(db::Database& database, const std::string& robot,
       }
     }
   }
+}
+
+}  // namespace
+
+StoredReport WriteStoredReport(db::Database& database, const std::string& robot,
+                               std::optional<int> version, const std::string& dir) {
+  io::CheckOutputDirectory(dir, "--out");
+  db::ReadSnapshot snapshot(database);  // every read of the report agrees with the others
+  const auto robot_id = db::FindRobot(database, robot);
+  if (!robot_id) {
+    throw InputError({database.path(), 0, 0, "--robot"}, UnknownRobotMessage(database, robot));
+  }
+  const ActiveSignature loaded = LoadSignature(database, robot, version);
+  const calibration::RobotModel& model = loaded.model;
+  const Signature& sig = loaded.signature;
+  const auto history = db::CalibrationHistory(database, *robot_id);
+  const db::StoredCalibration* set = nullptr;
+  for (const auto& c : history) {
+    if (c.version == sig.version) set = &c;
+  }
+  if (!set) throw std::logic_error("WriteStoredReport: the loaded set is not in the history");
+  const auto rows = db::LoadStoredResiduals(database, set->id);
+  if (rows.empty()) {
+    throw InputError({"--set", 0, 0, ""},
+                     fmt::format("version {} of robot {} has no recorded residuals: no report "
+                                 "can be made of it",
+                                 set->version, ShellWord(robot)));
+  }
+
+  StoredRun stored = StoredRunOf(database, *robot_id, *set, rows);
+  StoredReport out;
+  out.version = set->version;
+  out.missing_poses = stored.missing_poses;
+  RestoreEstimate(model, sig, *set, stored);
+  RestoreValidation(model, sig, *set, robot, stored);
+  const CalibrationRun& run = stored.run;
+
+  ReportInput input;
+  input.robot = robot;
+  input.version = set->version;
+  input.armsig_version = ARMSIG_VERSION;
+  std::string made_active;
+  for (const auto& a : db::ActivationHistory(database, *robot_id)) {
+    if (a.version == set->version)
+      made_active = fmt::format(" (made active by {} at {})", a.activated_by, a.activated_at);
+  }
+  input.decision = fmt::format("version {} as stored on {}{}{}", set->version, set->created_at,
+                               made_active, set->active ? "; active now" : "; not active now");
+  input.gates = StoredGates(*set);
+  input.model = &model;
+  input.run = &run;
+  input.validation = stored.validation;
+  input.sources = LoadReportSources(database, run);
+  {
+    std::vector<int64_t> sessions;
+    for (const auto& s : input.sources.sessions) sessions.push_back(s.id);
+    input.temperature_c = db::PoseTemperatures(database, sessions);
+  }
+  input.history = ReportHistoryOf(database, *robot_id);
+  input.drift_history = ReportDriftOf(database, model, *robot_id, StoredDriftTolerance(*set));
+  AddStoredDecision(model, sig, *set, history, input);
   out.path = WriteReport(dir, input);
   return out;
 }

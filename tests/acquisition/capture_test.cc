@@ -660,7 +660,7 @@ TEST_F(VirtualLabFixture, CtrlCStopsCleanlyAndResumeCompletes) {
   int status = 0;
   ::waitpid(child, &status, 0);
   ASSERT_TRUE(WIFEXITED(status));
-  EXPECT_EQ(WEXITSTATUS(status), 1);
+  EXPECT_EQ(WEXITSTATUS(status), 130);  // stopped by a signal, as every command
   {
     db::Database db(Db());
     EXPECT_EQ(Text(db, "SELECT state FROM sessions"), "paused");
@@ -727,7 +727,7 @@ TEST_F(VirtualLabFixture, CtrlCAtRandomMomentsLeavesAResumableSession) {
     ASSERT_TRUE(state == "paused" || state == "completed") << state << "\n" << err;
     if (state == "completed") continue;
     ++paused;
-    EXPECT_TRUE(WIFEXITED(status) && WEXITSTATUS(status) == 1) << err;
+    EXPECT_TRUE(WIFEXITED(status) && WEXITSTATUS(status) == 130) << err;
     const std::string hint = ResumeHint(err);
     ASSERT_EQ(hint.rfind("armsig --db ", 0), 0u) << err;
     const auto r = testing::RunArmsig(hint.substr(std::string("armsig ").size()), "/");
@@ -1075,7 +1075,7 @@ TEST_F(VirtualLabFixture, StopDuringAFloodPausesWithinAFractionOfTheDeadline) {
   EXPECT_EQ(Count(db, "SELECT count(*) FROM poses"), 6);
 }
 
-// The same through `armsig capture` and a real SIGINT: the process exits 1 with the
+// The same through `armsig capture` and a real SIGINT: the process exits 130 with the
 // session paused within a fraction of a second of Ctrl-C while a theodolite floods.
 TEST_F(VirtualLabFixture, CtrlCDuringAFloodEndsTheCaptureAtOnce) {
   Start({15, 15, 15});
@@ -1102,7 +1102,7 @@ TEST_F(VirtualLabFixture, CtrlCDuringAFloodEndsTheCaptureAtOnce) {
   sims_[1]->ClearFaults();
   const std::string err = testing::ReadText(dir_.File("err"));
   ASSERT_TRUE(WIFEXITED(status)) << err;
-  EXPECT_EQ(WEXITSTATUS(status), 1) << err;
+  EXPECT_EQ(WEXITSTATUS(status), 130) << err;
   EXPECT_LT(took, 2000ms) << err;
   std::cout << "exited " << std::chrono::duration_cast<std::chrono::milliseconds>(took).count()
             << " ms after SIGINT\n";

@@ -235,12 +235,12 @@ TEST_P(DbPushCommand, PushesADemoCellOnceAndRefusesAnotherModel) {
   const std::string push = "--db '" + cell + "' db push --to '" + central + "'";
   auto r = RunArmsig(push);
   ASSERT_EQ(r.exit_code, 0) << r.err;
-  EXPECT_NE(r.out.find("pushed 1 session(s) (30 poses, 90 observations, 30 points)"),
+  EXPECT_NE(r.out.find("pushed 1 session (30 poses, 90 observations, 30 points)"),
             std::string::npos)
       << r.out;
   r = RunArmsig(push);
   ASSERT_EQ(r.exit_code, 0) << r.err;
-  EXPECT_NE(r.out.find("pushed 0 session(s)"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("pushed 0 sessions"), std::string::npos) << r.out;
   // Every reading, with its station's code, the same on both sides (ids differ).
   const std::string readings =
       "SELECT s.code, o.point, o.hz_rad, o.v_rad, o.face, p.seq FROM observations o JOIN "

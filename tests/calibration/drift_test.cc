@@ -2,6 +2,8 @@
 
 #include <gtest/gtest.h>
 
+#include <Eigen/Cholesky>
+#include <Eigen/Geometry>
 #include <random>
 
 #include "calibration/estimation.h"
@@ -58,6 +60,72 @@ TEST(ModelIdentifiableSubset, IsDecidedByTheModelAlone) {
   const Eigen::VectorXd truth = PaperTable3Parameters();
   for (unsigned night = 1; night <= 3; ++night)
     EXPECT_EQ(Night(model, truth, subset, night).identified, subset);
+}
+
+// The profile a drift figure draws. Its distances are those of an independent computation
+// (the templated kinematics of both sets, b's positions aligned onto a's with Eigen's
+// Umeyama); its sigma at the worst configuration is the scatter of |Δx| there when both
+// sets are drawn from their covariances and aligned anew each time (Monte Carlo, 3000
+// draws: the sample's own standard error is about 1.3 %).
+TEST(ProfileDifference, DistancesAndSigmasMatchKinematicsAndMonteCarlo) {
+  const auto model = testing::Puma();
+  const auto subset = ModelIdentifiableSubset(model, All(model));
+  Eigen::VectorXd changed = PaperTable3Parameters();
+  changed(6 * 1 + 5) += 2e-4;  // joint 2's zero, 0.2 mrad: a change of tenths of a mm
+  const FittedSet a = Night(model, PaperTable3Parameters(), subset, 1);
+  const FittedSet b = Night(model, changed, subset, 2);
+  const auto configurations = SpreadConfigurations(model, 50);
+  const DifferenceProfile profile = ProfileDifference(model, a, b, configurations);
+  ASSERT_EQ(profile.distance_mm.size(), configurations.size());
+  ASSERT_EQ(profile.sigma_mm.size(), configurations.size());
+
+  auto positions = [&](const Eigen::VectorXd& params) {
+    Eigen::Matrix3Xd x(3, configurations.size());
+    for (size_t i = 0; i < configurations.size(); ++i)
+      x.col(i) = TargetPosition<double>(model, Eigen::Isometry3d::Identity(), params.data(),
+                                        configurations[i].data());
+    return x;
+  };
+  auto aligned_difference = [&](const Eigen::VectorXd& pa, const Eigen::VectorXd& pb) {
+    const Eigen::Matrix3Xd xa = positions(pa), xb = positions(pb);
+    const Eigen::Matrix4d t = Eigen::umeyama(xb, xa, false);
+    return Eigen::Matrix3Xd(
+        ((t.topLeftCorner<3, 3>() * xb).colwise() + Eigen::Vector3d(t.topRightCorner<3, 1>())) -
+        xa);
+  };
+  const Eigen::Matrix3Xd delta = aligned_difference(a.params, b.params);
+  int worst = 0;
+  for (int i = 0; i < delta.cols(); ++i) {
+    EXPECT_NEAR(profile.distance_mm[i], delta.col(i).norm(), 1e-9) << i;
+    if (delta.col(i).norm() > delta.col(worst).norm()) worst = i;
+  }
+  EXPECT_EQ(profile.worst, worst);
+  EXPECT_GT(profile.distance_mm[worst], 0.1);  // the planted change, well above the noise
+
+  // Monte Carlo: both sets drawn from their covariances (on their identified parameters).
+  std::mt19937 rng(5);
+  std::normal_distribution<double> normal;
+  auto draw = [&](const FittedSet& set) {
+    const Eigen::MatrixXd l = Eigen::LLT<Eigen::MatrixXd>(set.covariance).matrixL();
+    Eigen::VectorXd z(set.identified.size());
+    for (int k = 0; k < z.size(); ++k) z(k) = normal(rng);
+    const Eigen::VectorXd step = l * z;
+    Eigen::VectorXd p = set.params;
+    for (size_t k = 0; k < set.identified.size(); ++k) p(set.identified[k]) += step(k);
+    return p;
+  };
+  const Eigen::Vector3d direction = delta.col(worst).normalized();
+  const int draws = 3000;
+  double sum = 0.0, sum_sq = 0.0;
+  for (int k = 0; k < draws; ++k) {
+    const double along = direction.dot(aligned_difference(draw(a), draw(b)).col(worst));
+    sum += along;
+    sum_sq += along * along;
+  }
+  const double mc_sigma = std::sqrt((sum_sq - sum * sum / draws) / (draws - 1));
+  EXPECT_NEAR(profile.sigma_mm[worst], mc_sigma, 0.06 * mc_sigma)
+      << profile.sigma_mm[worst] << " against " << mc_sigma;
+  EXPECT_NEAR(sum / draws, profile.distance_mm[worst], 0.2 * profile.sigma_mm[worst]);
 }
 
 TEST(CompareModels, IdenticalSetsDoNotDiffer) {

@@ -8,6 +8,7 @@
 #include <SQLiteCpp/Transaction.h>
 #include <gtest/gtest.h>
 
+#include <Eigen/Geometry>
 #include <Eigen/QR>
 #include <algorithm>
 #include <cmath>
@@ -16,6 +17,8 @@
 #include <opencv2/imgproc.hpp>
 #include <random>
 
+#include "calibration/drift.h"
+#include "calibration/identifiability.h"
 #include "calibration/simulation.h"
 #include "db/store.h"
 #include "support/simulated_sessions.h"
@@ -51,12 +54,17 @@ struct Fixture {
           run.validation_pose_ids.end())
         input.validation.push_back(p);
     }
-    // A laser tracker's air temperature with the validation poses, drifting 0.8 °C.
+    // A laser tracker's air temperature with the validation poses, drifting 2 °C.
     for (size_t k = 0; k < run.validation_pose_ids.size(); ++k) {
-      input.temperature_c[run.validation_pose_ids[k]] = 20.1 + 0.8 * k / 60.0 + 0.05 * std::sin(k);
+      input.temperature_c[run.validation_pose_ids[k]] = 20.1 + 2.0 * k / 60.0 + 0.05 * std::sin(k);
     }
     input.history = {{1, "2026-11-01T02:00:00Z", 0.03, "all", false},
                      {2, "2026-11-02T02:00:00Z", 0.02, "geometric", true}};
+    input.history[1].activations = {{"2026-11-02T02:00:00Z", "recalibrate"}};
+    // Version 2 against version 1 (TEST(Report, DriftPanel…) draws it from real fits).
+    input.drift_history.points = {{2, 1, 0.031, 0.012, 0.004, false}};
+    input.drift_history.tolerance_mm = 0.05;
+    input.drift_history.configurations = 50;
     input.generated_at = "2026-11-23T02:30:00Z";
     input.armsig_version = "9.8.7";
     input.sources.sessions = {{4, "2026-11-20T01:00:00.000Z", "2026-11-20T01:40:00.000Z",
@@ -321,8 +329,9 @@ TEST(Report, PrintsOnA4WithFiguresKeptWholeAndNumbersUnwrapped) {
 }
 
 // Error against the air temperature: the slope printed is the least-squares slope of the
-// validation error distances on the temperatures (solved here with Eigen's QR); without
-// temperatures the section says why and the figure says so.
+// validation error distances on the temperatures (solved here with Eigen's QR), with its
+// sigma; without temperatures the section says why and there is no chart; over a span or
+// from poses too few for a slope, the page says why there is none.
 TEST(Report, ErrorAgainstTemperatureGivesTheLeastSquaresSlope) {
   Fixture f;
   TempDir dir;
@@ -336,28 +345,57 @@ TEST(Report, ErrorAgainstTemperatureGivesTheLeastSquaresSlope) {
     b(k) = f.run.validation_residuals[k].norm();
   }
   const Eigen::Vector2d line = a.colPivHouseholderQr().solve(b);
-  const std::string marker = "id=\"temperature-slope\">";
-  ASSERT_NE(html.find(marker), std::string::npos);
-  const std::string slope = html.substr(html.find(marker) + marker.size(), 20);
-  EXPECT_NEAR(std::stod(slope), line(1), 1e-6) << slope;
-  // Its sigma: s² (AᵀA)⁻¹ of the same fit.
+  // Its sigma: s² (AᵀA)⁻¹ of the same fit, printed to two significant digits; the slope to
+  // the same decimal (within half a unit of it).
   const double s2 = (b - a * line).squaredNorm() / static_cast<double>(ids.size() - 2);
   const double sigma = std::sqrt(s2 * (a.transpose() * a).inverse()(1, 1));
-  const std::string sigma_marker = "id=\"temperature-slope-sigma\">";
-  ASSERT_NE(html.find(sigma_marker), std::string::npos);
-  EXPECT_NEAR(std::stod(html.substr(html.find(sigma_marker) + sigma_marker.size(), 20)), sigma,
-              1e-6);
+  auto span_text = [&](const std::string& id) {
+    const std::string marker = "id=\"" + id + "\">";
+    const size_t at = html.find(marker);
+    if (at == std::string::npos) return std::string();
+    return html.substr(at + marker.size(), html.find('<', at + marker.size()) - at - marker.size());
+  };
+  const std::string slope = span_text("temperature-slope"),
+                    shown_sigma = span_text("temperature-slope-sigma");
+  ASSERT_FALSE(slope.empty()) << html;
+  ASSERT_FALSE(shown_sigma.empty());
+  const int decimals = static_cast<int>(slope.size() - slope.find('.') - 1);
+  EXPECT_EQ(decimals, static_cast<int>(shown_sigma.size() - shown_sigma.find('.') - 1))
+      << slope << " ± " << shown_sigma;
+  EXPECT_NEAR(std::stod(slope), line(1), 0.5 * std::pow(10.0, -decimals) + 1e-12) << slope;
+  EXPECT_NEAR(std::stod(shown_sigma), sigma, 0.05 * sigma) << shown_sigma;
   EXPECT_NE(html.find("id=\"temperature-slope-p\">"), std::string::npos);
   EXPECT_NE(html.find(std::to_string(ids.size()) + " of " + std::to_string(ids.size()) +
                       " validation poses have an air temperature"),
             std::string::npos);
   EXPECT_FALSE(cv::imread(dir.File("report/temperature.png")).empty());
 
+  // No temperatures (theodolites): the section says why, and there is no empty chart.
+  const auto temperatures = f.input.temperature_c;
   f.input.temperature_c.clear();
   const std::string none = ReadText(workflows::WriteReport(dir.File("none"), f.input));
   EXPECT_NE(none.find("No validation pose has an air temperature"), std::string::npos);
   EXPECT_EQ(none.find("temperature-slope"), std::string::npos);
-  EXPECT_FALSE(cv::imread(dir.File("none/temperature.png")).empty());
+  EXPECT_TRUE(cv::imread(dir.File("none/temperature.png")).empty());
+  EXPECT_EQ(none.find("alt=\"Error against the air temperature\""), std::string::npos);
+
+  // A steady room (0.01 °C): the points are drawn, but no slope over a span that cannot
+  // show one, and the page says why.
+  for (const auto& [id, t] : temperatures)
+    f.input.temperature_c[id] = 20.0 + 0.01 * (t - 20.1) / 2.0;
+  const std::string steady = ReadText(workflows::WriteReport(dir.File("steady"), f.input));
+  EXPECT_EQ(steady.find("temperature-slope"), std::string::npos);
+  EXPECT_NE(steady.find("the temperatures span only 0.01 °C; a slope needs at least 1 °C"),
+            std::string::npos)
+      << Cell(steady, "temperature-trend");
+  EXPECT_FALSE(cv::imread(dir.File("steady/temperature.png")).empty());
+  // Enough span but too few poses with a temperature.
+  f.input.temperature_c.clear();
+  for (size_t k = 0; k < 5; ++k) f.input.temperature_c[ids[k]] = 19.0 + k;
+  const std::string few = ReadText(workflows::WriteReport(dir.File("few"), f.input));
+  EXPECT_EQ(few.find("temperature-slope"), std::string::npos);
+  EXPECT_NE(few.find("only 5 poses have a temperature; a slope needs at least 10"),
+            std::string::npos);
   // One temperature for all: no slope to give.
   EXPECT_FALSE(workflows::LinearTrendOf({20.0, 20.0, 20.0}, {0.1, 0.2, 0.3}).has_value());
   const auto t = workflows::LinearTrendOf({19.0, 20.0, 21.0}, {0.1, 0.2, 0.3});
@@ -509,6 +547,168 @@ TEST(Report, RecalibrateWritesTheHeaderFromTheDatabase) {
   EXPECT_NE(Cell(html, "sessions").find("session 1: "), std::string::npos);
   EXPECT_NE(Cell(html, "sessions").find("simulated"), std::string::npos);
   EXPECT_NE(Cell(html, "change-note").find("No previous version"), std::string::npos);
+}
+
+// The drift panel shows what drift is: how far version 2 moves the arm against version 1.
+// Its numbers (largest and mean predicted-position difference) equal an independent
+// computation: both sets' positions by the templated kinematics over the same spread
+// configurations, version 2's aligned onto version 1's with Eigen's Umeyama. The tolerance
+// is named, and the made-active marks lie below the plotting area, never among the data.
+TEST(Report, DriftPanelShowsHowFarEachVersionMovedTheArm) {
+  Fixture f;
+  const auto& model = f.model;
+  // Version 1: the fixture's fit; version 2: the same robot with joint 2's zero moved
+  // 0.3 mrad, fitted on fresh poses.
+  std::mt19937 rng(17);
+  Eigen::VectorXd changed = calibration::PaperTable3Parameters();
+  changed(6 * 1 + 5) += 3e-4;
+  const auto poses =
+      calibration::SimulatePoses(model, Eigen::Isometry3d::Identity(), changed,
+                                 calibration::RandomConfigurations(model, 120, rng), 0.02, rng);
+  workflows::CalibrateSettings settings;
+  settings.select = 60;
+  const auto second = workflows::RunCalibration(model, poses, {}, settings);
+  const calibration::FittedSet a{f.run.estimate.params, f.run.estimate.identifiability.identified,
+                                 f.run.estimate.covariance};
+  const calibration::FittedSet b{second.estimate.params, second.estimate.identifiability.identified,
+                                 second.estimate.covariance};
+  const auto spread = calibration::SpreadConfigurations(model, 50);
+  workflows::ReportDriftPoint point = workflows::DriftPointOf(model, a, b, spread);
+  point.version = 2;
+  point.against = 1;
+  point.drift = true;
+  f.input.drift_history.points = {point};
+  f.input.drift_history.tolerance_mm = 0.05;
+  TempDir dir;
+  const std::string html = ReadText(workflows::WriteReport(dir.File("report"), f.input));
+
+  // Independently: positions of both, b aligned onto a, the largest and mean distance.
+  Eigen::Matrix3Xd xa(3, spread.size()), xb(3, spread.size());
+  for (size_t i = 0; i < spread.size(); ++i) {
+    xa.col(i) = calibration::TargetPosition<double>(model, Eigen::Isometry3d::Identity(),
+                                                    a.params.data(), spread[i].data());
+    xb.col(i) = calibration::TargetPosition<double>(model, Eigen::Isometry3d::Identity(),
+                                                    b.params.data(), spread[i].data());
+  }
+  const Eigen::Matrix4d t = Eigen::umeyama(xb, xa, false);
+  const Eigen::Matrix3Xd delta =
+      ((t.topLeftCorner<3, 3>() * xb).colwise() + Eigen::Vector3d(t.topRightCorner<3, 1>())) - xa;
+  const Eigen::VectorXd distances = delta.colwise().norm().transpose();
+  EXPECT_NEAR(CellNumber(html, "drift-2-max"), distances.maxCoeff(), 0.5e-4);
+  EXPECT_NEAR(CellNumber(html, "drift-2-mean"), distances.mean(), 0.5e-4);
+  EXPECT_GT(distances.maxCoeff(), 0.2);  // the planted 0.3 mrad at a metre's reach
+  const double sigma = CellNumber(html, "drift-2-sigma");
+  EXPECT_GT(sigma, 0.0);
+  EXPECT_LT(sigma, 0.1 * distances.maxCoeff());  // 0.02 mm noise on 60 poses each
+  EXPECT_NE(html.find("id=\"drift-tolerance\">0.050<"), std::string::npos);
+  EXPECT_NE(html.find("Drift is how far a new parameter set moves the arm"), std::string::npos);
+
+  // The figure: made-active marks (the only green in it) below the frame's bottom edge and
+  // its tick labels.
+  const cv::Mat figure = cv::imread(dir.File("report/drift.png"), cv::IMREAD_COLOR);
+  ASSERT_FALSE(figure.empty());
+  int bottom = -1;  // the lowest row that is mostly the frame's ink
+  for (int y = 0; y < figure.rows; ++y) {
+    int ink = 0;
+    for (int x = 0; x < figure.cols; ++x) {
+      const cv::Vec3b p = figure.at<cv::Vec3b>(y, x);
+      ink += p[0] == 40 && p[1] == 40 && p[2] == 40;
+    }
+    if (ink > figure.cols / 2) bottom = y;
+  }
+  ASSERT_GT(bottom, 0);
+  int green = 0, green_above = 0;
+  for (int y = 0; y < figure.rows; ++y) {
+    for (int x = 0; x < figure.cols; ++x) {
+      const cv::Vec3b p = figure.at<cv::Vec3b>(y, x);
+      if (p[1] > 120 && p[0] < 110 && p[2] < 90) {  // kGreen (70, 150, 40), antialiased
+        ++green;
+        green_above += y <= bottom + 20;
+      }
+    }
+  }
+  EXPECT_GT(green, 20) << "no made-active mark";
+  EXPECT_EQ(green_above, 0) << "a made-active mark among the data or the tick labels";
+
+  // Nothing to compare (one version): no empty panel, a sentence instead.
+  f.input.drift_history.points.clear();
+  const std::string single = ReadText(workflows::WriteReport(dir.File("single"), f.input));
+  EXPECT_TRUE(cv::imread(dir.File("single/drift.png")).empty());
+  EXPECT_NE(single.find("No earlier parameter set to compare with"), std::string::npos);
+}
+
+// Parameter sigmas with two significant digits (never "± 0.000"), the value to the same
+// decimal, each the fit's own within its rounding.
+TEST(Report, ParameterSigmasHaveSignificantDigits) {
+  Fixture f;
+  TempDir dir;
+  const std::string html = ReadText(workflows::WriteReport(dir.File("report"), f.input));
+  EXPECT_EQ(html.find("&plusmn; 0.000<"), std::string::npos);
+  const auto names = f.model.ParameterNames();
+  int checked = 0;
+  for (int k : f.run.estimate.identifiability.identified) {
+    const std::string marker = "id=\"param-" + names[k] + "\">";
+    const size_t at = html.find(marker);
+    ASSERT_NE(at, std::string::npos) << names[k];
+    std::string cell = html.substr(at + marker.size(), 80);
+    if (k >= f.model.num_geometric()) cell = cell.substr(cell.find(" = ") + 3);  // "h1 = …"
+    const size_t pm = cell.find(" &plusmn; ");
+    ASSERT_NE(pm, std::string::npos) << cell;
+    const std::string value = cell.substr(0, pm);
+    std::string sigma = cell.substr(pm + 10);
+    sigma = sigma.substr(0, sigma.find_first_of(" <"));
+    const bool angle = f.model.UnitOf(k) == calibration::ParameterUnit::kRad;
+    const double scale = angle ? 1e3 : 1.0;
+    const double true_sigma = f.run.estimate.sigmas(k) * scale;
+    EXPECT_NEAR(std::stod(sigma), true_sigma, 0.051 * true_sigma) << names[k] << ": " << cell;
+    const size_t first = sigma.find_first_not_of("0.");
+    int digits = 0;
+    for (size_t i = first; i < sigma.size(); ++i) digits += sigma[i] != '.';
+    if (sigma.find('.') != std::string::npos) {
+      EXPECT_EQ(digits, 2) << names[k] << ": " << sigma;
+    }
+    const int decimals = static_cast<int>(value.size() - value.find('.') - 1);
+    EXPECT_GE(decimals, 3) << value;
+    EXPECT_NEAR(std::stod(value), f.run.estimate.params(k) * scale,
+                0.5 * std::pow(10.0, -decimals) + 1e-12)
+        << names[k];
+    ++checked;
+  }
+  EXPECT_EQ(checked, f.run.estimate.identifiability.rank);
+}
+
+// Four nightly sessions whose one network gave all three stations the same σ0: one line,
+// not twelve; a session whose σ0 differs keeps a line of its own.
+TEST(Report, EqualOrientationSigma0sAreSaidOnce) {
+  std::vector<workflows::ReportStationSetup> setups;
+  for (int64_t session : {4, 5, 6, 7})
+    for (const char* station : {"T1", "T2", "T3"})
+      setups.push_back({session, station, 0.942, 25, "mutual+scale_bar"});
+  for (const char* station : {"T1", "T2", "T3"})
+    setups.push_back({8, station, 1.310, 25, "mutual+scale_bar"});
+  const auto groups = workflows::Sigma0Groups(setups);
+  ASSERT_EQ(groups.size(), 2u);
+  EXPECT_EQ(groups[0].sessions, (std::vector<int64_t>{4, 5, 6, 7}));
+  EXPECT_EQ(groups[0].stations, (std::vector<std::string>{"T1", "T2", "T3"}));
+  EXPECT_EQ(groups[1].sessions, (std::vector<int64_t>{8}));
+  // Within a session, stations with different figures stay apart.
+  setups.push_back({9, "T1", 0.9, 25, "m"});
+  setups.push_back({9, "T2", std::nullopt, 0, ""});
+  EXPECT_EQ(workflows::Sigma0Groups(setups).size(), 4u);
+
+  Fixture f;
+  f.input.sources.setups.assign(setups.begin(), setups.begin() + 15);
+  TempDir dir;
+  const std::string html = ReadText(workflows::WriteReport(dir.File("report"), f.input));
+  const std::string sigma0 = Cell(html, "sigma0");
+  EXPECT_NE(sigma0.find("sessions 4, 5, 6, 7, stations T1, T2, T3: &sigma;<sub>0</sub> = 0.942 "
+                        "(25 dof, mutual+scale_bar)"),
+            std::string::npos)
+      << sigma0;
+  size_t lines = 0;
+  for (size_t at = sigma0.find("<div>"); at != std::string::npos; at = sigma0.find("<div>", at + 1))
+    ++lines;
+  EXPECT_EQ(lines, 2u) << sigma0;
 }
 
 }  // namespace armsig::testing

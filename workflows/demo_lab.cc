@@ -1,0 +1,189 @@
+#include "workflows/demo_lab.h"
+
+#include <chrono>
+#include <cmath>
+#include <stdexcept>
+
+#include "calibration/simulation.h"
+#include "core/units.h"
+#include "instruments/geocom_device.h"
+#include "io/atomic_file.h"
+#include "io/builtin_models.h"
+#include "io/network_io.h"
+#include "reduction/observation.h"
+#include "workflows/network.h"
+
+namespace armsig::workflows {
+
+namespace {
+
+constexpr double kSigmaArcsec = 0.5;
+
+// The robot's base in the lab frame: about 3 m from a tracker at the origin and lower; in
+// the middle of the three theodolites otherwise.
+Eigen::Isometry3d BaseOf(bool tracker) {
+  Eigen::Isometry3d base = Eigen::Isometry3d::Identity();
+  if (tracker) {
+    base.translate(Eigen::Vector3d(2300.0, 1600.0, -1100.0));
+    base.rotate(Eigen::AngleAxisd(2.6, Eigen::Vector3d::UnitZ()));
+  } else {
+    base.translate(Eigen::Vector3d(120.0, -80.0, 0.0));
+    base.rotate(Eigen::AngleAxisd(0.35, Eigen::Vector3d::UnitZ()));
+  }
+  return base;
+}
+
+Eigen::VectorXd TruthOf(const calibration::RobotModel& model, const Eigen::VectorXd& planted) {
+  Eigen::VectorXd truth = calibration::PaperTable3Parameters();
+  if (planted.size() == model.num_parameters()) truth += planted;
+  return truth;
+}
+
+}  // namespace
+
+DemoLab::DemoLab(const calibration::RobotModel& model, const DemoLabOptions& options)
+    : options_(options),
+      base_(BaseOf(options.tracker)),
+      lab_(model, TruthOf(model, options.planted), base_, options.seed) {
+  using namespace std::chrono_literals;
+  simulator_options_.time_scale = options.time_scale;
+  simulator_options_.angle_latency = 40ms;
+  simulator_options_.motion_latency = 60ms;
+  lab_file_.model_path = "puma760.yaml";
+  lab_file_.stations_path = "stations.yaml";
+  lab_file_.controller.protocol = "as";
+  lab_file_.controller.can_move = true;
+  lab_file_.tolerances.max_miss_mm = 0.1;
+  lab_file_.tolerances.settle_ms = 0;
+  lab_file_.tolerances.readings = 1;
+  lab_file_.timeout_ms = 2000;
+  lab_.SetRepeatability(options.repeatability_mm);
+  if (options.tracker) {
+    AddTracker();
+  } else {
+    AddTheodolites();
+  }
+  controller_ = std::make_unique<simulation::ValSimulator>(
+      lab_, (options.folder / "robot").string(), simulation::ValSimulator::Layout::kKawasakiAs,
+      simulator_options_);
+  controller_->Start();
+  lab_file_.controller.port = controller_->path();
+}
+
+void DemoLab::AddTracker() {
+  simulation::VirtualStation station;
+  station.pose.id = "LT1";  // at the origin, levelled, circle zero along +y: the lab frame
+  lab_.AddStation(station);
+  simulation::EmsconSimulatorOptions o;
+  o.time_scale = options_.time_scale;
+  o.seed = options_.seed;
+  // The reflector is found only near the beam: within 25 mm where it points, within
+  // 150 mm by a search (FindReflector).
+  o.acquire_radius_mm = 25.0;
+  o.search_radius_mm = 150.0;
+  auto tracker = std::make_unique<simulation::EmsconSimulator>(lab_, 0, "127.0.0.1", 0, o);
+  tracker->Start();
+  tracker_ = tracker.get();
+  acquisition::InstrumentConfig i;
+  i.station = "LT1";
+  i.protocol = "emscon";
+  i.tcp = tracker->path();
+  i.distance = true;
+  i.measurement_time_ms = 200;
+  lab_file_.instruments.push_back(i);
+  simulators_.push_back(std::move(tracker));
+}
+
+void DemoLab::AddTheodolites() {
+  const double angles[3] = {0.2, 2.3, 4.3};
+  for (int s = 0; s < 3; ++s) {
+    simulation::VirtualStation st;
+    st.pose.id = "T" + std::to_string(s + 1);
+    st.pose.position_mm = {3600.0 * std::cos(angles[s]), 3600.0 * std::sin(angles[s]),
+                           450.0 + 150.0 * s};
+    st.pose.azimuth_rad = WrapTwoPi(1.1 + 2.0 * s);
+    st.pose.world_from_station = reduction::LevelledRotation(st.pose.azimuth_rad);
+    st.sigma_angle_rad = kSigmaArcsec * kRadPerArcsec;
+    lab_.AddStation(st);
+  }
+  for (int s = 0; s < 3; ++s) {
+    const std::string id = "T" + std::to_string(s + 1);
+    simulators_.push_back(std::make_unique<simulation::GeoComSimulator>(
+        lab_, s, (options_.folder / id).string(), simulator_options_, "TDRA6000", 358120 + s));
+    simulators_.back()->Start();
+    acquisition::InstrumentConfig i;
+    i.station = id;
+    i.protocol = "geocom";
+    i.port = simulators_.back()->path();
+    i.sigma_hz_arcsec = i.sigma_v_arcsec = kSigmaArcsec;
+    lab_file_.instruments.push_back(i);
+  }
+}
+
+DemoOrientation DemoLab::OrientTheodolites() {
+  if (tracker_) throw std::logic_error("OrientTheodolites: a tracker lab needs no orientation");
+  DemoOrientation out;
+  reduction::OrientationProblem& setup = out.setup;
+  std::vector<std::unique_ptr<instruments::GeoComDevice>> drivers;
+  for (int s = 0; s < 3; ++s) {
+    instruments::SerialSettings port;
+    port.path = simulators_[s]->path();
+    drivers.push_back(
+        std::make_unique<instruments::GeoComDevice>(instruments::MakeSerialTransport(port)));
+    setup.station_ids.push_back("T" + std::to_string(s + 1));
+  }
+  std::vector<std::string> targets = {"T1", "T2", "T3"};
+  const Eigen::Vector3d bar_centres[3] = {{-300, 400, 600}, {500, -200, 1100}, {200, 600, 200}};
+  const Eigen::Vector3d bar_dirs[3] = {{1, 0, 0}, {0, 0.6, 0.8}, {0.6, -0.8, 0}};
+  for (int b = 0; b < 3; ++b) {
+    const std::string a = "BAR" + std::to_string(b + 1) + "a",
+                      c = "BAR" + std::to_string(b + 1) + "b";
+    lab_.AddPoint(a, bar_centres[b] - 500.0 * bar_dirs[b].normalized());
+    lab_.AddPoint(c, bar_centres[b] + 500.0 * bar_dirs[b].normalized());
+    targets.push_back(a);
+    targets.push_back(c);
+    setup.scale_bars.push_back({a, c, 1000.0, 0.005});
+  }
+  for (int s = 0; s < 3; ++s) {
+    for (const auto& t : targets) {
+      if (t == setup.station_ids[s]) continue;
+      lab_.Aim(s, t);
+      reduction::Observation o;
+      o.station = setup.station_ids[s];
+      o.point = t;
+      o.reading = drivers[s]->MeasureAngles().angles;
+      o.sigma_hz_rad = o.sigma_v_rad = kSigmaArcsec * kRadPerArcsec;
+      setup.observations.push_back(o);
+    }
+    lab_.Aim(s, "robot");
+  }
+  out.result = reduction::Orient(setup);
+  if (!out.result.status.ok())
+    throw std::runtime_error("demo: orientation failed: " + out.result.status.message);
+  return out;
+}
+
+std::vector<reduction::Station> DemoLab::TrackerStations() const {
+  reduction::Station lt1;
+  lt1.pose = lab_.station(0).pose;
+  return {lt1};
+}
+
+acquisition::LabConfig DemoLab::WriteLabFiles(const std::vector<reduction::Station>& stations,
+                                              bool base_by_hand) {
+  const std::filesystem::path& folder = options_.folder;
+  io::WriteFileAtomically((folder / "puma760.yaml").string(), io::kPuma760Yaml);
+  io::WriteFileAtomically((folder / "stations.yaml").string(),
+                          io::FormatStationsYaml(stations, "armsig demo"));
+  if (base_by_hand && tracker_) {
+    // Measured by hand, as a lab would: 3 mm and 1 mrad off the truth.
+    Eigen::Isometry3d given = base_;
+    given.translate(Eigen::Vector3d(3.0, -2.0, 1.5));
+    given.rotate(Eigen::AngleAxisd(1e-3, Eigen::Vector3d::UnitZ()));
+    lab_file_.robot_base = given;
+  }
+  io::WriteFileAtomically((folder / "lab.yaml").string(), acquisition::FormatLabYaml(lab_file_));
+  return acquisition::LoadLab((folder / "lab.yaml").string());
+}
+
+}  // namespace armsig::workflows

@@ -1,0 +1,81 @@
+// The demo's virtual lab: a PUMA 760 whose hidden truth is the paper's Table 3 (plus any
+// planted change), its Kawasaki-AS-style controller on a pseudo-terminal, and either three
+// GeoCOM theodolites on pseudo-terminals, oriented from mutual pointings and a 1 m scale
+// bar read through the real drivers, or one laser tracker speaking emScon on loopback TCP,
+// whose own frame is the lab frame. Its devices run while the object lives; the lab file,
+// stations file and model a technician would write go into its folder.
+#pragma once
+
+#include <Eigen/Geometry>
+#include <filesystem>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "acquisition/lab.h"
+#include "calibration/model.h"
+#include "reduction/orientation.h"
+#include "simulation/emscon_simulator.h"
+#include "simulation/simulators.h"
+#include "simulation/virtual_lab.h"
+
+namespace armsig::workflows {
+
+struct DemoLabOptions {
+  bool tracker = false;      // one laser tracker instead of three theodolites
+  unsigned seed = 1985;      // the instruments' noise
+  double time_scale = 0.25;  // multiplies every simulated instrument latency
+  double repeatability_mm = 0.0;
+  Eigen::VectorXd planted;       // added to the paper's Table 3 (empty: nothing planted)
+  std::filesystem::path folder;  // the devices' links and the lab files
+};
+
+// The theodolites' set-up as adjusted (reduction::Orient) from their readings.
+struct DemoOrientation {
+  reduction::OrientationProblem setup;
+  reduction::OrientationResult result;
+};
+
+class DemoLab {
+ public:
+  // Builds the truth and starts every device (the robot's controller last).
+  DemoLab(const calibration::RobotModel& model, const DemoLabOptions& options);
+  DemoLab(const DemoLab&) = delete;
+  DemoLab& operator=(const DemoLab&) = delete;
+
+  // Theodolites only: each aims at the other two and at both ends of a 1 m scale bar set up
+  // at three places, read through its GeoCOM driver; the readings adjusted with the bar's
+  // length as the scale. Throws std::runtime_error when the adjustment fails.
+  DemoOrientation OrientTheodolites();
+
+  // puma760.yaml, stations.yaml (from `stations`) and lab.yaml in the folder, the lab file
+  // naming these devices; `base_by_hand`: a tracker lab's `robot: base:` as a technician
+  // would measure it, 3 mm and 1 mrad off the truth. Returns the lab file as loaded.
+  acquisition::LabConfig WriteLabFiles(const std::vector<reduction::Station>& stations,
+                                       bool base_by_hand);
+
+  // The one station of a tracker lab (LT1 at the origin, levelled, azimuth 0).
+  std::vector<reduction::Station> TrackerStations() const;
+
+  bool has_tracker() const { return tracker_ != nullptr; }
+  simulation::EmsconSimulator* tracker() const { return tracker_; }
+  // Where the devices are: the tracker's address, or the folder of the pseudo-terminals.
+  std::string tracker_address() const { return tracker_ ? tracker_->path() : std::string(); }
+  const std::filesystem::path& folder() const { return options_.folder; }
+  simulation::VirtualLab& truth() { return lab_; }
+
+ private:
+  void AddTracker();
+  void AddTheodolites();
+
+  DemoLabOptions options_;
+  Eigen::Isometry3d base_ = Eigen::Isometry3d::Identity();  // the robot's base in the lab frame
+  simulation::VirtualLab lab_;
+  simulation::SimulatorOptions simulator_options_;
+  std::vector<std::unique_ptr<simulation::Simulator>> simulators_;  // theodolites or tracker
+  simulation::EmsconSimulator* tracker_ = nullptr;                  // in `simulators_`
+  std::unique_ptr<simulation::ValSimulator> controller_;
+  acquisition::LabFile lab_file_;
+};
+
+}  // namespace armsig::workflows
