@@ -163,18 +163,26 @@ SelectionResult SelectConfigurations(const RobotModel& model,
   for (int i = 0; i < m; ++i) s[i] = blocks[i] * m_inv * blocks[i].transpose();
   std::vector<char> in(m, 0);
 
+  // Every candidate's rows in one matrix: one product per update serves all of them (a
+  // 3 × l product per candidate spends its time setting up instead of multiplying).
+  Eigen::MatrixXd stacked(3 * m, l);
+  for (int i = 0; i < m; ++i) stacked.middleRows(3 * i, 3) = blocks[i];
+
   // Rank-3 update of M⁻¹ and every Sᵢ for adding (sign +1) or removing (−1) candidate k.
   Eigen::MatrixXd u(l, 3);
-  Eigen::MatrixXd projected(3, 3);
+  Eigen::MatrixXd w(3 * m, 3);
   auto apply = [&](int k, double sign) {
     u.noalias() = m_inv * blocks[k].transpose();  // M⁻¹ Jₖᵀ (l × 3)
     const Eigen::Matrix3d c = Eigen::Matrix3d::Identity() + sign * s[k];
     const Eigen::Matrix3d c_inv = c.inverse();
     // Woodbury: (M ± JₖᵀJₖ)⁻¹ = M⁻¹ ∓ U C⁻¹ Uᵀ.
     m_inv.noalias() -= sign * (u * c_inv * u.transpose());
+    // Jᵢ M⁻¹ Jₖᵀ for every i, stacked: column by column (a matrix-vector product does not
+    // repack the tall matrix as a matrix-matrix product would).
+    for (int c = 0; c < 3; ++c) w.col(c).noalias() = stacked * u.col(c);
     for (int i = 0; i < m; ++i) {
-      const Eigen::Matrix3d w = blocks[i] * u;  // Jᵢ M⁻¹ Jₖᵀ
-      s[i].noalias() -= sign * (w * c_inv * w.transpose());
+      const Eigen::Matrix3d wi = w.middleRows<3>(3 * i);
+      s[i].noalias() -= sign * (wi * c_inv * wi.transpose());
     }
   };
 
