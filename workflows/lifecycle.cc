@@ -357,8 +357,8 @@ std::string FormatRobots(const std::vector<db::RobotRow>& robots, bool json,
   for (const auto& r : robots) {
     text +=
         // Text from the database is shown, never obeyed (an edited file may hold anything).
-        fmt::format("{:<20} model {:<12} {:>3} sessions  active version {}\n", Printable(r.name),
-                    Printable(r.model_name), r.sessions,
+        fmt::format("{:<20} model {:<12} {:>12}  active version {}\n", Printable(r.name),
+                    Printable(r.model_name), Count(r.sessions, "session"),
                     r.active_version ? std::to_string(*r.active_version) : "none");
   }
   return text;
@@ -366,11 +366,12 @@ std::string FormatRobots(const std::vector<db::RobotRow>& robots, bool json,
 
 namespace {
 
-// `line` and `more` on one line when it fits 100 columns, else `more` on the next, indented.
-std::string OneLineOrTwo(const std::string& line, const std::string& more) {
+// `line` and `more` on one line when it fits 100 columns, else `more` on the next, indented
+// by `indent` columns.
+std::string OneLineOrTwo(const std::string& line, const std::string& more, int indent) {
   if (more.empty()) return line + "\n";
   if (DisplayWidth(line) + 2 + DisplayWidth(more) <= 100) return line + "  " + more + "\n";
-  return line + "\n      " + more + "\n";
+  return line + "\n" + std::string(indent, ' ') + more + "\n";
 }
 
 }  // namespace
@@ -385,7 +386,7 @@ std::string FormatSessions(const std::vector<db::SessionSummary>& sessions, bool
                     Printable(s.robot), Printable(s.state),
                     Printable(TimeToTheSecond(s.started_at)), s.measured, s.skipped, s.usable,
                     s.flagged),
-        Printable(s.note));
+        Printable(s.note), 6);
   }
   return WrapLines(text, 100, 6);
 }
@@ -417,7 +418,7 @@ std::string FormatVersions(const std::vector<VersionInfo>& versions, bool json,
     text += OneLineOrTwo(
         fmt::format("       validation mean {:.4f} max {:.4f} mm on {}", v.validation_mean_mm,
                     v.validation_max_mm, Count(v.poses_validation, "pose")),
-        activated);
+        activated, 7);
     if (v.drift && *v.drift && (v.change_from_session || !v.cause.empty())) {
       text += fmt::format(
           "       {}{}\n",
@@ -428,7 +429,7 @@ std::string FormatVersions(const std::vector<VersionInfo>& versions, bool json,
           Printable(v.cause.empty() ? std::string("no cause named") : v.cause));
     }
   }
-  return WrapLines(text, 100, 9);
+  return WrapLines(text, 100, 2);
 }
 
 nlohmann::json ToJson(const db::RobotRow& r) {

@@ -801,7 +801,7 @@ void NightlyJob::TestAgainstActive() {
   change.effect_max_mm = t.effect_max_mm;
   change.p_value = t.p_value;
   d_.change = std::move(change);
-  Log(fmt::format("the robot disagrees with version {} from session {} on ({} configurations)",
+  Log(fmt::format("the robot disagrees with version {} from session {} onwards ({} configurations)",
                   current_->version, *d_.change->from_session, d_.change->poses_after));
 }
 

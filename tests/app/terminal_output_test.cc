@@ -110,6 +110,16 @@ TEST_F(DemoOutput, CountsTakeTheirPlural) {
   EXPECT_NE(out.find("degrees of freedom"), std::string::npos);
 }
 
+// The robot list of the demo's store: its one robot with its one session, said in the
+// singular.
+TEST_F(DemoOutput, TheRobotListCountsItsSessionsInWords) {
+  ASSERT_EQ(result_->exit_code, 0) << result_->err;
+  const auto r = RunArmsig("--db '" + dir_->File("demo.db") + "' robot list");
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_NE(r.out.find(" 1 session "), std::string::npos) << r.out;
+  EXPECT_EQ(r.out.find("1 sessions"), std::string::npos) << r.out;
+}
+
 // Stored times are shown with their zone (ISO 8601: Z or an offset), never as a bare clock.
 TEST_F(DemoOutput, VersionsSessionsAndJobsShowTimesWithTheirZone) {
   ASSERT_EQ(result_->exit_code, 0) << result_->err;
