@@ -403,7 +403,13 @@ Reading EmsconDevice::Measure() {
   return WithRetries(es::StartMeasurement::kCommand, CallDeadline(), [&](Deadline share) {
     const es::MeasResult m = MeasureResult(share);
     Reading r = ReadingOf(m);
-    if (!convention_checked_) CheckConventionWith(m, share);
+    // The self-check is set-up, not this reading (as Initialize is): its own stationary
+    // measurement and coordinate-type changes get their own time, so a call's deadline
+    // that fits one reading also fits the first on a connection.
+    if (!convention_checked_) {
+      const auto own = Clock::now() + Millis(options_.measurement_time_ms) + policy_.timeout;
+      CheckConventionWith(m, std::max(share, own));
+    }
     return r;
   });
 }

@@ -371,8 +371,19 @@ TEST(EmsconCommand, SimulateServesAReader) {
   testing::CommandResult served;
   std::thread server([&] {
     served =
-        testing::RunArmsig("instrument simulate --protocol emscon --tcp " + tcp + " --seconds 4");
+        testing::RunArmsig("instrument simulate --protocol emscon --tcp " + tcp + " --seconds 8");
   });
+  // `instrument read` with its default deadline (3 s) and the tracker's default stationary
+  // time (500 ms): the first reading on a connection includes the convention self-check
+  // (a second measurement), which has time of its own.
+  testing::CommandResult read;
+  const auto listening = std::chrono::steady_clock::now() + 6s;
+  do {  // the program takes a moment to start listening: exit 1, "connection refused"
+    read = testing::RunArmsig("instrument read --protocol emscon --tcp " + tcp + " --json");
+  } while (read.exit_code != 0 && read.err.find("refused") != std::string::npos &&
+           std::chrono::steady_clock::now() < listening);
+  ASSERT_EQ(read.exit_code, 0) << read.err;
+  EXPECT_GT(nlohmann::json::parse(read.out)["distance_mm"].get<double>(), 1000.0);
   instruments::RetryPolicy policy;
   policy.timeout = 3000ms;
   instruments::EmsconOptions options;
