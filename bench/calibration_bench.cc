@@ -1,5 +1,5 @@
-// Calibration speed (issue #3): full 43-parameter fit on 80 and 10,000 poses, and
-// selecting 80 of 10,000 candidates. Issue #13: the whole beyond-geometric fit on the
+// Calibration speed: full 43-parameter fit on 80 and 10,000 poses, and
+// selecting 80 of 10,000 candidates. The whole beyond-geometric fit on the
 // UR10 split (1,773 poses: terms by F-test and cross-validation, the residual map's
 // cross-validation on two threads) and predictions with the map.
 // Run by hand: build/bench/calibration_bench

@@ -1,4 +1,4 @@
-// The fleet's figures (issue 14), run by hand on a PostgreSQL server of the bench's own
+// The fleet's figures, run by hand on a PostgreSQL server of the bench's own
 // (the tests' support/postgres_server: initdb into a temporary directory, Unix socket,
 // fsync off — an upper bound for a real server) and on SQLite files:
 //   build/bench/fleet_bench --benchmark_filter=Nightly   1,000 robots × 200 configurations

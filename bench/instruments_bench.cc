@@ -1,8 +1,8 @@
-// Reading three instruments costs the slowest one's latency, not their sum (issue #5):
+// Reading three instruments costs the slowest one's latency, not their sum:
 // three virtual GeoCOM theodolites on pseudo-terminals with 60, 90 and 120 ms latency,
-// read one after another and all at once. Faults on the line (issue #15): the time from
+// read one after another and all at once. Faults on the line: the time from
 // a driver call to its typed error for every case of simulation::FaultMatrix() at a
-// 1000 ms deadline (the README's table). Laser trackers (issue 12): the software overhead
+// 1000 ms deadline (the README's table). Laser trackers: the software overhead
 // of one tracker reading, StartMeasurement to the parsed and checked Reading, with the
 // virtual tracker answering without latency over loopback TCP (driver, codec, transport,
 // kernel and the simulator's own work), and the codec alone. Run by hand:

@@ -1,4 +1,4 @@
-// reduce of 1,000,000 stored observations end to end (issue #4: ≤ 10 s): SQLite read,
+// reduce of 1,000,000 stored observations end to end (the target: ≤ 10 s): SQLite read,
 // grouping, intersection, one write transaction. Run by hand: build/bench/reduce_bench
 #include <benchmark/benchmark.h>
 #include <unistd.h>

@@ -1,4 +1,4 @@
-// Reduction speed (issue #4): three-ray intersection with covariance (≥ 1,000,000
+// Reduction speed: three-ray intersection with covariance (≥ 1,000,000
 // points/s), orienting 3 stations with 200 target points (≤ 50 ms).
 // Run by hand: build/bench/reduction_bench
 #include <benchmark/benchmark.h>

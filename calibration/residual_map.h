@@ -1,4 +1,4 @@
-// The residual map (issue 13): what the parametric model still leaves, learned as a smooth
+// The residual map: what the parametric model still leaves, learned as a smooth
 // function of the joint angles and added to its predictions — but only where it has been
 // shown to help, and only where it has data.
 //

@@ -1,5 +1,5 @@
 // Physical non-geometric terms generated from the nominal model, beside the paper's
-// h1…h4 (issue 13, "Beyond the geometric model"). Both families add to the true angle of
+// h1…h4. Both families add to the true angle of
 // one joint, like the paper's eq. (6)–(7), so they share its Jacobian (∂x/∂θ_joint · f),
 // its identifiability analysis and its F-tests:
 //

@@ -1,4 +1,4 @@
-// The job queue of the nightly work (issue 14): one row per job in a `jobs` table, written
+// The job queue of the nightly work: one row per job in a `jobs` table, written
 // only through db::Connection so that the same statements run on SQLite (one machine) and
 // PostgreSQL (any number of machines draining one server).
 //

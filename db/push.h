@@ -1,4 +1,4 @@
-// `armsig db push`: a cell's local database copied into a central store (issue 14), so
+// `armsig db push`: a cell's local database copied into a central store, so
 // that a cell without a permanent network still ends in the plant's one place.
 //
 // What travels: every finished session (completed or aborted) with its station set-ups,

@@ -202,13 +202,13 @@ ALTER TABLE sessions ADD COLUMN owner_host TEXT;
 ALTER TABLE sessions ADD COLUMN owner_started TEXT;   -- that process's start (boot id / start tick), against pid reuse
 )sql";
 
-// Schema v5: a parameter set may carry the residual map used with it (issue 13), as JSON
+// Schema v5: a parameter set may carry the residual map used with it, as JSON
 // (io/residual_map_json.h); NULL for parametric sets.
 constexpr std::string_view kSchemaV5 = R"sql(
 ALTER TABLE calibrations ADD COLUMN residual_map_json TEXT;
 )sql";
 
-// Schema v6 (issue 12, laser trackers): the air at the instrument with every reading (a
+// Schema v6 (laser trackers): the air at the instrument with every reading (a
 // laser tracker's weather station reports temperature, pressure and humidity with each
 // result), for the record and for the recalibration report's error-against-temperature
 // figure; NULL for readings without it (theodolites, older files).
@@ -218,13 +218,13 @@ ALTER TABLE observations ADD COLUMN pressure_hpa REAL;      -- hPa
 ALTER TABLE observations ADD COLUMN humidity_percent REAL;  -- % relative humidity
 )sql";
 
-// ---- Schema v7 (issue 14): the job queue of the nightly work. --------------------------
+// ---- Schema v7: the job queue of the nightly work. --------------------------
 // Kept apart so that renumbering at a merge is moving this one entry: the DDL is
 // db/jobs.cc's (the same text creates the table on PostgreSQL, EnsureJobsSchema).
 constexpr int kJobsMigration = 7;  // the schema version that adds `jobs`
 // --------------------------------------------------------------------------------------
 
-// Schema v8 (issue 14, `db push`): a session and a parameter set get a UUID the first time
+// Schema v8 (`db push`): a session and a parameter set get a UUID the first time
 // they are pushed to a central store, so that a second push (or one resumed after a cut
 // connection) recognises what the server already holds; NULL until then.
 constexpr std::string_view kSchemaV8 = R"sql(
@@ -234,7 +234,7 @@ ALTER TABLE calibrations ADD COLUMN uuid TEXT;
 CREATE UNIQUE INDEX calibrations_by_uuid ON calibrations(uuid);
 )sql";
 
-// Schema v9 (issue 14, the store on PostgreSQL): a parameter set's parameters keep the
+// Schema v9 (the store on PostgreSQL): a parameter set's parameters keep the
 // model's order in a column of their own (SQLite's rowid gave it, which PostgreSQL has not);
 // existing rows get it from their rowid.
 constexpr std::string_view kSchemaV9 = R"sql(

@@ -20,7 +20,7 @@ struct Signature {
   int version = 0;
   Eigen::VectorXd params, sigmas;
   std::optional<Eigen::Isometry3d> world_from_base;  // the measuring frame of its data
-  // The residual map stored with the set (issue 13); null = parametric only.
+  // The residual map stored with the set; null = parametric only.
   std::shared_ptr<const calibration::ResidualMap> map;
 };
 

@@ -1,4 +1,4 @@
-// The nightly job as a queue (issue 14): `schedule` enqueues one recalibration job per robot,
+// The nightly job as a queue: `schedule` enqueues one recalibration job per robot,
 // any number of workers (threads, processes, machines) drain the queue, each job running
 // workflows::Recalibrate with its gates, the outcome stored with the job (db/jobs.h).
 //

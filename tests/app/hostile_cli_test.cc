@@ -1,4 +1,4 @@
-// Issue 15 through the real binary: hostile inputs and damaged databases give exit code 2
+// Through the real binary: hostile inputs and damaged databases give exit code 2
 // with file:line:column (or the option) and never a crash, a lie or a write.
 #include <gtest/gtest.h>
 #include <sys/stat.h>
@@ -136,7 +136,7 @@ TEST(HostileCli, ImportIntoADamagedDatabaseIsExit2WithTheRecoveryCommand) {
   EXPECT_FALSE(std::filesystem::exists(path + "-wal"));
 }
 
-// --- Issue 15, second audit.
+// --- Hostile inputs, a second audit.
 
 // Lines of `err` that start like one of armsig's own log lines.
 std::vector<std::string> LogLines(const std::string& err) {

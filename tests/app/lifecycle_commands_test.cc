@@ -179,8 +179,8 @@ TEST_P(LifecycleOnStore, RealUr10NightlyPathReproducesTheHeldOutFigure) {
                 .exit_code,
             0);
   const auto night = RunArmsig(db +
-                               // The parametric figure: the residual map (on by default since
-                               // issue 13) would bring it to 0.39 mm.
+                               // The parametric figure: the residual map (on by default)
+                               // would bring it to 0.39 mm.
                                "recalibrate --robot ur10 --params geometric --select 1773 "
                                "--residual-model off "
                                "--max-validation-mean-mm 0.6 --json '" +
@@ -331,7 +331,7 @@ TEST(LifecycleCommands, ImportTrackerPointsAndJointLogIntoASession) {
 
 namespace armsig::testing {
 
-// The residual map in the life cycle (issue 13): stored with the parameter set by
+// The residual map in the life cycle: stored with the parameter set by
 // `recalibrate`, applied by `predict` and `compensate`, carried by the JSON export and
 // refused (with a warning) by the URDF, shown in the report.
 TEST(LifecycleCommands, ResidualMapIsStoredAppliedExportedAndReported) {

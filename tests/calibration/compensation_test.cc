@@ -46,7 +46,7 @@ TEST(SolveJoints, OutOfReachIsNotConvergedWithTheClosestDistance) {
   EXPECT_GT(s.residual_mm, 3000.0);
 }
 
-// A NaN seed once came back as NaN joints with status ok (issue 15).
+// A NaN seed once came back as NaN joints with status ok.
 TEST(SolveJoints, NonFiniteSeedOrTargetIsNeverOk) {
   const auto model = testing::Puma();
   Eigen::VectorXd seed = Eigen::VectorXd::Zero(6);

@@ -210,7 +210,7 @@ TEST(Estimation, FrozenJointStillFitsWhatTheDataCanSay) {
   EXPECT_GT(r.nominal.mean_mm, 1.0);
 }
 
-// Issue 15: poses that do not move the robot "converged" with σ0 of the targets' scatter.
+// Poses that do not move the robot "converged" with σ0 of the targets' scatter.
 TEST(Estimation, PosesThatNeverMoveTheRobotAreRefusedWhateverTheTargets) {
   std::mt19937 rng(15);
   const RobotModel model = testing::Puma();

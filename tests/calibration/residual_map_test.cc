@@ -1,4 +1,4 @@
-// The residual map (issue 13): a cross-validated kernel regression of what the parametric
+// The residual map: a cross-validated kernel regression of what the parametric
 // model leaves, used only where it helps and only where it has data.
 #include "calibration/residual_map.h"
 

@@ -1,4 +1,4 @@
-// Generated non-geometric terms (issue 13): compliance under gravity torques and the
+// Generated non-geometric terms: compliance under gravity torques and the
 // joints' transmission harmonics.
 #include "calibration/terms.h"
 

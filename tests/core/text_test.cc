@@ -63,7 +63,7 @@ TEST(Text, JsonTextWritesInvalidUtf8AsReplacementCharacters) {
 }
 
 // Every JSON armsig writes or stores goes through JsonText: a plain dump() in the sources
-// is the defect of issue 15 (robot list --json exit 1 on a name from the database).
+// was a real defect (robot list --json exit 1 on a name from the database).
 TEST(Text, EveryJsonOutputGoesThroughJsonText) {
   const std::filesystem::path root(ARMSIG_SOURCE_DIR);
   std::vector<std::string> offenders;

@@ -1,4 +1,4 @@
-// Issue 15, the database half: a file armsig did not make, a schema from the future and a
+// Hostile databases: a file armsig did not make, a schema from the future and a
 // damaged file are refused before anything is written to them (byte for byte the same
 // afterwards, no -wal or -shm created next to them); concurrent writers wait their turn.
 #include <fcntl.h>
@@ -256,7 +256,7 @@ TEST(DatabaseIntegrity, EightConcurrentWriterProcessesAllSucceedAndStoreEveryRow
   for (int k = 0; k < kWriters; ++k) EXPECT_EQ(notes.count("writer " + std::to_string(k)), 1u);
 }
 
-// --- Issue 15, second audit.
+// --- Hostile inputs, a second audit.
 
 // A WAL-mode database written by `make` and copied, while its writer still has it open,
 // together with its -wal but not its -shm (what a backup of the two files, or a copy

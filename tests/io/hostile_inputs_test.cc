@@ -1,4 +1,4 @@
-// Issue 15, inputs: numbers outside physical plausibility, YAML of the wrong shape and
+// Hostile inputs: numbers outside physical plausibility, YAML of the wrong shape and
 // names with control characters are input errors naming file:line:column and what was
 // expected, in every reader (core/plausibility.h holds the ranges).
 #include <gtest/gtest.h>
@@ -261,7 +261,7 @@ TEST(HostileInputs, NamesWithControlCharactersAreRefusedWhereTheyEnter) {
   EXPECT_NE(e.message().find("1 to 64"), std::string::npos) << e.what();
 }
 
-// --- Issue 15, second audit.
+// --- Hostile inputs, a second audit.
 
 InputError FaultRefusal(const std::function<void(const std::string&)>& read,
                         const std::string& file) {

@@ -51,7 +51,7 @@ TEST(Export, UrdfChainMatchesTheModel) {
   }
 }
 
-// Issue 15: the model name went raw into <robot name="…"> and an XML comment.
+// The model name went raw into <robot name="…"> and an XML comment.
 TEST(Export, UrdfEscapesTheModelNameByConstruction) {
   const auto model = io::LoadRobotModel(DataPath("faults/model-name-injection.yaml"));
   const auto corrected = calibration::CorrectedModel(

@@ -92,7 +92,7 @@ TEST(InstrumentErrors, ReduceTwoFaceCorrectsEveryReadingOfTheStation) {
   }
 }
 
-// Issue 15: a reading at the nadir (V = 200 gon, which converts to π plus an ulp) was taken
+// A reading at the nadir (V = 200 gon, which converts to π plus an ulp) was taken
 // for face II and paired with the face-I reading of the same point: a "collimation" of
 // 18 gon and an "index" of 81 gon were then applied to every reading of the station, and
 // orient failed ("network is singular").

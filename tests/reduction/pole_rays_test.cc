@@ -108,7 +108,7 @@ TEST(PoleRays, PoleResidualIsTheAngleAcrossTheLineOfSight) {
   EXPECT_FALSE(NearPole(ToRad(1.0, AngleUnit::kGon)));
 }
 
-// --- Issue 15, second audit: nothing the data say may reach Ceres as a NaN or an abort.
+// --- Nothing the data say may reach Ceres as a NaN or an abort.
 
 TEST(PoleRays, HzVResidualHasFiniteDerivativesWhereThePredictionIsOnTheStandingAxis) {
   // The reading is an ordinary one (V = 60 gon); the prediction is straight up, where Hz has

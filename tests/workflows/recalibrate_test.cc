@@ -377,7 +377,7 @@ TEST(SinceToUtc, ReadsIsoDatesInTheirTimeZoneAndRefusesImpossibleOnes) {
   tzset();
 }
 
-// Issue 15: --since echoed its value raw; a line break in it began a line of its own.
+// --since echoed its value raw; a line break in it began a line of its own.
 TEST(SinceToUtc, ARefusedValueIsQuotedWithItsControlCharactersEscapedAndCut) {
   try {
     workflows::SinceToUtc("2026\narmsig: info: forged" + std::string(200, '9'));

@@ -1,4 +1,4 @@
-// Issue 15: names from the model file and the database (robot, h-term names, sessions,
+// Names from the model file and the database (robot, h-term names, sessions,
 // notes, instruments) reach index.html only escaped, and the report's files are written
 // without following a symlink planted at a temporary name.
 #include <gtest/gtest.h>
