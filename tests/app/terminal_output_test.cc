@@ -23,13 +23,6 @@
 namespace armsig::testing {
 namespace {
 
-std::vector<std::string> Lines(const std::string& text) {
-  std::vector<std::string> out;
-  std::istringstream in(text);
-  for (std::string line; std::getline(in, line);) out.push_back(line);
-  return out;
-}
-
 // Every line within 100 columns, but those that name a path of this test's (their length
 // is the machine's, not the program's).
 void ExpectLinesFit(const std::string& text, const std::string& path) {

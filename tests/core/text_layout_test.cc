@@ -6,15 +6,10 @@
 
 #include <sstream>
 
+#include "test_support.h"
+
 namespace armsig {
 namespace {
-
-std::vector<std::string> Lines(const std::string& text) {
-  std::vector<std::string> out;
-  std::istringstream in(text);
-  for (std::string line; std::getline(in, line);) out.push_back(line);
-  return out;
-}
 
 TEST(TextLayout, DisplayWidthCountsCodePoints) {
   EXPECT_EQ(DisplayWidth("abc"), 3);
@@ -42,7 +37,7 @@ TEST(TextLayout, ColumnsThatDoNotFitContinueInABlockBelow) {
   std::vector<std::string> row = {"gamma_i (1e-3 rad)"};
   for (int i = 1; i <= 7; ++i) row.push_back(std::to_string(-1000 - i) + ".123");
   t.AddRow(row);
-  const auto lines = Lines(t.Render(70, 2));
+  const auto lines = testing::Lines(t.Render(70, 2));
   int blocks = 1;
   for (const auto& l : lines) {
     EXPECT_LE(DisplayWidth(l), 70) << l;
@@ -68,7 +63,7 @@ TEST(TextLayout, LongLinesWrapAtSpacesWithAHangingIndent) {
       "1. stations oriented from 24 readings (mutual pointings, 3 bar set-ups): sigma0 0.942, "
       "25 degrees of freedom, no reading removed by data snooping\n   T1  x     0.000  y\n";
   const std::string wrapped = WrapLines(text, 60);
-  const auto lines = Lines(wrapped);
+  const auto lines = testing::Lines(wrapped);
   ASSERT_EQ(lines.size(), 4u) << wrapped;
   for (const auto& l : lines) EXPECT_LE(DisplayWidth(l), 60) << l;
   EXPECT_EQ(lines[1].rfind("  ", 0), 0u);        // hanging indent
