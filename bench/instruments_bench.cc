@@ -22,7 +22,8 @@
 #include "reduction/observation.h"
 #include "simulation/emscon_simulator.h"
 #include "simulation/fault_matrix.h"
-#include "simulation/simulators.h"
+#include "simulation/geocom_simulator.h"
+#include "simulation/simulator.h"
 #include "io/builtin_models.h"
 
 namespace armsig {

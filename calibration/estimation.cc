@@ -177,92 +177,178 @@ double RobustCost(const Eigen::VectorXd& residual, double threshold) {
   return cost;
 }
 
-}  // namespace
+// One Levenberg–Marquardt adjustment of the model's identifiable parameters, and of the
+// bases of any further measurement frames, to the poses: paper eq. (8)–(15) iterated to
+// convergence. Its steps share the stacked Jacobian, the normal equations and the frames'
+// bases, so they are the methods of one object that is used once: Run() reads like the
+// procedure (refuse what cannot be fitted, place the frames, choose the unknowns, iterate,
+// then σ0, the covariance and the checks).
+class Adjustment {
+ public:
+  Adjustment(const RobotModel& model, const std::vector<MeasuredPose>& poses,
+             const EstimationOptions& options);
+  EstimationResult Run();
 
-EstimationResult Estimate(const RobotModel& model, const std::vector<MeasuredPose>& poses,
-                          const EstimationOptions& options) {
-  options.Check();
-  EstimationResult result;
-  const int np = model.num_parameters();
-  const int m = static_cast<int>(poses.size());
-  result.params = Eigen::VectorXd::Zero(np);
-  result.sigmas = Eigen::VectorXd::Constant(np, std::numeric_limits<double>::quiet_NaN());
+ private:
+  // The model at one point of the iteration.
+  struct Evaluation {
+    Eigen::MatrixXd jacobian;  // 3m × unknowns: the identified subset, then the bases
+    Eigen::VectorXd residual;  // 3m, model − measured
+    double cost = 0.0;
+  };
+  using Bases = std::vector<Eigen::Isometry3d>;  // of the further frames
+  enum class StepOutcome { kRejected, kAccepted, kConverged };
 
-  // Poses that do not move the robot determine nothing about its joints: refused, whatever
-  // the targets (a fit would "converge" with σ0 of the targets' scatter and mean nothing).
-  if (m >= 2) {
-    double motion = 0.0;
-    for (const auto& p : poses)
-      motion = std::max(motion, (p.joints_rad - poses[0].joints_rad).norm());
-    if (!(motion > kNoMotionRad)) {
-      result.status.code = SolveCode::kDegenerate;
-      result.status.message = "all " + std::to_string(m) +
-                              " poses have the same joint angles: the robot never moved, so the "
-                              "poses cannot determine its parameters (measure configurations "
-                              "that move every joint)";
-      return result;
-    }
+  bool RobotMoves();
+  bool PlaceFrames();
+  bool Degenerate(int64_t frame, size_t count);
+  bool ChooseUnknowns();
+  const std::vector<int>& subset() const { return result_.identifiability.identified; }
+  const Eigen::Isometry3d& BaseOf(int i, const Bases& bases) const {
+    return extra_[i] < 0 ? result_.world_from_base : bases[extra_[i]];
   }
+  void Evaluate(const Eigen::VectorXd& params, const Bases& bases, Evaluation& e);
+  Bases MovedBases(const Bases& bases, const Eigen::VectorXd& step) const;
+  std::vector<Eigen::Vector3d> ResidualVectors(const Evaluation& e) const;
+  void BuildNormalEquations(const Evaluation& e);
+  void Solve();
+  bool Iterate();
+  StepOutcome DampedStep(const Eigen::VectorXd& diagonal);
+  bool Converged(double trial_cost, const Eigen::VectorXd& step) const;
+  void FitStatistics();
+  void Covariance();
+  Eigen::MatrixXd TwoStageCovariance(const Eigen::MatrixXd& normal_inverse) const;
+  void Check();
+
+  const RobotModel& model_;
+  const std::vector<MeasuredPose>& poses_;
+  const EstimationOptions& options_;
+  const int m_;  // poses
+  EstimationResult result_;
 
   // Measurement frames: the reference (the latest) is the datum; every other one gets a
-  // base of its own among the unknowns. `extra[i]`: the index of pose i's frame among the
+  // base of its own among the unknowns. `extra_[i]`: the index of pose i's frame among the
   // others, −1 for the reference frame.
-  const std::vector<int64_t> frames = FramesOf(poses);
-  result.reference_frame = frames.empty() ? 0 : frames.back();
+  std::vector<int64_t> frames_;
+  int extra_frames_ = 0;
+  std::vector<int> extra_;
+  std::vector<std::vector<MeasuredPose>> poses_of_;  // per further frame
+  std::vector<MeasuredPose> reference_poses_;
+  Bases extra_bases_;
+  std::vector<Eigen::Vector3d> extra_centres_;  // each further frame's centroid of targets
+
+  int k_ = 0;         // identified parameters
+  int unknowns_ = 0;  // k, then six per further base
+
+  Kinematics kin_;
+  Eigen::Matrix<double, 3, Eigen::Dynamic> block_;  // one pose's Jacobian, all parameters
+  Evaluation current_, trial_;
+  Eigen::MatrixXd normal_, weighted_;  // Jᵀ W J, and √W J
+  Eigen::VectorXd gradient_;           // Jᵀ W r
+  std::vector<double> weights_;        // per pose (the Huber loss; 1 without it)
+  double lambda_ = 1e-6;               // Marquardt's damping
+};
+
+Adjustment::Adjustment(const RobotModel& model, const std::vector<MeasuredPose>& poses,
+                       const EstimationOptions& options)
+    : model_(model),
+      poses_(poses),
+      options_(options),
+      m_(static_cast<int>(poses.size())),
+      kin_(model),
+      block_(3, model.num_parameters()) {
+  const int np = model.num_parameters();
+  result_.params = Eigen::VectorXd::Zero(np);
+  result_.sigmas = Eigen::VectorXd::Constant(np, std::numeric_limits<double>::quiet_NaN());
+}
+
+EstimationResult Adjustment::Run() {
+  if (!RobotMoves() || !PlaceFrames() || !ChooseUnknowns()) return std::move(result_);
+  Solve();
+  FitStatistics();
+  Covariance();
+  Check();
+  return std::move(result_);
+}
+
+// Poses that do not move the robot determine nothing about its joints: refused, whatever
+// the targets (a fit would "converge" with σ0 of the targets' scatter and mean nothing).
+bool Adjustment::RobotMoves() {
+  if (m_ < 2) return true;
+  double motion = 0.0;
+  for (const auto& p : poses_)
+    motion = std::max(motion, (p.joints_rad - poses_[0].joints_rad).norm());
+  if (motion > kNoMotionRad) return true;
+  result_.status.code = SolveCode::kDegenerate;
+  result_.status.message = "all " + std::to_string(m_) +
+                           " poses have the same joint angles: the robot never moved, so the "
+                           "poses cannot determine its parameters (measure configurations "
+                           "that move every joint)";
+  return false;
+}
+
+// Sorts the poses by measurement frame and places every frame's base: the reference
+// frame's (N1) given by the model or aligned on its poses and then held, the others'
+// starting from the nominal model's best fit to theirs.
+bool Adjustment::PlaceFrames() {
+  frames_ = FramesOf(poses_);
+  result_.reference_frame = frames_.empty() ? 0 : frames_.back();
   std::map<int64_t, int> extra_index;
-  for (size_t f = 0; f + 1 < frames.size(); ++f) extra_index[frames[f]] = static_cast<int>(f);
-  const int extra_frames = static_cast<int>(extra_index.size());
-  std::vector<int> extra(m, -1);
-  std::vector<std::vector<MeasuredPose>> poses_of(extra_frames);
-  std::vector<MeasuredPose> reference_poses;
-  for (int i = 0; i < m; ++i) {
-    const auto it = extra_index.find(poses[i].frame);
+  for (size_t f = 0; f + 1 < frames_.size(); ++f) extra_index[frames_[f]] = static_cast<int>(f);
+  extra_frames_ = static_cast<int>(extra_index.size());
+  extra_.assign(m_, -1);
+  poses_of_.resize(extra_frames_);
+  for (int i = 0; i < m_; ++i) {
+    const auto it = extra_index.find(poses_[i].frame);
     if (it == extra_index.end()) {
-      reference_poses.push_back(poses[i]);
+      reference_poses_.push_back(poses_[i]);
     } else {
-      extra[i] = it->second;
-      poses_of[it->second].push_back(poses[i]);
+      extra_[i] = it->second;
+      poses_of_[it->second].push_back(poses_[i]);
     }
   }
-  auto degenerate = [&](int64_t frame, size_t count) {
-    result.status.code = SolveCode::kDegenerate;
-    result.status.message =
-        (frames.size() > 1 ? "measurement frame " + std::to_string(frame) + ": " : std::string()) +
-        "base: auto needs at least 3 poses whose nominal target positions are not on "
-        "one line (got " +
-        std::to_string(count) + ")";
-    return result;
-  };
 
   // N1: given, or the rigid best fit of the nominal model (paper: "N1 has to be
   // established before the estimation process begins").
-  if (model.base) {
-    result.world_from_base = *model.base;
-  } else if (auto base = AlignBase(model, reference_poses)) {
-    result.world_from_base = *base;
+  if (model_.base) {
+    result_.world_from_base = *model_.base;
+  } else if (auto base = AlignBase(model_, reference_poses_)) {
+    result_.world_from_base = *base;
   } else {
-    return degenerate(result.reference_frame, reference_poses.size());
+    return Degenerate(result_.reference_frame, reference_poses_.size());
   }
-  // The other frames' bases start from the nominal model's best fit to their poses.
-  std::vector<Eigen::Isometry3d> extra_bases(extra_frames);
-  std::vector<Eigen::Vector3d> extra_centres(extra_frames, Eigen::Vector3d::Zero());
-  for (int e = 0; e < extra_frames; ++e) {
-    const auto base = AlignBase(model, poses_of[e]);
-    if (!base) return degenerate(frames[e], poses_of[e].size());
-    extra_bases[e] = *base;
-    for (const auto& p : poses_of[e]) extra_centres[e] += p.target_in_world / poses_of[e].size();
+  extra_bases_.resize(extra_frames_);
+  extra_centres_.assign(extra_frames_, Eigen::Vector3d::Zero());
+  for (int e = 0; e < extra_frames_; ++e) {
+    const auto base = AlignBase(model_, poses_of_[e]);
+    if (!base) return Degenerate(frames_[e], poses_of_[e].size());
+    extra_bases_[e] = *base;
+    for (const auto& p : poses_of_[e]) extra_centres_[e] += p.target_in_world / poses_of_[e].size();
   }
-  auto base_of = [&](int i, const std::vector<Eigen::Isometry3d>& bases) -> const Eigen::Isometry3d& {
-    return extra[i] < 0 ? result.world_from_base : bases[extra[i]];
-  };
+  return true;
+}
 
-  std::vector<int> candidates = options.parameters;
+// A frame whose `count` poses cannot place its base: the result says so. Returns false.
+bool Adjustment::Degenerate(int64_t frame, size_t count) {
+  result_.status.code = SolveCode::kDegenerate;
+  result_.status.message =
+      (frames_.size() > 1 ? "measurement frame " + std::to_string(frame) + ": " : std::string()) +
+      "base: auto needs at least 3 poses whose nominal target positions are not on "
+      "one line (got " +
+      std::to_string(count) + ")";
+  return false;
+}
+
+// The unknowns: the candidates the poses identify, then six per further base. Refuses
+// poses that identify far too little, and fewer equations than unknowns.
+bool Adjustment::ChooseUnknowns() {
+  std::vector<int> candidates = options_.parameters;
   if (candidates.empty()) {
-    for (int i = 0; i < np; ++i) candidates.push_back(i);
+    for (int i = 0; i < model_.num_parameters(); ++i) candidates.push_back(i);
   }
   std::vector<Eigen::VectorXd> joints;
-  joints.reserve(m);
-  for (const auto& p : poses) joints.push_back(p.joints_rad);
+  joints.reserve(m_);
+  for (const auto& p : poses_) joints.push_back(p.joints_rad);
 
   // The identifiable subset is chosen once, at the nominal model, and kept: re-deciding
   // it at every iteration makes Gauss–Newton wander on real data. It is decided in the
@@ -272,226 +358,254 @@ EstimationResult Estimate(const RobotModel& model, const std::vector<MeasuredPos
   // parameters differently from one data set of the same poses to the next. The bases of
   // further frames do not change it: each absorbs the same six rigid motions the
   // reference frame's alignment does, in its own poses only.
-  result.identifiability = AnalyseIdentifiability(model, Eigen::Isometry3d::Identity(), joints,
-                                                  candidates, options.identifiability);
+  result_.identifiability = AnalyseIdentifiability(model_, Eigen::Isometry3d::Identity(), joints,
+                                                   candidates, options_.identifiability);
   // Poses that identify far fewer parameters than configurations spread over the joint
   // limits do (the model's structural rank) cannot determine the signature: a joint barely
   // moved, every pose on one path. Refused, naming the joints that never moved.
-  if (const int structural = result.identifiability.structural_rank;
-      structural > 0 && 2 * result.identifiability.rank < structural) {
+  if (const int structural = result_.identifiability.structural_rank;
+      structural > 0 && 2 * result_.identifiability.rank < structural) {
     std::string frozen;
-    for (const auto& f : result.identifiability.frozen_joints) {
+    for (const auto& f : result_.identifiability.frozen_joints) {
       frozen += (frozen.empty() ? "" : ", ") + std::to_string(f.joint + 1);
     }
-    result.status.code = SolveCode::kDegenerate;
-    result.status.message =
-        "the poses determine only " + std::to_string(result.identifiability.rank) + " of the " +
+    result_.status.code = SolveCode::kDegenerate;
+    result_.status.message =
+        "the poses determine only " + std::to_string(result_.identifiability.rank) + " of the " +
         std::to_string(structural) +
         " parameters that configurations spread over the joint limits determine" +
         (frozen.empty() ? std::string(": the robot barely moves between them")
                         : "; joints that never move: " + frozen) +
         " (measure configurations that move every joint)";
-    return result;
+    return false;
   }
-  const std::vector<int>& subset = result.identifiability.identified;
-  const int k = static_cast<int>(subset.size());
-  const int unknowns = k + 6 * extra_frames;  // parameters, then six per further base
-  const int needed =
-      std::max(k, result.identifiability.structural_rank) + 6 * extra_frames;
-  if (3 * m <= needed) {
-    result.status.code = SolveCode::kTooFewObservations;
-    result.status.message =
-        std::to_string(m) + " poses give " + std::to_string(3 * m) + " equations; the model has " +
-        std::to_string(needed - 6 * extra_frames) + " identifiable parameters" +
-        (extra_frames > 0
-             ? " and " + std::to_string(extra_frames) + " further measurement frames add " +
-                   std::to_string(6 * extra_frames) + " base unknowns"
+  k_ = static_cast<int>(subset().size());
+  unknowns_ = k_ + 6 * extra_frames_;
+  const int needed = std::max(k_, result_.identifiability.structural_rank) + 6 * extra_frames_;
+  if (3 * m_ <= needed) {
+    result_.status.code = SolveCode::kTooFewObservations;
+    result_.status.message =
+        std::to_string(m_) + " poses give " + std::to_string(3 * m_) +
+        " equations; the model has " + std::to_string(needed - 6 * extra_frames_) +
+        " identifiable parameters" +
+        (extra_frames_ > 0
+             ? " and " + std::to_string(extra_frames_) + " further measurement frames add " +
+                   std::to_string(6 * extra_frames_) + " base unknowns"
              : std::string()) +
         " and needs more equations than that: at least " + std::to_string(needed / 3 + 1) +
         " poses";
-    return result;
+    return false;
   }
+  return true;
+}
 
-  // Levenberg–Marquardt on the subset (and the further frames' bases) with Marquardt's
-  // diagonal scaling. One stacked Jacobian per evaluation; the trial point's Jacobian is
-  // reused when it is accepted.
-  struct Evaluation {
-    Eigen::MatrixXd jacobian;  // 3m × unknowns: the identified subset, then the bases
-    Eigen::VectorXd residual;  // 3m, model − measured
-    double cost = 0.0;
-  };
-  Kinematics kin(model);
-  Eigen::Matrix<double, 3, Eigen::Dynamic> block(3, np);
-  const double threshold = options.robust_threshold_mm;
-  auto evaluate = [&](const Eigen::VectorXd& params, const std::vector<Eigen::Isometry3d>& bases,
-                      Evaluation& e) {
-    e.jacobian.setZero(3 * m, unknowns);
-    e.residual.resize(3 * m);
-    for (int i = 0; i < m; ++i) {
-      const Eigen::Vector3d x =
-          kin.PositionAndJacobian(base_of(i, bases), params, poses[i].joints_rad.data(), block);
-      e.residual.segment<3>(3 * i) = x - poses[i].target_in_world;
-      for (int c = 0; c < k; ++c) e.jacobian.block<3, 1>(3 * i, c) = block.col(subset[c]);
-      if (extra[i] >= 0) {
-        // A small motion of the frame's base, world-side: rotation ω about the frame's
-        // centre c, then translation t, moves the target by ω × (x − c) + t.
-        const Eigen::Vector3d v = x - extra_centres[extra[i]];
-        auto b = e.jacobian.block<3, 6>(3 * i, k + 6 * extra[i]);
-        b.leftCols<3>() << 0, v.z(), -v.y(), -v.z(), 0, v.x(), v.y(), -v.x(), 0;
-        b.rightCols<3>().setIdentity();
-      }
+// Residuals, their stacked Jacobian by the unknowns and the (robust) cost at `params` with
+// the further frames' bases `bases`.
+void Adjustment::Evaluate(const Eigen::VectorXd& params, const Bases& bases, Evaluation& e) {
+  e.jacobian.setZero(3 * m_, unknowns_);
+  e.residual.resize(3 * m_);
+  for (int i = 0; i < m_; ++i) {
+    const Eigen::Vector3d x =
+        kin_.PositionAndJacobian(BaseOf(i, bases), params, poses_[i].joints_rad.data(), block_);
+    e.residual.segment<3>(3 * i) = x - poses_[i].target_in_world;
+    for (int c = 0; c < k_; ++c) e.jacobian.block<3, 1>(3 * i, c) = block_.col(subset()[c]);
+    if (extra_[i] >= 0) {
+      // A small motion of the frame's base, world-side: rotation ω about the frame's
+      // centre c, then translation t, moves the target by ω × (x − c) + t.
+      const Eigen::Vector3d v = x - extra_centres_[extra_[i]];
+      auto b = e.jacobian.block<3, 6>(3 * i, k_ + 6 * extra_[i]);
+      b.leftCols<3>() << 0, v.z(), -v.y(), -v.z(), 0, v.x(), v.y(), -v.x(), 0;
+      b.rightCols<3>().setIdentity();
     }
-    e.cost = RobustCost(e.residual, threshold);
-  };
-  auto moved_bases = [&](const std::vector<Eigen::Isometry3d>& bases,
-                         const Eigen::VectorXd& step) {
-    std::vector<Eigen::Isometry3d> out = bases;
-    for (int f = 0; f < extra_frames; ++f) {
-      const Eigen::Vector3d w = step.segment<3>(k + 6 * f), t = step.segment<3>(k + 6 * f + 3);
-      const Eigen::Vector3d& c = extra_centres[f];
-      Eigen::Isometry3d motion = Eigen::Isometry3d::Identity();
-      motion.translate(c + t);
-      if (w.norm() > 0) motion.rotate(Eigen::AngleAxisd(w.norm(), w.normalized()));
-      motion.translate(-c);
-      out[f] = motion * bases[f];
-    }
-    return out;
-  };
-  auto residual_vectors = [&](const Evaluation& e) {
-    std::vector<Eigen::Vector3d> r(m);
-    for (int i = 0; i < m; ++i) r[i] = e.residual.segment<3>(3 * i);
-    return r;
-  };
+  }
+  e.cost = RobustCost(e.residual, options_.robust_threshold_mm);
+}
 
-  Evaluation current, trial;
-  evaluate(result.params, extra_bases, current);
-  result.nominal_residuals = residual_vectors(current);
-  result.nominal = Summarise(Distances(result.nominal_residuals));
+// The further frames' bases moved by a step's six base unknowns each (ω, t as in Evaluate).
+Adjustment::Bases Adjustment::MovedBases(const Bases& bases, const Eigen::VectorXd& step) const {
+  Bases out = bases;
+  for (int f = 0; f < extra_frames_; ++f) {
+    const Eigen::Vector3d w = step.segment<3>(k_ + 6 * f), t = step.segment<3>(k_ + 6 * f + 3);
+    const Eigen::Vector3d& c = extra_centres_[f];
+    Eigen::Isometry3d motion = Eigen::Isometry3d::Identity();
+    motion.translate(c + t);
+    if (w.norm() > 0) motion.rotate(Eigen::AngleAxisd(w.norm(), w.normalized()));
+    motion.translate(-c);
+    out[f] = motion * bases[f];
+  }
+  return out;
+}
 
-  Eigen::MatrixXd normal(unknowns, unknowns), weighted(3 * m, unknowns);
-  Eigen::VectorXd gradient(unknowns);
-  std::vector<double> weights;
-  auto build_normal_equations = [&](const Evaluation& e) {
-    HuberWeights(e.residual, threshold, weights);
-    for (int i = 0; i < m; ++i) {
-      weighted.middleRows<3>(3 * i) = std::sqrt(weights[i]) * e.jacobian.middleRows<3>(3 * i);
-    }
-    normal.setZero();
-    normal.selfadjointView<Eigen::Lower>().rankUpdate(weighted.transpose());
-    normal.triangularView<Eigen::Upper>() = normal.transpose();
-    Eigen::VectorXd wr = e.residual;
-    for (int i = 0; i < m; ++i) wr.segment<3>(3 * i) *= weights[i];
-    gradient.noalias() = e.jacobian.transpose() * wr;
-  };
+std::vector<Eigen::Vector3d> Adjustment::ResidualVectors(const Evaluation& e) const {
+  std::vector<Eigen::Vector3d> r(m_);
+  for (int i = 0; i < m_; ++i) r[i] = e.residual.segment<3>(3 * i);
+  return r;
+}
 
-  double lambda = 1e-6;
+// Jᵀ W J and Jᵀ W r at `e`, W the Huber weights of its residuals.
+void Adjustment::BuildNormalEquations(const Evaluation& e) {
+  HuberWeights(e.residual, options_.robust_threshold_mm, weights_);
+  for (int i = 0; i < m_; ++i) {
+    weighted_.middleRows<3>(3 * i) = std::sqrt(weights_[i]) * e.jacobian.middleRows<3>(3 * i);
+  }
+  normal_.setZero();
+  normal_.selfadjointView<Eigen::Lower>().rankUpdate(weighted_.transpose());
+  normal_.triangularView<Eigen::Upper>() = normal_.transpose();
+  Eigen::VectorXd wr = e.residual;
+  for (int i = 0; i < m_; ++i) wr.segment<3>(3 * i) *= weights_[i];
+  gradient_.noalias() = e.jacobian.transpose() * wr;
+}
+
+// Levenberg–Marquardt on the subset (and the further frames' bases) with Marquardt's
+// diagonal scaling, from the nominal model. One stacked Jacobian per evaluation; the trial
+// point's Jacobian is reused when it is accepted.
+void Adjustment::Solve() {
+  normal_.resize(unknowns_, unknowns_);
+  weighted_.resize(3 * m_, unknowns_);
+  gradient_.resize(unknowns_);
+  Evaluate(result_.params, extra_bases_, current_);
+  result_.nominal_residuals = ResidualVectors(current_);
+  result_.nominal = Summarise(Distances(result_.nominal_residuals));
+
   bool converged = false;
   int iteration = 0;
-  for (; iteration < options.max_iterations && !converged; ++iteration) {
-    build_normal_equations(current);
-    const Eigen::VectorXd diag = normal.diagonal().cwiseMax(1e-30);
-    bool accepted = false;
-    for (int attempt = 0; attempt < 30 && !accepted; ++attempt) {
-      Eigen::MatrixXd damped = normal;
-      damped.diagonal() += lambda * diag;
-      const Eigen::VectorXd step = -damped.llt().solve(gradient);
-      Eigen::VectorXd trial_params = result.params;
-      for (int c = 0; c < k; ++c) trial_params(subset[c]) += step(c);
-      std::vector<Eigen::Isometry3d> trial_bases = moved_bases(extra_bases, step);
-      evaluate(trial_params, trial_bases, trial);
-      if (std::isfinite(trial.cost) && trial.cost <= current.cost) {
-        const double relative_decrease =
-            (current.cost - trial.cost) / std::max(current.cost, 1e-300);
-        const double relative_step =
-            step.norm() / (result.params.norm() + options.parameter_tolerance);
-        result.params = trial_params;
-        extra_bases = std::move(trial_bases);
-        std::swap(current, trial);
-        lambda = std::max(lambda / 10.0, 1e-12);
-        accepted = true;
-        if (relative_decrease < options.function_tolerance ||
-            relative_step < options.parameter_tolerance || current.cost == 0.0) {
-          converged = true;
-        }
-      } else {
-        lambda *= 10.0;
-      }
-    }
-    if (!accepted) {
-      converged = true;  // no step lowers the cost: at the minimum to working precision
-    }
-  }
-  result.iterations = iteration;
-  result.status.code = converged ? SolveCode::kOk : SolveCode::kNotConverged;
+  for (; iteration < options_.max_iterations && !converged; ++iteration) converged = Iterate();
+  result_.iterations = iteration;
+  result_.status.code = converged ? SolveCode::kOk : SolveCode::kNotConverged;
   if (!converged) {
-    result.status.message = "no convergence after " + std::to_string(iteration) + " iterations";
+    result_.status.message = "no convergence after " + std::to_string(iteration) + " iterations";
   }
-  result.bases[result.reference_frame] = result.world_from_base;
-  for (int f = 0; f < extra_frames; ++f) result.bases[frames[f]] = extra_bases[f];
+  result_.bases[result_.reference_frame] = result_.world_from_base;
+  for (int f = 0; f < extra_frames_; ++f) result_.bases[frames_[f]] = extra_bases_[f];
+}
 
-  // Covariance of the identified parameters: σ0² (Jᵀ W J)⁻¹ at the solution (the further
-  // frames' bases are unknowns of the same adjustment: their block is marginalised).
-  build_normal_equations(current);
-  result.cost = current.cost;
-  result.redundancy = 3 * m - unknowns;
-  result.fit_residuals = residual_vectors(current);
+// One iteration: the normal equations at the current point, then damped steps with a
+// growing λ until one lowers the cost. True when the adjustment has converged.
+bool Adjustment::Iterate() {
+  BuildNormalEquations(current_);
+  const Eigen::VectorXd diagonal = normal_.diagonal().cwiseMax(1e-30);
+  for (int attempt = 0; attempt < 30; ++attempt) {
+    const StepOutcome outcome = DampedStep(diagonal);
+    if (outcome != StepOutcome::kRejected) return outcome == StepOutcome::kConverged;
+  }
+  return true;  // no step lowers the cost: at the minimum to working precision
+}
+
+// Solves the normal equations damped by λ times their diagonal and tries the step: taken
+// (λ shrinks) when it does not raise the cost, refused (λ grows) otherwise.
+Adjustment::StepOutcome Adjustment::DampedStep(const Eigen::VectorXd& diagonal) {
+  Eigen::MatrixXd damped = normal_;
+  damped.diagonal() += lambda_ * diagonal;
+  const Eigen::VectorXd step = -damped.llt().solve(gradient_);
+  Eigen::VectorXd trial_params = result_.params;
+  for (int c = 0; c < k_; ++c) trial_params(subset()[c]) += step(c);
+  Bases trial_bases = MovedBases(extra_bases_, step);
+  Evaluate(trial_params, trial_bases, trial_);
+  if (!(std::isfinite(trial_.cost) && trial_.cost <= current_.cost)) {
+    lambda_ *= 10.0;
+    return StepOutcome::kRejected;
+  }
+  const bool converged = Converged(trial_.cost, step);
+  result_.params = trial_params;
+  extra_bases_ = std::move(trial_bases);
+  std::swap(current_, trial_);
+  lambda_ = std::max(lambda_ / 10.0, 1e-12);
+  return converged ? StepOutcome::kConverged : StepOutcome::kAccepted;
+}
+
+// The convergence test of a step about to be taken: the cost hardly falls, the step is
+// tiny against the parameters, or the model meets the measurements exactly.
+bool Adjustment::Converged(double trial_cost, const Eigen::VectorXd& step) const {
+  const double relative_decrease = (current_.cost - trial_cost) / std::max(current_.cost, 1e-300);
+  const double relative_step = step.norm() / (result_.params.norm() + options_.parameter_tolerance);
+  return relative_decrease < options_.function_tolerance ||
+         relative_step < options_.parameter_tolerance || trial_cost == 0.0;
+}
+
+// Cost, redundancy, residuals and σ0 at the solution (the normal equations rebuilt there for
+// the covariance).
+void Adjustment::FitStatistics() {
+  BuildNormalEquations(current_);
+  result_.cost = current_.cost;
+  result_.redundancy = 3 * m_ - unknowns_;
+  result_.fit_residuals = ResidualVectors(current_);
   double weighted_sq = 0.0;
-  for (int i = 0; i < m; ++i) weighted_sq += weights[i] * result.fit_residuals[i].squaredNorm();
-  result.sigma0_mm = std::sqrt(weighted_sq / result.redundancy);
-  if (k > 0) {
-    const Eigen::MatrixXd normal_inverse =
-        normal.ldlt().solve(Eigen::MatrixXd::Identity(unknowns, unknowns));
-    Eigen::MatrixXd covariance;
-    if (model.base) {
-      covariance = result.sigma0_mm * result.sigma0_mm * normal_inverse;
-    } else {
-      // The reference base was aligned on its frame's measurements, then held: a two-stage
-      // estimate. To first order the alignment moves the base by db = (BᵀB)⁻¹Bᵀ dy, with B
-      // the 3m × 6 derivative of the world positions by a small rotation and translation of
-      // the base (zero in the rows of other frames), and the unknowns answer the rest:
-      // du = N⁻¹JᵀW (I − B(BᵀB)⁻¹Bᵀ) dy. Hence Cov(u) = σ0² N⁻¹ Cᵀ W⁻¹ C N⁻¹ with
-      // C = (I − P_B) W J. Without this, the parameters the base alignment already explains
-      // (the first joint's) would be reported two to three times less certain than repeated
-      // fits show them to be.
-      Eigen::MatrixXd base_jacobian = Eigen::MatrixXd::Zero(3 * m, 6);
-      const Eigen::Vector3d origin = result.world_from_base.translation();
-      for (int i = 0; i < m; ++i) {
-        if (extra[i] >= 0) continue;
-        const Eigen::Vector3d x = poses[i].target_in_world + result.fit_residuals[i] - origin;
-        base_jacobian.block<3, 3>(3 * i, 0) << 0, x.z(), -x.y(), -x.z(), 0, x.x(), x.y(), -x.x(), 0;
-        base_jacobian.block<3, 3>(3 * i, 3).setIdentity();
-      }
-      Eigen::MatrixXd c = current.jacobian;
-      for (int i = 0; i < m; ++i) c.middleRows<3>(3 * i) *= weights[i];
-      const Eigen::Matrix<double, 6, 6> base_normal = base_jacobian.transpose() * base_jacobian;
-      c -= base_jacobian * base_normal.ldlt().solve(base_jacobian.transpose() * c);
-      for (int i = 0; i < m; ++i) c.middleRows<3>(3 * i) /= std::sqrt(std::max(weights[i], 1e-12));
-      covariance = result.sigma0_mm * result.sigma0_mm * normal_inverse * (c.transpose() * c) *
-                   normal_inverse;
-    }
-    result.covariance = covariance.topLeftCorner(k, k);
-    for (int c = 0; c < k; ++c) result.sigmas(subset[c]) = std::sqrt(result.covariance(c, c));
-  }
-  result.fit = Summarise(Distances(result.fit_residuals));
-  if (threshold > 0.0) {
-    for (int i = 0; i < m; ++i) {
-      if (result.fit_residuals[i].norm() > threshold) result.downweighted.push_back(i);
+  for (int i = 0; i < m_; ++i) weighted_sq += weights_[i] * result_.fit_residuals[i].squaredNorm();
+  result_.sigma0_mm = std::sqrt(weighted_sq / result_.redundancy);
+  result_.fit = Summarise(Distances(result_.fit_residuals));
+  if (options_.robust_threshold_mm > 0.0) {
+    for (int i = 0; i < m_; ++i) {
+      if (result_.fit_residuals[i].norm() > options_.robust_threshold_mm)
+        result_.downweighted.push_back(i);
     }
   }
-  // A fit whose numbers are not numbers is no result, whatever the iterations said.
-  bool finite = std::isfinite(result.sigma0_mm) && std::isfinite(result.cost) &&
-                result.params.allFinite() && result.covariance.allFinite();
-  for (const auto& [frame, base] : result.bases) finite = finite && base.matrix().allFinite();
-  for (int c = 0; c < k; ++c) finite = finite && std::isfinite(result.sigmas(subset[c]));
-  for (const auto& r : result.nominal_residuals) finite = finite && r.allFinite();
-  for (const auto& r : result.fit_residuals) finite = finite && r.allFinite();
+}
+
+// Covariance of the identified parameters: σ0² (Jᵀ W J)⁻¹ at the solution (the further
+// frames' bases are unknowns of the same adjustment: their block is marginalised), and
+// their sigmas.
+void Adjustment::Covariance() {
+  if (k_ == 0) return;
+  const Eigen::MatrixXd normal_inverse =
+      normal_.ldlt().solve(Eigen::MatrixXd::Identity(unknowns_, unknowns_));
+  Eigen::MatrixXd covariance;
+  if (model_.base) {
+    covariance = result_.sigma0_mm * result_.sigma0_mm * normal_inverse;
+  } else {
+    covariance = TwoStageCovariance(normal_inverse);
+  }
+  result_.covariance = covariance.topLeftCorner(k_, k_);
+  for (int c = 0; c < k_; ++c) result_.sigmas(subset()[c]) = std::sqrt(result_.covariance(c, c));
+}
+
+// The reference base was aligned on its frame's measurements, then held: a two-stage
+// estimate. To first order the alignment moves the base by db = (BᵀB)⁻¹Bᵀ dy, with B the
+// 3m × 6 derivative of the world positions by a small rotation and translation of the base
+// (zero in the rows of other frames), and the unknowns answer the rest:
+// du = N⁻¹JᵀW (I − B(BᵀB)⁻¹Bᵀ) dy. Hence Cov(u) = σ0² N⁻¹ Cᵀ W⁻¹ C N⁻¹ with
+// C = (I − P_B) W J. Without this, the parameters the base alignment already explains (the
+// first joint's) would be reported two to three times less certain than repeated fits show
+// them to be.
+Eigen::MatrixXd Adjustment::TwoStageCovariance(const Eigen::MatrixXd& normal_inverse) const {
+  Eigen::MatrixXd base_jacobian = Eigen::MatrixXd::Zero(3 * m_, 6);
+  const Eigen::Vector3d origin = result_.world_from_base.translation();
+  for (int i = 0; i < m_; ++i) {
+    if (extra_[i] >= 0) continue;
+    const Eigen::Vector3d x = poses_[i].target_in_world + result_.fit_residuals[i] - origin;
+    base_jacobian.block<3, 3>(3 * i, 0) << 0, x.z(), -x.y(), -x.z(), 0, x.x(), x.y(), -x.x(), 0;
+    base_jacobian.block<3, 3>(3 * i, 3).setIdentity();
+  }
+  Eigen::MatrixXd c = current_.jacobian;
+  for (int i = 0; i < m_; ++i) c.middleRows<3>(3 * i) *= weights_[i];
+  const Eigen::Matrix<double, 6, 6> base_normal = base_jacobian.transpose() * base_jacobian;
+  c -= base_jacobian * base_normal.ldlt().solve(base_jacobian.transpose() * c);
+  for (int i = 0; i < m_; ++i) c.middleRows<3>(3 * i) /= std::sqrt(std::max(weights_[i], 1e-12));
+  return result_.sigma0_mm * result_.sigma0_mm * normal_inverse * (c.transpose() * c) *
+         normal_inverse;
+}
+
+// A fit whose numbers are not numbers is no result, whatever the iterations said.
+void Adjustment::Check() {
+  bool finite = std::isfinite(result_.sigma0_mm) && std::isfinite(result_.cost) &&
+                result_.params.allFinite() && result_.covariance.allFinite();
+  for (const auto& [frame, base] : result_.bases) finite = finite && base.matrix().allFinite();
+  for (int c = 0; c < k_; ++c) finite = finite && std::isfinite(result_.sigmas(subset()[c]));
+  for (const auto& r : result_.nominal_residuals) finite = finite && r.allFinite();
+  for (const auto& r : result_.fit_residuals) finite = finite && r.allFinite();
   if (!finite) {
-    result.status.code = SolveCode::kNonFinite;
-    result.status.message =
+    result_.status.code = SolveCode::kNonFinite;
+    result_.status.message =
         "the fit produced values that are not finite numbers (inf or NaN): check the poses' "
         "coordinates and the model's lengths";
   }
-  return result;
+}
+
+}  // namespace
+
+EstimationResult Estimate(const RobotModel& model, const std::vector<MeasuredPose>& poses,
+                          const EstimationOptions& options) {
+  options.Check();
+  return Adjustment(model, poses, options).Run();
 }
 
 FTest CompareNested(const EstimationResult& reduced, const EstimationResult& full,

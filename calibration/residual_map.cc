@@ -6,8 +6,10 @@
 #include <cstdio>
 #include <limits>
 #include <map>
+#include <optional>
 #include <stdexcept>
 #include <thread>
+#include <utility>
 
 #if defined(__SSE2__)
 #include <xmmintrin.h>
@@ -414,67 +416,132 @@ double Quantile(std::vector<double> v, double q) {
   return v[lo] + (pos - static_cast<double>(lo)) * (v[hi] - v[lo]);
 }
 
-}  // namespace
+// Fits the residual map to what a parametric fit leaves and decides whether to use it. The
+// steps share the fit poses' features, the training poses, their residuals under the
+// parametric refit without each fold and the kernel's distances, so they are the methods
+// of one object that is used once: Run() reads like the procedure (linearise the fit,
+// choose the features and the training poses, cross-validate the parametric model, the
+// support radius, walk the (ℓ, λ) grid, fit the map, decide).
+class MapFitter {
+ public:
+  MapFitter(const RobotModel& model, const EstimationResult& fit,
+            const std::vector<MeasuredPose>& poses, const ResidualMapOptions& options)
+      : model_(model),
+        fit_(fit),
+        poses_(poses),
+        options_(options),
+        m_(static_cast<int>(poses.size())),
+        folds_(options.folds) {}
+  ResidualMapFit Run();
 
-ResidualMapFit FitResidualMap(const RobotModel& model, const EstimationResult& fit,
-                              const std::vector<MeasuredPose>& poses,
-                              const ResidualMapOptions& options) {
-  options.Check();
-  ResidualMapFit result;
-  const int m = static_cast<int>(poses.size());
-  const int n = model.num_joints();
-  if (!fit.status.ok() || static_cast<int>(fit.fit_residuals.size()) != m) {
-    result.decision = "no parametric fit on these poses to learn from";
-    return result;
-  }
-  if (m < 4 * options.folds) {
-    result.decision =
-        "too few poses for " + std::to_string(options.folds) + "-fold cross-validation";
-    return result;
-  }
+ private:
+  // The cross-validated mean error distance of one (ℓ, λ) (infinite when a kernel matrix
+  // was not positive definite), and the sum of squared errors.
+  struct Score {
+    double mean = std::numeric_limits<double>::infinity(), sum_sq = 0.0;
+  };
 
-  // The parametric model and its linearised K-fold refits (one Gauss–Newton step each).
-  const std::vector<int>& subset = fit.identifiability.identified;
+  bool HasFitToLearnFrom();
+  void LineariseParametricFit();
+  bool ChooseFeatures();
+  void CrossValidateParametricModel();
+  void SetSupportRadius();
+  const Eigen::MatrixXf& Kernel(int li);
+  Score CrossValidate(int li, int ri);
+  Score ScoreOf(int li, int ri);
+  bool SearchGrid();
+  void FitMap();
+  void Decide();
+  ResidualMapData& map() { return result_.map; }
+
+  const RobotModel& model_;
+  const EstimationResult& fit_;
+  const std::vector<MeasuredPose>& poses_;
+  const ResidualMapOptions& options_;
+  const int m_;  // fit poses
+  const int folds_;
+  ResidualMapFit result_;
+
+  std::optional<LinearisedCrossValidation> cv_;  // of the parametric model
+  std::vector<int> train_;              // the training poses (indices into poses_), ascending
+  int mt_ = 0;                          // how many
+  Eigen::MatrixXd u_;                   // their scaled features, mt × 2 per feature joint
+  std::vector<Eigen::Matrix3d> frame_;  // each one's map frame in the measuring frame
+  std::vector<int> fold_of_;            // each one's fold
+  std::vector<Eigen::MatrixXd> refit_;  // per fold: mt × 3 residuals, refit without it
+  Eigen::MatrixXd half_d2_;             // half squared feature distances, mt × mt
+  std::vector<std::vector<int>> fold_rows_, train_rows_;  // per fold: in it, and not
+  std::map<int, Eigen::MatrixXf> kernels_;                // by ℓ index, the few most recent
+  std::map<std::pair<int, int>, Score> scored_;
+};
+
+ResidualMapFit MapFitter::Run() {
+  if (!HasFitToLearnFrom()) return std::move(result_);
+  LineariseParametricFit();
+  if (!ChooseFeatures()) return std::move(result_);
+  CrossValidateParametricModel();
+  SetSupportRadius();
+  if (!SearchGrid()) return std::move(result_);
+  FitMap();
+  Decide();
+  return std::move(result_);
+}
+
+// A map learns what a converged parametric fit of these very poses leaves, and needs
+// enough of them for the folds.
+bool MapFitter::HasFitToLearnFrom() {
+  if (!fit_.status.ok() || static_cast<int>(fit_.fit_residuals.size()) != m_) {
+    result_.decision = "no parametric fit on these poses to learn from";
+    return false;
+  }
+  if (m_ < 4 * options_.folds) {
+    result_.decision =
+        "too few poses for " + std::to_string(options_.folds) + "-fold cross-validation";
+    return false;
+  }
+  return true;
+}
+
+// The parametric model and its linearised K-fold refits (one Gauss–Newton step each).
+void MapFitter::LineariseParametricFit() {
+  const std::vector<int>& subset = fit_.identifiability.identified;
   const int p = static_cast<int>(subset.size());
-  Eigen::MatrixXd jacobian(3 * m, p);
-  Eigen::VectorXd residual(3 * m);
-  {
-    Kinematics kin(model);
-    Eigen::Matrix<double, 3, Eigen::Dynamic> block(3, model.num_parameters());
-    for (int i = 0; i < m; ++i) {
-      // Each pose in its own measurement frame's base (the fit's value).
-      const Eigen::Vector3d x = kin.PositionAndJacobian(fit.base_of(poses[i].frame), fit.params,
-                                                        poses[i].joints_rad.data(), block);
-      residual.segment<3>(3 * i) = x - poses[i].target_in_world;
-      for (int c = 0; c < p; ++c) jacobian.block<3, 1>(3 * i, c) = block.col(subset[c]);
-    }
+  Eigen::MatrixXd jacobian(3 * m_, p);
+  Eigen::VectorXd residual(3 * m_);
+  Kinematics kin(model_);
+  Eigen::Matrix<double, 3, Eigen::Dynamic> block(3, model_.num_parameters());
+  for (int i = 0; i < m_; ++i) {
+    // Each pose in its own measurement frame's base (the fit's value).
+    const Eigen::Vector3d x = kin.PositionAndJacobian(fit_.base_of(poses_[i].frame), fit_.params,
+                                                      poses_[i].joints_rad.data(), block);
+    residual.segment<3>(3 * i) = x - poses_[i].target_in_world;
+    for (int c = 0; c < p; ++c) jacobian.block<3, 1>(3 * i, c) = block.col(subset[c]);
   }
-  const int folds = options.folds;
-  const LinearisedCrossValidation cv(jacobian, residual, AssignFolds(m, folds, options.seed),
-                                     folds);
-  std::vector<int> all(p);
-  for (int c = 0; c < p; ++c) all[c] = c;
+  cv_.emplace(jacobian, residual, AssignFolds(m_, folds_, options_.seed), folds_);
+}
 
-  // Features of every fit pose, scaled; the poses that train the map.
-  ResidualMapData& data = result.map;
-  data.output_frame = options.output_frame;
-  data.num_joints = n;
-  data.joints = FeatureJoints(model, poses);
+// Features of every fit pose (sin and cos of each joint that moves the target), scaled;
+// the poses that train the map, a farthest-point cover of them.
+bool MapFitter::ChooseFeatures() {
+  ResidualMapData& data = map();
+  data.output_frame = options_.output_frame;
+  data.num_joints = model_.num_joints();
+  data.joints = FeatureJoints(model_, poses_);
   if (data.joints.empty()) {
-    result.decision = "no joint moves the target";
-    return result;
+    result_.decision = "no joint moves the target";
+    return false;
   }
   const int jf = static_cast<int>(data.joints.size());
-  Eigen::MatrixXd u_all(m, 2 * jf);
-  for (int i = 0; i < m; ++i) {
+  Eigen::MatrixXd u_all(m_, 2 * jf);
+  for (int i = 0; i < m_; ++i) {
     for (int k = 0; k < jf; ++k) {
-      const double a = poses[i].joints_rad(data.joints[k]);
+      const double a = poses_[i].joints_rad(data.joints[k]);
       u_all(i, 2 * k) = std::sin(a);
       u_all(i, 2 * k + 1) = std::cos(a);
     }
   }
   data.feature_scale.assign(2 * jf, 1.0);
-  if (options.scaling == FeatureScaling::kStandardised) {
+  if (options_.scaling == FeatureScaling::kStandardised) {
     // Spread floor 0.05 (a joint that hardly moved, ~3°): moving it later is far from the
     // data, not nothing.
     const Eigen::RowVectorXd mean = u_all.colwise().mean();
@@ -484,134 +551,146 @@ ResidualMapFit FitResidualMap(const RobotModel& model, const EstimationResult& f
     }
   }
   for (int f = 0; f < 2 * jf; ++f) u_all.col(f) *= data.feature_scale[f];
-  const std::vector<int> train = FarthestPoints(u_all, options.max_training_poses);
-  const int mt = static_cast<int>(train.size());
-  Eigen::MatrixXd u(mt, 2 * jf);
-  for (int t = 0; t < mt; ++t) u.row(t) = u_all.row(train[t]);
+  train_ = FarthestPoints(u_all, options_.max_training_poses);
+  mt_ = static_cast<int>(train_.size());
+  u_.resize(mt_, 2 * jf);
+  for (int t = 0; t < mt_; ++t) u_.row(t) = u_all.row(train_[t]);
+  return true;
+}
 
-  // Everything in the map's output frame: residuals (model − measured) turned by Qᵀ, Q the
-  // map frame in the measuring frame (distances do not change). Per fold, the training
-  // poses' residuals under the parametric refit without that fold.
-  std::vector<Eigen::Matrix3d> frame(mt);
-  for (int t = 0; t < mt; ++t) {
-    frame[t] = fit.base_of(poses[train[t]].frame).linear();
-    if (options.output_frame == "joint1") {
-      frame[t] = frame[t] * TurnAboutZ(poses[train[t]].joints_rad(0));
+// Everything in the map's output frame: residuals (model − measured) turned by Qᵀ, Q the
+// map frame in the measuring frame (distances do not change). Per fold, the training
+// poses' residuals under the parametric refit without that fold; their held-out mean is
+// the figure the map must beat.
+void MapFitter::CrossValidateParametricModel() {
+  frame_.resize(mt_);
+  for (int t = 0; t < mt_; ++t) {
+    frame_[t] = fit_.base_of(poses_[train_[t]].frame).linear();
+    if (options_.output_frame == "joint1") {
+      frame_[t] = frame_[t] * TurnAboutZ(poses_[train_[t]].joints_rad(0));
     }
   }
-  std::vector<int> fold_of(mt);
-  for (int t = 0; t < mt; ++t) fold_of[t] = cv.fold_of_pose()[train[t]];
-  std::vector<Eigen::MatrixXd> refit(folds);  // mt × 3 each
+  fold_of_.resize(mt_);
+  for (int t = 0; t < mt_; ++t) fold_of_[t] = cv_->fold_of_pose()[train_[t]];
+  std::vector<int> all(fit_.identifiability.identified.size());
+  for (size_t c = 0; c < all.size(); ++c) all[c] = static_cast<int>(c);
+  refit_.resize(folds_);
   double parametric_sum = 0.0;
-  for (int f = 0; f < folds; ++f) {
-    const Eigen::VectorXd r = cv.RefitWithout(f, all);
-    refit[f].resize(mt, 3);
-    for (int t = 0; t < mt; ++t) {
-      refit[f].row(t) = (frame[t].transpose() * r.segment<3>(3 * train[t])).transpose();
-      if (fold_of[t] == f) parametric_sum += refit[f].row(t).norm();
+  for (int f = 0; f < folds_; ++f) {
+    const Eigen::VectorXd r = cv_->RefitWithout(f, all);
+    refit_[f].resize(mt_, 3);
+    for (int t = 0; t < mt_; ++t) {
+      refit_[f].row(t) = (frame_[t].transpose() * r.segment<3>(3 * train_[t])).transpose();
+      if (fold_of_[t] == f) parametric_sum += refit_[f].row(t).norm();
     }
   }
-  result.cv_mean_mm_parametric = parametric_sum / mt;
-
-  // Half squared distances between the training poses, and the support radius from their
-  // leave-one-out nearest neighbours.
-  Eigen::MatrixXd half_d2 = -u * u.transpose();
-  half_d2.colwise() += 0.5 * u.rowwise().squaredNorm();
-  half_d2.rowwise() += 0.5 * u.rowwise().squaredNorm().transpose();
-  half_d2 = half_d2.cwiseMax(0.0);
-  {
-    std::vector<double> loo(mt);
-    for (int t = 0; t < mt; ++t) {
-      double best = std::numeric_limits<double>::infinity();
-      for (int c = 0; c < mt; ++c) {
-        if (c != t) best = std::min(best, half_d2(t, c));
-      }
-      loo[t] = std::sqrt(2.0 * best);
+  result_.cv_mean_mm_parametric = parametric_sum / mt_;
+  fold_rows_.resize(folds_);
+  train_rows_.resize(folds_);
+  for (int t = 0; t < mt_; ++t) {
+    for (int f = 0; f < folds_; ++f) {
+      (fold_of_[t] == f ? fold_rows_ : train_rows_)[f].push_back(t);
     }
-    data.support_radius = options.support_margin * Quantile(loo, options.support_quantile);
   }
+}
 
-  // Cross-validation of one (ℓ, λ): per fold, kernel ridge on the other folds (single
-  // precision: K + λI with λ ≥ 0.01 is well conditioned, and the figures compared differ
-  // in the third digit), predicting the fold.
-  std::vector<std::vector<int>> fold_rows(folds), train_rows(folds);
-  for (int t = 0; t < mt; ++t) {
-    for (int f = 0; f < folds; ++f) (fold_of[t] == f ? fold_rows : train_rows)[f].push_back(t);
-  }
-  struct Score {
-    double mean = std::numeric_limits<double>::infinity(), sum_sq = 0.0;
-  };
-  std::map<int, Eigen::MatrixXf> kernels;  // by ℓ index, the few most recent
-  auto kernel = [&](int li) -> const Eigen::MatrixXf& {
-    if (auto it = kernels.find(li); it != kernels.end()) return it->second;
-    if (kernels.size() >= 3) kernels.erase(kernels.begin());
-    const double l = options.length_scales[li];
-    // Entries below e^−60 are zero: in single precision they would be denormal numbers,
-    // which slow the factorisation a hundredfold and weigh nothing.
-    return kernels[li] = (half_d2.array() / (l * l) > 60.0)
-                             .select(0.0, (-half_d2.array() / (l * l)).exp())
-                             .matrix()
-                             .cast<float>();
-  };
-  auto score = [&](int li, int ri) {
-    const Eigen::MatrixXf& k = kernel(li);
-    const float lambda = static_cast<float>(options.regularisations[ri]);
-    std::vector<double> sum(folds, 0.0), sum_sq(folds, 0.0);
-    std::vector<char> failed(folds, 0);
-    ParallelFor(folds, options.threads, [&](int f) {
-      const FlushDenormals flush;
-      const std::vector<int>& tr = train_rows[f];
-      const std::vector<int>& te = fold_rows[f];
-      Eigen::MatrixXf a(tr.size(), tr.size()), kft(te.size(), tr.size());
-      Eigen::MatrixXf y(tr.size(), 3);
-      for (size_t c = 0; c < tr.size(); ++c) {
-        for (size_t r = 0; r < tr.size(); ++r) a(r, c) = k(tr[r], tr[c]);
-        for (size_t r = 0; r < te.size(); ++r) kft(r, c) = k(te[r], tr[c]);
-        y.row(c) = (-refit[f].row(tr[c])).cast<float>();
-      }
-      a.diagonal().array() += lambda;
-      const Eigen::LLT<Eigen::MatrixXf> llt(a);
-      if (llt.info() != Eigen::Success) {
-        failed[f] = 1;
-        return;
-      }
-      const Eigen::MatrixXf predicted = kft * llt.solve(y);
-      for (size_t r = 0; r < te.size(); ++r) {
-        const Eigen::RowVector3d e = refit[f].row(te[r]) + predicted.row(r).cast<double>();
-        sum[f] += e.norm();
-        sum_sq[f] += e.squaredNorm();
-      }
-    });
-    Score s;
-    if (std::count(failed.begin(), failed.end(), 1) > 0) return s;
-    s.mean = 0.0;
-    for (int f = 0; f < folds; ++f) {
-      s.mean += sum[f] / mt;
-      s.sum_sq += sum_sq[f];
+// Half squared distances between the training poses, and the support radius from their
+// leave-one-out nearest neighbours.
+void MapFitter::SetSupportRadius() {
+  half_d2_ = -u_ * u_.transpose();
+  half_d2_.colwise() += 0.5 * u_.rowwise().squaredNorm();
+  half_d2_.rowwise() += 0.5 * u_.rowwise().squaredNorm().transpose();
+  half_d2_ = half_d2_.cwiseMax(0.0);
+  std::vector<double> loo(mt_);
+  for (int t = 0; t < mt_; ++t) {
+    double best = std::numeric_limits<double>::infinity();
+    for (int c = 0; c < mt_; ++c) {
+      if (c != t) best = std::min(best, half_d2_(t, c));
     }
-    return s;
-  };
+    loo[t] = std::sqrt(2.0 * best);
+  }
+  map().support_radius = options_.support_margin * Quantile(loo, options_.support_quantile);
+}
 
-  // Walk the grid from its middle to the best neighbour until none is better.
-  std::map<std::pair<int, int>, Score> scored;
-  auto at = [&](int li, int ri) {
-    const auto key = std::make_pair(li, ri);
-    if (auto it = scored.find(key); it != scored.end()) return it->second;
-    const Score s = score(li, ri);
-    result.grid.push_back({options.length_scales[li], options.regularisations[ri], s.mean});
-    return scored[key] = s;
-  };
-  const int nl = static_cast<int>(options.length_scales.size());
-  const int nr = static_cast<int>(options.regularisations.size());
+// The kernel matrix of the training poses for the li-th length scale, single precision;
+// the three most recently used are kept.
+const Eigen::MatrixXf& MapFitter::Kernel(int li) {
+  if (auto it = kernels_.find(li); it != kernels_.end()) return it->second;
+  if (kernels_.size() >= 3) kernels_.erase(kernels_.begin());
+  const double l = options_.length_scales[li];
+  // Entries below e^−60 are zero: in single precision they would be denormal numbers,
+  // which slow the factorisation a hundredfold and weigh nothing.
+  return kernels_[li] = (half_d2_.array() / (l * l) > 60.0)
+                            .select(0.0, (-half_d2_.array() / (l * l)).exp())
+                            .matrix()
+                            .cast<float>();
+}
+
+// Cross-validation of one (ℓ, λ): per fold, kernel ridge on the other folds (single
+// precision: K + λI with λ ≥ 0.01 is well conditioned, and the figures compared differ in
+// the third digit), predicting the fold.
+MapFitter::Score MapFitter::CrossValidate(int li, int ri) {
+  const Eigen::MatrixXf& k = Kernel(li);
+  const float lambda = static_cast<float>(options_.regularisations[ri]);
+  std::vector<double> sum(folds_, 0.0), sum_sq(folds_, 0.0);
+  std::vector<char> failed(folds_, 0);
+  ParallelFor(folds_, options_.threads, [&](int f) {
+    const FlushDenormals flush;
+    const std::vector<int>& tr = train_rows_[f];
+    const std::vector<int>& te = fold_rows_[f];
+    Eigen::MatrixXf a(tr.size(), tr.size()), kft(te.size(), tr.size());
+    Eigen::MatrixXf y(tr.size(), 3);
+    for (size_t c = 0; c < tr.size(); ++c) {
+      for (size_t r = 0; r < tr.size(); ++r) a(r, c) = k(tr[r], tr[c]);
+      for (size_t r = 0; r < te.size(); ++r) kft(r, c) = k(te[r], tr[c]);
+      y.row(c) = (-refit_[f].row(tr[c])).cast<float>();
+    }
+    a.diagonal().array() += lambda;
+    const Eigen::LLT<Eigen::MatrixXf> llt(a);
+    if (llt.info() != Eigen::Success) {
+      failed[f] = 1;
+      return;
+    }
+    const Eigen::MatrixXf predicted = kft * llt.solve(y);
+    for (size_t r = 0; r < te.size(); ++r) {
+      const Eigen::RowVector3d e = refit_[f].row(te[r]) + predicted.row(r).cast<double>();
+      sum[f] += e.norm();
+      sum_sq[f] += e.squaredNorm();
+    }
+  });
+  Score s;
+  if (std::count(failed.begin(), failed.end(), 1) > 0) return s;
+  s.mean = 0.0;
+  for (int f = 0; f < folds_; ++f) {
+    s.mean += sum[f] / mt_;
+    s.sum_sq += sum_sq[f];
+  }
+  return s;
+}
+
+// CrossValidate once per grid point, each recorded in the result's grid in the order met.
+MapFitter::Score MapFitter::ScoreOf(int li, int ri) {
+  const auto key = std::make_pair(li, ri);
+  if (auto it = scored_.find(key); it != scored_.end()) return it->second;
+  const Score s = CrossValidate(li, ri);
+  result_.grid.push_back({options_.length_scales[li], options_.regularisations[ri], s.mean});
+  return scored_[key] = s;
+}
+
+// Walks the (ℓ, λ) grid from its middle to the best neighbour until none is better, and
+// keeps that point. False when no kernel matrix could be factorised.
+bool MapFitter::SearchGrid() {
+  const int nl = static_cast<int>(options_.length_scales.size());
+  const int nr = static_cast<int>(options_.regularisations.size());
   int li = nl / 2, ri = nr / 2;
-  Score best = at(li, ri);
+  Score best = ScoreOf(li, ri);
   for (;;) {
     int next_l = li, next_r = ri;
     static constexpr std::pair<int, int> kSteps[] = {{-1, 0}, {1, 0}, {0, -1}, {0, 1}};
     for (const auto& [dl, dr] : kSteps) {
       const int l = li + dl, r = ri + dr;
       if (l < 0 || l >= nl || r < 0 || r >= nr) continue;
-      const Score s = at(l, r);
+      const Score s = ScoreOf(l, r);
       if (s.mean < best.mean) {
         best = s;
         next_l = l;
@@ -622,48 +701,56 @@ ResidualMapFit FitResidualMap(const RobotModel& model, const EstimationResult& f
     li = next_l;
     ri = next_r;
   }
-  kernels.clear();
+  kernels_.clear();
   if (!std::isfinite(best.mean)) {
-    result.decision = "the map's cross-validation failed (kernel matrices not positive definite)";
-    return result;
+    result_.decision = "the map's cross-validation failed (kernel matrices not positive definite)";
+    return false;
   }
-  data.length_scale = options.length_scales[li];
-  data.regularisation = options.regularisations[ri];
-  result.cv_mean_mm_with_map = best.mean;
+  map().length_scale = options_.length_scales[li];
+  map().regularisation = options_.regularisations[ri];
+  result_.cv_mean_mm_with_map = best.mean;
+  return true;
+}
 
-  // The map on all training poses with the chosen hyperparameters (double precision).
+// The map on all training poses with the chosen hyperparameters (double precision): its
+// centres, weights and noise σ.
+void MapFitter::FitMap() {
+  ResidualMapData& data = map();
   const FlushDenormals flush;
-  Eigen::MatrixXd k = (-half_d2.array() / (data.length_scale * data.length_scale)).exp().matrix();
+  Eigen::MatrixXd k = (-half_d2_.array() / (data.length_scale * data.length_scale)).exp().matrix();
   k.diagonal().array() += data.regularisation;
-  Eigen::MatrixXd y(mt, 3);
-  for (int t = 0; t < mt; ++t) {
-    y.row(t) = -(frame[t].transpose() * fit.fit_residuals[train[t]]).transpose();
+  Eigen::MatrixXd y(mt_, 3);
+  for (int t = 0; t < mt_; ++t) {
+    y.row(t) = -(frame_[t].transpose() * fit_.fit_residuals[train_[t]]).transpose();
   }
   const Eigen::MatrixXd w = k.llt().solve(y);
-  data.centres_rad.resize(mt);
-  data.weights_mm.resize(mt);
-  for (int t = 0; t < mt; ++t) {
-    for (int j : data.joints) data.centres_rad[t].push_back(poses[train[t]].joints_rad(j));
+  data.centres_rad.resize(mt_);
+  data.weights_mm.resize(mt_);
+  for (int t = 0; t < mt_; ++t) {
+    for (int j : data.joints) data.centres_rad[t].push_back(poses_[train_[t]].joints_rad(j));
     data.weights_mm[t] = {w(t, 0), w(t, 1), w(t, 2)};
   }
   // GP reading: with the kernel's shape (ℓ) and the noise-to-signal ratio (λ) fixed by the
   // cross-validation, the maximum-likelihood prior amplitude is s² = tr(Yᵀ (K + λI)⁻¹ Y) / 3n
   // and the noise σ² = λ s² (Rasmussen & Williams 2006, §5.4.1 with the scale profiled out).
-  const double s2 = std::max(0.0, (y.array() * w.array()).sum() / (3.0 * mt));
+  const double s2 = std::max(0.0, (y.array() * w.array()).sum() / (3.0 * mt_));
   data.noise_sigma_mm = std::sqrt(data.regularisation * s2);
+}
 
-  result.used =
-      result.cv_mean_mm_with_map <= (1.0 - options.required_gain) * result.cv_mean_mm_parametric;
-  // In plain words, the comparison that decided (the caller says "used" or "not used").
-  const double change =
-      100.0 * (result.cv_mean_mm_with_map / result.cv_mean_mm_parametric - 1.0);
+// The map is used when its cross-validated error beats the parametric model's by the
+// required gain; the decision says in plain words the comparison that decided (the caller
+// says "used" or "not used").
+void MapFitter::Decide() {
+  result_.used =
+      result_.cv_mean_mm_with_map <= (1.0 - options_.required_gain) * result_.cv_mean_mm_parametric;
+  const double change = 100.0 * (result_.cv_mean_mm_with_map / result_.cv_mean_mm_parametric - 1.0);
   char verdict[96];
-  if (result.used) {
+  if (result_.used) {
     std::snprintf(verdict, sizeof verdict, "%.1f %% better (the map is used from %.0f %% on)",
-                  -change, 100.0 * options.required_gain);
+                  -change, 100.0 * options_.required_gain);
   } else if (change < 0.0) {
     std::snprintf(verdict, sizeof verdict, "only %.1f %% better, less than the %.0f %% needed",
-                  -change, 100.0 * options.required_gain);
+                  -change, 100.0 * options_.required_gain);
   } else {
     std::snprintf(verdict, sizeof verdict, "%.1f %% worse with the map", change);
   }
@@ -671,9 +758,17 @@ ResidualMapFit FitResidualMap(const RobotModel& model, const EstimationResult& f
   std::snprintf(text, sizeof text,
                 "%d-fold cross-validation on %d fit poses: %.4f mm with the map, %.4f mm without "
                 "it: %s",
-                folds, mt, result.cv_mean_mm_with_map, result.cv_mean_mm_parametric, verdict);
-  result.decision = text;
-  return result;
+                folds_, mt_, result_.cv_mean_mm_with_map, result_.cv_mean_mm_parametric, verdict);
+  result_.decision = text;
+}
+
+}  // namespace
+
+ResidualMapFit FitResidualMap(const RobotModel& model, const EstimationResult& fit,
+                              const std::vector<MeasuredPose>& poses,
+                              const ResidualMapOptions& options) {
+  options.Check();
+  return MapFitter(model, fit, poses, options).Run();
 }
 
 }  // namespace armsig::calibration

@@ -314,6 +314,11 @@ void EmsconSimulator::OnFrame(const std::shared_ptr<Connection>& c, const std::s
   Queue(c, std::move(steps));
 }
 
+// One decoded request to the packets it answers with: one branch per emScon command (an
+// `if constexpr` per request type), each a few lines. Kept whole on purpose (about 200
+// lines): it is the protocol's table, read side by side with the emScon TPI manual and
+// instruments/emscon_codec.h; split into helpers it would scatter one table over many
+// small functions that share the tracker's state under one lock.
 std::vector<EmsconSimulator::Step> EmsconSimulator::Answer(const es::Request& request,
                                                            const FaultSpec& fault) {
   const int32_t id = es::CommandOf(request);

@@ -27,6 +27,10 @@
 
 #include <Eigen/Core>
 #include <atomic>
+// clang-format off
+#include <utility>  // first: Boost 1.74 Asio uses std::exchange without including it (C++20)
+#include <boost/asio.hpp>
+// clang-format on
 #include <chrono>
 #include <deque>
 #include <memory>
@@ -37,7 +41,7 @@
 #include <thread>
 
 #include "instruments/emscon_codec.h"
-#include "simulation/simulators.h"
+#include "simulation/simulator.h"
 #include "simulation/virtual_lab.h"
 
 namespace armsig::simulation {

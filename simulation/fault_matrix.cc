@@ -8,7 +8,11 @@
 #include "instruments/geocom_device.h"
 #include "instruments/gsi_device.h"
 #include "instruments/robot_controllers.h"
+#include "simulation/counter_simulator.h"
 #include "simulation/emscon_simulator.h"
+#include "simulation/geocom_simulator.h"
+#include "simulation/gsi_online_simulator.h"
+#include "simulation/val_simulator.h"
 
 namespace armsig::simulation {
 

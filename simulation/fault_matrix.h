@@ -13,7 +13,8 @@
 #include <vector>
 
 #include "instruments/device.h"
-#include "simulation/simulators.h"
+#include "simulation/simulator.h"
+#include "simulation/virtual_lab.h"
 
 namespace armsig::simulation {
 

@@ -9,6 +9,7 @@
 #include <map>
 #include <numbers>
 #include <numeric>
+#include <optional>
 #include <stdexcept>
 
 #include "calibration/drift.h"
@@ -63,94 +64,98 @@ std::vector<int> ParamsOf(const calibration::RobotModel& model, const std::strin
   }
 }
 
-CalibrationRun RunCalibration(const calibration::RobotModel& model,
-                              const std::vector<MeasuredPose>& poses,
-                              const std::vector<MeasuredPose>& holdout,
-                              const CalibrateSettings& settings) {
-  CalibrationRun run;
-  run.params_spec = settings.params;
+namespace {
+
+// The estimation options the settings ask for. With settings.model_subset the candidates
+// are narrowed to what the model identifies from configurations spread over its joint
+// limits, and `model_report` says which and why.
+calibration::EstimationOptions EstimationOptionsOf(
+    const calibration::RobotModel& model, const CalibrateSettings& settings,
+    std::optional<calibration::IdentifiabilityReport>& model_report) {
   calibration::EstimationOptions options;
   options.robust_threshold_mm = settings.robust_threshold_mm;
   options.max_iterations = settings.max_iterations;
   options.identifiability.relative_tolerance = settings.rank_tolerance;
-  const bool auto_params = settings.params == "auto";
   options.parameters = ParamsOf(model, settings.params);
-  std::optional<calibration::IdentifiabilityReport> model_report;
   if (settings.model_subset) {
     model_report =
         calibration::ModelIdentifiability(model, options.parameters, settings.rank_tolerance);
     options.parameters = model_report->identified;
   }
+  return options;
+}
 
-  std::vector<MeasuredPose> fit = poses, rest;
+// Stage 1, --select N: the D-optimal N of the poses are fitted (`fit`), the others
+// validate (`rest`). The selection looks at the parameters the whole candidate set can
+// identify, and every measurement frame must keep three fitted poses for its base.
+void SelectFitPoses(const calibration::RobotModel& model, const std::vector<MeasuredPose>& poses,
+                    const calibration::EstimationOptions& options, int select, CalibrationRun& run,
+                    std::vector<MeasuredPose>& fit, std::vector<MeasuredPose>& rest) {
+  if (select >= static_cast<int>(poses.size())) {
+    throw InputError({"--select", 0, 0, ""},
+                     "cannot keep " + std::to_string(select) + " of " +
+                         std::to_string(poses.size()) +
+                         " poses and still validate on the rest (expected N < " +
+                         std::to_string(poses.size()) + ")");
+  }
   const std::vector<int64_t> frames = calibration::FramesOf(poses);
-  if (settings.select > 0) {
-    if (settings.select >= static_cast<int>(poses.size())) {
-      throw InputError({"--select", 0, 0, ""},
-                       "cannot keep " + std::to_string(settings.select) + " of " +
-                           std::to_string(poses.size()) +
-                           " poses and still validate on the rest (expected N < " +
-                           std::to_string(poses.size()) + ")");
-    }
-    // Selection on the parameters the whole candidate set can identify.
-    std::vector<Eigen::VectorXd> joints;
-    for (const auto& p : poses) joints.push_back(p.joints_rad);
-    const auto report = calibration::AnalyseJacobian(
-        calibration::StackedJacobian(model, Eigen::Isometry3d::Identity(),
-                                     Eigen::VectorXd::Zero(model.num_parameters()), joints),
-        options.parameters, options.identifiability);
-    calibration::SelectionOptions selection_options;
-    selection_options.count = settings.select;
-    std::vector<int64_t> candidate_frames;
-    if (frames.size() > 1) {
-      for (const auto& p : poses) candidate_frames.push_back(p.frame);
-    }
-    run.selection = calibration::SelectConfigurations(model, joints, report.identified,
-                                                      selection_options, candidate_frames);
-    run.selection_candidates = static_cast<int>(poses.size());
-    fit.clear();
-    std::vector<char> chosen(poses.size(), 0);
-    for (int i : run.selection->selected) chosen[i] = 1;
-    for (size_t i = 0; i < poses.size(); ++i) (chosen[i] ? fit : rest).push_back(poses[i]);
-    spdlog::debug(
-        "calibration: selected {} of {} configurations (D-optimal on {} parameters{}), log det "
-        "{:.2f}, condition number {:.3g}, {} exchanges",
-        fit.size(), poses.size(), report.identified.size(),
-        frames.size() > 1 ? fmt::format(" and the bases of {} further frames", frames.size() - 1)
-                          : std::string(),
-        run.selection->log_det, run.selection->condition_number, run.selection->exchanges);
-    if (spdlog::should_log(spdlog::level::trace)) {
-      for (const auto& p : fit) spdlog::trace("calibration: fit pose {} (frame {})", p.id, p.frame);
-    }
-    if (frames.size() > 1) {
-      std::map<int64_t, int> fitted;
-      for (const auto& p : fit) fitted[p.frame]++;
-      for (int64_t f : frames) {
-        if (fitted[f] < 3) {
-          throw InputError(
-              {"--select", 0, 0, ""},
-              fmt::format("{} configurations are too few to fit {} measurement frames: frame "
-                          "{} keeps {} of them, and every frame needs at least 3 (its base has "
-                          "six unknowns); give a larger --select",
-                          settings.select, frames.size(), f, fitted[f]));
-        }
+  std::vector<Eigen::VectorXd> joints;
+  for (const auto& p : poses) joints.push_back(p.joints_rad);
+  const auto report = calibration::AnalyseJacobian(
+      calibration::StackedJacobian(model, Eigen::Isometry3d::Identity(),
+                                   Eigen::VectorXd::Zero(model.num_parameters()), joints),
+      options.parameters, options.identifiability);
+  calibration::SelectionOptions selection_options;
+  selection_options.count = select;
+  std::vector<int64_t> candidate_frames;
+  if (frames.size() > 1) {
+    for (const auto& p : poses) candidate_frames.push_back(p.frame);
+  }
+  run.selection = calibration::SelectConfigurations(model, joints, report.identified,
+                                                    selection_options, candidate_frames);
+  run.selection_candidates = static_cast<int>(poses.size());
+  fit.clear();
+  std::vector<char> chosen(poses.size(), 0);
+  for (int i : run.selection->selected) chosen[i] = 1;
+  for (size_t i = 0; i < poses.size(); ++i) (chosen[i] ? fit : rest).push_back(poses[i]);
+  spdlog::debug(
+      "calibration: selected {} of {} configurations (D-optimal on {} parameters{}), log det "
+      "{:.2f}, condition number {:.3g}, {} exchanges",
+      fit.size(), poses.size(), report.identified.size(),
+      frames.size() > 1 ? fmt::format(" and the bases of {} further frames", frames.size() - 1)
+                        : std::string(),
+      run.selection->log_det, run.selection->condition_number, run.selection->exchanges);
+  if (spdlog::should_log(spdlog::level::trace)) {
+    for (const auto& p : fit) spdlog::trace("calibration: fit pose {} (frame {})", p.id, p.frame);
+  }
+  if (frames.size() > 1) {
+    std::map<int64_t, int> fitted;
+    for (const auto& p : fit) fitted[p.frame]++;
+    for (int64_t f : frames) {
+      if (fitted[f] < 3) {
+        throw InputError(
+            {"--select", 0, 0, ""},
+            fmt::format("{} configurations are too few to fit {} measurement frames: frame "
+                        "{} keeps {} of them, and every frame needs at least 3 (its base has "
+                        "six unknowns); give a larger --select",
+                        select, frames.size(), f, fitted[f]));
       }
     }
   }
+}
 
-  if (auto_params) {
-    run.auto_terms = calibration::SelectTermsByFTest(model, fit, options, settings.alpha);
-    options.parameters = run.auto_terms->parameters;
-    run.params_spec = "auto";
-  }
-
+// Stage 3: the fit itself. Data the fit cannot use are input errors; a fit that produced
+// no numbers fails (exit 1, no table, JSON or stored set of numbers that are not results).
+void EstimateSignature(const calibration::RobotModel& model, const std::vector<MeasuredPose>& fit,
+                       const calibration::EstimationOptions& options,
+                       const std::optional<calibration::IdentifiabilityReport>& model_report,
+                       bool auto_params, CalibrationRun& run) {
   run.estimate = calibration::Estimate(model, fit, options);
   if (run.estimate.status.code == SolveCode::kTooFewObservations ||
       run.estimate.status.code == SolveCode::kDegenerate) {
     throw InputError({"--poses", 0, 0, ""}, run.estimate.status.message);
   }
   if (run.estimate.status.code == SolveCode::kNonFinite) {
-    // Exit code 1 and no table, JSON or stored set of numbers that are not results.
     throw std::runtime_error("calibration failed: " + run.estimate.status.message);
   }
   if (model_report && !auto_params) {
@@ -168,45 +173,122 @@ CalibrationRun RunCalibration(const calibration::RobotModel& model,
                            model_report->dependencies.end());
   }
   for (const auto& p : fit) run.fit_pose_ids.push_back(p.id);
+}
 
-  // Validation: every pose in its own frame. A frame none of whose poses was fitted has no
-  // base from the fit: it is aligned on its validation poses with the fitted parameters.
-  std::vector<MeasuredPose> validation = holdout.empty() ? rest : holdout;
+// Validation, every pose in its own frame. A frame none of whose poses was fitted has no
+// base from the fit: it is aligned on its validation poses with the fitted parameters;
+// poses of a frame too small for that are left out (said). Returns every frame's base and
+// records the frames and the validation poses in `run`.
+calibration::FrameBases PlaceValidationPoses(const calibration::RobotModel& model,
+                                             const std::vector<MeasuredPose>& fit,
+                                             std::vector<MeasuredPose>& validation,
+                                             CalibrationRun& run) {
   calibration::FrameBases bases = run.estimate.bases;
   std::map<int64_t, RunFrame> frame_info;
   for (const auto& [frame, base] : bases) frame_info[frame] = {frame, base, 0, 0, false};
   for (const auto& p : fit) frame_info[p.frame].fit_poses++;
-  {
-    std::vector<MeasuredPose> unplaced;
-    for (const auto& p : validation) {
-      if (!bases.count(p.frame)) unplaced.push_back(p);
-    }
-    for (const auto& [frame, base] :
-         calibration::AlignFrameBases(model, run.estimate.params, unplaced)) {
-      bases[frame] = base;
-      frame_info[frame] = {frame, base, 0, 0, true};
-      spdlog::warn(
-          "calibration: measurement frame {} has no fitted pose; its base is aligned on its "
-          "validation poses with the fitted parameters",
-          frame);
-    }
-    std::vector<MeasuredPose> placed;
-    for (auto& p : validation) {
-      if (bases.count(p.frame)) {
-        placed.push_back(std::move(p));
-      } else {
-        spdlog::warn("calibration: pose {} left out of the validation: its measurement frame {} "
-                     "has too few poses to be placed",
-                     p.id, p.frame);
-      }
-    }
-    validation = std::move(placed);
+  std::vector<MeasuredPose> unplaced;
+  for (const auto& p : validation) {
+    if (!bases.count(p.frame)) unplaced.push_back(p);
   }
+  for (const auto& [frame, base] :
+       calibration::AlignFrameBases(model, run.estimate.params, unplaced)) {
+    bases[frame] = base;
+    frame_info[frame] = {frame, base, 0, 0, true};
+    spdlog::warn(
+        "calibration: measurement frame {} has no fitted pose; its base is aligned on its "
+        "validation poses with the fitted parameters",
+        frame);
+  }
+  std::vector<MeasuredPose> placed;
+  for (auto& p : validation) {
+    if (bases.count(p.frame)) {
+      placed.push_back(std::move(p));
+    } else {
+      spdlog::warn(
+          "calibration: pose {} left out of the validation: its measurement frame {} "
+          "has too few poses to be placed",
+          p.id, p.frame);
+    }
+  }
+  validation = std::move(placed);
   for (const auto& p : validation) {
     run.validation_pose_ids.push_back(p.id);
     frame_info[p.frame].validation_poses++;
   }
   for (const auto& [frame, info] : frame_info) run.frames.push_back(info);
+  return bases;
+}
+
+// --residual-model auto: the residual map, fitted and cross-validated on the fit poses
+// only; when it is used, the validation residuals get its correction and every validation
+// pose its predictive σ.
+void FitResidualMapAndValidate(const calibration::RobotModel& model,
+                               const std::vector<MeasuredPose>& fit,
+                               const std::vector<MeasuredPose>& validation,
+                               const calibration::FrameBases& bases, CalibrationRun& run) {
+  run.residual_map = calibration::FitResidualMap(model, run.estimate, fit);
+  const auto& m = *run.residual_map;
+  // Said once, by the caller: in calibrate's and the demo's table (FormatCalibrationReport),
+  // in the nightly job's log.
+  spdlog::debug("calibration: residual map {}: {}", m.used ? "used" : "not used", m.decision);
+  if (!m.used || validation.empty()) return;
+  const calibration::ResidualMap map(m.map);
+  run.validation_parametric_residuals = run.validation_residuals;
+  run.validation_residuals = MappedResiduals(model, bases, run.estimate.params, &map, validation,
+                                             &run.validation_map_extrapolated);
+  for (const auto& p : validation) {
+    const double latent = map.CorrectionSigmaMm(p.joints_rad.data());
+    run.validation_map_sigma_mm.push_back(
+        std::sqrt(latent * latent + m.map.noise_sigma_mm * m.map.noise_sigma_mm));
+  }
+}
+
+// With several measurement frames, each frame's poses and base in the debug log.
+void LogFrames(const CalibrationRun& run) {
+  if (run.frames.size() <= 1 || !spdlog::should_log(spdlog::level::debug)) return;
+  for (const auto& f : run.frames) {
+    const Eigen::Vector3d t = f.world_from_base.translation();
+    spdlog::debug(
+        "calibration: frame {}{}: {} fitted, {} validated; base at ({:.3f}, {:.3f}, {:.3f}) "
+        "mm, rotated {:.4f} deg from the reference frame's",
+        f.frame, f.frame == run.estimate.reference_frame ? " (reference)" : "", f.fit_poses,
+        f.validation_poses, t.x(), t.y(), t.z(),
+        Eigen::AngleAxisd(run.estimate.world_from_base.linear().transpose() *
+                          f.world_from_base.linear())
+                .angle() *
+            180.0 / std::numbers::pi);
+  }
+}
+
+}  // namespace
+
+CalibrationRun RunCalibration(const calibration::RobotModel& model,
+                              const std::vector<MeasuredPose>& poses,
+                              const std::vector<MeasuredPose>& holdout,
+                              const CalibrateSettings& settings) {
+  CalibrationRun run;
+  run.params_spec = settings.params;
+  const bool auto_params = settings.params == "auto";
+  std::optional<calibration::IdentifiabilityReport> model_report;
+  calibration::EstimationOptions options = EstimationOptionsOf(model, settings, model_report);
+
+  // 1. Which poses are fitted: all, or the D-optimal --select N.
+  std::vector<MeasuredPose> fit = poses, rest;
+  if (settings.select > 0) SelectFitPoses(model, poses, options, settings.select, run, fit, rest);
+  // 2. Which parameters: --params auto adds the terms that pass an F-test and
+  // cross-validation to the geometric model.
+  if (auto_params) {
+    run.auto_terms = calibration::SelectTermsByFTest(model, fit, options, settings.alpha);
+    options.parameters = run.auto_terms->parameters;
+    run.params_spec = "auto";
+  }
+  // 3. The fit.
+  EstimateSignature(model, fit, options, model_report, auto_params, run);
+
+  // Validation on the held-out poses (or those --select left), each in its own frame.
+  std::vector<MeasuredPose> validation = holdout.empty() ? rest : holdout;
+  const calibration::FrameBases bases = PlaceValidationPoses(model, fit, validation, run);
   if (!validation.empty()) {
     run.validation_residuals =
         calibration::Residuals(model, bases, run.estimate.params, validation);
@@ -214,40 +296,12 @@ CalibrationRun RunCalibration(const calibration::RobotModel& model,
         model, bases, Eigen::VectorXd::Zero(model.num_parameters()), validation);
   }
   if (settings.residual_model == "auto" && run.estimate.status.ok()) {
-    run.residual_map = calibration::FitResidualMap(model, run.estimate, fit);
-    const auto& m = *run.residual_map;
-    // Said once, by the caller: in calibrate's and the demo's table (FormatCalibrationReport),
-    // in the nightly job's log.
-    spdlog::debug("calibration: residual map {}: {}", m.used ? "used" : "not used", m.decision);
-    if (m.used && !validation.empty()) {
-      const calibration::ResidualMap map(m.map);
-      run.validation_parametric_residuals = run.validation_residuals;
-      run.validation_residuals = MappedResiduals(model, bases, run.estimate.params, &map,
-                                                 validation, &run.validation_map_extrapolated);
-      for (const auto& p : validation) {
-        const double latent = map.CorrectionSigmaMm(p.joints_rad.data());
-        run.validation_map_sigma_mm.push_back(
-            std::sqrt(latent * latent + m.map.noise_sigma_mm * m.map.noise_sigma_mm));
-      }
-    }
+    FitResidualMapAndValidate(model, fit, validation, bases, run);
   } else if (settings.residual_model != "auto" && settings.residual_model != "off") {
     throw InputError({"--residual-model", 0, 0, ""},
                      "expected auto or off, got '" + settings.residual_model + "'");
   }
-  if (run.frames.size() > 1 && spdlog::should_log(spdlog::level::debug)) {
-    for (const auto& f : run.frames) {
-      const Eigen::Vector3d t = f.world_from_base.translation();
-      spdlog::debug(
-          "calibration: frame {}{}: {} fitted, {} validated; base at ({:.3f}, {:.3f}, {:.3f}) "
-          "mm, rotated {:.4f} deg from the reference frame's",
-          f.frame, f.frame == run.estimate.reference_frame ? " (reference)" : "", f.fit_poses,
-          f.validation_poses, t.x(), t.y(), t.z(),
-          Eigen::AngleAxisd(run.estimate.world_from_base.linear().transpose() *
-                            f.world_from_base.linear())
-                  .angle() *
-              180.0 / std::numbers::pi);
-    }
-  }
+  LogFrames(run);
   return run;
 }
 

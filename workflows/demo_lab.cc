@@ -11,6 +11,7 @@
 #include "io/builtin_models.h"
 #include "io/network_io.h"
 #include "reduction/observation.h"
+#include "simulation/geocom_simulator.h"
 #include "workflows/network.h"
 
 namespace armsig::workflows {

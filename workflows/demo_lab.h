@@ -16,7 +16,8 @@
 #include "calibration/model.h"
 #include "reduction/orientation.h"
 #include "simulation/emscon_simulator.h"
-#include "simulation/simulators.h"
+#include "simulation/simulator.h"
+#include "simulation/val_simulator.h"
 #include "simulation/virtual_lab.h"
 
 namespace armsig::workflows {

@@ -4,8 +4,11 @@
 #include <spdlog/spdlog.h>
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <map>
+#include <optional>
+#include <utility>
 
 #include "calibration/compensation.h"
 #include "calibration/pose_solver.h"
@@ -84,176 +87,263 @@ std::string CycleLabel(int cycle, int cycles) {
   return cycles < 100 ? fmt::format("{:02d}", cycle) : fmt::format("{:03d}", cycle);
 }
 
-}  // namespace
+// Makes the standard's plan in its order: P1 and the tool orientation every pose keeps, the
+// test cube (given, or the largest the model reaches), the test points P1…P5, the
+// multi-directional test's via points, the cycles, and the file's comment. The steps share
+// the model's inverse at the plan's tool orientation and P1's joints, so they are the
+// methods of one object that is used once.
+class Iso9283Planner {
+ public:
+  Iso9283Planner(const calibration::RobotModel& model, const std::string& robot,
+                 const Iso9283PlanOptions& options, const ActiveSignature* signature);
+  Iso9283Plan Make();
 
-Iso9283Plan MakeIso9283Plan(const calibration::RobotModel& model, const std::string& robot,
-                            const Iso9283PlanOptions& o, const ActiveSignature* signature) {
-  if (o.cycles < 1) throw InputError({"--cycles", 0, 0, ""}, "expected at least one cycle");
-  if (o.compensated && !signature) {
+ private:
+  void SolveCentre();
+  bool Reachable(const iso::TestCube& cube) const;
+  void ChooseCube();
+  Eigen::VectorXd Compensated(const Eigen::Vector3d& target, const Eigen::VectorXd& nominal,
+                              const std::string& what) const;
+  void PlanTestPoints();
+  void PlanViaPoints();
+  void PlanCycles();
+  std::string Comment() const;
+
+  const calibration::RobotModel& model_;
+  const std::string& robot_;
+  const Iso9283PlanOptions& o_;
+  const ActiveSignature* signature_;
+  const int n_;  // joints
+  const Eigen::VectorXd zero_;
+  Eigen::VectorXd seed_;
+  calibration::Kinematics kin_;
+  Eigen::Vector3d centre_;
+  const char* where_;  // the option that placed the cube
+  Iso9283Plan plan_;
+  calibration::JointSolution centre_solution_;  // P1's
+  Eigen::VectorXd q_centre_;
+  std::optional<NominalInverse> inverse_;  // at the plan's tool orientation
+  // The multi-directional test's via points, per point and side.
+  std::vector<std::array<Eigen::VectorXd, 3>> via_joints_;
+  std::vector<std::array<Eigen::Vector3d, 3>> via_targets_;
+};
+
+// Refuses a plan without cycles, --compensated without a signature and a seed of the
+// wrong length; the cube's centre: the given cube's, --centre, or the target at the seed.
+Iso9283Planner::Iso9283Planner(const calibration::RobotModel& model, const std::string& robot,
+                               const Iso9283PlanOptions& options, const ActiveSignature* signature)
+    : model_(model),
+      robot_(robot),
+      o_(options),
+      signature_(signature),
+      n_(model.num_joints()),
+      zero_(Eigen::VectorXd::Zero(model.num_parameters())),
+      kin_(model),
+      where_(options.cube ? "--cube" : "--centre") {
+  if (o_.cycles < 1) throw InputError({"--cycles", 0, 0, ""}, "expected at least one cycle");
+  if (o_.compensated && !signature_) {
     throw InputError({"--compensated", 0, 0, ""},
-                     "robot " + ShellWord(robot) +
+                     "robot " + ShellWord(robot_) +
                          " has no active arm signature to compensate with (fit one with "
                          "recalibrate, or plan without --compensated)");
   }
-  const int n = model.num_joints();
-  const Eigen::VectorXd zero = Eigen::VectorXd::Zero(model.num_parameters());
-  const Eigen::VectorXd seed = o.seed_rad.value_or(DefaultSeed(n));
-  if (seed.size() != n)
-    throw InputError({"--seed-deg", 0, 0, ""}, fmt::format("expected {} joint angles", n));
-  calibration::Kinematics kin(model);
-  const Eigen::Vector3d centre =
-      o.cube ? o.cube->centre_mm
-             : o.centre_mm.value_or(kin.Position(Eigen::Isometry3d::Identity(), zero, seed.data()));
-  const char* where = o.cube ? "--cube" : "--centre";
+  seed_ = o_.seed_rad.value_or(DefaultSeed(n_));
+  if (seed_.size() != n_)
+    throw InputError({"--seed-deg", 0, 0, ""}, fmt::format("expected {} joint angles", n_));
+  centre_ = o_.cube ? o_.cube->centre_mm
+                    : o_.centre_mm.value_or(
+                          kin_.Position(Eigen::Isometry3d::Identity(), zero_, seed_.data()));
+}
 
-  // P1 first: it fixes the tool orientation of every pose (unless --orientation does).
-  Iso9283Plan plan;
-  calibration::JointSolution centre_solution;
-  if (o.orientation_rad && n == 6) {
-    plan.tool_rotation = iso::RotationFromAbc(*o.orientation_rad);
-    centre_solution = calibration::SolvePose(model, Eigen::Isometry3d::Identity(), zero, centre,
-                                             plan.tool_rotation, seed);
+Iso9283Plan Iso9283Planner::Make() {
+  SolveCentre();
+  ChooseCube();
+  PlanTestPoints();
+  PlanViaPoints();
+  PlanCycles();
+  plan_.csv = io::FormatIso9283PlanCsv(plan_.rows, Comment());
+  return std::move(plan_);
+}
+
+// P1 first: it fixes the tool orientation of every pose (unless --orientation does), and
+// the model's inverse for the other points starts from its joints.
+void Iso9283Planner::SolveCentre() {
+  if (o_.orientation_rad && n_ == 6) {
+    plan_.tool_rotation = iso::RotationFromAbc(*o_.orientation_rad);
+    centre_solution_ = calibration::SolvePose(model_, Eigen::Isometry3d::Identity(), zero_, centre_,
+                                              plan_.tool_rotation, seed_);
   } else {
-    centre_solution =
-        calibration::SolveJoints(model, Eigen::Isometry3d::Identity(), zero, centre, seed);
+    centre_solution_ =
+        calibration::SolveJoints(model_, Eigen::Isometry3d::Identity(), zero_, centre_, seed_);
   }
-  if (!centre_solution.status.ok()) {
-    throw InputError({o.orientation_rad ? "--orientation" : where, 0, 0, ""},
-                     fmt::format("the centre {} mm cannot be reached by model {}{}: {}", Mm(centre),
-                                 model.name, o.orientation_rad ? " with that tool orientation" : "",
-                                 centre_solution.status.message));
+  if (!centre_solution_.status.ok()) {
+    throw InputError(
+        {o_.orientation_rad ? "--orientation" : where_, 0, 0, ""},
+        fmt::format("the centre {} mm cannot be reached by model {}{}: {}", Mm(centre_),
+                    model_.name, o_.orientation_rad ? " with that tool orientation" : "",
+                    centre_solution_.status.message));
   }
-  const Eigen::VectorXd q_centre = centre_solution.joints_rad;
-  if (!(o.orientation_rad && n == 6))
-    plan.tool_rotation =
-        calibration::LastLinkRotation(model, Eigen::Isometry3d::Identity(), zero, q_centre);
-  if (o.orientation_rad && n != 6)
+  q_centre_ = centre_solution_.joints_rad;
+  if (!(o_.orientation_rad && n_ == 6))
+    plan_.tool_rotation =
+        calibration::LastLinkRotation(model_, Eigen::Isometry3d::Identity(), zero_, q_centre_);
+  if (o_.orientation_rad && n_ != 6)
     spdlog::warn(
         "iso9283 plan: model {} has {} joints: the tool orientation cannot be held, "
         "only the positions are commanded",
-        model.name, n);
-  const NominalInverse inverse(model, plan.tool_rotation);
+        model_.name, n_);
+  inverse_.emplace(model_, plan_.tool_rotation);
+}
 
-  auto reachable = [&](const iso::TestCube& cube) {
-    for (const auto& c : iso::CubeCorners(cube))
-      if (!inverse.Solve(c, q_centre, centre).status.ok()) return false;
-    for (const auto& p : iso::TestPoints(cube))
-      if (!inverse.Solve(p.position_mm, q_centre, centre).status.ok()) return false;
-    return true;
-  };
-  if (o.cube) {
-    plan.cube = *o.cube;
+// Whether the model reaches every corner and test point of `cube` from P1.
+bool Iso9283Planner::Reachable(const iso::TestCube& cube) const {
+  for (const auto& c : iso::CubeCorners(cube))
+    if (!inverse_->Solve(c, q_centre_, centre_).status.ok()) return false;
+  for (const auto& p : iso::TestPoints(cube))
+    if (!inverse_->Solve(p.position_mm, q_centre_, centre_).status.ok()) return false;
+  return true;
+}
+
+// The cube: --cube's, or (--auto) the largest reachable around the centre, rounded down to
+// 10 mm. Corners the model does not reach are said: the standard's cube lies in the
+// working space.
+void Iso9283Planner::ChooseCube() {
+  if (o_.cube) {
+    plan_.cube = *o_.cube;
   } else {
-    const double edge = iso::LargestCubeEdge(centre, reachable, 10.0, 4000.0, 1.0);
+    const double edge = iso::LargestCubeEdge(
+        centre_, [this](const iso::TestCube& cube) { return Reachable(cube); }, 10.0, 4000.0, 1.0);
     if (edge <= 0.0) {
       throw InputError({"--centre", 0, 0, ""},
                        fmt::format("--auto: not even a 10 mm cube around {} mm is within the reach "
                                    "of model {} with this tool orientation",
-                                   Mm(centre), model.name));
+                                   Mm(centre_), model_.name));
     }
-    plan.cube = {centre, std::floor(edge / 10.0) * 10.0};
+    plan_.cube = {centre_, std::floor(edge / 10.0) * 10.0};
   }
-  for (const auto& c : iso::CubeCorners(plan.cube)) {
-    if (const auto s = inverse.Solve(c, q_centre, centre); !s.status.ok()) {
+  for (const auto& c : iso::CubeCorners(plan_.cube)) {
+    if (const auto s = inverse_->Solve(c, q_centre_, centre_); !s.status.ok()) {
       spdlog::warn(
           "iso9283 plan: corner {} mm of the cube is not within the model's reach ({}): "
           "the standard's cube lies in the working space",
           Mm(c), s.status.message);
     }
   }
+}
 
-  // P1…P5: nominal joints by the inverse, then (with --compensated) the signature's.
-  std::map<std::string, const Iso9283PlannedPoint*> by_name;
-  auto compensate = [&](const Eigen::Vector3d& target, const Eigen::VectorXd& nominal,
-                        const std::string& what) {
-    const auto s =
-        calibration::SolveJoints(model, Eigen::Isometry3d::Identity(), signature->signature.params,
-                                 target, nominal, {}, signature->signature.map.get());
-    if (!s.status.ok()) {
-      throw InputError({"--compensated", 0, 0, ""},
-                       fmt::format("{} {} mm: the calibrated robot cannot reach it ({})", what,
-                                   Mm(target), s.status.message));
-    }
-    return s.joints_rad;
-  };
-  for (const auto& p : iso::TestPoints(plan.cube)) {
+// --compensated: the joints at which the active signature (its map included) puts the
+// target, from the nominal joints.
+Eigen::VectorXd Iso9283Planner::Compensated(const Eigen::Vector3d& target,
+                                            const Eigen::VectorXd& nominal,
+                                            const std::string& what) const {
+  const auto s =
+      calibration::SolveJoints(model_, Eigen::Isometry3d::Identity(), signature_->signature.params,
+                               target, nominal, {}, signature_->signature.map.get());
+  if (!s.status.ok()) {
+    throw InputError({"--compensated", 0, 0, ""},
+                     fmt::format("{} {} mm: the calibrated robot cannot reach it ({})", what,
+                                 Mm(target), s.status.message));
+  }
+  return s.joints_rad;
+}
+
+// P1…P5: nominal joints by the inverse, then (with --compensated) the signature's.
+void Iso9283Planner::PlanTestPoints() {
+  for (const auto& p : iso::TestPoints(plan_.cube)) {
     Iso9283PlannedPoint planned;
     planned.name = p.name;
     planned.target_mm = p.position_mm;
     const auto s =
-        p.name == "P1" ? centre_solution : inverse.Solve(p.position_mm, q_centre, centre);
+        p.name == "P1" ? centre_solution_ : inverse_->Solve(p.position_mm, q_centre_, centre_);
     if (!s.status.ok()) {
-      throw InputError({where, 0, 0, ""},
+      throw InputError({where_, 0, 0, ""},
                        fmt::format("test point {} at {} mm cannot be reached by model {}: {}",
-                                   p.name, Mm(p.position_mm), model.name, s.status.message));
+                                   p.name, Mm(p.position_mm), model_.name, s.status.message));
     }
     planned.nominal_joints_rad = planned.joints_rad = s.joints_rad;
-    if (o.compensated) {
-      planned.joints_rad = compensate(p.position_mm, s.joints_rad, "test point " + p.name);
+    if (o_.compensated) {
+      planned.joints_rad = Compensated(p.position_mm, s.joints_rad, "test point " + p.name);
       planned.compensation_mm =
-          (kin.Position(Eigen::Isometry3d::Identity(), zero, planned.joints_rad.data()) -
+          (kin_.Position(Eigen::Isometry3d::Identity(), zero_, planned.joints_rad.data()) -
            p.position_mm)
               .norm();
     }
-    plan.points.push_back(std::move(planned));
+    plan_.points.push_back(std::move(planned));
   }
-  if (o.compensated) plan.signature_version = signature->signature.version;
+  if (o_.compensated) plan_.signature_version = signature_->signature.version;
+}
 
-  // The multi-directional test's via points, per point and side.
-  std::vector<std::array<Eigen::VectorXd, 3>> via_joints(plan.points.size());
-  std::vector<std::array<Eigen::Vector3d, 3>> via_targets(plan.points.size());
-  if (o.multi_directional) {
-    for (size_t i = 0; i < plan.points.size(); ++i) {
-      for (int k = 0; k < 3; ++k) {
-        const Eigen::Vector3d via = plan.points[i].target_mm + o.approach_mm * iso::ApproachSide(k);
-        const auto s =
-            inverse.Solve(via, plan.points[i].nominal_joints_rad, plan.points[i].target_mm);
-        if (!s.status.ok()) {
-          throw InputError(
-              {"--approach-mm", 0, 0, ""},
-              fmt::format("the via point of {} on its +{} side, {} mm, cannot be "
-                          "reached: {}",
-                          plan.points[i].name, iso::ApproachName(k), Mm(via), s.status.message));
-        }
-        via_targets[i][k] = via;
-        via_joints[i][k] =
-            o.compensated ? compensate(via, s.joints_rad, "via point") : s.joints_rad;
+// The multi-directional test's via points: `approach_mm` from each point on its +x, +y and
+// +z side, reached by the inverse from the point's own joints.
+void Iso9283Planner::PlanViaPoints() {
+  via_joints_.resize(plan_.points.size());
+  via_targets_.resize(plan_.points.size());
+  if (!o_.multi_directional) return;
+  for (size_t i = 0; i < plan_.points.size(); ++i) {
+    for (int k = 0; k < 3; ++k) {
+      const Eigen::Vector3d via = plan_.points[i].target_mm + o_.approach_mm * iso::ApproachSide(k);
+      const auto s =
+          inverse_->Solve(via, plan_.points[i].nominal_joints_rad, plan_.points[i].target_mm);
+      if (!s.status.ok()) {
+        throw InputError(
+            {"--approach-mm", 0, 0, ""},
+            fmt::format("the via point of {} on its +{} side, {} mm, cannot be "
+                        "reached: {}",
+                        plan_.points[i].name, iso::ApproachName(k), Mm(via), s.status.message));
       }
+      via_targets_[i][k] = via;
+      via_joints_[i][k] =
+          o_.compensated ? Compensated(via, s.joints_rad, "via point") : s.joints_rad;
     }
   }
-  for (int c = 1; c <= o.cycles; ++c) {
+}
+
+// The cycles in the standard's order of points (P1 P5 P4 P3 P2); in the multi-directional
+// test each point three times, each after its via point on one side.
+void Iso9283Planner::PlanCycles() {
+  for (int c = 1; c <= o_.cycles; ++c) {
     for (int index : iso::kCycleOrder) {
-      const auto& p = plan.points[index];
-      const std::string label = p.name + "-" + CycleLabel(c, o.cycles);
-      if (!o.multi_directional) {
-        plan.rows.push_back({label, p.name, c, "", p.target_mm, p.joints_rad});
+      const auto& p = plan_.points[index];
+      const std::string label = p.name + "-" + CycleLabel(c, o_.cycles);
+      if (!o_.multi_directional) {
+        plan_.rows.push_back({label, p.name, c, "", p.target_mm, p.joints_rad});
         continue;
       }
       for (int k = 0; k < 3; ++k) {
         const std::string side = iso::ApproachName(k);
-        plan.rows.push_back(
-            {label + "-" + side + "-via", "", 0, "", via_targets[index][k], via_joints[index][k]});
-        plan.rows.push_back({label + "-" + side, p.name, c, side, p.target_mm, p.joints_rad});
+        plan_.rows.push_back({label + "-" + side + "-via", "", 0, "", via_targets_[index][k],
+                              via_joints_[index][k]});
+        plan_.rows.push_back({label + "-" + side, p.name, c, side, p.target_mm, p.joints_rad});
       }
     }
   }
-  const Eigen::Vector3d abc = iso::AbcFromRotation(plan.tool_rotation) / kRadPerDeg;
-  const std::string comment = fmt::format(
+}
+
+// The plan file's comment: the robot, the cube, the measuring plane, the cycles and how
+// the joints were found.
+std::string Iso9283Planner::Comment() const {
+  const Eigen::Vector3d abc = iso::AbcFromRotation(plan_.tool_rotation) / kRadPerDeg;
+  return fmt::format(
       "armsig iso9283 plan: robot {} (model {}); cube centre {} mm, edge {:.1f} mm\n"
       "measuring plane C1-C2-C7-C8; P2, P3, P4, P5 at 10 % of the diagonal from C1, C2, C7, C8\n"
       "{} cycles in the order P1 P5 P4 P3 P2{}; tool orientation a {:.4f}, b {:.4f}, c {:.4f} deg\n"
       "joints: {}; targets x_mm, y_mm, z_mm in the robot frame",
-      robot, model.name, Mm(plan.cube.centre_mm), plan.cube.edge_mm, o.cycles,
-      o.multi_directional
+      robot_, model_.name, Mm(plan_.cube.centre_mm), plan_.cube.edge_mm, o_.cycles,
+      o_.multi_directional
           ? fmt::format(", each point approached from its +x, +y and +z side ({:g} mm via points)",
-                        o.approach_mm)
+                        o_.approach_mm)
           : std::string(),
       abc.x(), abc.y(), abc.z(),
-      o.compensated
-          ? fmt::format("compensated with arm signature version {}", plan.signature_version)
+      o_.compensated
+          ? fmt::format("compensated with arm signature version {}", plan_.signature_version)
           : std::string("the nominal model's inverse"));
-  plan.csv = io::FormatIso9283PlanCsv(plan.rows, comment);
-  return plan;
+}
+
+}  // namespace
+
+Iso9283Plan MakeIso9283Plan(const calibration::RobotModel& model, const std::string& robot,
+                            const Iso9283PlanOptions& o, const ActiveSignature* signature) {
+  return Iso9283Planner(model, robot, o, signature).Make();
 }
 
 std::string FormatIso9283PlanSummary(const Iso9283Plan& plan, const std::string& out_path) {

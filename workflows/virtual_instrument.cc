@@ -15,6 +15,9 @@
 #include "reduction/observation.h"
 #include "simulation/emscon_simulator.h"
 #include "simulation/fault_matrix.h"
+#include "simulation/geocom_simulator.h"
+#include "simulation/gsi_online_simulator.h"
+#include "simulation/val_simulator.h"
 
 namespace armsig::workflows {
 

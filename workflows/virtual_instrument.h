@@ -7,7 +7,8 @@
 #include <memory>
 #include <string>
 
-#include "simulation/simulators.h"
+#include "simulation/simulator.h"
+#include "simulation/virtual_lab.h"
 
 namespace armsig::workflows {
 

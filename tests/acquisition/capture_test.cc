@@ -30,7 +30,9 @@
 #include "reduction/observation.h"
 #include "reduction/point_flags.h"
 #include "simulation/fault_matrix.h"
-#include "simulation/simulators.h"
+#include "simulation/geocom_simulator.h"
+#include "simulation/simulator.h"
+#include "simulation/val_simulator.h"
 #include "support/stores.h"
 #include "test_support.h"
 

@@ -7,7 +7,8 @@
 #include "io/csv.h"
 #include "reduction/intersection.h"
 #include "reduction/observation.h"
-#include "simulation/simulators.h"
+#include "simulation/geocom_simulator.h"
+#include "simulation/simulator.h"
 #include "test_support.h"
 
 namespace armsig::testing {

@@ -11,7 +11,11 @@
 #include "instruments/robot_controllers.h"
 #include "reduction/intersection.h"
 #include "reduction/observation.h"
-#include "simulation/simulators.h"
+#include "simulation/counter_simulator.h"
+#include "simulation/geocom_simulator.h"
+#include "simulation/gsi_online_simulator.h"
+#include "simulation/simulator.h"
+#include "simulation/val_simulator.h"
 #include "test_support.h"
 
 namespace armsig::simulation {

@@ -17,6 +17,10 @@
 #include "reduction/intersection.h"
 #include "reduction/observation.h"
 #include "simulation/fault_matrix.h"
+#include "simulation/geocom_simulator.h"
+#include "simulation/gsi_online_simulator.h"
+#include "simulation/line_simulator.h"
+#include "simulation/val_simulator.h"
 #include "test_support.h"
 
 namespace armsig::simulation {
