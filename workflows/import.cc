@@ -13,8 +13,8 @@
 #include "db/database.h"
 #include "io/atomic_file.h"
 #include "io/gsi_import.h"
+#include "io/point_joint_join.h"
 #include "io/poses_csv.h"
-#include "io/tracker_import.h"
 #include "workflows/lifecycle.h"
 
 namespace armsig::workflows {

@@ -13,7 +13,7 @@ namespace armsig::workflows {
 // a registered robot (`robot`, in the database at `db_path`, which must exist).
 struct ImportPosesRequest {
   std::string file, out, robot, db_path;
-  // Or a tracker's point table joined with the robot's joint log (io/tracker_import.h).
+  // Or a tracker's point table joined with the robot's joint log (io/point_joint_join.h).
   std::string points, joints;
   std::string match = "id";         // id | time
   double time_tolerance_s = 0.5;    // --match time: nearest joint reading within this

@@ -1,9 +1,7 @@
-// Point tables as laser-tracker software exports them, joined with a robot's joint log:
-// every dialect of the fixtures (tests/data/tracker-exports, modelled on documented vendor
-// layouts) gives the same points, and simulated robot data written in those dialects come
-// back as the simulated poses, by id and by time stamp; what cannot be told apart or
-// matched is refused at its line.
-#include "io/tracker_import.h"
+// A tracker's point table joined with a robot's joint log: simulated robot data written in
+// the tracker exports' dialects come back as the simulated poses, by id and by time stamp;
+// what cannot be matched is refused at its line.
+#include "io/point_joint_join.h"
 
 #include <fmt/format.h>
 #include <gtest/gtest.h>
@@ -27,162 +25,7 @@ JointLogOptions SixJoints() {
   return options;
 }
 
-// The four points every fixture holds, in mm.
-const Eigen::Vector3d kFixture[4] = {{1512.4031, -203.1187, 1034.5520},
-                                     {1498.7725, 12.0390, 1102.7713},
-                                     {1377.0051, 240.6624, 987.2209},
-                                     {1620.1998, -412.5071, 856.4412}};
-
-std::string Fixture(const std::string& name) {
-  return testing::DataPath("tracker-exports/" + name);
-}
-
-void ExpectFixturePoints(const PointTable& t, double tolerance_mm, const std::string& prefix) {
-  ASSERT_EQ(t.points.size(), 4u) << t.source;
-  for (int k = 0; k < 4; ++k) {
-    EXPECT_EQ(t.points[k].name, prefix.empty() ? std::to_string(k + 1)
-                                               : fmt::format("{}{:03d}", prefix, k + 1));
-    EXPECT_LT((t.points[k].position_mm - kFixture[k]).norm(), tolerance_mm)
-        << t.source << " point " << k + 1 << ": " << t.points[k].position_mm.transpose();
-  }
-}
-
-std::string Refusal(const std::string& text, const PointTableOptions& options = {}) {
-  try {
-    ParsePointTable(text, "pts.txt", options);
-  } catch (const InputError& e) {
-    return e.what();
-  }
-  return "(accepted)";
-}
-
 }  // namespace
-
-TEST(TrackerImport, EveryExportDialectGivesTheSamePoints) {
-  {
-    // SpatialAnalyzer: // comments, Collection Group Target x y z, no unit in the file.
-    PointTableOptions mm;
-    mm.unit = LengthUnit::kMm;
-    const auto t = ReadPointTable(Fixture("sa-collection-group-target.txt"), mm);
-    ExpectFixturePoints(t, 1e-9, "P");
-    EXPECT_EQ(t.delimiter, "whitespace");
-    EXPECT_EQ(t.header_line, 0);
-    EXPECT_EQ(t.unit_from, "--points-unit");
-  }
-  {
-    // Leica: title lines, "Units: Meter", an aligned header with a code column.
-    const auto t = ReadPointTable(Fixture("leica-ptid-east-north-height.txt"));
-    ExpectFixturePoints(t, 1e-9, "P");
-    EXPECT_EQ(t.header_line, 6);
-    EXPECT_EQ(t.unit, LengthUnit::kM);
-    EXPECT_NE(t.unit_from.find("line 4"), std::string::npos) << t.unit_from;
-  }
-  {
-    // ';' with decimal commas, title lines, units in the header, ISO times, CR LF.
-    const auto t = ReadPointTable(Fixture("semicolon-decimal-comma.csv"));
-    ExpectFixturePoints(t, 1e-9, "P");
-    EXPECT_EQ(t.delimiter, "semicolon");
-    EXPECT_TRUE(t.decimal_comma);
-    EXPECT_EQ(t.header_line, 4);
-    ASSERT_TRUE(t.has_times);
-    EXPECT_TRUE(t.points[0].time->absolute);
-    EXPECT_NEAR(t.points[1].time->seconds - t.points[0].time->seconds, 11.75, 1e-6);
-  }
-  {
-    // Tab-separated, a units line: inches for the coordinates, mm for the sigmas.
-    const auto t = ReadPointTable(Fixture("tab-units-line-sigmas.txt"));
-    ExpectFixturePoints(t, 2e-5, "P");  // six decimals of an inch: 2.5e-5 mm
-    EXPECT_EQ(t.delimiter, "tab");
-    EXPECT_EQ(t.unit, LengthUnit::kInch);
-    ASSERT_TRUE(t.points[0].sigma_mm.has_value());
-    EXPECT_NEAR(t.points[0].sigma_mm->x(), 0.0081, 1e-12);  // mm, not inches
-    EXPECT_NEAR(t.points[3].sigma_mm->z(), 0.0110, 1e-12);
-  }
-  {
-    // Numbered points with a code column, no header: positional.
-    PointTableOptions mm;
-    mm.unit = LengthUnit::kMm;
-    ExpectFixturePoints(ReadPointTable(Fixture("numbered-points-with-codes.txt"), mm), 1e-9, "");
-  }
-}
-
-TEST(TrackerImport, RefusesWhatItCannotTellApartAtItsLine) {
-  PointTableOptions mm;
-  mm.unit = LengthUnit::kMm;
-  // Name, xyz, ijk, offset, tolerances: nine numbers, no header.
-  try {
-    ReadPointTable(Fixture("powerinspect-normals.txt"), mm);
-    FAIL();
-  } catch (const InputError& e) {
-    EXPECT_EQ(e.where().line, 1);
-    EXPECT_NE(std::string(e.what()).find("cannot tell the columns apart"), std::string::npos)
-        << e.what();
-  }
-  // No unit anywhere: never guessed.
-  EXPECT_NE(Refusal("A B P1 1 2 3\nA B P2 4 5 6\n").find("give --points-unit"), std::string::npos);
-  // Two units that disagree.
-  PointTableOptions metres;
-  metres.unit = LengthUnit::kM;
-  const std::string conflict = Refusal("name,x [mm],y [mm],z [mm]\nP1,1,2,3\n", metres);
-  EXPECT_NE(conflict.find("says mm but --points-unit says m"), std::string::npos) << conflict;
-  EXPECT_NE(Refusal("name,x [mm],y [m],z [mm]\nP1,1,2,3\n").find("one length unit"),
-            std::string::npos);
-  // A number that is none: file:line:column (column name).
-  EXPECT_NE(Refusal("name;x [mm];y [mm];z [mm]\nP1;1;2;3\nP2;4;5,5,5;6\n")
-                .find("pts.txt:3:3 (y [mm]): expected a finite number, got '5,5,5'"),
-            std::string::npos)
-      << Refusal("name;x [mm];y [mm];z [mm]\nP1;1;2;3\nP2;4;5,5,5;6\n");
-  // Implausible coordinates (a unit mix-up by 10^9).
-  EXPECT_NE(Refusal("name,x [m],y [m],z [m]\nP1,1e9,2,3\n").find("pts.txt:2:2"), std::string::npos);
-  // Duplicate names, with both lines.
-  EXPECT_NE(Refusal("name x y z\nmm mm mm\nP1 1 2 3\nP2 4 5 6\nP1 7 8 9\n")
-                .find("pts.txt:5:1 (name): duplicate point name 'P1' (also on line 3)"),
-            std::string::npos)
-      << Refusal("name x y z\nmm mm mm\nP1 1 2 3\nP2 4 5 6\nP1 7 8 9\n");
-  // A row that does not fit the table, after the first point row.
-  EXPECT_NE(Refusal("name,x_mm,y_mm,z_mm\nP1,1,2,3\nP2,4,5\n")
-                .find("pts.txt:3: expected 4 fields (comma-separated)"),
-            std::string::npos);
-  // Text between the header and the points that is no units line.
-  EXPECT_NE(Refusal("name,x_mm,y_mm,z_mm\nmeasured by hand\nP1,1,2,3\n")
-                .find("pts.txt:2: expected a units line"),
-            std::string::npos)
-      << Refusal("name,x_mm,y_mm,z_mm\nmeasured by hand\nP1,1,2,3\n");
-  // No point rows at all.
-  EXPECT_NE(Refusal("just a title\n").find("no point rows"), std::string::npos);
-  // A bad time stamp, at its column.
-  EXPECT_NE(Refusal("name,x_mm,y_mm,z_mm,time\nP1,1,2,3,yesterday\n").find("pts.txt:2:5 (time)"),
-            std::string::npos);
-}
-
-TEST(TrackerImport, TimeStampsAreIsoDateTimesOrSeconds) {
-  // An independent computation of the same instants: timegm of the broken-down UTC time.
-  std::tm tm{};
-  tm.tm_year = 2024 - 1900;
-  tm.tm_mon = 2;
-  tm.tm_mday = 5;
-  tm.tm_hour = 9;
-  tm.tm_min = 15;
-  tm.tm_sec = 30;
-  const double utc = static_cast<double>(::timegm(&tm));
-  auto seconds = [](const char* text) {
-    const auto t = ParseTimeStamp(text);
-    EXPECT_TRUE(t.has_value()) << text;
-    return t ? t->seconds : NAN;
-  };
-  EXPECT_DOUBLE_EQ(seconds("2024-03-05T09:15:30Z"), utc);
-  EXPECT_DOUBLE_EQ(seconds("2024-03-05 09:15:30.25"), utc + 0.25);
-  EXPECT_DOUBLE_EQ(seconds("2024-03-05T10:15:30+01:00"), utc);
-  EXPECT_DOUBLE_EQ(seconds("2024-03-05T04:45:30-0430"), utc);
-  EXPECT_DOUBLE_EQ(seconds("1970-01-01T00:00Z"), 0.0);
-  EXPECT_TRUE(ParseTimeStamp("2024-03-05T09:15:30Z")->absolute);
-  EXPECT_FALSE(ParseTimeStamp("1234.5")->absolute);
-  EXPECT_DOUBLE_EQ(ParseTimeStamp("1234,5")->seconds, 1234.5);
-  for (const char* bad : {"", "2024-13-05T09:15:30", "2024-03-05", "2024-03-05T25:00", "noon",
-                          "2024-03-05T09:15:30+25:00", "2024-03-05T09:15:30 UTC"}) {
-    EXPECT_FALSE(ParseTimeStamp(bad).has_value()) << bad;
-  }
-}
 
 namespace {
 
@@ -229,7 +72,7 @@ std::string Refused(const std::function<void()>& f) {
 
 // Points in metres with decimal commas and title lines, in another order than the joint
 // log, which has readings no point uses: the join by id gives back every simulated pose.
-TEST(TrackerImport, JoinByIdGivesBackTheSimulatedPoses) {
+TEST(PointJointJoin, JoinByIdGivesBackTheSimulatedPoses) {
   const Simulated sim(40, 11);
   testing::TempDir dir;
   std::string points = "Tracker export;cell 3\nUnits;Meter\n\nPoint;X;Y;Z;SigmaX;SigmaY;SigmaZ\n";
@@ -271,7 +114,8 @@ TEST(TrackerImport, JoinByIdGivesBackTheSimulatedPoses) {
     JoinPointsAndJoints(ReadPointTable(dir.File("pts2.csv")),
                         ReadJointLog(dir.File("log2.csv"), SixJoints()));
   });
-  const int c7_line = 5 + static_cast<int>(std::find(order.begin(), order.end(), 6) - order.begin());
+  const int c7_line =
+      5 + static_cast<int>(std::find(order.begin(), order.end(), 6) - order.begin());
   EXPECT_NE(refused.find(fmt::format("pts2.csv:{}: point 'C7' is ambiguous", c7_line)),
             std::string::npos)
       << refused;
@@ -284,7 +128,7 @@ TEST(TrackerImport, JoinByIdGivesBackTheSimulatedPoses) {
 // between them; the tracker measures somewhere in each standstill (its clock 0.02 s off).
 // The join by time finds each point's configuration; a point taken while the robot moved,
 // one far from any reading and two points on one reading are refused at their lines.
-TEST(TrackerImport, JoinByTimeTakesTheStandstillAroundEachPoint) {
+TEST(PointJointJoin, JoinByTimeTakesTheStandstillAroundEachPoint) {
   const Simulated sim(12, 5);
   testing::TempDir dir;
   std::mt19937 rng(9);
@@ -309,10 +153,10 @@ TEST(TrackerImport, JoinByTimeTakesTheStandstillAroundEachPoint) {
     std::time_t whole = static_cast<std::time_t>(std::floor(t));
     std::tm tm{};
     ::gmtime_r(&whole, &tm);
-    points += fmt::format("A Robot C{} {:.4f} {:.4f} {:.4f} {:04d}-{:02d}-{:02d} {:02d}:{:02d}:{:06.3f}\n",
-                          k + 1, sim.targets[k].x(), sim.targets[k].y(), sim.targets[k].z(),
-                          tm.tm_year + 1900, tm.tm_mon + 1, tm.tm_mday, tm.tm_hour, tm.tm_min,
-                          tm.tm_sec + (t - whole));
+    points += fmt::format(
+        "A Robot C{} {:.4f} {:.4f} {:.4f} {:04d}-{:02d}-{:02d} {:02d}:{:02d}:{:06.3f}\n", k + 1,
+        sim.targets[k].x(), sim.targets[k].y(), sim.targets[k].z(), tm.tm_year + 1900,
+        tm.tm_mon + 1, tm.tm_mday, tm.tm_hour, tm.tm_min, tm.tm_sec + (t - whole));
   }
   // The log's clock as the controller writes it: date-times too.
   std::string iso_log = "time,q1_deg,q2_deg,q3_deg,q4_deg,q5_deg,q6_deg\n";
@@ -322,10 +166,10 @@ TEST(TrackerImport, JoinByTimeTakesTheStandstillAroundEachPoint) {
     std::time_t whole = static_cast<std::time_t>(std::floor(t));
     std::tm tm{};
     ::gmtime_r(&whole, &tm);
-    iso_log += fmt::format("{:04d}-{:02d}-{:02d}T{:02d}:{:02d}:{:06.3f}Z", tm.tm_year + 1900,
-                           tm.tm_mon + 1, tm.tm_mday, tm.tm_hour, tm.tm_min,
-                           tm.tm_sec + (t - whole)) +
-               log.substr(comma, end - comma) + "\n";
+    iso_log +=
+        fmt::format("{:04d}-{:02d}-{:02d}T{:02d}:{:02d}:{:06.3f}Z", tm.tm_year + 1900,
+                    tm.tm_mon + 1, tm.tm_mday, tm.tm_hour, tm.tm_min, tm.tm_sec + (t - whole)) +
+        log.substr(comma, end - comma) + "\n";
     at = end + 1;
   }
   testing::WriteText(dir.File("log.csv"), iso_log);
@@ -347,8 +191,9 @@ TEST(TrackerImport, JoinByTimeTakesTheStandstillAroundEachPoint) {
   EXPECT_LE(joined.max_time_gap_s, 0.05 + 1e-6);  // the nearest 10 Hz tick
   EXPECT_EQ(joined.unused_joint_rows, 30 * 12 - 12);
   // Joining by id needs ids in the log.
-  EXPECT_NE(Refused([&] { JoinPointsAndJoints(table, ReadJointLog(dir.File("log.csv"))); })
-                .find("join by time"),
+  EXPECT_NE(Refused([&] {
+              JoinPointsAndJoints(table, ReadJointLog(dir.File("log.csv")));
+            }).find("join by time"),
             std::string::npos);
 
   // Point 3 measured while the robot moved (2.5 s into its slot), point 5 an hour later,

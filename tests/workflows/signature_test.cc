@@ -1,0 +1,174 @@
+// A robot's stored arm signature as the commands load and export it, against a parameter
+// set stored here in a real SQLite store: the active set is the one loaded, none is a clear
+// error; the JSON export carries each stored parameter as stored, and the corrected model
+// YAML, read back, moves like the calibrated robot in the frame asked for.
+#include "workflows/signature.h"
+
+#include <gtest/gtest.h>
+
+#include <functional>
+#include <nlohmann/json.hpp>
+#include <random>
+
+#include "calibration/simulation.h"
+#include "core/error.h"
+#include "db/calibrations.h"
+#include "db/robots.h"
+#include "io/model_yaml.h"
+#include "test_support.h"
+#include "workflows/lifecycle.h"
+
+namespace armsig::testing {
+namespace {
+
+// A PUMA registered as "puma" in a fresh store.
+struct Lab {
+  TempDir dir;
+  db::Database database{dir.File("lab.db")};
+  calibration::RobotModel model = Puma();
+  int64_t robot_id = 0;
+  Lab() {
+    EXPECT_TRUE(workflows::RegisterRobot(database, "puma", SourcePath("models/puma760.yaml")));
+    robot_id = *db::FindRobot(database, "puma");
+  }
+
+  // Stores a set with `params` (every other parameter identified, with a sigma of its own)
+  // measured in `world_from_base`.
+  db::CalibrationRecord Store(const Eigen::VectorXd& params, bool active,
+                              const Eigen::Isometry3d& world_from_base) {
+    db::CalibrationRecord record;
+    record.robot_id = robot_id;
+    record.params_spec = "all";
+    record.inputs_json = record.options_json = "{}";
+    record.active = active;
+    record.world_from_base = world_from_base;
+    const auto names = model.ParameterNames();
+    for (int k = 0; k < model.num_parameters(); ++k) {
+      const bool identified = k % 2 == 0;
+      record.parameters.push_back(
+          {names[k], model.UnitOf(k) == calibration::ParameterUnit::kMm ? "mm" : "rad", params(k),
+           identified ? 1e-4 * (k + 1) : NAN, identified});
+    }
+    db::WriteTransaction tx(database);
+    db::InsertCalibration(database, record);
+    tx.commit();
+    return record;
+  }
+};
+
+Eigen::Isometry3d SomeFrame() {
+  Eigen::Isometry3d frame = Eigen::Isometry3d::Identity();
+  frame.translate(Eigen::Vector3d(2400.0, -1300.0, -700.0));
+  frame.rotate(Eigen::AngleAxisd(2.1, Eigen::Vector3d::UnitZ()));
+  return frame;
+}
+
+std::string Refusal(const std::function<void()>& f) {
+  try {
+    f();
+  } catch (const InputError& e) {
+    return e.what();
+  }
+  return "(accepted)";
+}
+
+}  // namespace
+
+// No active set (none stored, or only one that is not active): the error names the robot
+// and the command that fits one. Once a set is active, it is the one loaded.
+TEST(LoadActiveSignature, IsTheActiveSetAndNamesARobotWithoutOne) {
+  Lab lab;
+  const std::string none = Refusal([&] { workflows::LoadActiveSignature(lab.database, "puma"); });
+  EXPECT_NE(none.find("robot puma has no active parameter set (fit one: "), std::string::npos)
+      << none;
+  EXPECT_NE(none.find("recalibrate --robot puma"), std::string::npos) << none;
+  const std::string unknown =
+      Refusal([&] { workflows::LoadActiveSignature(lab.database, "pumaa"); });
+  EXPECT_NE(unknown.find("no robot pumaa in the database (did you mean puma?"), std::string::npos)
+      << unknown;
+
+  std::mt19937 rng(7);
+  const Eigen::VectorXd inactive = calibration::RandomParameters(lab.model, 0.5, 1e-3, 0, rng);
+  lab.Store(inactive, false, Eigen::Isometry3d::Identity());
+  EXPECT_NE(Refusal([&] {
+              workflows::LoadActiveSignature(lab.database, "puma");
+            }).find("has no active parameter set"),
+            std::string::npos);
+  const Eigen::VectorXd active = calibration::RandomParameters(lab.model, 0.5, 1e-3, 0, rng);
+  lab.Store(active, true, SomeFrame());
+  const auto loaded = workflows::LoadActiveSignature(lab.database, "puma");
+  EXPECT_EQ(loaded.signature.version, 2);
+  EXPECT_EQ(loaded.model.num_parameters(), lab.model.num_parameters());
+  EXPECT_EQ(loaded.signature.params, active);
+  ASSERT_TRUE(loaded.signature.world_from_base.has_value());
+  EXPECT_LT((loaded.signature.world_from_base->matrix() - SomeFrame().matrix()).norm(), 1e-12);
+  EXPECT_EQ(loaded.signature.map, nullptr);
+}
+
+// The JSON export, parsed: the robot, the model, the version and each stored parameter by
+// name with its value, unit, identified flag and sigma (null when not identified).
+TEST(ExportSignature, JsonCarriesEveryStoredParameterAsStored) {
+  Lab lab;
+  std::mt19937 rng(8);
+  const auto record = lab.Store(calibration::RandomParameters(lab.model, 0.5, 1e-3, 0, rng), true,
+                                Eigen::Isometry3d::Identity());
+  const auto active = workflows::LoadActiveSignature(lab.database, "puma");
+  const auto exported = workflows::ExportSignature(active, "puma", "json", "robot");
+  EXPECT_TRUE(exported.warning.empty()) << exported.warning;
+  const auto json = nlohmann::json::parse(exported.text);
+  EXPECT_EQ(json["robot"], "puma");
+  EXPECT_EQ(json["model"], lab.model.name);
+  EXPECT_EQ(json["version"], 1);
+  EXPECT_TRUE(json["residual_map"].is_null());
+  ASSERT_EQ(json["parameters"].size(), record.parameters.size());
+  for (size_t k = 0; k < record.parameters.size(); ++k) {
+    const auto& p = json["parameters"][k];
+    const auto& stored = record.parameters[k];
+    EXPECT_EQ(p["name"], stored.name);
+    EXPECT_EQ(p["value"].get<double>(), stored.value) << stored.name;
+    EXPECT_EQ(p["unit"], stored.unit) << stored.name;
+    EXPECT_EQ(p["identified"], stored.identified) << stored.name;
+    if (stored.identified) {
+      EXPECT_EQ(p["sigma"].get<double>(), stored.sigma) << stored.name;
+    } else {
+      EXPECT_TRUE(p["sigma"].is_null()) << stored.name;
+    }
+  }
+}
+
+// The corrected model YAML, read back by the model reader: its nominal kinematics (its own
+// base, zero parameters) are the stored set's calibrated kinematics, in the robot's frame
+// or in the measuring frame the set was fitted in.
+TEST(ExportSignature, ModelYamlMovesLikeTheCalibratedRobotInTheFrameAsked) {
+  Lab lab;
+  std::mt19937 rng(9);
+  // The gravity twists and the backlash too: the model file keeps them as fixed values.
+  const Eigen::VectorXd full = calibration::RandomParameters(lab.model, 0.5, 1e-3, 1e-4, rng);
+  lab.Store(full, true, SomeFrame());
+  const auto active = workflows::LoadActiveSignature(lab.database, "puma");
+  calibration::Kinematics calibrated(lab.model);
+  for (const char* frame : {"robot", "measurement"}) {
+    const auto exported = workflows::ExportSignature(active, "puma", "model", frame);
+    const auto corrected = io::ParseRobotModel(exported.text, std::string("export ") + frame);
+    ASSERT_TRUE(corrected.base.has_value()) << exported.text;  // N1 with the set's H1 folded in
+    calibration::Kinematics nominal(corrected);
+    const Eigen::VectorXd zero = Eigen::VectorXd::Zero(corrected.num_parameters());
+    const Eigen::Isometry3d world_from_base =
+        std::string(frame) == "robot" ? Eigen::Isometry3d::Identity() : SomeFrame();
+    for (const auto& q : calibration::RandomConfigurations(lab.model, 10, rng)) {
+      const Eigen::Vector3d expected = calibrated.Position(world_from_base, full, q.data());
+      const Eigen::Vector3d got = nominal.Position(*corrected.base, zero, q.data());
+      EXPECT_LT((got - expected).norm(), 1e-6) << frame;
+    }
+  }
+  EXPECT_NE(Refusal([&] {
+              workflows::ExportSignature(active, "puma", "step", "robot");
+            }).find("--format: expected json, model or urdf, got 'step'"),
+            std::string::npos);
+  EXPECT_NE(Refusal([&] {
+              workflows::ExportSignature(active, "puma", "json", "tool");
+            }).find("--frame: expected robot or measurement"),
+            std::string::npos);
+}
+
+}  // namespace armsig::testing
