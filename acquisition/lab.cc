@@ -20,7 +20,7 @@
 #include "instruments/robot_controllers.h"
 #include "io/atomic_file.h"
 #include "io/model_yaml.h"
-#include "io/network_io.h"
+#include "io/network_files.h"
 #include "io/yaml_reader.h"
 
 namespace armsig::acquisition {

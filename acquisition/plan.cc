@@ -12,7 +12,7 @@
 
 #include "calibration/identifiability.h"
 #include "calibration/selection.h"
-#include "calibration/simulation.h"
+#include "calibration/synthetic.h"
 #include "core/error.h"
 #include "core/plausibility.h"
 #include "core/text.h"

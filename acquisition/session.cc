@@ -15,7 +15,7 @@
 #include <thread>
 
 #include "acquisition/beam_pointing.h"
-#include "acquisition/records.h"
+#include "acquisition/observation_rows.h"
 #include "acquisition/session_owner.h"
 #include "core/error.h"
 #include "core/text.h"

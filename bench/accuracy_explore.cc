@@ -18,7 +18,7 @@ static double Seconds(std::chrono::steady_clock::time_point t0) {
   return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
 }
 
-#include "calibration/simulation.h"
+#include "calibration/synthetic.h"
 static int Puma() {
   const std::string src = ARMSIG_SOURCE_DIR;
   RobotModel model = io::LoadRobotModel(src + "/models/puma760.yaml");

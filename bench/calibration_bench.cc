@@ -11,7 +11,7 @@
 #include "calibration/estimation.h"
 #include "calibration/residual_map.h"
 #include "calibration/selection.h"
-#include "calibration/simulation.h"
+#include "calibration/synthetic.h"
 #include "io/model_yaml.h"
 #include "io/poses_csv.h"
 

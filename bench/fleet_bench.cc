@@ -18,7 +18,7 @@
 #include <sstream>
 #include <thread>
 
-#include "calibration/simulation.h"
+#include "calibration/synthetic.h"
 #include "db/push.h"
 #include "db/store.h"
 #include "io/model_yaml.h"

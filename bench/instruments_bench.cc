@@ -15,7 +15,7 @@
 #include <filesystem>
 #include <future>
 
-#include "calibration/simulation.h"
+#include "calibration/synthetic.h"
 #include "instruments/emscon_device.h"
 #include "instruments/geocom_device.h"
 #include "io/model_yaml.h"

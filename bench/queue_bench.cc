@@ -16,7 +16,7 @@
 #include <sstream>
 #include <thread>
 
-#include "calibration/simulation.h"
+#include "calibration/synthetic.h"
 #include <spdlog/spdlog.h>
 
 #include "db/jobs.h"

@@ -10,7 +10,7 @@
 #include <random>
 #include <stdexcept>
 
-#include "calibration/simulation.h"
+#include "calibration/synthetic.h"
 
 namespace armsig::calibration {
 

@@ -1,6 +1,6 @@
 // Angle observations CSV (point, station, hz, v with units, optional distance and face).
 #include "fuzz/fuzz_support.h"
-#include "io/network_io.h"
+#include "io/network_files.h"
 
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   using namespace armsig;

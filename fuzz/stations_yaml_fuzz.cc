@@ -1,6 +1,6 @@
 // Stations YAML (orient's output, triangulate's and the lab file's input).
 #include "fuzz/fuzz_support.h"
-#include "io/network_io.h"
+#include "io/network_files.h"
 
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   using namespace armsig;

@@ -20,7 +20,7 @@
 #include "acquisition/session_owner.h"
 #include "calibration/identifiability.h"
 #include "calibration/selection.h"
-#include "calibration/simulation.h"
+#include "calibration/synthetic.h"
 #include "core/error.h"
 #include "core/text.h"
 #include "core/text_layout.h"
@@ -39,7 +39,7 @@
 #include "workflows/capture.h"
 #include "workflows/demo_lab.h"
 #include "workflows/hint.h"
-#include "workflows/network.h"
+#include "workflows/orient_triangulate.h"
 #include "workflows/reduce.h"
 
 namespace armsig::workflows {

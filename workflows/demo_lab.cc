@@ -4,15 +4,15 @@
 #include <cmath>
 #include <stdexcept>
 
-#include "calibration/simulation.h"
+#include "calibration/synthetic.h"
 #include "core/units.h"
 #include "instruments/geocom_device.h"
 #include "io/atomic_file.h"
 #include "io/builtin_models.h"
-#include "io/network_io.h"
+#include "io/network_files.h"
 #include "reduction/observation.h"
 #include "simulation/geocom_simulator.h"
-#include "workflows/network.h"
+#include "workflows/orient_triangulate.h"
 
 namespace armsig::workflows {
 

@@ -10,13 +10,13 @@
 #include <utility>
 
 #include "acquisition/lab.h"
-#include "acquisition/records.h"
+#include "acquisition/observation_rows.h"
 #include "core/error.h"
 #include "core/plausibility.h"
 #include "core/text.h"
 #include "db/store.h"
 #include "io/csv.h"
-#include "io/network_io.h"
+#include "io/network_files.h"
 #include "workflows/hint.h"
 
 namespace armsig::workflows {

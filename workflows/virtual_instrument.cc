@@ -6,7 +6,7 @@
 #include <thread>
 
 #include "acquisition/lab.h"
-#include "calibration/simulation.h"
+#include "calibration/synthetic.h"
 #include "core/error.h"
 #include "core/text.h"
 #include "core/units.h"

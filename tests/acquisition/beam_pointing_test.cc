@@ -7,7 +7,7 @@
 #include <random>
 
 #include "calibration/compensation.h"
-#include "calibration/simulation.h"
+#include "calibration/synthetic.h"
 #include "test_support.h"
 
 namespace armsig::acquisition {

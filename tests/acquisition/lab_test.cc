@@ -4,7 +4,7 @@
 
 #include "core/error.h"
 #include "core/units.h"
-#include "io/network_io.h"
+#include "io/network_files.h"
 #include "test_support.h"
 
 namespace armsig::acquisition {

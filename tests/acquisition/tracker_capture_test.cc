@@ -16,11 +16,11 @@
 
 #include "acquisition/lab.h"
 #include "acquisition/session.h"
-#include "calibration/simulation.h"
+#include "calibration/synthetic.h"
 #include "core/units.h"
 #include "db/database.h"
 #include "db/store.h"
-#include "io/network_io.h"
+#include "io/network_files.h"
 #include "reduction/observation.h"
 #include "reduction/point_flags.h"
 #include "simulation/emscon_simulator.h"

@@ -5,7 +5,7 @@
 #include <nlohmann/json.hpp>
 #include <random>
 
-#include "calibration/simulation.h"
+#include "calibration/synthetic.h"
 #include "io/poses_csv.h"
 #include "test_support.h"
 

@@ -10,7 +10,7 @@
 #include <nlohmann/json.hpp>
 #include <thread>
 
-#include "calibration/simulation.h"
+#include "calibration/synthetic.h"
 #include "db/database.h"
 #include "db/jobs.h"
 #include "support/postgres_server.h"

@@ -14,9 +14,9 @@
 #include <sstream>
 
 #include "app/command.h"
-#include "calibration/simulation.h"
+#include "calibration/synthetic.h"
 #include "db/database.h"
-#include "io/network_io.h"
+#include "io/network_files.h"
 #include "support/simulated_sessions.h"
 #include "test_support.h"
 

@@ -3,7 +3,7 @@
 #include <filesystem>
 #include <nlohmann/json.hpp>
 
-#include "calibration/simulation.h"
+#include "calibration/synthetic.h"
 #include "io/csv.h"
 #include "reduction/intersection.h"
 #include "reduction/observation.h"

@@ -9,7 +9,7 @@
 #include <nlohmann/json.hpp>
 #include <random>
 
-#include "calibration/simulation.h"
+#include "calibration/synthetic.h"
 #include "core/units.h"
 #include "io/iso9283_csv.h"
 #include "test_support.h"

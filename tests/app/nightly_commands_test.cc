@@ -16,7 +16,7 @@
 #include <set>
 #include <sstream>
 
-#include "calibration/simulation.h"
+#include "calibration/synthetic.h"
 #include "db/database.h"
 #include "io/poses_csv.h"
 #include "support/simulated_sessions.h"

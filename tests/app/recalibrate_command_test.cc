@@ -8,7 +8,7 @@
 #include <random>
 
 #include "calibration/compensation.h"
-#include "calibration/simulation.h"
+#include "calibration/synthetic.h"
 #include "db/database.h"
 #include "io/csv.h"
 #include "io/model_yaml.h"

@@ -14,7 +14,7 @@
 #include <cstdio>
 #include <nlohmann/json.hpp>
 
-#include "calibration/simulation.h"
+#include "calibration/synthetic.h"
 #include "db/database.h"
 #include "support/postgres_server.h"
 #include "support/simulated_sessions.h"

@@ -15,7 +15,7 @@
 #include <regex>
 #include <sstream>
 
-#include "calibration/simulation.h"
+#include "calibration/synthetic.h"
 #include "core/text_layout.h"
 #include "io/poses_csv.h"
 #include "test_support.h"

@@ -10,7 +10,7 @@
 
 #include "calibration/estimation.h"
 #include "calibration/identifiability.h"
-#include "calibration/simulation.h"
+#include "calibration/synthetic.h"
 #include "core/units.h"
 #include "test_support.h"
 

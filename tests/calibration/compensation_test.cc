@@ -6,7 +6,7 @@
 
 #include <random>
 
-#include "calibration/simulation.h"
+#include "calibration/synthetic.h"
 #include "core/units.h"
 #include "test_support.h"
 

@@ -8,7 +8,7 @@
 
 #include "calibration/estimation.h"
 #include "calibration/identifiability.h"
-#include "calibration/simulation.h"
+#include "calibration/synthetic.h"
 #include "test_support.h"
 
 namespace armsig::calibration {

@@ -4,7 +4,7 @@
 
 #include <random>
 
-#include "calibration/simulation.h"
+#include "calibration/synthetic.h"
 #include "test_support.h"
 
 namespace armsig::calibration {

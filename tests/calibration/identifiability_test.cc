@@ -5,7 +5,7 @@
 #include <random>
 
 #include "calibration/estimation.h"
-#include "calibration/simulation.h"
+#include "calibration/synthetic.h"
 #include "test_support.h"
 
 namespace armsig::calibration {

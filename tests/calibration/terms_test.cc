@@ -9,7 +9,7 @@
 
 #include "calibration/compensation.h"
 #include "calibration/estimation.h"
-#include "calibration/simulation.h"
+#include "calibration/synthetic.h"
 #include "test_support.h"
 
 namespace armsig::calibration {

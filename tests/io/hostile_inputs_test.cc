@@ -14,7 +14,7 @@
 #include "io/atomic_file.h"
 #include "io/gsi_import.h"
 #include "io/model_yaml.h"
-#include "io/network_io.h"
+#include "io/network_files.h"
 #include "io/poses_csv.h"
 #include "test_support.h"
 

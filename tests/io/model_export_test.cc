@@ -7,7 +7,7 @@
 #include <regex>
 
 #include "calibration/compensation.h"
-#include "calibration/simulation.h"
+#include "calibration/synthetic.h"
 #include "core/plausibility.h"
 #include "io/model_yaml.h"
 #include "test_support.h"

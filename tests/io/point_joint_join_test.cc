@@ -11,7 +11,7 @@
 #include <functional>
 #include <random>
 
-#include "calibration/simulation.h"
+#include "calibration/synthetic.h"
 #include "core/error.h"
 #include "core/units.h"
 #include "test_support.h"

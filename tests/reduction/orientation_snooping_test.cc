@@ -10,7 +10,7 @@
 
 #include "core/units.h"
 #include "io/csv.h"
-#include "io/network_io.h"
+#include "io/network_files.h"
 #include "reduction/orientation.h"
 #include "reduction/sim_lab.h"
 #include "test_support.h"

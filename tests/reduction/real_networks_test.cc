@@ -8,7 +8,7 @@
 #include <set>
 
 #include "io/csv.h"
-#include "io/network_io.h"
+#include "io/network_files.h"
 #include "reduction/intersection.h"
 #include "reduction/orientation.h"
 #include "test_support.h"

@@ -5,7 +5,7 @@
 #include <numbers>
 #include <thread>
 
-#include "calibration/simulation.h"
+#include "calibration/synthetic.h"
 #include "instruments/geocom_device.h"
 #include "instruments/gsi_device.h"
 #include "instruments/robot_controllers.h"

@@ -11,7 +11,7 @@
 #include <chrono>
 #include <thread>
 
-#include "calibration/simulation.h"
+#include "calibration/synthetic.h"
 #include "instruments/geocom_device.h"
 #include "instruments/transport.h"
 #include "reduction/intersection.h"

@@ -9,7 +9,7 @@
 #include <random>
 #include <stdexcept>
 
-#include "calibration/simulation.h"
+#include "calibration/synthetic.h"
 #include "core/units.h"
 #include "db/database.h"
 #include "support/simulated_sessions.h"

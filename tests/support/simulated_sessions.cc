@@ -2,7 +2,7 @@
 
 #include <random>
 
-#include "calibration/simulation.h"
+#include "calibration/synthetic.h"
 #include "db/store.h"
 #include "test_support.h"
 

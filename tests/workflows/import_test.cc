@@ -10,7 +10,7 @@
 #include <filesystem>
 #include <random>
 
-#include "calibration/simulation.h"
+#include "calibration/synthetic.h"
 #include "core/error.h"
 #include "core/units.h"
 #include "db/database.h"

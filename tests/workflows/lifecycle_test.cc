@@ -9,7 +9,7 @@
 #include <random>
 
 #include "acquisition/session_owner.h"
-#include "calibration/simulation.h"
+#include "calibration/synthetic.h"
 #include "core/error.h"
 #include "db/sessions.h"
 #include "support/simulated_sessions.h"

@@ -11,7 +11,7 @@
 #include <filesystem>
 #include <set>
 
-#include "calibration/simulation.h"
+#include "calibration/synthetic.h"
 #include "core/units.h"
 #include "io/poses_csv.h"
 #include "workflows/lifecycle.h"

@@ -8,7 +8,7 @@
 
 #include <map>
 
-#include "calibration/simulation.h"
+#include "calibration/synthetic.h"
 #include "core/error.h"
 #include "db/calibrations.h"
 #include "db/database.h"

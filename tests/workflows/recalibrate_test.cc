@@ -12,7 +12,7 @@
 #include <thread>
 #include <tuple>
 
-#include "calibration/simulation.h"
+#include "calibration/synthetic.h"
 #include "core/error.h"
 #include "db/database.h"
 #include "db/schema.h"

@@ -7,7 +7,7 @@
 #include <cmath>
 #include <thread>
 
-#include "calibration/simulation.h"
+#include "calibration/synthetic.h"
 #include "core/error.h"
 #include "db/store.h"
 #include "io/csv.h"

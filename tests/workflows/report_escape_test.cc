@@ -8,7 +8,7 @@
 #include <filesystem>
 #include <random>
 
-#include "calibration/simulation.h"
+#include "calibration/synthetic.h"
 #include "io/model_yaml.h"
 #include "test_support.h"
 #include "workflows/calibration_run.h"

@@ -19,7 +19,7 @@
 
 #include "calibration/drift.h"
 #include "calibration/identifiability.h"
-#include "calibration/simulation.h"
+#include "calibration/synthetic.h"
 #include "db/store.h"
 #include "support/simulated_sessions.h"
 #include "test_support.h"

@@ -1,4 +1,4 @@
-#include "calibration/simulation.h"
+#include "calibration/synthetic.h"
 
 #include <string>
 

@@ -1,4 +1,4 @@
-#include "io/network_io.h"
+#include "io/network_files.h"
 
 #include <gtest/gtest.h>
 

@@ -1,5 +1,5 @@
 // CLI smoke tests of orient, triangulate and reduce; the behaviour is tested on the library
-// calls in tests/workflows/network_test.cc and reduce_test.cc.
+// calls in tests/workflows/orient_triangulate_test.cc and reduce_test.cc.
 #include <fmt/format.h>
 #include <gtest/gtest.h>
 
@@ -12,7 +12,7 @@
 #include "core/units.h"
 #include "db/database.h"
 #include "io/csv.h"
-#include "io/network_io.h"
+#include "io/network_files.h"
 #include "reduction/observation.h"
 #include "test_support.h"
 

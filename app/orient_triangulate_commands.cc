@@ -6,7 +6,7 @@
 
 #include "app/command.h"
 #include "core/plausibility.h"
-#include "workflows/network.h"
+#include "workflows/orient_triangulate.h"
 
 namespace armsig::app {
 

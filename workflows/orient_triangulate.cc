@@ -1,5 +1,5 @@
 #include "core/wording.h"
-#include "workflows/network.h"
+#include "workflows/orient_triangulate.h"
 
 #include <fmt/format.h>
 #include <nlohmann/json.hpp>

@@ -1,6 +1,6 @@
-// orient and triangulate on files (workflows/network): real networks through the library
+// orient and triangulate on files (workflows/orient_triangulate): real networks through the library
 // calls the commands make, and the input errors they refuse.
-#include "workflows/network.h"
+#include "workflows/orient_triangulate.h"
 
 #include <gtest/gtest.h>
 
@@ -10,7 +10,7 @@
 
 #include "core/error.h"
 #include "io/csv.h"
-#include "io/network_io.h"
+#include "io/network_files.h"
 #include "test_support.h"
 
 namespace armsig::workflows {

@@ -8,7 +8,7 @@
 #include <string>
 #include <vector>
 
-#include "io/network_io.h"
+#include "io/network_files.h"
 #include "reduction/instrument_errors.h"
 #include "reduction/orientation.h"
 

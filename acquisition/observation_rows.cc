@@ -1,4 +1,4 @@
-#include "acquisition/records.h"
+#include "acquisition/observation_rows.h"
 
 #include <limits>
 
