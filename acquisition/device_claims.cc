@@ -230,7 +230,7 @@ Holder HolderOf(int fd) {
 
 }  // namespace
 
-DeviceClaims ClaimDevices(const LabConfig& lab, const std::string& what,
+DeviceClaims ClaimDevices(const io::LabConfig& lab, const std::string& what,
                           const std::string& lock_dir) {
   std::vector<std::string> devices;
   for (const auto& i : lab.instruments)

@@ -29,7 +29,7 @@ class DeviceClaims {
   const std::vector<std::string>& devices() const { return devices_; }
 
  private:
-  friend DeviceClaims ClaimDevices(const LabConfig&, const std::string&, const std::string&);
+  friend DeviceClaims ClaimDevices(const io::LabConfig&, const std::string&, const std::string&);
   std::vector<int> fds_;
   std::vector<std::string> devices_;
 };
@@ -55,7 +55,7 @@ int OpenClaimFolder(const std::string& dir);
 // the device, the lab file and the live holder (its pid, checked against the kernel's lock
 // table, and its user when that is not this one) when one is taken; nothing stays claimed
 // then. A claim file that is a symbolic link or not a regular file is refused.
-DeviceClaims ClaimDevices(const LabConfig& lab, const std::string& what,
+DeviceClaims ClaimDevices(const io::LabConfig& lab, const std::string& what,
                           const std::string& lock_dir = DeviceLockDir());
 
 }  // namespace armsig::acquisition

@@ -30,7 +30,7 @@ namespace armsig::acquisition {
 
 using Clock = std::chrono::steady_clock;
 
-int64_t CreateSession(db::Database& db, const LabConfig& lab, const std::string& robot,
+int64_t CreateSession(db::Database& db, const io::LabConfig& lab, const std::string& robot,
                       const Plan& plan) {
   db::WriteTransaction tx(db);
   if (const auto registered = db::FindRobot(db, robot)) {
@@ -93,7 +93,7 @@ bool UsableSigmas(const std::optional<instruments::ReadingSigmas>& s) {
 
 // A reading of the capture's target as an observation: with the sigmas the instrument
 // stated with it (a laser tracker), else its configured ones.
-reduction::Observation TargetObservation(const StationReading& r, const InstrumentConfig& c) {
+reduction::Observation TargetObservation(const StationReading& r, const io::InstrumentConfig& c) {
   reduction::Observation o;
   o.point = "target";
   o.station = c.station;
@@ -112,7 +112,7 @@ reduction::Observation TargetObservation(const StationReading& r, const Instrume
 
 // A reading as stored: the observation with the instrument's own record of it (when its
 // answer arrived, its warning, its return code, the air at it) and the instrument's id.
-db::ObservationRow StoredReading(const StationReading& r, const InstrumentConfig& c,
+db::ObservationRow StoredReading(const StationReading& r, const io::InstrumentConfig& c,
                                  int64_t pose, int64_t instrument_id) {
   db::ObservationRow row = ObservationRowOf(TargetObservation(r, c), pose, r.reading.return_code);
   if (const auto& air = r.reading.environment) {
@@ -131,7 +131,8 @@ db::ObservationRow StoredReading(const StationReading& r, const InstrumentConfig
 // An instrument as the instruments table records it: named by its model and serial number
 // when it gave them (the same instrument on another port or station is the same row), else
 // by its protocol and port.
-db::InstrumentRow InstrumentRowOf(const InstrumentConfig& c, const instruments::DeviceInfo& who) {
+db::InstrumentRow InstrumentRowOf(const io::InstrumentConfig& c,
+                                  const instruments::DeviceInfo& who) {
   db::InstrumentRow row;
   row.protocol = c.protocol;
   row.port = c.tcp.empty() ? c.port : c.tcp;
@@ -223,7 +224,7 @@ using Devices = std::vector<std::unique_ptr<instruments::DistanceInstrument>>;
 // transaction, check that the points follow the robot, report progress.
 class CaptureRun {
  public:
-  CaptureRun(db::Database& db, const LabConfig& lab, int64_t session, Devices& devices,
+  CaptureRun(db::Database& db, const io::LabConfig& lab, int64_t session, Devices& devices,
              instruments::RobotController& controller, const CaptureOptions& options);
   CaptureSummary Run();
 
@@ -264,7 +265,7 @@ class CaptureRun {
   CaptureSummary Finish();
 
   db::Database& db_;
-  const LabConfig& lab_;
+  const io::LabConfig& lab_;
   const int64_t session_;
   Devices& devices_;
   instruments::RobotController& controller_;
@@ -294,8 +295,9 @@ class CaptureRun {
   int cycles_ = 0, stores_ = 0;
 };
 
-CaptureRun::CaptureRun(db::Database& db, const LabConfig& lab, int64_t session, Devices& devices,
-                       instruments::RobotController& controller, const CaptureOptions& options)
+CaptureRun::CaptureRun(db::Database& db, const io::LabConfig& lab, int64_t session,
+                       Devices& devices, instruments::RobotController& controller,
+                       const CaptureOptions& options)
     : db_(db),
       lab_(lab),
       session_(session),
@@ -304,10 +306,10 @@ CaptureRun::CaptureRun(db::Database& db, const LabConfig& lab, int64_t session, 
       options_(options),
       station_of_(devices.size(), nullptr),
       beams_(devices.size(), nullptr),
-      predictor_(lab.model,
-                 options.prediction_params.value_or(
-                     Eigen::VectorXd::Zero(lab.model.num_parameters())),
-                 lab.robot_base),
+      predictor_(
+          lab.model,
+          options.prediction_params.value_or(Eigen::VectorXd::Zero(lab.model.num_parameters())),
+          lab.robot_base),
       expected_distance_(devices.size()),
       last_distance_(devices.size(), 0.0),
       crew_(devices.size()),
@@ -820,7 +822,7 @@ CaptureSummary CaptureRun::Run() {
 
 }  // namespace
 
-CaptureSummary RunCapture(db::Database& db, const LabConfig& lab, int64_t session,
+CaptureSummary RunCapture(db::Database& db, const io::LabConfig& lab, int64_t session,
                           Devices& devices, instruments::RobotController& controller,
                           const CaptureOptions& options) {
   return CaptureRun(db, lab, session, devices, controller, options).Run();

@@ -91,7 +91,7 @@ struct CaptureSummary {
 
 // A new session: the robot (created if new), the lab text, the plan and the stations'
 // set-ups, in one transaction. Returns its id.
-int64_t CreateSession(db::Database& db, const LabConfig& lab, const std::string& robot,
+int64_t CreateSession(db::Database& db, const io::LabConfig& lab, const std::string& robot,
                       const Plan& plan);
 
 // Hands the stop flag to every device for the duration of a capture, so that a device
@@ -118,7 +118,7 @@ class InterruptScope {
 };
 
 CaptureSummary RunCapture(
-    db::Database& db, const LabConfig& lab, int64_t session,
+    db::Database& db, const io::LabConfig& lab, int64_t session,
     std::vector<std::unique_ptr<instruments::DistanceInstrument>>& instruments,
     instruments::RobotController& controller, const CaptureOptions& options);
 

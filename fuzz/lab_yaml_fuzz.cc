@@ -6,8 +6,8 @@
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   using namespace armsig;
   const std::string text(fuzz::Text(data, size));
-  fuzz::ExpectOnlyInputErrors("lab yaml", [&] { (void)acquisition::ParseLab(text, "fuzz-lab.yaml"); });
+  fuzz::ExpectOnlyInputErrors("lab yaml", [&] { (void)io::ParseLab(text, "fuzz-lab.yaml"); });
   fuzz::ExpectOnlyInputErrors("lab settings",
-                              [&] { (void)acquisition::ParseLabSettings(text, "fuzz-lab.yaml"); });
+                              [&] { (void)io::ParseLabSettings(text, "fuzz-lab.yaml"); });
   return 0;
 }

@@ -47,8 +47,7 @@ namespace {
 
 // The session's robot's active arm signature, when it has one of the lab's model: a laser
 // tracker's beam then points where the calibrated robot puts the target.
-std::optional<Eigen::VectorXd> ActiveParameters(db::Database& db,
-                                                const acquisition::LabConfig& lab,
+std::optional<Eigen::VectorXd> ActiveParameters(db::Database& db, const io::LabConfig& lab,
                                                 int64_t session) {
   const auto row = db::LoadSession(db, session);
   if (!row) return std::nullopt;
@@ -68,7 +67,7 @@ namespace {
 
 // A session on opened devices; a failure leaves it paused (resumable, never running).
 acquisition::CaptureSummary CaptureWith(
-    db::Database& db, const acquisition::LabConfig& lab, int64_t session,
+    db::Database& db, const io::LabConfig& lab, int64_t session,
     std::vector<std::unique_ptr<instruments::DistanceInstrument>>& devices,
     instruments::RobotController& controller, const acquisition::CaptureOptions& options) {
   try {
@@ -90,7 +89,7 @@ acquisition::CaptureSummary CaptureWith(
 // answers, or the capture ends naming it (exit 1) before anything is stored. A raised stop
 // flag cuts a call short.
 std::vector<instruments::DeviceInfo> ProbeDevices(
-    const acquisition::LabConfig& lab,
+    const io::LabConfig& lab,
     std::vector<std::unique_ptr<instruments::DistanceInstrument>>& devices,
     instruments::RobotController& controller, const std::atomic<bool>* stop) {
   const acquisition::InterruptScope interrupts(devices, controller, stop);
@@ -166,8 +165,7 @@ std::vector<instruments::DeviceInfo> Identities(
 
 }  // namespace
 
-acquisition::CaptureSummary CaptureInto(db::Database& db, const acquisition::LabConfig& lab,
-                                        int64_t session,
+acquisition::CaptureSummary CaptureInto(db::Database& db, const io::LabConfig& lab, int64_t session,
                                         const acquisition::CaptureOptions& options) {
   std::vector<std::unique_ptr<instruments::DistanceInstrument>> devices;
   std::unique_ptr<instruments::RobotController> controller;
@@ -188,7 +186,7 @@ CaptureOutcome RunCaptureSession(const CaptureRequest& request) {
   // Resuming only continues what is there: a mistyped --db must not become a new file.
   std::optional<db::Database> opened;
   if (request.resume > 0) opened.emplace(request.db_path, db::OpenMode::kMustExist);
-  const acquisition::LabConfig lab = acquisition::LoadLab(request.lab);
+  const io::LabConfig lab = io::LoadLab(request.lab);
   if (lab.stations.empty()) {
     throw InputError({request.lab, 0, 0, "stations"},
                      "no oriented stations (give 'stations:' the file that armsig orient wrote: "

@@ -38,8 +38,7 @@ struct CaptureOutcome {
 // When the lab has a laser tracker and `options` no prediction parameters, the session's
 // robot's active arm signature (if it has one, of the lab's model) predicts where the
 // beam points.
-acquisition::CaptureSummary CaptureInto(db::Database& db, const acquisition::LabConfig& lab,
-                                        int64_t session,
+acquisition::CaptureSummary CaptureInto(db::Database& db, const io::LabConfig& lab, int64_t session,
                                         const acquisition::CaptureOptions& options);
 
 // Runs the session; throws InputError for a bad lab file, plan or --resume id (nothing

@@ -398,7 +398,7 @@ class DemoRun {
   std::optional<DemoFolder> folder_;
   std::unique_ptr<DemoLab> lab_;
   int stations_ = 0;
-  acquisition::LabConfig lab_config_;
+  io::LabConfig lab_config_;
   // The session and its results.
   acquisition::Plan plan_;
   int64_t session_ = 0;

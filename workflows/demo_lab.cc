@@ -85,7 +85,7 @@ void DemoLab::AddTracker() {
   auto tracker = std::make_unique<simulation::EmsconSimulator>(lab_, 0, "127.0.0.1", 0, o);
   tracker->Start();
   tracker_ = tracker.get();
-  acquisition::InstrumentConfig i;
+  io::InstrumentConfig i;
   i.station = "LT1";
   i.protocol = "emscon";
   i.tcp = tracker->path();
@@ -112,7 +112,7 @@ void DemoLab::AddTheodolites() {
     simulators_.push_back(std::make_unique<simulation::GeoComSimulator>(
         lab_, s, (options_.folder / id).string(), simulator_options_, "TDRA6000", 358120 + s));
     simulators_.back()->Start();
-    acquisition::InstrumentConfig i;
+    io::InstrumentConfig i;
     i.station = id;
     i.protocol = "geocom";
     i.port = simulators_.back()->path();
@@ -170,8 +170,8 @@ std::vector<reduction::Station> DemoLab::TrackerStations() const {
   return {lt1};
 }
 
-acquisition::LabConfig DemoLab::WriteLabFiles(const std::vector<reduction::Station>& stations,
-                                              bool base_by_hand) {
+io::LabConfig DemoLab::WriteLabFiles(const std::vector<reduction::Station>& stations,
+                                     bool base_by_hand) {
   const std::filesystem::path& folder = options_.folder;
   io::WriteFileAtomically((folder / "puma760.yaml").string(), io::kPuma760Yaml);
   io::WriteFileAtomically((folder / "stations.yaml").string(),
@@ -183,8 +183,8 @@ acquisition::LabConfig DemoLab::WriteLabFiles(const std::vector<reduction::Stati
     given.rotate(Eigen::AngleAxisd(1e-3, Eigen::Vector3d::UnitZ()));
     lab_file_.robot_base = given;
   }
-  io::WriteFileAtomically((folder / "lab.yaml").string(), acquisition::FormatLabYaml(lab_file_));
-  return acquisition::LoadLab((folder / "lab.yaml").string());
+  io::WriteFileAtomically((folder / "lab.yaml").string(), io::FormatLabYaml(lab_file_));
+  return io::LoadLab((folder / "lab.yaml").string());
 }
 
 }  // namespace armsig::workflows

@@ -52,8 +52,7 @@ class DemoLab {
   // puma760.yaml, stations.yaml (from `stations`) and lab.yaml in the folder, the lab file
   // naming these devices; `base_by_hand`: a tracker lab's `robot: base:` as a technician
   // would measure it, 3 mm and 1 mrad off the truth. Returns the lab file as loaded.
-  acquisition::LabConfig WriteLabFiles(const std::vector<reduction::Station>& stations,
-                                       bool base_by_hand);
+  io::LabConfig WriteLabFiles(const std::vector<reduction::Station>& stations, bool base_by_hand);
 
   // The one station of a tracker lab (LT1 at the origin, levelled, azimuth 0).
   std::vector<reduction::Station> TrackerStations() const;
@@ -76,7 +75,7 @@ class DemoLab {
   std::vector<std::unique_ptr<simulation::Simulator>> simulators_;  // theodolites or tracker
   simulation::EmsconSimulator* tracker_ = nullptr;                  // in `simulators_`
   std::unique_ptr<simulation::ValSimulator> controller_;
-  acquisition::LabFile lab_file_;
+  io::LabFile lab_file_;
 };
 
 }  // namespace armsig::workflows

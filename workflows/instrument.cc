@@ -39,7 +39,7 @@ nlohmann::json ReadingJson(const instruments::Reading& r, const std::string& dev
 }
 
 std::string ReadController(const InstrumentRequest& o, const instruments::RetryPolicy& policy) {
-  acquisition::ControllerConfig config;
+  io::ControllerConfig config;
   config.protocol = o.protocol;
   config.port = o.port;
   config.baud = o.baud;
@@ -62,7 +62,7 @@ std::string QueryInstrument(const InstrumentRequest& o) {
   instruments::RetryPolicy policy;
   policy.timeout = std::chrono::milliseconds(o.timeout_ms);
   if (o.protocol == "val" || o.protocol == "as") return ReadController(o, policy);
-  acquisition::InstrumentConfig config;
+  io::InstrumentConfig config;
   config.protocol = o.protocol;
   config.port = o.port;
   config.tcp = o.tcp;

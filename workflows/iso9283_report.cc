@@ -210,7 +210,7 @@ Iso9283Frame FrameOf(const SessionTest& t, const calibration::RobotModel& model,
         signature->signature.version, t.poses.size(), fit->rms_mm);
     return frame;
   }
-  const auto settings = acquisition::StoredLabSettings(t.row.lab_yaml, t.id, db_path);
+  const auto settings = io::StoredLabSettings(t.row.lab_yaml, t.id, db_path);
   if (settings && settings->robot_base) {
     frame.method = "lab base";
     frame.commanded_from_attained = settings->robot_base->inverse();

@@ -68,8 +68,7 @@ Gates LoadGates(db::Database& database, int64_t robot_id, const RecalibrateOptio
   Gates g;
   // A malformed block is an input error (never a silent fall-back to the defaults).
   if (const auto lab = db::LatestLabYaml(database, robot_id)) {
-    const auto settings =
-        acquisition::StoredLabSettings(lab->lab_yaml, lab->session, database.path());
+    const auto settings = io::StoredLabSettings(lab->lab_yaml, lab->session, database.path());
     if (const auto& r = settings->recalibration) {
       g.max_mean_mm = r->max_validation_mean_mm.value_or(g.max_mean_mm);
       g.max_max_mm = r->max_validation_max_mm.value_or(g.max_max_mm);

@@ -25,7 +25,7 @@ reduction::PointChecks SessionChecks(db::Database& database, int64_t session_id)
   reduction::PointChecks checks;
   const auto session = db::LoadSession(database, session_id);
   if (!session) return checks;
-  const auto lab = acquisition::StoredLabSettings(session->lab_yaml, session_id, database.path());
+  const auto lab = io::StoredLabSettings(session->lab_yaml, session_id, database.path());
   if (!lab) return checks;
   checks.max_miss_mm = lab->tolerances.max_miss_mm;
   checks.max_repeat_mm = lab->tolerances.max_repeat_mm;

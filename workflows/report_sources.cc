@@ -123,9 +123,8 @@ ReportSources LoadSessionSources(db::Database& db,
     out.sessions.push_back({s.id, s.started_at, s.finished_at, s.state, s.note, fitted, validated});
     if (!s.lab_yaml.empty()) {
       try {
-        const auto lab = acquisition::StoredLabSettings(s.lab_yaml, s.id, db.path());
-        for (const auto& i :
-             lab ? lab->instruments : std::vector<acquisition::InstrumentConfig>{}) {
+        const auto lab = io::StoredLabSettings(s.lab_yaml, s.id, db.path());
+        for (const auto& i : lab ? lab->instruments : std::vector<io::InstrumentConfig>{}) {
           std::string d = i.protocol + (i.tcp.empty() ? " on " + i.port : " over " + i.tcp);
           if (i.protocol == "emscon") {
             // A laser tracker's readings carry their own sigmas, which take the place of

@@ -28,7 +28,7 @@ VirtualInstrument StartVirtualInstrument(const std::string& protocol, const std:
     throw InputError({"--protocol", 0, 0, ""}, "unknown protocol " + Quoted(protocol) +
                                                    " (expected geocom, gsi, val, as or emscon)");
   }
-  const auto address = protocol == "emscon" ? acquisition::SplitHostPort(tcp) : std::nullopt;
+  const auto address = protocol == "emscon" ? io::SplitHostPort(tcp) : std::nullopt;
   if (protocol == "emscon" && !address) {
     throw InputError(
         {"--tcp", 0, 0, ""},

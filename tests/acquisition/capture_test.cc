@@ -249,7 +249,7 @@ TEST_F(VirtualLabFixture, ConcurrentTriggeringCostsTheSlowestInstrument) {
         std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count() /
         3;
   }
-  const LabConfig lab = LoadLab(dir_.File("lab.yaml"));
+  const io::LabConfig lab = io::LoadLab(dir_.File("lab.yaml"));
   db::Database db(Db());
   Plan plan = WellSpreadPlan(lab.model, 6, 300, 1);
   const int64_t session = CreateSession(db, lab, "puma", plan);
@@ -267,7 +267,7 @@ TEST_F(VirtualLabFixture, ConcurrentTriggeringCostsTheSlowestInstrument) {
 // and the instrument as it identified itself (the instruments table).
 TEST_F(VirtualLabFixture, AReadingIsStoredWithItsTimeItsWarningAndItsInstrument) {
   Start();
-  LabConfig lab = LoadLab(dir_.File("lab.yaml"));
+  io::LabConfig lab = io::LoadLab(dir_.File("lab.yaml"));
   lab.tolerances.readings = 2;  // two rounds: each instrument answers twice, 10 ms apart
   db::Database db(Db());
   const Plan plan = WellSpreadPlan(lab.model, 4, 300, 1);
@@ -350,7 +350,7 @@ TEST_F(VirtualLabFixture, AReadingIsStoredWithItsTimeItsWarningAndItsInstrument)
 // time, warning and instrument go on with `db push`.
 TEST_F(VirtualLabFixture, AReadingStoredSecondsAfterItsAnswerKeepsItsTimeThroughPush) {
   Start({10, 10, 3000});
-  LabConfig lab = LoadLab(dir_.File("lab.yaml"));
+  io::LabConfig lab = io::LoadLab(dir_.File("lab.yaml"));
   lab.policy.timeout = 10s;  // T3 answers after 3 s
   int64_t session = 0;
   {
@@ -468,7 +468,7 @@ TEST_F(VirtualLabFixture, KillNineAtRandomMomentsThenResumeOnAServerStore) {
 
 TEST_F(VirtualLabFixture, InstrumentFaultPausesThenResumes) {
   Start();
-  const LabConfig lab = LoadLab(dir_.File("lab.yaml"));
+  const io::LabConfig lab = io::LoadLab(dir_.File("lab.yaml"));
   db::Database db(Db());
   const int64_t session = CreateSession(db, lab, "puma", WellSpreadPlan(lab.model, 8, 300, 2));
   auto devices = OpenInstruments(lab);
@@ -497,7 +497,7 @@ TEST_F(VirtualLabFixture, InstrumentFaultPausesThenResumes) {
 
 TEST_F(VirtualLabFixture, SkipOnFaultRecordsTheConfigurationAsSkipped) {
   Start();
-  const LabConfig lab = LoadLab(dir_.File("lab.yaml"));
+  const io::LabConfig lab = io::LoadLab(dir_.File("lab.yaml"));
   db::Database db(Db());
   const int64_t session = CreateSession(db, lab, "puma", WellSpreadPlan(lab.model, 5, 300, 3));
   auto devices = OpenInstruments(lab);
@@ -520,7 +520,7 @@ TEST_F(VirtualLabFixture, SkipOnFaultRecordsTheConfigurationAsSkipped) {
 // a configuration the robot did not reach.
 TEST_F(VirtualLabFixture, ARobotThatStopsShortIsAFaultNamingTheJoint) {
   Start();
-  const LabConfig lab = LoadLab(dir_.File("lab.yaml"));
+  const io::LabConfig lab = io::LoadLab(dir_.File("lab.yaml"));
   db::Database db(Db());
   const int64_t session = CreateSession(db, lab, "puma", WellSpreadPlan(lab.model, 6, 300, 4));
   auto devices = OpenInstruments(lab);
@@ -618,7 +618,7 @@ TEST_F(VirtualLabFixture, AnInstrumentThatDoesNotAnswerIsNamedBeforeASessionIsMa
 
 TEST_F(VirtualLabFixture, PortThatVanishesAndReturnsMidSession) {
   Start();
-  const LabConfig lab = LoadLab(dir_.File("lab.yaml"));
+  const io::LabConfig lab = io::LoadLab(dir_.File("lab.yaml"));
   db::Database db(Db());
   const int64_t session = CreateSession(db, lab, "puma", WellSpreadPlan(lab.model, 10, 300, 4));
   auto devices = OpenInstruments(lab);
@@ -808,7 +808,7 @@ TEST_F(VirtualLabFixture, FlaggedConfigurationsAreNamedAndExitOneUnlessAccepted)
   // 0.5″ noise at 3.5 m misses by micrometres: 10 nm flags every point.
   yaml.replace(yaml.find("max_miss_mm: 0.1"), 16, "max_miss_mm: 0.00001, max_remeasure: 1");
   testing::WriteText(dir_.File("tight.yaml"), yaml);
-  const LabConfig lab = LoadLab(dir_.File("lab.yaml"));
+  const io::LabConfig lab = io::LoadLab(dir_.File("lab.yaml"));
   for (const bool accept : {false, true}) {
     const std::string path = dir_.File(accept ? "accept.db" : "refuse.db");
     {
@@ -855,7 +855,7 @@ TEST_F(VirtualLabFixture, TwoFaceSetsStoreBothFaces) {
   std::string yaml = testing::ReadText(dir_.File("lab.yaml"));
   yaml.replace(yaml.find("settle_ms: 0"), 12, "settle_ms: 0, two_face: true");
   testing::WriteText(dir_.File("lab2.yaml"), yaml);
-  const LabConfig lab = LoadLab(dir_.File("lab2.yaml"));
+  const io::LabConfig lab = io::LoadLab(dir_.File("lab2.yaml"));
   ASSERT_TRUE(lab.tolerances.two_face);
   db::Database db(Db());
   const int64_t session = CreateSession(db, lab, "puma", WellSpreadPlan(lab.model, 4, 300, 5));
@@ -880,7 +880,7 @@ TEST_F(VirtualLabFixture, ReduceAfterCaptureKeepsEveryCaptureFlag) {
   yaml.replace(yaml.find("max_miss_mm: 0.1"), 16,
                "max_miss_mm: 0.00001, max_repeat_mm: 0.00001, readings: 2, max_remeasure: 0");
   testing::WriteText(dir_.File("lab2.yaml"), yaml);
-  const LabConfig lab = LoadLab(dir_.File("lab2.yaml"));
+  const io::LabConfig lab = io::LoadLab(dir_.File("lab2.yaml"));
   ASSERT_EQ(lab.tolerances.readings, 2);
   db::Database db(Db());
   const int64_t session = CreateSession(db, lab, "puma", WellSpreadPlan(lab.model, 4, 300, 5));
@@ -950,7 +950,7 @@ TEST(Lab, MalformedLabFileNamesLineAndColumn) {
                      "robot:\n  model: '" + testing::SourcePath("models/puma760.yaml") +
                          "'\n  controller: {protocol: fanuc, port: /dev/null}\ninstruments: []\n");
   try {
-    LoadLab(dir.File("lab.yaml"));
+    io::LoadLab(dir.File("lab.yaml"));
     FAIL();
   } catch (const armsig::InputError& e) {
     EXPECT_EQ(e.where().line, 3);
@@ -988,7 +988,7 @@ TEST(Demo, RunsEndToEndAndReachesTheNoiseFloor) {
 // instrument and the code; nothing of that configuration is stored.
 TEST_F(VirtualLabFixture, FloodingInstrumentPausesTheSessionByItsDeadlines) {
   Start();  // timeout_ms 300, fault_retries 2, fault_retry_delay_ms 200
-  const LabConfig lab = LoadLab(dir_.File("lab.yaml"));
+  const io::LabConfig lab = io::LoadLab(dir_.File("lab.yaml"));
   for (const auto fault : {simulation::Fault::kFloodLines, simulation::Fault::kEndlessLine,
                            simulation::Fault::kFloodBytes}) {
     const std::string path = dir_.File("flood-" + simulation::FaultName(fault) + ".db");
@@ -1031,7 +1031,7 @@ TEST_F(VirtualLabFixture, StopDuringAFloodPausesWithinAFractionOfTheDeadline) {
   std::string yaml = testing::ReadText(dir_.File("lab.yaml"));
   yaml.replace(yaml.find("timeout_ms: 300"), 15, "timeout_ms: 5000");
   testing::WriteText(dir_.File("slow.yaml"), yaml);
-  const LabConfig lab = LoadLab(dir_.File("slow.yaml"));
+  const io::LabConfig lab = io::LoadLab(dir_.File("slow.yaml"));
   ASSERT_EQ(lab.policy.timeout, 5000ms);
   db::Database db(Db());
   const int64_t session = CreateSession(db, lab, "puma", WellSpreadPlan(lab.model, 6, 300, 6));

@@ -24,10 +24,10 @@ using testing::ReadText;
 using testing::TempDir;
 using testing::WriteText;
 
-LabConfig TwoDeviceLab() {
-  LabConfig lab;
+io::LabConfig TwoDeviceLab() {
+  io::LabConfig lab;
   lab.source = "lab.yaml";
-  InstrumentConfig tracker;
+  io::InstrumentConfig tracker;
   tracker.station = "LT1";
   tracker.protocol = "emscon";
   tracker.tcp = "127.0.0.1:7000";

@@ -148,7 +148,7 @@ class TrackerLabFixture : public ::testing::Test {
   // beam when the tracker cannot find the reflector.
   CaptureSummary Run(const Plan& plan, bool operator_guides, db::Database& db,
                      const CaptureOptions& extra = {}) {
-    const LabConfig lab = LoadLab(dir_.File("lab.yaml"));
+    const io::LabConfig lab = io::LoadLab(dir_.File("lab.yaml"));
     const int64_t session = CreateSession(db, lab, "puma", plan);
     auto devices = OpenInstruments(lab);
     auto controller = OpenController(lab);
@@ -195,7 +195,7 @@ pid_t SpawnQuietly(std::vector<std::string> args) {
 TEST_F(TrackerLabFixture, OneTrackerCaptureFindsTheTruthWithinItsOwnSigmas) {
   Start({});
   db::Database db(Db());
-  const LabConfig lab = LoadLab(dir_.File("lab.yaml"));
+  const io::LabConfig lab = io::LoadLab(dir_.File("lab.yaml"));
   const Plan plan = WellSpreadPlan(lab.model, 20, 300, 7);
   const CaptureSummary s = Run(plan, true, db);
   ASSERT_TRUE(s.completed) << s.pause_reason;
@@ -267,7 +267,7 @@ TEST_F(TrackerLabFixture, TheLabFilesBasePointsTheBeamFromTheFirstConfiguration)
   setup.base_in_lab = true;
   Start(setup);
   db::Database db(Db());
-  const LabConfig lab = LoadLab(dir_.File("lab.yaml"));
+  const io::LabConfig lab = io::LoadLab(dir_.File("lab.yaml"));
   ASSERT_TRUE(lab.robot_base.has_value());
   const CaptureSummary s = Run(WellSpreadPlan(lab.model, 12, 300, 8), false, db);
   ASSERT_TRUE(s.completed) << s.pause_reason;
@@ -288,7 +288,7 @@ TEST_F(TrackerLabFixture, TheActiveArmSignaturePointsTheBeamWhereTheNominalModel
   TrackerLab setup;
   setup.acquire_radius_mm = 1.5;
   Start(setup);
-  const LabConfig lab = LoadLab(dir_.File("lab.yaml"));
+  const io::LabConfig lab = io::LoadLab(dir_.File("lab.yaml"));
   const Plan plan = WellSpreadPlan(lab.model, 15, 300, 12);
   CaptureOptions options;
   options.prompt_reflector = [this](const std::string&, const PlannedConfiguration&) {
@@ -340,7 +340,7 @@ TEST_F(TrackerLabFixture, TheActiveArmSignaturePointsTheBeamWhereTheNominalModel
 TEST_F(TrackerLabFixture, NoBaseAndNoOperatorPausesAtTheFirstConfiguration) {
   Start({});
   db::Database db(Db());
-  const LabConfig lab = LoadLab(dir_.File("lab.yaml"));
+  const io::LabConfig lab = io::LoadLab(dir_.File("lab.yaml"));
   const CaptureSummary s = Run(WellSpreadPlan(lab.model, 5, 300, 9), false, db);
   EXPECT_TRUE(s.paused);
   EXPECT_EQ(s.measured, 0);
@@ -357,7 +357,7 @@ TEST_F(TrackerLabFixture, AReflectorThatDoesNotFollowTheRobotPausesTheSession) {
   lab_->AddPoint("nest", Eigen::Vector3d(1900.0, 1200.0, -300.0));
   lab_->Aim(0, "nest");
   db::Database db(Db());
-  const LabConfig lab = LoadLab(dir_.File("lab.yaml"));
+  const io::LabConfig lab = io::LoadLab(dir_.File("lab.yaml"));
   const CaptureSummary s = Run(WellSpreadPlan(lab.model, 12, 300, 9), true, db);
   EXPECT_TRUE(s.paused);
   EXPECT_FALSE(s.completed);
@@ -430,7 +430,7 @@ TEST_F(TrackerLabFixture, ATrackerOfAnotherConventionIsRefusedAtItsFirstReading)
   setup.convention = simulation::SphericalConvention::kClockwiseFromY;
   Start(setup);
   db::Database db(Db());
-  const LabConfig lab = LoadLab(dir_.File("lab.yaml"));
+  const io::LabConfig lab = io::LoadLab(dir_.File("lab.yaml"));
   try {
     Run(WellSpreadPlan(lab.model, 5, 300, 9), true, db);
     ADD_FAILURE() << "the capture ran with a mirrored tracker";
@@ -453,7 +453,7 @@ TEST_F(TrackerLabFixture, TwoTheodolitesAndATrackerIntersectTogether) {
   setup.tolerances += ", max_miss_mm: 0.1";
   Start(setup);
   db::Database db(Db());
-  const LabConfig lab = LoadLab(dir_.File("lab.yaml"));
+  const io::LabConfig lab = io::LoadLab(dir_.File("lab.yaml"));
   ASSERT_EQ(lab.instruments.size(), 3u);
   const CaptureSummary s = Run(WellSpreadPlan(lab.model, 15, 300, 10), false, db);
   ASSERT_TRUE(s.completed) << s.pause_reason;
@@ -490,7 +490,7 @@ TEST_F(TrackerLabFixture, AFixedMmRepeatToleranceDoesNotJudgeATracker) {
   setup.base_in_lab = true;
   setup.tolerances += ", readings: 2, max_repeat_mm: 0.001, max_remeasure: 2";
   Start(setup);
-  const LabConfig lab = LoadLab(dir_.File("lab.yaml"));
+  const io::LabConfig lab = io::LoadLab(dir_.File("lab.yaml"));
   db::Database db(Db());
   const CaptureSummary s = Run(WellSpreadPlan(lab.model, 6, 300, 13), false, db);
   ASSERT_TRUE(s.completed) << s.pause_reason;
@@ -505,7 +505,7 @@ TEST_F(TrackerLabFixture, PoorReadingsAreMeasuredAgainByTheTrackersOwnSigmas) {
   setup.base_in_lab = true;
   setup.tolerances += ", readings: 2, max_repeat_mm: 10, max_remeasure: 2, max_sigma_mm: 0.05";
   Start(setup);
-  const LabConfig lab = LoadLab(dir_.File("lab.yaml"));
+  const io::LabConfig lab = io::LoadLab(dir_.File("lab.yaml"));
   const Plan plan = WellSpreadPlan(lab.model, 4, 300, 11);
   {
     // The first reading states 20 σ (turbulent air, noticed): sigma_exceeded, re-measured.

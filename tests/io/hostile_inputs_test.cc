@@ -220,7 +220,7 @@ TEST(HostileInputs, YamlOfTheWrongShapeNamesFileLineColumnAndTheExpectedShape) {
   };
   const auto model = [](const std::string& p) { LoadRobotModel(p); };
   const auto stations = [](const std::string& p) { ReadStationsYaml(p); };
-  const auto lab = [](const std::string& p) { acquisition::LoadLab(p); };
+  const auto lab = [](const std::string& p) { io::LoadLab(p); };
   const std::vector<Case> cases = {
       {"model-list-root.yaml", model, 2, "expected a mapping"},
       {"model-scalar-term.yaml", model, 7, "expected a mapping"},
@@ -433,7 +433,7 @@ TEST(HostileInputs, NonRegularAndOversizedFilesAreRefusedWithoutReading) {
             "robot:\n  model: " + testing::SourcePath("models/puma760.yaml") +
                 "\n  controller: {protocol: val, port: /dev/null}\ninstruments:\n"
                 "  - {station: S1, protocol: geocom, port: /dev/null}\nstations: /dev/urandom\n");
-  const InputError lab = Refusal([&] { acquisition::LoadLab(dir.File("lab.yaml")); });
+  const InputError lab = Refusal([&] { io::LoadLab(dir.File("lab.yaml")); });
   EXPECT_EQ(lab.where().file, dir.File("lab.yaml"));
   EXPECT_NE(lab.message().find("not a regular file"), std::string::npos) << lab.what();
 }
@@ -457,9 +457,7 @@ TEST(HostileInputs, YamlAliasesAreRefusedWhereTheyAreUsed) {
 TEST(HostileInputs, LabSettingsHavePlausibleMaximums) {
   for (const std::string file : {"lab-fault-retries-2e9.yaml", "lab-readings-1e9.yaml"}) {
     const InputError e = FaultRefusal(
-        [](const std::string& p) {
-          acquisition::ParseLabSettings(ReadWholeFile(p, kYamlFileLimit), p);
-        },
+        [](const std::string& p) { io::ParseLabSettings(ReadWholeFile(p, kYamlFileLimit), p); },
         file);
     EXPECT_EQ(e.where().line, 7) << e.what();
     EXPECT_NE(e.message().find("an integer from"), std::string::npos) << e.what();

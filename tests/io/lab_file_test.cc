@@ -1,4 +1,4 @@
-#include "acquisition/lab.h"
+#include "io/lab_file.h"
 
 #include <gtest/gtest.h>
 
@@ -7,7 +7,7 @@
 #include "io/network_files.h"
 #include "test_support.h"
 
-namespace armsig::acquisition {
+namespace armsig::io {
 namespace {
 
 // A lab folder: the shipped PUMA model, a stations file and a lab file naming both.
@@ -244,10 +244,10 @@ TEST(LabSettings, TrackerInstrumentsAndTheRobotBase) {
   ASSERT_TRUE(s.robot_base.has_value());
   EXPECT_NEAR((*s.robot_base * Eigen::Vector3d(1, 0, 0) - Eigen::Vector3d(2500, 1501, -900)).norm(),
               0.0, 1e-12);
-  EXPECT_FALSE(ParseLabSettings(text.substr(0, text.find("  base:")) +
-                                    text.substr(text.find("instruments:")),
-                                "lab.yaml")
-                   .robot_base.has_value());
+  EXPECT_FALSE(
+      ParseLabSettings(
+          text.substr(0, text.find("  base:")) + text.substr(text.find("instruments:")), "lab.yaml")
+          .robot_base.has_value());
 
   auto refusal = [](const std::string& lab) {
     try {
@@ -279,9 +279,10 @@ TEST(LabSettings, TrackerInstrumentsAndTheRobotBase) {
                     "instruments:\n  - {station: T1, protocol: geocom, port: q}\n")
                 .find("lab.yaml:4:9 (base): expected a rotation"),
             std::string::npos)
-      << refusal("robot:\n  model: m.yaml\n  controller: {protocol: as, port: p}\n"
-                 "  base: [[2, 0, 0, 0], [0, 1, 0, 0], [0, 0, 1, 0], [0, 0, 0, 1]]\n"
-                 "instruments:\n  - {station: T1, protocol: geocom, port: q}\n");
+      << refusal(
+             "robot:\n  model: m.yaml\n  controller: {protocol: as, port: p}\n"
+             "  base: [[2, 0, 0, 0], [0, 1, 0, 0], [0, 0, 1, 0], [0, 0, 0, 1]]\n"
+             "instruments:\n  - {station: T1, protocol: geocom, port: q}\n");
   EXPECT_NE(refusal(head + "instruments:\n  - {station: T1, protocol: geocom, port: q}\n"
                            "tolerances: {max_sigma_mm: 0}\n")
                 .find("max_sigma_mm"),
@@ -290,7 +291,7 @@ TEST(LabSettings, TrackerInstrumentsAndTheRobotBase) {
 
 // FormatLabYaml writes a tracker as a technician would: tcp, no sigmas of its own.
 TEST(LabSettings, FormattedTrackerLabReadsBack) {
-  acquisition::LabFile lab;
+  io::LabFile lab;
   lab.model_path = "puma760.yaml";
   lab.stations_path = "stations.yaml";
   lab.controller.protocol = "as";
@@ -373,4 +374,4 @@ TEST(LabSettings, MalformedRecalibrationBlockIsAnInputError) {
 }
 
 }  // namespace
-}  // namespace armsig::acquisition
+}  // namespace armsig::io
