@@ -64,7 +64,8 @@ void SetupImportCommand(CLI::App& parent, const GlobalOptions& global, Runner& r
       "Store the poses as a new session of this registered robot (armsig robot add)"));
   ChoiceOption(p->add_option("--preset", poses->preset,
                 "ur-ipa: ';', decimal comma, shoulder_pan_joint…wrist_3_joint (rad), "
-                "measurement_x/y/z (mm)"), {"ur-ipa"});
+                "measurement_x/y/z (mm), measurement_rx/ry/rz and measurement_std_rx/ry/rz "
+                "(deg)"), {"ur-ipa"});
   p->add_option("--points", poses->points,
                 "A laser tracker's point table (name, X, Y, Z [, sigmas, time]: the text/CSV "
                 "export of SpatialAnalyzer, Leica, Metrolog, PolyWorks…)")
@@ -91,6 +92,14 @@ void SetupImportCommand(CLI::App& parent, const GlobalOptions& global, Runner& r
                 "Unit of joint columns without a _deg/_gon/_rad suffix: deg | gon | rad "
                 "(default rad; a joint log: deg); a suffix it contradicts is refused"), {"deg", "gon", "rad"});
   p->add_option("--xyz-columns", poses->xyz_columns, "Measured x,y,z columns, comma-separated");
+  p->add_option("--rotation-columns", poses->rotation_columns,
+                "Measured orientation: the rx,ry,rz angle columns, comma-separated, "
+                "R = Rx(rx)·Ry(ry)·Rz(rz) (a 6-DoF probe; default none: positions only)");
+  p->add_option("--rotation-sigma-columns", poses->rotation_sigma_columns,
+                "Standard deviations of rx,ry,rz, comma-separated, in their unit");
+  ChoiceOption(p->add_option("--rotation-unit", poses->rotation_unit,
+                "Unit of orientation columns without a _deg/_gon/_rad suffix: deg | gon | rad"),
+               {"deg", "gon", "rad"});
   NumberOption(
       p->add_option("--length-scale", poses->length_scale, "Factor to mm (1000 for metres)"), 1e-6,
       1e6);

@@ -4,6 +4,7 @@
 #include <Eigen/Core>
 #include <Eigen/Geometry>
 #include <cstdint>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -25,6 +26,15 @@ inline int FaceOfZenithAngle(double v_rad) {
   return v_rad > 3.14159265358979323846 + 1e-12 ? 2 : 1;
 }
 
+// The measured orientation of the target frame (a 6-DoF probe on the flange): the rotation
+// from the target frame into the measurement frame. Files give it by three angles
+// (core/rotation.h), with their a-priori standard deviations when the instrument reports
+// them.
+struct MeasuredOrientation {
+  Eigen::Matrix3d world_from_target = Eigen::Matrix3d::Identity();
+  std::optional<Eigen::Vector3d> sigma_rad = std::nullopt;  // of rx, ry, rz; nullopt: not given
+};
+
 // A robot configuration with its measured target position (measurement frame).
 struct MeasuredPose {
   std::string id;
@@ -34,6 +44,9 @@ struct MeasuredPose {
   // (a capture session, an imported file; the database uses the session id). Poses of
   // different frames are fitted with one robot base each (calibration::Estimate).
   int64_t frame = 0;
+  // The target frame's measured orientation in the same frame; nullopt for a position-only
+  // measurement (a reflector, a theodolite intersection).
+  std::optional<MeasuredOrientation> orientation = std::nullopt;
 };
 
 // Station pose: world point = position + R · instrument point (docs/reference/conventions.md).

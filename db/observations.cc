@@ -233,9 +233,9 @@ std::vector<ObservationRow> LoadObservations(Database& db, int64_t session_id) {
 void InsertPoint(Database& db, int64_t session_id, const PointRow& p) {
   auto s = Sql(
       db,
-      "INSERT INTO points(session_id, pose_id, point, x_mm, y_mm, z_mm, sx_mm, sy_mm, "
-      "sz_mm, covariance_json, rays, rejected_rays, sigma0, miss_mm, flags) "
-      "VALUES (?,?,?,?,?,?,?,?,?,?,?,?,?,?,?)");
+      std::string("INSERT INTO points(session_id, pose_id, point, x_mm, y_mm, z_mm, sx_mm, "
+                  "sy_mm, sz_mm, covariance_json, rays, rejected_rays, sigma0, miss_mm, flags, ") +
+          kOrientationColumns + ") VALUES (?,?,?,?,?,?,?,?,?,?,?,?,?,?,?,?,?,?,?,?,?)");
   s->Bind(1, session_id);
   if (p.pose_id)
     s->Bind(2, *p.pose_id);
@@ -259,14 +259,17 @@ void InsertPoint(Database& db, int64_t session_id, const PointRow& p) {
   s->Bind(13, p.sigma0);
   s->Bind(14, p.miss_mm);
   s->Bind(15, p.flags);
+  BindOrientation(*s, 16, p.orientation);
   s->Execute();
 }
 
 std::vector<PointRow> LoadPoints(Database& db, int64_t session_id) {
   auto q = Sql(db,
-               "SELECT pose_id, point, x_mm, y_mm, z_mm, coalesce(covariance_json, ''), "
-               "rays, rejected_rays, sigma0, miss_mm, flags, id FROM points "
-               "WHERE session_id = ? ORDER BY pose_id, point");
+               std::string("SELECT pose_id, point, x_mm, y_mm, z_mm, "
+                           "coalesce(covariance_json, ''), rays, rejected_rays, sigma0, miss_mm, "
+                           "flags, id, ") +
+                   kOrientationColumns +
+                   " FROM points WHERE session_id = ? ORDER BY pose_id, point");
   q->Bind(1, session_id);
   std::vector<PointRow> out;
   while (q->Step()) {
@@ -284,6 +287,7 @@ std::vector<PointRow> LoadPoints(Database& db, int64_t session_id) {
     if (!q->IsNull(8)) p.sigma0 = q->Double(8);
     if (!q->IsNull(9)) p.miss_mm = q->Double(9);
     p.flags = q->Text(10);
+    p.orientation = OrientationAt(*q, 12, {db.path(), "points", q->Int(11), "rx_rad"});
     out.push_back(std::move(p));
   }
   return out;

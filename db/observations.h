@@ -79,6 +79,9 @@ struct PointRow {
   int rejected_rays = 0;
   std::optional<double> sigma0, miss_mm;  // absent when not reduced
   std::string flags;
+  // The target frame's measured orientation (a 6-DoF probe; imported poses); nullopt for a
+  // position-only point.
+  std::optional<MeasuredOrientation> orientation;
 };
 // Adds one reduced point (call inside the configuration's transaction).
 void InsertPoint(Database& db, int64_t session_id, const PointRow& point);

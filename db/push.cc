@@ -165,7 +165,11 @@ constexpr Column kPointColumns[] = {{"point", Kind::kText},  {"x_mm", Kind::kRea
                                     {"sz_mm", Kind::kReal},  {"covariance_json", Kind::kText},
                                     {"rays", Kind::kInt},    {"rejected_rays", Kind::kInt},
                                     {"sigma0", Kind::kReal}, {"miss_mm", Kind::kReal},
-                                    {"flags", Kind::kText},  {"reduced_at", Kind::kText}};
+                                    {"flags", Kind::kText},  {"reduced_at", Kind::kText},
+                                    {"rx_rad", Kind::kReal}, {"ry_rad", Kind::kReal},
+                                    {"rz_rad", Kind::kReal}, {"sigma_rx_rad", Kind::kReal},
+                                    {"sigma_ry_rad", Kind::kReal},
+                                    {"sigma_rz_rad", Kind::kReal}};
 constexpr Column kCalibrationColumns[] = {
     {"params_spec", Kind::kText},        {"inputs_json", Kind::kText},
     {"options_json", Kind::kText},       {"rank", Kind::kInt},

@@ -257,6 +257,18 @@ constexpr std::string_view kSchemaV11 = R"sql(
 ALTER TABLE observations ADD COLUMN note TEXT;  -- the instrument's warning with the reading
 )sql";
 
+// Schema v12 (6-DoF targets): a target point may carry its frame's measured orientation (a
+// 6-DoF probe) as the angles rx, ry, rz of core/rotation.h, with their a-priori sigmas;
+// NULL for position-only points.
+constexpr std::string_view kSchemaV12 = R"sql(
+ALTER TABLE points ADD COLUMN rx_rad REAL;  -- world_from_target = Rx(rx)·Ry(ry)·Rz(rz)
+ALTER TABLE points ADD COLUMN ry_rad REAL;
+ALTER TABLE points ADD COLUMN rz_rad REAL;
+ALTER TABLE points ADD COLUMN sigma_rx_rad REAL;  -- NULL: not given
+ALTER TABLE points ADD COLUMN sigma_ry_rad REAL;
+ALTER TABLE points ADD COLUMN sigma_rz_rad REAL;
+)sql";
+
 // PostgreSQL's text of the migrations whose SQLite text does not translate word for word
 // (PostgresDdl): v2 and v9 fill their new column from what only SQLite has (json_extract,
 // rowid). A PostgreSQL store is created by an armsig of schema v9 or later, in one
@@ -303,10 +315,10 @@ constexpr std::array<std::string_view, 13> kTables = {"robots",
 
 std::span<const std::string_view> Migrations() {
   static const std::string jobs = JobsSchemaSql(Backend::kSqlite);
-  static const std::array<std::string_view, 11> migrations = [] {
-    std::array<std::string_view, 11> m = {kSchemaV1, kSchemaV2,  kSchemaV3, kSchemaV4,
-                                          kSchemaV5, kSchemaV6,  {},        kSchemaV8,
-                                          kSchemaV9, kSchemaV10, kSchemaV11};
+  static const std::array<std::string_view, 12> migrations = [] {
+    std::array<std::string_view, 12> m = {kSchemaV1, kSchemaV2,  kSchemaV3,  kSchemaV4,
+                                          kSchemaV5, kSchemaV6,  {},         kSchemaV8,
+                                          kSchemaV9, kSchemaV10, kSchemaV11, kSchemaV12};
     m[kJobsMigration - 1] = jobs;
     return m;
   }();

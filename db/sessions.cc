@@ -133,7 +133,9 @@ std::vector<int> StoredSeqs(Database& db, int64_t session_id) {
 std::vector<MeasuredPose> LoadRobotPoses(Database& db, int64_t robot_id, const std::string& since,
                                          int64_t* max_pose_row) {
   auto q = Sql(db,
-               "SELECT s.id, p.label, p.joints_json, pt.x_mm, pt.y_mm, pt.z_mm, p.id FROM poses p "
+               "SELECT s.id, p.label, p.joints_json, pt.x_mm, pt.y_mm, pt.z_mm, p.id, pt.id, "
+               "pt.rx_rad, pt.ry_rad, pt.rz_rad, pt.sigma_rx_rad, pt.sigma_ry_rad, "
+               "pt.sigma_rz_rad FROM poses p "
                "JOIN sessions s ON s.id = p.session_id JOIN points pt ON pt.pose_id = p.id "
                "WHERE s.robot_id = ? AND s.state <> 'aborted' AND p.status = 'measured' "
                "AND pt.x_mm IS NOT NULL AND p.joints_json IS NOT NULL AND s.started_at >= ? "
@@ -148,6 +150,7 @@ std::vector<MeasuredPose> LoadRobotPoses(Database& db, int64_t robot_id, const s
     pose.id = std::to_string(pose.frame) + ":" + q->Text(1);
     pose.joints_rad = ParseJoints(q->Text(2), {db.path(), "poses", q->Int(6), "joints_json"});
     pose.target_in_world = {q->Double(3), q->Double(4), q->Double(5)};
+    pose.orientation = OrientationAt(*q, 8, {db.path(), "points", q->Int(7), "rx_rad"});
     newest = std::max<int64_t>(newest, q->Int(6));
     out.push_back(std::move(pose));
   }
@@ -159,7 +162,8 @@ std::vector<MeasuredPose> LoadSessionPoses(Database& db, int64_t session_id,
                                            std::vector<Eigen::Matrix3d>* covariances) {
   auto q = Sql(db,
                "SELECT p.label, p.joints_json, pt.x_mm, pt.y_mm, pt.z_mm, "
-               "coalesce(pt.covariance_json, ''), p.id, pt.id FROM poses p "
+               "coalesce(pt.covariance_json, ''), p.id, pt.id, pt.rx_rad, pt.ry_rad, pt.rz_rad, "
+               "pt.sigma_rx_rad, pt.sigma_ry_rad, pt.sigma_rz_rad FROM poses p "
                "JOIN points pt ON pt.pose_id = p.id "
                "WHERE p.session_id = ? AND pt.x_mm IS NOT NULL AND p.joints_json IS NOT NULL "
                "ORDER BY p.seq");
@@ -171,6 +175,7 @@ std::vector<MeasuredPose> LoadSessionPoses(Database& db, int64_t session_id,
     pose.frame = session_id;
     pose.joints_rad = ParseJoints(q->Text(1), {db.path(), "poses", q->Int(6), "joints_json"});
     pose.target_in_world = {q->Double(2), q->Double(3), q->Double(4)};
+    pose.orientation = OrientationAt(*q, 8, {db.path(), "points", q->Int(7), "rx_rad"});
     if (covariances) {
       covariances->push_back(
           ParseMatrix3(q->Text(5), {db.path(), "points", q->Int(7), "covariance_json"})

@@ -10,6 +10,8 @@
 #include <string>
 #include <vector>
 
+#include "core/rotation.h"
+#include "core/types.h"
 #include "db/connection.h"
 #include "db/database.h"
 #include "db/stored_json.h"
@@ -58,6 +60,50 @@ inline Eigen::VectorXd ParseJoints(const std::string& text, const JsonCell& cell
     q(static_cast<Eigen::Index>(k)) = j[k].get<double>();
   }
   return q;
+}
+
+// The columns of a target's measured orientation, in this order (schema v12).
+inline constexpr const char* kOrientationColumns =
+    "rx_rad, ry_rad, rz_rad, sigma_rx_rad, sigma_ry_rad, sigma_rz_rad";
+
+// Binds an orientation to the six parameters from `first` (NULL for none).
+inline void BindOrientation(Statement& s, int first,
+                            const std::optional<MeasuredOrientation>& orientation) {
+  for (int k = 0; k < 6; ++k) s.BindNull(first + k);
+  if (!orientation) return;
+  const Eigen::Vector3d angles = RxRyRzFromRotation(orientation->world_from_target);
+  for (int k = 0; k < 3; ++k) s.Bind(first + k, angles(k));
+  if (orientation->sigma_rad) {
+    for (int k = 0; k < 3; ++k) s.Bind(first + 3 + k, (*orientation->sigma_rad)(k));
+  }
+}
+
+// The orientation in the six result columns from `first`: nullopt when its angles are NULL.
+// Throws InputError naming the cell when only some of the angles or of the sigmas are
+// stored, or a sigma is not positive.
+inline std::optional<MeasuredOrientation> OrientationAt(const Statement& s, int first,
+                                                        const JsonCell& cell) {
+  int angles = 0, sigmas = 0;
+  for (int k = 0; k < 3; ++k) {
+    angles += !s.IsNull(first + k);
+    sigmas += !s.IsNull(first + 3 + k);
+  }
+  if (angles == 0 && sigmas == 0) return std::nullopt;
+  if (angles != 3 || (sigmas != 0 && sigmas != 3)) {
+    RefuseStoredJson(cell,
+                     "expected the three angles rx, ry, rz (and none or all three of their "
+                     "sigmas)");
+  }
+  MeasuredOrientation orientation;
+  orientation.world_from_target = RotationFromRxRyRz(
+      Eigen::Vector3d(s.Double(first), s.Double(first + 1), s.Double(first + 2)));
+  if (sigmas == 3) {
+    const Eigen::Vector3d sigma(s.Double(first + 3), s.Double(first + 4), s.Double(first + 5));
+    if (!(sigma.minCoeff() > 0.0) || !sigma.allFinite())
+      RefuseStoredJson(cell, "expected positive sigmas of rx, ry, rz");
+    orientation.sigma_rad = sigma;
+  }
+  return orientation;
 }
 
 }  // namespace armsig::db

@@ -11,6 +11,7 @@
 #include <unordered_set>
 
 #include "core/error.h"
+#include "core/rotation.h"
 #include "core/text.h"
 #include "io/csv.h"
 
@@ -63,11 +64,122 @@ class SeenIds {
   std::vector<Entry> seen_;
 };
 
+// Where a table keeps its poses' measured orientation: three angle columns (or none) and
+// their sigma columns (or none).
+struct OrientationColumns {
+  int angle[3] = {-1, -1, -1};
+  plausible::Unit angle_unit[3] = {plausible::kMm, plausible::kMm, plausible::kMm};
+  int sigma[3] = {-1, -1, -1};
+  plausible::Unit sigma_unit[3] = {plausible::kArcsec, plausible::kArcsec, plausible::kArcsec};
+  bool present() const { return angle[0] >= 0; }
+};
+
+constexpr const char* kAngleNames[3] = {"rx", "ry", "rz"};
+
+// A row's orientation: nullopt when its three angle fields (and sigma fields) are empty.
+// Throws InputError at a row that gives some of the three but not all, or sigmas without
+// their angles.
+std::optional<MeasuredOrientation> ReadOrientation(const CsvColumns& table, const CsvRow& row,
+                                                   const OrientationColumns& columns) {
+  if (!columns.present()) return std::nullopt;
+  auto given = [&](const int (&index)[3], int& first_missing) {
+    int count = 0;
+    first_missing = -1;
+    for (int k = 0; k < 3; ++k) {
+      if (index[k] < 0) continue;
+      if (!Trim(row.fields.at(index[k]), " \t").empty()) {
+        ++count;
+      } else if (first_missing < 0) {
+        first_missing = index[k];
+      }
+    }
+    return count;
+  };
+  int missing_angle = -1, missing_sigma = -1;
+  const int angles = given(columns.angle, missing_angle);
+  const int sigmas = columns.sigma[0] >= 0 ? given(columns.sigma, missing_sigma) : 0;
+  if (angles == 0) {
+    if (sigmas > 0) {
+      throw InputError(table.Where(row, missing_angle),
+                       "sigmas of an orientation whose angles are empty: expected the three "
+                       "angles rx, ry, rz with them (or every orientation field empty for a "
+                       "position-only pose)");
+    }
+    return std::nullopt;
+  }
+  if (angles < 3) {
+    throw InputError(table.Where(row, missing_angle),
+                     "expected the three orientation angles rx, ry, rz together (or all three "
+                     "empty for a position-only pose)");
+  }
+  using plausible::Quantity;
+  Eigen::Vector3d a;
+  for (int k = 0; k < 3; ++k) {
+    a(k) = table.Number(row, columns.angle[k], Quantity::kAngle, columns.angle_unit[k]);
+  }
+  MeasuredOrientation orientation;
+  orientation.world_from_target = RotationFromRxRyRz(a);
+  if (sigmas > 0) {
+    if (sigmas < 3) {
+      throw InputError(table.Where(row, missing_sigma),
+                       "expected the three sigmas of rx, ry, rz together (or all three empty)");
+    }
+    Eigen::Vector3d sigma;
+    for (int k = 0; k < 3; ++k) {
+      sigma(k) =
+          table.Number(row, columns.sigma[k], Quantity::kSigmaAngle, columns.sigma_unit[k]);
+    }
+    orientation.sigma_rad = sigma;
+  }
+  return orientation;
+}
+
+// The poses CSV's orientation columns: rx, ry, rz with any angle unit suffix (all three or
+// none) and sigma_rx_arcsec, sigma_ry_arcsec, sigma_rz_arcsec (all three or none, only with
+// the angles).
+OrientationColumns PosesCsvOrientation(const CsvColumns& table) {
+  OrientationColumns columns;
+  std::optional<AngleColumn> angle[3];
+  std::optional<int> sigma[3];
+  int angles = 0, sigmas = 0;
+  for (int k = 0; k < 3; ++k) {
+    angle[k] = table.FindAngleColumn(kAngleNames[k]);
+    sigma[k] = table.FindColumn("sigma_" + std::string(kAngleNames[k]) + "_arcsec");
+    angles += angle[k].has_value();
+    sigmas += sigma[k].has_value();
+  }
+  auto refuse_partial = [&](auto& found, int count, const std::string& what,
+                            const std::string& expected) {
+    if (count == 0 || count == 3) return;
+    for (int k = 0; k < 3; ++k) {
+      if (found[k]) continue;
+      throw InputError(table.HeaderWhere(0), "the header has " + std::to_string(count) + " of the " +
+                                                 what + " columns: expected " + expected +
+                                                 " together (or none for position-only poses)");
+    }
+  };
+  refuse_partial(angle, angles, "orientation", "rx_deg, ry_deg and rz_deg (any angle unit)");
+  refuse_partial(sigma, sigmas, "orientation sigma",
+                 "sigma_rx_arcsec, sigma_ry_arcsec and sigma_rz_arcsec");
+  if (sigmas == 3 && angles == 0) {
+    throw InputError(table.HeaderWhere(*sigma[0]),
+                     "orientation sigmas without the angles: expected rx_deg, ry_deg, rz_deg "
+                     "(any angle unit) with them");
+  }
+  if (angles == 0) return columns;
+  for (int k = 0; k < 3; ++k) {
+    columns.angle[k] = angle[k]->index;
+    columns.angle_unit[k] = plausible::UnitOf(angle[k]->unit);
+    if (sigmas == 3) columns.sigma[k] = *sigma[k];
+  }
+  return columns;
+}
+
 }  // namespace
 
 void ReadPosesStreamed(const std::string& path, int num_joints, std::optional<AngleUnit> joint_unit,
                        const std::function<void(const MeasuredPose&, int line)>& sink,
-                       ReadProgressFn progress) {
+                       ReadProgressFn progress, PosesCsvLayout* layout) {
   CsvReader table(path, {}, std::move(progress));
   if (num_joints < 0) {
     num_joints = 0;
@@ -80,7 +192,12 @@ void ReadPosesStreamed(const std::string& path, int num_joints, std::optional<An
   }
   std::vector<std::string> known = {"pose", "x_mm", "y_mm", "z_mm"};
   for (int i = 1; i <= num_joints; ++i) known.push_back("q" + std::to_string(i) + "_*");
+  for (const char* angle : kAngleNames) {
+    known.push_back(std::string(angle) + "_*");
+    known.push_back("sigma_" + std::string(angle) + "_arcsec");
+  }
   table.RefuseUnreadUnits(known);
+  const OrientationColumns orientation = PosesCsvOrientation(table);
   const int id_col = table.Column("pose");
   std::vector<AngleColumn> q;
   for (int i = 1; i <= num_joints; ++i) {
@@ -101,6 +218,7 @@ void ReadPosesStreamed(const std::string& path, int num_joints, std::optional<An
                          std::to_string(num_joints) + " joints (expected q1…q" +
                          std::to_string(num_joints) + ")");
   }
+  if (layout) *layout = {num_joints, orientation.present(), orientation.sigma[0] >= 0};
   SeenIds ids;
   MeasuredPose pose;
   pose.joints_rad.resize(num_joints);
@@ -118,6 +236,7 @@ void ReadPosesStreamed(const std::string& path, int num_joints, std::optional<An
     pose.target_in_world = {table.Number(row, x, Quantity::kCoordinate),
                             table.Number(row, y, Quantity::kCoordinate),
                             table.Number(row, z, Quantity::kCoordinate)};
+    pose.orientation = ReadOrientation(table, row, orientation);
     sink(pose, row.line);
     ++count;
   }
@@ -152,13 +271,37 @@ std::vector<MeasuredPose> ReadPosesCsv(const std::string& path, int num_joints,
   return poses;
 }
 
-std::string PosesCsvHeader(int num_joints) {
-  std::string out = "pose";
-  for (int i = 1; i <= num_joints; ++i) out += ",q" + std::to_string(i) + "_deg";
-  return out + ",x_mm,y_mm,z_mm\n";
+PosesCsvLayout PosesCsvLayoutOf(const std::vector<MeasuredPose>& poses, int num_joints) {
+  PosesCsvLayout layout;
+  layout.num_joints = num_joints >= 0  ? num_joints
+                      : poses.empty() ? 0
+                                      : static_cast<int>(poses[0].joints_rad.size());
+  for (const auto& pose : poses) {
+    if (!pose.orientation) continue;
+    layout.orientation = true;
+    layout.orientation_sigmas |= pose.orientation->sigma_rad.has_value();
+  }
+  return layout;
 }
 
-std::string PosesCsvRow(const MeasuredPose& pose) {
+std::string PosesCsvHeader(const PosesCsvLayout& layout) {
+  std::string out = "pose";
+  for (int i = 1; i <= layout.num_joints; ++i) out += ",q" + std::to_string(i) + "_deg";
+  out += ",x_mm,y_mm,z_mm";
+  if (layout.orientation) out += ",rx_deg,ry_deg,rz_deg";
+  if (layout.orientation_sigmas) out += ",sigma_rx_arcsec,sigma_ry_arcsec,sigma_rz_arcsec";
+  return out + '\n';
+}
+
+std::string PosesCsvRow(const MeasuredPose& pose, const PosesCsvLayout& layout) {
+  if (pose.orientation && !layout.orientation) {
+    throw std::invalid_argument("PosesCsvRow: pose " + pose.id +
+                                " has an orientation the file's columns cannot hold");
+  }
+  if (pose.orientation && pose.orientation->sigma_rad && !layout.orientation_sigmas) {
+    throw std::invalid_argument("PosesCsvRow: pose " + pose.id +
+                                " has orientation sigmas the file's columns cannot hold");
+  }
   std::string out = CsvEscape(pose.id);
   char buffer[64];
   for (int i = 0; i < pose.joints_rad.size(); ++i) {
@@ -169,18 +312,38 @@ std::string PosesCsvRow(const MeasuredPose& pose) {
     std::snprintf(buffer, sizeof buffer, ",%.9g", pose.target_in_world(k));
     out += buffer;
   }
+  if (layout.orientation) {
+    if (pose.orientation) {
+      const Eigen::Vector3d angles = RxRyRzFromRotation(pose.orientation->world_from_target);
+      for (int k = 0; k < 3; ++k) {
+        std::snprintf(buffer, sizeof buffer, ",%.12g", FromRad(angles(k), AngleUnit::kDeg));
+        out += buffer;
+      }
+    } else {
+      out += ",,,";
+    }
+  }
+  if (layout.orientation_sigmas) {
+    if (pose.orientation && pose.orientation->sigma_rad) {
+      for (int k = 0; k < 3; ++k) {
+        std::snprintf(buffer, sizeof buffer, ",%.9g",
+                      (*pose.orientation->sigma_rad)(k) / kRadPerArcsec);
+        out += buffer;
+      }
+    } else {
+      out += ",,,";
+    }
+  }
   return out + '\n';
 }
 
 std::string FormatPosesCsv(const std::vector<MeasuredPose>& poses, int num_joints) {
-  const int n = num_joints >= 0  ? num_joints
-                : poses.empty() ? 0
-                                : static_cast<int>(poses[0].joints_rad.size());
-  std::string out = PosesCsvHeader(n);
+  const PosesCsvLayout layout = PosesCsvLayoutOf(poses, num_joints);
+  std::string out = PosesCsvHeader(layout);
   for (const auto& pose : poses) {
-    if (pose.joints_rad.size() != n)
+    if (pose.joints_rad.size() != layout.num_joints)
       throw std::invalid_argument("FormatPosesCsv: pose " + pose.id + " has another joint count");
-    out += PosesCsvRow(pose);
+    out += PosesCsvRow(pose, layout);
   }
   return out;
 }
@@ -193,6 +356,10 @@ PoseImportOptions PoseImportOptions::UrIpa() {
                      "wrist_1_joint",      "wrist_2_joint",       "wrist_3_joint"};
   o.joint_unit = AngleUnit::kRad;
   o.xyz_columns = {"measurement_x", "measurement_y", "measurement_z"};
+  // The T-Mac probe's orientation, in degrees, in the convention of core/rotation.h.
+  o.rotation_columns = {"measurement_rx", "measurement_ry", "measurement_rz"};
+  o.rotation_sigma_columns = {"measurement_std_rx", "measurement_std_ry", "measurement_std_rz"};
+  o.rotation_unit = AngleUnit::kDeg;
   return o;
 }
 
@@ -201,11 +368,26 @@ namespace {
 void CheckImportOptions(const PoseImportOptions& options) {
   if (options.joint_columns.empty()) throw InputError("no joint columns given (--joint-columns)");
   if (options.xyz_columns.size() != 3) throw InputError("expected three position columns (--xyz-columns)");
+  if (!options.rotation_columns.empty() && options.rotation_columns.size() != 3) {
+    throw InputError("expected three orientation columns rx, ry, rz (--rotation-columns), got " +
+                     std::to_string(options.rotation_columns.size()));
+  }
+  if (!options.rotation_sigma_columns.empty() && options.rotation_sigma_columns.size() != 3) {
+    throw InputError("expected three orientation sigma columns (--rotation-sigma-columns), got " +
+                     std::to_string(options.rotation_sigma_columns.size()));
+  }
+  if (!options.rotation_sigma_columns.empty() && options.rotation_columns.empty()) {
+    throw InputError(
+        "orientation sigma columns without orientation columns: give --rotation-columns too");
+  }
   // Each column names one quantity: a joint given twice, or a column that is a joint and a
   // coordinate, is a typo that would silently calibrate nonsense.
   std::vector<std::pair<std::string, std::string>> named;  // column, option
   for (const auto& c : options.joint_columns) named.emplace_back(c, "--joint-columns");
   for (const auto& c : options.xyz_columns) named.emplace_back(c, "--xyz-columns");
+  for (const auto& c : options.rotation_columns) named.emplace_back(c, "--rotation-columns");
+  for (const auto& c : options.rotation_sigma_columns)
+    named.emplace_back(c, "--rotation-sigma-columns");
   if (!options.id_column.empty()) named.emplace_back(options.id_column, "--id");
   for (size_t a = 0; a < named.size(); ++a) {
     for (size_t b = 0; b < a; ++b) {
@@ -219,11 +401,49 @@ void CheckImportOptions(const PoseImportOptions& options) {
   }
 }
 
+// The unit of a named orientation column: its suffix's, else the --rotation-unit; one
+// that contradicts the other is refused, and so is a column with neither.
+AngleUnit RotationUnitOf(const CsvColumns& table, int column, const std::string& name,
+                         std::optional<AngleUnit> unit) {
+  const auto suffix = AngleUnitFromSuffix(name);
+  if (suffix && unit && *suffix != *unit) {
+    throw InputError(table.HeaderWhere(column),
+                     "column " + Quoted(name) + " is in " +
+                         std::string(AngleUnitSuffix(*suffix).substr(1)) +
+                         " by its name, but --rotation-unit " +
+                         std::string(AngleUnitSuffix(*unit).substr(1)) +
+                         " was given: leave --rotation-unit out (the suffix gives the unit)");
+  }
+  if (!suffix && !unit) {
+    throw InputError(table.HeaderWhere(column),
+                     "column " + Quoted(name) +
+                         " names no angle unit: give --rotation-unit deg, gon or rad");
+  }
+  return suffix ? *suffix : *unit;
+}
+
+OrientationColumns ImportedOrientation(const CsvColumns& table, const PoseImportOptions& options) {
+  OrientationColumns columns;
+  for (size_t k = 0; k < options.rotation_columns.size(); ++k) {
+    const std::string& name = options.rotation_columns[k];
+    columns.angle[k] = table.Column(name);
+    columns.angle_unit[k] =
+        plausible::UnitOf(RotationUnitOf(table, columns.angle[k], name, options.rotation_unit));
+  }
+  for (size_t k = 0; k < options.rotation_sigma_columns.size(); ++k) {
+    const std::string& name = options.rotation_sigma_columns[k];
+    columns.sigma[k] = table.Column(name);
+    columns.sigma_unit[k] =
+        plausible::UnitOf(RotationUnitOf(table, columns.sigma[k], name, options.rotation_unit));
+  }
+  return columns;
+}
+
 }  // namespace
 
 void ImportPosesStreamed(const std::string& path, const PoseImportOptions& options,
                          const std::function<void(const MeasuredPose&, int line)>& sink,
-                         ReadProgressFn progress) {
+                         ReadProgressFn progress, PosesCsvLayout* layout) {
   CheckImportOptions(options);
   CsvOptions csv;
   csv.delimiter = options.delimiter;
@@ -251,6 +471,10 @@ void ImportPosesStreamed(const std::string& path, const PoseImportOptions& optio
   int xyz[3];
   for (int k = 0; k < 3; ++k) xyz[k] = table.Column(options.xyz_columns[k]);
   const int id_col = options.id_column.empty() ? -1 : table.Column(options.id_column);
+  const OrientationColumns orientation = ImportedOrientation(table, options);
+  if (layout) {
+    *layout = {static_cast<int>(q.size()), orientation.present(), orientation.sigma[0] >= 0};
+  }
   // The file's length unit: mm unless --length-scale says otherwise.
   const plausible::Unit length_unit{options.length_scale_to_mm == 1.0 ? "mm" : "(file units)",
                                     options.length_scale_to_mm};
@@ -270,6 +494,7 @@ void ImportPosesStreamed(const std::string& path, const PoseImportOptions& optio
     for (int k = 0; k < 3; ++k) {
       pose.target_in_world(k) = table.Number(row, xyz[k], Quantity::kCoordinate, length_unit);
     }
+    pose.orientation = ReadOrientation(table, row, orientation);
     sink(pose, row.line);
   }
   if (count == 0) throw InputError({path, 0, 0, ""}, "no data rows");

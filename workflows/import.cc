@@ -43,7 +43,8 @@ AngleUnit JointUnit(const ImportPosesRequest& r) {
 // A file in the poses format armsig writes (`session export`, `import poses --out`): no
 // preset and no columns named. Its header says everything.
 bool IsPosesCsv(const ImportPosesRequest& r) {
-  return r.preset.empty() && r.joint_columns.empty() && r.xyz_columns.empty();
+  return r.preset.empty() && r.joint_columns.empty() && r.xyz_columns.empty() &&
+         r.rotation_columns.empty() && r.rotation_sigma_columns.empty() && r.rotation_unit.empty();
 }
 
 io::PoseImportOptions ImportOptionsOf(const ImportPosesRequest& r) {
@@ -57,6 +58,16 @@ io::PoseImportOptions ImportOptionsOf(const ImportPosesRequest& r) {
   if (!r.joint_columns.empty()) import.joint_columns = SplitList(r.joint_columns);
   if (!r.xyz_columns.empty()) import.xyz_columns = SplitList(r.xyz_columns);
   if (!r.id_column.empty()) import.id_column = r.id_column;
+  if (!r.rotation_columns.empty()) import.rotation_columns = SplitList(r.rotation_columns);
+  if (!r.rotation_sigma_columns.empty())
+    import.rotation_sigma_columns = SplitList(r.rotation_sigma_columns);
+  if (!r.rotation_unit.empty()) {
+    import.rotation_unit = AngleUnitFromSuffix("_" + r.rotation_unit);
+    if (!import.rotation_unit) {
+      throw InputError({"--rotation-unit", 0, 0, ""},
+                       "expected deg, gon or rad, got " + Quoted(r.rotation_unit));
+    }
+  }
   if (r.delimiter == "tab") {
     import.delimiter = '\t';
   } else if (r.delimiter.size() == 1) {
@@ -87,7 +98,8 @@ io::JoinedPoses JoinTrackerExport(const ImportPosesRequest& r, int num_joints) {
                      "give both --points (the tracker's point table) and --joints (the robot's "
                      "joint log)");
   }
-  if (!r.file.empty() || !r.preset.empty() || !r.xyz_columns.empty() || !r.id_column.empty()) {
+  if (!r.file.empty() || !r.preset.empty() || !r.xyz_columns.empty() || !r.id_column.empty() ||
+      !r.rotation_columns.empty() || !r.rotation_sigma_columns.empty()) {
     throw InputError({"--points", 0, 0, ""},
                      "--points/--joints take the place of a pose table: give no FILE, --preset, "
                      "--xyz-columns or --id");
@@ -156,11 +168,12 @@ ImportPosesResult ImportPoseTable(const ImportPosesRequest& request, db::Databas
   if (database) store.emplace(*database, request.robot, request.file);
   std::optional<io::PreparedFile> out;
   if (!request.out.empty()) out.emplace(request.out);
+  io::PosesCsvLayout layout;  // the input's columns, set once its header is read
   const auto take = [&](const MeasuredPose& pose, int) {
     if (store) store->Add(pose);
     if (out) {
-      if (result.poses == 0) out->Write(io::PosesCsvHeader(pose.joints_rad.size()));
-      out->Write(io::PosesCsvRow(pose));
+      if (result.poses == 0) out->Write(io::PosesCsvHeader(layout));
+      out->Write(io::PosesCsvRow(pose, layout));
     }
     ++result.poses;
   };
@@ -176,9 +189,10 @@ ImportPosesResult ImportPoseTable(const ImportPosesRequest& request, db::Databas
     io::ReadPosesStreamed(
         request.file, num_joints > 0 ? num_joints : -1,
         request.joint_unit.empty() ? std::nullopt : std::optional<AngleUnit>(JointUnit(request)),
-        take, request.progress);
+        take, request.progress, &layout);
   } else {
-    io::ImportPosesStreamed(request.file, ImportOptionsOf(request), take, request.progress);
+    io::ImportPosesStreamed(request.file, ImportOptionsOf(request), take, request.progress,
+                            &layout);
   }
   // The file is written in full before the session is stored and put in place after: a full
   // disk stores nothing.

@@ -24,6 +24,10 @@ struct ImportPosesRequest {
   // deg | gon | rad; "" = the columns' unit suffixes (_deg, _gon, _rad), else rad (a pose
   // table) or deg (a joint log). A suffix it contradicts is refused.
   std::string joint_unit;
+  // The measured orientation (a 6-DoF probe): three angle columns rx, ry, rz
+  // (core/rotation.h) and optionally their sigma columns, comma-separated; their unit
+  // (deg | gon | rad) unless the names carry a suffix.
+  std::string rotation_columns, rotation_sigma_columns, rotation_unit;
   bool decimal_comma = false;
   double length_scale = 1.0;     // factor to mm
   bool allow_duplicate = false;  // store a copy of poses a session of the robot already holds

@@ -86,6 +86,14 @@ void PosesDigester::Add(const MeasuredPose& pose) {
   add(static_cast<double>(pose.joints_rad.size()), 1.0);
   for (int i = 0; i < pose.joints_rad.size(); ++i) add(pose.joints_rad(i), 1e-10);
   for (int i = 0; i < 3; ++i) add(pose.target_in_world(i), 1e-7);
+  // A measured orientation counts when there is one (position-only digests are as before):
+  // its matrix on a grid of 1e-10, its sigmas (rad) on one of 1e-12.
+  if (pose.orientation) {
+    for (int k = 0; k < 9; ++k) add(pose.orientation->world_from_target(k / 3, k % 3), 1e-10);
+    if (pose.orientation->sigma_rad) {
+      for (int k = 0; k < 3; ++k) add((*pose.orientation->sigma_rad)(k), 1e-12);
+    }
+  }
 }
 
 std::string PosesDigester::Hex() const { return fmt::format("{:016x}", hash_); }
@@ -128,6 +136,7 @@ void PosesSessionWriter::Add(const MeasuredPose& pose, const Eigen::Matrix3d* co
   point.position_mm = pose.target_in_world;
   point.covariance_mm2.setConstant(std::numeric_limits<double>::quiet_NaN());
   if (covariance_mm2) point.covariance_mm2 = *covariance_mm2;
+  point.orientation = pose.orientation;
   db::InsertPoint(database_, session_, point);
   digest_.Add(pose);
   ++count_;

@@ -80,7 +80,24 @@ TEST(LifecycleCommands, RealUr10FromRegistrationToCompensationAndRollback) {
     EXPECT_EQ(back[k].id, original[k].id);
     EXPECT_LT((back[k].joints_rad - original[k].joints_rad).norm(), 1e-9);
     EXPECT_LT((back[k].target_in_world - original[k].target_in_world).norm(), 1e-6);
+    // The T-Mac's orientation and its sigmas come back too.
+    ASSERT_TRUE(back[k].orientation && original[k].orientation) << back[k].id;
+    EXPECT_LT((back[k].orientation->world_from_target -
+               original[k].orientation->world_from_target)
+                  .norm(),
+              1e-9);
+    ASSERT_TRUE(back[k].orientation->sigma_rad && original[k].orientation->sigma_rad);
+    EXPECT_LT((*back[k].orientation->sigma_rad - *original[k].orientation->sigma_rad).norm(),
+              1e-12);
   }
+  // …as the file's angles: the first row's measurement_rx/ry/rz, -90,179563;-20,112975;
+  // -90,157388 (deg), std 0,0024569;0,0065397;0,008348 (deg = 8.84484, 23.54292, 30.0528″).
+  const auto exported = io::ReadCsvFile(dir.File("back.csv"));
+  const auto& row1 = exported.rows().at(0);
+  EXPECT_NEAR(exported.Number(row1, exported.Column("rx_deg")), -90.179563, 1e-9);
+  EXPECT_NEAR(exported.Number(row1, exported.Column("ry_deg")), -20.112975, 1e-9);
+  EXPECT_NEAR(exported.Number(row1, exported.Column("rz_deg")), -90.157388, 1e-9);
+  EXPECT_NEAR(exported.Number(row1, exported.Column("sigma_rz_arcsec")), 30.0528, 1e-7);
   EXPECT_EQ(RunArmsig(db + "session export 99 --poses '" + dir.File("x.csv") + "'").exit_code, 2);
 
   // Two nights' fits, then a roll-back.

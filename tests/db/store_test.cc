@@ -102,6 +102,11 @@ TEST_P(TypedStore, EveryTypedRowReadsBackExactly) {
   point.sigma0 = 0.98;
   point.miss_mm = 0.0123;
   point.flags = "blunder_rejected";
+  // A 6-DoF probe's orientation (schema v12), stored as three angles and read back as the
+  // same rotation to rounding.
+  point.orientation = MeasuredOrientation{
+      Eigen::AngleAxisd(2.9, Eigen::Vector3d(-1, 3, 2).normalized()).toRotationMatrix(),
+      Eigen::Vector3d(4.3e-5, 1.1e-4, 1.5e-4)};
   InsertPoint(db, session, point);
   tx.commit();
 
@@ -152,6 +157,12 @@ TEST_P(TypedStore, EveryTypedRowReadsBackExactly) {
   EXPECT_EQ(points[0].rejected_rays, 1);
   EXPECT_EQ(points[0].miss_mm, 0.0123);
   EXPECT_EQ(points[0].flags, "blunder_rejected");
+  auto same_orientation = [&](const std::optional<MeasuredOrientation>& o) {
+    ASSERT_TRUE(o && o->sigma_rad);
+    EXPECT_LT((o->world_from_target - point.orientation->world_from_target).norm(), 1e-14);
+    EXPECT_EQ(*o->sigma_rad, *point.orientation->sigma_rad);
+  };
+  same_orientation(points[0].orientation);
 
   const auto poses = LoadRobotPoses(db, robot, "");
   ASSERT_EQ(poses.size(), 1u);  // the skipped configuration has no point
@@ -159,9 +170,12 @@ TEST_P(TypedStore, EveryTypedRowReadsBackExactly) {
   EXPECT_EQ(poses[0].frame, session);
   EXPECT_EQ(poses[0].joints_rad, joints);
   EXPECT_EQ(poses[0].target_in_world, *point.position_mm);
+  same_orientation(poses[0].orientation);
   EXPECT_TRUE(LoadRobotPoses(db, robot, "9999-01-01T00:00:00.000Z").empty());
   std::vector<Eigen::Matrix3d> covariances;
-  EXPECT_EQ(LoadSessionPoses(db, session, &covariances).size(), 1u);
+  const auto session_poses = LoadSessionPoses(db, session, &covariances);
+  ASSERT_EQ(session_poses.size(), 1u);
+  same_orientation(session_poses[0].orientation);
   EXPECT_EQ(covariances.at(0), point.covariance_mm2);
 
   const auto temperatures = PoseTemperatures(db, {session});
@@ -184,6 +198,40 @@ TEST_P(TypedStore, EveryTypedRowReadsBackExactly) {
     finish.commit();
   }
   EXPECT_FALSE(ListSessions(db, robot)[0].finished_at.empty());
+}
+
+// A stored orientation is all three angles or none: one left (an edited store) is refused
+// naming the store, table, row and column instead of being read as a rotation.
+TEST_P(TypedStore, APartlyStoredOrientationIsRefusedNamingTheCell) {
+  Database db(NewStore());
+  int64_t session = 0;
+  {
+    WriteTransaction tx(db);
+    const int64_t robot = EnsureRobot(db, "ur", "ur10", "model: text\n");
+    session = CreateSession(db, robot, "", "", "completed", "");
+    const int64_t pose =
+        InsertPose(db, session, 0, "p", Eigen::VectorXd::Zero(6), "measured", 1);
+    PointRow point;
+    point.pose_id = pose;
+    point.point = "target";
+    point.position_mm = Eigen::Vector3d(1, 2, 3);
+    point.orientation = MeasuredOrientation{Eigen::Matrix3d::Identity(), std::nullopt};
+    InsertPoint(db, session, point);
+    tx.commit();
+  }
+  ASSERT_TRUE(LoadSessionPoses(db, session).at(0).orientation);
+  {
+    WriteTransaction tx(db);
+    db.connection().Prepare("UPDATE points SET ry_rad = NULL")->Execute();
+    tx.commit();
+  }
+  try {
+    LoadSessionPoses(db, session);
+    ADD_FAILURE() << "a partly stored orientation was read";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("table points"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("rx_rad"), std::string::npos) << e.what();
+  }
 }
 
 // A parameter set: parameters in their stored order, sigmas NaN where not known, the
