@@ -349,8 +349,8 @@ std::string NamedCause::Describe() const {
   std::string text = fmt::format("{} {} by {:+.3g} {}", name, zero ? "moved" : "changed", size,
                                  unit);
   if (sigma > 0 && std::isfinite(sigma)) text += fmt::format(" (± {:.2g})", sigma);
-  text += fmt::format(": up to {:.3f} mm at the tool, explains {:.0f} % of the change",
-                      effect_max_mm, 100.0 * explained);
+  text += fmt::format(": up to {:.3f} mm at the tool{}, explains {:.0f} % of the change",
+                      effect_max_mm, over.empty() ? "" : " " + over, 100.0 * explained);
   if (!equivalent.empty()) {
     text += "; the same on these data as ";
     for (size_t k = 0; k < equivalent.size(); ++k) text += (k ? ", " : "") + equivalent[k];
@@ -499,8 +499,9 @@ std::string DaysAgoUtc(int days) {
                      out.tm_mon + 1, out.tm_mday, out.tm_hour, out.tm_min, out.tm_sec);
 }
 
-NamedCause NameOf(const calibration::ExplainedCause& c) {
+NamedCause NameOf(const calibration::ExplainedCause& c, std::string over) {
   NamedCause n;
+  n.over = std::move(over);
   n.name = c.cause.name;
   n.parameter = c.cause.parameter;
   const double scale = c.cause.scale ? 1e6 : c.cause.angle ? 1e3 : 1.0;
@@ -794,7 +795,7 @@ void NightlyJob::TestAgainstActive() {
   const auto t = against(after);
   for (const auto& c : t.explanation.causes) {
     if (change.causes.size() == 3) break;
-    change.causes.push_back(NameOf(c));
+    change.causes.push_back(NameOf(c, "on the configurations measured since"));
   }
   change.indistinguishable = t.explanation.indistinguishable_from_frame;
   change.effect_max_mm = t.effect_max_mm;
@@ -1004,7 +1005,9 @@ void NightlyJob::CompareWithActive() {
     const auto explanation = calibration::ExplainDifference(
         model_, before.params, calibration::SetDifference(model_, before, now, spread_), 3,
         TermsOf(model_, run.params_spec));
-    for (const auto& cause : explanation.causes) d_.causes.push_back(NameOf(cause));
+    const std::string over =
+        fmt::format("over {} configurations spread over the work volume", spread_.size());
+    for (const auto& cause : explanation.causes) d_.causes.push_back(NameOf(cause, over));
     for (const auto& cause : d_.causes) Log("drift: " + cause.Describe());
   }
 }

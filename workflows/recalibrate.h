@@ -93,7 +93,11 @@ struct NamedCause {
   double explained = 0.0;  // share of the difference it explains alone (0–1)
   double effect_max_mm = 0.0, effect_mean_mm = 0.0;
   std::vector<std::string> equivalent;
-  // "joint 2 zero moved by +0.349 mrad (up to 0.31 mm at the tool; explains 99 %)"
+  // Where the effect was taken: "on the configurations measured since" (a change found in
+  // the sessions) or "over 50 configurations spread over the work volume" (two fitted sets).
+  std::string over;
+  // "joint 2 zero moved by +0.349 mrad (± 0.0055): up to 0.529 mm at the tool on the
+  // configurations measured since, explains 100 % of the change"
   std::string Describe() const;
 };
 

@@ -121,6 +121,10 @@ TEST_F(NightlyChange, AJointZeroRemasteredIsNamedThenFollowedWithoutBlending) {
   EXPECT_NE(suspected.DriftLine().find("joint 2 zero moved by +0.3"), std::string::npos)
       << suspected.DriftLine();
   EXPECT_NE(suspected.DriftLine().find("measure"), std::string::npos) << suspected.DriftLine();
+  // Each "up to" says over which configurations it was taken.
+  EXPECT_NE(cause.Describe().find("mm at the tool on the configurations measured since"),
+            std::string::npos)
+      << cause.Describe();
   EXPECT_EQ(suspected.previous_version, 3);
   EXPECT_EQ(Versions(path_), 3);  // nothing stored
 
@@ -132,6 +136,11 @@ TEST_F(NightlyChange, AJointZeroRemasteredIsNamedThenFollowedWithoutBlending) {
   ASSERT_FALSE(followed.causes.empty());
   EXPECT_EQ(followed.causes.front().name, "joint 2 zero") << followed.DriftLine();
   EXPECT_NEAR(followed.causes.front().size, shift * 1e3, 0.3 * shift * 1e3);
+  // The two sets' difference is taken over the configurations spread over the work volume.
+  EXPECT_NE(followed.causes.front().Describe().find(
+                "mm at the tool over 50 configurations spread over the work volume"),
+            std::string::npos)
+      << followed.causes.front().Describe();
 
   // The night after: the window starts at the change; the robot is the same as yesterday.
   const auto next = Night(after, 60);
