@@ -856,6 +856,7 @@ void NightlyJob::Fit(const std::vector<MeasuredPose>& poses) {
   settings_.params = o_.params;
   settings_.model_subset = true;
   settings_.residual_model = o_.residual_model;
+  settings_.orientation = o_.orientation;
   settings_.max_iterations = o_.max_iterations;
   // 60 %, at most 80 (the paper's) and 6 more for every further session: each session's
   // frame adds six base unknowns.
@@ -1142,11 +1143,17 @@ RecalibrationDecision NightlyJob::Run() {
     d_.sessions.assign(sessions.begin(), sessions.end());
   }
   const std::string digest =
-      InputDigest(poses, o_.params + "|residual-model=" + o_.residual_model, o_.select);
+      InputDigest(poses,
+                  o_.params + "|residual-model=" + o_.residual_model +
+                      // Said only when it is not the default, so that the digests of the
+                      // sets stored before orientations were fitted stay what they were.
+                      (o_.orientation == "auto" ? "" : "|orientation=" + o_.orientation),
+                  o_.select);
   nlohmann::json inputs = {{"digest", digest},         {"poses", poses.size()},
                            {"sessions", d_.sessions},  {"since", since_},
                            {"params", o_.params},      {"select", o_.select},
-                           {"residual_model", o_.residual_model}};
+                           {"residual_model", o_.residual_model},
+                           {"orientation", o_.orientation}};
   // The change point the set was fitted after (a new one, or the active set's): the
   // windows of the nights after it never reach back before it.
   if (d_.change) {

@@ -7,6 +7,7 @@
 
 #include "calibration/compensation.h"
 #include "core/error.h"
+#include "core/rotation.h"
 #include "core/text.h"
 #include "core/units.h"
 #include "io/csv.h"
@@ -29,6 +30,7 @@ Signature SignatureOf(const calibration::RobotModel& model, const db::StoredCali
     if (p.identified) s.sigmas(k) = p.sigma;
   }
   s.world_from_base = stored.world_from_base;
+  s.tool_rotation = stored.tool_rotation;
   if (!stored.residual_map_json.empty()) {
     const std::string source =
         fmt::format("table calibrations, row {}, column residual_map_json (parameter set {})",
@@ -128,8 +130,10 @@ std::string PredictCsv(const ActiveSignature& a, const Eigen::Isometry3d& frame,
                                                         joints, map != nullptr && map_sigma,
                                                         joints.size() >= 2048 ? 2 : 1);
   const double noise = map ? map->data().noise_sigma_mm : 0.0;
+  const std::optional<Eigen::Matrix3d>& tool = a.signature.tool_rotation;
   std::string out =
-      "pose,x_mm,y_mm,z_mm,nominal_x_mm,nominal_y_mm,nominal_z_mm,correction_mm,map,map_sigma_mm\n";
+      "pose,x_mm,y_mm,z_mm,nominal_x_mm,nominal_y_mm,nominal_z_mm,correction_mm,map,map_sigma_mm";
+  out += tool ? ",rx_deg,ry_deg,rz_deg\n" : "\n";
   int outside = 0;
   for (size_t k = 0; k < joints.size(); ++k) {
     const Eigen::Vector3d& x = calibrated[k].position_mm;
@@ -140,9 +144,15 @@ std::string PredictCsv(const ActiveSignature& a, const Eigen::Isometry3d& frame,
         map && map_sigma ? fmt::format("{:.6f}", std::sqrt(calibrated[k].sigma_mm * calibrated[k].sigma_mm +
                                               noise * noise))
             : std::string();
-    out += fmt::format("{},{:.6f},{:.6f},{:.6f},{:.6f},{:.6f},{:.6f},{:.6f},{},{}\n",
+    out += fmt::format("{},{:.6f},{:.6f},{:.6f},{:.6f},{:.6f},{:.6f},{:.6f},{},{}",
                        io::CsvEscape(t.Name(t.rows()[k], id)), x.x(), x.y(), x.z(), nominal.x(),
                        nominal.y(), nominal.z(), (x - nominal).norm(), state, sigma);
+    if (tool) {
+      kin.Position(frame, a.signature.params, joints[k].data());
+      const Eigen::Vector3d angles = RxRyRzFromRotation(kin.LastRotation() * *tool) / kRadPerDeg;
+      out += fmt::format(",{:.8f},{:.8f},{:.8f}", angles.x(), angles.y(), angles.z());
+    }
+    out += "\n";
   }
   if (outside > 0) {
     spdlog::warn(

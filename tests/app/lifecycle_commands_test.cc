@@ -13,6 +13,7 @@
 #include <random>
 
 #include "calibration/synthetic.h"
+#include "core/rotation.h"
 #include "core/units.h"
 #include "io/csv.h"
 #include "io/model_yaml.h"
@@ -109,6 +110,12 @@ TEST(LifecycleCommands, RealUr10FromRegistrationToCompensationAndRollback) {
   EXPECT_EQ(j1["version"], 1);
   EXPECT_GT(j1["validation"]["mean_mm"].get<double>(), 0.3);  // README: 0.49 mm, the model's floor
   EXPECT_LT(j1["validation"]["mean_mm"].get<double>(), 0.6);
+  // The session carries the T-Mac's orientations: the fit and the validation say how well
+  // the signature turns the probe (about 0.05°; docs/explanation/transfer.md).
+  const double deg = 180.0 / kPi;
+  EXPECT_EQ(j1["fit"]["orientation"]["poses"], j1["poses_fit"]);
+  EXPECT_LT(j1["validation"]["orientation"]["mean_rad"].get<double>() * deg, 0.1);
+  EXPECT_GT(j1["fit"]["orientation"]["weight_mm_per_rad"].get<double>(), 0.0);
   ASSERT_EQ(RunArmsig(recal + "--select 120").exit_code, 0);
   auto versions = nlohmann::json::parse(RunArmsig(db + "versions --robot ur10 --json").out);
   ASSERT_EQ(versions.size(), 2u);
@@ -139,13 +146,21 @@ TEST(LifecycleCommands, RealUr10FromRegistrationToCompensationAndRollback) {
   ASSERT_EQ(predicted.exit_code, 0) << predicted.err;
   const auto p = io::ReadCsvFile(dir.File("p.csv"));
   ASSERT_EQ(p.rows().size(), 20u);
-  double mean = 0;
+  double mean = 0, turn = 0;
   for (size_t k = 0; k < 20; ++k) {
     const Eigen::Vector3d x(p.Number(p.rows()[k], 1), p.Number(p.rows()[k], 2),
                             p.Number(p.rows()[k], 3));
     mean += (x - original[k].target_in_world).norm() / 20;
+    // The set was fitted to orientations: the probe's predicted orientation too.
+    const Eigen::Vector3d angles(p.Number(p.rows()[k], p.Column("rx_deg")),
+                                 p.Number(p.rows()[k], p.Column("ry_deg")),
+                                 p.Number(p.rows()[k], p.Column("rz_deg")));
+    const Eigen::Matrix3d r = RotationFromRxRyRz(angles / deg);
+    turn += Eigen::AngleAxisd(original[k].orientation->world_from_target.transpose() * r)
+                .angle() * deg / 20;
   }
   EXPECT_LT(mean, 1.0);
+  EXPECT_LT(turn, 0.15);  // degrees
 
   // Compensate: joints for those predicted points; predicted back they land on them.
   std::string targets = "point,x_mm,y_mm,z_mm\n";
