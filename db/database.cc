@@ -414,15 +414,20 @@ void RefuseReadOnly(const std::string& path, bool exists) {
   std::error_code ec;
   const bool wal = std::filesystem::exists(path + "-wal", ec);
   const bool shm = std::filesystem::exists(path + "-shm", ec);
+  // Not writable, as opposed to gone: another connection's close removes the -wal and the
+  // -shm at any moment, and a file that went is no reason to refuse.
+  auto refused = [](const std::string& file) {
+    return ::access(file.c_str(), W_OK) != 0 && errno != ENOENT;
+  };
   std::string why;
   struct statvfs fs {};
   if (::statvfs(exists ? path.c_str() : folder.c_str(), &fs) == 0 && (fs.f_flag & ST_RDONLY)) {
     why = "it lies on a read-only file system (a read-only mount)";
   } else if (exists && ::access(path.c_str(), W_OK) != 0) {
     why = std::string("the file is not writable by this user (") + std::strerror(errno) + ")";
-  } else if (wal && ::access((path + "-wal").c_str(), W_OK) != 0) {
+  } else if (wal && refused(path + "-wal")) {
     why = "its " + path + "-wal is not writable by this user";
-  } else if (shm && ::access((path + "-shm").c_str(), W_OK) != 0) {
+  } else if (shm && refused(path + "-shm")) {
     why = "its " + path +
           "-shm is not writable by this user (delete it when no armsig process "
           "uses the database)";
