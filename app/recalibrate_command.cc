@@ -119,6 +119,11 @@ void AddRecalibrateOptions(CLI::App& sub, workflows::RecalibrateOptions& o) {
                   "auto: sessions with measured orientations (6-DoF probes) fit them too; "
                   "off: positions only"), {"auto", "off"})
       ->capture_default_str();
+  ChoiceOption(sub.add_option("--tool-rotation", o.tool_rotation,
+                  "per-session: each session's probe rotation on the flange is fitted apart "
+                  "(it may have been remounted); shared: one for every session (it stayed on)"),
+               {"per-session", "shared"})
+      ->capture_default_str();
   // Gates and drift thresholds: mm within a robot cell, sigmas within reason; a gate of 0
   // or less could never pass, a NaN would pass everything.
   constexpr double kMaxMm = plausible::kMaxLengthMm;

@@ -419,8 +419,15 @@ void Adjustment::PlaceTools() {
     relative[frame_index_[i]].push_back(kin_.LastRotation().transpose() *
                                         poses_[i].orientation->world_from_target);
   }
-  for (size_t f = 0; f < frames_.size(); ++f) {
-    if (!relative[f].empty()) tools_[f] = MeanRotation(relative[f]);
+  if (options_.shared_tool_rotation) {
+    // One rotation for every frame: the mean over all of them.
+    std::vector<Eigen::Matrix3d> all;
+    for (const auto& r : relative) all.insert(all.end(), r.begin(), r.end());
+    tools_.assign(frames_.size(), MeanRotation(all));
+  } else {
+    for (size_t f = 0; f < frames_.size(); ++f) {
+      if (!relative[f].empty()) tools_[f] = MeanRotation(relative[f]);
+    }
   }
   // tool_unknown_ is numbered in ChooseUnknowns, once the subset's size is known.
   for (size_t f = 0; f < frames_.size(); ++f) tool_unknown_[f] = relative[f].empty() ? -1 : 0;
@@ -450,8 +457,10 @@ bool Adjustment::ChooseUnknowns() {
   for (const auto& p : poses_) joints.push_back(p.joints_rad);
   OrientationRows orientation;
   if (oriented_ > 0) {
-    for (int i = 0; i < m_; ++i)
-      orientation.setup.push_back(orientation_row_[i] < 0 ? -1 : frame_index_[i]);
+    for (int i = 0; i < m_; ++i) {
+      const int setup = options_.shared_tool_rotation ? 0 : frame_index_[i];
+      orientation.setup.push_back(orientation_row_[i] < 0 ? -1 : setup);
+    }
   }
 
   // The identifiable subset is chosen once, at the nominal model, and kept: re-deciding
@@ -490,6 +499,10 @@ bool Adjustment::ChooseUnknowns() {
   int tool_frames = 0;
   for (int& first : tool_unknown_) {
     if (first < 0) continue;
+    if (options_.shared_tool_rotation && tool_frames > 0) {
+      first = unknowns_ - 3;  // the one shared rotation
+      continue;
+    }
     first = unknowns_;
     unknowns_ += 3;
     ++tool_frames;
@@ -579,6 +592,15 @@ Adjustment::Tools Adjustment::TurnedTools(const Tools& tools, const Eigen::Vecto
   for (size_t f = 0; f < tools.size(); ++f) {
     if (tool_unknown_[f] >= 0) out[f] = tools[f] * RotationFromVector(step.segment<3>(tool_unknown_[f]));
   }
+  if (options_.shared_tool_rotation) {
+    // Frames without orientations follow the shared one too (it is theirs if they had any).
+    for (size_t f = 0; f < tools.size(); ++f) {
+      if (tool_unknown_[f] >= 0) {
+        for (auto& t : out) t = out[f];
+        break;
+      }
+    }
+  }
   return out;
 }
 
@@ -644,8 +666,10 @@ void Adjustment::Solve() {
   result_.bases[result_.reference_frame] = result_.world_from_base;
   for (int f = 0; f < extra_frames_; ++f) result_.bases[frames_[f]] = extra_bases_[f];
   for (size_t f = 0; f < frames_.size(); ++f) {
-    if (tool_unknown_[f] >= 0) result_.tool_rotations[frames_[f]] = tools_[f];
+    if (tool_unknown_[f] >= 0 || (options_.shared_tool_rotation && oriented_ > 0))
+      result_.tool_rotations[frames_[f]] = tools_[f];
   }
+  result_.tool_rotation_shared = options_.shared_tool_rotation && oriented_ > 0;
   result_.orientation_weight_mm_per_rad = oriented_ > 0 ? weight_ : 0.0;
   result_.orientation_poses = oriented_;
 }
@@ -875,7 +899,8 @@ LinearisedCrossValidation CrossValidationAtFit(const RobotModel& model, const Es
   int next_tool = k;
   for (auto& [frame, column] : tool_column) {
     column = next_tool;
-    next_tool += 3;
+    if (!fit.tool_rotation_shared || next_tool == k) next_tool += 3;
+    if (fit.tool_rotation_shared) column = k;
   }
   const int t = next_tool - k;
   const int mo = static_cast<int>(oriented.size());

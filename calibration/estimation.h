@@ -104,6 +104,9 @@ struct EstimationOptions {
   // the unknowns (three more). false: orientations are ignored, a position-only fit.
   bool use_orientation = true;
   double orientation_weight_mm_per_rad = 0.0;
+  // One tool rotation for every frame instead of one each: the probe stayed on the flange
+  // between the set-ups, so the orientations of a new set-up's poses also turn its base.
+  bool shared_tool_rotation = false;
   void Check() const;
 };
 
@@ -141,6 +144,7 @@ struct EstimationResult {
   // σ of one orientation residual component, and the residuals (nullopt for a pose without
   // an orientation).
   ToolRotations tool_rotations;
+  bool tool_rotation_shared = false;  // every frame's is the same unknown
   double orientation_weight_mm_per_rad = 0.0;
   double sigma0_rad = std::numeric_limits<double>::quiet_NaN();
   int orientation_poses = 0;

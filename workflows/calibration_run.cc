@@ -84,6 +84,11 @@ calibration::EstimationOptions EstimationOptionsOf(
   }
   options.use_orientation = settings.orientation == "auto";
   options.orientation_weight_mm_per_rad = settings.orientation_weight_mm_per_rad;
+  if (settings.tool_rotation != "per-session" && settings.tool_rotation != "shared") {
+    throw InputError({"--tool-rotation", 0, 0, ""},
+                     "expected per-session or shared, got '" + settings.tool_rotation + "'");
+  }
+  options.shared_tool_rotation = settings.tool_rotation == "shared";
   if (settings.model_subset) {
     model_report =
         calibration::ModelIdentifiability(model, options.parameters, settings.rank_tolerance);

@@ -89,6 +89,9 @@ struct CalibrateSettings {
   // (0: variance components, calibration::EstimationOptions).
   std::string orientation = "auto";
   double orientation_weight_mm_per_rad = 0.0;
+  // "per-session": every session's probe rotation on the flange is its own (it may have
+  // been remounted); "shared": one for all (it stayed on).
+  std::string tool_rotation = "per-session";
 };
 // The --params spec's parameters of `model` ("auto": all of them, the candidates), as
 // RunCalibration reads it; InputError naming --params (with the nearest valid word) for a

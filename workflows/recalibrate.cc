@@ -857,6 +857,7 @@ void NightlyJob::Fit(const std::vector<MeasuredPose>& poses) {
   settings_.model_subset = true;
   settings_.residual_model = o_.residual_model;
   settings_.orientation = o_.orientation;
+  settings_.tool_rotation = o_.tool_rotation;
   settings_.max_iterations = o_.max_iterations;
   // 60 %, at most 80 (the paper's) and 6 more for every further session: each session's
   // frame adds six base unknowns.
@@ -1147,13 +1148,15 @@ RecalibrationDecision NightlyJob::Run() {
                   o_.params + "|residual-model=" + o_.residual_model +
                       // Said only when it is not the default, so that the digests of the
                       // sets stored before orientations were fitted stay what they were.
-                      (o_.orientation == "auto" ? "" : "|orientation=" + o_.orientation),
+                      (o_.orientation == "auto" ? "" : "|orientation=" + o_.orientation) +
+                      (o_.tool_rotation == "per-session" ? "" : "|tool-rotation=" + o_.tool_rotation),
                   o_.select);
   nlohmann::json inputs = {{"digest", digest},         {"poses", poses.size()},
                            {"sessions", d_.sessions},  {"since", since_},
                            {"params", o_.params},      {"select", o_.select},
                            {"residual_model", o_.residual_model},
-                           {"orientation", o_.orientation}};
+                           {"orientation", o_.orientation},
+                           {"tool_rotation", o_.tool_rotation}};
   // The change point the set was fitted after (a new one, or the active set's): the
   // windows of the nights after it never reach back before it.
   if (d_.change) {

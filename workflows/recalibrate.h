@@ -20,6 +20,7 @@ struct RecalibrateOptions {
   std::string params = "all";
   std::string residual_model = "auto";  // auto | off (calibrate's --residual-model)
   std::string orientation = "auto";     // auto | off (calibrate's --orientation)
+  std::string tool_rotation = "per-session";  // per-session | shared
   // Configurations to fit (0: 60 %, at most 80 plus 6 for every session beyond the first,
   // whose measurement frame adds six unknowns).
   int select = 0;
