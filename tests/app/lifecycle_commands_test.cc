@@ -189,6 +189,76 @@ TEST(LifecycleCommands, RealUr10FromRegistrationToCompensationAndRollback) {
   EXPECT_EQ(corrected.num_joints(), 6);
 }
 
+// Fitted on series C, used on series B (another day, the tracker moved; almost every B pose
+// has the wrist and half of them the elbow on the other branch, joint 1 in a range C never
+// visits): the nightly path with C as one session and 30 B poses spread through its file as
+// a new session, which places the new set-up (its base and the probe's rotation are fitted
+// with the signature), then `predict --frame measurement` on B's other 1,465 poses. The
+// nightly job's own selection (86 configurations, D-optimal over both sessions), so the run
+// costs a few seconds; docs/explanation/transfer.md has the figures of the full fits.
+TEST(LifecycleCommands, RealUr10SeriesCSignatureHoldsOnSeriesBPlacedByThirtyPoses) {
+  TempDir dir;
+  const std::string db = "--db '" + dir.File("lab.db") + "' ";
+  ASSERT_EQ(RunArmsig(db + "robot add ur10 --model '" + SourcePath("models/ur10.yaml") + "'")
+                .exit_code,
+            0);
+  ASSERT_EQ(RunArmsig(db + "import poses '" +
+                      DataPath("ur10-ipa/series_C-measurements_random_poses.csv") +
+                      "' --preset ur-ipa --robot ur10")
+                .exit_code,
+            0);
+  const auto b = io::ImportPoses(
+      DataPath("ur10-ipa/series_B-measurements_joint_configurations.csv"),
+      io::PoseImportOptions::UrIpa());
+  ASSERT_EQ(b.size(), 1495u);
+  const int n = static_cast<int>(b.size()), count = 30;
+  std::vector<char> placing(n, 0);
+  for (int k = 0; k < count; ++k) placing[static_cast<int>((k + 0.5) * n / count)] = 1;
+  std::vector<MeasuredPose> place, rest;
+  for (int i = 0; i < n; ++i) (placing[i] ? place : rest).push_back(b[i]);
+  WriteText(dir.File("place.csv"), io::FormatPosesCsv(place));
+  ASSERT_EQ(RunArmsig(db + "import poses '" + dir.File("place.csv") + "' --robot ur10").exit_code,
+            0);
+  const auto night = RunArmsig(db + "recalibrate --robot ur10 --params auto --json '" +
+                               dir.File("night.json") + "'");
+  ASSERT_EQ(night.exit_code, 0) << night.err << night.out;
+  EXPECT_EQ(nlohmann::json::parse(ReadText(dir.File("night.json")))["decision"], "stored");
+  std::string joints = "pose,q1_deg,q2_deg,q3_deg,q4_deg,q5_deg,q6_deg\n";
+  for (const auto& p : rest) {
+    joints += p.id;
+    for (int i = 0; i < 6; ++i) joints += fmt::format(",{:.15g}", p.joints_rad(i) * 180 / kPi);
+    joints += "\n";
+  }
+  WriteText(dir.File("rest.csv"), joints);
+  ASSERT_EQ(RunArmsig(db + "predict --robot ur10 --frame measurement --joints '" +
+                      dir.File("rest.csv") + "' --out '" + dir.File("pred.csv") + "'")
+                .exit_code,
+            0);
+  const auto predicted = io::ReadCsvFile(dir.File("pred.csv"));
+  ASSERT_EQ(predicted.rows().size(), rest.size());
+  double mean = 0.0, turn = 0.0;
+  for (size_t k = 0; k < rest.size(); ++k) {
+    const auto& row = predicted.rows()[k];
+    const Eigen::Vector3d x(predicted.Number(row, predicted.Column("x_mm")),
+                            predicted.Number(row, predicted.Column("y_mm")),
+                            predicted.Number(row, predicted.Column("z_mm")));
+    mean += (x - rest[k].target_in_world).norm() / static_cast<double>(rest.size());
+    // The probe's orientation in B's frame: B's own tool rotation, fitted from 30 poses.
+    const Eigen::Vector3d angles(predicted.Number(row, predicted.Column("rx_deg")),
+                                 predicted.Number(row, predicted.Column("ry_deg")),
+                                 predicted.Number(row, predicted.Column("rz_deg")));
+    turn += Eigen::AngleAxisd(rest[k].orientation->world_from_target.transpose() *
+                              RotationFromRxRyRz(angles * kPi / 180))
+                .angle() * 180 / kPi / static_cast<double>(rest.size());
+  }
+  std::cout << fmt::format("UR10 fitted on series C, used on series B placed by 30 poses: "
+                           "{:.4f} mm, {:.4f} deg on the other 1,465\n", mean, turn);
+  // The goal for a signature used on another day (C's geometric signature placed by the same
+  // 30 poses: 0.85 mm, docs/explanation/transfer.md).
+  EXPECT_LE(mean, 0.50);
+  EXPECT_LE(turn, 0.15);
+}
+
 // The nightly path on the real UR10 (IPA series C, measured by a laser tracker): the
 // tracker's export imported as a session of the registered robot, recalibrated with 1773
 // well-spread fit poses and validated on the other 1000. The held-out mean is the figure
@@ -197,84 +267,6 @@ TEST(LifecycleCommands, RealUr10FromRegistrationToCompensationAndRollback) {
 // work from the active set.
 // On either store: the same figure from the plant's server as from the lab's file.
 class LifecycleOnStore : public ::testing::TestWithParam<db::Backend> {};
-
-namespace {
-
-// Fitted on series C, used on series B (another day; almost every B pose has the wrist and
-// half of them the elbow on the other branch, joint 1 in a range C never visits): the
-// nightly path with C as one session and `count` B poses spread through its file as a new
-// session, which places the new set-up (its base and the probe's rotation are fitted with
-// the signature), then `predict --frame measurement` on B's other poses. Returns their mean
-// error distance (mm) and how many were outside the residual map's support.
-std::pair<double, int> SeriesBAfterSeriesC(int count) {
-  TempDir dir;
-  const std::string db = "--db '" + dir.File("lab.db") + "' ";
-  EXPECT_EQ(RunArmsig(db + "robot add ur10 --model '" + SourcePath("models/ur10.yaml") + "'")
-                .exit_code,
-            0);
-  EXPECT_EQ(RunArmsig(db + "import poses '" +
-                      DataPath("ur10-ipa/series_C-measurements_random_poses.csv") +
-                      "' --preset ur-ipa --robot ur10")
-                .exit_code,
-            0);
-  const auto b = io::ImportPoses(DataPath("ur10-ipa/series_B-measurements_joint_configurations.csv"),
-                                 io::PoseImportOptions::UrIpa());
-  EXPECT_EQ(b.size(), 1495u);
-  const int n = static_cast<int>(b.size());
-  std::vector<char> placing(n, 0);
-  for (int k = 0; k < count; ++k) placing[static_cast<int>((k + 0.5) * n / count)] = 1;
-  std::vector<MeasuredPose> place, rest;
-  for (int i = 0; i < n; ++i) (placing[i] ? place : rest).push_back(b[i]);
-  WriteText(dir.File("place.csv"), io::FormatPosesCsv(place));
-  EXPECT_EQ(RunArmsig(db + "import poses '" + dir.File("place.csv") + "' --robot ur10").exit_code, 0);
-  // Every pose but a few fitted (--select leaves 13 to validate on), terms by --params auto,
-  // the residual map where its cross-validation says so.
-  const auto night = RunArmsig(db + "recalibrate --robot ur10 --params auto --select " +
-                               std::to_string(2773 + count - 13) + " --json '" +
-                               dir.File("night.json") + "'");
-  EXPECT_EQ(night.exit_code, 0) << night.err << night.out;
-  const auto j = nlohmann::json::parse(ReadText(dir.File("night.json")));
-  EXPECT_EQ(j["decision"], "stored");
-  std::string joints = "pose,q1_deg,q2_deg,q3_deg,q4_deg,q5_deg,q6_deg\n";
-  for (const auto& p : rest) {
-    joints += p.id;
-    for (int i = 0; i < 6; ++i) joints += fmt::format(",{:.15g}", p.joints_rad(i) * 180 / kPi);
-    joints += "\n";
-  }
-  WriteText(dir.File("rest.csv"), joints);
-  EXPECT_EQ(RunArmsig(db + "predict --robot ur10 --frame measurement --joints '" +
-                      dir.File("rest.csv") + "' --out '" + dir.File("pred.csv") + "'")
-                .exit_code,
-            0);
-  const auto predicted = io::ReadCsvFile(dir.File("pred.csv"));
-  EXPECT_EQ(predicted.rows().size(), rest.size());
-  double mean = 0.0;
-  int outside = 0;
-  for (size_t k = 0; k < rest.size() && k < predicted.rows().size(); ++k) {
-    const auto& row = predicted.rows()[k];
-    const Eigen::Vector3d x(predicted.Number(row, predicted.Column("x_mm")),
-                            predicted.Number(row, predicted.Column("y_mm")),
-                            predicted.Number(row, predicted.Column("z_mm")));
-    mean += (x - rest[k].target_in_world).norm() / static_cast<double>(rest.size());
-    outside += predicted.Text(row, predicted.Column("map")) == "outside";
-  }
-  return {mean, outside};
-}
-
-}  // namespace
-
-TEST(LifecycleCommands, RealUr10SeriesCSignatureHoldsOnSeriesBPlacedByThirtyPoses) {
-  const auto [thirty, outside30] = SeriesBAfterSeriesC(30);
-  const auto [ten, outside10] = SeriesBAfterSeriesC(10);
-  std::cout << fmt::format(
-      "UR10 fitted on series C, used on series B: {:.4f} mm on 1,465 poses with 30 placing "
-      "({} outside the map), {:.4f} mm on 1,485 with 10 ({} outside)\n",
-      thirty, outside30, ten, outside10);
-  EXPECT_LE(thirty, 0.50);  // the goal; was 0.645 with the defaults of the nightly job
-  EXPECT_LE(ten, 0.55);
-  // B's configurations are largely where C never was: the map says so for hundreds of them.
-  EXPECT_GT(outside30, 300);
-}
 
 TEST_P(LifecycleOnStore, RealUr10NightlyPathReproducesTheHeldOutFigure) {
   TempDir dir;
