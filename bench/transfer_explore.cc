@@ -9,7 +9,9 @@
 //   - the map's support: B poses inside and outside it, and what the map does in each.
 // Series B is read from ../shared/data/ur10-ipa (argument 1) unless tests/data has it.
 //
-// Usage: transfer_explore [SERIES_B.csv]
+// Usage: transfer_explore [joint | ten | smooth] [SERIES_B.csv]
+//   joint: the nightly path only; ten: 10 and 30 placing poses with and without their
+//   orientations; smooth: the map cut at its support or applied everywhere, on B and D.
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -170,7 +172,114 @@ int JointFits(const RobotModel& model, const std::string& b_path) {
   return 0;
 }
 
+// Ten placing poses with and without their orientations: where the joint fit's error comes
+// from (the fitted base against one re-placed by all of B's positions).
+int TenFits(const RobotModel& model, const std::string& b_path) {
+  const std::string c_path = kSource + "/tests/data/ur10-ipa/series_C-measurements_random_poses.csv";
+  const Series c = Load("C", c_path, true), b = Load("B", b_path, true);
+  const int n = static_cast<int>(b.poses.size());
+  for (int count : {10, 30}) {
+    for (int variant = 0; variant < 4; ++variant) {
+      // 0: all orientations; 1: B's placing poses without; 2: positions only; 3: C without, B with
+      std::vector<char> in(n, 0);
+      for (int k = 0; k < count; ++k) in[static_cast<int>((k + 0.5) * n / count)] = 1;
+      std::vector<MeasuredPose> both = c.poses, rest;
+      for (auto& p : both) {
+        p.frame = 1;
+        if (variant == 2 || variant == 3) p.orientation.reset();
+      }
+      for (int i = 0; i < n; ++i) {
+        if (!in[i]) {
+          rest.push_back(b.poses[i]);
+          continue;
+        }
+        MeasuredPose p = b.poses[i];
+        p.frame = 2;
+        if (variant == 1 || variant == 2) p.orientation.reset();
+        both.push_back(p);
+      }
+      const Signature s = Fit(model, both, "auto", false);
+      const Errors e = Evaluate(model, s.fit.base_of(2), s.fit.params, nullptr, rest);
+      std::vector<MeasuredPose> b_pos = b.poses;
+      const auto base_all = *AlignBaseWithParams(model, s.fit.params, b_pos);
+      const Errors ea = Evaluate(model, base_all, s.fit.params, nullptr, rest);
+      const Eigen::Isometry3d d = base_all.inverse() * s.fit.base_of(2);
+      std::printf("%d placing, variant %d: parametric %.3f, base re-placed by all B %.3f; base off by %.3f mm %.4f mrad; weight %.0f; k %d\n",
+                  count, variant, e.Mean(), ea.Mean(), d.translation().norm(),
+                  Eigen::AngleAxisd(d.linear()).angle() * 1e3, s.fit.orientation_weight_mm_per_rad,
+                  static_cast<int>(s.fit.identifiability.rank));
+      std::fflush(stdout);
+    }
+  }
+  return 0;
+}
+
+// The map outside its support: cut (parametric there) or its GP mean applied everywhere
+// (which falls to zero, the parametric model, away from its centres). C fitted with N placing
+// poses of B or D (a new session), evaluated on that series' other poses.
+int SmoothFits(const RobotModel& model, const std::string& b_path) {
+  const std::string c_path = kSource + "/tests/data/ur10-ipa/series_C-measurements_random_poses.csv";
+  const std::string d_path = kSource + "/tests/data/ur10-ipa/series_D-measurements_iso_cubes.csv";
+  for (bool orientation : {false, true}) {
+    const Series c = Load("C", c_path, orientation);
+    for (const std::string& other : {b_path, d_path}) {
+      const Series b = Load("X", other, orientation);
+      const int n = static_cast<int>(b.poses.size());
+      for (int count : {30, 10}) {
+        std::vector<char> in(n, 0);
+        for (int k = 0; k < count; ++k) in[static_cast<int>((k + 0.5) * n / count)] = 1;
+        std::vector<MeasuredPose> both = c.poses, rest;
+        for (auto& p : both) p.frame = 1;
+        for (int i = 0; i < n; ++i) {
+          if (!in[i]) {
+            rest.push_back(b.poses[i]);
+            continue;
+          }
+          MeasuredPose p = b.poses[i];
+          p.frame = 2;
+          both.push_back(p);
+        }
+        const Signature s = Fit(model, both, "auto", true);
+        const Errors e = Evaluate(model, s.fit.base_of(2), s.fit.params, nullptr, rest);
+        double cut = e.Mean(), open = e.Mean();
+        int outside = 0;
+        double out_cut = 0, out_open = 0;
+        if (s.map) {
+          const Errors em = Evaluate(model, s.fit.base_of(2), s.fit.params, &*s.map, rest);
+          ResidualMapData data = s.map->data();
+          data.support_radius = 1e6;
+          const ResidualMap everywhere(data);
+          const Errors eo = Evaluate(model, s.fit.base_of(2), s.fit.params, &everywhere, rest);
+          cut = em.Mean();
+          open = eo.Mean();
+          for (size_t i = 0; i < rest.size(); ++i) {
+            if (!em.outside[i]) continue;
+            ++outside;
+            out_cut += em.distance[i];
+            out_open += eo.distance[i];
+          }
+        }
+        std::printf("%s %s %d placing: parametric %.4f, map cut %.4f, map everywhere %.4f; %d outside: cut %.4f everywhere %.4f\n",
+                    orientation ? "6-DoF" : "positions", other == d_path ? "D" : "B", count, e.Mean(), cut, open,
+                    outside, out_cut / std::max(outside, 1), out_open / std::max(outside, 1));
+        std::fflush(stdout);
+      }
+    }
+  }
+  return 0;
+}
+
 int main(int argc, char** argv) {
+  const bool smooth = argc > 1 && std::string(argv[1]) == "smooth";
+  if (smooth) {
+    --argc;
+    ++argv;
+  }
+  const bool ten = argc > 1 && std::string(argv[1]) == "ten";
+  if (ten) {
+    --argc;
+    ++argv;
+  }
   const bool joint_only = argc > 1 && std::string(argv[1]) == "joint";
   if (joint_only) {
     --argc;
@@ -183,6 +292,8 @@ int main(int argc, char** argv) {
           : "/work/shared/data/ur10-ipa/series_B-measurements_joint_configurations.csv";
   const RobotModel model = io::LoadRobotModel(kSource + "/models/ur10.yaml");
   if (joint_only) return JointFits(model, b_path);
+  if (ten) return TenFits(model, b_path);
+  if (smooth) return SmoothFits(model, b_path);
   const Series c = Load("C", kSource + "/tests/data/ur10-ipa/series_C-measurements_random_poses.csv");
   const Series b = Load("B", b_path);
   const Series d = Load("D", kSource + "/tests/data/ur10-ipa/series_D-measurements_iso_cubes.csv");

@@ -20,6 +20,7 @@
 #include "support/stores.h"
 #include "test_support.h"
 #include "workflows/lifecycle.h"
+#include "workflows/worker.h"
 
 namespace armsig::testing {
 
@@ -388,6 +389,22 @@ TEST(SinceToUtc, ARefusedValueIsQuotedWithItsControlCharactersEscapedAndCut) {
     EXPECT_NE(what.find("'2026\\narmsig: info: forged"), std::string::npos) << what;
     EXPECT_NE(what.find("bytes)"), std::string::npos) << what;  // cut, with its size
   }
+}
+
+// A queued job runs with the options it was scheduled with: the orientation and tool-rotation
+// choices survive the queue's JSON, and a job queued before they existed gets the defaults.
+TEST(RecalibrateOptionsJson, CarriesTheOrientationChoices) {
+  workflows::RecalibrateOptions o;
+  o.orientation = "off";
+  o.tool_rotation = "shared";
+  o.params = "auto";
+  const auto back = workflows::RecalibrateOptionsFromJson(workflows::RecalibrateOptionsToJson(o), 1);
+  EXPECT_EQ(back.orientation, "off");
+  EXPECT_EQ(back.tool_rotation, "shared");
+  EXPECT_EQ(back.params, "auto");
+  const auto old = workflows::RecalibrateOptionsFromJson(R"({"params": "all"})", 2);
+  EXPECT_EQ(old.orientation, "auto");
+  EXPECT_EQ(old.tool_rotation, "per-session");
 }
 
 }  // namespace armsig::testing
