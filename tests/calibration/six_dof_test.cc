@@ -214,5 +214,72 @@ TEST(SixDofFit, APerSetUpToolRotationFollowsAProbeRemountedBetweenSessions) {
   EXPECT_FALSE(r.fit_orientation_residuals.back().has_value());
 }
 
+// The probe stayed on between the sessions: --tool-rotation shared makes its rotation one
+// unknown for both (three fewer), which then holds the same value for each; on data where it
+// was remounted the shared rotation cannot follow and the orientation residuals show it.
+TEST(SixDofFit, ASharedToolRotationIsOneUnknownForSessionsWhoseProbeStayedOn) {
+  RobotModel model = testing::Ur10();
+  std::mt19937 rng(32);
+  const Eigen::VectorXd truth = RandomParameters(model, 0.5, 5e-4, 0.0, rng);
+  Eigen::Isometry3d moved = SomeBase();
+  moved.prerotate(Eigen::AngleAxisd(0.3, Eigen::Vector3d::UnitZ()));
+  moved.pretranslate(Eigen::Vector3d(800.0, 150.0, -20.0));
+  const auto sessions = [&](const Eigen::Matrix3d& second_probe) {
+    std::mt19937 draw(33);
+    auto first = SimulateSixDofPoses(model, SomeBase(), truth, ProbeRotation(),
+                                     RandomConfigurations(model, 150, draw, 3.0), 0.02, 1e-5, draw);
+    auto second = SimulateSixDofPoses(model, moved, truth, second_probe,
+                                      RandomConfigurations(model, 60, draw, 3.0), 0.02, 1e-5, draw);
+    std::vector<MeasuredPose> poses;
+    for (auto& p : first) {
+      p.frame = 1;
+      poses.push_back(p);
+    }
+    for (size_t i = 0; i < second.size(); ++i) {
+      second[i].frame = 2;
+      second[i].id = "S" + std::to_string(i);
+      poses.push_back(second[i]);
+    }
+    return poses;
+  };
+  EstimationOptions own;
+  own.parameters = ParseParameterSpec(model, "geometric");
+  EstimationOptions shared = own;
+  shared.shared_tool_rotation = true;
+
+  const auto stayed = sessions(ProbeRotation());
+  const auto a = Estimate(model, stayed, own), b = Estimate(model, stayed, shared);
+  ASSERT_TRUE(a.status.ok()) << a.status.message;
+  ASSERT_TRUE(b.status.ok()) << b.status.message;
+  EXPECT_FALSE(a.tool_rotation_shared);
+  EXPECT_TRUE(b.tool_rotation_shared);
+  EXPECT_EQ(b.identifiability.rank, a.identifiability.rank);
+  EXPECT_EQ(b.redundancy, a.redundancy + 3);
+  ASSERT_EQ(b.tool_rotations.size(), 2u);
+  EXPECT_EQ(b.tool_rotations.at(1), b.tool_rotations.at(2));
+  // Within the noise, as the own-rotation fit; new configurations of the second session
+  // (noise-free truth) predicted in position and orientation within it.
+  EXPECT_LT(b.fit.mean_mm, 0.05);
+  EXPECT_LT(b.fit_angle.mean_rad, 3e-5);
+  auto check = SimulateSixDofPoses(model, moved, truth, ProbeRotation(),
+                                   RandomConfigurations(model, 50, rng, 3.0), 0.0, 0.0, rng);
+  for (auto& p : check) p.frame = 2;
+  EXPECT_LT(Summarise(Distances(Residuals(model, b.bases, b.params, check))).max_mm, 0.03);
+  const auto angles =
+      Angles(OrientationResiduals(model, b.bases, b.tool_rotations, b.params, check));
+  ASSERT_EQ(angles.size(), check.size());
+  EXPECT_LT(SummariseAngles(angles).max_rad, 2e-5);
+
+  const Eigen::Matrix3d remounted =
+      ProbeRotation() *
+      Eigen::AngleAxisd(3.5e-3, Eigen::Vector3d(0.2, 0.1, 1).normalized()).toRotationMatrix();
+  const auto moved_probe = sessions(remounted);
+  const auto c = Estimate(model, moved_probe, own), d = Estimate(model, moved_probe, shared);
+  ASSERT_TRUE(c.status.ok()) << c.status.message;
+  ASSERT_TRUE(d.status.ok()) << d.status.message;
+  EXPECT_LT(c.fit_angle.mean_rad, 3e-5);
+  EXPECT_GT(d.fit_angle.mean_rad, 3.0 * c.fit_angle.mean_rad);
+}
+
 }  // namespace
 }  // namespace armsig::calibration
