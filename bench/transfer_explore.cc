@@ -9,9 +9,10 @@
 //   - the map's support: B poses inside and outside it, and what the map does in each.
 // Series B is read from ../shared/data/ur10-ipa (argument 1) unless tests/data has it.
 //
-// Usage: transfer_explore [joint | ten | smooth] [SERIES_B.csv]
+// Usage: transfer_explore [joint | ten | smooth | weight] [SERIES_B.csv]
 //   joint: the nightly path only; ten: 10 and 30 placing poses with and without their
-//   orientations; smooth: the map cut at its support or applied everywhere, on B and D.
+//   orientations; smooth: the map cut at its support or applied everywhere, on B and D;
+//   weight: fixed orientation weights against variance components, on B and D.
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -269,7 +270,51 @@ int SmoothFits(const RobotModel& model, const std::string& b_path) {
   return 0;
 }
 
+// The orientation weight in a joint fit of all of C and N placing poses of B or D: variance
+// components (0) against fixed, smaller weights (mm per rad), parametric error on the rest.
+int WeightFits(const RobotModel& model, const std::string& b_path) {
+  const std::string c_path = kSource + "/tests/data/ur10-ipa/series_C-measurements_random_poses.csv";
+  const std::string d_path = kSource + "/tests/data/ur10-ipa/series_D-measurements_iso_cubes.csv";
+  const Series c = Load("C", c_path, true);
+  for (const std::string& other : {b_path, d_path}) {
+    const Series b = Load("X", other, true);
+    const int n = static_cast<int>(b.poses.size());
+    for (int count : {10, 30}) {
+      std::vector<char> in(n, 0);
+      for (int k = 0; k < count; ++k) in[static_cast<int>((k + 0.5) * n / count)] = 1;
+      std::vector<MeasuredPose> both = c.poses, rest;
+      for (auto& p : both) p.frame = 1;
+      for (int i = 0; i < n; ++i) {
+        if (!in[i]) {
+          rest.push_back(b.poses[i]);
+          continue;
+        }
+        MeasuredPose p = b.poses[i];
+        p.frame = 2;
+        both.push_back(p);
+      }
+      for (double w : {0.0, 150.0, 50.0}) {
+        EstimationOptions o;
+        o.parameters = ParseParameterSpec(model, "all");
+        o.orientation_weight_mm_per_rad = w;
+        o.parameters = SelectTermsByFTest(model, both, o, 0.01).parameters;
+        const auto fit = Estimate(model, both, o);
+        const Errors e = Evaluate(model, fit.base_of(2), fit.params, nullptr, rest);
+        std::printf("%s %d placing, weight %.0f (used %.0f): parametric %.4f (k %d)\n", other == d_path ? "D" : "B",
+                    count, w, fit.orientation_weight_mm_per_rad, e.Mean(), static_cast<int>(fit.identifiability.rank));
+        std::fflush(stdout);
+      }
+    }
+  }
+  return 0;
+}
+
 int main(int argc, char** argv) {
+  const bool weight = argc > 1 && std::string(argv[1]) == "weight";
+  if (weight) {
+    --argc;
+    ++argv;
+  }
   const bool smooth = argc > 1 && std::string(argv[1]) == "smooth";
   if (smooth) {
     --argc;
@@ -294,6 +339,7 @@ int main(int argc, char** argv) {
   if (joint_only) return JointFits(model, b_path);
   if (ten) return TenFits(model, b_path);
   if (smooth) return SmoothFits(model, b_path);
+  if (weight) return WeightFits(model, b_path);
   const Series c = Load("C", kSource + "/tests/data/ur10-ipa/series_C-measurements_random_poses.csv");
   const Series b = Load("B", b_path);
   const Series d = Load("D", kSource + "/tests/data/ur10-ipa/series_D-measurements_iso_cubes.csv");
