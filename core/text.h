@@ -68,4 +68,8 @@ std::optional<std::string> NearestKey(std::string_view word,
 std::optional<std::string> NearestKey(std::string_view word,
                                       const std::vector<std::string>& candidates);
 
+// `text` for HTML or XML: & < > " ' as entities (&#39; for the apostrophe, which both read),
+// safe in element content and in quoted attribute values.
+std::string EscapeMarkup(std::string_view text);
+
 }  // namespace armsig

@@ -124,31 +124,7 @@ class XmlWriter {
   const std::string& str() const { return out_; }
 
  private:
-  static std::string Escaped(std::string_view value) {
-    std::string out;
-    for (char c : Printable(value)) {
-      switch (c) {
-        case '&':
-          out += "&amp;";
-          break;
-        case '<':
-          out += "&lt;";
-          break;
-        case '>':
-          out += "&gt;";
-          break;
-        case '"':
-          out += "&quot;";
-          break;
-        case '\'':
-          out += "&apos;";
-          break;
-        default:
-          out += c;
-      }
-    }
-    return out;
-  }
+  static std::string Escaped(std::string_view value) { return EscapeMarkup(Printable(value)); }
   void Start(std::string_view tag, Attributes attributes) {
     Indent();
     out_ += "<" + std::string(tag);

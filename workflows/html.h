@@ -18,35 +18,9 @@
 #include <type_traits>
 #include <utility>
 
-namespace armsig::workflows {
+#include "core/text.h"
 
-// & < > " ' as entities: safe in element content and in quoted attribute values.
-inline std::string EscapeHtml(std::string_view text) {
-  std::string out;
-  out.reserve(text.size());
-  for (char c : text) {
-    switch (c) {
-      case '<':
-        out += "&lt;";
-        break;
-      case '>':
-        out += "&gt;";
-        break;
-      case '&':
-        out += "&amp;";
-        break;
-      case '"':
-        out += "&quot;";
-        break;
-      case '\'':
-        out += "&#39;";
-        break;
-      default:
-        out += c;
-    }
-  }
-  return out;
-}
+namespace armsig::workflows {
 
 class Html {
  public:
@@ -55,7 +29,7 @@ class Html {
   template <std::size_t N>
   Html(const char (&literal)[N]) : markup_(literal, N - 1) {}  // NOLINT: implicit on purpose
 
-  static Html Text(std::string_view text) { return Html(EscapeHtml(text), 0); }
+  static Html Text(std::string_view text) { return Html(EscapeMarkup(text), 0); }
   static Html Trusted(std::string markup) { return Html(std::move(markup), 0); }
 
   Html& operator+=(const Html& other) {
@@ -88,7 +62,7 @@ decltype(auto) Argument(const T& value) {
   if constexpr (std::is_same_v<Plain<T>, Html>) {
     return std::string_view(value.str());
   } else if constexpr (kIsText<T>) {
-    return EscapeHtml(std::string_view(value));
+    return EscapeMarkup(std::string_view(value));
   } else {
     static_assert(std::is_arithmetic_v<Plain<T>>,
                   "HtmlFormat: pass text, numbers or Html (escape other values explicitly)");

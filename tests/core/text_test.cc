@@ -132,4 +132,13 @@ TEST(Trim, RemovesOnlyTheNamedCharactersAtBothEnds) {
   EXPECT_EQ(Trim("\vx\f", " \t\n\v\f\r"), "x");
 }
 
+// One escape for the report's HTML and the URDF/XML export: each of the five characters
+// markup reads as syntax becomes an entity both read, and nothing else changes.
+TEST(EscapeMarkup, TurnsTheFiveMarkupCharactersIntoEntitiesBothLanguagesRead) {
+  EXPECT_EQ(EscapeMarkup("a<b>&\"c'"), "a&lt;b&gt;&amp;&quot;c&#39;");
+  EXPECT_EQ(EscapeMarkup("&amp;"), "&amp;amp;");  // escaped again, never taken as done
+  EXPECT_EQ(EscapeMarkup("joint_1 \xce\xb1 \t2"), "joint_1 \xce\xb1 \t2");
+  EXPECT_EQ(EscapeMarkup(""), "");
+}
+
 }  // namespace armsig
