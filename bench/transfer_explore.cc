@@ -9,10 +9,11 @@
 //   - the map's support: B poses inside and outside it, and what the map does in each.
 // Series B is read from ../shared/data/ur10-ipa (argument 1) unless tests/data has it.
 //
-// Usage: transfer_explore [joint | ten | smooth | weight] [SERIES_B.csv]
+// Usage: transfer_explore [joint | ten | smooth | weight | family] [SERIES_B.csv]
 //   joint: the nightly path only; ten: 10 and 30 placing poses with and without their
 //   orientations; smooth: the map cut at its support or applied everywhere, on B and D;
-//   weight: fixed orientation weights against variance components, on B and D.
+//   weight: fixed orientation weights against variance components, on B and D; family:
+//   --params auto among every generated term or without the harmonics, on B and D.
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -309,7 +310,60 @@ int WeightFits(const RobotModel& model, const std::string& b_path) {
   return 0;
 }
 
+// Which candidate terms transfer: --params auto choosing among every generated term, or
+// among the paper's h-terms and the gravity compliances only (no harmonics), on all of C
+// plus N placing poses of B or D; positions only and 6-DoF.
+int FamilyFits(const RobotModel& model, const std::string& b_path) {
+  const std::string c_path = kSource + "/tests/data/ur10-ipa/series_C-measurements_random_poses.csv";
+  const std::string d_path = kSource + "/tests/data/ur10-ipa/series_D-measurements_iso_cubes.csv";
+  std::string no_harmonics = "geometric,compliance";
+  for (const auto& t : model.nongeometric)
+    if (t.name.size() == 2 && t.name[0] == 'h') no_harmonics += "," + t.name;
+  for (bool orientation : {false, true}) {
+    const Series c = Load("C", c_path, orientation);
+    for (const std::string& other : {b_path, d_path}) {
+      const Series b = Load("X", other, orientation);
+      const int n = static_cast<int>(b.poses.size());
+      for (int count : {10, 30}) {
+        std::vector<char> in(n, 0);
+        for (int k = 0; k < count; ++k) in[static_cast<int>((k + 0.5) * n / count)] = 1;
+        std::vector<MeasuredPose> both = c.poses, rest;
+        for (auto& p : both) p.frame = 1;
+        for (int i = 0; i < n; ++i) {
+          if (!in[i]) {
+            rest.push_back(b.poses[i]);
+            continue;
+          }
+          MeasuredPose p = b.poses[i];
+          p.frame = 2;
+          both.push_back(p);
+        }
+        for (const std::string& spec : {std::string("all"), no_harmonics}) {
+          EstimationOptions o;
+          o.parameters = ParseParameterSpec(model, spec);
+          const auto selected = SelectTermsByFTest(model, both, o, 0.01);
+          o.parameters = selected.parameters;
+          const auto fit = Estimate(model, both, o);
+          const Errors e = Evaluate(model, fit.base_of(2), fit.params, nullptr, rest);
+          std::string terms;
+          for (int p : o.parameters)
+            if (p >= model.num_geometric()) terms += " " + model.ParameterNames()[p];
+          std::printf("%s %s %d placing, candidates %s: parametric %.4f; terms%s\n", orientation ? "6-DoF" : "positions",
+                      other == d_path ? "D" : "B", count, spec == "all" ? "all" : "no harmonics", e.Mean(), terms.c_str());
+          std::fflush(stdout);
+        }
+      }
+    }
+  }
+  return 0;
+}
+
 int main(int argc, char** argv) {
+  const bool family = argc > 1 && std::string(argv[1]) == "family";
+  if (family) {
+    --argc;
+    ++argv;
+  }
   const bool weight = argc > 1 && std::string(argv[1]) == "weight";
   if (weight) {
     --argc;
@@ -340,6 +394,7 @@ int main(int argc, char** argv) {
   if (ten) return TenFits(model, b_path);
   if (smooth) return SmoothFits(model, b_path);
   if (weight) return WeightFits(model, b_path);
+  if (family) return FamilyFits(model, b_path);
   const Series c = Load("C", kSource + "/tests/data/ur10-ipa/series_C-measurements_random_poses.csv");
   const Series b = Load("B", b_path);
   const Series d = Load("D", kSource + "/tests/data/ur10-ipa/series_D-measurements_iso_cubes.csv");
