@@ -233,8 +233,9 @@ calibration::FrameBases PlaceValidationPoses(const calibration::RobotModel& mode
 }
 
 // The validation poses' orientation errors, when the fit had orientation equations: each
-// frame's tool rotation from the fit, or, for a frame none of whose poses was fitted,
-// aligned on its validation poses' orientations with the fitted parameters (as its base).
+// frame's tool rotation from the fit, or, for a frame none of whose poses was fitted, the
+// shared one (--tool-rotation shared: the probe stayed on) or else one aligned on its
+// validation poses' orientations with the fitted parameters (as its base).
 void ValidateOrientations(const calibration::RobotModel& model,
                           const calibration::FrameBases& bases,
                           const std::vector<MeasuredPose>& validation, CalibrationRun& run) {
@@ -245,6 +246,10 @@ void ValidateOrientations(const calibration::RobotModel& model,
     if (p.orientation && !run.tool_rotations.count(p.frame)) unplaced[p.frame].push_back(p);
   }
   for (const auto& [frame, poses] : unplaced) {
+    if (run.estimate.tool_rotation_shared) {
+      run.tool_rotations[frame] = run.estimate.tool_rotations.begin()->second;
+      continue;
+    }
     const auto base_of = [&](int64_t f) -> const Eigen::Isometry3d& { return bases.at(f); };
     if (const auto tool =
             calibration::AlignToolRotation(model, base_of, run.estimate.params, poses)) {
