@@ -327,8 +327,10 @@ nlohmann::json RecalibrationDecision::ToJson() const {
   if (previous_version) j["previous_version"] = *previous_version;
   j["rank"] = rank;
   j["fit"] = Stats(fit);
+  if (!fit_orientation.is_null()) j["fit"]["orientation"] = fit_orientation;
   j["nominal"] = Stats(nominal);
   j["validation"] = Stats(validation);
+  if (!validation_orientation.is_null()) j["validation"]["orientation"] = validation_orientation;
   if (previous_on_same_data) j["current_on_same_data"] = Stats(*previous_on_same_data);
   j["gates"] = nlohmann::json::array();
   for (const auto& g : gates) {
@@ -882,7 +884,16 @@ void NightlyJob::Fit(const std::vector<MeasuredPose>& poses) {
     if (validation_ids.count(p.id)) validation_.push_back(p);
   }
   d_.validation = StatsOf(run.validation_residuals);
-  d_.residual_model = CalibrationJson(model_, run)["residual_model"];
+  const nlohmann::json calibration_json = CalibrationJson(model_, run);
+  d_.residual_model = calibration_json["residual_model"];
+  const auto orientation_of = [&](const char* part) {
+    const auto it = calibration_json.find(part);
+    return it != calibration_json.end() && it->is_object()
+               ? it->value("orientation", nlohmann::json())
+               : nlohmann::json();
+  };
+  d_.fit_orientation = orientation_of("fit");
+  d_.validation_orientation = orientation_of("validation");
   d_.fit = run.estimate.fit;
   d_.nominal = run.estimate.nominal;
   d_.rank = run.estimate.identifiability.rank;

@@ -131,6 +131,9 @@ struct RecalibrationDecision {
   int poses = 0;
   int rank = 0;
   calibration::ErrorStats nominal, fit, validation;
+  // With orientation equations (6-DoF sessions): the fit's and the validation's angle errors
+  // as calibrate's JSON gives them (fit.orientation, validation.orientation); null otherwise.
+  nlohmann::json fit_orientation, validation_orientation;
   std::optional<calibration::ErrorStats> previous_on_same_data;
   std::vector<Gate> gates;
   // Drift: the models differ significantly and by more than the tolerance in mm.

@@ -113,7 +113,7 @@ TEST(LifecycleCommands, RealUr10FromRegistrationToCompensationAndRollback) {
   // The session carries the T-Mac's orientations: the fit and the validation say how well
   // the signature turns the probe (about 0.05°; docs/explanation/transfer.md).
   const double deg = 180.0 / kPi;
-  EXPECT_EQ(j1["fit"]["orientation"]["poses"], j1["poses_fit"]);
+  EXPECT_EQ(j1["fit"]["orientation"]["poses"], j1["fit"]["poses"]);
   EXPECT_LT(j1["validation"]["orientation"]["mean_rad"].get<double>() * deg, 0.1);
   EXPECT_GT(j1["fit"]["orientation"]["weight_mm_per_rad"].get<double>(), 0.0);
   ASSERT_EQ(RunArmsig(recal + "--select 120").exit_code, 0);
