@@ -5,6 +5,8 @@
 #include <Eigen/SVD>
 #include <cmath>
 
+#include "core/spread.h"
+
 namespace armsig::acquisition {
 
 TargetPredictor::TargetPredictor(const calibration::RobotModel& model, Eigen::VectorXd params,
@@ -37,9 +39,7 @@ void TargetPredictor::Refit() {
     from.col(i) = model_positions_[i];
     to.col(i) = measured_[i];
   }
-  const Eigen::Matrix3Xd centred = from.colwise() - from.rowwise().mean();
-  const Eigen::JacobiSVD<Eigen::Matrix3Xd> svd(centred);
-  if (std::sqrt(svd.singularValues()(1) * svd.singularValues()(1) / n) < options_.min_spread_mm)
+  if (PrincipalSpread(from)(1) / std::sqrt(n) < options_.min_spread_mm)
     return;  // (nearly) on one line: the rotation about it is not determined yet
   Eigen::Isometry3d base = Eigen::Isometry3d::Identity();
   base.matrix() = Eigen::umeyama(from, to, false);  // rigid: rotation and translation

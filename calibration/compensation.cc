@@ -3,13 +3,14 @@
 #include <fmt/format.h>
 
 #include <Eigen/Cholesky>
-#include <Eigen/SVD>
+#include <Eigen/Geometry>
 #include <cmath>
 #include <stdexcept>
 
 #include "calibration/damped_step.h"
 #include "calibration/residual_map.h"
 #include "core/plausibility.h"
+#include "core/spread.h"
 #include "core/text.h"
 #include "core/units.h"
 
@@ -26,11 +27,10 @@ std::optional<Eigen::Isometry3d> AlignBaseWithParams(const RobotModel& model,
     from.col(i) = kin.Position(Eigen::Isometry3d::Identity(), params, poses[i].joints_rad.data());
     to.col(i) = poses[i].target_in_world;
   }
-  const Eigen::Matrix3Xd centred = from.colwise() - from.rowwise().mean();
-  Eigen::JacobiSVD<Eigen::Matrix3Xd> svd(centred);
-  // Not on one line, and not all in one point either (every singular value 0: "0 < 0" let
-  // poses that never move the robot through).
-  if (!(svd.singularValues()(1) > 1e-6 * svd.singularValues()(0))) return std::nullopt;
+  // Not on one line, and not all in one point either (every value 0: "0 < 0" let poses that
+  // never move the robot through).
+  const Eigen::Vector3d spread = PrincipalSpread(from);
+  if (!(spread(1) > 1e-6 * spread(0))) return std::nullopt;
   Eigen::Isometry3d base = Eigen::Isometry3d::Identity();
   base.matrix() = Eigen::umeyama(from, to, false);
   return base;

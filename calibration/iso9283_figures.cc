@@ -7,6 +7,7 @@
 #include <random>
 #include <stdexcept>
 
+#include "core/spread.h"
 #include "core/units.h"
 
 namespace armsig::calibration::iso9283 {
@@ -205,9 +206,8 @@ std::optional<Alignment> AlignRigidly(const std::vector<Eigen::Vector3d>& attain
     from.col(i) = attained_mm[i];
     to.col(i) = commanded_mm[i];
   }
-  const Eigen::Matrix3Xd centred = to.colwise() - to.rowwise().mean();
-  Eigen::JacobiSVD<Eigen::Matrix3Xd> svd(centred);
-  if (!(svd.singularValues()(1) > 1e-6 * svd.singularValues()(0))) return std::nullopt;
+  const Eigen::Vector3d spread = PrincipalSpread(to);
+  if (!(spread(1) > 1e-6 * spread(0))) return std::nullopt;
   Alignment a;
   a.commanded_from_attained.matrix() = Eigen::umeyama(from, to, false);
   double squares = 0.0;

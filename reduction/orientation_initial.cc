@@ -7,6 +7,7 @@
 #include <cmath>
 #include <functional>
 
+#include "core/spread.h"
 #include "core/units.h"
 #include "reduction/observation.h"
 
@@ -126,9 +127,8 @@ bool ResectPolar(const std::vector<Eigen::Vector3d>& points,
     from.col(i) = polar_in_station[i];
     to.col(i) = points[i];
   }
-  const Eigen::Matrix3Xd centred = to.colwise() - to.rowwise().mean();
-  const Eigen::JacobiSVD<Eigen::Matrix3Xd> svd(centred);
-  if (!(svd.singularValues()(1) > 1e-3 * svd.singularValues()(0))) return false;  // a line
+  const Eigen::Vector3d spread = PrincipalSpread(to);
+  if (!(spread(1) > 1e-3 * spread(0))) return false;  // a line
   const Eigen::Matrix4d t = Eigen::umeyama(from, to, false);
   if (!t.allFinite()) return false;
   const Eigen::Matrix3d r = t.topLeftCorner<3, 3>();

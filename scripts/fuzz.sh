@@ -91,11 +91,11 @@ mkdir -p build-fuzz/crashes
 if [[ -d /dev/shm && -w /dev/shm ]]; then fuzz_dir="$(mktemp -d -p /dev/shm)"; else fuzz_dir="$(mktemp -d)"; fi
 trap 'rm -rf "$fuzz_dir"' EXIT
 export ARMSIG_FUZZ_DIR="$fuzz_dir"
-failed=0 total=0
-printf '%-20s %12s %10s %8s\n' target executions exec/s crashes
-for name in "${targets[@]}"; do
-  fuzzer="build-fuzz/fuzz/$name"
-  corpus="build-fuzz/corpus/$name" seed_dir="build-fuzz/seeds/$name"
+# One target per core at a time: the same run per target, in half the wall time on two.
+fuzz_one() {  # target → build-fuzz/<target>.log; exit status: 0, or 1 for a crash
+  local name="$1" f
+  local fuzzer="build-fuzz/fuzz/$name"
+  local corpus="build-fuzz/corpus/$name" seed_dir="build-fuzz/seeds/$name"
   rm -rf "$seed_dir"
   mkdir -p "$corpus" "$seed_dir"
   # A seed longer than max_len is cut after its last whole line within max_len.
@@ -107,14 +107,31 @@ for name in "${targets[@]}"; do
         >"$seed_dir/$(basename "$f")"
     fi
   done
-  log="build-fuzz/$name.log"
-  if "$fuzzer" -max_total_time="$seconds" -timeout=10 -rss_limit_mb=2048 -max_len="$max_len" \
-       -print_final_stats=1 -artifact_prefix="build-fuzz/crashes/$name-" "$corpus" "$seed_dir" \
-       >"$log" 2>&1; then
-    crashes=0
-  else
-    crashes=1 failed=1
+  "$fuzzer" -max_total_time="$seconds" -timeout=10 -rss_limit_mb=2048 -max_len="$max_len" \
+    -print_final_stats=1 -artifact_prefix="build-fuzz/crashes/$name-" "$corpus" "$seed_dir" \
+    >"build-fuzz/$name.log" 2>&1
+}
+declare -A status
+running=()
+for name in "${targets[@]}"; do
+  fuzz_one "$name" &
+  running+=("$!:$name")
+  if ((${#running[@]} >= $(nproc))); then
+    entry="${running[0]}"
+    running=("${running[@]:1}")
+    if wait "${entry%%:*}"; then status[${entry#*:}]=0; else status[${entry#*:}]=1; fi
   fi
+done
+for entry in "${running[@]}"; do
+  if wait "${entry%%:*}"; then status[${entry#*:}]=0; else status[${entry#*:}]=1; fi
+done
+
+failed=0 total=0
+printf '%-20s %12s %10s %8s\n' target executions exec/s crashes
+for name in "${targets[@]}"; do
+  log="build-fuzz/$name.log"
+  crashes="${status[$name]}"
+  ((crashes)) && failed=1
   runs="$(sed -n 's/^stat::number_of_executed_units: *//p' "$log" | tail -1)"
   rate="$(sed -n 's/^stat::average_exec_per_sec: *//p' "$log" | tail -1)"
   total=$((total + ${runs:-0}))
