@@ -63,6 +63,15 @@ void SetupCalibrateCommand(CLI::App& parent, const GlobalOptions& global, Runner
                   "auto: a cross-validated residual map after the parametric fit, used only "
                   "when it clearly helps; off: parametric only"), {"auto", "off"})
       ->capture_default_str();
+  ChoiceOption(sub->add_option("--orientation", options->settings.orientation,
+                  "auto: poses with a measured orientation (rx_deg,ry_deg,rz_deg: a 6-DoF "
+                  "probe) fit it too; off: positions only"), {"auto", "off"})
+      ->capture_default_str();
+  NumberOption(sub->add_option("--orientation-weight", options->settings.orientation_weight_mm_per_rad,
+                               "mm of position error one rad of orientation error counts as "
+                               "(0: estimated by variance components)"),
+               0, 1e9)
+      ->type_name("MM_PER_RAD");
   OutputFile(sub->add_option("--json", options->json, "Write the result as JSON"));
   NumberOption(sub->add_option("--robust", options->settings.robust_threshold_mm,
                                "Huber threshold (mm) on each pose's error distance: blunder poses "

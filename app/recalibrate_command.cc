@@ -115,6 +115,15 @@ void AddRecalibrateOptions(CLI::App& sub, workflows::RecalibrateOptions& o) {
                   "auto: a cross-validated residual map stored with the set when it clearly "
                   "helps; off: parametric only"), {"auto", "off"})
       ->capture_default_str();
+  ChoiceOption(sub.add_option("--orientation", o.orientation,
+                  "auto: sessions with measured orientations (6-DoF probes) fit them too; "
+                  "off: positions only"), {"auto", "off"})
+      ->capture_default_str();
+  ChoiceOption(sub.add_option("--tool-rotation", o.tool_rotation,
+                  "per-session: each session's probe rotation on the flange is fitted apart "
+                  "(it may have been remounted); shared: one for every session (it stayed on)"),
+               {"per-session", "shared"})
+      ->capture_default_str();
   // Gates and drift thresholds: mm within a robot cell, sigmas within reason; a gate of 0
   // or less could never pass, a NaN would pass everything.
   constexpr double kMaxMm = plausible::kMaxLengthMm;

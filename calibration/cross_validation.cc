@@ -30,20 +30,35 @@ std::vector<int> AssignFolds(int count, int folds, unsigned seed) {
 LinearisedCrossValidation::LinearisedCrossValidation(Eigen::MatrixXd jacobian,
                                                      Eigen::VectorXd residual,
                                                      std::vector<int> fold_of_pose, int folds)
+    : LinearisedCrossValidation(std::move(jacobian), std::move(residual),
+                                std::move(fold_of_pose), folds, {}) {}
+
+LinearisedCrossValidation::LinearisedCrossValidation(Eigen::MatrixXd jacobian,
+                                                     Eigen::VectorXd residual,
+                                                     std::vector<int> fold_of_pose, int folds,
+                                                     std::vector<int> pose_of_extra_rows)
     : jacobian_(std::move(jacobian)),
       residual_(std::move(residual)),
       fold_of_pose_(std::move(fold_of_pose)),
-      folds_(folds) {
+      folds_(folds),
+      pose_of_extra_rows_(std::move(pose_of_extra_rows)) {
   const int m = static_cast<int>(fold_of_pose_.size());
-  if (jacobian_.rows() != 3 * m || residual_.size() != 3 * m) {
+  const int blocks = m + static_cast<int>(pose_of_extra_rows_.size());
+  if (jacobian_.rows() != 3 * blocks || residual_.size() != 3 * blocks) {
     throw std::invalid_argument("cross-validation: Jacobian, residual and folds disagree in size");
+  }
+  // The fold of every block of three rows: a pose's positions, then its orientation.
+  std::vector<int> fold_of_block = fold_of_pose_;
+  for (int pose : pose_of_extra_rows_) {
+    if (pose < 0 || pose >= m) throw std::invalid_argument("cross-validation: pose out of range");
+    fold_of_block.push_back(fold_of_pose_[pose]);
   }
   const Eigen::Index p = jacobian_.cols();
   fold_normal_.assign(folds_, Eigen::MatrixXd::Zero(p, p));
   fold_gradient_.assign(folds_, Eigen::VectorXd::Zero(p));
   // Rows of each fold gathered, then one symmetric rank update per fold.
   std::vector<int> count(folds_, 0);
-  for (int f : fold_of_pose_) {
+  for (int f : fold_of_block) {
     if (f < 0 || f >= folds_) throw std::invalid_argument("cross-validation: fold out of range");
     ++count[f];
   }
@@ -51,8 +66,8 @@ LinearisedCrossValidation::LinearisedCrossValidation(Eigen::MatrixXd jacobian,
     Eigen::MatrixXd rows(3 * count[f], p);
     Eigen::VectorXd r(3 * count[f]);
     int k = 0;
-    for (int i = 0; i < m; ++i) {
-      if (fold_of_pose_[i] != f) continue;
+    for (int i = 0; i < blocks; ++i) {
+      if (fold_of_block[i] != f) continue;
       rows.middleRows<3>(3 * k) = jacobian_.middleRows<3>(3 * i);
       r.segment<3>(3 * k) = residual_.segment<3>(3 * i);
       ++k;

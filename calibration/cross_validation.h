@@ -25,13 +25,21 @@ class LinearisedCrossValidation {
   // `fold_of_pose`: m entries in [0, folds).
   LinearisedCrossValidation(Eigen::MatrixXd jacobian, Eigen::VectorXd residual,
                             std::vector<int> fold_of_pose, int folds);
+  // With orientation equations (calibration/orientation.h): `jacobian` and `residual` have
+  // three more rows for each pose listed in `pose_of_extra_rows`, after the 3m position
+  // rows and in that order. They count in every refit (with their pose's fold) and in the
+  // sums of squares; the held-out errors are the positions'.
+  LinearisedCrossValidation(Eigen::MatrixXd jacobian, Eigen::VectorXd residual,
+                            std::vector<int> fold_of_pose, int folds,
+                            std::vector<int> pose_of_extra_rows);
 
   int folds() const { return folds_; }
+  const Eigen::MatrixXd& jacobian() const { return jacobian_; }
   int poses() const { return static_cast<int>(fold_of_pose_.size()); }
   const std::vector<int>& fold_of_pose() const { return fold_of_pose_; }
 
-  // The residual (3m) of every pose under the model refitted without `fold` on the
-  // columns `columns` (indices into the Jacobian's columns).
+  // The residual (3m, then the extra rows) of every pose under the model refitted without
+  // `fold` on the columns `columns` (indices into the Jacobian's columns).
   Eigen::VectorXd RefitWithout(int fold, const std::vector<int>& columns) const;
 
   // Every pose's residual vector predicted by the refit that did not see its fold.
@@ -46,6 +54,7 @@ class LinearisedCrossValidation {
   Eigen::VectorXd residual_;
   std::vector<int> fold_of_pose_;
   int folds_;
+  std::vector<int> pose_of_extra_rows_;
   std::vector<Eigen::MatrixXd> fold_normal_;    // J_fᵀ J_f, P × P
   std::vector<Eigen::VectorXd> fold_gradient_;  // J_fᵀ r_f
   Eigen::MatrixXd normal_;

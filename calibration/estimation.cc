@@ -15,6 +15,7 @@
 
 #include "calibration/compensation.h"
 #include "calibration/cross_validation.h"
+#include "calibration/orientation.h"
 #include "calibration/statistics.h"
 #include "calibration/terms.h"
 
@@ -83,6 +84,11 @@ ErrorStats Summarise(const std::vector<double>& distances_mm) {
   return s;
 }
 
+AngleStats SummariseAngles(const std::vector<double>& angles_rad) {
+  const ErrorStats s = Summarise(angles_rad);
+  return {s.poses, s.mean_mm, s.max_mm, s.rms_mm};
+}
+
 std::optional<Eigen::Isometry3d> AlignBase(const RobotModel& model,
                                            const std::vector<MeasuredPose>& poses) {
   return AlignBaseWithParams(model, Eigen::VectorXd::Zero(model.num_parameters()), poses);
@@ -108,6 +114,9 @@ std::vector<double> Distances(const std::vector<Eigen::Vector3d>& residuals) {
 namespace {
 // Joint motion (rad, over all joints) below which a set of poses is one configuration.
 constexpr double kNoMotionRad = 1e-9;
+// Re-estimations of the orientation weight (variance components) at most; it settles to
+// 0.1 % in three or four on the UR10.
+constexpr int kMaxWeightRounds = 10;
 }  // namespace
 
 std::vector<int64_t> FramesOf(const std::vector<MeasuredPose>& poses) {
@@ -134,6 +143,35 @@ std::vector<Eigen::Vector3d> Residuals(const RobotModel& model, const FrameBases
   return out;
 }
 
+std::vector<std::optional<Eigen::Vector3d>> OrientationResiduals(
+    const RobotModel& model, const FrameBases& bases, const ToolRotations& tools,
+    const Eigen::VectorXd& params, const std::vector<MeasuredPose>& poses) {
+  Kinematics kin(model);
+  std::vector<std::optional<Eigen::Vector3d>> out(poses.size());
+  for (size_t i = 0; i < poses.size(); ++i) {
+    const MeasuredPose& pose = poses[i];
+    const auto tool = tools.find(pose.frame);
+    if (!pose.orientation || tool == tools.end()) continue;
+    const auto base = bases.find(pose.frame);
+    if (base == bases.end()) {
+      throw std::invalid_argument("OrientationResiduals: no base for measurement frame " +
+                                  std::to_string(pose.frame) + " (pose " + pose.id + ")");
+    }
+    kin.Position(base->second, params, pose.joints_rad.data());
+    out[i] = OrientationResidual(pose.orientation->world_from_target,
+                                 kin.LastRotation() * tool->second);
+  }
+  return out;
+}
+
+std::vector<double> Angles(const std::vector<std::optional<Eigen::Vector3d>>& residuals) {
+  std::vector<double> out;
+  for (const auto& r : residuals) {
+    if (r) out.push_back(r->norm());
+  }
+  return out;
+}
+
 FrameBases AlignFrameBases(const RobotModel& model, const Eigen::VectorXd& params,
                            const std::vector<MeasuredPose>& poses) {
   std::map<int64_t, std::vector<MeasuredPose>> by_frame;
@@ -149,6 +187,9 @@ void EstimationOptions::Check() const {
   identifiability.Check();
   if (max_iterations < 1) throw std::invalid_argument("max_iterations must be ≥ 1");
   if (!(robust_threshold_mm >= 0.0)) throw std::invalid_argument("robust threshold must be ≥ 0");
+  if (!(orientation_weight_mm_per_rad >= 0.0) || !std::isfinite(orientation_weight_mm_per_rad)) {
+    throw std::invalid_argument("orientation weight must be ≥ 0 mm per rad (0: estimated)");
+  }
 }
 
 namespace {
@@ -183,6 +224,12 @@ double RobustCost(const Eigen::VectorXd& residual, double threshold) {
 // bases, so they are the methods of one object that is used once: Run() reads like the
 // procedure (refuse what cannot be fitted, place the frames, choose the unknowns, iterate,
 // then σ0, the covariance and the checks).
+//
+// Poses with a measured orientation add three equations each after all the position
+// equations (calibration/orientation.h): the rotation vector of R_measᵀ·R_last·R_tool,
+// weighted by w (mm per rad), R_tool each frame's target rotation on the last link, three
+// unknowns per frame with orientations (a small turn in the target frame). Without them the
+// adjustment is exactly the position-only one.
 class Adjustment {
  public:
   Adjustment(const RobotModel& model, const std::vector<MeasuredPose>& poses,
@@ -192,26 +239,33 @@ class Adjustment {
  private:
   // The model at one point of the iteration.
   struct Evaluation {
-    Eigen::MatrixXd jacobian;  // 3m × unknowns: the identified subset, then the bases
-    Eigen::VectorXd residual;  // 3m, model − measured
+    Eigen::MatrixXd jacobian;  // rows × unknowns: the identified subset, bases, tool rotations
+    Eigen::VectorXd residual;  // 3m positions (model − measured), then 3m_o orientations (×w)
     double cost = 0.0;
   };
   using Bases = std::vector<Eigen::Isometry3d>;  // of the further frames
+  using Tools = std::vector<Eigen::Matrix3d>;    // per frame (index in frames_)
   enum class StepOutcome { kRejected, kAccepted, kConverged };
 
   bool RobotMoves();
   bool PlaceFrames();
+  void PlaceTools();
   bool Degenerate(int64_t frame, size_t count);
   bool ChooseUnknowns();
   const std::vector<int>& subset() const { return result_.identifiability.identified; }
   const Eigen::Isometry3d& BaseOf(int i, const Bases& bases) const {
     return extra_[i] < 0 ? result_.world_from_base : bases[extra_[i]];
   }
-  void Evaluate(const Eigen::VectorXd& params, const Bases& bases, Evaluation& e);
+  void Evaluate(const Eigen::VectorXd& params, const Bases& bases, const Tools& tools,
+                Evaluation& e);
   Bases MovedBases(const Bases& bases, const Eigen::VectorXd& step) const;
+  Tools TurnedTools(const Tools& tools, const Eigen::VectorXd& step) const;
   std::vector<Eigen::Vector3d> ResidualVectors(const Evaluation& e) const;
+  std::vector<std::optional<Eigen::Vector3d>> OrientationVectors(const Evaluation& e) const;
   void BuildNormalEquations(const Evaluation& e);
   void Solve();
+  int Iterations(int budget);
+  bool ReweightOrientation();
   bool Iterate();
   StepOutcome DampedStep(const Eigen::VectorXd& diagonal);
   bool Converged(double trial_cost, const Eigen::VectorXd& step) const;
@@ -232,16 +286,26 @@ class Adjustment {
   std::vector<int64_t> frames_;
   int extra_frames_ = 0;
   std::vector<int> extra_;
+  std::vector<int> frame_index_;  // pose → index in frames_
   std::vector<std::vector<MeasuredPose>> poses_of_;  // per further frame
   std::vector<MeasuredPose> reference_poses_;
   Bases extra_bases_;
   std::vector<Eigen::Vector3d> extra_centres_;  // each further frame's centroid of targets
 
+  // Orientation equations: pose → first row (−1: none); per frame, the first unknown of its
+  // tool rotation (−1: no orientations in it) and the rotation itself.
+  int oriented_ = 0;  // poses with orientation equations (m_o)
+  std::vector<int> orientation_row_;
+  std::vector<int> tool_unknown_;
+  Tools tools_;
+  double weight_ = 0.0;  // w, mm per rad
+
   int k_ = 0;         // identified parameters
-  int unknowns_ = 0;  // k, then six per further base
+  int unknowns_ = 0;  // k, six per further base, three per frame with orientations
+  int rows_ = 0;      // 3m + 3m_o
 
   Kinematics kin_;
-  Eigen::Matrix<double, 3, Eigen::Dynamic> block_;  // one pose's Jacobian, all parameters
+  Eigen::Matrix<double, 6, Eigen::Dynamic> block_;  // one pose's Jacobian, all parameters
   Evaluation current_, trial_;
   Eigen::MatrixXd normal_, weighted_;  // Jᵀ W J, and √W J
   Eigen::VectorXd gradient_;           // Jᵀ W r
@@ -256,10 +320,21 @@ Adjustment::Adjustment(const RobotModel& model, const std::vector<MeasuredPose>&
       options_(options),
       m_(static_cast<int>(poses.size())),
       kin_(model),
-      block_(3, model.num_parameters()) {
+      block_(6, model.num_parameters()) {
   const int np = model.num_parameters();
   result_.params = Eigen::VectorXd::Zero(np);
   result_.sigmas = Eigen::VectorXd::Constant(np, std::numeric_limits<double>::quiet_NaN());
+  orientation_row_.assign(m_, -1);
+  if (options.use_orientation) {
+    for (int i = 0; i < m_; ++i) {
+      if (poses[i].orientation) orientation_row_[i] = 3 * m_ + 3 * oriented_++;
+    }
+  }
+  rows_ = 3 * m_ + 3 * oriented_;
+  // The start of the weight when it is estimated: a metre's lever (a rad of wrist rotation
+  // moves a target a metre out by a metre); the variance components move it from there.
+  weight_ = options.orientation_weight_mm_per_rad > 0 ? options.orientation_weight_mm_per_rad
+                                                      : 1000.0;
 }
 
 EstimationResult Adjustment::Run() {
@@ -289,7 +364,7 @@ bool Adjustment::RobotMoves() {
 
 // Sorts the poses by measurement frame and places every frame's base: the reference
 // frame's (N1) given by the model or aligned on its poses and then held, the others'
-// starting from the nominal model's best fit to theirs.
+// starting from the nominal model's best fit to theirs. Then the tool rotations.
 bool Adjustment::PlaceFrames() {
   frames_ = FramesOf(poses_);
   result_.reference_frame = frames_.empty() ? 0 : frames_.back();
@@ -297,6 +372,7 @@ bool Adjustment::PlaceFrames() {
   for (size_t f = 0; f + 1 < frames_.size(); ++f) extra_index[frames_[f]] = static_cast<int>(f);
   extra_frames_ = static_cast<int>(extra_index.size());
   extra_.assign(m_, -1);
+  frame_index_.assign(m_, extra_frames_);  // the reference frame is the last
   poses_of_.resize(extra_frames_);
   for (int i = 0; i < m_; ++i) {
     const auto it = extra_index.find(poses_[i].frame);
@@ -304,6 +380,7 @@ bool Adjustment::PlaceFrames() {
       reference_poses_.push_back(poses_[i]);
     } else {
       extra_[i] = it->second;
+      frame_index_[i] = it->second;
       poses_of_[it->second].push_back(poses_[i]);
     }
   }
@@ -325,7 +402,35 @@ bool Adjustment::PlaceFrames() {
     extra_bases_[e] = *base;
     for (const auto& p : poses_of_[e]) extra_centres_[e] += p.target_in_world / poses_of_[e].size();
   }
+  PlaceTools();
   return true;
+}
+
+// Each frame's tool rotation starts from the nominal model's answer: the mean of
+// R_lastᵀ·R_meas over its oriented poses, in its base.
+void Adjustment::PlaceTools() {
+  tools_.assign(frames_.size(), Eigen::Matrix3d::Identity());
+  tool_unknown_.assign(frames_.size(), -1);
+  if (oriented_ == 0) return;
+  std::vector<std::vector<Eigen::Matrix3d>> relative(frames_.size());
+  for (int i = 0; i < m_; ++i) {
+    if (orientation_row_[i] < 0) continue;
+    kin_.Position(BaseOf(i, extra_bases_), result_.params, poses_[i].joints_rad.data());
+    relative[frame_index_[i]].push_back(kin_.LastRotation().transpose() *
+                                        poses_[i].orientation->world_from_target);
+  }
+  if (options_.shared_tool_rotation) {
+    // One rotation for every frame: the mean over all of them.
+    std::vector<Eigen::Matrix3d> all;
+    for (const auto& r : relative) all.insert(all.end(), r.begin(), r.end());
+    tools_.assign(frames_.size(), MeanRotation(all));
+  } else {
+    for (size_t f = 0; f < frames_.size(); ++f) {
+      if (!relative[f].empty()) tools_[f] = MeanRotation(relative[f]);
+    }
+  }
+  // tool_unknown_ is numbered in ChooseUnknowns, once the subset's size is known.
+  for (size_t f = 0; f < frames_.size(); ++f) tool_unknown_[f] = relative[f].empty() ? -1 : 0;
 }
 
 // A frame whose `count` poses cannot place its base: the result says so. Returns false.
@@ -339,8 +444,9 @@ bool Adjustment::Degenerate(int64_t frame, size_t count) {
   return false;
 }
 
-// The unknowns: the candidates the poses identify, then six per further base. Refuses
-// poses that identify far too little, and fewer equations than unknowns.
+// The unknowns: the candidates the poses identify, then six per further base and three per
+// frame with orientations. Refuses poses that identify far too little, and fewer
+// equations than unknowns.
 bool Adjustment::ChooseUnknowns() {
   std::vector<int> candidates = options_.parameters;
   if (candidates.empty()) {
@@ -349,6 +455,13 @@ bool Adjustment::ChooseUnknowns() {
   std::vector<Eigen::VectorXd> joints;
   joints.reserve(m_);
   for (const auto& p : poses_) joints.push_back(p.joints_rad);
+  OrientationRows orientation;
+  if (oriented_ > 0) {
+    for (int i = 0; i < m_; ++i) {
+      const int setup = options_.shared_tool_rotation ? 0 : frame_index_[i];
+      orientation.setup.push_back(orientation_row_[i] < 0 ? -1 : setup);
+    }
+  }
 
   // The identifiable subset is chosen once, at the nominal model, and kept: re-deciding
   // it at every iteration makes Gauss–Newton wander on real data. It is decided in the
@@ -357,9 +470,11 @@ bool Adjustment::ChooseUnknowns() {
   // base aligned on noisy data would let rounding pick between exactly dependent
   // parameters differently from one data set of the same poses to the next. The bases of
   // further frames do not change it: each absorbs the same six rigid motions the
-  // reference frame's alignment does, in its own poses only.
-  result_.identifiability = AnalyseIdentifiability(model_, Eigen::Isometry3d::Identity(), joints,
-                                                   candidates, options_.identifiability);
+  // reference frame's alignment does, in its own poses only. The tool rotations are taken
+  // out of the orientation equations (StackedJacobian), as the fit estimates them.
+  result_.identifiability =
+      AnalyseIdentifiability(model_, Eigen::Isometry3d::Identity(), joints, candidates,
+                             options_.identifiability, oriented_ > 0 ? &orientation : nullptr);
   // Poses that identify far fewer parameters than configurations spread over the joint
   // limits do (the model's structural rank) cannot determine the signature: a joint barely
   // moved, every pose on one path. Refused, naming the joints that never moved.
@@ -381,34 +496,55 @@ bool Adjustment::ChooseUnknowns() {
   }
   k_ = static_cast<int>(subset().size());
   unknowns_ = k_ + 6 * extra_frames_;
-  const int needed = std::max(k_, result_.identifiability.structural_rank) + 6 * extra_frames_;
-  if (3 * m_ <= needed) {
+  int tool_frames = 0;
+  for (int& first : tool_unknown_) {
+    if (first < 0) continue;
+    if (options_.shared_tool_rotation && tool_frames > 0) {
+      first = unknowns_ - 3;  // the one shared rotation
+      continue;
+    }
+    first = unknowns_;
+    unknowns_ += 3;
+    ++tool_frames;
+  }
+  const int setup_unknowns = 6 * extra_frames_ + 3 * tool_frames;
+  const int needed = std::max(k_, result_.identifiability.structural_rank) + setup_unknowns;
+  if (rows_ <= needed) {
     result_.status.code = SolveCode::kTooFewObservations;
+    const int per_pose = oriented_ > 0 ? 6 : 3;
     result_.status.message =
-        std::to_string(m_) + " poses give " + std::to_string(3 * m_) +
-        " equations; the model has " + std::to_string(needed - 6 * extra_frames_) +
+        std::to_string(m_) + " poses give " + std::to_string(rows_) +
+        " equations; the model has " + std::to_string(needed - setup_unknowns) +
         " identifiable parameters" +
         (extra_frames_ > 0
              ? " and " + std::to_string(extra_frames_) + " further measurement frames add " +
                    std::to_string(6 * extra_frames_) + " base unknowns"
              : std::string()) +
-        " and needs more equations than that: at least " + std::to_string(needed / 3 + 1) +
-        " poses";
+        (tool_frames > 0 ? " and " + std::to_string(3 * tool_frames) + " tool-rotation unknowns"
+                         : std::string()) +
+        " and needs more equations than that: at least " +
+        std::to_string(needed / per_pose + 1) + " poses";
     return false;
   }
   return true;
 }
 
 // Residuals, their stacked Jacobian by the unknowns and the (robust) cost at `params` with
-// the further frames' bases `bases`.
-void Adjustment::Evaluate(const Eigen::VectorXd& params, const Bases& bases, Evaluation& e) {
-  e.jacobian.setZero(3 * m_, unknowns_);
-  e.residual.resize(3 * m_);
+// the further frames' bases `bases` and the frames' tool rotations `tools`.
+void Adjustment::Evaluate(const Eigen::VectorXd& params, const Bases& bases, const Tools& tools,
+                          Evaluation& e) {
+  e.jacobian.setZero(rows_, unknowns_);
+  e.residual.resize(rows_);
+  auto position_block = block_.topRows<3>();
   for (int i = 0; i < m_; ++i) {
+    const int o = orientation_row_[i];
     const Eigen::Vector3d x =
-        kin_.PositionAndJacobian(BaseOf(i, bases), params, poses_[i].joints_rad.data(), block_);
+        o < 0 ? kin_.PositionAndJacobian(BaseOf(i, bases), params, poses_[i].joints_rad.data(),
+                                         position_block)
+              : kin_.PoseAndJacobian(BaseOf(i, bases), params, poses_[i].joints_rad.data(),
+                                     block_);
     e.residual.segment<3>(3 * i) = x - poses_[i].target_in_world;
-    for (int c = 0; c < k_; ++c) e.jacobian.block<3, 1>(3 * i, c) = block_.col(subset()[c]);
+    for (int c = 0; c < k_; ++c) e.jacobian.block<3, 1>(3 * i, c) = block_.col(subset()[c]).head<3>();
     if (extra_[i] >= 0) {
       // A small motion of the frame's base, world-side: rotation ω about the frame's
       // centre c, then translation t, moves the target by ω × (x − c) + t.
@@ -417,8 +553,22 @@ void Adjustment::Evaluate(const Eigen::VectorXd& params, const Bases& bases, Eva
       b.leftCols<3>() << 0, v.z(), -v.y(), -v.z(), 0, v.x(), v.y(), -v.x(), 0;
       b.rightCols<3>().setIdentity();
     }
+    if (o < 0) continue;
+    // The orientation residual ε = log(R_measᵀ·R), R = R_last·R_tool: a world-side turn ω
+    // (a parameter, a base) moves it by J_r⁻¹(ε)·Rᵀ·ω, a turn δ of the tool in the target
+    // frame by J_r⁻¹(ε)·δ.
+    const OrientationLinearisation l = LineariseOrientation(
+        poses_[i].orientation->world_from_target, kin_.LastRotation(), tools[frame_index_[i]]);
+    e.residual.segment<3>(o) = weight_ * l.residual;
+    const Eigen::Matrix3d world_turn = weight_ * l.by_world_turn;
+    for (int c = 0; c < k_; ++c) {
+      e.jacobian.block<3, 1>(o, c) = world_turn * block_.col(subset()[c]).tail<3>();
+    }
+    if (extra_[i] >= 0) e.jacobian.block<3, 3>(o, k_ + 6 * extra_[i]) = world_turn;
+    e.jacobian.block<3, 3>(o, tool_unknown_[frame_index_[i]]) = weight_ * l.by_tool_turn;
   }
-  e.cost = RobustCost(e.residual, options_.robust_threshold_mm);
+  e.cost = RobustCost(e.residual.head(3 * m_), options_.robust_threshold_mm) +
+           e.residual.tail(3 * oriented_).squaredNorm();
 }
 
 // The further frames' bases moved by a step's six base unknowns each (ω, t as in Evaluate).
@@ -436,18 +586,46 @@ Adjustment::Bases Adjustment::MovedBases(const Bases& bases, const Eigen::Vector
   return out;
 }
 
+// The frames' tool rotations turned by a step's three unknowns each (δ in the target frame).
+Adjustment::Tools Adjustment::TurnedTools(const Tools& tools, const Eigen::VectorXd& step) const {
+  Tools out = tools;
+  for (size_t f = 0; f < tools.size(); ++f) {
+    if (tool_unknown_[f] >= 0) out[f] = tools[f] * RotationFromVector(step.segment<3>(tool_unknown_[f]));
+  }
+  if (options_.shared_tool_rotation) {
+    // Frames without orientations follow the shared one too (it is theirs if they had any).
+    for (size_t f = 0; f < tools.size(); ++f) {
+      if (tool_unknown_[f] >= 0) {
+        for (auto& t : out) t = out[f];
+        break;
+      }
+    }
+  }
+  return out;
+}
+
 std::vector<Eigen::Vector3d> Adjustment::ResidualVectors(const Evaluation& e) const {
   std::vector<Eigen::Vector3d> r(m_);
   for (int i = 0; i < m_; ++i) r[i] = e.residual.segment<3>(3 * i);
   return r;
 }
 
-// Jᵀ W J and Jᵀ W r at `e`, W the Huber weights of its residuals.
-void Adjustment::BuildNormalEquations(const Evaluation& e) {
-  HuberWeights(e.residual, options_.robust_threshold_mm, weights_);
+// The orientation residuals (rad) of the poses that have them.
+std::vector<std::optional<Eigen::Vector3d>> Adjustment::OrientationVectors(
+    const Evaluation& e) const {
+  std::vector<std::optional<Eigen::Vector3d>> r(m_);
   for (int i = 0; i < m_; ++i) {
-    weighted_.middleRows<3>(3 * i) = std::sqrt(weights_[i]) * e.jacobian.middleRows<3>(3 * i);
+    if (orientation_row_[i] >= 0) r[i] = e.residual.segment<3>(orientation_row_[i]) / weight_;
   }
+  return r;
+}
+
+// Jᵀ W J and Jᵀ W r at `e`, W the Huber weights of its position residuals (orientation
+// equations keep weight one: w is in their rows already).
+void Adjustment::BuildNormalEquations(const Evaluation& e) {
+  HuberWeights(e.residual.head(3 * m_), options_.robust_threshold_mm, weights_);
+  weighted_ = e.jacobian;
+  for (int i = 0; i < m_; ++i) weighted_.middleRows<3>(3 * i) *= std::sqrt(weights_[i]);
   normal_.setZero();
   normal_.selfadjointView<Eigen::Lower>().rankUpdate(weighted_.transpose());
   normal_.triangularView<Eigen::Upper>() = normal_.transpose();
@@ -456,27 +634,81 @@ void Adjustment::BuildNormalEquations(const Evaluation& e) {
   gradient_.noalias() = e.jacobian.transpose() * wr;
 }
 
-// Levenberg–Marquardt on the subset (and the further frames' bases) with Marquardt's
-// diagonal scaling, from the nominal model. One stacked Jacobian per evaluation; the trial
-// point's Jacobian is reused when it is accepted.
+// Levenberg–Marquardt on the subset (and the further frames' bases and the tool rotations)
+// with Marquardt's diagonal scaling, from the nominal model. One stacked Jacobian per
+// evaluation; the trial point's Jacobian is reused when it is accepted. With an estimated
+// orientation weight, each converged solution re-estimates it and the iteration goes on
+// from there until it settles.
 void Adjustment::Solve() {
   normal_.resize(unknowns_, unknowns_);
-  weighted_.resize(3 * m_, unknowns_);
+  weighted_.resize(rows_, unknowns_);
   gradient_.resize(unknowns_);
-  Evaluate(result_.params, extra_bases_, current_);
+  Evaluate(result_.params, extra_bases_, tools_, current_);
   result_.nominal_residuals = ResidualVectors(current_);
   result_.nominal = Summarise(Distances(result_.nominal_residuals));
+  result_.nominal_orientation_residuals = OrientationVectors(current_);
+  result_.nominal_angle = SummariseAngles(Angles(result_.nominal_orientation_residuals));
 
+  int iterations = 0;
   bool converged = false;
-  int iteration = 0;
-  for (; iteration < options_.max_iterations && !converged; ++iteration) converged = Iterate();
-  result_.iterations = iteration;
+  for (int round = 0; round < kMaxWeightRounds; ++round) {
+    const int used = Iterations(options_.max_iterations - iterations);
+    iterations += std::abs(used);
+    converged = used > 0;
+    if (!converged || options_.orientation_weight_mm_per_rad > 0 || oriented_ == 0) break;
+    if (!ReweightOrientation()) break;
+  }
+  result_.iterations = iterations;
   result_.status.code = converged ? SolveCode::kOk : SolveCode::kNotConverged;
   if (!converged) {
-    result_.status.message = "no convergence after " + std::to_string(iteration) + " iterations";
+    result_.status.message = "no convergence after " + std::to_string(iterations) + " iterations";
   }
   result_.bases[result_.reference_frame] = result_.world_from_base;
   for (int f = 0; f < extra_frames_; ++f) result_.bases[frames_[f]] = extra_bases_[f];
+  for (size_t f = 0; f < frames_.size(); ++f) {
+    if (tool_unknown_[f] >= 0 || (options_.shared_tool_rotation && oriented_ > 0))
+      result_.tool_rotations[frames_[f]] = tools_[f];
+  }
+  result_.tool_rotation_shared = options_.shared_tool_rotation && oriented_ > 0;
+  result_.orientation_weight_mm_per_rad = oriented_ > 0 ? weight_ : 0.0;
+  result_.orientation_poses = oriented_;
+}
+
+// Iterates at most `budget` times: the iterations used, negative when it did not converge.
+int Adjustment::Iterations(int budget) {
+  for (int iteration = 1; iteration <= budget; ++iteration) {
+    if (Iterate()) return iteration;
+  }
+  return -std::max(budget, 0);
+}
+
+// Variance components (Helmert, Förstner): each group's a-posteriori σ² is its weighted
+// sum of squares over its redundancy — its equations less their share of the unknowns,
+// the trace of the hat matrix over them. The new weight makes the two groups' σ agree;
+// true when it moved by more than 0.1 % (then the fit goes on at the current point).
+bool Adjustment::ReweightOrientation() {
+  BuildNormalEquations(current_);
+  const Eigen::MatrixXd solved = normal_.ldlt().solve(weighted_.transpose());  // N⁻¹ Aᵀ √W
+  double hat_position = 0.0, hat_orientation = 0.0;
+  for (int r = 0; r < rows_; ++r) {
+    const double h = weighted_.row(r).dot(solved.col(r));
+    (r < 3 * m_ ? hat_position : hat_orientation) += h;
+  }
+  double position_squares = 0.0;
+  for (int i = 0; i < m_; ++i)
+    position_squares += weights_[i] * current_.residual.segment<3>(3 * i).squaredNorm();
+  const double orientation_squares =
+      current_.residual.tail(3 * oriented_).squaredNorm() / (weight_ * weight_);
+  const double position_variance = position_squares / std::max(3.0 * m_ - hat_position, 1.0);
+  const double orientation_variance =
+      orientation_squares / std::max(3.0 * oriented_ - hat_orientation, 1.0);
+  if (!(position_variance > 0.0 && orientation_variance > 0.0)) return false;
+  const double weight = std::sqrt(position_variance / orientation_variance);
+  const bool moved = std::abs(weight - weight_) > 1e-3 * weight_;
+  weight_ = weight;
+  Evaluate(result_.params, extra_bases_, tools_, current_);
+  lambda_ = 1e-6;
+  return moved;
 }
 
 // One iteration: the normal equations at the current point, then damped steps with a
@@ -500,7 +732,8 @@ Adjustment::StepOutcome Adjustment::DampedStep(const Eigen::VectorXd& diagonal) 
   Eigen::VectorXd trial_params = result_.params;
   for (int c = 0; c < k_; ++c) trial_params(subset()[c]) += step(c);
   Bases trial_bases = MovedBases(extra_bases_, step);
-  Evaluate(trial_params, trial_bases, trial_);
+  Tools trial_tools = TurnedTools(tools_, step);
+  Evaluate(trial_params, trial_bases, trial_tools, trial_);
   if (!(std::isfinite(trial_.cost) && trial_.cost <= current_.cost)) {
     lambda_ *= 10.0;
     return StepOutcome::kRejected;
@@ -508,6 +741,7 @@ Adjustment::StepOutcome Adjustment::DampedStep(const Eigen::VectorXd& diagonal) 
   const bool converged = Converged(trial_.cost, step);
   result_.params = trial_params;
   extra_bases_ = std::move(trial_bases);
+  tools_ = std::move(trial_tools);
   std::swap(current_, trial_);
   lambda_ = std::max(lambda_ / 10.0, 1e-12);
   return converged ? StepOutcome::kConverged : StepOutcome::kAccepted;
@@ -523,16 +757,20 @@ bool Adjustment::Converged(double trial_cost, const Eigen::VectorXd& step) const
 }
 
 // Cost, redundancy, residuals and σ0 at the solution (the normal equations rebuilt there for
-// the covariance).
+// the covariance). σ0 is that of the whole weighted adjustment, in mm: with the weight
+// estimated it is the position σ; σ0 of the orientations is the same in rad.
 void Adjustment::FitStatistics() {
   BuildNormalEquations(current_);
   result_.cost = current_.cost;
-  result_.redundancy = 3 * m_ - unknowns_;
+  result_.redundancy = rows_ - unknowns_;
   result_.fit_residuals = ResidualVectors(current_);
-  double weighted_sq = 0.0;
+  result_.fit_orientation_residuals = OrientationVectors(current_);
+  double weighted_sq = current_.residual.tail(3 * oriented_).squaredNorm();
   for (int i = 0; i < m_; ++i) weighted_sq += weights_[i] * result_.fit_residuals[i].squaredNorm();
   result_.sigma0_mm = std::sqrt(weighted_sq / result_.redundancy);
+  if (oriented_ > 0) result_.sigma0_rad = result_.sigma0_mm / weight_;
   result_.fit = Summarise(Distances(result_.fit_residuals));
+  result_.fit_angle = SummariseAngles(Angles(result_.fit_orientation_residuals));
   if (options_.robust_threshold_mm > 0.0) {
     for (int i = 0; i < m_; ++i) {
       if (result_.fit_residuals[i].norm() > options_.robust_threshold_mm)
@@ -542,8 +780,8 @@ void Adjustment::FitStatistics() {
 }
 
 // Covariance of the identified parameters: σ0² (Jᵀ W J)⁻¹ at the solution (the further
-// frames' bases are unknowns of the same adjustment: their block is marginalised), and
-// their sigmas.
+// frames' bases and the tool rotations are unknowns of the same adjustment: their block is
+// marginalised), and their sigmas.
 void Adjustment::Covariance() {
   if (k_ == 0) return;
   const Eigen::MatrixXd normal_inverse =
@@ -558,16 +796,17 @@ void Adjustment::Covariance() {
   for (int c = 0; c < k_; ++c) result_.sigmas(subset()[c]) = std::sqrt(result_.covariance(c, c));
 }
 
-// The reference base was aligned on its frame's measurements, then held: a two-stage
+// The reference base was aligned on its frame's measured positions, then held: a two-stage
 // estimate. To first order the alignment moves the base by db = (BᵀB)⁻¹Bᵀ dy, with B the
-// 3m × 6 derivative of the world positions by a small rotation and translation of the base
-// (zero in the rows of other frames), and the unknowns answer the rest:
+// rows × 6 derivative of the world positions by a small rotation and translation of the
+// base (zero in the rows of other frames and in the orientation equations, which the
+// alignment does not use), and the unknowns answer the rest:
 // du = N⁻¹JᵀW (I − B(BᵀB)⁻¹Bᵀ) dy. Hence Cov(u) = σ0² N⁻¹ Cᵀ W⁻¹ C N⁻¹ with
 // C = (I − P_B) W J. Without this, the parameters the base alignment already explains (the
 // first joint's) would be reported two to three times less certain than repeated fits show
 // them to be.
 Eigen::MatrixXd Adjustment::TwoStageCovariance(const Eigen::MatrixXd& normal_inverse) const {
-  Eigen::MatrixXd base_jacobian = Eigen::MatrixXd::Zero(3 * m_, 6);
+  Eigen::MatrixXd base_jacobian = Eigen::MatrixXd::Zero(rows_, 6);
   const Eigen::Vector3d origin = result_.world_from_base.translation();
   for (int i = 0; i < m_; ++i) {
     if (extra_[i] >= 0) continue;
@@ -589,9 +828,12 @@ void Adjustment::Check() {
   bool finite = std::isfinite(result_.sigma0_mm) && std::isfinite(result_.cost) &&
                 result_.params.allFinite() && result_.covariance.allFinite();
   for (const auto& [frame, base] : result_.bases) finite = finite && base.matrix().allFinite();
+  for (const auto& [frame, tool] : result_.tool_rotations) finite = finite && tool.allFinite();
   for (int c = 0; c < k_; ++c) finite = finite && std::isfinite(result_.sigmas(subset()[c]));
   for (const auto& r : result_.nominal_residuals) finite = finite && r.allFinite();
   for (const auto& r : result_.fit_residuals) finite = finite && r.allFinite();
+  for (const auto& r : result_.fit_orientation_residuals) finite = finite && (!r || r->allFinite());
+  if (oriented_ > 0) finite = finite && std::isfinite(result_.sigma0_rad);
   if (!finite) {
     result_.status.code = SolveCode::kNonFinite;
     result_.status.message =
@@ -637,6 +879,59 @@ void TermSelectionOptions::Check() const {
   }
 }
 
+LinearisedCrossValidation CrossValidationAtFit(const RobotModel& model, const EstimationResult& fit,
+                                               const std::vector<MeasuredPose>& poses,
+                                               const std::vector<int>& leading,
+                                               const std::vector<int>& trailing,
+                                               const std::vector<int>& fold_of_pose, int folds) {
+  const int m = static_cast<int>(poses.size());
+  const int k = static_cast<int>(leading.size()), c = static_cast<int>(trailing.size());
+  const double w = fit.orientation_weight_mm_per_rad;
+  // Orientation equations for the poses that have one in a frame with a tool rotation, and
+  // a tool rotation's columns for each frame that has such poses.
+  std::vector<int> oriented;  // in row order
+  std::map<int64_t, int> tool_column;
+  for (int i = 0; i < m; ++i) {
+    if (!(w > 0.0 && poses[i].orientation && fit.tool_rotations.count(poses[i].frame))) continue;
+    oriented.push_back(i);
+    tool_column.emplace(poses[i].frame, 0);
+  }
+  int next_tool = k;
+  for (auto& [frame, column] : tool_column) {
+    column = next_tool;
+    if (!fit.tool_rotation_shared || next_tool == k) next_tool += 3;
+    if (fit.tool_rotation_shared) column = k;
+  }
+  const int t = next_tool - k;
+  const int mo = static_cast<int>(oriented.size());
+  Eigen::MatrixXd jacobian = Eigen::MatrixXd::Zero(3 * m + 3 * mo, k + t + c);
+  Eigen::VectorXd residual(3 * m + 3 * mo);
+  Kinematics kin(model);
+  Eigen::Matrix<double, 6, Eigen::Dynamic> block(6, model.num_parameters());
+  for (int i = 0, o = 0; i < m; ++i) {
+    // Each pose in its own measurement frame's base (held at the fit's value).
+    const Eigen::Vector3d x = kin.PoseAndJacobian(fit.base_of(poses[i].frame), fit.params,
+                                                  poses[i].joints_rad.data(), block);
+    residual.segment<3>(3 * i) = x - poses[i].target_in_world;
+    for (int a = 0; a < k; ++a) jacobian.block<3, 1>(3 * i, a) = block.col(leading[a]).head<3>();
+    for (int a = 0; a < c; ++a)
+      jacobian.block<3, 1>(3 * i, k + t + a) = block.col(trailing[a]).head<3>();
+    if (o >= mo || oriented[o] != i) continue;
+    const int row = 3 * m + 3 * o++;
+    const OrientationLinearisation l =
+        LineariseOrientation(poses[i].orientation->world_from_target, kin.LastRotation(),
+                             fit.tool_rotations.at(poses[i].frame));
+    residual.segment<3>(row) = w * l.residual;
+    for (int a = 0; a < k; ++a)
+      jacobian.block<3, 1>(row, a) = w * l.by_world_turn * block.col(leading[a]).tail<3>();
+    jacobian.block<3, 3>(row, tool_column.at(poses[i].frame)) = w * l.by_tool_turn;
+    for (int a = 0; a < c; ++a)
+      jacobian.block<3, 1>(row, k + t + a) = w * l.by_world_turn * block.col(trailing[a]).tail<3>();
+  }
+  return LinearisedCrossValidation(std::move(jacobian), std::move(residual), fold_of_pose, folds,
+                                   std::move(oriented));
+}
+
 AutoSelection SelectTerms(const RobotModel& model, const std::vector<MeasuredPose>& poses,
                           const EstimationOptions& options,
                           const TermSelectionOptions& selection_options) {
@@ -646,6 +941,11 @@ AutoSelection SelectTerms(const RobotModel& model, const std::vector<MeasuredPos
   for (int i = 0; i < model.num_geometric(); ++i) selection.parameters.push_back(i);
   opts.parameters = selection.parameters;
   EstimationResult current = Estimate(model, poses, opts);
+  // With orientation equations every later fit keeps the weight the geometric fit found, so
+  // that all the F-tests compare sums of squares in one metric.
+  if (current.orientation_weight_mm_per_rad > 0.0) {
+    opts.orientation_weight_mm_per_rad = current.orientation_weight_mm_per_rad;
+  }
   std::vector<int> remaining;
   for (int i = model.num_geometric(); i < model.num_parameters(); ++i) {
     if (options.parameters.empty() ||
@@ -663,30 +963,22 @@ AutoSelection SelectTerms(const RobotModel& model, const std::vector<MeasuredPos
   // A candidate is identifiable next to the current set when its unit-scaled column keeps
   // a part orthogonal to theirs above the rank tolerance (the QR's criterion).
   const double tolerance = std::max(options.identifiability.relative_tolerance, 1e-6);
-  Kinematics kin(model);
-  Eigen::Matrix<double, 3, Eigen::Dynamic> block(3, model.num_parameters());
   bool first = true;
   // One round per added term; the first also measures the geometric model's CV error, even
   // when there is nothing to add.
   while (current.usable() && (first || !remaining.empty())) {
-    // Linearise at the current fit: columns of the identified subset, then the candidates.
+    // Linearise at the current fit: columns of the identified subset, the frames' tool
+    // rotations (always kept), then the candidates.
     const std::vector<int>& kept = current.identifiability.identified;
     const int k = static_cast<int>(kept.size());
     const int c = static_cast<int>(remaining.size());
-    Eigen::MatrixXd jacobian(3 * m, k + c);
-    Eigen::VectorXd residual(3 * m);
-    for (int i = 0; i < m; ++i) {
-      // Each pose in its own measurement frame's base (held at the fit's value).
-      const Eigen::Vector3d x =
-          kin.PositionAndJacobian(current.base_of(poses[i].frame), current.params, poses[i].joints_rad.data(), block);
-      residual.segment<3>(3 * i) = x - poses[i].target_in_world;
-      for (int a = 0; a < k; ++a) jacobian.block<3, 1>(3 * i, a) = block.col(kept[a]);
-      for (int a = 0; a < c; ++a) jacobian.block<3, 1>(3 * i, k + a) = block.col(remaining[a]);
-    }
-    const LinearisedCrossValidation cv(jacobian, residual, folds,
-                                       cross_validate ? selection_options.folds : 1);
-    std::vector<int> base(k);
-    for (int a = 0; a < k; ++a) base[a] = a;
+    const LinearisedCrossValidation cv =
+        CrossValidationAtFit(model, current, poses, kept, remaining, folds,
+                             cross_validate ? selection_options.folds : 1);
+    const int t = static_cast<int>(cv.jacobian().cols()) - k - c;  // tool-rotation columns
+    const Eigen::MatrixXd& jacobian = cv.jacobian();
+    std::vector<int> base(k + t);
+    for (int a = 0; a < k + t; ++a) base[a] = a;
     if (first) {
       if (cross_validate)
         selection.cv_mean_mm_geometric = selection.cv_mean_mm = cv.HeldOutMeanMm(base);
@@ -696,12 +988,12 @@ AutoSelection SelectTerms(const RobotModel& model, const std::vector<MeasuredPos
     const double rss_base = cv.ResidualSumOfSquares(base);
     // Projections onto the kept columns, for the identifiability check and the RSS drop.
     Eigen::MatrixXd normal = jacobian.transpose() * jacobian;
-    const Eigen::LDLT<Eigen::MatrixXd> kept_normal(normal.topLeftCorner(k, k));
+    const Eigen::LDLT<Eigen::MatrixXd> kept_normal(normal.topLeftCorner(k + t, k + t));
     int best = -1, best_record = -1;
     double best_cv = std::numeric_limits<double>::infinity(), best_f = 0.0;
     for (int a = 0; a < c; ++a) {
-      const int col = k + a;
-      const Eigen::VectorXd cross = normal.block(0, col, k, 1);
+      const int col = k + t + a;
+      const Eigen::VectorXd cross = normal.block(0, col, k + t, 1);
       const double schur = normal(col, col) - cross.dot(kept_normal.solve(cross));
       if (!(normal(col, col) > 0) || !(schur > tolerance * tolerance * normal(col, col))) continue;
       std::vector<int> with = base;

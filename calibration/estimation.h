@@ -12,6 +12,7 @@
 #include <string>
 #include <vector>
 
+#include "calibration/cross_validation.h"
 #include "calibration/identifiability.h"
 #include "calibration/model.h"
 #include "core/error.h"
@@ -33,6 +34,15 @@ struct ErrorStats {
   double rms_mm = 0.0;
 };
 ErrorStats Summarise(const std::vector<double>& distances_mm);
+
+// The same for orientation errors: the angles (rad) of the poses that have one.
+struct AngleStats {
+  int poses = 0;
+  double mean_rad = 0.0;
+  double max_rad = 0.0;
+  double rms_rad = 0.0;
+};
+AngleStats SummariseAngles(const std::vector<double>& angles_rad);
 
 // N1 by a rigid best fit (Umeyama/Horn, no scale) of the nominal target positions to the
 // measured ones: works for any rotation and translation between the measuring frame
@@ -64,6 +74,18 @@ FrameBases AlignFrameBases(const RobotModel& model, const Eigen::VectorXd& param
                            const std::vector<MeasuredPose>& poses);
 std::vector<double> Distances(const std::vector<Eigen::Vector3d>& residuals);
 
+// The target frame's rotation in the last link frame, per measurement frame: how the 6-DoF
+// probe sits on the flange in each set-up (calibration/orientation.h).
+using ToolRotations = std::map<int64_t, Eigen::Matrix3d>;
+// Orientation residuals (the rotation vector of R_measᵀ·R_pred, rad, target frame) of the
+// poses that have a measured orientation and whose frame has a tool rotation; nullopt for
+// the others. std::invalid_argument when a pose's frame has no base.
+std::vector<std::optional<Eigen::Vector3d>> OrientationResiduals(
+    const RobotModel& model, const FrameBases& bases, const ToolRotations& tools,
+    const Eigen::VectorXd& params, const std::vector<MeasuredPose>& poses);
+// Their angles (the rotation vectors' norms), for SummariseAngles.
+std::vector<double> Angles(const std::vector<std::optional<Eigen::Vector3d>>& residuals);
+
 struct EstimationOptions {
   std::vector<int> parameters;  // candidates (indices); empty = all of the model's
   IdentifiabilityOptions identifiability;
@@ -73,6 +95,18 @@ struct EstimationOptions {
   // > 0: Huber loss on each pose's error distance with this threshold (mm), so blunder
   // poses are down-weighted (and reported) instead of pulling the fit.
   double robust_threshold_mm = 0.0;
+  // Poses with a measured orientation (MeasuredPose::orientation) add three equations
+  // each: the orientation residual, weighted against the positions by this many mm per rad
+  // (the position error one rad of orientation error counts as), or, at 0, by variance
+  // components: the weight is re-estimated until it is the ratio of the two groups'
+  // a-posteriori sigmas (the fit's own answer to "how well does the model do each"). Each
+  // measurement frame with orientations gets its target's rotation on the last link among
+  // the unknowns (three more). false: orientations are ignored, a position-only fit.
+  bool use_orientation = true;
+  double orientation_weight_mm_per_rad = 0.0;
+  // One tool rotation for every frame instead of one each: the probe stayed on the flange
+  // between the set-ups, so the orientations of a new set-up's poses also turn its base.
+  bool shared_tool_rotation = false;
   void Check() const;
 };
 
@@ -97,11 +131,26 @@ struct EstimationResult {
   Eigen::MatrixXd covariance;  // identified subset, in the order of identifiability.identified
   IdentifiabilityReport identifiability;
   double sigma0_mm = 0.0;  // a posteriori σ of one coordinate
-  int redundancy = 0;      // 3m − rank − 6 × (frames − 1)
+  // 3m − rank − 6 × (frames − 1), and with orientations + 3m_o − 3 × (frames with them)
+  int redundancy = 0;
   double cost = 0.0;       // Σ weighted squared residuals (mm²)
   std::vector<Eigen::Vector3d> nominal_residuals, fit_residuals;
   ErrorStats nominal, fit;
   std::vector<int> downweighted;  // poses the robust loss treated as blunders (indices)
+
+  // With orientation equations (some poses carry a measured orientation and
+  // EstimationOptions::use_orientation): the target's rotation on the last link of every
+  // frame that has them, the weight used (0: no orientation equations), the a-posteriori
+  // σ of one orientation residual component, and the residuals (nullopt for a pose without
+  // an orientation).
+  ToolRotations tool_rotations;
+  bool tool_rotation_shared = false;  // every frame's is the same unknown
+  double orientation_weight_mm_per_rad = 0.0;
+  double sigma0_rad = std::numeric_limits<double>::quiet_NaN();
+  int orientation_poses = 0;
+  std::vector<std::optional<Eigen::Vector3d>> nominal_orientation_residuals,
+      fit_orientation_residuals;
+  AngleStats nominal_angle, fit_angle;
 
   // Its numbers are results (converged, or stopped at the iteration limit); kNonFinite
   // never is.
@@ -111,6 +160,13 @@ struct EstimationResult {
     const auto it = bases.find(frame);
     return it != bases.end() ? it->second : world_from_base;
   }
+  // The tool rotation of a frame (the reference frame's when it has none); nullptr when
+  // the fit had no orientation equations.
+  const Eigen::Matrix3d* tool_rotation_of(int64_t frame) const {
+    auto it = tool_rotations.find(frame);
+    if (it == tool_rotations.end()) it = tool_rotations.find(reference_frame);
+    return it != tool_rotations.end() ? &it->second : nullptr;
+  }
 };
 
 // Fits the model to the poses. N1 of the reference frame: model.base, or AlignBase on that
@@ -118,6 +174,16 @@ struct EstimationResult {
 // theirs (kDegenerate when a frame's poses cannot place it).
 EstimationResult Estimate(const RobotModel& model, const std::vector<MeasuredPose>& poses,
                           const EstimationOptions& options);
+
+// The fit linearised at its solution, for K-fold cross-validation (the folds of the poses
+// given): columns `leading` (model parameters), then three per frame with a tool rotation,
+// then `trailing`; rows the positions, then the orientation equations weighted as the fit
+// weighted them. The bases of further frames are held at the fit's value.
+LinearisedCrossValidation CrossValidationAtFit(const RobotModel& model, const EstimationResult& fit,
+                                               const std::vector<MeasuredPose>& poses,
+                                               const std::vector<int>& leading,
+                                               const std::vector<int>& trailing,
+                                               const std::vector<int>& fold_of_pose, int folds);
 
 // Nested-model F-test: does adding terms improve the fit significantly?
 struct FTest {

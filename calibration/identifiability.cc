@@ -6,6 +6,7 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <map>
 #include <numbers>
 #include <random>
 #include <stdexcept>
@@ -22,13 +23,48 @@ void IdentifiabilityOptions::Check() const {
 
 Eigen::MatrixXd StackedJacobian(const RobotModel& model, const Eigen::Isometry3d& world_from_base,
                                 const Eigen::VectorXd& params,
-                                const std::vector<Eigen::VectorXd>& joints_rad) {
+                                const std::vector<Eigen::VectorXd>& joints_rad,
+                                const OrientationRows* orientation) {
+  const int m = static_cast<int>(joints_rad.size());
+  const int np = model.num_parameters();
   Kinematics kin(model);
-  Eigen::MatrixXd j(3 * joints_rad.size(), model.num_parameters());
-  Eigen::Matrix<double, 3, Eigen::Dynamic> block(3, model.num_parameters());
-  for (size_t i = 0; i < joints_rad.size(); ++i) {
-    kin.PositionAndJacobian(world_from_base, params, joints_rad[i].data(), block);
-    j.middleRows(3 * i, 3) = block;
+  if (!orientation) {
+    Eigen::MatrixXd j(3 * m, np);
+    Eigen::Matrix<double, 3, Eigen::Dynamic> block(3, np);
+    for (int i = 0; i < m; ++i) {
+      kin.PositionAndJacobian(world_from_base, params, joints_rad[i].data(), block);
+      j.middleRows(3 * i, 3) = block;
+    }
+    return j;
+  }
+  if (static_cast<int>(orientation->setup.size()) != m) {
+    throw std::invalid_argument("StackedJacobian: one set-up per configuration expected");
+  }
+  int oriented = 0;
+  for (int s : orientation->setup) oriented += s >= 0;
+  Eigen::MatrixXd j(3 * m + 3 * oriented, np);
+  Eigen::Matrix<double, 6, Eigen::Dynamic> block(6, np);
+  // Rotation rows in the last link's own frame: the frame the tool rotation turns in.
+  std::map<int, std::pair<Eigen::MatrixXd, int>> setup_sum;  // per set-up: Σ rows, count
+  std::vector<int> row_of(m, -1);
+  int o = 0;
+  for (int i = 0; i < m; ++i) {
+    kin.PoseAndJacobian(world_from_base, params, joints_rad[i].data(), block);
+    j.middleRows(3 * i, 3) = block.topRows<3>();
+    const int setup = orientation->setup[i];
+    if (setup < 0) continue;
+    row_of[i] = 3 * m + 3 * o++;
+    j.middleRows(row_of[i], 3) =
+        orientation->weight_mm_per_rad * kin.LastRotation().transpose() * block.bottomRows<3>();
+    auto& [sum, count] = setup_sum[setup];
+    if (count == 0) sum = Eigen::MatrixXd::Zero(3, np);
+    sum += j.middleRows(row_of[i], 3);
+    ++count;
+  }
+  for (int i = 0; i < m; ++i) {
+    if (row_of[i] < 0) continue;
+    const auto& [sum, count] = setup_sum[orientation->setup[i]];
+    j.middleRows(row_of[i], 3) -= sum / count;
   }
   return j;
 }
@@ -150,11 +186,24 @@ IdentifiabilityReport AnalyseIdentifiability(const RobotModel& model,
                                              const Eigen::Isometry3d& world_from_base,
                                              const std::vector<Eigen::VectorXd>& joints_rad,
                                              const std::vector<int>& candidates,
-                                             const IdentifiabilityOptions& options) {
+                                             const IdentifiabilityOptions& options,
+                                             const OrientationRows* orientation) {
   const Eigen::VectorXd zero = Eigen::VectorXd::Zero(model.num_parameters());
   const int spread_count = std::max(20, static_cast<int>(candidates.size()));
   const auto spread = SpreadConfigurations(model, spread_count);
-  const Eigen::MatrixXd spread_jacobian = StackedJacobian(model, world_from_base, zero, spread);
+  bool any_orientation = false;
+  if (orientation) {
+    for (int s : orientation->setup) any_orientation |= s >= 0;
+  }
+  OrientationRows spread_rows;
+  if (any_orientation) {
+    spread_rows.setup.assign(spread.size(), 0);
+    spread_rows.weight_mm_per_rad = orientation->weight_mm_per_rad;
+  }
+  const OrientationRows* spread_orientation = any_orientation ? &spread_rows : nullptr;
+  if (!any_orientation) orientation = nullptr;
+  const Eigen::MatrixXd spread_jacobian =
+      StackedJacobian(model, world_from_base, zero, spread, spread_orientation);
   const int structural_rank = AnalyseJacobian(spread_jacobian, candidates, options).rank;
 
   // Large data: decide on an evenly spaced subsample first. Data can never identify more
@@ -165,16 +214,21 @@ IdentifiabilityReport AnalyseIdentifiability(const RobotModel& model,
   bool decided = false;
   if (joints_rad.size() > 2 * kSubsample) {
     std::vector<Eigen::VectorXd> subset;
+    OrientationRows subset_rows;
+    if (orientation) subset_rows.weight_mm_per_rad = orientation->weight_mm_per_rad;
     const double stride = static_cast<double>(joints_rad.size()) / kSubsample;
-    for (size_t i = 0; i < kSubsample; ++i)
+    for (size_t i = 0; i < kSubsample; ++i) {
       subset.push_back(joints_rad[static_cast<size_t>(i * stride)]);
-    report =
-        AnalyseJacobian(StackedJacobian(model, world_from_base, zero, subset), candidates, options);
+      if (orientation) subset_rows.setup.push_back(orientation->setup[static_cast<size_t>(i * stride)]);
+    }
+    report = AnalyseJacobian(
+        StackedJacobian(model, world_from_base, zero, subset, orientation ? &subset_rows : nullptr),
+        candidates, options);
     decided = report.rank == structural_rank;
   }
   Eigen::MatrixXd jacobian;
   if (!decided) {
-    jacobian = StackedJacobian(model, world_from_base, zero, joints_rad);
+    jacobian = StackedJacobian(model, world_from_base, zero, joints_rad, orientation);
     report = AnalyseJacobian(jacobian, candidates, options);
   }
   report.structural_rank = structural_rank;
@@ -192,7 +246,8 @@ IdentifiabilityReport AnalyseIdentifiability(const RobotModel& model,
     FrozenJoint frozen;
     frozen.joint = j;
     frozen.range_rad = hi - lo;
-    if (jacobian.size() == 0) jacobian = StackedJacobian(model, world_from_base, zero, joints_rad);
+    if (jacobian.size() == 0)
+      jacobian = StackedJacobian(model, world_from_base, zero, joints_rad, orientation);
     // Null-space directions of the data that are not null directions of the model:
     // the parameters with weight in them are the ones this joint's motion would separate.
     const Eigen::MatrixXd structural_null =

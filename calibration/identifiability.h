@@ -45,19 +45,36 @@ IdentifiabilityReport AnalyseJacobian(const Eigen::MatrixXd& jacobian,
                                       const std::vector<int>& candidates,
                                       const IdentifiabilityOptions& options = {});
 
-// Stacked Jacobian of all parameters at `params` for every configuration.
+// Which configurations were measured with their orientation (a 6-DoF target), and in which
+// set-up. The target's rotation on the last link is estimated per set-up (like its base),
+// so a set-up's orientation equations enter the analysis with their mean over its
+// configurations taken out: what that rotation cannot explain.
+struct OrientationRows {
+  std::vector<int> setup;  // per configuration: its set-up (≥ 0), or −1 without orientation
+  // The orientation equations in mm-equivalent (a rad counts as this many mm): a metre's
+  // lever, as a wrist rotation moves a target a metre out.
+  double weight_mm_per_rad = 1000.0;
+};
+
+// Stacked Jacobian of all parameters at `params` for every configuration: three position
+// rows each, then, with `orientation`, three rows for each configuration that has one
+// (the last link's rotation in its own frame, weighted, with its set-up's mean taken out).
 Eigen::MatrixXd StackedJacobian(const RobotModel& model, const Eigen::Isometry3d& world_from_base,
                                 const Eigen::VectorXd& params,
-                                const std::vector<Eigen::VectorXd>& joints_rad);
+                                const std::vector<Eigen::VectorXd>& joints_rad,
+                                const OrientationRows* orientation = nullptr);
 
 // The full analysis on the data: rank, dependencies, the structural rank of the model
 // (deterministic well-spread configurations) and joints the data never moves, with the
-// parameters their missing motion makes inseparable.
+// parameters their missing motion makes inseparable. With `orientation` the data's
+// orientation equations count too, and the structural rank is that of spread
+// configurations measured with their orientation in one set-up.
 IdentifiabilityReport AnalyseIdentifiability(const RobotModel& model,
                                              const Eigen::Isometry3d& world_from_base,
                                              const std::vector<Eigen::VectorXd>& joints_rad,
                                              const std::vector<int>& candidates,
-                                             const IdentifiabilityOptions& options = {});
+                                             const IdentifiabilityOptions& options = {},
+                                             const OrientationRows* orientation = nullptr);
 
 // Well-spread deterministic configurations within the model's joint limits (or ±π).
 std::vector<Eigen::VectorXd> SpreadConfigurations(const RobotModel& model, int count,

@@ -251,6 +251,26 @@ Eigen::Vector3d Kinematics::PositionAndJacobian(
   return x_;
 }
 
+Eigen::Vector3d Kinematics::PoseAndJacobian(
+    const Eigen::Isometry3d& world_from_base, const Eigen::VectorXd& params,
+    const double* joints_rad, Eigen::Ref<Eigen::Matrix<double, 6, Eigen::Dynamic>> jacobian) {
+  PositionAndJacobian(world_from_base, params, joints_rad, jacobian.topRows<3>());
+  const int n = model_.num_joints();
+  auto rotation = jacobian.bottomRows<3>();
+  rotation.setZero();
+  for (int i = 0; i < n; ++i) {
+    rotation.col(6 * i + 3) = alpha_axis_[i];
+    rotation.col(6 * i + 4) = beta_axis_[i];
+    rotation.col(6 * i + 5) = g_rot_[i].col(2);  // γ_i and θ_i: the joint axis
+  }
+  const int g = model_.num_geometric();
+  for (size_t k = 0; k < model_.nongeometric.size(); ++k) {
+    const auto& term = model_.nongeometric[k];
+    rotation.col(g + static_cast<int>(k)) = g_rot_[term.joint].col(2) * term_values_[k];
+  }
+  return x_;
+}
+
 Eigen::Matrix<double, 3, Eigen::Dynamic> Kinematics::JointJacobian() const {
   const int n = model_.num_joints();
   Eigen::Matrix<double, 3, Eigen::Dynamic> j(3, n);

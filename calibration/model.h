@@ -123,6 +123,15 @@ class Kinematics {
       const Eigen::Isometry3d& world_from_base, const Eigen::VectorXd& params,
       const double* joints_rad, Eigen::Ref<Eigen::Matrix<double, 3, Eigen::Dynamic>> jacobian);
 
+  // Position and its derivatives with the rotation's (6 × num_parameters): rows 0–2 as
+  // PositionAndJacobian, rows 3–5 how each parameter turns the last link frame, as a
+  // world-side rotation vector: a change dp turns it by exp([J_rot·dp]×)·R. Translations (a,
+  // b, c, the tool offset) turn nothing; α, β, γ turn about their axes, a non-geometric term
+  // about its joint's axis by its basis value. The last link's rotation is LastRotation().
+  Eigen::Vector3d PoseAndJacobian(const Eigen::Isometry3d& world_from_base,
+                                  const Eigen::VectorXd& params, const double* joints_rad,
+                                  Eigen::Ref<Eigen::Matrix<double, 6, Eigen::Dynamic>> jacobian);
+
   // ∂x/∂θ_i with respect to the true joint angles (3 × n), from the last evaluation.
   // Used by compensation (inverse kinematics on the calibrated model).
   Eigen::Matrix<double, 3, Eigen::Dynamic> JointJacobian() const;

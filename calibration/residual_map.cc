@@ -502,22 +502,11 @@ bool MapFitter::HasFitToLearnFrom() {
   return true;
 }
 
-// The parametric model and its linearised K-fold refits (one Gauss–Newton step each).
+// The parametric model and its linearised K-fold refits (one Gauss–Newton step each), with
+// the orientation equations the fit had (each frame's tool rotation refitted too).
 void MapFitter::LineariseParametricFit() {
-  const std::vector<int>& subset = fit_.identifiability.identified;
-  const int p = static_cast<int>(subset.size());
-  Eigen::MatrixXd jacobian(3 * m_, p);
-  Eigen::VectorXd residual(3 * m_);
-  Kinematics kin(model_);
-  Eigen::Matrix<double, 3, Eigen::Dynamic> block(3, model_.num_parameters());
-  for (int i = 0; i < m_; ++i) {
-    // Each pose in its own measurement frame's base (the fit's value).
-    const Eigen::Vector3d x = kin.PositionAndJacobian(fit_.base_of(poses_[i].frame), fit_.params,
-                                                      poses_[i].joints_rad.data(), block);
-    residual.segment<3>(3 * i) = x - poses_[i].target_in_world;
-    for (int c = 0; c < p; ++c) jacobian.block<3, 1>(3 * i, c) = block.col(subset[c]);
-  }
-  cv_.emplace(jacobian, residual, AssignFolds(m_, folds_, options_.seed), folds_);
+  cv_.emplace(CrossValidationAtFit(model_, fit_, poses_, fit_.identifiability.identified, {},
+                                   AssignFolds(m_, folds_, options_.seed), folds_));
 }
 
 // Features of every fit pose (sin and cos of each joint that moves the target), scaled;
@@ -572,7 +561,7 @@ void MapFitter::CrossValidateParametricModel() {
   }
   fold_of_.resize(mt_);
   for (int t = 0; t < mt_; ++t) fold_of_[t] = cv_->fold_of_pose()[train_[t]];
-  std::vector<int> all(fit_.identifiability.identified.size());
+  std::vector<int> all(cv_->jacobian().cols());
   for (size_t c = 0; c < all.size(); ++c) all[c] = static_cast<int>(c);
   refit_.resize(folds_);
   double parametric_sum = 0.0;

@@ -108,4 +108,35 @@ std::vector<MeasuredPose> SimulatePoses(const RobotModel& model,
   return poses;
 }
 
+std::vector<MeasuredPose> SimulateSixDofPoses(const RobotModel& model,
+                                              const Eigen::Isometry3d& world_from_base,
+                                              const Eigen::VectorXd& true_params,
+                                              const Eigen::Matrix3d& tool_rotation,
+                                              const std::vector<Eigen::VectorXd>& joints_rad,
+                                              double noise_mm, double noise_rad,
+                                              std::mt19937& rng) {
+  Kinematics kin(model);
+  std::normal_distribution<double> position_noise(0.0, noise_mm), angle_noise(0.0, noise_rad);
+  std::vector<MeasuredPose> poses;
+  poses.reserve(joints_rad.size());
+  for (size_t i = 0; i < joints_rad.size(); ++i) {
+    MeasuredPose pose;
+    pose.id = "P" + std::to_string(i + 1);
+    pose.joints_rad = joints_rad[i];
+    pose.target_in_world = kin.Position(world_from_base, true_params, joints_rad[i].data());
+    Eigen::Vector3d turn = Eigen::Vector3d::Zero();
+    if (noise_mm > 0.0) {
+      for (int k = 0; k < 3; ++k) pose.target_in_world(k) += position_noise(rng);
+    }
+    if (noise_rad > 0.0) {
+      for (int k = 0; k < 3; ++k) turn(k) = angle_noise(rng);
+    }
+    Eigen::Matrix3d noise = Eigen::Matrix3d::Identity();
+    if (turn.norm() > 0) noise = Eigen::AngleAxisd(turn.norm(), turn.normalized()).toRotationMatrix();
+    pose.orientation = MeasuredOrientation{kin.LastRotation() * tool_rotation * noise, std::nullopt};
+    poses.push_back(std::move(pose));
+  }
+  return poses;
+}
+
 }  // namespace armsig::calibration

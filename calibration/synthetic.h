@@ -39,4 +39,15 @@ std::vector<MeasuredPose> SimulatePoses(const RobotModel& model,
                                         const std::vector<Eigen::VectorXd>& joints_rad,
                                         double noise_mm, std::mt19937& rng);
 
+// The same poses measured by a 6-DoF target: each gets the true target frame's orientation,
+// R_last · tool_rotation, turned by a random rotation vector N(0, noise_rad) per component
+// in the target frame (the position noise as SimulatePoses, from the same generator).
+std::vector<MeasuredPose> SimulateSixDofPoses(const RobotModel& model,
+                                              const Eigen::Isometry3d& world_from_base,
+                                              const Eigen::VectorXd& true_params,
+                                              const Eigen::Matrix3d& tool_rotation,
+                                              const std::vector<Eigen::VectorXd>& joints_rad,
+                                              double noise_mm, double noise_rad,
+                                              std::mt19937& rng);
+
 }  // namespace armsig::calibration

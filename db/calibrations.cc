@@ -123,8 +123,8 @@ std::pair<int64_t, int> InsertCalibration(Database& db, const CalibrationRecord&
       "rank, "
       "poses_fit, poses_validation, nominal_mean_mm, nominal_max_mm, nominal_rms_mm, fit_mean_mm, "
       "fit_max_mm, fit_rms_mm, validation_mean_mm, validation_max_mm, validation_rms_mm, "
-      "report_json, world_from_base_json, covariance_json, drift_json, residual_map_json) "
-      "VALUES (?,?,?,?,?,?,?,?,?,?,?,?,?,?,?,?,?,?,?,?,?,?,?) RETURNING id");
+      "report_json, world_from_base_json, covariance_json, drift_json, residual_map_json, "
+      "tool_rotation_json) VALUES (?,?,?,?,?,?,?,?,?,?,?,?,?,?,?,?,?,?,?,?,?,?,?,?) RETURNING id");
   s->Bind(1, c.robot_id);
   s->Bind(2, version);
   s->Bind(3, c.active ? 1 : 0);
@@ -152,6 +152,12 @@ std::pair<int64_t, int> InsertCalibration(Database& db, const CalibrationRecord&
     s->BindNull(23);
   else
     s->Bind(23, c.residual_map_json);
+  if (c.tool_rotation) {
+    const Eigen::Matrix<double, 3, 3, Eigen::RowMajor> rows = *c.tool_rotation;
+    s->Bind(24, JsonArray(rows.data(), 9));
+  } else {
+    s->BindNull(24);
+  }
   const int64_t id = InsertedId(*s, db.path() + ": a parameter set");
   auto p = Sql(db,
                       "INSERT INTO calibration_parameters(calibration_id, name, value, unit, "
@@ -198,7 +204,8 @@ std::vector<StoredCalibration> CalibrationHistory(Database& db, int64_t robot_id
       "SELECT id, version, active, created_at, params_spec, inputs_json, coalesce(report_json,''), "
       "validation_mean_mm, validation_max_mm, world_from_base_json, covariance_json, options_json, "
       "rank, poses_fit, poses_validation, fit_mean_mm, coalesce(drift_json, ''), "
-      "coalesce(residual_map_json, ''), validation_rms_mm FROM calibrations "
+      "coalesce(residual_map_json, ''), validation_rms_mm, coalesce(tool_rotation_json, '') "
+      "FROM calibrations "
       "WHERE robot_id = ? ORDER BY version");
   q->Bind(1, robot_id);
   while (q->Step()) {
@@ -225,6 +232,7 @@ std::vector<StoredCalibration> CalibrationHistory(Database& db, int64_t robot_id
     c.drift_json = q->Text(16);
     c.residual_map_json = q->Text(17);
     if (!q->IsNull(18)) c.validation_rms_mm = q->Double(18);
+    c.tool_rotation = ParseMatrix3(q->Text(19), cell("tool_rotation_json"));
     // Kept as text and read where they are used: bounded now, so that any later parse or
     // print of them is.
     CheckStoredJsonText(c.inputs_json, cell("inputs_json"));

@@ -31,6 +31,9 @@ struct CalibrationRecord {
   std::string drift_json{};
   // The residual map used with the parameters (io/residual_map_json.h); "" = none.
   std::string residual_map_json{};
+  // The 6-DoF target's rotation in the last link frame (in the measuring frame of
+  // world_from_base), when the set was fitted to measured orientations.
+  std::optional<Eigen::Matrix3d> tool_rotation{};
   struct Parameter {
     std::string name, unit;
     double value = 0.0, sigma = NAN;
@@ -64,6 +67,7 @@ struct StoredCalibration {
   Eigen::MatrixXd covariance;
   std::string drift_json{};  // "" when no drift decision was stored (or before schema v4)
   std::string residual_map_json{};  // "" = parametric only (and before schema v5)
+  std::optional<Eigen::Matrix3d> tool_rotation{};  // fitted to orientations (schema v12)
   std::vector<CalibrationRecord::Parameter> parameters;
 };
 std::vector<StoredCalibration> CalibrationHistory(Database& db, int64_t robot_id);  // by version

@@ -181,7 +181,7 @@ constexpr Column kCalibrationColumns[] = {
     {"validation_rms_mm", Kind::kReal},  {"report_json", Kind::kText},
     {"created_at", Kind::kText},         {"world_from_base_json", Kind::kText},
     {"covariance_json", Kind::kText},    {"drift_json", Kind::kText},
-    {"residual_map_json", Kind::kText}};
+    {"residual_map_json", Kind::kText},  {"tool_rotation_json", Kind::kText}};
 constexpr Column kParameterColumns[] = {{"name", Kind::kText},
                                         {"value", Kind::kReal},
                                         {"unit", Kind::kText},

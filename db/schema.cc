@@ -259,7 +259,8 @@ ALTER TABLE observations ADD COLUMN note TEXT;  -- the instrument's warning with
 
 // Schema v12 (6-DoF targets): a target point may carry its frame's measured orientation (a
 // 6-DoF probe) as the angles rx, ry, rz of core/rotation.h, with their a-priori sigmas;
-// NULL for position-only points.
+// NULL for position-only points. A parameter set fitted to orientations keeps the target's
+// rotation in the last link frame; NULL for the others.
 constexpr std::string_view kSchemaV12 = R"sql(
 ALTER TABLE points ADD COLUMN rx_rad REAL;  -- world_from_target = Rx(rx)·Ry(ry)·Rz(rz)
 ALTER TABLE points ADD COLUMN ry_rad REAL;
@@ -267,6 +268,7 @@ ALTER TABLE points ADD COLUMN rz_rad REAL;
 ALTER TABLE points ADD COLUMN sigma_rx_rad REAL;  -- NULL: not given
 ALTER TABLE points ADD COLUMN sigma_ry_rad REAL;
 ALTER TABLE points ADD COLUMN sigma_rz_rad REAL;
+ALTER TABLE calibrations ADD COLUMN tool_rotation_json TEXT;  -- 3x3 row-major, target in last link frame
 )sql";
 
 // PostgreSQL's text of the migrations whose SQLite text does not translate word for word

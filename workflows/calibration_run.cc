@@ -13,6 +13,7 @@
 #include <stdexcept>
 
 #include "calibration/drift.h"
+#include "calibration/orientation.h"
 #include "core/error.h"
 #include "core/text.h"
 #include "io/residual_map_json.h"
@@ -77,6 +78,17 @@ calibration::EstimationOptions EstimationOptionsOf(
   options.max_iterations = settings.max_iterations;
   options.identifiability.relative_tolerance = settings.rank_tolerance;
   options.parameters = ParamsOf(model, settings.params);
+  if (settings.orientation != "auto" && settings.orientation != "off") {
+    throw InputError({"--orientation", 0, 0, ""},
+                     "expected auto or off, got '" + settings.orientation + "'");
+  }
+  options.use_orientation = settings.orientation == "auto";
+  options.orientation_weight_mm_per_rad = settings.orientation_weight_mm_per_rad;
+  if (settings.tool_rotation != "per-session" && settings.tool_rotation != "shared") {
+    throw InputError({"--tool-rotation", 0, 0, ""},
+                     "expected per-session or shared, got '" + settings.tool_rotation + "'");
+  }
+  options.shared_tool_rotation = settings.tool_rotation == "shared";
   if (settings.model_subset) {
     model_report =
         calibration::ModelIdentifiability(model, options.parameters, settings.rank_tolerance);
@@ -220,6 +232,34 @@ calibration::FrameBases PlaceValidationPoses(const calibration::RobotModel& mode
   return bases;
 }
 
+// The validation poses' orientation errors, when the fit had orientation equations: each
+// frame's tool rotation from the fit, or, for a frame none of whose poses was fitted, the
+// shared one (--tool-rotation shared: the probe stayed on) or else one aligned on its
+// validation poses' orientations with the fitted parameters (as its base).
+void ValidateOrientations(const calibration::RobotModel& model,
+                          const calibration::FrameBases& bases,
+                          const std::vector<MeasuredPose>& validation, CalibrationRun& run) {
+  run.tool_rotations = run.estimate.tool_rotations;
+  if (run.tool_rotations.empty()) return;
+  std::map<int64_t, std::vector<MeasuredPose>> unplaced;
+  for (const auto& p : validation) {
+    if (p.orientation && !run.tool_rotations.count(p.frame)) unplaced[p.frame].push_back(p);
+  }
+  for (const auto& [frame, poses] : unplaced) {
+    if (run.estimate.tool_rotation_shared) {
+      run.tool_rotations[frame] = run.estimate.tool_rotations.begin()->second;
+      continue;
+    }
+    const auto base_of = [&](int64_t f) -> const Eigen::Isometry3d& { return bases.at(f); };
+    if (const auto tool =
+            calibration::AlignToolRotation(model, base_of, run.estimate.params, poses)) {
+      run.tool_rotations[frame] = *tool;
+    }
+  }
+  run.validation_orientation_residuals = calibration::OrientationResiduals(
+      model, bases, run.tool_rotations, run.estimate.params, validation);
+}
+
 // --residual-model auto: the residual map, fitted and cross-validated on the fit poses
 // only; when it is used, the validation residuals get its correction and every validation
 // pose its predictive σ.
@@ -294,6 +334,7 @@ CalibrationRun RunCalibration(const calibration::RobotModel& model,
         calibration::Residuals(model, bases, run.estimate.params, validation);
     run.validation_nominal_residuals = calibration::Residuals(
         model, bases, Eigen::VectorXd::Zero(model.num_parameters()), validation);
+    ValidateOrientations(model, bases, validation, run);
   }
   if (settings.residual_model == "auto" && run.estimate.status.ok()) {
     FitResidualMapAndValidate(model, fit, validation, bases, run);
@@ -338,9 +379,24 @@ nlohmann::json CalibrationJson(const calibration::RobotModel& model, const Calib
   fit["sigma0_mm"] = est.sigma0_mm;
   fit["redundancy"] = est.redundancy;
   fit["condition_number"] = est.identifiability.condition_number;
+  auto angles = [](const calibration::AngleStats& a) {
+    return json{
+        {"poses", a.poses}, {"mean_rad", a.mean_rad}, {"max_rad", a.max_rad}, {"rms_rad", a.rms_rad}};
+  };
+  if (est.orientation_poses > 0) {
+    json orientation = angles(est.fit_angle);
+    orientation["sigma0_rad"] = est.sigma0_rad;
+    orientation["weight_mm_per_rad"] = est.orientation_weight_mm_per_rad;
+    orientation["nominal"] = angles(est.nominal_angle);
+    fit["orientation"] = orientation;
+  }
   out["fit"] = fit;
   json validation = stats(StatsOf(run.validation_residuals));
   validation["nominal"] = stats(StatsOf(run.validation_nominal_residuals));
+  if (!run.tool_rotations.empty() && !run.validation_orientation_residuals.empty()) {
+    validation["orientation"] = angles(
+        calibration::SummariseAngles(calibration::Angles(run.validation_orientation_residuals)));
+  }
   validation["pose_ids"] = run.validation_pose_ids;
   validation["map_applied"] = run.map_used();
   if (run.map_used() && !run.validation_parametric_residuals.empty()) {
@@ -366,6 +422,14 @@ nlohmann::json CalibrationJson(const calibration::RobotModel& model, const Calib
                     est.world_from_base.matrix()(r, 2), est.world_from_base.matrix()(r, 3)});
   }
   out["base"] = base;
+  auto matrix3 = [](const Eigen::Matrix3d& m) {
+    json rows = json::array();
+    for (int r = 0; r < 3; ++r) rows.push_back({m(r, 0), m(r, 1), m(r, 2)});
+    return rows;
+  };
+  if (const Eigen::Matrix3d* tool = est.tool_rotation_of(est.reference_frame)) {
+    out["tool_rotation"] = matrix3(*tool);
+  }
   json frames = json::array();
   for (const auto& f : run.frames) {
     json rows = json::array();
@@ -379,6 +443,9 @@ nlohmann::json CalibrationJson(const calibration::RobotModel& model, const Calib
                       {"fit_poses", f.fit_poses},
                       {"validation_poses", f.validation_poses},
                       {"base_from_validation", f.base_from_validation}});
+    if (const auto tool = run.tool_rotations.find(f.frame); tool != run.tool_rotations.end()) {
+      frames.back()["tool_rotation"] = matrix3(tool->second);
+    }
   }
   out["frames"] = frames;
   json deps = json::array();
@@ -450,6 +517,7 @@ db::CalibrationRecord CalibrationRecordOf(const calibration::RobotModel& model,
   }
   c.active = active;
   c.world_from_base = e.world_from_base;
+  if (const Eigen::Matrix3d* tool = e.tool_rotation_of(e.reference_frame)) c.tool_rotation = *tool;
   if (run.map_used()) c.residual_map_json = JsonText(io::ResidualMapToJson(run.residual_map->map));
   if (e.covariance.rows() == static_cast<int>(e.identifiability.identified.size())) {
     const auto names = model.ParameterNames();

@@ -37,6 +37,12 @@ struct CalibrationRun {
   std::vector<std::string> validation_pose_ids;
   // Each validation pose in its own frame, with that frame's base.
   std::vector<Eigen::Vector3d> validation_residuals, validation_nominal_residuals;
+  // With orientation equations in the fit: each validation pose's orientation residual
+  // (rad, nullopt for one measured without orientation), with its frame's tool rotation
+  // (a frame none of whose poses was fitted gets one aligned on its validation poses, as
+  // its base).
+  std::vector<std::optional<Eigen::Vector3d>> validation_orientation_residuals;
+  calibration::ToolRotations tool_rotations;
   std::optional<calibration::SelectionResult> selection;
   int selection_candidates = 0;
   std::optional<calibration::AutoSelection> auto_terms;
@@ -78,6 +84,14 @@ struct CalibrateSettings {
   // "auto": fit the residual map after the parametric model and use it when its
   // cross-validated error beats the parametric model's by a clear margin; "off": never.
   std::string residual_model = "auto";
+  // "auto": the poses' measured orientations (6-DoF targets) join the fit when they have
+  // them; "off": positions only. The weight of orientation against position, mm per rad
+  // (0: variance components, calibration::EstimationOptions).
+  std::string orientation = "auto";
+  double orientation_weight_mm_per_rad = 0.0;
+  // "per-session": every session's probe rotation on the flange is its own (it may have
+  // been remounted); "shared": one for all (it stayed on).
+  std::string tool_rotation = "per-session";
 };
 // The --params spec's parameters of `model` ("auto": all of them, the candidates), as
 // RunCalibration reads it; InputError naming --params (with the nearest valid word) for a

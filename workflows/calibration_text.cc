@@ -8,11 +8,14 @@
 #include <vector>
 
 #include "core/text_layout.h"
+#include "core/units.h"
 #include "core/wording.h"
 
 namespace armsig::workflows {
 
 namespace {
+
+constexpr double kDegreesPerRad = 1.0 / kRadPerDeg;
 
 // Fixed decimals without a "-0.000".
 std::string Fixed(double value, int decimals) {
@@ -132,6 +135,13 @@ std::string IdentifiabilityText(const calibration::RobotModel& model, const Cali
   out += fmt::format("fit: {} after {}, sigma0 {:.4f} mm per coordinate, redundancy {}\n",
                      est.status.ok() ? "converged" : "NOT converged",
                      Count(est.iterations, "iteration"), est.sigma0_mm, est.redundancy);
+  if (est.orientation_poses > 0) {
+    out += fmt::format(
+        "orientations: {} measured; sigma0 {:.4f} deg per component, weighted {:.0f} mm per "
+        "rad against the positions\n",
+        Count(est.orientation_poses, "pose"), est.sigma0_rad * kDegreesPerRad,
+        est.orientation_weight_mm_per_rad);
+  }
   return WrapLines(out, kTextWidth);
 }
 
@@ -154,6 +164,20 @@ std::string ErrorDistanceText(const CalibrationRun& run) {
     }
   }
   std::string out = table.Render(kTextWidth);
+  if (est.orientation_poses > 0) {
+    TextTable angles({"orientation error (deg)", "poses", "mean", "max", "rms"});
+    auto angle_line = [&](const char* label, const calibration::AngleStats& a) {
+      angles.AddRow({label, std::to_string(a.poses), Fixed(a.mean_rad * kDegreesPerRad, 4),
+                     Fixed(a.max_rad * kDegreesPerRad, 4), Fixed(a.rms_rad * kDegreesPerRad, 4)});
+    };
+    angle_line("nominal, fit poses", est.nominal_angle);
+    angle_line("calibrated, fit poses", est.fit_angle);
+    if (!run.validation_orientation_residuals.empty()) {
+      angle_line("calibrated, validation",
+                 calibration::SummariseAngles(calibration::Angles(run.validation_orientation_residuals)));
+    }
+    out += angles.Render(kTextWidth);
+  }
   if (run.residual_map) {
     const auto& m = *run.residual_map;
     out += fmt::format("residual map {}: {}", m.used ? "used" : "not used", m.decision);

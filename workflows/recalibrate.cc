@@ -327,8 +327,10 @@ nlohmann::json RecalibrationDecision::ToJson() const {
   if (previous_version) j["previous_version"] = *previous_version;
   j["rank"] = rank;
   j["fit"] = Stats(fit);
+  if (!fit_orientation.is_null()) j["fit"]["orientation"] = fit_orientation;
   j["nominal"] = Stats(nominal);
   j["validation"] = Stats(validation);
+  if (!validation_orientation.is_null()) j["validation"]["orientation"] = validation_orientation;
   if (previous_on_same_data) j["current_on_same_data"] = Stats(*previous_on_same_data);
   j["gates"] = nlohmann::json::array();
   for (const auto& g : gates) {
@@ -857,6 +859,8 @@ void NightlyJob::Fit(const std::vector<MeasuredPose>& poses) {
   settings_.params = o_.params;
   settings_.model_subset = true;
   settings_.residual_model = o_.residual_model;
+  settings_.orientation = o_.orientation;
+  settings_.tool_rotation = o_.tool_rotation;
   settings_.max_iterations = o_.max_iterations;
   // 60 %, at most 80 (the paper's) and 6 more for every further session: each session's
   // frame adds six base unknowns.
@@ -881,7 +885,16 @@ void NightlyJob::Fit(const std::vector<MeasuredPose>& poses) {
     if (validation_ids.count(p.id)) validation_.push_back(p);
   }
   d_.validation = StatsOf(run.validation_residuals);
-  d_.residual_model = CalibrationJson(model_, run)["residual_model"];
+  const nlohmann::json calibration_json = CalibrationJson(model_, run);
+  d_.residual_model = calibration_json["residual_model"];
+  const auto orientation_of = [&](const char* part) {
+    const auto it = calibration_json.find(part);
+    return it != calibration_json.end() && it->is_object()
+               ? it->value("orientation", nlohmann::json())
+               : nlohmann::json();
+  };
+  d_.fit_orientation = orientation_of("fit");
+  d_.validation_orientation = orientation_of("validation");
   d_.fit = run.estimate.fit;
   d_.nominal = run.estimate.nominal;
   d_.rank = run.estimate.identifiability.rank;
@@ -1145,11 +1158,19 @@ RecalibrationDecision NightlyJob::Run() {
     d_.sessions.assign(sessions.begin(), sessions.end());
   }
   const std::string digest =
-      InputDigest(poses, o_.params + "|residual-model=" + o_.residual_model, o_.select);
+      InputDigest(poses,
+                  o_.params + "|residual-model=" + o_.residual_model +
+                      // Said only when it is not the default, so that the digests of the
+                      // sets stored before orientations were fitted stay what they were.
+                      (o_.orientation == "auto" ? "" : "|orientation=" + o_.orientation) +
+                      (o_.tool_rotation == "per-session" ? "" : "|tool-rotation=" + o_.tool_rotation),
+                  o_.select);
   nlohmann::json inputs = {{"digest", digest},         {"poses", poses.size()},
                            {"sessions", d_.sessions},  {"since", since_},
                            {"params", o_.params},      {"select", o_.select},
-                           {"residual_model", o_.residual_model}};
+                           {"residual_model", o_.residual_model},
+                           {"orientation", o_.orientation},
+                           {"tool_rotation", o_.tool_rotation}};
   // The change point the set was fitted after (a new one, or the active set's): the
   // windows of the nights after it never reach back before it.
   if (d_.change) {

@@ -19,6 +19,8 @@ struct RecalibrateOptions {
   std::string since;
   std::string params = "all";
   std::string residual_model = "auto";  // auto | off (calibrate's --residual-model)
+  std::string orientation = "auto";     // auto | off (calibrate's --orientation)
+  std::string tool_rotation = "per-session";  // per-session | shared
   // Configurations to fit (0: 60 %, at most 80 plus 6 for every session beyond the first,
   // whose measurement frame adds six unknowns).
   int select = 0;
@@ -133,6 +135,9 @@ struct RecalibrationDecision {
   int poses = 0;
   int rank = 0;
   calibration::ErrorStats nominal, fit, validation;
+  // With orientation equations (6-DoF sessions): the fit's and the validation's angle errors
+  // as calibrate's JSON gives them (fit.orientation, validation.orientation); null otherwise.
+  nlohmann::json fit_orientation, validation_orientation;
   std::optional<calibration::ErrorStats> previous_on_same_data;
   std::vector<Gate> gates;
   // Drift: the models differ significantly and by more than the tolerance in mm.

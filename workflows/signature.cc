@@ -3,10 +3,14 @@
 #include <fmt/format.h>
 #include <spdlog/spdlog.h>
 
+#include <algorithm>
+#include <cmath>
+#include <limits>
 #include <nlohmann/json.hpp>
 
 #include "calibration/compensation.h"
 #include "core/error.h"
+#include "core/rotation.h"
 #include "core/text.h"
 #include "core/units.h"
 #include "io/csv.h"
@@ -29,6 +33,13 @@ Signature SignatureOf(const calibration::RobotModel& model, const db::StoredCali
     if (p.identified) s.sigmas(k) = p.sigma;
   }
   s.world_from_base = stored.world_from_base;
+  s.tool_rotation = stored.tool_rotation;
+  for (const auto& name : stored.covariance_parameters) s.identified.push_back(model.IndexOf(name));
+  const bool known = std::find(s.identified.begin(), s.identified.end(), -1) == s.identified.end();
+  if (known && stored.covariance.rows() == static_cast<int>(s.identified.size()))
+    s.covariance = stored.covariance;
+  else
+    s.identified.clear();
   if (!stored.residual_map_json.empty()) {
     const std::string source =
         fmt::format("table calibrations, row {}, column residual_map_json (parameter set {})",
@@ -104,6 +115,17 @@ Eigen::Isometry3d FrameOf(const ActiveSignature& a, const std::string& frame) {
   throw InputError({"--frame", 0, 0, ""}, "expected robot or measurement, got " + Quoted(frame));
 }
 
+double ParametricSigmaMm(const calibration::RobotModel& model, const Signature& signature,
+                         const Eigen::VectorXd& joints_rad) {
+  if (signature.identified.empty()) return std::numeric_limits<double>::quiet_NaN();
+  calibration::Kinematics kin(model);
+  Eigen::Matrix<double, 3, Eigen::Dynamic> all(3, model.num_parameters());
+  kin.PositionAndJacobian(Eigen::Isometry3d::Identity(), signature.params, joints_rad.data(), all);
+  Eigen::Matrix<double, 3, Eigen::Dynamic> j(3, signature.identified.size());
+  for (size_t c = 0; c < signature.identified.size(); ++c) j.col(c) = all.col(signature.identified[c]);
+  return std::sqrt(std::max((j * signature.covariance * j.transpose()).trace() / 3.0, 0.0));
+}
+
 std::string PredictCsv(const ActiveSignature& a, const Eigen::Isometry3d& frame,
                        const std::string& joints_csv, bool map_sigma) {
   const io::CsvTable t = io::ReadCsvFile(joints_csv);
@@ -128,8 +150,11 @@ std::string PredictCsv(const ActiveSignature& a, const Eigen::Isometry3d& frame,
                                                         joints, map != nullptr && map_sigma,
                                                         joints.size() >= 2048 ? 2 : 1);
   const double noise = map ? map->data().noise_sigma_mm : 0.0;
+  const std::optional<Eigen::Matrix3d>& tool = a.signature.tool_rotation;
   std::string out =
-      "pose,x_mm,y_mm,z_mm,nominal_x_mm,nominal_y_mm,nominal_z_mm,correction_mm,map,map_sigma_mm\n";
+      "pose,x_mm,y_mm,z_mm,nominal_x_mm,nominal_y_mm,nominal_z_mm,correction_mm,map,map_sigma_mm,"
+      "model_sigma_mm";
+  out += tool ? ",rx_deg,ry_deg,rz_deg\n" : "\n";
   int outside = 0;
   for (size_t k = 0; k < joints.size(); ++k) {
     const Eigen::Vector3d& x = calibrated[k].position_mm;
@@ -140,9 +165,17 @@ std::string PredictCsv(const ActiveSignature& a, const Eigen::Isometry3d& frame,
         map && map_sigma ? fmt::format("{:.6f}", std::sqrt(calibrated[k].sigma_mm * calibrated[k].sigma_mm +
                                               noise * noise))
             : std::string();
-    out += fmt::format("{},{:.6f},{:.6f},{:.6f},{:.6f},{:.6f},{:.6f},{:.6f},{},{}\n",
+    const double model_sigma = ParametricSigmaMm(a.model, a.signature, joints[k]);
+    out += fmt::format("{},{:.6f},{:.6f},{:.6f},{:.6f},{:.6f},{:.6f},{:.6f},{},{},{}",
                        io::CsvEscape(t.Name(t.rows()[k], id)), x.x(), x.y(), x.z(), nominal.x(),
-                       nominal.y(), nominal.z(), (x - nominal).norm(), state, sigma);
+                       nominal.y(), nominal.z(), (x - nominal).norm(), state, sigma,
+                       std::isnan(model_sigma) ? std::string() : fmt::format("{:.6f}", model_sigma));
+    if (tool) {
+      kin.Position(frame, a.signature.params, joints[k].data());
+      const Eigen::Vector3d angles = RxRyRzFromRotation(kin.LastRotation() * *tool) / kRadPerDeg;
+      out += fmt::format(",{:.8f},{:.8f},{:.8f}", angles.x(), angles.y(), angles.z());
+    }
+    out += "\n";
   }
   if (outside > 0) {
     spdlog::warn(

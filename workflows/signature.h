@@ -22,6 +22,13 @@ struct Signature {
   std::optional<Eigen::Isometry3d> world_from_base;  // the measuring frame of its data
   // The residual map stored with the set; null = parametric only.
   std::shared_ptr<const calibration::ResidualMap> map;
+  // The 6-DoF target's rotation in the last link frame, for a set fitted to measured
+  // orientations; predict then gives the target's orientation too.
+  std::optional<Eigen::Matrix3d> tool_rotation;
+  // The identified parameters (model indices) and their covariance (empty for a set stored
+  // before covariances were): the parametric prediction's own uncertainty.
+  std::vector<int> identified;
+  Eigen::MatrixXd covariance;
 };
 
 Signature SignatureOf(const calibration::RobotModel& model, const db::StoredCalibration& stored);
@@ -50,7 +57,18 @@ Eigen::Isometry3d FrameOf(const ActiveSignature& active, const std::string& fram
 // position includes its correction, and two columns say so: `map` (applied | outside:
 // the configuration is outside the map's support and gets the parametric prediction |
 // none) and `map_sigma_mm` (the map's predictive σ per coordinate, when `map_sigma` asks
-// for it: about 30 µs a configuration; empty otherwise).
+// for it: about 30 µs a configuration; empty otherwise). `model_sigma_mm`: the parametric
+// prediction's standard error per coordinate from the fitted parameters' covariance
+// (ParametricSigmaMm; empty for a set stored without one). A set fitted to measured
+// orientations adds the calibrated target frame's orientation, rx_deg,ry_deg,rz_deg
+// (core/rotation.h; the map corrects positions only).
+// The standard error per coordinate (mm, √(tr(J Σ Jᵀ)/3)) of the parametric prediction at
+// `joints_rad`: Σ the identified parameters' covariance, J the position's derivatives by them.
+// It grows where the fit poses did not constrain the parameters (extrapolation); it holds
+// the parameters' noise only, not what the model cannot represent. NaN without a covariance.
+double ParametricSigmaMm(const calibration::RobotModel& model, const Signature& signature,
+                         const Eigen::VectorXd& joints_rad);
+
 std::string PredictCsv(const ActiveSignature& active, const Eigen::Isometry3d& frame,
                        const std::string& joints_csv, bool map_sigma = false);
 

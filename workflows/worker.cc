@@ -54,6 +54,8 @@ std::string RecalibrateOptionsToJson(const RecalibrateOptions& o) {
   nlohmann::json j = {{"since", o.since},
                       {"params", o.params},
                       {"residual_model", o.residual_model},
+                      {"orientation", o.orientation},
+                      {"tool_rotation", o.tool_rotation},
                       {"select", o.select},
                       {"report_dir", o.report_dir},
                       {"max_iterations", o.max_iterations},
@@ -80,6 +82,8 @@ RecalibrateOptions RecalibrateOptionsFromJson(const std::string& text, int64_t j
     o.since = j.value("since", o.since);
     o.params = j.value("params", o.params);
     o.residual_model = j.value("residual_model", o.residual_model);
+    o.orientation = j.value("orientation", o.orientation);
+    o.tool_rotation = j.value("tool_rotation", o.tool_rotation);
     o.select = j.value("select", o.select);
     o.report_dir = j.value("report_dir", o.report_dir);
     o.max_iterations = j.value("max_iterations", o.max_iterations);

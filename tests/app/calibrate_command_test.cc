@@ -2,10 +2,12 @@
 
 #include <filesystem>
 #include <fstream>
+#include <iostream>
 #include <nlohmann/json.hpp>
 #include <random>
 
 #include "calibration/synthetic.h"
+#include "core/units.h"
 #include "io/poses_csv.h"
 #include "test_support.h"
 
@@ -182,6 +184,36 @@ TEST(CalibrateResidualMap, RealUr10SplitHeldOutThroughTheCommand) {
   // One predictive σ per held-out pose; the few outside the map's support are named.
   EXPECT_EQ(j["validation"]["map_sigma_mm"].size(), 1000u);
   EXPECT_LT(j["validation"]["map_extrapolated"].size(), 20u);
+
+  // The files carry the T-Mac's orientations: the held-out orientation error is reported.
+  EXPECT_EQ(j["validation"]["orientation"]["poses"], 1000);
+  const double held_out_deg = j["validation"]["orientation"]["mean_rad"].get<double>() * 180 / kPi;
+  EXPECT_GT(held_out_deg, 0.03);
+  EXPECT_LT(held_out_deg, 0.07);
+  std::cout << "UR10 split through calibrate --params auto with 6-DoF data: parametric "
+            << parametric << " mm, with map " << with_map << " mm, orientation " << held_out_deg
+            << " deg held out\n";
+  // --orientation off fits the positions alone: the figures of the same poses without their
+  // orientations, to the last digit.
+  std::vector<MeasuredPose> fit_positions = fit, held_positions = held_out;
+  for (auto& p : fit_positions) p.orientation.reset();
+  for (auto& p : held_positions) p.orientation.reset();
+  WriteText(dir.File("fit-xyz.csv"), io::FormatPosesCsv(fit_positions));
+  WriteText(dir.File("held-xyz.csv"), io::FormatPosesCsv(held_positions));
+  const auto ignored = RunArmsig(args + "--orientation off --json '" + dir.File("ignored.json") + "'");
+  ASSERT_EQ(ignored.exit_code, 0) << ignored.err;
+  const auto plain = RunArmsig("calibrate --model '" + SourcePath("models/ur10.yaml") +
+                               "' --poses '" + dir.File("fit-xyz.csv") + "' --validate '" +
+                               dir.File("held-xyz.csv") + "' --params auto --json '" +
+                               dir.File("plain.json") + "'");
+  ASSERT_EQ(plain.exit_code, 0) << plain.err;
+  const auto ji = nlohmann::json::parse(ReadText(dir.File("ignored.json")));
+  const auto jp = nlohmann::json::parse(ReadText(dir.File("plain.json")));
+  EXPECT_EQ(ji["validation"]["mean_mm"], jp["validation"]["mean_mm"]);
+  EXPECT_EQ(ji["parameters"], jp["parameters"]);
+  EXPECT_FALSE(ji["fit"].contains("orientation"));
+  EXPECT_FALSE(jp["validation"].contains("orientation"));
+  std::cout << "the same, positions only: with map " << jp["validation"]["mean_mm"] << " mm\n";
 
   const auto off = RunArmsig(args + "--residual-model off --json '" + dir.File("off.json") + "'");
   ASSERT_EQ(off.exit_code, 0) << off.err;

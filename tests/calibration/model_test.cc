@@ -100,6 +100,39 @@ TEST(Kinematics, AnalyticJacobianMatchesCentralDifferences) {
   }
 }
 
+TEST(Kinematics, RotationJacobianMatchesCentralDifferencesOfTheLastLinkFrame) {
+  // Rows 3–5 of PoseAndJacobian against (R(p + h e_k) R(p − h e_k)ᵀ) turned into a rotation
+  // vector over 2h: the world-side turn of the last link frame per unit of each parameter.
+  std::mt19937 rng(17);
+  for (const auto& model : {testing::Puma(), testing::Ur10()}) {
+    for (int trial = 0; trial < 10; ++trial) {
+      const Eigen::VectorXd params = RandomParameters(model, 2.0, 5e-3, 3e-3, rng);
+      const Eigen::VectorXd q = RandomConfigurations(model, 1, rng, 3.0)[0];
+      Kinematics kin(model);
+      Eigen::Matrix<double, 6, Eigen::Dynamic> analytic(6, model.num_parameters());
+      const Eigen::Vector3d x = kin.PoseAndJacobian(SomeBase(), params, q.data(), analytic);
+      EXPECT_LT((x - kin.Position(SomeBase(), params, q.data())).norm(), 1e-12);
+      Eigen::Matrix<double, 3, Eigen::Dynamic> position(3, model.num_parameters());
+      kin.PositionAndJacobian(SomeBase(), params, q.data(), position);
+      EXPECT_EQ(analytic.topRows<3>(), position);
+      for (int k = 0; k < model.num_parameters(); ++k) {
+        const double h = 1e-6;
+        Eigen::VectorXd plus = params, minus = params;
+        plus(k) += h;
+        minus(k) -= h;
+        kin.Position(SomeBase(), plus, q.data());
+        const Eigen::Matrix3d r_plus = kin.LastRotation();
+        kin.Position(SomeBase(), minus, q.data());
+        const Eigen::Matrix3d r_minus = kin.LastRotation();
+        const Eigen::AngleAxisd turn(r_plus * r_minus.transpose());
+        const Eigen::Vector3d numeric = turn.angle() * turn.axis() / (2 * h);
+        EXPECT_LT((analytic.col(k).tail<3>() - numeric).norm(), 1e-7)
+            << model.name << " parameter " << model.ParameterNames()[k];
+      }
+    }
+  }
+}
+
 TEST(Kinematics, TemplatedModelRunsOnJetsAndAgreesWithAnalyticJacobian) {
   using Jet = ceres::Jet<double, 43>;
   const auto model = testing::Puma();

@@ -19,7 +19,9 @@
 #include "support/simulated_sessions.h"
 #include "support/stores.h"
 #include "test_support.h"
+#include "workflows/calibration_run.h"
 #include "workflows/lifecycle.h"
+#include "workflows/worker.h"
 
 namespace armsig::testing {
 
@@ -388,6 +390,65 @@ TEST(SinceToUtc, ARefusedValueIsQuotedWithItsControlCharactersEscapedAndCut) {
     EXPECT_NE(what.find("'2026\\narmsig: info: forged"), std::string::npos) << what;
     EXPECT_NE(what.find("bytes)"), std::string::npos) << what;  // cut, with its size
   }
+}
+
+// A queued job runs with the options it was scheduled with: the orientation and tool-rotation
+// choices survive the queue's JSON, and a job queued before they existed gets the defaults.
+TEST(RecalibrateOptionsJson, CarriesTheOrientationChoices) {
+  workflows::RecalibrateOptions o;
+  o.orientation = "off";
+  o.tool_rotation = "shared";
+  o.params = "auto";
+  const auto back = workflows::RecalibrateOptionsFromJson(workflows::RecalibrateOptionsToJson(o), 1);
+  EXPECT_EQ(back.orientation, "off");
+  EXPECT_EQ(back.tool_rotation, "shared");
+  EXPECT_EQ(back.params, "auto");
+  const auto old = workflows::RecalibrateOptionsFromJson(R"({"params": "all"})", 2);
+  EXPECT_EQ(old.orientation, "auto");
+  EXPECT_EQ(old.tool_rotation, "per-session");
+}
+
+// A session only validated (none of its poses fitted) with --tool-rotation shared takes the
+// fitted probe rotation, so a remount the user said did not happen shows in its orientation
+// errors; per-session aligns its own on its validation orientations and sees none.
+TEST(CalibrationRunOrientations, AValidationOnlySessionTakesTheSharedToolRotation) {
+  const calibration::RobotModel model = Ur10();
+  std::mt19937 rng(41);
+  const Eigen::VectorXd truth = calibration::RandomParameters(model, 0.5, 5e-4, 0.0, rng);
+  const Eigen::Matrix3d probe =
+      Eigen::AngleAxisd(-M_PI / 2, Eigen::Vector3d::UnitZ()).toRotationMatrix();
+  const Eigen::Matrix3d remounted =
+      probe * Eigen::AngleAxisd(3.5e-3, Eigen::Vector3d(0.2, 0.1, 1).normalized()).toRotationMatrix();
+  Eigen::Isometry3d moved = Eigen::Isometry3d::Identity();
+  moved.rotate(Eigen::AngleAxisd(0.4, Eigen::Vector3d::UnitZ()));
+  moved.translation() << 2500.0, -800.0, 100.0;
+  auto fit = calibration::SimulateSixDofPoses(model, Eigen::Isometry3d::Identity(), truth, probe,
+                                              calibration::RandomConfigurations(model, 150, rng, 3.0),
+                                              0.02, 1e-5, rng);
+  auto held = calibration::SimulateSixDofPoses(model, moved, truth, remounted,
+                                               calibration::RandomConfigurations(model, 40, rng, 3.0),
+                                               0.02, 1e-5, rng);
+  for (auto& p : fit) p.frame = 1;
+  for (size_t i = 0; i < held.size(); ++i) {
+    held[i].frame = 2;
+    held[i].id = "V" + std::to_string(i);
+  }
+  const auto mean_angle = [](const workflows::CalibrationRun& run) {
+    double sum = 0.0;
+    for (const auto& r : run.validation_orientation_residuals) sum += r->norm();
+    return sum / static_cast<double>(run.validation_orientation_residuals.size());
+  };
+  workflows::CalibrateSettings settings;
+  settings.params = "geometric";
+  settings.residual_model = "off";
+  const auto own = workflows::RunCalibration(model, fit, held, settings);
+  settings.tool_rotation = "shared";
+  const auto shared = workflows::RunCalibration(model, fit, held, settings);
+  ASSERT_EQ(own.validation_orientation_residuals.size(), 40u);
+  ASSERT_EQ(shared.validation_orientation_residuals.size(), 40u);
+  EXPECT_LT(mean_angle(own), 5e-5);
+  EXPECT_NEAR(mean_angle(shared), 3.5e-3, 3e-4);
+  EXPECT_EQ(shared.tool_rotations.at(2), shared.tool_rotations.at(1));
 }
 
 }  // namespace armsig::testing

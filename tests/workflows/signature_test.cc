@@ -171,4 +171,48 @@ TEST(ExportSignature, ModelYamlMovesLikeTheCalibratedRobotInTheFrameAsked) {
             std::string::npos);
 }
 
+// The parametric prediction's standard error (predict's model_sigma_mm) against an
+// independent computation: the stored covariance carried through central differences of
+// the position by each identified parameter. A set stored without a covariance has none.
+TEST(ParametricSigma, IsTheCovarianceCarriedThroughCentralDifferences) {
+  Lab lab;
+  std::mt19937 rng(11);
+  const Eigen::VectorXd params = calibration::RandomParameters(lab.model, 0.5, 1e-3, 0, rng);
+  db::CalibrationRecord record = lab.Store(params, true, SomeFrame());
+  EXPECT_TRUE(std::isnan(workflows::ParametricSigmaMm(
+      lab.model, workflows::LoadActiveSignature(lab.database, "puma").signature,
+      Eigen::VectorXd::Zero(6))));
+
+  const auto names = lab.model.ParameterNames();
+  const std::vector<int> identified = {0, 3, 7, 12, 20};
+  Eigen::MatrixXd a = Eigen::MatrixXd::Random(5, 5);
+  const Eigen::MatrixXd covariance = 1e-6 * (a * a.transpose() + Eigen::MatrixXd::Identity(5, 5));
+  record.active = true;
+  for (int k : identified) record.covariance_parameters.push_back(names[k]);
+  record.covariance = covariance;
+  {
+    db::WriteTransaction tx(lab.database);
+    db::InsertCalibration(lab.database, record);
+    tx.commit();
+  }
+  const auto signature = workflows::LoadActiveSignature(lab.database, "puma").signature;
+  calibration::Kinematics kin(lab.model);
+  std::uniform_real_distribution<double> angle(-2.5, 2.5);
+  for (int trial = 0; trial < 5; ++trial) {
+    Eigen::VectorXd q(6);
+    for (int i = 0; i < 6; ++i) q(i) = angle(rng);
+    Eigen::MatrixXd j(3, 5);
+    for (int c = 0; c < 5; ++c) {
+      const double h = lab.model.UnitOf(identified[c]) == calibration::ParameterUnit::kMm ? 1e-3 : 1e-6;
+      Eigen::VectorXd plus = params, minus = params;
+      plus(identified[c]) += h;
+      minus(identified[c]) -= h;
+      j.col(c) = (kin.Position(Eigen::Isometry3d::Identity(), plus, q.data()) -
+                  kin.Position(Eigen::Isometry3d::Identity(), minus, q.data())) / (2 * h);
+    }
+    const double expected = std::sqrt((j * covariance * j.transpose()).trace() / 3.0);
+    EXPECT_NEAR(workflows::ParametricSigmaMm(lab.model, signature, q), expected, 1e-6 * expected);
+  }
+}
+
 }  // namespace armsig::testing
