@@ -86,6 +86,26 @@ std::vector<Eigen::VectorXd> LabTestConfigurations(const RobotModel& model, std:
   return out;
 }
 
+namespace {
+
+// Configuration i measured at its true position plus N(0, noise_mm) per coordinate (no
+// draw when the noise is 0); `kin` is left at that configuration.
+MeasuredPose MeasuredPosition(Kinematics& kin, const Eigen::Isometry3d& world_from_base,
+                              const Eigen::VectorXd& true_params, const Eigen::VectorXd& joints,
+                              size_t i, double noise_mm, std::normal_distribution<double>& noise,
+                              std::mt19937& rng) {
+  MeasuredPose pose;
+  pose.id = "P" + std::to_string(i + 1);
+  pose.joints_rad = joints;
+  pose.target_in_world = kin.Position(world_from_base, true_params, joints.data());
+  if (noise_mm > 0.0) {
+    for (int k = 0; k < 3; ++k) pose.target_in_world(k) += noise(rng);
+  }
+  return pose;
+}
+
+}  // namespace
+
 std::vector<MeasuredPose> SimulatePoses(const RobotModel& model,
                                         const Eigen::Isometry3d& world_from_base,
                                         const Eigen::VectorXd& true_params,
@@ -96,14 +116,8 @@ std::vector<MeasuredPose> SimulatePoses(const RobotModel& model,
   std::vector<MeasuredPose> poses;
   poses.reserve(joints_rad.size());
   for (size_t i = 0; i < joints_rad.size(); ++i) {
-    MeasuredPose pose;
-    pose.id = "P" + std::to_string(i + 1);
-    pose.joints_rad = joints_rad[i];
-    pose.target_in_world = kin.Position(world_from_base, true_params, joints_rad[i].data());
-    if (noise_mm > 0.0) {
-      for (int k = 0; k < 3; ++k) pose.target_in_world(k) += noise(rng);
-    }
-    poses.push_back(std::move(pose));
+    poses.push_back(
+        MeasuredPosition(kin, world_from_base, true_params, joints_rad[i], i, noise_mm, noise, rng));
   }
   return poses;
 }
@@ -120,14 +134,9 @@ std::vector<MeasuredPose> SimulateSixDofPoses(const RobotModel& model,
   std::vector<MeasuredPose> poses;
   poses.reserve(joints_rad.size());
   for (size_t i = 0; i < joints_rad.size(); ++i) {
-    MeasuredPose pose;
-    pose.id = "P" + std::to_string(i + 1);
-    pose.joints_rad = joints_rad[i];
-    pose.target_in_world = kin.Position(world_from_base, true_params, joints_rad[i].data());
+    MeasuredPose pose = MeasuredPosition(kin, world_from_base, true_params, joints_rad[i], i,
+                                         noise_mm, position_noise, rng);
     Eigen::Vector3d turn = Eigen::Vector3d::Zero();
-    if (noise_mm > 0.0) {
-      for (int k = 0; k < 3; ++k) pose.target_in_world(k) += position_noise(rng);
-    }
     if (noise_rad > 0.0) {
       for (int k = 0; k < 3; ++k) turn(k) = angle_noise(rng);
     }
