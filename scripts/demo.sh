@@ -2,7 +2,7 @@
 # README command 1: install what is missing, build the program, run the main job.
 # Only the program is built (the tests and benchmarks are the test command's), optimised and
 # without debug information, with clang (the compiler CI checks; it builds faster than gcc):
-# about 6 min on two cores from a clean clone (README, "Two commands").
+# 4 min 15 s on two cores from a clean clone, apt check included (README, "Two commands").
 set -euo pipefail
 cd "$(dirname "$0")/.."
 scripts/setup.sh
