@@ -217,7 +217,7 @@ CompensationResult Compensate(const ActiveSignature& a, const Eigen::Isometry3d&
   result.csv = "point";
   for (int i = 1; i <= n; ++i) result.csv += fmt::format(",q{}_deg", i);
   for (int i = 1; i <= n; ++i) result.csv += fmt::format(",nominal_q{}_deg", i);
-  result.csv += ",residual_mm,status\n";
+  result.csv += ",residual_mm,status,model_sigma_mm\n";
   for (const auto& row : t.rows()) {
     ++result.targets;
     using plausible::Quantity;
@@ -242,8 +242,14 @@ CompensationResult Compensate(const ActiveSignature& a, const Eigen::Isometry3d&
     for (int i = 0; i < n; ++i) result.csv += fmt::format(",{:.8f}", nominal(i) / kRadPerDeg);
     // Outside the residual map's support the solution is the parametric model's: usable,
     // and flagged.
-    result.csv += fmt::format(",{:.6f},{}\n", s.residual_mm,
-                              !ok ? "unreachable" : s.map_extrapolated ? "ok_outside_map" : "ok");
+    // The parametric model's standard error where the compensated joints put the tool: what
+    // the stored covariance lets one expect there (empty without one or without a solution).
+    const double model_sigma =
+        ok ? ParametricSigmaMm(a.model, a.signature, s.joints_rad) : std::nan("");
+    result.csv += fmt::format(",{:.6f},{},{}\n", s.residual_mm,
+                              !ok ? "unreachable" : s.map_extrapolated ? "ok_outside_map" : "ok",
+                              std::isnan(model_sigma) ? std::string()
+                                                      : fmt::format("{:.6f}", model_sigma));
     if (ok && s.map_extrapolated) ++result.outside_map;
     if (!ok) {
       result.unreachable.push_back(

@@ -75,7 +75,7 @@ std::string PredictCsv(const ActiveSignature& active, const Eigen::Isometry3d& f
 // armsig compensate: joints that make the calibrated robot reach each target of a CSV
 // (point,x_mm,y_mm,z_mm[,q1_deg,… the nominal program]).
 struct CompensationResult {
-  std::string csv;  // point,q…_deg,nominal_q…_deg,residual_mm,status
+  std::string csv;  // point,q…_deg,nominal_q…_deg,residual_mm,status,model_sigma_mm
   int targets = 0;
   std::vector<std::string> unreachable;  // one message per target that could not be reached
   int outside_map = 0;  // reached with the parametric model only: outside the map's support

@@ -4,6 +4,7 @@
 // YAML, read back, moves like the calibrated robot in the frame asked for.
 #include "workflows/signature.h"
 
+#include <fmt/format.h>
 #include <gtest/gtest.h>
 
 #include <functional>
@@ -12,8 +13,10 @@
 
 #include "calibration/synthetic.h"
 #include "core/error.h"
+#include "core/units.h"
 #include "db/calibrations.h"
 #include "db/robots.h"
+#include "io/csv.h"
 #include "io/model_yaml.h"
 #include "test_support.h"
 #include "workflows/lifecycle.h"
@@ -212,6 +215,69 @@ TEST(ParametricSigma, IsTheCovarianceCarriedThroughCentralDifferences) {
     }
     const double expected = std::sqrt((j * covariance * j.transpose()).trace() / 3.0);
     EXPECT_NEAR(workflows::ParametricSigmaMm(lab.model, signature, q), expected, 1e-6 * expected);
+  }
+}
+
+// compensate says, per target, what error the stored covariance lets one expect where the
+// compensated joints put the tool: the same figure predict gives at those joints; empty for a
+// set stored without a covariance.
+TEST(Compensate, EachTargetCarriesTheParametricSigmaAtItsCompensatedJoints) {
+  Lab lab;
+  std::mt19937 rng(5);
+  const Eigen::VectorXd params = calibration::RandomParameters(lab.model, 0.5, 1e-3, 0, rng);
+  db::CalibrationRecord record = lab.Store(params, true, SomeFrame());
+  const auto names = lab.model.ParameterNames();
+  const std::vector<int> identified = {0, 4, 9, 14, 22};
+  Eigen::MatrixXd a = Eigen::MatrixXd::Random(5, 5);
+  record.covariance = 1e-6 * (a * a.transpose() + Eigen::MatrixXd::Identity(5, 5));
+  for (int k : identified) record.covariance_parameters.push_back(names[k]);
+
+  // Targets the calibrated robot reaches, with the nominal program's joints beside them.
+  calibration::Kinematics kin(lab.model);
+  std::string targets = "point,x_mm,y_mm,z_mm,q1_deg,q2_deg,q3_deg,q4_deg,q5_deg,q6_deg\n";
+  std::uniform_real_distribution<double> angle(-1.0, 1.0);
+  for (int t = 0; t < 4; ++t) {
+    Eigen::VectorXd q(6);
+    for (int i = 0; i < 6; ++i) q(i) = angle(rng);
+    q(2) += 1.2;
+    const Eigen::Vector3d x = kin.Position(Eigen::Isometry3d::Identity(), params, q.data());
+    targets += fmt::format("T{},{:.6f},{:.6f},{:.6f}", t, x(0), x(1), x(2));
+    for (int i = 0; i < 6; ++i) targets += fmt::format(",{:.6f}", (q(i) + 0.01) * 180.0 / kPi);
+    targets += "\n";
+  }
+  WriteText(lab.dir.File("targets.csv"), targets);
+
+  auto sigmas = [&](const workflows::ActiveSignature& active) {
+    const auto result = workflows::Compensate(active, Eigen::Isometry3d::Identity(),
+                                              lab.dir.File("targets.csv"), std::nullopt);
+    WriteText(lab.dir.File("out.csv"), result.csv);
+    const io::CsvTable out = io::ReadCsvFile(lab.dir.File("out.csv"));
+    std::vector<std::pair<Eigen::VectorXd, std::string>> rows;
+    for (const auto& row : out.rows()) {
+      EXPECT_EQ(out.Text(row, out.Column("status")), "ok");
+      Eigen::VectorXd q(6);
+      for (int i = 0; i < 6; ++i)
+        q(i) = out.Number(row, out.Column("q" + std::to_string(i + 1) + "_deg")) * kPi / 180.0;
+      rows.emplace_back(q, out.Text(row, out.Column("model_sigma_mm")));
+    }
+    return rows;
+  };
+  // Without a covariance: no figure to give.
+  for (const auto& [q, sigma] : sigmas(workflows::LoadActiveSignature(lab.database, "puma")))
+    EXPECT_EQ(sigma, "");
+  {
+    db::WriteTransaction tx(lab.database);
+    db::InsertCalibration(lab.database, record);
+    tx.commit();
+  }
+  const auto active = workflows::LoadActiveSignature(lab.database, "puma");
+  const auto rows = sigmas(active);
+  ASSERT_EQ(rows.size(), 4u);
+  for (const auto& [q, sigma] : rows) {
+    ASSERT_FALSE(sigma.empty());
+    const double expected = workflows::ParametricSigmaMm(lab.model, active.signature, q);
+    EXPECT_GT(expected, 0.0);
+    EXPECT_NEAR(std::stod(sigma), expected, 1e-5 + 1e-4 * expected);
   }
 }
 
