@@ -191,12 +191,18 @@ Html ErrorSection(const ReportData& data, const std::optional<Figure>& map_figur
 Html WorstPosesSection(const ReportData& data) {
   const auto& run = data.run;
   const auto& residuals = run.validation_residuals;
+  // With the residual map: whether each pose lay inside its support (the map applied) or
+  // outside (the parametric prediction), and the map's predictive σ there.
+  const bool map = run.validation_map_extrapolated.size() == residuals.size() &&
+                   run.validation_map_sigma_mm.size() == residuals.size() && !residuals.empty();
   Html html;
   html +=
       "<h2>The ten worst validation poses</h2>\n<table id=\"worst\"><tr><th "
       "class=\"num\">#</th><th>pose</th><th class=\"num\">distance</th><th "
       "class=\"num\">dX</th><th class=\"num\">dY</th><th class=\"num\">dZ</th><th "
-      "class=\"num\">joints (deg)</th></tr>\n";
+      "class=\"num\">joints (deg)</th>";
+  if (map) html += "<th>residual map</th><th class=\"num\">map σ</th>";
+  html += "</tr>\n";
   int rank = 0;
   for (int i : WorstResiduals(residuals, 10)) {
     const auto* pose = (static_cast<size_t>(i) < data.poses.size() ? data.poses[i] : nullptr);
@@ -208,12 +214,19 @@ Html WorstPosesSection(const ReportData& data) {
     html += HtmlFormat(
         "<tr><td class=\"num\">{}</td><td class=\"pose\">{}</td><td class=\"num\">{}</td><td "
         "class=\"num\">{}</td><td class=\"num\">{}</td><td class=\"num\">{}</td><td "
-        "class=\"num\">{}</td></tr>\n",
+        "class=\"num\">{}</td>",
         ++rank,
         static_cast<size_t>(i) < run.validation_pose_ids.size() ? run.validation_pose_ids[i]
                                                                 : std::to_string(i + 1),
         Num(residuals[i].norm()), Num(residuals[i].x()), Num(residuals[i].y()),
         Num(residuals[i].z()), joints.empty() ? Html("&mdash;") : Html::Text(joints));
+    if (map) {
+      const bool outside = run.validation_map_extrapolated[i] != 0;
+      html += HtmlFormat("<td class=\"map\">{}</td><td class=\"num\">{}</td>",
+                         outside ? "outside its support" : "applied",
+                         outside ? Html("&mdash;") : Num(run.validation_map_sigma_mm[i]));
+    }
+    html += "</tr>\n";
   }
   html += "</table>\n";
   return html;

@@ -38,7 +38,8 @@ Html HeaderSection(const ReportData& data);
 // Error distances (nominal and calibrated, fit and validation), the residual map's
 // decision with its figure, the per-axis statistics.
 Html ErrorSection(const ReportData& data, const std::optional<figures::Figure>& map_figure);
-// The ten worst validation poses with their joints.
+// The ten worst validation poses with their joints, and with the residual map whether each
+// lay inside its support and the map's predictive σ there.
 Html WorstPosesSection(const ReportData& data);
 // Error against the air temperature: the figure and the slope with its uncertainty when
 // the span allows it, else why there is none.

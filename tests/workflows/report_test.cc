@@ -6,6 +6,7 @@
 #include "workflows/report.h"
 
 #include <SQLiteCpp/Transaction.h>
+#include <fmt/format.h>
 #include <gtest/gtest.h>
 
 #include <Eigen/Geometry>
@@ -270,6 +271,48 @@ TEST(Report, TenWorstPosesAreListedByIdLargestFirst) {
        at = worst.find("class=\"pose\"", at + 1))
     ++rows;
   EXPECT_EQ(rows, 10u);
+}
+
+// With the residual map, each of the worst poses says whether it lay inside the map's
+// support (and the map's σ there) or outside it; without the map, neither column.
+TEST(Report, WorstPosesSayWhetherTheMapAppliedAndItsSigma) {
+  Fixture f;
+  TempDir dir;
+  auto worst_table = [&](const std::string& name) {
+    const std::string html = ReadText(workflows::WriteReport(dir.File(name), f.input));
+    const size_t table = html.find("<table id=\"worst\">");
+    EXPECT_NE(table, std::string::npos);
+    return html.substr(table, html.find("</table>", table) - table);
+  };
+  EXPECT_EQ(worst_table("plain").find("residual map"), std::string::npos);
+
+  const size_t n = f.run.validation_residuals.size();
+  f.run.validation_map_extrapolated.assign(n, 0);
+  f.run.validation_map_sigma_mm.assign(n, 0.0);
+  for (size_t i = 0; i < n; ++i) {
+    f.run.validation_map_extrapolated[i] = i % 3 == 0;
+    f.run.validation_map_sigma_mm[i] = 0.001 * static_cast<double>(i + 1);
+  }
+  const std::string worst = worst_table("map");
+  EXPECT_NE(worst.find("<th>residual map</th>"), std::string::npos);
+  int rows = 0;
+  for (size_t i = 0; i < n; ++i) {
+    const size_t at = worst.find("<td class=\"pose\">" + f.run.validation_pose_ids[i] + "</td>");
+    if (at == std::string::npos) continue;  // not among the ten worst
+    ++rows;
+    const std::string row = worst.substr(at, worst.find("</tr>", at) - at);
+    if (i % 3 == 0) {
+      EXPECT_NE(row.find("<td class=\"map\">outside its support</td><td class=\"num\">&mdash;</td>"),
+                std::string::npos)
+          << row;
+    } else {
+      EXPECT_NE(row.find(fmt::format("<td class=\"map\">applied</td><td class=\"num\">{:.4f}</td>",
+                                     0.001 * static_cast<double>(i + 1))),
+                std::string::npos)
+          << row;
+    }
+  }
+  EXPECT_EQ(rows, 10);
 }
 
 TEST(Report, ChangeSectionIsNeverAnEmptyTableWithoutASentence) {
