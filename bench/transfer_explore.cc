@@ -87,6 +87,35 @@ Errors Evaluate(const RobotModel& model, const Eigen::Isometry3d& base, const Ei
 }
 
 // A fitted signature: parameters, base, and the map (used or not).
+// `count` rows spread through a file of n: ⌊(k + ½)·n/count⌋, k = 0…count−1 (or its first
+// `count` rows: one line of the robot).
+std::vector<char> Placing(int n, int count, bool first_rows = false) {
+  std::vector<char> in(n, 0);
+  for (int k = 0; k < count; ++k) in[first_rows ? k : static_cast<int>((k + 0.5) * n / count)] = 1;
+  return in;
+}
+
+// The nightly path's two sessions: C's poses (frame 1) and the poses of `x` marked in
+// `placing` (frame 2, the new set-up) to fit on; x's other poses to evaluate on.
+struct Placed {
+  std::vector<MeasuredPose> fit, rest;
+};
+Placed PlaceOn(const Series& c, const Series& x, const std::vector<char>& placing) {
+  Placed out;
+  out.fit = c.poses;
+  for (auto& p : out.fit) p.frame = 1;
+  for (size_t i = 0; i < x.poses.size(); ++i) {
+    if (!placing[i]) {
+      out.rest.push_back(x.poses[i]);
+      continue;
+    }
+    MeasuredPose p = x.poses[i];
+    p.frame = 2;
+    out.fit.push_back(p);
+  }
+  return out;
+}
+
 struct Signature {
   std::string label;
   EstimationResult fit;
@@ -146,19 +175,7 @@ int JointFits(const RobotModel& model, const std::string& b_path) {
     const int n = static_cast<int>(b.poses.size());
     for (int count : {30, 10}) {
       for (int layout = 0; layout < 2; ++layout) {
-        std::vector<char> in(n, 0);
-        for (int k = 0; k < count; ++k) in[layout == 0 ? k : static_cast<int>((k + 0.5) * n / count)] = 1;
-        std::vector<MeasuredPose> both = c.poses, rest;
-        for (auto& p : both) p.frame = 1;
-        for (int i = 0; i < n; ++i) {
-          if (!in[i]) {
-            rest.push_back(b.poses[i]);
-            continue;
-          }
-          MeasuredPose p = b.poses[i];
-          p.frame = 2;
-          both.push_back(p);
-        }
+        auto [both, rest] = PlaceOn(c, b, Placing(n, count, layout == 0));
         for (const char* spec : {"geometric", "auto"}) {
           const Signature s = Fit(model, both, spec, true);
           const Errors e = Evaluate(model, s.fit.base_of(2), s.fit.params, nullptr, rest);
@@ -228,19 +245,7 @@ int SmoothFits(const RobotModel& model, const std::string& b_path) {
       const Series b = Load("X", other, orientation);
       const int n = static_cast<int>(b.poses.size());
       for (int count : {30, 10}) {
-        std::vector<char> in(n, 0);
-        for (int k = 0; k < count; ++k) in[static_cast<int>((k + 0.5) * n / count)] = 1;
-        std::vector<MeasuredPose> both = c.poses, rest;
-        for (auto& p : both) p.frame = 1;
-        for (int i = 0; i < n; ++i) {
-          if (!in[i]) {
-            rest.push_back(b.poses[i]);
-            continue;
-          }
-          MeasuredPose p = b.poses[i];
-          p.frame = 2;
-          both.push_back(p);
-        }
+        auto [both, rest] = PlaceOn(c, b, Placing(n, count));
         const Signature s = Fit(model, both, "auto", true);
         const Errors e = Evaluate(model, s.fit.base_of(2), s.fit.params, nullptr, rest);
         double cut = e.Mean(), open = e.Mean();
@@ -281,19 +286,7 @@ int WeightFits(const RobotModel& model, const std::string& b_path) {
     const Series b = Load("X", other, true);
     const int n = static_cast<int>(b.poses.size());
     for (int count : {10, 30}) {
-      std::vector<char> in(n, 0);
-      for (int k = 0; k < count; ++k) in[static_cast<int>((k + 0.5) * n / count)] = 1;
-      std::vector<MeasuredPose> both = c.poses, rest;
-      for (auto& p : both) p.frame = 1;
-      for (int i = 0; i < n; ++i) {
-        if (!in[i]) {
-          rest.push_back(b.poses[i]);
-          continue;
-        }
-        MeasuredPose p = b.poses[i];
-        p.frame = 2;
-        both.push_back(p);
-      }
+      auto [both, rest] = PlaceOn(c, b, Placing(n, count));
       for (double w : {0.0, 150.0, 50.0}) {
         EstimationOptions o;
         o.parameters = ParseParameterSpec(model, "all");
@@ -325,19 +318,7 @@ int FamilyFits(const RobotModel& model, const std::string& b_path) {
       const Series b = Load("X", other, orientation);
       const int n = static_cast<int>(b.poses.size());
       for (int count : {10, 30}) {
-        std::vector<char> in(n, 0);
-        for (int k = 0; k < count; ++k) in[static_cast<int>((k + 0.5) * n / count)] = 1;
-        std::vector<MeasuredPose> both = c.poses, rest;
-        for (auto& p : both) p.frame = 1;
-        for (int i = 0; i < n; ++i) {
-          if (!in[i]) {
-            rest.push_back(b.poses[i]);
-            continue;
-          }
-          MeasuredPose p = b.poses[i];
-          p.frame = 2;
-          both.push_back(p);
-        }
+        auto [both, rest] = PlaceOn(c, b, Placing(n, count));
         for (const std::string& spec : {std::string("all"), no_harmonics}) {
           EstimationOptions o;
           o.parameters = ParseParameterSpec(model, spec);
