@@ -28,6 +28,26 @@ Eigen::Matrix3d ProbeRotation() {
       .toRotationMatrix();
 }
 
+// Two sessions as one fit sees them: `first` in frame 1, `second` in frame 2 with ids of
+// their own (S0, S1, …); with `every_other_without_orientation`, the odd ones of the second
+// session lose their measured orientation.
+std::vector<MeasuredPose> TwoSessions(std::vector<MeasuredPose> first,
+                                      std::vector<MeasuredPose> second,
+                                      bool every_other_without_orientation = false) {
+  std::vector<MeasuredPose> poses;
+  for (auto& p : first) {
+    p.frame = 1;
+    poses.push_back(p);
+  }
+  for (size_t i = 0; i < second.size(); ++i) {
+    second[i].frame = 2;
+    second[i].id = "S" + std::to_string(i);
+    if (every_other_without_orientation && i % 2) second[i].orientation.reset();
+    poses.push_back(second[i]);
+  }
+  return poses;
+}
+
 TEST(LineariseOrientation, MatchesCentralDifferencesByEveryParameterAndTheToolTurn) {
   // The residual ε(p) = log(R_measᵀ·R_last(p)·R_tool) against its linearisation
   // by_world_turn · (rotation rows of PoseAndJacobian), and ε(δ) with R_tool·exp([δ]×)
@@ -183,17 +203,7 @@ TEST(SixDofFit, APerSetUpToolRotationFollowsAProbeRemountedBetweenSessions) {
                                    RandomConfigurations(model, 150, rng, 3.0), 0.02, 1e-5, rng);
   auto second = SimulateSixDofPoses(model, moved, truth, remounted,
                                     RandomConfigurations(model, 150, rng, 3.0), 0.02, 1e-5, rng);
-  std::vector<MeasuredPose> poses;
-  for (auto& p : first) {
-    p.frame = 1;
-    poses.push_back(p);
-  }
-  for (size_t i = 0; i < second.size(); ++i) {
-    second[i].frame = 2;
-    second[i].id = "S" + std::to_string(i);
-    if (i % 2) second[i].orientation.reset();
-    poses.push_back(second[i]);
-  }
+  const std::vector<MeasuredPose> poses = TwoSessions(first, second, true);
   EstimationOptions o;
   o.parameters = ParseParameterSpec(model, "geometric");
   const auto r = Estimate(model, poses, o);
@@ -230,17 +240,7 @@ TEST(SixDofFit, ASharedToolRotationIsOneUnknownForSessionsWhoseProbeStayedOn) {
                                      RandomConfigurations(model, 150, draw, 3.0), 0.02, 1e-5, draw);
     auto second = SimulateSixDofPoses(model, moved, truth, second_probe,
                                       RandomConfigurations(model, 60, draw, 3.0), 0.02, 1e-5, draw);
-    std::vector<MeasuredPose> poses;
-    for (auto& p : first) {
-      p.frame = 1;
-      poses.push_back(p);
-    }
-    for (size_t i = 0; i < second.size(); ++i) {
-      second[i].frame = 2;
-      second[i].id = "S" + std::to_string(i);
-      poses.push_back(second[i]);
-    }
-    return poses;
+    return TwoSessions(first, second);
   };
   EstimationOptions own;
   own.parameters = ParseParameterSpec(model, "geometric");
