@@ -81,8 +81,8 @@ void SetupSignatureCommands(CLI::App& parent, const GlobalOptions& global, Runne
     for (const auto& why : result.unreachable) spdlog::warn("compensate: {}", why);
     if (result.outside_map > 0) {
       spdlog::warn(
-          "compensate: {} targets lie outside the residual map's support: their joints are the "
-          "parametric model's (status ok_outside_map)",
+          "compensate: {} targets lie outside the residual map's support: only the parts of the "
+          "map that have data there shaped their joints (status ok_outside_map)",
           result.outside_map);
     }
     io::WriteFileAtomically(c->out, result.csv);

@@ -54,14 +54,19 @@ JointSolution SolveJoints(const RobotModel& model, const Eigen::Isometry3d& worl
   Eigen::Matrix<double, 3, Eigen::Dynamic> jp(3, model.num_parameters());
   Eigen::Matrix<double, 3, Eigen::Dynamic> map_jacobian(3, n);
   // Position (parametric + the map's correction in the measuring frame) and ∂x/∂θ̄.
+  Eigen::VectorXd corrected(n);
   auto position = [&](const Eigen::VectorXd& q, Eigen::MatrixXd* jacobian) {
-    Eigen::Vector3d x = kin.PositionAndJacobian(world_from_base, params, q.data(), jp);
-    // ∂x/∂θ̄ (encoder angles): the joint Jacobian; the terms' own dependence on the angles
-    // is second order (coefficient · derivative of the basis) and left to the iteration.
+    // The map's joint curves correct the angles the parametric model sees.
+    const bool curves_inside = !map || map->CorrectJoints(q.data(), corrected.data());
+    Eigen::Vector3d x =
+        kin.PositionAndJacobian(world_from_base, params, map ? corrected.data() : q.data(), jp);
+    // ∂x/∂θ̄ (encoder angles): the joint Jacobian; the terms' and the curves' own dependence
+    // on the angles is second order (a coefficient times a basis's slope) and left to the
+    // iteration.
     if (jacobian) *jacobian = kin.JointJacobian();
     if (map) {
       const MapPrediction p = map->PredictWithJacobian(q.data(), map_jacobian);
-      s.map_extrapolated = !p.supported;
+      s.map_extrapolated = !(p.supported && curves_inside);
       x += world_from_base.linear() * p.correction_in_base_mm;
       if (jacobian) *jacobian += world_from_base.linear() * map_jacobian;
     }

@@ -2,6 +2,7 @@
 
 #include <Eigen/Cholesky>
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <cstdio>
 #include <limits>
@@ -68,13 +69,19 @@ void ParallelFor(int count, int threads, const Body& body) {
 }  // namespace
 
 ResidualMap::ResidualMap(ResidualMapData data) : data_(std::move(data)) {
-  Require(data_.version == ResidualMapData::kVersion,
-          "version " + std::to_string(data_.version) + " is not known (expected " +
+  Require(data_.version >= 1 && data_.version <= ResidualMapData::kVersion,
+          "version " + std::to_string(data_.version) + " is not known (expected 1 to " +
               std::to_string(ResidualMapData::kVersion) + ")");
+  Require(data_.version >= 2 || data_.curves.empty(), "a version-1 map has no joint curves");
   Require(data_.kind == ResidualMapData::kKind, "unknown kind '" + data_.kind + "'");
   Require(data_.output_frame == "base" || data_.output_frame == "joint1",
           "output frame must be 'base' or 'joint1', got '" + data_.output_frame + "'");
   Require(data_.num_joints > 0, "the model's joint count must be positive");
+  try {
+    CheckJointCurves(data_.curves, data_.num_joints);
+  } catch (const std::invalid_argument& e) {
+    Require(false, e.what());
+  }
   const int j = static_cast<int>(data_.joints.size());
   Require(j > 0, "no feature joints");
   Require(data_.feature_scale.size() == 2 * data_.joints.size(),
@@ -203,6 +210,10 @@ MapPrediction ResidualMap::Evaluate(
   return p;
 }
 
+bool ResidualMap::CorrectJoints(const double* joints_rad, double* corrected_rad) const {
+  return ApplyJointCurves(data_.curves, data_.num_joints, joints_rad, corrected_rad);
+}
+
 MapPrediction ResidualMap::Predict(const double* joints_rad) const {
   return Evaluate(joints_rad, nullptr);
 }
@@ -315,11 +326,17 @@ std::vector<MappedPosition> PredictPositions(const RobotModel& model,
   const int count = static_cast<int>(joints_rad.size());
   std::vector<MappedPosition> out(count);
   const int workers = std::max(1, std::min(threads, count / 1024 + 1));
+  std::vector<char> curves_inside(count, 1);
   ParallelFor(workers, workers, [&](int w) {
     Kinematics kin(model);
+    Eigen::VectorXd corrected(model.num_joints());
     for (int i = count * w / workers; i < count * (w + 1) / workers; ++i) {
       out[i].parametric_mm = kin.Position(world_from_base, params, joints_rad[i].data());
       out[i].position_mm = out[i].parametric_mm;
+      if (map && map->has_curves()) {
+        curves_inside[i] = map->CorrectJoints(joints_rad[i].data(), corrected.data());
+        out[i].position_mm = kin.Position(world_from_base, params, corrected.data());
+      }
       out[i].sigma_mm = map && with_sigma ? map->CorrectionSigmaMm(joints_rad[i].data())
                                           : std::numeric_limits<double>::quiet_NaN();
     }
@@ -331,8 +348,8 @@ std::vector<MappedPosition> PredictPositions(const RobotModel& model,
   std::vector<char> supported;
   map->PredictBatch(q, corrections, supported, threads);
   for (int i = 0; i < count; ++i) {
-    out[i].map_applied = supported[i];
-    out[i].extrapolated = !supported[i];
+    out[i].map_applied = supported[i] && curves_inside[i];
+    out[i].extrapolated = !out[i].map_applied;
     if (supported[i]) out[i].position_mm += world_from_base.linear() * corrections.col(i);
   }
   return out;
@@ -359,6 +376,16 @@ void ResidualMapOptions::Check() const {
     fail("support quantile in (0, 1], margin ≥ 1");
   }
   if (threads < 1) fail("at least one thread");
+  if (curve_knots != 0 && (curve_knots < 4 || curve_knots > 3600)) {
+    fail("joint curves: 0 (none) or 4 to 3600 knots per turn");
+  }
+  if (curve_knots != 0 && curve_smoothing.empty()) fail("joint curves: empty smoothing grid");
+  if (!std::is_sorted(curve_smoothing.begin(), curve_smoothing.end())) {
+    fail("the grids must be ascending");
+  }
+  for (double r : curve_smoothing) {
+    if (!(r > 0)) fail("joint curves: smoothing weights must be > 0");
+  }
 }
 
 namespace {
@@ -445,6 +472,7 @@ class MapFitter {
   void LineariseParametricFit();
   bool ChooseFeatures();
   void CrossValidateParametricModel();
+  void FitCurves();
   void SetSupportRadius();
   const Eigen::MatrixXf& Kernel(int li);
   Score CrossValidate(int li, int ri);
@@ -453,6 +481,13 @@ class MapFitter {
   void FitMap();
   void Decide();
   ResidualMapData& map() { return result_.map; }
+  // Joint curves: training pose t's contribution to the normal equations of the curve
+  // coefficients (P = joints × knots) for the target y (map frame), and its correction.
+  void AddCurveRows(int t, const Eigen::Vector3d& y, Eigen::MatrixXd* normal,
+                    Eigen::VectorXd& rhs) const;
+  Eigen::Vector3d CurveCorrection(int t, const Eigen::VectorXd& x) const;
+  Eigen::VectorXd SolveCurves(const Eigen::MatrixXd& normal, const Eigen::VectorXd& rhs,
+                              double smoothing) const;
 
   const RobotModel& model_;
   const EstimationResult& fit_;
@@ -473,6 +508,14 @@ class MapFitter {
   std::vector<std::vector<int>> fold_rows_, train_rows_;  // per fold: in it, and not
   std::map<int, Eigen::MatrixXf> kernels_;                // by ℓ index, the few most recent
   std::map<std::pair<int, int>, Score> scored_;
+  // Joint curves: per training pose and curve joint, the bumps under its angle and the
+  // joint's lever ∂x/∂θ_j in the map frame (mt × curve joints, row-major).
+  int knots_ = 0, curve_joints_ = 0;
+  std::vector<CurveSpan> span_;
+  std::vector<Eigen::Vector3d> lever_;
+  Eigen::MatrixXd penalty_;  // P × P: the periodic second differences' DᵀD
+  double penalty_scale_ = 0.0;
+  std::vector<int> measured_;  // per coefficient: 1 when a training pose lies within a knot of it
 };
 
 ResidualMapFit MapFitter::Run() {
@@ -480,6 +523,7 @@ ResidualMapFit MapFitter::Run() {
   LineariseParametricFit();
   if (!ChooseFeatures()) return std::move(result_);
   CrossValidateParametricModel();
+  FitCurves();
   SetSupportRadius();
   if (!SearchGrid()) return std::move(result_);
   FitMap();
@@ -581,6 +625,150 @@ void MapFitter::CrossValidateParametricModel() {
       (fold_of_[t] == f ? fold_rows_ : train_rows_)[f].push_back(t);
     }
   }
+}
+
+void MapFitter::AddCurveRows(int t, const Eigen::Vector3d& y, Eigen::MatrixXd* normal,
+                             Eigen::VectorXd& rhs) const {
+  std::array<int, 32> column{};
+  std::array<Eigen::Vector3d, 32> g;
+  int used = 0;
+  for (int k = 0; k < curve_joints_ && used + 4 <= 32; ++k) {
+    const CurveSpan& s = span_[t * curve_joints_ + k];
+    for (int b = 0; b < 4; ++b) {
+      column[used] = k * knots_ + (s.first + b) % knots_;
+      g[used++] = lever_[t * curve_joints_ + k] * s.weight[b];
+    }
+  }
+  for (int a = 0; a < used; ++a) {
+    rhs(column[a]) += g[a].dot(y);
+    if (!normal) continue;
+    for (int b = 0; b < used; ++b) (*normal)(column[a], column[b]) += g[a].dot(g[b]);
+  }
+}
+
+Eigen::Vector3d MapFitter::CurveCorrection(int t, const Eigen::VectorXd& x) const {
+  Eigen::Vector3d c = Eigen::Vector3d::Zero();
+  for (int k = 0; k < curve_joints_; ++k) {
+    const CurveSpan& s = span_[t * curve_joints_ + k];
+    double delta = 0.0;
+    for (int b = 0; b < 4; ++b) delta += s.weight[b] * x(k * knots_ + (s.first + b) % knots_);
+    c += lever_[t * curve_joints_ + k] * delta;
+  }
+  return c;
+}
+
+// Penalised least squares: the second differences of neighbouring coefficients weigh
+// `smoothing` times the data's mean weight per coefficient. Where no pose was measured the
+// curve is pulled to zero (as hard as the data's mean weight pulls a measured knot): an
+// arc of a joint never measured gets no correction, not the bridge between its ends. A
+// millionth keeps a constant the parametric model already took determined.
+Eigen::VectorXd MapFitter::SolveCurves(const Eigen::MatrixXd& normal, const Eigen::VectorXd& rhs,
+                                       double smoothing) const {
+  Eigen::MatrixXd a = normal + (smoothing * penalty_scale_) * penalty_;
+  a.diagonal().array() += 1e-6 * penalty_scale_;
+  for (size_t c = 0; c < measured_.size(); ++c) {
+    if (!measured_[c]) a(c, c) += penalty_scale_;
+  }
+  return a.ldlt().solve(rhs);
+}
+
+// Stage 1: the joint curves, their smoothing chosen by the same folds as the kernel's
+// hyperparameters (walked from the middle of the grid to the best neighbour). Each fold's
+// refit residuals then become what that fold's curves leave, so the kernel's
+// cross-validation below scores the two stages together.
+void MapFitter::FitCurves() {
+  if (options_.curve_knots == 0) return;
+  knots_ = options_.curve_knots;
+  const std::vector<int>& joints = map().joints;
+  curve_joints_ = static_cast<int>(joints.size());
+  const int p = curve_joints_ * knots_;
+  span_.resize(static_cast<size_t>(mt_) * curve_joints_);
+  lever_.resize(span_.size());
+  Kinematics kin(model_);
+  for (int t = 0; t < mt_; ++t) {
+    const MeasuredPose& pose = poses_[train_[t]];
+    kin.Position(fit_.base_of(pose.frame), fit_.params, pose.joints_rad.data());
+    const Eigen::Matrix<double, 3, Eigen::Dynamic> lever = kin.JointJacobian();
+    for (int k = 0; k < curve_joints_; ++k) {
+      span_[t * curve_joints_ + k] = CurveSpanAt(knots_, pose.joints_rad(joints[k]));
+      lever_[t * curve_joints_ + k] = frame_[t].transpose() * lever.col(joints[k]);
+    }
+  }
+  // A knot is measured when a training pose lies within one knot spacing of it (its bump
+  // weighs at least 1/6 there).
+  measured_.assign(p, 0);
+  for (int t = 0; t < mt_; ++t) {
+    for (int k = 0; k < curve_joints_; ++k) {
+      const CurveSpan& s = span_[t * curve_joints_ + k];
+      for (int b = 0; b < 4; ++b) {
+        if (s.weight[b] >= 1.0 / 6.0) measured_[k * knots_ + (s.first + b) % knots_] = 1;
+      }
+    }
+  }
+  // Normal matrices: all training poses, and each fold's share (its complement trains).
+  Eigen::MatrixXd all = Eigen::MatrixXd::Zero(p, p);
+  std::vector<Eigen::MatrixXd> train(folds_);
+  std::vector<Eigen::VectorXd> rhs(folds_, Eigen::VectorXd::Zero(p));
+  Eigen::VectorXd unused = Eigen::VectorXd::Zero(p);
+  for (int t = 0; t < mt_; ++t) AddCurveRows(t, Eigen::Vector3d::Zero(), &all, unused);
+  for (int f = 0; f < folds_; ++f) {
+    Eigen::MatrixXd in_fold = Eigen::MatrixXd::Zero(p, p);
+    for (int t : fold_rows_[f]) AddCurveRows(t, Eigen::Vector3d::Zero(), &in_fold, unused);
+    train[f] = all - in_fold;
+    for (int t : train_rows_[f]) AddCurveRows(t, -refit_[f].row(t).transpose(), nullptr, rhs[f]);
+  }
+  penalty_scale_ = all.diagonal().mean();
+  if (!(penalty_scale_ > 0)) return;  // no joint moves the target at these poses
+  penalty_ = Eigen::MatrixXd::Zero(p, p);
+  for (int k = 0; k < curve_joints_; ++k) {
+    for (int m = 0; m < knots_; ++m) {
+      const int c[3] = {k * knots_ + m, k * knots_ + (m + 1) % knots_, k * knots_ + (m + 2) % knots_};
+      const double w[3] = {1.0, -2.0, 1.0};
+      for (int a = 0; a < 3; ++a)
+        for (int b = 0; b < 3; ++b) penalty_(c[a], c[b]) += w[a] * w[b];
+    }
+  }
+  const std::vector<double>& grid = options_.curve_smoothing;
+  std::map<int, std::pair<double, std::vector<Eigen::VectorXd>>> scored;  // by grid index
+  auto score = [&](int gi) -> double {
+    if (auto it = scored.find(gi); it != scored.end()) return it->second.first;
+    std::vector<Eigen::VectorXd> x(folds_);
+    std::vector<double> sum(folds_, 0.0);
+    ParallelFor(folds_, options_.threads, [&](int f) {
+      x[f] = SolveCurves(train[f], rhs[f], grid[gi]);
+      for (int t : fold_rows_[f])
+        sum[f] += (refit_[f].row(t).transpose() + CurveCorrection(t, x[f])).norm();
+    });
+    double mean = 0.0;
+    for (double v : sum) mean += v / mt_;
+    if (!std::isfinite(mean)) mean = std::numeric_limits<double>::infinity();
+    scored[gi] = {mean, std::move(x)};
+    return mean;
+  };
+  int best = static_cast<int>(grid.size()) / 2;
+  for (double best_mean = score(best);;) {
+    int next = best;
+    for (int step : {-1, 1}) {
+      const int gi = best + step;
+      if (gi < 0 || gi >= static_cast<int>(grid.size())) continue;
+      if (const double m = score(gi); m < best_mean) {
+        best_mean = m;
+        next = gi;
+      }
+    }
+    if (next == best) break;
+    best = next;
+  }
+  const auto& [mean, x] = scored[best];
+  if (!std::isfinite(mean)) return;
+  result_.cv_mean_mm_curves = mean;
+  for (int f = 0; f < folds_; ++f) {
+    for (int t = 0; t < mt_; ++t) refit_[f].row(t) += CurveCorrection(t, x[f]).transpose();
+  }
+  JointCurvesData& curves = map().curves;
+  curves.knots = knots_;
+  curves.joints = joints;
+  curves.smoothing = grid[best];
 }
 
 // Half squared distances between the training poses, and the support radius from their
@@ -712,6 +900,24 @@ void MapFitter::FitMap() {
   for (int t = 0; t < mt_; ++t) {
     y.row(t) = -(frame_[t].transpose() * fit_.fit_residuals[train_[t]]).transpose();
   }
+  data.version = data.curves.empty() ? 1 : ResidualMapData::kVersion;  // as before, without
+  if (!data.curves.empty()) {
+    // The curves on every training pose; the kernel learns what they leave.
+    const int p = curve_joints_ * knots_;
+    Eigen::MatrixXd normal = Eigen::MatrixXd::Zero(p, p);
+    Eigen::VectorXd rhs = Eigen::VectorXd::Zero(p);
+    for (int t = 0; t < mt_; ++t) AddCurveRows(t, y.row(t).transpose(), &normal, rhs);
+    const Eigen::VectorXd x = SolveCurves(normal, rhs, data.curves.smoothing);
+    for (int t = 0; t < mt_; ++t) y.row(t) -= CurveCorrection(t, x).transpose();
+    data.curves.values_rad.assign(curve_joints_, std::vector<double>(knots_));
+    data.curves.measured.assign(curve_joints_, std::vector<int>(knots_));
+    for (int k = 0; k < curve_joints_; ++k) {
+      for (int m = 0; m < knots_; ++m) {
+        data.curves.values_rad[k][m] = x(k * knots_ + m);
+        data.curves.measured[k][m] = measured_[k * knots_ + m];
+      }
+    }
+  }
   const Eigen::MatrixXd w = k.llt().solve(y);
   data.centres_rad.resize(mt_);
   data.weights_mm.resize(mt_);
@@ -743,11 +949,17 @@ void MapFitter::Decide() {
   } else {
     std::snprintf(verdict, sizeof verdict, "%.1f %% worse with the map", change);
   }
-  char text[256];
+  char curves[96] = "";
+  if (std::isfinite(result_.cv_mean_mm_curves)) {
+    std::snprintf(curves, sizeof curves, " (%.4f mm with its joint curves alone)",
+                  result_.cv_mean_mm_curves);
+  }
+  char text[384];
   std::snprintf(text, sizeof text,
-                "%d-fold cross-validation on %d fit poses: %.4f mm with the map, %.4f mm without "
-                "it: %s",
-                folds_, mt_, result_.cv_mean_mm_with_map, result_.cv_mean_mm_parametric, verdict);
+                "%d-fold cross-validation on %d fit poses: %.4f mm with the map%s, %.4f mm "
+                "without it: %s",
+                folds_, mt_, result_.cv_mean_mm_with_map, curves, result_.cv_mean_mm_parametric,
+                verdict);
   result_.decision = text;
 }
 

@@ -1,6 +1,16 @@
 // The residual map: what the parametric model still leaves, learned as a smooth
 // function of the joint angles and added to its predictions — but only where it has been
-// shown to help, and only where it has data.
+// shown to help, and only where it has data. Two stages, fitted and cross-validated
+// together:
+//
+// 1. Joint curves (calibration/joint_curves.h): each joint's angle error as a periodic
+//    cubic spline of its own encoder angle, `curve_knots` knots per turn, applied to the
+//    encoder angles before the parametric model. Fitted by penalised least squares to the
+//    parametric residuals through each joint's lever (∂x/∂θ_j at the fitted parameters),
+//    with a second-difference penalty whose weight is chosen by cross-validation. An
+//    encoder's or a gear's error depends on that joint's angle only, so a curve carries to
+//    configurations no fit pose is near, as long as each joint's angle was measured.
+// 2. A kernel over all joints together, for what the curves leave:
 //
 // Model. Kernel ridge regression (the mean of a Gaussian process) of the 3-D residual on
 // the joint angles of the joints that move the target. Features u(θ̄) = (a_j sin θ̄_j,
@@ -49,6 +59,7 @@
 
 #include "calibration/cross_validation.h"
 #include "calibration/estimation.h"
+#include "calibration/joint_curves.h"
 #include "calibration/model.h"
 #include "core/types.h"
 
@@ -56,7 +67,8 @@ namespace armsig::calibration {
 
 // Everything a stored map is: plain values, for JSON and the database (io/residual_map_json.h).
 struct ResidualMapData {
-  static constexpr int kVersion = 1;
+  // Version 1: the kernel alone (maps stored before the joint curves; still read).
+  static constexpr int kVersion = 2;
   static constexpr const char* kKind = "gaussian_kernel_ridge";
   int version = kVersion;
   std::string kind = kKind;           // Gaussian kernel on sin/cos joint features
@@ -70,6 +82,7 @@ struct ResidualMapData {
   double support_radius = 0.0;  // scaled feature units; farther from every centre: not applied
   std::vector<std::vector<double>> centres_rad;   // M × joints.size(): training poses' angles
   std::vector<std::array<double, 3>> weights_mm;  // M × 3
+  JointCurvesData curves;                         // the first stage (empty: none)
 };
 
 struct MapPrediction {
@@ -88,7 +101,13 @@ class ResidualMap {
   const ResidualMapData& data() const { return data_; }
   int centres() const { return static_cast<int>(data_.centres_rad.size()); }
 
+  // The kernel's correction (stage 2) at the encoder angles.
   MapPrediction Predict(const double* joints_rad) const;
+  // Stage 1: the angles the parametric model is evaluated at (encoder angles + the joint
+  // curves; a copy when the map has none), num_joints of them. False when some joint's
+  // angle lies where its curve had no data (the correction is applied all the same).
+  bool CorrectJoints(const double* joints_rad, double* corrected_rad) const;
+  bool has_curves() const { return !data_.curves.empty(); }
   // The same with ∂correction/∂θ̄ (3 × num_joints; zero when unsupported), for compensation.
   MapPrediction PredictWithJacobian(
       const double* joints_rad,
@@ -123,12 +142,13 @@ class ResidualMap {
   double cutoff_half_d2_ = 0.0;  // kernel below 1e-15 beyond this
 };
 
-// Positions with a map: parametric + R·correction where supported.
+// Positions with a map: the parametric model at the curve-corrected angles, + R·correction
+// where the kernel has support.
 struct MappedPosition {
   Eigen::Vector3d position_mm = Eigen::Vector3d::Zero();    // what to use
   Eigen::Vector3d parametric_mm = Eigen::Vector3d::Zero();  // the parametric model's
-  bool map_applied = false;   // false: no map, or outside its support (see extrapolated)
-  bool extrapolated = false;  // a map exists but this configuration is outside its support
+  bool map_applied = false;   // all of the map applied (false: no map, or see extrapolated)
+  bool extrapolated = false;  // outside the kernel's support, or a joint outside its curve's
   double sigma_mm = 0.0;      // latent σ of the correction per coordinate (NaN if not asked)
 };
 // `map` may be null (parametric only). Sigma is computed only when `with_sigma` (about
@@ -161,6 +181,11 @@ struct ResidualMapOptions {
   double support_quantile = 0.99;
   double support_margin = 1.25;
   int threads = 2;  // folds evaluated in parallel
+  // Joint curves: knots per turn (0: no curves) and the penalty weights searched (relative
+  // to the data's mean weight per coefficient), walked from the middle like the grid above.
+  // 180 (2°): chosen on an inner split of the UR10's fit poses (docs/explanation/residual-map.md).
+  int curve_knots = 180;
+  std::vector<double> curve_smoothing = {1e-4, 1e-3, 1e-2, 0.1, 1.0, 10.0};
   void Check() const;
 };
 
@@ -177,6 +202,8 @@ struct ResidualMapFit {
   // NaN when not computed (too few poses, no fit).
   double cv_mean_mm_parametric = std::numeric_limits<double>::quiet_NaN();
   double cv_mean_mm_with_map = std::numeric_limits<double>::quiet_NaN();
+  // The joint curves alone (stage 1): NaN when the map has none.
+  double cv_mean_mm_curves = std::numeric_limits<double>::quiet_NaN();
   ResidualMapData map;                     // empty centres when it could not be fitted
   std::vector<CrossValidationPoint> grid;  // every (ℓ, λ) evaluated, in order
 };

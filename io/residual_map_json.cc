@@ -15,7 +15,7 @@ nlohmann::json ResidualMapToJson(const ResidualMapData& map) {
   for (int j : map.joints) joints.push_back(j + 1);
   nlohmann::json weights = nlohmann::json::array();
   for (const auto& w : map.weights_mm) weights.push_back({w[0], w[1], w[2]});
-  return {{"version", map.version},
+  nlohmann::json out = {{"version", map.version},
           {"kind", map.kind},
           {"output_frame", map.output_frame},
           {"num_joints", map.num_joints},
@@ -27,6 +27,16 @@ nlohmann::json ResidualMapToJson(const ResidualMapData& map) {
           {"support_radius", map.support_radius},
           {"centres_rad", map.centres_rad},
           {"weights_mm", weights}};
+  if (!map.curves.empty()) {
+    nlohmann::json curve_joints = nlohmann::json::array();
+    for (int j : map.curves.joints) curve_joints.push_back(j + 1);
+    out["curves"] = {{"knots", map.curves.knots},
+                     {"joints", curve_joints},
+                     {"smoothing", map.curves.smoothing},
+                     {"values_rad", map.curves.values_rad},
+                     {"measured", map.curves.measured}};
+  }
+  return out;
 }
 
 nlohmann::json ResidualModelJson(const calibration::ResidualMapFit& fit) {
@@ -45,6 +55,10 @@ nlohmann::json ResidualModelJson(const calibration::ResidualMapFit& fit) {
                        {"noise_sigma_mm", map.noise_sigma_mm},
                        {"support_radius", map.support_radius},
                        {"centres", map.centres_rad.size()}};
+    if (!map.curves.empty()) {
+      hyperparameters["curve_knots"] = map.curves.knots;
+      hyperparameters["curve_smoothing"] = map.curves.smoothing;
+    }
   }
   auto number = [](double v) {
     return std::isfinite(v) ? nlohmann::json(v) : nlohmann::json(nullptr);
@@ -53,6 +67,7 @@ nlohmann::json ResidualModelJson(const calibration::ResidualMapFit& fit) {
           {"kind", fitted ? nlohmann::json(map.kind) : nlohmann::json(nullptr)},
           {"cv_mean_mm_parametric", number(fit.cv_mean_mm_parametric)},
           {"cv_mean_mm_with_map", number(fit.cv_mean_mm_with_map)},
+          {"cv_mean_mm_curves", number(fit.cv_mean_mm_curves)},
           {"decision", fit.decision},
           {"hyperparameters", hyperparameters},
           {"grid", grid}};
@@ -66,7 +81,8 @@ ResidualMapData ResidualMapFromJson(const nlohmann::json& json, const std::strin
   static const std::set<std::string> kKeys = {"version",        "kind",           "output_frame",
                                               "num_joints",     "joints",         "feature_scale",
                                               "length_scale",   "regularisation", "noise_sigma_mm",
-                                              "support_radius", "centres_rad",    "weights_mm"};
+                                              "support_radius", "centres_rad",    "weights_mm",
+                                              "curves"};
   for (const auto& item : json.items()) {
     if (!kKeys.count(item.key())) throw fail(item.key(), "unknown key '" + item.key() + "'");
   }
@@ -77,7 +93,7 @@ ResidualMapData ResidualMapFromJson(const nlohmann::json& json, const std::strin
   ResidualMapData map;
   try {
     map.version = field("version").get<int>();
-    if (map.version != ResidualMapData::kVersion) {
+    if (map.version < 1 || map.version > ResidualMapData::kVersion) {
       throw fail("version", "version " + std::to_string(map.version) +
                                 " was written by a newer armsig (this one reads version " +
                                 std::to_string(ResidualMapData::kVersion) + ")");
@@ -93,6 +109,24 @@ ResidualMapData ResidualMapFromJson(const nlohmann::json& json, const std::strin
     map.support_radius = field("support_radius").get<double>();
     map.centres_rad = field("centres_rad").get<std::vector<std::vector<double>>>();
     map.weights_mm = field("weights_mm").get<std::vector<std::array<double, 3>>>();
+    if (json.contains("curves")) {
+      const nlohmann::json& c = json.at("curves");
+      static const std::set<std::string> kCurveKeys = {"knots", "joints", "smoothing",
+                                                       "values_rad", "measured"};
+      if (!c.is_object()) throw fail("curves", "expected a JSON object");
+      for (const auto& item : c.items()) {
+        if (!kCurveKeys.count(item.key()))
+          throw fail("curves." + item.key(), "unknown key '" + item.key() + "'");
+      }
+      for (const char* key : {"knots", "joints", "smoothing", "values_rad", "measured"}) {
+        if (!c.contains(key)) throw fail(std::string("curves.") + key, std::string("missing '") + key + "'");
+      }
+      map.curves.knots = c.at("knots").get<int>();
+      for (int j : c.at("joints").get<std::vector<int>>()) map.curves.joints.push_back(j - 1);
+      map.curves.smoothing = c.at("smoothing").get<double>();
+      map.curves.values_rad = c.at("values_rad").get<std::vector<std::vector<double>>>();
+      map.curves.measured = c.at("measured").get<std::vector<std::vector<int>>>();
+    }
   } catch (const nlohmann::json::exception& e) {
     throw fail("", std::string("malformed field: ") + e.what());
   }

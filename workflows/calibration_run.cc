@@ -30,16 +30,21 @@ std::vector<Eigen::Vector3d> MappedResiduals(const calibration::RobotModel& mode
                                              const calibration::ResidualMap* map,
                                              const std::vector<MeasuredPose>& poses,
                                              std::vector<char>* outside) {
-  std::vector<Eigen::Vector3d> r = calibration::Residuals(model, bases, params, poses);
   if (outside) outside->assign(poses.size(), 0);
-  if (!map) return r;
+  if (!map) return calibration::Residuals(model, bases, params, poses);
+  // The parametric model at the angles the map's joint curves correct, then its kernel.
+  std::vector<MeasuredPose> corrected = poses;
+  std::vector<char> curves_inside(poses.size(), 1);
+  for (size_t i = 0; i < poses.size(); ++i) {
+    curves_inside[i] = map->CorrectJoints(poses[i].joints_rad.data(), corrected[i].joints_rad.data());
+  }
+  std::vector<Eigen::Vector3d> r = calibration::Residuals(model, bases, params, corrected);
   for (size_t i = 0; i < poses.size(); ++i) {
     const auto prediction = map->Predict(poses[i].joints_rad.data());
     if (prediction.supported) {
       r[i] += bases.at(poses[i].frame).linear() * prediction.correction_in_base_mm;
-    } else if (outside) {
-      (*outside)[i] = 1;
     }
+    if (outside && !(prediction.supported && curves_inside[i])) (*outside)[i] = 1;
   }
   return r;
 }

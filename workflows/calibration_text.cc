@@ -182,14 +182,20 @@ std::string ErrorDistanceText(const CalibrationRun& run) {
     const auto& m = *run.residual_map;
     out += fmt::format("residual map {}: {}", m.used ? "used" : "not used", m.decision);
     if (m.used && !m.map.centres_rad.empty()) {
-      out += fmt::format(" (length scale {:.3g}, regularisation {:.3g}, {})", m.map.length_scale,
+      if (!m.map.curves.empty()) {
+        out += fmt::format(" (joint curves: {} knots per turn, smoothing {:.3g};", m.map.curves.knots,
+                           m.map.curves.smoothing);
+      }
+      out += fmt::format("{}length scale {:.3g}, regularisation {:.3g}, {})",
+                         m.map.curves.empty() ? " (" : " kernel: ", m.map.length_scale,
                          m.map.regularisation, Count(m.map.centres_rad.size(), "centre"));
     }
     out += "\n";
     if (const auto v = run.map_validation(); run.map_used() && v.poses > 0) {
       out += fmt::format(
           "  validation: predictive sigma {:.4f} mm per coordinate on average; {} of {} poses "
-          "outside the map's support (parametric prediction, flagged)\n",
+          "outside the map's support (far from the fit poses, or a joint at an angle its curve had "
+          "no data for: only what has data there applies; flagged)\n",
           v.mean_sigma_mm, v.outside, v.poses);
     }
   }

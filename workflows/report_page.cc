@@ -153,8 +153,12 @@ Html ErrorSection(const ReportData& data, const std::optional<Figure>& map_figur
     // The decision says the cross-validation's figures itself.
     html += HtmlFormat("<h2>Residual map</h2>\n<p id=\"residual-map\">{}: {}.",
                        m.used ? "Used" : "Not used", m.decision);
+    if (m.used && !m.map.curves.empty()) {
+      html += HtmlFormat(" Joint curves: {} knots per turn, smoothing {}.", m.map.curves.knots,
+                         fmt::format("{:g}", m.map.curves.smoothing));
+    }
     if (m.used && !m.map.centres_rad.empty()) {
-      html += HtmlFormat(" Length scale {}, regularisation {}, {} centres, noise σ {} mm.",
+      html += HtmlFormat(" Kernel: length scale {}, regularisation {}, {} centres, noise σ {} mm.",
                          fmt::format("{:g}", m.map.length_scale),
                          fmt::format("{:g}", m.map.regularisation), m.map.centres_rad.size(),
                          Num(m.map.noise_sigma_mm));
@@ -162,7 +166,8 @@ Html ErrorSection(const ReportData& data, const std::optional<Figure>& map_figur
     if (const auto v = run.map_validation(); run.map_used() && v.poses > 0) {
       html += HtmlFormat(
           " On the validation poses: predictive σ {} mm per coordinate on average; {} of {} "
-          "outside the map's support (parametric prediction).",
+          "outside the map's support (far from the fit poses, or a joint at an angle its curve had "
+          "no data for: only what has data there applies).",
           Num(v.mean_sigma_mm), v.outside, v.poses);
     }
     html += "</p>\n";

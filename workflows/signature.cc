@@ -180,7 +180,8 @@ std::string PredictCsv(const ActiveSignature& a, const Eigen::Isometry3d& frame,
   if (outside > 0) {
     spdlog::warn(
         "predict: {} of {} configurations are outside the residual map's support (far from the "
-        "poses it was fitted on): they get the parametric prediction (column map = outside)",
+        "poses it was fitted on, or a joint at an angle its curve had no data for): only the "
+        "parts of the map that have data there apply (column map = outside)",
         outside, joints.size());
   }
   return out;
