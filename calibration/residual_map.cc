@@ -26,6 +26,8 @@ constexpr int kBatchBlock = 64;
 constexpr double kNegligibleExponent = 34.5;
 // Centres the local GP variance is conditioned on.
 constexpr int kVarianceNeighbours = 32;
+// A joint curve's knot within this of a training pose's angle counts as measured (5°).
+constexpr double kCurveReachRad = 5.0 * 3.14159265358979323846 / 180.0;
 
 Eigen::Matrix3d TurnAboutZ(double angle) {
   return Eigen::AngleAxisd(angle, Eigen::Vector3d::UnitZ()).toRotationMatrix();
@@ -677,7 +679,7 @@ Eigen::VectorXd MapFitter::SolveCurves(const Eigen::MatrixXd& normal, const Eige
 // refit residuals then become what that fold's curves leave, so the kernel's
 // cross-validation below scores the two stages together.
 void MapFitter::FitCurves() {
-  if (options_.curve_knots == 0) return;
+  if (options_.curve_knots == 0 || mt_ < options_.curve_min_poses) return;
   knots_ = options_.curve_knots;
   const std::vector<int>& joints = map().joints;
   curve_joints_ = static_cast<int>(joints.size());
@@ -694,15 +696,16 @@ void MapFitter::FitCurves() {
       lever_[t * curve_joints_ + k] = frame_[t].transpose() * lever.col(joints[k]);
     }
   }
-  // A knot is measured when a training pose lies within one knot spacing of it (its bump
-  // weighs at least 1/6 there).
+  // A knot is measured when a training pose lies within kCurveReachRad of it: gaps between
+  // sparse poses are bridged by the smoothing, not taken for arcs nobody measured.
   measured_.assign(p, 0);
+  const double spacing = 2.0 * std::acos(-1.0) / knots_;
+  const int reach = static_cast<int>(std::floor(kCurveReachRad / spacing));
   for (int t = 0; t < mt_; ++t) {
     for (int k = 0; k < curve_joints_; ++k) {
-      const CurveSpan& s = span_[t * curve_joints_ + k];
-      for (int b = 0; b < 4; ++b) {
-        if (s.weight[b] >= 1.0 / 6.0) measured_[k * knots_ + (s.first + b) % knots_] = 1;
-      }
+      const int nearest = span_[t * curve_joints_ + k].nearest;
+      for (int d = -reach; d <= reach; ++d)
+        measured_[k * knots_ + ((nearest + d) % knots_ + knots_) % knots_] = 1;
     }
   }
   // Normal matrices: all training poses, and each fold's share (its complement trains).
@@ -762,6 +765,9 @@ void MapFitter::FitCurves() {
   const auto& [mean, x] = scored[best];
   if (!std::isfinite(mean)) return;
   result_.cv_mean_mm_curves = mean;
+  // Curves that do not beat the parametric model on their own are left out: the error is
+  // not of one joint's angle, and the kernel alone learns it (as a map without curves).
+  if (!(mean < result_.cv_mean_mm_parametric)) return;
   for (int f = 0; f < folds_; ++f) {
     for (int t = 0; t < mt_; ++t) refit_[f].row(t) += CurveCorrection(t, x[f]).transpose();
   }
@@ -951,15 +957,15 @@ void MapFitter::Decide() {
   }
   char curves[96] = "";
   if (std::isfinite(result_.cv_mean_mm_curves)) {
-    std::snprintf(curves, sizeof curves, " (%.4f mm with its joint curves alone)",
-                  result_.cv_mean_mm_curves);
+    std::snprintf(curves, sizeof curves, " (joint curves alone: %.4f mm%s)",
+                  result_.cv_mean_mm_curves, map().curves.empty() ? ", not used" : "");
   }
   char text[384];
   std::snprintf(text, sizeof text,
-                "%d-fold cross-validation on %d fit poses: %.4f mm with the map%s, %.4f mm "
-                "without it: %s",
-                folds_, mt_, result_.cv_mean_mm_with_map, curves, result_.cv_mean_mm_parametric,
-                verdict);
+                "%d-fold cross-validation on %d fit poses: %.4f mm with the map, %.4f mm "
+                "without it: %s%s",
+                folds_, mt_, result_.cv_mean_mm_with_map, result_.cv_mean_mm_parametric, verdict,
+                curves);
   result_.decision = text;
 }
 

@@ -136,8 +136,12 @@ TEST(Ur10Split, TermsAndTheMapBeatTheGeometricModelOnTheHeldOutThousand) {
   EXPECT_LT(f.terms, f.geometric);
   ASSERT_TRUE(f.map.used) << f.map.decision;
   EXPECT_LT(f.map.cv_mean_mm_with_map, 0.9 * f.map.cv_mean_mm_parametric);
-  // The issue's goal: ≤ 0.37 mm with terms and map (measured: 0.294).
-  EXPECT_LE(f.final_mean, 0.37);
+  // The issue's goal: ≤ 0.37 mm with terms and map (0.294 with the kernel alone). Each
+  // joint's angle error as a curve of its own angle takes it to 0.08 mm: the joint curves
+  // alone beat the parametric model's cross-validation four to one.
+  ASSERT_FALSE(f.map.map.curves.empty()) << f.map.decision;
+  EXPECT_LT(f.map.cv_mean_mm_curves, 0.3 * f.map.cv_mean_mm_parametric);
+  EXPECT_LE(f.final_mean, 0.10);
   // Cross-validation on the fit poses predicted the held-out figure.
   EXPECT_NEAR(f.final_mean, f.map.cv_mean_mm_with_map, 0.1 * f.map.cv_mean_mm_with_map);
   EXPECT_LE(f.extrapolated, 20) << "of 1000 held-out poses drawn like the fit poses";
@@ -181,9 +185,13 @@ TEST(Ur10Split, SixDofDataIdentifyMoreAndReportTheHeldOutOrientationError) {
 TEST(Ur10Split, With150FitPosesNothingGetsWorseThanGeometric) {
   const Figures f = RunIssue13Procedure(UrSplit(150));
   EXPECT_NEAR(f.geometric, 0.458, 0.005);  // the issue's figure
-  // The map's cross-validation finds nothing to gain from 150 poses: it stays off.
-  EXPECT_FALSE(f.map.used) << f.map.decision;
-  EXPECT_LE(f.final_mean, 1.01 * f.geometric);
+  // The kernel alone found nothing to gain from 150 poses; the joint curves do, and the
+  // held-out thousand agree with the cross-validation.
+  ASSERT_TRUE(f.map.used) << f.map.decision;
+  EXPECT_LT(f.final_mean, 0.9 * f.geometric);
+  EXPECT_NEAR(f.final_mean, f.map.cv_mean_mm_with_map, 0.15 * f.map.cv_mean_mm_with_map);
+  std::cout << "UR10 split, 150 fit poses: geometric " << f.geometric << " mm, with the map "
+            << f.final_mean << " mm held out (" << f.map.decision << ")\n";
 }
 
 }  // namespace armsig::calibration

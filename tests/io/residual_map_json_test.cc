@@ -26,9 +26,26 @@ calibration::ResidualMapFit Fit() {
   calibration::EstimationOptions o;
   o.parameters = calibration::ParseParameterSpec(model, "geometric");
   const auto fit = calibration::Estimate(model, poses, o);
-  return calibration::FitResidualMap(model, fit, poses);
+  calibration::ResidualMapOptions kernel_only;  // a map as stored before the joint curves
+  kernel_only.curve_knots = 0;
+  return calibration::FitResidualMap(model, fit, poses, kernel_only);
 }
 ResidualMapData FittedMap() { return Fit().map; }
+
+// A map with joint curves: the PUMA's joint 2 off by 30″ sin 12θ̄ (a curve of its own angle).
+ResidualMapData CurveMap() {
+  const auto model = testing::Puma();
+  std::mt19937 rng(4);
+  auto joints = calibration::RandomConfigurations(model, 200, rng);
+  auto actual = joints;
+  for (auto& q : actual) q(1) += 30.0 / 206264.8 * std::sin(12 * q(1));
+  auto poses = calibration::SimulatePoses(model, Eigen::Isometry3d::Identity(),
+                                          calibration::PaperTable3Parameters(), actual, 0.01, rng);
+  for (size_t i = 0; i < poses.size(); ++i) poses[i].joints_rad = joints[i];
+  calibration::EstimationOptions o;
+  o.parameters = calibration::ParseParameterSpec(model, "geometric");
+  return calibration::FitResidualMap(model, calibration::Estimate(model, poses, o), poses).map;
+}
 
 InputError Refusal(const nlohmann::json& json) {
   try {
@@ -47,7 +64,10 @@ TEST(ResidualMapJson, RoundTripKeepsEveryPrediction) {
   ASSERT_FALSE(map.centres_rad.empty());
   const nlohmann::json json = ResidualMapToJson(map);
   EXPECT_EQ(json["kind"], "gaussian_kernel_ridge");
+  // Without joint curves, written as before them (version 1).
+  ASSERT_TRUE(map.curves.empty());
   EXPECT_EQ(json["version"], 1);
+  EXPECT_FALSE(json.contains("curves"));
   EXPECT_EQ(json["joints"], nlohmann::json::array({1, 2, 3, 4, 5}));  // 1-based in files
   const ResidualMapData back = ResidualMapFromJson(nlohmann::json::parse(json.dump()), "set 3");
   EXPECT_EQ(back.joints, map.joints);
@@ -64,13 +84,46 @@ TEST(ResidualMapJson, RoundTripKeepsEveryPrediction) {
   }
 }
 
+TEST(ResidualMapJson, JointCurvesRoundTripBitForBit) {
+  const ResidualMapData map = CurveMap();
+  ASSERT_FALSE(map.curves.empty());
+  const nlohmann::json json = ResidualMapToJson(map);
+  EXPECT_EQ(json["version"], 2);
+  EXPECT_EQ(json["curves"]["knots"], map.curves.knots);
+  EXPECT_EQ(json["curves"]["joints"][0], map.curves.joints[0] + 1);  // 1-based in files
+  const ResidualMapData back = ResidualMapFromJson(nlohmann::json::parse(json.dump()), "set 4");
+  EXPECT_EQ(back.curves.values_rad, map.curves.values_rad);
+  EXPECT_EQ(back.curves.measured, map.curves.measured);
+  EXPECT_EQ(back.curves.smoothing, map.curves.smoothing);
+  const ResidualMap a(map), b(back);
+  std::mt19937 rng(5);
+  for (const auto& q : calibration::RandomConfigurations(testing::Puma(), 20, rng)) {
+    Eigen::VectorXd qa(q.size()), qb(q.size());
+    EXPECT_EQ(a.CorrectJoints(q.data(), qa.data()), b.CorrectJoints(q.data(), qb.data()));
+    EXPECT_EQ(qa, qb);
+  }
+  nlohmann::json j = json;
+  j["curves"]["colour"] = "red";
+  EXPECT_EQ(Refusal(j).message(), "residual map: unknown key 'colour'");
+  j = json;
+  j["curves"].erase("measured");
+  EXPECT_EQ(Refusal(j).message(), "residual map: missing 'measured'");
+  j = json;
+  j["curves"]["values_rad"][0].erase(0);
+  EXPECT_NE(Refusal(j).message().find("one value and one measured flag per knot"),
+            std::string::npos);
+  j = json;
+  j["version"] = 1;
+  EXPECT_NE(Refusal(j).message().find("version-1 map has no joint curves"), std::string::npos);
+}
+
 TEST(ResidualMapJson, RefusesWhatItCannotUse) {
   const nlohmann::json good = ResidualMapToJson(FittedMap());
   nlohmann::json j = good;
   j["colour"] = "red";
   EXPECT_EQ(Refusal(j).message(), "residual map: unknown key 'colour'");
   j = good;
-  j["version"] = 2;
+  j["version"] = 3;
   EXPECT_NE(Refusal(j).message().find("newer armsig"), std::string::npos);
   j = good;
   j.erase("weights_mm");
