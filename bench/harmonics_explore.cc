@@ -1,9 +1,16 @@
-// Is there a periodic transmission error left in the UR10's residual? An exploration
-// program (not a benchmark): after the 6-DoF fit of series C's fit poses (the first 1,773 of
-// the fixed permutation), for each joint i and order k the least-squares fit of one
-// harmonic δθ_i = s sin kθ_i + c cos kθ_i through the joint's lever (∂x/∂θ_i) to the
-// position residuals; prints each joint's strongest orders with their amplitude and the drop
-// of the residual sum of squares. The held-out poses are not looked at.
+// Is there a periodic joint-angle error left in the UR10's residual? An exploration program
+// (not a benchmark), on series C's fixed split:
+//  1. after the fit of the fit poses (the first 1,773 of the permutation), for each joint i
+//     and order k the least-squares fit of one harmonic δθ_i = s sin kθ_i + c cos kθ_i
+//     through the joint's lever (∂x/∂θ_i) to the position residuals: each joint's strongest
+//     orders with their amplitude and the drop of the residual sum of squares;
+//  2. joint error series on joints 1–5 fitted with the identified parameters (one
+//     Gauss–Newton step), for several sizes, evaluated on the held-out 1,000 — or, with
+//     INNER set, on the inner split (the first 1,273 fitted, the next 500 validated), which
+//     is where the joint curves' knot count was chosen.
+// Environment: SPLINE=1 periodic cubic B-splines (each size as knots per turn) instead of Fourier orders,
+// LAMBDA their second-difference penalty, RIDGE a ridge, NOGEO=1 without the parameters,
+// AMP=K print the Fourier amplitudes of order K.
 //
 // Usage: harmonics_explore [MAX_ORDER] [geometric|auto]
 #include <Eigen/Dense>
@@ -73,9 +80,10 @@ int main(int argc, char** argv) {
       peaks.push_back({k, x.dot(atb), x.norm() / kArcsec});
     }
     std::sort(peaks.begin(), peaks.end(), [](auto& a, auto& b) { return a.drop > b.drop; });
+    if (peaks.empty()) continue;
     double median = peaks[peaks.size() / 2].drop;
     std::printf("joint %d (median drop %.3f mm^2):", j + 1, median);
-    for (int p = 0; p < 8; ++p) std::printf("  k=%d %.2f (%.1f\")", peaks[p].k, peaks[p].drop, peaks[p].amp_arcsec);
+    for (int p = 0; p < std::min<int>(8, peaks.size()); ++p) std::printf("  k=%d %.2f (%.1f\")", peaks[p].k, peaks[p].drop, peaks[p].amp_arcsec);
     std::printf("\n");
   }
   // Joint error series of orders 1…K on every joint, fitted jointly with the identified
