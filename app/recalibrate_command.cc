@@ -108,7 +108,7 @@ void AddRecalibrateOptions(CLI::App& sub, workflows::RecalibrateOptions& o) {
   sub.add_option("--since", o.since, "Only sessions started at or after this ISO date/time")
       ->type_name("DATE");
   NumberOption(
-      sub.add_option("--select", o.select, "Configurations to fit (default, 0: 60 %, at most 80)"),
+      sub.add_option("--select", o.select, "Configurations to fit (default, 0: 60 %, at most 2000)"),
       0, kMaxPoses);
   sub.add_option("--params", o.params, "geometric | all | auto | list")->capture_default_str();
   ChoiceOption(sub.add_option("--residual-model", o.residual_model,

@@ -862,9 +862,12 @@ void NightlyJob::Fit(const std::vector<MeasuredPose>& poses) {
   settings_.orientation = o_.orientation;
   settings_.tool_rotation = o_.tool_rotation;
   settings_.max_iterations = o_.max_iterations;
-  // 60 %, at most 80 (the paper's) and 6 more for every further session: each session's
-  // frame adds six base unknowns.
-  const size_t most = 80 + 6 * (sessions.size() - 1);
+  // 60 %, at most 2,000 (the residual map trains on up to that many). It was at most 80,
+  // the paper's count, while the model was parametric only; the map's joint curves need
+  // the poses: on the UR10 (eight nights of series C) the nightly validation mean falls from
+  // 0.21–0.25 to 0.09–0.10 mm, with no false alarm and the planted changes named as before
+  // (docs/how-to/nightly-job.md).
+  const size_t most = 2000;
   settings_.select =
       o_.select > 0
           ? o_.select

@@ -21,8 +21,7 @@ struct RecalibrateOptions {
   std::string residual_model = "auto";  // auto | off (calibrate's --residual-model)
   std::string orientation = "auto";     // auto | off (calibrate's --orientation)
   std::string tool_rotation = "per-session";  // per-session | shared
-  // Configurations to fit (0: 60 %, at most 80 plus 6 for every session beyond the first,
-  // whose measurement frame adds six unknowns).
+  // Configurations to fit (0: 60 %, at most 2,000).
   int select = 0;
   // Gates; unset = the lab file's `recalibration:` block, else the defaults below.
   std::optional<double> max_validation_mean_mm, max_validation_max_mm, tolerance_mm, drift_sigma,

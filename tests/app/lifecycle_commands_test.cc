@@ -108,21 +108,26 @@ TEST(LifecycleCommands, RealUr10FromRegistrationToCompensationAndRollback) {
   ASSERT_EQ(first.exit_code, 0) << first.err;
   const auto j1 = nlohmann::json::parse(ReadText(dir.File("1.json")));
   EXPECT_EQ(j1["version"], 1);
-  EXPECT_GT(j1["validation"]["mean_mm"].get<double>(), 0.3);  // README: 0.49 mm, the model's floor
-  EXPECT_LT(j1["validation"]["mean_mm"].get<double>(), 0.6);
+  // 60 % fitted: the residual map has its joint curves (0.083 mm on the issue-13 split), far
+  // below the geometric model's floor of 0.45 mm and above the tracker's noise.
+  EXPECT_EQ(j1["poses"], 2773);
+  EXPECT_EQ(j1["fit"]["poses"], 2773 * 6 / 10);
+  EXPECT_GT(j1["validation"]["mean_mm"].get<double>(), 0.05);
+  EXPECT_LT(j1["validation"]["mean_mm"].get<double>(), 0.15);
   // The session carries the T-Mac's orientations: the fit and the validation say how well
   // the signature turns the probe (about 0.05°; docs/explanation/transfer.md).
   const double deg = 180.0 / kPi;
   EXPECT_EQ(j1["fit"]["orientation"]["poses"], j1["fit"]["poses"]);
   EXPECT_LT(j1["validation"]["orientation"]["mean_rad"].get<double>() * deg, 0.1);
   EXPECT_GT(j1["fit"]["orientation"]["weight_mm_per_rad"].get<double>(), 0.0);
-  ASSERT_EQ(RunArmsig(recal + "--select 120").exit_code, 0);
+  const auto second = RunArmsig(recal + "--select 1200");
+  ASSERT_EQ(second.exit_code, 0) << second.err;
   auto versions = nlohmann::json::parse(RunArmsig(db + "versions --robot ur10 --json").out);
   ASSERT_EQ(versions.size(), 2u);
   EXPECT_FALSE(versions[0]["active"].get<bool>());
   EXPECT_TRUE(versions[1]["active"].get<bool>());
   EXPECT_EQ(versions[1]["sessions"], nlohmann::json::array({1}));
-  EXPECT_EQ(versions[1]["poses_fit"], 120);
+  EXPECT_EQ(versions[1]["poses_fit"], 1200);
   const auto rollback = RunArmsig(db + "activate --robot ur10 --version 1");
   ASSERT_EQ(rollback.exit_code, 0) << rollback.err;
   EXPECT_NE(rollback.out.find("was version 2"), std::string::npos) << rollback.out;
@@ -178,7 +183,11 @@ TEST(LifecycleCommands, RealUr10FromRegistrationToCompensationAndRollback) {
   EXPECT_NE(compensated.exit_code, 2) << compensated.err;
   const auto cj = io::ReadCsvFile(dir.File("cj.csv"));
   ASSERT_EQ(cj.rows().size(), 5u);
-  EXPECT_EQ(cj.Text(cj.rows()[0], cj.Column("status")), "ok");
+  // Reached; from this seed the solution's wrist 2 may sit just outside the angles the map's
+  // joint curves saw (C has q5 ≥ 0), which the status says rather than hides.
+  const std::string status = cj.Text(cj.rows()[0], cj.Column("status"));
+  EXPECT_TRUE(status == "ok" || status == "ok_outside_map") << status;
+  EXPECT_LT(cj.Number(cj.rows()[0], cj.Column("residual_mm")), 0.01);
 
   // Export the corrected model: it reads back as a model of the same robot.
   ASSERT_EQ(RunArmsig(db + "export --robot ur10 --format model --frame measurement --out '" +
@@ -347,7 +356,11 @@ TEST_P(LifecycleOnStore, RealUr10NightlyPathReproducesTheHeldOutFigure) {
                 " --targets '" + dir.File("t.csv") + "' --out '" + dir.File("cj.csv") + "'");
   ASSERT_EQ(compensated.exit_code, 0) << compensated.err;
   const auto cj = io::ReadCsvFile(dir.File("cj.csv"));
-  EXPECT_EQ(cj.Text(cj.rows()[0], cj.Column("status")), "ok");
+  // Reached; from this seed the solution's wrist 2 may sit just outside the angles the map's
+  // joint curves saw (C has q5 ≥ 0), which the status says rather than hides.
+  const std::string status = cj.Text(cj.rows()[0], cj.Column("status"));
+  EXPECT_TRUE(status == "ok" || status == "ok_outside_map") << status;
+  EXPECT_LT(cj.Number(cj.rows()[0], cj.Column("residual_mm")), 0.01);
   ASSERT_EQ(RunArmsig(db + "export --robot ur10 --format json --frame measurement --out '" +
                       dir.File("sig.json") + "'")
                 .exit_code,
