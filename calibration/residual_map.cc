@@ -2,7 +2,6 @@
 
 #include <Eigen/Cholesky>
 #include <algorithm>
-#include <array>
 #include <cmath>
 #include <cstdio>
 #include <limits>
@@ -517,7 +516,7 @@ class MapFitter {
   std::vector<Eigen::Vector3d> lever_;
   Eigen::MatrixXd penalty_;  // P × P: the periodic second differences' DᵀD
   double penalty_scale_ = 0.0;
-  std::vector<int> measured_;  // per coefficient: 1 when a training pose lies within a knot of it
+  std::vector<int> measured_;  // per coefficient: 1 when a training pose lies within 5° of it
 };
 
 ResidualMapFit MapFitter::Run() {
@@ -631,10 +630,13 @@ void MapFitter::CrossValidateParametricModel() {
 
 void MapFitter::AddCurveRows(int t, const Eigen::Vector3d& y, Eigen::MatrixXd* normal,
                              Eigen::VectorXd& rhs) const {
-  std::array<int, 32> column{};
-  std::array<Eigen::Vector3d, 32> g;
+  // Four bumps per curve joint: at most 4 × joints columns of the design row are non-zero.
+  thread_local std::vector<int> column;
+  thread_local std::vector<Eigen::Vector3d> g;
+  column.resize(4 * curve_joints_);
+  g.resize(4 * curve_joints_);
   int used = 0;
-  for (int k = 0; k < curve_joints_ && used + 4 <= 32; ++k) {
+  for (int k = 0; k < curve_joints_; ++k) {
     const CurveSpan& s = span_[t * curve_joints_ + k];
     for (int b = 0; b < 4; ++b) {
       column[used] = k * knots_ + (s.first + b) % knots_;
@@ -671,7 +673,7 @@ Eigen::VectorXd MapFitter::SolveCurves(const Eigen::MatrixXd& normal, const Eige
   for (size_t c = 0; c < measured_.size(); ++c) {
     if (!measured_[c]) a(c, c) += penalty_scale_;
   }
-  return a.ldlt().solve(rhs);
+  return a.llt().solve(rhs);  // symmetric positive definite: the blocked Cholesky
 }
 
 // Stage 1: the joint curves, their smoothing chosen by the same folds as the kernel's

@@ -203,8 +203,12 @@ SelectionResult SelectConfigurations(const RobotModel& model,
   }
 
   // Exchange: take each selected configuration out in turn and put back the best one.
+  // Keeping most of the candidates, a swap trades one of many and the passes cost four times
+  // the greedy selection for nothing (UR10, 1,663 of 2,773: log det 211.272 with 0, 1 or 2
+  // passes; 0.73 s against 3.45 s, bench/calibration_bench): they refine small subsets only.
   SelectionResult result;
-  for (int pass = 0; pass < options.exchange_passes; ++pass) {
+  const int passes = 2 * count > m ? 0 : options.exchange_passes;
+  for (int pass = 0; pass < passes; ++pass) {
     int swaps = 0;
     for (int k = 0; k < m; ++k) {
       if (!in[k]) continue;

@@ -14,7 +14,7 @@ namespace armsig::calibration {
 
 struct SelectionOptions {
   int count = 80;           // configurations to keep
-  int exchange_passes = 2;  // 0 = greedy only
+  int exchange_passes = 2;  // 0 = greedy only; none when keeping more than half
   // Regularisation of the start (scaled units): keeps the greedy step well defined
   // before the selected set reaches full rank.
   double ridge = 1e-6;
