@@ -92,9 +92,12 @@ int main(int argc, char** argv) {
   for (int k = fit_count; k < end; ++k) held.push_back(c[perm[k]]);
   const auto& ident = r.identifiability.identified;
   const int np = std::getenv("NOGEO") ? 0 : static_cast<int>(ident.size());
-  auto rows = [&](const std::vector<MeasuredPose>& poses, int order, Eigen::MatrixXd& a, Eigen::VectorXd& b) {
+  // The design: the identified parameters' columns, then `per_joint` columns for each of
+  // joints 1–5, basis(angle, c) times the joint's lever; b the residuals (measured − model).
+  auto rows = [&](const std::vector<MeasuredPose>& poses, int per_joint, const auto& basis,
+                  Eigen::MatrixXd& a, Eigen::VectorXd& b) {
     const int n = static_cast<int>(poses.size());
-    a.setZero(3 * n, np + 10 * order);
+    a.setZero(3 * n, np + 5 * per_joint);
     b.resize(3 * n);
     Eigen::Matrix<double, 3, Eigen::Dynamic> jac(3, model.num_parameters());
     for (int i = 0; i < n; ++i) {
@@ -104,41 +107,21 @@ int main(int argc, char** argv) {
       b.segment<3>(3 * i) = poses[i].target_in_world - x;
       for (int p = 0; p < np; ++p) a.block<3, 1>(3 * i, p) = jac.col(ident[p]);
       for (int j = 0; j < 5; ++j) {
-        for (int k = 1; k <= order; ++k) {
-          const double t = poses[i].joints_rad(j);
-          a.block<3, 1>(3 * i, np + 2 * order * j + 2 * (k - 1)) = jj.col(j) * std::sin(k * t);
-          a.block<3, 1>(3 * i, np + 2 * order * j + 2 * (k - 1) + 1) = jj.col(j) * std::cos(k * t);
-        }
+        for (int c = 0; c < per_joint; ++c)
+          a.block<3, 1>(3 * i, np + per_joint * j + c) = jj.col(j) * basis(poses[i].joints_rad(j), c);
       }
     }
+  };
+  // Fourier orders 1…K: columns sin kθ, cos kθ (k = c/2 + 1).
+  auto fourier = [](double t, int c) {
+    const int k = c / 2 + 1;
+    return c % 2 == 0 ? std::sin(k * t) : std::cos(k * t);
   };
   auto bspline = [](double x) {
     x = std::abs(x);
     if (x < 1) return 2.0 / 3.0 - x * x + 0.5 * x * x * x;
     if (x < 2) return (2 - x) * (2 - x) * (2 - x) / 6.0;
     return 0.0;
-  };
-  // Periodic cubic B-splines of `knots` bumps over the turn on every joint (columns np + knots·j + m).
-  auto spline_rows = [&](const std::vector<MeasuredPose>& poses, int knots, Eigen::MatrixXd& a, Eigen::VectorXd& b) {
-    const int n = static_cast<int>(poses.size());
-    a.setZero(3 * n, np + 5 * knots);
-    b.resize(3 * n);
-    Eigen::Matrix<double, 3, Eigen::Dynamic> jac(3, model.num_parameters());
-    const double step = 2 * 3.14159265358979323846 / knots;
-    for (int i = 0; i < n; ++i) {
-      const Eigen::Vector3d x = kin.PositionAndJacobian(r.base_of(poses[i].frame), r.params,
-                                                        poses[i].joints_rad.data(), jac);
-      const auto jj = kin.JointJacobian();
-      b.segment<3>(3 * i) = poses[i].target_in_world - x;
-      for (int p = 0; p < np; ++p) a.block<3, 1>(3 * i, p) = jac.col(ident[p]);
-      for (int j = 0; j < 5; ++j) {
-        const double u = poses[i].joints_rad(j) / step;
-        for (int m = 0; m < knots; ++m) {
-          double d = std::remainder(u - m, static_cast<double>(knots));
-          a.block<3, 1>(3 * i, np + knots * j + m) = jj.col(j) * bspline(d);
-        }
-      }
-    }
   };
   const int mode_spline = std::getenv("SPLINE") ? std::atoi(std::getenv("SPLINE")) : 0;
   const double ridge = std::getenv("RIDGE") ? std::atof(std::getenv("RIDGE")) : 1e-6;
@@ -147,12 +130,17 @@ int main(int argc, char** argv) {
     Eigen::VectorXd b, bh;
     if (mode_spline) {
       if (order < 10) continue;
-      spline_rows(fit, order, a, b);
-      spline_rows(held, order, ah, bh);
+      // Periodic cubic B-splines: `order` bumps per turn.
+      const double step = 2 * 3.14159265358979323846 / order;
+      auto bump = [&](double t, int m) {
+        return bspline(std::remainder(t / step - m, static_cast<double>(order)));
+      };
+      rows(fit, order, bump, a, b);
+      rows(held, order, bump, ah, bh);
     } else {
       if (order > 50) continue;
-      rows(fit, order, a, b);
-      rows(held, order, ah, bh);
+      rows(fit, 2 * order, fourier, a, b);
+      rows(held, 2 * order, fourier, ah, bh);
     }
     // Column scaling, then a tiny ridge against rank loss.
     Eigen::VectorXd s = a.colwise().norm().transpose().cwiseMax(1e-12).cwiseInverse();
