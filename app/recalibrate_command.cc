@@ -57,6 +57,7 @@ void Notify(const RecalibrateCommand& c, const nlohmann::json& summary, int exit
 int RunRecalibrate(RecalibrateCommand c, const GlobalOptions& global) {
   c.options.db_path = global.DbPath();
   c.options.json_path = c.json;
+  c.options.stop = &StopRequested();  // Ctrl-C, SIGTERM: stop before storing, exit 130
   workflows::RecalibrationDecision d;
   try {
     d = workflows::Recalibrate(c.options);
@@ -71,6 +72,12 @@ int RunRecalibrate(RecalibrateCommand c, const GlobalOptions& global) {
                {"error", e.what()}},
            kFailure);
     throw;
+  }
+  if (d.stopped) {
+    std::cerr << fmt::format(
+        "armsig: recalibrate: {}: stopped before storing anything; run the same command again\n",
+        d.robot);
+    return kStopped;
   }
   if (!c.json.empty()) {
     // The summary follows the commit (it names the stored version): a failure to write it

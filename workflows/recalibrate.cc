@@ -1228,9 +1228,17 @@ RecalibrationDecision NightlyJob::Run() {
                     o_.robot, poses.size(), since_.empty() ? "" : " since " + since_,
                     Hint(database_->path(), {"sessions", "--robot", o_.robot})));
   }
+  auto stopped = [&] {
+    if (!o_.stop || !o_.stop->load()) return false;
+    d_.stopped = true;
+    Log("stopped before storing anything: the same command fits again");
+    return true;
+  };
+  if (stopped()) return d_;
   Fit(poses);
   JudgeGates();
   CompareWithActive();
+  if (stopped()) return d_;
   if (pass_) {
     Store(inputs);
   } else if (!run_->estimate.status.ok()) {

@@ -3,6 +3,7 @@
 // and store a new active parameter set only when every gate passes.
 #pragma once
 
+#include <atomic>
 #include <nlohmann/json.hpp>
 #include <optional>
 #include <string>
@@ -23,6 +24,9 @@ struct RecalibrateOptions {
   std::string tool_rotation = "per-session";  // per-session | shared
   // Configurations to fit (0: 60 %, at most 2,000).
   int select = 0;
+  // Set (Ctrl-C, SIGTERM): the job stops at its next safe point — before the fit, or after
+  // it and before anything is stored — with `stopped` in the decision and nothing written.
+  const std::atomic<bool>* stop = nullptr;
   // Gates; unset = the lab file's `recalibration:` block, else the defaults below.
   std::optional<double> max_validation_mean_mm, max_validation_max_mm, tolerance_mm, drift_sigma,
       drift_mm;
@@ -123,6 +127,7 @@ struct RecalibrationDecision {
   // enough configurations for a fit of their own; nothing is stored (exit 5).
   enum class Outcome { kUpToDate, kStored, kDriftStored, kDriftSuspected, kRejected, kFailed };
   Outcome outcome = Outcome::kRejected;
+  bool stopped = false;  // RecalibrateOptions::stop was set: nothing stored (exit 130)
   std::string robot;
   // The stored version; when up to date, the version fitted on these inputs (the active
   // one, or — after a roll-back — another, which stays inactive).

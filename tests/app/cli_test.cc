@@ -468,6 +468,49 @@ TEST(Cli, DemoCtrlCAtRandomMomentsLeavesNothingBehindAndResumes) {
   EXPECT_GE(resumed, 2);
 }
 
+// systemctl stop (SIGTERM) or Ctrl-C while the nightly job fits the real UR10: it stops
+// before storing anything, exits 130 and says so; the same command then fits and stores.
+TEST(Cli, RecalibrateStoppedMidFitStoresNothingAndTheSameCommandFitsAgain) {
+  TempDir dir;
+  const std::string db = dir.File("lab.db");
+  ASSERT_EQ(RunArmsig("--db '" + db + "' robot add ur10 --model '" +
+                      SourcePath("models/ur10.yaml") + "'")
+                .exit_code,
+            0);
+  ASSERT_EQ(RunArmsig("--db '" + db + "' import poses '" +
+                      DataPath("ur10-ipa/series_C-measurements_random_poses.csv") +
+                      "' --preset ur-ipa --robot ur10")
+                .exit_code,
+            0);
+  for (const int signal : {SIGTERM, SIGINT}) {
+    // A log of its own per run: the last run's would say at once what this one has not yet.
+    const std::string log = dir.File("err-" + std::to_string(signal));
+    const pid_t child = SpawnArmsig({"--db", db, "recalibrate", "--robot", "ur10"},
+                                    dir.File("out"), log, dir.path().string());
+    ASSERT_GE(child, 0);
+    int status = 0;
+    // The event: the job says what it fits (the fit of 1,663 configurations follows).
+    ASSERT_TRUE(WaitForChildOr(child, &status, [&] {
+      return std::filesystem::exists(log) &&
+             ReadText(log).find("validating on the rest") != std::string::npos;
+    })) << ReadText(log);
+    ::kill(child, signal);
+    ::waitpid(child, &status, 0);
+    const std::string err = ReadText(log);
+    ASSERT_TRUE(WIFEXITED(status)) << status << "\n" << err;
+    EXPECT_EQ(WEXITSTATUS(status), 130) << err;
+    EXPECT_NE(err.find("stopped before storing anything; run the same command again"),
+              std::string::npos)
+        << err;
+    SQLite::Database sql(db);
+    EXPECT_EQ(sql.execAndGet("SELECT count(*) FROM calibrations").getInt(), 0);
+  }
+  const auto again = RunArmsig("--db '" + db + "' recalibrate --robot ur10");
+  EXPECT_EQ(again.exit_code, 0) << again.err;
+  SQLite::Database sql(db);
+  EXPECT_EQ(sql.execAndGet("SELECT count(*) FROM calibrations").getInt(), 1);
+}
+
 }  // namespace armsig::testing
 
 #include "io/builtin_models.h"
