@@ -288,11 +288,13 @@ TEST(VirtualTracker, InterruptEndsAFloodedCallAtOnce) {
   rig.sim->InjectAlways({Fault::kFloodLines, 0});
   std::atomic<bool> stop{false};
   rig.device->SetInterrupt(&stop);
+  // The clock starts before the thread that interrupts (started after it, it could begin a
+  // few ms into the thread's 300 ms on a loaded machine).
+  const auto start = std::chrono::steady_clock::now();
   std::thread ctrl_c([&] {
     std::this_thread::sleep_for(300ms);
     stop = true;
   });
-  const auto start = std::chrono::steady_clock::now();
   try {
     rig.device->Measure();
     ADD_FAILURE() << "expected an interrupt";

@@ -188,11 +188,13 @@ TEST(FaultOnTheLineInterrupt, InterruptEndsAFloodedReadAtOnce) {
   instruments::GeoComDevice device(instruments::MakeSerialTransport(port), policy);
   std::atomic<bool> stop{false};
   device.SetInterrupt(&stop);
+  // The clock starts before the thread that interrupts: started after it, it could begin a
+  // few ms into the thread's 300 ms on a loaded machine (295 ms was measured).
+  const auto start = std::chrono::steady_clock::now();
   std::thread ctrl_c([&] {
     std::this_thread::sleep_for(300ms);
     stop = true;
   });
-  const auto start = std::chrono::steady_clock::now();
   try {
     device.MeasureAngles();
     ADD_FAILURE() << "expected an interrupt";
