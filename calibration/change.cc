@@ -216,6 +216,7 @@ Explanation ExplainDifference(const RobotModel& model, const Eigen::VectorXd& pa
 
   std::vector<ExplainedCause> ranked;
   std::vector<double> reduction_of;  // what each explains alone, uncapped: the ranking
+  std::vector<int> column_of;        // each ranked cause's column in `projected`
   for (int c : kept) {
     const Eigen::VectorXd& col = projected.col(c);
     const double norm2 = col.squaredNorm();
@@ -236,6 +237,7 @@ Explanation ExplainDifference(const RobotModel& model, const Eigen::VectorXd& pa
     }
     const double reduction = e.size * e.size * norm2;
     reduction_of.push_back(reduction);
+    column_of.push_back(c);
     e.explained = out.explainable_sum_squares > 0
                       ? std::min(reduction / out.explainable_sum_squares, 1.0)
                       : 0.0;
@@ -261,7 +263,7 @@ Explanation ExplainDifference(const RobotModel& model, const Eigen::VectorXd& pa
   // of the joint at its end).
   std::vector<int> listed;  // column of each listed cause
   for (int r : order) {
-    const int column = kept[r];
+    const int column = column_of[r];
     const Eigen::VectorXd u = projected.col(column).normalized();
     bool equivalent = false;
     for (size_t l = 0; l < listed.size(); ++l) {

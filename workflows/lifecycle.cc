@@ -153,12 +153,15 @@ void PosesSessionWriter::Add(const MeasuredPose& pose, const Eigen::Matrix3d* co
 void PosesSessionWriter::CheckAtTheDoor() const {
   const int distinct = calibration::DistinctConfigurations(sample_);
   if (distinct < 3) {
-    throw InputError(
-        {source_, 0, 0, ""},
-        fmt::format("{} pose{} but only {} distinct configuration{}: the robot did not move "
-                    "between them; a session needs at least 3 to place its measuring frame (a "
-                    "calibration many more); nothing stored",
-                    count_, count_ == 1 ? "" : "s", distinct, distinct == 1 ? "" : "s"));
+    const std::string what =
+        distinct == static_cast<int>(count_)
+            ? fmt::format("{} pose{}", count_, count_ == 1 ? "" : "s")
+            : fmt::format("{} pose{} but only {} distinct configuration{} (the robot did not "
+                          "move between some of them)",
+                          count_, count_ == 1 ? "" : "s", distinct, distinct == 1 ? "" : "s");
+    throw InputError({source_, 0, 0, ""},
+                     what + ": a session needs at least 3 distinct configurations to place its "
+                            "measuring frame (a calibration many more); nothing stored");
   }
   const calibration::PoseModelCheck check = calibration::CheckPosesAgainstModel(model_, sample_);
   if (!check.checked || check.fits) return;

@@ -57,6 +57,10 @@ constexpr size_t kMinPosesPerSession = 3;    // to place a session's measurement
 // own frame's six degrees of freedom to leave a meaningful mean; the new set may be worse
 // there than the reference by this share (and the tolerance in mm) before it is refused.
 constexpr size_t kMinElsewherePoses = 10;
+// A session is tested against the active set on its configurations inside the set's support
+// (its terms' arcs, its map's); with fewer than this there, it is not tested. Six: their 18
+// coordinates leave 12 beyond the six unknowns of the session's own frame, twice as many.
+constexpr size_t kMinJudgedPoses = 6;
 constexpr double kElsewhereTolerance = 0.05;
 
 constexpr double kDriftSignificance = 1e-3;  // p-value below which two sets differ
@@ -590,6 +594,7 @@ class NightlyJob {
   void JudgeGates();
   void CompareWithActive();
   void TryElsewhere();
+  void DriftConfigurations(const Signature& old);
   void Store(const nlohmann::json& inputs);
   void WriteRunReport();
   void WriteOutput(const std::function<void()>& write);
@@ -611,6 +616,12 @@ class NightlyJob {
   std::vector<db::StoredCalibration> history_;
   std::optional<db::StoredCalibration> current_;
   std::vector<Eigen::VectorXd> spread_;
+  // The configurations two sets are compared on: spread_, kept where both sets were fitted
+  // (their terms' arcs), else the window's configurations there (DriftConfigurations).
+  std::vector<Eigen::VectorXd> compared_;
+  std::string compared_over_;
+  // A window session lay outside the active set's support and was not tested against it.
+  bool extended_ = false;
   RecalibrationDecision d_;
   std::optional<CalibrationRun> run_;
   CalibrateSettings settings_;
@@ -789,9 +800,57 @@ void NightlyJob::TestAgainstActive() {
   auto against = [&](const std::vector<MeasuredPose>& poses) {
     return calibration::TestAgainstReference(model_, reference, poses, options);
   };
+  // A set judges the robot only where it was fitted: beyond its terms' joint arcs and its
+  // map's support its own error is extrapolation, which a new set-up measuring a new region
+  // would take for a change (a false alarm, then a set fitted on that session alone). A
+  // configuration just past an arc is still judged when the set predicts it the same whether
+  // its terms are held at the arc's edge or carried on (within a quarter of the drift
+  // tolerance): there the prediction does not depend on how the set is extended.
+  calibration::RobotModel held = model_;
+  held.term_support = old.validity.term_arcs;
+  calibration::RobotModel carried_on = model_;
+  carried_on.term_support.clear();
+  const double extension_tolerance_mm = 0.25 * gates_.drift_mm;
+  auto judged = [&](const std::vector<MeasuredPose>& poses) {
+    std::vector<Eigen::VectorXd> joints;
+    for (const auto& p : poses) joints.push_back(p.joints_rad);
+    const auto predicted = calibration::PredictPositions(held, Eigen::Isometry3d::Identity(),
+                                                         old.params, old.map.get(), joints);
+    const auto extended = calibration::PredictPositions(
+        carried_on, Eigen::Isometry3d::Identity(), old.params, old.map.get(), joints);
+    std::vector<MeasuredPose> inside;
+    for (size_t i = 0; i < poses.size(); ++i) {
+      const auto support = calibration::SupportAt(model_, old.params, old.validity,
+                                                  poses[i].joints_rad, predicted[i].extrapolated);
+      const bool same_either_way =
+          !support.map_outside &&
+          (predicted[i].position_mm - extended[i].position_mm).norm() <= extension_tolerance_mm;
+      if (support.inside || same_either_way) inside.push_back(poses[i]);
+    }
+    return inside;
+  };
   std::vector<bool> disagrees;
   for (const auto& w : window_) {
-    const auto t = against(w.poses);
+    const std::vector<MeasuredPose> inside = own.count(w.summary.id) ? w.poses : judged(w.poses);
+    if (inside.size() < kMinJudgedPoses) {
+      Log(fmt::format("session {}: {} of its {} configurations lie where version {} was fitted; "
+                      "too few to tell a change of the robot from the set's extrapolation "
+                      "elsewhere: not tested against it",
+                      w.summary.id, inside.size(), w.poses.size(), current_->version));
+      SessionVerdict v;
+      v.session = w.summary.id;
+      v.started_at = w.summary.started_at;
+      disagrees.push_back(false);
+      d_.tested.push_back(v);
+      extended_ = true;
+      continue;
+    }
+    if (inside.size() < w.poses.size()) {
+      spdlog::debug("recalibrate: session {}: {} of {} configurations inside version {}'s "
+                    "support are tested against it",
+                    w.summary.id, inside.size(), w.poses.size(), current_->version);
+    }
+    const auto t = against(inside);
     SessionVerdict v;
     v.session = w.summary.id;
     v.started_at = w.summary.started_at;
@@ -828,17 +887,20 @@ void NightlyJob::TestAgainstActive() {
   if (point.first_changed < 0) return;
   ChangeFinding change;
   std::vector<MeasuredPose> after;
+  std::vector<MeasuredPose> after_inside;
   for (size_t i = point.first_changed; i < window_.size(); ++i) {
     change.after.push_back(window_[i].summary.id);
     after.insert(after.end(), window_[i].poses.begin(), window_[i].poses.end());
+    const auto inside = judged(window_[i].poses);
+    after_inside.insert(after_inside.end(), inside.begin(), inside.end());
   }
   change.from_session = window_[point.first_changed].summary.id;
   change.from_started_at = window_[point.first_changed].summary.started_at;
   change.poses_after = static_cast<int>(after.size());
   change.poses_needed =
       PosesNeeded(static_cast<int>(set.identified.size()), static_cast<int>(change.after.size()));
-  // The change explained on every session since at once.
-  const auto t = against(after);
+  // The change explained on every session since at once, where the set can judge it.
+  const auto t = against(after_inside);
   for (const auto& c : t.explanation.causes) {
     if (change.causes.size() == 3) break;
     change.causes.push_back(NameOf(c, "on the configurations measured since"));
@@ -1014,6 +1076,35 @@ std::optional<double> PlacedMeanMm(const calibration::RobotModel& model,
 
 }  // namespace
 
+// Two sets are compared where both were fitted: the configurations spread over the work
+// volume inside both sets' term arcs; when fewer than half of them are, the window's own
+// configurations inside both (at most kDriftConfigurations, evenly taken). Beyond the arcs
+// each set extrapolates, and two extrapolations differ without the robot having changed.
+void NightlyJob::DriftConfigurations(const Signature& old) {
+  compared_.clear();
+  const calibration::SetValidity fresh = run_->validity.value_or(calibration::SetValidity{});
+  auto inside_both = [&](const Eigen::VectorXd& q) {
+    return calibration::SupportAt(model_, old.params, old.validity, q, false).inside &&
+           calibration::SupportAt(model_, run_->estimate.params, fresh, q, false).inside;
+  };
+  for (const auto& q : spread_) {
+    if (inside_both(q)) compared_.push_back(q);
+  }
+  compared_over_ = compared_.size() == spread_.size()
+                       ? "spread over the work volume"
+                       : "spread over where both sets were fitted";
+  if (2 * compared_.size() >= spread_.size()) return;
+  std::vector<Eigen::VectorXd> window;
+  for (const auto& p : fit_) {
+    if (inside_both(p.joints_rad)) window.push_back(p.joints_rad);
+  }
+  compared_.clear();
+  const size_t take = std::min<size_t>(window.size(), kDriftConfigurations);
+  for (size_t k = 0; k < take; ++k) compared_.push_back(window[k * window.size() / take]);
+  compared_over_ = "of the fit where both sets were fitted";
+  if (compared_.size() < 10) compared_.clear();
+}
+
 // Before a new set becomes active it is tried where it was not fitted: every session of
 // the robot the night left out (other kinds, outside the window; never one from before a
 // change), each placed by its own frame. It must not be worse there than the active set
@@ -1139,7 +1230,15 @@ void NightlyJob::CompareWithActive() {
     before.identified = now.identified;
     before.covariance = now.covariance;
   }
-  const auto c = calibration::CompareModels(model_, before, now, spread_);
+  DriftConfigurations(old);
+  if (compared_.empty()) {
+    Log(fmt::format("no drift test against version {}: no configuration lies where both sets "
+                    "were fitted (the new set's sessions and version {}'s cover different "
+                    "joint ranges)",
+                    current_->version, current_->version));
+    return;
+  }
+  const auto c = calibration::CompareModels(model_, before, now, compared_);
   m.configurations = c.configurations;
   m.max_mm = c.max_mm;
   m.mean_mm = c.mean_mm;
@@ -1150,15 +1249,25 @@ void NightlyJob::CompareWithActive() {
   m.same_subset = c.shared_shape_space;
   m.significant = c.p_value < kDriftSignificance;
   m.tolerance_mm = gates_.drift_mm;
-  // A change found in the sessions is drift whatever the two fits' scatter says.
-  d_.drift = (m.significant && m.max_mm > m.tolerance_mm) || d_.change.has_value();
+  // A change found in the sessions is drift whatever the two fits' scatter says. A night
+  // that brought a session where the active set was never fitted (a new set-up measuring a
+  // new region, which the set could not judge) changes what the fit covers: the two sets then
+  // differ without the robot having changed, and only the sessions can say it did.
+  const bool sets_differ = m.significant && m.max_mm > m.tolerance_mm;
+  d_.drift = (sets_differ && !extended_) || d_.change.has_value();
   d_.model_drift = m;
+  if (sets_differ && extended_ && !d_.change) {
+    Log(fmt::format("the new set differs from version {} by up to {:.3f} mm where both were "
+                    "fitted, but this night extends the fit to configurations version {} never "
+                    "covered and no session it could judge disagrees with it: not called drift",
+                    current_->version, m.max_mm, current_->version));
+  }
   Log(fmt::format(
       "{}: against version {} the predicted positions differ by up to {:.3f} mm (mean {:.3f} "
-      "mm) over {} configurations spread over the work volume; chi2 {:.1f} on {} dof ({}), "
+      "mm) over {} configurations {}; chi2 {:.1f} on {} dof ({}), "
       "tolerance {:.3f} mm{}",
       d_.drift ? "DRIFT" : "no drift", current_->version, m.max_mm, m.mean_mm, m.configurations,
-      m.chi2, m.dof, PValueText(m.p_value), m.tolerance_mm,
+      compared_over_, m.chi2, m.dof, PValueText(m.p_value), m.tolerance_mm,
       m.same_subset ? ""
                     : fmt::format("; the two sets estimate different parameters: chi2 only "
                                   "on the shape changes both can make (version {}: {})",
@@ -1185,10 +1294,10 @@ void NightlyJob::CompareWithActive() {
   } else if (d_.drift) {
     // What physically changed between the two sets, one cause at a time.
     const auto explanation = calibration::ExplainDifference(
-        model_, before.params, calibration::SetDifference(model_, before, now, spread_), 3,
+        model_, before.params, calibration::SetDifference(model_, before, now, compared_), 3,
         TermsOf(model_, run.params_spec));
     const std::string over =
-        fmt::format("over {} configurations spread over the work volume", spread_.size());
+        fmt::format("over {} configurations {}", compared_.size(), compared_over_);
     for (const auto& cause : explanation.causes) d_.causes.push_back(NameOf(cause, over));
     for (const auto& cause : d_.causes) Log("drift: " + cause.Describe());
   }
@@ -1258,7 +1367,8 @@ void NightlyJob::WriteRunReport() {
     const calibration::FittedSet now{run.estimate.params, run.estimate.identifiability.identified,
                                      run.estimate.covariance};
     ReportDriftPoint point = DriftPointOf(
-        model_, FittedSetOf(model_, SignatureOf(model_, *current_), *current_), now, spread_);
+        model_, FittedSetOf(model_, SignatureOf(model_, *current_), *current_), now,
+        compared_.empty() ? spread_ : compared_);
     point.version = 0;
     point.against = current_->version;
     point.drift = d_.drift;

@@ -7,9 +7,12 @@
 #include <CLI/CLI.hpp>
 #include <chrono>
 #include <filesystem>
+#include <fmt/format.h>
 #include <fstream>
 #include <functional>
 #include <nlohmann/json.hpp>
+#include <numbers>
+#include <random>
 #include <set>
 #include <sstream>
 
@@ -452,9 +455,21 @@ TEST(HostileCli, FileNamesWithControlCharactersAreEscapedOnStandardOutput) {
                 .exit_code,
             0);
   const std::string poses = dir.File("p.csv");
-  WriteText(poses,
-            "pose,q1_deg,q2_deg,q3_deg,q4_deg,q5_deg,q6_deg,x_mm,y_mm,z_mm\n"
-            "1,0,10,20,0,30,0,500,600,700\n2,5,15,25,5,35,5,510,610,690\n");
+  {  // three configurations where the nominal robot puts its tool (the door's model check)
+    const auto model = Puma();
+    std::mt19937 rng(7);
+    const auto simulated = calibration::SimulatePoses(
+        model, Eigen::Isometry3d::Identity(), Eigen::VectorXd::Zero(model.num_parameters()),
+        calibration::RandomConfigurations(model, 3, rng), 0.0, rng);
+    std::string text = "pose,q1_deg,q2_deg,q3_deg,q4_deg,q5_deg,q6_deg,x_mm,y_mm,z_mm\n";
+    for (size_t k = 0; k < simulated.size(); ++k) {
+      text += std::to_string(k + 1);
+      for (int i = 0; i < 6; ++i) text += fmt::format(",{:.9f}", simulated[k].joints_rad(i) * 180 / std::numbers::pi);
+      for (int i = 0; i < 3; ++i) text += fmt::format(",{:.6f}", simulated[k].target_in_world(i));
+      text += "\n";
+    }
+    WriteText(poses, text);
+  }
   r = RunArmsig(db +
                     "import poses p.csv --joint-columns q1_deg,q2_deg,q3_deg,q4_deg,q5_deg,"
                     "q6_deg --joint-unit deg --xyz-columns x_mm,y_mm,z_mm --id pose --robot r "

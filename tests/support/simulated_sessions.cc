@@ -1,6 +1,8 @@
 #include "support/simulated_sessions.h"
 
+#include <algorithm>
 #include <random>
+#include <vector>
 
 #include "calibration/synthetic.h"
 #include "db/store.h"
@@ -15,12 +17,15 @@ constexpr double kNoiseMm = 0.01;
 // One session of `count` configurations of the true robot, stored like a capture.
 void AddSession(db::Database& db, const Eigen::VectorXd& truth, int count, unsigned seed,
                 double blunder_fraction, const std::string& lab_yaml, const std::string& robot_name,
-                const Eigen::Isometry3d& world_from_base) {
+                const Eigen::Isometry3d& world_from_base, int stride) {
   const auto model = Puma();
   std::mt19937 rng(seed);
+  const auto design = calibration::LabTestConfigurations(model, rng);
+  std::vector<Eigen::VectorXd> configurations;
+  for (size_t k = 0; k < design.size(); k += static_cast<size_t>(std::max(stride, 1)))
+    configurations.push_back(design[k]);
   const auto poses =
-      calibration::SimulatePoses(model, world_from_base, truth,
-                                 calibration::LabTestConfigurations(model, rng), kNoiseMm, rng);
+      calibration::SimulatePoses(model, world_from_base, truth, configurations, kNoiseMm, rng);
   db::WriteTransaction tx(db);
   const int64_t robot =
       db::EnsureRobot(db, robot_name, "puma760", ReadText(SourcePath("models/puma760.yaml")));

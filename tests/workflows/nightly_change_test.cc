@@ -33,11 +33,14 @@ class NightlyChange : public ::testing::Test {
  protected:
   // One night: a session of `count` configurations of `robot`, then the job as the unit
   // runs it (no --since, the lab's defaults).
-  workflows::RecalibrationDecision Night(const Eigen::VectorXd& robot, int count) {
+  // `stride`: a short session spread over the lab's whole test design (see AddSession).
+  workflows::RecalibrationDecision Night(const Eigen::VectorXd& robot, int count,
+                                         int stride = 1) {
     ++night_;
     {
       db::Database database(path_);
-      AddSession(database, robot, count, 500 + night_, 0.0, "", "puma", NightFrame(night_));
+      AddSession(database, robot, count, 500 + night_, 0.0, "", "puma", NightFrame(night_),
+                 stride);
     }
     workflows::RecalibrateOptions o;
     o.db_path = path_;
@@ -85,7 +88,8 @@ class NightlyChange : public ::testing::Test {
 }  // namespace
 
 // Three unchanged nights, then joint 2 re-mastered 0.02° off: the first night after it
-// (a short session of 24 configurations: too few for a fit of their own) says "drift
+// (a short session of 24 configurations spread over the test design: too few for a fit of
+// their own) says "drift
 // suspected", names joint 2's zero with its size and stores nothing (exit 5); the next night
 // the two sessions since are fitted alone and made active (exit 4); the night after, the
 // window starts at the change. No active set ever mixes the robots, and the active set predicts the new robot as
@@ -102,7 +106,7 @@ TEST_F(NightlyChange, AJointZeroRemasteredIsNamedThenFollowedWithoutBlending) {
     EXPECT_EQ(d.ExitCode(), 0);
     EXPECT_FALSE(d.drift) << d.DriftLine();
   }
-  const auto suspected = Night(after, 24);
+  const auto suspected = Night(after, 24, 8);
   ASSERT_EQ(suspected.outcome, Outcome::kDriftSuspected) << suspected.Describe();
   EXPECT_EQ(suspected.ExitCode(), 5);
   ASSERT_TRUE(suspected.change.has_value());
@@ -136,9 +140,14 @@ TEST_F(NightlyChange, AJointZeroRemasteredIsNamedThenFollowedWithoutBlending) {
   ASSERT_FALSE(followed.causes.empty());
   EXPECT_EQ(followed.causes.front().name, "joint 2 zero") << followed.DriftLine();
   EXPECT_NEAR(followed.causes.front().size, shift * 1e3, 0.3 * shift * 1e3);
-  // The two sets' difference is taken over the configurations spread over the work volume.
+  // One ranking everywhere: the change found in the sessions names the drift's causes too,
+  // taken where it was measured.
+  ASSERT_TRUE(followed.change.has_value());
+  ASSERT_EQ(followed.causes.size(), followed.change->causes.size());
+  for (size_t k = 0; k < followed.causes.size(); ++k)
+    EXPECT_EQ(followed.causes[k].Describe(), followed.change->causes[k].Describe());
   EXPECT_NE(followed.causes.front().Describe().find(
-                "mm at the tool over 50 configurations spread over the work volume"),
+                "mm at the tool on the configurations measured since"),
             std::string::npos)
       << followed.causes.front().Describe();
 
@@ -161,7 +170,8 @@ TEST_F(NightlyChange, AJointZeroRemasteredIsNamedThenFollowedWithoutBlending) {
   {
     db::Database database(fresh);
     for (int n = 4; n <= 6; ++n)
-      AddSession(database, after, n == 4 ? 24 : 60, 500 + n, 0.0, "", "puma", NightFrame(n));
+      AddSession(database, after, n == 4 ? 24 : 60, 500 + n, 0.0, "", "puma", NightFrame(n),
+                 n == 4 ? 8 : 1);
   }
   workflows::RecalibrateOptions o;
   o.db_path = fresh;
