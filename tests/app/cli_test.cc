@@ -561,8 +561,9 @@ TEST(Cli, ServedVirtualLabIsDrivenByAHandCapture) {
   }
 }
 
-TEST(BuiltinModels, DemoPumaIsTheShippedModelFile) {
+TEST(BuiltinModels, DemoModelsAreTheShippedModelFiles) {
   EXPECT_EQ(std::string(io::kPuma760Yaml), ReadText(SourcePath("models/puma760.yaml")));
+  EXPECT_EQ(std::string(io::kUr10Yaml), ReadText(SourcePath("models/ur10.yaml")));
 }
 
 }  // namespace armsig::testing
