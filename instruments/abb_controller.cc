@@ -14,6 +14,7 @@ namespace armsig::instruments {
 
 namespace {
 
+using Kind = ControllerError::Kind;
 constexpr double kDegPerRad = 180.0 / std::numbers::pi;
 
 std::string Cnonce() {
@@ -219,8 +220,15 @@ rws::Document AbbController::Call(const rws::Request& request, Deadline deadline
       spdlog::debug("{}: attempt {} of {}: {}", name_, made + 1, policy_.attempts, last);
     }
   }
-  throw InstrumentError(name_, code, geocom::CodeName(code) + ": " + GaveUp(made, start, last) +
-                                         " (is the controller on and its network connected?)");
+  (void)code;
+  ThrowLost(GaveUp(made, start, last));
+}
+
+void AbbController::ThrowLost(const std::string& why) const {
+  throw ControllerError(Kind::kConnectionLost, name_, "Robot Web Services did not answer: " + why,
+                        "check that the controller is on, its network cable and address (and "
+                        "the service or WAN port in the lab file); the session resumes where it "
+                        "stopped");
 }
 
 // ---- RAPID data ----
@@ -257,9 +265,10 @@ void AbbController::WriteSymbols(
   } catch (const RwsRefused& e) {
     const auto& s = e.status();
     if (s && s->code == rws::code::kHeldBySomeoneElse) {
-      throw AbbFault(AbbFault::Kind::kNotReady, name_,
-                     "another client holds the write access (mastership) to RAPID: release it "
-                     "(RobotStudio: Release Write Access; or close the other program)");
+      throw ControllerError(Kind::kNotRemote, name_,
+                            "another client holds the write access (mastership) to RAPID",
+                            "release it there (RobotStudio: Release Write Access; or close the "
+                            "other program), then resume the session");
     }
     throw;
   }
@@ -280,10 +289,9 @@ void AbbController::WriteSymbols(
     } catch (const RwsRefused& e) {
       const auto& s = e.status();
       if (s && s->code == rws::code::kRejected) {
-        throw AbbFault(AbbFault::Kind::kNotReady, name_,
-                       fmt::format("refused to write {} (the user {} lacks a UAS grant: give it "
-                                   "'Modify current value' and 'Execute program', "
-                                   "docs/how-to/abb.md)",
+        throw AbbFault(AbbFault::Kind::kCredentials, name_,
+                       fmt::format("refused to write {}: the user {} lacks the UAS grant "
+                                   "'Modify current value' (docs/how-to/abb.md)",
                                    symbol.name, Quoted(settings_.user)));
       }
       throw;
@@ -293,7 +301,7 @@ void AbbController::WriteSymbols(
 
 // ---- Identity and state ----
 
-AbbIdentity AbbController::Identify() {
+AbbIdentity AbbController::Details() {
   const Deadline deadline = Clock::now() + policy_.timeout;
   const auto v = settings_.version;
   AbbIdentity id;
@@ -327,21 +335,19 @@ AbbIdentity AbbController::Identify() {
   return id;
 }
 
-void AbbController::ExpectRobot(const std::string& model, const std::string& serial) {
-  if (!identity_) Identify();
-  const bool model_ok = model.empty() || identity_->model == model;
-  const bool serial_ok = serial.empty() || identity_->serial == serial;
-  if (model_ok && serial_ok) return;
-  throw AbbFault(AbbFault::Kind::kWrongRobot, name_,
-                 fmt::format("is robot {} serial {}, not the lab's {} serial {}: check the "
-                             "controller's address in the lab file (or the lab file's robot)",
-                             Quoted(identity_->model), Quoted(identity_->serial),
-                             Quoted(model.empty() ? identity_->model : model),
-                             Quoted(serial.empty() ? identity_->serial : serial)));
+std::optional<ControllerIdentity> AbbController::Identify() {
+  const AbbIdentity d = Details();
+  ControllerIdentity id;
+  id.protocol = "abb";
+  id.vendor = "ABB";
+  id.model = d.model;
+  id.serial = d.serial;
+  id.software = "RobotWare " + d.robotware;
+  return id;
 }
 
 void AbbController::EnsureContract(Deadline) {
-  if (!identity_) Identify();
+  if (!identity_) Details();
 }
 
 AbbController::State AbbController::ReadStateBy(Deadline deadline) {
@@ -363,57 +369,76 @@ AbbController::State AbbController::ReadState() {
   return ReadStateBy(Clock::now() + policy_.timeout);
 }
 
+bool AbbController::Ready(const State& s) const {
+  return s.controller == rws::ControllerState::kMotorsOn && s.mode == rws::OperationMode::kAuto &&
+         s.execution == rws::ExecutionState::kRunning;
+}
+
 void AbbController::ThrowForState(const State& s, const std::string& during) {
-  using Kind = AbbFault::Kind;
   using CS = rws::ControllerState;
   const std::string restart = fmt::format(
-      "start the program again on the FlexPendant (task {}, module {}): armsig goes on once it "
-      "runs",
+      "start the program again on the FlexPendant (task {}, module {}; continue, no PP to "
+      "main): the session goes on once it runs",
       settings_.task, settings_.module);
   switch (s.controller) {
     case CS::kGuardStop:
-      throw AbbFault(Kind::kProtectiveStop, name_,
-                     "guard stop" + during +
-                         ": the safety run chain is open (a cell door, a light curtain, an "
-                         "enabling device). Close it and reset the stop, switch the motors on "
-                         "and " + restart);
+      recovering_ = Kind::kProtectiveStop;
+      throw ControllerError(Kind::kProtectiveStop, name_,
+                            "guard stop" + during +
+                                ": the safety run chain is open (a cell door, a light curtain, an "
+                                "enabling device)",
+                            "close it and reset the stop, switch the motors on and " + restart);
     case CS::kEmergencyStop:
     case CS::kEmergencyStopReset:
-      throw AbbFault(Kind::kEmergencyStop, name_,
-                     "emergency stop" + during +
-                         ": release the emergency stop button, reset the emergency stop, switch "
-                         "the motors on and " + restart);
+      recovering_ = Kind::kEmergencyStop;
+      throw ControllerError(Kind::kEmergencyStop, name_, "emergency stop" + during,
+                            "release the emergency stop button, reset the emergency stop, switch "
+                            "the motors on and " + restart);
+    default:
+      break;
+  }
+  // After a guard stop, the motors off and the program stopped are its recovery: the same
+  // stop, still waited out.
+  if (recovering_ == Kind::kProtectiveStop && s.mode == rws::OperationMode::kAuto &&
+      (s.controller == CS::kMotorsOff || s.controller == CS::kMotorsOn)) {
+    throw ControllerError(Kind::kProtectiveStop, name_,
+                          s.controller == CS::kMotorsOff
+                              ? "the guard stop is reset; the motors are still off"
+                              : "the guard stop is reset; the program is not running yet",
+                          s.controller == CS::kMotorsOff ? "switch the motors on and " + restart
+                                                         : restart);
+  }
+  switch (s.controller) {
     case CS::kMotorsOff:
-      throw AbbFault(Kind::kNotReady, name_,
-                     "motors off" + during + ": switch the motors on and, if it stopped, " +
-                         restart);
+      throw ControllerError(Kind::kNotRunning, name_, "motors off" + during,
+                            "switch the motors on and, if it stopped, " + restart);
     case CS::kInit:
-      throw AbbFault(Kind::kNotReady, name_, "is starting up: wait until it is ready");
+      throw ControllerError(Kind::kNotRunning, name_, "the controller is starting up",
+                            "wait until it is ready, then resume the session");
     case CS::kSystemFailure:
-      throw AbbFault(Kind::kNotReady, name_,
-                     "is in system failure: restart the controller, then " + restart);
-    case CS::kMotorsOn:
+      throw ControllerError(Kind::kNotRunning, name_, "the controller is in system failure",
+                            "restart the controller, then " + restart);
+    default:
       break;
   }
   if (s.mode != rws::OperationMode::kAuto) {
-    throw AbbFault(Kind::kNotReady, name_,
-                   "is in operating mode " + ModeWords(s.mode) + during +
-                       ": armsig moves the robot in AUTO only; turn the mode key to AUTO, "
-                       "confirm on the FlexPendant and " + restart);
+    throw ControllerError(Kind::kNotRemote, name_,
+                          "in operating mode " + ModeWords(s.mode) + during +
+                              ": armsig moves the robot in AUTO only",
+                          "turn the mode key to AUTO, confirm on the FlexPendant, switch the "
+                          "motors on and " + restart);
   }
   if (s.execution != rws::ExecutionState::kRunning) {
-    throw AbbFault(Kind::kNotReady, name_, "the RAPID program is not running" + during + ": " +
-                                               restart);
+    throw ControllerError(Kind::kNotRunning, name_, "the RAPID program is not running" + during,
+                          restart);
   }
   throw std::logic_error("ThrowForState called for a ready controller");
 }
 
 void AbbController::CheckReady() {
   const State s = ReadState();
-  if (s.controller != rws::ControllerState::kMotorsOn || s.mode != rws::OperationMode::kAuto ||
-      s.execution != rws::ExecutionState::kRunning) {
-    ThrowForState(s, "");
-  }
+  if (!Ready(s)) ThrowForState(s, "");
+  recovering_.reset();
 }
 
 // ---- Joints ----
@@ -429,10 +454,11 @@ Eigen::VectorXd AbbController::ReadJointsRad() {
         s.execution != rws::ExecutionState::kRunning) {
       ThrowForState(s, fmt::format(" with move {:.0f} unfinished", cmd));
     }
-    throw AbbFault(AbbFault::Kind::kMoving, name_,
-                   fmt::format("the arm is moving (move {:.0f} not finished): no reading is taken "
-                               "while it moves; measure again once it stands",
-                               cmd));
+    throw ControllerError(Kind::kArmMoving, name_,
+                          fmt::format("the arm is moving (move {:.0f} not finished): no reading "
+                                      "is taken while it moves",
+                                      cmd),
+                          "measure again once it stands");
   }
   std::vector<double> recorded;
   try {
@@ -451,19 +477,22 @@ Eigen::VectorXd AbbController::ReadJointsRad() {
   for (int i = 0; i < 6; ++i) {
     const double off = std::abs(now_deg(i) - recorded[static_cast<size_t>(i)]);
     if (!(off <= settings_.still_tolerance_deg)) {
-      throw AbbFault(AbbFault::Kind::kMoving, name_,
-                     fmt::format("the arm is not where it stood after move {:.0f} (joint {} is "
-                                 "{:.3f}° away): it moves or was moved since; no reading taken",
-                                 done, i + 1, off));
+      throw ControllerError(
+          Kind::kArmMoving, name_,
+          fmt::format("the arm is not where it stood after move {:.0f} (joint {} is {:.3f}° "
+                      "away): it moves or was moved since; no reading taken",
+                      done, i + 1, off),
+          "nothing else may move the arm during a capture (another program, the pendant)");
     }
   }
   const double cmd_after = ReadNum(abb_contract::kCommand, deadline);
   const double done_after = ReadNum(abb_contract::kDone, deadline);
   if (cmd_after != cmd || done_after != done) {
-    throw AbbFault(AbbFault::Kind::kMoving, name_,
-                   fmt::format("a move began while the joints were read (request {:.0f}): no "
-                               "reading taken",
-                               cmd_after));
+    throw ControllerError(Kind::kArmMoving, name_,
+                          fmt::format("a move began while the joints were read (request {:.0f}): "
+                                      "no reading taken",
+                                      cmd_after),
+                          "measure again once it stands");
   }
   Eigen::VectorXd q(6);
   for (int i = 0; i < 6; ++i) q(i) = recorded[static_cast<size_t>(i)] / kDegPerRad;
@@ -479,25 +508,23 @@ void AbbController::WaitDone(int request, Deadline deadline) {
     if (done == request) {
       const double error = ReadNum(abb_contract::kError, call);
       if (error != 0) {
-        throw AbbFault(AbbFault::Kind::kMoveFailed, name_,
-                       fmt::format("the module reported error {:.0f} for move {} (see the event "
-                                   "log on the FlexPendant); the arm stands where it stopped",
-                                   error, request),
-                       static_cast<int>(error));
+        throw ControllerError(Kind::kMoveRefused, name_,
+                              fmt::format("the module reported error {:.0f} for move {}; the arm "
+                                          "stands where it stopped",
+                                          error, request),
+                              "see the event log on the FlexPendant (1: a speed outside 1 to "
+                              "100 %, else the RAPID error number)");
       }
       return;
     }
     const State s = ReadStateBy(call);
-    if (s.controller != rws::ControllerState::kMotorsOn || s.mode != rws::OperationMode::kAuto ||
-        s.execution != rws::ExecutionState::kRunning) {
-      ThrowForState(s, during);
-    }
+    if (!Ready(s)) ThrowForState(s, during);
     if (Clock::now() >= deadline) {
-      throw InstrumentError(name_, 3077,
-                            fmt::format("COM_TIMEDOUT: move {} not finished after {} s (the "
-                                        "module's main loop does not answer, or the speed is too "
-                                        "low)",
-                                        request, settings_.move_timeout.count() / 1000.0));
+      throw ControllerError(Kind::kMoveRefused, name_,
+                            fmt::format("move {} not finished after {} s", request,
+                                        settings_.move_timeout.count() / 1000.0),
+                            "check that the module's loop runs (armsig_serve) and that the speed "
+                            "is not too low for the lab's move timeout");
     }
     transport_->Pause(settings_.poll_interval, deadline);
   }

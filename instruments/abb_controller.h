@@ -31,10 +31,14 @@
 // significant digits): the precision of the jointtarget resource's text is not stated by
 // the manual, so armsig never depends on it.
 //
-// Faults come as AbbFault naming the controller and what to do: a guard stop (ABB's
-// protective stop) or an emergency stop during a move, not in AUTO, motors off, the program
-// stopped, the arm moving, another robot than expected, credentials refused, a certificate
-// not trusted, the module missing. Credentials are never written to a log or a message.
+// The cell's states come as the framework's ControllerError (instruments/device.h), each
+// naming the controller, what happened and what to do: a guard stop (the safety run chain
+// opened: ABB's protective stop; the whole recovery — reset, motors on, program started —
+// is one stop the session waits out), an emergency stop, manual mode or another client
+// holding RAPID's write access (not in remote control), motors off or the program stopped
+// (not running), the arm moving, a move the module refused, the connection lost. What the
+// lab must set right comes as AbbFault: credentials refused, a certificate not trusted, the
+// module missing. Credentials are never written to a log or a message.
 #pragma once
 
 #include <Eigen/Core>
@@ -95,27 +99,18 @@ struct AbbIdentity {
   DeviceInfo Info() const;  // name: model, serial, firmware: RobotWare
 };
 
+// What the lab must set right before armsig can work with the controller (not a state of
+// the cell: those are ControllerError, instruments/device.h).
 class AbbFault : public InstrumentError {
  public:
   enum class Kind {
-    kProtectiveStop,  // guard stop: the safety run chain opened (a door, a light curtain)
-    kEmergencyStop,
-    kNotReady,    // not in AUTO, motors off, the RAPID program not running
-    kMoving,      // the arm moves or moved since its last recorded stop: no reading
-    kMoveFailed,  // the module reported an error for the move
-    kWrongRobot,  // another model or serial number than the lab's robot
-    kCredentials,
-    kCertificate,
-    kContract,  // the module is not loaded, or of another contract version
+    kCredentials,  // the login refused, or the user lacks a grant
+    kCertificate,  // the TLS certificate not pinned or not verifiable
+    kContract,     // the module is not loaded, or of another contract version
   };
-  AbbFault(Kind kind, std::string device, const std::string& message, int code = 0)
-      : InstrumentError(std::move(device), code, message), kind_(kind) {}
+  AbbFault(Kind kind, std::string device, const std::string& message)
+      : InstrumentError(std::move(device), 0, message), kind_(kind) {}
   Kind kind() const { return kind_; }
-  // The session can go on once the operator has cleared it (a stop, a mode, the program).
-  bool resumable() const {
-    return kind_ == Kind::kProtectiveStop || kind_ == Kind::kEmergencyStop ||
-           kind_ == Kind::kNotReady || kind_ == Kind::kMoving;
-  }
 
  private:
   Kind kind_;
@@ -148,15 +143,19 @@ class AbbController : public RobotController {
   const std::string& name() const override { return name_; }
   // Who the controller says it is, and the module's contract version (AbbFault kContract
   // when the module is missing or speaks another version).
-  AbbIdentity Identify();
-  // Throws AbbFault kWrongRobot when the controller's robot is not `model` / `serial`
-  // (either may be empty: not checked).
-  void ExpectRobot(const std::string& model, const std::string& serial);
+  AbbIdentity Details();
+  // The framework's form of it: vendor ABB, the robot type, the arm's serial number,
+  // RobotWare.
+  std::optional<ControllerIdentity> Identify() override;
 
   Eigen::VectorXd ReadJointsRad() override;
   bool CanMove() const override { return settings_.can_move; }
   void MoveTo(const Eigen::VectorXd& joints_rad) override;
   void SetInterrupt(const std::atomic<bool>* flag) override { transport_->SetInterrupt(flag); }
+  // Not a stream, but the session's read after the instruments is what a calibration needs
+  // here too: that second reading's still-check (the arm where the module recorded it)
+  // refuses a configuration whose arm something moved while the instruments measured.
+  bool StreamsJoints() const override { return true; }
 
   struct State {
     rws::ControllerState controller;
@@ -164,9 +163,9 @@ class AbbController : public RobotController {
     rws::ExecutionState execution;
   };
   State ReadState();
-  // Throws AbbFault (by the state) unless the controller runs the module in AUTO with the
-  // motors on: what a move needs.
-  void CheckReady();
+  // Throws the ControllerError of the state unless the controller runs the module in AUTO
+  // with the motors on: what a move needs.
+  void CheckReady() override;
 
   int exchanges() const { return exchanges_; }  // HTTP exchanges so far
   const AbbSettings& settings() const { return settings_; }
@@ -183,6 +182,8 @@ class AbbController : public RobotController {
   void EnsureContract(Deadline deadline);
   State ReadStateBy(Deadline deadline);
   [[noreturn]] void ThrowForState(const State& state, const std::string& during);
+  [[noreturn]] void ThrowLost(const std::string& why) const;
+  bool Ready(const State& state) const;
   void WaitDone(int request, Deadline deadline);
   rws::SymbolPath PathOf(const abb_contract::Symbol& symbol) const;
 
@@ -194,6 +195,9 @@ class AbbController : public RobotController {
   std::string authorization_;  // for the next request, from the last challenge
   unsigned nonce_count_ = 0;
   std::optional<AbbIdentity> identity_;
+  // A guard or emergency stop was reported and the controller has not been ready since: its
+  // recovery (reset, motors on, program started) is still that stop.
+  std::optional<ControllerError::Kind> recovering_;
   int exchanges_ = 0;
 };
 

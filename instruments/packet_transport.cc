@@ -8,22 +8,25 @@ namespace {
 
 namespace asio = boost::asio;
 
-TransportError BadFrame(const std::string& name, int32_t size) {
+TransportError BadFrame(const std::string& name, int32_t size,
+                        const FrameSplitter::Format& format) {
   return TransportError(TransportError::Kind::kBadFrame, name,
                         "frame size field " + std::to_string(size) + " outside " +
-                            std::to_string(emscon::kMinPacketBytes) + " to " +
-                            std::to_string(emscon::kMaxPacketBytes) +
+                            std::to_string(format.min_bytes) + " to " +
+                            std::to_string(format.max_bytes) +
                             " bytes: the stream lost its framing");
 }
 
 class TcpPacketTransport : public PacketTransport {
  public:
-  TcpPacketTransport(std::string host, unsigned short port, Millis timeout)
+  TcpPacketTransport(std::string host, unsigned short port, Millis timeout,
+                     FrameSplitter::Format format)
       : name_(host + ":" + std::to_string(port)),
         host_(std::move(host)),
         port_(port),
         timeout_(timeout),
-        conn_(*this) {}
+        conn_(*this),
+        splitter_(format) {}
 
   void Open() override {
     Close();
@@ -43,11 +46,11 @@ class TcpPacketTransport : public PacketTransport {
     for (;;) {
       int32_t size = 0;
       switch (splitter_.Next(frame, &size)) {
-        case emscon::FrameSplitter::Status::kFrame:
+        case FrameSplitter::Status::kFrame:
           return frame;
-        case emscon::FrameSplitter::Status::kBadSize:
-          throw BadFrame(name_, size);
-        case emscon::FrameSplitter::Status::kNeedMore:
+        case FrameSplitter::Status::kBadSize:
+          throw BadFrame(name_, size, splitter_.format());
+        case FrameSplitter::Status::kNeedMore:
           break;
       }
       if (Clock::now() >= deadline) {
@@ -81,7 +84,7 @@ class TcpPacketTransport : public PacketTransport {
   unsigned short port_;
   Millis timeout_;
   detail::AsioStream<asio::ip::tcp::socket> conn_;
-  emscon::FrameSplitter splitter_;
+  FrameSplitter splitter_;
   char chunk_[4096];
 };
 
@@ -90,7 +93,14 @@ class TcpPacketTransport : public PacketTransport {
 std::unique_ptr<PacketTransport> MakeEmsconTcpTransport(const std::string& host,
                                                         unsigned short port,
                                                         Millis connect_timeout) {
-  return std::make_unique<TcpPacketTransport>(host, port, connect_timeout);
+  return MakeFramedTcpTransport(host, port, kEmsconFrames, connect_timeout);
+}
+
+std::unique_ptr<PacketTransport> MakeFramedTcpTransport(const std::string& host,
+                                                        unsigned short port,
+                                                        const FrameSplitter::Format& format,
+                                                        Millis connect_timeout) {
+  return std::make_unique<TcpPacketTransport>(host, port, connect_timeout, format);
 }
 
 void FakePacketTransport::Open() {
@@ -115,11 +125,11 @@ std::string FakePacketTransport::ReadPacket(Deadline) {
     if (!open_) throw TransportError(TransportError::Kind::kClosed, name_, "port is not open");
     int32_t size = 0;
     switch (splitter_.Next(frame, &size)) {
-      case emscon::FrameSplitter::Status::kFrame:
+      case FrameSplitter::Status::kFrame:
         return frame;
-      case emscon::FrameSplitter::Status::kBadSize:
-        throw BadFrame(name_, size);
-      case emscon::FrameSplitter::Status::kNeedMore:
+      case FrameSplitter::Status::kBadSize:
+        throw BadFrame(name_, size, splitter_.format());
+      case FrameSplitter::Status::kNeedMore:
         break;
     }
     if (chunks_.empty()) {

@@ -1,11 +1,13 @@
 // Packet transports: a TCP connection carrying binary, length-prefixed frames (Leica emScon
-// TPI: each packet starts with its whole length as an int32, little-endian), and an
+// TPI: each packet starts with its whole length as an int32, little-endian; Universal
+// Robots RTDE and primary/secondary interfaces: uint16 / int32, big-endian), and an
 // in-memory fake. The same deadline and interrupt semantics as the line transports
 // (instruments/transport.h): every read and write ends by an absolute deadline, the
 // deadline of the whole exchange, however the bytes arrive; the interrupt flag ends any
-// wait within kInterruptPoll. Frames are split by emscon::FrameSplitter: several packets
-// in one read and a packet split across reads both come out whole; a size field outside
-// 12 B … 64 KiB means the stream lost its framing (kBadFrame, everything buffered dropped).
+// wait within kInterruptPoll. Frames are split by instruments::FrameSplitter: several
+// packets in one read and a packet split across reads both come out whole; a size field
+// outside the protocol's bounds (emScon 12 B … 64 KiB) means the stream lost its framing
+// (kBadFrame, everything buffered dropped).
 #pragma once
 
 #include <deque>
@@ -29,8 +31,15 @@ class PacketTransport : public TransportBase {
   virtual std::string ReadPacket(Deadline deadline) = 0;
 };
 
+inline constexpr FrameSplitter::Format kEmsconFrames{4, false, emscon::kMinPacketBytes,
+                                                     emscon::kMaxPacketBytes};
 std::unique_ptr<PacketTransport> MakeEmsconTcpTransport(const std::string& host,
                                                         unsigned short port,
+                                                        Millis connect_timeout = Millis(3000));
+// Any length-prefixed binary protocol over TCP.
+std::unique_ptr<PacketTransport> MakeFramedTcpTransport(const std::string& host,
+                                                        unsigned short port,
+                                                        const FrameSplitter::Format& format,
                                                         Millis connect_timeout = Millis(3000));
 
 // In-memory packet transport for driver unit tests: every Write is answered by
@@ -40,8 +49,9 @@ std::unique_ptr<PacketTransport> MakeEmsconTcpTransport(const std::string& host,
 class FakePacketTransport : public PacketTransport {
  public:
   using Responder = std::function<std::vector<std::string>(std::string_view request)>;
-  explicit FakePacketTransport(Responder responder, std::string name = "fake tracker")
-      : responder_(std::move(responder)), name_(std::move(name)) {}
+  explicit FakePacketTransport(Responder responder, std::string name = "fake tracker",
+                               FrameSplitter::Format format = kEmsconFrames)
+      : responder_(std::move(responder)), name_(std::move(name)), splitter_(format) {}
   void Open() override;
   void Close() override { open_ = false; }
   bool IsOpen() const override { return open_; }
@@ -59,7 +69,7 @@ class FakePacketTransport : public PacketTransport {
   bool open_ = true;
   int opens_ = 0, reads_ = 0;
   std::deque<std::string> chunks_;
-  emscon::FrameSplitter splitter_;
+  FrameSplitter splitter_;
   std::vector<std::string> written_;
 };
 

@@ -24,6 +24,7 @@
 
 #include "core/text.h"
 #include "instruments/http_auth.h"
+#include "simulation/virtual_arm.h"
 
 namespace armsig::simulation {
 
@@ -115,40 +116,6 @@ struct Reply {
   bhttp::response<bhttp::string_body> response;
 };
 
-// The normalised position of a synchronised trapezoidal move: its slowest axis' own profile.
-struct Profile {
-  double distance = 0, speed = 1, accel = 1, accel_time = 0, total = 0;
-  double At(double t) const {
-    if (total <= 0 || t >= total) return 1.0;
-    if (t <= 0) return 0.0;
-    double s;
-    if (t < accel_time) {
-      s = 0.5 * accel * t * t;
-    } else if (t < total - accel_time) {
-      s = 0.5 * accel * accel_time * accel_time + accel * accel_time * (t - accel_time);
-    } else {
-      s = distance - 0.5 * accel * (total - t) * (total - t);
-    }
-    return distance > 0 ? std::clamp(s / distance, 0.0, 1.0) : 1.0;
-  }
-};
-
-Profile ProfileFor(double distance, double speed, double accel) {
-  Profile p;
-  p.distance = distance;
-  p.speed = speed;
-  p.accel = accel;
-  if (distance <= 0) return p;
-  if (distance >= speed * speed / accel) {
-    p.accel_time = speed / accel;
-    p.total = distance / speed + p.accel_time;
-  } else {
-    p.accel_time = std::sqrt(distance / accel);
-    p.total = 2 * p.accel_time;
-  }
-  return p;
-}
-
 class Connection {
  public:
   virtual ~Connection() = default;
@@ -175,7 +142,9 @@ struct RwsSimulator::Impl {
       module = ParseRapidModule(o.module_text, "the simulator's module");
       for (const RapidData& d : module->data) values[Upper(d.name)] = Canonical(d, d.initial);
     }
-    for (int i = 0; i < 6; ++i) joints_deg(i) = o.start_deg[static_cast<size_t>(i)];
+    Eigen::VectorXd home(6);
+    for (int i = 0; i < 6; ++i) home(i) = o.start_deg[static_cast<size_t>(i)] * kRadPerDeg;
+    arm = std::make_unique<VirtualArm>(lab, clock, home);
     running = o.running && module.has_value();
   }
 
@@ -217,72 +186,92 @@ struct RwsSimulator::Impl {
 
   // ---- The task (armsig_serve of the module) ----
 
-  double SimSeconds() const {
-    const double real = std::chrono::duration<double>(SteadyClock::now() - start).count();
-    return o.time_scale > 0 ? real / o.time_scale : std::numeric_limits<double>::infinity();
-  }
+  Eigen::VectorXd JointsDeg() { return arm->Now().q / kRadPerDeg; }
 
-  Eigen::VectorXd CurrentDeg(double now) const {
-    if (phase != Phase::kMoving) return joints_deg;
-    const double s = profile.At(now - move_start);
-    return from_deg + s * (to_deg - from_deg);
-  }
-
-  // CJointT after WaitRob \ZeroSpeed: the joints as RAPID nums.
+  // CJointT after WaitRob \ZeroSpeed: where the arm stands, as RAPID nums.
   void Record() {
+    const VirtualArm::State st = arm->Now();
+    if (st.moving) {  // WaitRob \ZeroSpeed: recorded once it stands
+      record_pending = true;
+      return;
+    }
     std::vector<double> q(6);
-    for (int i = 0; i < 6; ++i) q[static_cast<size_t>(i)] = AsFloat(joints_deg(i));
+    for (int i = 0; i < 6; ++i) q[static_cast<size_t>(i)] = AsFloat(st.q(i) / kRadPerDeg);
     values["ARMSIG_JOINTS"] = rws::FormatRapidArray(q, 15);
+    record_pending = false;
   }
 
-  void StartMove(const Eigen::VectorXd& target, double speed_percent, double now) {
-    from_deg = joints_deg;
-    to_deg = target;
-    Profile slowest;
-    for (int i = 0; i < 6; ++i) {
-      const double v = o.max_speed_deg_s[static_cast<size_t>(i)] * speed_percent / 100.0;
-      const Profile p = ProfileFor(std::abs(to_deg(i) - from_deg(i)), v, v / o.accel_time_s);
-      if (p.total > slowest.total) slowest = p;
+  // MoveAbsJ at `speed_percent` of the axes' speeds: the leading joint (the largest turn) at
+  // the speed and acceleration that keep every axis within its own maximum.
+  void StartMove(const Eigen::VectorXd& target_deg, double speed_percent) {
+    const Eigen::VectorXd from = arm->Now().q, to = target_deg * kRadPerDeg;
+    const Eigen::VectorXd turn = (to - from).cwiseAbs();
+    const double lead = turn.maxCoeff();
+    double v = 1.0, a = 1.0;  // no turn: any
+    if (lead > 0) {
+      v = a = std::numeric_limits<double>::infinity();
+      for (int i = 0; i < 6; ++i) {
+        if (turn(i) <= 0) continue;
+        const double vi =
+            o.max_speed_deg_s[static_cast<size_t>(i)] * kRadPerDeg * speed_percent / 100.0;
+        v = std::min(v, vi * lead / turn(i));
+        a = std::min(a, vi / o.accel_time_s * lead / turn(i));
+      }
     }
-    profile = slowest;
-    move_start = now;
-    phase = Phase::kMoving;
     if (armed_stop) {
-      stop_at = now + armed_fraction * profile.total;
-      pending_stop = armed_stop;
+      arm->ProtectiveStopDuringNextMove(armed_fraction);
+      stop_kind = *armed_stop;
       armed_stop.reset();
     }
+    target_deg_ = target_deg;
+    if (arm->MoveJ(to, a, v)) {
+      phase = Phase::kMoving;
+    } else {
+      running = false;  // the arm is stopped or not powered: the program cannot go on
+    }
   }
 
+  // The program stops: a move running brakes along its path (continuing finishes it).
+  void StopTask() {
+    if (phase == Phase::kMoving) {
+      arm->ProtectiveStop();
+      arm->ClearProtectiveStop();  // braking goes on; no stop of the cell
+      phase = Phase::kInterrupted;
+    }
+    running = false;
+  }
+
+  // A stop of the cell: the arm brakes, the motors go off, the program stops.
   void StopBy(RwsSimulator::CellStop kind) {
-    StopTask();
-    if (kind == RwsSimulator::CellStop::kGuardStop) ctrl = rws::ControllerState::kGuardStop;
-    if (kind == RwsSimulator::CellStop::kEmergencyStop) ctrl = rws::ControllerState::kEmergencyStop;
-  }
-
-  // Halts a move where the arm is (a stop on path): the lab's robot stands there.
-  void Halt(double now) {
-    if (phase != Phase::kMoving) return;
-    joints_deg = CurrentDeg(now);
-    lab.SetJoints(joints_deg * kRadPerDeg);
-    phase = Phase::kInterrupted;
+    if (kind == RwsSimulator::CellStop::kProgramStop) return StopTask();
+    if (kind == RwsSimulator::CellStop::kEmergencyStop) {
+      arm->EmergencyStop();
+      ctrl = rws::ControllerState::kEmergencyStop;
+    } else {
+      arm->ProtectiveStop();
+      ctrl = rws::ControllerState::kGuardStop;
+    }
+    if (phase == Phase::kMoving) phase = Phase::kInterrupted;
+    running = false;
   }
 
   void Advance() {
-    if (!running || !HasContract()) return;
-    const double now = SimSeconds();
+    if (!HasContract()) return;
+    VirtualArm::State st = arm->Now();
+    if (phase == Phase::kMoving && st.stop != VirtualArm::Stop::kNone) {
+      // A stop planned for this move (StopDuringNextMove) happened: the cell reacts.
+      const RwsSimulator::CellStop kind = stop_kind;
+      stop_kind = RwsSimulator::CellStop::kGuardStop;
+      if (kind == RwsSimulator::CellStop::kProgramStop) arm->ClearProtectiveStop();
+      StopBy(kind);
+      if (kind == RwsSimulator::CellStop::kProgramStop) phase = Phase::kInterrupted;
+    }
+    if (record_pending && !st.moving) Record();
+    if (!running) return;
     for (int guard = 0; guard < 4; ++guard) {
+      st = arm->Now();
       if (phase == Phase::kMoving) {
-        if (pending_stop && now >= stop_at) {
-          const RwsSimulator::CellStop kind = *pending_stop;
-          pending_stop.reset();
-          Halt(stop_at);
-          StopBy(kind);
-          return;
-        }
-        if (now - move_start < profile.total) return;
-        joints_deg = to_deg;
-        lab.SetJoints(joints_deg * kRadPerDeg);
+        if (st.moving) return;
         phase = Phase::kWaiting;
         ++moves;
         Record();
@@ -290,7 +279,8 @@ struct RwsSimulator::Impl {
         continue;
       }
       if (phase == Phase::kInterrupted) {  // continued after a stop: finish the move
-        StartMove(to_deg, Num("armsig_speed"), now);
+        StartMove(target_deg_, Num("armsig_speed"));
+        if (!running) return;
         continue;
       }
       if (Num("armsig_cmd") == Num("armsig_done")) return;
@@ -315,19 +305,15 @@ struct RwsSimulator::Impl {
           return;
         }
       }
-      StartMove(target, speed, now);
+      StartMove(target, speed);
+      if (!running) return;
     }
-  }
-
-  void StopTask() {
-    Halt(SimSeconds());
-    running = false;
   }
 
   bool StartTask(bool from_main) {
     if (ctrl != rws::ControllerState::kMotorsOn || !module) return false;
     if (from_main && HasContract()) {
-      if (phase == Phase::kInterrupted) phase = Phase::kWaiting;
+      if (phase == Phase::kInterrupted) phase = Phase::kWaiting;  // the move is dropped
       SetNum("armsig_done", Num("armsig_cmd"));
       SetNum("armsig_error", 0);
       Record();
@@ -502,7 +488,7 @@ struct RwsSimulator::Impl {
       return {204, d};
     }
     if (get && path == "/rw/motionsystem/mechunits/" + o.mechunit + "/jointtarget") {
-      const Eigen::VectorXd q = CurrentDeg(SimSeconds());
+      const Eigen::VectorXd q = JointsDeg();
       rws::Resource r = Li("ms-jointtarget", o.mechunit, {});
       for (int i = 0; i < 6; ++i) {
         r.fields.emplace_back("rax_" + std::to_string(i + 1), fmt::format("{:.2f}", q(i)));
@@ -746,8 +732,8 @@ struct RwsSimulator::Impl {
         impl_.silent.push_back(this->shared_from_this());
         return;
       }
-      const double scale = std::max(impl_.o.time_scale, 0.0);
-      timer_.expires_after(std::chrono::duration_cast<SteadyClock::duration>(impl_.o.latency * scale));
+      timer_.expires_after(
+          impl_.clock.Wall(std::chrono::duration<double>(impl_.o.latency).count()));
       auto self = this->shared_from_this();
       timer_.async_wait([self, reply](const boost::system::error_code& ec) {
         if (ec) return;
@@ -858,7 +844,6 @@ struct RwsSimulator::Impl {
   asio::steady_timer tick;
   std::vector<std::weak_ptr<Connection>> connections;
   std::vector<std::shared_ptr<Connection>> silent;  // kept open without an answer
-  SteadyClock::time_point start = SteadyClock::now();
 
   mutable std::mutex mutex;  // everything below
   std::mt19937_64 rng;
@@ -867,19 +852,21 @@ struct RwsSimulator::Impl {
   rws::ControllerState ctrl = rws::ControllerState::kMotorsOn;
   rws::OperationMode mode = rws::OperationMode::kAuto;
   bool running = true;
+  PhysicalClock clock{o.time_scale};
+  std::unique_ptr<VirtualArm> arm;  // moved by the task's MoveAbsJ
   enum class Phase { kWaiting, kMoving, kInterrupted } phase = Phase::kWaiting;
   double request = 0;
-  Eigen::VectorXd joints_deg = Eigen::VectorXd::Zero(6), from_deg, to_deg;
-  Profile profile;
-  double move_start = 0;
+  Eigen::VectorXd target_deg_;  // of the move running or interrupted
+  bool record_pending = false;  // armsig_record waits for zero speed
   int moves = 0, logins = 0, refused_logins = 0, accepted = 0;
   std::map<std::string, std::string> sessions;  // -http-session- → ABBCX
   int next_session = 0;
   std::deque<std::string> nonces;
   std::string opaque = "799d5e6b1c2c4d7e";
   std::optional<std::string> mastership;  // the session holding it; "elsewhere"
-  std::optional<RwsSimulator::CellStop> armed_stop, pending_stop;
-  double armed_fraction = 0.5, stop_at = 0;
+  std::optional<RwsSimulator::CellStop> armed_stop;  // for the next move
+  RwsSimulator::CellStop stop_kind = RwsSimulator::CellStop::kGuardStop;  // of the planned stop
+  double armed_fraction = 0.5;
   std::vector<std::string> events;
   std::vector<std::string> log;
   FaultQueue faults;
@@ -897,8 +884,6 @@ void RwsSimulator::Start() {
   {
     std::lock_guard lock(m.mutex);
     m.Record();
-    m.lab.SetJoints(m.joints_deg * kRadPerDeg);
-    m.start = SteadyClock::now();
   }
   if (m.o.version == rws::Version::kRws2) {
     const Certificate cert = MakeCertificate(m.host, "armsig virtual OmniCore");
@@ -960,17 +945,20 @@ void RwsSimulator::StopDuringNextMove(CellStop stop, double fraction) {
 
 void RwsSimulator::ResetStop() {
   std::lock_guard lock(impl_->mutex);
-  if (impl_->ctrl == rws::ControllerState::kGuardStop ||
-      impl_->ctrl == rws::ControllerState::kEmergencyStop ||
-      impl_->ctrl == rws::ControllerState::kEmergencyStopReset) {
-    impl_->ctrl = rws::ControllerState::kMotorsOff;
+  using CS = rws::ControllerState;
+  if (impl_->ctrl == CS::kGuardStop) {
+    impl_->arm->ClearProtectiveStop();
+    impl_->ctrl = CS::kMotorsOff;
+  } else if (impl_->ctrl == CS::kEmergencyStop || impl_->ctrl == CS::kEmergencyStopReset) {
+    impl_->arm->ReleaseEmergencyStop();
+    impl_->ctrl = CS::kMotorsOff;
   }
 }
 
 void RwsSimulator::SetMotors(bool on) {
   std::lock_guard lock(impl_->mutex);
   if (on) {
-    if (impl_->ctrl == rws::ControllerState::kMotorsOff) {
+    if (impl_->ctrl == rws::ControllerState::kMotorsOff && impl_->arm->PowerOn()) {
       impl_->ctrl = rws::ControllerState::kMotorsOn;
     }
   } else if (impl_->ctrl == rws::ControllerState::kMotorsOn) {
@@ -1033,10 +1021,14 @@ void RwsSimulator::RequestMoveElsewhere(const Eigen::VectorXd& joints_deg) {
   impl_->Advance();
 }
 
-void RwsSimulator::MoveBehindModule(const Eigen::VectorXd& joints_deg) {
+void RwsSimulator::TurnBehindModule(int joint, double deg_per_s) {
   std::lock_guard lock(impl_->mutex);
-  impl_->joints_deg = joints_deg;
-  impl_->lab.SetJoints(joints_deg * kRadPerDeg);
+  impl_->arm->Drift(joint, deg_per_s * kRadPerDeg);
+}
+
+void RwsSimulator::TurnAfterNextMove(int joint, double deg_per_s, double delay_s, double for_s) {
+  std::lock_guard lock(impl_->mutex);
+  impl_->arm->DriftAfterNextMove(joint, deg_per_s * kRadPerDeg, delay_s, for_s);
 }
 
 void RwsSimulator::HoldMastershipElsewhere(bool held) {
@@ -1054,8 +1046,9 @@ RwsSimulator::Snapshot RwsSimulator::snapshot() const {
   s.controller = impl_->ctrl;
   s.mode = impl_->mode;
   s.running = impl_->running;
-  s.moving = impl_->phase == Impl::Phase::kMoving;
-  s.joints_deg = impl_->CurrentDeg(impl_->SimSeconds());
+  const VirtualArm::State arm = impl_->arm->Now();
+  s.moving = arm.moving;
+  s.joints_deg = arm.q / kRadPerDeg;
   if (impl_->HasContract()) {
     s.cmd = impl_->Num("armsig_cmd");
     s.done = impl_->Num("armsig_done");

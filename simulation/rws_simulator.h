@@ -18,9 +18,10 @@
 // armsig_joints, sets armsig_done; a start from main drops a pending request. RAPID num
 // values are single-precision floats, as on the controller.
 //
-// Moves take the time the real arm would take (times time_scale): every axis follows one
-// synchronised trapezoidal profile whose slowest axis runs at its maximum speed times the
-// velocity override (armsig_speed %) with the acceleration that reaches that maximum in
+// Moves take the time the real arm would take (times time_scale), on the arm every virtual
+// controller shares (simulation/virtual_arm.h): a synchronised joint move whose leading joint
+// (the largest turn) runs at the speed and acceleration that keep every axis within its
+// maximum times the velocity override (armsig_speed %), an axis reaching its maximum in
 // accel_time_s. Defaults: the IRB 4600-40/2.55's axis speeds 175, 175, 175, 250, 250,
 // 360 °/s and working ranges ±180, +150/−90, +75/−180, ±400, +120/−125, ±400° as ABB's data
 // sheet gives them (and ROS-Industrial's abb_irb4600_support, irb4600_40_255_macro.xacro,
@@ -29,13 +30,13 @@
 // controller's motion planner does); the arm does not move.
 //
 // The cell and the operator (thread-safe, from the test or the demo): a guard stop (the
-// safety run chain opening: ABB's protective stop) or an emergency stop halts a move where
-// the arm is, switches the motors off and stops the program; the operator resets the stop,
+// safety run chain opening: ABB's protective stop) or an emergency stop brakes a move along
+// its path, switches the motors off and stops the program; the operator resets the stop,
 // switches the motors on and starts the program again (continue: the move is finished; from
 // main: it is dropped). The operating mode can be turned to manual (the program stops, the
 // motors go off). The network can be cut and restored (every connection closed, new ones
 // refused; sessions survive, as on a controller whose cable was pulled). Another client can
-// request a move, or the arm can be moved behind the module's back, for the driver's
+// request a move, or something can turn a joint behind the module's back, for the driver's
 // still-checks. Generic faults (simulation/simulator.h): kVanish (the connection closed as a
 // request arrives), kDropReply (no answer), kErrorCode (HTTP 500 with that return code),
 // kNoiseBytes (bytes that are no HTTP, then closed), kTruncateReply (half a reply, then
@@ -123,8 +124,12 @@ class RwsSimulator : public Simulator {
   void RestoreNetwork();  // listening again on the same port
   // Another client asks the module for a move (writes target and armsig_cmd).
   void RequestMoveElsewhere(const Eigen::VectorXd& joints_deg);
-  // The arm moved without the module (a jog, a brake released): the lab's robot goes there.
-  void MoveBehindModule(const Eigen::VectorXd& joints_deg);
+  // Something turns `joint` (0-based) without the module (another program, a jog) at
+  // `deg_per_s` until the module's next move.
+  void TurnBehindModule(int joint, double deg_per_s);
+  // The same `delay_s` after the module's next move has ended, for `for_s` of physical time
+  // (a program started on the pendant once the arm stood).
+  void TurnAfterNextMove(int joint, double deg_per_s, double delay_s, double for_s);
   // Another client holds the RAPID write access (mastership).
   void HoldMastershipElsewhere(bool held);
   // The next move the task makes is stopped after `fraction` of its time (as if the test

@@ -23,7 +23,7 @@ using namespace std::chrono_literals;
 using simulation::RwsSimulator;
 using simulation::RwsSimulatorOptions;
 using simulation::VirtualLab;
-using Kind = AbbFault::Kind;
+using Kind = ControllerError::Kind;
 
 constexpr double kDeg = std::numbers::pi / 180.0;
 
@@ -94,16 +94,30 @@ Eigen::VectorXd Deg(std::initializer_list<double> d) {
   return q;
 }
 
-// The fault a call throws (fails the test when it throws none or another type).
-template <typename F>
-AbbFault FaultOf(F&& call) {
+// The error a call throws (fails the test when it throws none or another type).
+template <typename E, typename F>
+E Thrown(F&& call) {
   try {
     call();
-  } catch (const AbbFault& e) {
+  } catch (const E& e) {
     return e;
+  } catch (const std::exception& e) {
+    ADD_FAILURE() << "another error: " << e.what();
+    throw;
   }
-  ADD_FAILURE() << "no AbbFault";
-  return AbbFault(Kind::kContract, "none", "none");
+  ADD_FAILURE() << "no error";
+  throw std::logic_error("no error");
+}
+template <typename F>
+ControllerError StateError(F&& call) {
+  return Thrown<ControllerError>(std::forward<F>(call));
+}
+template <typename F>
+AbbFault LabFault(F&& call) {
+  return Thrown<AbbFault>(std::forward<F>(call));
+}
+bool Says(const std::exception& e, const std::string& text) {
+  return std::string(e.what()).find(text) != std::string::npos;
 }
 
 TEST(AbbController, IdentifiesItselfOverBothGenerationsAndAllRepresentations) {
@@ -118,7 +132,7 @@ TEST(AbbController, IdentifiesItselfOverBothGenerationsAndAllRepresentations) {
     AbbSettings s;
     s.representation = c.representation;
     auto abb = cell->Connect(s);
-    const AbbIdentity id = abb->Identify();
+    const AbbIdentity id = abb->Details();
     EXPECT_EQ(id.model, "IRB 4600-40/2.55");
     EXPECT_EQ(id.serial, "4600-501234");
     EXPECT_EQ(id.controller_name, "armsig-virtual");
@@ -164,27 +178,36 @@ TEST(AbbController, MovesInThePhysicalTimeAndReadsWhereTheArmStands) {
   }
 }
 
-TEST(AbbController, GuardStopDuringAMovePausesUntilTheOperatorRecovers) {
+TEST(AbbController, GuardStopDuringAMoveIsOneStopUntilTheProgramRunsAgain) {
   auto cell = MakeCell(rws::Version::kRws2);
   auto abb = cell->Connect();
   const Eigen::VectorXd target = Deg({60, 10, -20, 0, 30, 0});
   cell->sim.StopDuringNextMove(RwsSimulator::CellStop::kGuardStop, 0.5);
-  const AbbFault stop = FaultOf([&] { abb->MoveTo(target); });
+  const ControllerError stop = StateError([&] { abb->MoveTo(target); });
   EXPECT_EQ(stop.kind(), Kind::kProtectiveStop);
-  EXPECT_TRUE(stop.resumable());
-  const std::string what = stop.what();
-  EXPECT_NE(what.find("ABB IRB 4600-40/2.55 'armsig-virtual' at 127.0.0.1:"), std::string::npos);
-  EXPECT_NE(what.find("guard stop during move 1"), std::string::npos) << what;
-  EXPECT_NE(what.find("switch the motors on"), std::string::npos) << what;
-  // The arm stands half way; no reading is given while the move is unfinished.
+  EXPECT_TRUE(stop.WaitedOut());  // the session waits, then measures the configuration again
+  EXPECT_TRUE(Says(stop, "ABB IRB 4600-40/2.55 'armsig-virtual' at 127.0.0.1:")) << stop.what();
+  EXPECT_TRUE(Says(stop, "guard stop during move 1")) << stop.what();
+  EXPECT_TRUE(Says(stop, "switch the motors on")) << stop.what();
+  // The arm braked on its path, half way; no reading is given while the move is unfinished.
   const double j1 = cell->sim.snapshot().joints_deg(0);
   EXPECT_GT(j1, 5.0);
-  EXPECT_LT(j1, 55.0);
-  EXPECT_EQ(FaultOf([&] { abb->ReadJointsRad(); }).kind(), Kind::kProtectiveStop);
-  EXPECT_EQ(FaultOf([&] { abb->MoveTo(target); }).kind(), Kind::kProtectiveStop);
-  // The operator resets it, switches the motors on and continues the program: the move
-  // finishes, and the same request again lands where it should.
-  cell->sim.Recover();
+  EXPECT_LT(j1, 58.0);
+  EXPECT_EQ(StateError([&] { abb->ReadJointsRad(); }).kind(), Kind::kProtectiveStop);
+  EXPECT_EQ(StateError([&] { abb->MoveTo(target); }).kind(), Kind::kProtectiveStop);
+  // ABB's recovery passes through motors off and a stopped program: still the same stop,
+  // each step saying what is left to do.
+  cell->sim.ResetStop();
+  ControllerError step = StateError([&] { abb->CheckReady(); });
+  EXPECT_EQ(step.kind(), Kind::kProtectiveStop);
+  EXPECT_TRUE(Says(step, "the motors are still off")) << step.what();
+  cell->sim.SetMotors(true);
+  step = StateError([&] { abb->CheckReady(); });
+  EXPECT_EQ(step.kind(), Kind::kProtectiveStop);
+  EXPECT_TRUE(Says(step, "the program is not running yet")) << step.what();
+  // Continued (no PP to main): the move finishes, and the same request lands there.
+  cell->sim.StartProgram();
+  abb->CheckReady();
   abb->MoveTo(target);
   EXPECT_LT((abb->ReadJointsRad() - target).cwiseAbs().maxCoeff(), 2e-5 * kDeg);
 }
@@ -194,14 +217,15 @@ TEST(AbbController, EmergencyStopNamesTheButtonAndResumes) {
   auto abb = cell->Connect();
   const Eigen::VectorXd target = Deg({-30, 0, 0, 0, 60, 90});
   cell->sim.StopDuringNextMove(RwsSimulator::CellStop::kEmergencyStop, 0.3);
-  const AbbFault stop = FaultOf([&] { abb->MoveTo(target); });
+  const ControllerError stop = StateError([&] { abb->MoveTo(target); });
   EXPECT_EQ(stop.kind(), Kind::kEmergencyStop);
-  EXPECT_NE(std::string(stop.what()).find("release the emergency stop button"), std::string::npos);
+  EXPECT_FALSE(stop.WaitedOut());  // the session pauses for the operator
+  EXPECT_TRUE(Says(stop, "release the emergency stop button")) << stop.what();
   // Released and reset but the motors still off: said as such.
   cell->sim.ResetStop();
-  const AbbFault off = FaultOf([&] { abb->MoveTo(target); });
-  EXPECT_EQ(off.kind(), Kind::kNotReady);
-  EXPECT_NE(std::string(off.what()).find("motors off"), std::string::npos) << off.what();
+  const ControllerError off = StateError([&] { abb->MoveTo(target); });
+  EXPECT_EQ(off.kind(), Kind::kNotRunning);
+  EXPECT_TRUE(Says(off, "motors off")) << off.what();
   cell->sim.SetMotors(true);
   cell->sim.StartProgram();
   abb->MoveTo(target);
@@ -213,19 +237,21 @@ TEST(AbbController, NotInAutoMotorsOffOrProgramStoppedIsSaidBeforeMoving) {
   auto abb = cell->Connect();
   const Eigen::VectorXd target = Deg({10, 0, 0, 0, 30, 0});
   cell->sim.SetMode(rws::OperationMode::kManualReduced);
-  AbbFault f = FaultOf([&] { abb->MoveTo(target); });
-  EXPECT_EQ(f.kind(), Kind::kNotReady);
+  ControllerError f = StateError([&] { abb->MoveTo(target); });
   // Turning the key switched the motors off first; that is what is said first.
-  EXPECT_NE(std::string(f.what()).find("motors off"), std::string::npos) << f.what();
+  EXPECT_EQ(f.kind(), Kind::kNotRunning);
+  EXPECT_TRUE(Says(f, "motors off")) << f.what();
   cell->sim.SetMotors(true);
-  f = FaultOf([&] { abb->MoveTo(target); });
-  EXPECT_NE(std::string(f.what()).find("operating mode MANR"), std::string::npos) << f.what();
-  EXPECT_NE(std::string(f.what()).find("AUTO"), std::string::npos);
+  f = StateError([&] { abb->MoveTo(target); });
+  EXPECT_EQ(f.kind(), Kind::kNotRemote);
+  EXPECT_TRUE(Says(f, "operating mode MANR (manual, reduced speed)")) << f.what();
+  EXPECT_TRUE(Says(f, "turn the mode key to AUTO")) << f.what();
   cell->sim.SetMode(rws::OperationMode::kAuto);
   cell->sim.SetMotors(true);
-  f = FaultOf([&] { abb->MoveTo(target); });
-  EXPECT_NE(std::string(f.what()).find("RAPID program is not running"), std::string::npos);
-  EXPECT_NE(std::string(f.what()).find("task T_ROB1, module ArmsigServer"), std::string::npos);
+  f = StateError([&] { abb->MoveTo(target); });
+  EXPECT_EQ(f.kind(), Kind::kNotRunning);
+  EXPECT_TRUE(Says(f, "the RAPID program is not running")) << f.what();
+  EXPECT_TRUE(Says(f, "task T_ROB1, module ArmsigServer")) << f.what();
   EXPECT_EQ(cell->sim.snapshot().moves, 0);  // nothing moved
   // A reading needs no AUTO: the arm stands where the module recorded it.
   EXPECT_LT((abb->ReadJointsRad() - Deg({0, 0, 0, 0, 30, 0})).cwiseAbs().maxCoeff(), 1e-9);
@@ -237,19 +263,15 @@ TEST(AbbController, NotInAutoMotorsOffOrProgramStoppedIsSaidBeforeMoving) {
 TEST(AbbController, ConnectionCutMidMoveAndRestoredGoesOn) {
   auto cell = MakeCell(rws::Version::kRws1, {}, 0.2);
   auto abb = cell->Connect();
-  abb->Identify();
+  abb->Details();
   const Eigen::VectorXd target = Deg({90, 0, 0, 0, 30, 0});
   auto moving = std::async(std::launch::async, [&] { abb->MoveTo(target); });
   ASSERT_TRUE(testing::WaitUntil([&] { return cell->sim.snapshot().moving; }));
   cell->sim.CutNetwork();
-  try {
-    moving.get();
-    ADD_FAILURE() << "the move did not fail with the network cut";
-  } catch (const InstrumentError& e) {
-    EXPECT_NE(std::string(e.what()).find("ABB IRB 4600-40/2.55 'armsig-virtual'"),
-              std::string::npos);
-    EXPECT_NE(std::string(e.what()).find("network"), std::string::npos) << e.what();
-  }
+  const ControllerError lost = StateError([&] { moving.get(); });
+  EXPECT_EQ(lost.kind(), Kind::kConnectionLost);
+  EXPECT_TRUE(Says(lost, "ABB IRB 4600-40/2.55 'armsig-virtual'")) << lost.what();
+  EXPECT_TRUE(Says(lost, "network cable")) << lost.what();
   cell->sim.RestoreNetwork();
   // The same configuration again: the request left running is waited for, then the arm is
   // asked once more (it is there already).
@@ -263,31 +285,30 @@ TEST(AbbController, NoReadingWhileTheArmMovesOrAfterItWasMoved) {
   auto cell = MakeCell(rws::Version::kRws2, {}, 1.0);
   auto abb = cell->Connect();
   cell->sim.RequestMoveElsewhere((Eigen::VectorXd(6) << 150, 0, 0, 0, 30, 0).finished());
-  AbbFault f = FaultOf([&] { abb->ReadJointsRad(); });
-  EXPECT_EQ(f.kind(), Kind::kMoving);
-  EXPECT_NE(std::string(f.what()).find("the arm is moving (move 1 not finished)"),
-            std::string::npos)
-      << f.what();
+  ControllerError f = StateError([&] { abb->ReadJointsRad(); });
+  EXPECT_EQ(f.kind(), Kind::kArmMoving);
+  EXPECT_TRUE(Says(f, "the arm is moving (move 1 not finished)")) << f.what();
   auto still = MakeCell(rws::Version::kRws1);
   auto abb1 = still->Connect();
-  still->sim.MoveBehindModule((Eigen::VectorXd(6) << 0, 0, 0, 0, 30.5, 0).finished());
-  f = FaultOf([&] { abb1->ReadJointsRad(); });
-  EXPECT_EQ(f.kind(), Kind::kMoving);
-  EXPECT_NE(std::string(f.what()).find("joint 5 is 0.500° away"), std::string::npos) << f.what();
+  abb1->ReadJointsRad();  // it stands where the module recorded it
+  still->sim.TurnBehindModule(4, 20.0);  // a jog of joint 5
+  ASSERT_TRUE(testing::WaitUntil(
+      [&] { return std::abs(still->sim.snapshot().joints_deg(4) - 30.0) > 0.1; }));
+  f = StateError([&] { abb1->ReadJointsRad(); });
+  EXPECT_EQ(f.kind(), Kind::kArmMoving);
+  EXPECT_TRUE(Says(f, "(joint 5 is ")) << f.what();
 }
 
-TEST(AbbController, AnotherRobotIsNamedWithBothIdentities) {
+TEST(AbbController, IdentifiesItselfToTheFramework) {
   auto cell = MakeCell(rws::Version::kRws2);
-  auto abb = cell->Connect();
-  abb->ExpectRobot("IRB 4600-40/2.55", "4600-501234");
-  const AbbFault f = FaultOf([&] { abb->ExpectRobot("IRB 4600-40/2.55", "4600-999999"); });
-  EXPECT_EQ(f.kind(), Kind::kWrongRobot);
-  EXPECT_FALSE(f.resumable());
-  const std::string what = f.what();
-  EXPECT_NE(what.find("'4600-501234'"), std::string::npos) << what;
-  EXPECT_NE(what.find("'4600-999999'"), std::string::npos);
-  EXPECT_NE(what.find("at 127.0.0.1:"), std::string::npos);
-  EXPECT_EQ(FaultOf([&] { abb->ExpectRobot("IRB 1600-10/1.45", ""); }).kind(), Kind::kWrongRobot);
+  const auto id = cell->Connect()->Identify();
+  ASSERT_TRUE(id);
+  EXPECT_EQ(id->protocol, "abb");
+  EXPECT_EQ(id->vendor, "ABB");
+  EXPECT_EQ(id->model, "IRB 4600-40/2.55");
+  EXPECT_EQ(id->serial, "4600-501234");
+  EXPECT_EQ(id->software, "RobotWare 7.16.0.0");
+  EXPECT_TRUE(id->kinematics_checksum.empty());
 }
 
 TEST(AbbController, WrongCredentialsNameTheirFileAndNeverThePassword) {
@@ -307,8 +328,8 @@ TEST(AbbController, WrongCredentialsNameTheirFileAndNeverThePassword) {
     s.password = secret + "-typo";
     s.credentials_source = "the credentials file /labs/cell2/abb.yaml";
     auto abb = cell->Connect(s);
-    const AbbFault f = FaultOf([&] { abb->Identify(); });
-    EXPECT_EQ(f.kind(), Kind::kCredentials);
+    const AbbFault f = LabFault([&] { abb->Details(); });
+    EXPECT_EQ(f.kind(), AbbFault::Kind::kCredentials);
     const std::string what = f.what();
     EXPECT_NE(what.find("ABB controller at 127.0.0.1:"), std::string::npos) << what;
     EXPECT_NE(what.find("refused the user 'Default User'"), std::string::npos) << what;
@@ -339,34 +360,34 @@ TEST(AbbController, TlsCertificateMustBePinnedOrVerified) {
   auto cell = MakeCell(rws::Version::kRws2);
   const std::string fingerprint = cell->sim.certificate_sha256();
   // Neither pin nor CA: refused, naming the fingerprint to compare and pin.
-  AbbFault f = FaultOf([&] { cell->Connect({}, TlsSettings{})->Identify(); });
-  EXPECT_EQ(f.kind(), Kind::kCertificate);
+  AbbFault f = LabFault([&] { cell->Connect({}, TlsSettings{})->Details(); });
+  EXPECT_EQ(f.kind(), AbbFault::Kind::kCertificate);
   EXPECT_NE(std::string(f.what()).find("certificate_sha256: " + fingerprint), std::string::npos)
       << f.what();
   // Another pin: refused (a different controller, or someone in between).
   TlsSettings wrong;
   wrong.pinned_sha256 = *http::CanonicalFingerprint(std::string(64, 'a'));
-  f = FaultOf([&] { cell->Connect({}, wrong)->Identify(); });
-  EXPECT_EQ(f.kind(), Kind::kCertificate);
+  f = LabFault([&] { cell->Connect({}, wrong)->Details(); });
+  EXPECT_EQ(f.kind(), AbbFault::Kind::kCertificate);
   EXPECT_NE(std::string(f.what()).find("is not the pinned one"), std::string::npos);
   EXPECT_EQ(cell->sim.snapshot().logins, 0);  // no password was sent to either
   // Pinned, or verified against a CA file (the controller's certificate as its own CA).
   TlsSettings pinned;
   pinned.pinned_sha256 = fingerprint;
-  EXPECT_EQ(cell->Connect({}, pinned)->Identify().serial, "4600-501234");
+  EXPECT_EQ(cell->Connect({}, pinned)->Details().serial, "4600-501234");
   testing::TempDir dir;
   testing::WriteText(dir.File("ca.pem"), cell->sim.certificate_pem());
   TlsSettings ca;
   ca.ca_file = dir.File("ca.pem");
-  EXPECT_EQ(cell->Connect({}, ca)->Identify().serial, "4600-501234");
+  EXPECT_EQ(cell->Connect({}, ca)->Details().serial, "4600-501234");
 }
 
 TEST(AbbController, AMissingModuleOrMastershipHeldElsewhereIsSaid) {
   RwsSimulatorOptions o;
   o.module_text.clear();
   auto bare = MakeCell(rws::Version::kRws1, o);
-  AbbFault f = FaultOf([&] { bare->Connect()->Identify(); });
-  EXPECT_EQ(f.kind(), Kind::kContract);
+  const AbbFault f = LabFault([&] { bare->Connect()->Details(); });
+  EXPECT_EQ(f.kind(), AbbFault::Kind::kContract);
   EXPECT_NE(std::string(f.what()).find("load armsig's module controllers/abb/ArmsigServer.mod "
                                        "into T_ROB1"),
             std::string::npos)
@@ -374,10 +395,9 @@ TEST(AbbController, AMissingModuleOrMastershipHeldElsewhereIsSaid) {
   auto cell = MakeCell(rws::Version::kRws2);
   auto abb = cell->Connect();
   cell->sim.HoldMastershipElsewhere(true);
-  f = FaultOf([&] { abb->MoveTo(Deg({1, 0, 0, 0, 30, 0})); });
-  EXPECT_EQ(f.kind(), Kind::kNotReady);
-  EXPECT_NE(std::string(f.what()).find("another client holds the write access"),
-            std::string::npos);
+  const ControllerError held = StateError([&] { abb->MoveTo(Deg({1, 0, 0, 0, 30, 0})); });
+  EXPECT_EQ(held.kind(), Kind::kNotRemote);
+  EXPECT_TRUE(Says(held, "another client holds the write access")) << held.what();
   EXPECT_EQ(cell->sim.snapshot().cmd, 0);  // nothing was written
   cell->sim.HoldMastershipElsewhere(false);
   abb->MoveTo(Deg({1, 0, 0, 0, 30, 0}));
@@ -386,8 +406,8 @@ TEST(AbbController, AMissingModuleOrMastershipHeldElsewhereIsSaid) {
 TEST(AbbController, ATargetOutsideTheWorkingRangeStopsTheProgramNotTheArm) {
   auto cell = MakeCell(rws::Version::kRws2);
   auto abb = cell->Connect();
-  const AbbFault f = FaultOf([&] { abb->MoveTo(Deg({0, 160, 0, 0, 30, 0})); });  // axis 2 ≤ 150°
-  EXPECT_EQ(f.kind(), Kind::kNotReady);
+  const ControllerError f = StateError([&] { abb->MoveTo(Deg({0, 160, 0, 0, 30, 0})); });  // ≤ 150°
+  EXPECT_EQ(f.kind(), Kind::kNotRunning);
   EXPECT_NE(std::string(f.what()).find("not running during move 1"), std::string::npos)
       << f.what();
   EXPECT_EQ(cell->sim.snapshot().moves, 0);
@@ -414,13 +434,9 @@ TEST(AbbController, LostRepliesAreRetriedAndSilenceEndsByTheDeadline) {
   RetryPolicy short_deadline = Fast();
   short_deadline.timeout = 300ms;
   auto patient = cell->Connect({}, {}, short_deadline);
-  try {
-    patient->CheckReady();
-    ADD_FAILURE() << "silence was not reported";
-  } catch (const InstrumentError& e) {
-    EXPECT_EQ(e.code(), 3077);
-    EXPECT_NE(std::string(e.what()).find("COM_TIMEDOUT"), std::string::npos) << e.what();
-  }
+  const ControllerError silent = StateError([&] { patient->CheckReady(); });
+  EXPECT_EQ(silent.kind(), Kind::kConnectionLost);
+  EXPECT_TRUE(Says(silent, "no usable reply after")) << silent.what();
 }
 
 }  // namespace
