@@ -101,7 +101,7 @@ std::unique_ptr<instruments::RobotController> OpenAbb(const ControllerConfig& c,
     return it->second;
   };
   auto refuse = [](const char* key, const std::string& expected, const std::string& got) {
-    throw InputError({"", 0, 0, key}, "robot.controller." + std::string(key) + ": expected " +
+    throw InputError({"", 0, 0, ""}, "robot.controller." + std::string(key) + ": expected " +
                                           expected + ", got " + Quoted(got));
   };
   instruments::AbbSettings s;
@@ -142,7 +142,7 @@ std::unique_ptr<instruments::RobotController> OpenAbb(const ControllerConfig& c,
   const auto pin = setting("certificate_sha256");
   const auto ca = setting("ca_file");
   if ((pin || ca) && !tls.enabled) {
-    throw InputError({"", 0, 0, pin ? "certificate_sha256" : "ca_file"},
+    throw InputError({"", 0, 0, ""},
                      "robot.controller: RWS 1.0 (rws: 1) is plain HTTP: no certificate to pin");
   }
   if (pin) {
@@ -153,7 +153,7 @@ std::unique_ptr<instruments::RobotController> OpenAbb(const ControllerConfig& c,
   if (ca) tls.ca_file = *ca;
   const auto credentials = io::LoadCredentials(c);
   if (!credentials) {
-    throw InputError({"", 0, 0, "credentials"},
+    throw InputError({"", 0, 0, ""},
                      fmt::format("robot.controller: protocol abb logs in: give `credentials: "
                                  "FILE` (YAML {{user: NAME, password: SECRET}}, mode 0600) or set "
                                  "{} and {}",

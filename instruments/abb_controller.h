@@ -6,7 +6,8 @@
 // controller's ordinary Ethernet port, and it reads the controller's identity, states and
 // RAPID data with the user rights (UAS) the lab grants. Externally Guided Motion (EGM,
 // option 689-1) and PC Interface (616-1) are paid options a lab may not have; a RAPID socket
-// server (Socket Messaging, 672-1, an option on RobotWare 6) would need its own protocol.
+// server (Socket Messaging: on RobotWare 6 part of the PC Interface option) would need its own
+// protocol.
 // RWS cannot command motion itself, so the module does: armsig writes a target and a request
 // number into its persistent variables, the module moves there (MoveAbsJ, zone fine), waits
 // for zero speed, records where the arm stands (CJointT) and the request number it finished.

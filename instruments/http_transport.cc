@@ -15,6 +15,7 @@
 #include <cctype>
 #include <optional>
 
+#include "instruments/asio_stream.h"
 #include "instruments/http_auth.h"
 
 namespace armsig::instruments {
@@ -183,37 +184,14 @@ class BeastHttpTransport : public HttpTransport {
   }
 
  private:
-  enum class Wait { kDone, kDeadline, kInterrupted };
+  using Wait = detail::Wait;
 
   beast::tcp_stream& Lowest() { return ssl_ ? beast::get_lowest_layer(*ssl_) : *plain_; }
 
-  // Runs the io_context until `done`, the deadline or an interrupt; an operation still
-  // pending then is cancelled (`cancel`) and its handler run before returning.
+  // Runs the io_context until `done`, the deadline or an interrupt (detail::RunUntil).
   template <typename Cancel>
   Wait Run(Deadline deadline, bool& done, Cancel&& cancel) {
-    io_.restart();
-    Wait why = Wait::kDone;
-    while (!done) {
-      if (Interrupted()) {
-        why = Wait::kInterrupted;
-        break;
-      }
-      const auto now = Clock::now();
-      if (now >= deadline) {
-        why = Wait::kDeadline;
-        break;
-      }
-      io_.run_one_until(std::min(deadline, now + kInterruptPoll));
-    }
-    if (!done) {
-      cancel();
-      io_.restart();
-      while (!done && io_.run_one() > 0) {
-      }
-    }
-    io_.restart();
-    io_.poll();
-    return why;
+    return detail::RunUntil(io_, *this, deadline, done, std::forward<Cancel>(cancel));
   }
 
   // Throws for anything but a completed operation without error; closes the connection.

@@ -12,6 +12,7 @@
 
 #include "acquisition/lab.h"
 #include "acquisition/session.h"
+#include "instruments/abb_controller.h"
 #include "core/units.h"
 #include "db/database.h"
 #include "db/store.h"
@@ -274,6 +275,80 @@ TEST_F(AbbCaptureFixture, ManualModeIsNamedBeforeASessionIsMadeAndPausesOneUnder
   EXPECT_EQ(db::StoredSeqs(db, session).size(), 1u);
   abb_->StartProgram();
   ASSERT_TRUE(workflows::CaptureInto(db, Lab(), session, {}).completed);
+  ExpectStoredAsPlanned(db, session, kConfigurations);
+}
+
+// The motors switched off mid-session pause it naming the controller; the credentials file
+// then edited to a wrong password refuses the resume naming the controller, the user and the
+// file (never the password), and nothing stored is lost; set right, the session goes on.
+TEST_F(AbbCaptureFixture, MotorsOffThenAWrongPasswordLoseNothingAndNameTheController) {
+  StartController(Options(rws::Version::kRws1));
+  db::Database db(Db());
+  const int64_t session = NewSession(db);
+  CaptureOptions options;
+  options.progress = [&](const Progress& p) {
+    if (p.done == 2) abb_->SetMotors(false);
+  };
+  const CaptureSummary first = workflows::CaptureInto(db, Lab(), session, options);
+  EXPECT_TRUE(first.paused);
+  EXPECT_NE(first.pause_reason.find("ABB IRB 4600-40/2.55 'armsig-virtual' at 127.0.0.1:"),
+            std::string::npos)
+      << first.pause_reason;
+  EXPECT_NE(first.pause_reason.find("motors off"), std::string::npos) << first.pause_reason;
+  EXPECT_NE(first.pause_reason.find("switch the motors on"), std::string::npos);
+  EXPECT_EQ(db::StoredSeqs(db, session).size(), 2u);
+  abb_->SetMotors(true);
+  abb_->StartProgram();
+  testing::WriteText(dir_.File("abb.yaml"), "user: armsig\npassword: \"wr0ng s3cret\"\n");
+  ::chmod(dir_.File("abb.yaml").c_str(), 0600);
+  try {
+    workflows::CaptureInto(db, Lab(), session, {});
+    FAIL() << "resumed with a wrong password";
+  } catch (const instruments::AbbFault& e) {
+    const std::string what = e.what();
+    EXPECT_EQ(e.kind(), instruments::AbbFault::Kind::kCredentials);
+    EXPECT_NE(what.find("ABB controller at 127.0.0.1:"), std::string::npos) << what;
+    EXPECT_NE(what.find("refused the user 'armsig'"), std::string::npos) << what;
+    EXPECT_NE(what.find("the credentials file " + dir_.File("abb.yaml")), std::string::npos)
+        << what;
+    EXPECT_EQ(what.find("wr0ng"), std::string::npos) << what;
+  }
+  EXPECT_GE(abb_->snapshot().refused_logins, 1);
+  EXPECT_EQ(db::StoredSeqs(db, session).size(), 2u);
+  EXPECT_EQ(db::LoadSession(db, session)->state, "paused");
+  testing::WriteText(dir_.File("abb.yaml"), "user: armsig\npassword: \"c3ll-2 pa55\"\n");
+  const CaptureSummary resumed = workflows::CaptureInto(db, Lab(), session, {});
+  ASSERT_TRUE(resumed.completed) << resumed.pause_reason;
+  EXPECT_EQ(resumed.already, 2);
+  ExpectStoredAsPlanned(db, session, kConfigurations);
+}
+
+// A server that takes requests and never answers: each call ends by the lab's deadline, the
+// configuration is retried once, then the session pauses naming the controller; once it
+// answers again the session goes on from where it stopped.
+TEST_F(AbbCaptureFixture, AStalledServerPausesTheSessionByItsDeadlineAndItResumes) {
+  StartController(Options());
+  std::string lab = testing::ReadText(dir_.File("lab.yaml"));
+  lab.replace(lab.find("timeout_ms: 2000"), std::string("timeout_ms: 2000").size(),
+              "timeout_ms: 400");
+  testing::WriteText(dir_.File("lab.yaml"), lab);
+  db::Database db(Db());
+  const int64_t session = NewSession(db);
+  CaptureOptions options;
+  options.progress = [&](const Progress& p) {
+    if (p.done == 3) abb_->InjectAlways({simulation::Fault::kDropReply});
+  };
+  const CaptureSummary first = workflows::CaptureInto(db, Lab(), session, options);
+  EXPECT_TRUE(first.paused);
+  EXPECT_NE(first.pause_reason.find("connection lost: Robot Web Services did not answer"),
+            std::string::npos)
+      << first.pause_reason;
+  EXPECT_NE(first.pause_reason.find("ABB IRB 4600-40/2.55"), std::string::npos);
+  EXPECT_EQ(db::StoredSeqs(db, session).size(), 3u);
+  abb_->ClearFaults();
+  const CaptureSummary resumed = workflows::CaptureInto(db, Lab(), session, {});
+  ASSERT_TRUE(resumed.completed) << resumed.pause_reason;
+  EXPECT_EQ(resumed.already, 3);
   ExpectStoredAsPlanned(db, session, kConfigurations);
 }
 
