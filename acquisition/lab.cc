@@ -1,12 +1,19 @@
 #include "acquisition/lab.h"
 
+#include <fmt/format.h>
+
+#include <charconv>
+#include <regex>
+
 #include "core/error.h"
 #include "core/text.h"
+#include "instruments/abb_controller.h"
 #include "instruments/emscon_device.h"
 #include "instruments/geocom_device.h"
 #include "instruments/gsi_device.h"
 #include "instruments/robot_controllers.h"
 #include "instruments/ur_device.h"
+#include "io/credentials.h"
 
 namespace armsig::acquisition {
 
@@ -81,8 +88,92 @@ std::unique_ptr<instruments::RobotController> OpenUr(const ControllerConfig& c,
   return std::make_unique<instruments::UrController>(o, policy);
 }
 
+// ABB through Robot Web Services: the lab file's settings, each checked here and refused
+// naming its key: rws (1: IRC5 / RobotWare 6 over HTTP; 2, the default: OmniCore /
+// RobotWare 7 over TLS), certificate_sha256 or ca_file (RWS 2.0's trust), task, module,
+// mechunit (RAPID names), speed_percent (1 … 100), representation (RWS 1.0: xhtml or json).
+std::unique_ptr<instruments::RobotController> OpenAbb(const ControllerConfig& c,
+                                                      const instruments::RetryPolicy& policy) {
+  namespace rws = instruments::rws;
+  auto setting = [&](const char* key) -> std::optional<std::string> {
+    const auto it = c.settings.find(key);
+    if (it == c.settings.end()) return std::nullopt;
+    return it->second;
+  };
+  auto refuse = [](const char* key, const std::string& expected, const std::string& got) {
+    throw InputError({"", 0, 0, ""}, "robot.controller." + std::string(key) + ": expected " +
+                                          expected + ", got " + Quoted(got));
+  };
+  instruments::AbbSettings s;
+  const std::string version = setting("rws").value_or("2");
+  if (version == "1") {
+    s.version = rws::Version::kRws1;
+    s.representation = rws::Representation::kXhtml;
+  } else if (version == "2") {
+    s.version = rws::Version::kRws2;
+  } else {
+    refuse("rws", "1 (IRC5, RobotWare 6) or 2 (OmniCore, RobotWare 7)", version);
+  }
+  if (const auto r = setting("representation")) {
+    if (*r == "json" && s.version == rws::Version::kRws1) {
+      s.representation = rws::Representation::kJson1;
+    } else if (*r != "xhtml" || s.version != rws::Version::kRws1) {
+      refuse("representation", "xhtml or json (RWS 1.0 only: RWS 2.0 speaks hal+json)", *r);
+    }
+  }
+  static const std::regex kRapidName("[A-Za-z][A-Za-z0-9_]{0,31}");
+  for (auto [key, field] : {std::pair<const char*, std::string*>{"task", &s.task},
+                            {"module", &s.module}, {"mechunit", &s.mechunit}}) {
+    if (const auto v = setting(key)) {
+      if (!std::regex_match(*v, kRapidName)) refuse(key, "a RAPID name (letters, digits, _)", *v);
+      *field = *v;
+    }
+  }
+  if (const auto v = setting("speed_percent")) {
+    double percent = 0.0;
+    const auto [end, ec] = std::from_chars(v->data(), v->data() + v->size(), percent);
+    if (ec != std::errc() || end != v->data() + v->size() || !(percent >= 1 && percent <= 100)) {
+      refuse("speed_percent", "a velocity override from 1 to 100 (%)", *v);
+    }
+    s.speed_percent = percent;
+  }
+  instruments::TlsSettings tls;
+  tls.enabled = s.version == rws::Version::kRws2;
+  const auto pin = setting("certificate_sha256");
+  const auto ca = setting("ca_file");
+  if ((pin || ca) && !tls.enabled) {
+    throw InputError({"", 0, 0, ""},
+                     "robot.controller: RWS 1.0 (rws: 1) is plain HTTP: no certificate to pin");
+  }
+  if (pin) {
+    const auto canonical = instruments::http::CanonicalFingerprint(*pin);
+    if (!canonical) refuse("certificate_sha256", "a SHA-256 fingerprint (64 hex digits)", *pin);
+    tls.pinned_sha256 = *canonical;
+  }
+  if (ca) tls.ca_file = *ca;
+  const auto credentials = io::LoadCredentials(c);
+  if (!credentials) {
+    throw InputError({"", 0, 0, ""},
+                     fmt::format("robot.controller: protocol abb logs in: give `credentials: "
+                                 "FILE` (YAML {{user: NAME, password: SECRET}}, mode 0600) or set "
+                                 "{} and {}",
+                                 io::kUserVariable, io::kPasswordVariable));
+  }
+  s.user = credentials->user();
+  s.password = credentials->password();
+  s.credentials_source = c.credentials_path.empty()
+                             ? fmt::format("{} and {}", io::kUserVariable, io::kPasswordVariable)
+                             : "the credentials file " + c.credentials_path;
+  s.can_move = c.can_move;
+  unsigned short port = c.Port("rws_port");
+  if (port == 0) port = s.version == rws::Version::kRws1 ? 80 : 443;
+  return std::make_unique<instruments::AbbController>(
+      s, instruments::MakeHttpTransport(c.host, port, tls), policy);
+}
+
 constexpr NetworkController kNetworkControllers[] = {
     {"ur", OpenUr},
+    {"abb", OpenAbb},
 };
 
 }  // namespace

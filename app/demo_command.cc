@@ -29,9 +29,10 @@ void SetupDemoCommand(CLI::App& parent, const GlobalOptions& global, Runner& run
                1, kMaxId);
   ChoiceOption(sub->add_option("--robot", o->robot,
                                "The virtual robot: puma (a PUMA 760 with three theodolites or a "
-                               "tracker; the default) or ur10 (a UR10 and its controller over "
-                               "RTDE, with a laser tracker); kuka and abb are not built yet; "
-                               "--resume keeps the session's"),
+                               "tracker; the default), ur10 (a UR10 and its controller over "
+                               "RTDE, with a laser tracker) or abb (an IRB 4600 and its OmniCore "
+                               "over Robot Web Services 2.0, with a laser tracker); kuka is not "
+                               "built yet; --resume keeps the session's"),
                {"puma", "ur10", "kuka", "abb"});
   ChoiceOption(sub->add_option("--instrument", o->instrument,
                   "theodolites (three GeoCOM theodolites, oriented by mutual pointings; the "

@@ -38,6 +38,11 @@ void SetupInstrumentCommand(CLI::App& parent, const GlobalOptions&, Runner& run)
                   "A network controller's other port, KEY=PORT with its lab-file key (ur: "
                   "rtde_port, primary_port, secondary_port; --tcp gives the dashboard's)")
         ->type_name("KEY=PORT");
+    a->add_option("--controller-setting", o->controller_settings,
+                  "A network controller's lab-file setting, KEY=VALUE (abb: rws=1 for an IRC5, "
+                  "certificate_sha256=… to pin an OmniCore's certificate); credentials come "
+                  "from ARMSIG_CONTROLLER_USER and ARMSIG_CONTROLLER_PASSWORD")
+        ->type_name("KEY=VALUE");
     NumberOption(a->add_option("--baud", o->baud, "Baud rate"), 50, 4000000)->capture_default_str();
     NumberOption(a->add_option("--timeout-ms", o->timeout_ms,
                                "Deadline of the whole exchange, from the command to the parsed "

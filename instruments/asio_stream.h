@@ -20,10 +20,42 @@ namespace armsig::instruments::detail {
 
 namespace asio = boost::asio;
 
+enum class Wait { kDone, kDeadline, kInterrupted };
+
+// Runs `io` until `done`, the deadline or `owner`'s interrupt; an operation still pending
+// then is cancelled (`cancel`) and its handler run before returning.
+template <typename Cancel>
+Wait RunUntil(asio::io_context& io, const TransportBase& owner, Deadline deadline, bool& done,
+              Cancel&& cancel) {
+  io.restart();
+  Wait why = Wait::kDone;
+  while (!done) {
+    if (owner.Interrupted()) {
+      why = Wait::kInterrupted;
+      break;
+    }
+    const auto now = Clock::now();
+    if (now >= deadline) {
+      why = Wait::kDeadline;
+      break;
+    }
+    io.run_one_until(std::min(deadline, now + kInterruptPoll));
+  }
+  if (!done) {
+    cancel();
+    io.restart();
+    while (!done && io.run_one() > 0) {
+    }
+  }
+  io.restart();
+  io.poll();  // handlers that were already due
+  return why;
+}
+
 template <typename Stream>
 class AsioStream {
  public:
-  enum class Wait { kDone, kDeadline, kInterrupted };
+  using Wait = detail::Wait;
 
   // `owner` names the stream in errors and holds the interrupt flag; it outlives this.
   explicit AsioStream(const TransportBase& owner) : owner_(owner), stream_(io_) {}
@@ -39,30 +71,10 @@ class AsioStream {
   // Runs the io_context until `done`, the deadline or an interrupt; an operation still
   // pending then is cancelled and its handler run before returning.
   Wait Run(Deadline deadline, bool& done) {
-    io_.restart();
-    Wait why = Wait::kDone;
-    while (!done) {
-      if (owner_.Interrupted()) {
-        why = Wait::kInterrupted;
-        break;
-      }
-      const auto now = Clock::now();
-      if (now >= deadline) {
-        why = Wait::kDeadline;
-        break;
-      }
-      io_.run_one_until(std::min(deadline, now + kInterruptPoll));
-    }
-    if (!done) {
+    return RunUntil(io_, owner_, deadline, done, [this] {
       boost::system::error_code ignored;
       stream_.cancel(ignored);
-      io_.restart();
-      while (!done && io_.run_one() > 0) {
-      }
-    }
-    io_.restart();
-    io_.poll();  // handlers that were already due
-    return why;
+    });
   }
 
   // Writes all of `data` by `deadline`.

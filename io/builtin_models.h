@@ -1,6 +1,6 @@
-// The PUMA 760 of models/puma760.yaml and the UR10 of models/ur10.yaml, built into the
-// program so `armsig demo` and `armsig instrument simulate` run anywhere (tests check they
-// match the files).
+// The PUMA 760 of models/puma760.yaml, the UR10 of models/ur10.yaml and the IRB 4600 of
+// models/irb4600.yaml, built into the program so `armsig demo` and `armsig instrument
+// simulate` run anywhere (tests check they match the files).
 #pragma once
 
 namespace armsig::io {
@@ -59,6 +59,48 @@ nongeometric:
 # cannot move the probe are not generated (joint 1's vertical axis carries no gravity
 # torque; joint 6 turns the probe about itself). `--params auto` keeps those that pass an
 # F-test and lower the cross-validated error.
+generated_terms: [compliance, harmonics]
+)yaml";
+
+// The IRB 4600-40/2.55 of models/irb4600.yaml: `armsig demo --robot abb`'s nominal model.
+inline constexpr const char* kIrb4600Yaml =
+    R"yaml(# ABB IRB 4600-40/2.55, nominal geometry (mm) in ABB's own joint zero: the upper arm upright,
+# the forearm horizontal and forward, the flange facing forward (+x of the base) at
+# (1580, 0, 1765) mm. Axis directions and the joint zero are the controller's, so the angles
+# an IRC5 or OmniCore reports (jointtarget, degrees) are this model's joints. Dimensions from
+# ABB's data sheet as ROS-Industrial's abb_irb4600_support gives them
+# (urdf/irb4600_40_255_macro.xacro): base to axis 2 495 up and 175 forward, upper arm 1095,
+# axis 3 to the wrist axis 175, forearm 1270, wrist to flange 135.
+#
+# In the standard DH form with joint offsets θ (A_i = Rz(q_i + θ_i)·Tz(d_i)·Tx(a_i)·Rx(α_i)):
+#   joint  d_mm   a_mm   alpha_deg  theta_deg
+#     1     495    175     -90          0
+#     2       0   1095       0        -90     (the upper arm is upright at ABB's zero)
+#     3       0    175     -90          0
+#     4    1270      0      90          0
+#     5       0      0     -90          0
+#     6     135      0       0          0
+# armsig's model has no joint offsets (docs/reference/conventions.md), so the rows are given
+# as the link transforms they make: N(i+1) = Rz(θ_i)·Tz(d_i)·Tx(a_i)·Rx(α_i), and row 6 folded
+# into the target point.
+#
+# The target point is a tracker reflector (SMR) in a nest 40 mm above the flange axis and
+# 100 mm beyond the flange: (40, 0, 135 + 100) mm in the last link's frame (z along the
+# flange axis, x upright at the joint zero). Off the axis, so that joint 6 moves it.
+name: irb4600-40-2.55  # the controller calls it IRB 4600-40/2.55
+base: auto
+links:                # N2..N6, 4x4 row-major
+  - [[1,0,0,175],[0,0,1,0],[0,-1,0,495],[0,0,0,1]]
+  - [[0,1,0,0],[-1,0,0,-1095],[0,0,1,0],[0,0,0,1]]
+  - [[1,0,0,175],[0,0,1,0],[0,-1,0,0],[0,0,0,1]]
+  - [[1,0,0,0],[0,0,-1,0],[0,1,0,1270],[0,0,0,1]]
+  - [[1,0,0,0],[0,0,1,0],[0,-1,0,0],[0,0,0,1]]
+tool_mm: [40, 0, 235]
+# Working ranges from the same data sheet (axis 2: +150/−90, axis 3: +75/−180 …).
+joint_limits_deg: [[-180, 180], [-90, 150], [-180, 75], [-400, 400], [-125, 120], [-400, 400]]
+# Joint compliance under gravity and each joint's transmission harmonics, generated from the
+# nominal geometry (docs/explanation/residual-map.md); `--params auto` keeps what the data
+# support.
 generated_terms: [compliance, harmonics]
 )yaml";
 

@@ -62,6 +62,14 @@ const std::vector<NetworkControllerProtocol>& NetworkControllerProtocols() {
        "dashboard_port",
        false,
        {}},
+      // Robot Web Services: rws_port 0 is the generation's own (80 for RWS 1.0, 443 for 2.0).
+      {"abb",
+       "ABB IRC5 (RobotWare 6, RWS 1.0) and OmniCore (RobotWare 7, RWS 2.0)",
+       {{"rws_port", 0}},
+       "rws_port",
+       true,
+       {"rws", "certificate_sha256", "ca_file", "task", "module", "mechunit", "speed_percent",
+        "representation"}},
   };
   return protocols;
 }
@@ -164,7 +172,11 @@ void NetworkControllerFrom(const YamlMap& map, const NetworkControllerProtocol& 
   }
   if (const auto v = map.Find("credentials")) c.credentials_path = Resolve(source, v->Text());
   for (const auto& key : protocol.settings) {
-    if (const auto v = map.Find(key)) c.settings[key] = v->Text();
+    const auto v = map.Find(key);
+    if (!v) continue;
+    // A setting naming a file (ca_file) is found beside the lab file, as credentials are.
+    const bool file = key.size() > 5 && key.compare(key.size() - 5, 5, "_file") == 0;
+    c.settings[key] = file ? Resolve(source, v->Text()) : v->Text();
   }
 }
 

@@ -13,6 +13,7 @@ PACKAGES=(
   libyaml-cpp-dev nlohmann-json3-dev libcli11-dev
   libspdlog-dev libfmt-dev
   libpq-dev  # the PostgreSQL backend
+  libssl-dev  # TLS for Robot Web Services 2.0 (ABB OmniCore) and the digests of RWS 1.0
 )
 # What the test suite needs besides (scripts/setup.sh --tests, from scripts/test.sh).
 if [[ "${1:-}" == "--tests" ]]; then

@@ -1,5 +1,6 @@
 #include "simulation/virtual_robots.h"
 
+#include <cmath>
 #include <random>
 #include <stdexcept>
 
@@ -49,12 +50,38 @@ VirtualRobot Ur10(const calibration::RobotModel& model, unsigned seed) {
   return r;
 }
 
+// An ABB IRB 4600-40/2.55 (models/irb4600.yaml, ABB's joint zero): geometric errors and
+// joint-angle errors of the same kind and size as the UR10's (an arm as built; the periodic
+// errors of its reducers); its RAPID program's home with the wrist bent (axis 5 at 30°, away
+// from the wrist singularity); about 3.4 m from the tracker and 1.2 m below it, facing it.
+// Robot Web Services tells no kinematic table: none here. One arm, whatever the seed (as the
+// PUMA's Table 3): its errors and serial number are its own, so a demo run again on the same
+// database is that arm's next session; the seed draws only the instruments' noise and plans.
+VirtualRobot Irb4600(const calibration::RobotModel& model, unsigned) {
+  VirtualRobot r;
+  r.name = "abb";
+  r.description = "an ABB IRB 4600-40/2.55";
+  r.model = model;
+  std::mt19937 rng(4600);
+  r.true_params = calibration::RandomParameters(r.model, 0.3, 3e-4, 0.0, rng);
+  r.true_params.tail(r.model.num_parameters() - r.model.num_geometric()).setZero();
+  r.joint_errors = JointAngleErrors::Random(6, 3, 4.0 * kRadPerArcsec, rng);
+  r.home_rad = (Eigen::VectorXd(6) << 0.0, 0.0, 0.0, 0.0, 30.0 * kRadPerDeg, 0.0).finished();
+  r.world_from_base.translate(Eigen::Vector3d(2900.0, 1800.0, -1200.0));
+  r.world_from_base.rotate(Eigen::AngleAxisd(std::atan2(-1800.0, -2900.0), Eigen::Vector3d::UnitZ()));
+  r.identity.protocol = "abb";
+  r.identity.vendor = "ABB";
+  r.identity.model = "IRB 4600-40/2.55";
+  r.identity.serial = "4600-501234";
+  return r;
+}
+
 struct Entry {
   const char* name;
   VirtualRobot (*make)(const calibration::RobotModel& model, unsigned seed);
   int joints;
 };
-constexpr Entry kRobots[] = {{"ur10", Ur10, 6}};
+constexpr Entry kRobots[] = {{"ur10", Ur10, 6}, {"abb", Irb4600, 6}};
 
 }  // namespace
 

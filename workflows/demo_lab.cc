@@ -2,7 +2,14 @@
 
 #include <fmt/format.h>
 
+#include <fcntl.h>
+#include <sys/stat.h>
+#include <unistd.h>
+
+#include <cerrno>
 #include <chrono>
+#include <cstring>
+#include <random>
 #include <cmath>
 #include <stdexcept>
 
@@ -52,6 +59,17 @@ simulation::VirtualRobot TruthOf(const DemoRobot& robot, const calibration::Robo
   return truth;
 }
 
+// A secret file as a lab keeps one: its owner's alone (mode 0600) before anything is in it.
+void WriteSecretFile(const std::string& path, const std::string& text) {
+  const int fd =
+      ::open(path.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_NOFOLLOW | O_CLOEXEC, 0600);
+  if (fd < 0) throw std::runtime_error("demo: cannot create " + path + ": " + std::strerror(errno));
+  const bool written = ::fchmod(fd, 0600) == 0 &&
+                       ::write(fd, text.data(), text.size()) == static_cast<ssize_t>(text.size());
+  ::close(fd);
+  if (!written) throw std::runtime_error("demo: cannot write " + path);
+}
+
 }  // namespace
 
 DemoLab::DemoLab(const calibration::RobotModel& model, const DemoLabOptions& options)
@@ -83,8 +101,39 @@ DemoLab::DemoLab(const calibration::RobotModel& model, const DemoLabOptions& opt
   StartController();
 }
 
+
+// The virtual OmniCore (RWS 2.0 over TLS) with the module's contract: its own user and a
+// password drawn for this run, in a credentials file beside the lab file; the lab file pins
+// its certificate.
+void DemoLab::StartAbb() {
+  simulation::RwsSimulatorOptions o;
+  o.version = instruments::rws::Version::kRws2;
+  o.model = truth_.identity.model;
+  const std::string& serial = truth_.identity.serial;
+  const size_t dash = serial.find('-');
+  o.serial_high = serial.substr(0, dash);
+  o.serial_low = dash == std::string::npos ? "" : serial.substr(dash + 1);
+  o.user = "armsig";
+  std::random_device rd;
+  o.password = fmt::format("{:08x}{:08x}", rd(), rd());
+  for (int i = 0; i < 6; ++i) o.start_deg[static_cast<size_t>(i)] = truth_.home_rad(i) / kRadPerDeg;
+  o.time_scale = options_.time_scale;
+  abb_ = std::make_unique<simulation::RwsSimulator>(lab_, o);
+  abb_->Start();
+  WriteSecretFile((options_.folder / kAbbCredentials).string(),
+                  "user: " + o.user + "\npassword: \"" + o.password + "\"\n");
+  auto& c = lab_file_.controller;
+  c.host = "127.0.0.1";
+  c.ports = {{"rws_port", abb_->port()}};
+  c.credentials_path = kAbbCredentials;
+  c.settings = {{"rws", "2"},
+                {"certificate_sha256", abb_->certificate_sha256()},
+                {"speed_percent", "25"}};
+}
+
 // The robot's controller, by the protocol its DemoRobot names.
 void DemoLab::StartController() {
+  if (robot_.controller == "abb") return StartAbb();
   if (robot_.controller == "ur") {
     simulation::UrSimulatorOptions o;
     o.model = truth_.identity.model;
@@ -110,6 +159,7 @@ void DemoLab::StartController() {
 }
 
 std::string DemoLab::controller_address() const {
+  if (abb_) return abb_->path() + " (Robot Web Services 2.0, TLS)";
   if (ur_) {
     return fmt::format("{} (RTDE {}, primary {}, secondary {}, dashboard {})", ur_->host(),
                        ur_->ports().rtde, ur_->ports().primary, ur_->ports().secondary,

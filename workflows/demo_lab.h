@@ -1,7 +1,8 @@
 // The demo's virtual lab (workflows/demo_robots.h names its robots): a PUMA 760 whose hidden
 // truth is the paper's Table 3 with its Kawasaki-AS-style controller on a pseudo-terminal, or
-// a UR10 with hidden geometric and joint-angle errors (simulation/virtual_robots.h) and its
-// virtual controller on loopback TCP (simulation/ur_simulator.h), plus any planted change;
+// a UR10 or an ABB IRB 4600 with hidden geometric and joint-angle errors
+// (simulation/virtual_robots.h) and its virtual controller on loopback TCP
+// (simulation/ur_simulator.h, simulation/rws_simulator.h), plus any planted change;
 // and either three GeoCOM theodolites on pseudo-terminals, oriented from mutual pointings
 // and a 1 m scale bar read through the real drivers, or one laser tracker speaking emScon on
 // loopback TCP, whose own frame is the lab frame. Its devices run while the object lives;
@@ -18,6 +19,7 @@
 #include "calibration/model.h"
 #include "reduction/orientation.h"
 #include "simulation/emscon_simulator.h"
+#include "simulation/rws_simulator.h"
 #include "simulation/simulator.h"
 #include "simulation/ur_simulator.h"
 #include "simulation/val_simulator.h"
@@ -78,6 +80,10 @@ class DemoLab {
   }
   // The virtual UR's controller (ur10), nullptr for the others.
   simulation::UrSimulator* ur() const { return ur_.get(); }
+  // The virtual ABB controller (abb), nullptr for the others.
+  simulation::RwsSimulator* abb() const { return abb_.get(); }
+  // The ABB lab's credentials file, beside the lab file.
+  static constexpr const char* kAbbCredentials = "abb-credentials.yaml";
   // Where the controller listens, for the narrative: its pseudo-terminal or HOST and ports.
   std::string controller_address() const;
 
@@ -85,6 +91,7 @@ class DemoLab {
   void AddTracker();
   void AddTheodolites();
   void StartController();
+  void StartAbb();
 
   DemoLabOptions options_;
   const DemoRobot& robot_;
@@ -96,6 +103,7 @@ class DemoLab {
   simulation::EmsconSimulator* tracker_ = nullptr;                  // in `simulators_`
   std::unique_ptr<simulation::ValSimulator> controller_;  // puma
   std::unique_ptr<simulation::UrSimulator> ur_;           // ur10
+  std::unique_ptr<simulation::RwsSimulator> abb_;         // abb
   io::LabFile lab_file_;
 };
 

@@ -37,13 +37,27 @@ const std::vector<DemoRobot>& DemoRobots() {
     ur10.stages = {"geometric", "all"};
     ur10.time_scale = 0.02;  // moves take the real arm's time: 50 times faster
     r.push_back(ur10);
-    for (const char* name : {"kuka", "abb"}) {
-      DemoRobot later;
-      later.name = name;
-      later.not_built = std::string("the virtual ") + (name == std::string("kuka") ? "KUKA" : "ABB") +
-                        " controller is not built yet (issue 35): use --robot puma or ur10";
-      r.push_back(later);
-    }
+    DemoRobot kuka;
+    kuka.name = "kuka";
+    kuka.not_built = "the virtual KUKA controller is not built yet (issue 35): use --robot puma, "
+                     "ur10 or abb";
+    r.push_back(kuka);
+    DemoRobot abb;
+    abb.name = "abb";
+    abb.db_robot = "irb4600-demo";
+    abb.description =
+        "an ABB IRB 4600-40/2.55 (hidden errors: geometric, and joint-angle errors of a few "
+        "arc-seconds periodic in each joint's angle)";
+    abb.model_file = "irb4600.yaml";
+    abb.model_yaml = io::kIrb4600Yaml;
+    abb.controller = "abb";
+    abb.controller_text =
+        "its OmniCore controller speaking Robot Web Services 2.0 over TLS on loopback TCP, "
+        "running armsig's RAPID module";
+    abb.tracker_only = true;
+    abb.stages = {"geometric", "all"};
+    abb.time_scale = 0.02;  // moves take the real arm's time: 50 times faster
+    r.push_back(abb);
     return r;
   }();
   return robots;

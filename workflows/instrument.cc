@@ -2,6 +2,8 @@
 
 #include <fmt/format.h>
 
+#include <algorithm>
+
 #include <nlohmann/json.hpp>
 
 #include "acquisition/lab.h"
@@ -67,6 +69,20 @@ io::ControllerConfig NetworkControllerOf(const InstrumentRequest& o,
     }
     c.ports[key] = port->port;
   }
+  for (const auto& item : o.controller_settings) {
+    const size_t eq = item.find('=');
+    const std::string key = item.substr(0, eq);
+    const bool known = std::find(protocol.settings.begin(), protocol.settings.end(), key) !=
+                       protocol.settings.end();
+    if (eq == std::string::npos || !known) {
+      std::string keys;
+      for (const auto& name : protocol.settings) keys += (keys.empty() ? "" : ", ") + name;
+      throw InputError({"--controller-setting", 0, 0, ""},
+                       Quoted(item) + ": expected KEY=VALUE with KEY one of " +
+                           (keys.empty() ? std::string("(none for ") + o.protocol + ")" : keys));
+    }
+    c.settings[key] = item.substr(eq + 1);
+  }
   return c;
 }
 
@@ -126,12 +142,16 @@ std::string QueryInstrument(const InstrumentRequest& o) {
     throw InputError({"--port", 0, 0, ""}, "give --port PATH or --tcp HOST:PORT");
   instruments::RetryPolicy policy;
   policy.timeout = std::chrono::milliseconds(o.timeout_ms);
-  if ((o.protocol == "kuka" || o.protocol == "abb") && !io::FindNetworkControllerProtocol(o.protocol)) {
+  if (o.protocol == "kuka" && !io::FindNetworkControllerProtocol(o.protocol)) {
     throw InputError({"--protocol", 0, 0, ""},
                      o.protocol + ": this controller's driver is not built into armsig yet");
   }
   if (!o.controller_ports.empty() && !io::FindNetworkControllerProtocol(o.protocol))
     throw InputError({"--controller-port", 0, 0, ""}, "only for a network controller (ur, …)");
+  if (!o.controller_settings.empty() && !io::FindNetworkControllerProtocol(o.protocol)) {
+    throw InputError({"--controller-setting", 0, 0, ""},
+                     "only for a network controller (abb, …)");
+  }
   if (o.protocol == "val" || o.protocol == "as" || io::FindNetworkControllerProtocol(o.protocol))
     return ReadController(o, policy);
   io::InstrumentConfig config;

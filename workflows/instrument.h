@@ -12,6 +12,9 @@ struct InstrumentRequest {
   std::string port, tcp;  // a serial port (or pty) path, or HOST:PORT (a controller: HOST[:PORT])
   // A network controller's other ports, KEY=PORT (its lab-file keys: primary_port=30001).
   std::vector<std::string> controller_ports;
+  // Its other lab-file settings, KEY=VALUE (abb: rws=1, certificate_sha256=AB:…); its
+  // credentials come from ARMSIG_CONTROLLER_USER and ARMSIG_CONTROLLER_PASSWORD.
+  std::vector<std::string> controller_settings;
   unsigned baud = 19200;
   bool crc = false, distance = false, json = false;
   int timeout_ms = 3000;  // the whole exchange, retries included

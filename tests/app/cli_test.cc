@@ -564,6 +564,7 @@ TEST(Cli, ServedVirtualLabIsDrivenByAHandCapture) {
 TEST(BuiltinModels, DemoModelsAreTheShippedModelFiles) {
   EXPECT_EQ(std::string(io::kPuma760Yaml), ReadText(SourcePath("models/puma760.yaml")));
   EXPECT_EQ(std::string(io::kUr10Yaml), ReadText(SourcePath("models/ur10.yaml")));
+  EXPECT_EQ(std::string(io::kIrb4600Yaml), ReadText(SourcePath("models/irb4600.yaml")));
 }
 
 }  // namespace armsig::testing

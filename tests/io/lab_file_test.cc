@@ -423,7 +423,8 @@ TEST(NetworkControllers, KeysOfAnotherProtocolOrMisspeltOnesAreRefusedByName) {
             "'port'");
   EXPECT_EQ(UrRefusal("{protocol: ur, host: h, ports: [a]}"),
             "'ports' belongs to protocol counter, not ur");
-  EXPECT_EQ(UrRefusal("{protocol: as, port: p, host: h}"), "'host' belongs to protocol ur, not as");
+  EXPECT_EQ(UrRefusal("{protocol: as, port: p, host: h}"),
+            "'host' belongs to protocol ur or abb, not as");
   EXPECT_EQ(UrRefusal("{protocol: as, port: p, rtde_port: 1}"),
             "'rtde_port' belongs to protocol ur, not as");
   EXPECT_EQ(UrRefusal("{protocol: ur, can_move: true}"),
@@ -436,8 +437,13 @@ TEST(NetworkControllers, KeysOfAnotherProtocolOrMisspeltOnesAreRefusedByName) {
             "rtde_port and dashboard_port are both port 29999: each interface of the controller "
             "has its own");
   EXPECT_EQ(UrRefusal("{protocol: ur, host: h, credentials: c.yaml}"),
-            "'credentials' is no setting of protocol ur");
-  EXPECT_EQ(UrRefusal("{protocol: kuka, host: h}").rfind("expected val, as, counter or ur", 0), 0u);
+            "'credentials' belongs to protocol abb, not ur");
+  EXPECT_EQ(UrRefusal("{protocol: abb, host: h, rtde_port: 1}"),
+            "'rtde_port' belongs to protocol ur, not abb");
+  EXPECT_EQ(UrRefusal("{protocol: ur, host: h, speed_percent: 20}"),
+            "'speed_percent' belongs to protocol abb, not ur");
+  EXPECT_EQ(
+      UrRefusal("{protocol: kuka, host: h}").rfind("expected val, as, counter, ur or abb", 0), 0u);
 }
 
 TEST(NetworkControllers, AFormattedUrLabReadsBackTheSame) {

@@ -4,6 +4,10 @@
 
 #include <filesystem>
 
+#include <Eigen/Geometry>
+#include <random>
+
+#include "calibration/model.h"
 #include "core/error.h"
 #include "io/model_export.h"
 #include "test_support.h"
@@ -175,7 +179,7 @@ TEST(ModelYaml, EveryShippedModelLoads) {
     ++models;
     EXPECT_EQ(LoadRobotModel(entry.path().string()).num_joints(), 6) << entry.path();
   }
-  EXPECT_EQ(models, 2);
+  EXPECT_EQ(models, 3);
 }
 
 TEST(ModelExport, FormattedModelReadsBackToTheSameNumbers) {
@@ -216,4 +220,48 @@ TEST(ModelExport, FormattedModelReadsBackToTheSameNumbers) {
   }
 }
 
+}  // namespace armsig::io
+
+namespace armsig::io {
+namespace {
+
+// The IRB 4600-40/2.55 file against the same arm written the other way ROS-Industrial's
+// abb_irb4600_support writes it (irb4600_40_255_macro.xacro): each joint a translation then
+// a rotation about a base axis, ABB's joint zero and directions. The reflector sits 100 mm
+// beyond the flange and 40 mm above its axis (flange frame: x along the axis, z up at zero).
+TEST(ModelYaml, Irb4600IsAbbsJointZeroAndDirections) {
+  const calibration::RobotModel model = LoadRobotModel(testing::SourcePath("models/irb4600.yaml"));
+  ASSERT_EQ(model.num_joints(), 6);
+  calibration::Kinematics kinematics(model);
+  const Eigen::VectorXd nominal = Eigen::VectorXd::Zero(model.num_parameters());
+  auto urdf = [](const Eigen::VectorXd& q) {
+    using T = Eigen::Translation3d;
+    using A = Eigen::AngleAxisd;
+    const Eigen::Vector3d x = Eigen::Vector3d::UnitX(), y = Eigen::Vector3d::UnitY(),
+                          z = Eigen::Vector3d::UnitZ();
+    const Eigen::Isometry3d flange = T(0, 0, 495) * A(q(0), z) * T(175, 0, 0) * A(q(1), y) *
+                                     T(0, 0, 1095) * A(q(2), y) * T(0, 0, 175) * A(q(3), x) *
+                                     T(1270, 0, 0) * A(q(4), y) * T(135, 0, 0) * A(q(5), x);
+    return Eigen::Vector3d(flange * Eigen::Vector3d(100, 0, 40));
+  };
+  const Eigen::VectorXd zero = Eigen::VectorXd::Zero(6);
+  EXPECT_LT((kinematics.Position(Eigen::Isometry3d::Identity(), nominal, zero.data()) -
+             Eigen::Vector3d(1680, 0, 1805))
+                .norm(),
+            1e-9);
+  std::mt19937 rng(4600);
+  for (int k = 0; k < 50; ++k) {
+    Eigen::VectorXd q(6);
+    for (int i = 0; i < 6; ++i) {
+      q(i) = std::uniform_real_distribution<double>(model.joint_min_rad[static_cast<size_t>(i)],
+                                                    model.joint_max_rad[static_cast<size_t>(i)])(rng);
+    }
+    EXPECT_LT((kinematics.Position(Eigen::Isometry3d::Identity(), nominal, q.data()) - urdf(q))
+                  .norm(),
+              1e-9)
+        << q.transpose();
+  }
+}
+
+}  // namespace
 }  // namespace armsig::io

@@ -1,0 +1,1075 @@
+#include "simulation/rws_simulator.h"
+
+// clang-format off
+#include <utility>  // first: Boost 1.74 Asio uses std::exchange without including it (C++20)
+#include <boost/asio.hpp>
+// clang-format on
+#include <fmt/format.h>
+#include <openssl/evp.h>
+#include <openssl/pem.h>
+#include <openssl/x509.h>
+#include <openssl/x509v3.h>
+#include <spdlog/spdlog.h>
+
+#include <boost/asio/ssl.hpp>
+#include <boost/beast/core.hpp>
+#include <boost/beast/http.hpp>
+#include <cmath>
+#include <deque>
+#include <future>
+#include <limits>
+#include <map>
+#include <numbers>
+#include <random>
+
+#include "core/text.h"
+#include "instruments/http_auth.h"
+#include "simulation/virtual_arm.h"
+
+namespace armsig::simulation {
+
+namespace asio = boost::asio;
+namespace beast = boost::beast;
+namespace bhttp = boost::beast::http;
+namespace ssl = boost::asio::ssl;
+namespace rws = instruments::rws;
+namespace http = instruments::http;
+using tcp = asio::ip::tcp;
+using SteadyClock = std::chrono::steady_clock;
+
+namespace {
+
+constexpr double kRadPerDeg = std::numbers::pi / 180.0;
+constexpr const char* kRealm = "validusers@robapi.abb";
+constexpr int64_t kEventOutsideReach = 50050;  // "Position outside reach"
+
+double AsFloat(double v) { return static_cast<double>(static_cast<float>(v)); }
+
+std::string RandomHex(std::mt19937_64& rng) { return fmt::format("{:016x}", rng()); }
+
+std::string Upper(std::string_view s) {
+  std::string out(s);
+  for (char& c : out) c = static_cast<char>(std::toupper(static_cast<unsigned char>(c)));
+  return out;
+}
+
+// A self-signed certificate for `host` (an EC P-256 key, SHA-256, valid a year, CA:TRUE so
+// that a test can trust it as its own CA), its PEM and fingerprint.
+struct Certificate {
+  std::unique_ptr<X509, decltype(&X509_free)> x509{nullptr, X509_free};
+  std::unique_ptr<EVP_PKEY, decltype(&EVP_PKEY_free)> key{nullptr, EVP_PKEY_free};
+  std::string pem, fingerprint;
+};
+
+void AddExtension(X509* x, int nid, const std::string& value) {
+  X509V3_CTX ctx;
+  X509V3_set_ctx_nodb(&ctx);
+  X509V3_set_ctx(&ctx, x, x, nullptr, nullptr, 0);
+  X509_EXTENSION* ext = X509V3_EXT_conf_nid(nullptr, &ctx, nid, value.c_str());
+  if (!ext) throw std::runtime_error("cannot make the certificate extension " + value);
+  X509_add_ext(x, ext, -1);
+  X509_EXTENSION_free(ext);
+}
+
+Certificate MakeCertificate(const std::string& host, const std::string& common_name) {
+  Certificate c;
+  c.key.reset(EVP_EC_gen("P-256"));
+  c.x509.reset(X509_new());
+  if (!c.key || !c.x509) throw std::runtime_error("OpenSSL cannot make a key or a certificate");
+  X509* x = c.x509.get();
+  X509_set_version(x, 2);
+  std::random_device rd;
+  ASN1_INTEGER_set(X509_get_serialNumber(x), static_cast<long>(rd() & 0x7fffffff));
+  X509_gmtime_adj(X509_getm_notBefore(x), -3600);
+  X509_gmtime_adj(X509_getm_notAfter(x), 365L * 24 * 3600);
+  X509_set_pubkey(x, c.key.get());
+  X509_NAME* name = X509_get_subject_name(x);
+  X509_NAME_add_entry_by_txt(name, "CN", MBSTRING_ASC,
+                             reinterpret_cast<const unsigned char*>(common_name.c_str()), -1, -1,
+                             0);
+  X509_set_issuer_name(x, name);
+  boost::system::error_code ec;
+  asio::ip::make_address(host, ec);
+  std::string san = "DNS:localhost,IP:127.0.0.1";
+  if (host != "127.0.0.1" && host != "localhost") san += (ec ? ",DNS:" : ",IP:") + host;
+  AddExtension(x, NID_subject_alt_name, san);
+  AddExtension(x, NID_basic_constraints, "critical,CA:TRUE");
+  AddExtension(x, NID_key_usage, "critical,digitalSignature,keyCertSign");
+  if (X509_sign(x, c.key.get(), EVP_sha256()) <= 0) {
+    throw std::runtime_error("OpenSSL cannot sign the certificate");
+  }
+  std::unique_ptr<BIO, decltype(&BIO_free)> bio(BIO_new(BIO_s_mem()), BIO_free);
+  PEM_write_bio_X509(bio.get(), x);
+  char* data = nullptr;
+  const long n = BIO_get_mem_data(bio.get(), &data);
+  c.pem.assign(data, static_cast<size_t>(n));
+  const int der_size = i2d_X509(x, nullptr);
+  std::string der(static_cast<size_t>(der_size), '\0');
+  auto* p = reinterpret_cast<unsigned char*>(der.data());
+  i2d_X509(x, &p);
+  c.fingerprint = http::Sha256Fingerprint(der);
+  return c;
+}
+
+struct Reply {
+  enum class Action { kAnswer, kClose, kSilence, kGarbage, kTruncate } action = Action::kAnswer;
+  bhttp::response<bhttp::string_body> response;
+};
+
+class Connection {
+ public:
+  virtual ~Connection() = default;
+  virtual void Close() = 0;
+};
+
+}  // namespace
+
+struct RwsSimulator::Impl {
+  Impl(RwsSimulator& owner_, VirtualLab& lab_, RwsSimulatorOptions options, std::string host_,
+       unsigned short port_)
+      : owner(owner_),
+        lab(lab_),
+        o(std::move(options)),
+        host(std::move(host_)),
+        requested_port(port_),
+        ssl_context(ssl::context::tls_server),
+        tick(io),
+        rng(std::random_device{}()) {
+    if (o.robotware.empty()) {
+      o.robotware = o.version == rws::Version::kRws1 ? "6.15.03.00" : "7.16.0.0";
+    }
+    if (!o.module_text.empty()) {
+      module = ParseRapidModule(o.module_text, "the simulator's module");
+      for (const RapidData& d : module->data) values[Upper(d.name)] = Canonical(d, d.initial);
+    }
+    Eigen::VectorXd home(6);
+    for (int i = 0; i < 6; ++i) home(i) = o.start_deg[static_cast<size_t>(i)] * kRadPerDeg;
+    arm = std::make_unique<VirtualArm>(lab, clock, home);
+    running = o.running && module.has_value();
+  }
+
+  // ---- RAPID data ----
+
+  // The value text as the controller keeps it: num components as floats.
+  static std::string Canonical(const RapidData& d, const std::string& text) {
+    const std::string type = Upper(d.type);
+    if (d.elements > 0) {
+      std::vector<double> v = rws::ParseRapidArray(text);
+      if (static_cast<int>(v.size()) != d.elements) {
+        throw rws::DecodeError(fmt::format("{} has {} elements", d.name, d.elements));
+      }
+      if (type == "NUM") {
+        for (double& x : v) x = AsFloat(x);
+        return rws::FormatRapidArray(v, 9);
+      }
+      return rws::FormatRapidArray(v, 15);
+    }
+    if (type == "NUM") return rws::FormatRapidNum(AsFloat(rws::ParseRapidNum(text)));
+    if (type == "DNUM") return rws::FormatRapidArray({rws::ParseRapidNum(text)}, 15).substr(1);
+    if (type == "JOINTTARGET") {
+      rws::JointTarget t = rws::ParseRapidJointTarget(text);
+      for (double& x : t.robax_deg) x = AsFloat(x);
+      for (double& x : t.extax) x = AsFloat(x);
+      return rws::FormatRapidJointTarget(t);
+    }
+    throw rws::DecodeError("the simulator keeps no RAPID " + d.type);
+  }
+
+  double Num(const char* name) const { return rws::ParseRapidNum(values.at(Upper(name))); }
+  void SetNum(const char* name, double value) {
+    values[Upper(name)] = rws::FormatRapidNum(AsFloat(value));
+  }
+  bool HasContract() const {
+    return module && module->Find("armsig_cmd") && module->Find("armsig_done") &&
+           module->Find("armsig_target") && module->Find("armsig_joints");
+  }
+
+  // ---- The task (armsig_serve of the module) ----
+
+  Eigen::VectorXd JointsDeg() { return arm->Now().q / kRadPerDeg; }
+
+  // CJointT after WaitRob \ZeroSpeed: where the arm stands, as RAPID nums.
+  void Record() {
+    const VirtualArm::State st = arm->Now();
+    if (st.moving) {  // WaitRob \ZeroSpeed: recorded once it stands
+      record_pending = true;
+      return;
+    }
+    std::vector<double> q(6);
+    for (int i = 0; i < 6; ++i) q[static_cast<size_t>(i)] = AsFloat(st.q(i) / kRadPerDeg);
+    values["ARMSIG_JOINTS"] = rws::FormatRapidArray(q, 15);
+    record_pending = false;
+  }
+
+  // MoveAbsJ at `speed_percent` of the axes' speeds: the leading joint (the largest turn) at
+  // the speed and acceleration that keep every axis within its own maximum.
+  void StartMove(const Eigen::VectorXd& target_deg, double speed_percent) {
+    const Eigen::VectorXd from = arm->Now().q, to = target_deg * kRadPerDeg;
+    const Eigen::VectorXd turn = (to - from).cwiseAbs();
+    const double lead = turn.maxCoeff();
+    double v = 1.0, a = 1.0;  // no turn: any
+    if (lead > 0) {
+      v = a = std::numeric_limits<double>::infinity();
+      for (int i = 0; i < 6; ++i) {
+        if (turn(i) <= 0) continue;
+        const double vi =
+            o.max_speed_deg_s[static_cast<size_t>(i)] * kRadPerDeg * speed_percent / 100.0;
+        v = std::min(v, vi * lead / turn(i));
+        a = std::min(a, vi / o.accel_time_s * lead / turn(i));
+      }
+    }
+    if (armed_stop) {
+      arm->ProtectiveStopDuringNextMove(armed_fraction);
+      stop_kind = *armed_stop;
+      armed_stop.reset();
+    }
+    target_deg_ = target_deg;
+    if (arm->MoveJ(to, a, v)) {
+      phase = Phase::kMoving;
+    } else {
+      running = false;  // the arm is stopped or not powered: the program cannot go on
+    }
+  }
+
+  // The program stops: a move running brakes along its path (continuing finishes it).
+  void StopTask() {
+    if (phase == Phase::kMoving) {
+      arm->ProtectiveStop();
+      arm->ClearProtectiveStop();  // braking goes on; no stop of the cell
+      phase = Phase::kInterrupted;
+    }
+    running = false;
+  }
+
+  // A stop of the cell: the arm brakes, the motors go off, the program stops.
+  void StopBy(RwsSimulator::CellStop kind) {
+    if (kind == RwsSimulator::CellStop::kProgramStop) return StopTask();
+    if (kind == RwsSimulator::CellStop::kEmergencyStop) {
+      arm->EmergencyStop();
+      ctrl = rws::ControllerState::kEmergencyStop;
+    } else {
+      arm->ProtectiveStop();
+      ctrl = rws::ControllerState::kGuardStop;
+    }
+    if (phase == Phase::kMoving) phase = Phase::kInterrupted;
+    running = false;
+  }
+
+  void Advance() {
+    if (!HasContract()) return;
+    VirtualArm::State st = arm->Now();
+    if (phase == Phase::kMoving && st.stop != VirtualArm::Stop::kNone) {
+      // A stop planned for this move (StopDuringNextMove) happened: the cell reacts.
+      const RwsSimulator::CellStop kind = stop_kind;
+      stop_kind = RwsSimulator::CellStop::kGuardStop;
+      if (kind == RwsSimulator::CellStop::kProgramStop) arm->ClearProtectiveStop();
+      StopBy(kind);
+      if (kind == RwsSimulator::CellStop::kProgramStop) phase = Phase::kInterrupted;
+    }
+    if (record_pending && !st.moving) Record();
+    if (!running) return;
+    for (int guard = 0; guard < 4; ++guard) {
+      st = arm->Now();
+      if (phase == Phase::kMoving) {
+        if (st.moving) return;
+        phase = Phase::kWaiting;
+        ++moves;
+        Record();
+        SetNum("armsig_done", request);
+        continue;
+      }
+      if (phase == Phase::kInterrupted) {  // continued after a stop: finish the move
+        StartMove(target_deg_, Num("armsig_speed"));
+        if (!running) return;
+        continue;
+      }
+      if (Num("armsig_cmd") == Num("armsig_done")) return;
+      request = Num("armsig_cmd");
+      SetNum("armsig_error", 0);
+      const double speed = Num("armsig_speed");
+      if (!(speed >= 1 && speed <= 100)) {
+        SetNum("armsig_error", 1);
+        Record();
+        SetNum("armsig_done", request);
+        continue;
+      }
+      const rws::JointTarget t = rws::ParseRapidJointTarget(values.at("ARMSIG_TARGET"));
+      Eigen::VectorXd target(6);
+      for (int i = 0; i < 6; ++i) target(i) = t.robax_deg[static_cast<size_t>(i)];
+      for (int i = 0; i < 6; ++i) {
+        const auto [lo, hi] = o.limits_deg[static_cast<size_t>(i)];
+        if (target(i) < lo || target(i) > hi) {
+          running = false;  // the motion planner stops the program at MoveAbsJ
+          events.push_back(fmt::format("{} Position outside reach: {} joint {} at {:.2f}°",
+                                       kEventOutsideReach, o.mechunit, i + 1, target(i)));
+          return;
+        }
+      }
+      StartMove(target, speed);
+      if (!running) return;
+    }
+  }
+
+  bool StartTask(bool from_main) {
+    if (ctrl != rws::ControllerState::kMotorsOn || !module) return false;
+    if (from_main && HasContract()) {
+      if (phase == Phase::kInterrupted) phase = Phase::kWaiting;  // the move is dropped
+      SetNum("armsig_done", Num("armsig_cmd"));
+      SetNum("armsig_error", 0);
+      Record();
+    }
+    running = true;
+    return true;
+  }
+
+  // ---- Sessions and authentication ----
+
+  std::optional<std::string> SessionOf(const bhttp::request<bhttp::string_body>& req) const {
+    const auto it = req.find(bhttp::field::cookie);
+    if (it == req.end()) return std::nullopt;
+    std::string http_session, abbcx;
+    for (const auto& c : http::ParseCookieHeader(std::string(it->value()))) {
+      if (c.name == "-http-session-") http_session = c.value;
+      if (c.name == "ABBCX") abbcx = c.value;
+    }
+    const auto s = sessions.find(http_session);
+    if (s == sessions.end() || s->second != abbcx) return std::nullopt;
+    return http_session;
+  }
+
+  bool CredentialsValid(const bhttp::request<bhttp::string_body>& req) {
+    const auto it = req.find(bhttp::field::authorization);
+    if (it == req.end()) return false;
+    const std::string header(it->value());
+    if (o.version == rws::Version::kRws2) {
+      const auto basic = http::ParseBasicAuthorization(header);
+      return basic && basic->first == o.user && basic->second == o.password;
+    }
+    http::Challenge c;
+    try {
+      c = http::ParseCredentials(header);
+    } catch (const http::HeaderError&) {
+      return false;
+    }
+    if (Upper(c.scheme) != "DIGEST") return false;
+    auto p = [&](const char* n) {
+      const std::string* v = c.Param(n);
+      return v ? *v : std::string();
+    };
+    const bool nonce_known = std::find(nonces.begin(), nonces.end(), p("nonce")) != nonces.end();
+    if (!nonce_known || p("realm") != kRealm || p("username") != o.user || p("qop") != "auth" ||
+        p("uri") != std::string(req.target())) {
+      return false;
+    }
+    const std::string expected =
+        http::DigestResponse(o.user, kRealm, o.password, std::string(req.method_string()),
+                             p("uri"), p("nonce"), p("nc"), p("cnonce"));
+    return expected == p("response");
+  }
+
+  std::string Challenge() {
+    if (o.version == rws::Version::kRws2) return std::string("Basic realm=\"") + kRealm + "\"";
+    nonces.push_back(RandomHex(rng) + RandomHex(rng));
+    if (nonces.size() > 256) nonces.pop_front();
+    return fmt::format("Digest realm=\"{}\", qop=\"auth\", nonce=\"{}\", opaque=\"{}\", "
+                       "algorithm=MD5",
+                       kRealm, nonces.back(), opaque);
+  }
+
+  // ---- Answers ----
+
+  rws::Representation RepresentationFor(const bhttp::request<bhttp::string_body>& req,
+                                        const std::string& query, bool& acceptable) const {
+    acceptable = true;
+    if (o.version == rws::Version::kRws1) {
+      for (const auto& [n, v] : rws::ParseForm(query)) {
+        if (n == "json" && v == "1") return rws::Representation::kJson1;
+      }
+      return rws::Representation::kXhtml;
+    }
+    const auto it = req.find(bhttp::field::accept);
+    const std::string accept = it == req.end() ? "" : std::string(it->value());
+    if (accept.find("hal+json") != std::string::npos) return rws::Representation::kHalJson;
+    if (accept.find("xhtml+xml") != std::string::npos) return rws::Representation::kXhtml;
+    acceptable = false;
+    return rws::Representation::kHalJson;
+  }
+
+  static rws::Resource Li(std::string type, std::string title,
+                          std::vector<std::pair<std::string, std::string>> fields) {
+    rws::Resource r;
+    r.type = std::move(type);
+    r.title = std::move(title);
+    r.fields = std::move(fields);
+    return r;
+  }
+
+  static rws::Document Error(int64_t code, std::string message) {
+    rws::Document d;
+    d.status = rws::Status{code, std::move(message)};
+    return d;
+  }
+
+  // The answer to an authenticated request: HTTP status and the document.
+  std::pair<unsigned, rws::Document> Route(const std::string& method, const std::string& path,
+                                           const std::vector<std::pair<std::string, std::string>>&
+                                               query,
+                                           const std::vector<std::pair<std::string, std::string>>&
+                                               form,
+                                           const std::string& session) {
+    const bool v1 = o.version == rws::Version::kRws1;
+    auto param = [](const std::vector<std::pair<std::string, std::string>>& list,
+                    const char* name) -> std::string {
+      for (const auto& [n, v] : list) {
+        if (n == name) return v;
+      }
+      return "";
+    };
+    const bool get = method == "GET", post = method == "POST";
+    rws::Document d;
+    if (get && path == "/ctrl/identity") {
+      d.resources.push_back(Li("ctrl-identity-info", "identity",
+                               {{"ctrl-name", o.controller_name},
+                                {"ctrl-type", "Virtual Controller"},
+                                {"ctrl-id", o.controller_id}}));
+      return {200, d};
+    }
+    if (get && path == "/rw/system") {
+      d.resources.push_back(Li("sys-system-li", "system",
+                               {{"name", o.controller_name},
+                                {"rwversion", o.robotware},
+                                {"sysid", "{7E16B1D3-0000-4A2B-9C3D-000000000001}"},
+                                {"rwversionname", o.robotware}}));
+      return {200, d};
+    }
+    if (get && path == "/rw/system/robottype") {
+      d.resources.push_back(Li("sys-robottype", "1", {{"robot-type", o.model}}));
+      return {200, d};
+    }
+    if (get && path == "/rw/cfg/moc/ROBOT_SERIAL_NUMBER/instances") {
+      rws::Resource inst = Li("cfg-dt-instance-li", "rob_1", {});
+      inst.children.push_back(Li("cfg-ia-t-li", "name", {{"value", "rob_1"}}));
+      inst.children.push_back(
+          Li("cfg-ia-t-li", "robot_serial_number_high_part", {{"value", o.serial_high}}));
+      inst.children.push_back(
+          Li("cfg-ia-t-li", "robot_serial_number_low_part", {{"value", o.serial_low}}));
+      d.resources.push_back(std::move(inst));
+      return {200, d};
+    }
+    if (get && path == (v1 ? "/rw/panel/ctrlstate" : "/rw/panel/ctrl-state")) {
+      d.resources.push_back(Li("pnl-ctrlstate", "ctrlstate", {{"ctrlstate", rws::Text(ctrl)}}));
+      return {200, d};
+    }
+    if (get && path == "/rw/panel/opmode") {
+      d.resources.push_back(Li("pnl-opmode", "opmode", {{"opmode", rws::Text(mode)}}));
+      return {200, d};
+    }
+    const bool exec_start = v1 ? (post && path == "/rw/rapid/execution" &&
+                                  param(query, "action") == "start")
+                               : (post && path == "/rw/rapid/execution/start");
+    const bool exec_stop = v1 ? (post && path == "/rw/rapid/execution" &&
+                                 param(query, "action") == "stop")
+                              : (post && path == "/rw/rapid/execution/stop");
+    if (get && path == "/rw/rapid/execution") {
+      d.resources.push_back(Li("rap-execution", "execution",
+                               {{"ctrlexecstate", running ? "running" : "stopped"},
+                                {"cycle", "forever"}}));
+      return {200, d};
+    }
+    if (exec_start) {
+      if (mode != rws::OperationMode::kAuto || !StartTask(false)) {
+        return {400, Error(rws::code::kWrongState, "execution start refused: motors off or not "
+                                                   "in AUTO")};
+      }
+      return {204, d};
+    }
+    if (exec_stop) {
+      StopTask();
+      return {204, d};
+    }
+    if (get && path == "/rw/motionsystem/mechunits/" + o.mechunit + "/jointtarget") {
+      const Eigen::VectorXd q = JointsDeg();
+      rws::Resource r = Li("ms-jointtarget", o.mechunit, {});
+      for (int i = 0; i < 6; ++i) {
+        r.fields.emplace_back("rax_" + std::to_string(i + 1), fmt::format("{:.2f}", q(i)));
+      }
+      for (const char* e : {"eax_a", "eax_b", "eax_c", "eax_d", "eax_e", "eax_f"}) {
+        r.fields.emplace_back(e, "9E+09");
+      }
+      d.resources.push_back(std::move(r));
+      return {200, d};
+    }
+    // Mastership over RAPID (RWS 1.0: the rapid domain, or all; RWS 2.0: edit).
+    std::string mastership_action;
+    if (v1 && post && (path == "/rw/mastership/rapid" || path == "/rw/mastership")) {
+      mastership_action = param(query, "action");
+    } else if (!v1 && post && path == "/rw/mastership/edit/request") {
+      mastership_action = "request";
+    } else if (!v1 && post && path == "/rw/mastership/edit/release") {
+      mastership_action = "release";
+    }
+    if (mastership_action == "request") {
+      if (mastership && *mastership != session) {
+        return {403, Error(rws::code::kHeldBySomeoneElse,
+                           "Requested resource is held by someone else")};
+      }
+      mastership = session;
+      return {204, d};
+    }
+    if (mastership_action == "release") {
+      if (mastership == session) mastership.reset();
+      return {204, d};
+    }
+    // RAPID symbols.
+    const std::string prefix = v1 ? "/rw/rapid/symbol/data/RAPID/" : "/rw/rapid/symbol/RAPID/";
+    if (path.rfind(prefix, 0) == 0) {
+      std::string rest = path.substr(prefix.size());
+      if (!v1) {
+        if (rest.size() < 5 || rest.substr(rest.size() - 5) != "/data") {
+          return {404, Error(rws::code::kNotFound, "Resource not found")};
+        }
+        rest.resize(rest.size() - 5);
+      }
+      const std::string wanted_prefix = o.task + "/" + (module ? module->name : "") + "/";
+      const RapidData* datum = nullptr;
+      if (module && Upper(rest.substr(0, wanted_prefix.size())) == Upper(wanted_prefix)) {
+        datum = module->Find(rest.substr(wanted_prefix.size()));
+      }
+      if (!datum) {
+        return {v1 ? 400u : 404u,
+                Error(v1 ? rws::code::kNotFound : rws::code::kSymbolNotFound, "Symbol not found")};
+      }
+      const bool set = v1 ? (post && param(query, "action") == "set") : post;
+      if (get) {
+        d.resources.push_back(Li("rap-data", "RAPID/" + o.task + "/" + module->name + "/" +
+                                                 datum->name,
+                                 {{"value", values.at(Upper(datum->name))}}));
+        return {200, d};
+      }
+      if (!set) return {400, Error(rws::code::kNotFound, "unknown action")};
+      if (mode != rws::OperationMode::kAuto) {
+        return {403, Error(rws::code::kRejected, "Rejected: RMMP needed in manual mode")};
+      }
+      if (mastership && *mastership != session) {
+        return {403, Error(rws::code::kHeldBySomeoneElse,
+                           "Requested resource is held by someone else")};
+      }
+      if (!v1 && mastership != session) {
+        return {403, Error(rws::code::kNoMastership,
+                           "The user does not have required mastership")};
+      }
+      if (datum->storage == "CONST") {
+        return {400, Error(rws::code::kRejected, "a constant cannot be written")};
+      }
+      try {
+        values[Upper(datum->name)] = Canonical(*datum, param(form, "value"));
+      } catch (const rws::DecodeError& e) {
+        return {400, Error(0, std::string("value not valid for ") + datum->type + ": " + e.what())};
+      }
+      Advance();
+      return {204, d};
+    }
+    if (get && path == "/logout") {
+      sessions.erase(session);
+      if (mastership == session) mastership.reset();
+      return {200, d};
+    }
+    return {404, Error(rws::code::kNotFound, "Resource not found")};
+  }
+
+  static std::string Service(const std::string& path) {
+    const size_t a = path.find('/', 1);
+    if (path.rfind("/rw/", 0) == 0) {
+      const size_t b = path.find('/', 4);
+      return path.substr(4, b == std::string::npos ? std::string::npos : b - 4);
+    }
+    return path.substr(1, a == std::string::npos ? std::string::npos : a - 1);
+  }
+
+  Reply Handle(const bhttp::request<bhttp::string_body>& req) {
+    std::lock_guard lock(mutex);
+    Reply reply;
+    const FaultSpec fault = faults.Next();
+    log.push_back(std::string(req.method_string()) + " " + std::string(req.target()));
+    if (log.size() > 10000) log.erase(log.begin());
+    auto& res = reply.response;
+    res.version(11);
+    res.keep_alive(req.keep_alive());
+    res.set(bhttp::field::server, "armsig virtual ABB controller");
+    switch (fault.fault) {
+      case Fault::kVanish:
+        reply.action = Reply::Action::kClose;
+        return reply;
+      case Fault::kDropReply:
+        reply.action = Reply::Action::kSilence;
+        return reply;
+      case Fault::kNoiseBytes:
+        reply.action = Reply::Action::kGarbage;
+        return reply;
+      case Fault::kTruncateReply:
+        reply.action = Reply::Action::kTruncate;
+        break;
+      default:
+        break;
+    }
+    Advance();
+
+    const std::string target(req.target());
+    const size_t q = target.find('?');
+    const std::string path = target.substr(0, q);
+    const std::string query = q == std::string::npos ? "" : target.substr(q + 1);
+    const std::string scheme = o.version == rws::Version::kRws1 ? "http" : "https";
+    const std::string base = fmt::format("{}://{}:{}{}/", scheme, host, port, path);
+    bool acceptable = true;
+    rws::Representation representation = rws::Representation::kXhtml;
+    try {
+      representation = RepresentationFor(req, query, acceptable);
+    } catch (const rws::DecodeError&) {
+    }
+    auto answer = [&](unsigned status, const rws::Document& doc) {
+      res.result(status);
+      if (status != 204 && (status >= 300 || !doc.resources.empty() || doc.status)) {
+        res.set(bhttp::field::content_type, rws::MediaType(representation));
+        res.body() = rws::Format(doc, representation, Service(path), base);
+      }
+      res.prepare_payload();
+    };
+    if (fault.fault == Fault::kErrorCode) {
+      answer(500, Error(fault.code, "internal error (a fault injected by the test)"));
+      return reply;
+    }
+
+    // Authentication: a session cookie, or credentials answering the challenge.
+    std::optional<std::string> session = SessionOf(req);
+    if (!session) {
+      if (CredentialsValid(req)) {
+        const std::string id = fmt::format("{}::http.session::{}", ++next_session, RandomHex(rng));
+        const std::string abbcx = std::to_string(next_session);
+        sessions[id] = abbcx;
+        session = id;
+        ++logins;
+        res.insert(bhttp::field::set_cookie, "-http-session-=" + id + "; path=/; httponly");
+        res.insert(bhttp::field::set_cookie, "ABBCX=" + abbcx + "; path=/; httponly");
+      } else {
+        if (req.find(bhttp::field::authorization) != req.end()) ++refused_logins;
+        res.set(bhttp::field::www_authenticate, Challenge());
+        answer(401, {});
+        return reply;
+      }
+    }
+    if (!acceptable) {
+      answer(406, Error(0, "Not Acceptable: ask for application/hal+json;v=2.0"));
+      return reply;
+    }
+    std::vector<std::pair<std::string, std::string>> query_params, form;
+    try {
+      query_params = rws::ParseForm(query);
+      if (req.method() == bhttp::verb::post) {
+        const auto ct = req.find(bhttp::field::content_type);
+        const std::string content_type = ct == req.end() ? "" : std::string(ct->value());
+        if (o.version == rws::Version::kRws2 && !req.body().empty() &&
+            content_type.find(";v=2.0") == std::string::npos) {
+          answer(415, Error(0, "Unsupported media type: form bodies are "
+                               "application/x-www-form-urlencoded;v=2.0"));
+          return reply;
+        }
+        form = rws::ParseForm(req.body());
+      }
+    } catch (const rws::DecodeError& e) {
+      answer(400, Error(0, e.what()));
+      return reply;
+    }
+    const auto [status, doc] =
+        Route(std::string(req.method_string()), path, query_params, form, *session);
+    answer(status, doc);
+    return reply;
+  }
+
+  // ---- Server ----
+
+  template <typename Stream>
+  class HttpConnection : public Connection,
+                         public std::enable_shared_from_this<HttpConnection<Stream>> {
+   public:
+    HttpConnection(Impl& impl, Stream stream)
+        : impl_(impl), stream_(std::move(stream)), timer_(impl.io) {}
+
+    void Begin() {
+      if constexpr (std::is_same_v<Stream, beast::tcp_stream>) {
+        Read();
+      } else {
+        auto self = this->shared_from_this();
+        stream_.async_handshake(ssl::stream_base::server,
+                                [self](const boost::system::error_code& ec) {
+                                  if (!ec) self->Read();
+                                });
+      }
+    }
+
+    void Close() override {
+      boost::system::error_code ignored;
+      beast::get_lowest_layer(stream_).socket().shutdown(tcp::socket::shutdown_both, ignored);
+      beast::get_lowest_layer(stream_).close();
+    }
+
+   private:
+    void Read() {
+      parser_.emplace();
+      parser_->body_limit(64 * 1024);
+      auto self = this->shared_from_this();
+      bhttp::async_read(stream_, buffer_, *parser_,
+                        [self](const boost::system::error_code& ec, size_t) {
+                          if (ec) return self->Close();
+                          self->OnRequest(self->parser_->release());
+                        });
+    }
+
+    void OnRequest(bhttp::request<bhttp::string_body> request) {
+      ++impl_.owner.requests_;
+      auto reply = std::make_shared<Reply>(impl_.Handle(request));
+      if (reply->action == Reply::Action::kClose) return Close();
+      if (reply->action == Reply::Action::kSilence) {  // no answer; the connection stays open
+        impl_.silent.push_back(this->shared_from_this());
+        return;
+      }
+      timer_.expires_after(
+          impl_.clock.Wall(std::chrono::duration<double>(impl_.o.latency).count()));
+      auto self = this->shared_from_this();
+      timer_.async_wait([self, reply](const boost::system::error_code& ec) {
+        if (ec) return;
+        self->Write(reply);
+      });
+    }
+
+    void Write(const std::shared_ptr<Reply>& reply) {
+      auto self = this->shared_from_this();
+      if (reply->action == Reply::Action::kGarbage ||
+          reply->action == Reply::Action::kTruncate) {
+        auto bytes = std::make_shared<std::string>();
+        if (reply->action == Reply::Action::kGarbage) {
+          *bytes = std::string("\x16\x03\x01 this is no HTTP \xff\xfe\r\n\r\n", 27);
+        } else {
+          std::ostringstream all;
+          all << reply->response;
+          *bytes = all.str().substr(0, all.str().size() / 2);
+        }
+        asio::async_write(stream_, asio::buffer(*bytes),
+                          [self, bytes](const boost::system::error_code&, size_t) { self->Close(); });
+        return;
+      }
+      bhttp::async_write(stream_, reply->response,
+                         [self, reply](const boost::system::error_code& ec, size_t) {
+                           if (ec || !reply->response.keep_alive()) return self->Close();
+                           self->Read();
+                         });
+    }
+
+    Impl& impl_;
+    Stream stream_;
+    asio::steady_timer timer_;
+    beast::flat_buffer buffer_;
+    std::optional<bhttp::request_parser<bhttp::string_body>> parser_;
+  };
+
+  void Listen() {
+    acceptor = std::make_unique<tcp::acceptor>(io);
+    acceptor->open(endpoint.protocol());
+    acceptor->set_option(asio::socket_base::reuse_address(true));
+    acceptor->bind(endpoint);
+    acceptor->listen();
+    endpoint = acceptor->local_endpoint();
+    port = endpoint.port();
+    Accept();
+  }
+
+  void Accept() {
+    acceptor->async_accept([this](const boost::system::error_code& ec, tcp::socket socket) {
+      if (ec) return;  // closed: the network was cut or the simulator stops
+      {
+        std::lock_guard lock(mutex);
+        ++accepted;
+      }
+      std::erase_if(connections, [](const std::weak_ptr<Connection>& w) { return w.expired(); });
+      if (o.version == rws::Version::kRws1) {
+        auto c = std::make_shared<HttpConnection<beast::tcp_stream>>(
+            *this, beast::tcp_stream(std::move(socket)));
+        connections.push_back(c);
+        c->Begin();
+      } else {
+        using Tls = ssl::stream<beast::tcp_stream>;
+        auto c = std::make_shared<HttpConnection<Tls>>(
+            *this, Tls(beast::tcp_stream(std::move(socket)), ssl_context));
+        connections.push_back(c);
+        c->Begin();
+      }
+      Accept();
+    });
+  }
+
+  void Tick() {
+    tick.expires_after(std::chrono::milliseconds(5));
+    tick.async_wait([this](const boost::system::error_code& ec) {
+      if (ec) return;
+      {
+        std::lock_guard lock(mutex);
+        Advance();
+      }
+      Tick();
+    });
+  }
+
+  // Runs `f` on the io thread and waits for it.
+  template <typename F>
+  void OnIoThread(F&& f) {
+    std::promise<void> done;
+    asio::post(io, [&] {
+      f();
+      done.set_value();
+    });
+    done.get_future().wait();
+  }
+
+  RwsSimulator& owner;
+  VirtualLab& lab;
+  RwsSimulatorOptions o;
+  std::string host;
+  unsigned short requested_port;
+  unsigned short port = 0;
+  asio::io_context io;
+  std::optional<asio::executor_work_guard<asio::io_context::executor_type>> work;
+  std::thread thread;
+  std::unique_ptr<tcp::acceptor> acceptor;
+  tcp::endpoint endpoint;
+  ssl::context ssl_context;
+  asio::steady_timer tick;
+  std::vector<std::weak_ptr<Connection>> connections;
+  std::vector<std::shared_ptr<Connection>> silent;  // kept open without an answer
+
+  mutable std::mutex mutex;  // everything below
+  std::mt19937_64 rng;
+  std::optional<RapidModule> module;
+  std::map<std::string, std::string> values;  // upper-case name → value text
+  rws::ControllerState ctrl = rws::ControllerState::kMotorsOn;
+  rws::OperationMode mode = rws::OperationMode::kAuto;
+  bool running = true;
+  PhysicalClock clock{o.time_scale};
+  std::unique_ptr<VirtualArm> arm;  // moved by the task's MoveAbsJ
+  enum class Phase { kWaiting, kMoving, kInterrupted } phase = Phase::kWaiting;
+  double request = 0;
+  Eigen::VectorXd target_deg_;  // of the move running or interrupted
+  bool record_pending = false;  // armsig_record waits for zero speed
+  int moves = 0, logins = 0, refused_logins = 0, accepted = 0;
+  std::map<std::string, std::string> sessions;  // -http-session- → ABBCX
+  int next_session = 0;
+  std::deque<std::string> nonces;
+  std::string opaque = "799d5e6b1c2c4d7e";
+  std::optional<std::string> mastership;  // the session holding it; "elsewhere"
+  std::optional<RwsSimulator::CellStop> armed_stop;  // for the next move
+  RwsSimulator::CellStop stop_kind = RwsSimulator::CellStop::kGuardStop;  // of the planned stop
+  double armed_fraction = 0.5;
+  std::vector<std::string> events;
+  std::vector<std::string> log;
+  FaultQueue faults;
+};
+
+RwsSimulator::RwsSimulator(VirtualLab& lab, RwsSimulatorOptions options, std::string host,
+                           unsigned short port)
+    : impl_(std::make_unique<Impl>(*this, lab, std::move(options), std::move(host), port)) {}
+
+RwsSimulator::~RwsSimulator() { Stop(); }
+
+void RwsSimulator::Start() {
+  Impl& m = *impl_;
+  if (m.thread.joinable()) return;
+  {
+    std::lock_guard lock(m.mutex);
+    m.Record();
+  }
+  if (m.o.version == rws::Version::kRws2) {
+    const Certificate cert = MakeCertificate(m.host, "armsig virtual OmniCore");
+    SSL_CTX_use_certificate(m.ssl_context.native_handle(), cert.x509.get());
+    SSL_CTX_use_PrivateKey(m.ssl_context.native_handle(), cert.key.get());
+    certificate_pem_ = cert.pem;
+    fingerprint_ = cert.fingerprint;
+  }
+  try {
+    m.endpoint = tcp::endpoint(asio::ip::make_address(m.host), m.requested_port);
+    m.Listen();
+  } catch (const boost::system::system_error& e) {
+    throw std::runtime_error("the virtual ABB controller cannot listen on " + m.host + ":" +
+                             std::to_string(m.requested_port) + ": " + e.what());
+  }
+  port_ = m.port;
+  address_ = m.host + ":" + std::to_string(port_);
+  m.Tick();
+  m.work.emplace(m.io.get_executor());
+  m.thread = std::thread([&m] { m.io.run(); });
+}
+
+void RwsSimulator::Stop() {
+  Impl& m = *impl_;
+  if (!m.thread.joinable()) return;
+  m.OnIoThread([&m] {
+    boost::system::error_code ignored;
+    if (m.acceptor) m.acceptor->close(ignored);
+    m.tick.cancel();
+    for (auto& w : m.connections) {
+      if (auto c = w.lock()) c->Close();
+    }
+    m.silent.clear();
+  });
+  m.work.reset();
+  m.io.stop();
+  m.thread.join();
+}
+
+void RwsSimulator::InjectOnce(FaultSpec fault) { impl_->faults.Once(fault); }
+void RwsSimulator::InjectAlways(FaultSpec fault) { impl_->faults.Always(fault); }
+void RwsSimulator::ClearFaults() { impl_->faults.Clear(); }
+
+void RwsSimulator::GuardStop() {
+  std::lock_guard lock(impl_->mutex);
+  impl_->StopBy(CellStop::kGuardStop);
+}
+
+void RwsSimulator::EmergencyStop() {
+  std::lock_guard lock(impl_->mutex);
+  impl_->StopBy(CellStop::kEmergencyStop);
+}
+
+void RwsSimulator::StopDuringNextMove(CellStop stop, double fraction) {
+  std::lock_guard lock(impl_->mutex);
+  impl_->armed_stop = stop;
+  impl_->armed_fraction = std::clamp(fraction, 0.0, 1.0);
+}
+
+void RwsSimulator::ResetStop() {
+  std::lock_guard lock(impl_->mutex);
+  using CS = rws::ControllerState;
+  if (impl_->ctrl == CS::kGuardStop) {
+    impl_->arm->ClearProtectiveStop();
+    impl_->ctrl = CS::kMotorsOff;
+  } else if (impl_->ctrl == CS::kEmergencyStop || impl_->ctrl == CS::kEmergencyStopReset) {
+    impl_->arm->ReleaseEmergencyStop();
+    impl_->ctrl = CS::kMotorsOff;
+  }
+}
+
+void RwsSimulator::SetMotors(bool on) {
+  std::lock_guard lock(impl_->mutex);
+  if (on) {
+    if (impl_->ctrl == rws::ControllerState::kMotorsOff && impl_->arm->PowerOn()) {
+      impl_->ctrl = rws::ControllerState::kMotorsOn;
+    }
+  } else if (impl_->ctrl == rws::ControllerState::kMotorsOn) {
+    impl_->StopTask();
+    impl_->ctrl = rws::ControllerState::kMotorsOff;
+  }
+}
+
+void RwsSimulator::SetMode(rws::OperationMode mode) {
+  std::lock_guard lock(impl_->mutex);
+  if (mode == impl_->mode) return;
+  impl_->StopTask();  // turning the key stops the program and switches the motors off
+  if (impl_->ctrl == rws::ControllerState::kMotorsOn) impl_->ctrl = rws::ControllerState::kMotorsOff;
+  impl_->mode = mode;
+}
+
+bool RwsSimulator::StartProgram(bool from_main) {
+  std::lock_guard lock(impl_->mutex);
+  return impl_->StartTask(from_main);
+}
+
+void RwsSimulator::StopProgram() {
+  std::lock_guard lock(impl_->mutex);
+  impl_->StopTask();
+}
+
+void RwsSimulator::Recover() {
+  ResetStop();
+  SetMotors(true);
+  StartProgram(false);
+}
+
+void RwsSimulator::CutNetwork() {
+  Impl& m = *impl_;
+  m.OnIoThread([&m] {
+    boost::system::error_code ignored;
+    if (m.acceptor) m.acceptor->close(ignored);
+    for (auto& w : m.connections) {
+      if (auto c = w.lock()) c->Close();
+    }
+    m.connections.clear();
+    m.silent.clear();
+  });
+}
+
+void RwsSimulator::RestoreNetwork() {
+  Impl& m = *impl_;
+  m.OnIoThread([&m] {
+    if (m.acceptor && m.acceptor->is_open()) return;
+    m.Listen();
+  });
+}
+
+void RwsSimulator::RequestMoveElsewhere(const Eigen::VectorXd& joints_deg) {
+  std::lock_guard lock(impl_->mutex);
+  rws::JointTarget t;
+  for (int i = 0; i < 6; ++i) t.robax_deg[static_cast<size_t>(i)] = joints_deg(i);
+  impl_->values["ARMSIG_TARGET"] = rws::FormatRapidJointTarget(t);
+  impl_->SetNum("armsig_cmd", impl_->Num("armsig_cmd") + 1);
+  impl_->Advance();
+}
+
+void RwsSimulator::TurnBehindModule(int joint, double deg_per_s) {
+  std::lock_guard lock(impl_->mutex);
+  impl_->arm->Drift(joint, deg_per_s * kRadPerDeg);
+}
+
+void RwsSimulator::TurnAfterNextMove(int joint, double deg_per_s, double delay_s, double for_s) {
+  std::lock_guard lock(impl_->mutex);
+  impl_->arm->DriftAfterNextMove(joint, deg_per_s * kRadPerDeg, delay_s, for_s);
+}
+
+void RwsSimulator::HoldMastershipElsewhere(bool held) {
+  std::lock_guard lock(impl_->mutex);
+  if (held)
+    impl_->mastership = "elsewhere";
+  else if (impl_->mastership == "elsewhere")
+    impl_->mastership.reset();
+}
+
+RwsSimulator::Snapshot RwsSimulator::snapshot() const {
+  std::lock_guard lock(impl_->mutex);
+  impl_->Advance();
+  Snapshot s;
+  s.controller = impl_->ctrl;
+  s.mode = impl_->mode;
+  s.running = impl_->running;
+  const VirtualArm::State arm = impl_->arm->Now();
+  s.moving = arm.moving;
+  s.joints_deg = arm.q / kRadPerDeg;
+  if (impl_->HasContract()) {
+    s.cmd = impl_->Num("armsig_cmd");
+    s.done = impl_->Num("armsig_done");
+    s.error = impl_->Num("armsig_error");
+  }
+  s.moves = impl_->moves;
+  s.logins = impl_->logins;
+  s.refused_logins = impl_->refused_logins;
+  s.connections = impl_->accepted;
+  return s;
+}
+
+std::string RwsSimulator::Symbol(const std::string& name) const {
+  std::lock_guard lock(impl_->mutex);
+  const auto it = impl_->values.find(Upper(name));
+  return it == impl_->values.end() ? "" : it->second;
+}
+
+std::vector<std::string> RwsSimulator::request_log() const {
+  std::lock_guard lock(impl_->mutex);
+  return impl_->log;
+}
+
+}  // namespace armsig::simulation
