@@ -5,7 +5,7 @@ set -euo pipefail
 
 # What the program needs to build and run (scripts/demo.sh).
 PACKAGES=(
-  build-essential clang cmake ninja-build pkg-config
+  build-essential clang lld cmake ninja-build pkg-config
   libeigen3-dev libceres-dev
   libboost-dev libboost-system-dev
   libsqlite3-dev sqlite3 libsqlitecpp-dev
