@@ -4,6 +4,7 @@
 #include <spdlog/spdlog.h>
 
 #include <algorithm>
+#include <charconv>
 #include <cmath>
 #include <limits>
 #include <nlohmann/json.hpp>
@@ -13,6 +14,7 @@
 #include "core/rotation.h"
 #include "core/text.h"
 #include "core/units.h"
+#include "db/stored_json.h"
 #include "io/csv.h"
 #include "io/model_export.h"
 #include "io/model_yaml.h"
@@ -68,6 +70,27 @@ calibration::FittedSet FittedSetOf(const calibration::RobotModel& model, const S
   return set;
 }
 
+std::vector<int64_t> InputSessions(const nlohmann::json& inputs) {
+  std::vector<int64_t> out;
+  if (!inputs.is_object() || !inputs.contains("sessions") || !inputs["sessions"].is_array()) return out;
+  for (const auto& s : inputs["sessions"]) {
+    if (s.is_number_integer()) out.push_back(s.get<int64_t>());
+    if (!s.is_string()) continue;
+    const std::string text = s.get<std::string>();
+    int64_t id = 0;
+    const auto [end, error] = std::from_chars(text.data(), text.data() + text.size(), id);
+    if (error == std::errc() && end == text.data() + text.size() && id > 0) out.push_back(id);
+  }
+  return out;
+}
+
+namespace {
+std::vector<int64_t> SessionsOf(db::Database& database, const db::StoredCalibration& c) {
+  if (c.inputs_json.empty()) return {};
+  return InputSessions(db::ParseStoredJson(c.inputs_json, {database.path(), "calibrations", c.id, "inputs_json"}));
+}
+}  // namespace
+
 ActiveSignature LoadSignature(db::Database& database, const std::string& robot,
                               std::optional<int> version) {
   if (!version) return LoadActiveSignature(database, robot);
@@ -77,8 +100,9 @@ ActiveSignature LoadSignature(db::Database& database, const std::string& robot,
   for (const auto& c : history) {
     if (c.version != *version) continue;
     ActiveSignature out{
-        io::ParseRobotModel(db::RobotModelYaml(database, *id), "model of robot " + robot), {}};
+        io::ParseRobotModel(db::RobotModelYaml(database, *id), "model of robot " + robot), {}, {}};
     out.signature = SignatureOf(out.model, c);
+    out.sessions = SessionsOf(database, c);
     return out;
   }
   throw InputError({"--set", 0, 0, ""},
@@ -100,8 +124,9 @@ ActiveSignature LoadActiveSignature(db::Database& database, const std::string& r
                          Hint(database.path(), {"recalibrate", "--robot", robot}) + ")");
   }
   ActiveSignature out{
-      io::ParseRobotModel(db::RobotModelYaml(database, *id), "model of robot " + robot), {}};
+      io::ParseRobotModel(db::RobotModelYaml(database, *id), "model of robot " + robot), {}, {}};
   out.signature = SignatureOf(out.model, *active);
+  out.sessions = SessionsOf(database, *active);
   return out;
 }
 
