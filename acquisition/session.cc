@@ -54,6 +54,12 @@ int64_t CreateSession(db::Database& db, const io::LabConfig& lab, const std::str
   const int64_t session = db::CreateSession(db, robot_id, lab.text, PlanToJson(plan), "running",
                                             "capture from " + lab.source);
   db::SetSessionOwner(db, session, ThisProcess());  // running: in this process
+  // A plan that says where every target is meant to be is an ISO 9283 test (`iso9283 plan`):
+  // measured to judge the robot, never calibration data unless asked.
+  const bool test = !plan.empty() && std::all_of(plan.begin(), plan.end(), [](const auto& c) {
+    return c.target_mm.has_value();
+  });
+  if (test) db::SetSessionKind(db, session, "test");
   for (const auto& s : lab.stations) {
     db::StationSetupRow row = StationSetupRowOf(s, "lab");
     for (const auto& c : lab.instruments) {
@@ -248,6 +254,10 @@ class CaptureRun {
   void SleepUnlessStopped(int ms) const;
   instruments::Reading Measure(size_t i, const PlannedConfiguration& target);
   void CheckJoints(const PlannedConfiguration& target, const Eigen::VectorXd& read) const;
+  void CheckMoved(const PlannedConfiguration& target, const Eigen::VectorXd& read) const;
+  // The joints and label of the last configuration this run measured (CheckMoved).
+  std::optional<Eigen::VectorXd> previous_joints_;
+  std::string previous_label_;
   void Round(bool with_joints, Measurement& m, const PlannedConfiguration& target,
              int round_index);
   double PointBeams(const PlannedConfiguration& target);
@@ -442,6 +452,21 @@ void CaptureRun::CheckJoints(const PlannedConfiguration& target,
       error * 180.0 / kPi, lab_.tolerances.max_joint_error_deg));
 }
 
+// The operator moves the robot (a controller armsig cannot command): a configuration read
+// where the previous one was measured is that one again, not the plan's next, and would be
+// stored as a copy of it (an unmoved robot gives one configuration, whatever the plan says).
+// A fault of the configuration: retried after the delay, then the session pauses.
+void CaptureRun::CheckMoved(const PlannedConfiguration& target, const Eigen::VectorXd& read) const {
+  if (!previous_joints_ || previous_joints_->size() != read.size()) return;
+  constexpr double kStillRad = 1e-4;  // 0.006°: far below any move between configurations
+  if ((read - *previous_joints_).cwiseAbs().maxCoeff() > kStillRad) return;
+  throw std::runtime_error(fmt::format(
+      "the robot has not moved since configuration {} was measured (every joint within {:.4f} "
+      "deg of it): move it to configuration {} (without a terminal to ask on, the lab's own "
+      "program must move it between readings)",
+      previous_label_, kStillRad * 180.0 / kPi, target.label));
+}
+
 // One parallel round: the joints (optional) and every instrument at once.
 void CaptureRun::Round(bool with_joints, Measurement& m, const PlannedConfiguration& target,
                        int round_index) {
@@ -579,7 +604,10 @@ Measurement CaptureRun::MeasureOnce(const PlannedConfiguration& target, double p
   Measurement m;
   m.device_ms = pointing_ms;
   Round(true, m, target, 0);
-  if (controller_.CanMove()) CheckJoints(target, m.joints);
+  if (controller_.CanMove())
+    CheckJoints(target, m.joints);
+  else
+    CheckMoved(target, m.joints);
   reduction::RayGroup group;  // every ray, and each repeated round's rays
   if (angle_only_ >= 2) group.repeats.push_back(RaysOf(m.readings, true));
   for (int k = 1; k < lab_.tolerances.readings; ++k) {
@@ -628,6 +656,8 @@ CaptureRun::Outcome CaptureRun::MeasureConfiguration(const PlannedConfiguration&
         if (measure_try > 0) cycle_start = Clock::now();
         Measurement m = MeasureOnce(target, measure_try == 0 ? pointing_ms : 0.0, cycle_start);
         if (m.point.accepted() || measure_try == lab_.tolerances.max_remeasure) {
+          previous_joints_ = m.joints;
+          previous_label_ = target.label;
           out.accepted = std::move(m);
           break;
         }

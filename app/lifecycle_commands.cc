@@ -99,6 +99,19 @@ void SetupLifecycleCommands(CLI::App& parent, const GlobalOptions& global, Runne
   });
 
   o = std::make_shared<LifecycleOptions>();
+  auto* kind = session->add_subcommand(
+      "kind", "What a session is for: calibration (fitted by the nightly job) | check | test");
+  NumberOption(kind->add_option("id", o->session, "Session id"), 1, kMaxId)->required();
+  ChoiceOption(kind->add_option("kind", o->name, "calibration | check | test"),
+               {"calibration", "check", "test"})
+      ->required();
+  OnExistingDatabase(kind, global, run, [o = o](db::Database& database) {
+    const std::string was = workflows::SetSessionKind(database, o->session, o->name);
+    std::cout << fmt::format("session {}: {} ({} before)\n", o->session, o->name, was);
+    return kOk;
+  });
+
+  o = std::make_shared<LifecycleOptions>();
   auto* versions = parent.add_subcommand("versions", "A robot's parameter sets (* = active)");
   NameOption(versions->add_option("--robot", o->robot, "Robot name"))->required();
   versions->add_flag("--json", o->json, "Machine-readable output");

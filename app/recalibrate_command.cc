@@ -12,6 +12,7 @@
 #include "core/error.h"
 #include "core/plausibility.h"
 #include "core/text.h"
+#include "db/sessions.h"
 #include "io/atomic_file.h"
 #include "io/notify.h"
 #include "workflows/recalibrate.h"
@@ -117,7 +118,18 @@ void AddRecalibrateOptions(CLI::App& sub, workflows::RecalibrateOptions& o) {
   NumberOption(
       sub.add_option("--select", o.select, "Configurations to fit (default, 0: 60 %, at most 2000)"),
       0, kMaxPoses);
-  sub.add_option("--params", o.params, "geometric | all | auto | list")->capture_default_str();
+  sub.add_option("--params", o.params,
+                 "auto: the geometric model plus the terms that pay on sessions or joint-space "
+                 "regions the fit did not see | geometric | all | list")
+      ->capture_default_str();
+  sub.add_option("--kinds", o.kinds,
+                 "Session kinds to fit, comma-separated: calibration, check, test (ISO 9283)")
+      ->delimiter(',')
+      ->check([](const std::string& k) {
+        return db::IsSessionKind(k) ? std::string()
+                                    : "expected calibration, check or test, got '" + k + "'";
+      })
+      ->capture_default_str();
   ChoiceOption(sub.add_option("--residual-model", o.residual_model,
                   "auto: a cross-validated residual map stored with the set when it clearly "
                   "helps; off: parametric only"), {"auto", "off"})

@@ -13,6 +13,8 @@
 #include <optional>
 #include <stdexcept>
 
+#include "calibration/signature_limits.h"
+
 namespace armsig::calibration {
 
 namespace {
@@ -226,6 +228,12 @@ Explanation ExplainDifference(const RobotModel& model, const Eigen::VectorXd& pa
     e.sigma = std::sqrt(std::max(variance, 0.0));
     e.chi2 = e.sigma > 0 ? (e.size / e.sigma) * (e.size / e.sigma)
                          : std::numeric_limits<double>::infinity();
+    // A size no robot shows (a tilt of degrees, a link centimetres longer) is not a cause
+    // but a sign that these data are not this robot's, or not in its units: never named.
+    if (!PlausibleCauseSize(e.size, e.cause.angle, e.cause.scale)) {
+      out.implausible.push_back(e.cause.name);
+      continue;
+    }
     const double reduction = e.size * e.size * norm2;
     reduction_of.push_back(reduction);
     e.explained = out.explainable_sum_squares > 0

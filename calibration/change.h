@@ -86,6 +86,9 @@ struct Explanation {
   double sum_squares = 0.0;             // |change|² with each group's rigid motion removed
   double explainable_sum_squares = 0.0;  // the part all causes together explain
   int candidates = 0;                    // causes tested (distinguishable ones)
+  // Causes whose fitted size no robot shows (calibration/signature_limits.h): left out of
+  // `causes`, by name.
+  std::vector<std::string> implausible;
 };
 
 // Each cause fitted alone to `difference` (at the parameters `params`), each group's rigid

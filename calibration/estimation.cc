@@ -18,6 +18,7 @@
 #include "calibration/orientation.h"
 #include "calibration/statistics.h"
 #include "calibration/terms.h"
+#include "calibration/transfer_folds.h"
 
 namespace armsig::calibration {
 
@@ -957,9 +958,23 @@ AutoSelection SelectTerms(const RobotModel& model, const std::vector<MeasuredPos
   const auto names = model.ParameterNames();
   const int m = static_cast<int>(poses.size());
   const bool cross_validate = selection_options.cross_validate && m >= 2 * selection_options.folds;
-  const std::vector<int> folds =
-      cross_validate ? AssignFolds(m, selection_options.folds, selection_options.seed)
-                     : std::vector<int>(m, 0);
+  std::vector<int> folds(m, 0);
+  int fold_count = 1;
+  if (cross_validate) {
+    std::optional<TransferFolds> transfer;
+    if (selection_options.transfer_folds) {
+      transfer = AssignTransferFolds(model, poses, selection_options.folds, selection_options.seed);
+    }
+    if (transfer && transfer->folds >= 2) {
+      folds = transfer->fold_of_pose;
+      fold_count = transfer->folds;
+      selection.folds = transfer->Describe();
+    } else {
+      folds = AssignFolds(m, selection_options.folds, selection_options.seed);
+      fold_count = selection_options.folds;
+      selection.folds = std::to_string(fold_count) + " random folds";
+    }
+  }
   // A candidate is identifiable next to the current set when its unit-scaled column keeps
   // a part orthogonal to theirs above the rank tolerance (the QR's criterion).
   const double tolerance = std::max(options.identifiability.relative_tolerance, 1e-6);
@@ -973,8 +988,7 @@ AutoSelection SelectTerms(const RobotModel& model, const std::vector<MeasuredPos
     const int k = static_cast<int>(kept.size());
     const int c = static_cast<int>(remaining.size());
     const LinearisedCrossValidation cv =
-        CrossValidationAtFit(model, current, poses, kept, remaining, folds,
-                             cross_validate ? selection_options.folds : 1);
+        CrossValidationAtFit(model, current, poses, kept, remaining, folds, fold_count);
     const int t = static_cast<int>(cv.jacobian().cols()) - k - c;  // tool-rotation columns
     const Eigen::MatrixXd& jacobian = cv.jacobian();
     std::vector<int> base(k + t);

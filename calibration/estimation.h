@@ -214,11 +214,17 @@ struct TermSelectionOptions {
   bool cross_validate = true;  // false: the paper-era rule, the largest significant F
   int folds = 5;
   unsigned seed = 1;           // of the fold assignment
+  // The held-out folds: whole sessions, or whole regions of joint space when there is one
+  // session (calibration/transfer_folds.h), so that a term is kept only when it pays on data
+  // the fit did not see from another set-up or another part of the work volume. false:
+  // poses dealt at random (what the fit poses themselves say, the pre-transfer rule).
+  bool transfer_folds = true;
   double min_cv_gain = 0.005;  // relative decrease of the CV mean a term must bring
   void Check() const;
 };
 struct AutoSelection {
   std::vector<int> parameters;
+  std::string folds;  // how the poses were held out ("5 joint-space blocks held out in turn")
   std::vector<FTest> tests;  // every test made, in order (accepted ones flagged)
   double cv_mean_mm_geometric = std::numeric_limits<double>::quiet_NaN();
   double cv_mean_mm = std::numeric_limits<double>::quiet_NaN();  // of the selected model

@@ -3,7 +3,9 @@
 #include <fmt/format.h>
 #include <fmt/ranges.h>
 
+#include <algorithm>
 #include <cmath>
+#include <numbers>
 #include <stdexcept>
 #include <string>
 
@@ -55,8 +57,95 @@ void EvaluateTerms(const RobotModel& model, const double* joints_rad, double* va
   EvaluateTerms(model, joints_rad, values, frames);
 }
 
+double JointArc::Clamp(double angle_rad) const {
+  constexpr double kTurn = 2.0 * std::numbers::pi;
+  if (whole_turn() || !std::isfinite(angle_rad)) return angle_rad;
+  double r = std::fmod(angle_rad - start_rad, kTurn);
+  if (r < 0.0) r += kTurn;
+  if (r <= length_rad) return angle_rad;
+  const double past_end = r - length_rad, to_start = kTurn - r;
+  return past_end <= to_start ? angle_rad - past_end : angle_rad + to_start;
+}
+
+std::vector<JointArc> ArcsCovering(const std::vector<Eigen::VectorXd>& joints_rad,
+                                   int num_joints) {
+  constexpr double kTurn = 2.0 * std::numbers::pi;
+  // The arcs reach a nanoradian past the outermost angles, so that every configuration they
+  // were made from lies inside whatever the rounding of fmod.
+  constexpr double kMargin = 1e-9;
+  std::vector<JointArc> arcs(num_joints);
+  if (joints_rad.empty()) return arcs;
+  for (int j = 0; j < num_joints; ++j) {
+    std::vector<double> a;
+    a.reserve(joints_rad.size());
+    for (const auto& q : joints_rad) {
+      double r = std::fmod(q(j), kTurn);
+      if (r < 0.0) r += kTurn;
+      a.push_back(r);
+    }
+    std::sort(a.begin(), a.end());
+    double gap = a.front() + kTurn - a.back();  // the wrap-around gap
+    size_t after = 0;                           // the arc starts after the largest gap
+    for (size_t k = 1; k < a.size(); ++k) {
+      if (a[k] - a[k - 1] > gap) {
+        gap = a[k] - a[k - 1];
+        after = k;
+      }
+    }
+    const double length = kTurn - gap + 2.0 * kMargin;
+    arcs[j].start_rad = a[after] - kMargin;
+    arcs[j].length_rad = length >= kTurn ? kTurn : length;
+  }
+  return arcs;
+}
+
+HeldTerms TermsHeldAtSupport(const RobotModel& model, const double* joints_rad) {
+  HeldTerms held;
+  if (model.term_support.empty() || model.nongeometric.empty()) return held;
+  std::vector<int> outside;
+  for (int j = 0; j < model.num_joints(); ++j) {
+    if (!model.term_support[j].Contains(joints_rad[j])) outside.push_back(j);
+  }
+  if (outside.empty()) return held;
+  RobotModel free = model;
+  free.term_support.clear();
+  const size_t terms = model.nongeometric.size();
+  std::vector<double> formula(terms), clamped(terms);
+  EvaluateTerms(free, joints_rad, formula.data());
+  EvaluateTerms(model, joints_rad, clamped.data());
+  for (size_t k = 0; k < terms; ++k) {
+    if (std::abs(formula[k] - clamped[k]) > 1e-12) held.terms.push_back(static_cast<int>(k));
+  }
+  if (held.terms.empty()) return held;
+  // The joints whose clamping alone changes a term: those the held terms depend on.
+  std::vector<double> q(joints_rad, joints_rad + model.num_joints()), one(terms);
+  for (int j : outside) {
+    const double keep = q[j];
+    q[j] = model.term_support[j].Clamp(keep);
+    EvaluateTerms(free, q.data(), one.data());
+    q[j] = keep;
+    for (size_t k = 0; k < terms; ++k) {
+      if (std::abs(formula[k] - one[k]) > 1e-12) {
+        held.joints.push_back(j);
+        break;
+      }
+    }
+  }
+  return held;
+}
+
 void EvaluateTerms(const RobotModel& model, const double* joints_rad, double* values,
                    NominalFrames& frames) {
+  if (!model.term_support.empty()) {
+    const int n = model.num_joints();
+    if (static_cast<int>(model.term_support.size()) != n) {
+      throw std::logic_error("term support of " + std::to_string(model.term_support.size()) +
+                             " joints on a model of " + std::to_string(n));
+    }
+    frames.clamped_rad.resize(n);
+    for (int j = 0; j < n; ++j) frames.clamped_rad[j] = model.term_support[j].Clamp(joints_rad[j]);
+    joints_rad = frames.clamped_rad.data();
+  }
   bool chained = false;
   for (size_t k = 0; k < model.nongeometric.size(); ++k) {
     const NongeometricTerm& term = model.nongeometric[k];

@@ -54,6 +54,25 @@ struct NongeometricTerm {
 // or a gravity torque counted in unit-mass metres).
 enum class ParameterUnit { kMm, kRad };
 
+// The arc of one joint's encoder angles that a fitted set's poses covered: from
+// `start_rad`, counter-clockwise over `length_rad` (≥ 2π: the whole turn). Every
+// non-geometric basis is 2π-periodic in each joint, so an arc, not an interval, is what the
+// data support.
+struct JointArc {
+  double start_rad = 0.0;
+  double length_rad = 2.0 * 3.14159265358979323846;
+  bool whole_turn() const { return length_rad >= 2.0 * 3.14159265358979323846; }
+  // The angle itself inside the arc, else the nearer of its ends (as start_rad + 2πk or
+  // start_rad + length_rad + 2πk, the representative nearest `angle_rad`).
+  double Clamp(double angle_rad) const;
+  bool Contains(double angle_rad) const { return Clamp(angle_rad) == angle_rad; }
+  friend bool operator==(const JointArc&, const JointArc&) = default;
+};
+
+// The smallest arc per joint holding every configuration's angle (the complement of the
+// largest gap between them). Configurations: num_joints values each.
+std::vector<JointArc> ArcsCovering(const std::vector<Eigen::VectorXd>& joints_rad, int num_joints);
+
 struct RobotModel {
   std::string name;
   // N1: measurement frame from robot base. nullopt = "auto" (rigid best fit to the data).
@@ -70,6 +89,12 @@ struct RobotModel {
   Eigen::Vector3d gravity_in_base = -Eigen::Vector3d::UnitZ();
   // Optional joint limits (rad); empty when unknown.
   std::vector<double> joint_min_rad, joint_max_rad;
+  // No extrapolation of the non-geometric terms: when set (one arc per joint, a fitted
+  // set's support), every term is evaluated at the encoder angles clamped to these arcs, so
+  // outside the joint ranges its set was fitted on a term keeps the value it has at the
+  // nearest edge instead of following its formula where no data checked it. Empty: the
+  // formulas everywhere (fitting, and sets stored before supports were).
+  std::vector<JointArc> term_support;
 
   int num_joints() const { return static_cast<int>(links.size()) + 1; }
   int num_geometric() const { return 6 * num_joints() + 3; }
@@ -90,8 +115,8 @@ std::vector<std::string> ModelDifferences(const RobotModel& a, const RobotModel&
                                           double tolerance_mm = 1e-6);
 
 // The value f_k(θ̄) of every non-geometric term of `model` for the encoder angles
-// (model.nongeometric.size() values into `values`). One pass of the nominal chain when
-// the model has gravity-torque terms.
+// (model.nongeometric.size() values into `values`), clamped to model.term_support when it
+// is set. One pass of the nominal chain when the model has gravity-torque terms.
 void EvaluateTerms(const RobotModel& model, const double* joints_rad, double* values);
 
 // The nominal chain in the robot's base frame for the encoder angles (H_i = I, true angle =
@@ -100,7 +125,17 @@ void EvaluateTerms(const RobotModel& model, const double* joints_rad, double* va
 struct NominalFrames {
   std::vector<Eigen::Vector3d> origin, axis;
   Eigen::Vector3d target = Eigen::Vector3d::Zero();
+  std::vector<double> clamped_rad;  // scratch: the angles clamped to the term support
 };
+
+// The terms whose value a configuration's clamping to model.term_support changes (their
+// indices into model.nongeometric), with the joints outside their arcs that those terms
+// depend on. Empty without a support or inside it.
+struct HeldTerms {
+  std::vector<int> terms;
+  std::vector<int> joints;  // 0-based, outside their arc
+};
+HeldTerms TermsHeldAtSupport(const RobotModel& model, const double* joints_rad);
 // The same with caller-owned scratch (no allocation once sized).
 void EvaluateTerms(const RobotModel& model, const double* joints_rad, double* values,
                    NominalFrames& scratch);

@@ -15,6 +15,8 @@
 #include <xmmintrin.h>
 #endif
 
+#include "calibration/transfer_folds.h"
+
 namespace armsig::calibration {
 
 namespace {
@@ -391,26 +393,6 @@ void ResidualMapOptions::Check() const {
 
 namespace {
 
-// Joints whose motion moves the target over the fit poses (nominal lever above a micron
-// per radian): a joint whose axis passes through the target carries no information.
-std::vector<int> FeatureJoints(const RobotModel& model, const std::vector<MeasuredPose>& poses) {
-  RobotModel bare = model;
-  bare.nongeometric.clear();
-  Kinematics kin(bare);
-  const Eigen::VectorXd zero = Eigen::VectorXd::Zero(bare.num_parameters());
-  Eigen::VectorXd lever = Eigen::VectorXd::Zero(model.num_joints());
-  for (const auto& p : poses) {
-    kin.Position(Eigen::Isometry3d::Identity(), zero, p.joints_rad.data());
-    lever += kin.JointJacobian().colwise().squaredNorm().transpose();
-  }
-  lever = (lever / static_cast<double>(std::max<size_t>(poses.size(), 1))).cwiseSqrt();
-  std::vector<int> joints;
-  for (int i = 0; i < model.num_joints(); ++i) {
-    if (lever(i) > 1e-3) joints.push_back(i);  // mm per rad
-  }
-  return joints;
-}
-
 // Farthest-point sampling in feature space: a deterministic cover of the fit poses,
 // starting from the pose nearest the centroid. Ascending indices.
 std::vector<int> FarthestPoints(const Eigen::MatrixXd& u, int count) {
@@ -476,10 +458,12 @@ class MapFitter {
   void FitCurves();
   void SetSupportRadius();
   const Eigen::MatrixXf& Kernel(int li);
-  Score CrossValidate(int li, int ri);
+  // `distances` (when given): each training pose's held-out error distance (mt_).
+  Score CrossValidate(int li, int ri, std::vector<double>* distances = nullptr);
   Score ScoreOf(int li, int ri);
   bool SearchGrid();
   void FitMap();
+  void TransferCheck();
   void Decide();
   ResidualMapData& map() { return result_.map; }
   // Joint curves: training pose t's contribution to the normal equations of the curve
@@ -488,7 +472,7 @@ class MapFitter {
                     Eigen::VectorXd& rhs) const;
   Eigen::Vector3d CurveCorrection(int t, const Eigen::VectorXd& x) const;
   Eigen::VectorXd SolveCurves(const Eigen::MatrixXd& normal, const Eigen::VectorXd& rhs,
-                              double smoothing) const;
+                              double smoothing, const std::vector<int>& measured) const;
 
   const RobotModel& model_;
   const EstimationResult& fit_;
@@ -528,6 +512,7 @@ ResidualMapFit MapFitter::Run() {
   SetSupportRadius();
   if (!SearchGrid()) return std::move(result_);
   FitMap();
+  TransferCheck();
   Decide();
   return std::move(result_);
 }
@@ -560,7 +545,7 @@ bool MapFitter::ChooseFeatures() {
   ResidualMapData& data = map();
   data.output_frame = options_.output_frame;
   data.num_joints = model_.num_joints();
-  data.joints = FeatureJoints(model_, poses_);
+  data.joints = JointsThatMoveTheTarget(model_, poses_);
   if (data.joints.empty()) {
     result_.decision = "no joint moves the target";
     return false;
@@ -667,11 +652,11 @@ Eigen::Vector3d MapFitter::CurveCorrection(int t, const Eigen::VectorXd& x) cons
 // arc of a joint never measured gets no correction, not the bridge between its ends. A
 // millionth keeps a constant the parametric model already took determined.
 Eigen::VectorXd MapFitter::SolveCurves(const Eigen::MatrixXd& normal, const Eigen::VectorXd& rhs,
-                                       double smoothing) const {
+                                       double smoothing, const std::vector<int>& measured) const {
   Eigen::MatrixXd a = normal + (smoothing * penalty_scale_) * penalty_;
   a.diagonal().array() += 1e-6 * penalty_scale_;
-  for (size_t c = 0; c < measured_.size(); ++c) {
-    if (!measured_[c]) a(c, c) += penalty_scale_;
+  for (size_t c = 0; c < measured.size(); ++c) {
+    if (!measured[c]) a(c, c) += penalty_scale_;
   }
   return a.llt().solve(rhs);  // symmetric positive definite: the blocked Cholesky
 }
@@ -740,7 +725,7 @@ void MapFitter::FitCurves() {
     std::vector<Eigen::VectorXd> x(folds_);
     std::vector<double> sum(folds_, 0.0);
     ParallelFor(folds_, options_.threads, [&](int f) {
-      x[f] = SolveCurves(train[f], rhs[f], grid[gi]);
+      x[f] = SolveCurves(train[f], rhs[f], grid[gi], measured_);
       for (int t : fold_rows_[f])
         sum[f] += (refit_[f].row(t).transpose() + CurveCorrection(t, x[f])).norm();
     });
@@ -814,7 +799,8 @@ const Eigen::MatrixXf& MapFitter::Kernel(int li) {
 // Cross-validation of one (ℓ, λ): per fold, kernel ridge on the other folds (single
 // precision: K + λI with λ ≥ 0.01 is well conditioned, and the figures compared differ in
 // the third digit), predicting the fold.
-MapFitter::Score MapFitter::CrossValidate(int li, int ri) {
+MapFitter::Score MapFitter::CrossValidate(int li, int ri, std::vector<double>* distances) {
+  if (distances) distances->assign(mt_, 0.0);
   const Eigen::MatrixXf& k = Kernel(li);
   const float lambda = static_cast<float>(options_.regularisations[ri]);
   std::vector<double> sum(folds_, 0.0), sum_sq(folds_, 0.0);
@@ -839,6 +825,7 @@ MapFitter::Score MapFitter::CrossValidate(int li, int ri) {
     const Eigen::MatrixXf predicted = kft * llt.solve(y);
     for (size_t r = 0; r < te.size(); ++r) {
       const Eigen::RowVector3d e = refit_[f].row(te[r]) + predicted.row(r).cast<double>();
+      if (distances) (*distances)[te[r]] = e.norm();
       sum[f] += e.norm();
       sum_sq[f] += e.squaredNorm();
     }
@@ -886,7 +873,6 @@ bool MapFitter::SearchGrid() {
     li = next_l;
     ri = next_r;
   }
-  kernels_.clear();
   if (!std::isfinite(best.mean)) {
     result_.decision = "the map's cross-validation failed (kernel matrices not positive definite)";
     return false;
@@ -894,6 +880,9 @@ bool MapFitter::SearchGrid() {
   map().length_scale = options_.length_scales[li];
   map().regularisation = options_.regularisations[ri];
   result_.cv_mean_mm_with_map = best.mean;
+  CrossValidate(li, ri, &result_.cv_distances_mm);
+  kernels_.clear();
+  result_.cv_poses = train_;
   return true;
 }
 
@@ -915,7 +904,7 @@ void MapFitter::FitMap() {
     Eigen::MatrixXd normal = Eigen::MatrixXd::Zero(p, p);
     Eigen::VectorXd rhs = Eigen::VectorXd::Zero(p);
     for (int t = 0; t < mt_; ++t) AddCurveRows(t, y.row(t).transpose(), &normal, rhs);
-    const Eigen::VectorXd x = SolveCurves(normal, rhs, data.curves.smoothing);
+    const Eigen::VectorXd x = SolveCurves(normal, rhs, data.curves.smoothing, measured_);
     for (int t = 0; t < mt_; ++t) y.row(t) -= CurveCorrection(t, x).transpose();
     data.curves.values_rad.assign(curve_joints_, std::vector<double>(knots_));
     data.curves.measured.assign(curve_joints_, std::vector<int>(knots_));
@@ -938,6 +927,92 @@ void MapFitter::FitMap() {
   // and the noise σ² = λ s² (Rasmussen & Williams 2006, §5.4.1 with the scale profiled out).
   const double s2 = std::max(0.0, (y.array() * w.array()).sum() / (3.0 * mt_));
   data.noise_sigma_mm = std::sqrt(data.regularisation * s2);
+}
+
+// The transfer check: the parametric model refitted without each held-out session or
+// joint-space region (one Gauss–Newton step), the curves (at the chosen smoothing, measured
+// knots from the other regions only) and the kernel (at the chosen ℓ, λ, with its support
+// cut) trained on the other regions' residuals, each region predicted.
+void MapFitter::TransferCheck() {
+  if (!options_.transfer_check) return;
+  const TransferFolds folds = AssignTransferFolds(model_, poses_, options_.folds, options_.seed);
+  if (folds.folds < 2) return;
+  const int nf = folds.folds;
+  const LinearisedCrossValidation cv =
+      CrossValidationAtFit(model_, fit_, poses_, fit_.identifiability.identified, {},
+                           folds.fold_of_pose, nf);
+  std::vector<int> all(cv.jacobian().cols());
+  for (size_t c = 0; c < all.size(); ++c) all[c] = static_cast<int>(c);
+  std::vector<std::vector<int>> held(nf), kept(nf);
+  for (int t = 0; t < mt_; ++t) {
+    const int f = folds.fold_of_pose[train_[t]];
+    for (int g = 0; g < nf; ++g) (g == f ? held : kept)[g].push_back(t);
+  }
+  const bool curves = !map().curves.empty();
+  const int p = curve_joints_ * knots_;
+  const double l2 = map().length_scale * map().length_scale;
+  const float lambda = static_cast<float>(map().regularisation);
+  const double support_half_d2 = 0.5 * map().support_radius * map().support_radius;
+  const double spacing = 2.0 * std::acos(-1.0) / std::max(knots_, 1);
+  const int reach = static_cast<int>(std::floor(kCurveReachRad / spacing));
+  std::vector<double> sum_p(nf, 0.0), sum_c(nf, 0.0), sum_m(nf, 0.0), distances(mt_, 0.0);
+  ParallelFor(nf, options_.threads, [&](int f) {
+    const FlushDenormals flush;
+    const Eigen::VectorXd r = cv.RefitWithout(f, all);
+    Eigen::MatrixXd y(mt_, 3);  // model − measured, map frame
+    for (int t = 0; t < mt_; ++t) y.row(t) = (frame_[t].transpose() * r.segment<3>(3 * train_[t])).transpose();
+    for (int t : held[f]) sum_p[f] += y.row(t).norm();
+    if (curves) {
+      std::vector<int> measured(p, 0);
+      for (int t : kept[f]) {
+        for (int k = 0; k < curve_joints_; ++k) {
+          const int nearest = span_[t * curve_joints_ + k].nearest;
+          for (int d = -reach; d <= reach; ++d)
+            measured[k * knots_ + ((nearest + d) % knots_ + knots_) % knots_] = 1;
+        }
+      }
+      Eigen::MatrixXd normal = Eigen::MatrixXd::Zero(p, p);
+      Eigen::VectorXd rhs = Eigen::VectorXd::Zero(p);
+      for (int t : kept[f]) AddCurveRows(t, -y.row(t).transpose(), &normal, rhs);
+      const Eigen::VectorXd x = SolveCurves(normal, rhs, map().curves.smoothing, measured);
+      for (int t = 0; t < mt_; ++t) y.row(t) += CurveCorrection(t, x).transpose();
+    }
+    for (int t : held[f]) sum_c[f] += y.row(t).norm();
+    const auto& tr = kept[f];
+    const auto& te = held[f];
+    Eigen::MatrixXf a(tr.size(), tr.size()), kft(te.size(), tr.size()), target(tr.size(), 3);
+    std::vector<char> supported(te.size(), 0);
+    for (size_t c = 0; c < tr.size(); ++c) {
+      for (size_t q = 0; q < tr.size(); ++q) {
+        const double h = half_d2_(tr[q], tr[c]) / l2;
+        a(q, c) = h > 60.0 ? 0.0f : static_cast<float>(std::exp(-h));
+      }
+      for (size_t q = 0; q < te.size(); ++q) {
+        const double h2 = half_d2_(te[q], tr[c]);
+        if (h2 <= support_half_d2) supported[q] = 1;
+        kft(q, c) = h2 / l2 > 60.0 ? 0.0f : static_cast<float>(std::exp(-h2 / l2));
+      }
+      target.row(c) = (-y.row(tr[c])).cast<float>();
+    }
+    a.diagonal().array() += lambda;
+    const Eigen::LLT<Eigen::MatrixXf> llt(a);
+    const Eigen::MatrixXf predicted =
+        llt.info() == Eigen::Success ? Eigen::MatrixXf(kft * llt.solve(target))
+                                     : Eigen::MatrixXf::Zero(te.size(), 3);
+    for (size_t q = 0; q < te.size(); ++q) {
+      Eigen::RowVector3d e = y.row(te[q]);
+      if (supported[q]) e += predicted.row(q).cast<double>();
+      sum_m[f] += e.norm();
+      distances[te[q]] = e.norm();
+    }
+  });
+  double mp = 0.0, mc = 0.0, mm = 0.0;
+  for (int f = 0; f < nf; ++f) mp += sum_p[f], mc += sum_c[f], mm += sum_m[f];
+  result_.transfer_folds = folds.Describe();
+  result_.transfer_mean_mm_parametric = mp / mt_;
+  result_.transfer_mean_mm_curves = curves ? mc / mt_ : std::numeric_limits<double>::quiet_NaN();
+  result_.transfer_mean_mm_with_map = mm / mt_;
+  result_.transfer_distances_mm = std::move(distances);
 }
 
 // The map is used when its cross-validated error beats the parametric model's by the

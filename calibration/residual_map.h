@@ -191,6 +191,13 @@ struct ResidualMapOptions {
   // allows between versions; from 150 on they are steady (docs/explanation/residual-map.md).
   int curve_min_poses = 150;
   std::vector<double> curve_smoothing = {1e-4, 1e-3, 1e-2, 0.1, 1.0, 10.0};
+  // Transfer check (calibration/transfer_folds.h): with the hyperparameters chosen, the two
+  // stages are cross-validated again with whole sessions or joint-space regions held out.
+  // The curves are kept only when they beat the parametric model there too, the kernel only
+  // when it does not make the held-out regions worse (it is local: far from its centres it
+  // gives nothing, by construction, and where it does reach it must not hurt). false: the
+  // random folds alone decide (the pre-transfer rule).
+  bool transfer_check = true;
   void Check() const;
 };
 
@@ -209,6 +216,18 @@ struct ResidualMapFit {
   double cv_mean_mm_with_map = std::numeric_limits<double>::quiet_NaN();
   // The joint curves alone (stage 1): NaN when the map has none.
   double cv_mean_mm_curves = std::numeric_limits<double>::quiet_NaN();
+  // The transfer check's figures (NaN when it was not made): held-out mean error distance
+  // of the parametric model, with the curves, and with curves and kernel, on folds that hold
+  // out whole sessions or joint-space regions (`transfer_folds` says which).
+  std::string transfer_folds;
+  double transfer_mean_mm_parametric = std::numeric_limits<double>::quiet_NaN();
+  double transfer_mean_mm_curves = std::numeric_limits<double>::quiet_NaN();
+  double transfer_mean_mm_with_map = std::numeric_limits<double>::quiet_NaN();
+  // Per training pose (`cv_poses`: indices into the fit poses), its held-out error distance
+  // with the map as chosen: on the random folds, and (when the transfer check ran) on the
+  // transfer folds. Empty when the map could not be cross-validated.
+  std::vector<int> cv_poses;
+  std::vector<double> cv_distances_mm, transfer_distances_mm;
   ResidualMapData map;                     // empty centres when it could not be fitted
   std::vector<CrossValidationPoint> grid;  // every (ℓ, λ) evaluated, in order
 };

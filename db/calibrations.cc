@@ -124,7 +124,8 @@ std::pair<int64_t, int> InsertCalibration(Database& db, const CalibrationRecord&
       "poses_fit, poses_validation, nominal_mean_mm, nominal_max_mm, nominal_rms_mm, fit_mean_mm, "
       "fit_max_mm, fit_rms_mm, validation_mean_mm, validation_max_mm, validation_rms_mm, "
       "report_json, world_from_base_json, covariance_json, drift_json, residual_map_json, "
-      "tool_rotation_json) VALUES (?,?,?,?,?,?,?,?,?,?,?,?,?,?,?,?,?,?,?,?,?,?,?,?) RETURNING id");
+      "tool_rotation_json, validity_json) VALUES (?,?,?,?,?,?,?,?,?,?,?,?,?,?,?,?,?,?,?,?,?,?,?,?,?) "
+      "RETURNING id");
   s->Bind(1, c.robot_id);
   s->Bind(2, version);
   s->Bind(3, c.active ? 1 : 0);
@@ -158,6 +159,10 @@ std::pair<int64_t, int> InsertCalibration(Database& db, const CalibrationRecord&
   } else {
     s->BindNull(24);
   }
+  if (c.validity_json.empty())
+    s->BindNull(25);
+  else
+    s->Bind(25, c.validity_json);
   const int64_t id = InsertedId(*s, db.path() + ": a parameter set");
   auto p = Sql(db,
                       "INSERT INTO calibration_parameters(calibration_id, name, value, unit, "
@@ -204,8 +209,8 @@ std::vector<StoredCalibration> CalibrationHistory(Database& db, int64_t robot_id
       "SELECT id, version, active, created_at, params_spec, inputs_json, coalesce(report_json,''), "
       "validation_mean_mm, validation_max_mm, world_from_base_json, covariance_json, options_json, "
       "rank, poses_fit, poses_validation, fit_mean_mm, coalesce(drift_json, ''), "
-      "coalesce(residual_map_json, ''), validation_rms_mm, coalesce(tool_rotation_json, '') "
-      "FROM calibrations "
+      "coalesce(residual_map_json, ''), validation_rms_mm, coalesce(tool_rotation_json, ''), "
+      "coalesce(validity_json, '') FROM calibrations "
       "WHERE robot_id = ? ORDER BY version");
   q->Bind(1, robot_id);
   while (q->Step()) {
@@ -233,6 +238,7 @@ std::vector<StoredCalibration> CalibrationHistory(Database& db, int64_t robot_id
     c.residual_map_json = q->Text(17);
     if (!q->IsNull(18)) c.validation_rms_mm = q->Double(18);
     c.tool_rotation = ParseMatrix3(q->Text(19), cell("tool_rotation_json"));
+    c.validity_json = q->Text(20);
     // Kept as text and read where they are used: bounded now, so that any later parse or
     // print of them is.
     CheckStoredJsonText(c.inputs_json, cell("inputs_json"));
@@ -240,6 +246,7 @@ std::vector<StoredCalibration> CalibrationHistory(Database& db, int64_t robot_id
     CheckStoredJsonText(c.options_json, cell("options_json"));
     CheckStoredJsonText(c.drift_json, cell("drift_json"));
     CheckStoredJsonText(c.residual_map_json, cell("residual_map_json"));
+    CheckStoredJsonText(c.validity_json, cell("validity_json"));
     auto p = Sql(db,
                         "SELECT name, value, unit, identified, sigma FROM calibration_parameters "
                         "WHERE calibration_id = ? "

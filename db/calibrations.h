@@ -34,6 +34,9 @@ struct CalibrationRecord {
   // The 6-DoF target's rotation in the last link frame (in the measuring frame of
   // world_from_base), when the set was fitted to measured orientations.
   std::optional<Eigen::Matrix3d> tool_rotation{};
+  // Where the set holds (schema v13, io/validity_json.h): the joint arcs its terms were
+  // fitted on and its predicted σ's calibration on held-out regions; "" = none stored.
+  std::string validity_json{};
   struct Parameter {
     std::string name, unit;
     double value = 0.0, sigma = NAN;
@@ -68,6 +71,7 @@ struct StoredCalibration {
   std::string drift_json{};  // "" when no drift decision was stored (or before schema v4)
   std::string residual_map_json{};  // "" = parametric only (and before schema v5)
   std::optional<Eigen::Matrix3d> tool_rotation{};  // fitted to orientations (schema v12)
+  std::string validity_json{};  // "" before schema v13 (io/validity_json.h)
   std::vector<CalibrationRecord::Parameter> parameters;
 };
 std::vector<StoredCalibration> CalibrationHistory(Database& db, int64_t robot_id);  // by version

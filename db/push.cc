@@ -134,7 +134,8 @@ constexpr Column kInstrumentColumns[] = {
     {"created_at", Kind::kText}};
 constexpr Column kSessionColumns[] = {{"lab_yaml", Kind::kText},   {"plan_json", Kind::kText},
                                       {"state", Kind::kText},      {"note", Kind::kText},
-                                      {"started_at", Kind::kText}, {"finished_at", Kind::kText}};
+                                      {"started_at", Kind::kText}, {"finished_at", Kind::kText},
+                                      {"kind", Kind::kText}};
 constexpr Column kSetupColumns[] = {
     {"x_mm", Kind::kReal},          {"y_mm", Kind::kReal},         {"z_mm", Kind::kReal},
     {"levelled", Kind::kInt},       {"azimuth_rad", Kind::kReal},  {"rotation_json", Kind::kText},
@@ -181,7 +182,8 @@ constexpr Column kCalibrationColumns[] = {
     {"validation_rms_mm", Kind::kReal},  {"report_json", Kind::kText},
     {"created_at", Kind::kText},         {"world_from_base_json", Kind::kText},
     {"covariance_json", Kind::kText},    {"drift_json", Kind::kText},
-    {"residual_map_json", Kind::kText},  {"tool_rotation_json", Kind::kText}};
+    {"residual_map_json", Kind::kText},  {"tool_rotation_json", Kind::kText},
+    {"validity_json", Kind::kText}};
 constexpr Column kParameterColumns[] = {{"name", Kind::kText},
                                         {"value", Kind::kReal},
                                         {"unit", Kind::kText},

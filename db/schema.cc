@@ -271,6 +271,16 @@ ALTER TABLE points ADD COLUMN sigma_rz_rad REAL;
 ALTER TABLE calibrations ADD COLUMN tool_rotation_json TEXT;  -- 3x3 row-major, target in last link frame
 )sql";
 
+// Schema v13 (a signature that never makes the robot worse): every session has a kind —
+// `calibration` (what the nightly job fits), `test` (an ISO 9283 test: measured to judge the
+// robot, never fitted unless asked), `check` (measured to check a set where it was not
+// fitted) — and every parameter set says where it holds (`validity_json`: the joint arcs
+// its terms were fitted on, the calibration of its predicted σ on held-out regions).
+constexpr std::string_view kSchemaV13 = R"sql(
+ALTER TABLE sessions ADD COLUMN kind TEXT NOT NULL DEFAULT 'calibration' CHECK (kind IN ('calibration','test','check'));
+ALTER TABLE calibrations ADD COLUMN validity_json TEXT;  -- {"term_arcs_rad": [[start, length]…], "sigma": {…}}; NULL before v13
+)sql";
+
 // PostgreSQL's text of the migrations whose SQLite text does not translate word for word
 // (PostgresDdl): v2 and v9 fill their new column from what only SQLite has (json_extract,
 // rowid). A PostgreSQL store is created by an armsig of schema v9 or later, in one
@@ -317,10 +327,11 @@ constexpr std::array<std::string_view, 13> kTables = {"robots",
 
 std::span<const std::string_view> Migrations() {
   static const std::string jobs = JobsSchemaSql(Backend::kSqlite);
-  static const std::array<std::string_view, 12> migrations = [] {
-    std::array<std::string_view, 12> m = {kSchemaV1, kSchemaV2,  kSchemaV3,  kSchemaV4,
-                                          kSchemaV5, kSchemaV6,  {},         kSchemaV8,
-                                          kSchemaV9, kSchemaV10, kSchemaV11, kSchemaV12};
+  static const std::array<std::string_view, 13> migrations = [] {
+    std::array<std::string_view, 13> m = {kSchemaV1,  kSchemaV2,  kSchemaV3,  kSchemaV4,
+                                          kSchemaV5,  kSchemaV6,  {},         kSchemaV8,
+                                          kSchemaV9,  kSchemaV10, kSchemaV11, kSchemaV12,
+                                          kSchemaV13};
     m[kJobsMigration - 1] = jobs;
     return m;
   }();

@@ -1,6 +1,7 @@
 #include "db/sessions.h"
 
 #include <nlohmann/json.hpp>
+#include <stdexcept>
 
 #include "db/schema.h"
 #include "db/sql_util.h"
@@ -31,6 +32,23 @@ int64_t CreateSession(Database& db, int64_t robot_id, const std::string& lab_yam
   s->Bind(5, note);
   s->Bind(6, state);
   return InsertedId(*s, db.path() + ": a session");
+}
+
+bool IsSessionKind(const std::string& kind) {
+  for (const char* k : kSessionKinds) {
+    if (kind == k) return true;
+  }
+  return false;
+}
+
+void SetSessionKind(Database& db, int64_t session_id, const std::string& kind) {
+  if (!IsSessionKind(kind)) {
+    throw std::invalid_argument("session kind '" + kind + "': expected calibration, test or check");
+  }
+  auto s = Sql(db, "UPDATE sessions SET kind = ? WHERE id = ?");
+  s->Bind(1, kind);
+  s->Bind(2, session_id);
+  s->Step();
 }
 
 void SetSessionState(Database& db, int64_t session_id, const std::string& state) {
@@ -197,7 +215,7 @@ std::vector<SessionSummary> ListSessions(Database& db, std::optional<int64_t> ro
           "(SELECT count(*) FROM points t WHERE t.session_id = s.id AND t.x_mm IS NOT NULL), "
           "(SELECT count(*) FROM points t WHERE t.session_id = s.id AND t.x_mm IS NOT NULL AND "
           "coalesce(t.flags, '') <> ''), s.owner_pid, coalesce(s.owner_host, ''), "
-          "coalesce(s.owner_started, '') "
+          "coalesce(s.owner_started, ''), s.kind "
           "FROM sessions s JOIN robots r ON r.id = s.robot_id ") +
           (robot_id ? "WHERE s.robot_id = ? " : "") + "ORDER BY s.id");
   if (robot_id) q->Bind(1, *robot_id);
@@ -215,6 +233,7 @@ std::vector<SessionSummary> ListSessions(Database& db, std::optional<int64_t> ro
     s.usable = static_cast<int>(q->Int(8));
     s.flagged = static_cast<int>(q->Int(9));
     s.owner = OwnerOf(*q, 10);
+    s.kind = q->Text(13);
     out.push_back(std::move(s));
   }
   return out;

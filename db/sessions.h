@@ -18,6 +18,12 @@ int64_t CreateSession(Database& db, int64_t robot_id, const std::string& lab_yam
                       const std::string& plan_json, const std::string& state,
                       const std::string& note);
 void SetSessionState(Database& db, int64_t session_id, const std::string& state);
+// What a session was measured for (schema v13): `calibration` (the default: the nightly job
+// fits it), `test` (an ISO 9283 test: never fitted unless asked), `check` (data to judge a
+// set where it was not fitted). std::invalid_argument for another word.
+inline constexpr const char* kSessionKinds[] = {"calibration", "test", "check"};
+bool IsSessionKind(const std::string& kind);
+void SetSessionKind(Database& db, int64_t session_id, const std::string& kind);
 // A session whose measurements must not be used (its set-up was wrong): state `aborted`,
 // the reason appended to its note ("discarded: …"). Its rows stay; LoadRobotPoses leaves
 // it out.
@@ -46,6 +52,7 @@ std::optional<SessionRow> LoadSession(Database& db, int64_t session_id);
 struct SessionSummary {
   int64_t id = 0;
   std::string robot, state, note, started_at, finished_at;
+  std::string kind = "calibration";  // calibration | test | check
   int measured = 0, skipped = 0;  // configurations
   int usable = 0;                 // reduced points with coordinates
   int flagged = 0;                // of which carry a flag

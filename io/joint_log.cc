@@ -7,6 +7,7 @@
 #include "core/error.h"
 #include "core/plausibility.h"
 #include "io/csv.h"
+#include "io/joint_unit_check.h"
 
 namespace armsig::io {
 
@@ -106,8 +107,14 @@ JointLog ReadJointLog(const std::string& path, const JointLogOptions& options) {
   log.source = path;
   log.has_ids = id_col.has_value();
   log.has_times = time_col.has_value();
-  for (const CsvRow& row : table.rows())
+  std::vector<JointUnitCheck::Column> unit_columns;
+  for (const auto& j : joints) unit_columns.push_back({table.header()[j.index], j.unit});
+  JointUnitCheck units(path, std::move(unit_columns));
+  for (const CsvRow& row : table.rows()) {
     log.rows.push_back(ReadingOf(table, row, id_col, time_col, joints, path));
+    units.Add(log.rows.back().joints_rad);
+  }
+  units.Finish();
   if (log.rows.empty()) throw InputError({path, 0, 0, ""}, "no joint readings after the header");
   return log;
 }

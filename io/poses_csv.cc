@@ -14,6 +14,7 @@
 #include "core/rotation.h"
 #include "core/text.h"
 #include "io/csv.h"
+#include "io/joint_unit_check.h"
 
 namespace armsig::io {
 
@@ -223,6 +224,9 @@ void ReadPosesStreamed(const std::string& path, int num_joints, std::optional<An
   MeasuredPose pose;
   pose.joints_rad.resize(num_joints);
   int64_t count = 0;
+  std::vector<JointUnitCheck::Column> unit_columns;
+  for (const auto& c : q) unit_columns.push_back({c.name, plausible::UnitOf(c.unit)});
+  JointUnitCheck units(path, std::move(unit_columns));
   for (CsvRow row; table.Next(row);) {
     if (table.Text(row, id_col).empty()) {
       throw InputError(table.Where(row, id_col), "expected a pose id");
@@ -237,11 +241,13 @@ void ReadPosesStreamed(const std::string& path, int num_joints, std::optional<An
                             table.Number(row, y, Quantity::kCoordinate),
                             table.Number(row, z, Quantity::kCoordinate)};
     pose.orientation = ReadOrientation(table, row, orientation);
+    units.Add(pose.joints_rad);
     sink(pose, row.line);
     ++count;
   }
   if (count == 0)
     throw InputError({path, 0, 0, ""}, "no poses (expected data rows after the header)");
+  units.Finish();
   ids.Check(
       [&](const SeenIds::Visit& visit) {
         CsvReader again(path);
@@ -482,6 +488,10 @@ void ImportPosesStreamed(const std::string& path, const PoseImportOptions& optio
   int64_t count = 0;
   MeasuredPose pose;
   pose.joints_rad.resize(q.size());
+  std::vector<JointUnitCheck::Column> unit_columns;
+  for (size_t i = 0; i < q.size(); ++i)
+    unit_columns.push_back({options.joint_columns[i], plausible::UnitOf(q_unit[i])});
+  JointUnitCheck units(path, std::move(unit_columns));
   for (CsvRow row; table.Next(row);) {
     ++count;
     pose.id = id_col >= 0 ? table.Name(row, id_col) : std::to_string(count);
@@ -495,9 +505,11 @@ void ImportPosesStreamed(const std::string& path, const PoseImportOptions& optio
       pose.target_in_world(k) = table.Number(row, xyz[k], Quantity::kCoordinate, length_unit);
     }
     pose.orientation = ReadOrientation(table, row, orientation);
+    units.Add(pose.joints_rad);
     sink(pose, row.line);
   }
   if (count == 0) throw InputError({path, 0, 0, ""}, "no data rows");
+  units.Finish();
   ids.Check(
       [&](const SeenIds::Visit& visit) {
         CsvReader again(path, csv);

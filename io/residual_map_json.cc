@@ -68,6 +68,11 @@ nlohmann::json ResidualModelJson(const calibration::ResidualMapFit& fit) {
           {"cv_mean_mm_parametric", number(fit.cv_mean_mm_parametric)},
           {"cv_mean_mm_with_map", number(fit.cv_mean_mm_with_map)},
           {"cv_mean_mm_curves", number(fit.cv_mean_mm_curves)},
+          {"transfer",
+           {{"folds", fit.transfer_folds},
+            {"mean_mm_parametric", number(fit.transfer_mean_mm_parametric)},
+            {"mean_mm_curves", number(fit.transfer_mean_mm_curves)},
+            {"mean_mm_with_map", number(fit.transfer_mean_mm_with_map)}}},
           {"decision", fit.decision},
           {"hyperparameters", hyperparameters},
           {"grid", grid}};

@@ -17,6 +17,7 @@
 #include "core/error.h"
 #include "core/text.h"
 #include "io/residual_map_json.h"
+#include "io/validity_json.h"
 
 namespace armsig::workflows {
 
@@ -347,6 +348,11 @@ CalibrationRun RunCalibration(const calibration::RobotModel& model,
     throw InputError({"--residual-model", 0, 0, ""},
                      "expected auto or off, got '" + settings.residual_model + "'");
   }
+  // Where the set holds and how well it predicts beside its fit poses.
+  if (run.estimate.usable()) {
+    run.validity = calibration::EstimateValidity(
+        model, run.estimate, fit, run.residual_map ? &*run.residual_map : nullptr);
+  }
   LogFrames(run);
   return run;
 }
@@ -421,6 +427,7 @@ nlohmann::json CalibrationJson(const calibration::RobotModel& model, const Calib
                                                   {"cv_mean_mm_with_map", nullptr},
                                                   {"hyperparameters", nullptr},
                                                   {"decision", "--residual-model off"}};
+  out["validity"] = run.validity ? io::ValidityToJson(*run.validity) : json();
   json base = json::array();
   for (int r = 0; r < 4; ++r) {
     base.push_back({est.world_from_base.matrix()(r, 0), est.world_from_base.matrix()(r, 1),
@@ -524,6 +531,7 @@ db::CalibrationRecord CalibrationRecordOf(const calibration::RobotModel& model,
   c.world_from_base = e.world_from_base;
   if (const Eigen::Matrix3d* tool = e.tool_rotation_of(e.reference_frame)) c.tool_rotation = *tool;
   if (run.map_used()) c.residual_map_json = JsonText(io::ResidualMapToJson(run.residual_map->map));
+  if (run.validity) c.validity_json = JsonText(io::ValidityToJson(*run.validity));
   if (e.covariance.rows() == static_cast<int>(e.identifiability.identified.size())) {
     const auto names = model.ParameterNames();
     for (int k : e.identifiability.identified) c.covariance_parameters.push_back(names[k]);

@@ -11,6 +11,7 @@
 #include "calibration/estimation.h"
 #include "calibration/residual_map.h"
 #include "calibration/selection.h"
+#include "calibration/validity.h"
 #include "core/types.h"
 #include "db/store.h"
 
@@ -57,6 +58,9 @@ struct CalibrationRun {
   std::vector<double> validation_map_sigma_mm;
   std::vector<char> validation_map_extrapolated;
   bool map_used() const { return residual_map && residual_map->used; }
+  // Where the set holds (its terms' joint arcs) and its predicted σ's calibration on held-out
+  // data (calibration/validity.h); absent when the fit gave no usable estimate.
+  std::optional<calibration::SetValidity> validity;
   // Over the validation poses when the map is used: how many were outside its support,
   // and the mean predictive σ (NaN without).
   struct MapValidation {

@@ -165,7 +165,7 @@ ImportPosesResult ImportPoseTable(const ImportPosesRequest& request, db::Databas
                                   int num_joints) {
   ImportPosesResult result;
   std::optional<PosesSessionWriter> store;
-  if (database) store.emplace(*database, request.robot, request.file);
+  if (database) store.emplace(*database, request.robot, request.file, request.kind);
   std::optional<io::PreparedFile> out;
   if (!request.out.empty()) out.emplace(request.out);
   io::PosesCsvLayout layout;  // the input's columns, set once its header is read
@@ -237,7 +237,8 @@ ImportPosesResult ImportPosesFile(const ImportPosesRequest& request) {
   if (!request.out.empty()) out.emplace(request.out, io::FormatPosesCsv(joined.poses));
   if (database) {
     const auto stored = StorePosesSession(*database, request.robot, joined.poses, source,
-                                          request.allow_duplicate, joined.covariances_mm2);
+                                          request.allow_duplicate, joined.covariances_mm2,
+                                          request.kind);
     result.session = stored.session;
     result.duplicate = stored.duplicate;
     result.db_path = database->path();

@@ -31,6 +31,9 @@ struct ImportPosesRequest {
   bool decimal_comma = false;
   double length_scale = 1.0;     // factor to mm
   bool allow_duplicate = false;  // store a copy of poses a session of the robot already holds
+  // What the stored session is for (db::kSessionKinds): calibration data, an ISO 9283 test,
+  // or a check of a set where it was not fitted.
+  std::string kind = "calibration";
   io::ReadProgressFn progress;   // how far a pose table has been read
 };
 struct ImportPosesResult {

@@ -12,6 +12,7 @@
 
 #include "acquisition/plan.h"
 #include "acquisition/session_owner.h"
+#include "calibration/data_checks.h"
 #include "core/error.h"
 #include "core/plausibility.h"
 #include "core/text.h"
@@ -100,20 +101,20 @@ std::string PosesDigest(const std::vector<MeasuredPose>& poses) {
 }
 
 PosesSessionWriter::PosesSessionWriter(db::Database& database, const std::string& robot,
-                                       const std::string& source)
+                                       const std::string& source, const std::string& kind)
     : database_(database),
       robot_(robot),
       source_(source),
       robot_id_(RobotId(database, robot)),
       tx_(database) {  // the look for a copy and the insert: one writer at a time
-  const auto model =
-      io::ParseRobotModel(db::RobotModelYaml(database, robot_id_), "model of robot " + robot);
-  num_joints_ = model.num_joints();
-  model_name_ = model.name;
+  model_ = io::ParseRobotModel(db::RobotModelYaml(database, robot_id_), "model of robot " + robot);
+  num_joints_ = model_.num_joints();
+  model_name_ = model_.name;
   session_ = db::CreateSession(database, robot_id_, "", "", "completed",
                                // The file name is input: shown in the note, never obeyed.
                                std::string(TruncateUtf8("poses imported from " + Printable(source),
                                                         plausible::kMaxNoteLength)));
+  if (kind != "calibration") db::SetSessionKind(database, session_, kind);
 }
 
 void PosesSessionWriter::Add(const MeasuredPose& pose, const Eigen::Matrix3d* covariance_mm2) {
@@ -135,10 +136,48 @@ void PosesSessionWriter::Add(const MeasuredPose& pose, const Eigen::Matrix3d* co
   db::InsertPoint(database_, session_, point);
   digest_.Add(pose);
   ++count_;
+  // Every pose up to the sample's size, then each later one replaces a random member with
+  // probability size/count (reservoir sampling): a uniform sample of the whole file.
+  if (sample_.size() < kDoorSample) {
+    sample_.push_back(pose);
+  } else if (const size_t r = sampler_() % count_; r < kDoorSample) {
+    sample_[r] = pose;
+  }
+}
+
+void PosesSessionWriter::CheckAtTheDoor() const {
+  const int distinct = calibration::DistinctConfigurations(sample_);
+  if (distinct < 3) {
+    throw InputError(
+        {source_, 0, 0, ""},
+        fmt::format("{} pose{} but only {} distinct configuration{}: the robot did not move "
+                    "between them; a session needs at least 3 to place its measuring frame (a "
+                    "calibration many more); nothing stored",
+                    count_, count_ == 1 ? "" : "s", distinct, distinct == 1 ? "" : "s"));
+  }
+  const calibration::PoseModelCheck check = calibration::CheckPosesAgainstModel(model_, sample_);
+  if (!check.checked || check.fits) return;
+  if (!check.reading.empty()) {
+    throw InputError(
+        {source_, 0, 0, ""},
+        fmt::format("the nominal model of robot {} ({}) misses these poses by {:.1f} mm rms after "
+                    "the best rigid placement, where an uncalibrated robot misses by millimetres; "
+                    "read another way it fits to {:.2f} mm: {} (check the columns' unit suffixes "
+                    "or --joint-unit / --length-scale); nothing stored",
+                    robot_, model_name_, check.rms_mm, check.reading_rms_mm, check.reading));
+  }
+  throw InputError(
+      {source_, 0, 0, ""},
+      fmt::format("the nominal model of robot {} ({}) misses these poses by {:.1f} mm rms after the "
+                  "best rigid placement, where an uncalibrated robot misses by millimetres, and no "
+                  "other reading of the units fits: these are not robot {}'s poses with its "
+                  "model's tool (another robot, another tool, or --robot mistyped?); nothing stored",
+                  robot_, model_name_, check.rms_mm, robot_));
 }
 
 StoredPoses PosesSessionWriter::Finish(bool allow_duplicate) {
   if (count_ == 0) throw InputError({source_, 0, 0, ""}, "no poses to store");
+  CheckAtTheDoor();
   StoredPoses result;
   result.digest = digest_.Hex();
   spdlog::debug("import poses: {} poses from {}: content digest {}", count_, source_,
@@ -173,8 +212,9 @@ StoredPoses PosesSessionWriter::Finish(bool allow_duplicate) {
 StoredPoses StorePosesSession(db::Database& database, const std::string& robot,
                               const std::vector<MeasuredPose>& poses, const std::string& source,
                               bool allow_duplicate,
-                              const std::vector<Eigen::Matrix3d>& covariances_mm2) {
-  PosesSessionWriter writer(database, robot, source);
+                              const std::vector<Eigen::Matrix3d>& covariances_mm2,
+                              const std::string& kind) {
+  PosesSessionWriter writer(database, robot, source, kind);
   for (size_t k = 0; k < poses.size(); ++k)
     writer.Add(poses[k], k < covariances_mm2.size() ? &covariances_mm2[k] : nullptr);
   return writer.Finish(allow_duplicate);
@@ -374,14 +414,36 @@ std::string OneLineOrTwo(const std::string& line, const std::string& more, int i
 
 }  // namespace
 
+std::string SetSessionKind(db::Database& database, int64_t session_id, const std::string& kind) {
+  if (!db::IsSessionKind(kind)) {
+    throw InputError({"kind", 0, 0, ""},
+                     "expected calibration, check or test, got " + Quoted(kind));
+  }
+  db::WriteTransaction tx(database);
+  if (!db::SessionExists(database, session_id)) {
+    throw InputError({database.path(), 0, 0, "session"},
+                     fmt::format("no session {} ({})", session_id,
+                                 Hint(database.path(), {"sessions"})));
+  }
+  std::string was = "calibration";
+  for (const auto& s : db::ListSessions(database, std::nullopt)) {
+    if (s.id == session_id) was = s.kind;
+  }
+  db::SetSessionKind(database, session_id, kind);
+  if (was != kind) db::AppendSessionNote(database, session_id, "kind " + was + " -> " + kind);
+  tx.commit();
+  return was;
+}
+
 std::string FormatSessions(const std::vector<db::SessionSummary>& sessions, bool json) {
   if (json) return JsonArray(sessions);
   if (sessions.empty()) return "no sessions\n";
   std::string text;
   for (const auto& s : sessions) {
     text += OneLineOrTwo(
-        fmt::format("{:>4}  {:<14} {:<9} {}  {} measured, {} skipped, {} usable, {} flagged", s.id,
-                    Printable(s.robot), Printable(s.state),
+        fmt::format("{:>4}  {:<14} {:<9} {:<11} {}  {} measured, {} skipped, {} usable, {} "
+                    "flagged",
+                    s.id, Printable(s.robot), Printable(s.state), Printable(s.kind),
                     Printable(TimeToTheSecond(s.started_at)), s.measured, s.skipped, s.usable,
                     s.flagged),
         Printable(s.note), 6);
@@ -445,6 +507,7 @@ nlohmann::json ToJson(const db::SessionSummary& s) {
   return {{"id", s.id},
           {"robot", s.robot},
           {"state", s.state},
+          {"kind", s.kind},
           {"owner", owner},
           {"note", s.note},
           {"started_at", s.started_at},

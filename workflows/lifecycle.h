@@ -3,6 +3,8 @@
 // activated (roll back or forward).
 #pragma once
 
+#include <random>
+
 #include <cstdint>
 #include <nlohmann/json.hpp>
 #include <optional>
@@ -55,25 +57,37 @@ struct StoredPoses {
 StoredPoses StorePosesSession(db::Database& database, const std::string& robot,
                               const std::vector<MeasuredPose>& poses, const std::string& source,
                               bool allow_duplicate = false,
-                              const std::vector<Eigen::Matrix3d>& covariances_mm2 = {});
+                              const std::vector<Eigen::Matrix3d>& covariances_mm2 = {},
+                              const std::string& kind = "calibration");
 
 // StorePosesSession one pose at a time (a file read row by row): the write transaction and
 // the session begin with the writer, each Add stores a pose, Finish commits (or, when the
 // poses are a copy of a stored session, rolls back and names it). A writer destroyed
 // before Finish stores nothing.
+// Before anything is kept, Finish checks the poses against the robot (calibration/
+// data_checks.h): at least three distinct configurations (a robot that did not move gives
+// one), and the robot's nominal model rigidly placed on them within centimetres — another
+// robot's poses, another tool's or other units are refused, saying which reading would fit.
+// The check uses every pose up to kDoorSample, then a seeded random sample of that size.
 class PosesSessionWriter {
  public:
-  PosesSessionWriter(db::Database& database, const std::string& robot, const std::string& source);
+  PosesSessionWriter(db::Database& database, const std::string& robot, const std::string& source,
+                     const std::string& kind = "calibration");
   void Add(const MeasuredPose& pose, const Eigen::Matrix3d* covariance_mm2 = nullptr);
   StoredPoses Finish(bool allow_duplicate);
   size_t poses() const { return count_; }
+  static constexpr size_t kDoorSample = 4000;
 
  private:
+  void CheckAtTheDoor() const;
   db::Database& database_;
   std::string robot_, source_;
   int64_t robot_id_ = 0;
   int num_joints_ = 0;
   std::string model_name_;
+  calibration::RobotModel model_;
+  std::vector<MeasuredPose> sample_;  // for the door check
+  std::mt19937 sampler_{1};
   db::WriteTransaction tx_;
   int64_t session_ = 0;
   size_t count_ = 0;
@@ -99,6 +113,10 @@ std::vector<db::SessionSummary> Sessions(db::Database& database, const std::stri
 // not discarded. Both in one write transaction; return the state now stored.
 std::string DiscardSession(db::Database& database, int64_t session_id, const std::string& reason);
 std::string RestoreSession(db::Database& database, int64_t session_id);
+// What a session is for (db::kSessionKinds): the nightly job fits `calibration` sessions only
+// (unless `recalibrate --kinds` says otherwise) and tries a new set on the others. The change
+// is noted on the session. Returns the kind it had.
+std::string SetSessionKind(db::Database& database, int64_t session_id, const std::string& kind);
 
 struct VersionInfo {
   int version = 0;

@@ -1,6 +1,7 @@
 #include "core/wording.h"
 #include "workflows/orient_triangulate.h"
 
+#include <limits>
 #include <fmt/format.h>
 #include <nlohmann/json.hpp>
 #include <spdlog/spdlog.h>
@@ -186,6 +187,38 @@ reduction::OrientationResult Scaled(reduction::OrientationResult result, double 
   return result;
 }
 
+// Two instruments on tripods cannot stand closer than this (their heads alone are larger).
+constexpr double kMinStationSpacingMm = 200.0;
+
+// A network whose scale puts two instruments closer than they can stand was scaled by a
+// length in the wrong unit (a 1 m bar typed as 1, for millimetres): refused, naming the
+// scale's source.
+void CheckStationSpacing(const reduction::OrientationResult& result,
+                         const OrientFilesOptions& options) {
+  double closest = std::numeric_limits<double>::infinity();
+  std::string a, b;
+  for (size_t i = 0; i < result.stations.size(); ++i) {
+    for (size_t j = i + 1; j < result.stations.size(); ++j) {
+      const double d =
+          (result.stations[i].pose.position_mm - result.stations[j].pose.position_mm).norm();
+      if (d < closest) closest = d, a = result.stations[i].pose.id, b = result.stations[j].pose.id;
+    }
+  }
+  if (!(closest < kMinStationSpacingMm)) return;
+  std::string scale = "the control points (--control, mm)";
+  if (!options.scale_bars.empty()) {
+    scale = "the scale bar" + std::string(options.scale_bars.size() > 1 ? "s " : " ");
+    for (size_t k = 0; k < options.scale_bars.size(); ++k)
+      scale += (k ? ", " : "") + options.scale_bars[k];
+    scale += " (--scale-bar A:B=LEN_MM takes millimetres: a 1 m bar is =1000)";
+  }
+  throw InputError({"--scale-bar", 0, 0, ""},
+                   fmt::format("the network's scale puts stations {} and {} {:.3g} mm apart, "
+                               "closer than two instruments can stand ({:g} mm): a length in "
+                               "the wrong unit? The scale comes from {}; nothing was written",
+                               Quoted(a), Quoted(b), closest, kMinStationSpacingMm, scale));
+}
+
 }  // namespace
 
 OrientRun OrientFiles(const OrientFilesOptions& options) {
@@ -247,6 +280,7 @@ OrientRun OrientFiles(const OrientFilesOptions& options) {
                              "; nothing was written");
   }
   const auto& result = run.result;
+  if (result.status.ok()) CheckStationSpacing(result, options);
   spdlog::debug("orient: {} stations, {} points, {} observations, {} unknowns, sigma0 {:.4f}, {} "
                 "iterations ({})",
                 result.stations.size(), result.points.size(), result.observations,

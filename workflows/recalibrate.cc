@@ -1,6 +1,7 @@
 #include "workflows/recalibrate.h"
 
 #include <fmt/format.h>
+#include <fmt/ranges.h>
 #include <spdlog/spdlog.h>
 
 #include <algorithm>
@@ -16,10 +17,14 @@
 #include <tuple>
 
 #include "acquisition/lab.h"
+#include "acquisition/session_owner.h"
 #include "calibration/change.h"
 #include "calibration/compensation.h"
+#include "calibration/data_checks.h"
 #include "calibration/drift.h"
 #include "calibration/identifiability.h"
+#include "calibration/iso9283_figures.h"
+#include "calibration/signature_limits.h"
 #include "core/error.h"
 #include "core/text.h"
 #include "core/wording.h"
@@ -48,6 +53,12 @@ struct Gates {
 
 constexpr int kDriftConfigurations = 50;     // spread over the work volume, the same every night
 constexpr size_t kMinPosesPerSession = 3;    // to place a session's measurement frame
+// A session the new set is tried on before activation needs enough configurations for its
+// own frame's six degrees of freedom to leave a meaningful mean; the new set may be worse
+// there than the reference by this share (and the tolerance in mm) before it is refused.
+constexpr size_t kMinElsewherePoses = 10;
+constexpr double kElsewhereTolerance = 0.05;
+
 constexpr double kDriftSignificance = 1e-3;  // p-value below which two sets differ
 
 // What the measurements are, not how they were asked for: every pose's id, joints and
@@ -270,8 +281,11 @@ std::string RecalibrationDecision::Describe() const {
         failed += fmt::format("{}{} {:.4f} mm > {:.4f} mm", failed.empty() ? "" : ", ", g.name,
                               g.value_mm, g.limit_mm);
       }
+      for (const auto& r : refusals) failed += (failed.empty() ? "" : "; ") + r;
       return fmt::format("rejected: {}; {}",
-                         failed.empty() ? std::string("a gate failed") : "gate failed: " + failed,
+                         failed.empty() ? std::string("a gate failed")
+                         : refusals.empty() ? "gate failed: " + failed
+                                            : failed,
                          previous_version
                              ? fmt::format("version {} stays active", *previous_version)
                              : std::string("no parameter set is active"));
@@ -338,6 +352,16 @@ nlohmann::json RecalibrationDecision::ToJson() const {
                           {"value_mm", g.value_mm},
                           {"limit_mm", g.limit_mm},
                           {"passed", g.passed}});
+  }
+  j["refusals"] = refusals;
+  j["elsewhere"] = nlohmann::json::array();
+  for (const auto& e : elsewhere) {
+    j["elsewhere"].push_back({{"session", e.session},
+                              {"poses", e.poses},
+                              {"mean_mm", e.new_mean_mm},
+                              {"reference", e.reference},
+                              {"reference_mean_mm", e.reference_mean_mm},
+                              {"held", e.held}});
   }
   if (previous_version) j["drift"] = DriftJson();
   if (!residual_model.is_null()) j["residual_model"] = residual_model;
@@ -565,6 +589,7 @@ class NightlyJob {
   void Fit(const std::vector<MeasuredPose>& poses);
   void JudgeGates();
   void CompareWithActive();
+  void TryElsewhere();
   void Store(const nlohmann::json& inputs);
   void WriteRunReport();
   void WriteOutput(const std::function<void()>& write);
@@ -579,6 +604,9 @@ class NightlyJob {
   calibration::RobotModel model_;
   Gates gates_;
   std::vector<WindowSession> window_;
+  // Sessions of the robot the night does not fit (other kinds, outside the window) and that
+  // are not from before a change: where a new set is tried before it becomes active.
+  std::vector<WindowSession> elsewhere_;
   std::string floor_started_at_;
   std::vector<db::StoredCalibration> history_;
   std::optional<db::StoredCalibration> current_;
@@ -653,6 +681,13 @@ void NightlyJob::SelectWindow(const std::vector<db::SessionSummary>& sessions,
       Log(fmt::format("session {} is discarded ({}): left out", s.id, s.note));
       continue;
     }
+    if (s.state == "running" && s.owner &&
+        acquisition::StateOf(*s.owner) != acquisition::OwnerState::kGone) {
+      Log(fmt::format("session {} is still being captured (process {} on {}): left out until "
+                      "it is finished",
+                      s.id, s.owner->pid, s.owner->host));
+      continue;
+    }
     if (d_.floor_session &&
         (s.started_at < floor_started_at_ ||
          (s.started_at == floor_started_at_ && s.id < *d_.floor_session))) {
@@ -662,12 +697,19 @@ void NightlyJob::SelectWindow(const std::vector<db::SessionSummary>& sessions,
     }
     auto it = by_session.find(s.id);
     if (it == by_session.end()) continue;  // no usable configuration
-    if (it->second.size() < kMinPosesPerSession) {
+    const size_t distinct = static_cast<size_t>(calibration::DistinctConfigurations(it->second));
+    if (distinct < kMinPosesPerSession) {
       spdlog::warn(
-          "recalibrate: {}: session {} has {} usable configuration{}: too few to place its "
-          "measurement frame ({} needed); left out",
-          o_.robot, s.id, it->second.size(), it->second.size() == 1 ? "" : "s",
+          "recalibrate: {}: session {} has {} distinct usable configuration{} ({} poses): too "
+          "few to place its measurement frame ({} needed); left out",
+          o_.robot, s.id, distinct, distinct == 1 ? "" : "s", it->second.size(),
           kMinPosesPerSession);
+      continue;
+    }
+    if (std::find(o_.kinds.begin(), o_.kinds.end(), s.kind) == o_.kinds.end()) {
+      spdlog::debug("recalibrate: session {} is a {} session: not fitted (--kinds {})", s.id,
+                    s.kind, fmt::join(o_.kinds, ","));
+      elsewhere_.push_back({s, std::move(it->second)});
       continue;
     }
     candidates.push_back({s, std::move(it->second)});
@@ -678,11 +720,12 @@ void NightlyJob::SelectWindow(const std::vector<db::SessionSummary>& sessions,
   });
   if (gates_.window_days > 0) {
     const std::string cutoff = DaysAgoUtc(gates_.window_days);
-    std::erase_if(candidates, [&](const WindowSession& w) {
+    std::erase_if(candidates, [&](WindowSession& w) {
       const bool old = w.summary.started_at < cutoff;
       if (old) {
         spdlog::debug("recalibrate: session {} started more than {} days ago: outside the window",
                       w.summary.id, gates_.window_days);
+        elsewhere_.push_back(std::move(w));
       }
       return old;
     });
@@ -691,6 +734,7 @@ void NightlyJob::SelectWindow(const std::vector<db::SessionSummary>& sessions,
     const size_t drop = candidates.size() - gates_.window_sessions;
     spdlog::debug("recalibrate: {} older session{} outside the window of the newest {}", drop,
                   drop == 1 ? "" : "s", gates_.window_sessions);
+    for (size_t k = 0; k < drop; ++k) elsewhere_.push_back(std::move(candidates[k]));
     candidates.erase(candidates.begin(), candidates.begin() + static_cast<std::ptrdiff_t>(drop));
   }
   window_ = std::move(candidates);
@@ -927,6 +971,98 @@ void NightlyJob::Gate(const std::string& name, double value, double limit) {
 void NightlyJob::JudgeGates() {
   Gate("validation mean", d_.validation.mean_mm, gates_.max_mean_mm);
   Gate("validation max", d_.validation.max_mm, gates_.max_max_mm);
+  if (!run_->estimate.usable()) return;
+  // A set that moves a link by centimetres or tilts an axis by degrees fits *some* data, not
+  // this robot in these units: refused whatever its validation says.
+  const auto implausible = calibration::ImplausibleParameters(
+      model_, run_->estimate.params, run_->estimate.identifiability.identified);
+  if (implausible.empty()) return;
+  std::string values;
+  for (size_t k = 0; k < implausible.size() && k < 3; ++k)
+    values += (k ? "; " : "") + implausible[k].Describe();
+  if (implausible.size() > 3) values += fmt::format("; {} more", implausible.size() - 3);
+  d_.refusals.push_back("not this robot or not these units (another robot's data, another tool, "
+                        "radians read as degrees, metres as millimetres?): " + values);
+  Log("REFUSED: " + d_.refusals.back());
+  pass_ = false;
+}
+
+namespace {
+
+// Error distances of a set's predictions (terms held to their arcs, the map where it
+// applies) against a session's measured positions, its frame placed by a rigid best fit of
+// all of them.
+std::optional<double> PlacedMeanMm(const calibration::RobotModel& model,
+                                   const Eigen::VectorXd& params,
+                                   const calibration::ResidualMap* map,
+                                   const std::vector<MeasuredPose>& poses) {
+  std::vector<Eigen::VectorXd> joints;
+  std::vector<Eigen::Vector3d> measured, predicted;
+  for (const auto& p : poses) {
+    joints.push_back(p.joints_rad);
+    measured.push_back(p.target_in_world);
+  }
+  for (const auto& x : calibration::PredictPositions(model, Eigen::Isometry3d::Identity(), params,
+                                                     map, joints))
+    predicted.push_back(x.position_mm);
+  const auto a = calibration::iso9283::AlignRigidly(measured, predicted);
+  if (!a) return std::nullopt;
+  double sum = 0.0;
+  for (double d : a->residual_mm) sum += d;
+  return sum / static_cast<double>(a->residual_mm.size());
+}
+
+}  // namespace
+
+// Before a new set becomes active it is tried where it was not fitted: every session of
+// the robot the night left out (other kinds, outside the window; never one from before a
+// change), each placed by its own frame. It must not be worse there than the active set
+// (or, with none, than the nominal model) by more than the noise of such a comparison.
+void NightlyJob::TryElsewhere() {
+  if (!pass_ || !run_ || !run_->estimate.usable() || elsewhere_.empty()) return;
+  std::set<int64_t> after;
+  if (d_.change) after.insert(d_.change->after.begin(), d_.change->after.end());
+  calibration::RobotModel signed_model = model_;
+  if (run_->validity) signed_model.term_support = run_->validity->term_arcs;
+  std::optional<calibration::ResidualMap> new_map;
+  if (run_->map_used()) new_map.emplace(run_->residual_map->map);
+  std::optional<ActiveSignature> active;
+  if (current_) active = LoadSignature(*database_, o_.robot, current_->version);
+  for (const auto& w : elsewhere_) {
+    // After a change the older sessions are another robot's: not a test of this one.
+    if (d_.change && !after.count(w.summary.id)) continue;
+    if (w.poses.size() < kMinElsewherePoses) continue;
+    RecalibrationDecision::Elsewhere e;
+    e.session = w.summary.id;
+    e.poses = static_cast<int>(w.poses.size());
+    const auto fresh = PlacedMeanMm(signed_model, run_->estimate.params,
+                                    new_map ? &*new_map : nullptr, w.poses);
+    const auto reference =
+        active ? PlacedMeanMm(active->model, active->signature.params,
+                              active->signature.map.get(), w.poses)
+               : PlacedMeanMm(model_, Eigen::VectorXd::Zero(model_.num_parameters()), nullptr,
+                              w.poses);
+    if (!fresh || !reference) continue;
+    e.new_mean_mm = *fresh;
+    e.reference_mean_mm = *reference;
+    e.reference = active ? fmt::format("version {}", active->signature.version)
+                         : std::string("the nominal model");
+    e.held = e.new_mean_mm <= e.reference_mean_mm * (1.0 + kElsewhereTolerance) +
+                                  gates_.tolerance_mm;
+    Log(fmt::format("tried on session {} ({} {}, {} configurations, placed by its own frame): "
+                    "{:.4f} mm, {} {:.4f} mm: {}",
+                    e.session, w.summary.kind, ShortTime(w.summary.started_at), e.poses,
+                    e.new_mean_mm, e.reference, e.reference_mean_mm,
+                    e.held ? "holds" : "WORSE"));
+    if (!e.held) {
+      d_.refusals.push_back(fmt::format(
+          "worse elsewhere: on session {} (not fitted; its frame placed on its {} "
+          "configurations) the new set misses by {:.4f} mm on average, {} by {:.4f} mm",
+          e.session, e.poses, e.new_mean_mm, e.reference, e.reference_mean_mm));
+      pass_ = false;
+    }
+    d_.elsewhere.push_back(e);
+  }
 }
 
 // The new set against the active one: on the same validation data (a gate), and by the
@@ -1041,7 +1177,12 @@ void NightlyJob::CompareWithActive() {
                     p.z);
     }
   }
-  if (d_.drift) {
+  if (d_.drift && d_.change && !d_.change->causes.empty()) {
+    // One ranking everywhere: the change found in the sessions themselves is named from what
+    // they measured, and the two sets' difference is reported with the same causes.
+    d_.causes = d_.change->causes;
+    for (const auto& cause : d_.causes) Log("drift: " + cause.Describe());
+  } else if (d_.drift) {
     // What physically changed between the two sets, one cause at a time.
     const auto explanation = calibration::ExplainDifference(
         model_, before.params, calibration::SetDifference(model_, before, now, spread_), 3,
@@ -1238,6 +1379,7 @@ RecalibrationDecision NightlyJob::Run() {
   Fit(poses);
   JudgeGates();
   CompareWithActive();
+  TryElsewhere();
   if (stopped()) return d_;
   if (pass_) {
     Store(inputs);

@@ -18,7 +18,13 @@ struct RecalibrateOptions {
   std::string robot;
   // ISO date or date/time lower bound on the sessions used ("" = all), see SinceToUtc.
   std::string since;
-  std::string params = "all";
+  // The default keeps only the terms that pay on data the fit did not see (calibration's
+  // transfer folds): the set that travels to another day's set-up. "all": every term of the
+  // model, wherever the data put them.
+  std::string params = "auto";
+  // The session kinds fitted (db::kSessionKinds): ISO 9283 tests and check sessions are not
+  // calibration data unless asked for.
+  std::vector<std::string> kinds = {"calibration"};
   std::string residual_model = "auto";  // auto | off (calibrate's --residual-model)
   std::string orientation = "auto";     // auto | off (calibrate's --orientation)
   std::string tool_rotation = "per-session";  // per-session | shared
@@ -165,6 +171,22 @@ struct RecalibrationDecision {
   // be written: what failed, and the command that writes it (exit 6 instead of 0).
   std::string output_error;
   std::string failure;                    // kFailed: why the fit gave no usable estimate
+  // Why a set that passed the numeric gates may still not become active (kRejected): a
+  // parameter no robot shows ("not this robot or not these units: joint 2 zero (gamma2):
+  // +1840 mrad (limit 50 mrad)"), or worse than the active set on a session it was not fitted
+  // on ("worse elsewhere: session 3 …").
+  std::vector<std::string> refusals;
+  // The sessions of another set-up the new set was tried on before activation (placed by
+  // their own frame): its mean error there, the active set's (or the nominal model's when no
+  // set is active), and whether it held.
+  struct Elsewhere {
+    int64_t session = 0;
+    int poses = 0;
+    double new_mean_mm = 0.0, reference_mean_mm = 0.0;
+    std::string reference;  // "version 3" | "the nominal model"
+    bool held = true;
+  };
+  std::vector<Elsewhere> elsewhere;
 
   bool passed() const {
     return outcome == Outcome::kUpToDate || outcome == Outcome::kStored ||

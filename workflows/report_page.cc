@@ -120,6 +120,43 @@ Html HeaderSection(const ReportData& data) {
   return html;
 }
 
+namespace {
+
+// Where the set holds: the joint arcs its terms were fitted on (outside, each term keeps its
+// value at the edge), and the σ a prediction carries there and beside, with the coverage
+// measured on held-out data.
+Html ValiditySection(const calibration::SetValidity& v) {
+  const auto Percent = [](double share) {
+    return std::isfinite(share) ? fmt::format("{:.0f} %", 100.0 * share) : std::string("n/a");
+  };
+  constexpr double kDeg = 180.0 / 3.14159265358979323846;
+  Html html = HtmlFormat(
+      "<h2>Where the set holds</h2>\n<p id=\"validity\">Its non-geometric terms are used only "
+      "inside the joint ranges of its fit poses; beyond them each keeps its value at the range's "
+      "edge (predict and compensate name such configurations). A prediction's σ per coordinate "
+      "is the parameters' own and what held-out data show the model leaves: {} mm among the fit "
+      "poses ({} of held-out poses within {} σ), {} mm beside them ({}; {} within).</p>\n",
+      Num(v.sigma_inside_mm), Percent(v.coverage_inside), fmt::format("{:.2f}", calibration::kCoverageRadius),
+      Num(v.sigma_outside_mm), v.outside_folds.empty() ? std::string("not measured") : v.outside_folds,
+      Percent(v.coverage_outside));
+  html += "<table id=\"term-arcs\"><tr><th>joint</th><th class=\"num\">from, deg</th><th "
+          "class=\"num\">to, deg</th></tr>\n";
+  for (size_t j = 0; j < v.term_arcs.size(); ++j) {
+    const auto& a = v.term_arcs[j];
+    if (a.whole_turn()) {
+      html += HtmlFormat("<tr><td>{}</td><td colspan=\"2\">the whole turn</td></tr>\n", j + 1);
+    } else {
+      html += HtmlFormat("<tr><td>{}</td><td class=\"num\">{}</td><td class=\"num\">{}</td></tr>\n",
+                         j + 1, fmt::format("{:.1f}", a.start_rad * kDeg),
+                         fmt::format("{:.1f}", (a.start_rad + a.length_rad) * kDeg));
+    }
+  }
+  html += "</table>\n";
+  return html;
+}
+
+}  // namespace
+
 Html ErrorSection(const ReportData& data, const std::optional<Figure>& map_figure) {
   const auto& run = data.run;
   const auto& residuals = run.validation_residuals;
@@ -173,6 +210,7 @@ Html ErrorSection(const ReportData& data, const std::optional<Figure>& map_figur
     html += "</p>\n";
     if (map_figure) html += FigureHtml(*map_figure);
   }
+  if (run.validity && !run.validity->empty()) html += ValiditySection(*run.validity);
   html += HtmlFormat(
       "<h2>Validation error per axis</h2>\n<p>Calibrated model &minus; measured on the {} "
       "validation poses, mm. Percentiles (nearest rank) of the absolute values.</p>\n"

@@ -19,6 +19,7 @@
 #include "io/model_export.h"
 #include "io/model_yaml.h"
 #include "io/residual_map_json.h"
+#include "io/validity_json.h"
 #include "workflows/hint.h"
 
 namespace armsig::workflows {
@@ -57,8 +58,36 @@ Signature SignatureOf(const calibration::RobotModel& model, const db::StoredCali
                                    s.map->data().num_joints, model.num_joints()));
     }
   }
+  if (!stored.validity_json.empty()) {
+    const std::string source =
+        fmt::format("table calibrations, row {}, column validity_json (parameter set {})",
+                    stored.id, stored.version);
+    const auto json = nlohmann::json::parse(stored.validity_json, nullptr, false);
+    if (json.is_discarded())
+      throw InputError({source, 0, 0, ""}, "the stored validity is not JSON (a damaged database?)");
+    s.validity = io::ValidityFromJson(json, model.num_joints(), source);
+  }
   return s;
 }
+
+namespace {
+
+std::vector<int64_t> SessionsOf(db::Database& database, const db::StoredCalibration& c) {
+  if (c.inputs_json.empty()) return {};
+  return InputSessions(db::ParseStoredJson(c.inputs_json, {database.path(), "calibrations", c.id, "inputs_json"}));
+}
+
+// The model as a stored set uses it: terms held to the arcs the set was fitted on.
+ActiveSignature Signed(db::Database& database, calibration::RobotModel model,
+                       const db::StoredCalibration& stored) {
+  ActiveSignature out{std::move(model), {}, {}};
+  out.signature = SignatureOf(out.model, stored);
+  out.model.term_support = out.signature.validity.term_arcs;
+  out.sessions = SessionsOf(database, stored);
+  return out;
+}
+
+}  // namespace
 
 calibration::FittedSet FittedSetOf(const calibration::RobotModel& model, const Signature& sig,
                                    const db::StoredCalibration& stored) {
@@ -84,13 +113,6 @@ std::vector<int64_t> InputSessions(const nlohmann::json& inputs) {
   return out;
 }
 
-namespace {
-std::vector<int64_t> SessionsOf(db::Database& database, const db::StoredCalibration& c) {
-  if (c.inputs_json.empty()) return {};
-  return InputSessions(db::ParseStoredJson(c.inputs_json, {database.path(), "calibrations", c.id, "inputs_json"}));
-}
-}  // namespace
-
 ActiveSignature LoadSignature(db::Database& database, const std::string& robot,
                               std::optional<int> version) {
   if (!version) return LoadActiveSignature(database, robot);
@@ -99,11 +121,8 @@ ActiveSignature LoadSignature(db::Database& database, const std::string& robot,
   const auto history = db::CalibrationHistory(database, *id);
   for (const auto& c : history) {
     if (c.version != *version) continue;
-    ActiveSignature out{
-        io::ParseRobotModel(db::RobotModelYaml(database, *id), "model of robot " + robot), {}, {}};
-    out.signature = SignatureOf(out.model, c);
-    out.sessions = SessionsOf(database, c);
-    return out;
+    return Signed(database,
+                  io::ParseRobotModel(db::RobotModelYaml(database, *id), "model of robot " + robot), c);
   }
   throw InputError({"--set", 0, 0, ""},
                    history.empty()
@@ -123,11 +142,8 @@ ActiveSignature LoadActiveSignature(db::Database& database, const std::string& r
                      "robot " + ShellWord(robot) + " has no active parameter set (fit one: " +
                          Hint(database.path(), {"recalibrate", "--robot", robot}) + ")");
   }
-  ActiveSignature out{
-      io::ParseRobotModel(db::RobotModelYaml(database, *id), "model of robot " + robot), {}, {}};
-  out.signature = SignatureOf(out.model, *active);
-  out.sessions = SessionsOf(database, *active);
-  return out;
+  return Signed(database,
+                io::ParseRobotModel(db::RobotModelYaml(database, *id), "model of robot " + robot), *active);
 }
 
 Eigen::Isometry3d FrameOf(const ActiveSignature& a, const std::string& frame) {
@@ -178,9 +194,9 @@ std::string PredictCsv(const ActiveSignature& a, const Eigen::Isometry3d& frame,
   const std::optional<Eigen::Matrix3d>& tool = a.signature.tool_rotation;
   std::string out =
       "pose,x_mm,y_mm,z_mm,nominal_x_mm,nominal_y_mm,nominal_z_mm,correction_mm,map,map_sigma_mm,"
-      "model_sigma_mm";
+      "model_sigma_mm,sigma_mm,support";
   out += tool ? ",rx_deg,ry_deg,rz_deg\n" : "\n";
-  int outside = 0;
+  int outside = 0, beyond = 0;
   for (size_t k = 0; k < joints.size(); ++k) {
     const Eigen::Vector3d& x = calibrated[k].position_mm;
     const Eigen::Vector3d nominal = kin.Position(frame, zero, joints[k].data());
@@ -191,10 +207,19 @@ std::string PredictCsv(const ActiveSignature& a, const Eigen::Isometry3d& frame,
                                               noise * noise))
             : std::string();
     const double model_sigma = ParametricSigmaMm(a.model, a.signature, joints[k]);
-    out += fmt::format("{},{:.6f},{:.6f},{:.6f},{:.6f},{:.6f},{:.6f},{:.6f},{},{},{}",
+    // Where the set was fitted (its terms' arcs, its map's support), and the σ measured on
+    // held-out data for such a configuration (calibration/validity.h).
+    const calibration::Support support = calibration::SupportAt(
+        a.model, a.signature.params, a.signature.validity, joints[k], calibrated[k].extrapolated);
+    beyond += support.joints_outside.empty() ? 0 : 1;
+    const double total = calibration::PredictionSigmaMm(model_sigma, a.signature.validity,
+                                                        support.inside);
+    out += fmt::format("{},{:.6f},{:.6f},{:.6f},{:.6f},{:.6f},{:.6f},{:.6f},{},{},{},{},{}",
                        io::CsvEscape(t.Name(t.rows()[k], id)), x.x(), x.y(), x.z(), nominal.x(),
                        nominal.y(), nominal.z(), (x - nominal).norm(), state, sigma,
-                       std::isnan(model_sigma) ? std::string() : fmt::format("{:.6f}", model_sigma));
+                       std::isnan(model_sigma) ? std::string() : fmt::format("{:.6f}", model_sigma),
+                       std::isnan(total) ? std::string() : fmt::format("{:.6f}", total),
+                       io::CsvEscape(support.Describe(joints[k], a.signature.validity)));
     if (tool) {
       kin.Position(frame, a.signature.params, joints[k].data());
       const Eigen::Vector3d angles = RxRyRzFromRotation(kin.LastRotation() * *tool) / kRadPerDeg;
@@ -208,6 +233,13 @@ std::string PredictCsv(const ActiveSignature& a, const Eigen::Isometry3d& frame,
         "poses it was fitted on, or a joint at an angle its curve had no data for): only the "
         "parts of the map that have data there apply (column map = outside)",
         outside, joints.size());
+  }
+  if (beyond > 0) {
+    spdlog::warn(
+        "predict: {} of {} configurations have a joint outside the range parameter set {} was "
+        "fitted on: its non-geometric terms are held at their value at the range's edge there, "
+        "and sigma_mm is the error measured beside the fit poses (column support)",
+        beyond, joints.size(), a.signature.version);
   }
   return out;
 }
@@ -243,7 +275,7 @@ CompensationResult Compensate(const ActiveSignature& a, const Eigen::Isometry3d&
   result.csv = "point";
   for (int i = 1; i <= n; ++i) result.csv += fmt::format(",q{}_deg", i);
   for (int i = 1; i <= n; ++i) result.csv += fmt::format(",nominal_q{}_deg", i);
-  result.csv += ",residual_mm,status,model_sigma_mm\n";
+  result.csv += ",residual_mm,status,model_sigma_mm,sigma_mm,support\n";
   for (const auto& row : t.rows()) {
     ++result.targets;
     using plausible::Quantity;
@@ -272,11 +304,25 @@ CompensationResult Compensate(const ActiveSignature& a, const Eigen::Isometry3d&
     // the stored covariance lets one expect there (empty without one or without a solution).
     const double model_sigma =
         ok ? ParametricSigmaMm(a.model, a.signature, s.joints_rad) : std::nan("");
-    result.csv += fmt::format(",{:.6f},{},{}\n", s.residual_mm,
-                              !ok ? "unreachable" : s.map_extrapolated ? "ok_outside_map" : "ok",
+    const calibration::Support support =
+        ok ? calibration::SupportAt(a.model, a.signature.params, a.signature.validity,
+                                    s.joints_rad, s.map_extrapolated)
+           : calibration::Support{};
+    const double total =
+        ok ? calibration::PredictionSigmaMm(model_sigma, a.signature.validity, support.inside)
+           : std::nan("");
+    const char* status = !ok                             ? "unreachable"
+                         : s.map_extrapolated            ? "ok_outside_map"
+                         : !support.joints_outside.empty() ? "ok_outside_fit"
+                                                           : "ok";
+    result.csv += fmt::format(",{:.6f},{},{},{},{}\n", s.residual_mm, status,
                               std::isnan(model_sigma) ? std::string()
-                                                      : fmt::format("{:.6f}", model_sigma));
+                                                      : fmt::format("{:.6f}", model_sigma),
+                              std::isnan(total) ? std::string() : fmt::format("{:.6f}", total),
+                              ok ? io::CsvEscape(support.Describe(s.joints_rad, a.signature.validity))
+                                 : std::string());
     if (ok && s.map_extrapolated) ++result.outside_map;
+    if (ok && !s.map_extrapolated && !support.joints_outside.empty()) ++result.outside_fit;
     if (!ok) {
       result.unreachable.push_back(
           fmt::format("target {} ({}:{}): {}", t.Text(row, id), targets_csv, row.line,

@@ -12,6 +12,7 @@
 #include "calibration/drift.h"
 #include "calibration/model.h"
 #include "calibration/residual_map.h"
+#include "calibration/validity.h"
 #include "db/database.h"
 #include "db/store.h"
 
@@ -30,6 +31,9 @@ struct Signature {
   // before covariances were): the parametric prediction's own uncertainty.
   std::vector<int> identified;
   Eigen::MatrixXd covariance;
+  // Where the set holds and its held-out σ (calibration/validity.h); empty for a set stored
+  // before schema v13 (its terms then apply everywhere, and no held-out σ is known).
+  calibration::SetValidity validity;
 };
 
 Signature SignatureOf(const calibration::RobotModel& model, const db::StoredCalibration& stored);
@@ -38,6 +42,8 @@ Signature SignatureOf(const calibration::RobotModel& model, const db::StoredCali
 calibration::FittedSet FittedSetOf(const calibration::RobotModel& model, const Signature& sig,
                                    const db::StoredCalibration& stored);
 
+// The robot's model as the set uses it: its non-geometric terms held to the joint arcs the
+// set was fitted on (RobotModel::term_support, when the set stored them).
 struct ActiveSignature {
   calibration::RobotModel model;
   Signature signature;
@@ -83,6 +89,8 @@ struct CompensationResult {
   int targets = 0;
   std::vector<std::string> unreachable;  // one message per target that could not be reached
   int outside_map = 0;  // reached with the parametric model only: outside the map's support
+  // Reached with a joint outside the range the set's terms were fitted on (held there).
+  int outside_fit = 0;
 };
 CompensationResult Compensate(const ActiveSignature& active, const Eigen::Isometry3d& frame,
                               const std::string& targets_csv,

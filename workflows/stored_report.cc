@@ -263,6 +263,7 @@ void RestoreValidation(const calibration::RobotModel& model, const Signature& si
     }
   }
   out.run.residual_map = StoredMapFit(set, fmt::format("robot {} version {}", robot, set.version));
+  if (!sig.validity.empty()) out.run.validity = sig.validity;
   if (out.run.map_used() && sig.map &&
       out.validation.size() == out.run.validation_residuals.size()) {
     bool placed = true;

@@ -553,6 +553,42 @@ TEST_F(VirtualLabFixture, ARobotThatStopsShortIsAFaultNamingTheJoint) {
   EXPECT_EQ(resumed.measured, 4);
 }
 
+// A controller armsig cannot move and an operator who does not move the robot (no terminal
+// to ask on, or an absent-minded one): the second configuration reads where the first was
+// measured. It is a fault naming both, not a copy of the first stored under the second's
+// name; the session pauses with one configuration, and goes on once the robot moves.
+TEST_F(VirtualLabFixture, AnUnmovedRobotIsAFaultNotASecondConfiguration) {
+  Start();
+  std::string yaml = testing::ReadText(dir_.File("lab.yaml"));
+  const auto at = yaml.find("can_move: true");
+  ASSERT_NE(at, std::string::npos);
+  yaml.replace(at, 14, "can_move: false");
+  testing::WriteText(dir_.File("lab.yaml"), yaml);
+  const io::LabConfig lab = io::LoadLab(dir_.File("lab.yaml"));
+  db::Database db(Db());
+  const Plan plan = WellSpreadPlan(lab.model, 3, 300, 5);
+  const int64_t session = CreateSession(db, lab, "puma", plan);
+  auto devices = OpenInstruments(lab);
+  auto controller = OpenController(lab);
+  ASSERT_FALSE(controller->CanMove());
+  lab_->SetJoints(plan[0].joints_rad);
+  CaptureOptions options;
+  int asked = 0;
+  options.prompt_move = [&](const PlannedConfiguration&) { ++asked; };  // and nothing moves
+  const auto s = RunCapture(db, lab, session, devices, *controller, options);
+  EXPECT_TRUE(s.paused);
+  EXPECT_EQ(s.measured, 1);
+  EXPECT_NE(s.pause_reason.find("has not moved since configuration " + plan[0].label),
+            std::string::npos)
+      << s.pause_reason;
+  EXPECT_EQ(db::LoadSessionPoses(db, session).size(), 1u);
+  // The operator moves it this time: the session goes on and completes.
+  options.prompt_move = [&](const PlannedConfiguration& c) { lab_->SetJoints(c.joints_rad); };
+  const auto resumed = RunCapture(db, lab, session, devices, *controller, options);
+  EXPECT_TRUE(resumed.completed);
+  EXPECT_EQ(resumed.measured, 2);
+}
+
 // Two captures on the same lab at once: the second is refused before it makes a session
 // or sends a byte, naming the device and the process that holds it; the first finishes.
 TEST_F(VirtualLabFixture, ASecondCaptureOnTheSameDevicesIsRefused) {

@@ -12,7 +12,9 @@
 #include <nlohmann/json.hpp>
 #include <random>
 
+#include "calibration/iso9283_figures.h"
 #include "calibration/synthetic.h"
+#include "calibration/validity.h"
 #include "core/rotation.h"
 #include "core/units.h"
 #include "io/csv.h"
@@ -205,7 +207,15 @@ TEST(LifecycleCommands, RealUr10FromRegistrationToCompensationAndRollback) {
 // with the signature), then `predict --frame measurement` on B's other 1,465 poses. The
 // nightly job's own selection (86 configurations, D-optimal over both sessions), so the run
 // costs a few seconds; docs/explanation/transfer.md has the figures of the full fits.
-TEST(LifecycleCommands, RealUr10SeriesCSignatureHoldsOnSeriesBPlacedByThirtyPoses) {
+// Issue 37's acceptance on the real UR10, the nightly job exactly as installed (no option):
+//  1. fitted on series C alone, its default set is used on series B (another day: the
+//     tracker moved, the probe remounted), B placed by one rigid frame fit of all its
+//     measured positions: at most 0.80 mm mean (the uncalibrated robot: 2.84 mm; the default
+//     before it kept only terms that travel: 8.55 mm), no pose worse than twice its nominal
+//     error plus 1 mm, and C's own held-out poses still at most 0.10 mm;
+//  2. with 30 of B's poses imported as the new set-up's session, the next night's set
+//     predicts B's other 1,465 within 0.35 mm in B's own frame.
+TEST(LifecycleCommands, RealUr10DefaultSignatureNeverMakesSeriesBWorse) {
   TempDir dir;
   const std::string db = "--db '" + dir.File("lab.db") + "' ";
   ASSERT_EQ(RunArmsig(db + "robot add ur10 --model '" + SourcePath("models/ur10.yaml") + "'")
@@ -220,6 +230,68 @@ TEST(LifecycleCommands, RealUr10SeriesCSignatureHoldsOnSeriesBPlacedByThirtyPose
       DataPath("ur10-ipa/series_B-measurements_joint_configurations.csv"),
       io::PoseImportOptions::UrIpa());
   ASSERT_EQ(b.size(), 1495u);
+  auto joints_csv = [](const std::vector<MeasuredPose>& poses) {
+    std::string joints = "pose,q1_deg,q2_deg,q3_deg,q4_deg,q5_deg,q6_deg\n";
+    for (const auto& p : poses) {
+      joints += p.id;
+      for (int i = 0; i < 6; ++i) joints += fmt::format(",{:.15g}", p.joints_rad(i) * 180 / kPi);
+      joints += "\n";
+    }
+    return joints;
+  };
+  auto positions = [](const io::CsvTable& t, const char* x, const char* y, const char* z) {
+    std::vector<Eigen::Vector3d> out;
+    for (const auto& row : t.rows())
+      out.emplace_back(t.Number(row, t.Column(x)), t.Number(row, t.Column(y)),
+                       t.Number(row, t.Column(z)));
+    return out;
+  };
+
+  // 1. The first night: series C alone.
+  const auto first = RunArmsig(db + "recalibrate --robot ur10 --json '" + dir.File("c.json") + "'");
+  ASSERT_EQ(first.exit_code, 0) << first.err << first.out;
+  const auto cj = nlohmann::json::parse(ReadText(dir.File("c.json")));
+  EXPECT_EQ(cj["decision"], "stored");
+  const double c_held_out = cj["validation"]["mean_mm"].get<double>();
+  WriteText(dir.File("b.csv"), joints_csv(b));
+  ASSERT_EQ(RunArmsig(db + "predict --robot ur10 --frame robot --joints '" + dir.File("b.csv") +
+                      "' --out '" + dir.File("b_pred.csv") + "'")
+                .exit_code,
+            0);
+  const auto table = io::ReadCsvFile(dir.File("b_pred.csv"));
+  ASSERT_EQ(table.rows().size(), b.size());
+  std::vector<Eigen::Vector3d> measured;
+  for (const auto& p : b) measured.push_back(p.target_in_world);
+  // One rigid frame for all of B, fitted to the calibrated and to the nominal predictions.
+  const auto calibrated =
+      calibration::iso9283::AlignRigidly(measured, positions(table, "x_mm", "y_mm", "z_mm"));
+  const auto nominal = calibration::iso9283::AlignRigidly(
+      measured, positions(table, "nominal_x_mm", "nominal_y_mm", "nominal_z_mm"));
+  ASSERT_TRUE(calibrated && nominal);
+  double mean = 0.0, nominal_mean = 0.0, worst_excess = -1e9;
+  int worse = 0, covered = 0;
+  const int sigma_col = table.Column("sigma_mm");
+  for (size_t i = 0; i < b.size(); ++i) {
+    mean += calibrated->residual_mm[i] / b.size();
+    nominal_mean += nominal->residual_mm[i] / b.size();
+    const double limit = 2.0 * nominal->residual_mm[i] + 1.0;
+    worst_excess = std::max(worst_excess, calibrated->residual_mm[i] - limit);
+    worse += calibrated->residual_mm[i] > limit;
+    covered += calibrated->residual_mm[i] <=
+               calibration::kCoverageRadius * table.Number(table.rows()[i], sigma_col);
+  }
+  std::cout << fmt::format(
+      "UR10 default set fitted on series C: C held out {:.4f} mm; on series B (one rigid frame): "
+      "{:.4f} mm mean, nominal {:.4f} mm, {} poses beyond 2 x nominal + 1 mm, {:.1f} % within "
+      "{:.2f} sigma_mm\n",
+      c_held_out, mean, nominal_mean, worse, 100.0 * covered / b.size(),
+      calibration::kCoverageRadius);
+  EXPECT_LE(c_held_out, 0.10);
+  EXPECT_LE(mean, 0.80);
+  EXPECT_GT(nominal_mean, 2.0);  // the test means something: the robot is millimetres off
+  EXPECT_EQ(worse, 0) << "worst excess " << worst_excess << " mm";
+
+  // 2. The next day's set-up: 30 of B's poses spread through the file as a new session.
   const int n = static_cast<int>(b.size()), count = 30;
   std::vector<char> placing(n, 0);
   for (int k = 0; k < count; ++k) placing[static_cast<int>((k + 0.5) * n / count)] = 1;
@@ -228,30 +300,22 @@ TEST(LifecycleCommands, RealUr10SeriesCSignatureHoldsOnSeriesBPlacedByThirtyPose
   WriteText(dir.File("place.csv"), io::FormatPosesCsv(place));
   ASSERT_EQ(RunArmsig(db + "import poses '" + dir.File("place.csv") + "' --robot ur10").exit_code,
             0);
-  const auto night = RunArmsig(db + "recalibrate --robot ur10 --params auto --json '" +
+  const auto night = RunArmsig(db + "recalibrate --robot ur10 --json '" +
                                dir.File("night.json") + "'");
   ASSERT_EQ(night.exit_code, 0) << night.err << night.out;
   EXPECT_EQ(nlohmann::json::parse(ReadText(dir.File("night.json")))["decision"], "stored");
-  std::string joints = "pose,q1_deg,q2_deg,q3_deg,q4_deg,q5_deg,q6_deg\n";
-  for (const auto& p : rest) {
-    joints += p.id;
-    for (int i = 0; i < 6; ++i) joints += fmt::format(",{:.15g}", p.joints_rad(i) * 180 / kPi);
-    joints += "\n";
-  }
-  WriteText(dir.File("rest.csv"), joints);
+  WriteText(dir.File("rest.csv"), joints_csv(rest));
   ASSERT_EQ(RunArmsig(db + "predict --robot ur10 --frame measurement --joints '" +
                       dir.File("rest.csv") + "' --out '" + dir.File("pred.csv") + "'")
                 .exit_code,
             0);
   const auto predicted = io::ReadCsvFile(dir.File("pred.csv"));
   ASSERT_EQ(predicted.rows().size(), rest.size());
-  double mean = 0.0, turn = 0.0;
+  const auto x = positions(predicted, "x_mm", "y_mm", "z_mm");
+  double placed = 0.0, turn = 0.0;
   for (size_t k = 0; k < rest.size(); ++k) {
     const auto& row = predicted.rows()[k];
-    const Eigen::Vector3d x(predicted.Number(row, predicted.Column("x_mm")),
-                            predicted.Number(row, predicted.Column("y_mm")),
-                            predicted.Number(row, predicted.Column("z_mm")));
-    mean += (x - rest[k].target_in_world).norm() / static_cast<double>(rest.size());
+    placed += (x[k] - rest[k].target_in_world).norm() / static_cast<double>(rest.size());
     // The probe's orientation in B's frame: B's own tool rotation, fitted from 30 poses.
     const Eigen::Vector3d angles(predicted.Number(row, predicted.Column("rx_deg")),
                                  predicted.Number(row, predicted.Column("ry_deg")),
@@ -261,10 +325,8 @@ TEST(LifecycleCommands, RealUr10SeriesCSignatureHoldsOnSeriesBPlacedByThirtyPose
                 .angle() * 180 / kPi / static_cast<double>(rest.size());
   }
   std::cout << fmt::format("UR10 fitted on series C, used on series B placed by 30 poses: "
-                           "{:.4f} mm, {:.4f} deg on the other 1,465\n", mean, turn);
-  // The goal for a signature used on another day (C's geometric signature placed by the same
-  // 30 poses: 0.85 mm, docs/explanation/transfer.md).
-  EXPECT_LE(mean, 0.50);
+                           "{:.4f} mm, {:.4f} deg on the other 1,465\n", placed, turn);
+  EXPECT_LE(placed, 0.35);
   EXPECT_LE(turn, 0.15);
 }
 

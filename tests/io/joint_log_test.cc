@@ -3,6 +3,7 @@
 // logs that cannot be joined refused at their line.
 #include "io/joint_log.h"
 
+#include <fmt/format.h>
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -111,4 +112,31 @@ TEST(JointLog, RefusesWhatCannotBeJoinedAtItsLine) {
   EXPECT_NE(empty.find("no joint readings after the header"), std::string::npos) << empty;
 }
 
+}  // namespace armsig::io
+
+namespace armsig::io {
+namespace {
+
+// A robot controller that logs radians into columns named _deg: every value of every joint
+// within ±2π over many readings, while a calibration moves joints by tens of degrees. The
+// log is refused with the figures; the same numbers under _rad, or a real degree log that
+// reaches past 2π, are read.
+TEST(JointLog, RadiansUnderADegreeLabelAreRefused) {
+  std::string deg = "pose,q1_deg,q2_deg,q3_deg\n", rad = "pose,q1_rad,q2_rad,q3_rad\n";
+  std::string real = deg;
+  for (int k = 0; k < 12; ++k) {
+    const std::string row = fmt::format("P{},{:.4f},{:.4f},{:.4f}\n", k, -2.6 + 0.4 * k,
+                                        1.1 - 0.2 * k, 0.3 * std::sin(k));
+    deg += row;
+    rad += row;
+    real += fmt::format("P{},{:.4f},{:.4f},{:.4f}\n", k, -26.0 + 4.0 * k, 11 - 2.0 * k, 3.0 * k);
+  }
+  const std::string why = Refusal(deg);
+  EXPECT_NE(why.find("look like radians under a degree label"), std::string::npos) << why;
+  EXPECT_NE(why.find("q1_deg, q2_deg, q3_deg"), std::string::npos) << why;
+  EXPECT_EQ(Refusal(rad), "(accepted)");
+  EXPECT_EQ(Refusal(real), "(accepted)");
+}
+
+}  // namespace
 }  // namespace armsig::io

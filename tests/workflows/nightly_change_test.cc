@@ -348,6 +348,19 @@ TEST(NightlyChangeUr10, RealNightsRaiseNoFlagAndPlantedChangesAreNamed) {
     const auto& named = d.change->causes.front();
     EXPECT_EQ(named.name.rfind(p.cause, 0), 0u) << d.DriftLine();
     EXPECT_NEAR(std::abs(named.size), p.size, 0.3 * p.size) << d.DriftLine();
+    // One ranking everywhere: the drift line, the stored decision's causes and the change's
+    // name the same cause first, and no cause is named at a size no robot shows.
+    if (!d.causes.empty()) EXPECT_EQ(d.causes.front().name, named.name) << d.DriftLine();
+    const auto j = d.ToJson();
+    if (j.contains("drift") && !j["drift"]["causes"].empty()) {
+      EXPECT_EQ(j["drift"]["causes"][0]["name"], j["drift"]["change"]["causes"][0]["name"]);
+    }
+    for (const auto* list : {&d.causes, &d.change->causes}) {
+      for (const auto& c : *list) {
+        const double limit = c.unit == "mrad" ? 50.0 : c.unit == "ppm" ? 1000.0 : 25.0;
+        EXPECT_LE(std::abs(c.size), limit) << c.Describe();
+      }
+    }
     std::cout << p.cause << ": " << d.DriftLine() << "\n";
   }
 }

@@ -124,6 +124,40 @@ TEST(OrientFiles, NetworkWithoutScaleIsRefusedAndNothingWritten) {
   EXPECT_FALSE(std::filesystem::exists(o.out));
 }
 
+// k06 by its angles alone and one scale bar whose 1.72 m were typed as 1.72 (millimetres):
+// the network scales to instruments millimetres apart, which no tripods allow. Refused,
+// naming the bar and the unit; nothing written.
+TEST(OrientFiles, ABarLengthInTheWrongUnitIsRefusedNamingIt) {
+  TempDir dir;
+  // Its angles with the source's sigmas, without the 11 slope distances (they would give the
+  // scale on their own).
+  const auto table = io::ReadCsvFile(Net("k06/observations.csv"));
+  std::string angles = "point,station,hz_gon,v_gon,sigma_hz_arcsec,sigma_v_arcsec\n";
+  for (const auto& row : table.rows()) {
+    angles += row.fields[0] + "," + row.fields[1] + "," + row.fields[2] + "," + row.fields[3] +
+              "," + row.fields[5] + "," + row.fields[6] + "\n";
+  }
+  WriteText(dir.File("angles.csv"), angles);
+  OrientFilesOptions o;
+  o.observations = dir.File("angles.csv");
+  o.out = dir.File("st.yaml");
+  o.scale_bars = {"1008:1180=1720.000"};
+  EXPECT_NO_THROW(OrientFiles(o));  // in millimetres: the stations metres apart
+  EXPECT_TRUE(std::filesystem::exists(o.out));
+  std::filesystem::remove(o.out);
+  o.scale_bars = {"1008:1180=1.72"};
+  try {
+    OrientFiles(o);
+    FAIL() << "a 1.72 mm bar scaled the network";
+  } catch (const InputError& e) {
+    EXPECT_NE(e.message().find("closer than two instruments can stand"), std::string::npos)
+        << e.what();
+    EXPECT_NE(e.message().find("1008:1180=1.72"), std::string::npos) << e.what();
+    EXPECT_NE(e.message().find("a 1 m bar is =1000"), std::string::npos) << e.what();
+  }
+  EXPECT_FALSE(std::filesystem::exists(o.out));
+}
+
 TEST(OrientFiles, MalformedOrUnobservedScaleBarIsAnInputError) {
   OrientFilesOptions o;
   o.observations = Net("k06/observations.csv");
