@@ -327,7 +327,7 @@ class Compensator {
                   fmt::format("the compensated joints are {}, the program's {}", Flags(compensated), Flags(nominal)));
     }
 
-    // Inside what the set was validated on.
+    // Inside what the set was validated on, and what it promises there.
     if (volume_ && !volume_->empty()) {
       if (auto why = volume_->OutsideJoints(s.joints_rad)) {
         r.status = TargetStatus::kOutsideJointRange;
@@ -338,6 +338,7 @@ class Compensator {
                             volume_->source());
       }
     }
+    Promise(tool, s.joints_rad, r);
     if (r.status != TargetStatus::kOk && !options_.allow_outside) return r;
 
     // The rewrite.
@@ -351,6 +352,30 @@ class Compensator {
     }
     r.written = true;
     return r;
+  }
+
+  // The support and predicted σ of a compensated target whose volume checks are done.
+  void Promise(const Eigen::Isometry3d& tool, const Eigen::VectorXd& q, TargetReport& r) const {
+    const calibration::SetValidity none;
+    const calibration::SetValidity& validity = robot_.validity ? *robot_.validity : none;
+    const calibration::Support support =
+        calibration::SupportAt(*robot_.model, robot_.params, validity, q, r.map_extrapolated);
+    r.inside_support = support.inside && r.status == TargetStatus::kOk;
+    if (r.inside_support) {
+      r.support = "inside";
+    } else if (r.status == TargetStatus::kOk) {
+      r.support = support.Describe(q, validity);
+    } else {
+      r.support = r.why;
+      if (support.map_outside) r.support += "; outside the residual map";
+    }
+    // The parameters' own σ where the TCP is (the model's point moved to it), with the
+    // held-out σ of inside or outside.
+    calibration::RobotModel at_tcp = *robot_.model;
+    at_tcp.tool_mm = (robot_.model->flange * tool).translation();
+    const double parametric =
+        calibration::ParametricSigmaMm(at_tcp, robot_.params, robot_.identified, robot_.covariance, q);
+    r.sigma_mm = calibration::PredictionSigmaMm(parametric, validity, r.inside_support);
   }
 
   const Program& p_;

@@ -18,8 +18,8 @@
 //               return them — in the target's own frame, the configuration kept.
 //
 // Refused (named with the line and why; nothing written unless allow_outside): compensated
-// joints outside the joint ranges the set was validated on, a calibration point outside the
-// measured volume, a target out of reach, one whose compensated joints need another
+// joints outside the arcs the set was fitted on (its terms are held there, and its error
+// there is the larger held-out one), a calibration point outside the measured volume, a target out of reach, one whose compensated joints need another
 // configuration than the program's, one whose taught joints (a UR waypoint's q, a robtarget's
 // confdata) miss its own pose. A target whose tool or base the program does not define, or
 // that motions with different tools share, is named and left as written.
@@ -33,6 +33,7 @@
 
 #include "calibration/compensation.h"
 #include "calibration/model.h"
+#include "calibration/validity.h"
 #include "programs/controller.h"
 #include "programs/program.h"
 #include "programs/volume.h"
@@ -50,6 +51,12 @@ struct SignedRobot {
   Eigen::VectorXd params;
   const calibration::ResidualMap* map = nullptr;  // may be null
   bool orientation_measured = false;  // fitted to measured orientations (6-DoF data)
+  // Where the set was fitted and the error it showed on held-out data (null: not stored),
+  // and its identified parameters' covariance (empty: not stored): each target's support
+  // and predicted σ.
+  const calibration::SetValidity* validity = nullptr;
+  std::vector<int> identified;
+  Eigen::MatrixXd covariance;
 };
 
 // Where the signed robot puts the TCP of `tool` (flange → TCP) at the joints: the chain with
@@ -100,6 +107,15 @@ struct TargetReport {
   Eigen::VectorXd nominal_joints_rad, compensated_joints_rad;
   bool orientation_measured = false;
   bool map_extrapolated = false;
+  // What the set promises for it. Inside its support: every joint inside the arc the set
+  // was fitted on, the calibration point inside the volume measured, the map applied in
+  // full (calibration::SupportAt); `support` says "inside" or where not. `sigma_mm`: the
+  // predicted σ per coordinate of where the TCP lands (calibration::PredictionSigmaMm, the
+  // held-out figure of inside or outside; NaN when the set stores neither a covariance nor a
+  // held-out σ): within calibration::kCoverageRadius σ of the intent 95 % of the time.
+  bool inside_support = false;
+  std::string support;
+  double sigma_mm = NAN;
   bool written = false;
 };
 

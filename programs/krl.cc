@@ -81,25 +81,13 @@ Lexed Lex(const ProgramFile& file, int file_index) {
                                : "a literal ('H…', 'B…') that does not end on its line");
       push(Kind::kString, i, j + 1);
       i = j + 1;
-    } else if (std::isdigit(static_cast<unsigned char>(c)) ||
-               (c == '.' && i + 1 < text.size() && std::isdigit(static_cast<unsigned char>(text[i + 1])))) {
-      const std::size_t end = detail::ScanNumber(text, i);
-      std::size_t j = end;
-      while (j < text.size() && IsIdentChar(text[j])) ++j;
-      push(j == end ? Kind::kNumber : Kind::kIdentifier, i, j);
-      i = j;
-    } else if (IsIdentStart(c) || (c == '#' && i + 1 < text.size() && IsIdentStart(text[i + 1]))) {
-      std::size_t j = i + 1;
-      while (j < text.size() && IsIdentChar(text[j])) ++j;
-      push(Kind::kIdentifier, i, j);
-      i = j;
     } else {
-      const std::string_view two = text.substr(i, 2);
-      const std::size_t len = two == "==" || two == "<>" || two == "<=" || two == ">=" ? 2 : 1;
+      const bool word = IsIdentStart(c) || (c == '#' && i + 1 < text.size() && IsIdentStart(text[i + 1]));
+      const detail::Lexeme l = detail::ScanLexeme(text, i, word, IsIdentChar, {"==", "<>", "<=", ">="});
       if (c == '(' || c == '[' || c == '{') ++depth;
       if ((c == ')' || c == ']' || c == '}') && depth > 0) --depth;
-      push(Kind::kPunct, i, i + len);
-      i += len;
+      push(l.kind, i, l.end);
+      i = l.end;
     }
   }
   if (depth > 0) Fail(file, text.size(), "a bracket or aggregate { … } that never closes");

@@ -59,23 +59,10 @@ std::vector<Token> Lex(const ProgramFile& file) {
       }
       push(Kind::kString, i, j + 1);
       i = j + 1;
-    } else if (std::isdigit(static_cast<unsigned char>(c)) ||
-               (c == '.' && i + 1 < text.size() && std::isdigit(static_cast<unsigned char>(text[i + 1])))) {
-      const std::size_t end = detail::ScanNumber(text, i);
-      std::size_t j = end;
-      while (j < text.size() && IsIdentChar(text[j])) ++j;
-      push(j == end ? Kind::kNumber : Kind::kIdentifier, i, j);
-      i = j;
-    } else if (IsIdentStart(c)) {
-      std::size_t j = i + 1;
-      while (j < text.size() && IsIdentChar(text[j])) ++j;
-      push(Kind::kIdentifier, i, j);
-      i = j;
     } else {
-      const std::string_view two = text.substr(i, 2);
-      const std::size_t len = two == ":=" || two == "<>" || two == "<=" || two == ">=" ? 2 : 1;
-      push(Kind::kPunct, i, i + len);
-      i += len;
+      const detail::Lexeme l = detail::ScanLexeme(text, i, IsIdentStart(c), IsIdentChar, {":=", "<>", "<=", ">="});
+      push(l.kind, i, l.end);
+      i = l.end;
     }
   }
   return out;

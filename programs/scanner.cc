@@ -20,6 +20,25 @@ std::string Upper(std::string_view text) {
   return out;
 }
 
+Lexeme ScanLexeme(std::string_view text, std::size_t at, bool word_start, bool (*is_word_char)(char),
+                  std::initializer_list<std::string_view> operators) {
+  auto digit = [&](std::size_t i) { return i < text.size() && std::isdigit(static_cast<unsigned char>(text[i])); };
+  auto word_end = [&](std::size_t j) {
+    while (j < text.size() && is_word_char(text[j])) ++j;
+    return j;
+  };
+  if (digit(at) || (text[at] == '.' && digit(at + 1))) {
+    const std::size_t end = ScanNumber(text, at);
+    const std::size_t j = word_end(end);
+    return {j == end ? Token::Kind::kNumber : Token::Kind::kIdentifier, j};
+  }
+  if (word_start) return {Token::Kind::kIdentifier, word_end(at + 1)};
+  const std::string_view two = text.substr(at, 2);
+  for (std::string_view op : operators)
+    if (two == op) return {Token::Kind::kPunct, at + 2};
+  return {Token::Kind::kPunct, at + 1};
+}
+
 bool Token::IsWord(std::string_view word) const {
   return kind == Kind::kIdentifier && EqualsIgnoreCase(text, word);
 }

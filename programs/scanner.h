@@ -3,6 +3,7 @@
 #pragma once
 
 #include <cstddef>
+#include <initializer_list>
 #include <optional>
 #include <string>
 #include <string_view>
@@ -26,6 +27,17 @@ struct Token {
 // The end of a number literal starting at `at` (digits, one point, an exponent: "12",
 // "1.5", ".433", "9E+09", "1e-3"), or `at` when none starts there.
 std::size_t ScanNumber(std::string_view text, std::size_t at);
+
+// What follows blanks, comments and strings in all three languages: a number literal (a
+// digit, or a point before one; "1abc" is one word, not a number), a word (`word_start`
+// at `at`, then `is_word_char`), else punctuation: one of the two-character `operators`
+// or one character. Its kind and end.
+struct Lexeme {
+  Token::Kind kind = Token::Kind::kPunct;
+  std::size_t end = 0;
+};
+Lexeme ScanLexeme(std::string_view text, std::size_t at, bool word_start, bool (*is_word_char)(char),
+                  std::initializer_list<std::string_view> operators);
 
 bool EqualsIgnoreCase(std::string_view a, std::string_view b);
 std::string Upper(std::string_view text);

@@ -26,20 +26,10 @@ std::vector<Eigen::Vector3d> SphereDirections(int n) {
 
 }  // namespace
 
-ValidatedVolume::ValidatedVolume(const std::vector<Eigen::VectorXd>& joints,
-                                 const std::vector<Eigen::Vector3d>& points, std::string source)
-    : source_(std::move(source)) {
-  if (joints.empty() || points.empty()) throw std::invalid_argument("a validated volume of no configurations");
-  const Eigen::Index n = joints.front().size();
-  joint_min_rad_.assign(static_cast<std::size_t>(n), INFINITY);
-  joint_max_rad_.assign(static_cast<std::size_t>(n), -INFINITY);
-  for (const auto& q : joints) {
-    if (q.size() != n) throw std::invalid_argument("configurations of different joint counts");
-    for (Eigen::Index i = 0; i < n; ++i) {
-      joint_min_rad_[static_cast<std::size_t>(i)] = std::min(joint_min_rad_[static_cast<std::size_t>(i)], q(i));
-      joint_max_rad_[static_cast<std::size_t>(i)] = std::max(joint_max_rad_[static_cast<std::size_t>(i)], q(i));
-    }
-  }
+ValidatedVolume::ValidatedVolume(std::vector<calibration::JointArc> arcs, const std::vector<Eigen::Vector3d>& points,
+                                 std::string source)
+    : arcs_(std::move(arcs)), source_(std::move(source)) {
+  if (arcs_.empty() || points.empty()) throw std::invalid_argument("a validated volume of no configurations");
   normals_ = SphereDirections(64);
   for (const auto& normal : normals_) {
     double offset = -INFINITY;
@@ -49,12 +39,13 @@ ValidatedVolume::ValidatedVolume(const std::vector<Eigen::VectorXd>& joints,
 }
 
 std::optional<std::string> ValidatedVolume::OutsideJoints(const Eigen::VectorXd& q) const {
-  for (std::size_t i = 0; i < joint_min_rad_.size() && static_cast<Eigen::Index>(i) < q.size(); ++i) {
+  for (std::size_t i = 0; i < arcs_.size() && static_cast<Eigen::Index>(i) < q.size(); ++i) {
     const double v = q(static_cast<Eigen::Index>(i));
-    // 1e-9 rad: a configuration of the sessions themselves is inside.
-    if (v < joint_min_rad_[i] - 1e-9 || v > joint_max_rad_[i] + 1e-9) {
-      return fmt::format("joint {} at {:.3f}°, its validated range {:.3f}° to {:.3f}°", i + 1,
-                         v / kRadPerDeg, joint_min_rad_[i] / kRadPerDeg, joint_max_rad_[i] / kRadPerDeg);
+    // 1e-9 rad: a configuration of the fit itself is inside.
+    if (std::abs(arcs_[i].Clamp(v) - v) > 1e-9) {
+      return fmt::format("joint {} at {:.3f}°, outside the arc it was fitted on, {:.3f}° to {:.3f}°", i + 1,
+                         v / kRadPerDeg, arcs_[i].start_rad / kRadPerDeg,
+                         (arcs_[i].start_rad + arcs_[i].length_rad) / kRadPerDeg);
     }
   }
   return std::nullopt;

@@ -104,6 +104,17 @@ std::string VolumeSessions(const std::vector<int64_t>& sessions) {
 
 std::string ProgramTargetLabel(const programs::Target& t) { return t.name.empty() ? std::string("(literal)") : t.name; }
 
+// What the σ column promises, and how well the set's held-out data kept that promise.
+std::string PromiseLine(const calibration::SetValidity& v) {
+  if (v.empty() || (std::isnan(v.sigma_inside_mm) && std::isnan(v.sigma_outside_mm)))
+    return "the set stores no held-out error (fitted before they were): σ is the parameters' own only";
+  auto share = [](double c) { return std::isnan(c) ? std::string("not measured") : fmt::format("{:.0f} %", 100 * c); };
+  return fmt::format("per coordinate, the landing within {:.2f} σ of the target 95 % of the time; held out "
+                     "{:.3f} mm inside the set's support ({} within), {:.3f} mm beside it ({} within)",
+                     calibration::kCoverageRadius, v.sigma_inside_mm, share(v.coverage_inside),
+                     v.sigma_outside_mm, share(v.coverage_outside));
+}
+
 }  // namespace
 
 programs::Language LanguageOfProgram(const std::string& path) {
@@ -134,9 +145,14 @@ ProgramCompensationRun CompensateProgramFiles(db::Database& database, const Prog
   robot.map = active.signature.map.get();
   robot.orientation_measured = active.signature.tool_rotation.has_value();
   run.orientation_measured = robot.orientation_measured;
+  if (!active.signature.validity.empty()) robot.validity = &active.signature.validity;
+  robot.identified = active.signature.identified;
+  robot.covariance = active.signature.covariance;
+  run.validity = active.signature.validity;
 
-  // The validated volume: the configurations of the sessions the set was fitted and
-  // validated on, and its calibration point there.
+  // The validated volume: the arcs of the joints the set was fitted on (stored with it; for
+  // a set stored before they were, those of its sessions' configurations) and its
+  // calibration point where those sessions measured it.
   std::optional<programs::ValidatedVolume> volume;
   if (!active.sessions.empty()) {
     std::vector<Eigen::VectorXd> joints;
@@ -148,9 +164,13 @@ ProgramCompensationRun CompensateProgramFiles(db::Database& database, const Prog
                                                          robot.params, robot.map, joints, false,
                                                          joints.size() >= 2048 ? 2 : 1))
         points.push_back(p.position_mm);
-      run.volume = fmt::format("session{} {}: {} configurations", active.sessions.size() == 1 ? "" : "s",
-                               VolumeSessions(active.sessions), joints.size());
-      volume.emplace(joints, points, run.volume);
+      const bool stored = !active.signature.validity.term_arcs.empty();
+      run.volume = fmt::format("the joint arcs {}; the points of session{} {}: {} configurations",
+                               stored ? "stored with the set" : "of its sessions",
+                               active.sessions.size() == 1 ? "" : "s", VolumeSessions(active.sessions), joints.size());
+      volume.emplace(stored ? active.signature.validity.term_arcs
+                            : calibration::ArcsCovering(joints, active.model.num_joints()),
+                     points, run.volume);
     }
   }
   programs::CompensationOptions options;
@@ -181,19 +201,28 @@ std::string FormatProgramCompensation(const ProgramCompensationRun& run) {
                                 Printable(p.files[0].name), programs::ToString(p.language), r.targets.size(),
                                 r.targets.size() == 1 ? "" : "s", run.version, Printable(run.controller.description));
   out += fmt::format("validated volume: {}\n", run.volume.empty() ? "not recorded with the set (not checked)" : run.volume);
+  out += fmt::format("predicted σ: {}\n", PromiseLine(run.validity));
+  int inside = 0;
   if (!r.targets.empty()) {
-    out += fmt::format("{:<24} {:<22} {:<6} {:>13} {:>13}  {}\n", "where", "target", "kind", "correction mm",
-                       "correction °", "status");
+    out += fmt::format("{:<24} {:<22} {:<6} {:>13} {:>13} {:>8}  {}\n", "where", "target", "kind", "correction mm",
+                       "correction °", "σ mm", "status");
     for (const auto& t : r.targets) {
       const programs::Target& target = p.targets[static_cast<std::size_t>(t.target)];
       const std::string mm = std::isnan(t.correction_mm) ? "–" : fmt::format("{:.4f}", t.correction_mm);
       const std::string deg = std::isnan(t.correction_deg) ? "–" : fmt::format("{:.5f}", t.correction_deg);
-      out += fmt::format("{:<24} {:<22} {:<6} {:>13} {:>13}  {}{}\n", Printable(programs::Where(p, target.place)),
-                         Printable(ProgramTargetLabel(target)), programs::ToString(target.kind()), mm, deg,
-                         programs::ToString(t.status), t.map_extrapolated ? " (map: outside its data)" : "");
+      const std::string sigma = std::isnan(t.sigma_mm) ? "–" : fmt::format("{:.3f}", t.sigma_mm);
+      const bool solved = t.compensated_joints_rad.size() > 0;
+      inside += t.inside_support ? 1 : 0;
+      out += fmt::format("{:<24} {:<22} {:<6} {:>13} {:>13} {:>8}  {}{}\n", Printable(programs::Where(p, target.place)),
+                         Printable(ProgramTargetLabel(target)), programs::ToString(target.kind()), mm, deg, sigma,
+                         programs::ToString(t.status), solved && !t.inside_support ? " (outside the set's support)" : "");
       if (!t.why.empty()) out += fmt::format("    {}\n", Printable(t.why));
+      if (solved && !t.inside_support && t.support != t.why)
+        out += fmt::format("    support: {}\n", Printable(t.support));
       if (!t.note.empty()) out += fmt::format("    note: {}\n", Printable(t.note));
     }
+    out += fmt::format("{} of {} target{} inside the set's support\n", inside, r.targets.size(),
+                       r.targets.size() == 1 ? "" : "s");
   }
   out += fmt::format("orientation: {}\n", run.orientation_measured
                                               ? "compensated as the set measured it (fitted to 6-DoF data)"
@@ -238,6 +267,9 @@ nlohmann::json ProgramCompensationJson(const ProgramCompensationRun& run, const 
                        {"note", t.note},
                        {"motions", motions},
                        {"residual_mm", number(t.residual_mm)},
+                       {"inside_support", t.inside_support},
+                       {"support", t.support},
+                       {"sigma_mm", number(t.sigma_mm)},
                        {"map", t.compensated_joints_rad.size() == 0 ? "none"
                                : t.map_extrapolated               ? "outside"
                                                                   : "applied"},
@@ -260,6 +292,8 @@ nlohmann::json ProgramCompensationJson(const ProgramCompensationRun& run, const 
           {"controller", run.controller.description},
           {"orientation", run.orientation_measured ? "measured" : "model"},
           {"volume", run.volume},
+          {"sigma_inside_mm", number(run.validity.sigma_inside_mm)},
+          {"sigma_outside_mm", number(run.validity.sigma_outside_mm)},
           {"refused", run.result.refused},
           {"written", written},
           {"targets", targets},

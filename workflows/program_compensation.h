@@ -9,6 +9,7 @@
 #include <string>
 #include <vector>
 
+#include "calibration/validity.h"
 #include "db/database.h"
 #include "programs/compensation.h"
 #include "programs/program.h"
@@ -33,6 +34,7 @@ struct ProgramCompensationRun {
   int version = 0;                     // the parameter set used
   bool orientation_measured = false;   // the set was fitted to measured orientations
   std::string volume;                  // where the validated volume came from ("" none)
+  calibration::SetValidity validity;   // the set's support and held-out σ (empty: not stored)
   std::vector<std::string> written;    // the files written (none when refused)
 };
 
@@ -49,8 +51,10 @@ ProgramCompensationRun CompensateProgramFiles(db::Database& database,
 // The per-target table for people (mm and degrees).
 std::string FormatProgramCompensation(const ProgramCompensationRun& run);
 // {"program","language","robot","set","controller","orientation","written","volume",
+//  "sigma_inside_mm","sigma_outside_mm",
 //  "targets":[{"line","file","name","kind","correction_mm","correction_rad","status","why",
-//  "motions","residual_mm","map","nominal_joints_rad","compensated_joints_rad"}…],
+//  "motions","residual_mm","inside_support","support","sigma_mm","map","nominal_joints_rad",
+//  "compensated_joints_rad"}…],
 //  "not_evaluated":[{"file","line","why"}…], "notes":[…]}
 nlohmann::json ProgramCompensationJson(const ProgramCompensationRun& run, const std::string& robot);
 

@@ -18,6 +18,16 @@
 namespace armsig::programs {
 namespace {
 
+// The robot as a signature describes it: its model and parameters, no map, no stored
+// support.
+SignedRobot Signed(const calibration::RobotModel& model, Eigen::VectorXd params, bool orientation_measured) {
+  SignedRobot robot;
+  robot.model = &model;
+  robot.params = std::move(params);
+  robot.orientation_measured = orientation_measured;
+  return robot;
+}
+
 Eigen::Isometry3d UrTool() {  // a gripper 180 mm out, its TCP turned about x
   Eigen::Isometry3d tool = Eigen::Isometry3d::Identity();
   tool.translate(Eigen::Vector3d(0.0, 10.0, 180.0));
@@ -101,7 +111,7 @@ TEST(CompensateProgram, ExactSignatureLandsOnEveryUrTarget) {
   const Program program = ParseUrScript({"t.script", UrProgram(c, taught)});
   ASSERT_EQ(program.motions.size(), 12u);
 
-  const SignedRobot robot{&model, truth.params, nullptr, true};
+  const SignedRobot robot = Signed(model, truth.params, true);
   const ProgramCompensation r = CompensateProgram(program, c, robot, nullptr);
   ASSERT_EQ(r.targets.size(), 12u);
   for (const auto& t : r.targets) {
@@ -122,7 +132,7 @@ TEST(CompensateProgram, ZeroSignatureChangesNoByte) {
   const auto model = testing::Ur10();
   const ControllerModel c = NominalController(model, ControllerKind::kUniversalRobots, "nominal ur10");
   const Program program = ParseUrScript({"t.script", UrProgram(c, UrConfigurations(8, 3))});
-  const SignedRobot robot{&model, Eigen::VectorXd::Zero(model.num_parameters()), nullptr, false};
+  const SignedRobot robot = Signed(model, Eigen::VectorXd::Zero(model.num_parameters()), false);
   const ProgramCompensation r = CompensateProgram(program, c, robot, nullptr);
   for (const auto& t : r.targets) EXPECT_EQ(t.status, TargetStatus::kOk) << t.why;
   EXPECT_TRUE(r.edits.empty());
@@ -136,7 +146,7 @@ class UrRefusals : public ::testing::Test {
   calibration::RobotModel model = testing::Ur10();
   ControllerModel c = NominalController(model, ControllerKind::kUniversalRobots, "nominal ur10");
   Eigen::VectorXd truth = testing::PlantedErrors(model, 4);
-  SignedRobot robot{&model, truth, nullptr, false};
+  SignedRobot robot = Signed(model, truth, false);
 
   // One MoveJ to the pose the controller's model gives these joints, those joints its qnear.
   Program OneTarget(const Eigen::VectorXd& q) {
@@ -157,7 +167,7 @@ class UrRefusals : public ::testing::Test {
       joints.push_back(q);
       points.push_back(SignedCalibrationPoint(robot, q));
     }
-    return ValidatedVolume(joints, points, "session 1: 200 configurations");
+    return ValidatedVolume(calibration::ArcsCovering(joints, 6), points, "session 1: 200 configurations");
   }
 };
 
@@ -189,13 +199,63 @@ TEST_F(UrRefusals, OutsideTheJointRangeIsRefusedAndNothingWritten) {
   EXPECT_TRUE(inside.written());
 }
 
+// Each target carries what the set promises there: inside its support (the arcs it was
+// fitted on), σ = √(σ_param² + s_inside²); outside, the larger held-out s_outside. σ_param
+// checked against the parameter's derivative at the TCP by central differences.
+TEST_F(UrRefusals, EachTargetCarriesItsSupportAndPredictedSigma) {
+  Eigen::VectorXd q(6);
+  q << 0.0, -1.2, 1.3, -1.6, -1.57, 0.0;
+  const ValidatedVolume volume = Around(q);
+  calibration::SetValidity validity;
+  validity.term_arcs = volume.arcs();
+  validity.sigma_inside_mm = 0.05;
+  validity.sigma_outside_mm = 0.4;
+  SignedRobot held = robot;
+  held.validity = &validity;
+  held.identified = {1};  // one parameter with a standard error of 0.2 (its unit: mm or rad)
+  held.covariance = Eigen::MatrixXd::Constant(1, 1, 0.04);
+  CompensationOptions allow;
+  allow.allow_outside = true;
+
+  const ProgramCompensation inside = CompensateProgram(OneTarget(q), c, held, &volume, allow);
+  const TargetReport& t = inside.targets.at(0);
+  ASSERT_EQ(t.status, TargetStatus::kOk) << t.why;
+  EXPECT_TRUE(t.inside_support);
+  EXPECT_EQ(t.support, "inside");
+  const double h = 1e-6;
+  SignedRobot plus = robot, minus = robot;
+  plus.params(1) += h;
+  minus.params(1) -= h;
+  const Eigen::Vector3d d = (SignedTcp(plus, UrTool(), t.compensated_joints_rad).tcp.translation() -
+                             SignedTcp(minus, UrTool(), t.compensated_joints_rad).tcp.translation()) /
+                            (2 * h);
+  const double parametric = d.norm() * 0.2 / std::sqrt(3.0);
+  EXPECT_GT(parametric, 0.01);
+  EXPECT_NEAR(t.sigma_mm, std::hypot(parametric, 0.05), 1e-6);
+
+  Eigen::VectorXd far = q;
+  far(0) = 1.0;  // joint 1 beyond its arc: refused, and with --allow-outside written with the outside σ
+  const ProgramCompensation outside = CompensateProgram(OneTarget(far), c, held, &volume, allow);
+  const TargetReport& o = outside.targets.at(0);
+  EXPECT_EQ(o.status, TargetStatus::kOutsideJointRange);
+  EXPECT_TRUE(o.written);
+  EXPECT_FALSE(o.inside_support);
+  EXPECT_NE(o.support.find("joint 1 at 57."), std::string::npos) << o.support;
+  EXPECT_GT(o.sigma_mm, 0.4);
+  EXPECT_LT(o.sigma_mm, std::hypot(0.4, 1.5 * parametric));
+
+  // A set that stores no support nor σ promises nothing it cannot back: inside, σ unknown.
+  const ProgramCompensation bare = CompensateProgram(OneTarget(q), c, robot, nullptr);
+  EXPECT_TRUE(bare.targets.at(0).inside_support);
+  EXPECT_TRUE(std::isnan(bare.targets.at(0).sigma_mm));
+}
+
 TEST_F(UrRefusals, OutsideTheMeasuredVolumeIsRefused) {
   Eigen::VectorXd q(6);
   q << 0.0, -1.2, 1.3, -1.6, -1.57, 0.0;
-  // Joints measured everywhere, points only in a small box far from the target.
-  std::vector<Eigen::VectorXd> joints = {Eigen::VectorXd::Constant(6, -3.0), Eigen::VectorXd::Constant(6, 3.0)};
+  // Every joint fitted over its whole turn, the points only in a small box far from the target.
   std::vector<Eigen::Vector3d> points = {{-500, -500, 1500}, {-400, -500, 1500}, {-500, -400, 1500}, {-500, -500, 1600}};
-  const ValidatedVolume volume(joints, points, "session 2");
+  const ValidatedVolume volume(std::vector<calibration::JointArc>(6), points, "session 2");
   const ProgramCompensation r = CompensateProgram(OneTarget(q), c, robot, &volume);
   EXPECT_EQ(r.targets[0].status, TargetStatus::kOutsideMeasuredVolume);
   EXPECT_NE(r.targets[0].why.find("mm outside the volume measured in session 2"), std::string::npos)
@@ -250,9 +310,9 @@ TEST(CompensateProgram, KukaConfigurationChangeIsRefused) {
       a.kuka_status, a.kuka_turn);
   const Program program = ParseKrl({"p.src", src}, ProgramFile{"p.dat", dat});
   Eigen::VectorXd params = Eigen::VectorXd::Zero(model.num_parameters());
-  const SignedRobot small{&model, params, nullptr, false};
+  const SignedRobot small = Signed(model, params, false);
   params(5) = 0.002;  // γ1: the real joint 1 stands 2 mrad further: A1 must go 2 mrad back
-  const SignedRobot turned{&model, params, nullptr, false};
+  const SignedRobot turned = Signed(model, params, false);
   EXPECT_EQ(CompensateProgram(program, c, small, nullptr).targets[0].status, TargetStatus::kOk);
   const ProgramCompensation r = CompensateProgram(program, c, turned, nullptr);
   EXPECT_EQ(r.targets[0].status, TargetStatus::kConfigurationChange);
@@ -279,7 +339,7 @@ TEST(CompensateProgram, RapidConfdataThatMissesItsPoseIsRefused) {
         pose.translation().x(), pose.translation().y(), pose.translation().z(), rot.w(), rot.x(), rot.y(), rot.z(), cf1,
         cf[1], cf[2], cf[3]);
   };
-  const SignedRobot robot{&model, testing::PlantedErrors(model, 6), nullptr, false};
+  const SignedRobot robot = Signed(model, testing::PlantedErrors(model, 6), false);
   const ProgramCompensation ok = CompensateProgram(ParseRapid({"m.mod", module(cf[0])}), c, robot, nullptr);
   EXPECT_EQ(ok.targets[0].status, TargetStatus::kOk) << ok.targets[0].why;
   const ProgramCompensation r = CompensateProgram(ParseRapid({"m.mod", module(cf[0] + 2)}), c, robot, nullptr);
@@ -296,7 +356,7 @@ TEST(CompensateProgram, UnknownToolIsNamedAndTheRestWritten) {
       "DEF p()\nPTP {A1 10, A2 -80, A3 100, A4 0, A5 30, A6 0}\n$TOOL = $NULLFRAME\n"
       "PTP {A1 20, A2 -80, A3 100, A4 0, A5 30, A6 0}\n$TOOL = TOOL_DATA[3]\nPTP {A1 30, A2 -80, A3 100, A4 0, A5 30, A6 0}\nEND\n";
   const Program program = ParseKrl({"p.src", src}, std::nullopt);
-  const SignedRobot robot{&model, testing::PlantedErrors(model, 8), nullptr, false};
+  const SignedRobot robot = Signed(model, testing::PlantedErrors(model, 8), false);
   const ProgramCompensation r = CompensateProgram(program, c, robot, nullptr);
   ASSERT_EQ(r.targets.size(), 3u);
   EXPECT_EQ(r.targets[0].status, TargetStatus::kFrameUnknown);
