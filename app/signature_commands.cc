@@ -1,6 +1,8 @@
 // Using an arm signature (the active one, or a stored one with --set N):
 //   armsig predict    --robot NAME [--set N] --joints J.csv [--out P.csv] [--frame robot|measurement]
 //   armsig compensate --robot NAME [--set N] --targets T.csv --out J.csv [--frame …] [--seed-deg …]
+//   armsig compensate --robot NAME [--set N] --program IN --out OUT [--json REPORT] [--allow-outside]
+//                     [--config-dat $config.dat] [--controller-kinematics K.yaml]
 //   armsig export     --robot NAME [--set N] --format json|model|urdf --out FILE [--frame …]
 //   armsig report     --robot NAME [--set N] --out DIR
 #include <fmt/format.h>
@@ -9,9 +11,11 @@
 #include <iostream>
 
 #include "app/command.h"
+#include "core/error.h"
 #include "core/text.h"
 #include "core/units.h"
 #include "io/atomic_file.h"
+#include "workflows/program_compensation.h"
 #include "workflows/signature.h"
 #include "workflows/stored_report.h"
 
@@ -21,6 +25,8 @@ namespace {
 
 struct SignatureOptions {
   std::string robot, joints, targets, out, format, frame = "robot";
+  std::string program, json, config_dat, controller_kinematics;
+  bool allow_outside = false;
   std::optional<int> set;  // --set N: a stored version (default: the active one)
   std::vector<double> seed_deg;
   bool map_sigma = false;
@@ -57,20 +63,63 @@ void SetupSignatureCommands(CLI::App& parent, const GlobalOptions& global, Runne
   });
 
   auto c = std::make_shared<SignatureOptions>();
-  auto* compensate = Command(parent, "compensate",
-                             "Joint angles that make the calibrated robot reach targets", *c);
+  auto* compensate = Command(
+      parent, "compensate",
+      "Joint angles, or a whole robot program, that make the calibrated robot reach its targets", *c);
+  auto* targets = compensate->add_option("--targets", c->targets,
+                                         "CSV: point,x_mm,y_mm,z_mm[,q1_deg,… the nominal program]")
+                      ->type_name("FILE");
+  auto* program =
+      compensate
+          ->add_option("--program", c->program,
+                       "A robot program: .script (URScript), .src (KUKA KRL, its .dat beside it), "
+                       ".mod / .modx (ABB RAPID); every target rewritten, every other byte kept")
+          ->type_name("FILE");
+  targets->excludes(program);
+  OutputFile(compensate->add_option("--out", c->out, "Joints CSV, or the compensated program"))->required();
+  OutputFile(compensate->add_option("--json", c->json, "With --program: the report per target as JSON"));
+  compensate->add_flag("--allow-outside", c->allow_outside,
+                       "With --program: write targets outside the validated volume anyway (and leave "
+                       "the others refused as written) instead of writing nothing");
   compensate
-      ->add_option("--targets", c->targets,
-                   "CSV: point,x_mm,y_mm,z_mm[,q1_deg,… the nominal program]")
-      ->type_name("FILE")
-      ->required();
-  OutputFile(compensate->add_option("--out", c->out, "Joints CSV"))->required();
+      ->add_option("--config-dat", c->config_dat,
+                   "With a KRL program: the robot's $config.dat, for its TOOL_DATA and BASE_DATA")
+      ->type_name("FILE");
+  compensate
+      ->add_option("--controller-kinematics", c->controller_kinematics,
+                   "With a URScript program: the UR's own kinematics (YAML: dh_theta, dh_a, dh_d, "
+                   "dh_alpha as KinematicsInfo sends them); default the robot's nominal model")
+      ->type_name("FILE");
   compensate
       ->add_option("--seed-deg", c->seed_deg,
                    "Start of the nominal solution when the targets carry no joints (q1,…,qn)")
       ->delimiter(',')
       ->check(NumberCheck(-720.0, 720.0));
   OnDatabaseToRead(compensate, global, run, [c](db::Database& database) {
+    if (!c->program.empty()) {
+      if (c->frame != "robot")
+        throw InputError({"--frame", 0, 0, ""},
+                         "a program's targets are in the robot's own frame (its controller's base): "
+                         "--frame goes with --targets");
+      workflows::ProgramCompensationOptions o;
+      o.robot = c->robot;
+      o.set = c->set;
+      o.program_path = c->program;
+      o.out_path = c->out;
+      o.allow_outside = c->allow_outside;
+      o.config_dat = c->config_dat;
+      o.controller_kinematics = c->controller_kinematics;
+      const auto result = workflows::CompensateProgramFiles(database, o);
+      if (!c->json.empty())
+        io::WriteFileAtomically(c->json, JsonText(workflows::ProgramCompensationJson(result, c->robot), 2) + "\n");
+      std::cout << workflows::FormatProgramCompensation(result);
+      return result.result.written() ? kOk : kQualityGate;
+    }
+    if (c->targets.empty())
+      throw InputError({"--targets", 0, 0, ""}, "give --targets T.csv (joint angles) or --program IN (a robot program)");
+    if (c->allow_outside || !c->json.empty() || !c->config_dat.empty() || !c->controller_kinematics.empty())
+      throw InputError({"--program", 0, 0, ""},
+                       "--json, --allow-outside, --config-dat and --controller-kinematics go with --program");
     const auto active = workflows::LoadSignature(database, c->robot, c->set);
     std::optional<Eigen::VectorXd> seed;
     if (!c->seed_deg.empty()) {

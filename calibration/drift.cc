@@ -251,12 +251,15 @@ ModelComparison CompareModels(const RobotModel& model, const FittedSet& a, const
 
 IdentifiabilityReport ModelIdentifiability(const RobotModel& model,
                                            const std::vector<int>& candidates,
-                                           double relative_tolerance) {
+                                           double relative_tolerance, bool orientation) {
   IdentifiabilityOptions options;
   options.relative_tolerance = relative_tolerance;
   const int count = std::max(100, 3 * static_cast<int>(candidates.size()));
-  return AnalyseIdentifiability(model, Eigen::Isometry3d::Identity(),
-                                SpreadConfigurations(model, count), candidates, options);
+  const std::vector<Eigen::VectorXd> configurations = SpreadConfigurations(model, count);
+  OrientationRows rows;  // one set-up: one unknown tool rotation, as the fit estimates it
+  rows.setup.assign(configurations.size(), 0);
+  return AnalyseIdentifiability(model, Eigen::Isometry3d::Identity(), configurations, candidates,
+                                options, orientation ? &rows : nullptr);
 }
 
 std::vector<int> ModelIdentifiableSubset(const RobotModel& model,

@@ -88,10 +88,13 @@ ModelComparison CompareModels(const RobotModel& model, const FittedSet& a, const
 // limits, among `candidates`: decided once from the model alone (deterministic), so every
 // parameter set of the robot estimates the same parameters in the same gauge.
 // The whole analysis behind it: the candidates, the identified subset, and how each
-// parameter left out depends on the identified ones.
+// parameter left out depends on the identified ones. `orientation`: the data measure the
+// target frame's orientation too (a 6-DoF probe, its rotation on the flange unknown), which
+// identifies what positions alone cannot (the last axis' tilt).
 IdentifiabilityReport ModelIdentifiability(const RobotModel& model,
                                            const std::vector<int>& candidates,
-                                           double relative_tolerance = 1e-7);
+                                           double relative_tolerance = 1e-7,
+                                           bool orientation = false);
 std::vector<int> ModelIdentifiableSubset(const RobotModel& model,
                                          const std::vector<int>& candidates,
                                          double relative_tolerance = 1e-7);

@@ -398,6 +398,7 @@ std::vector<std::string> ModelDifferences(const RobotModel& a, const RobotModel&
   } else if (a.base) {
     transform("base (N1)", *a.base, *b.base);
   }
+  transform("flange", a.flange, b.flange);
   for (int k = 0; k < 3; ++k) {
     if (std::abs(a.tool_mm(k) - b.tool_mm(k)) > tolerance_mm) {
       out.push_back(fmt::format("tool_mm[{}]: {:.6g} mm against {:.6g} mm", k, a.tool_mm(k),

@@ -79,6 +79,10 @@ struct RobotModel {
   std::optional<Eigen::Isometry3d> base;
   std::vector<Eigen::Isometry3d> links;               // N2…Nn
   Eigen::Vector3d tool_mm = Eigen::Vector3d::Zero();  // x̄, in the last link frame
+  // The flange (tool0, where a production tool is mounted) in the last link frame: for a model
+  // given by DH rows the last row's Tz(d)·Tx(a)·Rx(α), else identity, unless the file gives
+  // `flange:`. The signature's geometry up to the flange is what a production tool inherits.
+  Eigen::Isometry3d flange = Eigen::Isometry3d::Identity();
   std::vector<NongeometricTerm> nongeometric;
   // Direction of gravity in the robot's base frame (the frame N1 maps from), unit length:
   // base z up unless the model file says otherwise. Used by kGravityTorque terms only.

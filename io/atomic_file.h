@@ -72,6 +72,7 @@ inline constexpr FileLimit kCsvFileLimit{std::size_t{256} << 20, "a CSV file"}; 
 // file's size): a bound only against a file that never stops growing.
 inline constexpr FileLimit kCsvStreamLimit{std::size_t{64} << 30, "a streamed CSV file"};  // 64 GiB
 inline constexpr FileLimit kGsiFileLimit{std::size_t{64} << 20, "a GSI file"};    // 64 MiB
+inline constexpr FileLimit kProgramFileLimit{std::size_t{64} << 20, "a robot program"};  // 64 MiB
 
 // Reads a whole input file: every reader of a file armsig is given goes through here.
 // Throws InputError naming the path when it cannot be opened, is not a regular file (a

@@ -109,8 +109,9 @@ NongeometricTerm Term(const YamlValue& value, int num_joints) {
 }
 
 RobotModel Parse(const YamlValue& root_value) {
-  const YamlMap root = root_value.Map({"name", "base", "links", "dh", "tool_mm", "nongeometric",
-                                       "generated_terms", "gravity", "joint_limits_deg"});
+  const YamlMap root = root_value.Map({"name", "base", "links", "dh", "tool_mm", "flange",
+                                       "nongeometric", "generated_terms", "gravity",
+                                       "joint_limits_deg"});
   RobotModel model;
   model.name = root.Has("name") ? root.Find("name")->Name() : "robot";
 
@@ -140,6 +141,9 @@ RobotModel Parse(const YamlValue& root_value) {
                                    ? root.Find("tool_mm")->Vector3(plausible::Quantity::kLength)
                                    : Eigen::Vector3d::Zero();
   model.tool_mm = folded_tool * tool;
+  model.flange = folded_tool;
+  if (const auto flange = root.Find("flange"))
+    model.flange = ReadRigidTransform(*flange, plausible::Quantity::kLength);
 
   const int n = model.num_joints();
   std::set<std::string> names;

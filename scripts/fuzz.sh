@@ -15,7 +15,8 @@ set -euo pipefail
 cd "$(dirname "$0")/.."
 
 targets=(csv_fuzz poses_fuzz observations_fuzz model_yaml_fuzz stations_yaml_fuzz lab_yaml_fuzz
-  gsi_fuzz geocom_fuzz robot_where_fuzz emscon_fuzz ur_fuzz rws_fuzz)
+  gsi_fuzz geocom_fuzz robot_where_fuzz emscon_fuzz ur_fuzz rws_fuzz urscript_fuzz krl_fuzz
+  rapid_fuzz)
 # The longest input a target is given. libFuzzer otherwise takes the longest seed (a 120 kB
 # real GSI file made gsi_fuzz mutate 120 kB inputs at ~90 executions/s); parsers are linear,
 # and what a long file adds is more of the same lines.
@@ -35,6 +36,9 @@ fault_prefixes() {  # target → the name prefixes of the fault inputs in its fo
     emscon_fuzz) echo "emscon" ;;
     ur_fuzz) echo "ur" ;;
     rws_fuzz) echo "rws" ;;
+    urscript_fuzz) echo "urscript" ;;
+    krl_fuzz) echo "krl" ;;
+    rapid_fuzz) echo "rapid" ;;
   esac
 }
 
@@ -59,6 +63,9 @@ seeds() {  # target → seed files
     emscon_fuzz) find fuzz/seeds/emscon -type f ;;
     ur_fuzz) find fuzz/seeds/ur -type f ;;
     rws_fuzz) find fuzz/seeds/rws -type f ;;
+    urscript_fuzz) find tests/data/programs/urscript fuzz/seeds/programs -name '*.script' -o -name '*.urscript' ;;
+    krl_fuzz) find tests/data/programs/krl fuzz/seeds/programs -name '*.src' -o -name '*.dat' ;;
+    rapid_fuzz) find tests/data/programs/rapid fuzz/seeds/programs -name '*.mod' -o -name '*.sys' ;;
   esac
   faults "$1"
 }

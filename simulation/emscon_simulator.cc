@@ -117,9 +117,11 @@ std::chrono::milliseconds EmsconSimulator::Scaled(std::chrono::milliseconds late
       static_cast<long>(std::llround(static_cast<double>(latency.count()) * options_.time_scale)));
 }
 
-double EmsconSimulator::SigmaMm(double distance_mm) const {
-  return 0.5 * (options_.mpe_constant_mm + options_.mpe_per_metre_mm * distance_mm / 1000.0);
+double TrackerSigmaMm(const EmsconSimulatorOptions& options, double distance_mm) {
+  return 0.5 * (options.mpe_constant_mm + options.mpe_per_metre_mm * distance_mm / 1000.0);
 }
+
+double EmsconSimulator::SigmaMm(double distance_mm) const { return TrackerSigmaMm(options_, distance_mm); }
 
 double EmsconSimulator::Seconds() const {
   return std::chrono::duration<double>(std::chrono::steady_clock::now() - start_).count() *

@@ -76,6 +76,10 @@ struct EmsconSimulatorOptions {
   double search_radius_mm = 150.0;
 };
 
+// σ of each Cartesian component at `distance_mm` of a tracker with these options: half the
+// MPE (the noise model above). The virtual cells that check programs measure with it too.
+double TrackerSigmaMm(const EmsconSimulatorOptions& options, double distance_mm);
+
 class EmsconSimulator : public Simulator {
  public:
   // Listens on `host`:`port` (port 0: any free port; path() names the one taken).

@@ -22,6 +22,7 @@
 #include "db/stored_json.h"
 #include "io/atomic_file.h"
 #include "io/model_yaml.h"
+#include "workflows/signature.h"
 #include "workflows/hint.h"
 
 namespace armsig::workflows {
@@ -35,12 +36,6 @@ int64_t RobotId(db::Database& database, const std::string& robot) {
                      UnknownRobotMessage(database, robot));
   }
   return *id;
-}
-
-// A session id stored as text by older versions ("12"); false when it is not one.
-bool ParseId(const std::string& text, int64_t* id) {
-  const auto [end, error] = std::from_chars(text.data(), text.data() + text.size(), *id);
-  return error == std::errc() && end == text.data() + text.size() && *id > 0;
 }
 
 }  // namespace
@@ -334,13 +329,7 @@ std::vector<VersionInfo> Versions(db::Database& database, const std::string& rob
     const auto inputs =
         db::ParseStoredJson(c.inputs_json, {database.path(), "calibrations", c.id, "inputs_json"});
     if (inputs.is_object()) {
-      if (inputs.contains("sessions") && inputs["sessions"].is_array()) {
-        for (const auto& s : inputs["sessions"]) {  // ids, stored as text by older versions
-          int64_t id = 0;
-          if (s.is_number_integer()) v.sessions.push_back(s.get<int64_t>());
-          if (s.is_string() && ParseId(s.get<std::string>(), &id)) v.sessions.push_back(id);
-        }
-      }
+      v.sessions = InputSessions(inputs);
       if (inputs.contains("since") && inputs["since"].is_string()) v.since = inputs["since"];
       if (inputs.contains("floor_session") && inputs["floor_session"].is_number_integer())
         v.floor_session = inputs["floor_session"].get<int64_t>();

@@ -4,6 +4,7 @@
 #include <spdlog/spdlog.h>
 
 #include <algorithm>
+#include <charconv>
 #include <cmath>
 #include <limits>
 #include <nlohmann/json.hpp>
@@ -13,6 +14,7 @@
 #include "core/rotation.h"
 #include "core/text.h"
 #include "core/units.h"
+#include "db/stored_json.h"
 #include "io/csv.h"
 #include "io/model_export.h"
 #include "io/model_yaml.h"
@@ -70,11 +72,18 @@ Signature SignatureOf(const calibration::RobotModel& model, const db::StoredCali
 
 namespace {
 
+std::vector<int64_t> SessionsOf(db::Database& database, const db::StoredCalibration& c) {
+  if (c.inputs_json.empty()) return {};
+  return InputSessions(db::ParseStoredJson(c.inputs_json, {database.path(), "calibrations", c.id, "inputs_json"}));
+}
+
 // The model as a stored set uses it: terms held to the arcs the set was fitted on.
-ActiveSignature Signed(calibration::RobotModel model, const db::StoredCalibration& stored) {
-  ActiveSignature out{std::move(model), {}};
+ActiveSignature Signed(db::Database& database, calibration::RobotModel model,
+                       const db::StoredCalibration& stored) {
+  ActiveSignature out{std::move(model), {}, {}};
   out.signature = SignatureOf(out.model, stored);
   out.model.term_support = out.signature.validity.term_arcs;
+  out.sessions = SessionsOf(database, stored);
   return out;
 }
 
@@ -90,6 +99,20 @@ calibration::FittedSet FittedSetOf(const calibration::RobotModel& model, const S
   return set;
 }
 
+std::vector<int64_t> InputSessions(const nlohmann::json& inputs) {
+  std::vector<int64_t> out;
+  if (!inputs.is_object() || !inputs.contains("sessions") || !inputs["sessions"].is_array()) return out;
+  for (const auto& s : inputs["sessions"]) {
+    if (s.is_number_integer()) out.push_back(s.get<int64_t>());
+    if (!s.is_string()) continue;
+    const std::string text = s.get<std::string>();
+    int64_t id = 0;
+    const auto [end, error] = std::from_chars(text.data(), text.data() + text.size(), id);
+    if (error == std::errc() && end == text.data() + text.size() && id > 0) out.push_back(id);
+  }
+  return out;
+}
+
 ActiveSignature LoadSignature(db::Database& database, const std::string& robot,
                               std::optional<int> version) {
   if (!version) return LoadActiveSignature(database, robot);
@@ -98,8 +121,8 @@ ActiveSignature LoadSignature(db::Database& database, const std::string& robot,
   const auto history = db::CalibrationHistory(database, *id);
   for (const auto& c : history) {
     if (c.version != *version) continue;
-    return Signed(
-        io::ParseRobotModel(db::RobotModelYaml(database, *id), "model of robot " + robot), c);
+    return Signed(database,
+                  io::ParseRobotModel(db::RobotModelYaml(database, *id), "model of robot " + robot), c);
   }
   throw InputError({"--set", 0, 0, ""},
                    history.empty()
@@ -119,8 +142,8 @@ ActiveSignature LoadActiveSignature(db::Database& database, const std::string& r
                      "robot " + ShellWord(robot) + " has no active parameter set (fit one: " +
                          Hint(database.path(), {"recalibrate", "--robot", robot}) + ")");
   }
-  return Signed(
-      io::ParseRobotModel(db::RobotModelYaml(database, *id), "model of robot " + robot), *active);
+  return Signed(database,
+                io::ParseRobotModel(db::RobotModelYaml(database, *id), "model of robot " + robot), *active);
 }
 
 Eigen::Isometry3d FrameOf(const ActiveSignature& a, const std::string& frame) {

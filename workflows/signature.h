@@ -4,6 +4,7 @@
 #include <Eigen/Core>
 #include <Eigen/Geometry>
 #include <memory>
+#include <nlohmann/json.hpp>
 #include <optional>
 #include <string>
 #include <vector>
@@ -46,7 +47,10 @@ calibration::FittedSet FittedSetOf(const calibration::RobotModel& model, const S
 struct ActiveSignature {
   calibration::RobotModel model;
   Signature signature;
+  std::vector<int64_t> sessions;  // the sessions it was fitted and validated on (empty: not recorded)
 };
+// The session ids a stored set's inputs_json names (ids stored as text by older versions too).
+std::vector<int64_t> InputSessions(const nlohmann::json& inputs);
 // Throws InputError naming the robot when it is unknown or has no active set.
 ActiveSignature LoadActiveSignature(db::Database& database, const std::string& robot);
 // A stored set in use (`--set N`): version `version` of the robot, active or not; the

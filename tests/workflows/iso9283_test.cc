@@ -109,7 +109,7 @@ TEST(Iso9283Plan, MultiDirectionalPlanApproachesFromViaPoints) {
 
 TEST(Iso9283Plan, CompensatedPlanLandsTheCalibratedModelOnTheTargets) {
   const auto model = testing::Puma();
-  ActiveSignature signature{model, {}};
+  ActiveSignature signature{model, {}, {}};
   signature.signature.version = 7;
   signature.signature.params = calibration::PaperTable3Parameters();
   signature.signature.sigmas = Eigen::VectorXd::Constant(model.num_parameters(), NAN);

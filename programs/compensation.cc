@@ -1,0 +1,398 @@
+#include "programs/compensation.h"
+
+#include <fmt/format.h>
+
+#include <algorithm>
+#include <cmath>
+#include <map>
+#include <set>
+#include <stdexcept>
+
+#include "calibration/damped_step.h"
+#include "calibration/pose_solver.h"
+#include "calibration/residual_map.h"
+#include "core/units.h"
+
+namespace armsig::programs {
+
+namespace {
+
+// The signed robot's chain carrying a tool: the model's target point moved to the TCP. The
+// calibration point's fitted offset (a, b, c of its tool parameters) stays: the probe is
+// taken to sit where the model file says, so what the fit found there is the flange's.
+class SignedChain {
+ public:
+  SignedChain(const SignedRobot& robot, const Eigen::Isometry3d& tool)
+      : robot_(robot), model_(*robot.model), params_(robot.params), kin_(model_) {
+    const int n = model_.num_joints();
+    if (params_.size() != model_.num_parameters())
+      throw std::invalid_argument("the signature's parameters do not fit its model");
+    flange_tool_ = model_.flange * tool;
+    model_.tool_mm = flange_tool_.translation();
+    corrected_.resize(n);
+    map_jacobian_.resize(3, n);
+  }
+
+  // The TCP at encoder angles q; with `jacobian` its derivative by them (rows 0–2 the
+  // position, 3–5 the world-side rotation).
+  SignedPose Evaluate(const Eigen::VectorXd& q, Eigen::MatrixXd* jacobian) {
+    SignedPose out;
+    const calibration::ResidualMap* map = robot_.map;
+    bool curves_inside = true;
+    corrected_ = q;
+    if (map) curves_inside = map->CorrectJoints(q.data(), corrected_.data());
+    Eigen::Vector3d x = kin_.Position(Eigen::Isometry3d::Identity(), params_, corrected_.data());
+    if (jacobian) {
+      jacobian->resize(6, q.size());
+      jacobian->topRows(3) = kin_.JointJacobian();
+      jacobian->bottomRows(3) = kin_.JointAxes();
+    }
+    if (map) {
+      const calibration::MapPrediction p = map->PredictWithJacobian(q.data(), map_jacobian_);
+      out.map_extrapolated = !(p.supported && curves_inside);
+      x += p.correction_in_base_mm;  // robot frame: the map's own base frame
+      if (jacobian) jacobian->topRows(3) += map_jacobian_;
+    }
+    out.tcp.linear() = kin_.LastRotation() * flange_tool_.linear();
+    out.tcp.translation() = x;
+    return out;
+  }
+
+ private:
+  const SignedRobot& robot_;
+  calibration::RobotModel model_;
+  Eigen::VectorXd params_;
+  calibration::Kinematics kin_;
+  Eigen::Isometry3d flange_tool_ = Eigen::Isometry3d::Identity();
+  Eigen::VectorXd corrected_;
+  Eigen::Matrix<double, 3, Eigen::Dynamic> map_jacobian_;
+};
+
+double AngleDeg(const Eigen::Matrix3d& a, const Eigen::Matrix3d& b) {
+  return Eigen::AngleAxisd(a * b.transpose()).angle() / kRadPerDeg;
+}
+
+bool SameFrame(const Eigen::Isometry3d& a, const Eigen::Isometry3d& b) {
+  return (a.translation() - b.translation()).norm() < 1e-6 && (a.linear() - b.linear()).norm() < 1e-9;
+}
+
+bool HasStated(const StatedConfiguration& s) { return s.kuka_status || s.kuka_turn || s.abb_cf; }
+
+std::string Flags(const ArmConfiguration& a) {
+  return fmt::format("{}, elbow {}, wrist {}", a.overhead ? "behind joint 1" : "in front of joint 1",
+                     a.elbow ? "past stretched" : "short of stretched", a.wrist ? "flipped" : "not flipped");
+}
+
+}  // namespace
+
+SignedPose SignedTcp(const SignedRobot& robot, const Eigen::Isometry3d& tool, const Eigen::VectorXd& q) {
+  SignedChain chain(robot, tool);
+  return chain.Evaluate(q, nullptr);
+}
+
+Eigen::Vector3d SignedCalibrationPoint(const SignedRobot& robot, const Eigen::VectorXd& q) {
+  const std::vector<calibration::MappedPosition> p = calibration::PredictPositions(
+      *robot.model, Eigen::Isometry3d::Identity(), robot.params, robot.map, {q});
+  return p.at(0).position_mm;
+}
+
+calibration::JointSolution SolveSigned(const SignedRobot& robot, const Eigen::Isometry3d& tool,
+                                       const Eigen::Isometry3d& pose, const Eigen::VectorXd& seed,
+                                       const calibration::JointSolveOptions& options) {
+  options.Check();
+  SignedChain chain(robot, tool);
+  calibration::JointSolution s;
+  s.joints_rad = seed;
+  Eigen::Matrix<double, 6, 1> e;
+  Eigen::MatrixXd j;
+  auto evaluate = [&](const Eigen::VectorXd& q, Eigen::MatrixXd* jacobian) {
+    const SignedPose p = chain.Evaluate(q, jacobian);
+    s.map_extrapolated = p.map_extrapolated;
+    const Eigen::AngleAxisd turn(pose.linear() * p.tcp.linear().transpose());
+    e.head<3>() = pose.translation() - p.tcp.translation();
+    e.tail<3>() = calibration::kPoseLeverMm * turn.angle() * turn.axis();
+    if (jacobian) jacobian->bottomRows(3) *= calibration::kPoseLeverMm;
+    return e.norm();
+  };
+  calibration::StallWatch watch;
+  for (; s.iterations < options.max_iterations; ++s.iterations) {
+    s.residual_mm = evaluate(s.joints_rad, &j);
+    if (!(s.residual_mm >= options.tolerance_mm)) break;
+    s.joints_rad += calibration::DampedJointStep(j, e, s.residual_mm, options);
+    if (watch.Stalled(s.residual_mm)) break;
+  }
+  s.residual_mm = evaluate(s.joints_rad, nullptr);
+  if (!std::isfinite(s.residual_mm) || !s.joints_rad.allFinite()) {
+    s.status = {SolveCode::kNonFinite, "the solution is not a finite number"};
+    return s;
+  }
+  if (s.residual_mm > options.tolerance_mm * 10) {
+    s.status = {SolveCode::kNotConverged,
+                fmt::format("no joints put the TCP there (closest {:.3f} mm and {:.4f}°)", e.head<3>().norm(),
+                            e.tail<3>().norm() / calibration::kPoseLeverMm / kRadPerDeg)};
+    return s;
+  }
+  s.residual_mm = e.head<3>().norm();
+  s.status = calibration::JointLimitStatus(*robot.model, s.joints_rad);
+  return s;
+}
+
+const char* ToString(TargetStatus status) {
+  switch (status) {
+    case TargetStatus::kOk:
+      return "ok";
+    case TargetStatus::kOutsideJointRange:
+      return "outside_joint_range";
+    case TargetStatus::kOutsideMeasuredVolume:
+      return "outside_measured_volume";
+    case TargetStatus::kOutOfReach:
+      return "out_of_reach";
+    case TargetStatus::kConfigurationChange:
+      return "configuration_change";
+    case TargetStatus::kTaughtJointsMissPose:
+      return "taught_joints_miss_pose";
+    case TargetStatus::kFrameUnknown:
+      return "frame_unknown";
+    case TargetStatus::kConflictingUse:
+      return "conflicting_use";
+  }
+  return "?";
+}
+
+bool IsRefusal(TargetStatus s) {
+  return s == TargetStatus::kOutsideJointRange || s == TargetStatus::kOutsideMeasuredVolume ||
+         s == TargetStatus::kOutOfReach || s == TargetStatus::kConfigurationChange ||
+         s == TargetStatus::kTaughtJointsMissPose;
+}
+
+namespace {
+
+class Compensator {
+ public:
+  Compensator(const Program& program, const ControllerModel& controller, const SignedRobot& robot,
+              const ValidatedVolume* volume, const CompensationOptions& options)
+      : p_(program), c_(controller), robot_(robot), volume_(volume), options_(options) {
+    const int n = c_.num_joints();
+    if (!robot.model || robot.model->num_joints() != n)
+      throw std::invalid_argument("the controller's model and the signature's have different joint counts");
+    for (const Motion& m : p_.motions)
+      for (int t : m.targets) uses_[t].push_back(&m);
+  }
+
+  ProgramCompensation Run() {
+    ProgramCompensation out;
+    out.allow_outside = options_.allow_outside;
+    std::set<int> done;
+    std::optional<Eigen::VectorXd> previous;
+    for (const Motion& m : p_.motions) {
+      for (int t : m.targets) {
+        if (!done.insert(t).second) continue;
+        TargetReport r = One(t, previous, &out.edits);
+        if (r.nominal_joints_rad.size() == c_.num_joints()) previous = r.nominal_joints_rad;
+        if (IsRefusal(r.status)) ++out.refused;
+        out.targets.push_back(std::move(r));
+      }
+    }
+    if (out.refused > 0 && !options_.allow_outside) {
+      out.edits.clear();
+      for (auto& r : out.targets) r.written = false;
+    }
+    return out;
+  }
+
+ private:
+  TargetReport One(int index, const std::optional<Eigen::VectorXd>& previous, std::vector<Edit>* edits) {
+    const Target& t = p_.targets[static_cast<std::size_t>(index)];
+    const int n = c_.num_joints();
+    TargetReport r;
+    r.target = index;
+    r.orientation_measured = robot_.orientation_measured;
+    const auto& uses = uses_.at(index);
+    for (const Motion* m : uses) r.motions.push_back(m->place.line);
+    auto fail = [&](TargetStatus status, std::string why) {
+      r.status = status;
+      r.why = std::move(why);
+      return r;
+    };
+    // One tool and one base for all its motions.
+    const Motion& first = *uses.front();
+    const bool pose_target = t.kind() == TargetKind::kPose;
+    for (const Motion* m : uses) {
+      if (!m->tool.known())
+        return fail(TargetStatus::kFrameUnknown,
+                    fmt::format("the tool of {} at line {} ({}): {}", m->instruction, m->place.line,
+                                m->tool.name, m->tool.unknown_why));
+      if (pose_target && !m->base.known())
+        return fail(TargetStatus::kFrameUnknown,
+                    fmt::format("the base of {} at line {} ({}): {}", m->instruction, m->place.line,
+                                m->base.name, m->base.unknown_why));
+      if (first.tool.known() && !SameFrame(*m->tool.transform, *first.tool.transform))
+        return fail(TargetStatus::kConflictingUse,
+                    fmt::format("used with tool {} at line {} and tool {} at line {}: one set of numbers "
+                                "cannot land both", first.tool.name, first.place.line, m->tool.name, m->place.line));
+      if (pose_target && first.base.known() && !SameFrame(*m->base.transform, *first.base.transform))
+        return fail(TargetStatus::kConflictingUse,
+                    fmt::format("used in base {} at line {} and base {} at line {}", first.base.name,
+                                first.place.line, m->base.name, m->place.line));
+    }
+    const Eigen::Isometry3d tool = *first.tool.transform;
+    const Eigen::Isometry3d base = pose_target ? *first.base.transform : Eigen::Isometry3d::Identity();
+
+    // Intent and the controller's own joints.
+    Eigen::Isometry3d intent;
+    std::optional<Eigen::VectorXd> near = previous;
+    const Target* near_target = nullptr;
+    if (!pose_target) {
+      if (static_cast<int>(t.fields.size()) != n)
+        return fail(TargetStatus::kOutOfReach,
+                    fmt::format("{} joint values for a robot of {} joints", t.fields.size(), n));
+      r.nominal_joints_rad = JointsOf(t);
+      intent = TcpPose(c_, r.nominal_joints_rad, tool);
+    } else {
+      intent = base * PoseOf(t);
+      if (t.config.near_target) {
+        near_target = &p_.targets[static_cast<std::size_t>(*t.config.near_target)];
+        if (static_cast<int>(near_target->fields.size()) == n) {
+          const Eigen::VectorXd taught = JointsOf(*near_target);
+          const Eigen::Isometry3d at = TcpPose(c_, taught, tool);
+          const double mm = (at.translation() - intent.translation()).norm();
+          const double deg = AngleDeg(at.linear(), intent.linear());
+          if (mm > options_.taught_tolerance_mm || deg > options_.taught_tolerance_deg) {
+            r.nominal_joints_rad = taught;
+            return fail(TargetStatus::kTaughtJointsMissPose,
+                        fmt::format("its taught joints {} put the TCP {:.3f} mm and {:.4f}° from it on the "
+                                    "controller's model ({})", near_target->name, mm, deg, c_.description));
+          }
+          near = taught;
+        }
+      }
+      if (!near && !HasStated(t.config))
+        r.note = "no joints to start from (no qnear, no target before it): the controller's solution "
+                 "nearest all joints at zero is assumed";
+      InverseRequest request;
+      request.tcp = intent;
+      request.tool = tool;
+      request.stated = t.config;
+      request.stated.near_target.reset();
+      request.near_rad = near;
+      const InverseSolution inv = ControllerInverse(c_, request);
+      if (!inv.joints_rad) {
+        if (inv.reachable && HasStated(t.config))
+          return fail(TargetStatus::kTaughtJointsMissPose,
+                      fmt::format("its configuration data {} fit none of its pose's solutions on the "
+                                  "controller's model: {}", Describe(t.config), inv.why));
+        return fail(TargetStatus::kOutOfReach, fmt::format("the controller's model: {}", inv.why));
+      }
+      r.nominal_joints_rad = *inv.joints_rad;
+    }
+
+    // The signed robot onto the intent, from the controller's joints.
+    const calibration::JointSolution s =
+        SolveSigned(robot_, tool, intent, r.nominal_joints_rad, options_.solve);
+    if (!s.status.ok())
+      return fail(TargetStatus::kOutOfReach, fmt::format("the calibrated robot: {}", s.status.message));
+    r.compensated_joints_rad = s.joints_rad;
+    r.residual_mm = s.residual_mm;
+    r.map_extrapolated = s.map_extrapolated;
+    const Eigen::Isometry3d written = TcpPose(c_, s.joints_rad, tool);
+    r.correction_mm = (written.translation() - intent.translation()).norm();
+    r.correction_deg = AngleDeg(written.linear(), intent.linear());
+
+    // The configuration the program's numbers ask for must be the compensated joints' own.
+    const ArmConfiguration nominal = ConfigurationOf(c_, r.nominal_joints_rad);
+    const ArmConfiguration compensated = ConfigurationOf(c_, s.joints_rad);
+    if (pose_target && c_.kind == ControllerKind::kUniversalRobots) {
+      InverseRequest again;
+      again.tcp = written;
+      again.tool = tool;
+      again.near_rad = near;
+      const InverseSolution back = ControllerInverse(c_, again);
+      if (!back.joints_rad || (*back.joints_rad - s.joints_rad).cwiseAbs().maxCoeff() > 1e-5)
+        return fail(TargetStatus::kConfigurationChange,
+                    "the controller's solution nearest the joints it starts from is another configuration "
+                    "than the compensated joints");
+    } else if (pose_target && HasStated(t.config)) {
+      if (!Matches(t.config, compensated)) {
+        StatedConfiguration got;
+        if (t.config.abb_cf) got.abb_cf = compensated.abb_cf;
+        if (t.config.kuka_status) got.kuka_status = compensated.kuka_status;
+        if (t.config.kuka_turn) got.kuka_turn = compensated.kuka_turn;
+        return fail(TargetStatus::kConfigurationChange,
+                    fmt::format("the compensated joints are in configuration {}, the program's {}",
+                                Describe(got), Describe(t.config)));
+      }
+    } else if (nominal.overhead != compensated.overhead || nominal.elbow != compensated.elbow ||
+               nominal.wrist != compensated.wrist) {
+      return fail(TargetStatus::kConfigurationChange,
+                  fmt::format("the compensated joints are {}, the program's {}", Flags(compensated), Flags(nominal)));
+    }
+
+    // Inside what the set was validated on, and what it promises there.
+    if (volume_ && !volume_->empty()) {
+      if (auto why = volume_->OutsideJoints(s.joints_rad)) {
+        r.status = TargetStatus::kOutsideJointRange;
+        r.why = fmt::format("{} ({})", *why, volume_->source());
+      } else if (const double d = volume_->DistanceOutside(SignedCalibrationPoint(robot_, s.joints_rad)); d > 1e-6) {
+        r.status = TargetStatus::kOutsideMeasuredVolume;
+        r.why = fmt::format("the calibration point lies {:.1f} mm outside the volume measured in {}", d,
+                            volume_->source());
+      }
+    }
+    Promise(tool, s.joints_rad, r);
+    if (r.status != TargetStatus::kOk && !options_.allow_outside) return r;
+
+    // The rewrite.
+    const std::vector<Edit> own =
+        pose_target ? RewritePose(t, base.inverse() * written) : RewriteJoints(t, s.joints_rad);
+    edits->insert(edits->end(), own.begin(), own.end());
+    // A waypoint's taught joints follow its pose (unless a motion moves to them on their own).
+    if (near_target && !uses_.count(*t.config.near_target) && rewritten_near_.insert(*t.config.near_target).second) {
+      const std::vector<Edit> q = RewriteJoints(*near_target, s.joints_rad);
+      edits->insert(edits->end(), q.begin(), q.end());
+    }
+    r.written = true;
+    return r;
+  }
+
+  // The support and predicted σ of a compensated target whose volume checks are done.
+  void Promise(const Eigen::Isometry3d& tool, const Eigen::VectorXd& q, TargetReport& r) const {
+    const calibration::SetValidity none;
+    const calibration::SetValidity& validity = robot_.validity ? *robot_.validity : none;
+    const calibration::Support support =
+        calibration::SupportAt(*robot_.model, robot_.params, validity, q, r.map_extrapolated);
+    r.inside_support = support.inside && r.status == TargetStatus::kOk;
+    if (r.inside_support) {
+      r.support = "inside";
+    } else if (r.status == TargetStatus::kOk) {
+      r.support = support.Describe(q, validity);
+    } else {
+      r.support = r.why;
+      if (support.map_outside) r.support += "; outside the residual map";
+    }
+    // The parameters' own σ where the TCP is (the model's point moved to it), with the
+    // held-out σ of inside or outside.
+    calibration::RobotModel at_tcp = *robot_.model;
+    at_tcp.tool_mm = (robot_.model->flange * tool).translation();
+    const double parametric =
+        calibration::ParametricSigmaMm(at_tcp, robot_.params, robot_.identified, robot_.covariance, q);
+    r.sigma_mm = calibration::PredictionSigmaMm(parametric, validity, r.inside_support);
+  }
+
+  const Program& p_;
+  const ControllerModel& c_;
+  const SignedRobot& robot_;
+  const ValidatedVolume* volume_;
+  const CompensationOptions& options_;
+  std::map<int, std::vector<const Motion*>> uses_;
+  std::set<int> rewritten_near_;
+};
+
+}  // namespace
+
+ProgramCompensation CompensateProgram(const Program& program, const ControllerModel& controller,
+                                      const SignedRobot& robot, const ValidatedVolume* volume,
+                                      const CompensationOptions& options) {
+  return Compensator(program, controller, robot, volume, options).Run();
+}
+
+}  // namespace armsig::programs
