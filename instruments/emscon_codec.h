@@ -42,6 +42,8 @@ class FrameSplitter {
   Status Next(std::string& frame, int32_t* bad_size = nullptr);
   size_t buffered() const { return buffer_.size() - start_; }
   void Clear();
+  static constexpr size_t min_frame() { return kMinPacketBytes; }
+  static constexpr size_t max_frame() { return kMaxPacketBytes; }
 
  private:
   std::string buffer_;

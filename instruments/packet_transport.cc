@@ -8,14 +8,16 @@ namespace {
 
 namespace asio = boost::asio;
 
-TransportError BadFrame(const std::string& name, int32_t size) {
+template <typename Splitter>
+TransportError BadFrame(const std::string& name, const Splitter& splitter, int32_t size) {
   return TransportError(TransportError::Kind::kBadFrame, name,
                         "frame size field " + std::to_string(size) + " outside " +
-                            std::to_string(emscon::kMinPacketBytes) + " to " +
-                            std::to_string(emscon::kMaxPacketBytes) +
+                            std::to_string(splitter.min_frame()) + " to " +
+                            std::to_string(splitter.max_frame()) +
                             " bytes: the stream lost its framing");
 }
 
+template <typename Splitter>
 class TcpPacketTransport : public PacketTransport {
  public:
   TcpPacketTransport(std::string host, unsigned short port, Millis timeout)
@@ -43,11 +45,11 @@ class TcpPacketTransport : public PacketTransport {
     for (;;) {
       int32_t size = 0;
       switch (splitter_.Next(frame, &size)) {
-        case emscon::FrameSplitter::Status::kFrame:
+        case Splitter::Status::kFrame:
           return frame;
-        case emscon::FrameSplitter::Status::kBadSize:
-          throw BadFrame(name_, size);
-        case emscon::FrameSplitter::Status::kNeedMore:
+        case Splitter::Status::kBadSize:
+          throw BadFrame(name_, splitter_, size);
+        case Splitter::Status::kNeedMore:
           break;
       }
       if (Clock::now() >= deadline) {
@@ -81,7 +83,7 @@ class TcpPacketTransport : public PacketTransport {
   unsigned short port_;
   Millis timeout_;
   detail::AsioStream<asio::ip::tcp::socket> conn_;
-  emscon::FrameSplitter splitter_;
+  Splitter splitter_;
   char chunk_[4096];
 };
 
@@ -90,10 +92,17 @@ class TcpPacketTransport : public PacketTransport {
 std::unique_ptr<PacketTransport> MakeEmsconTcpTransport(const std::string& host,
                                                         unsigned short port,
                                                         Millis connect_timeout) {
-  return std::make_unique<TcpPacketTransport>(host, port, connect_timeout);
+  return std::make_unique<TcpPacketTransport<emscon::FrameSplitter>>(host, port, connect_timeout);
 }
 
-void FakePacketTransport::Open() {
+std::unique_ptr<PacketTransport> MakeKukaTcpTransport(const std::string& host,
+                                                      unsigned short port,
+                                                      Millis connect_timeout) {
+  return std::make_unique<TcpPacketTransport<kuka::FrameSplitter>>(host, port, connect_timeout);
+}
+
+template <typename Splitter>
+void BasicFakePacketTransport<Splitter>::Open() {
   if (Interrupted()) ThrowInterrupted();
   open_ = true;
   ++opens_;
@@ -101,25 +110,27 @@ void FakePacketTransport::Open() {
   splitter_.Clear();
 }
 
-void FakePacketTransport::Write(std::string_view packet, Deadline) {
+template <typename Splitter>
+void BasicFakePacketTransport<Splitter>::Write(std::string_view packet, Deadline) {
   if (Interrupted()) ThrowInterrupted();
   if (!open_) throw TransportError(TransportError::Kind::kClosed, name_, "port is not open");
   written_.emplace_back(packet);
   for (auto& chunk : responder_(packet)) chunks_.push_back(std::move(chunk));
 }
 
-std::string FakePacketTransport::ReadPacket(Deadline) {
+template <typename Splitter>
+std::string BasicFakePacketTransport<Splitter>::ReadPacket(Deadline) {
   std::string frame;
   for (;;) {
     if (Interrupted()) ThrowInterrupted();
     if (!open_) throw TransportError(TransportError::Kind::kClosed, name_, "port is not open");
     int32_t size = 0;
     switch (splitter_.Next(frame, &size)) {
-      case emscon::FrameSplitter::Status::kFrame:
+      case Splitter::Status::kFrame:
         return frame;
-      case emscon::FrameSplitter::Status::kBadSize:
-        throw BadFrame(name_, size);
-      case emscon::FrameSplitter::Status::kNeedMore:
+      case Splitter::Status::kBadSize:
+        throw BadFrame(name_, splitter_, size);
+      case Splitter::Status::kNeedMore:
         break;
     }
     if (chunks_.empty()) {
@@ -132,12 +143,16 @@ std::string FakePacketTransport::ReadPacket(Deadline) {
   }
 }
 
-int FakePacketTransport::Drain(Millis, Deadline) {
+template <typename Splitter>
+int BasicFakePacketTransport<Splitter>::Drain(Millis, Deadline) {
   int n = static_cast<int>(splitter_.buffered());
   for (const auto& c : chunks_) n += static_cast<int>(c.size());
   chunks_.clear();
   splitter_.Clear();
   return n;
 }
+
+template class BasicFakePacketTransport<emscon::FrameSplitter>;
+template class BasicFakePacketTransport<kuka::FrameSplitter>;
 
 }  // namespace armsig::instruments
