@@ -240,6 +240,10 @@ DeviceClaims ClaimDevices(const io::LabConfig& lab, const std::string& what,
     for (const auto& p : c.counter_ports) devices.push_back(SerialName(p));
   } else if (!c.port.empty()) {
     devices.push_back(SerialName(c.port));
+  } else if (!c.host.empty()) {
+    // A controller on the network: one claim for every port it is reached on (a lab file
+    // naming another of its interfaces still meets the claim of the port it shares).
+    for (const auto& [key, port] : c.ports) devices.push_back(TcpName(c.host + ":" + std::to_string(port)));
   }
   std::set<std::string> seen;
   for (const auto& d : devices) {

@@ -15,6 +15,7 @@
 #include <thread>
 
 #include "acquisition/beam_pointing.h"
+#include "acquisition/controller_record.h"
 #include "acquisition/observation_rows.h"
 #include "acquisition/session_owner.h"
 #include "core/error.h"
@@ -81,6 +82,7 @@ struct StopRequested {};
 
 struct Measurement {
   Eigen::VectorXd joints;
+  std::optional<double> controller_time_s;  // the controller's stamp of `joints`, when it has one
   std::vector<StationReading> readings;  // every reading of every instrument (faces, repeats)
   reduction::ReducedPoint point;         // its flags carry the tolerance checks
   double device_ms = 0.0;                // slowest device call of each parallel step, summed
@@ -150,6 +152,11 @@ db::InstrumentRow InstrumentRowOf(const io::InstrumentConfig& c,
   }
   return row;
 }
+
+// A streaming controller's joints read before and after the instruments may differ by this
+// much and the arm still count as standing (0.001°: 0.02 mm at a metre, below any
+// instrument's noise; a standing arm's encoders repeat within a few microradians).
+constexpr double kStillToleranceRad = 2e-5;
 
 // A tracker searches at the distance the prediction gives, else at its last reading's,
 // else at this (a typical robot cell: the tracker a few metres from the robot).
@@ -236,9 +243,15 @@ class CaptureRun {
     int attempts = 0;
     std::string fault;
     bool stopped = false;
+    // The fault is the controller's state (an emergency stop, local mode, …): the session
+    // pauses, never skips the configuration (no arm can be measured until it is dealt with).
+    bool controller_fault = false;
   };
 
   void SetUp();
+  void IdentifyController(const std::string& robot);
+  bool WaitOut(const instruments::ControllerError& stop, const PlannedConfiguration& target);
+  void ConfirmStill(const Measurement& m) const;
   instruments::DeviceInfo Identity(size_t i) const;
   bool PauseUnlessFollowing(const std::string& where);
   bool Stopping() const { return options_.stop && options_.stop->load(); }
@@ -329,6 +342,7 @@ void CaptureRun::SetUp() {
   plan_ = PlanFromJson(row->plan_json, {db_.path(), "sessions", session_, "plan_json"});
   summary_.total = static_cast<int>(plan_.size());
   summary_.single_ray = devices_.size() == 1;
+  IdentifyController(row->robot);
   const auto stored = db::StoredSeqs(db_, session_);
   done_ = std::set<int>(stored.begin(), stored.end());
   summary_.already = static_cast<int>(done_.size());
@@ -357,6 +371,90 @@ void CaptureRun::SetUp() {
                  options_.prediction_params ? " and the robot's active arm signature"
                                             : " and the nominal model");
   }
+}
+
+// The controller says who it is before anything is measured: another arm than the lab's
+// robot, the robot as registered or the session's is refused (nothing stored); what it says
+// is kept with the session (when it has none yet) and the robot.
+void CaptureRun::IdentifyController(const std::string& robot) {
+  const ControllerFacts facts = AskController(controller_);
+  if (!facts.identity) return;
+  CheckControllerFacts(db_, lab_, robot, session_, facts);
+  summary_.controller = facts.Describe();
+  spdlog::info("capture: robot controller {}", summary_.controller);
+  db::WriteTransaction tx(db_);
+  if (!db::SessionController(db_, session_)) db::SetSessionController(db_, session_, facts.Record());
+  if (const auto robot_id = db::FindRobot(db_, robot))
+    db::RecordRobotController(db_, *robot_id, facts.Record());
+  tx.commit();
+}
+
+// A stop the session waits out (a protective stop): says so, has it cleared from here when
+// the operator asks for it, and waits until the controller takes moves again. Returns false
+// when stopped meanwhile (Ctrl-C); throws the controller's error when the wait ends by
+// max_controller_wait_s or the controller turns to a state that is not waited out (an
+// emergency stop pressed meanwhile).
+bool CaptureRun::WaitOut(const instruments::ControllerError& stop,
+                         const PlannedConfiguration& target) {
+  const auto start = Clock::now();
+  ++summary_.controller_waits;
+  spdlog::warn("capture: {}: {}: the session waits until it is cleared", target.label, stop.what());
+  if (options_.progress) {
+    Progress p;
+    p.done = summary_.already + summary_.measured + summary_.skipped;
+    p.total = summary_.total;
+    p.label = target.label;
+    p.waiting = std::string(instruments::KindName(stop.kind())) + ": " + stop.action();
+    options_.progress(p);
+  }
+  bool clear_here = options_.controller_fault && options_.controller_fault(stop);
+  for (;;) {
+    if (Stopping()) return false;
+    try {
+      if (clear_here) {
+        controller_.ClearProtectiveStop();
+        clear_here = false;
+      }
+      controller_.CheckReady();
+      const double waited = std::chrono::duration<double>(Clock::now() - start).count();
+      summary_.controller_wait_s += waited;
+      spdlog::info("capture: {}: {} cleared after {:.1f} s; moving to it again", target.label,
+                   instruments::KindName(stop.kind()), waited);
+      return true;
+    } catch (const instruments::ControllerError& e) {
+      if (!e.WaitedOut()) throw;
+      spdlog::debug("capture: {}: still waiting: {}", target.label, e.what());
+    }
+    const double waited = std::chrono::duration<double>(Clock::now() - start).count();
+    if (options_.max_controller_wait_s > 0 && waited > options_.max_controller_wait_s) {
+      summary_.controller_wait_s += waited;
+      throw instruments::ControllerError(
+          stop.kind(), controller_.name(),
+          fmt::format("not cleared after {:.0f} s of waiting", waited), stop.action());
+    }
+    try {
+      SleepUnlessStopped(100);
+    } catch (const StopRequested&) {
+      return false;
+    }
+  }
+}
+
+// A controller that streams its joints is read again after the instruments: a reading whose
+// arm moved in between is never stored (ControllerError kArmMoving, the configuration faults
+// and is measured again).
+void CaptureRun::ConfirmStill(const Measurement& m) const {
+  if (!controller_.StreamsJoints()) return;
+  const instruments::StampedJoints after = controller_.ReadStampedJoints();
+  if (after.joints_rad.size() != m.joints.size()) return;
+  Eigen::Index worst = 0;
+  const double moved = (after.joints_rad - m.joints).cwiseAbs().maxCoeff(&worst);
+  if (!(moved > kStillToleranceRad)) return;
+  throw instruments::ControllerError(
+      instruments::ControllerError::Kind::kArmMoving, controller_.name(),
+      fmt::format("joint {} moved by {:.6f} deg while the instruments measured", worst + 1,
+                  moved * 180.0 / kPi),
+      "nothing else may move the arm during a capture (another program, the pendant, freedrive)");
 }
 
 // What instrument `i` said it is when it was probed before the run (CaptureOptions); one
@@ -455,8 +553,8 @@ void CaptureRun::Round(bool with_joints, Measurement& m, const PlannedConfigurat
       return std::make_pair(r, MsSince(a));
     });
   }
-  std::future<Eigen::VectorXd> joints;
-  if (with_joints) joints = crew_.Spawn([&] { return controller_.ReadJointsRad(); });
+  std::future<instruments::StampedJoints> joints;
+  if (with_joints) joints = crew_.Spawn([&] { return controller_.ReadStampedJoints(); });
   std::exception_ptr failure;
   std::vector<Timed> done_reads;
   try {
@@ -466,7 +564,9 @@ void CaptureRun::Round(bool with_joints, Measurement& m, const PlannedConfigurat
   }
   if (with_joints) {
     try {
-      m.joints = joints.get();
+      const instruments::StampedJoints stamped = joints.get();
+      m.joints = stamped.joints_rad;
+      m.controller_time_s = stamped.controller_time_s;
     } catch (...) {
       if (!failure) failure = std::current_exception();
     }
@@ -579,6 +679,7 @@ Measurement CaptureRun::MeasureOnce(const PlannedConfiguration& target, double p
   Measurement m;
   m.device_ms = pointing_ms;
   Round(true, m, target, 0);
+  ConfirmStill(m);
   if (controller_.CanMove()) CheckJoints(target, m.joints);
   reduction::RayGroup group;  // every ray, and each repeated round's rays
   if (angle_only_ >= 2) group.repeats.push_back(RaysOf(m.readings, true));
@@ -642,6 +743,30 @@ CaptureRun::Outcome CaptureRun::MeasureConfiguration(const PlannedConfiguration&
       throw;  // no reading of that tracker can be used: the capture ends here
     } catch (const StopRequested&) {
       out.stopped = true;
+    } catch (const instruments::ControllerError& e) {
+      if (Stopping()) {
+        out.stopped = true;
+      } else if (e.WaitedOut()) {
+        // Waited out, then this configuration again from its move: the stop is no fault of
+        // it and does not count against fault_retries. Nothing measured before it is kept.
+        try {
+          if (!WaitOut(e, target)) out.stopped = true;
+          --fault_try;
+        } catch (const instruments::ControllerError& other) {
+          out.fault = other.what();
+          out.controller_fault = true;
+          break;
+        }
+      } else {
+        out.fault = e.what();
+        out.controller_fault = true;
+        // A moving arm or a lost connection may pass: retried as any fault. The rest waits
+        // for the operator: the session pauses at once.
+        if (e.kind() == instruments::ControllerError::Kind::kArmMoving) ++summary_.moving_refused;
+        if (e.kind() != instruments::ControllerError::Kind::kArmMoving &&
+            e.kind() != instruments::ControllerError::Kind::kConnectionLost)
+          break;
+      }
     } catch (const std::exception& e) {
       // A device call the stop flag interrupted (or that failed while it was raised) is no
       // fault of the configuration: the session stops.
@@ -691,8 +816,8 @@ void CaptureRun::StoreMeasurement(int seq, const PlannedConfiguration& target,
   const Measurement& m = *outcome.accepted;
   const auto store_start = Clock::now();
   db::WriteTransaction tx(db_);
-  const int64_t pose =
-      db::InsertPose(db_, session_, seq, target.label, m.joints, "measured", outcome.attempts);
+  const int64_t pose = db::InsertPose(db_, session_, seq, target.label, m.joints, "measured",
+                                      outcome.attempts, m.controller_time_s);
   std::vector<db::ObservationRow> rows;
   for (const auto& r : m.readings) {
     rows.push_back(StoredReading(r, lab_.instruments[r.instrument], pose,
@@ -786,10 +911,10 @@ CaptureSummary CaptureRun::Finish() {
 }
 
 CaptureSummary CaptureRun::Run() {
+  const InterruptScope interrupts(devices_, controller_, options_.stop);
   SetUp();
   const bool stored_points_wrong = PauseUnlessFollowing(
       fmt::format("the {} stored points of this session", predictor_.points()));
-  const InterruptScope interrupts(devices_, controller_, options_.stop);
   start_ = Clock::now();
   for (int seq = 0; seq < static_cast<int>(plan_.size()) && !stored_points_wrong; ++seq) {
     if (done_.count(seq)) continue;
@@ -806,7 +931,7 @@ CaptureSummary CaptureRun::Run() {
       db::SetSessionState(db_, session_, "paused");
       break;
     }
-    if (!outcome.accepted && !options_.skip_on_fault) {
+    if (!outcome.accepted && (!options_.skip_on_fault || outcome.controller_fault)) {
       summary_.paused = true;
       summary_.pause_reason = "configuration " + target.label + " (" + std::to_string(seq + 1) +
                               " of " + std::to_string(plan_.size()) + "): " + outcome.fault;

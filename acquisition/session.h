@@ -29,6 +29,8 @@ struct Progress {
   // configuration of this run has one yet.
   std::optional<double> last_miss_mm, mean_miss_mm, max_miss_mm;
   double elapsed_s = 0.0, eta_s = 0.0;
+  // The session waits for the controller (a protective stop): what it waits for, else empty.
+  std::string waiting;
 };
 
 struct CaptureOptions {
@@ -48,6 +50,15 @@ struct CaptureOptions {
   // What each instrument said it is when the capture began (model, serial number, firmware:
   // workflows' ProbeDevices), for the instruments table; by device, may be shorter.
   std::vector<instruments::DeviceInfo> identities;
+  // The controller stopped the arm in a way the session waits out (a protective stop): told
+  // once per stop, with the controller's message and what the operator must do. Returns true
+  // when the operator asks armsig to clear it from here (RobotController::
+  // ClearProtectiveStop, e.g. after inspecting the cell), false to wait until it is cleared
+  // on the controller. Without it the session waits.
+  std::function<bool(const instruments::ControllerError&)> controller_fault;
+  // How long the session waits for such a stop to be cleared before it pauses; 0: as long as
+  // it takes (Ctrl-C ends the wait).
+  double max_controller_wait_s = 0.0;
 };
 
 // A configuration that gave no usable point, and why (its point flags, or the fault).
@@ -87,10 +98,18 @@ struct CaptureSummary {
   std::string beam_base;
   // One instrument gives each point (a tracker alone): no second ray, no miss distance.
   bool single_ray = false;
+  // The controller as it identified itself (acquisition/controller_record.h), "" when it
+  // cannot say; the stops the session waited out (protective stops) and their total wait.
+  std::string controller;
+  int controller_waits = 0;
+  double controller_wait_s = 0.0;
+  // Readings refused because the arm moved (before or while the instruments measured).
+  int moving_refused = 0;
 };
 
 // A new session: the robot (created if new), the lab text, the plan and the stations'
-// set-ups, in one transaction. Returns its id.
+// set-ups, in one transaction. Returns its id. Every run of a session (RunCapture) asks the
+// controller who it is first and refuses another arm (acquisition/controller_record.h).
 int64_t CreateSession(db::Database& db, const io::LabConfig& lab, const std::string& robot,
                       const Plan& plan);
 

@@ -6,6 +6,7 @@
 
 #include "app/command.h"
 #include "core/units.h"
+#include "instruments/device.h"
 #include "workflows/capture.h"
 
 namespace armsig::app {
@@ -36,6 +37,22 @@ void PromptReflector(const std::string& station, const acquisition::PlannedConfi
   std::getline(std::cin, line);
 }
 
+// A protective stop: said on the terminal; Enter has armsig clear it from here (after the
+// operator has looked at why the arm stopped), else it waits until it is cleared on the
+// pendant. Not a terminal: the session waits for the pendant.
+bool ClearProtectiveStop(const instruments::ControllerError& e) {
+  std::cerr << "\n" << e.what() << "\n";
+  if (!::isatty(STDIN_FILENO)) {
+    std::cerr << "waiting until it is cleared on the controller (Ctrl-C pauses the session)\n";
+    return false;
+  }
+  std::cerr << "look at why the arm stopped; then press Enter to clear it from here, or clear "
+               "it on the pendant (Ctrl-C pauses the session) ";
+  std::string line;
+  std::getline(std::cin, line);
+  return static_cast<bool>(std::cin);
+}
+
 }  // namespace
 
 void SetupCaptureCommand(CLI::App& parent, const GlobalOptions& global, Runner& run) {
@@ -60,6 +77,7 @@ void SetupCaptureCommand(CLI::App& parent, const GlobalOptions& global, Runner& 
       const bool tty = request.progress != nullptr;
       request.prompt_move = PromptMove;
       if (::isatty(STDIN_FILENO)) request.prompt_reflector = PromptReflector;
+      request.controller_fault = ClearProtectiveStop;
       const auto outcome = workflows::RunCaptureSession(request);
       if (outcome.already_complete) {
         std::cout << "session " << outcome.summary.session << " is already complete\n";

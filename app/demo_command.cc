@@ -1,5 +1,5 @@
-// armsig demo [--json OUT] [--configurations N] [--select M] [--instrument theodolites|tracker]
-// [--resume SESSION]: the main
+// armsig demo [--json OUT] [--configurations N] [--select M] [--robot puma|ur10|kuka|abb]
+// [--instrument theodolites|tracker] [--resume SESSION]: the main
 // job on the embedded default (workflows/demo.h).
 #include <fmt/format.h>
 #include <spdlog/spdlog.h>
@@ -27,6 +27,13 @@ void SetupDemoCommand(CLI::App& parent, const GlobalOptions& global, Runner& run
   NumberOption(sub->add_option("--resume", o->resume_session,
                                "Continue a stopped demo session: capture the rest, then calibrate"),
                1, kMaxId);
+  ChoiceOption(sub->add_option("--robot", o->robot,
+                               "The virtual robot: puma (a PUMA 760 with three theodolites or a "
+                               "tracker; the default), ur10 (a UR10 and its controller over "
+                               "RTDE, with a laser tracker) or kuka (a KR 16-2 and its KR C4 "
+                               "through a variable server, with a laser tracker); abb is not "
+                               "built yet; --resume keeps the session's"),
+               {"puma", "ur10", "kuka", "abb"});
   ChoiceOption(sub->add_option("--instrument", o->instrument,
                   "theodolites (three GeoCOM theodolites, oriented by mutual pointings; the "
                   "default) or tracker (one laser tracker speaking emScon on loopback TCP); "
@@ -52,9 +59,9 @@ void SetupDemoCommand(CLI::App& parent, const GlobalOptions& global, Runner& run
                0.0, 10.0)
       ->capture_default_str();
   NumberOption(sub->add_option("--time-scale", o->time_scale,
-                               "Multiplies every simulated instrument latency"),
-               0.0, 100.0)
-      ->capture_default_str();
+                               "Multiplies every simulated latency and move time (default: the "
+                               "robot's, puma 0.25, ur10 and kuka 0.02)"),
+               0.0, 100.0);
   sub->callback([&run, &global, o] {
     run = [&global, o] {
       workflows::DemoOptions options = *o;

@@ -1,4 +1,5 @@
 // armsig instrument probe|read --port PATH|--tcp HOST:PORT --protocol geocom|gsi|val|as|emscon
+// armsig instrument probe|read --tcp HOST[:PORT] --protocol ur|kuka|abb
 // armsig instrument simulate --protocol P [--link PATH | --tcp HOST:PORT] [--seconds N] [--fault F]
 #include <fmt/format.h>
 #include <spdlog/spdlog.h>
@@ -20,13 +21,23 @@ void SetupInstrumentCommand(CLI::App& parent, const GlobalOptions&, Runner& run)
   for (const char* action : {"probe", "read"}) {
     auto o = std::make_shared<workflows::InstrumentRequest>();
     o->action = action;
-    auto* a = sub->add_subcommand(action, std::string(action) == "probe"
-                                              ? "Identify the instrument (name, serial, firmware)"
-                                              : "Take one measurement");
+    auto* a = sub->add_subcommand(
+        action, std::string(action) == "probe"
+                    ? "Identify the instrument (name, serial, firmware) or the robot controller "
+                      "(model, serial, software; UR: its kinematics checksum)"
+                    : "Take one measurement (a controller: its joints)");
     a->add_option("--port", o->port, "Serial port (or pty) path")->type_name("PATH");
     a->add_option("--tcp", o->tcp, "HOST:PORT instead of a serial port")->type_name("ADDRESS");
-    ChoiceOption(a->add_option("--protocol", o->protocol, "geocom | gsi | val | as | emscon"), {"geocom", "gsi", "val", "as", "emscon"})
+    ChoiceOption(a->add_option("--protocol", o->protocol,
+                               "geocom | gsi | emscon (instruments), val | as (controllers on a "
+                               "serial port), ur | kuka | abb (controllers on the network: --tcp "
+                               "HOST[:PORT])"),
+                 {"geocom", "gsi", "val", "as", "emscon", "ur", "kuka", "abb"})
         ->capture_default_str();
+    a->add_option("--controller-port", o->controller_ports,
+                  "A network controller's other port, KEY=PORT with its lab-file key (ur: "
+                  "rtde_port, primary_port, secondary_port; --tcp gives the dashboard's)")
+        ->type_name("KEY=PORT");
     NumberOption(a->add_option("--baud", o->baud, "Baud rate"), 50, 4000000)->capture_default_str();
     NumberOption(a->add_option("--timeout-ms", o->timeout_ms,
                                "Deadline of the whole exchange, from the command to the parsed "

@@ -104,7 +104,10 @@ int RunRecalibrate(RecalibrateCommand c, const GlobalOptions& global) {
         d.drift ? "; DRIFT" : "");
   }
   // The drift line on stdout, where a person reading the mail or the journal sees it.
-  if (const std::string line = d.DriftLine(); !line.empty()) std::cout << line << "\n";
+  if (const std::string line = d.DriftLine(); !line.empty())
+    std::cout << line << "\n";
+  else if (!d.controller_calibration.empty())  // said even when the arm's errors did not move
+    std::cout << d.robot << ": " << d.controller_calibration << "\n";
   if (!d.output_error.empty()) std::cout << d.robot << ": " << d.output_error << "\n";
   std::cout.flush();
   Notify(c, summary, d.ExitCode());

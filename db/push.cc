@@ -132,9 +132,17 @@ constexpr Column kInstrumentColumns[] = {
     {"firmware", Kind::kText},       {"sigma_hz_arcsec", Kind::kReal},
     {"sigma_v_arcsec", Kind::kReal}, {"sigma_distance_mm", Kind::kReal},
     {"created_at", Kind::kText}};
-constexpr Column kSessionColumns[] = {{"lab_yaml", Kind::kText},   {"plan_json", Kind::kText},
-                                      {"state", Kind::kText},      {"note", Kind::kText},
-                                      {"started_at", Kind::kText}, {"finished_at", Kind::kText}};
+constexpr Column kSessionColumns[] = {{"lab_yaml", Kind::kText},
+                                      {"plan_json", Kind::kText},
+                                      {"state", Kind::kText},
+                                      {"note", Kind::kText},
+                                      {"started_at", Kind::kText},
+                                      {"finished_at", Kind::kText},
+                                      {"controller_model", Kind::kText},
+                                      {"controller_serial", Kind::kText},
+                                      {"controller_software", Kind::kText},
+                                      {"kinematics_checksum", Kind::kText},
+                                      {"kinematics_json", Kind::kText}};
 constexpr Column kSetupColumns[] = {
     {"x_mm", Kind::kReal},          {"y_mm", Kind::kReal},         {"z_mm", Kind::kReal},
     {"levelled", Kind::kInt},       {"azimuth_rad", Kind::kReal},  {"rotation_json", Kind::kText},
@@ -144,7 +152,8 @@ constexpr Column kSetupColumns[] = {
     {"created_at", Kind::kText}};
 constexpr Column kPoseColumns[] = {{"seq", Kind::kInt},          {"label", Kind::kText},
                                    {"joints_json", Kind::kText}, {"status", Kind::kText},
-                                   {"attempts", Kind::kInt},     {"captured_at", Kind::kText}};
+                                   {"attempts", Kind::kInt},     {"captured_at", Kind::kText},
+                                   {"controller_time_s", Kind::kReal}};
 constexpr Column kObservationColumns[] = {{"point", Kind::kText},
                                           {"hz_rad", Kind::kReal},
                                           {"v_rad", Kind::kReal},
@@ -264,6 +273,24 @@ class NameMap {
       insert->Bind(4, s->Text(3));
       id = InsertedId(*insert, target_, "robot " + name);
       ++summary_.robots_created;
+    }
+    {
+      // The arm's controller identity (kept where the server has one) and its newest
+      // kinematics (schema v13).
+      auto c = source_.Prepare(
+          "SELECT controller_model, controller_serial, kinematics_checksum, kinematics_json "
+          "FROM robots WHERE id = ? AND controller_serial IS NOT NULL");
+      c->Bind(1, local);
+      if (c->Step()) {
+        auto u = target_.Prepare(
+            "UPDATE robots SET controller_model = coalesce(controller_model, ?), "
+            "controller_serial = coalesce(controller_serial, ?), kinematics_checksum = "
+            "coalesce(?, kinematics_checksum), kinematics_json = coalesce(?, kinematics_json) "
+            "WHERE id = ?");
+        for (int k = 0; k < 4; ++k) CopyValue(*c, k, *u, k + 1, Kind::kText);
+        u->Bind(5, id);
+        u->Execute();
+      }
     }
     robots_[local] = id;
     return id;

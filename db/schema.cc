@@ -271,6 +271,27 @@ ALTER TABLE points ADD COLUMN sigma_rz_rad REAL;
 ALTER TABLE calibrations ADD COLUMN tool_rotation_json TEXT;  -- 3x3 row-major, target in last link frame
 )sql";
 
+// Schema v13 (robot controllers that say who they are: Universal Robots, KUKA, ABB): a
+// session keeps the controller as it identified itself when the session began (model,
+// serial number, software) and the controller's own kinematics (UR KinematicsInfo: its
+// checksum, and the DH table as JSON); the robot keeps the model and serial number of its
+// first such session (a later session on a controller of another model or serial is
+// refused) and the kinematics of its newest; a configuration keeps the controller's own time
+// stamp of its joints. NULL where the controller cannot say (VAL, AS, counter boxes,
+// imported poses).
+constexpr std::string_view kSchemaV13 = R"sql(
+ALTER TABLE sessions ADD COLUMN controller_model TEXT;     -- as the controller names the arm: UR10
+ALTER TABLE sessions ADD COLUMN controller_serial TEXT;
+ALTER TABLE sessions ADD COLUMN controller_software TEXT;  -- URSoftware 5.11.1.108318 (Nov 03 2021)
+ALTER TABLE sessions ADD COLUMN kinematics_checksum TEXT;  -- the controller's own calibration (UR KinematicsInfo)
+ALTER TABLE sessions ADD COLUMN kinematics_json TEXT;      -- {"checksum", "dh_theta_rad", "dh_a_mm", "dh_d_mm", "dh_alpha_rad", "calibration_status"}
+ALTER TABLE robots ADD COLUMN controller_model TEXT;       -- the arm's identity: its first identified session's
+ALTER TABLE robots ADD COLUMN controller_serial TEXT;
+ALTER TABLE robots ADD COLUMN kinematics_checksum TEXT;    -- its newest session's
+ALTER TABLE robots ADD COLUMN kinematics_json TEXT;
+ALTER TABLE poses ADD COLUMN controller_time_s REAL;       -- the controller's clock when it gave the joints (UR RTDE timestamp, s since it started)
+)sql";
+
 // PostgreSQL's text of the migrations whose SQLite text does not translate word for word
 // (PostgresDdl): v2 and v9 fill their new column from what only SQLite has (json_extract,
 // rowid). A PostgreSQL store is created by an armsig of schema v9 or later, in one
@@ -317,10 +338,11 @@ constexpr std::array<std::string_view, 13> kTables = {"robots",
 
 std::span<const std::string_view> Migrations() {
   static const std::string jobs = JobsSchemaSql(Backend::kSqlite);
-  static const std::array<std::string_view, 12> migrations = [] {
-    std::array<std::string_view, 12> m = {kSchemaV1, kSchemaV2,  kSchemaV3,  kSchemaV4,
+  static const std::array<std::string_view, 13> migrations = [] {
+    std::array<std::string_view, 13> m = {kSchemaV1, kSchemaV2,  kSchemaV3,  kSchemaV4,
                                           kSchemaV5, kSchemaV6,  {},         kSchemaV8,
-                                          kSchemaV9, kSchemaV10, kSchemaV11, kSchemaV12};
+                                          kSchemaV9, kSchemaV10, kSchemaV11, kSchemaV12,
+                                          kSchemaV13};
     m[kJobsMigration - 1] = jobs;
     return m;
   }();

@@ -94,10 +94,10 @@ bool SessionExists(Database& db, int64_t session_id) {
 
 int64_t InsertPose(Database& db, int64_t session_id, int seq, const std::string& label,
                    const std::optional<Eigen::VectorXd>& joints_rad, const std::string& status,
-                   int attempts) {
+                   int attempts, std::optional<double> controller_time_s) {
   auto s = Sql(db,
-               "INSERT INTO poses(session_id, seq, label, joints_json, status, attempts) "
-               "VALUES (?,?,?,?,?,?) RETURNING id");
+               "INSERT INTO poses(session_id, seq, label, joints_json, status, attempts, "
+               "controller_time_s) VALUES (?,?,?,?,?,?,?) RETURNING id");
   s->Bind(1, session_id);
   s->Bind(2, seq);
   s->Bind(3, label);
@@ -107,6 +107,7 @@ int64_t InsertPose(Database& db, int64_t session_id, int seq, const std::string&
     s->BindNull(4);
   s->Bind(5, status);
   s->Bind(6, attempts);
+  s->Bind(7, controller_time_s);
   return InsertedId(*s, db.path() + ": a pose");
 }
 

@@ -62,9 +62,11 @@ struct SessionLab {
 };
 std::optional<SessionLab> LatestLabYaml(Database& db, int64_t robot_id);
 
+// `controller_time_s`: the controller's own clock when it gave the joints (UR RTDE
+// `timestamp`), when it has one.
 int64_t InsertPose(Database& db, int64_t session_id, int seq, const std::string& label,
                    const std::optional<Eigen::VectorXd>& joints_rad, const std::string& status,
-                   int attempts);
+                   int attempts, std::optional<double> controller_time_s = std::nullopt);
 // Plan indices already stored (measured or skipped) for a session.
 std::vector<int> StoredSeqs(Database& db, int64_t session_id);
 

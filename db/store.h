@@ -4,6 +4,7 @@
 #pragma once
 
 #include "db/calibrations.h"
+#include "db/controllers.h"
 #include "db/observations.h"
 #include "db/robots.h"
 #include "db/sessions.h"

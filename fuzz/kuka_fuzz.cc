@@ -42,13 +42,15 @@ void Values(std::string_view text) {
   }
 }
 
-void Frames(std::string_view bytes, size_t step, size_t min_frame) {
-  kuka::FrameSplitter splitter(min_frame);
+void Frames(std::string_view bytes, size_t step, const armsig::instruments::FrameSplitter::Format& format) {
+  armsig::instruments::FrameSplitter splitter(format);
   std::string frame;
   for (size_t at = 0; at < bytes.size(); at += step) {
     splitter.Append(bytes.substr(at, step));
-    while (splitter.Next(frame) == kuka::FrameSplitter::Status::kFrame) {
-      if (frame.size() < min_frame || frame.size() > kuka::kMaxFrameBytes) std::abort();
+    while (splitter.Next(frame) == armsig::instruments::FrameSplitter::Status::kFrame) {
+      if (static_cast<int64_t>(frame.size()) < format.min_bytes ||
+          static_cast<int64_t>(frame.size()) > format.max_bytes)
+        std::abort();  // the splitter handed out a frame outside its bounds
       const auto response = kuka::DecodeResponse(frame);
       if (response.response) {
         if (!response.why.empty()) std::abort();
@@ -75,8 +77,8 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   const std::string_view bytes = armsig::fuzz::Text(data, size);
   // The first byte chooses the read size (1 … 256), so splits fall everywhere.
   const size_t step = size > 0 ? size_t{static_cast<uint8_t>(bytes[0])} + 1 : 1;
-  Frames(bytes, step, kuka::kMinResponseBytes);
-  Frames(bytes, step, kuka::kMinRequestBytes);
+  Frames(bytes, step, kuka::kResponseFrames);
+  Frames(bytes, step, kuka::kRequestFrames);
   (void)kuka::DecodeResponse(bytes);
   (void)kuka::DecodeRequest(bytes);
   Values(bytes);

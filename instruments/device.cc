@@ -27,6 +27,42 @@ ReadingRangeError::ReadingRangeError(const std::string& device, std::string quan
       min_(min),
       max_(max) {}
 
+ControllerError::ControllerError(Kind kind, std::string controller, const std::string& what,
+                                 std::string action)
+    : InstrumentError(std::move(controller), 4000 + static_cast<int>(kind),
+                      std::string(KindName(kind)) + ": " + what + "; " + action),
+      kind_(kind),
+      what_(what),
+      action_(std::move(action)) {}
+
+const char* KindName(ControllerError::Kind kind) {
+  using K = ControllerError::Kind;
+  switch (kind) {
+    case K::kProtectiveStop: return "protective stop";
+    case K::kEmergencyStop: return "emergency stop";
+    case K::kNotRemote: return "not in remote control";
+    case K::kNotRunning: return "not running";
+    case K::kArmMoving: return "arm moving";
+    case K::kVersionRefused: return "protocol version refused";
+    case K::kConnectionLost: return "connection lost";
+    case K::kMoveRefused: return "move refused";
+  }
+  return "controller fault";
+}
+
+StampedJoints RobotController::ReadStampedJoints() {
+  StampedJoints s;
+  s.joints_rad = ReadJointsRad();
+  s.received = std::chrono::system_clock::now();
+  return s;
+}
+
+void RobotController::ClearProtectiveStop() {
+  throw ControllerError(ControllerError::Kind::kProtectiveStop, name(),
+                        "armsig cannot clear a protective stop on this controller",
+                        "clear it on the controller's pendant");
+}
+
 void CheckAngles(const std::string& device, double hz_rad, double v_rad) {
   // The one rule for circle readings (core/plausibility.h), as in files: [0, 2π], 2π itself
   // being what a value just below it rounds to.

@@ -7,6 +7,7 @@
 #include <optional>
 #include <stdexcept>
 #include <string>
+#include <vector>
 
 #include "core/plausibility.h"
 #include "core/types.h"
@@ -149,6 +150,67 @@ class BeamSteering {
   virtual void CheckConvention() = 0;
 };
 
+// What a modern robot controller says it is (UR: the dashboard server and the primary
+// interface; KUKA, ABB: their own services). Empty fields: the controller did not say.
+struct ControllerIdentity {
+  std::string protocol;  // the lab file's: ur, kuka, abb
+  std::string vendor;    // "Universal Robots", "KUKA", "ABB"
+  std::string model;     // as the controller names the arm: "UR10", "KR 6 R900", "IRB 1200"
+  std::string serial;    // the arm's (or the controller's) serial number
+  std::string software;  // "URSoftware 3.15.7.106331 (Jun 01 2021)", "KSS 8.6.10", "RobotWare 6.13"
+  std::string kinematics_checksum;  // UR: KinematicsInfo's checksum ("" for the others)
+};
+
+// The controller's own kinematic model, as it tells it: UR's KinematicsInfo (primary
+// interface, robot state package 5): per joint a checksum and the DH parameters of its
+// factory calibration, and whether that calibration is done. Lengths mm, angles rad.
+struct ControllerKinematics {
+  std::string checksum;  // the per-joint checksums, joined ("8 hex digits" each, space apart)
+  std::vector<double> dh_theta_rad, dh_a_mm, dh_d_mm, dh_alpha_rad;
+  int calibration_status = 0;     // the controller's code (UR: 0 not initialised … 4 done)
+  std::string calibration_state;  // its meaning ("linearised", "not calibrated", …)
+  bool operator==(const ControllerKinematics&) const = default;
+};
+
+// Joints as the controller reported them, with its own time stamp.
+struct StampedJoints {
+  Eigen::VectorXd joints_rad;
+  // The controller's clock (UR RTDE `timestamp`: seconds since the controller started);
+  // nullopt when the controller gives none (VAL, AS, counter boxes).
+  std::optional<double> controller_time_s;
+  std::chrono::system_clock::time_point received;  // when armsig had it
+};
+
+// A controller state that stops armsig's work, typed, with the controller's name and
+// what the operator must do. Its code is 4000 + kind (outside GeoCOM's code space).
+class ControllerError : public InstrumentError {
+ public:
+  enum class Kind {
+    kProtectiveStop,  // the arm stopped itself (a collision, a limit): cleared, it goes on
+    kEmergencyStop,   // an emergency stop button is pressed
+    kNotRemote,       // the controller does not take commands from the network (local mode)
+    kNotRunning,      // powered off, brakes on, or the controller-side program not running
+    kArmMoving,       // a reading was asked while the arm moves: never a reading
+    kVersionRefused,  // the controller refused the protocol version armsig speaks
+    kConnectionLost,  // the connection dropped and did not come back by the deadline
+    kMoveRefused,     // the controller did not carry out the move it was sent
+  };
+  ControllerError(Kind kind, std::string controller, const std::string& what, std::string action);
+  Kind kind() const { return kind_; }
+  const std::string& what_happened() const { return what_; }
+  // What the operator must do ("release the emergency stop, power the arm on …").
+  const std::string& action() const { return action_; }
+  // A state the session waits out and then goes on (a protective stop): every other kind
+  // pauses the session, resumable once the operator has done the action.
+  bool WaitedOut() const { return kind_ == Kind::kProtectiveStop; }
+
+ private:
+  Kind kind_;
+  std::string what_, action_;
+};
+// "protective stop", "emergency stop", "not in remote control", …
+const char* KindName(ControllerError::Kind kind);
+
 class RobotController : public Interruptible {
  public:
   virtual ~RobotController() = default;
@@ -156,6 +218,27 @@ class RobotController : public Interruptible {
   virtual Eigen::VectorXd ReadJointsRad() = 0;
   virtual bool CanMove() const = 0;
   virtual void MoveTo(const Eigen::VectorXd& joints_rad) = 0;
+
+  // What a modern controller adds; the defaults are those of a controller that cannot say
+  // (VAL, AS, counter boxes).
+  // Who it is (model, serial, software); nullopt when it cannot say.
+  virtual std::optional<ControllerIdentity> Identify() { return std::nullopt; }
+  // Its own kinematic model (UR KinematicsInfo); nullopt when it has none to tell.
+  virtual std::optional<ControllerKinematics> Kinematics() { return std::nullopt; }
+  // The joints with the controller's time stamp, taken only while the arm stands still
+  // (ControllerError kArmMoving otherwise); by default ReadJointsRad stamped on arrival.
+  virtual StampedJoints ReadStampedJoints();
+  // Whether the controller can take a move now: returns, or throws the ControllerError
+  // that stops it (a protective stop not cleared yet, an emergency stop, local mode …).
+  virtual void CheckReady() {}
+  // Clears a protective stop from armsig when the operator has asked for it (UR: the
+  // dashboard's close safety popup + unlock protective stop). The default cannot: throws
+  // ControllerError kProtectiveStop saying to clear it on the controller.
+  virtual void ClearProtectiveStop();
+  // Whether its joint readings are cheap and stamped (a stream such as UR RTDE): the
+  // session then reads them again after the instruments and stores a configuration only
+  // when the arm did not move in between.
+  virtual bool StreamsJoints() const { return false; }
 };
 
 // How a driver retries: busy codes, bad checksums, silence, a lost port; then it gives

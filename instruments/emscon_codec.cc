@@ -689,37 +689,6 @@ bool ExpectSize(std::string_view frame, int32_t expected, const std::string& wha
 
 // --- FrameSplitter --------------------------------------------------------------------
 
-void FrameSplitter::Append(std::string_view bytes) {
-  // Drop the consumed prefix once it is at least half the buffer: amortised linear.
-  if (start_ > 0 && start_ >= buffer_.size() / 2) {
-    buffer_.erase(0, start_);
-    start_ = 0;
-  }
-  buffer_.append(bytes.data(), bytes.size());
-}
-
-void FrameSplitter::Clear() {
-  buffer_.clear();
-  start_ = 0;
-}
-
-FrameSplitter::Status FrameSplitter::Next(std::string& frame, int32_t* bad_size) {
-  // The size field alone decides: it is the first 4 bytes (Leica's own sample peeks only
-  // those, since a read can end inside a header).
-  if (buffered() < 4) return Status::kNeedMore;
-  const int32_t size = GetI32(std::string_view(buffer_).substr(start_), 0);
-  if (size < kMinPacketBytes || size > kMaxPacketBytes) {
-    if (bad_size) *bad_size = size;
-    Clear();
-    return Status::kBadSize;
-  }
-  if (buffered() < static_cast<size_t>(size)) return Status::kNeedMore;
-  frame.assign(buffer_, start_, static_cast<size_t>(size));
-  start_ += static_cast<size_t>(size);
-  if (start_ == buffer_.size()) Clear();
-  return Status::kFrame;
-}
-
 // --- Names ----------------------------------------------------------------------------
 
 std::string CommandName(int32_t command) {

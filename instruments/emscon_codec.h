@@ -16,6 +16,8 @@
 #include <string_view>
 #include <variant>
 
+#include "instruments/frame_splitter.h"
+
 namespace armsig::instruments::emscon {
 
 // --- Framing -------------------------------------------------------------------------
@@ -26,28 +28,11 @@ inline constexpr size_t kHeaderBytes = 8;
 inline constexpr int32_t kMinPacketBytes = 12;
 inline constexpr int32_t kMaxPacketBytes = 65536;
 
-// Splits a byte stream into packets by their size field: several packets in one read and a
-// packet split across reads both come out whole. Each byte is copied once and a consumed
-// prefix is dropped in amortised linear time, so a flood costs linear time.
-class FrameSplitter {
+// Splits a byte stream into packets by their size field (int32, little-endian, the whole
+// packet): instruments/frame_splitter.h with emScon's bounds.
+class FrameSplitter : public instruments::FrameSplitter {
  public:
-  enum class Status {
-    kFrame,     // `frame` holds the next whole packet
-    kNeedMore,  // no whole packet yet
-    kBadSize,   // a size field outside [kMinPacketBytes, kMaxPacketBytes]: the stream has
-                // lost its framing; everything buffered was dropped (`bad_size` says what
-                // the field held)
-  };
-  void Append(std::string_view bytes);
-  Status Next(std::string& frame, int32_t* bad_size = nullptr);
-  size_t buffered() const { return buffer_.size() - start_; }
-  void Clear();
-  static constexpr size_t min_frame() { return kMinPacketBytes; }
-  static constexpr size_t max_frame() { return kMaxPacketBytes; }
-
- private:
-  std::string buffer_;
-  size_t start_ = 0;  // bytes of buffer_ already handed out
+  FrameSplitter() : instruments::FrameSplitter({4, false, kMinPacketBytes, kMaxPacketBytes}) {}
 };
 
 // --- Enumerations (ES_C_API_Def.h; EMSCON.md §1.3, §2) --------------------------------

@@ -13,6 +13,8 @@ namespace armsig::instruments::kuka {
 
 namespace {
 
+constexpr size_t kHeader = kHeaderBytes;
+
 void PutU16(std::string& out, size_t value) {
   out.push_back(static_cast<char>((value >> 8) & 0xFF));
   out.push_back(static_cast<char>(value & 0xFF));
@@ -31,9 +33,9 @@ bool CheckHeader(std::string_view frame, size_t min_frame, std::string& why) {
     return false;
   }
   const size_t length = GetU16(frame, 2);
-  if (length != frame.size() - kHeaderBytes) {
+  if (length != frame.size() - kHeader) {
     why = "length field " + std::to_string(length) + " but " +
-          std::to_string(frame.size() - kHeaderBytes) + " bytes follow the header";
+          std::to_string(frame.size() - kHeader) + " bytes follow the header";
     return false;
   }
   return true;
@@ -92,7 +94,7 @@ std::string EncodeRequest(const Request& request) {
     PutU16(body, request.value.size());
     body += request.value;
   }
-  if (kHeaderBytes + body.size() > kMaxFrameBytes) {
+  if (kHeader + body.size() > static_cast<size_t>(kMaxFrameBytes)) {
     throw std::invalid_argument("a write of " + std::to_string(request.value.size()) +
                                 " bytes does not fit one message");
   }
@@ -168,34 +170,6 @@ DecodedResponse DecodeResponse(std::string_view frame) {
   r.success = flag != 0;  // C3 §1.5: any non-zero byte is TRUE
   out.response = std::move(r);
   return out;
-}
-
-void FrameSplitter::Append(std::string_view bytes) {
-  if (start_ > 0 && start_ >= buffer_.size() / 2) {  // amortised linear
-    buffer_.erase(0, start_);
-    start_ = 0;
-  }
-  buffer_.append(bytes.data(), bytes.size());
-}
-
-void FrameSplitter::Clear() {
-  buffer_.clear();
-  start_ = 0;
-}
-
-FrameSplitter::Status FrameSplitter::Next(std::string& frame, int32_t* bad_size) {
-  if (buffered() < kHeaderBytes) return Status::kNeedMore;
-  const size_t size = kHeaderBytes + GetU16(std::string_view(buffer_).substr(start_), 2);
-  if (size < min_frame_ || size > kMaxFrameBytes) {
-    if (bad_size) *bad_size = static_cast<int32_t>(size);
-    Clear();
-    return Status::kBadSize;
-  }
-  if (buffered() < size) return Status::kNeedMore;
-  frame.assign(buffer_, start_, size);
-  start_ += size;
-  if (start_ == buffer_.size()) Clear();
-  return Status::kFrame;
 }
 
 // --- KRL value text ---------------------------------------------------------------------

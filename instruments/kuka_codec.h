@@ -42,6 +42,8 @@
 #include <utility>
 #include <vector>
 
+#include "instruments/frame_splitter.h"
+
 namespace armsig::instruments::kuka {
 
 inline constexpr unsigned short kDefaultPort = 7000;
@@ -54,10 +56,10 @@ enum class MessageType : uint8_t { kRead = 0, kWrite = 1 };
 // one-byte name; a response at least a type, a value length and the footer. KukaVarProxy
 // reads at most 2,048 bytes at a time, so no request armsig sends comes near the maximum;
 // a variable's text longer than 8 KiB is no value armsig reads.
-inline constexpr size_t kHeaderBytes = 4;
-inline constexpr size_t kMinRequestBytes = kHeaderBytes + 4;
-inline constexpr size_t kMinResponseBytes = kHeaderBytes + 6;
-inline constexpr size_t kMaxFrameBytes = kHeaderBytes + 8192;
+inline constexpr int kHeaderBytes = 4;
+inline constexpr int kMinRequestBytes = kHeaderBytes + 4;
+inline constexpr int kMinResponseBytes = kHeaderBytes + 6;
+inline constexpr int kMaxFrameBytes = kHeaderBytes + 8192;
 inline constexpr size_t kMaxNameBytes = 256;
 
 struct Request {
@@ -92,28 +94,13 @@ struct DecodedResponse {
 DecodedRequest DecodeRequest(std::string_view frame);
 DecodedResponse DecodeResponse(std::string_view frame);
 
-// Splits a byte stream into frames by their length field: several frames in one read and a
-// frame split across reads both come out whole, each byte copied once. A length outside
-// [min_frame − 4, kMaxFrameBytes − 4] means the stream lost its framing: kBadSize, and
-// everything buffered is dropped. Responses (a client) and requests (a server) have their
-// own minimum.
-class FrameSplitter {
- public:
-  enum class Status { kFrame, kNeedMore, kBadSize };
-  explicit FrameSplitter(size_t min_frame = kMinResponseBytes) : min_frame_(min_frame) {}
-  void Append(std::string_view bytes);
-  // `bad_size` receives the whole frame size the header announced (length + 4).
-  Status Next(std::string& frame, int32_t* bad_size = nullptr);
-  size_t buffered() const { return buffer_.size() - start_; }
-  void Clear();
-  size_t min_frame() const { return min_frame_; }
-  static constexpr size_t max_frame() { return kMaxFrameBytes; }
-
- private:
-  size_t min_frame_;
-  std::string buffer_;
-  size_t start_ = 0;
-};
+// How FrameSplitter (instruments/frame_splitter.h) splits the stream: the length field
+// after the tag counts the bytes after itself. A length outside the bounds means the stream
+// lost its framing. A client splits responses, a server requests (a shorter minimum).
+inline constexpr FrameSplitter::Format kResponseFrames{2, true, kMinResponseBytes,
+                                                       kMaxFrameBytes, 2, kHeaderBytes};
+inline constexpr FrameSplitter::Format kRequestFrames{2, true, kMinRequestBytes, kMaxFrameBytes,
+                                                      2, kHeaderBytes};
 
 // --- KRL value text ---------------------------------------------------------------------
 

@@ -45,11 +45,15 @@ bool KukaState::ProgramIsArmsig() const {
   return base == contract::kProgram;
 }
 
-KukaStateError::KukaStateError(const std::string& device, Kind kind, const std::string& message)
-    : InstrumentError(device, 1, message), kind_(kind) {}
+std::string KukaArmOf(const std::string& trafo_name) {
+  std::string arm = trafo_name.substr(0, trafo_name.find_first_of(" \t"));
+  if (!arm.empty() && arm.front() == '#') arm.erase(0, 1);
+  return arm;
+}
 
-bool KukaStateError::resumable() const {
-  return kind_ != Kind::kContract && kind_ != Kind::kMoveRefused;
+ControllerError KukaController::Error(ControllerError::Kind kind, const std::string& what,
+                                      const std::string& action) const {
+  return ControllerError(kind, name_, what, action);
 }
 
 KukaController::KukaController(std::unique_ptr<PacketTransport> transport, bool can_move,
@@ -123,25 +127,24 @@ kuka::Response KukaController::Exchange(kuka::MessageType type, const std::strin
       }
     }
   }
-  throw InstrumentError(name_, code,
-                        fmt::format("{} ({}): {}", geocom::CodeName(code), variable,
-                                    GaveUp(made, start, last)) +
-                            (code == 3085 ? "; is the variable server (KukaVarProxy or C3 "
-                                            "Bridge) running on the controller, on TCP " +
-                                                std::to_string(kuka::kDefaultPort) + "?"
-                                          : ""));
+  throw Error(ControllerError::Kind::kConnectionLost,
+              fmt::format("the variable server did not answer for {} ({}: {})", variable,
+                          geocom::CodeName(code), GaveUp(made, start, last)),
+              "check that the controller is on, that its variable server (KukaVarProxy or C3 "
+              "Bridge) runs and listens on TCP " +
+                  std::to_string(kuka::kDefaultPort) +
+                  ", and the cell network; the session resumes where it stopped");
 }
 
 std::string KukaController::ReadBy(const std::string& variable, Deadline deadline) {
   const kuka::Response r = Exchange(kuka::MessageType::kRead, variable, "", deadline);
   if (r.success && !r.value.empty()) return r.value;
   if (IsContractVariable(variable)) {
-    throw KukaStateError(name_, KukaStateError::Kind::kContract,
-                         variable + " cannot be read (" +
-                             (r.success ? "empty" : "refused") +
-                             "): it is not declared on the controller; add "
-                             "controllers/kuka/config_globals.dat to $CONFIG.DAT's USER GLOBALS "
-                             "and load ARMSIG.src (docs/how-to/kuka.md)");
+    throw Error(ControllerError::Kind::kVersionRefused,
+                variable + " cannot be read (" + (r.success ? "empty" : "refused") +
+                    "): ARMSIG's variables are not declared on the controller",
+                "add controllers/kuka/config_globals.dat to $CONFIG.DAT's USER GLOBALS and load "
+                "ARMSIG.src (docs/how-to/kuka.md)");
   }
   throw InstrumentError(name_, 1,
                         variable + " cannot be read (" + (r.success ? "an empty value" : "refused") +
@@ -154,10 +157,9 @@ void KukaController::WriteBy(const std::string& variable, const std::string& val
   const kuka::Response r = Exchange(kuka::MessageType::kWrite, variable, value, deadline);
   if (r.success) return;
   if (IsContractVariable(variable)) {
-    throw KukaStateError(name_, KukaStateError::Kind::kContract,
-                         variable + " = " + value.substr(0, 80) +
-                             " was refused: is it declared in $CONFIG.DAT as "
-                             "controllers/kuka/config_globals.dat declares it?");
+    throw Error(ControllerError::Kind::kVersionRefused,
+                variable + " = " + value.substr(0, 80) + " was refused",
+                "declare it in $CONFIG.DAT as controllers/kuka/config_globals.dat does");
   }
   throw InstrumentError(name_, 1, variable + " = " + value.substr(0, 80) + " was refused");
 }
@@ -217,71 +219,76 @@ KukaState KukaController::StateBy(Deadline deadline) {
 
 KukaState KukaController::State() { return StateBy(CallDeadline()); }
 
-std::optional<KukaStateError> KukaController::NotReady(const KukaState& s,
-                                                      const std::string& during) const {
-  using Kind = KukaStateError::Kind;
-  auto error = [&](Kind kind, const std::string& message) {
-    return KukaStateError(name_, kind, during.empty() ? message : during + ": " + message);
+std::optional<ControllerError> KukaController::NotReady(const KukaState& s,
+                                                       const std::string& during) const {
+  using Kind = ControllerError::Kind;
+  auto error = [&](Kind kind, const std::string& what, const std::string& action) {
+    return Error(kind, during.empty() ? what : during + ": " + what, action);
   };
   if (s.emergency_stop) {
-    return error(Kind::kEmergencyStop,
-                 "EMERGENCY STOP is active ($ALARM_STOP FALSE): release it, acknowledge the "
-                 "messages on the smartPAD, switch the drives on and start ARMSIG again; the "
-                 "capture goes on from there");
+    return error(Kind::kEmergencyStop, "EMERGENCY STOP is pressed ($ALARM_STOP FALSE)",
+                 "release it, acknowledge the messages on the smartPAD, switch the drives on "
+                 "and start ARMSIG again; the session resumes where it stopped");
   }
   if (s.stop_message) {
-    return error(Kind::kSafetyStop,
-                 std::string("a stopping message is active ($STOPMESS TRUE") +
-                     (s.operator_safety ? "" : ", operator safety open: the cell's gate") +
-                     "): clear its cause, acknowledge it on the smartPAD and start ARMSIG "
-                     "again; the capture goes on from there");
+    return error(Kind::kProtectiveStop,
+                 s.operator_safety
+                     ? "a stopping message is active ($STOPMESS TRUE)"
+                     : "a safety stop: operator safety is open, the cell's gate ($STOPMESS "
+                       "TRUE, $USER_SAF FALSE)",
+                 std::string(s.operator_safety ? "clear its cause" : "close the gate") +
+                     ", acknowledge the message on the smartPAD and start ARMSIG again (the "
+                     "Start key in AUT, $EXT_START in EXT); the session goes on by itself");
   }
   if (!s.Automatic()) {
-    return error(Kind::kNotAutomatic,
-                 "the controller is in " + s.mode +
-                     ": armsig moves the robot only in AUT or EXT; turn the smartPAD's mode key "
-                     "switch to AUT (or EXT) and start ARMSIG, or capture with can_move: false "
-                     "and move the robot by hand");
+    return error(Kind::kNotRemote,
+                 "the controller is in " + s.mode + ": armsig moves the robot only in AUT or EXT",
+                 "turn the smartPAD's mode switch to AUT (or EXT) and start ARMSIG, or capture "
+                 "with can_move: false and move the robot by hand");
+  }
+  if (s.program_state == "P_STOP" && s.ProgramIsArmsig()) {
+    return error(Kind::kProtectiveStop, "ARMSIG is stopped ($PRO_STATE1 #P_STOP)",
+                 "start it again (the Start key in AUT, $EXT_START in EXT); the session goes on "
+                 "by itself");
   }
   if (s.program_state != "P_ACTIVE") {
     const std::string which = s.program_name.empty() ? "no program" : s.program_name;
-    return error(Kind::kProgramNotRunning,
+    return error(Kind::kNotRunning,
                  "the robot program is not running ($PRO_STATE1 #" + s.program_state +
-                     ", selected: " + which +
-                     "): select ARMSIG and start it (the Start key in AUT, $EXT_START from the "
-                     "cell's PLC in EXT)");
+                     ", selected: " + which + ")",
+                 "select ARMSIG and start it (the Start key in AUT, $EXT_START from the cell's "
+                 "PLC in EXT)");
   }
   if (s.contract_version != contract::kVersion) {
-    return error(Kind::kContract,
-                 fmt::format("ARMSIG_VERSION is {} (armsig speaks contract {}): install the "
-                             "controllers/kuka files of this armsig and start ARMSIG",
-                             s.contract_version, contract::kVersion));
+    return error(Kind::kVersionRefused,
+                 fmt::format("ARMSIG_VERSION is {}; armsig speaks contract {}",
+                             s.contract_version, contract::kVersion),
+                 "install the controllers/kuka files of this armsig on the controller and "
+                 "start ARMSIG");
   }
   return std::nullopt;
 }
 
-KukaState KukaController::CheckReadyToMove() {
-  KukaState s = State();
-  if (auto e = NotReady(s)) throw *e;
-  return s;
+void KukaController::CheckReady() {
+  if (auto e = NotReady(State())) throw *e;
 }
 
 void KukaController::ThrowStopped(Deadline deadline, const char* during) {
   if (auto e = NotReady(StateBy(deadline), during)) throw *e;
-  throw KukaStateError(name_, KukaStateError::Kind::kProgramNotRunning,
-                       std::string(during) + ": the robot program stopped; start it again");
+  throw Error(ControllerError::Kind::kNotRunning, std::string(during) + ": the robot program stopped",
+              "start ARMSIG again");
 }
 
-KukaIdentity KukaController::Identify() {
+std::optional<ControllerIdentity> KukaController::Identify() {
   const Deadline deadline = CallDeadline();
-  KukaIdentity id;
   auto text = [&](const char* variable) {
     const std::string raw = ReadBy(variable, deadline);
     return kuka::ParseString(raw).value_or(raw);
   };
-  id.robot_name = text(sv::kRobName);
-  id.model = text(sv::kTrafoName);
-  if (!id.model.empty() && id.model.front() == '#') id.model.erase(0, 1);
+  ControllerIdentity id;
+  id.protocol = "kuka";
+  id.vendor = "KUKA";
+  id.model = KukaArmOf(text(sv::kTrafoName));
   id.serial = std::to_string(ReadInt(sv::kSerialNo, deadline));
   id.software = text(sv::kSoftware);
   return id;
@@ -301,10 +308,11 @@ Eigen::VectorXd KukaController::ReadJointsRad() {
   const Deadline deadline = CallDeadline();
   auto still = [&](const char* when) {
     if (ReadBool(sv::kRobStopped, deadline)) return;
-    throw KukaStateError(name_, KukaStateError::Kind::kMoving,
-                         std::string("the arm is moving ($ROB_STOPPED FALSE ") + when +
-                             " reading $AXIS_ACT): joints read now would not be where the "
-                             "instruments measure, so none are taken; wait until it stands");
+    throw Error(ControllerError::Kind::kArmMoving,
+                std::string("the arm is moving ($ROB_STOPPED FALSE ") + when +
+                    " reading $AXIS_ACT): joints read now are not where the instruments "
+                    "measure, so none are taken",
+                "wait until it stands");
   };
   still("before");
   const std::string text = ReadBy(sv::kAxisAct, deadline);
@@ -338,18 +346,18 @@ int KukaController::WaitFor(int64_t n, Deadline move_deadline) {
     if (!taken && Clock::now() - sent > options_.accept_timeout) {
       const KukaState s = StateBy(call);
       const std::string which = s.program_name.empty() ? "no program" : s.program_name;
-      throw KukaStateError(
-          name_, KukaStateError::Kind::kProgramNotRunning,
-          fmt::format("{} = {} was not taken within {} (the running program is {}{}): select "
-                      "ARMSIG (or call it from CELL.SRC in EXT) and start it",
-                      contract::kCommand, n, Seconds(options_.accept_timeout), which,
-                      s.ProgramIsArmsig() ? ", stuck: restart it" : ", not ARMSIG"));
+      throw Error(ControllerError::Kind::kNotRunning,
+                  fmt::format("{} = {} was not taken within {} (the running program is {}{})",
+                              contract::kCommand, n, Seconds(options_.accept_timeout), which,
+                              s.ProgramIsArmsig() ? ", stuck" : ", not ARMSIG"),
+                  s.ProgramIsArmsig()
+                      ? "reset ARMSIG and start it again"
+                      : "select ARMSIG (or call it from CELL.SRC in EXT) and start it");
     }
     if (Clock::now() >= move_deadline) {
-      throw InstrumentError(name_, 3077,
-                            fmt::format("COM_TIMEDOUT: move {} not done within {}: is the "
-                                        "override ($OV_PRO) very low?",
-                                        n, Seconds(options_.move_timeout)));
+      throw Error(ControllerError::Kind::kMoveRefused,
+                  fmt::format("move {} not done within {}", n, Seconds(options_.move_timeout)),
+                  "look at the robot and the smartPAD (a very low override $OV_PRO?)");
     }
     transport_->Pause(options_.poll, move_deadline);
   }
@@ -406,9 +414,13 @@ void KukaController::MoveTo(const Eigen::VectorXd& joints_rad) {
       deadline = CallDeadline();
       continue;
     }
-    throw KukaStateError(name_, KukaStateError::Kind::kMoveRefused,
-                         fmt::format("ARMSIG did not move to {}: {}", AxesText(q_deg),
-                                     contract::ResultMeaning(result)));
+    throw Error(ControllerError::Kind::kMoveRefused,
+                fmt::format("ARMSIG did not move to {}: {}", AxesText(q_deg),
+                            contract::ResultMeaning(result)),
+                result == contract::kBeyondSoftwareLimit
+                    ? "correct the plan (the model file's joint_limits_deg) or the controller's "
+                      "software limits"
+                    : "look at ARMSIG on the controller");
   }
 }
 

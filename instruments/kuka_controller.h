@@ -13,13 +13,23 @@
 // message, its robot interpreter running (#P_ACTIVE) and ARMSIG's contract version the
 // driver's. The driver writes ARMSIG_TARGET, ARMSIG_VEL, ARMSIG_ACC, then ARMSIG_CMD = the
 // next number, and polls: ARMSIG_BUSY must take the number within accept_timeout (else the
-// program does not run: kProgramNotRunning naming what runs instead), ARMSIG_DONE ends the
-// move with ARMSIG_RESULT. A stopping message during the move (a safety stop: the cell's gate
-// opened, the KUKA equivalent of a protective stop) or an EMERGENCY STOP ends the call with a
-// resumable KukaStateError; the move resumes on the controller once the operator clears it and
-// restarts, and MoveTo with the same target then waits for that same command instead of
-// sending another. A command the program reports not executed (it started after the
-// command was written) is sent again once.
+// program does not run: kNotRunning naming what runs instead), ARMSIG_DONE ends the move
+// with ARMSIG_RESULT. The controller's states, as the framework's ControllerError kinds
+// (instruments/device.h):
+//   EMERGENCY STOP ($ALARM_STOP FALSE)                         kEmergencyStop
+//   a stopping message ($STOPMESS: the gate opened in AUT/EXT,
+//     a safety stop 1/2), or ARMSIG stopped (#P_STOP): KUKA's
+//     protective stop, waited out until the operator restarts  kProtectiveStop
+//   T1 or T2 ($MODE_OP): no moves from the network              kNotRemote
+//   no program, another one, or ARMSIG not started             kNotRunning
+//   ARMSIG's globals missing or another contract version        kVersionRefused
+//   a reading while $ROB_STOPPED is FALSE                      kArmMoving
+//   ARMSIG refused the target, or the move did not end          kMoveRefused
+//   the variable server did not answer by the deadline          kConnectionLost
+// The move resumes on the controller once the operator clears a stop and restarts ARMSIG;
+// MoveTo with the same target then waits for that same command instead of sending another.
+// A command the program reports not executed (it started after the command was written)
+// is sent again once.
 //
 // Every variable exchange is retried with the RetryPolicy (a lost connection reconnects, a
 // late answer is recognised by its tag and skipped, a stream out of frame is reconnected) and
@@ -45,14 +55,6 @@ struct KukaOptions {
   Millis move_timeout{180000};    // a move (at 1 % of a big robot's speed: minutes) ends by then
 };
 
-// The controller's names, as the variable server reads them.
-struct KukaIdentity {
-  std::string robot_name;  // $ROBNAME[]
-  std::string model;       // $TRAFONAME[] without its '#', e.g. "KR16_2 C4 FLR"
-  std::string serial;      // $KR_SERIALNO
-  std::string software;    // $RCV_INFO[], e.g. "KS V8.3.38"
-};
-
 // What the controller's state variables say.
 struct KukaState {
   std::string mode;              // $MODE_OP: T1 T2 AUT EX
@@ -68,27 +70,9 @@ struct KukaState {
   bool ProgramIsArmsig() const;  // $PRO_NAME1[]'s module is ARMSIG
 };
 
-// The controller refuses, or is in a state where armsig must not go on. `resumable`: the
-// session pauses and goes on once the operator has cleared it (a stop, a mode, a program
-// not started); the others need a change to the installation or the plan.
-class KukaStateError : public InstrumentError {
- public:
-  enum class Kind {
-    kEmergencyStop,      // $ALARM_STOP FALSE
-    kSafetyStop,         // $STOPMESS TRUE: a stopping message (the gate, a safety stop 1/2 …)
-    kNotAutomatic,       // $MODE_OP T1 or T2: armsig moves only in AUT or EXT
-    kProgramNotRunning,  // $PRO_STATE1 not #P_ACTIVE, or ARMSIG does not take commands
-    kMoving,             // a reading while the arm moves ($ROB_STOPPED FALSE): never stored
-    kContract,           // ARMSIG's variables are missing or of another contract version
-    kMoveRefused,        // ARMSIG refused the target (a software limit, the velocity)
-  };
-  KukaStateError(const std::string& device, Kind kind, const std::string& message);
-  Kind kind() const { return kind_; }
-  bool resumable() const;
-
- private:
-  Kind kind_;
-};
+// The arm's type in a kinematic model's name, as armsig compares it with the lab's robot
+// model: "#KR16_2 C4 FLR" → "KR16_2" (the first word without '#').
+std::string KukaArmOf(const std::string& trafo_name);
 
 class KukaController : public RobotController {
  public:
@@ -100,11 +84,16 @@ class KukaController : public RobotController {
   bool CanMove() const override { return can_move_; }
   void MoveTo(const Eigen::VectorXd& joints_rad) override;
   void SetInterrupt(const std::atomic<bool>* flag) override { transport_->SetInterrupt(flag); }
+  // A reading is three variable exchanges (milliseconds): cheap enough for the session to
+  // read the joints again after the instruments and keep a configuration only when the arm
+  // stood still in between (no time stamp: the controller gives none).
+  bool StreamsJoints() const override { return true; }
 
-  KukaIdentity Identify();
+  // $TRAFONAME[] (the arm: its first word), $KR_SERIALNO, $RCV_INFO[].
+  std::optional<ControllerIdentity> Identify() override;
+  // Throws the ControllerError a move would meet now.
+  void CheckReady() override;
   KukaState State();
-  // Throws the KukaStateError a move would meet now; returns the state when none.
-  KukaState CheckReadyToMove();
   // $POS_ACT: the TCP in the active $BASE by the controller's own kinematics (x, y, z mm;
   // A, B, C deg).
   Eigen::Matrix<double, 6, 1> ReadPoseAct();
@@ -131,7 +120,9 @@ class KukaController : public RobotController {
   KukaState StateBy(Deadline deadline);
   // The error of a state no move may start in (or continue through), its message
   // prefixed by `during` when given.
-  std::optional<KukaStateError> NotReady(const KukaState& s, const std::string& during = "") const;
+  std::optional<ControllerError> NotReady(const KukaState& s, const std::string& during = "") const;
+  ControllerError Error(ControllerError::Kind kind, const std::string& what,
+                        const std::string& action) const;
   [[noreturn]] void ThrowStopped(Deadline deadline, const char* during);
   // Waits for command `n` to be taken and done; returns its ARMSIG_RESULT.
   int WaitFor(int64_t n, Deadline move_deadline);

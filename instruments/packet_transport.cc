@@ -8,24 +8,25 @@ namespace {
 
 namespace asio = boost::asio;
 
-template <typename Splitter>
-TransportError BadFrame(const std::string& name, const Splitter& splitter, int32_t size) {
+TransportError BadFrame(const std::string& name, int32_t size,
+                        const FrameSplitter::Format& format) {
   return TransportError(TransportError::Kind::kBadFrame, name,
                         "frame size field " + std::to_string(size) + " outside " +
-                            std::to_string(splitter.min_frame()) + " to " +
-                            std::to_string(splitter.max_frame()) +
+                            std::to_string(format.min_bytes) + " to " +
+                            std::to_string(format.max_bytes) +
                             " bytes: the stream lost its framing");
 }
 
-template <typename Splitter>
 class TcpPacketTransport : public PacketTransport {
  public:
-  TcpPacketTransport(std::string host, unsigned short port, Millis timeout)
+  TcpPacketTransport(std::string host, unsigned short port, Millis timeout,
+                     FrameSplitter::Format format)
       : name_(host + ":" + std::to_string(port)),
         host_(std::move(host)),
         port_(port),
         timeout_(timeout),
-        conn_(*this) {}
+        conn_(*this),
+        splitter_(format) {}
 
   void Open() override {
     Close();
@@ -45,11 +46,11 @@ class TcpPacketTransport : public PacketTransport {
     for (;;) {
       int32_t size = 0;
       switch (splitter_.Next(frame, &size)) {
-        case Splitter::Status::kFrame:
+        case FrameSplitter::Status::kFrame:
           return frame;
-        case Splitter::Status::kBadSize:
-          throw BadFrame(name_, splitter_, size);
-        case Splitter::Status::kNeedMore:
+        case FrameSplitter::Status::kBadSize:
+          throw BadFrame(name_, size, splitter_.format());
+        case FrameSplitter::Status::kNeedMore:
           break;
       }
       if (Clock::now() >= deadline) {
@@ -83,7 +84,7 @@ class TcpPacketTransport : public PacketTransport {
   unsigned short port_;
   Millis timeout_;
   detail::AsioStream<asio::ip::tcp::socket> conn_;
-  Splitter splitter_;
+  FrameSplitter splitter_;
   char chunk_[4096];
 };
 
@@ -92,17 +93,17 @@ class TcpPacketTransport : public PacketTransport {
 std::unique_ptr<PacketTransport> MakeEmsconTcpTransport(const std::string& host,
                                                         unsigned short port,
                                                         Millis connect_timeout) {
-  return std::make_unique<TcpPacketTransport<emscon::FrameSplitter>>(host, port, connect_timeout);
+  return MakeFramedTcpTransport(host, port, kEmsconFrames, connect_timeout);
 }
 
-std::unique_ptr<PacketTransport> MakeKukaTcpTransport(const std::string& host,
-                                                      unsigned short port,
-                                                      Millis connect_timeout) {
-  return std::make_unique<TcpPacketTransport<kuka::FrameSplitter>>(host, port, connect_timeout);
+std::unique_ptr<PacketTransport> MakeFramedTcpTransport(const std::string& host,
+                                                        unsigned short port,
+                                                        const FrameSplitter::Format& format,
+                                                        Millis connect_timeout) {
+  return std::make_unique<TcpPacketTransport>(host, port, connect_timeout, format);
 }
 
-template <typename Splitter>
-void BasicFakePacketTransport<Splitter>::Open() {
+void FakePacketTransport::Open() {
   if (Interrupted()) ThrowInterrupted();
   open_ = true;
   ++opens_;
@@ -110,27 +111,25 @@ void BasicFakePacketTransport<Splitter>::Open() {
   splitter_.Clear();
 }
 
-template <typename Splitter>
-void BasicFakePacketTransport<Splitter>::Write(std::string_view packet, Deadline) {
+void FakePacketTransport::Write(std::string_view packet, Deadline) {
   if (Interrupted()) ThrowInterrupted();
   if (!open_) throw TransportError(TransportError::Kind::kClosed, name_, "port is not open");
   written_.emplace_back(packet);
   for (auto& chunk : responder_(packet)) chunks_.push_back(std::move(chunk));
 }
 
-template <typename Splitter>
-std::string BasicFakePacketTransport<Splitter>::ReadPacket(Deadline) {
+std::string FakePacketTransport::ReadPacket(Deadline) {
   std::string frame;
   for (;;) {
     if (Interrupted()) ThrowInterrupted();
     if (!open_) throw TransportError(TransportError::Kind::kClosed, name_, "port is not open");
     int32_t size = 0;
     switch (splitter_.Next(frame, &size)) {
-      case Splitter::Status::kFrame:
+      case FrameSplitter::Status::kFrame:
         return frame;
-      case Splitter::Status::kBadSize:
-        throw BadFrame(name_, splitter_, size);
-      case Splitter::Status::kNeedMore:
+      case FrameSplitter::Status::kBadSize:
+        throw BadFrame(name_, size, splitter_.format());
+      case FrameSplitter::Status::kNeedMore:
         break;
     }
     if (chunks_.empty()) {
@@ -143,16 +142,12 @@ std::string BasicFakePacketTransport<Splitter>::ReadPacket(Deadline) {
   }
 }
 
-template <typename Splitter>
-int BasicFakePacketTransport<Splitter>::Drain(Millis, Deadline) {
+int FakePacketTransport::Drain(Millis, Deadline) {
   int n = static_cast<int>(splitter_.buffered());
   for (const auto& c : chunks_) n += static_cast<int>(c.size());
   chunks_.clear();
   splitter_.Clear();
   return n;
 }
-
-template class BasicFakePacketTransport<emscon::FrameSplitter>;
-template class BasicFakePacketTransport<kuka::FrameSplitter>;
 
 }  // namespace armsig::instruments

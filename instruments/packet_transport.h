@@ -1,13 +1,13 @@
 // Packet transports: a TCP connection carrying binary, length-prefixed frames (Leica emScon
-// TPI: each packet starts with its whole length as an int32, little-endian; a KUKA variable
-// server: a tag and the length after it, big-endian u16 each), and an in-memory fake. The same deadline and interrupt semantics as the line transports
+// TPI: each packet starts with its whole length as an int32, little-endian; Universal
+// Robots RTDE and primary/secondary interfaces: uint16 / int32, big-endian), and an
+// in-memory fake. The same deadline and interrupt semantics as the line transports
 // (instruments/transport.h): every read and write ends by an absolute deadline, the
 // deadline of the whole exchange, however the bytes arrive; the interrupt flag ends any
-// wait within kInterruptPoll. Frames are split by emscon::FrameSplitter: several packets
-// in one read and a packet split across reads both come out whole; a size field outside
-// 12 B … 64 KiB means the stream lost its framing (kBadFrame, everything buffered dropped).
-// A KUKA variable server's frames are split by kuka::FrameSplitter the same way (10 B …
-// 8 KiB for its responses).
+// wait within kInterruptPoll. Frames are split by instruments::FrameSplitter: several
+// packets in one read and a packet split across reads both come out whole; a size field
+// outside the protocol's bounds (emScon 12 B … 64 KiB) means the stream lost its framing
+// (kBadFrame, everything buffered dropped).
 #pragma once
 
 #include <deque>
@@ -18,7 +18,6 @@
 #include <vector>
 
 #include "instruments/emscon_codec.h"
-#include "instruments/kuka_codec.h"
 #include "instruments/transport.h"
 
 namespace armsig::instruments {
@@ -32,25 +31,27 @@ class PacketTransport : public TransportBase {
   virtual std::string ReadPacket(Deadline deadline) = 0;
 };
 
+inline constexpr FrameSplitter::Format kEmsconFrames{4, false, emscon::kMinPacketBytes,
+                                                     emscon::kMaxPacketBytes};
 std::unique_ptr<PacketTransport> MakeEmsconTcpTransport(const std::string& host,
                                                         unsigned short port,
                                                         Millis connect_timeout = Millis(3000));
-// A KUKA variable server (KukaVarProxy, C3 Bridge: instruments/kuka_codec.h), as a client.
-std::unique_ptr<PacketTransport> MakeKukaTcpTransport(const std::string& host,
-                                                      unsigned short port,
-                                                      Millis connect_timeout = Millis(3000));
+// Any length-prefixed binary protocol over TCP.
+std::unique_ptr<PacketTransport> MakeFramedTcpTransport(const std::string& host,
+                                                        unsigned short port,
+                                                        const FrameSplitter::Format& format,
+                                                        Millis connect_timeout = Millis(3000));
 
 // In-memory packet transport for driver unit tests: every Write is answered by
 // `responder` with the bytes the peer sends back, as chunks each delivered by one read
 // (a packet may be split over chunks, a chunk may hold several packets; none = silence).
-// Silence is a timeout at once (no waiting). `Splitter` frames the bytes as the protocol
-// does (emscon::FrameSplitter, kuka::FrameSplitter).
-template <typename Splitter>
-class BasicFakePacketTransport : public PacketTransport {
+// Silence is a timeout at once (no waiting).
+class FakePacketTransport : public PacketTransport {
  public:
   using Responder = std::function<std::vector<std::string>(std::string_view request)>;
-  explicit BasicFakePacketTransport(Responder responder, std::string name = "fake tracker")
-      : responder_(std::move(responder)), name_(std::move(name)) {}
+  explicit FakePacketTransport(Responder responder, std::string name = "fake tracker",
+                               FrameSplitter::Format format = kEmsconFrames)
+      : responder_(std::move(responder)), name_(std::move(name)), splitter_(format) {}
   void Open() override;
   void Close() override { open_ = false; }
   bool IsOpen() const override { return open_; }
@@ -68,12 +69,8 @@ class BasicFakePacketTransport : public PacketTransport {
   bool open_ = true;
   int opens_ = 0, reads_ = 0;
   std::deque<std::string> chunks_;
-  Splitter splitter_;
+  FrameSplitter splitter_;
   std::vector<std::string> written_;
 };
-using FakePacketTransport = BasicFakePacketTransport<emscon::FrameSplitter>;
-using FakeKukaTransport = BasicFakePacketTransport<kuka::FrameSplitter>;
-extern template class BasicFakePacketTransport<emscon::FrameSplitter>;
-extern template class BasicFakePacketTransport<kuka::FrameSplitter>;
 
 }  // namespace armsig::instruments

@@ -53,6 +53,42 @@ constexpr double kMaxGateMm = plausible::kMaxLengthMm;
 
 }  // namespace
 
+const std::vector<NetworkControllerProtocol>& NetworkControllerProtocols() {
+  static const std::vector<NetworkControllerProtocol> protocols = {
+      {"ur",
+       "Universal Robots (CB3 from 3.4, e-Series)",
+       {{"rtde_port", 30004}, {"primary_port", 30001}, {"secondary_port", 30002},
+        {"dashboard_port", 29999}},
+       "dashboard_port",
+       false,
+       {}},
+      {"kuka",
+       "KUKA KR C4 / KR C5 (a variable server, KukaVarProxy or C3 Bridge, and ARMSIG.src)",
+       {{"variable_server_port", 7000}},
+       "variable_server_port",
+       false,  // a variable server has no authentication: the cell network is the guard
+       {"velocity_percent", "acceleration_percent"}},
+  };
+  return protocols;
+}
+
+const NetworkControllerProtocol* FindNetworkControllerProtocol(const std::string& name) {
+  for (const auto& p : NetworkControllerProtocols()) {
+    if (p.name == name) return &p;
+  }
+  return nullptr;
+}
+
+unsigned short ControllerConfig::Port(const std::string& key) const {
+  if (const auto it = ports.find(key); it != ports.end()) return it->second;
+  if (const auto* p = FindNetworkControllerProtocol(protocol)) {
+    for (const auto& [name, port] : p->ports) {
+      if (name == key) return port;
+    }
+  }
+  return 0;
+}
+
 std::optional<HostPort> SplitHostPort(const std::string& text) {
   const size_t colon = text.rfind(':');
   if (colon == std::string::npos || colon == 0) return std::nullopt;
@@ -77,25 +113,109 @@ double PositiveMm(const YamlValue& value) {
   return mm;
 }
 
+// Which protocols a controller key belongs to, for "'host' belongs to protocol ur, not val".
+std::vector<std::string> OwnersOf(const std::string& key) {
+  if (key == "port") return {"val", "as"};
+  if (key == "baud") return {"val", "as", "counter"};
+  if (key == "ports" || key == "counts_per_deg" || key == "offset_deg" || key == "coupling")
+    return {"counter"};
+  std::vector<std::string> owners;
+  for (const auto& p : NetworkControllerProtocols()) {
+    bool takes = key == "host" || (key == "credentials" && p.credentials);
+    for (const auto& [name, port] : p.ports) takes |= name == key;
+    for (const auto& name : p.settings) takes |= name == key;
+    if (takes) owners.push_back(p.name);
+  }
+  return owners;
+}
+
+// "val, as or counter"
+std::string OrList(const std::vector<std::string>& items) {
+  std::string list;
+  for (size_t i = 0; i < items.size(); ++i) {
+    list += (i == 0 ? "" : i + 1 == items.size() ? " or " : ", ") + items[i];
+  }
+  return list;
+}
+
+// A controller's address: a host name or an IP address, no blanks or control characters.
+std::string HostOf(const YamlValue& value) {
+  const std::string host = value.Text();
+  const bool bad = host.size() > 253 || std::any_of(host.begin(), host.end(), [](char ch) {
+                     return static_cast<unsigned char>(ch) <= ' ' || ch == 0x7f;
+                   });
+  if (bad) value.Fail("expected a host name or an IP address, got " + value.Describe());
+  return host;
+}
+
+// A controller on the network: its host, its protocol's ports (defaults filled in), its
+// credentials file and settings.
+void NetworkControllerFrom(const YamlMap& map, const NetworkControllerProtocol& protocol,
+                           const std::string& source, ControllerConfig& c) {
+  c.host = HostOf(map.Required("host", "the controller's address (host name or IP address)"));
+  std::map<unsigned short, std::string> taken;  // port → its key
+  for (const auto& [key, default_port] : protocol.ports) {
+    unsigned short port = default_port;
+    const auto given = map.Find(key);
+    if (given) port = static_cast<unsigned short>(given->Integer(1, 65535));
+    c.ports[key] = port;
+    const auto [other, inserted] = taken.emplace(port, key);
+    if (!inserted) {
+      const std::string message = fmt::format("{} and {} are both port {}: each interface of the "
+                                              "controller has its own",
+                                              other->second, key, port);
+      if (given) given->Fail(message);
+      map.Fail(message);
+    }
+  }
+  if (const auto v = map.Find("credentials")) c.credentials_path = Resolve(source, v->Text());
+  for (const auto& key : protocol.settings) {
+    if (const auto v = map.Find(key)) c.settings[key] = v->Text();
+  }
+}
+
 ControllerConfig ControllerFrom(const YamlValue& value, const std::string& source,
                                 SourceLocation* ports_where) {
-  const YamlMap map = value.Map({"protocol", "port", "baud", "can_move", "ports", "counts_per_deg",
-                                 "offset_deg", "coupling"});
+  // Every key some protocol takes, so that a misspelt one is refused naming the nearest.
+  std::vector<std::string> owned = {"protocol", "port", "baud", "can_move", "ports",
+                                    "counts_per_deg", "offset_deg", "coupling", "host",
+                                    "credentials"};
+  std::vector<std::string> choices = {"val", "as", "counter"};
+  for (const auto& p : NetworkControllerProtocols()) {
+    choices.push_back(p.name);
+    for (const auto& [key, port] : p.ports) owned.push_back(key);
+    for (const auto& key : p.settings) owned.push_back(key);
+  }
+  std::sort(owned.begin() + 10, owned.end());
+  owned.erase(std::unique(owned.begin() + 10, owned.end()), owned.end());
+  const YamlMap map = value.Map(std::vector<std::string_view>(owned.begin(), owned.end()));
   ControllerConfig c;
-  c.protocol = Choice(map.Required("protocol", "val, as or counter"), {"val", "as", "counter"});
-  if (const auto baud = map.Find("baud")) c.baud = Baud(*baud);
+  c.protocol = Choice(map.Required("protocol", OrList(choices)), choices);
   if (const auto can_move = map.Find("can_move")) c.can_move = can_move->Flag();
-  if (c.protocol != "counter") {
-    for (const char* key : {"ports", "counts_per_deg", "offset_deg", "coupling"}) {
-      if (const auto v = map.Find(key)) {
-        v->Fail(Quoted(std::string(key)) + " belongs to protocol counter, not " + c.protocol);
-      }
+  // A key of another protocol is refused, naming whose it is.
+  for (const auto& key : owned) {
+    if (key == "protocol" || key == "can_move") continue;
+    const auto v = map.Find(key);
+    if (!v) continue;
+    const auto owners = OwnersOf(key);
+    if (std::find(owners.begin(), owners.end(), c.protocol) != owners.end()) continue;
+    if (key == "port" && c.protocol == "counter")
+      v->Fail("counter: give 'ports' (one per joint), not 'port'");
+    if (key == "port" || key == "baud") {
+      v->Fail(c.protocol + ": the controller is reached over the network: give 'host' (and its "
+              "ports), not " + Quoted(key));
     }
-    c.port = Resolve(source, map.Required("port", "the controller's serial port").Text());
+    if (owners.empty()) v->Fail(Quoted(key) + " is no setting of protocol " + c.protocol);
+    v->Fail(Quoted(key) + " belongs to protocol " + OrList(owners) + ", not " + c.protocol);
+  }
+  if (const auto* network = FindNetworkControllerProtocol(c.protocol)) {
+    NetworkControllerFrom(map, *network, source, c);
     return c;
   }
-  if (const auto port = map.Find("port")) {
-    port->Fail("counter: give 'ports' (one per joint), not 'port'");
+  if (const auto baud = map.Find("baud")) c.baud = Baud(*baud);
+  if (c.protocol != "counter") {
+    c.port = Resolve(source, map.Required("port", "the controller's serial port").Text());
+    return c;
   }
   const YamlValue ports = map.Required("ports", "one serial port per joint");
   *ports_where = ports.Where();
@@ -275,7 +395,7 @@ ParsedLab ParseRoot(const YamlValue& root_value, const std::string& source) {
     lab.robot_base = io::ReadRigidTransform(*base, plausible::Quantity::kCoordinate);
   }
   lab.controller =
-      ControllerFrom(robot.Required("controller", "{protocol: val | as | counter, port, …}"),
+      ControllerFrom(robot.Required("controller", "{protocol: val | as | counter, port, …} or {protocol: ur, host, …}"),
                      source, &parsed.ports_where);
 
   for (const YamlValue& item : root.Required("instruments", "a list of instruments").List(1)) {
@@ -382,8 +502,18 @@ std::string FormatLabYaml(const LabFile& lab) {
   const ControllerConfig& c = lab.controller;
   out << YAML::Key << "controller" << YAML::Value << YAML::Flow << YAML::BeginMap;
   out << YAML::Key << "protocol" << YAML::Value << c.protocol;
-  if (!c.port.empty()) out << YAML::Key << "port" << YAML::Value << c.port;
-  if (c.baud != default_controller.baud) out << YAML::Key << "baud" << YAML::Value << c.baud;
+  if (const auto* network = FindNetworkControllerProtocol(c.protocol)) {
+    out << YAML::Key << "host" << YAML::Value << c.host;
+    for (const auto& [key, default_port] : network->ports) {
+      if (c.Port(key) != default_port) out << YAML::Key << key << YAML::Value << c.Port(key);
+    }
+    if (!c.credentials_path.empty())
+      out << YAML::Key << "credentials" << YAML::Value << c.credentials_path;
+    for (const auto& [key, text] : c.settings) out << YAML::Key << key << YAML::Value << text;
+  } else {
+    if (!c.port.empty()) out << YAML::Key << "port" << YAML::Value << c.port;
+    if (c.baud != default_controller.baud) out << YAML::Key << "baud" << YAML::Value << c.baud;
+  }
   out << YAML::Key << "can_move" << YAML::Value << c.can_move;
   out << YAML::EndMap;
   if (lab.robot_base) {

@@ -2,6 +2,7 @@
 // instruments and the stations they stand on, the tolerances of a capture session.
 #pragma once
 
+#include <map>
 #include <optional>
 #include <string>
 #include <vector>
@@ -28,13 +29,44 @@ struct InstrumentConfig {
 };
 
 struct ControllerConfig {
-  std::string protocol;  // val | as | counter
+  std::string protocol;  // val | as | counter, or a network controller (ur, …)
   std::string port;
   unsigned baud = 9600;
   bool can_move = false;                   // armsig commands the moves (else the operator does)
   std::vector<std::string> counter_ports;  // counter: one per joint
   instruments::EncoderCalibration encoders;
+  // A controller on the network (NetworkControllerProtocols): its address and every port
+  // its protocol names, the defaults filled in (ur: rtde_port 30004, primary_port 30001,
+  // secondary_port 30002, dashboard_port 29999).
+  std::string host;
+  std::map<std::string, unsigned short> ports;
+  // `credentials: FILE` (resolved against the lab file's folder) for a protocol that logs in;
+  // empty: the environment (io/credentials.h). Never the secret itself.
+  std::string credentials_path;
+  // The protocol's own settings beyond ports and credentials (NetworkControllerProtocol::
+  // settings), as written.
+  std::map<std::string, std::string> settings;
+
+  // The port called `key`, its default when the lab file did not give it.
+  unsigned short Port(const std::string& key) const;
 };
+
+// A robot controller reached over the network, as the lab file names it:
+// `{protocol: NAME, host: HOST, can_move: …, <port keys>: N, credentials: FILE, <settings>}`.
+// Adding a controller is one entry here (its keys) and one in acquisition/lab.cc (its
+// device); the lab file refuses every key its protocol does not name.
+struct NetworkControllerProtocol {
+  std::string name;         // the lab file's protocol: ur
+  std::string description;  // "Universal Robots (CB3 from 3.4, e-Series)"
+  std::vector<std::pair<std::string, unsigned short>> ports;  // optional keys, their defaults
+  // The port `armsig instrument probe --tcp HOST:PORT` names (its key in `ports`).
+  std::string tcp_port;
+  bool credentials = false;            // takes `credentials: FILE`
+  std::vector<std::string> settings;   // further optional keys (texts)
+};
+const std::vector<NetworkControllerProtocol>& NetworkControllerProtocols();
+// nullptr for a protocol that is not a network controller's (val, as, counter).
+const NetworkControllerProtocol* FindNetworkControllerProtocol(const std::string& name);
 
 struct Tolerances {
   double max_miss_mm = 0.2;        // largest ray miss distance of an accepted point

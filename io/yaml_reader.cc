@@ -160,8 +160,11 @@ Eigen::MatrixXd YamlValue::Matrix(int rows, int cols) const {
 }
 
 YamlMap YamlValue::Map(std::initializer_list<std::string_view> allowed) const {
-  if (!IsMap()) Expected("a mapping with " + KeyList(allowed));
-  const std::vector<std::string_view> keys(allowed);
+  return Map(std::vector<std::string_view>(allowed));
+}
+
+YamlMap YamlValue::Map(const std::vector<std::string_view>& keys) const {
+  if (!IsMap()) Expected("a mapping with " + KeyList(keys));
   std::map<std::string, int, std::less<>> seen;  // key → its line
   for (auto it = node_.begin(); it != node_.end(); ++it) {
     const YamlValue key(it->first, source_, "", mark_);

@@ -71,6 +71,7 @@ class YamlValue {
   // A mapping whose keys must be among `allowed` (each at most once); anything else is
   // refused naming the key, its line and the nearest allowed key.
   YamlMap Map(std::initializer_list<std::string_view> allowed) const;
+  YamlMap Map(const std::vector<std::string_view>& allowed) const;  // a list made at run time
 
  private:
   [[noreturn]] void Expected(const std::string& what) const;

@@ -15,7 +15,7 @@ set -euo pipefail
 cd "$(dirname "$0")/.."
 
 targets=(csv_fuzz poses_fuzz observations_fuzz model_yaml_fuzz stations_yaml_fuzz lab_yaml_fuzz
-  gsi_fuzz geocom_fuzz robot_where_fuzz emscon_fuzz kuka_fuzz)
+  gsi_fuzz geocom_fuzz robot_where_fuzz emscon_fuzz ur_fuzz kuka_fuzz)
 # The longest input a target is given. libFuzzer otherwise takes the longest seed (a 120 kB
 # real GSI file made gsi_fuzz mutate 120 kB inputs at ~90 executions/s); parsers are linear,
 # and what a long file adds is more of the same lines.
@@ -33,6 +33,7 @@ fault_prefixes() {  # target → the name prefixes of the fault inputs in its fo
     geocom_fuzz) echo "geocom" ;;
     robot_where_fuzz) echo "robot" ;;
     emscon_fuzz) echo "emscon" ;;
+    ur_fuzz) echo "ur" ;;
     kuka_fuzz) echo "kuka" ;;
   esac
 }
@@ -56,6 +57,7 @@ seeds() {  # target → seed files
     geocom_fuzz) find fuzz/seeds/geocom -type f ;;
     robot_where_fuzz) find fuzz/seeds/robot -type f ;;
     emscon_fuzz) find fuzz/seeds/emscon -type f ;;
+    ur_fuzz) find fuzz/seeds/ur -type f ;;
     kuka_fuzz) find fuzz/seeds/kuka controllers/kuka -type f ;;
   esac
   faults "$1"

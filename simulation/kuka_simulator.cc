@@ -17,12 +17,11 @@ namespace kuka = instruments::kuka;
 namespace contract = instruments::kuka::contract;
 namespace sv = instruments::kuka::system_variable;
 using tcp = asio::ip::tcp;
-using SteadyClock = std::chrono::steady_clock;
 
 struct KukaSimulator::Connection {
   explicit Connection(asio::io_context& io) : socket(io) {}
   tcp::socket socket;
-  kuka::FrameSplitter splitter{kuka::kMinRequestBytes};
+  instruments::FrameSplitter splitter{kuka::kRequestFrames};
   char chunk[4096];
   std::deque<Step> out;
   bool writing = false, flooding = false, closed = false;
@@ -57,21 +56,6 @@ std::string Upper(std::string s) {
   return s;
 }
 
-// Normalised position on a trapezoidal velocity profile of `seconds`, whose ramps take
-// `ramp` (≤ seconds / 2) of it: 0 at the start, 1 at the end.
-double Profile(double t, double seconds, double ramp) {
-  if (seconds <= 0.0 || t >= seconds) return 1.0;
-  if (t <= 0.0) return 0.0;
-  const double cruise = seconds - 2.0 * ramp;
-  const double v = 1.0 / (ramp + cruise);  // peak velocity that covers 1 in `seconds`
-  if (ramp <= 0.0) return t / seconds;
-  const double a = v / ramp;
-  if (t < ramp) return 0.5 * a * t * t;
-  if (t < ramp + cruise) return 0.5 * a * ramp * ramp + v * (t - ramp);
-  const double left = seconds - t;
-  return 1.0 - 0.5 * a * left * left;
-}
-
 }  // namespace
 
 KukaSimulator::KukaSimulator(VirtualLab& lab, std::string host, unsigned short port,
@@ -102,10 +86,12 @@ KukaSimulator::KukaSimulator(VirtualLab& lab, std::string host, unsigned short p
   // The globals a controller set up from controllers/kuka/config_globals.dat declares.
   for (const auto& d : kuka::ParseDeclarations(kKukaConfigGlobals))
     globals_[d.name] = {d.type, d.value};
+  Eigen::VectorXd home = options_.home_rad;
+  if (home.size() != axes_) home = lab.Joints();
+  if (home.size() != axes_) home = Eigen::VectorXd::Zero(axes_);
+  arm_ = std::make_unique<VirtualArm>(lab, PhysicalClock(options_.time_scale), home);
   joints_deg_ = Eigen::VectorXd::Zero(6);
-  const Eigen::VectorXd q = lab.Joints();
-  for (int i = 0; i < std::min<int>(axes_, static_cast<int>(q.size())); ++i)
-    joints_deg_(i) = q(i) / kRadPerDeg;
+  joints_deg_.head(axes_) = home / kRadPerDeg;
   mode_ = options_.mode;
   if (!options_.program_running) program_state_ = "P_RESET";
 }
@@ -175,7 +161,7 @@ void KukaSimulator::SetReachable(bool reachable) {
 void KukaSimulator::Tick() {
   {
     std::lock_guard lock(mutex_);
-    Advance(SteadyClock::now());
+    Advance();
   }
   tick_->expires_after(kInterpreterCycle);
   tick_->async_wait([this](const boost::system::error_code& ec) {
@@ -213,8 +199,8 @@ void KukaSimulator::StartRead(std::shared_ptr<Connection> c) {
         for (;;) {
           int32_t size = 0;
           const auto status = c->splitter.Next(frame, &size);
-          if (status == kuka::FrameSplitter::Status::kNeedMore) break;
-          if (status == kuka::FrameSplitter::Status::kBadSize) {
+          if (status == instruments::FrameSplitter::Status::kNeedMore) break;
+          if (status == instruments::FrameSplitter::Status::kBadSize) {
             // KukaVarProxy reads on from there and answers nothing it cannot split.
             spdlog::debug("virtual KUKA: dropped bytes with a length field of {}", size - 4);
             break;
@@ -249,7 +235,7 @@ void KukaSimulator::OnFrame(const std::shared_ptr<Connection>& c, const std::str
   kuka::Response a{r.tag, static_cast<uint8_t>(r.type), "", 1, true};
   {
     std::lock_guard lock(mutex_);
-    Advance(SteadyClock::now());
+    Advance();
     if (r.type == kuka::MessageType::kRead) {
       if (fault.fault == Fault::kOtherReply) {
         a.value = ReadVariable(Upper(r.name) == sv::kRobStopped ? sv::kModeOp : sv::kRobStopped,
@@ -263,7 +249,7 @@ void KukaSimulator::OnFrame(const std::shared_ptr<Connection>& c, const std::str
       a.value = r.value;
       a.success = WriteVariable(Upper(r.name), r.value);
       if (!a.success) a.error_code = 0;
-      Advance(SteadyClock::now());
+      Advance();
     }
   }
   if (fault.fault == Fault::kDropReply) return;
@@ -387,40 +373,57 @@ double KukaSimulator::MoveSeconds(const Eigen::VectorXd& from_deg, const Eigen::
   return Plan(from_deg, to_deg, velocity_percent, acceleration_percent).seconds;
 }
 
-void KukaSimulator::Begin(Motion& m, SteadyClock::time_point now) {
-  const MovePlan plan = Plan(m.from, m.to, m.velocity, m.acceleration);
-  m.start = now;
-  m.unscaled = plan.seconds;
-  m.seconds = plan.seconds * options_.time_scale;
-  m.ramp = plan.ramp * options_.time_scale;
-  m.halted = false;
+// A synchronous PTP: every axis on the slowest one's time and ramps. The arm's joint move
+// runs the joint that turns farthest on a trapezoid of speed v and acceleration a; these give
+// it the PTP's duration T and ramp r (v = D / (T − r), a = v / r), and the other axes follow
+// in proportion, as in the PTP.
+void KukaSimulator::Issue() {
+  Command& c = *command_;
+  const Eigen::VectorXd from = arm_state_.q;
+  Eigen::VectorXd from_deg = Eigen::VectorXd::Zero(6);
+  from_deg.head(axes_) = from / kRadPerDeg;
+  Eigen::VectorXd to_deg = from_deg;
+  to_deg.head(axes_) = c.target_rad / kRadPerDeg;
+  const MovePlan plan = Plan(from_deg, to_deg, c.velocity, c.acceleration);
+  last_move_seconds_ = plan.seconds;
+  const double distance = (c.target_rad - from).cwiseAbs().maxCoeff();
+  if (!(distance > 0.0) || !(plan.seconds > 0.0) || !(plan.ramp > 0.0)) {
+    c.issued = true;  // nothing to move: done on the next cycle
+    return;
+  }
+  const double v = distance / (plan.seconds - plan.ramp);
+  c.issued = arm_->MoveJ(c.target_rad, v / plan.ramp, v);
 }
 
-Eigen::VectorXd KukaSimulator::JointsAt(const Motion& m, SteadyClock::time_point now) const {
-  // Every axis on the leading axis's profile (a synchronous PTP).
-  const double t = std::chrono::duration<double>(now - m.start).count();
-  return m.from + (m.to - m.from) * Profile(t, m.seconds, m.ramp);
+void KukaSimulator::Halt(HaltKind kind) {
+  switch (kind) {
+    case HaltKind::kEmergency:
+      arm_->EmergencyStop();
+      break;
+    case HaltKind::kSafety:
+      arm_->ProtectiveStop();
+      break;
+    case HaltKind::kStopKey:  // brakes along the path and stands, no stop to clear
+      arm_->ProtectiveStop();
+      arm_->ClearProtectiveStop();
+      break;
+  }
+  if (command_ && command_->issued) {
+    command_->issued = false;
+    ++halts_;
+  }
+  Advance();
 }
 
-void KukaSimulator::Halt(SteadyClock::time_point now) {
-  if (!motion_ || motion_->halted) return;
-  joints_deg_ = JointsAt(*motion_, now);
-  lab_.SetJoints(joints_deg_.head(axes_) * kRadPerDeg);
-  motion_->halted = true;
-  ++halts_;
-}
-
-void KukaSimulator::Advance(SteadyClock::time_point now) {
-  if (motion_ && !motion_->halted) {
-    const double t = std::chrono::duration<double>(now - motion_->start).count();
-    if (t >= motion_->seconds) {
-      joints_deg_ = motion_->to;
-      lab_.SetJoints(joints_deg_.head(axes_) * kRadPerDeg);  // it lands (repeatability)
-      SetGlobal(contract::kDone, motion_->command);           // after WAIT SEC 0
-      motion_.reset();
-    } else {
-      joints_deg_ = JointsAt(*motion_, now);
-    }
+void KukaSimulator::Advance() {
+  arm_state_ = arm_->Now();
+  joints_deg_.head(axes_) = arm_state_.q / kRadPerDeg;
+  // The PTP has ended (a halt un-issues it): the interpolator is done, so WAIT SEC 0 lets
+  // ARMSIG go on, whatever moves the arm afterwards.
+  if (command_ && command_->issued && !arm_state_.moving &&
+      arm_state_.stop == VirtualArm::Stop::kNone) {
+    SetGlobal(contract::kDone, command_->number);
+    command_.reset();
   }
   if (program_state_ != "P_ACTIVE" || program_ != contract::kProgram) return;
   if (fresh_start_) {  // ARMSIG's first lines
@@ -433,10 +436,10 @@ void KukaSimulator::Advance(SteadyClock::time_point now) {
       SetGlobal(contract::kDone, cmd);
     }
   }
-  if (!motion_ && GlobalInt(contract::kCommand) != GlobalInt(contract::kDone)) TakeCommand(now);
+  if (!command_ && GlobalInt(contract::kCommand) != GlobalInt(contract::kDone)) TakeCommand();
 }
 
-void KukaSimulator::TakeCommand(SteadyClock::time_point now) {
+void KukaSimulator::TakeCommand() {
   const int64_t n = GlobalInt(contract::kCommand);
   SetGlobal(contract::kBusy, n);
   const auto target = kuka::ParseAxes(globals_.at(contract::kTarget).text, 6);
@@ -454,17 +457,15 @@ void KukaSimulator::TakeCommand(SteadyClock::time_point now) {
     SetGlobal(contract::kDone, n);
     return;
   }
-  Motion m;
-  m.from = joints_deg_;
-  m.to = goal;
-  m.velocity = static_cast<int>(vel);
-  m.acceleration = static_cast<int>(acc);
-  m.command = n;
-  Begin(m, now);
-  last_move_seconds_ = m.unscaled;
+  Command c;
+  c.number = n;
+  c.target_rad = goal.head(axes_) * kRadPerDeg;
+  c.velocity = static_cast<int>(vel);
+  c.acceleration = static_cast<int>(acc);
+  command_ = c;
   ++moves_;
-  motion_ = m;
-  Advance(now);  // a move of no time is done at once
+  Issue();
+  Advance();  // a move of no time is done at once
 }
 
 int64_t KukaSimulator::GlobalInt(const std::string& name) const {
@@ -505,8 +506,9 @@ std::optional<std::string> KukaSimulator::ReadVariable(const std::string& name,
   if (name == sv::kStopMess) return flag(stop_message_);
   if (name == sv::kAlarmStop) return flag(alarm_stop_);
   if (name == sv::kUserSaf) return flag(user_saf_);
-  if (name == sv::kPeriRdy) return flag(drives_on_);
-  if (name == sv::kRobStopped) return flag(!motion_ || motion_->halted);
+  if (name == sv::kPeriRdy) return flag(drives_on_ && arm_state_.powered);
+  if (name == sv::kRobStopped)  // every axis at standstill, whatever turns it
+    return flag(!arm_state_.moving && arm_state_.qd.cwiseAbs().maxCoeff() == 0.0);
   if (name == sv::kRobName) return Quoted(options_.robot_name);
   if (name == sv::kSerialNo) return std::to_string(options_.serial);
   if (name == sv::kTrafoName) return Quoted(options_.trafo_name);
@@ -556,9 +558,7 @@ bool KukaSimulator::WriteVariable(const std::string& name, const std::string& va
 
 void KukaSimulator::PressEmergencyStop() {
   std::lock_guard lock(mutex_);
-  const auto now = SteadyClock::now();
-  Advance(now);
-  Halt(now);
+  Halt(HaltKind::kEmergency);
   alarm_stop_ = false;
   stop_message_ = true;
   drives_on_ = false;
@@ -568,15 +568,14 @@ void KukaSimulator::PressEmergencyStop() {
 void KukaSimulator::ReleaseEmergencyStop() {
   std::lock_guard lock(mutex_);
   alarm_stop_ = true;
+  arm_->ReleaseEmergencyStop();
 }
 
 void KukaSimulator::OpenSafetyGate() {
   std::lock_guard lock(mutex_);
   user_saf_ = false;
   if (!Automatic()) return;  // operator safety is not active in T1 and T2
-  const auto now = SteadyClock::now();
-  Advance(now);
-  Halt(now);
+  Halt(HaltKind::kSafety);
   stop_message_ = true;
   if (program_state_ == "P_ACTIVE") program_state_ = "P_STOP";
 }
@@ -588,36 +587,32 @@ void KukaSimulator::CloseSafetyGate() {
 
 void KukaSimulator::Acknowledge() {
   std::lock_guard lock(mutex_);
-  if (alarm_stop_ && (user_saf_ || !Automatic())) stop_message_ = false;
+  if (!alarm_stop_ || (!user_saf_ && Automatic())) return;  // its cause is still there
+  stop_message_ = false;
+  arm_->ClearProtectiveStop();
 }
 
 void KukaSimulator::StartProgram() {
   std::lock_guard lock(mutex_);
   if (stop_message_ || program_.empty() || program_state_ == "P_ACTIVE") return;
+  if (!arm_->PowerOn()) return;  // drives on: not while an EMERGENCY STOP is pressed
   drives_on_ = true;
   program_state_ = "P_ACTIVE";
-  const auto now = SteadyClock::now();
-  if (motion_ && motion_->halted) {  // the halted PTP goes on to its target
-    motion_->from = joints_deg_;
-    Begin(*motion_, now);
-  }
-  Advance(now);
+  Advance();
+  if (command_ && !command_->issued) Issue();  // the halted PTP goes on to its target
+  Advance();
 }
 
 void KukaSimulator::StopProgram() {
   std::lock_guard lock(mutex_);
-  const auto now = SteadyClock::now();
-  Advance(now);
-  Halt(now);
+  Halt(HaltKind::kStopKey);
   if (program_state_ == "P_ACTIVE") program_state_ = "P_STOP";
 }
 
 void KukaSimulator::SetMode(const std::string& mode) {
   std::lock_guard lock(mutex_);
   if (mode == mode_) return;
-  const auto now = SteadyClock::now();
-  Advance(now);
-  Halt(now);
+  Halt(HaltKind::kStopKey);
   mode_ = mode;
   drives_on_ = false;
   if (program_state_ == "P_ACTIVE") program_state_ = "P_STOP";
@@ -625,10 +620,8 @@ void KukaSimulator::SetMode(const std::string& mode) {
 
 void KukaSimulator::SelectProgram(const std::string& name) {
   std::lock_guard lock(mutex_);
-  const auto now = SteadyClock::now();
-  Advance(now);
-  Halt(now);
-  motion_.reset();  // deselecting cancels the interrupted motion
+  Halt(HaltKind::kStopKey);
+  command_.reset();  // deselecting cancels the interrupted motion
   program_ = name;
   program_state_ = name.empty() ? "P_FREE" : "P_RESET";
   fresh_start_ = true;
@@ -642,17 +635,16 @@ void KukaSimulator::CommandMove(const Eigen::VectorXd& target_deg, int velocity_
   SetGlobal(contract::kVelocity, velocity_percent);
   SetGlobal(contract::kCommand,
             std::max(GlobalInt(contract::kCommand), GlobalInt(contract::kDone)) + 1);
-  Advance(SteadyClock::now());
+  Advance();
 }
 
 KukaSimulator::Snapshot KukaSimulator::snapshot() const {
   std::lock_guard lock(mutex_);
   Snapshot s;
-  s.joints_deg = motion_ && !motion_->halted ? JointsAt(*motion_, SteadyClock::now())
-                                             : joints_deg_;
-  s.joints_deg.conservativeResize(axes_);
-  s.moving = motion_ && !motion_->halted;
-  s.halted = motion_ && motion_->halted;
+  const VirtualArm::State now = arm_->Now();
+  s.joints_deg = now.q / kRadPerDeg;
+  s.moving = now.moving;
+  s.halted = command_ && !command_->issued;
   s.cmd = GlobalInt(contract::kCommand);
   s.busy = GlobalInt(contract::kBusy);
   s.done = GlobalInt(contract::kDone);

@@ -23,9 +23,12 @@
 //    STOP key, a mode change) stands where it halted and goes on to its target when the
 //    program is started again.
 //
-// The robot's joint angles are the VirtualLab's encoder angles: the lab computes the true
-// position with its hidden errors. REALs are 32-bit floats on the controller: $AXIS_ACT
-// shows a float's 9 significant digits.
+// The arm is a simulation::VirtualArm (physical time, scaled; the lab's robot follows it):
+// ARMSIG's PTP is its joint move, with the speed and acceleration that give the leading
+// axis's profile; an EMERGENCY STOP brakes it and cuts the drives, a safety stop or the STOP
+// key brakes it along its path. The robot's joint angles are the encoders': the lab computes
+// the true position with its hidden errors. REALs are 32-bit floats on the controller:
+// $AXIS_ACT shows a float's 9 significant digits.
 //
 // Faults (FaultSpec, once or on every request): kVanish (the connection closes as the
 // request arrives), kDropReply (no answer), kNoiseBytes (garbage bytes before the answer:
@@ -54,14 +57,16 @@
 
 #include "instruments/kuka_codec.h"
 #include "simulation/simulator.h"
+#include "simulation/virtual_arm.h"
 #include "simulation/virtual_lab.h"
 
 namespace armsig::simulation {
 
 struct KukaSimulatorOptions {
-  double time_scale = 1.0;                   // multiplies move times and latencies (0: at once)
+  double time_scale = 1.0;                   // wall seconds per physical second (≥ 0.001)
   std::chrono::microseconds latency{2000};   // per variable exchange (KukaVarProxy: a few ms)
   std::string robot_name = "KR16-LAB";       // $ROBNAME[]
+  Eigen::VectorXd home_rad;                   // where the arm stands at start (empty: the lab's)
   std::string trafo_name = "#KR16_2 C4 FLR";  // $TRAFONAME[]
   int serial = 501234;                        // $KR_SERIALNO
   std::string software = "KS V8.3.38";        // $RCV_INFO[]
@@ -117,12 +122,13 @@ class KukaSimulator : public Simulator {
     int64_t cmd = 0, busy = 0, done = 0, result = 0, version = 0;
     int moves = 0, refused = 0, halts = 0;
     std::string mode, program_state, program;
-    double last_move_seconds = 0.0;  // the last move's planned duration (unscaled)
+    double last_move_seconds = 0.0;  // the last move's planned duration (physical)
   };
   Snapshot snapshot() const;
-  // The planned duration of a synchronous PTP between two joint vectors (deg), unscaled.
+  // The planned duration of a synchronous PTP between two joint vectors (deg), physical.
   double MoveSeconds(const Eigen::VectorXd& from_deg, const Eigen::VectorXd& to_deg,
                      int velocity_percent, int acceleration_percent) const;
+  VirtualArm& arm() { return *arm_; }
 
  private:
   struct Connection;
@@ -134,16 +140,15 @@ class KukaSimulator : public Simulator {
     std::string type, text;
   };
   struct MovePlan {
-    double seconds = 0.0, ramp = 0.0;  // the leading axis's duration and its ramps, unscaled
+    double seconds = 0.0, ramp = 0.0;  // the leading axis's duration and its ramps (physical)
   };
-  struct Motion {
-    Eigen::VectorXd from, to;
-    std::chrono::steady_clock::time_point start;
-    double seconds = 0.0, ramp = 0.0;  // scaled
-    double unscaled = 0.0;
-    int64_t command = 0;
+  // ARMSIG's command under way: its PTP runs on the arm (`issued`), or was halted by a stop
+  // and goes on when the program is started again.
+  struct Command {
+    int64_t number = 0;
+    Eigen::VectorXd target_rad;
     int velocity = 0, acceleration = 0;
-    bool halted = false;
+    bool issued = false;
   };
 
   void StartAccept();
@@ -154,14 +159,16 @@ class KukaSimulator : public Simulator {
   void Flood(std::shared_ptr<Connection> c, bool frames, int64_t k, uint64_t generation);
   void Tick();  // the interpreter cycle: Advance() every 12 ms
 
-  // Under mutex_: the controller's state at `now`.
-  void Advance(std::chrono::steady_clock::time_point now);
-  void TakeCommand(std::chrono::steady_clock::time_point now);
+  // Under mutex_: the controller's state now.
+  void Advance();
+  void TakeCommand();
   MovePlan Plan(const Eigen::VectorXd& from_deg, const Eigen::VectorXd& to_deg,
                 int velocity_percent, int acceleration_percent) const;
-  void Begin(Motion& m, std::chrono::steady_clock::time_point now);  // from m.from, now
-  void Halt(std::chrono::steady_clock::time_point now);
-  Eigen::VectorXd JointsAt(const Motion& m, std::chrono::steady_clock::time_point now) const;
+  void Issue();  // the command's PTP from where the arm stands
+  // A halt: an EMERGENCY STOP, a safety stop (the arm stays stopped until acknowledged), or
+  // the STOP key and a mode change (it brakes and stands).
+  enum class HaltKind { kEmergency, kSafety, kStopKey };
+  void Halt(HaltKind kind);
   std::optional<std::string> ReadVariable(const std::string& name, bool out_of_range);
   bool WriteVariable(const std::string& name, const std::string& value);
   int64_t GlobalInt(const std::string& name) const;
@@ -187,8 +194,10 @@ class KukaSimulator : public Simulator {
   mutable std::mutex mutex_;  // the controller's state below
   FaultQueue faults_;
   std::map<std::string, Global> globals_;
-  Eigen::VectorXd joints_deg_;
-  std::optional<Motion> motion_;
+  std::unique_ptr<VirtualArm> arm_;
+  VirtualArm::State arm_state_;  // as of the last Advance
+  Eigen::VectorXd joints_deg_;   // six axes, the robot's first
+  std::optional<Command> command_;
   std::string mode_;
   std::string program_ = "ARMSIG";
   std::string program_state_ = "P_ACTIVE";

@@ -69,6 +69,11 @@ void VirtualLab::SetJoints(const Eigen::VectorXd& joints_rad) {
   }
 }
 
+void VirtualLab::SetJointErrors(JointAngleErrors errors) {
+  std::lock_guard lock(mutex_);
+  joint_errors_ = std::move(errors);
+}
+
 Eigen::VectorXd VirtualLab::Joints() const {
   std::lock_guard lock(mutex_);
   return joints_;
@@ -77,7 +82,8 @@ Eigen::VectorXd VirtualLab::Joints() const {
 Eigen::Vector3d VirtualLab::TruePositionLocked(const std::string& target) const {
   if (target == "robot") {
     calibration::Kinematics kin(model_);
-    return kin.Position(world_from_base_, true_params_, joints_.data()) + landed_off_;
+    const Eigen::VectorXd q = joint_errors_.TrueAngles(joints_);
+    return kin.Position(world_from_base_, true_params_, q.data()) + landed_off_;
   }
   if (auto it = points_.find(target); it != points_.end()) return it->second;
   for (const auto& s : stations_) {

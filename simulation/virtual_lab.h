@@ -12,6 +12,7 @@
 #include "calibration/model.h"
 #include "core/types.h"
 #include "reduction/instrument_errors.h"
+#include "simulation/joint_errors.h"
 
 namespace armsig::simulation {
 
@@ -42,6 +43,10 @@ class VirtualLab {
   void SetRepeatability(double sigma_mm);
   void SetJoints(const Eigen::VectorXd& joints_rad);
   Eigen::VectorXd Joints() const;
+  // Joint-angle errors periodic in each joint's own angle (simulation/joint_errors.h): the
+  // robot's true joint angles are the encoders' (SetJoints) plus them. None by default.
+  void SetJointErrors(JointAngleErrors errors);
+  const JointAngleErrors& joint_errors() const { return joint_errors_; }
 
   // A noisy reading of what the station is aimed at, in its current face, with its
   // instrument errors; distance if asked.
@@ -65,6 +70,7 @@ class VirtualLab {
   std::vector<int> face_;
   std::map<std::string, Eigen::Vector3d> points_;
   Eigen::VectorXd joints_;
+  JointAngleErrors joint_errors_;
   double repeatability_mm_ = 0.0;
   Eigen::Vector3d landed_off_ = Eigen::Vector3d::Zero();  // this move's repeatability error
   std::mt19937 robot_rng_;

@@ -9,6 +9,7 @@
 #include <string>
 #include <vector>
 
+#include "acquisition/controller_record.h"
 #include "acquisition/device_claims.h"
 #include "acquisition/lab.h"
 #include "acquisition/plan.h"
@@ -91,7 +92,8 @@ acquisition::CaptureSummary CaptureWith(
 std::vector<instruments::DeviceInfo> ProbeDevices(
     const io::LabConfig& lab,
     std::vector<std::unique_ptr<instruments::DistanceInstrument>>& devices,
-    instruments::RobotController& controller, const std::atomic<bool>* stop) {
+    instruments::RobotController& controller, const std::atomic<bool>* stop,
+    acquisition::ControllerFacts* facts) {
   const acquisition::InterruptScope interrupts(devices, controller, stop);
   std::vector<instruments::DeviceInfo> identities;
   for (size_t i = 0; i < devices.size(); ++i) {
@@ -134,13 +136,21 @@ std::vector<instruments::DeviceInfo> ProbeDevices(
     }
   }
   try {
+    *facts = acquisition::AskController(controller);
+    // A controller armsig moves must take moves now (an emergency stop, local mode, the arm
+    // powered off are named before a session is made).
+    if (controller.CanMove()) controller.CheckReady();
     const Eigen::VectorXd q = controller.ReadJointsRad();
     spdlog::debug("capture: controller {}: the robot reads {} joints", controller.name(), q.size());
+  } catch (const instruments::ControllerError& e) {
+    if (stop && *stop) throw;
+    // A state of the controller (local mode, an emergency stop): named with what to do.
+    throw std::runtime_error(fmt::format("the robot controller: {}; nothing was stored", e.what()));
   } catch (const std::exception& e) {
     if (stop && *stop) throw;
     throw std::runtime_error(fmt::format("the robot controller does not answer ({}); check that "
-                                         "it is on and its port; nothing was stored",
-                                         e.what()));
+                                         "it is on and its {}; nothing was stored",
+                                         e.what(), lab.controller.host.empty() ? "port" : "address"));
   }
   return identities;
 }
@@ -212,13 +222,14 @@ CaptureOutcome RunCaptureSession(const CaptureRequest& request) {
   std::vector<std::unique_ptr<instruments::DistanceInstrument>> devices;
   std::unique_ptr<instruments::RobotController> controller;
   std::vector<instruments::DeviceInfo> identities;
+  acquisition::ControllerFacts facts;
   // false: Ctrl-C while a device was asked (nothing changed: a new session was not made,
   // a resumed one keeps its state).
   const auto open_devices = [&] {
     try {
       devices = acquisition::OpenInstruments(lab);
       controller = acquisition::OpenController(lab);
-      identities = ProbeDevices(lab, devices, *controller, request.stop);
+      identities = ProbeDevices(lab, devices, *controller, request.stop, &facts);
       return true;
     } catch (...) {
       if (!request.stop || !*request.stop) throw;
@@ -256,6 +267,9 @@ CaptureOutcome RunCaptureSession(const CaptureRequest& request) {
                   acquisition::DisplayState(row->state, row->owner), row->state);
     acquisition::ClaimSession(database, session);
   } else {
+    // Another arm than the lab's robot (its model) or the robot as registered (its model and
+    // serial number) is refused before a session is made.
+    acquisition::CheckControllerFacts(database, lab, request.robot, 0, facts);
     session = acquisition::CreateSession(database, lab, request.robot, *plan);
     spdlog::info("capture: session {}, {} configurations", session, plan->size());
   }
@@ -275,6 +289,7 @@ CaptureOutcome RunCaptureSession(const CaptureRequest& request) {
   options.progress = request.progress;
   options.prompt_move = request.prompt_move;
   options.prompt_reflector = request.prompt_reflector;
+  options.controller_fault = request.controller_fault;
   options.identities = identities;
   try {
     out.summary = CaptureWith(database, lab, session, devices, *controller, options);
@@ -335,6 +350,17 @@ std::string FormatCaptureSummary(const acquisition::CaptureSummary& s) {
         "the operator; {}\n",
         s.beam_predicted, s.beam_searches, s.beam_operator, s.beam_base);
   }
+  if (!s.controller.empty()) text += "  robot controller: " + s.controller + "\n";
+  if (s.controller_waits > 0) {
+    text += fmt::format("  the controller stopped the arm {} time{} (protective stop); waited {:.1f} "
+                        "s in all, each configuration measured again after it\n",
+                        s.controller_waits, s.controller_waits == 1 ? "" : "s",
+                        s.controller_wait_s);
+  }
+  if (s.moving_refused > 0) {
+    text += fmt::format("  {} reading{} refused: the arm was moving\n", s.moving_refused,
+                        s.moving_refused == 1 ? "" : "s");
+  }
   if (s.measured + s.skipped > 0) {
     text += fmt::format(
         "  {:.1f} s, {:.1f} ms per configuration ({:.2f} ms software, {:.2f} ms storing)\n",
@@ -347,6 +373,11 @@ std::string FormatCaptureProgress(const acquisition::Progress& p, int width) {
   // What must be there, then what is added while it fits, most useful first; the bar takes
   // what is left (up to 30 columns, none below 10).
   std::string line = fmt::format("{}/{} {}", p.done, p.total, p.label);
+  if (!p.waiting.empty()) {
+    line += " WAITING: " + p.waiting;
+    if (DisplayWidth(line) > width) line = std::string(TruncateUtf8(line, std::max(width, 0)));
+    return line;
+  }
   const std::string eta = " ETA " + Duration(p.eta_s);
   std::vector<std::string> extras = {fmt::format(" miss {} mm", Mm(p.last_miss_mm))};
   if (p.flagged) extras.push_back(fmt::format(" flagged {}", p.flagged));

@@ -21,6 +21,8 @@ struct CaptureRequest {
   std::function<void(const acquisition::PlannedConfiguration&)> prompt_move;
   std::function<void(const std::string&, const acquisition::PlannedConfiguration&)>
       prompt_reflector;  // a laser tracker's beam missed its reflector (CaptureOptions)
+  // A protective stop: true to clear it from here (CaptureOptions::controller_fault).
+  std::function<bool(const instruments::ControllerError&)> controller_fault;
 };
 
 struct CaptureOutcome {

@@ -11,6 +11,7 @@
 #include <cerrno>
 #include <filesystem>
 #include <fstream>
+#include <limits>
 #include <optional>
 #include <random>
 #include <regex>
@@ -45,8 +46,6 @@
 namespace armsig::workflows {
 
 namespace {
-
-constexpr const char* kDemoRobot = "puma760-demo";
 
 bool Stopped(const DemoOptions& options) { return options.stop && options.stop->load(); }
 
@@ -188,12 +187,37 @@ namespace {
 
 constexpr unsigned kFirstSeed = 1985;
 
+// `joints` in the order a greedy tour from `start` visits them: each next the one whose
+// largest joint turn from the last is smallest (what a movej's time goes with).
+std::vector<Eigen::VectorXd> NearestFirst(std::vector<Eigen::VectorXd> joints,
+                                          const Eigen::VectorXd& start) {
+  std::vector<Eigen::VectorXd> ordered;
+  Eigen::VectorXd at = start;
+  while (!joints.empty()) {
+    size_t best = 0;
+    double best_turn = std::numeric_limits<double>::infinity();
+    for (size_t k = 0; k < joints.size(); ++k) {
+      const double turn = at.size() == joints[k].size() ? (joints[k] - at).cwiseAbs().maxCoeff()
+                                                          : 0.0;
+      if (turn < best_turn) {
+        best_turn = turn;
+        best = k;
+      }
+    }
+    at = joints[best];
+    ordered.push_back(std::move(joints[best]));
+    joints.erase(joints.begin() + static_cast<std::ptrdiff_t>(best));
+  }
+  return ordered;
+}
+
 // Demo sessions already stored (0 when there is no database yet: nothing is created
 // here); resuming, those before the resumed one, so it keeps the seed it was begun with.
-unsigned StoredDemoSessions(const std::string& db_path, int64_t resumed) {
+unsigned StoredDemoSessions(const std::string& db_path, const std::string& db_robot,
+                            int64_t resumed) {
   try {
     db::Database database(db_path, db::OpenMode::kReadOnly);
-    const auto robot = db::FindRobot(database, kDemoRobot);
+    const auto robot = db::FindRobot(database, db_robot);
     if (!robot) return 0;
     unsigned count = 0;
     for (const auto& s : db::ListSessions(database, *robot)) count += resumed == 0 || s.id < resumed;
@@ -205,31 +229,36 @@ unsigned StoredDemoSessions(const std::string& db_path, int64_t resumed) {
 
 }  // namespace
 
-std::string DemoProgressionText(const std::vector<CalibrationRun>& runs, double noise_floor_mm) {
+std::string DemoProgressionText(const std::vector<CalibrationRun>& runs, double noise_floor_mm,
+                                bool paper) {
   if (runs.empty()) return "";
   static const char* kPaper[] = {"1 (2)", "0.5 (1)", "0.27 (0.6)"};
-  TextTable table(
-      {"params", "identified", "fit mean (max) mm", "validation mean (max) mm", "paper (fit)"});
+  std::vector<std::string> header = {"params", "identified", "fit mean (max) mm",
+                                     "validation mean (max) mm"};
+  if (paper) header.push_back("paper (fit)");
+  TextTable table(header);
   auto mean_max = [](const calibration::ErrorStats& s) {
     return fmt::format("{:.3f} ({:.2f})", s.mean_mm, s.max_mm);
   };
-  table.AddRow({"nominal", "-", mean_max(runs[0].estimate.nominal),
-                mean_max(calibration::Summarise(
-                    calibration::Distances(runs[0].validation_nominal_residuals))),
-                "5.9 (10)"});
+  std::vector<std::string> nominal = {
+      "nominal", "-", mean_max(runs[0].estimate.nominal),
+      mean_max(calibration::Summarise(calibration::Distances(runs[0].validation_nominal_residuals)))};
+  if (paper) nominal.push_back("5.9 (10)");
+  table.AddRow(nominal);
   for (size_t k = 0; k < runs.size(); ++k) {
     const auto& e = runs[k].estimate;
-    table.AddRow(
-        {runs[k].params_spec,
-         fmt::format("{} of {}", e.identifiability.rank, e.identifiability.candidates.size()),
-         mean_max(e.fit), mean_max(StatsOf(runs[k].validation_residuals)), k < 3 ? kPaper[k] : ""});
+    std::vector<std::string> row = {
+        runs[k].params_spec,
+        fmt::format("{} of {}", e.identifiability.rank, e.identifiability.candidates.size()),
+        mean_max(e.fit), mean_max(StatsOf(runs[k].validation_residuals))};
+    if (paper) row.push_back(k < 3 ? kPaper[k] : "");
+    table.AddRow(row);
   }
   const int fit = static_cast<int>(runs[0].fit_pose_ids.size()),
             validated = static_cast<int>(runs[0].validation_pose_ids.size());
-  return fmt::format(
-             "The paper's progression, from this session's own data ({} fitted, {} "
-             "validated):\n",
-             fit, validated) +
+  return fmt::format("{}, from this session's own data ({} fitted, {} validated):\n",
+                     paper ? "The paper's progression" : "The calibration's progression", fit,
+                     validated) +
          table.Render(kTextWidth, 2) +
          fmt::format("  measurement noise floor (mean 3-D error of a reduced point): {:.3f} mm\n",
                      noise_floor_mm);
@@ -337,7 +366,7 @@ class DemoRun {
       : options_(options),
         observer_(observer),
         started_(std::chrono::steady_clock::now()),
-        model_(io::ParseRobotModel(io::kPuma760Yaml, "built-in PUMA 760")),
+        robot_(&FindDemoRobot(options.robot.empty() ? "puma" : options.robot)),
         serving_(!options.serve_dir.empty()) {}
 
   DemoResult Run() {
@@ -384,8 +413,10 @@ class DemoRun {
   const DemoOptions& options_;
   const DemoObserver& observer_;
   const std::chrono::steady_clock::time_point started_;
-  const calibration::RobotModel model_;
+  const DemoRobot* robot_;  // --robot, or a resumed session's
+  calibration::RobotModel model_;
   const bool serving_;
+  double time_scale_ = 0.25;
   // From the options (CheckOptions).
   unsigned seed_ = kFirstSeed;
   DemoLimits limits_;
@@ -419,17 +450,28 @@ void DemoRun::CheckOptions() {
   if (serving_ && options_.resume_session > 0) {
     throw InputError({"--serve", 0, 0, ""}, "a served lab captures nothing: no --resume with it");
   }
+  if (options_.resume_session > 0) OpenResumedSession();
+  model_ = io::ParseRobotModel(robot_->model_yaml, "built-in " + robot_->model_file);
+  time_scale_ = options_.time_scale.value_or(robot_->time_scale);
   seed_ = options_.seed ? *options_.seed
           : serving_    ? kFirstSeed
-                     : kFirstSeed + StoredDemoSessions(options_.db_path, options_.resume_session);
+                     : kFirstSeed + StoredDemoSessions(options_.db_path, robot_->db_robot,
+                                                       options_.resume_session);
   limits_ = DemoLimitsOf(model_, seed_);
-  if (options_.resume_session > 0) OpenResumedSession();
   if (!options_.instrument.empty() && options_.instrument != "theodolites" &&
       options_.instrument != "tracker") {
     throw InputError({"--instrument", 0, 0, ""},
                      "expected theodolites or tracker, got '" + options_.instrument + "'");
   }
   use_tracker_ = options_.instrument == "tracker";
+  if (robot_->tracker_only) {
+    if (options_.instrument == "theodolites") {
+      throw InputError({"--instrument", 0, 0, ""},
+                       "--robot " + robot_->name + " is measured by the laser tracker: no "
+                       "--instrument theodolites with it");
+    }
+    use_tracker_ = true;
+  }
   if (options_.resume_session > 0) {
     // The session keeps the instruments it was captured with.
     const bool stored_tracker = stored_lab_yaml_.find("emscon") != std::string::npos;
@@ -452,11 +494,19 @@ void DemoRun::CheckOptions() {
 void DemoRun::OpenResumedSession() {
   database_.emplace(options_.db_path, db::OpenMode::kMustExist);
   const auto row = db::LoadSession(*database_, options_.resume_session);
-  if (!row || row->robot != kDemoRobot) {
+  const DemoRobot* stored = row ? DemoRobotOfStored(row->robot) : nullptr;
+  if (!stored) {
     throw InputError({database_->path(), 0, 0, ""},
-                     fmt::format("no demo session {} (robot {}) to resume", options_.resume_session,
-                                 kDemoRobot));
+                     fmt::format("no demo session {} to resume (a demo robot's: {})",
+                                 options_.resume_session, robot_->db_robot));
   }
+  if (!options_.robot.empty() && stored != robot_) {
+    throw InputError({"--robot", 0, 0, ""},
+                     fmt::format("demo session {} is of --robot {}; resume it without --robot or "
+                                 "with --robot {}",
+                                 options_.resume_session, stored->name, stored->name));
+  }
+  robot_ = stored;  // a session keeps its robot
   stored_plan_ = acquisition::PlanFromJson(
       row->plan_json, {database_->path(), "sessions", options_.resume_session, "plan_json"});
   stored_lab_yaml_ = row->lab_yaml;
@@ -470,9 +520,10 @@ void DemoRun::OpenResumedSession() {
 // stations oriented (theodolites), and the lab files a technician would write.
 void DemoRun::BuildLab() {
   DemoLabOptions o;
+  o.robot = robot_->name;
   o.tracker = use_tracker_;
   o.seed = seed_;
-  o.time_scale = options_.time_scale;
+  o.time_scale = time_scale_;
   o.repeatability_mm = options_.repeatability_mm;
   o.planted = ParsePlantedChanges(model_, options_.changes);
   o.folder = folder_->path();
@@ -509,16 +560,19 @@ void DemoRun::Introduce() {
       fmt::format("\n(seed {}: --seed {} repeats this run's noise and plan)\n\n", seed_, seed_);
   const std::string folder = lab_->folder().string();
   if (!use_tracker_) {
-    Say("armsig demo: virtual lab with a PUMA 760 (hidden errors: the paper's Table 3), three "
-        "GeoCOM theodolites and a robot controller on pseudo-terminals in " +
-            folder + seed,
+    Say("armsig demo: virtual lab with " + robot_->description +
+            ", three GeoCOM theodolites and a robot controller on pseudo-terminals in " + folder +
+            seed,
         0);
     return;
   }
-  Say("armsig demo: virtual lab with a PUMA 760 (hidden errors: the paper's Table 3), a laser "
-      "tracker speaking Leica emScon on " +
-          lab_->tracker_address() + " and a robot controller on a pseudo-terminal in " + folder +
-          seed,
+  const std::string controller =
+      robot_->controller == "ur" || robot_->controller == "kuka"
+          ? robot_->controller_text + " (" + lab_->controller_address() + ")"
+          : robot_->controller_text;
+  Say("armsig demo: virtual lab with " + robot_->description +
+          ", a laser tracker speaking Leica emScon on " + lab_->tracker_address() + " and " +
+          controller + ", in " + folder + seed,
       0);
   if (serving_) return;
   Say("1. station LT1, a laser tracker: it measures direction and distance, so one station "
@@ -536,13 +590,14 @@ DemoResult DemoRun::Serve() {
   using namespace std::chrono_literals;
   const std::string folder = lab_->folder().string();
   Say(fmt::format(
-      "virtual lab ready in {0}: lab.yaml, stations.yaml and puma760.yaml beside its devices.\n"
+      "virtual lab ready in {0}: lab.yaml, stations.yaml and {3} beside its devices.\n"
       "In another terminal:\n  armsig --db lab.db capture --lab {1} --plan auto:30 --robot "
-      "puma\n{2}\n",
+      "{4}\n{2}\n",
       folder, (lab_->folder() / "lab.yaml").string(),
       options_.serve_seconds > 0
           ? fmt::format("Serving for {:g} s (Ctrl-C ends it sooner).", options_.serve_seconds)
-          : std::string("Ctrl-C ends it.")));
+          : std::string("Ctrl-C ends it."),
+      robot_->model_file, robot_->name));
   const auto until =
       std::chrono::steady_clock::now() + std::chrono::duration<double>(options_.serve_seconds);
   while (!Stopped(options_) &&
@@ -562,23 +617,29 @@ bool DemoRun::Capture() {
   plan_ = stored_plan_;
   if (options_.resume_session == 0) {
     std::mt19937 rng(seed_);
-    auto joints = calibration::LabTestConfigurations(model_, rng);
-    if (static_cast<int>(joints.size()) > options_.configurations) joints.clear();
+    std::vector<Eigen::VectorXd> joints;
+    if (robot_->paper) {
+      joints = calibration::LabTestConfigurations(model_, rng);
+      if (static_cast<int>(joints.size()) > options_.configurations) joints.clear();
+    }
     for (const auto& q : calibration::RandomConfigurations(
              model_, options_.configurations - static_cast<int>(joints.size()), rng)) {
       joints.push_back(q);
     }
+    // An arm whose moves take their real time: each next configuration the one nearest the
+    // last (the smallest largest joint turn), from where the arm stands.
+    if (!robot_->paper) joints = NearestFirst(std::move(joints), lab_->home());
     for (const auto& q : joints) plan_.push_back({"C" + std::to_string(plan_.size() + 1), q});
   }
   if (!database_) database_.emplace(options_.db_path);
   db::Database& database = *database_;
   session_ = options_.resume_session > 0
                  ? options_.resume_session
-                 : acquisition::CreateSession(database, lab_config_, kDemoRobot, plan_);
+                 : acquisition::CreateSession(database, lab_config_, robot_->db_robot, plan_);
   result_.session = session_;
   {
     std::vector<std::string> words = {"demo", "--resume", std::to_string(session_), "--time-scale",
-                                      fmt::format("{}", options_.time_scale)};
+                                      fmt::format("{}", time_scale_)};
     if (options_.select > 0)
       words.insert(words.end(), {"--select", std::to_string(options_.select)});
     if (!options_.json_path.empty())
@@ -663,7 +724,7 @@ void DemoRun::SelectConfigurations() {
 // The paper's three parameter sets fitted on the selection, validated on the rest. False
 // when stopped (nothing of the calibration stored).
 bool DemoRun::Calibrate() {
-  for (const std::string spec : {"geometric", "geometric,h3,h4", "all"}) {
+  for (const std::string& spec : robot_->stages) {
     if (Stopped(options_)) {
       Say(fmt::format("stopped: session {} is captured; nothing of its calibration stored\n",
                       session_));
@@ -690,7 +751,7 @@ bool DemoRun::Calibrate() {
 // transaction: a demo stopped before this point stores none of them.
 void DemoRun::StoreSets() {
   db::Database& database = *database_;
-  const int64_t robot_id = *db::FindRobot(database, kDemoRobot);
+  const int64_t robot_id = *db::FindRobot(database, robot_->db_robot);
   db::WriteTransaction tx(database);
   for (const auto& run : runs_) {
     db::InsertCalibration(
@@ -710,7 +771,7 @@ void DemoRun::StoreSets() {
 
 void DemoRun::Summarise() {
   seconds_ = std::chrono::duration<double>(std::chrono::steady_clock::now() - started_).count();
-  Say(DemoProgressionText(runs_, noise_floor_mm_));
+  Say(DemoProgressionText(runs_, noise_floor_mm_, robot_->paper));
   Say(fmt::format("\nDone in {:.1f} s. The database stays for inspection: {} ({})\n", seconds_,
                   Printable(database_->path()), Hint(database_->path(), {"db", "info"})));
 }
@@ -720,6 +781,7 @@ void DemoRun::Summarise() {
 void DemoRun::WriteJson() {
   nlohmann::json& out = result_.json;
   out["session"] = {{"id", session_},
+                    {"robot", robot_->name},
                     {"instrument", use_tracker_ ? "tracker" : "theodolites"},
                     {"poses", static_cast<int>(poses_.size())},
                     {"observations", reduced_.observations},

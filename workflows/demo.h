@@ -3,7 +3,9 @@
 // Kawasaki-AS-style controller on pseudo-terminals, all through the real drivers: the
 // stations are oriented from mutual pointings and a scale bar, the configurations are
 // captured into the database, reduced, and the best-spread ones calibrated with the
-// paper's three parameter sets, validated on the others.
+// paper's three parameter sets, validated on the others. `--robot ur10`: a UR10 with hidden
+// geometric and joint-angle errors, its virtual controller on loopback TCP (RTDE, primary
+// and secondary interfaces, dashboard) and a laser tracker (workflows/demo_robots.h).
 #pragma once
 
 #include <atomic>
@@ -29,7 +31,12 @@ struct DemoOptions {
   std::string json_path;     // --json: written at the end (checked by the command line)
   int configurations = 200;  // captured
   int select = 0;            // fitted (D-optimal), the rest validate; 0 = 40 % (80 of 200)
-  double time_scale = 0.25;  // multiplies every simulated instrument latency
+  // The virtual robot (workflows/demo_robots.h): puma (the default), ur10; a resumed
+  // session keeps its own.
+  std::string robot;
+  // Multiplies every simulated latency and move time; unset: the robot's own (PUMA 0.25,
+  // UR10 0.02: its moves take the real arm's time).
+  std::optional<double> time_scale;
   // The virtual robot's own repeatability (mm per axis): every move lands this far off at
   // random, apart from the instruments' noise (simulation::VirtualLab::SetRepeatability).
   double repeatability_mm = 0.0;
@@ -102,9 +109,10 @@ std::string DemoOrientationText(const reduction::OrientationProblem& setup,
 // Step 2: the configurations captured (those left out named), their timing, the miss
 // distance (theodolites) or how the beam was pointed (a tracker).
 std::string DemoCaptureText(const acquisition::CaptureSummary& captured, bool tracker);
-// The closing table: nominal and each stage's fit and validation mean (max) against the
-// paper's, and the measurement noise floor.
-std::string DemoProgressionText(const std::vector<CalibrationRun>& runs, double noise_floor_mm);
+// The closing table: nominal and each stage's fit and validation mean (max), against the
+// paper's when `paper` (the PUMA), and the measurement noise floor.
+std::string DemoProgressionText(const std::vector<CalibrationRun>& runs, double noise_floor_mm,
+                                bool paper = true);
 
 // Checks the options (DemoSelectCount) before anything is created. The virtual lab lives
 // in a private directory under $TMPDIR (armsig-demo-XXXXXX, holding its owner's pid),

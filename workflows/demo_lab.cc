@@ -1,5 +1,7 @@
 #include "workflows/demo_lab.h"
 
+#include <fmt/format.h>
+
 #include <chrono>
 #include <cmath>
 #include <stdexcept>
@@ -34,9 +36,19 @@ Eigen::Isometry3d BaseOf(bool tracker) {
   return base;
 }
 
-Eigen::VectorXd TruthOf(const calibration::RobotModel& model, const Eigen::VectorXd& planted) {
-  Eigen::VectorXd truth = calibration::PaperTable3Parameters();
-  if (planted.size() == model.num_parameters()) truth += planted;
+// The robot's hidden truth: the paper's Table 3 for the PUMA, a virtual robot's drawn errors
+// (simulation/virtual_robots.h) for the others; the planted change added to either.
+simulation::VirtualRobot TruthOf(const DemoRobot& robot, const calibration::RobotModel& model,
+                                 const DemoLabOptions& options) {
+  simulation::VirtualRobot truth;
+  if (robot.name == "puma") {
+    truth.model = model;
+    truth.true_params = calibration::PaperTable3Parameters();
+    truth.world_from_base = BaseOf(options.tracker);
+  } else {
+    truth = simulation::MakeVirtualRobot(robot.name, model, options.seed);
+  }
+  if (options.planted.size() == model.num_parameters()) truth.true_params += options.planted;
   return truth;
 }
 
@@ -44,31 +56,81 @@ Eigen::VectorXd TruthOf(const calibration::RobotModel& model, const Eigen::Vecto
 
 DemoLab::DemoLab(const calibration::RobotModel& model, const DemoLabOptions& options)
     : options_(options),
-      base_(BaseOf(options.tracker)),
-      lab_(model, TruthOf(model, options.planted), base_, options.seed) {
+      robot_(FindDemoRobot(options.robot)),
+      truth_(TruthOf(robot_, model, options)),
+      base_(truth_.world_from_base),
+      lab_(model, truth_.true_params, base_, options.seed) {
   using namespace std::chrono_literals;
+  if (robot_.tracker_only) options_.tracker = true;
+  lab_.SetJointErrors(truth_.joint_errors);
   simulator_options_.time_scale = options.time_scale;
   simulator_options_.angle_latency = 40ms;
   simulator_options_.motion_latency = 60ms;
-  lab_file_.model_path = "puma760.yaml";
+  lab_file_.model_path = robot_.model_file;
   lab_file_.stations_path = "stations.yaml";
-  lab_file_.controller.protocol = "as";
+  lab_file_.controller.protocol = robot_.controller;
   lab_file_.controller.can_move = true;
   lab_file_.tolerances.max_miss_mm = 0.1;
   lab_file_.tolerances.settle_ms = 0;
   lab_file_.tolerances.readings = 1;
   lab_file_.timeout_ms = 2000;
   lab_.SetRepeatability(options.repeatability_mm);
-  if (options.tracker) {
+  if (options_.tracker) {
     AddTracker();
   } else {
     AddTheodolites();
   }
+  StartController();
+}
+
+// The robot's controller, by the protocol its DemoRobot names.
+void DemoLab::StartController() {
+  if (robot_.controller == "ur") {
+    simulation::UrSimulatorOptions o;
+    o.model = truth_.identity.model;
+    o.serial = truth_.identity.serial;
+    o.kinematics = truth_.kinematics;
+    o.home_rad = truth_.home_rad;
+    o.time_scale = options_.time_scale;
+    ur_ = std::make_unique<simulation::UrSimulator>(lab_, o);
+    ur_->Start();
+    auto& c = lab_file_.controller;
+    c.host = ur_->host();
+    c.ports = {{"rtde_port", ur_->ports().rtde},
+               {"primary_port", ur_->ports().primary},
+               {"secondary_port", ur_->ports().secondary},
+               {"dashboard_port", ur_->ports().dashboard}};
+    return;
+  }
+  if (robot_.controller == "kuka") {
+    simulation::KukaSimulatorOptions o;
+    o.time_scale = options_.time_scale;
+    o.trafo_name = "#" + truth_.identity.model + " C4 FLR";
+    o.serial = std::stoi(truth_.identity.serial);
+    o.software = truth_.identity.software;
+    o.home_rad = truth_.home_rad;
+    kuka_ = std::make_unique<simulation::KukaSimulator>(lab_, "127.0.0.1", 0, o);
+    kuka_->Start();
+    auto& c = lab_file_.controller;
+    c.host = "127.0.0.1";
+    c.ports = {{"variable_server_port", kuka_->port()}};
+    return;
+  }
   controller_ = std::make_unique<simulation::ValSimulator>(
-      lab_, (options.folder / "robot").string(), simulation::ValSimulator::Layout::kKawasakiAs,
+      lab_, (options_.folder / "robot").string(), simulation::ValSimulator::Layout::kKawasakiAs,
       simulator_options_);
   controller_->Start();
   lab_file_.controller.port = controller_->path();
+}
+
+std::string DemoLab::controller_address() const {
+  if (ur_) {
+    return fmt::format("{} (RTDE {}, primary {}, secondary {}, dashboard {})", ur_->host(),
+                       ur_->ports().rtde, ur_->ports().primary, ur_->ports().secondary,
+                       ur_->ports().dashboard);
+  }
+  if (kuka_) return kuka_->path();
+  return controller_ ? controller_->path() : std::string();
 }
 
 void DemoLab::AddTracker() {
@@ -173,7 +235,7 @@ std::vector<reduction::Station> DemoLab::TrackerStations() const {
 io::LabConfig DemoLab::WriteLabFiles(const std::vector<reduction::Station>& stations,
                                      bool base_by_hand) {
   const std::filesystem::path& folder = options_.folder;
-  io::WriteFileAtomically((folder / "puma760.yaml").string(), io::kPuma760Yaml);
+  io::WriteFileAtomically((folder / robot_.model_file).string(), robot_.model_yaml);
   io::WriteFileAtomically((folder / "stations.yaml").string(),
                           io::FormatStationsYaml(stations, "armsig demo"));
   if (base_by_hand && tracker_) {

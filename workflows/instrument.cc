@@ -38,19 +38,84 @@ nlohmann::json ReadingJson(const instruments::Reading& r, const std::string& dev
   return j;
 }
 
+// A network controller's configuration from --tcp HOST[:PORT] and --controller-port KEY=PORT.
+io::ControllerConfig NetworkControllerOf(const InstrumentRequest& o,
+                                         const io::NetworkControllerProtocol& protocol) {
+  if (!o.port.empty())
+    throw InputError({"--port", 0, 0, ""}, o.protocol + " is reached over the network: give --tcp HOST[:PORT]");
+  if (o.tcp.empty()) throw InputError({"--tcp", 0, 0, ""}, o.protocol + " needs --tcp HOST[:PORT]");
+  io::ControllerConfig c;
+  c.protocol = o.protocol;
+  c.host = o.tcp;
+  for (const auto& [key, port] : protocol.ports) c.ports[key] = port;
+  if (const auto address = io::SplitHostPort(o.tcp)) {
+    c.host = address->host;
+    c.ports[protocol.tcp_port] = address->port;
+  } else if (o.tcp.find(':') != std::string::npos && o.tcp.find(':') == o.tcp.rfind(':')) {
+    throw InputError({"--tcp", 0, 0, ""},
+                     Quoted(o.tcp) + ": expected HOST or HOST:PORT with a port from 1 to 65535");
+  }
+  for (const auto& item : o.controller_ports) {
+    const size_t eq = item.find('=');
+    const std::string key = item.substr(0, eq);
+    const auto port = eq == std::string::npos ? std::nullopt : io::SplitHostPort("h:" + item.substr(eq + 1));
+    if (!c.ports.count(key) || !port) {
+      std::string keys;
+      for (const auto& [name, unused] : protocol.ports) keys += (keys.empty() ? "" : ", ") + name;
+      throw InputError({"--controller-port", 0, 0, ""},
+                       Quoted(item) + ": expected KEY=PORT with KEY one of " + keys);
+    }
+    c.ports[key] = port->port;
+  }
+  return c;
+}
+
 std::string ReadController(const InstrumentRequest& o, const instruments::RetryPolicy& policy) {
   io::ControllerConfig config;
   config.protocol = o.protocol;
   config.port = o.port;
   config.baud = o.baud;
+  if (const auto* network = io::FindNetworkControllerProtocol(o.protocol))
+    config = NetworkControllerOf(o, *network);
   const auto robot = acquisition::OpenController(config, policy);
-  const Eigen::VectorXd q = robot->ReadJointsRad();
+  if (o.action == "probe") {
+    const auto who = robot->Identify();
+    if (!who) return Printable(robot->name()) + ": the controller does not say who it is\n";
+    const auto kinematics = robot->Kinematics();
+    if (o.json) {
+      nlohmann::json j = {{"controller", robot->name()},     {"vendor", who->vendor},
+                          {"model", who->model},             {"serial", who->serial},
+                          {"software", who->software},
+                          {"kinematics_checksum", who->kinematics_checksum}};
+      if (kinematics) {
+        j["kinematics"] = {{"dh_theta_rad", kinematics->dh_theta_rad},
+                           {"dh_a_mm", kinematics->dh_a_mm},
+                           {"dh_d_mm", kinematics->dh_d_mm},
+                           {"dh_alpha_rad", kinematics->dh_alpha_rad},
+                           {"calibration_status", kinematics->calibration_status}};
+      }
+      return JsonText(j) + "\n";
+    }
+    return fmt::format("{}: {} {} serial {} software {}{}\n", Printable(robot->name()),
+                       Printable(who->vendor), Printable(who->model), Printable(who->serial),
+                       Printable(who->software),
+                       who->kinematics_checksum.empty()
+                           ? std::string()
+                           : " kinematics checksum " + Printable(who->kinematics_checksum));
+  }
+  const instruments::StampedJoints stamped = robot->ReadStampedJoints();
+  const Eigen::VectorXd& q = stamped.joints_rad;
   if (o.json) {
     std::vector<double> joints(q.data(), q.data() + q.size());
-    return JsonText(nlohmann::json{{"controller", robot->name()}, {"joints_rad", joints}}) + "\n";
+    nlohmann::json j = {{"controller", robot->name()}, {"joints_rad", joints}};
+    j["controller_time_s"] = stamped.controller_time_s ? nlohmann::json(*stamped.controller_time_s)
+                                                       : nlohmann::json(nullptr);
+    return JsonText(j) + "\n";
   }
   std::string text = fmt::format("{}: {} joints (deg):", Printable(robot->name()), q.size());
   for (int i = 0; i < q.size(); ++i) text += fmt::format(" {:.3f}", q(i) / kRadPerDeg);
+  if (stamped.controller_time_s)
+    text += fmt::format(" (controller time {:.3f} s)", *stamped.controller_time_s);
   return text + "\n";
 }
 
@@ -61,7 +126,14 @@ std::string QueryInstrument(const InstrumentRequest& o) {
     throw InputError({"--port", 0, 0, ""}, "give --port PATH or --tcp HOST:PORT");
   instruments::RetryPolicy policy;
   policy.timeout = std::chrono::milliseconds(o.timeout_ms);
-  if (o.protocol == "val" || o.protocol == "as") return ReadController(o, policy);
+  if ((o.protocol == "kuka" || o.protocol == "abb") && !io::FindNetworkControllerProtocol(o.protocol)) {
+    throw InputError({"--protocol", 0, 0, ""},
+                     o.protocol + ": this controller's driver is not built into armsig yet");
+  }
+  if (!o.controller_ports.empty() && !io::FindNetworkControllerProtocol(o.protocol))
+    throw InputError({"--controller-port", 0, 0, ""}, "only for a network controller (ur, …)");
+  if (o.protocol == "val" || o.protocol == "as" || io::FindNetworkControllerProtocol(o.protocol))
+    return ReadController(o, policy);
   io::InstrumentConfig config;
   config.protocol = o.protocol;
   config.port = o.port;

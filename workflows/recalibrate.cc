@@ -15,6 +15,7 @@
 #include <set>
 #include <tuple>
 
+#include "acquisition/controller_record.h"
 #include "acquisition/lab.h"
 #include "calibration/change.h"
 #include "calibration/compensation.h"
@@ -289,6 +290,7 @@ nlohmann::json RecalibrationDecision::ToJson() const {
   nlohmann::json j;
   j["robot"] = robot;
   j["poses"] = poses;
+  if (!controller_calibration.empty()) j["controller_calibration"] = controller_calibration;
   if (outcome == Outcome::kUpToDate) {
     j["exit_code"] = ExitCode();
     if (!output_error.empty()) j["output_error"] = output_error;
@@ -392,6 +394,11 @@ std::string CauseSummary(const std::vector<NamedCause>& causes) {
 
 }  // namespace
 
+// The controller's own calibration change, when there was one, is named first.
+std::string RecalibrationDecision::WithController(const std::string& causes) const {
+  return controller_calibration.empty() ? causes : controller_calibration + "; " + causes;
+}
+
 std::string RecalibrationDecision::DriftLine() const {
   if (!drift && !change) return "";
   const std::string stays = previous_version
@@ -401,7 +408,7 @@ std::string RecalibrationDecision::DriftLine() const {
     const std::string from =
         fmt::format("{} changed from session {} ({})", robot, *change->from_session,
                     ShortTime(change->from_started_at));
-    const std::string cause = CauseSummary(change->causes);
+    const std::string cause = WithController(CauseSummary(change->causes));
     if (outcome == Outcome::kDriftSuspected) {
       return fmt::format(
           "DRIFT SUSPECTED: {}: {}; {} configuration{} measured since, a fit of them alone needs "
@@ -420,7 +427,7 @@ std::string RecalibrationDecision::DriftLine() const {
                        "and measure again",
                        from, cause, SessionList(sessions), Describe());
   }
-  const std::string cause = CauseSummary(causes);
+  const std::string cause = WithController(CauseSummary(causes));
   if (model_drift) {
     return fmt::format(
         "DRIFT: version {} differs from version {} by up to {:.3f} mm over the work volume ({}): "
@@ -635,6 +642,9 @@ void NightlyJob::ReadInputs() {
         floor_started_at_ = inputs["floor_started_at"].get<std::string>();
     }
   }
+  d_.controller_calibration = acquisition::ControllerCalibrationChange(*database_, robot_id_);
+  if (!d_.controller_calibration.empty())
+    spdlog::warn("recalibrate: robot {}: {}", o_.robot, d_.controller_calibration);
   SelectWindow(db::ListSessions(*database_, robot_id_),
                db::LoadRobotPoses(*database_, robot_id_, since_));
 }

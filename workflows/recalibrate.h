@@ -165,6 +165,10 @@ struct RecalibrationDecision {
   // be written: what failed, and the command that writes it (exit 6 instead of 0).
   std::string output_error;
   std::string failure;                    // kFailed: why the fit gave no usable estimate
+  // The controller's own calibration (UR KinematicsInfo) changed since the robot's previous
+  // session (acquisition::ControllerCalibrationChange): named first among a drift's causes;
+  // "" when it did not or the controller cannot say.
+  std::string controller_calibration;
 
   bool passed() const {
     return outcome == Outcome::kUpToDate || outcome == Outcome::kStored ||
@@ -177,6 +181,8 @@ struct RecalibrationDecision {
   // The line a person must see on a drift night ("" when there was no drift): what
   // changed, from when, the named cause and what was done about it.
   std::string DriftLine() const;
+  // `causes` with controller_calibration in front (when there is one).
+  std::string WithController(const std::string& causes) const;
   // "stored as version 4 (active)" / "rejected: a gate failed; version 3 stays active" /
   // "failed: the fit did not converge (…); version 3 stays active" / …
   std::string Describe() const;

@@ -47,6 +47,47 @@ ObservationRow Reading(std::optional<int64_t> pose, const std::string& station, 
   return o;
 }
 
+// A controller's identity and kinematics (schema v13): with the session as it began, with the
+// robot its first identity and its newest kinematics; the history of checksums in order.
+TEST_P(TypedStore, TheControllersIdentityIsKeptWithTheSessionAndTheRobot) {
+  Database db(NewStore());
+  WriteTransaction tx(db);
+  const int64_t robot = EnsureRobot(db, "ur10", "ur10", "model: text\n");
+  EXPECT_FALSE(RobotControllerRecord(db, robot));
+  const int64_t s1 = CreateSession(db, robot, "", "[]", "running", "");
+  const int64_t s2 = CreateSession(db, robot, "", "[]", "running", "");
+  const int64_t s3 = CreateSession(db, robot, "", "[]", "running", "");
+  EXPECT_FALSE(SessionController(db, s1));
+  const ControllerRecord first{"UR10", "20183010001", "URSoftware 5.11.1.108318 (Nov 03 2021)",
+                               "0a-0b", R"({"checksum":"0a-0b"})"};
+  SetSessionController(db, s1, first);
+  RecordRobotController(db, robot, first);
+  ControllerRecord later = first;
+  later.serial = "another";  // never replaces the robot's identity
+  later.kinematics_checksum = "0c-0d";
+  later.kinematics_json = R"({"checksum":"0c-0d"})";
+  SetSessionController(db, s3, later);
+  RecordRobotController(db, robot, later);
+  EXPECT_EQ(SessionController(db, s1), first);
+  EXPECT_FALSE(SessionController(db, s2));
+  EXPECT_EQ(SessionController(db, s3), later);
+  const auto kept = RobotControllerRecord(db, robot);
+  ASSERT_TRUE(kept);
+  EXPECT_EQ(kept->serial, "20183010001");
+  EXPECT_EQ(kept->kinematics_checksum, "0c-0d");
+  const auto history = KinematicsHistory(db, robot);
+  ASSERT_EQ(history.size(), 2u);
+  EXPECT_EQ(history[0].session, s1);
+  EXPECT_EQ(history[1].checksum, "0c-0d");
+  // A pose keeps the controller's time stamp of its joints.
+  const int64_t pose = InsertPose(db, s1, 0, "c0", Eigen::VectorXd::Zero(6), "measured", 1, 1234.568);
+  auto q = db.connection().Prepare("SELECT controller_time_s FROM poses WHERE id = ?");
+  q->Bind(1, pose);
+  ASSERT_TRUE(q->Step());
+  EXPECT_EQ(q->Double(0), 1234.568);
+  tx.commit();
+}
+
 // Whatever the typed writers store, the readers give back to the last bit, on both backends.
 TEST_P(TypedStore, EveryTypedRowReadsBackExactly) {
   Database db(NewStore());

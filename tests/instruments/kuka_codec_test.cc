@@ -102,7 +102,7 @@ TEST(KukaCodec, RefusesMalformedFramesSayingWhy) {
 TEST(KukaCodec, SplitterJoinsSplitFramesAndDropsALostFraming) {
   const std::string a = EncodeResponse({1, 0, "TRUE", 1, true});
   const std::string b = EncodeResponse({2, 0, "{E6AXIS: A1 1.0}", 1, true});
-  FrameSplitter s;
+  FrameSplitter s(kResponseFrames);
   std::string frame;
   s.Append(a.substr(0, 3));
   EXPECT_EQ(s.Next(frame), FrameSplitter::Status::kNeedMore);
@@ -123,7 +123,7 @@ TEST(KukaCodec, SplitterJoinsSplitFramesAndDropsALostFraming) {
     EXPECT_TRUE(size == 6 || size == 65539) << size;
   }
   // A request splitter takes a request's shorter minimum.
-  FrameSplitter requests(kMinRequestBytes);
+  FrameSplitter requests(kRequestFrames);
   requests.Append(EncodeRequest({9, MessageType::kRead, "X", ""}));
   EXPECT_EQ(requests.Next(frame), FrameSplitter::Status::kFrame);
 }

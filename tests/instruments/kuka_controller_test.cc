@@ -58,8 +58,8 @@ std::unique_ptr<KukaController> Driver(ScriptedController& c) {
   options.poll = Millis(0);
   options.accept_timeout = Millis(50);
   return std::make_unique<KukaController>(
-      std::make_unique<FakeKukaTransport>([&c](std::string_view b) { return c.Answer(b); },
-                                          "fake KR C4"),
+      std::make_unique<FakePacketTransport>([&c](std::string_view b) { return c.Answer(b); },
+                                            "fake KR C4", kuka::kResponseFrames),
       true, RetryPolicy{}, options);
 }
 
@@ -77,9 +77,10 @@ TEST(KukaController, WritesTheTargetAndItsVelocityBeforeTheCommandNumber) {
   o.axes = 3;
   o.velocity_percent = 35;
   o.poll = Millis(0);
-  KukaController driver(std::make_unique<FakeKukaTransport>(
-                            [&c](std::string_view b) { return c.Answer(b); }, "fake KR C4"),
-                        true, RetryPolicy{}, o);
+  KukaController driver(
+      std::make_unique<FakePacketTransport>([&c](std::string_view b) { return c.Answer(b); },
+                                            "fake KR C4", kuka::kResponseFrames),
+      true, RetryPolicy{}, o);
   driver.MoveTo(Target());
   ASSERT_EQ(c.writes.size(), 4u);
   EXPECT_EQ(c.writes[0].first, "ARMSIG_TARGET");
@@ -118,8 +119,8 @@ TEST(KukaController, ACommandNotExecutedIsSentOnceMoreThenRefused) {
   try {
     driver->MoveTo(q);
     ADD_FAILURE();
-  } catch (const KukaStateError& e) {
-    EXPECT_EQ(e.kind(), KukaStateError::Kind::kMoveRefused);
+  } catch (const ControllerError& e) {
+    EXPECT_EQ(e.kind(), ControllerError::Kind::kMoveRefused);
     EXPECT_NE(std::string(e.what()).find("not executed"), std::string::npos) << e.what();
   }
   EXPECT_EQ(commands, 2);
@@ -148,10 +149,10 @@ TEST(KukaController, MissingContractVariablesNameTheFileToInstall) {
   c.vars.erase("ARMSIG_VERSION");  // KukaVarProxy: an unknown variable reads empty
   auto driver = Driver(c);
   try {
-    driver->CheckReadyToMove();
+    driver->CheckReady();
     ADD_FAILURE();
-  } catch (const KukaStateError& e) {
-    EXPECT_EQ(e.kind(), KukaStateError::Kind::kContract);
+  } catch (const ControllerError& e) {
+    EXPECT_EQ(e.kind(), ControllerError::Kind::kVersionRefused);
     EXPECT_NE(std::string(e.what()).find("ARMSIG_VERSION cannot be read"), std::string::npos)
         << e.what();
     EXPECT_NE(std::string(e.what()).find("$CONFIG.DAT"), std::string::npos) << e.what();
@@ -164,9 +165,10 @@ TEST(KukaController, MissingContractVariablesNameTheFileToInstall) {
 
 TEST(KukaController, NeverMovesARobotItDoesNotCommand) {
   ScriptedController c;
-  KukaController driver(std::make_unique<FakeKukaTransport>(
-                            [&c](std::string_view b) { return c.Answer(b); }, "fake KR C4"),
-                        false);
+  KukaController driver(
+      std::make_unique<FakePacketTransport>([&c](std::string_view b) { return c.Answer(b); },
+                                            "fake KR C4", kuka::kResponseFrames),
+      false);
   EXPECT_THROW(driver.MoveTo(Eigen::VectorXd::Zero(6)), InstrumentError);
   EXPECT_TRUE(c.writes.empty());
 }

@@ -375,3 +375,114 @@ TEST(LabSettings, MalformedRecalibrationBlockIsAnInputError) {
 
 }  // namespace
 }  // namespace armsig::io
+
+namespace armsig::io {
+namespace {
+
+// A UR lab's controller section (and what ParseLabSettings makes of it).
+LabSettings UrLab(const std::string& controller) {
+  return ParseLabSettings("robot:\n  model: ur10.yaml\n  controller: " + controller +
+                              "\ninstruments:\n  - {station: LT1, protocol: emscon, tcp: "
+                              "'127.0.0.1:700'}\n",
+                          "/lab/lab.yaml");
+}
+
+std::string UrRefusal(const std::string& controller) {
+  try {
+    UrLab(controller);
+  } catch (const InputError& e) {
+    return e.message();
+  }
+  ADD_FAILURE() << "accepted " << controller;
+  return "";
+}
+
+TEST(NetworkControllers, AUrIsItsHostAndItsInterfacesPortsWithUrsDefaults) {
+  const auto lab = UrLab("{protocol: ur, host: 192.168.0.20, can_move: true}");
+  const ControllerConfig& c = lab.controller;
+  EXPECT_EQ(c.protocol, "ur");
+  EXPECT_EQ(c.host, "192.168.0.20");
+  EXPECT_TRUE(c.can_move);
+  EXPECT_EQ(c.Port("rtde_port"), 30004);
+  EXPECT_EQ(c.Port("primary_port"), 30001);
+  EXPECT_EQ(c.Port("secondary_port"), 30002);
+  EXPECT_EQ(c.Port("dashboard_port"), 29999);
+  EXPECT_TRUE(c.port.empty());
+  const auto moved = UrLab(
+      "{protocol: ur, host: ur10.cell, can_move: false, rtde_port: 40004, dashboard_port: 39999}");
+  EXPECT_EQ(moved.controller.Port("rtde_port"), 40004);
+  EXPECT_EQ(moved.controller.Port("primary_port"), 30001);
+  EXPECT_EQ(moved.controller.Port("dashboard_port"), 39999);
+}
+
+TEST(NetworkControllers, KeysOfAnotherProtocolOrMisspeltOnesAreRefusedByName) {
+  EXPECT_EQ(UrRefusal("{protocol: ur, host: h, rtde_prot: 30004}"),
+            "unknown key 'rtde_prot' (did you mean 'rtde_port'?)");
+  EXPECT_EQ(UrRefusal("{protocol: ur, host: h, port: /dev/ttyS0}"),
+            "ur: the controller is reached over the network: give 'host' (and its ports), not "
+            "'port'");
+  EXPECT_EQ(UrRefusal("{protocol: ur, host: h, ports: [a]}"),
+            "'ports' belongs to protocol counter, not ur");
+  EXPECT_EQ(UrRefusal("{protocol: as, port: p, host: h}"),
+            "'host' belongs to protocol ur or kuka, not as");
+  EXPECT_EQ(UrRefusal("{protocol: as, port: p, rtde_port: 1}"),
+            "'rtde_port' belongs to protocol ur, not as");
+  EXPECT_EQ(UrRefusal("{protocol: ur, can_move: true}"),
+            "missing 'host' (expected the controller's address (host name or IP address))");
+  EXPECT_EQ(UrRefusal("{protocol: ur, host: 'a b'}"),
+            "expected a host name or an IP address, got 'a b'");
+  EXPECT_EQ(UrRefusal("{protocol: ur, host: h, rtde_port: 70000}"),
+            "expected an integer from 1 to 65535, got '70000'");
+  EXPECT_EQ(UrRefusal("{protocol: ur, host: h, rtde_port: 29999}"),
+            "rtde_port and dashboard_port are both port 29999: each interface of the controller "
+            "has its own");
+  EXPECT_EQ(UrRefusal("{protocol: ur, host: h, credentials: c.yaml}"),
+            "'credentials' is no setting of protocol ur");
+  EXPECT_EQ(UrRefusal("{protocol: abb, host: h}").rfind("expected val, as, counter, ur or kuka", 0),
+            0u);
+}
+
+// A KUKA controller: its variable server's port (7000 unless given), ARMSIG's velocity and
+// acceleration as written; no credentials (a variable server asks for none), no UR ports.
+TEST(NetworkControllers, AKukaIsItsHostItsVariableServerPortAndArmsigsSettings) {
+  auto c = UrLab("{protocol: kuka, host: 192.168.1.147, can_move: true}").controller;
+  EXPECT_EQ(c.protocol, "kuka");
+  EXPECT_EQ(c.host, "192.168.1.147");
+  EXPECT_EQ(c.Port("variable_server_port"), 7000);
+  EXPECT_TRUE(c.settings.empty());
+  c = UrLab("{protocol: kuka, host: h, variable_server_port: 7001, velocity_percent: 35}").controller;
+  EXPECT_EQ(c.Port("variable_server_port"), 7001);
+  EXPECT_EQ(c.settings.at("velocity_percent"), "35");
+  EXPECT_EQ(UrRefusal("{protocol: kuka, host: h, credentials: c.yaml}"),
+            "'credentials' is no setting of protocol kuka");
+  EXPECT_EQ(UrRefusal("{protocol: kuka, host: h, rtde_port: 30004}"),
+            "'rtde_port' belongs to protocol ur, not kuka");
+  EXPECT_EQ(UrRefusal("{protocol: kuka, host: h, velocity_percnt: 30}"),
+            "unknown key 'velocity_percnt' (did you mean 'velocity_percent'?)");
+}
+
+TEST(NetworkControllers, AFormattedUrLabReadsBackTheSame) {
+  ::armsig::io::LabFile file;
+  file.model_path = "ur10.yaml";
+  file.stations_path = "stations.yaml";
+  file.controller.protocol = "ur";
+  file.controller.host = "127.0.0.1";
+  file.controller.can_move = true;
+  file.controller.ports = {{"rtde_port", 41000}, {"primary_port", 30001},
+                           {"secondary_port", 41002}, {"dashboard_port", 41003}};
+  InstrumentConfig tracker;
+  tracker.station = "LT1";
+  tracker.protocol = "emscon";
+  tracker.tcp = "127.0.0.1:700";
+  tracker.distance = true;
+  file.instruments = {tracker};
+  const std::string text = FormatLabYaml(file);
+  EXPECT_EQ(text.find("primary_port"), std::string::npos) << text;  // its default: not written
+  const auto lab = ParseLabSettings(text, "/lab/lab.yaml");
+  EXPECT_EQ(lab.controller.host, "127.0.0.1");
+  EXPECT_EQ(lab.controller.ports, file.controller.ports);
+  EXPECT_TRUE(lab.controller.can_move);
+}
+
+}  // namespace
+}  // namespace armsig::io

@@ -15,9 +15,9 @@
 namespace armsig::simulation {
 namespace {
 
+using instruments::ControllerError;
 using instruments::KukaController;
-using instruments::KukaStateError;
-using Kind = instruments::KukaStateError::Kind;
+using Kind = instruments::ControllerError::Kind;
 using namespace std::chrono_literals;
 
 constexpr double kDeg = std::numbers::pi / 180.0;
@@ -71,7 +71,7 @@ class KukaCell : public ::testing::Test {
     options.accept_timeout = 300ms;
     options.move_timeout = 20s;
     return std::make_unique<KukaController>(
-        instruments::MakeKukaTcpTransport("127.0.0.1", sim_->port()), true, policy, options);
+        instruments::MakeFramedTcpTransport("127.0.0.1", sim_->port(), instruments::kuka::kResponseFrames), true, policy, options);
   }
 
   // MoveTo on another thread, returned once the controller has taken the command.
@@ -86,14 +86,14 @@ class KukaCell : public ::testing::Test {
   }
 
   template <typename F>
-  KukaStateError StateErrorOf(F&& f) {
+  ControllerError StateErrorOf(F&& f) {
     try {
       f();
-    } catch (const KukaStateError& e) {
+    } catch (const ControllerError& e) {
       return e;
     }
-    ADD_FAILURE() << "no KukaStateError";
-    return KukaStateError("none", Kind::kContract, "none");
+    ADD_FAILURE() << "no ControllerError";
+    return ControllerError(Kind::kVersionRefused, "none", "none", "none");
   }
 
   std::unique_ptr<VirtualLab> lab_;
@@ -103,10 +103,12 @@ class KukaCell : public ::testing::Test {
 
 TEST_F(KukaCell, IdentifiesTheControllerByItsSystemVariables) {
   const auto id = controller_->Identify();
-  EXPECT_EQ(id.robot_name, "KR16-LAB");
-  EXPECT_EQ(id.model, "KR16_2 C4 FLR");
-  EXPECT_EQ(id.serial, "501234");
-  EXPECT_EQ(id.software, "KS V8.3.38");
+  ASSERT_TRUE(id);
+  EXPECT_EQ(id->protocol, "kuka");
+  EXPECT_EQ(id->vendor, "KUKA");
+  EXPECT_EQ(id->model, "KR16_2");  // the arm of $TRAFONAME[] "#KR16_2 C4 FLR"
+  EXPECT_EQ(id->serial, "501234");
+  EXPECT_EQ(id->software, "KS V8.3.38");
   EXPECT_EQ(controller_->Read("PING"), "PONG");
   const auto s = controller_->State();
   EXPECT_EQ(s.mode, "AUT");
@@ -155,11 +157,12 @@ TEST_F(KukaCell, AReadingWhileTheArmMovesIsRefused) {
   sim_->CommandMove(Eigen::Vector3d(90, -90, 90), 20);  // another client moves the robot
   ASSERT_TRUE(Eventually([&] { return sim_->snapshot().moving; }));
   const auto e = StateErrorOf([&] { controller_->ReadJointsRad(); });
-  EXPECT_EQ(e.kind(), Kind::kMoving);
-  EXPECT_TRUE(e.resumable());
+  EXPECT_EQ(e.kind(), Kind::kArmMoving);
+  EXPECT_FALSE(e.WaitedOut());
   EXPECT_NE(std::string(e.what()).find("$ROB_STOPPED FALSE"), std::string::npos) << e.what();
   EXPECT_NE(std::string(e.what()).find(sim_->path()), std::string::npos) << e.what();
-  sim_->StopProgram();  // it stands (halted): a reading is a reading again
+  sim_->StopProgram();  // the STOP key: it brakes along its path and stands
+  ASSERT_TRUE(Eventually([&] { return !sim_->snapshot().moving; }));
   EXPECT_NO_THROW(controller_->ReadJointsRad());
 }
 
@@ -170,7 +173,7 @@ TEST_F(KukaCell, AnEmergencyStopDuringAMoveIsReportedAndTheMoveResumes) {
   sim_->PressEmergencyStop();
   const auto e = StateErrorOf([&] { move.get(); });
   EXPECT_EQ(e.kind(), Kind::kEmergencyStop);
-  EXPECT_TRUE(e.resumable());
+  EXPECT_FALSE(e.WaitedOut());  // the session pauses until the operator resumes it
   EXPECT_NE(std::string(e.what()).find("EMERGENCY STOP"), std::string::npos) << e.what();
   EXPECT_NE(std::string(e.what()).find("release it"), std::string::npos) << e.what();
   const auto halted = sim_->snapshot();
@@ -199,16 +202,21 @@ TEST_F(KukaCell, ASafetyStopFromTheGatePausesTheMoveUntilCleared) {
   auto move = MoveInBackground(target);
   sim_->OpenSafetyGate();
   const auto e = StateErrorOf([&] { move.get(); });
-  EXPECT_EQ(e.kind(), Kind::kSafetyStop);
+  EXPECT_EQ(e.kind(), Kind::kProtectiveStop);
+  EXPECT_TRUE(e.WaitedOut());  // the session waits until it is cleared
   EXPECT_NE(std::string(e.what()).find("the move stopped"), std::string::npos) << e.what();
   EXPECT_NE(std::string(e.what()).find("gate"), std::string::npos) << e.what();
   // Acknowledging with the gate open does not clear it.
   sim_->Acknowledge();
-  EXPECT_EQ(StateErrorOf([&] { controller_->CheckReadyToMove(); }).kind(), Kind::kSafetyStop);
+  EXPECT_EQ(StateErrorOf([&] { controller_->CheckReady(); }).kind(), Kind::kProtectiveStop);
   sim_->CloseSafetyGate();
   sim_->Acknowledge();
+  // Acknowledged, not yet started: still a stop the session waits out.
+  const auto stopped = StateErrorOf([&] { controller_->CheckReady(); });
+  EXPECT_EQ(stopped.kind(), Kind::kProtectiveStop);
+  EXPECT_NE(std::string(stopped.what()).find("#P_STOP"), std::string::npos) << stopped.what();
   sim_->StartProgram();
-  EXPECT_NO_THROW(controller_->CheckReadyToMove());
+  EXPECT_NO_THROW(controller_->CheckReady());
   controller_->MoveTo(target);
   EXPECT_EQ(sim_->snapshot().moves, 1);
   EXPECT_LT((controller_->ReadJointsRad() - target).cwiseAbs().maxCoeff(), 1e-6);
@@ -218,7 +226,7 @@ TEST_F(KukaCell, NoMoveOutsideAutomaticModeButJointsStillRead) {
   sim_->SetMode("T1");
   const int64_t cmd = sim_->snapshot().cmd;
   const auto e = StateErrorOf([&] { controller_->MoveTo(Deg({10, -90, 90, 0, 0, 0})); });
-  EXPECT_EQ(e.kind(), Kind::kNotAutomatic);
+  EXPECT_EQ(e.kind(), Kind::kNotRemote);
   EXPECT_NE(std::string(e.what()).find("in T1"), std::string::npos) << e.what();
   EXPECT_NE(std::string(e.what()).find("AUT"), std::string::npos) << e.what();
   EXPECT_EQ(sim_->snapshot().cmd, cmd);  // nothing written
@@ -226,15 +234,22 @@ TEST_F(KukaCell, NoMoveOutsideAutomaticModeButJointsStillRead) {
 }
 
 TEST_F(KukaCell, AProgramNotRunningOrAnotherProgramIsNamed) {
+  // ARMSIG stopped with the STOP key: waited out until it is started again.
   sim_->StopProgram();
   auto e = StateErrorOf([&] { controller_->MoveTo(Deg({10, -90, 90, 0, 0, 0})); });
-  EXPECT_EQ(e.kind(), Kind::kProgramNotRunning);
+  EXPECT_EQ(e.kind(), Kind::kProtectiveStop);
   EXPECT_NE(std::string(e.what()).find("#P_STOP"), std::string::npos) << e.what();
+  // Not selected: the session pauses, naming what to do.
+  sim_->SelectProgram("");
+  e = StateErrorOf([&] { controller_->MoveTo(Deg({10, -90, 90, 0, 0, 0})); });
+  EXPECT_EQ(e.kind(), Kind::kNotRunning);
+  EXPECT_NE(std::string(e.what()).find("#P_FREE, selected: no program"), std::string::npos)
+      << e.what();
   // Another program runs: the command is never taken.
   sim_->SelectProgram("CELL");
   sim_->StartProgram();
   e = StateErrorOf([&] { controller_->MoveTo(Deg({10, -90, 90, 0, 0, 0})); });
-  EXPECT_EQ(e.kind(), Kind::kProgramNotRunning);
+  EXPECT_EQ(e.kind(), Kind::kNotRunning);
   EXPECT_NE(std::string(e.what()).find("/R1/CELL.SRC, not ARMSIG"), std::string::npos) << e.what();
   EXPECT_EQ(sim_->snapshot().moves, 0);
   // ARMSIG selected and started again answers the command left open with "not executed";
@@ -250,7 +265,6 @@ TEST_F(KukaCell, AProgramNotRunningOrAnotherProgramIsNamed) {
 TEST_F(KukaCell, ATargetBeyondASoftwareLimitIsRefusedByArmsig) {
   const auto e = StateErrorOf([&] { controller_->MoveTo(Deg({0, 40, 90, 0, 0, 0})); });
   EXPECT_EQ(e.kind(), Kind::kMoveRefused);
-  EXPECT_FALSE(e.resumable());
   EXPECT_NE(std::string(e.what()).find("software limit"), std::string::npos) << e.what();
   EXPECT_EQ(sim_->snapshot().refused, 1);
   EXPECT_EQ(sim_->snapshot().moves, 0);
@@ -259,7 +273,7 @@ TEST_F(KukaCell, ATargetBeyondASoftwareLimitIsRefusedByArmsig) {
 TEST_F(KukaCell, AnotherContractVersionIsRefusedBeforeAnyMove) {
   controller_->Write("ARMSIG_VERSION", "0");
   const auto e = StateErrorOf([&] { controller_->MoveTo(Deg({10, -90, 90, 0, 0, 0})); });
-  EXPECT_EQ(e.kind(), Kind::kContract);
+  EXPECT_EQ(e.kind(), Kind::kVersionRefused);
   EXPECT_NE(std::string(e.what()).find("controllers/kuka"), std::string::npos) << e.what();
 }
 
@@ -281,9 +295,10 @@ TEST_F(KukaCell, AConnectionDroppedMidMoveIsBridgedAndALongerOutageResumes) {
   try {
     move.get();
     ADD_FAILURE() << "the move went on without the controller";
-  } catch (const instruments::InstrumentError& e) {
-    EXPECT_EQ(e.code(), 3085) << e.what();
+  } catch (const ControllerError& e) {
+    EXPECT_EQ(e.kind(), Kind::kConnectionLost) << e.what();
     EXPECT_NE(std::string(e.what()).find("variable server"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("resumes"), std::string::npos) << e.what();
   }
   sim_->SetReachable(true);
   controller_->MoveTo(next);
@@ -312,8 +327,8 @@ TEST_F(KukaCell, GarbageAndMalformedFramesAreSkippedOrRetried) {
   try {
     controller_->ReadJointsRad();
     ADD_FAILURE() << "a reading through a flood";
-  } catch (const instruments::InstrumentError& e) {
-    EXPECT_TRUE(e.code() == 3100 || e.code() == 3077 || e.code() == 3085) << e.what();
+  } catch (const ControllerError& e) {
+    EXPECT_EQ(e.kind(), Kind::kConnectionLost) << e.what();
   }
   sim_->ClearFaults();
   EXPECT_LT((controller_->ReadJointsRad() - q).norm(), 1e-9);
@@ -335,8 +350,8 @@ TEST_F(KukaCell, ValuesNoRobotCanHaveAreNoReading) {
   try {
     controller_->Read("ARMSIG_NOT_DECLARED");
     ADD_FAILURE();
-  } catch (const KukaStateError& e) {
-    EXPECT_EQ(e.kind(), Kind::kContract);
+  } catch (const ControllerError& e) {
+    EXPECT_EQ(e.kind(), Kind::kVersionRefused);
     EXPECT_NE(std::string(e.what()).find("config_globals.dat"), std::string::npos) << e.what();
   }
 }

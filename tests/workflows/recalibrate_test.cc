@@ -16,6 +16,7 @@
 #include "core/error.h"
 #include "db/database.h"
 #include "db/schema.h"
+#include "db/store.h"
 #include "support/simulated_sessions.h"
 #include "support/stores.h"
 #include "test_support.h"
@@ -196,6 +197,45 @@ TEST_P(Recalibrate, DetectsAPlantedDrift) {
   for (const auto& p : d.drifted) h4 |= p.name == "h4";
   EXPECT_TRUE(h4) << d.ToJson()["drift"].dump();
   EXPECT_EQ(ActiveVersion(path), 2);
+}
+
+// The controller's own calibration (UR KinematicsInfo) changed between the two sessions: the
+// drift night names it first among the causes, and the JSON carries it.
+TEST_P(Recalibrate, AChangedControllerCalibrationIsNamedFirstAmongTheCauses) {
+  [[maybe_unused]] TempDir& dir = dir_;
+  const std::string path = NewStore();
+  const auto model = Puma();
+  const Eigen::VectorXd before = calibration::PaperTable3Parameters();
+  Eigen::VectorXd after = before;
+  after(model.IndexOf("gamma2")) += 5e-4;  // the arm repaired: joint 2's zero moved
+  std::string since;
+  {
+    db::Database database(path);
+    AddSession(database, before, 150, 4);
+    db::SetSessionController(database, db::SessionIds(database).back(),
+                             {"UR10", "2018", "URSoftware 5.11", "aaaa-0001", "{}"});
+  }
+  ASSERT_TRUE(workflows::Recalibrate(Options(path)).passed());
+  {
+    db::Database database(path);
+    since = StoreNow(database);
+    std::this_thread::sleep_for(std::chrono::milliseconds(20));
+    AddSession(database, after, 150, 5);
+    db::SetSessionController(database, db::SessionIds(database).back(),
+                             {"UR10", "2018", "URSoftware 5.11", "bbbb-0002", "{}"});
+  }
+  auto options = Options(path);
+  options.since = since;
+  const auto d = workflows::Recalibrate(options);
+  EXPECT_TRUE(d.drift);
+  EXPECT_EQ(d.controller_calibration,
+            "the controller's own calibration changed (KinematicsInfo checksum aaaa-0001 in "
+            "session 1, bbbb-0002 in session 2)");
+  const std::string line = d.DriftLine();
+  const size_t named = line.find("the controller's own calibration changed");
+  ASSERT_NE(named, std::string::npos) << line;
+  EXPECT_LT(named, line.find("joint 2 zero")) << line;  // first, before the model's causes
+  EXPECT_EQ(d.ToJson()["controller_calibration"], d.controller_calibration);
 }
 
 // Night after night on one database: a new session of the same robot each night (new

@@ -1,0 +1,319 @@
+// Capture sessions with a KUKA controller: the virtual KR C4 (its variable server on loopback
+// TCP, ARMSIG's contract) moving a KR 16-2 with hidden geometric and joint-angle errors,
+// measured by the virtual laser tracker (emScon on loopback TCP). The faults of issue 35 at
+// the session's level: what is stored (never a wrong reading), what the session says, and
+// that it goes on or resumes. The KR C4 runs 100 times faster than physical time.
+#include <fmt/format.h>
+#include <gtest/gtest.h>
+
+#include <random>
+#include <thread>
+
+#include "acquisition/controller_record.h"
+#include "acquisition/session.h"
+#include "db/database.h"
+#include "db/store.h"
+#include "io/lab_file.h"
+#include "io/model_yaml.h"
+#include "io/network_files.h"
+#include "simulation/emscon_simulator.h"
+#include "simulation/kuka_simulator.h"
+#include "simulation/virtual_robots.h"
+#include "test_support.h"
+#include "workflows/capture.h"
+
+namespace armsig::acquisition {
+namespace {
+
+using namespace std::chrono_literals;
+
+constexpr int kConfigurations = 5;
+
+// Waits (bounded) for a condition another thread makes true; no timing is asserted.
+template <typename F>
+bool Eventually(F&& condition) {
+  const auto until = std::chrono::steady_clock::now() + 5s;
+  while (std::chrono::steady_clock::now() < until) {
+    if (condition()) return true;
+    std::this_thread::sleep_for(1ms);
+  }
+  return false;
+}
+
+class KukaCapture : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    model_ = io::LoadRobotModel(testing::SourcePath("models/kr16_2.yaml"));
+    truth_ = simulation::MakeVirtualRobot("kuka", model_, 7);
+    lab_ = std::make_unique<simulation::VirtualLab>(model_, truth_.true_params,
+                                                    truth_.world_from_base, 3);
+    lab_->SetJointErrors(truth_.joint_errors);
+    simulation::VirtualStation lt1;
+    lt1.pose.id = "LT1";
+    lab_->AddStation(lt1);
+    simulation::EmsconSimulatorOptions t;
+    t.command_latency = 1ms;
+    t.motion_latency = 2ms;
+    t.initialize_latency = 2ms;
+    t.seed = 11;
+    tracker_ = std::make_unique<simulation::EmsconSimulator>(*lab_, 0, "127.0.0.1", 0, t);
+    tracker_->Start();
+    std::vector<reduction::Station> stations(1);
+    stations[0].pose = lt1.pose;
+    testing::WriteText(dir_.File("stations.yaml"), io::FormatStationsYaml(stations, "truth"));
+    std::mt19937 rng(5);
+    std::uniform_real_distribution<double> around(-0.3, 0.3);
+    for (int k = 0; k < kConfigurations; ++k) {
+      Eigen::VectorXd q = truth_.home_rad;
+      for (int j = 0; j < 6; ++j) q(j) += around(rng);
+      plan_.push_back({"C" + std::to_string(k + 1), q});
+    }
+    StartController();
+  }
+
+  void StartController(std::string trafo_name = "", int serial = 0) {
+    kuka_.reset();
+    simulation::KukaSimulatorOptions o;
+    o.time_scale = 0.01;
+    o.latency = 100us;
+    o.trafo_name = trafo_name.empty() ? "#" + truth_.identity.model + " C4 FLR" : trafo_name;
+    o.serial = serial ? serial : std::stoi(truth_.identity.serial);
+    o.home_rad = truth_.home_rad;
+    kuka_ = std::make_unique<simulation::KukaSimulator>(*lab_, "127.0.0.1", 0, o);
+    kuka_->Start();
+    testing::WriteText(
+        dir_.File("lab.yaml"),
+        fmt::format("robot:\n  model: '{}'\n  controller: {{protocol: kuka, host: 127.0.0.1, "
+                    "can_move: true, variable_server_port: {}, velocity_percent: 30}}\n"
+                    "instruments:\n  - {{station: LT1, protocol: emscon, tcp: '{}', "
+                    "measurement_time_ms: 20}}\nstations: stations.yaml\ntolerances: "
+                    "{{settle_ms: 0, timeout_ms: 2000, fault_retries: 1, fault_retry_delay_ms: "
+                    "20}}\n",
+                    testing::SourcePath("models/kr16_2.yaml"), kuka_->port(), tracker_->path()));
+  }
+
+  io::LabConfig Lab() const { return io::LoadLab(dir_.File("lab.yaml")); }
+  int64_t NewSession(db::Database& db) { return CreateSession(db, Lab(), "kr16", plan_); }
+
+  // Every stored configuration at its planned joints (where ARMSIG put the arm), its point
+  // where the true robot is at those joints (its joint errors included), within the
+  // tracker's noise.
+  void ExpectStoredAsPlanned(db::Database& db, int64_t session) {
+    const auto poses = db::LoadSessionPoses(db, session);
+    ASSERT_EQ(poses.size(), static_cast<size_t>(kConfigurations));
+    calibration::Kinematics kin(model_);
+    for (size_t k = 0; k < poses.size(); ++k) {
+      // $AXIS_ACT shows 32-bit floats: 1e-5° at most.
+      EXPECT_LT((poses[k].joints_rad - plan_[k].joints_rad).cwiseAbs().maxCoeff(), 2e-7)
+          << "configuration " << k;
+      const Eigen::VectorXd q = truth_.joint_errors.TrueAngles(poses[k].joints_rad);
+      const Eigen::Vector3d truth = kin.Position(truth_.world_from_base, truth_.true_params, q.data());
+      EXPECT_LT((poses[k].target_in_world - truth).norm(), 0.15) << "configuration " << k;
+    }
+  }
+
+  testing::TempDir dir_;
+  calibration::RobotModel model_;
+  simulation::VirtualRobot truth_;
+  std::unique_ptr<simulation::VirtualLab> lab_;
+  std::unique_ptr<simulation::EmsconSimulator> tracker_;
+  std::unique_ptr<simulation::KukaSimulator> kuka_;
+  Plan plan_;
+};
+
+TEST_F(KukaCapture, CapturesThroughArmsigAndKeepsWhoTheControllerIs) {
+  db::Database db(dir_.File("lab.db"));
+  const int64_t session = NewSession(db);
+  const CaptureSummary s = workflows::CaptureInto(db, Lab(), session, {});
+  ASSERT_TRUE(s.completed) << s.pause_reason;
+  EXPECT_EQ(s.measured, kConfigurations);
+  ExpectStoredAsPlanned(db, session);
+  EXPECT_EQ(kuka_->snapshot().moves, kConfigurations);
+  const auto record = db::SessionController(db, session);
+  ASSERT_TRUE(record);
+  EXPECT_EQ(record->model, "KR16_2");
+  EXPECT_EQ(record->serial, truth_.identity.serial);
+  EXPECT_NE(s.controller.find("KR16_2 serial " + truth_.identity.serial), std::string::npos)
+      << s.controller;
+}
+
+// KUKA's protective stop: the cell's gate opened in AUT during a move. The session waits, says
+// so, and goes on by itself once the operator has closed the gate, acknowledged and started
+// ARMSIG again: the halted move ends where it was going.
+TEST_F(KukaCapture, ASafetyStopDuringAMoveIsWaitedOutAndTheSessionGoesOn) {
+  db::Database db(dir_.File("lab.db"));
+  const int64_t session = NewSession(db);
+  std::vector<std::string> told, waiting;
+  std::thread operator_;
+  CaptureOptions options;
+  options.progress = [&](const Progress& p) {
+    if (!p.waiting.empty()) waiting.push_back(p.waiting);
+    if (p.done != 1 || operator_.joinable()) return;
+    operator_ = std::thread([this] {
+      if (!Eventually([&] { return kuka_->snapshot().moving; })) return;
+      kuka_->OpenSafetyGate();
+      std::this_thread::sleep_for(30ms);
+      kuka_->CloseSafetyGate();
+      kuka_->Acknowledge();
+      kuka_->StartProgram();
+    });
+  };
+  options.controller_fault = [&](const instruments::ControllerError& e) {
+    told.push_back(e.what());
+    return false;  // armsig cannot clear it: it waits
+  };
+  const CaptureSummary s = workflows::CaptureInto(db, Lab(), session, options);
+  operator_.join();
+  ASSERT_TRUE(s.completed) << s.pause_reason;
+  ASSERT_EQ(told.size(), 1u);
+  EXPECT_NE(told[0].find("protective stop: the move stopped: a safety stop"), std::string::npos)
+      << told[0];
+  ASSERT_FALSE(waiting.empty());
+  EXPECT_NE(waiting[0].find("close the gate"), std::string::npos) << waiting[0];
+  EXPECT_EQ(s.controller_waits, 1);
+  EXPECT_EQ(s.skipped, 0);
+  // The halted move went on to its target once ARMSIG was started again; the session's move
+  // after the wait found it there (a command of no motion), or still under way (waited for).
+  EXPECT_EQ(kuka_->snapshot().halts, 1);
+  EXPECT_LE(kuka_->snapshot().moves, kConfigurations + 1);
+  ExpectStoredAsPlanned(db, session);
+}
+
+TEST_F(KukaCapture, AnEmergencyStopPausesTheSessionNamingWhatToDoAndItResumes) {
+  db::Database db(dir_.File("lab.db"));
+  const int64_t session = NewSession(db);
+  CaptureOptions options;
+  options.progress = [&](const Progress& p) {
+    if (p.done == 2) kuka_->PressEmergencyStop();
+  };
+  const CaptureSummary first = workflows::CaptureInto(db, Lab(), session, options);
+  EXPECT_TRUE(first.paused);
+  EXPECT_NE(first.pause_reason.find("emergency stop: EMERGENCY STOP is pressed"), std::string::npos)
+      << first.pause_reason;
+  EXPECT_NE(first.pause_reason.find("release it, acknowledge"), std::string::npos);
+  EXPECT_EQ(db::LoadSessionPoses(db, session).size(), 2u);
+  EXPECT_EQ(db::StoredSeqs(db, session).size(), 2u);  // nothing of the third configuration
+  kuka_->ReleaseEmergencyStop();
+  kuka_->Acknowledge();
+  kuka_->StartProgram();
+  const CaptureSummary resumed = workflows::CaptureInto(db, Lab(), session, {});
+  ASSERT_TRUE(resumed.completed) << resumed.pause_reason;
+  EXPECT_EQ(resumed.already, 2);
+  ExpectStoredAsPlanned(db, session);
+}
+
+TEST_F(KukaCapture, T1IsNamedBeforeASessionIsMadeAndAStoppedProgramPausesOneUnderWay) {
+  kuka_->SetMode("T1");
+  workflows::CaptureRequest request;
+  request.db_path = dir_.File("lab.db");
+  request.lab = dir_.File("lab.yaml");
+  request.plan = "auto:5";
+  request.robot = "kr16";
+  try {
+    workflows::RunCaptureSession(request);
+    FAIL() << "captured in T1";
+  } catch (const std::runtime_error& e) {
+    EXPECT_NE(std::string(e.what()).find("not in remote control: the controller is in T1"),
+              std::string::npos)
+        << e.what();
+    EXPECT_NE(std::string(e.what()).find("nothing was stored"), std::string::npos);
+  }
+  db::Database db(dir_.File("lab.db"));
+  EXPECT_TRUE(db::SessionIds(db).empty());
+  // ARMSIG deselected while a session runs (another program chosen on the smartPAD): paused.
+  kuka_->SetMode("AUT");
+  kuka_->StartProgram();
+  const int64_t session = NewSession(db);
+  CaptureOptions options;
+  options.progress = [&](const Progress& p) {
+    if (p.done == 1) kuka_->SelectProgram("CELL");
+  };
+  const CaptureSummary s = workflows::CaptureInto(db, Lab(), session, options);
+  EXPECT_TRUE(s.paused);
+  EXPECT_NE(s.pause_reason.find("not running"), std::string::npos) << s.pause_reason;
+  EXPECT_NE(s.pause_reason.find("select ARMSIG"), std::string::npos) << s.pause_reason;
+  EXPECT_EQ(db::LoadSessionPoses(db, session).size(), 1u);
+  kuka_->SelectProgram("ARMSIG");
+  kuka_->StartProgram();
+  ASSERT_TRUE(workflows::CaptureInto(db, Lab(), session, {}).completed);
+  ExpectStoredAsPlanned(db, session);
+}
+
+TEST_F(KukaCapture, AConnectionDroppedMidSessionIsReconnectedAndLosesNothing) {
+  db::Database db(dir_.File("lab.db"));
+  const int64_t session = NewSession(db);
+  const int connections_before = kuka_->connections();
+  CaptureOptions options;
+  options.progress = [&](const Progress& p) {
+    if (p.done == 2) kuka_->DropConnections();
+  };
+  const CaptureSummary s = workflows::CaptureInto(db, Lab(), session, options);
+  ASSERT_TRUE(s.completed) << s.pause_reason;
+  EXPECT_GT(kuka_->connections(), connections_before + 1);
+  ExpectStoredAsPlanned(db, session);
+}
+
+TEST_F(KukaCapture, AConnectionThatDoesNotComeBackPausesTheSessionResumably) {
+  db::Database db(dir_.File("lab.db"));
+  const int64_t session = NewSession(db);
+  CaptureOptions options;
+  options.progress = [&](const Progress& p) {
+    if (p.done == 1) kuka_->SetReachable(false);
+  };
+  const CaptureSummary s = workflows::CaptureInto(db, Lab(), session, options);
+  EXPECT_TRUE(s.paused);
+  EXPECT_NE(s.pause_reason.find("connection lost: the variable server did not answer"),
+            std::string::npos)
+      << s.pause_reason;
+  EXPECT_EQ(db::LoadSessionPoses(db, session).size(), 1u);
+  kuka_->SetReachable(true);
+  ASSERT_TRUE(workflows::CaptureInto(db, Lab(), session, {}).completed);
+  ExpectStoredAsPlanned(db, session);
+}
+
+TEST_F(KukaCapture, AReadingTakenWhileTheArmMovesIsNeverStored) {
+  db::Database db(dir_.File("lab.db"));
+  const int64_t session = NewSession(db);
+  // Once the first move has ended, something turns A6 for 10 s (0.1 s of wall time) while the
+  // tracker measures: that reading is refused ($ROB_STOPPED, or the joints read again after the
+  // tracker), the configuration measured again once ARMSIG has taken the arm back. (A6 turns
+  // the reflector about itself: the tracker's own self-check, two readings of one point, is
+  // not what refuses it.)
+  kuka_->arm().DriftAfterNextMove(5, 0.05, 0.2, 10.0);
+  const CaptureSummary s = workflows::CaptureInto(db, Lab(), session, {});
+  ASSERT_TRUE(s.completed) << s.pause_reason;
+  EXPECT_GE(s.moving_refused, 1);
+  ExpectStoredAsPlanned(db, session);
+}
+
+TEST_F(KukaCapture, AnotherArmIsRefusedBeforeASessionIsMade) {
+  workflows::CaptureRequest request;
+  request.db_path = dir_.File("lab.db");
+  request.lab = dir_.File("lab.yaml");
+  request.plan = "auto:5";
+  request.robot = "kr16";
+  ASSERT_TRUE(workflows::RunCaptureSession(request).ok);
+  StartController("", 509999);  // another KR 16-2 behind the same lab file
+  try {
+    workflows::RunCaptureSession(request);
+    FAIL() << "another arm was captured as robot kr16";
+  } catch (const InputError& e) {
+    EXPECT_NE(e.message().find("another arm"), std::string::npos) << e.what();
+    EXPECT_NE(e.message().find("509999"), std::string::npos) << e.what();
+  }
+  StartController("#KR6_R900_2 C4SR FLR");  // another model than the lab's kr16_2
+  request.robot = "new-robot";
+  try {
+    workflows::RunCaptureSession(request);
+    FAIL() << "a KR 6 was captured with a KR 16 model";
+  } catch (const InputError& e) {
+    EXPECT_NE(e.message().find("answers model KR6_R900_2, the lab's robot model is kr16_2"),
+              std::string::npos)
+        << e.what();
+  }
+  db::Database db(dir_.File("lab.db"));
+  EXPECT_EQ(db::SessionIds(db).size(), 1u);
+}
+
+}  // namespace
+}  // namespace armsig::acquisition
