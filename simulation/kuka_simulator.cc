@@ -18,19 +18,9 @@ namespace contract = instruments::kuka::contract;
 namespace sv = instruments::kuka::system_variable;
 using tcp = asio::ip::tcp;
 
-struct KukaSimulator::Connection {
-  explicit Connection(asio::io_context& io) : socket(io) {}
-  tcp::socket socket;
-  instruments::FrameSplitter splitter{kuka::kRequestFrames};
-  char chunk[4096];
-  std::deque<Step> out;
-  bool writing = false, flooding = false, closed = false;
-  void Close() {
-    closed = true;
-    boost::system::error_code ignored;
-    socket.shutdown(tcp::socket::shutdown_both, ignored);
-    socket.close(ignored);
-  }
+struct KukaSimulator::Connection : FramedPeer {
+  explicit Connection(asio::io_context& io) : FramedPeer(io, kuka::kRequestFrames) {}
+  bool flooding = false;  // one flood at a time
 };
 
 namespace {
@@ -101,19 +91,7 @@ KukaSimulator::~KukaSimulator() { Stop(); }
 // --- The server -------------------------------------------------------------------------
 
 void KukaSimulator::Start() {
-  boost::system::error_code ec;
-  const auto address = asio::ip::make_address(host_, ec);
-  if (ec) throw std::runtime_error("virtual KUKA controller: '" + host_ + "' is no IP address");
-  const tcp::endpoint endpoint(address, port_);
-  acceptor_ = std::make_unique<tcp::acceptor>(io_);
-  acceptor_->open(endpoint.protocol(), ec);
-  if (!ec) acceptor_->set_option(tcp::acceptor::reuse_address(true), ec);
-  if (!ec) acceptor_->bind(endpoint, ec);
-  if (!ec) acceptor_->listen(asio::socket_base::max_listen_connections, ec);
-  if (ec) {
-    throw std::runtime_error("virtual KUKA controller: cannot listen on " + address_ + " (" +
-                             ec.message() + ")");
-  }
+  acceptor_ = ListenTcp(io_, host_, port_, "virtual KUKA controller");
   port_ = acceptor_->local_endpoint().port();
   address_ = host_ + ":" + std::to_string(port_);
   work_.emplace(asio::make_work_guard(io_));
@@ -191,25 +169,9 @@ void KukaSimulator::StartAccept() {
 }
 
 void KukaSimulator::StartRead(std::shared_ptr<Connection> c) {
-  c->socket.async_read_some(
-      asio::buffer(c->chunk), [this, c](const boost::system::error_code& ec, size_t n) {
-        if (ec || c->closed) return;
-        c->splitter.Append(std::string_view(c->chunk, n));
-        std::string frame;
-        for (;;) {
-          int32_t size = 0;
-          const auto status = c->splitter.Next(frame, &size);
-          if (status == instruments::FrameSplitter::Status::kNeedMore) break;
-          if (status == instruments::FrameSplitter::Status::kBadSize) {
-            // KukaVarProxy reads on from there and answers nothing it cannot split.
-            spdlog::debug("virtual KUKA: dropped bytes with a length field of {}", size - 4);
-            break;
-          }
-          OnFrame(c, frame);
-          if (c->closed) return;
-        }
-        StartRead(c);
-      });
+  // KukaVarProxy reads on past bytes it cannot split and answers nothing for them.
+  FramedPeer::ReadFrames(c, "virtual KUKA controller",
+                         [this, c](const std::string& frame) { OnFrame(c, frame); });
 }
 
 void KukaSimulator::OnFrame(const std::shared_ptr<Connection>& c, const std::string& frame) {
@@ -283,41 +245,7 @@ void KukaSimulator::OnFrame(const std::shared_ptr<Connection>& c, const std::str
       break;
   }
   steps.push_back({latency, std::move(bytes)});
-  Queue(c, std::move(steps));
-}
-
-void KukaSimulator::Queue(const std::shared_ptr<Connection>& c, std::vector<Step> steps) {
-  for (auto& s : steps) c->out.push_back(std::move(s));
-  if (!c->writing) Pump(c);
-}
-
-void KukaSimulator::Pump(std::shared_ptr<Connection> c) {
-  if (c->closed || c->out.empty()) {
-    c->writing = false;
-    return;
-  }
-  c->writing = true;
-  auto step = std::make_shared<Step>(std::move(c->out.front()));
-  c->out.pop_front();
-  auto write = [this, c, step] {
-    if (c->closed) return;
-    asio::async_write(c->socket, asio::buffer(step->bytes),
-                      [this, c, step](const boost::system::error_code& ec, size_t) {
-                        if (ec) {
-                          c->writing = false;
-                          return;
-                        }
-                        Pump(c);
-                      });
-  };
-  if (step->delay.count() <= 0) {
-    write();
-    return;
-  }
-  auto timer = std::make_shared<asio::steady_timer>(io_, step->delay);
-  timer->async_wait([timer, write](const boost::system::error_code& ec) {
-    if (!ec) write();
-  });
+  TcpPeer::Send(c, std::move(steps));
 }
 
 void KukaSimulator::Flood(std::shared_ptr<Connection> c, bool frames, int64_t k,

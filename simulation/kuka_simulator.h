@@ -57,6 +57,7 @@
 
 #include "instruments/kuka_codec.h"
 #include "simulation/simulator.h"
+#include "simulation/tcp_peer.h"
 #include "simulation/virtual_arm.h"
 #include "simulation/virtual_lab.h"
 
@@ -132,10 +133,7 @@ class KukaSimulator : public Simulator {
 
  private:
   struct Connection;
-  struct Step {
-    std::chrono::microseconds delay{0};
-    std::string bytes;
-  };
+  using Step = TcpPeer::Step;
   struct Global {
     std::string type, text;
   };
@@ -154,8 +152,6 @@ class KukaSimulator : public Simulator {
   void StartAccept();
   void StartRead(std::shared_ptr<Connection> c);
   void OnFrame(const std::shared_ptr<Connection>& c, const std::string& frame);
-  void Queue(const std::shared_ptr<Connection>& c, std::vector<Step> steps);
-  void Pump(std::shared_ptr<Connection> c);
   void Flood(std::shared_ptr<Connection> c, bool frames, int64_t k, uint64_t generation);
   void Tick();  // the interpreter cycle: Advance() every 12 ms
 

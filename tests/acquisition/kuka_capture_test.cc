@@ -6,7 +6,7 @@
 #include <fmt/format.h>
 #include <gtest/gtest.h>
 
-#include <random>
+#include <functional>
 #include <thread>
 
 #include "acquisition/controller_record.h"
@@ -14,11 +14,8 @@
 #include "db/database.h"
 #include "db/store.h"
 #include "io/lab_file.h"
-#include "io/model_yaml.h"
-#include "io/network_files.h"
-#include "simulation/emscon_simulator.h"
 #include "simulation/kuka_simulator.h"
-#include "simulation/virtual_robots.h"
+#include "support/tracker_cell.h"
 #include "test_support.h"
 #include "workflows/capture.h"
 
@@ -29,47 +26,9 @@ using namespace std::chrono_literals;
 
 constexpr int kConfigurations = 5;
 
-// Waits (bounded) for a condition another thread makes true; no timing is asserted.
-template <typename F>
-bool Eventually(F&& condition) {
-  const auto until = std::chrono::steady_clock::now() + 5s;
-  while (std::chrono::steady_clock::now() < until) {
-    if (condition()) return true;
-    std::this_thread::sleep_for(1ms);
-  }
-  return false;
-}
-
 class KukaCapture : public ::testing::Test {
  protected:
-  void SetUp() override {
-    model_ = io::LoadRobotModel(testing::SourcePath("models/kr16_2.yaml"));
-    truth_ = simulation::MakeVirtualRobot("kuka", model_, 7);
-    lab_ = std::make_unique<simulation::VirtualLab>(model_, truth_.true_params,
-                                                    truth_.world_from_base, 3);
-    lab_->SetJointErrors(truth_.joint_errors);
-    simulation::VirtualStation lt1;
-    lt1.pose.id = "LT1";
-    lab_->AddStation(lt1);
-    simulation::EmsconSimulatorOptions t;
-    t.command_latency = 1ms;
-    t.motion_latency = 2ms;
-    t.initialize_latency = 2ms;
-    t.seed = 11;
-    tracker_ = std::make_unique<simulation::EmsconSimulator>(*lab_, 0, "127.0.0.1", 0, t);
-    tracker_->Start();
-    std::vector<reduction::Station> stations(1);
-    stations[0].pose = lt1.pose;
-    testing::WriteText(dir_.File("stations.yaml"), io::FormatStationsYaml(stations, "truth"));
-    std::mt19937 rng(5);
-    std::uniform_real_distribution<double> around(-0.3, 0.3);
-    for (int k = 0; k < kConfigurations; ++k) {
-      Eigen::VectorXd q = truth_.home_rad;
-      for (int j = 0; j < 6; ++j) q(j) += around(rng);
-      plan_.push_back({"C" + std::to_string(k + 1), q});
-    }
-    StartController();
-  }
+  void SetUp() override { StartController(); }
 
   void StartController(std::string trafo_name = "", int serial = 0) {
     kuka_.reset();
@@ -79,7 +38,7 @@ class KukaCapture : public ::testing::Test {
     o.trafo_name = trafo_name.empty() ? "#" + truth_.identity.model + " C4 FLR" : trafo_name;
     o.serial = serial ? serial : std::stoi(truth_.identity.serial);
     o.home_rad = truth_.home_rad;
-    kuka_ = std::make_unique<simulation::KukaSimulator>(*lab_, "127.0.0.1", 0, o);
+    kuka_ = std::make_unique<simulation::KukaSimulator>(*cell_.lab, "127.0.0.1", 0, o);
     kuka_->Start();
     testing::WriteText(
         dir_.File("lab.yaml"),
@@ -89,36 +48,40 @@ class KukaCapture : public ::testing::Test {
                     "measurement_time_ms: 20}}\nstations: stations.yaml\ntolerances: "
                     "{{settle_ms: 0, timeout_ms: 2000, fault_retries: 1, fault_retry_delay_ms: "
                     "20}}\n",
-                    testing::SourcePath("models/kr16_2.yaml"), kuka_->port(), tracker_->path()));
+                    testing::SourcePath("models/kr16_2.yaml"), kuka_->port(),
+                    cell_.tracker->path()));
   }
 
   io::LabConfig Lab() const { return io::LoadLab(dir_.File("lab.yaml")); }
-  int64_t NewSession(db::Database& db) { return CreateSession(db, Lab(), "kr16", plan_); }
-
-  // Every stored configuration at its planned joints (where ARMSIG put the arm), its point
-  // where the true robot is at those joints (its joint errors included), within the
-  // tracker's noise.
+  int64_t NewSession(db::Database& db) { return CreateSession(db, Lab(), "kr16", cell_.plan); }
+  // The capture command's request for robot `robot` with an automatic plan.
+  workflows::CaptureRequest Request(const std::string& robot) const {
+    workflows::CaptureRequest request;
+    request.db_path = dir_.File("lab.db");
+    request.lab = dir_.File("lab.yaml");
+    request.plan = "auto:5";
+    request.robot = robot;
+    return request;
+  }
+  // Captures the session; `act` runs once `done` configurations are stored (the operator, the
+  // network).
+  CaptureSummary CaptureActingAt(db::Database& db, int64_t session, int done,
+                                 const std::function<void()>& act) {
+    CaptureOptions options;
+    options.progress = [&](const Progress& p) {
+      if (p.done == done) act();
+    };
+    return workflows::CaptureInto(db, Lab(), session, options);
+  }
+  // $AXIS_ACT shows 32-bit floats: a joint as stored is the planned one within 1e-5°.
   void ExpectStoredAsPlanned(db::Database& db, int64_t session) {
-    const auto poses = db::LoadSessionPoses(db, session);
-    ASSERT_EQ(poses.size(), static_cast<size_t>(kConfigurations));
-    calibration::Kinematics kin(model_);
-    for (size_t k = 0; k < poses.size(); ++k) {
-      // $AXIS_ACT shows 32-bit floats: 1e-5° at most.
-      EXPECT_LT((poses[k].joints_rad - plan_[k].joints_rad).cwiseAbs().maxCoeff(), 2e-7)
-          << "configuration " << k;
-      const Eigen::VectorXd q = truth_.joint_errors.TrueAngles(poses[k].joints_rad);
-      const Eigen::Vector3d truth = kin.Position(truth_.world_from_base, truth_.true_params, q.data());
-      EXPECT_LT((poses[k].target_in_world - truth).norm(), 0.15) << "configuration " << k;
-    }
+    testing::ExpectStoredAsPlanned(db, session, kConfigurations, cell_, 2e-7);
   }
 
   testing::TempDir dir_;
-  calibration::RobotModel model_;
-  simulation::VirtualRobot truth_;
-  std::unique_ptr<simulation::VirtualLab> lab_;
-  std::unique_ptr<simulation::EmsconSimulator> tracker_;
+  testing::TrackerCell cell_{"kuka", "models/kr16_2.yaml", dir_, kConfigurations};
+  simulation::VirtualRobot& truth_ = cell_.truth;
   std::unique_ptr<simulation::KukaSimulator> kuka_;
-  Plan plan_;
 };
 
 TEST_F(KukaCapture, CapturesThroughArmsigAndKeepsWhoTheControllerIs) {
@@ -150,7 +113,7 @@ TEST_F(KukaCapture, ASafetyStopDuringAMoveIsWaitedOutAndTheSessionGoesOn) {
     if (!p.waiting.empty()) waiting.push_back(p.waiting);
     if (p.done != 1 || operator_.joinable()) return;
     operator_ = std::thread([this] {
-      if (!Eventually([&] { return kuka_->snapshot().moving; })) return;
+      if (!testing::WaitUntil([&] { return kuka_->snapshot().moving; })) return;
       kuka_->OpenSafetyGate();
       std::this_thread::sleep_for(30ms);
       kuka_->CloseSafetyGate();
@@ -182,11 +145,7 @@ TEST_F(KukaCapture, ASafetyStopDuringAMoveIsWaitedOutAndTheSessionGoesOn) {
 TEST_F(KukaCapture, AnEmergencyStopPausesTheSessionNamingWhatToDoAndItResumes) {
   db::Database db(dir_.File("lab.db"));
   const int64_t session = NewSession(db);
-  CaptureOptions options;
-  options.progress = [&](const Progress& p) {
-    if (p.done == 2) kuka_->PressEmergencyStop();
-  };
-  const CaptureSummary first = workflows::CaptureInto(db, Lab(), session, options);
+  const CaptureSummary first = CaptureActingAt(db, session, 2, [&] { kuka_->PressEmergencyStop(); });
   EXPECT_TRUE(first.paused);
   EXPECT_NE(first.pause_reason.find("emergency stop: EMERGENCY STOP is pressed"), std::string::npos)
       << first.pause_reason;
@@ -204,13 +163,8 @@ TEST_F(KukaCapture, AnEmergencyStopPausesTheSessionNamingWhatToDoAndItResumes) {
 
 TEST_F(KukaCapture, T1IsNamedBeforeASessionIsMadeAndAStoppedProgramPausesOneUnderWay) {
   kuka_->SetMode("T1");
-  workflows::CaptureRequest request;
-  request.db_path = dir_.File("lab.db");
-  request.lab = dir_.File("lab.yaml");
-  request.plan = "auto:5";
-  request.robot = "kr16";
   try {
-    workflows::RunCaptureSession(request);
+    workflows::RunCaptureSession(Request("kr16"));
     FAIL() << "captured in T1";
   } catch (const std::runtime_error& e) {
     EXPECT_NE(std::string(e.what()).find("not in remote control: the controller is in T1"),
@@ -224,11 +178,7 @@ TEST_F(KukaCapture, T1IsNamedBeforeASessionIsMadeAndAStoppedProgramPausesOneUnde
   kuka_->SetMode("AUT");
   kuka_->StartProgram();
   const int64_t session = NewSession(db);
-  CaptureOptions options;
-  options.progress = [&](const Progress& p) {
-    if (p.done == 1) kuka_->SelectProgram("CELL");
-  };
-  const CaptureSummary s = workflows::CaptureInto(db, Lab(), session, options);
+  const CaptureSummary s = CaptureActingAt(db, session, 1, [&] { kuka_->SelectProgram("CELL"); });
   EXPECT_TRUE(s.paused);
   EXPECT_NE(s.pause_reason.find("not running"), std::string::npos) << s.pause_reason;
   EXPECT_NE(s.pause_reason.find("select ARMSIG"), std::string::npos) << s.pause_reason;
@@ -243,11 +193,7 @@ TEST_F(KukaCapture, AConnectionDroppedMidSessionIsReconnectedAndLosesNothing) {
   db::Database db(dir_.File("lab.db"));
   const int64_t session = NewSession(db);
   const int connections_before = kuka_->connections();
-  CaptureOptions options;
-  options.progress = [&](const Progress& p) {
-    if (p.done == 2) kuka_->DropConnections();
-  };
-  const CaptureSummary s = workflows::CaptureInto(db, Lab(), session, options);
+  const CaptureSummary s = CaptureActingAt(db, session, 2, [&] { kuka_->DropConnections(); });
   ASSERT_TRUE(s.completed) << s.pause_reason;
   EXPECT_GT(kuka_->connections(), connections_before + 1);
   ExpectStoredAsPlanned(db, session);
@@ -256,11 +202,7 @@ TEST_F(KukaCapture, AConnectionDroppedMidSessionIsReconnectedAndLosesNothing) {
 TEST_F(KukaCapture, AConnectionThatDoesNotComeBackPausesTheSessionResumably) {
   db::Database db(dir_.File("lab.db"));
   const int64_t session = NewSession(db);
-  CaptureOptions options;
-  options.progress = [&](const Progress& p) {
-    if (p.done == 1) kuka_->SetReachable(false);
-  };
-  const CaptureSummary s = workflows::CaptureInto(db, Lab(), session, options);
+  const CaptureSummary s = CaptureActingAt(db, session, 1, [&] { kuka_->SetReachable(false); });
   EXPECT_TRUE(s.paused);
   EXPECT_NE(s.pause_reason.find("connection lost: the variable server did not answer"),
             std::string::npos)
@@ -287,11 +229,7 @@ TEST_F(KukaCapture, AReadingTakenWhileTheArmMovesIsNeverStored) {
 }
 
 TEST_F(KukaCapture, AnotherArmIsRefusedBeforeASessionIsMade) {
-  workflows::CaptureRequest request;
-  request.db_path = dir_.File("lab.db");
-  request.lab = dir_.File("lab.yaml");
-  request.plan = "auto:5";
-  request.robot = "kr16";
+  auto request = Request("kr16");
   ASSERT_TRUE(workflows::RunCaptureSession(request).ok);
   StartController("", 509999);  // another KR 16-2 behind the same lab file
   try {

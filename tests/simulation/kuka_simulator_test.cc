@@ -11,6 +11,7 @@
 
 #include "instruments/kuka_controller.h"
 #include "io/model_yaml.h"
+#include "test_support.h"
 
 namespace armsig::simulation {
 namespace {
@@ -33,17 +34,6 @@ const calibration::RobotModel& Kr16() {
   static const calibration::RobotModel model =
       io::LoadRobotModel(std::string(ARMSIG_SOURCE_DIR) + "/models/kr16_2.yaml");
   return model;
-}
-
-// Waits (bounded) for a condition another thread makes true; no timing is asserted.
-template <typename F>
-bool Eventually(F&& condition, std::chrono::milliseconds within = 3000ms) {
-  const auto until = std::chrono::steady_clock::now() + within;
-  while (std::chrono::steady_clock::now() < until) {
-    if (condition()) return true;
-    std::this_thread::sleep_for(1ms);
-  }
-  return condition();
 }
 
 class KukaCell : public ::testing::Test {
@@ -78,7 +68,7 @@ class KukaCell : public ::testing::Test {
   std::future<void> MoveInBackground(const Eigen::VectorXd& q) {
     const int64_t before = sim_->snapshot().cmd;
     auto f = std::async(std::launch::async, [this, q] { controller_->MoveTo(q); });
-    EXPECT_TRUE(Eventually([&] {
+    EXPECT_TRUE(testing::WaitUntil([&] {
       const auto s = sim_->snapshot();
       return s.busy > before && s.moving;
     }));
@@ -155,14 +145,14 @@ TEST_F(KukaCell, MovesTakeThePhysicalTimeOfTheLeadingAxis) {
 TEST_F(KukaCell, AReadingWhileTheArmMovesIsRefused) {
   Open(1.0);  // a real-time move of 3 s
   sim_->CommandMove(Eigen::Vector3d(90, -90, 90), 20);  // another client moves the robot
-  ASSERT_TRUE(Eventually([&] { return sim_->snapshot().moving; }));
+  ASSERT_TRUE(testing::WaitUntil([&] { return sim_->snapshot().moving; }));
   const auto e = StateErrorOf([&] { controller_->ReadJointsRad(); });
   EXPECT_EQ(e.kind(), Kind::kArmMoving);
   EXPECT_FALSE(e.WaitedOut());
   EXPECT_NE(std::string(e.what()).find("$ROB_STOPPED FALSE"), std::string::npos) << e.what();
   EXPECT_NE(std::string(e.what()).find(sim_->path()), std::string::npos) << e.what();
   sim_->StopProgram();  // the STOP key: it brakes along its path and stands
-  ASSERT_TRUE(Eventually([&] { return !sim_->snapshot().moving; }));
+  ASSERT_TRUE(testing::WaitUntil([&] { return !sim_->snapshot().moving; }));
   EXPECT_NO_THROW(controller_->ReadJointsRad());
 }
 
@@ -256,7 +246,7 @@ TEST_F(KukaCell, AProgramNotRunningOrAnotherProgramIsNamed) {
   // the next move goes as usual.
   sim_->SelectProgram("ARMSIG");
   sim_->StartProgram();
-  ASSERT_TRUE(Eventually([&] { return sim_->snapshot().done == sim_->snapshot().cmd; }));
+  ASSERT_TRUE(testing::WaitUntil([&] { return sim_->snapshot().done == sim_->snapshot().cmd; }));
   EXPECT_EQ(sim_->snapshot().result, 3);
   controller_->MoveTo(Deg({10, -90, 90, 0, 0, 0}));
   EXPECT_EQ(sim_->snapshot().moves, 1);
