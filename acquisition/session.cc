@@ -912,7 +912,16 @@ CaptureSummary CaptureRun::Finish() {
 
 CaptureSummary CaptureRun::Run() {
   const InterruptScope interrupts(devices_, controller_, options_.stop);
-  SetUp();
+  try {
+    SetUp();
+  } catch (const std::exception&) {
+    // Ctrl-C while the controller was asked who it is: stopped before the first
+    // configuration, the session paused as at any other stop.
+    if (!Stopping()) throw;
+    summary_.stopped = true;
+    db::SetSessionState(db_, session_, "paused");
+    return Finish();
+  }
   const bool stored_points_wrong = PauseUnlessFollowing(
       fmt::format("the {} stored points of this session", predictor_.points()));
   start_ = Clock::now();

@@ -74,7 +74,7 @@ void BM_UrCaptureSoftwarePerConfiguration(benchmark::State& state) {
     // at this time scale: simulation/ur_simulator.h); the tracker's measurement and its
     // beam's motion (GoPosition, 100 ms); its command latencies (2 ms each, a few).
     const double moves_ms = (lab.ur()->arm().moving_s() - moving_before) * 1000.0 * kTimeScale;
-    const double package_s = 0.002 * std::ceil(2e-4 / (0.002 * kTimeScale) - 1e-9);
+    const double package_s = 0.002 * simulation::UrSimulator::Thinning(500.0, kTimeScale);
     const double still_ms = 3 * 3 * package_s * 1000.0;
     const double physics_ms =
         moves_ms + kConfigurations * (still_ms + kMeasurementMs + 100.0 + 10.0) * kTimeScale;

@@ -465,10 +465,8 @@ JointData ReadJoints(Reader& r) {
 KinematicsInfo ReadKinematics(Reader& r) {
   KinematicsInfo k;
   for (auto& c : k.checksum) c = r.U32();
-  for (auto& v : k.dh_theta) v = r.Double();
-  for (auto& v : k.dh_a) v = r.Double();
-  for (auto& v : k.dh_d) v = r.Double();
-  for (auto& v : k.dh_alpha) v = r.Double();
+  for (auto* table : {&k.dh_theta, &k.dh_a, &k.dh_d, &k.dh_alpha})
+    for (double& v : *table) v = r.Double();
   k.calibration_status = r.U32();
   return k;
 }

@@ -448,76 +448,72 @@ void UrController::MoveTo(const Eigen::VectorXd& target) {
   }
 }
 
-void UrController::SendScript(const std::string& line, Deadline deadline) {
+template <typename F>
+auto UrController::Reconnecting(TransportBase& transport, const std::string& interface,
+                                Deadline deadline, F&& attempt) {
   std::string last = "no attempt before the deadline";
-  while (Clock::now() < deadline) {
+  for (int tried = 0; Clock::now() < deadline; ++tried) {
     try {
-      if (!secondary_->IsOpen()) {
-        secondary_->Open();
-        // A connection the controller keeps sends its version message first: a script written
-        // before it could go to a connection already being closed.
-        for (;;) {
-          std::string why;
-          const auto m = ur::primary::Decode(secondary_->ReadPacket(deadline), &why);
-          if (m && m->version) break;
-        }
-      } else {
-        // The interface streams the robot's state (10 Hz): what piled up is not read.
-        secondary_->Drain(Millis(0), std::min(deadline, Clock::now() + Millis(2)));
-      }
-      secondary_->Write(line, deadline);
-      return;
+      return attempt();
     } catch (const TransportError& e) {
       if (e.kind() == TransportError::Kind::kInterrupted) throw;
       last = e.message();
-      secondary_->Close();
-      secondary_->Pause(policy_.reconnect_delay, deadline);
+      // A late answer must never be taken for the next request's: a new connection.
+      transport.Close();
+      if (tried > 0) ++stats_.reconnects;
+      transport.Pause(policy_.reconnect_delay, deadline);
     }
   }
-  ConnectionLost("the secondary interface at " + secondary_->name(), last);
+  ConnectionLost(interface + " at " + transport.name(), last);
+}
+
+void UrController::SendScript(const std::string& line, Deadline deadline) {
+  Reconnecting(*secondary_, "the secondary interface", deadline, [&] {
+    if (!secondary_->IsOpen()) {
+      secondary_->Open();
+      // A connection the controller keeps sends its version message first: a script written
+      // before it could go to a connection already being closed.
+      for (;;) {
+        std::string why;
+        const auto m = ur::primary::Decode(secondary_->ReadPacket(deadline), &why);
+        if (m && m->version) break;
+      }
+    } else {
+      // The interface streams the robot's state (10 Hz): what piled up is not read.
+      secondary_->Drain(Millis(0), std::min(deadline, Clock::now() + Millis(2)));
+    }
+    secondary_->Write(line, deadline);
+  });
 }
 
 // --- Dashboard ---------------------------------------------------------------------------
 
 std::string UrController::Dashboard(const std::string& command, Deadline deadline) {
-  std::string last = "no attempt before the deadline";
-  for (int attempt = 0; Clock::now() < deadline;
-       ++attempt) {
-    try {
-      if (!dashboard_ready_ || !dashboard_->IsOpen()) {
-        dashboard_->Close();
-        dashboard_->Open();
-        const std::string welcome = dashboard_->ReadLine(deadline);
-        if (welcome.rfind("Connected", 0) != 0) {
-          throw InstrumentError(name_, 3074,
-                                "the dashboard server at " + dashboard_->name() +
-                                    " greeted with " + Quoted(Printable(welcome)) +
-                                    ", not \"Connected: …\"");
-        }
-        dashboard_->Write("PolyscopeVersion\n", deadline);
-        const std::string version = dashboard_->ReadLine(deadline);
-        polyscope_ = ur::dashboard::PolyscopeVersion(version);
-        if (!polyscope_) {
-          throw InstrumentError(name_, 3074,
-                                "the dashboard server's PolyscopeVersion is " +
-                                    Quoted(Printable(version)));
-        }
-        dashboard_ready_ = true;
-        if (command == "PolyscopeVersion") return version;
-      }
-      dashboard_->Write(command + "\n", deadline);
-      return dashboard_->ReadLine(deadline);
-    } catch (const TransportError& e) {
-      if (e.kind() == TransportError::Kind::kInterrupted) throw;
-      last = e.message();
-      // A late answer must not be taken for the next command's: a new connection.
-      dashboard_->Close();
+  return Reconnecting(*dashboard_, "the dashboard server", deadline, [&]() -> std::string {
+    if (!dashboard_ready_ || !dashboard_->IsOpen()) {
       dashboard_ready_ = false;
-      if (attempt > 0) ++stats_.reconnects;
-      dashboard_->Pause(policy_.reconnect_delay, deadline);
+      dashboard_->Close();
+      dashboard_->Open();
+      const std::string welcome = dashboard_->ReadLine(deadline);
+      if (welcome.rfind("Connected", 0) != 0) {
+        throw InstrumentError(name_, 3074,
+                              "the dashboard server at " + dashboard_->name() + " greeted with " +
+                                  Quoted(Printable(welcome)) + ", not \"Connected: …\"");
+      }
+      dashboard_->Write("PolyscopeVersion\n", deadline);
+      const std::string version = dashboard_->ReadLine(deadline);
+      polyscope_ = ur::dashboard::PolyscopeVersion(version);
+      if (!polyscope_) {
+        throw InstrumentError(name_, 3074,
+                              "the dashboard server's PolyscopeVersion is " +
+                                  Quoted(Printable(version)));
+      }
+      dashboard_ready_ = true;
+      if (command == "PolyscopeVersion") return version;
     }
-  }
-  ConnectionLost("the dashboard server at " + dashboard_->name(), last);
+    dashboard_->Write(command + "\n", deadline);
+    return dashboard_->ReadLine(deadline);
+  });
 }
 
 void UrController::CheckReady() {
@@ -577,34 +573,24 @@ void UrController::ClearProtectiveStop() {
 // --- Primary interface and identity ------------------------------------------------------
 
 void UrController::ReadPrimary(Deadline deadline) {
-  std::string last = "no attempt before the deadline";
-  while (Clock::now() < deadline) {
-    try {
-      primary_->Close();
-      primary_->Open();
-      std::optional<ur::primary::VersionMessage> version;
-      std::optional<ur::primary::KinematicsInfo> kinematics;
-      // A new connection sends the version message, then the robot state at 10 Hz.
-      while (!version || !kinematics) {
-        const std::string frame = primary_->ReadPacket(deadline);
-        std::string why;
-        const auto message = ur::primary::Decode(frame, &why);
-        if (!message) throw TransportError(TransportError::Kind::kBadFrame, primary_->name(), why);
-        if (message->version) version = message->version;
-        if (message->kinematics) kinematics = message->kinematics;
-      }
-      primary_->Close();
-      primary_version_ = version;
-      kinematics_ = kinematics->ToKinematics();
-      return;
-    } catch (const TransportError& e) {
-      if (e.kind() == TransportError::Kind::kInterrupted) throw;
-      last = e.message();
-      primary_->Close();
-      primary_->Pause(policy_.reconnect_delay, deadline);
+  Reconnecting(*primary_, "the primary interface", deadline, [&] {
+    primary_->Close();
+    primary_->Open();
+    std::optional<ur::primary::VersionMessage> version;
+    std::optional<ur::primary::KinematicsInfo> kinematics;
+    // A new connection sends the version message, then the robot state at 10 Hz.
+    while (!version || !kinematics) {
+      const std::string frame = primary_->ReadPacket(deadline);
+      std::string why;
+      const auto message = ur::primary::Decode(frame, &why);
+      if (!message) throw TransportError(TransportError::Kind::kBadFrame, primary_->name(), why);
+      if (message->version) version = message->version;
+      if (message->kinematics) kinematics = message->kinematics;
     }
-  }
-  ConnectionLost("the primary interface at " + primary_->name(), last);
+    primary_->Close();
+    primary_version_ = version;
+    kinematics_ = kinematics->ToKinematics();
+  });
 }
 
 std::optional<ControllerKinematics> UrController::Kinematics() {

@@ -100,6 +100,11 @@ class UrController : public RobotController {
   // reconnecting on a lost connection; the stream is paused again however it ends.
   template <typename Each>
   void Stream(Deadline& deadline, const char* what, Each&& each);
+  // Runs attempt() until it returns by `deadline`: a transport failure closes `transport` and
+  // tries again after reconnect_delay; past the deadline, kConnectionLost naming `interface`.
+  template <typename F>
+  auto Reconnecting(TransportBase& transport, const std::string& interface, Deadline deadline,
+                    F&& attempt);
   void SetUpRtde(Deadline deadline);
   ur::rtde::Package RtdeAnswer(ur::rtde::Type type, Deadline deadline);
   void PauseStream(Deadline deadline);

@@ -411,9 +411,7 @@ void UrSimulator::StreamTick(ConnectionPtr c) {
   // The controller's clock in whole periods of the recipe, a package every `step`: every
   // period, or every k-th when the time scale would send them faster than the wall allows.
   const double period = 1.0 / c->frequency;
-  const double thinning =
-      std::ceil(std::max(1.0, kMinWallPeriodS / (period * arm_->clock().time_scale())) - 1e-9);
-  const double step = period * thinning;
+  const double step = period * Thinning(c->frequency, arm_->clock().time_scale());
   if (c->packages == 0) c->first_stamp = std::floor(s.t / period) * period;
   const double stamp = c->first_stamp + static_cast<double>(c->packages) * step;
   std::vector<std::vector<double>> values;
@@ -562,6 +560,11 @@ void UrSimulator::MoveAfterNextMove(int joint, double speed, double delay_s, dou
 void UrSimulator::SetKinematics(const instruments::ControllerKinematics& kinematics) {
   std::lock_guard lock(mutex_);
   kinematics_ = kinematics;
+}
+
+int UrSimulator::Thinning(double frequency_hz, double time_scale) {
+  const double wall_period = std::max(time_scale, 1e-3) / frequency_hz;  // PhysicalClock's floor
+  return static_cast<int>(std::ceil(std::max(1.0, kMinWallPeriodS / wall_period) - 1e-9));
 }
 
 double UrSimulator::frequency_hz() const {

@@ -111,6 +111,9 @@ class UrSimulator {
   int connections() const { return connections_.load(); }
   int scripts() const { return scripts_.load(); }
   double frequency_hz() const;  // of the last RTDE recipe set up (0: none)
+  // Every how many periods of an RTDE recipe at `frequency_hz` a package is sent at
+  // `time_scale` (1 unless the wall could not keep up: at most one per 0.2 ms of wall time).
+  static int Thinning(double frequency_hz, double time_scale);
   // The KinematicsInfo it sends (checksums computed from the table).
   instruments::ur::primary::KinematicsInfo kinematics_info() const;
 

@@ -568,7 +568,7 @@ void DemoRun::Introduce() {
   }
   const std::string controller =
       robot_->controller == "ur" || robot_->controller == "kuka"
-          ? robot_->controller_text + " (" + lab_->controller_address() + ")"
+          ? robot_->controller_text + " at " + lab_->controller_address()
           : robot_->controller_text;
   Say("armsig demo: virtual lab with " + robot_->description +
           ", a laser tracker speaking Leica emScon on " + lab_->tracker_address() + " and " +
@@ -675,6 +675,17 @@ bool DemoRun::Capture() {
     throw std::runtime_error("demo: capture did not complete: " + captured_.pause_reason);
   captured_.session = session_;
   Say(DemoCaptureText(captured_, use_tracker_));
+  if (auto* ur = lab_->ur()) {
+    const int thinning = simulation::UrSimulator::Thinning(ur->frequency_hz(), time_scale_);
+    Say(fmt::format("   the arm moved for {:.1f} min of its own time (movej, 1.05 rad/s; {:.1f} s of "
+                    "wall time at time scale {:g}); joints from RTDE's {:g} Hz recipe{}, each "
+                    "stamped with the controller's clock; the controller: {}\n",
+                    ur->arm().moving_s() / 60.0, ur->arm().moving_s() * time_scale_, time_scale_,
+                    ur->frequency_hz(),
+                    thinning > 1 ? fmt::format(" (one package in {} sent at this time scale)", thinning)
+                                 : std::string(),
+                    captured_.controller));
+  }
   return true;
 }
 
@@ -788,6 +799,11 @@ void DemoRun::WriteJson() {
                     {"stations", stations_},
                     {"noise_floor_mm", noise_floor_mm_},
                     {"seconds", seconds_}};
+  if (auto* ur = lab_->ur()) {
+    out["session"]["controller"] = {{"description", captured_.controller},
+                                    {"rtde_hz", ur->frequency_hz()},
+                                    {"arm_moving_s", ur->arm().moving_s()}};
+  }
   if (use_tracker_) {
     out["session"]["beam"] = {{"predicted", captured_.beam_predicted},
                               {"searches", captured_.beam_searches},

@@ -63,15 +63,10 @@ class KukaCapture : public ::testing::Test {
     request.robot = robot;
     return request;
   }
-  // Captures the session; `act` runs once `done` configurations are stored (the operator, the
-  // network).
-  CaptureSummary CaptureActingAt(db::Database& db, int64_t session, int done,
-                                 const std::function<void()>& act) {
-    CaptureOptions options;
-    options.progress = [&](const Progress& p) {
-      if (p.done == done) act();
-    };
-    return workflows::CaptureInto(db, Lab(), session, options);
+  // The session run with `event` happening once `done` configurations are stored.
+  CaptureSummary CaptureWithEvent(db::Database& db, int64_t session, int done,
+                                  const std::function<void()>& event) {
+    return testing::CaptureWithEvent(db, Lab(), session, done, event);
   }
   // $AXIS_ACT shows 32-bit floats: a joint as stored is the planned one within 1e-5°.
   void ExpectStoredAsPlanned(db::Database& db, int64_t session) {
@@ -145,7 +140,8 @@ TEST_F(KukaCapture, ASafetyStopDuringAMoveIsWaitedOutAndTheSessionGoesOn) {
 TEST_F(KukaCapture, AnEmergencyStopPausesTheSessionNamingWhatToDoAndItResumes) {
   db::Database db(dir_.File("lab.db"));
   const int64_t session = NewSession(db);
-  const CaptureSummary first = CaptureActingAt(db, session, 2, [&] { kuka_->PressEmergencyStop(); });
+  const CaptureSummary first =
+      CaptureWithEvent(db, session, 2, [&] { kuka_->PressEmergencyStop(); });
   EXPECT_TRUE(first.paused);
   EXPECT_NE(first.pause_reason.find("emergency stop: EMERGENCY STOP is pressed"), std::string::npos)
       << first.pause_reason;
@@ -178,7 +174,7 @@ TEST_F(KukaCapture, T1IsNamedBeforeASessionIsMadeAndAStoppedProgramPausesOneUnde
   kuka_->SetMode("AUT");
   kuka_->StartProgram();
   const int64_t session = NewSession(db);
-  const CaptureSummary s = CaptureActingAt(db, session, 1, [&] { kuka_->SelectProgram("CELL"); });
+  const CaptureSummary s = CaptureWithEvent(db, session, 1, [&] { kuka_->SelectProgram("CELL"); });
   EXPECT_TRUE(s.paused);
   EXPECT_NE(s.pause_reason.find("not running"), std::string::npos) << s.pause_reason;
   EXPECT_NE(s.pause_reason.find("select ARMSIG"), std::string::npos) << s.pause_reason;
@@ -193,7 +189,7 @@ TEST_F(KukaCapture, AConnectionDroppedMidSessionIsReconnectedAndLosesNothing) {
   db::Database db(dir_.File("lab.db"));
   const int64_t session = NewSession(db);
   const int connections_before = kuka_->connections();
-  const CaptureSummary s = CaptureActingAt(db, session, 2, [&] { kuka_->DropConnections(); });
+  const CaptureSummary s = CaptureWithEvent(db, session, 2, [&] { kuka_->DropConnections(); });
   ASSERT_TRUE(s.completed) << s.pause_reason;
   EXPECT_GT(kuka_->connections(), connections_before + 1);
   ExpectStoredAsPlanned(db, session);
@@ -202,7 +198,7 @@ TEST_F(KukaCapture, AConnectionDroppedMidSessionIsReconnectedAndLosesNothing) {
 TEST_F(KukaCapture, AConnectionThatDoesNotComeBackPausesTheSessionResumably) {
   db::Database db(dir_.File("lab.db"));
   const int64_t session = NewSession(db);
-  const CaptureSummary s = CaptureActingAt(db, session, 1, [&] { kuka_->SetReachable(false); });
+  const CaptureSummary s = CaptureWithEvent(db, session, 1, [&] { kuka_->SetReachable(false); });
   EXPECT_TRUE(s.paused);
   EXPECT_NE(s.pause_reason.find("connection lost: the variable server did not answer"),
             std::string::npos)

@@ -8,7 +8,7 @@
 #include <gtest/gtest.h>
 
 #include <atomic>
-#include <random>
+#include <functional>
 #include <thread>
 
 #include "acquisition/controller_record.h"
@@ -18,11 +18,7 @@
 #include "db/database.h"
 #include "db/store.h"
 #include "io/lab_file.h"
-#include "io/model_yaml.h"
-#include "io/network_files.h"
-#include "simulation/emscon_simulator.h"
 #include "simulation/ur_simulator.h"
-#include "simulation/virtual_robots.h"
 #include "support/tracker_cell.h"
 #include "test_support.h"
 #include "workflows/capture.h"
@@ -50,7 +46,7 @@ class UrCaptureFixture : public ::testing::Test {
 
   // The controller, and the lab file that names it (a hand-measured base, 3 mm and 1 mrad off,
   // so the tracker's beam is pointed from the first configuration).
-  void StartController(simulation::UrSimulatorOptions o) {
+  void StartController(simulation::UrSimulatorOptions o, int timeout_ms = 2000) {
     ur_.reset();
     ur_ = std::make_unique<simulation::UrSimulator>(*lab_, o);
     ur_->Start();
@@ -71,19 +67,33 @@ class UrCaptureFixture : public ::testing::Test {
                     "can_move: true, rtde_port: {}, primary_port: {}, secondary_port: {}, "
                     "dashboard_port: {}}}\n  base: {}\ninstruments:\n  - {{station: LT1, "
                     "protocol: emscon, tcp: '{}', measurement_time_ms: 20}}\nstations: "
-                    "stations.yaml\ntolerances: {{settle_ms: 0, timeout_ms: 2000, fault_retries: "
+                    "stations.yaml\ntolerances: {{settle_ms: 0, timeout_ms: {}, fault_retries: "
                     "1, fault_retry_delay_ms: 20}}\n",
                     testing::SourcePath("models/ur10.yaml"), p.rtde, p.primary, p.secondary,
-                    p.dashboard, base, tracker_->path()));
+                    p.dashboard, base, tracker_->path(), timeout_ms));
   }
 
   io::LabConfig Lab() const { return io::LoadLab(dir_.File("lab.yaml")); }
+  // `armsig capture` of a new session of robot ur10, five well-spread configurations.
+  workflows::CaptureRequest Request() const {
+    workflows::CaptureRequest request;
+    request.db_path = Db();
+    request.lab = dir_.File("lab.yaml");
+    request.plan = "auto:5";
+    request.robot = "ur10";
+    return request;
+  }
   std::string Db() const { return dir_.File("lab.db"); }
 
   int64_t NewSession(db::Database& db, const std::string& robot = "ur10") {
     return CreateSession(db, Lab(), robot, plan_);
   }
 
+  // The session run with `event` happening once `done` configurations are stored.
+  CaptureSummary CaptureWithEvent(db::Database& db, int64_t session, int done,
+                                  const std::function<void()>& event) {
+    return testing::CaptureWithEvent(db, Lab(), session, done, event);
+  }
   std::vector<testing::StoredPose> Stored(db::Database& db, int64_t session) {
     return testing::StoredPoses(db, session);
   }
@@ -196,11 +206,8 @@ TEST_F(UrCaptureFixture, AnEmergencyStopPausesTheSessionNamingWhatToDoAndItResum
   StartController(Options());
   db::Database db(Db());
   const int64_t session = NewSession(db);
-  CaptureOptions options;
-  options.progress = [&](const Progress& p) {
-    if (p.done == 2) ur_->PressEmergencyStop();
-  };
-  const CaptureSummary first = workflows::CaptureInto(db, Lab(), session, options);
+  const CaptureSummary first =
+      CaptureWithEvent(db, session, 2, [&] { ur_->PressEmergencyStop(); });
   EXPECT_TRUE(first.paused);
   EXPECT_NE(first.pause_reason.find("emergency stop"), std::string::npos) << first.pause_reason;
   EXPECT_NE(first.pause_reason.find("release the emergency stop button"), std::string::npos);
@@ -218,11 +225,7 @@ TEST_F(UrCaptureFixture, AnEmergencyStopPausesTheSessionNamingWhatToDoAndItResum
 TEST_F(UrCaptureFixture, LocalControlIsNamedBeforeASessionIsMadeAndPausesOneUnderWay) {
   StartController(Options());
   ur_->SetRemoteControl(false);
-  workflows::CaptureRequest request;
-  request.db_path = Db();
-  request.lab = dir_.File("lab.yaml");
-  request.plan = "auto:5";
-  request.robot = "ur10";
+  const workflows::CaptureRequest request = Request();
   try {
     workflows::RunCaptureSession(request);
     FAIL() << "captured in local control";
@@ -235,11 +238,8 @@ TEST_F(UrCaptureFixture, LocalControlIsNamedBeforeASessionIsMadeAndPausesOneUnde
   // Switched to local control while a session runs: paused, resumable.
   ur_->SetRemoteControl(true);
   const int64_t session = NewSession(db);
-  CaptureOptions options;
-  options.progress = [&](const Progress& p) {
-    if (p.done == 1) ur_->SetRemoteControl(false);
-  };
-  const CaptureSummary s = workflows::CaptureInto(db, Lab(), session, options);
+  const CaptureSummary s =
+      CaptureWithEvent(db, session, 1, [&] { ur_->SetRemoteControl(false); });
   EXPECT_TRUE(s.paused);
   EXPECT_NE(s.pause_reason.find("switch the pendant to Remote Control"), std::string::npos)
       << s.pause_reason;
@@ -278,14 +278,11 @@ TEST_F(UrCaptureFixture, AConnectionDroppedAndRestoredMidSessionLosesNothing) {
 }
 
 TEST_F(UrCaptureFixture, AConnectionThatDoesNotComeBackPausesTheSessionResumably) {
-  StartController(Options());
+  StartController(Options(), 500);  // each call given up after 0.5 s
   db::Database db(Db());
   const int64_t session = NewSession(db);
-  CaptureOptions options;
-  options.progress = [&](const Progress& p) {
-    if (p.done == 1) ur_->DropConnections(10s);
-  };
-  const CaptureSummary s = workflows::CaptureInto(db, Lab(), session, options);
+  const CaptureSummary s =
+      CaptureWithEvent(db, session, 1, [&] { ur_->DropConnections(10s); });
   EXPECT_TRUE(s.paused);
   EXPECT_NE(s.pause_reason.find("connection lost"), std::string::npos) << s.pause_reason;
   EXPECT_EQ(Stored(db, session).size(), 1u);
@@ -315,11 +312,7 @@ TEST_F(UrCaptureFixture, AReadingTakenWhileTheArmMovesIsNeverStored) {
 
 TEST_F(UrCaptureFixture, AnotherArmIsRefusedBeforeASessionIsMade) {
   StartController(Options());
-  workflows::CaptureRequest request;
-  request.db_path = Db();
-  request.lab = dir_.File("lab.yaml");
-  request.plan = "auto:5";
-  request.robot = "ur10";
+  workflows::CaptureRequest request = Request();
   ASSERT_TRUE(workflows::RunCaptureSession(request).ok);
   // Another UR10 (another serial number) behind the same lab file: refused.
   auto other = Options();

@@ -16,27 +16,12 @@
 #include <string>
 #include <vector>
 
+#include "test_support.h"
+
 namespace armsig::instruments::emscon {
 namespace {
 
-// "0C 00 …" (spaces, line breaks and comments between bytes are ignored) → bytes.
-std::string Hex(std::string_view text) {
-  std::string out;
-  int high = -1;
-  for (char c : text) {
-    if (!std::isxdigit(static_cast<unsigned char>(c))) continue;
-    const int v =
-        std::isdigit(static_cast<unsigned char>(c)) ? c - '0' : std::toupper(c) - 'A' + 10;
-    if (high < 0) {
-      high = v;
-    } else {
-      out += static_cast<char>(high * 16 + v);
-      high = -1;
-    }
-  }
-  if (high >= 0) throw std::invalid_argument("odd number of hex digits");
-  return out;
-}
+using ::armsig::testing::Hex;
 
 template <typename T>
 T DecodeAs(const std::string& frame) {

@@ -8,6 +8,7 @@
 #include "db/store.h"
 #include "io/model_yaml.h"
 #include "io/network_files.h"
+#include "workflows/capture.h"
 
 namespace armsig::testing {
 
@@ -15,9 +16,10 @@ using namespace std::chrono_literals;
 
 TrackerCell::TrackerCell(const std::string& robot, const std::string& model_file,
                          const TempDir& dir, int configurations, double acquire_radius_mm) {
-  model = io::ParseRobotModel(ReadText(SourcePath(model_file)), model_file);
+  model = io::LoadRobotModel(SourcePath(model_file));
   truth = simulation::MakeVirtualRobot(robot, model, 7);
-  lab = std::make_unique<simulation::VirtualLab>(model, truth.true_params, truth.world_from_base, 3);
+  lab =
+      std::make_unique<simulation::VirtualLab>(model, truth.true_params, truth.world_from_base, 3);
   lab->SetJointErrors(truth.joint_errors);
   simulation::VirtualStation lt1;
   lt1.pose.id = "LT1";
@@ -75,6 +77,16 @@ void ExpectStoredAsPlanned(db::Database& db, int64_t session, size_t count, cons
         kin.Position(cell.truth.world_from_base, cell.truth.true_params, q.data());
     EXPECT_LT((poses[k].target_in_world - truth).norm(), 0.15) << "configuration " << k;
   }
+}
+
+acquisition::CaptureSummary CaptureWithEvent(db::Database& db, const io::LabConfig& lab,
+                                             int64_t session, int done,
+                                             const std::function<void()>& event) {
+  acquisition::CaptureOptions options;
+  options.progress = [&](const acquisition::Progress& p) {
+    if (p.done == done && p.waiting.empty()) event();
+  };
+  return workflows::CaptureInto(db, lab, session, options);
 }
 
 }  // namespace armsig::testing

@@ -5,14 +5,17 @@
 // the truth.
 #pragma once
 
+#include <functional>
 #include <memory>
 #include <optional>
 #include <string>
 #include <vector>
 
 #include "acquisition/plan.h"
+#include "acquisition/session.h"
 #include "calibration/model.h"
 #include "db/database.h"
+#include "io/lab_file.h"
 #include "simulation/emscon_simulator.h"
 #include "simulation/virtual_lab.h"
 #include "simulation/virtual_robots.h"
@@ -49,5 +52,11 @@ std::vector<StoredPose> StoredPoses(db::Database& db, int64_t session);
 // at those joints (its joint errors included), within the tracker's noise.
 void ExpectStoredAsPlanned(db::Database& db, int64_t session, size_t count, const TrackerCell& cell,
                            double joint_tolerance_rad);
+
+// Captures `session` of the lab `lab`; `event` (the operator, the network) happens once `done`
+// configurations are stored and the session is not waiting on the controller.
+acquisition::CaptureSummary CaptureWithEvent(db::Database& db, const io::LabConfig& lab,
+                                             int64_t session, int done,
+                                             const std::function<void()>& event);
 
 }  // namespace armsig::testing
