@@ -246,6 +246,11 @@ std::optional<ControllerError> KukaController::NotReady(const KukaState& s,
                  "turn the smartPAD's mode switch to AUT (or EXT) and start ARMSIG, or capture "
                  "with can_move: false and move the robot by hand");
   }
+  if (!s.drives_on) {
+    return error(Kind::kNotRunning, "the drives are off ($PERI_RDY FALSE)",
+                 "switch the drives on (the smartPAD's drives key in AUT, $DRIVES_ON from the "
+                 "cell's PLC in EXT) and start ARMSIG again; the session resumes where it stopped");
+  }
   if (s.program_state == "P_STOP" && s.ProgramIsArmsig()) {
     return error(Kind::kProtectiveStop, "ARMSIG is stopped ($PRO_STATE1 #P_STOP)",
                  "start it again (the Start key in AUT, $EXT_START in EXT); the session goes on "

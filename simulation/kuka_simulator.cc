@@ -537,6 +537,13 @@ void KukaSimulator::StopProgram() {
   if (program_state_ == "P_ACTIVE") program_state_ = "P_STOP";
 }
 
+void KukaSimulator::SwitchDrivesOff() {
+  std::lock_guard lock(mutex_);
+  Halt(HaltKind::kStopKey);
+  drives_on_ = false;
+  if (program_state_ == "P_ACTIVE") program_state_ = "P_STOP";
+}
+
 void KukaSimulator::SetMode(const std::string& mode) {
   std::lock_guard lock(mutex_);
   if (mode == mode_) return;

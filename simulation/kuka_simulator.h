@@ -20,8 +20,8 @@
 //  - ARMSIG started from its first line (after SelectProgram / ResetProgram) sets
 //    ARMSIG_VERSION and answers a command written before it ran with result 3;
 //  - a halted move (an EMERGENCY STOP, a safety stop from the cell's gate in AUT/EXT, the
-//    STOP key, a mode change) stands where it halted and goes on to its target when the
-//    program is started again.
+//    STOP key, a mode change, the drives switched off) stands where it halted and goes on to
+//    its target when the program is started again.
 //
 // The arm is a simulation::VirtualArm (physical time, scaled; the lab's robot follows it):
 // ARMSIG's PTP is its joint move, with the speed and acceleration that give the leading
@@ -106,8 +106,12 @@ class KukaSimulator : public Simulator {
   void OpenSafetyGate();   // operator safety: in AUT/EXT a safety stop with a stopping message
   void CloseSafetyGate();
   void Acknowledge();      // clears the stopping message once its causes are gone
-  void StartProgram();     // the Start key (AUT) or $EXT_START: a halted move goes on
+  // The Start key (AUT) or $EXT_START, the drives switched on first: a halted move goes on.
+  void StartProgram();
   void StopProgram();      // the STOP key: the move halts, no message
+  // The drives switched off (the smartPAD's drives key, $DRIVES_OFF from the PLC): the arm
+  // brakes along its path and the program stops; $PERI_RDY FALSE until StartProgram.
+  void SwitchDrivesOff();
   void SetMode(const std::string& mode);        // T1 T2 AUT EX; a change stops the program
   void SelectProgram(const std::string& name);  // #P_RESET: started, it runs from its first line
   // Closes every client connection now; while unreachable, new connections are closed as

@@ -30,7 +30,7 @@ class KukaCapture : public ::testing::Test {
  protected:
   void SetUp() override { StartController(); }
 
-  void StartController(std::string trafo_name = "", int serial = 0) {
+  void StartController(std::string trafo_name = "", int serial = 0, int timeout_ms = 2000) {
     kuka_.reset();
     simulation::KukaSimulatorOptions o;
     o.time_scale = 0.01;
@@ -46,10 +46,10 @@ class KukaCapture : public ::testing::Test {
                     "can_move: true, variable_server_port: {}, velocity_percent: 30}}\n"
                     "instruments:\n  - {{station: LT1, protocol: emscon, tcp: '{}', "
                     "measurement_time_ms: 20}}\nstations: stations.yaml\ntolerances: "
-                    "{{settle_ms: 0, timeout_ms: 2000, fault_retries: 1, fault_retry_delay_ms: "
+                    "{{settle_ms: 0, timeout_ms: {}, fault_retries: 1, fault_retry_delay_ms: "
                     "20}}\n",
                     testing::SourcePath("models/kr16_2.yaml"), kuka_->port(),
-                    cell_.tracker->path()));
+                    cell_.tracker->path(), timeout_ms));
   }
 
   io::LabConfig Lab() const { return io::LoadLab(dir_.File("lab.yaml")); }
@@ -182,6 +182,60 @@ TEST_F(KukaCapture, T1IsNamedBeforeASessionIsMadeAndAStoppedProgramPausesOneUnde
   kuka_->SelectProgram("ARMSIG");
   kuka_->StartProgram();
   ASSERT_TRUE(workflows::CaptureInto(db, Lab(), session, {}).completed);
+  ExpectStoredAsPlanned(db, session);
+}
+
+// The drives switched off during a session (the smartPAD's drives key, or the PLC): the move
+// halts, the session pauses naming the drives, keeps what it stored, and resumes.
+TEST_F(KukaCapture, DrivesSwitchedOffPauseTheSessionNamingThemAndItResumes) {
+  db::Database db(dir_.File("lab.db"));
+  const int64_t session = NewSession(db);
+  const CaptureSummary s = CaptureWithEvent(db, session, 2, [&] { kuka_->SwitchDrivesOff(); });
+  EXPECT_TRUE(s.paused);
+  EXPECT_NE(s.pause_reason.find("KUKA controller " + kuka_->path()), std::string::npos)
+      << s.pause_reason;
+  EXPECT_NE(s.pause_reason.find("the drives are off ($PERI_RDY FALSE)"), std::string::npos)
+      << s.pause_reason;
+  EXPECT_NE(s.pause_reason.find("switch the drives on"), std::string::npos) << s.pause_reason;
+  EXPECT_EQ(db::StoredSeqs(db, session).size(), 2u);
+  kuka_->StartProgram();
+  const CaptureSummary resumed = workflows::CaptureInto(db, Lab(), session, {});
+  ASSERT_TRUE(resumed.completed) << resumed.pause_reason;
+  EXPECT_EQ(resumed.already, 2);
+  ExpectStoredAsPlanned(db, session);
+}
+
+// A variable server that takes the connection and answers nothing more (KukaVarProxy hung):
+// the session pauses naming the controller, keeps what it stored, and resumes once it answers.
+TEST_F(KukaCapture, AStalledVariableServerPausesTheSessionAndLosesNothing) {
+  StartController("", 0, 500);  // each call given up after 0.5 s
+  db::Database db(dir_.File("lab.db"));
+  const int64_t session = NewSession(db);
+  const CaptureSummary s = CaptureWithEvent(
+      db, session, 2, [&] { kuka_->InjectAlways({simulation::Fault::kDropReply, 0}); });
+  EXPECT_TRUE(s.paused);
+  EXPECT_NE(s.pause_reason.find("KUKA controller " + kuka_->path()), std::string::npos)
+      << s.pause_reason;
+  EXPECT_NE(s.pause_reason.find("connection lost"), std::string::npos) << s.pause_reason;
+  EXPECT_EQ(db::StoredSeqs(db, session).size(), 2u);
+  kuka_->ClearFaults();
+  ASSERT_TRUE(workflows::CaptureInto(db, Lab(), session, {}).completed);
+  ExpectStoredAsPlanned(db, session);
+}
+
+// Garbage on the line mid-session (noise bytes, a malformed frame, half an answer, an answer
+// with another tag): skipped or asked again; every configuration stored is right.
+TEST_F(KukaCapture, GarbageOnTheLineIsSkippedAndNothingWrongIsStored) {
+  db::Database db(dir_.File("lab.db"));
+  const int64_t session = NewSession(db);
+  const CaptureSummary s = CaptureWithEvent(db, session, 1, [&] {
+    for (auto f : {simulation::Fault::kNoiseBytes, simulation::Fault::kMalformed,
+                   simulation::Fault::kTruncateReply, simulation::Fault::kWrongTrid}) {
+      kuka_->InjectOnce({f, 0});
+    }
+  });
+  ASSERT_TRUE(s.completed) << s.pause_reason;
+  EXPECT_EQ(s.measured, kConfigurations);
   ExpectStoredAsPlanned(db, session);
 }
 

@@ -212,6 +212,32 @@ TEST_F(KukaCell, ASafetyStopFromTheGatePausesTheMoveUntilCleared) {
   EXPECT_LT((controller_->ReadJointsRad() - target).cwiseAbs().maxCoeff(), 1e-6);
 }
 
+// The drives switched off mid-move (the smartPAD's drives key, $DRIVES_OFF): the arm brakes
+// short of the target; the session pauses naming the drives, and the same command goes on once
+// the operator has switched them on and started ARMSIG.
+TEST_F(KukaCell, DrivesSwitchedOffStopTheMoveAndAreNamed) {
+  Open(0.2);
+  const Eigen::VectorXd target = Deg({90, -60, 80, 0, 30, 0});
+  auto move = MoveInBackground(target);
+  sim_->SwitchDrivesOff();
+  const auto e = StateErrorOf([&] { move.get(); });
+  EXPECT_EQ(e.kind(), Kind::kNotRunning);
+  EXPECT_FALSE(e.WaitedOut());
+  EXPECT_NE(std::string(e.what()).find(sim_->path()), std::string::npos) << e.what();
+  EXPECT_NE(std::string(e.what()).find("the move stopped: the drives are off ($PERI_RDY FALSE)"),
+            std::string::npos)
+      << e.what();
+  EXPECT_NE(std::string(e.what()).find("switch the drives on"), std::string::npos) << e.what();
+  const auto halted = sim_->snapshot();
+  EXPECT_GT((halted.joints_deg - target / kDeg).cwiseAbs().maxCoeff(), 1.0);  // stopped short
+  EXPECT_EQ(StateErrorOf([&] { controller_->CheckReady(); }).kind(), Kind::kNotRunning);
+  sim_->StartProgram();
+  controller_->MoveTo(target);
+  EXPECT_EQ(sim_->snapshot().cmd, halted.cmd);  // the same command, not a new one
+  EXPECT_EQ(controller_->statistics().resumed_moves, 1);
+  EXPECT_LT((controller_->ReadJointsRad() - target).cwiseAbs().maxCoeff(), 1e-6);
+}
+
 TEST_F(KukaCell, NoMoveOutsideAutomaticModeButJointsStillRead) {
   sim_->SetMode("T1");
   const int64_t cmd = sim_->snapshot().cmd;
