@@ -11,6 +11,7 @@
 #include "instruments/emscon_device.h"
 #include "instruments/geocom_device.h"
 #include "instruments/gsi_device.h"
+#include "instruments/kuka_controller.h"
 #include "instruments/robot_controllers.h"
 #include "instruments/ur_device.h"
 #include "io/credentials.h"
@@ -171,9 +172,37 @@ std::unique_ptr<instruments::RobotController> OpenAbb(const ControllerConfig& c,
       s, instruments::MakeHttpTransport(c.host, port, tls), policy);
 }
 
+// ARMSIG's PTP velocity and acceleration (% of each axis's maximum) from the lab file's
+// `velocity_percent` and `acceleration_percent`.
+int Percent(const ControllerConfig& c, const std::string& key, int fallback) {
+  const auto it = c.settings.find(key);
+  if (it == c.settings.end()) return fallback;
+  int value = 0;
+  const std::string& text = it->second;
+  const auto [end, error] = std::from_chars(text.data(), text.data() + text.size(), value);
+  if (error != std::errc() || end != text.data() + text.size() || value < 1 || value > 100) {
+    throw InputError({key, 0, 0, ""},
+                     "kuka: " + key + " is a whole percentage from 1 to 100 (ARMSIG refuses "
+                     "others), got " + Quoted(text));
+  }
+  return value;
+}
+
+std::unique_ptr<instruments::RobotController> OpenKuka(const ControllerConfig& c,
+                                                       const instruments::RetryPolicy& policy) {
+  instruments::KukaOptions o;
+  o.velocity_percent = Percent(c, "velocity_percent", o.velocity_percent);
+  o.acceleration_percent = Percent(c, "acceleration_percent", o.acceleration_percent);
+  return std::make_unique<instruments::KukaController>(
+      instruments::MakeFramedTcpTransport(c.host, c.Port("variable_server_port"),
+                                          instruments::kuka::kResponseFrames),
+      c.can_move, policy, o);
+}
+
 constexpr NetworkController kNetworkControllers[] = {
     {"ur", OpenUr},
     {"abb", OpenAbb},
+    {"kuka", OpenKuka},
 };
 
 }  // namespace

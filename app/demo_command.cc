@@ -30,8 +30,10 @@ void SetupDemoCommand(CLI::App& parent, const GlobalOptions& global, Runner& run
   ChoiceOption(sub->add_option("--robot", o->robot,
                                "The virtual robot: puma (a PUMA 760 with three theodolites or a "
                                "tracker; the default), ur10 (a UR10 and its controller over "
-                               "RTDE, with a laser tracker) or abb (an IRB 4600 and its OmniCore "
-                               "over Robot Web Services 2.0, with a laser tracker); kuka is not "
+                               "RTDE, with a laser tracker), kuka (a KR 16-2 and its KR C4 "
+                               "through a variable server, with a laser tracker) or abb (an IRB "
+                               "4600 and its OmniCore over Robot Web Services 2.0, with a laser "
+                               "tracker); --resume keeps the session's"),
                                "built yet; --resume keeps the session's"),
                {"puma", "ur10", "kuka", "abb"});
   ChoiceOption(sub->add_option("--instrument", o->instrument,
@@ -60,7 +62,7 @@ void SetupDemoCommand(CLI::App& parent, const GlobalOptions& global, Runner& run
       ->capture_default_str();
   NumberOption(sub->add_option("--time-scale", o->time_scale,
                                "Multiplies every simulated latency and move time (default: the "
-                               "robot's, puma 0.25, ur10 0.02)"),
+                               "robot's, puma 0.25, ur10 and kuka 0.02)"),
                0.0, 100.0);
   sub->callback([&run, &global, o] {
     run = [&global, o] {

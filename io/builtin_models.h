@@ -1,5 +1,5 @@
-// The PUMA 760 of models/puma760.yaml, the UR10 of models/ur10.yaml and the IRB 4600 of
-// models/irb4600.yaml, built into the program so `armsig demo` and `armsig instrument
+// The PUMA 760 of models/puma760.yaml, the UR10 of models/ur10.yaml, the KR 16-2 of
+// models/kr16_2.yaml and the IRB 4600 of models/irb4600.yaml, built into the program so `armsig demo` and `armsig instrument
 // simulate` run anywhere (tests check they match the files).
 #pragma once
 
@@ -101,6 +101,45 @@ joint_limits_deg: [[-180, 180], [-90, 150], [-180, 75], [-400, 400], [-125, 120]
 # Joint compliance under gravity and each joint's transmission harmonics, generated from the
 # nominal geometry (docs/explanation/residual-map.md); `--params auto` keeps what the data
 # support.
+// The KUKA KR 16-2 of models/kr16_2.yaml: `armsig demo --robot kuka`'s nominal model.
+inline constexpr const char* kKr16Yaml =
+    R"yaml(# KUKA KR 16-2 (KR C4), nominal geometry (mm) from ROS-Industrial's kuka_experimental
+# (kuka_kr16_support/urdf/kr16_2_macro.xacro, commit 0849a26: A1 at 675 mm, A2 260 mm out,
+# upper arm 680 mm, forearm 670 mm with a 35 mm offset, flange 158 mm beyond the wrist), in
+# KUKA's own joint convention, so that the model's joint angles are the controller's A1 … A6
+# as $AXIS_ACT shows them, in degrees:
+#
+# - zero: the upper arm and the forearm stretched forward horizontally (the usual home
+#   {A1 0, A2 -90, A3 90, A4 0, A5 0, A6 0} has the upper arm vertical, the forearm forward);
+# - signs: A1 turns clockwise seen from above (about −z of $ROBROOT), A2, A3 and A5 about
+#   +y (positive lowers the arm), A4 and A6 about −x at zero.
+#
+# Standard DH cannot give KUKA's A3 zero without a joint offset (its common normal with A4
+# is vertical while the forearm points forward), and armsig's model has no offsets: the link
+# transforms N2 … N6 are given whole instead. Each joint frame has z along its axis: joint 1's
+# frame is $ROBROOT turned half a turn about x (its z points down), so `base` (N1, fitted by
+# `auto`) maps that frame, and gravity in it is +z. The tool is a reflector (SMR) on the flange
+# axis 100 mm beyond the flange; change tool_mm for yours (the flange centre is [0, 0, -158]).
+# tests/calibration/kuka_model_test.cc checks this file against the URDF's chain.
+name: kr16_2
+base: auto
+links:                # N2..N6, 4x4 row-major
+  - [[1,0,0,260],[0,0,-1,0],[0,1,0,-675],[0,0,0,1]]
+  - [[1,0,0,680],[0,1,0,0],[0,0,1,0],[0,0,0,1]]
+  - [[0,0,-1,670],[-1,0,0,35],[0,1,0,0],[0,0,0,1]]
+  - [[0,-1,0,0],[0,0,1,0],[-1,0,0,0],[0,0,0,1]]
+  - [[0,0,-1,0],[-1,0,0,0],[0,1,0,0],[0,0,0,1]]
+tool_mm: [0, 0, -258]
+gravity: [0, 0, 1]    # in joint 1's frame, whose z points down
+# KUKA's data sheet ranges (the URDF's limits): $SOFTN_END / $SOFTP_END are within them.
+joint_limits_deg: [[-185, 185], [-155, 35], [-130, 154], [-350, 350], [-130, 130], [-350, 350]]
+# Gravity bends the upper arm and the forearm: with KUKA's zero the moments on A2 and A3 go
+# with cos A2 and cos(A2 + A3), as on the UR10 and the PUMA.
+nongeometric:
+  - {name: h1, joint: 2, basis: cos, of: [2, 3]}
+  - {name: h2, joint: 2, basis: cos, of: [2]}
+  - {name: h3, joint: 3, basis: cos, of: [2, 3]}
+  - {name: h4, joint: 4, basis: cos, of: [2, 3, 4]}
 generated_terms: [compliance, harmonics]
 )yaml";
 

@@ -70,6 +70,12 @@ const std::vector<NetworkControllerProtocol>& NetworkControllerProtocols() {
        true,
        {"rws", "certificate_sha256", "ca_file", "task", "module", "mechunit", "speed_percent",
         "representation"}},
+      {"kuka",
+       "KUKA KR C4 / KR C5 (a variable server, KukaVarProxy or C3 Bridge, and ARMSIG.src)",
+       {{"variable_server_port", 7000}},
+       "variable_server_port",
+       false,  // a variable server has no authentication: the cell network is the guard
+       {"velocity_percent", "acceleration_percent"}},
   };
   return protocols;
 }

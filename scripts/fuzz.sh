@@ -15,8 +15,8 @@ set -euo pipefail
 cd "$(dirname "$0")/.."
 
 targets=(csv_fuzz poses_fuzz observations_fuzz model_yaml_fuzz stations_yaml_fuzz lab_yaml_fuzz
-  gsi_fuzz geocom_fuzz robot_where_fuzz emscon_fuzz ur_fuzz rws_fuzz urscript_fuzz krl_fuzz
-  rapid_fuzz)
+  gsi_fuzz geocom_fuzz robot_where_fuzz emscon_fuzz ur_fuzz rws_fuzz kuka_fuzz urscript_fuzz
+  krl_fuzz rapid_fuzz)
 # The longest input a target is given. libFuzzer otherwise takes the longest seed (a 120 kB
 # real GSI file made gsi_fuzz mutate 120 kB inputs at ~90 executions/s); parsers are linear,
 # and what a long file adds is more of the same lines.
@@ -39,6 +39,7 @@ fault_prefixes() {  # target → the name prefixes of the fault inputs in its fo
     urscript_fuzz) echo "urscript" ;;
     krl_fuzz) echo "krl" ;;
     rapid_fuzz) echo "rapid" ;;
+    kuka_fuzz) echo "kuka" ;;
   esac
 }
 
@@ -66,6 +67,7 @@ seeds() {  # target → seed files
     urscript_fuzz) find tests/data/programs/urscript fuzz/seeds/programs -name '*.script' -o -name '*.urscript' ;;
     krl_fuzz) find tests/data/programs/krl fuzz/seeds/programs -name '*.src' -o -name '*.dat' ;;
     rapid_fuzz) find tests/data/programs/rapid fuzz/seeds/programs -name '*.mod' -o -name '*.sys' ;;
+    kuka_fuzz) find fuzz/seeds/kuka controllers/kuka -type f ;;
   esac
   faults "$1"
 }

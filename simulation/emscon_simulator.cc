@@ -10,27 +10,17 @@
 #include <stdexcept>
 #include <type_traits>
 
+#include "instruments/packet_transport.h"
+
 namespace armsig::simulation {
 
 namespace asio = boost::asio;
 namespace es = instruments::emscon;
 using tcp = asio::ip::tcp;
 
-struct EmsconSimulator::Connection {
-  explicit Connection(asio::io_context& io) : socket(io) {}
-  tcp::socket socket;
-  es::FrameSplitter splitter;
-  char chunk[4096];
-  std::deque<Step> out;
-  bool writing = false;
+struct EmsconSimulator::Connection : FramedPeer {
+  explicit Connection(asio::io_context& io) : FramedPeer(io, instruments::kEmsconFrames) {}
   bool flooding = false;  // one flood at a time
-  bool closed = false;
-  void Close() {
-    closed = true;
-    boost::system::error_code ignored;
-    socket.shutdown(tcp::socket::shutdown_both, ignored);
-    socket.close(ignored);
-  }
 };
 
 namespace {
@@ -136,19 +126,7 @@ es::EnvironmentParams EmsconSimulator::WeatherAt(double t) {
 }
 
 void EmsconSimulator::Start() {
-  boost::system::error_code ec;
-  const auto address = asio::ip::make_address(host_, ec);
-  if (ec) throw std::runtime_error("virtual tracker: '" + host_ + "' is no IP address");
-  const tcp::endpoint endpoint(address, port_);
-  acceptor_ = std::make_unique<tcp::acceptor>(io_);
-  acceptor_->open(endpoint.protocol(), ec);
-  if (!ec) acceptor_->set_option(tcp::acceptor::reuse_address(true), ec);
-  if (!ec) acceptor_->bind(endpoint, ec);
-  if (!ec) acceptor_->listen(asio::socket_base::max_listen_connections, ec);
-  if (ec) {
-    throw std::runtime_error("virtual tracker: cannot listen on " + address_ + " (" + ec.message() +
-                             ")");
-  }
+  acceptor_ = ListenTcp(io_, host_, port_, "virtual tracker");
   port_ = acceptor_->local_endpoint().port();
   address_ = host_ + ":" + std::to_string(port_);
   start_ = std::chrono::steady_clock::now();
@@ -242,24 +220,8 @@ void EmsconSimulator::StartAccept() {
 }
 
 void EmsconSimulator::StartRead(std::shared_ptr<Connection> c) {
-  c->socket.async_read_some(
-      asio::buffer(c->chunk), [this, c](const boost::system::error_code& ec, size_t n) {
-        if (ec || c->closed) return;
-        c->splitter.Append(std::string_view(c->chunk, n));
-        std::string frame;
-        for (;;) {
-          int32_t size = 0;
-          const auto status = c->splitter.Next(frame, &size);
-          if (status == es::FrameSplitter::Status::kNeedMore) break;
-          if (status == es::FrameSplitter::Status::kBadSize) {
-            spdlog::debug("virtual tracker: dropped bytes with a size field of {}", size);
-            break;
-          }
-          OnFrame(c, frame);
-          if (c->closed) return;
-        }
-        StartRead(c);
-      });
+  FramedPeer::ReadFrames(c, "virtual tracker",
+                         [this, c](const std::string& frame) { OnFrame(c, frame); });
 }
 
 void EmsconSimulator::OnFrame(const std::shared_ptr<Connection>& c, const std::string& frame) {
@@ -313,7 +275,7 @@ void EmsconSimulator::OnFrame(const std::shared_ptr<Connection>& c, const std::s
     default:
       break;
   }
-  Queue(c, std::move(steps));
+  TcpPeer::Send(c, std::move(steps));
 }
 
 // One decoded request to the packets it answers with: one branch per emScon command (an
@@ -570,40 +532,6 @@ es::MeasResult EmsconSimulator::MeasureNow(bool out_of_range) {
   m.pressure = *es::FromHectopascal(w.pressure, s.units.pressure);
   m.humidity = w.humidity;
   return m;
-}
-
-void EmsconSimulator::Queue(const std::shared_ptr<Connection>& c, std::vector<Step> steps) {
-  for (auto& s : steps) c->out.push_back(std::move(s));
-  if (!c->writing) Pump(c);
-}
-
-void EmsconSimulator::Pump(std::shared_ptr<Connection> c) {
-  if (c->closed || c->out.empty()) {
-    c->writing = false;
-    return;
-  }
-  c->writing = true;
-  auto step = std::make_shared<Step>(std::move(c->out.front()));
-  c->out.pop_front();
-  auto write = [this, c, step] {
-    if (c->closed) return;
-    asio::async_write(c->socket, asio::buffer(step->bytes),
-                      [this, c, step](const boost::system::error_code& ec, size_t) {
-                        if (ec) {
-                          c->writing = false;
-                          return;
-                        }
-                        Pump(c);
-                      });
-  };
-  if (step->delay.count() <= 0) {
-    write();
-    return;
-  }
-  auto timer = std::make_shared<asio::steady_timer>(io_, step->delay);
-  timer->async_wait([timer, write](const boost::system::error_code& ec) {
-    if (!ec) write();
-  });
 }
 
 void EmsconSimulator::Flood(std::shared_ptr<Connection> c, bool packets, bool printable, int64_t k,

@@ -42,6 +42,7 @@
 
 #include "instruments/emscon_codec.h"
 #include "simulation/simulator.h"
+#include "simulation/tcp_peer.h"
 #include "simulation/virtual_lab.h"
 
 namespace armsig::simulation {
@@ -140,15 +141,10 @@ class EmsconSimulator : public Simulator {
 
  private:
   struct Connection;
-  struct Step {
-    std::chrono::milliseconds delay{0};
-    std::string bytes;
-  };
+  using Step = TcpPeer::Step;
   void StartAccept();
   void StartRead(std::shared_ptr<Connection> c);
   void OnFrame(const std::shared_ptr<Connection>& c, const std::string& frame);
-  void Queue(const std::shared_ptr<Connection>& c, std::vector<Step> steps);
-  void Pump(std::shared_ptr<Connection> c);
   void Flood(std::shared_ptr<Connection> c, bool packets, bool printable, int64_t k,
              uint64_t generation);
   void FloodChunk(std::shared_ptr<Connection> c, std::shared_ptr<std::string> data, size_t offset,

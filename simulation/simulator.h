@@ -6,7 +6,8 @@
 // applies to the next request (InjectOnce) or to every request (InjectAlways).
 // The simulators: simulation/geocom_simulator.h, gsi_online_simulator.h, val_simulator.h,
 // counter_simulator.h (on pseudo-terminals, simulation/line_simulator.h) and
-// emscon_simulator.h (a laser tracker over TCP).
+// emscon_simulator.h (a laser tracker over TCP), kuka_simulator.h (a KUKA controller's variable
+// server over TCP).
 #pragma once
 
 #include <chrono>
@@ -51,6 +52,8 @@ enum class Fault {
                        // the reply and the result; the reply's header and body in two writes
   kStatusInside,       // a status-change packet written between the reply's 8 header bytes and
                        // the rest of it (a corrupted stream)
+  // Binary length-prefixed protocols (a KUKA variable server):
+  kMalformed,  // an answer whose inner length field runs past its frame
 };
 
 struct FaultSpec {

@@ -76,12 +76,37 @@ VirtualRobot Irb4600(const calibration::RobotModel& model, unsigned) {
   return r;
 }
 
+// A KUKA KR 16-2 on a KR C4 (models/kr16_2.yaml, in KUKA's joint convention), errors of the
+// same kind and size as the UR10's. Its model's joint-1 frame is $ROBROOT turned half a turn
+// about x, so the base carries that turn.
+VirtualRobot Kr16(const calibration::RobotModel& model, unsigned seed) {
+  VirtualRobot r;
+  r.name = "kuka";
+  r.description = "a KUKA KR 16-2 on a KR C4";
+  r.model = model;
+  std::mt19937 rng(seed + 16);
+  r.true_params = calibration::RandomParameters(r.model, 0.3, 3e-4, 0.0, rng);
+  r.true_params.tail(r.model.num_parameters() - r.model.num_geometric()).setZero();
+  r.joint_errors = JointAngleErrors::Random(6, 3, 4.0 * kRadPerArcsec, rng);
+  r.home_rad = (Eigen::VectorXd(6) << 0.0, -kPi / 2, kPi / 2, 0.0, 0.0, 0.0).finished();
+  // On the floor 1.3 m below the tracker, 2.6 m from it, facing it.
+  r.world_from_base.translate(Eigen::Vector3d(2100.0, 1500.0, -1300.0));
+  r.world_from_base.rotate(Eigen::AngleAxisd(-2.52, Eigen::Vector3d::UnitZ()));
+  r.world_from_base.rotate(Eigen::AngleAxisd(kPi, Eigen::Vector3d::UnitX()));
+  r.identity.protocol = "kuka";
+  r.identity.vendor = "KUKA";
+  r.identity.model = "KR16_2";  // the arm of $TRAFONAME[] "#KR16_2 C4 FLR"
+  r.identity.serial = std::to_string(501000 + seed % 1000);
+  r.identity.software = "KS V8.3.38";
+  return r;  // a KR C4 does not tell its own kinematics
+}
+
 struct Entry {
   const char* name;
   VirtualRobot (*make)(const calibration::RobotModel& model, unsigned seed);
   int joints;
 };
-constexpr Entry kRobots[] = {{"ur10", Ur10, 6}, {"abb", Irb4600, 6}};
+constexpr Entry kRobots[] = {{"ur10", Ur10, 6}, {"kuka", Kr16, 6}, {"abb", Irb4600, 6}};
 
 }  // namespace
 

@@ -567,8 +567,9 @@ void DemoRun::Introduce() {
     return;
   }
   const std::string controller =
-      robot_->controller == "ur" ? robot_->controller_text + " at " + lab_->controller_address()
-                                 : robot_->controller_text;
+      robot_->controller == "ur" || robot_->controller == "kuka"
+          ? robot_->controller_text + " at " + lab_->controller_address()
+          : robot_->controller_text;
   Say("armsig demo: virtual lab with " + robot_->description +
           ", a laser tracker speaking Leica emScon on " + lab_->tracker_address() + " and " +
           controller + ", in " + folder + seed,

@@ -151,6 +151,20 @@ void DemoLab::StartController() {
                {"dashboard_port", ur_->ports().dashboard}};
     return;
   }
+  if (robot_.controller == "kuka") {
+    simulation::KukaSimulatorOptions o;
+    o.time_scale = options_.time_scale;
+    o.trafo_name = "#" + truth_.identity.model + " C4 FLR";
+    o.serial = std::stoi(truth_.identity.serial);
+    o.software = truth_.identity.software;
+    o.home_rad = truth_.home_rad;
+    kuka_ = std::make_unique<simulation::KukaSimulator>(lab_, "127.0.0.1", 0, o);
+    kuka_->Start();
+    auto& c = lab_file_.controller;
+    c.host = "127.0.0.1";
+    c.ports = {{"variable_server_port", kuka_->port()}};
+    return;
+  }
   controller_ = std::make_unique<simulation::ValSimulator>(
       lab_, (options_.folder / "robot").string(), simulation::ValSimulator::Layout::kKawasakiAs,
       simulator_options_);
@@ -165,6 +179,7 @@ std::string DemoLab::controller_address() const {
                        ur_->ports().rtde, ur_->ports().primary, ur_->ports().secondary,
                        ur_->ports().dashboard);
   }
+  if (kuka_) return kuka_->path();
   return controller_ ? controller_->path() : std::string();
 }
 

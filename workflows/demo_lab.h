@@ -1,8 +1,8 @@
 // The demo's virtual lab (workflows/demo_robots.h names its robots): a PUMA 760 whose hidden
 // truth is the paper's Table 3 with its Kawasaki-AS-style controller on a pseudo-terminal, or
-// a UR10 or an ABB IRB 4600 with hidden geometric and joint-angle errors
+// a UR10, a KUKA KR 16-2 or an ABB IRB 4600 with hidden geometric and joint-angle errors
 // (simulation/virtual_robots.h) and its virtual controller on loopback TCP
-// (simulation/ur_simulator.h, simulation/rws_simulator.h), plus any planted change;
+// (simulation/ur_simulator.h, simulation/kuka_simulator.h, simulation/rws_simulator.h), plus any planted change;
 // and either three GeoCOM theodolites on pseudo-terminals, oriented from mutual pointings
 // and a 1 m scale bar read through the real drivers, or one laser tracker speaking emScon on
 // loopback TCP, whose own frame is the lab frame. Its devices run while the object lives;
@@ -20,6 +20,7 @@
 #include "reduction/orientation.h"
 #include "simulation/emscon_simulator.h"
 #include "simulation/rws_simulator.h"
+#include "simulation/kuka_simulator.h"
 #include "simulation/simulator.h"
 #include "simulation/ur_simulator.h"
 #include "simulation/val_simulator.h"
@@ -84,6 +85,8 @@ class DemoLab {
   simulation::RwsSimulator* abb() const { return abb_.get(); }
   // The ABB lab's credentials file, beside the lab file.
   static constexpr const char* kAbbCredentials = "abb-credentials.yaml";
+  // The virtual KUKA controller (kuka), nullptr for the others.
+  simulation::KukaSimulator* kuka() const { return kuka_.get(); }
   // Where the controller listens, for the narrative: its pseudo-terminal or HOST and ports.
   std::string controller_address() const;
 
@@ -104,6 +107,7 @@ class DemoLab {
   std::unique_ptr<simulation::ValSimulator> controller_;  // puma
   std::unique_ptr<simulation::UrSimulator> ur_;           // ur10
   std::unique_ptr<simulation::RwsSimulator> abb_;         // abb
+  std::unique_ptr<simulation::KukaSimulator> kuka_;       // kuka
   io::LabFile lab_file_;
 };
 

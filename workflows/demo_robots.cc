@@ -39,8 +39,19 @@ const std::vector<DemoRobot>& DemoRobots() {
     r.push_back(ur10);
     DemoRobot kuka;
     kuka.name = "kuka";
-    kuka.not_built = "the virtual KUKA controller is not built yet (issue 35): use --robot puma, "
-                     "ur10 or abb";
+    kuka.db_robot = "kr16-demo";
+    kuka.description =
+        "a KUKA KR 16-2 (hidden errors: geometric, and joint-angle errors of a few arc-seconds "
+        "periodic in each joint's angle)";
+    kuka.model_file = "kr16_2.yaml";
+    kuka.model_yaml = io::kKr16Yaml;
+    kuka.controller = "kuka";
+    kuka.controller_text =
+        "its KR C4 controller running ARMSIG, read and commanded through a variable server "
+        "(KukaVarProxy's protocol) on loopback TCP";
+    kuka.tracker_only = true;
+    kuka.stages = {"geometric", "all"};
+    kuka.time_scale = 0.02;  // moves take the real arm's time: 50 times faster
     r.push_back(kuka);
     DemoRobot abb;
     abb.name = "abb";

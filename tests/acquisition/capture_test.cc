@@ -990,7 +990,7 @@ TEST(Lab, MalformedLabFileNamesLineAndColumn) {
     FAIL();
   } catch (const armsig::InputError& e) {
     EXPECT_EQ(e.where().line, 3);
-    EXPECT_NE(std::string(e.what()).find("expected val, as, counter, ur or abb"),
+    EXPECT_NE(std::string(e.what()).find("expected val, as, counter, ur, abb or kuka"),
               std::string::npos);
   }
 }

@@ -9,7 +9,6 @@
 
 #include <atomic>
 #include <functional>
-#include <random>
 #include <thread>
 
 #include "acquisition/controller_record.h"
@@ -19,11 +18,8 @@
 #include "db/database.h"
 #include "db/store.h"
 #include "io/lab_file.h"
-#include "io/model_yaml.h"
-#include "io/network_files.h"
-#include "simulation/emscon_simulator.h"
 #include "simulation/ur_simulator.h"
-#include "simulation/virtual_robots.h"
+#include "support/tracker_cell.h"
 #include "test_support.h"
 #include "workflows/capture.h"
 
@@ -37,36 +33,6 @@ constexpr int kConfigurations = 5;
 
 class UrCaptureFixture : public ::testing::Test {
  protected:
-  void SetUp() override {
-    model_ = testing::Ur10();
-    truth_ = simulation::MakeVirtualRobot("ur10", model_, 7);
-    lab_ = std::make_unique<simulation::VirtualLab>(model_, truth_.true_params,
-                                                    truth_.world_from_base, 3);
-    lab_->SetJointErrors(truth_.joint_errors);
-    simulation::VirtualStation lt1;
-    lt1.pose.id = "LT1";
-    lab_->AddStation(lt1);
-    simulation::EmsconSimulatorOptions t;
-    t.command_latency = 1ms;
-    t.motion_latency = 2ms;
-    t.initialize_latency = 2ms;
-    t.acquire_radius_mm = 25.0;
-    t.seed = 11;
-    tracker_ = std::make_unique<simulation::EmsconSimulator>(*lab_, 0, "127.0.0.1", 0, t);
-    tracker_->Start();
-    std::vector<reduction::Station> stations(1);
-    stations[0].pose = lt1.pose;
-    testing::WriteText(dir_.File("stations.yaml"), io::FormatStationsYaml(stations, "truth"));
-    // Near where the arm stands: moves of a few tenths of a radian.
-    std::mt19937 rng(5);
-    std::uniform_real_distribution<double> around(-0.3, 0.3);
-    for (int k = 0; k < kConfigurations; ++k) {
-      Eigen::VectorXd q = truth_.home_rad;
-      for (int j = 0; j < 6; ++j) q(j) += around(rng);
-      plan_.push_back({"C" + std::to_string(k + 1), q});
-    }
-  }
-
   simulation::UrSimulatorOptions Options(bool e_series = true, double time_scale = 0.01) const {
     simulation::UrSimulatorOptions o = e_series ? simulation::UrSimulatorOptions{}
                                                 : simulation::Cb3Options();
@@ -126,61 +92,25 @@ class UrCaptureFixture : public ::testing::Test {
   // The session run with `event` happening once `done` configurations are stored.
   CaptureSummary CaptureWithEvent(db::Database& db, int64_t session, int done,
                                   const std::function<void()>& event) {
-    CaptureOptions options;
-    options.progress = [&](const Progress& p) {
-      if (p.done == done && p.waiting.empty()) event();
-    };
-    return workflows::CaptureInto(db, Lab(), session, options);
+    return testing::CaptureWithEvent(db, Lab(), session, done, event);
   }
-
-  // The stored configurations: joints and the controller's time stamps, in plan order.
-  struct StoredPose {
-    int seq;
-    Eigen::VectorXd joints;
-    std::optional<double> controller_time_s;
-    int attempts;
-  };
-  std::vector<StoredPose> Stored(db::Database& db, int64_t session) {
-    auto q = db.connection().Prepare(
-        "SELECT seq, joints_json, controller_time_s, attempts FROM poses WHERE session_id = ? "
-        "AND status = 'measured' ORDER BY seq");
-    q->Bind(1, session);
-    std::vector<StoredPose> out;
-    while (q->Step()) {
-      const auto j = nlohmann::json::parse(q->Text(1));
-      Eigen::VectorXd joints(static_cast<Eigen::Index>(j.size()));
-      for (size_t k = 0; k < j.size(); ++k) joints(static_cast<Eigen::Index>(k)) = j[k].get<double>();
-      out.push_back({static_cast<int>(q->Int(0)), joints, q->OptionalDouble(2),
-                     static_cast<int>(q->Int(3))});
-    }
-    return out;
+  std::vector<testing::StoredPose> Stored(db::Database& db, int64_t session) {
+    return testing::StoredPoses(db, session);
   }
-
-  // Every stored configuration at its planned joints (where the controller put the arm), its
-  // point where the true robot is at those joints (its joint errors included), within the
-  // tracker's noise.
+  // Every stored configuration at its planned joints, exactly (RTDE's doubles), its point where
+  // the true robot is at those joints, within the tracker's noise.
   void ExpectStoredAsPlanned(db::Database& db, int64_t session, size_t count) {
-    const auto stored = Stored(db, session);
-    ASSERT_EQ(stored.size(), count);
-    const auto poses = db::LoadSessionPoses(db, session);
-    ASSERT_EQ(poses.size(), count);
-    calibration::Kinematics kin(model_);
-    for (size_t k = 0; k < count; ++k) {
-      EXPECT_LT((stored[k].joints - plan_[stored[k].seq].joints_rad).cwiseAbs().maxCoeff(), 1e-12)
-          << "configuration " << stored[k].seq;
-      const Eigen::VectorXd q = truth_.joint_errors.TrueAngles(poses[k].joints_rad);
-      const Eigen::Vector3d truth = kin.Position(truth_.world_from_base, truth_.true_params, q.data());
-      EXPECT_LT((poses[k].target_in_world - truth).norm(), 0.15) << "configuration " << k;
-    }
+    testing::ExpectStoredAsPlanned(db, session, count, cell_, 1e-12);
   }
 
   testing::TempDir dir_;
-  calibration::RobotModel model_;
-  simulation::VirtualRobot truth_;
-  std::unique_ptr<simulation::VirtualLab> lab_;
-  std::unique_ptr<simulation::EmsconSimulator> tracker_;
+  testing::TrackerCell cell_{"ur10", "models/ur10.yaml", dir_, kConfigurations, 25.0};
+  calibration::RobotModel& model_ = cell_.model;
+  simulation::VirtualRobot& truth_ = cell_.truth;
+  std::unique_ptr<simulation::VirtualLab>& lab_ = cell_.lab;
+  std::unique_ptr<simulation::EmsconSimulator>& tracker_ = cell_.tracker;
+  Plan& plan_ = cell_.plan;
   std::unique_ptr<simulation::UrSimulator> ur_;
-  Plan plan_;
 };
 
 class UrCaptureRate : public UrCaptureFixture, public ::testing::WithParamInterface<bool> {};

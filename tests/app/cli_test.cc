@@ -565,6 +565,7 @@ TEST(BuiltinModels, DemoModelsAreTheShippedModelFiles) {
   EXPECT_EQ(std::string(io::kPuma760Yaml), ReadText(SourcePath("models/puma760.yaml")));
   EXPECT_EQ(std::string(io::kUr10Yaml), ReadText(SourcePath("models/ur10.yaml")));
   EXPECT_EQ(std::string(io::kIrb4600Yaml), ReadText(SourcePath("models/irb4600.yaml")));
+  EXPECT_EQ(std::string(io::kKr16Yaml), ReadText(SourcePath("models/kr16_2.yaml")));
 }
 
 }  // namespace armsig::testing

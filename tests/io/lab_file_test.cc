@@ -424,7 +424,7 @@ TEST(NetworkControllers, KeysOfAnotherProtocolOrMisspeltOnesAreRefusedByName) {
   EXPECT_EQ(UrRefusal("{protocol: ur, host: h, ports: [a]}"),
             "'ports' belongs to protocol counter, not ur");
   EXPECT_EQ(UrRefusal("{protocol: as, port: p, host: h}"),
-            "'host' belongs to protocol ur or abb, not as");
+            "'host' belongs to protocol ur, abb or kuka, not as");
   EXPECT_EQ(UrRefusal("{protocol: as, port: p, rtde_port: 1}"),
             "'rtde_port' belongs to protocol ur, not as");
   EXPECT_EQ(UrRefusal("{protocol: ur, can_move: true}"),
@@ -442,8 +442,25 @@ TEST(NetworkControllers, KeysOfAnotherProtocolOrMisspeltOnesAreRefusedByName) {
             "'rtde_port' belongs to protocol ur, not abb");
   EXPECT_EQ(UrRefusal("{protocol: ur, host: h, speed_percent: 20}"),
             "'speed_percent' belongs to protocol abb, not ur");
-  EXPECT_EQ(
-      UrRefusal("{protocol: kuka, host: h}").rfind("expected val, as, counter, ur or abb", 0), 0u);
+}
+
+// A KUKA controller: its variable server's port (7000 unless given), ARMSIG's velocity and
+// acceleration as written; no credentials (a variable server asks for none), no UR ports.
+TEST(NetworkControllers, AKukaIsItsHostItsVariableServerPortAndArmsigsSettings) {
+  auto c = UrLab("{protocol: kuka, host: 192.168.1.147, can_move: true}").controller;
+  EXPECT_EQ(c.protocol, "kuka");
+  EXPECT_EQ(c.host, "192.168.1.147");
+  EXPECT_EQ(c.Port("variable_server_port"), 7000);
+  EXPECT_TRUE(c.settings.empty());
+  c = UrLab("{protocol: kuka, host: h, variable_server_port: 7001, velocity_percent: 35}").controller;
+  EXPECT_EQ(c.Port("variable_server_port"), 7001);
+  EXPECT_EQ(c.settings.at("velocity_percent"), "35");
+  EXPECT_EQ(UrRefusal("{protocol: kuka, host: h, credentials: c.yaml}"),
+            "'credentials' belongs to protocol abb, not kuka");
+  EXPECT_EQ(UrRefusal("{protocol: kuka, host: h, rtde_port: 30004}"),
+            "'rtde_port' belongs to protocol ur, not kuka");
+  EXPECT_EQ(UrRefusal("{protocol: kuka, host: h, velocity_percnt: 30}"),
+            "unknown key 'velocity_percnt' (did you mean 'velocity_percent'?)");
 }
 
 TEST(NetworkControllers, AFormattedUrLabReadsBackTheSame) {
