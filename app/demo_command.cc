@@ -34,7 +34,6 @@ void SetupDemoCommand(CLI::App& parent, const GlobalOptions& global, Runner& run
                                "through a variable server, with a laser tracker) or abb (an IRB "
                                "4600 and its OmniCore over Robot Web Services 2.0, with a laser "
                                "tracker); --resume keeps the session's"),
-                               "built yet; --resume keeps the session's"),
                {"puma", "ur10", "kuka", "abb"});
   ChoiceOption(sub->add_option("--instrument", o->instrument,
                   "theodolites (three GeoCOM theodolites, oriented by mutual pointings; the "

@@ -12,5 +12,13 @@ if(OpenCVParts_FOUND AND NOT TARGET OpenCVParts::OpenCVParts)
   add_library(OpenCVParts::OpenCVParts INTERFACE IMPORTED)
   set_target_properties(OpenCVParts::OpenCVParts PROPERTIES
     INTERFACE_INCLUDE_DIRECTORIES "${OpenCVParts_INCLUDE_DIR}"
-    INTERFACE_LINK_LIBRARIES "${OpenCVParts_IMGCODECS};${OpenCVParts_IMGPROC};${OpenCVParts_CORE}")
+    INTERFACE_LINK_LIBRARIES "${OpenCVParts_IMGPROC};${OpenCVParts_CORE}")
+endif()
+# The codecs (PNG decoding) only for the tests that read figures back: linked into armsig they
+# would load some 120 shared libraries (GDAL, Poppler, HDF5…) at every start; armsig writes its
+# PNGs with libpng.
+if(OpenCVParts_FOUND AND NOT TARGET OpenCVParts::Codecs)
+  add_library(OpenCVParts::Codecs INTERFACE IMPORTED)
+  set_target_properties(OpenCVParts::Codecs PROPERTIES
+    INTERFACE_LINK_LIBRARIES "${OpenCVParts_IMGCODECS};OpenCVParts::OpenCVParts")
 endif()

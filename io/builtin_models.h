@@ -101,6 +101,9 @@ joint_limits_deg: [[-180, 180], [-90, 150], [-180, 75], [-400, 400], [-125, 120]
 # Joint compliance under gravity and each joint's transmission harmonics, generated from the
 # nominal geometry (docs/explanation/residual-map.md); `--params auto` keeps what the data
 # support.
+generated_terms: [compliance, harmonics]
+)yaml";
+
 // The KUKA KR 16-2 of models/kr16_2.yaml: `armsig demo --robot kuka`'s nominal model.
 inline constexpr const char* kKr16Yaml =
     R"yaml(# KUKA KR 16-2 (KR C4), nominal geometry (mm) from ROS-Industrial's kuka_experimental

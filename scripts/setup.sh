@@ -9,7 +9,8 @@ PACKAGES=(
   libeigen3-dev libceres-dev
   libboost-dev libboost-system-dev
   libsqlite3-dev sqlite3 libsqlitecpp-dev
-  libopencv-core-dev libopencv-imgproc-dev libopencv-imgcodecs-dev
+  libopencv-core-dev libopencv-imgproc-dev libpng-dev
+  libopencv-imgcodecs-dev  # the tests read figures back; armsig itself writes PNGs with libpng
   libyaml-cpp-dev nlohmann-json3-dev libcli11-dev
   libspdlog-dev libfmt-dev
   libpq-dev  # the PostgreSQL backend

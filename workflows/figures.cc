@@ -2,11 +2,11 @@
 
 #include <fmt/chrono.h>
 #include <fmt/format.h>
+#include <png.h>
 
 #include <algorithm>
 #include <chrono>
 #include <cstdint>
-#include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 #include <stdexcept>
 
@@ -155,10 +155,29 @@ std::string Base64(const std::vector<uchar>& data) {
   return out;
 }
 
+// An 8-bit BGR image as PNG bytes, by libpng (OpenCV's codec library would bring some 120
+// shared libraries — GDAL, Poppler, HDF5 — into every armsig process for this one call).
+std::vector<uchar> EncodePng(const cv::Mat& image, const std::string& file) {
+  if (image.type() != CV_8UC3 || image.empty()) throw std::runtime_error("cannot encode " + file);
+  png_image png{};
+  png.version = PNG_IMAGE_VERSION;
+  png.width = static_cast<png_uint_32>(image.cols);
+  png.height = static_cast<png_uint_32>(image.rows);
+  png.format = PNG_FORMAT_BGR;
+  const auto stride = static_cast<png_int_32>(image.step[0]);
+  png_alloc_size_t size = 0;
+  if (!png_image_write_to_memory(&png, nullptr, &size, 0, image.data, stride, nullptr))
+    throw std::runtime_error("cannot encode " + file + ": " + png.message);
+  std::vector<uchar> out(size);
+  if (!png_image_write_to_memory(&png, out.data(), &size, 0, image.data, stride, nullptr))
+    throw std::runtime_error("cannot encode " + file + ": " + png.message);
+  out.resize(size);
+  return out;
+}
+
 Figure Save(const std::string& dir, const std::string& file, const std::string& title,
             const cv::Mat& image) {
-  std::vector<uchar> png;
-  if (!cv::imencode(".png", image, png)) throw std::runtime_error("cannot encode " + file);
+  const std::vector<uchar> png = EncodePng(image, file);
   io::WriteFileAtomically(dir + "/" + file, std::string(png.begin(), png.end()));
   return {file, title, Base64(png)};
 }
