@@ -77,7 +77,7 @@ namespace {
 // are narrowed to what the model identifies from configurations spread over its joint
 // limits, and `model_report` says which and why.
 calibration::EstimationOptions EstimationOptionsOf(
-    const calibration::RobotModel& model, const CalibrateSettings& settings, bool oriented,
+    const calibration::RobotModel& model, const CalibrateSettings& settings,
     std::optional<calibration::IdentifiabilityReport>& model_report) {
   calibration::EstimationOptions options;
   options.robust_threshold_mm = settings.robust_threshold_mm;
@@ -96,10 +96,8 @@ calibration::EstimationOptions EstimationOptionsOf(
   }
   options.shared_tool_rotation = settings.tool_rotation == "shared";
   if (settings.model_subset) {
-    // With measured orientations the model identifies more (the last axis' tilt): decided
-    // from the model alone all the same, with orientation equations when the data carry them.
-    model_report = calibration::ModelIdentifiability(model, options.parameters, settings.rank_tolerance,
-                                                     oriented && options.use_orientation);
+    model_report =
+        calibration::ModelIdentifiability(model, options.parameters, settings.rank_tolerance);
     options.parameters = model_report->identified;
   }
   return options;
@@ -319,9 +317,7 @@ CalibrationRun RunCalibration(const calibration::RobotModel& model,
   run.params_spec = settings.params;
   const bool auto_params = settings.params == "auto";
   std::optional<calibration::IdentifiabilityReport> model_report;
-  const bool oriented =
-      std::any_of(poses.begin(), poses.end(), [](const MeasuredPose& p) { return p.orientation.has_value(); });
-  calibration::EstimationOptions options = EstimationOptionsOf(model, settings, oriented, model_report);
+  calibration::EstimationOptions options = EstimationOptionsOf(model, settings, model_report);
 
   // 1. Which poses are fitted: all, or the D-optimal --select N.
   std::vector<MeasuredPose> fit = poses, rest;

@@ -779,25 +779,6 @@ void NightlyJob::TestAgainstActive() {
     }
     set.covariance = Eigen::MatrixXd::Zero(set.identified.size(), set.identified.size());
   }
-  // Sessions are judged on their positions: of a set whose fit identified more from measured
-  // orientations (a 6-DoF probe identifies the last axis' tilt), what positions identify.
-  if (!set.identified.empty()) {
-    const std::vector<int> by_position =
-        calibration::ModelIdentifiableSubset(model_, set.identified);
-    if (by_position.size() < set.identified.size()) {
-      std::vector<int> keep;  // places in set.identified
-      for (size_t i = 0; i < set.identified.size(); ++i) {
-        if (std::find(by_position.begin(), by_position.end(), set.identified[i]) !=
-            by_position.end())
-          keep.push_back(static_cast<int>(i));
-      }
-      std::vector<int> identified;
-      for (int i : keep) identified.push_back(set.identified[i]);
-      if (set.covariance.rows() == static_cast<Eigen::Index>(set.identified.size()))
-        set.covariance = Eigen::MatrixXd(set.covariance(keep, keep));
-      set.identified = std::move(identified);
-    }
-  }
   // The reference: the active set refitted on every configuration of its own sessions
   // still in the window (what they say the robot is, not the selection its fit used), with
   // the scatter those sessions show between them.

