@@ -351,6 +351,10 @@ void UrController::MoveTo(const Eigen::VectorXd& target) {
   // it was sent: a move is called not begun only when both clocks say so (a virtual
   // controller's clock may run faster than the wall's).
   std::optional<double> sent_at;
+  // The controller's time of the last package before the script: the move cannot have begun
+  // earlier, so a move timed from it is never shorter than the arm took (the first package
+  // after the script may arrive late on a loaded machine).
+  double before_script = 0.0;
   Clock::time_point sent_wall;
   Eigen::Matrix<double, 6, 1> from = Eigen::Matrix<double, 6, 1>::Zero();
   std::optional<double> arrived_since, stopped_since;
@@ -371,6 +375,7 @@ void UrController::MoveTo(const Eigen::VectorXd& target) {
                                               std::chrono::duration<double>(1.5 * duration + 2.0)));
         SendScript(script, deadline);
         sent = true;
+        before_script = s.timestamp_s;
         sent_at.reset();
         sent_wall = Clock::now();
         sent_at_reconnects = stats_.reconnects;
@@ -384,7 +389,7 @@ void UrController::MoveTo(const Eigen::VectorXd& target) {
         arrived = true;
         ++arrived_packages;
         if (arrived_packages >= 3 && s.timestamp_s - *arrived_since >= options_.still_window_s) {
-          stats_.last_move_s = s.timestamp_s - *sent_at;
+          stats_.last_move_s = s.timestamp_s - before_script;
           return true;
         }
         return false;
