@@ -188,29 +188,13 @@ TEST(Demo, Ur10IsCapturedOverItsControllersProtocolsAndCalibratedToTheNoiseFloor
 // to the tracker's noise floor. Run twice on one database: the same arm's next session.
 TEST(Demo, AbbIsCapturedOverRobotWebServicesAndCalibratedToTheNoiseFloor) {
   testing::TempDir dir;
+  const std::string narrative =
+      ExpectCapturedAndCalibratedToTheNoiseFloor("abb", dir.File("demo.db"), 1.0);
+  EXPECT_NE(narrative.find("Robot Web Services 2.0"), std::string::npos) << narrative;
   DemoOptions o;
   o.db_path = dir.File("demo.db");
   o.robot = "abb";
-  o.configurations = 100;
-  o.select = 60;
   o.time_scale = 0.01;
-  std::string narrative;
-  DemoObserver observer;
-  observer.say = [&](const std::string& text) { narrative += text; };
-  const DemoResult r = RunDemo(o, observer);
-  ASSERT_TRUE(r.completed) << narrative;
-  const auto& j = r.json;
-  EXPECT_EQ(j["session"]["robot"], "abb");
-  EXPECT_EQ(j["session"]["instrument"], "tracker");
-  EXPECT_EQ(j["session"]["poses"], 100);
-  ASSERT_EQ(j["stages"].size(), 2u);
-  const double floor = j["session"]["noise_floor_mm"];
-  const double nominal = j["stages"][0]["nominal"]["mean_mm"];
-  const double calibrated = j["stages"][1]["validation"]["mean_mm"];
-  EXPECT_GT(nominal, 1.0);     // the hidden errors: millimetres at the reflector
-  EXPECT_LT(calibrated, 0.1);  // the acceptance
-  EXPECT_LT(calibrated, 3.0 * floor);
-  EXPECT_NE(narrative.find("Robot Web Services 2.0"), std::string::npos) << narrative;
   db::Database db(o.db_path);
   EXPECT_EQ(db.sql().execAndGet("SELECT controller_model FROM sessions").getString(),
             "IRB 4600-40/2.55");
