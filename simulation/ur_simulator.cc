@@ -413,6 +413,16 @@ void UrSimulator::StreamTick(ConnectionPtr c) {
   const double period = 1.0 / c->frequency;
   const double step = period * Thinning(c->frequency, arm_->clock().time_scale());
   if (c->packages == 0) c->first_stamp = std::floor(s.t / period) * period;
+  // A package's stamp is the period its values were sampled in, as on the controller: a tick
+  // later than a whole step (a loaded machine) leaves out the periods it missed, counted,
+  // rather than sending values of now under an older stamp (a move would look faster than
+  // the arm can go).
+  const auto due = static_cast<int64_t>(std::floor((s.t - c->first_stamp) / step + 1e-9));
+  const bool late = c->packages > 0 && due > c->packages;
+  if (late) {
+    rtde_skipped_ += static_cast<int>(due - c->packages);
+    c->packages = due;
+  }
   const double stamp = c->first_stamp + static_cast<double>(c->packages) * step;
   std::vector<std::vector<double>> values;
   for (const auto& name : c->names)
@@ -420,9 +430,12 @@ void UrSimulator::StreamTick(ConnectionPtr c) {
   Queue(c, rtde::EncodeData(1, c->types, values), true);
   ++c->packages;
   ++rtde_packages_;
-  // Drift-free: a late tick is followed at once by the next (the packages queue up as a slow
-  // network would hold them), never skipped.
-  c->timer->expires_at(c->timer->expiry() + Wall(step));
+  // The next period on the controller's clock: from the timer's own expiry while on time
+  // (drift-free), from now after a late tick.
+  if (late)
+    c->timer->expires_at(std::chrono::steady_clock::now() + Wall(stamp + step - s.t));
+  else
+    c->timer->expires_at(c->timer->expiry() + Wall(step));
   c->timer->async_wait([this, c](const boost::system::error_code& ec) {
     if (!ec) StreamTick(c);
   });

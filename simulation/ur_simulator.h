@@ -108,6 +108,9 @@ class UrSimulator {
   VirtualArm& arm() { return *arm_; }
   int moves() const { return arm_->moves(); }
   int rtde_packages() const { return rtde_packages_.load(); }
+  // Periods left out because the simulator sampled late (a loaded machine); never on a real
+  // controller's own clock, but counted so a test can tell them from lost packages.
+  int rtde_skipped() const { return rtde_skipped_.load(); }
   int connections() const { return connections_.load(); }
   int scripts() const { return scripts_.load(); }
   double frequency_hz() const;  // of the last RTDE recipe set up (0: none)
@@ -158,7 +161,7 @@ class UrSimulator {
   std::chrono::steady_clock::time_point down_until_{};
   double frequency_hz_ = 0.0;
 
-  std::atomic<int> rtde_packages_{0}, connections_{0}, scripts_{0};
+  std::atomic<int> rtde_packages_{0}, rtde_skipped_{0}, connections_{0}, scripts_{0};
 };
 
 }  // namespace armsig::simulation
