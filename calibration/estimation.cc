@@ -678,6 +678,7 @@ void Adjustment::Solve() {
 // Iterates at most `budget` times: the iterations used, negative when it did not converge.
 int Adjustment::Iterations(int budget) {
   for (int iteration = 1; iteration <= budget; ++iteration) {
+    options_.stop.ThrowIfRequested();
     if (Iterate()) return iteration;
   }
   return -std::max(budget, 0);

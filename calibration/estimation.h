@@ -16,6 +16,7 @@
 #include "calibration/identifiability.h"
 #include "calibration/model.h"
 #include "core/error.h"
+#include "core/stop_token.h"
 #include "core/types.h"
 
 namespace armsig::calibration {
@@ -107,6 +108,8 @@ struct EstimationOptions {
   // One tool rotation for every frame instead of one each: the probe stayed on the flange
   // between the set-ups, so the orientations of a new set-up's poses also turn its base.
   bool shared_tool_rotation = false;
+  // Looked at before every iteration: a stop request throws core::Stopped.
+  core::StopToken stop;
   void Check() const;
 };
 

@@ -722,6 +722,7 @@ void MapFitter::FitCurves() {
   std::map<int, std::pair<double, std::vector<Eigen::VectorXd>>> scored;  // by grid index
   auto score = [&](int gi) -> double {
     if (auto it = scored.find(gi); it != scored.end()) return it->second.first;
+    options_.stop.ThrowIfRequested();
     std::vector<Eigen::VectorXd> x(folds_);
     std::vector<double> sum(folds_, 0.0);
     ParallelFor(folds_, options_.threads, [&](int f) {
@@ -800,6 +801,7 @@ const Eigen::MatrixXf& MapFitter::Kernel(int li) {
 // precision: K + λI with λ ≥ 0.01 is well conditioned, and the figures compared differ in
 // the third digit), predicting the fold.
 MapFitter::Score MapFitter::CrossValidate(int li, int ri, std::vector<double>* distances) {
+  options_.stop.ThrowIfRequested();
   if (distances) distances->assign(mt_, 0.0);
   const Eigen::MatrixXf& k = Kernel(li);
   const float lambda = static_cast<float>(options_.regularisations[ri]);
@@ -935,6 +937,7 @@ void MapFitter::FitMap() {
 // cut) trained on the other regions' residuals, each region predicted.
 void MapFitter::TransferCheck() {
   if (!options_.transfer_check) return;
+  options_.stop.ThrowIfRequested();
   const TransferFolds folds = AssignTransferFolds(model_, poses_, options_.folds, options_.seed);
   if (folds.folds < 2) return;
   const int nf = folds.folds;

@@ -198,6 +198,9 @@ struct ResidualMapOptions {
   // gives nothing, by construction, and where it does reach it must not hurt). false: the
   // random folds alone decide (the pre-transfer rule).
   bool transfer_check = true;
+  // Looked at between cross-validations (never inside the parallel folds): a stop request
+  // throws core::Stopped.
+  core::StopToken stop;
   void Check() const;
 };
 

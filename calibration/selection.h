@@ -9,6 +9,7 @@
 #include <vector>
 
 #include "calibration/model.h"
+#include "core/stop_token.h"
 
 namespace armsig::calibration {
 
@@ -18,6 +19,7 @@ struct SelectionOptions {
   // Regularisation of the start (scaled units): keeps the greedy step well defined
   // before the selected set reaches full rank.
   double ridge = 1e-6;
+  core::StopToken stop;  // looked at before every step: a request throws core::Stopped
   void Check(int candidates) const;
 };
 

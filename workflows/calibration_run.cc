@@ -95,6 +95,7 @@ calibration::EstimationOptions EstimationOptionsOf(
                      "expected per-session or shared, got '" + settings.tool_rotation + "'");
   }
   options.shared_tool_rotation = settings.tool_rotation == "shared";
+  options.stop = settings.stop;
   if (settings.model_subset) {
     model_report =
         calibration::ModelIdentifiability(model, options.parameters, settings.rank_tolerance);
@@ -125,6 +126,7 @@ void SelectFitPoses(const calibration::RobotModel& model, const std::vector<Meas
       options.parameters, options.identifiability);
   calibration::SelectionOptions selection_options;
   selection_options.count = select;
+  selection_options.stop = options.stop;
   std::vector<int64_t> candidate_frames;
   if (frames.size() > 1) {
     for (const auto& p : poses) candidate_frames.push_back(p.frame);
@@ -272,8 +274,11 @@ void ValidateOrientations(const calibration::RobotModel& model,
 void FitResidualMapAndValidate(const calibration::RobotModel& model,
                                const std::vector<MeasuredPose>& fit,
                                const std::vector<MeasuredPose>& validation,
-                               const calibration::FrameBases& bases, CalibrationRun& run) {
-  run.residual_map = calibration::FitResidualMap(model, run.estimate, fit);
+                               const calibration::FrameBases& bases, const core::StopToken& stop,
+                               CalibrationRun& run) {
+  calibration::ResidualMapOptions options;
+  options.stop = stop;
+  run.residual_map = calibration::FitResidualMap(model, run.estimate, fit, options);
   const auto& m = *run.residual_map;
   // Said once, by the caller: in calibrate's and the demo's table (FormatCalibrationReport),
   // in the nightly job's log.
@@ -343,7 +348,7 @@ CalibrationRun RunCalibration(const calibration::RobotModel& model,
     ValidateOrientations(model, bases, validation, run);
   }
   if (settings.residual_model == "auto" && run.estimate.status.ok()) {
-    FitResidualMapAndValidate(model, fit, validation, bases, run);
+    FitResidualMapAndValidate(model, fit, validation, bases, settings.stop, run);
   } else if (settings.residual_model != "auto" && settings.residual_model != "off") {
     throw InputError({"--residual-model", 0, 0, ""},
                      "expected auto or off, got '" + settings.residual_model + "'");

@@ -12,6 +12,7 @@
 #include "calibration/residual_map.h"
 #include "calibration/selection.h"
 #include "calibration/validity.h"
+#include "core/stop_token.h"
 #include "core/types.h"
 #include "db/store.h"
 
@@ -96,6 +97,9 @@ struct CalibrateSettings {
   // "per-session": every session's probe rotation on the flange is its own (it may have
   // been remounted); "shared": one for all (it stayed on).
   std::string tool_rotation = "per-session";
+  // A stop request (Ctrl-C, SIGTERM) ends the run within a solver iteration, a selection
+  // step or a cross-validation: core::Stopped is thrown, nothing is returned.
+  core::StopToken stop;
 };
 // The --params spec's parameters of `model` ("auto": all of them, the candidates), as
 // RunCalibration reads it; InputError naming --params (with the nearest valid word) for a

@@ -30,8 +30,9 @@ struct RecalibrateOptions {
   std::string tool_rotation = "per-session";  // per-session | shared
   // Configurations to fit (0: 60 %, at most 2,000).
   int select = 0;
-  // Set (Ctrl-C, SIGTERM): the job stops at its next safe point — before the fit, or after
-  // it and before anything is stored — with `stopped` in the decision and nothing written.
+  // Set (Ctrl-C, SIGTERM): the job stops at its next safe point — within the fit at its next
+  // solver iteration, selection step or cross-validation, or after it and before anything is
+  // stored — with `stopped` in the decision and nothing written.
   const std::atomic<bool>* stop = nullptr;
   // Gates; unset = the lab file's `recalibration:` block, else the defaults below.
   std::optional<double> max_validation_mean_mm, max_validation_max_mm, tolerance_mm, drift_sigma,

@@ -14,7 +14,7 @@
 namespace armsig::calibration {
 namespace {
 
-constexpr double kNoiseMm = 0.02;
+constexpr double kDriftNoiseMm = 0.02;
 
 Eigen::Isometry3d Base(double angle, double x) {
   Eigen::Isometry3d base = Eigen::Isometry3d::Identity();
@@ -28,7 +28,7 @@ FittedSet Night(const RobotModel& model, const Eigen::VectorXd& truth,
                 const std::vector<int>& subset, unsigned seed) {
   std::mt19937 rng(seed);
   const auto poses = SimulatePoses(model, Base(0.3 * seed, 2500.0 + 10.0 * seed), truth,
-                                   RandomConfigurations(model, 80, rng), kNoiseMm, rng);
+                                   RandomConfigurations(model, 80, rng), kDriftNoiseMm, rng);
   EstimationOptions options;
   options.parameters = subset;
   const auto r = Estimate(model, poses, options);

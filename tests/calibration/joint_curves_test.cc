@@ -36,7 +36,7 @@ double TrueAngleError(int joint, double angle) {
   return 0.0;
 }
 
-Eigen::Isometry3d LabBase() {
+Eigen::Isometry3d CurvesLabBase() {
   Eigen::Isometry3d base = Eigen::Isometry3d::Identity();
   base.translate(Eigen::Vector3d(2500.0, -1200.0, -400.0));
   base.rotate(Eigen::AngleAxisd(0.7, Eigen::Vector3d::UnitZ()));
@@ -51,7 +51,7 @@ std::vector<MeasuredPose> Measure(const RobotModel& model, const Eigen::VectorXd
   std::vector<Eigen::VectorXd> actual = encoder;
   for (auto& q : actual)
     for (int j = 0; j < q.size(); ++j) q(j) += TrueAngleError(j, q(j));
-  auto poses = SimulatePoses(model, LabBase(), truth, actual, 0.01, rng);
+  auto poses = SimulatePoses(model, CurvesLabBase(), truth, actual, 0.01, rng);
   for (size_t i = 0; i < poses.size(); ++i) poses[i].joints_rad = encoder[i];
   return poses;
 }
@@ -211,7 +211,7 @@ TEST(JointCurves, RecoverPeriodicJointErrorsTheModelCannotMake) {
     ASSERT_TRUE(with.status.ok()) << with.status.message;
     auto actual = [&](Eigen::VectorXd q) {
       for (int j = 0; j < q.size(); ++j) q(j) += TrueAngleError(j, q(j));
-      return kin.Position(LabBase(), lab.truth, q.data());
+      return kin.Position(CurvesLabBase(), lab.truth, q.data());
     };
     miss_with += (actual(with.joints_rad) - pose.target_in_world).norm();
     miss_without += (actual(without.joints_rad) - pose.target_in_world).norm();

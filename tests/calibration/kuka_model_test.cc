@@ -14,7 +14,7 @@
 namespace armsig::calibration {
 namespace {
 
-constexpr double kDeg = std::numbers::pi / 180.0;
+constexpr double kKukaDeg = std::numbers::pi / 180.0;
 
 // The URDF's chain from $ROBROOT (base_link): each joint's origin in its parent, its axis,
 // then the reflector 100 mm beyond the flange along the flange's axis (tool0's z, which is
@@ -43,7 +43,7 @@ TEST(KukaModel, Kr16FollowsKukasJointZeroAndSigns) {
   Kinematics kin(model);
   const Eigen::VectorXd nominal = Eigen::VectorXd::Zero(model.num_parameters());
   std::mt19937 rng(35);
-  std::uniform_real_distribution<double> angle(-170.0 * kDeg, 170.0 * kDeg);
+  std::uniform_real_distribution<double> angle(-170.0 * kKukaDeg, 170.0 * kKukaDeg);
   for (int k = 0; k < 50; ++k) {
     Eigen::VectorXd q(6);
     for (int i = 0; i < 6; ++i) q(i) = angle(rng);
@@ -52,18 +52,18 @@ TEST(KukaModel, Kr16FollowsKukasJointZeroAndSigns) {
   }
   // KUKA's home {0, -90, 90, 0, 0, 0}: upper arm up (A3 at 675 + 680 mm), forearm forward
   // with its axis 35 mm lower: the reflector at x = 260 + 670 + 158 + 100 mm, z = 1320 mm.
-  const Eigen::VectorXd home = (Eigen::VectorXd(6) << 0, -90 * kDeg, 90 * kDeg, 0, 0, 0).finished();
+  const Eigen::VectorXd home = (Eigen::VectorXd(6) << 0, -90 * kKukaDeg, 90 * kKukaDeg, 0, 0, 0).finished();
   const Eigen::Vector3d h = kin.Position(RobrootFromJoint1(), nominal, home.data());
   EXPECT_LT((h - Eigen::Vector3d(1188, 0, 1320)).norm(), 1e-9) << h.transpose();
   // A positive A1 turns the arm clockwise seen from above: towards −y.
   Eigen::VectorXd turned = home;
-  turned(0) = 30 * kDeg;
+  turned(0) = 30 * kKukaDeg;
   EXPECT_LT(kin.Position(RobrootFromJoint1(), nominal, turned.data()).y(), -500.0);
   // Gravity points down in $ROBROOT, so up the model's joint-1 z.
   EXPECT_LT((RobrootFromJoint1().linear() * model.gravity_in_base - Eigen::Vector3d(0, 0, -1)).norm(),
             1e-12);
   ASSERT_EQ(model.joint_min_rad.size(), 6u);
-  EXPECT_NEAR(model.joint_min_rad[1], -155 * kDeg, 1e-12);
+  EXPECT_NEAR(model.joint_min_rad[1], -155 * kKukaDeg, 1e-12);
 }
 
 }  // namespace

@@ -15,9 +15,9 @@
 namespace armsig::calibration {
 namespace {
 
-constexpr double kNoiseMm = 0.02;
+constexpr double kMapNoiseMm = 0.02;
 
-Eigen::Isometry3d LabBase() {
+Eigen::Isometry3d MapLabBase() {
   Eigen::Isometry3d base = Eigen::Isometry3d::Identity();
   base.translate(Eigen::Vector3d(2500.0, -1200.0, -400.0));
   base.rotate(Eigen::AngleAxisd(0.9, Eigen::Vector3d(0.1, 0.2, 1.0).normalized()));
@@ -48,9 +48,9 @@ Lab MakeLab(RobotModel model, int fit_count, int validation_count, double extra,
   lab.truth = RandomParameters(lab.model, 0.3, 5e-4, 0.0, rng);
   auto simulate = [&](int count) {
     const auto joints = RandomConfigurations(lab.model, count, rng, range_rad);
-    auto poses = SimulatePoses(lab.model, LabBase(), lab.truth, joints, kNoiseMm, rng);
+    auto poses = SimulatePoses(lab.model, MapLabBase(), lab.truth, joints, kMapNoiseMm, rng);
     for (auto& p : poses)
-      p.target_in_world += LabBase().linear() * (extra * Unmodelled(p.joints_rad));
+      p.target_in_world += MapLabBase().linear() * (extra * Unmodelled(p.joints_rad));
     return poses;
   };
   lab.fit = simulate(fit_count);
@@ -109,6 +109,21 @@ TEST(ResidualMap, GeometricOnlyRobotLeavesTheMapOff) {
   EXPECT_GT(fit.cv_mean_mm_with_map, 0.98 * fit.cv_mean_mm_parametric);
   EXPECT_GE(fit.grid.size(), 5u);             // the search looked around
   EXPECT_FALSE(fit.map.centres_rad.empty());  // fitted and reported even when not used
+}
+
+// A stop request ends the map's fit at its next cross-validation with core::Stopped.
+TEST(ResidualMap, AStopRequestEndsTheFit) {
+  RobotModel model = testing::Ur10();
+  model.nongeometric.clear();
+  const Lab lab = MakeLab(model, 200, 10, 0.0, 1);
+  const auto r = FitGeometric(lab);
+  ASSERT_TRUE(r.status.ok()) << r.status.message;
+  std::atomic<bool> stop{true};
+  ResidualMapOptions o;
+  o.stop = core::StopToken(&stop);
+  EXPECT_THROW(FitResidualMap(lab.model, r, lab.fit, o), core::Stopped);
+  stop = false;
+  EXPECT_FALSE(FitResidualMap(lab.model, r, lab.fit, o).grid.empty());
 }
 
 TEST(ResidualMap, LearnsASmoothErrorTheParametricModelCannotMake) {
@@ -382,10 +397,10 @@ TEST(ResidualMap, PaperProgressionOnThePumaIsNotMadeWorse) {
   lab.model = testing::Puma();
   lab.truth = PaperTable3Parameters();
   std::mt19937 rng(2);
-  lab.fit = SimulatePoses(lab.model, LabBase(), lab.truth, RandomConfigurations(lab.model, 80, rng),
-                          kNoiseMm, rng);
-  lab.validation = SimulatePoses(lab.model, LabBase(), lab.truth,
-                                 RandomConfigurations(lab.model, 200, rng), kNoiseMm, rng);
+  lab.fit = SimulatePoses(lab.model, MapLabBase(), lab.truth, RandomConfigurations(lab.model, 80, rng),
+                          kMapNoiseMm, rng);
+  lab.validation = SimulatePoses(lab.model, MapLabBase(), lab.truth,
+                                 RandomConfigurations(lab.model, 200, rng), kMapNoiseMm, rng);
   for (const char* spec : {"geometric", "geometric,h3,h4", "all"}) {
     EstimationOptions o;
     o.parameters = ParseParameterSpec(lab.model, spec);
@@ -432,11 +447,11 @@ TEST(Compensation, SolveJointsWithAMapLandsTheMappedModelOnTheTarget) {
     // The mapped model is the better one: the true robot at the joints it chose lands
     // nearer the targets.
     Kinematics truth(lab.model);
-    const Eigen::Vector3d true_with = truth.Position(LabBase(), lab.truth, with.joints_rad.data()) +
-                                      LabBase().linear() * Unmodelled(with.joints_rad);
+    const Eigen::Vector3d true_with = truth.Position(MapLabBase(), lab.truth, with.joints_rad.data()) +
+                                      MapLabBase().linear() * Unmodelled(with.joints_rad);
     const Eigen::Vector3d true_without =
-        truth.Position(LabBase(), lab.truth, without.joints_rad.data()) +
-        LabBase().linear() * Unmodelled(without.joints_rad);
+        truth.Position(MapLabBase(), lab.truth, without.joints_rad.data()) +
+        MapLabBase().linear() * Unmodelled(without.joints_rad);
     miss_with += (true_with - pose.target_in_world).norm();
     miss_without += (true_without - pose.target_in_world).norm();
     ++solved;

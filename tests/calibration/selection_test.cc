@@ -90,6 +90,30 @@ TEST(Selection, ExchangeNeverLowersTheCriterion) {
   EXPECT_GE(b.log_det, a.log_det - 1e-9);
 }
 
+// A stop request (Ctrl-C, SIGTERM to the nightly job) ends the selection and the fit at their
+// next step with core::Stopped; without it both run to their end.
+TEST(Selection, AStopRequestEndsTheSelectionAndTheFit) {
+  const auto model = testing::Puma();
+  std::mt19937 rng(3);
+  const auto poses = SimulatePoses(model, Eigen::Isometry3d::Identity(), PaperTable3Parameters(),
+                                   RandomConfigurations(model, 120, rng), 0.02, rng);
+  std::vector<Eigen::VectorXd> joints;
+  for (const auto& p : poses) joints.push_back(p.joints_rad);
+  std::vector<int> all(model.num_parameters());
+  for (int i = 0; i < model.num_parameters(); ++i) all[i] = i;
+  std::atomic<bool> stop{false};
+  SelectionOptions so;
+  so.count = 60;
+  so.stop = core::StopToken(&stop);
+  EstimationOptions eo;
+  eo.stop = core::StopToken(&stop);
+  EXPECT_EQ(SelectConfigurations(model, joints, all, so).selected.size(), 60u);
+  EXPECT_TRUE(Estimate(model, poses, eo).status.ok());
+  stop = true;
+  EXPECT_THROW(SelectConfigurations(model, joints, all, so), core::Stopped);
+  EXPECT_THROW(Estimate(model, poses, eo), core::Stopped);
+}
+
 TEST(Selection, RefusesImpossibleCounts) {
   const auto model = testing::Puma();
   std::mt19937 rng(23);
