@@ -1,9 +1,10 @@
 // Shared fixtures: a temporary directory, the shipped models, running the CLI.
 #pragma once
 
+#include <fcntl.h>
 #include <gtest/gtest.h>
-
 #include <sys/wait.h>
+#include <unistd.h>
 
 #include <cctype>
 #include <chrono>
@@ -109,6 +110,37 @@ inline std::string SourcePath(const std::string& relative) {
 }
 inline std::string DataPath(const std::string& relative) {
   return std::string(ARMSIG_TEST_DATA) + "/" + relative;
+}
+
+// `path` in single quotes, for a command line RunArmsig hands to the shell.
+inline std::string Quoted(const std::string& path) { return "'" + path + "'"; }
+
+// A robot program of tests/data/programs/.
+inline std::string ProgramData(const std::string& relative) {
+  return ReadText(DataPath("programs/" + relative));
+}
+
+// Whether an unprivileged user may mount in a private namespace here (unshare -rm): the
+// full-disk and read-only tests mount a small tmpfs there.
+inline bool PrivateMountsWork() {
+  return std::system("unshare -rm sh -c 'mount -t tmpfs -o size=4k tmpfs /mnt' >/dev/null 2>&1") ==
+         0;
+}
+
+// Starts args[0] with `args`, its output thrown away; the child's pid.
+inline pid_t SpawnQuietly(std::vector<std::string> args) {
+  const pid_t child = ::fork();
+  if (child == 0) {
+    std::vector<char*> argv;
+    for (auto& a : args) argv.push_back(a.data());
+    argv.push_back(nullptr);
+    const int null = ::open("/dev/null", O_WRONLY);
+    ::dup2(null, 1);
+    ::dup2(null, 2);
+    ::execv(argv[0], argv.data());
+    _exit(127);
+  }
+  return child;
 }
 
 inline calibration::RobotModel Puma() {

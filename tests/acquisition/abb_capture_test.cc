@@ -31,7 +31,7 @@ namespace {
 using namespace std::chrono_literals;
 namespace rws = instruments::rws;
 
-constexpr int kConfigurations = 5;
+constexpr int kAbbConfigurations = 5;
 // RAPID nums are floats: a target and the joints the module records keep ~7 digits (2e-5°
 // near 200°, 3.5e-7 rad).
 constexpr double kFloatRad = 1e-6;
@@ -63,7 +63,7 @@ class AbbCaptureFixture : public ::testing::Test {
     ::chmod(dir_.File("abb.yaml").c_str(), 0600);
     std::mt19937 rng(5);
     std::uniform_real_distribution<double> around(-0.3, 0.3);
-    for (int k = 0; k < kConfigurations; ++k) {
+    for (int k = 0; k < kAbbConfigurations; ++k) {
       Eigen::VectorXd q = truth_.home_rad;
       for (int j = 0; j < 6; ++j) q(j) += around(rng);
       plan_.push_back({"C" + std::to_string(k + 1), q});
@@ -158,8 +158,8 @@ TEST_P(AbbCaptureVersion, CapturesOverRobotWebServices) {
   const int64_t session = NewSession(db);
   const CaptureSummary s = workflows::CaptureInto(db, Lab(), session, {});
   ASSERT_TRUE(s.completed) << s.pause_reason;
-  EXPECT_EQ(s.measured, kConfigurations);
-  ExpectStoredAsPlanned(db, session, kConfigurations);
+  EXPECT_EQ(s.measured, kAbbConfigurations);
+  ExpectStoredAsPlanned(db, session, kAbbConfigurations);
   const auto record = db::SessionController(db, session);
   ASSERT_TRUE(record);
   EXPECT_EQ(record->model, "IRB 4600-40/2.55");
@@ -167,7 +167,7 @@ TEST_P(AbbCaptureVersion, CapturesOverRobotWebServices) {
   EXPECT_NE(s.controller.find("IRB 4600-40/2.55 serial " + truth_.identity.serial),
             std::string::npos)
       << s.controller;
-  EXPECT_EQ(abb_->snapshot().moves, kConfigurations);
+  EXPECT_EQ(abb_->snapshot().moves, kAbbConfigurations);
   EXPECT_EQ(abb_->snapshot().logins, 1);  // one session, its cookie kept
   // The lab text stored with the session names the credentials file, never the password.
   EXPECT_EQ(db.sql().execAndGet("SELECT count(*) FROM sessions WHERE lab_yaml LIKE '%pa55%'")
@@ -215,7 +215,7 @@ TEST_F(AbbCaptureFixture, AGuardStopDuringAMoveIsWaitedOutThroughTheOperatorsRec
   EXPECT_NE(waiting[0].find("close it and reset the stop"), std::string::npos) << waiting[0];
   EXPECT_EQ(s.controller_waits, 1);
   EXPECT_EQ(s.skipped, 0);
-  ExpectStoredAsPlanned(db, session, kConfigurations);
+  ExpectStoredAsPlanned(db, session, kAbbConfigurations);
 }
 
 TEST_F(AbbCaptureFixture, AnEmergencyStopPausesTheSessionNamingWhatToDoAndItResumes) {
@@ -238,7 +238,7 @@ TEST_F(AbbCaptureFixture, AnEmergencyStopPausesTheSessionNamingWhatToDoAndItResu
   const CaptureSummary resumed = workflows::CaptureInto(db, Lab(), session, {});
   ASSERT_TRUE(resumed.completed) << resumed.pause_reason;
   EXPECT_EQ(resumed.already, 2);
-  ExpectStoredAsPlanned(db, session, kConfigurations);
+  ExpectStoredAsPlanned(db, session, kAbbConfigurations);
 }
 
 TEST_F(AbbCaptureFixture, ManualModeIsNamedBeforeASessionIsMadeAndPausesOneUnderWay) {
@@ -275,7 +275,7 @@ TEST_F(AbbCaptureFixture, ManualModeIsNamedBeforeASessionIsMadeAndPausesOneUnder
   EXPECT_EQ(db::StoredSeqs(db, session).size(), 1u);
   abb_->StartProgram();
   ASSERT_TRUE(workflows::CaptureInto(db, Lab(), session, {}).completed);
-  ExpectStoredAsPlanned(db, session, kConfigurations);
+  ExpectStoredAsPlanned(db, session, kAbbConfigurations);
 }
 
 // The motors switched off mid-session pause it naming the controller; the credentials file
@@ -320,7 +320,7 @@ TEST_F(AbbCaptureFixture, MotorsOffThenAWrongPasswordLoseNothingAndNameTheContro
   const CaptureSummary resumed = workflows::CaptureInto(db, Lab(), session, {});
   ASSERT_TRUE(resumed.completed) << resumed.pause_reason;
   EXPECT_EQ(resumed.already, 2);
-  ExpectStoredAsPlanned(db, session, kConfigurations);
+  ExpectStoredAsPlanned(db, session, kAbbConfigurations);
 }
 
 // A server that takes requests and never answers: each call ends by the lab's deadline, the
@@ -349,7 +349,7 @@ TEST_F(AbbCaptureFixture, AStalledServerPausesTheSessionByItsDeadlineAndItResume
   const CaptureSummary resumed = workflows::CaptureInto(db, Lab(), session, {});
   ASSERT_TRUE(resumed.completed) << resumed.pause_reason;
   EXPECT_EQ(resumed.already, 3);
-  ExpectStoredAsPlanned(db, session, kConfigurations);
+  ExpectStoredAsPlanned(db, session, kAbbConfigurations);
 }
 
 TEST_F(AbbCaptureFixture, TheNetworkCutAndRestoredMidSessionLosesNothing) {
@@ -369,7 +369,7 @@ TEST_F(AbbCaptureFixture, TheNetworkCutAndRestoredMidSessionLosesNothing) {
   const CaptureSummary s = workflows::CaptureInto(db, Lab(), session, options);
   cable.join();
   ASSERT_TRUE(s.completed) << s.pause_reason;
-  ExpectStoredAsPlanned(db, session, kConfigurations);
+  ExpectStoredAsPlanned(db, session, kAbbConfigurations);
   EXPECT_EQ(abb_->snapshot().logins, 1);  // the session cookie outlived the cut
 }
 
@@ -387,7 +387,7 @@ TEST_F(AbbCaptureFixture, AReadingTakenWhileTheArmMovesIsNeverStored) {
   };
   const CaptureSummary s = workflows::CaptureInto(db, Lab(), session, options);
   ASSERT_TRUE(s.completed) << s.pause_reason;
-  ExpectStoredAsPlanned(db, session, kConfigurations);
+  ExpectStoredAsPlanned(db, session, kAbbConfigurations);
   EXPECT_GE(s.moving_refused, 1);
 }
 

@@ -127,21 +127,6 @@ std::string Text(db::Database& db, const std::string& sql) {
 }
 
 // Starts args[0] with args, output to /dev/null; returns its pid (−1 on failure).
-pid_t SpawnQuietly(std::vector<std::string> args) {
-  const pid_t child = ::fork();
-  if (child == 0) {
-    std::vector<char*> argv;
-    for (auto& a : args) argv.push_back(a.data());
-    argv.push_back(nullptr);
-    const int null = ::open("/dev/null", O_WRONLY);
-    ::dup2(null, 1);
-    ::dup2(null, 2);
-    ::execv(argv[0], argv.data());
-    _exit(127);
-  }
-  return child;
-}
-
 // Starts args[0] with args, stdout and stderr to files, TMPDIR set when given; returns
 // its pid (−1 on failure).
 pid_t Spawn(std::vector<std::string> args, const std::string& out, const std::string& err,
@@ -409,7 +394,7 @@ void VirtualLabFixture::KillNineThenResume(int kills_wanted) {
     } else {
       args.insert(args.end(), {"--plan", "auto:100", "--robot", "puma"});
     }
-    const pid_t child = SpawnQuietly(args);
+    const pid_t child = testing::SpawnQuietly(args);
     ASSERT_GE(child, 0);
     if (!have_session) {
       // Planning takes a moment; start killing once the session exists.
@@ -594,7 +579,7 @@ TEST_F(VirtualLabFixture, AnUnmovedRobotIsAFaultNotASecondConfiguration) {
 TEST_F(VirtualLabFixture, ASecondCaptureOnTheSameDevicesIsRefused) {
   Start({15, 15, 15});
   const std::string binary = ARMSIG_BINARY;
-  const pid_t first = SpawnQuietly({binary, "--db", Db(), "capture", "--lab",
+  const pid_t first = testing::SpawnQuietly({binary, "--db", Db(), "capture", "--lab",
                                     dir_.File("lab.yaml"), "--plan", "auto:40", "--robot",
                                     "puma"});
   ASSERT_GE(first, 0);
@@ -686,7 +671,7 @@ TEST_F(VirtualLabFixture, CtrlCStopsCleanlyAndResumeCompletes) {
   std::vector<std::string> args = {
       binary,   "--db",    Db(),      "capture", "--lab", dir_.File("lab.yaml"),
       "--plan", "auto:60", "--robot", "puma"};
-  const pid_t child = SpawnQuietly(args);
+  const pid_t child = testing::SpawnQuietly(args);
   ASSERT_GE(child, 0);
   // Interrupt once some configurations are stored (an event, however slow the machine).
   ASSERT_TRUE(testing::WaitUntil([&] {

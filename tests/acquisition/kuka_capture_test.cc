@@ -24,7 +24,7 @@ namespace {
 
 using namespace std::chrono_literals;
 
-constexpr int kConfigurations = 5;
+constexpr int kKukaConfigurations = 5;
 
 class KukaCapture : public ::testing::Test {
  protected:
@@ -70,11 +70,11 @@ class KukaCapture : public ::testing::Test {
   }
   // $AXIS_ACT shows 32-bit floats: a joint as stored is the planned one within 1e-5°.
   void ExpectStoredAsPlanned(db::Database& db, int64_t session) {
-    testing::ExpectStoredAsPlanned(db, session, kConfigurations, cell_, 2e-7);
+    testing::ExpectStoredAsPlanned(db, session, kKukaConfigurations, cell_, 2e-7);
   }
 
   testing::TempDir dir_;
-  testing::TrackerCell cell_{"kuka", "models/kr16_2.yaml", dir_, kConfigurations};
+  testing::TrackerCell cell_{"kuka", "models/kr16_2.yaml", dir_, kKukaConfigurations};
   simulation::VirtualRobot& truth_ = cell_.truth;
   std::unique_ptr<simulation::KukaSimulator> kuka_;
 };
@@ -84,9 +84,9 @@ TEST_F(KukaCapture, CapturesThroughArmsigAndKeepsWhoTheControllerIs) {
   const int64_t session = NewSession(db);
   const CaptureSummary s = workflows::CaptureInto(db, Lab(), session, {});
   ASSERT_TRUE(s.completed) << s.pause_reason;
-  EXPECT_EQ(s.measured, kConfigurations);
+  EXPECT_EQ(s.measured, kKukaConfigurations);
   ExpectStoredAsPlanned(db, session);
-  EXPECT_EQ(kuka_->snapshot().moves, kConfigurations);
+  EXPECT_EQ(kuka_->snapshot().moves, kKukaConfigurations);
   const auto record = db::SessionController(db, session);
   ASSERT_TRUE(record);
   EXPECT_EQ(record->model, "KR16_2");
@@ -133,7 +133,7 @@ TEST_F(KukaCapture, ASafetyStopDuringAMoveIsWaitedOutAndTheSessionGoesOn) {
   // The halted move went on to its target once ARMSIG was started again; the session's move
   // after the wait found it there (a command of no motion), or still under way (waited for).
   EXPECT_EQ(kuka_->snapshot().halts, 1);
-  EXPECT_LE(kuka_->snapshot().moves, kConfigurations + 1);
+  EXPECT_LE(kuka_->snapshot().moves, kKukaConfigurations + 1);
   ExpectStoredAsPlanned(db, session);
 }
 
@@ -235,7 +235,7 @@ TEST_F(KukaCapture, GarbageOnTheLineIsSkippedAndNothingWrongIsStored) {
     }
   });
   ASSERT_TRUE(s.completed) << s.pause_reason;
-  EXPECT_EQ(s.measured, kConfigurations);
+  EXPECT_EQ(s.measured, kKukaConfigurations);
   ExpectStoredAsPlanned(db, session);
 }
 

@@ -171,21 +171,6 @@ class TrackerLabFixture : public ::testing::Test {
 };
 
 // Starts args[0] with args, output to /dev/null; returns its pid (−1 on failure).
-pid_t SpawnQuietly(std::vector<std::string> args) {
-  const pid_t child = ::fork();
-  if (child == 0) {
-    std::vector<char*> argv;
-    for (auto& a : args) argv.push_back(a.data());
-    argv.push_back(nullptr);
-    const int null = ::open("/dev/null", O_WRONLY);
-    ::dup2(null, 1);
-    ::dup2(null, 2);
-    ::execv(argv[0], argv.data());
-    _exit(127);
-  }
-  return child;
-}
-
 }  // namespace
 
 // One tracker, no robot base in the lab file: the operator points the beam for the first
@@ -575,7 +560,7 @@ TEST_F(TrackerLabFixture, KillNineAtRandomMomentsThenResume) {
     } else {
       args.insert(args.end(), {"--plan", "auto:60", "--robot", "puma"});
     }
-    const pid_t child = SpawnQuietly(args);
+    const pid_t child = testing::SpawnQuietly(args);
     ASSERT_GE(child, 0);
     ++runs;
     if (!have_session) {

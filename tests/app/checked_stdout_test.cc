@@ -17,15 +17,13 @@
 namespace armsig::testing {
 namespace {
 
-std::string Q(const std::string& path) { return "'" + path + "'"; }
-
 // Runs build/armsig with standard output sent to `stdout_target` (a shell redirection).
 CommandResult RunWithStdout(const std::string& args, const std::string& stdout_target,
                             const std::string& cwd = ".") {
   TempDir capture;
   const std::string err = capture.File("err");
-  const std::string command = "cd " + Q(cwd) + " && " + Q(ARMSIG_BINARY) + " " + args + " >" +
-                              stdout_target + " 2>" + Q(err);
+  const std::string command = "cd " + Quoted(cwd) + " && " + Quoted(ARMSIG_BINARY) + " " + args +
+                              " >" + stdout_target + " 2>" + Quoted(err);
   const int status = std::system(command.c_str());
   CommandResult result;
   result.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
@@ -42,45 +40,45 @@ struct Case {
 TEST(CheckedStdout, EveryCommandThatPrintsFailsOnAFullDeviceSayingWhatItDid) {
   TempDir dir;
   const LabDatabase lab = CopyLabDatabase(dir.path().string());
-  const std::string db = "--db " + Q(lab.path) + " ";
+  const std::string db = "--db " + Quoted(lab.path) + " ";
   const std::string out = dir.File("written");  // a file output of a command, not stdout
   const std::vector<Case> cases = {
       {"help", "--help", true},
       {"version", "--version", true},
       {"generate man", "generate man", true},
-      {"db init", "--db " + Q(dir.File("new.db")) + " db init", false},
+      {"db init", "--db " + Quoted(dir.File("new.db")) + " db init", false},
       {"db info", db + "db info", true},
       {"db export", db + "db export observations --csv", true},
-      {"robot add", db + "robot add second --model " + Q(lab.model_yaml), false},
+      {"robot add", db + "robot add second --model " + Quoted(lab.model_yaml), false},
       {"robot list", db + "robot list", true},
       {"robot list --json", db + "robot list --json", true},
       {"sessions", db + "sessions", true},
       {"sessions --json", db + "sessions --json", true},
-      {"session export", db + "session export 1 --poses " + Q(out + ".csv"), true},
+      {"session export", db + "session export 1 --poses " + Quoted(out + ".csv"), true},
       {"session discard", db + "session discard 2 --reason test", false},
       {"session restore", db + "session restore 2", false},
       {"versions", db + "versions --robot puma", true},
       {"versions --json", db + "versions --robot puma --json", true},
       {"activate", db + "activate --robot puma --version 1", false},
-      {"predict", db + "predict --robot puma --joints " + Q(lab.joints_csv), true},
+      {"predict", db + "predict --robot puma --joints " + Quoted(lab.joints_csv), true},
       {"compensate",
-       db + "compensate --robot puma --targets " + Q(lab.targets_csv) + " --out " +
-           Q(out + "-joints.csv"),
+       db + "compensate --robot puma --targets " + Quoted(lab.targets_csv) + " --out " +
+           Quoted(out + "-joints.csv"),
        true},
-      {"export", db + "export --robot puma --format json --out " + Q(out + ".json"), true},
-      {"report", db + "report --robot puma --out " + Q(out + "-report"), true},
-      {"calibrate", "calibrate --model " + Q(lab.model_yaml) + " --poses " + Q(lab.poses_csv),
-       true},
+      {"export", db + "export --robot puma --format json --out " + Quoted(out + ".json"), true},
+      {"report", db + "report --robot puma --out " + Quoted(out + "-report"), true},
+      {"calibrate",
+       "calibrate --model " + Quoted(lab.model_yaml) + " --poses " + Quoted(lab.poses_csv), true},
       {"triangulate",
-       "triangulate --stations " + Q(lab.stations_yaml) + " --observations " +
-           Q(lab.observations_csv) + " --out " + Q(out + "-points.csv"),
+       "triangulate --stations " + Quoted(lab.stations_yaml) + " --observations " +
+           Quoted(lab.observations_csv) + " --out " + Quoted(out + "-points.csv"),
        true},
       {"import observations",
-       db + "import observations " + Q(lab.observations_csv) + " --stations " +
-           Q(lab.stations_yaml) + " --robot puma",
+       db + "import observations " + Quoted(lab.observations_csv) + " --stations " +
+           Quoted(lab.stations_yaml) + " --robot puma",
        false},
       {"import poses --robot",
-       db + "import poses " + Q(lab.poses_csv) +
+       db + "import poses " + Quoted(lab.poses_csv) +
            " --joint-columns q1_deg,q2_deg,q3_deg,q4_deg,q5_deg,q6_deg --xyz-columns "
            "x_mm,y_mm,z_mm --joint-unit deg --id pose --robot puma --allow-duplicate",
        false},
@@ -90,9 +88,9 @@ TEST(CheckedStdout, EveryCommandThatPrintsFailsOnAFullDeviceSayingWhatItDid) {
       {"worker", db + "worker --once", false},
       {"jobs", db + "jobs", true},
       {"jobs --json", db + "jobs --json", true},
-      {"db push", db + "db push --to " + Q(dir.File("central.db")), false},
+      {"db push", db + "db push --to " + Quoted(dir.File("central.db")), false},
       {"instrument simulate",
-       "instrument simulate --protocol geocom --link " + Q(dir.File("tty")) + " --seconds 0.2",
+       "instrument simulate --protocol geocom --link " + Quoted(dir.File("tty")) + " --seconds 0.2",
        true},
   };
   for (const auto& c : cases) {
@@ -117,12 +115,13 @@ TEST(CheckedStdout, AStoringCommandRepeatsTheSummaryItCouldNotPrint) {
   TempDir dir;
   const LabDatabase lab = CopyLabDatabase(dir.path().string());
   const auto r = RunWithStdout(
-      "--db " + Q(lab.path) + " robot add second --model " + Q(lab.model_yaml), "/dev/full");
+      "--db " + Quoted(lab.path) + " robot add second --model " + Quoted(lab.model_yaml),
+      "/dev/full");
   EXPECT_EQ(r.exit_code, 1) << r.err;
   EXPECT_NE(r.err.find("what it could not print:\n  robot second registered in "),
             std::string::npos)
       << r.err;
-  const auto list = RunArmsig("--db " + Q(lab.path) + " robot list");
+  const auto list = RunArmsig("--db " + Quoted(lab.path) + " robot list");
   EXPECT_NE(list.out.find("second"), std::string::npos) << list.out;
 }
 
@@ -131,10 +130,10 @@ TEST(CheckedStdout, AStoringCommandRepeatsTheSummaryItCouldNotPrint) {
 TEST(CheckedStdout, OutputWithRoomIsWrittenWhole) {
   TempDir dir;
   const LabDatabase lab = CopyLabDatabase(dir.path().string());
-  const std::string export_poses = "--db " + Q(lab.path) + " db export poses --csv";
-  const auto to_file = RunWithStdout(export_poses, Q(dir.File("poses.csv")));
+  const std::string export_poses = "--db " + Quoted(lab.path) + " db export poses --csv";
+  const auto to_file = RunWithStdout(export_poses, Quoted(dir.File("poses.csv")));
   ASSERT_EQ(to_file.exit_code, 0) << to_file.err;
-  const auto to_pipe = RunWithStdout(export_poses + " | cat", Q(dir.File("piped.csv")));
+  const auto to_pipe = RunWithStdout(export_poses + " | cat", Quoted(dir.File("piped.csv")));
   ASSERT_EQ(to_pipe.exit_code, 0) << to_pipe.err;
   const std::string text = ReadText(dir.File("poses.csv"));
   EXPECT_EQ(text, ReadText(dir.File("piped.csv")));
@@ -155,7 +154,8 @@ TEST(CheckedStdout, TemporaryFilesOfDeadWritersAreRemovedByTheNextWriter) {
   ASSERT_GE(held, 0);
   ASSERT_EQ(::flock(held, LOCK_EX), 0);
   WriteText(target + ".tmp.other", "not a name armsig makes");
-  const auto r = RunArmsig("--db " + Q(lab.path) + " db export robots --out " + Q(target));
+  const auto r =
+      RunArmsig("--db " + Quoted(lab.path) + " db export robots --out " + Quoted(target));
   ASSERT_EQ(r.exit_code, 0) << r.err;
   EXPECT_TRUE(std::filesystem::exists(target));
   EXPECT_FALSE(std::filesystem::exists(target + ".tmp.AbC123"));

@@ -13,17 +13,10 @@
 namespace armsig::testing {
 namespace {
 
-std::string Q(const std::string& path) { return "'" + path + "'"; }
-
-bool PrivateMountsWork() {
-  return std::system("unshare -rm sh -c 'mount -t tmpfs -o size=4k tmpfs /mnt' >/dev/null 2>&1") ==
-         0;
-}
-
 // Runs `script` (sh) in a private mount namespace.
 void RunPrivately(const TempDir& dir, const std::string& script) {
   WriteText(dir.File("script.sh"), script + "\n");
-  ASSERT_EQ(std::system(("unshare -rm sh " + Q(dir.File("script.sh"))).c_str()), 0);
+  ASSERT_EQ(std::system(("unshare -rm sh " + Quoted(dir.File("script.sh"))).c_str()), 0);
 }
 
 // Standard output into a file on a full file system (a tmpfs of 8 kB): the export is cut at
@@ -37,13 +30,13 @@ TEST(FullDisk, StandardOutputAndAnOutputFileOnAFullFileSystemAreNamed) {
   const std::string full = dir.File("full");
   std::filesystem::create_directories(full);
   // The messages and exit codes go beside the tmpfs, which has no room for them.
-  const std::string binary = Q(ARMSIG_BINARY), at = dir.path().string() + "/";
-  const std::string script = "mount -t tmpfs -o size=8k tmpfs " + Q(full) + " && cd " + Q(full) +
-                             " && " + binary + " --db " + Q(lab.path) +
-                             " db export poses --csv > poses.csv 2> " + Q(at + "err1") +
-                             "; echo $? > " + Q(at + "rc1") + "; " + binary + " --db " +
-                             Q(lab.path) + " db export poses --out out.csv 2> " + Q(at + "err2") +
-                             "; echo $? > " + Q(at + "rc2") + "; ls -a > " + Q(at + "listing");
+  const std::string binary = Quoted(ARMSIG_BINARY), at = dir.path().string() + "/";
+  const std::string script =
+      "mount -t tmpfs -o size=8k tmpfs " + Quoted(full) + " && cd " + Quoted(full) + " && " +
+      binary + " --db " + Quoted(lab.path) + " db export poses --csv > poses.csv 2> " +
+      Quoted(at + "err1") + "; echo $? > " + Quoted(at + "rc1") + "; " + binary + " --db " +
+      Quoted(lab.path) + " db export poses --out out.csv 2> " + Quoted(at + "err2") +
+      "; echo $? > " + Quoted(at + "rc2") + "; ls -a > " + Quoted(at + "listing");
   RunPrivately(dir, script);
   EXPECT_EQ(ReadText(dir.File("rc1")), "1\n");
   const std::string err1 = ReadText(dir.File("err1"));
@@ -77,21 +70,22 @@ TEST(FullDisk, ADatabaseWriteOnAFullDiskIsNamedAndStoresNothing) {
   const auto size = std::filesystem::file_size(lab.path);
   const std::string full = dir.File("full"), at = dir.path().string() + "/";
   std::filesystem::create_directories(full);
-  const std::string armsig = Q(ARMSIG_BINARY) + " --db " + Q(full + "/lab.db") + " ";
+  const std::string armsig = Quoted(ARMSIG_BINARY) + " --db " + Quoted(full + "/lab.db") + " ";
   RunPrivately(dir, "mount -t tmpfs -o size=" + std::to_string(size / 1024 + 96) + "k tmpfs " +
-                        Q(full) + " && cp " + Q(lab.path) + " " + Q(full) + "/ && " + armsig +
-                        "import observations " + Q(dir.File("many.csv")) + " --stations " +
-                        Q(lab.stations_yaml) + " 2> " + Q(at + "err") + "; echo $? > " +
-                        Q(at + "rc") + "; " + armsig + "db export observations > " +
-                        Q(at + "after.csv") + " 2>&1; " + armsig + "db info > " + Q(at + "info") +
-                        " 2>&1; cp " + Q(full + "/lab.db") + " " + Q(at + "after.db"));
+                        Quoted(full) + " && cp " + Quoted(lab.path) + " " + Quoted(full) + "/ && " +
+                        armsig + "import observations " + Quoted(dir.File("many.csv")) +
+                        " --stations " + Quoted(lab.stations_yaml) + " 2> " + Quoted(at + "err") +
+                        "; echo $? > " + Quoted(at + "rc") + "; " + armsig +
+                        "db export observations > " + Quoted(at + "after.csv") + " 2>&1; " +
+                        armsig + "db info > " + Quoted(at + "info") + " 2>&1; cp " +
+                        Quoted(full + "/lab.db") + " " + Quoted(at + "after.db"));
   EXPECT_EQ(ReadText(dir.File("rc")), "1\n");
   const std::string err = ReadText(dir.File("err"));
   EXPECT_NE(err.find("No space left on device"), std::string::npos) << err;
   EXPECT_EQ(err.find("rollback failed"), std::string::npos) << err;
   EXPECT_EQ(err.find("not a usable"), std::string::npos) << err;
   // Not one of the 20,000 readings, and everything that was there.
-  const auto before = RunArmsig("--db " + Q(lab.path) + " db export observations");
+  const auto before = RunArmsig("--db " + Quoted(lab.path) + " db export observations");
   EXPECT_EQ(ReadText(dir.File("after.csv")), before.out);
   EXPECT_NE(ReadText(dir.File("info")).find("observations"), std::string::npos);
 }

@@ -1,5 +1,6 @@
 // Through the real binary: hostile inputs and damaged databases give exit code 2
 // with file:line:column (or the option) and never a crash, a lie or a write.
+#include <fmt/format.h>
 #include <gtest/gtest.h>
 #include <sys/stat.h>
 #include <sys/wait.h>
@@ -7,7 +8,6 @@
 #include <CLI/CLI.hpp>
 #include <chrono>
 #include <filesystem>
-#include <fmt/format.h>
 #include <fstream>
 #include <functional>
 #include <nlohmann/json.hpp>
@@ -26,15 +26,14 @@
 namespace armsig::testing {
 namespace {
 
-std::string Q(const std::string& path) { return "'" + path + "'"; }
-std::string Fault(const std::string& file) { return Q(DataPath("faults/" + file)); }
+std::string Fault(const std::string& file) { return Quoted(DataPath("faults/" + file)); }
 
 TEST(HostileCli, OrientWithAZenithOrNadirRayAndADistanceSolvesInsteadOfCrashing) {
   for (const std::string file : {"orient-zenith-ray.csv", "orient-nadir-ray.csv"}) {
     TempDir dir;
     const auto r =
         RunArmsig("orient --observations " + Fault(file) + " --scale-bar A:B=1000 --out " +
-                  Q(dir.File("st.yaml")) + " --points " + Q(dir.File("pts.csv")));
+                  Quoted(dir.File("st.yaml")) + " --points " + Quoted(dir.File("pts.csv")));
     ASSERT_EQ(r.exit_code, 0) << file << "\n" << r.err << r.out;
     // The data are exact: the stations come back as generated (S2 at 4000, 500, 100 mm
     // relative to S1 at the origin with azimuth 0).
@@ -49,9 +48,9 @@ TEST(HostileCli, OrientWithAZenithOrNadirRayAndADistanceSolvesInsteadOfCrashing)
 
 TEST(HostileCli, ImplausibleNumbersAreExit2WithFileLineColumn) {
   TempDir dir;
-  const std::string model = Q(SourcePath("models/puma760.yaml"));
+  const std::string model = Quoted(SourcePath("models/puma760.yaml"));
   auto r = RunArmsig("calibrate --model " + model + " --poses " +
-                     Fault("poses-coordinate-1e308.csv") + " --json " + Q(dir.File("c.json")));
+                     Fault("poses-coordinate-1e308.csv") + " --json " + Quoted(dir.File("c.json")));
   EXPECT_EQ(r.exit_code, 2) << r.err;
   EXPECT_NE(r.err.find("poses-coordinate-1e308.csv:2:10 (z_mm): expected a finite coordinate"),
             std::string::npos)
@@ -72,22 +71,23 @@ TEST(HostileCli, YamlOfTheWrongShapeIsExit2NamingTheFile) {
   EXPECT_NE(r.err.find("expected a mapping"), std::string::npos) << r.err;
   const auto t = RunArmsig("triangulate --stations " + Fault("stations-map-not-list.yaml") +
                            " --observations " + Fault("orient-zenith-ray.csv") + " --out " +
-                           Q(dir.File("p.csv")));
+                           Quoted(dir.File("p.csv")));
   EXPECT_EQ(t.exit_code, 2) << t.err;
   EXPECT_NE(t.err.find("stations-map-not-list.yaml:3:"), std::string::npos) << t.err;
 }
 
 TEST(HostileCli, NamesWithControlCharactersAreRefusedNamingTheOption) {
   TempDir dir;
-  const std::string db = "--db " + Q(dir.File("lab.db")) + " ";
+  const std::string db = "--db " + Quoted(dir.File("lab.db")) + " ";
   auto r = RunArmsig(db + "robot add \"$(printf 'puma\\nERROR: forged')\" --model " +
-                     Q(SourcePath("models/puma760.yaml")));
+                     Quoted(SourcePath("models/puma760.yaml")));
   EXPECT_EQ(r.exit_code, 2) << r.err;
   EXPECT_NE(r.err.find("control character U+000A"), std::string::npos) << r.err;
   EXPECT_EQ(r.err.find("\nERROR: forged"), std::string::npos) << r.err;
   EXPECT_FALSE(std::filesystem::exists(dir.File("lab.db")));
   r = RunArmsig(db + "import observations " + Fault("orient-zenith-ray.csv") + " --stations " +
-                Q(DataPath("networks/k06/stations.yaml")) + " --note \"$(printf 'a\\033[2Jb')\"");
+                Quoted(DataPath("networks/k06/stations.yaml")) +
+                " --note \"$(printf 'a\\033[2Jb')\"");
   EXPECT_EQ(r.exit_code, 2) << r.err;
   EXPECT_NE(r.err.find("--note"), std::string::npos) << r.err;
 }
@@ -101,7 +101,7 @@ TEST(HostileCli, DbInfoOnAnotherApplicationsFileLeavesItByteIdentical) {
     raw.exec("INSERT INTO invoices(total) VALUES (12.5)");
   }
   const std::string before = ReadText(path);
-  const auto r = RunArmsig("--db " + Q(path) + " db info");
+  const auto r = RunArmsig("--db " + Quoted(path) + " db info");
   EXPECT_EQ(r.exit_code, 2) << r.err;
   EXPECT_NE(r.err.find("not an armsig database"), std::string::npos) << r.err;
   EXPECT_TRUE(ReadText(path) == before);
@@ -112,9 +112,10 @@ TEST(HostileCli, DbInfoOnAnotherApplicationsFileLeavesItByteIdentical) {
 TEST(HostileCli, ImportIntoADamagedDatabaseIsExit2WithTheRecoveryCommand) {
   TempDir dir;
   const std::string path = dir.File("lab.db");
-  const std::string db = "--db " + Q(path) + " ";
-  const std::string import = "import observations " + Q(DataPath("networks/k06/observations.csv")) +
-                             " --stations " + Q(DataPath("networks/k06/stations.yaml"));
+  const std::string db = "--db " + Quoted(path) + " ";
+  const std::string import = "import observations " +
+                             Quoted(DataPath("networks/k06/observations.csv")) + " --stations " +
+                             Quoted(DataPath("networks/k06/stations.yaml"));
   ASSERT_EQ(RunArmsig(db + import).exit_code, 0);
   int root = 0, page_size = 0;
   {
@@ -160,7 +161,7 @@ void ExpectNoCeresLog(const CommandResult& r) {
 TEST(HostileCli, AScaleBarFromAPointToItselfIsExit2NamingTheOption) {
   TempDir dir;
   const auto r = RunArmsig("orient --observations " + Fault("orient-zenith-ray.csv") +
-                           " --scale-bar A:A=1000 --out " + Q(dir.File("s.yaml")));
+                           " --scale-bar A:A=1000 --out " + Quoted(dir.File("s.yaml")));
   EXPECT_EQ(r.exit_code, 2) << r.err;  // was SIGABRT: Ceres "Duplicate parameter blocks"
   EXPECT_NE(r.err.find("--scale-bar: 'A:A=1000': both ends are point 'A'"), std::string::npos)
       << r.err;
@@ -177,8 +178,8 @@ TEST(HostileCli, OrientAdjustsRepeatedSightingsAndPoleBlundersWithoutNaN) {
       // Tested only (--no-reject): σ0 in the thousands, the gate refuses to write stations a
       // blunder distorts, and names the blunder (the largest standardised residual).
       const auto refused =
-          RunArmsig("orient --observations " + Fault(file) + " --scale-bar A:B=1000 --no-reject --out " +
-                    Q(dir.File("st.yaml")));
+          RunArmsig("orient --observations " + Fault(file) +
+                    " --scale-bar A:B=1000 --no-reject --out " + Quoted(dir.File("st.yaml")));
       EXPECT_EQ(refused.exit_code, 3) << file << "\n" << refused.err << refused.out;
       EXPECT_NE(refused.err.find("sigma0 a posteriori"), std::string::npos) << refused.err;
       EXPECT_NE(refused.err.find("S2->T1"), std::string::npos) << refused.err;
@@ -189,7 +190,7 @@ TEST(HostileCli, OrientAdjustsRepeatedSightingsAndPoleBlundersWithoutNaN) {
       // distance goes too; at the nadir it cannot be told from the one scale bar (the only
       // other scale), so it is said and nothing is written.
       const auto snooped = RunArmsig("orient --observations " + Fault(file) +
-                                     " --scale-bar A:B=1000 --out " + Q(dir.File("st.yaml")));
+                                     " --scale-bar A:B=1000 --out " + Quoted(dir.File("st.yaml")));
       EXPECT_NE(snooped.out.find("removed as blunders"), std::string::npos) << snooped.out;
       EXPECT_NE(snooped.out.find("Hz S2->T1"), std::string::npos) << snooped.out;
       EXPECT_NE(snooped.out.find("V S2->T1"), std::string::npos) << snooped.out;
@@ -206,7 +207,7 @@ TEST(HostileCli, OrientAdjustsRepeatedSightingsAndPoleBlundersWithoutNaN) {
     // Accepted as it is (--no-reject --max-sigma0 0: no gate), it is adjusted without NaN.
     const auto r = RunArmsig("orient --observations " + Fault(file) + " --scale-bar A:B=1000 " +
                              (blunder ? "--no-reject --max-sigma0 0 " : "") + "--out " +
-                             Q(dir.File("st.yaml")));
+                             Quoted(dir.File("st.yaml")));
     ASSERT_EQ(r.exit_code, 0) << file << "\n" << r.err << r.out;
     ExpectNoCeresLog(r);
     if (blunder) {  // written as asked, not silently
@@ -230,7 +231,7 @@ TEST(HostileCli, ControlPointsInOnePlaceAreExit2AtTheirLine) {
   TempDir dir;
   const auto r =
       RunArmsig("orient --observations " + Fault("orient-zenith-ray.csv") + " --control " +
-                Fault("control-one-position.csv") + " --out " + Q(dir.File("s.yaml")));
+                Fault("control-one-position.csv") + " --out " + Quoted(dir.File("s.yaml")));
   EXPECT_EQ(r.exit_code, 2) << r.err;
   EXPECT_NE(r.err.find("control-one-position.csv:4:2 (x_mm): control point 'T2' has the "
                        "position of control point 'T1'"),
@@ -242,14 +243,15 @@ TEST(HostileCli, ControlPointsInOnePlaceAreExit2AtTheirLine) {
 TEST(HostileCli, NamesThatAreNotUtf8AreRefusedAndJsonNeverThrowsOnStoredText) {
   TempDir dir;
   const std::string path = dir.File("lab.db");
-  const std::string db = "--db " + Q(path) + " ";
-  const std::string model = Q(SourcePath("models/puma760.yaml"));
+  const std::string db = "--db " + Quoted(path) + " ";
+  const std::string model = Quoted(SourcePath("models/puma760.yaml"));
   auto r = RunArmsig(db + "robot add \"$(printf 'r\\377')\" --model " + model);
   EXPECT_EQ(r.exit_code, 2) << r.err;
   EXPECT_NE(r.err.find("0xff at byte 2 that is not UTF-8"), std::string::npos) << r.err;
   r = RunArmsig(db + "robot add \"$(printf '\\342\\200\\213')\" --model " + model);  // U+200B
   EXPECT_EQ(r.exit_code, 2) << r.err;
-  r = RunArmsig(db + "recalibrate --robot \"$(printf 'r\\377')\" --json " + Q(dir.File("j.json")));
+  r = RunArmsig(db + "recalibrate --robot \"$(printf 'r\\377')\" --json " +
+                Quoted(dir.File("j.json")));
   EXPECT_EQ(r.exit_code, 2) << r.err;
   EXPECT_FALSE(std::filesystem::exists(dir.File("j.json")));
   EXPECT_FALSE(std::filesystem::exists(path));  // nothing stored, not even a database
@@ -344,7 +346,7 @@ TEST(HostileCli, EveryNumericOptionOfEveryCommandIsRangeChecked) {
 TEST(HostileCli, EchoedInputCannotForgeALogLine) {
   TempDir dir;
   auto r = RunArmsig("orient --observations " + Fault("observations-forged-log-line.csv") +
-                     " --scale-bar A:B=1000 --out " + Q(dir.File("s.yaml")));
+                     " --scale-bar A:B=1000 --out " + Quoted(dir.File("s.yaml")));
   EXPECT_EQ(r.exit_code, 2) << r.err;
   for (const auto& line : LogLines(r.err)) {
     EXPECT_EQ(line.rfind("armsig: info: orientation accepted", 0), std::string::npos) << r.err;
@@ -353,15 +355,15 @@ TEST(HostileCli, EchoedInputCannotForgeALogLine) {
   // A file name with a line break: in log lines and in the stored session note.
   const std::string forged = dir.File("obs\narmsig: info: forged.csv");
   std::filesystem::copy_file(DataPath("networks/k06/observations.csv"), forged);
-  const std::string db = "--db " + Q(dir.File("lab.db")) + " ";
-  r = RunArmsig(db + "import observations " + Q(forged) + " --stations " +
-                Q(DataPath("networks/k06/stations.yaml")));
+  const std::string db = "--db " + Quoted(dir.File("lab.db")) + " ";
+  r = RunArmsig(db + "import observations " + Quoted(forged) + " --stations " +
+                Quoted(DataPath("networks/k06/stations.yaml")));
   ASSERT_EQ(r.exit_code, 0) << r.err;
   r = RunArmsig(db + "sessions");
   ASSERT_EQ(r.exit_code, 0) << r.err;
   EXPECT_NE(r.out.find("obs\\narmsig: info: forged.csv"), std::string::npos) << r.out;
   EXPECT_EQ(r.out.find("\narmsig: info: forged"), std::string::npos) << r.out;
-  r = RunArmsig(db + "import observations " + Q(forged) + " --stations " + Q(forged));
+  r = RunArmsig(db + "import observations " + Quoted(forged) + " --stations " + Quoted(forged));
   EXPECT_EQ(r.exit_code, 2);
   for (const auto& line : LogLines(r.err)) {
     EXPECT_EQ(line.rfind("armsig: info: forged", 0), std::string::npos) << r.err;
@@ -370,7 +372,7 @@ TEST(HostileCli, EchoedInputCannotForgeALogLine) {
 
 TEST(HostileCli, NonRegularInputFilesAreExit2WithoutReadingOrWaiting) {
   TempDir dir;
-  const std::string model = Q(SourcePath("models/puma760.yaml"));
+  const std::string model = Quoted(SourcePath("models/puma760.yaml"));
   auto r = RunArmsig("calibrate --model /dev/zero --poses " + Fault("poses-all-joints-zero.csv"));
   EXPECT_EQ(r.exit_code, 2) << r.err;
   EXPECT_NE(r.err.find("/dev/zero: is a character device, not a regular file"), std::string::npos)
@@ -384,8 +386,8 @@ TEST(HostileCli, NonRegularInputFilesAreExit2WithoutReadingOrWaiting) {
   const std::string err = dir.File("err");
   const int status =
       std::system(("timeout 20 '" + std::string(ARMSIG_BINARY) + "' triangulate --stations " +
-                   Q(fifo) + " --observations " + Fault("orient-zenith-ray.csv") + " --out " +
-                   Q(dir.File("p.csv")) + " 2>" + Q(err))
+                   Quoted(fifo) + " --observations " + Fault("orient-zenith-ray.csv") + " --out " +
+                   Quoted(dir.File("p.csv")) + " 2>" + Quoted(err))
                       .c_str());
   EXPECT_EQ(WIFEXITED(status) ? WEXITSTATUS(status) : -1, 2) << ReadText(err);
   EXPECT_NE(ReadText(err).find("is a FIFO, not a regular file"), std::string::npos)
@@ -396,8 +398,8 @@ TEST(HostileCli, NonRegularInputFilesAreExit2WithoutReadingOrWaiting) {
 TEST(HostileCli, PosesThatNeverMoveTheRobotAreExit2WithTheReason) {
   TempDir dir;
   const auto r =
-      RunArmsig("calibrate --model " + Q(SourcePath("models/puma760.yaml")) + " --poses " +
-                Fault("poses-all-joints-zero.csv") + " --json " + Q(dir.File("c.json")));
+      RunArmsig("calibrate --model " + Quoted(SourcePath("models/puma760.yaml")) + " --poses " +
+                Fault("poses-all-joints-zero.csv") + " --json " + Quoted(dir.File("c.json")));
   EXPECT_EQ(r.exit_code, 2) << r.out << r.err;  // was exit 0, "converged", σ0 563 mm
   EXPECT_NE(r.err.find("all 40 poses have the same joint angles"), std::string::npos) << r.err;
   EXPECT_FALSE(std::filesystem::exists(dir.File("c.json")));
@@ -409,7 +411,7 @@ TEST(HostileCli, ReadOnlyCommandsLeaveAnEmptyFileAndRefuseFutureWalFiles) {
   WriteText(empty, "");
   for (const std::string command :
        {"robot list", "sessions --json", "db info", "versions --robot r"}) {
-    const auto r = RunArmsig("--db " + Q(empty) + " " + command);
+    const auto r = RunArmsig("--db " + Quoted(empty) + " " + command);
     EXPECT_EQ(r.exit_code, 2) << command << ": " << r.err;
     EXPECT_NE(r.err.find("an empty file, not an armsig database yet"), std::string::npos) << r.err;
     EXPECT_EQ(std::filesystem::file_size(empty), 0u) << command;
@@ -425,14 +427,14 @@ TEST(HostileCli, AStoredParameterThatIsNotFiniteIsExit2NamingTheVersion) {
     db::Database database(path);
     AddSession(database, calibration::PaperTable3Parameters(), 150, 3);
   }
-  ASSERT_EQ(RunArmsig("--db " + Q(path) + " recalibrate --robot puma").exit_code, 0);
+  ASSERT_EQ(RunArmsig("--db " + Quoted(path) + " recalibrate --robot puma").exit_code, 0);
   {
     db::Database database(path);
     database.sql().exec("UPDATE calibration_parameters SET value = 1e999 WHERE name = 'a3'");
   }
   WriteText(dir.File("j.csv"), "pose,q1_deg,q2_deg,q3_deg,q4_deg,q5_deg,q6_deg\np,0,0,0,0,0,0\n");
-  const auto r =
-      RunArmsig("--db " + Q(path) + " predict --robot puma --joints " + Q(dir.File("j.csv")));
+  const auto r = RunArmsig("--db " + Quoted(path) + " predict --robot puma --joints " +
+                           Quoted(dir.File("j.csv")));
   EXPECT_EQ(r.exit_code, 2) << r.out << r.err;  // was exit 0, printing inf
   EXPECT_EQ(r.out.find("inf"), std::string::npos) << r.out;
   EXPECT_NE(r.err.find("robot 'puma', parameter set version 1: parameter 'a3'"), std::string::npos)
@@ -444,13 +446,13 @@ TEST(HostileCli, AStoredParameterThatIsNotFiniteIsExit2NamingTheVersion) {
 TEST(HostileCli, FileNamesWithControlCharactersAreEscapedOnStandardOutput) {
   TempDir dir;
   const std::string odd = "\"$(printf 'a\\033[2Jb\\nc')\"";  // a, ESC [2J, b, newline, c
-  const std::string db = "--db " + Q(dir.path().string()) + "/" + odd + ".db ";
+  const std::string db = "--db " + Quoted(dir.path().string()) + "/" + odd + ".db ";
   auto r = RunArmsig(db + "db init", dir.path().string());
   ASSERT_EQ(r.exit_code, 0) << r.err;
   EXPECT_NE(r.out.find("a\\x1b[2Jb\\nc.db: new armsig database"), std::string::npos) << r.out;
   EXPECT_EQ(r.out.find('\x1b'), std::string::npos) << r.out;
   EXPECT_EQ(std::count(r.out.begin(), r.out.end(), '\n'), 1) << r.out;
-  ASSERT_EQ(RunArmsig(db + "robot add r --model " + Q(SourcePath("models/puma760.yaml")),
+  ASSERT_EQ(RunArmsig(db + "robot add r --model " + Quoted(SourcePath("models/puma760.yaml")),
                       dir.path().string())
                 .exit_code,
             0);
@@ -464,7 +466,8 @@ TEST(HostileCli, FileNamesWithControlCharactersAreEscapedOnStandardOutput) {
     std::string text = "pose,q1_deg,q2_deg,q3_deg,q4_deg,q5_deg,q6_deg,x_mm,y_mm,z_mm\n";
     for (size_t k = 0; k < simulated.size(); ++k) {
       text += std::to_string(k + 1);
-      for (int i = 0; i < 6; ++i) text += fmt::format(",{:.9f}", simulated[k].joints_rad(i) * 180 / std::numbers::pi);
+      for (int i = 0; i < 6; ++i)
+        text += fmt::format(",{:.9f}", simulated[k].joints_rad(i) * 180 / std::numbers::pi);
       for (int i = 0; i < 3; ++i) text += fmt::format(",{:.6f}", simulated[k].target_in_world(i));
       text += "\n";
     }

@@ -19,13 +19,6 @@
 namespace armsig::testing {
 namespace {
 
-std::string Q(const std::string& path) { return "'" + path + "'"; }
-
-bool PrivateMountsWork() {
-  return std::system("unshare -rm sh -c 'mount -t tmpfs -o size=4k tmpfs /mnt' >/dev/null 2>&1") ==
-         0;
-}
-
 std::set<std::string> Listing(const std::string& folder) {
   std::set<std::string> names;
   for (const auto& e : std::filesystem::directory_iterator(folder))
@@ -40,28 +33,29 @@ std::vector<std::string> ReadingCommands(const LabDatabase& lab, const std::stri
           "robot list --json",
           "sessions",
           "sessions --robot puma --json",
-          "session export 1 --poses " + Q(out + "/session1.csv"),
+          "session export 1 --poses " + Quoted(out + "/session1.csv"),
           "versions --robot puma",
           "versions --robot puma --json",
           "db info",
           "db export observations --csv",
-          "db export calibrations --out " + Q(out + "/calibrations.csv"),
-          "predict --robot puma --joints " + Q(lab.joints_csv),
-          "compensate --robot puma --targets " + Q(lab.targets_csv) + " --out " +
-              Q(out + "/joints.csv"),
-          "export --robot puma --format json --out " + Q(out + "/signature.json"),
-          "report --robot puma --set 1 --out " + Q(out + "/report"),
+          "db export calibrations --out " + Quoted(out + "/calibrations.csv"),
+          "predict --robot puma --joints " + Quoted(lab.joints_csv),
+          "compensate --robot puma --targets " + Quoted(lab.targets_csv) + " --out " +
+              Quoted(out + "/joints.csv"),
+          "export --robot puma --format json --out " + Quoted(out + "/signature.json"),
+          "report --robot puma --set 1 --out " + Quoted(out + "/report"),
           "jobs",
           "jobs --json"};
 }
 
 // The commands that write, each of which must refuse a read-only store.
 std::vector<std::string> WritingCommands(const LabDatabase& lab) {
-  return {"robot add second --model " + Q(lab.model_yaml),
+  return {"robot add second --model " + Quoted(lab.model_yaml),
           "reduce",
           "activate --robot puma --version 1",
           "session discard 2",
-          "import observations " + Q(lab.observations_csv) + " --stations " + Q(lab.stations_yaml),
+          "import observations " + Quoted(lab.observations_csv) + " --stations " +
+              Quoted(lab.stations_yaml),
           "recalibrate --robot puma --force",
           "schedule recalibrate --robot puma"};
 }
@@ -71,7 +65,7 @@ std::vector<std::string> ReferenceOutputs(const std::vector<std::string>& comman
                                           const std::string& db) {
   std::vector<std::string> outs;
   for (const auto& c : commands) {
-    const auto r = RunArmsig("--db " + Q(db) + " " + c);
+    const auto r = RunArmsig("--db " + Quoted(db) + " " + c);
     EXPECT_EQ(r.exit_code, 0) << c << "\n" << r.err;
     outs.push_back(r.out);
   }
@@ -83,15 +77,16 @@ std::vector<std::string> ReferenceOutputs(const std::vector<std::string>& comman
 std::vector<CommandResult> RunOnReadOnlyMount(const std::vector<std::string>& commands,
                                               const std::string& folder, const std::string& db,
                                               const std::string& results) {
-  std::string script = "mount --bind -o ro " + Q(folder) + " " + Q(folder) + " || exit 9\n";
+  std::string script =
+      "mount --bind -o ro " + Quoted(folder) + " " + Quoted(folder) + " || exit 9\n";
   for (size_t k = 0; k < commands.size(); ++k) {
     const std::string base = results + "/" + std::to_string(k);
-    script += Q(ARMSIG_BINARY) + " --db " + Q(db) + " " + commands[k] + " > " + Q(base + ".out") +
-              " 2> " + Q(base + ".err");
-    script += "; echo $? > " + Q(base + ".rc") + "\n";
+    script += Quoted(ARMSIG_BINARY) + " --db " + Quoted(db) + " " + commands[k] + " > " +
+              Quoted(base + ".out") + " 2> " + Quoted(base + ".err");
+    script += "; echo $? > " + Quoted(base + ".rc") + "\n";
   }
   WriteText(results + "/script.sh", script);
-  EXPECT_EQ(std::system(("unshare -rm sh " + Q(results + "/script.sh")).c_str()), 0);
+  EXPECT_EQ(std::system(("unshare -rm sh " + Quoted(results + "/script.sh")).c_str()), 0);
   std::vector<CommandResult> out;
   for (size_t k = 0; k < commands.size(); ++k) {
     const std::string base = results + "/" + std::to_string(k);
@@ -168,7 +163,7 @@ TEST(ReadOnlyStore, ReadingCommandsMakeNoWalOrShmFile) {
   const LabDatabase lab = CopyLabDatabase(dir.path().string());
   const auto before = Listing(dir.path().string());
   for (const auto& c : ReadingCommands(lab, out.path().string())) {
-    const auto r = RunArmsig("--db " + Q(lab.path) + " " + c);
+    const auto r = RunArmsig("--db " + Quoted(lab.path) + " " + c);
     EXPECT_EQ(r.exit_code, 0) << c << "\n" << r.err;
     EXPECT_EQ(Listing(dir.path().string()), before) << c;
   }
@@ -187,7 +182,7 @@ TEST(ReadOnlyStore, AWalWithoutItsShmIsReadAsAPrivateCopy) {
     std::filesystem::copy_file(lab.path + "-wal", copy.File("lab.db-wal"));
   }
   const auto before = Listing(copy.path().string());
-  const auto r = RunArmsig("--db " + Q(copy.File("lab.db")) + " robot list");
+  const auto r = RunArmsig("--db " + Quoted(copy.File("lab.db")) + " robot list");
   EXPECT_EQ(r.exit_code, 0) << r.err;
   EXPECT_NE(r.out.find("in-the-wal"), std::string::npos) << r.out;
   EXPECT_EQ(Listing(copy.path().string()), before);
@@ -205,10 +200,10 @@ TEST(ReadOnlyStore, AFolderWithoutWritePermission) {
   std::filesystem::permissions(
       dir.path(), std::filesystem::perms::owner_read | std::filesystem::perms::owner_exec);
   for (const auto& c : ReadingCommands(lab, out.path().string())) {
-    const auto r = RunArmsig("--db " + Q(lab.path) + " " + c);
+    const auto r = RunArmsig("--db " + Quoted(lab.path) + " " + c);
     EXPECT_EQ(r.exit_code, 0) << c << "\n" << r.err;
   }
-  const auto r = RunArmsig("--db " + Q(lab.path) + " reduce");
+  const auto r = RunArmsig("--db " + Quoted(lab.path) + " reduce");
   EXPECT_EQ(r.exit_code, 2) << r.err;
   EXPECT_NE(r.err.find("read-only: its folder"), std::string::npos) << r.err;
   std::filesystem::permissions(dir.path(), std::filesystem::perms::owner_all);

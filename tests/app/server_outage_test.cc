@@ -50,7 +50,8 @@ class SilentListener {
 };
 
 // The binary with `args`, its stdout and stderr into files; the child's pid.
-pid_t Spawn(const std::vector<std::string>& args, const std::string& out, const std::string& err) {
+pid_t SpawnArmsigTo(const std::vector<std::string>& args, const std::string& out,
+                    const std::string& err) {
   std::fflush(nullptr);  // nothing buffered is written twice
   const pid_t pid = ::fork();
   if (pid == 0) {
@@ -77,7 +78,7 @@ struct Timed {
 Timed RunWithin(const std::vector<std::string>& args, std::chrono::seconds limit) {
   TempDir dir;
   const auto start = Clock::now();
-  const pid_t pid = Spawn(args, dir.File("out"), dir.File("err"));
+  const pid_t pid = SpawnArmsigTo(args, dir.File("out"), dir.File("err"));
   int status = 0;
   const bool waited = WaitUntil([&] { return ::waitpid(pid, &status, WNOHANG) == pid; }, limit);
   Timed t;
@@ -152,7 +153,7 @@ TEST(ServerOutage, APollingWorkerRidesOutARestartAndAFrozenServer) {
   };
   schedule();
   const std::string out = dir.File("out"), log = dir.File("log");
-  const pid_t worker = Spawn({"--db", uri, "worker", "--poll-s", "0.2"}, out, log);
+  const pid_t worker = SpawnArmsigTo({"--db", uri, "worker", "--poll-s", "0.2"}, out, log);
   int status = 0;
   auto stop_worker = [&] {
     ::kill(worker, SIGKILL);
@@ -222,7 +223,7 @@ TEST(ServerOutage, AStoreOutageUnderASqliteQueueFailsNoJob) {
   server->Stop();
   const std::string out = dir.File("out"), log = dir.File("log");
   const pid_t worker =
-      Spawn({"--db", uri, "worker", "--poll-s", "0.2", "--queue", queue}, out, log);
+      SpawnArmsigTo({"--db", uri, "worker", "--poll-s", "0.2", "--queue", queue}, out, log);
   int status = 0;
   auto stop_worker = [&] {
     ::kill(worker, SIGKILL);

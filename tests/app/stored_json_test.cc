@@ -16,8 +16,6 @@
 namespace armsig::testing {
 namespace {
 
-std::string Q(const std::string& path) { return "'" + path + "'"; }
-
 struct Column {
   std::string table, column;
   std::string row_sql;  // the id of the row changed
@@ -31,7 +29,7 @@ std::vector<Column> JsonColumns(const LabDatabase& lab, const std::string& out) 
       {"station_setups", "rotation_json", "SELECT min(id) FROM station_setups WHERE levelled = 0",
        "reduce --session " + std::to_string(lab.observed_session)},
       {"poses", "joints_json", "SELECT min(id) FROM poses WHERE session_id = 1",
-       "session export 1 --poses " + Q(out)},
+       "session export 1 --poses " + Quoted(out)},
       {"points", "covariance_json",
        "SELECT min(id) FROM points WHERE covariance_json IS NOT NULL AND session_id = " +
            std::to_string(lab.observed_session),
@@ -42,9 +40,9 @@ std::vector<Column> JsonColumns(const LabDatabase& lab, const std::string& out) 
       {"calibrations", "world_from_base_json", version1, "versions --robot puma"},
       {"calibrations", "covariance_json", version1, "versions --robot puma"},
       {"calibrations", "drift_json", "SELECT id FROM calibrations WHERE version = 2",
-       "predict --robot puma --joints " + Q(lab.joints_csv)},
+       "predict --robot puma --joints " + Quoted(lab.joints_csv)},
       {"calibrations", "residual_map_json", "SELECT id FROM calibrations WHERE version = 2",
-       "predict --robot puma --joints " + Q(lab.joints_csv)},
+       "predict --robot puma --joints " + Quoted(lab.joints_csv)},
       {"jobs", "options_json", "SELECT min(id) FROM jobs", "jobs --json"},
       {"jobs", "result_json", "SELECT min(id) FROM jobs", "jobs --json"},
   };
@@ -72,7 +70,7 @@ TEST(StoredJson, AHundredThousandDeepJsonInEveryColumnIsNamedNotACrash) {
     const Column c = JsonColumns(lab, dir.File("out.csv"))[k];
     SCOPED_TRACE(c.table + "." + c.column);
     const int64_t row = Store(lab.path, c, deep);
-    const auto r = RunArmsig("--db " + Q(lab.path) + " " + c.command);
+    const auto r = RunArmsig("--db " + Quoted(lab.path) + " " + c.command);
     EXPECT_EQ(r.exit_code, 2) << r.err;
     EXPECT_NE(r.err.find("table " + c.table + ", row " + std::to_string(row) + ", column " +
                          c.column + ": JSON nested deeper than 64 levels"),
@@ -101,7 +99,7 @@ TEST(StoredJson, AValueOfTheWrongTypeIsNamedWithItsTableRowAndColumn) {
     const Column c = JsonColumns(lab, dir.File("out.csv"))[k.column];
     SCOPED_TRACE(c.table + "." + c.column + " = " + k.value);
     const int64_t row = Store(lab.path, c, k.value);
-    const auto r = RunArmsig("--db " + Q(lab.path) + " " + c.command);
+    const auto r = RunArmsig("--db " + Quoted(lab.path) + " " + c.command);
     EXPECT_EQ(r.exit_code, 2) << r.err;
     EXPECT_NE(r.err.find("table " + c.table + ", row " + std::to_string(row) + ", column " +
                          c.column + ": " + k.expected),

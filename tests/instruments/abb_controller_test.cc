@@ -27,7 +27,7 @@ using Kind = ControllerError::Kind;
 
 constexpr double kDeg = std::numbers::pi / 180.0;
 
-RetryPolicy Fast() {
+RetryPolicy AbbFast() {
   RetryPolicy p;
   p.attempts = 3;
   p.timeout = 3000ms;
@@ -54,7 +54,7 @@ struct Cell {
   }
 
   std::unique_ptr<AbbController> Connect(AbbSettings s = {}, std::optional<TlsSettings> tls = {},
-                                         RetryPolicy policy = Fast()) {
+                                         RetryPolicy policy = AbbFast()) {
     s.version = version();
     if (s.user.empty() && s.password.empty()) {
       s.user = "Default User";
@@ -431,7 +431,7 @@ TEST(AbbController, LostRepliesAreRetriedAndSilenceEndsByTheDeadline) {
     EXPECT_EQ(e.code(), -1073445881);
   }
   cell->sim.InjectAlways({simulation::Fault::kDropReply, 0});
-  RetryPolicy short_deadline = Fast();
+  RetryPolicy short_deadline = AbbFast();
   short_deadline.timeout = 300ms;
   auto patient = cell->Connect({}, {}, short_deadline);
   const ControllerError silent = StateError([&] { patient->CheckReady(); });

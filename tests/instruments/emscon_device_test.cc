@@ -21,7 +21,7 @@ namespace {
 namespace es = emscon;
 using namespace std::chrono_literals;
 
-RetryPolicy Fast() {
+RetryPolicy EmsconFast() {
   RetryPolicy p;
   p.attempts = 3;
   p.timeout = 200ms;
@@ -135,7 +135,7 @@ struct Rig {
   FakeTracker tracker;
   FakePacketTransport* transport = nullptr;
   std::unique_ptr<EmsconDevice> device;
-  explicit Rig(EmsconOptions options = {}, RetryPolicy policy = Fast()) {
+  explicit Rig(EmsconOptions options = {}, RetryPolicy policy = EmsconFast()) {
     auto t = std::make_unique<FakePacketTransport>(
         [this](std::string_view request) { return tracker.Answer(request); }, "AT960 on fake");
     transport = t.get();

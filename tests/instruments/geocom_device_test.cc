@@ -12,7 +12,7 @@ namespace {
 
 using namespace std::chrono_literals;
 
-RetryPolicy Fast() {
+RetryPolicy GeocomFast() {
   RetryPolicy p;
   p.attempts = 2;
   p.timeout = 50ms;
@@ -31,7 +31,7 @@ std::unique_ptr<GeoComDevice> Answering(std::vector<std::string> values, bool cr
         return geocom::EncodeReply({0, q.request->trid.value_or(0), 0, values}, reply_crc);
       },
       "TS30 on fake");
-  return std::make_unique<GeoComDevice>(std::move(fake), Fast(), crc_link);
+  return std::make_unique<GeoComDevice>(std::move(fake), GeocomFast(), crc_link);
 }
 
 std::vector<std::string> AngleValues(double hz_rad, double v_rad) {
@@ -94,7 +94,7 @@ TEST(GeoComDevice, NegativeDistanceIsRefused) {
       values = geocom::EncodeValues(geocom::SimpleMeasurement{1.0, 1.5, -12.5});
     return geocom::EncodeReply({0, *q.request->trid, 0, values}, false);
   });
-  GeoComDevice device(std::move(fake), Fast());
+  GeoComDevice device(std::move(fake), GeocomFast());
   try {
     device.MeasureDistanceAndAngles();
     FAIL() << "expected ReadingRangeError";
@@ -129,7 +129,7 @@ TEST(GeoComDevice, LateReplyToAnEarlierAttemptIsAccepted) {
     return geocom::EncodeReply({0, *q.request->trid - 1, 0, AngleValues(1.0, 1.5)}, false) +
            geocom::EncodeReply({0, *q.request->trid, 0, AngleValues(1.0, 1.5)}, false);
   });
-  GeoComDevice device(std::move(fake), Fast());
+  GeoComDevice device(std::move(fake), GeocomFast());
   EXPECT_NEAR(device.MeasureAngles().angles.hz_rad, 1.0, 1e-12);
   EXPECT_EQ(device.statistics().stale_replies, 0);
   EXPECT_EQ(device.statistics().retries, 1);

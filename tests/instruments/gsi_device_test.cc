@@ -11,7 +11,7 @@ namespace {
 
 constexpr double kGon = M_PI / 200.0;
 
-RetryPolicy Fast() {
+RetryPolicy GsiFast() {
   RetryPolicy p;
   p.attempts = 2;
   p.timeout = Millis(10);
@@ -29,7 +29,7 @@ TEST(GsiOnlineDevice, SendsGetRequestsAndSkipsOtherWords) {
     return "@W427\r\n";
   });
   FakeTransport* port = fake.get();
-  GsiOnlineDevice device(std::move(fake), Fast());
+  GsiOnlineDevice device(std::move(fake), GsiFast());
   const Reading r = device.MeasureAngles();
   EXPECT_NEAR(r.angles.hz_rad, 123.45678 * kGon, 1e-12);
   EXPECT_NEAR(r.angles.v_rad, 300.0 * kGon, 1e-12);  // the GSI-16 reply
@@ -41,7 +41,7 @@ TEST(GsiOnlineDevice, SendsGetRequestsAndSkipsOtherWords) {
 
 TEST(GsiOnlineDevice, ErrorRepliesAreTypedErrorsWithTheirCode) {
   auto fake = std::make_unique<FakeTransport>([](std::string_view) { return "@E139\r\n"; });
-  GsiOnlineDevice device(std::move(fake), Fast());
+  GsiOnlineDevice device(std::move(fake), GsiFast());
   try {
     device.Get('M', 21);
     FAIL() << "expected InstrumentError";
@@ -57,7 +57,7 @@ TEST(GsiOnlineDevice, WordInTheWrongUnitIsACodecError) {
     if (request == "GET/M/WI21\r\n") return "21...0+12345678 \r\n";
     return "22...2+10000000 \r\n";
   });
-  GsiOnlineDevice device(std::move(fake), Fast());
+  GsiOnlineDevice device(std::move(fake), GsiFast());
   try {
     device.MeasureAngles();
     FAIL() << "expected InstrumentError";
@@ -71,7 +71,7 @@ TEST(GsiOnlineDevice, WordInTheWrongUnitIsACodecError) {
 TEST(GsiOnlineDevice, SilenceGivesUpWithATimeoutCode) {
   auto fake = std::make_unique<FakeTransport>([](std::string_view) { return std::string(); });
   FakeTransport* port = fake.get();
-  GsiOnlineDevice device(std::move(fake), Fast());
+  GsiOnlineDevice device(std::move(fake), GsiFast());
   try {
     device.Get('I', 13);
     FAIL() << "expected InstrumentError";
@@ -91,7 +91,7 @@ TEST(GsiOnlineDevice, AnglesOutOfRangeAreTypedErrors) {
           return v_word;
         },
         "T2002");
-    GsiOnlineDevice device(std::move(fake), Fast());
+    GsiOnlineDevice device(std::move(fake), GsiFast());
     try {
       device.MeasureAngles();
       FAIL() << "expected ReadingRangeError for " << v_word;
@@ -114,7 +114,7 @@ TEST(GsiOnlineDevice, OnlyOtherWordsGiveUpAtTheDeadline) {
     for (int k = 0; k < 1000; ++k) flood += "12....+00004711 \r\n";
     return flood;
   });
-  GsiOnlineDevice device(std::move(fake), Fast());
+  GsiOnlineDevice device(std::move(fake), GsiFast());
   try {
     device.Get('M', 21);
     FAIL() << "expected InstrumentError";

@@ -9,7 +9,7 @@
 namespace armsig::instruments {
 namespace {
 
-RetryPolicy Fast() {
+RetryPolicy ControllerFast() {
   RetryPolicy p;
   p.attempts = 2;
   p.timeout = Millis(10);
@@ -33,7 +33,7 @@ TEST(ValController, ReadsWhereAndSendsJMoveInDegrees) {
     return std::string(request) + ">\r\n";  // echo, prompt
   });
   FakeTransport* port = fake.get();
-  ValController robot(std::move(fake), true, Fast());
+  ValController robot(std::move(fake), true, ControllerFast());
   const Eigen::VectorXd q = robot.ReadJointsRad();
   ASSERT_EQ(q.size(), 6);
   EXPECT_NEAR(q(0), -6.552 * kDeg, 1e-12);
@@ -50,7 +50,7 @@ TEST(ValController, ControllerErrorMessageIsATypedError) {
   auto fake = std::make_unique<FakeTransport>([](std::string_view) -> std::string {
     return "WHERE\r\n(P1000)Cannot execute program because motor power is OFF.\r\n>\r\n";
   });
-  ValController robot(std::move(fake), false, Fast());
+  ValController robot(std::move(fake), false, ControllerFast());
   try {
     robot.ReadJointsRad();
     FAIL() << "expected InstrumentError";
@@ -63,7 +63,7 @@ TEST(ValController, ControllerErrorMessageIsATypedError) {
 TEST(ValController, WhereWithoutJointRowIsACodecError) {
   auto fake = std::make_unique<FakeTransport>(
       [](std::string_view) -> std::string { return "WHERE\r\n   JT1   JT2\r\n  1.0\r\n.\r\n"; });
-  ValController robot(std::move(fake), false, Fast());
+  ValController robot(std::move(fake), false, ControllerFast());
   try {
     robot.ReadJointsRad();
     FAIL() << "expected InstrumentError";
@@ -87,7 +87,7 @@ TEST(CounterBox, ReadsSignedCountsAndTypesErrorReplies) {
   c.counts_per_rad = Eigen::Vector2d(1000.0, -500.0);
   c.offset_rad = Eigen::Vector2d(0.1, 0.0);
   c.coupling = Eigen::Matrix2d::Identity();
-  CounterBox box(std::move(channels), c, Fast());
+  CounterBox box(std::move(channels), c, ControllerFast());
   const Eigen::VectorXd q = box.ReadJointsRad();
   EXPECT_NEAR(q(0), -2.0 / 1000.0 + 0.1, 1e-15);
   EXPECT_NEAR(q(1), 1000.0 / -500.0, 1e-15);
@@ -95,7 +95,7 @@ TEST(CounterBox, ReadsSignedCountsAndTypesErrorReplies) {
 
   std::vector<std::unique_ptr<LineTransport>> failing;
   failing.push_back(std::make_unique<FakeTransport>([](std::string_view) { return "e!\r\n"; }));
-  CounterBox broken(std::move(failing), EncoderCalibration{}, Fast());
+  CounterBox broken(std::move(failing), EncoderCalibration{}, ControllerFast());
   EXPECT_THROW(broken.ReadCounts(), InstrumentError);
 }
 
@@ -106,7 +106,7 @@ TEST(ValController, JointsBeyondTwoTurnsAreTypedErrors) {
         return "WHERE\r\n     JT1       JT2       JT3\r\n    10.000  -725.500     0.000\r\n>\r\n";
       },
       "AS controller");
-  ValController robot(std::move(fake), false, Fast());
+  ValController robot(std::move(fake), false, ControllerFast());
   try {
     robot.ReadJointsRad();
     FAIL() << "expected ReadingRangeError";
@@ -129,7 +129,7 @@ TEST(ValController, RowsWithoutAPromptAreATypedError) {
     for (int k = 0; k < 500; ++k) rows += "   1.000   2.000\r\n";
     return rows;
   });
-  ValController robot(std::move(fake), false, Fast());
+  ValController robot(std::move(fake), false, ControllerFast());
   try {
     robot.ReadJointsRad();
     FAIL() << "expected InstrumentError";
@@ -148,7 +148,7 @@ TEST(CounterBox, CountsBeyondTwoTurnsAreTypedErrors) {
   c.counts_per_rad = Eigen::VectorXd::Constant(1, 10000.0);
   c.offset_rad = Eigen::VectorXd::Zero(1);
   c.coupling = Eigen::MatrixXd::Identity(1, 1);
-  CounterBox box(std::move(channels), c, Fast());
+  CounterBox box(std::move(channels), c, ControllerFast());
   EXPECT_THROW(box.ReadJointsRad(), ReadingRangeError);
 }
 

@@ -22,7 +22,7 @@ namespace {
 
 // The message FileLock(path, wait_s) throws, or "(locked)" when it took the lock (and let
 // it go again).
-std::string Refusal(const std::string& path, int wait_s) {
+std::string LockRefusal(const std::string& path, int wait_s) {
   try {
     FileLock lock(path, wait_s);
   } catch (const std::runtime_error& e) {
@@ -77,10 +77,10 @@ TEST(FileLock, ASecondHolderInTheSameProcessIsRefusedUntilTheFirstLetsGo) {
   {
     FileLock first(path, 0);
     EXPECT_TRUE(std::filesystem::exists(path));
-    EXPECT_EQ(Refusal(path, 0), "another process holds " + path + "; gave up after 0 s");
+    EXPECT_EQ(LockRefusal(path, 0), "another process holds " + path + "; gave up after 0 s");
   }
-  EXPECT_EQ(Refusal(path, 0), "(locked)");
-  EXPECT_EQ(Refusal(path, 0), "(locked)");  // and let go again by the destructor
+  EXPECT_EQ(LockRefusal(path, 0), "(locked)");
+  EXPECT_EQ(LockRefusal(path, 0), "(locked)");  // and let go again by the destructor
 }
 
 // A holder in another process: a second one waits the seconds it was given (no less), then
@@ -92,7 +92,7 @@ TEST(FileLock, AWaitingHolderGetsTheLockWhenTheHolderProcessDies) {
   HolderProcess holder(path);
   ASSERT_TRUE(holder.holds());
   const auto start = std::chrono::steady_clock::now();
-  EXPECT_EQ(Refusal(path, 1), "another process holds " + path + "; gave up after 1 s");
+  EXPECT_EQ(LockRefusal(path, 1), "another process holds " + path + "; gave up after 1 s");
   EXPECT_GE(std::chrono::steady_clock::now() - start, std::chrono::seconds(1));
 
   std::atomic<bool> locked{false}, failed{false};
@@ -117,10 +117,10 @@ TEST(FileLock, AWaitingHolderGetsTheLockWhenTheHolderProcessDies) {
 TEST(FileLock, RefusesAPathItCannotCreateOrASymbolicLink) {
   testing::TempDir dir;
   const std::string missing = dir.File("no-such-dir/lab.db.lock");
-  EXPECT_EQ(Refusal(missing, 0), missing + ": cannot create the lock file");
+  EXPECT_EQ(LockRefusal(missing, 0), missing + ": cannot create the lock file");
   const std::string link = dir.File("lab.db.lock");
   std::filesystem::create_symlink(dir.File("elsewhere"), link);
-  EXPECT_EQ(Refusal(link, 0), link + ": cannot create the lock file");
+  EXPECT_EQ(LockRefusal(link, 0), link + ": cannot create the lock file");
   EXPECT_FALSE(std::filesystem::exists(dir.File("elsewhere")));
 }
 

@@ -16,7 +16,7 @@ namespace {
 
 // The message of the InputError `read` throws ("" when it throws none).
 template <typename Read>
-std::string Refusal(Read read) {
+std::string Iso9283Refusal(Read read) {
   try {
     read();
   } catch (const InputError& e) {
@@ -65,7 +65,7 @@ TEST(Iso9283Csv, MalformedRowsAreRefusedAtTheirLine) {
   testing::TempDir dir;
   auto refusal = [&](const std::string& text, bool attained) {
     testing::WriteText(dir.File("f.csv"), text);
-    return Refusal([&] {
+    return Iso9283Refusal([&] {
       attained ? (void)ReadAttainedCsv(dir.File("f.csv"))
                : (void)ReadCommandedCsv(dir.File("f.csv"));
     });

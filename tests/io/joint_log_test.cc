@@ -19,7 +19,7 @@ namespace {
 constexpr double kPi = std::numbers::pi;
 
 // The log's text in a file of its own; the error's text, or "(accepted)".
-std::string Refusal(const std::string& text, const JointLogOptions& options = {}) {
+std::string JointLogRefusal(const std::string& text, const JointLogOptions& options = {}) {
   testing::TempDir dir;
   testing::WriteText(dir.File("log.csv"), text);
   try {
@@ -82,33 +82,33 @@ TEST(JointLog, NamedJointColumnsAreReadInTheGivenUnitAndOrder) {
 TEST(JointLog, HasExactlyTheRobotsJoints) {
   JointLogOptions two;
   two.num_joints = 2;
-  const std::string extra = Refusal("pose,q1_deg,q2_deg,q3_deg\nP1,1,2,3\n", two);
+  const std::string extra = JointLogRefusal("pose,q1_deg,q2_deg,q3_deg\nP1,1,2,3\n", two);
   EXPECT_NE(extra.find("log.csv:1: has a column q3_deg but the robot model has 2 joints"),
             std::string::npos)
       << extra;
   JointLogOptions three;
   three.num_joints = 3;
-  const std::string missing = Refusal("pose,q1_deg,q2_deg\nP1,1,2\n", three);
+  const std::string missing = JointLogRefusal("pose,q1_deg,q2_deg\nP1,1,2\n", three);
   EXPECT_NE(missing.find("missing column 'q3_deg'"), std::string::npos) << missing;
   // Unknown count: as many as there are, and at least one.
-  const std::string none = Refusal("pose,x_mm\nP1,1\n");
+  const std::string none = JointLogRefusal("pose,x_mm\nP1,1\n");
   EXPECT_NE(none.find("log.csv:1: no joint columns"), std::string::npos) << none;
 }
 
 // What cannot be joined is refused at its line: no id and no time column, a reading with
 // neither, a time that is none, an angle that is no joint angle, no readings at all.
 TEST(JointLog, RefusesWhatCannotBeJoinedAtItsLine) {
-  const std::string no_key = Refusal("q1_deg,q2_deg\n1,2\n");
+  const std::string no_key = JointLogRefusal("q1_deg,q2_deg\n1,2\n");
   EXPECT_NE(no_key.find("log.csv:1: expected a pose id column"), std::string::npos) << no_key;
-  const std::string anonymous = Refusal("pose,q1_deg\nP1,1\n,2\n");
+  const std::string anonymous = JointLogRefusal("pose,q1_deg\nP1,1\n,2\n");
   EXPECT_NE(anonymous.find("log.csv:3: a joint reading without an id or a time"), std::string::npos)
       << anonymous;
-  const std::string bad_time = Refusal("time,q1_deg\n10.5,1\nnoon,2\n");
+  const std::string bad_time = JointLogRefusal("time,q1_deg\n10.5,1\nnoon,2\n");
   EXPECT_NE(bad_time.find("log.csv:3:1 (time): expected a time stamp"), std::string::npos)
       << bad_time;
-  const std::string wild = Refusal("pose,q1_deg\nP1,1e6\n");
+  const std::string wild = JointLogRefusal("pose,q1_deg\nP1,1e6\n");
   EXPECT_NE(wild.find("log.csv:2:2 (q1_deg)"), std::string::npos) << wild;
-  const std::string empty = Refusal("pose,q1_deg\n");
+  const std::string empty = JointLogRefusal("pose,q1_deg\n");
   EXPECT_NE(empty.find("no joint readings after the header"), std::string::npos) << empty;
 }
 
@@ -131,11 +131,11 @@ TEST(JointLog, RadiansUnderADegreeLabelAreRefused) {
     rad += row;
     real += fmt::format("P{},{:.4f},{:.4f},{:.4f}\n", k, -26.0 + 4.0 * k, 11 - 2.0 * k, 3.0 * k);
   }
-  const std::string why = Refusal(deg);
+  const std::string why = JointLogRefusal(deg);
   EXPECT_NE(why.find("look like radians under a degree label"), std::string::npos) << why;
   EXPECT_NE(why.find("q1_deg, q2_deg, q3_deg"), std::string::npos) << why;
-  EXPECT_EQ(Refusal(rad), "(accepted)");
-  EXPECT_EQ(Refusal(real), "(accepted)");
+  EXPECT_EQ(JointLogRefusal(rad), "(accepted)");
+  EXPECT_EQ(JointLogRefusal(real), "(accepted)");
 }
 
 }  // namespace

@@ -34,7 +34,7 @@ void ExpectFixturePoints(const PointTable& t, double tolerance_mm, const std::st
   }
 }
 
-std::string Refusal(const std::string& text, const PointTableOptions& options = {}) {
+std::string PointTableRefusal(const std::string& text, const PointTableOptions& options = {}) {
   try {
     ParsePointTable(text, "pts.txt", options);
   } catch (const InputError& e) {
@@ -106,39 +106,39 @@ TEST(PointTable, RefusesWhatItCannotTellApartAtItsLine) {
         << e.what();
   }
   // No unit anywhere: never guessed.
-  EXPECT_NE(Refusal("A B P1 1 2 3\nA B P2 4 5 6\n").find("give --points-unit"), std::string::npos);
+  EXPECT_NE(PointTableRefusal("A B P1 1 2 3\nA B P2 4 5 6\n").find("give --points-unit"), std::string::npos);
   // Two units that disagree.
   PointTableOptions metres;
   metres.unit = LengthUnit::kM;
-  const std::string conflict = Refusal("name,x [mm],y [mm],z [mm]\nP1,1,2,3\n", metres);
+  const std::string conflict = PointTableRefusal("name,x [mm],y [mm],z [mm]\nP1,1,2,3\n", metres);
   EXPECT_NE(conflict.find("says mm but --points-unit says m"), std::string::npos) << conflict;
-  EXPECT_NE(Refusal("name,x [mm],y [m],z [mm]\nP1,1,2,3\n").find("one length unit"),
+  EXPECT_NE(PointTableRefusal("name,x [mm],y [m],z [mm]\nP1,1,2,3\n").find("one length unit"),
             std::string::npos);
   // A number that is none: file:line:column (column name).
-  EXPECT_NE(Refusal("name;x [mm];y [mm];z [mm]\nP1;1;2;3\nP2;4;5,5,5;6\n")
+  EXPECT_NE(PointTableRefusal("name;x [mm];y [mm];z [mm]\nP1;1;2;3\nP2;4;5,5,5;6\n")
                 .find("pts.txt:3:3 (y [mm]): expected a finite number, got '5,5,5'"),
             std::string::npos)
-      << Refusal("name;x [mm];y [mm];z [mm]\nP1;1;2;3\nP2;4;5,5,5;6\n");
+      << PointTableRefusal("name;x [mm];y [mm];z [mm]\nP1;1;2;3\nP2;4;5,5,5;6\n");
   // Implausible coordinates (a unit mix-up by 10^9).
-  EXPECT_NE(Refusal("name,x [m],y [m],z [m]\nP1,1e9,2,3\n").find("pts.txt:2:2"), std::string::npos);
+  EXPECT_NE(PointTableRefusal("name,x [m],y [m],z [m]\nP1,1e9,2,3\n").find("pts.txt:2:2"), std::string::npos);
   // Duplicate names, with both lines.
-  EXPECT_NE(Refusal("name x y z\nmm mm mm\nP1 1 2 3\nP2 4 5 6\nP1 7 8 9\n")
+  EXPECT_NE(PointTableRefusal("name x y z\nmm mm mm\nP1 1 2 3\nP2 4 5 6\nP1 7 8 9\n")
                 .find("pts.txt:5:1 (name): duplicate point name 'P1' (also on line 3)"),
             std::string::npos)
-      << Refusal("name x y z\nmm mm mm\nP1 1 2 3\nP2 4 5 6\nP1 7 8 9\n");
+      << PointTableRefusal("name x y z\nmm mm mm\nP1 1 2 3\nP2 4 5 6\nP1 7 8 9\n");
   // A row that does not fit the table, after the first point row.
-  EXPECT_NE(Refusal("name,x_mm,y_mm,z_mm\nP1,1,2,3\nP2,4,5\n")
+  EXPECT_NE(PointTableRefusal("name,x_mm,y_mm,z_mm\nP1,1,2,3\nP2,4,5\n")
                 .find("pts.txt:3: expected 4 fields (comma-separated)"),
             std::string::npos);
   // Text between the header and the points that is no units line.
-  EXPECT_NE(Refusal("name,x_mm,y_mm,z_mm\nmeasured by hand\nP1,1,2,3\n")
+  EXPECT_NE(PointTableRefusal("name,x_mm,y_mm,z_mm\nmeasured by hand\nP1,1,2,3\n")
                 .find("pts.txt:2: expected a units line"),
             std::string::npos)
-      << Refusal("name,x_mm,y_mm,z_mm\nmeasured by hand\nP1,1,2,3\n");
+      << PointTableRefusal("name,x_mm,y_mm,z_mm\nmeasured by hand\nP1,1,2,3\n");
   // No point rows at all.
-  EXPECT_NE(Refusal("just a title\n").find("no point rows"), std::string::npos);
+  EXPECT_NE(PointTableRefusal("just a title\n").find("no point rows"), std::string::npos);
   // A bad time stamp, at its column.
-  EXPECT_NE(Refusal("name,x_mm,y_mm,z_mm,time\nP1,1,2,3,yesterday\n").find("pts.txt:2:5 (time)"),
+  EXPECT_NE(PointTableRefusal("name,x_mm,y_mm,z_mm,time\nP1,1,2,3,yesterday\n").find("pts.txt:2:5 (time)"),
             std::string::npos);
 }
 

@@ -47,7 +47,7 @@ ResidualMapData CurveMap() {
   return calibration::FitResidualMap(model, calibration::Estimate(model, poses, o), poses).map;
 }
 
-InputError Refusal(const nlohmann::json& json) {
+InputError MapJsonRefusal(const nlohmann::json& json) {
   try {
     ResidualMapFromJson(json, "set 3");
   } catch (const InputError& e) {
@@ -104,40 +104,40 @@ TEST(ResidualMapJson, JointCurvesRoundTripBitForBit) {
   }
   nlohmann::json j = json;
   j["curves"]["colour"] = "red";
-  EXPECT_EQ(Refusal(j).message(), "residual map: unknown key 'colour'");
+  EXPECT_EQ(MapJsonRefusal(j).message(), "residual map: unknown key 'colour'");
   j = json;
   j["curves"].erase("measured");
-  EXPECT_EQ(Refusal(j).message(), "residual map: missing 'measured'");
+  EXPECT_EQ(MapJsonRefusal(j).message(), "residual map: missing 'measured'");
   j = json;
   j["curves"]["values_rad"][0].erase(0);
-  EXPECT_NE(Refusal(j).message().find("one value and one measured flag per knot"),
+  EXPECT_NE(MapJsonRefusal(j).message().find("one value and one measured flag per knot"),
             std::string::npos);
   j = json;
   j["version"] = 1;
-  EXPECT_NE(Refusal(j).message().find("version-1 map has no joint curves"), std::string::npos);
+  EXPECT_NE(MapJsonRefusal(j).message().find("version-1 map has no joint curves"), std::string::npos);
 }
 
 TEST(ResidualMapJson, RefusesWhatItCannotUse) {
   const nlohmann::json good = ResidualMapToJson(FittedMap());
   nlohmann::json j = good;
   j["colour"] = "red";
-  EXPECT_EQ(Refusal(j).message(), "residual map: unknown key 'colour'");
+  EXPECT_EQ(MapJsonRefusal(j).message(), "residual map: unknown key 'colour'");
   j = good;
   j["version"] = 3;
-  EXPECT_NE(Refusal(j).message().find("newer armsig"), std::string::npos);
+  EXPECT_NE(MapJsonRefusal(j).message().find("newer armsig"), std::string::npos);
   j = good;
   j.erase("weights_mm");
-  EXPECT_EQ(Refusal(j).message(), "residual map: missing 'weights_mm'");
+  EXPECT_EQ(MapJsonRefusal(j).message(), "residual map: missing 'weights_mm'");
   j = good;
   j["length_scale"] = "wide";
-  EXPECT_NE(Refusal(j).message().find("malformed"), std::string::npos);
+  EXPECT_NE(MapJsonRefusal(j).message().find("malformed"), std::string::npos);
   j = good;
   j["weights_mm"].erase(0);
-  EXPECT_NE(Refusal(j).message().find("one weight vector per centre"), std::string::npos);
+  EXPECT_NE(MapJsonRefusal(j).message().find("one weight vector per centre"), std::string::npos);
   j = good;
   j["joints"][0] = 7;
-  EXPECT_NE(Refusal(j).message().find("out of range"), std::string::npos);
-  EXPECT_EQ(Refusal(j).where().file, "set 3");
+  EXPECT_NE(MapJsonRefusal(j).message().find("out of range"), std::string::npos);
+  EXPECT_EQ(MapJsonRefusal(j).where().file, "set 3");
 }
 
 TEST(ResidualMapJson, ResidualModelSummaryHasTheSpecShape) {

@@ -10,10 +10,6 @@
 namespace armsig::programs {
 namespace {
 
-std::string ReadData(const std::string& relative) {
-  return testing::ReadText(testing::DataPath("programs/" + relative));
-}
-
 // A KSS 8 program as the inline forms write it: ILF folds whose FDATs choose the tool and
 // base, points in the .dat, an axis literal, and targets that cannot be evaluated.
 const char* kSrc = R"(&ACCESS RVP
@@ -164,9 +160,9 @@ TEST(Krl, RealProgramsReadWholeAndRoundTrip) {
   for (const Case& c : {Case{"krl/kuka_eki_hw_interface.src", "krl/kuka_eki_hw_interface.dat", 0},
                         Case{"krl/ros_rsi.src", nullptr, 2}, Case{"krl/demo_screenshot.src", "krl/demo_screenshot.dat", 4},
                         Case{"krl/perfect_code.src", nullptr, 0}}) {
-    const std::string src = ReadData(c.src);
+    const std::string src = testing::ProgramData(c.src);
     std::optional<ProgramFile> dat;
-    if (c.dat) dat = ProgramFile{c.dat, ReadData(c.dat)};
+    if (c.dat) dat = ProgramFile{c.dat, testing::ProgramData(c.dat)};
     const Program p = ParseKrl({c.src, src}, dat);
     const auto out = ApplyEdits(p.files, {});
     EXPECT_EQ(out[0], src) << c.src;
@@ -179,13 +175,13 @@ TEST(Krl, RealProgramsReadWholeAndRoundTrip) {
     for (const auto& n : p.not_evaluated) EXPECT_FALSE(n.why.empty());
   }
   // ros_rsi moves to an axis literal twice, the tool never set: its motions carry that.
-  const Program rsi = ParseKrl({"ros_rsi.src", ReadData("krl/ros_rsi.src")}, std::nullopt);
+  const Program rsi = ParseKrl({"ros_rsi.src", testing::ProgramData("krl/ros_rsi.src")}, std::nullopt);
   ASSERT_EQ(rsi.motions.size(), 2u);
   EXPECT_EQ(rsi.targets.at(static_cast<std::size_t>(rsi.motions[0].targets[0])).kind(), TargetKind::kJoints);
   EXPECT_FALSE(rsi.motions[0].tool.known());
   // eki's motion targets come from the controller ($AXIS_ACT_MEAS) and a function: named.
-  const Program eki = ParseKrl({"eki.src", ReadData("krl/kuka_eki_hw_interface.src")},
-                               ProgramFile{"eki.dat", ReadData("krl/kuka_eki_hw_interface.dat")});
+  const Program eki = ParseKrl({"eki.src", testing::ProgramData("krl/kuka_eki_hw_interface.src")},
+                               ProgramFile{"eki.dat", testing::ProgramData("krl/kuka_eki_hw_interface.dat")});
   EXPECT_TRUE(eki.motions.empty());
   EXPECT_EQ(eki.not_evaluated.size(), 2u);
 }

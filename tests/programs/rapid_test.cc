@@ -10,10 +10,6 @@
 namespace armsig::programs {
 namespace {
 
-std::string ReadData(const std::string& relative) {
-  return testing::ReadText(testing::DataPath("programs/" + relative));
-}
-
 const char* kModule = R"(%%%
   VERSION:1
   LANGUAGE:ENGLISH
@@ -115,13 +111,13 @@ TEST(Rapid, RewritesAQuaternionOfTheSameSign) {
 TEST(Rapid, RealModulesReadWholeAndRoundTrip) {
   for (const char* name : {"rapid/ROS_motion.mod", "rapid/ROS_motionServer.mod", "rapid/ROS_stateServer.mod",
                            "rapid/ROS_common.sys", "rapid/ROS_socket.sys", "rapid/ROS_messages.sys"}) {
-    const std::string text = ReadData(name);
+    const std::string text = testing::ProgramData(name);
     ASSERT_FALSE(text.empty()) << name;
     const Program p = ParseRapid({name, text});
     EXPECT_EQ(ApplyEdits(p.files, {}).at(0), text) << name;
     EXPECT_TRUE(p.motions.empty()) << name;  // the driver's motions take computed joints
   }
-  const Program motion = ParseRapid({"ROS_motion.mod", ReadData("rapid/ROS_motion.mod")});
+  const Program motion = ParseRapid({"ROS_motion.mod", testing::ProgramData("rapid/ROS_motion.mod")});
   ASSERT_EQ(motion.not_evaluated.size(), 1u);
   EXPECT_NE(motion.not_evaluated[0].why.find("changed component by component"), std::string::npos)
       << motion.not_evaluated[0].why;

@@ -13,10 +13,6 @@
 namespace armsig::programs {
 namespace {
 
-std::string ReadData(const std::string& relative) {
-  return testing::ReadText(testing::DataPath("programs/" + relative));
-}
-
 // A PolyScope-style program: a TCP, waypoints as pose + joints, MoveJ through
 // get_inverse_kin, a MoveL to a variable, literals in the motions, and targets that cannot be
 // evaluated.
@@ -81,7 +77,7 @@ TEST(UrScript, FindsTargetsToolsAndWhatItCannotEvaluate) {
 TEST(UrScript, NoEditsGiveTheSameBytes) {
   for (const char* name : {"urscript/joint_impedance_cartesian_circle_motion.script",
                            "urscript/admittance_control.script", "urscript/external_control.urscript"}) {
-    const std::string text = ReadData(name);
+    const std::string text = testing::ProgramData(name);
     ASSERT_FALSE(text.empty()) << name;
     const Program p = ParseUrScript({name, text});
     EXPECT_EQ(ApplyEdits(p.files, {}).at(0), text) << name;
@@ -105,14 +101,14 @@ std::size_t CountMotionCalls(const std::string& text) {
 
 TEST(UrScript, RealProgramsTheirComputedTargetsNamed) {
   // The URCap's script moves only to targets it receives: every one is named, none guessed.
-  const std::string text = ReadData("urscript/external_control.urscript");
+  const std::string text = testing::ProgramData("urscript/external_control.urscript");
   const Program ext = ParseUrScript({"external_control.urscript", text});
   EXPECT_TRUE(ext.motions.empty());
   EXPECT_EQ(ext.not_evaluated.size(), CountMotionCalls(text));
   EXPECT_GT(ext.not_evaluated.size(), 10u);
   for (const auto& n : ext.not_evaluated) EXPECT_FALSE(n.why.empty());
   // The admittance example's motions are computed too.
-  const Program adm = ParseUrScript({"admittance_control.script", ReadData("urscript/admittance_control.script")});
+  const Program adm = ParseUrScript({"admittance_control.script", testing::ProgramData("urscript/admittance_control.script")});
   EXPECT_TRUE(adm.motions.empty());
 }
 

@@ -47,7 +47,7 @@ EmsconSimulatorOptions Quick() {
   return o;
 }
 
-instruments::RetryPolicy Policy(std::chrono::milliseconds timeout = 1000ms) {
+instruments::RetryPolicy TrackerPolicy(std::chrono::milliseconds timeout = 1000ms) {
   instruments::RetryPolicy p;
   p.timeout = timeout;
   p.busy_delay = 10ms;
@@ -60,7 +60,7 @@ struct TrackerRig {
   std::unique_ptr<EmsconSimulator> sim;
   std::unique_ptr<instruments::EmsconDevice> device;
   explicit TrackerRig(EmsconSimulatorOptions options = Quick(),
-                      instruments::RetryPolicy policy = Policy()) {
+                      instruments::RetryPolicy policy = TrackerPolicy()) {
     sim = std::make_unique<EmsconSimulator>(*lab, 0, "127.0.0.1", 0, options);
     sim->Start();
     instruments::EmsconOptions tracker;
@@ -140,7 +140,7 @@ TEST(VirtualTracker, ColdTrackerIsInitializedWithinItsOwnDeadline) {
   options.time_scale = 1.0;
   options.initialize_latency = 1500ms;
   options.command_latency = 1ms;
-  TrackerRig rig(options, Policy(1000ms));
+  TrackerRig rig(options, TrackerPolicy(1000ms));
   const auto start = std::chrono::steady_clock::now();
   rig.ExpectTruth(rig.device->Measure());
   EXPECT_GE(std::chrono::steady_clock::now() - start, 1500ms);
@@ -283,7 +283,7 @@ TEST(VirtualTracker, FindReflectorAndGoPositionFaults) {
 
 // Ctrl-C: a connection that floods ends its call within a few poll intervals.
 TEST(VirtualTracker, InterruptEndsAFloodedCallAtOnce) {
-  TrackerRig rig(Quick(), Policy(20s));
+  TrackerRig rig(Quick(), TrackerPolicy(20s));
   rig.device->Connect();
   rig.sim->InjectAlways({Fault::kFloodLines, 0});
   std::atomic<bool> stop{false};

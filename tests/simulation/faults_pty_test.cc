@@ -45,7 +45,7 @@ std::unique_ptr<VirtualLab> SixJointLab() {
   return lab;
 }
 
-instruments::RetryPolicy Policy() {
+instruments::RetryPolicy FaultPolicy() {
   instruments::RetryPolicy p;  // the defaults, with the deadline under test
   p.timeout = kDeadline;
   return p;
@@ -65,7 +65,7 @@ TEST_P(FaultOnTheLine, EndsByTheDeadlineWithATypedErrorAndNoReading) {
   const FaultCase& c = GetParam();
   testing::TempDir dir;
   auto lab = SixJointLab();
-  const FaultOutcome out = RunFaultCase(*lab, c, dir.File("port"), Policy());
+  const FaultOutcome out = RunFaultCase(*lab, c, dir.File("port"), FaultPolicy());
   EXPECT_FALSE(out.reading) << c.name() << ": a reading came out of a faulty line";
   ASSERT_TRUE(out.code) << c.name() << ": " << out.error;
   EXPECT_NE(std::find(c.codes.begin(), c.codes.end(), *out.code), c.codes.end())

@@ -19,8 +19,6 @@ namespace armsig::testing {
 
 namespace {
 
-std::string Q(const std::string& path) { return "'" + path + "'"; }
-
 void Run(const std::string& args) {
   const auto r = RunArmsig(args);
   if (r.exit_code != 0) {
@@ -64,7 +62,7 @@ const std::string& Made() {
     static const std::string removed = dir.string();
     std::atexit([] { std::filesystem::remove_all(removed); });
     const std::string db_path = (dir / "lab.db").string();
-    const std::string db = "--db " + Q(db_path) + " ";
+    const std::string db = "--db " + Quoted(db_path) + " ";
     const Eigen::VectorXd truth = calibration::PaperTable3Parameters();
     {
       db::Database database(db_path);
@@ -77,12 +75,12 @@ const std::string& Made() {
     }
     Run(db + "recalibrate --robot puma");  // version 2, with its drift decision against 1
     WriteObservedSession((dir / "stations.yaml").string(), (dir / "observations.csv").string());
-    Run(db + "import observations " + Q((dir / "observations.csv").string()) + " --stations " +
-        Q((dir / "stations.yaml").string()) + " --robot puma --note observed");
+    Run(db + "import observations " + Quoted((dir / "observations.csv").string()) + " --stations " +
+        Quoted((dir / "stations.yaml").string()) + " --robot puma --note observed");
     Run(db + "reduce --session 3");  // the simulated sessions have points but no observations
     Run(db + "schedule recalibrate --robot puma");
     Run(db + "worker --once");  // the job finds version 2 up to date: a result stored
-    Run(db + "session export 1 --poses " + Q((dir / "poses.csv").string()));
+    Run(db + "session export 1 --poses " + Quoted((dir / "poses.csv").string()));
     // Joints (and targets with the nominal program's joints) from the exported poses.
     std::string joints = "pose,q1_deg,q2_deg,q3_deg,q4_deg,q5_deg,q6_deg\n";
     std::string targets = "point,x_mm,y_mm,z_mm,q1_deg,q2_deg,q3_deg,q4_deg,q5_deg,q6_deg\n";
