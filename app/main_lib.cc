@@ -40,10 +40,23 @@ namespace {
 std::atomic<bool> g_stop{false};
 std::atomic<bool> g_only_reads{false};  // OnlyReads: the command changes nothing
 std::atomic<int> g_signals{0};
+std::atomic<bool> g_polled{false};  // the running command looks at StopRequested()
 
 void OnStopSignal(int signal) {
   g_stop = true;
   const int n = ++g_signals;
+  if (!g_polled.load()) {
+    // A command with no safe point of its own ends now, as it would at one: each write to
+    // the store is a transaction (rolled back unless committed), each output file appears
+    // whole or not at all (its temporary file is removed here).
+    io::RemoveLiveTemporaries();
+    static const char kStoppedMessage[] =
+        "\narmsig: stopped by a signal before finishing (exit 130): every store write and "
+        "output file is whole or absent; run the same command again\n";
+    [[maybe_unused]] const auto written =
+        ::write(STDERR_FILENO, kStoppedMessage, sizeof kStoppedMessage - 1);
+    ::_exit(kStopped);
+  }
   if (n == 2) {
     static const char kMessage[] =
         "\narmsig: stopping at the next safe point (a third signal ends at once, leaving the "
@@ -55,14 +68,16 @@ void OnStopSignal(int signal) {
   }
 }
 
+// Every command, from the first moment of main: a command that asks for StopRequested()
+// stops at its own safe points; any other ends at once with exit 130 (OnStopSignal).
+void InstallStopSignals() {
+  for (int s : {SIGINT, SIGTERM, SIGHUP}) std::signal(s, OnStopSignal);
+}
+
 }  // namespace
 
 const std::atomic<bool>& StopRequested() {
-  static const bool installed = [] {
-    for (int s : {SIGINT, SIGTERM, SIGHUP}) std::signal(s, OnStopSignal);
-    return true;
-  }();
-  (void)installed;
+  g_polled = true;
   return g_stop;
 }
 
@@ -481,6 +496,7 @@ CLI::App* OnlyReads(CLI::App* sub) {
 }
 
 int Main(int argc, const char* const* argv) {
+  InstallStopSignals();
   SetUpLogging();
   // The one place every command's standard output is checked, to its last byte.
   CheckedStdout out(STDOUT_FILENO);

@@ -5,7 +5,9 @@
 #include <sys/stat.h>
 #include <unistd.h>
 
+#include <atomic>
 #include <cerrno>
+#include <climits>
 #include <cstring>
 #include <filesystem>
 #include <fstream>
@@ -85,7 +87,103 @@ int RemoveStaleTemporaries(const std::string& path) {
   return removed;
 }
 
+namespace {
+
+const char* KindOf(mode_t mode) {
+  if (S_ISDIR(mode)) return "a folder";
+  if (S_ISFIFO(mode)) return "a FIFO";
+  if (S_ISCHR(mode)) return "a character device";
+  if (S_ISBLK(mode)) return "a block device";
+  if (S_ISSOCK(mode)) return "a socket";
+  return "not a regular file";
+}
+
+// What is at an output path decides how it is written (docs/reference/robustness.md):
+// nothing or a regular file is replaced whole (a temporary file renamed over it); a FIFO or a
+// character device (/dev/null, /dev/stdout, a pipe a reader waits on) is written through, as a
+// shell's redirection would, also through a symbolic link (/dev/stdout); a symbolic link to
+// anything else is refused (replacing it would cut the link, following it would let a planted
+// link choose which file a job running as root replaces); anything else (a folder, a socket,
+// a block device) is refused.
+enum class OutputTarget { kFile, kStream, kLink, kOther };
+
+OutputTarget TargetAt(const std::string& path, struct stat* st) {
+  if (::lstat(path.c_str(), st) != 0) return OutputTarget::kFile;  // nothing there yet
+  if (S_ISREG(st->st_mode)) return OutputTarget::kFile;
+  if (S_ISLNK(st->st_mode)) {
+    // The process's own descriptors (/dev/stdout, /dev/fd/3): whatever the shell opened.
+    const bool own = path == "/dev/stdout" || path == "/dev/stderr" ||
+                     path.rfind("/dev/fd/", 0) == 0 || path.rfind("/proc/self/fd/", 0) == 0;
+    struct stat to {};
+    if (::stat(path.c_str(), &to) == 0 &&
+        (own || S_ISFIFO(to.st_mode) || S_ISCHR(to.st_mode))) {
+      *st = to;
+      return OutputTarget::kStream;
+    }
+    return OutputTarget::kLink;
+  }
+  if (S_ISFIFO(st->st_mode) || S_ISCHR(st->st_mode)) return OutputTarget::kStream;
+  return OutputTarget::kOther;
+}
+
+std::string LinkRefusal(const std::string& path) {
+  std::error_code error;
+  const auto to = std::filesystem::read_symlink(path, error);
+  return path + " is a symbolic link" + (error ? "" : " to " + to.string()) +
+         "; armsig replaces only a regular file whole: give the path of the file itself";
+}
+
+// The temporary files of the living writers, for RemoveLiveTemporaries in a signal handler:
+// fixed storage and lock-free flags only (no allocation, no lock a handler could wait on).
+constexpr int kLiveSlots = 64;
+struct LiveTemporary {
+  std::atomic<int> state{0};  // 0 free, 1 being filled, 2 holds a path
+  char path[PATH_MAX];
+};
+LiveTemporary g_live[kLiveSlots];
+
+int RegisterLive(const std::string& tmp) {
+  if (tmp.size() >= PATH_MAX) return -1;
+  for (int k = 0; k < kLiveSlots; ++k) {
+    int expected = 0;
+    if (!g_live[k].state.compare_exchange_strong(expected, 1)) continue;
+    std::memcpy(g_live[k].path, tmp.c_str(), tmp.size() + 1);
+    g_live[k].state.store(2);
+    return k;
+  }
+  return -1;  // more writers than slots: the next writer of that target removes its file
+}
+
+void UnregisterLive(int& slot) {
+  if (slot >= 0) g_live[slot].state.store(0);
+  slot = -1;
+}
+
+}  // namespace
+
+void RemoveLiveTemporaries() noexcept {
+  for (auto& live : g_live) {
+    if (live.state.load() == 2) ::unlink(live.path);
+  }
+}
+
 PreparedFile::PreparedFile(std::string path) : path_(std::move(path)) {
+  struct stat st {};
+  switch (TargetAt(path_, &st)) {
+    case OutputTarget::kFile:
+      break;
+    case OutputTarget::kStream:
+      // Written through: no temporary file, no rename, nothing to flush to a disk.
+      // O_APPEND: behind /dev/stdout may be a file the shell opened with >> (or > and empty).
+      fd_ = ::open(path_.c_str(), O_WRONLY | O_APPEND | O_CLOEXEC | O_NOCTTY);
+      if (fd_ < 0) ThrowOutputError(path_, "cannot write", errno);
+      stream_ = true;
+      return;
+    case OutputTarget::kLink:
+      throw OutputError(LinkRefusal(path_));
+    case OutputTarget::kOther:
+      throw OutputError(path_ + " is " + KindOf(st.st_mode) + "; expected a file name");
+  }
   RemoveStaleTemporaries(path_);
   // The temporary file gets a name nobody can guess and is created with O_EXCL (mkostemp),
   // so a symlink or file planted in the folder is never followed or overwritten: a job
@@ -102,6 +200,7 @@ PreparedFile::PreparedFile(std::string path) : path_(std::move(path)) {
   // mkostemp creates the file 0600; an output file is readable like any other (umask'ed
   // 0644 as open(2) would have made it).
   const mode_t mask = CurrentUmask();
+  live_slot_ = RegisterLive(tmp_);
   if (::fchmod(fd_, 0644 & ~mask) != 0) Fail("cannot set the file mode");
 }
 
@@ -116,19 +215,24 @@ PreparedFile::PreparedFile(PreparedFile&& other) noexcept
       tmp_(std::move(other.tmp_)),
       buffer_(std::move(other.buffer_)),
       fd_(other.fd_),
-      ready_(other.ready_) {
+      ready_(other.ready_),
+      stream_(other.stream_),
+      live_slot_(other.live_slot_) {
   other.fd_ = -1;
+  other.live_slot_ = -1;
 }
 
 PreparedFile::~PreparedFile() {
   if (fd_ < 0) return;
-  ::unlink(tmp_.c_str());
+  if (!stream_) ::unlink(tmp_.c_str());
+  UnregisterLive(live_slot_);
   ::close(fd_);
 }
 
 void PreparedFile::Fail(const std::string& what) {
   const int error = errno;
-  ::unlink(tmp_.c_str());
+  if (!stream_) ::unlink(tmp_.c_str());
+  UnregisterLive(live_slot_);
   ::close(fd_);
   fd_ = -1;
   ThrowOutputError(path_, what, error);
@@ -157,15 +261,22 @@ void PreparedFile::WriteBuffer() {
 void PreparedFile::Ready() {
   if (ready_) return;
   WriteBuffer();
-  if (::fsync(fd_) != 0) Fail("write failed (flushing to disk)");
+  if (!stream_ && ::fsync(fd_) != 0) Fail("write failed (flushing to disk)");
   ready_ = true;
 }
 
 void PreparedFile::Commit() {
   if (fd_ < 0) throw std::logic_error(path_ + ": committed twice");
   Ready();
+  if (stream_) {
+    const int closed = ::close(fd_);
+    fd_ = -1;
+    if (closed != 0 && errno != EINTR) ThrowOutputError(path_, "write failed", errno);
+    return;
+  }
   // Renamed while still open and locked (a cleaner never takes a finished file); closed after.
   if (::rename(tmp_.c_str(), path_.c_str()) != 0) Fail("cannot rename into place");
+  UnregisterLive(live_slot_);
   const int close_result = ::close(fd_);
   const int close_error = errno;
   fd_ = -1;
@@ -207,6 +318,22 @@ void CheckOutputFile(const std::string& path, const std::string& option) {
     throw InputError({option, 0, 0, ""},
                      path + " is a folder; expected a file name (nothing was stored)");
   }
+  struct stat st {};
+  switch (TargetAt(path, &st)) {
+    case OutputTarget::kFile:
+      break;
+    case OutputTarget::kStream:  // written through: the device or FIFO must take writes
+      if (::access(path.c_str(), W_OK) != 0) {
+        throw InputError({option, 0, 0, ""}, path + ": cannot write (" + std::strerror(errno) +
+                                                 "; nothing was stored)");
+      }
+      return;
+    case OutputTarget::kLink:
+      throw InputError({option, 0, 0, ""}, LinkRefusal(path) + " (nothing was stored)");
+    case OutputTarget::kOther:
+      throw InputError({option, 0, 0, ""}, path + " is " + KindOf(st.st_mode) +
+                                               "; expected a file name (nothing was stored)");
+  }
   CheckWritableFolder(FolderOf(path), path, option);
 }
 
@@ -223,15 +350,6 @@ void CheckOutputDirectory(const std::string& path, const std::string& option) {
 }
 
 namespace {
-
-const char* KindOf(mode_t mode) {
-  if (S_ISDIR(mode)) return "a folder";
-  if (S_ISFIFO(mode)) return "a FIFO";
-  if (S_ISCHR(mode)) return "a character device";
-  if (S_ISBLK(mode)) return "a block device";
-  if (S_ISSOCK(mode)) return "a socket";
-  return "not a regular file";
-}
 
 std::string Size(std::size_t bytes) {
   return bytes >= (std::size_t{1} << 20) ? std::to_string(bytes >> 20) + " MiB"

@@ -18,7 +18,10 @@ namespace armsig::io {
 // one left by a process that died before it could remove it (kill -9, a power cut) is
 // unlocked, and the next writer of the same target removes it. Throws OutputError
 // (core/error.h) naming the target and the system's reason ("No space left on device"); the
-// target is then as it was.
+// target is then as it was. What is at the path decides: nothing or a regular file is
+// replaced as above; a FIFO or a character device (/dev/null, /dev/stdout, a pipe) is written
+// through, as a shell's redirection would; a symbolic link, a folder, a socket or a block
+// device is refused (OutputError; CheckOutputFile refuses them before any work).
 class PreparedFile {
  public:
   explicit PreparedFile(std::string path);
@@ -43,7 +46,14 @@ class PreparedFile {
   std::string buffer_;
   int fd_ = -1;
   bool ready_ = false;
+  bool stream_ = false;  // a FIFO or a character device at the path: written through
+  int live_slot_ = -1;  // in the table RemoveLiveTemporaries reads (-1: not in it)
 };
+
+// Removes the temporary file of every PreparedFile alive in this process. Async-signal-safe:
+// for a signal handler that ends the process at once (_exit), so that what a stopped command
+// was writing leaves nothing behind.
+void RemoveLiveTemporaries() noexcept;
 
 // PreparedFile(path, content).Commit(). Throws OutputError naming the path.
 void WriteFileAtomically(const std::string& path, std::string_view content);

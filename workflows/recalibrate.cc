@@ -9,6 +9,7 @@
 #include <cmath>
 #include <cstdlib>
 #include <ctime>
+#include <filesystem>
 #include <functional>
 #include <map>
 #include <optional>
@@ -498,6 +499,26 @@ nlohmann::json RecalibrationDecision::DriftJson() const {
   return j;
 }
 
+namespace {
+
+// FNV-1a, 64 bits: a name's fingerprint that every build of armsig computes alike.
+uint64_t Fingerprint(std::string_view text) {
+  uint64_t h = 0xcbf29ce484222325ULL;
+  for (unsigned char c : text) {
+    h ^= c;
+    h *= 0x100000001b3ULL;
+  }
+  return h;
+}
+
+// `text` cut to `keep` bytes and its fingerprint, when it is longer than that.
+std::string Shortened(const std::string& text, size_t keep) {
+  if (text.size() <= keep) return text;
+  return text.substr(0, keep) + fmt::format("~{:016x}", Fingerprint(text));
+}
+
+}  // namespace
+
 std::string RobotLockPath(const std::string& db_path, const std::string& robot) {
   std::string name;
   for (unsigned char c : robot) {
@@ -506,7 +527,20 @@ std::string RobotLockPath(const std::string& db_path, const std::string& robot) 
     else
       name += fmt::format("%{:02X}", c);
   }
-  return db_path + ".recalibrate." + name + ".lock";
+  // The store's own file, whatever path named it (a symlink, a relative path, ./): two runs
+  // on one store take one lock.
+  std::error_code error;
+  const std::filesystem::path real = std::filesystem::weakly_canonical(db_path, error);
+  const std::filesystem::path store = error ? std::filesystem::path(db_path) : real;
+  std::string file = store.filename().string() + ".recalibrate." + name + ".lock";
+  // A file name has at most 255 bytes (NAME_MAX): a long store name beside a long robot name
+  // (a 64-byte name is 192 bytes %-encoded) are cut and told apart by their fingerprints.
+  constexpr size_t kNameMax = 255;
+  if (file.size() > kNameMax) {
+    file = Shortened(store.filename().string(), 100) + ".recalibrate." + Shortened(name, 80) +
+           ".lock";
+  }
+  return (store.parent_path() / file).string();
 }
 
 namespace {
@@ -978,6 +1012,7 @@ void NightlyJob::Fit(const std::vector<MeasuredPose>& poses) {
   settings_.orientation = o_.orientation;
   settings_.tool_rotation = o_.tool_rotation;
   settings_.max_iterations = o_.max_iterations;
+  settings_.stop = core::StopToken(o_.stop);
   // 60 %, at most 2,000 (the residual map trains on up to that many). It was at most 80,
   // the paper's count, while the model was parametric only; the map's joint curves need
   // the poses: on the UR10 (eight nights of series C) the nightly validation mean falls from
@@ -1496,10 +1531,15 @@ RecalibrationDecision NightlyJob::Run() {
     return true;
   };
   if (stopped()) return d_;
-  Fit(poses);
-  JudgeGates();
-  CompareWithActive();
-  TryElsewhere();
+  // The fit and the judges stop within a solver iteration, a selection step or a
+  // cross-validation when asked (core::Stopped), before anything is stored.
+  try {
+    Fit(poses);
+    JudgeGates();
+    CompareWithActive();
+    TryElsewhere();
+  } catch (const core::Stopped&) {
+  }
   if (stopped()) return d_;
   if (pass_) {
     Store(inputs);

@@ -511,6 +511,62 @@ TEST(Cli, RecalibrateStoppedMidFitStoresNothingAndTheSameCommandFitsAgain) {
   EXPECT_EQ(sql.execAndGet("SELECT count(*) FROM calibrations").getInt(), 1);
 }
 
+// Whether process `pid` has a handler for `signal` (its /proc status' SigCgt mask).
+bool Catches(pid_t pid, int signal) {
+  std::ifstream status("/proc/" + std::to_string(pid) + "/status");
+  for (std::string line; std::getline(status, line);) {
+    if (line.rfind("SigCgt:", 0) != 0) continue;
+    const unsigned long long mask = std::stoull(line.substr(7), nullptr, 16);
+    return (mask >> (signal - 1)) & 1ULL;
+  }
+  return false;
+}
+
+// cli.md: SIGINT, SIGTERM and SIGHUP stop every command with exit 130, also one with no
+// safe point of its own. An import waiting for the store (another writer holds it) is
+// stopped: 130, a message that says what is kept, nothing stored, no temporary file.
+TEST(Cli, ACommandWithoutSafePointsStoppedByASignalExits130AndStoresNothing) {
+  TempDir dir;
+  const std::string db = dir.File("lab.db");
+  ASSERT_EQ(RunArmsig("--db '" + db + "' robot add ur10 --model '" + SourcePath("models/ur10.yaml") +
+                      "'")
+                .exit_code,
+            0);
+  for (const int signal : {SIGINT, SIGTERM, SIGHUP}) {
+    SQLite::Database holder(db, SQLite::OPEN_READWRITE);
+    holder.exec("BEGIN IMMEDIATE");  // another writer: the import waits for it
+    const std::string log = dir.File("err-" + std::to_string(signal));
+    const pid_t child = SpawnArmsig(
+        {"--db", db, "import", "poses", DataPath("ur10-ipa/series_C-measurements_random_poses.csv"),
+         "--preset", "ur-ipa", "--robot", "ur10"},
+        dir.File("out"), log, dir.path().string());
+    ASSERT_GT(child, 0);
+    // From its first moment in main the program handles the three signals.
+    ASSERT_TRUE(WaitUntil([&] { return Catches(child, signal); }, std::chrono::seconds(30)));
+    std::this_thread::sleep_for(std::chrono::milliseconds(200));
+    ::kill(child, signal);
+    int status = 0;
+    ::waitpid(child, &status, 0);
+    holder.exec("ROLLBACK");
+    const std::string err = ReadText(log);
+    ASSERT_TRUE(WIFEXITED(status)) << signal << ": " << status << "\n" << err;
+    EXPECT_EQ(WEXITSTATUS(status), 130) << signal << "\n" << err;
+    EXPECT_NE(err.find("stopped by a signal before finishing (exit 130): every store write and "
+                       "output file is whole or absent; run the same command again"),
+              std::string::npos)
+        << err;
+    EXPECT_EQ(holder.execAndGet("SELECT count(*) FROM sessions").getInt(), 0);
+    for (const auto& entry : std::filesystem::directory_iterator(dir.path()))
+      EXPECT_EQ(entry.path().filename().string().find(".tmp."), std::string::npos) << entry.path();
+  }
+  // Then the same command stores the session.
+  EXPECT_EQ(RunArmsig("--db '" + db + "' import poses '" +
+                      DataPath("ur10-ipa/series_C-measurements_random_poses.csv") +
+                      "' --preset ur-ipa --robot ur10")
+                .exit_code,
+            0);
+}
+
 }  // namespace armsig::testing
 
 #include "io/builtin_models.h"

@@ -17,6 +17,7 @@
 #include "db/database.h"
 #include "db/schema.h"
 #include "db/store.h"
+#include "io/file_lock.h"
 #include "support/simulated_sessions.h"
 #include "support/stores.h"
 #include "test_support.h"
@@ -492,3 +493,38 @@ TEST(CalibrationRunOrientations, AValidationOnlySessionTakesTheSharedToolRotatio
 }
 
 }  // namespace armsig::testing
+
+namespace armsig::workflows {
+namespace {
+
+// The nightly job's lock is the store's, whatever path names it: through a symlink or a
+// relative path a second run waits for the first. A 64-byte robot name that is 192 bytes
+// %-encoded, beside a long store name, still makes a lock file the system accepts (at most
+// 255 bytes a name), and two such robots get two locks.
+TEST(RobotLockPath, OneStoreOneLockAndNamesTheSystemAccepts) {
+  testing::TempDir dir;
+  const std::string db = dir.File("lab.db");
+  testing::WriteText(db, "");
+  std::filesystem::create_symlink(db, dir.File("link.db"));
+  EXPECT_EQ(RobotLockPath(dir.File("link.db"), "ur10"), RobotLockPath(db, "ur10"));
+  EXPECT_EQ(RobotLockPath(dir.File("sub/../lab.db"), "ur10"), RobotLockPath(db, "ur10"));
+  EXPECT_NE(RobotLockPath(db, "ur10"), RobotLockPath(db, "ur5"));
+  {
+    io::FileLock first(RobotLockPath(dir.File("link.db"), "ur10"), 0);
+    EXPECT_THROW(io::FileLock(RobotLockPath(db, "ur10"), 0), std::runtime_error);
+  }
+
+  const std::string store = dir.File(std::string(200, 's') + ".db");
+  testing::WriteText(store, "");
+  std::string robot_a, robot_b;
+  for (int k = 0; k < 32; ++k) robot_a += "é";  // 64 bytes, 192 %-encoded
+  robot_b = robot_a.substr(0, 62) + "ü";
+  const std::string a = RobotLockPath(store, robot_a), b = RobotLockPath(store, robot_b);
+  EXPECT_LE(std::filesystem::path(a).filename().string().size(), 255u) << a;
+  EXPECT_NE(a, b);
+  EXPECT_EQ(std::filesystem::path(a).parent_path(), dir.path());
+  io::FileLock lock_a(a, 0), lock_b(b, 0);  // both made, neither refused
+}
+
+}  // namespace
+}  // namespace armsig::workflows
