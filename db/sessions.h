@@ -83,6 +83,10 @@ std::vector<int> StoredSeqs(Database& db, int64_t session_id);
 // (MeasuredPose::frame = the session id). `since`: lower bound on the session start as
 // stored (YYYY-MM-DDTHH:MM:SS.sssZ, UTC; empty = all). `max_pose_row` receives the newest
 // pose row id.
+// The queries of LoadRobotPoses and LoadSessionPoses (a test reads their plans).
+extern const char* const kRobotPosesQuery;
+extern const char* const kSessionPosesQuery;
+
 std::vector<MeasuredPose> LoadRobotPoses(Database& db, int64_t robot_id, const std::string& since,
                                          int64_t* max_pose_row = nullptr);
 
