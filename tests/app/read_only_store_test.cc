@@ -188,25 +188,32 @@ TEST(ReadOnlyStore, AWalWithoutItsShmIsReadAsAPrivateCopy) {
   EXPECT_EQ(Listing(copy.path().string()), before);
 }
 
-// Without root (who writes anywhere), a folder without write permission: the readers work,
-// the writers say read-only and name the folder.
+// A folder the user may not write (a lab's shared store, read by everyone): the readers
+// work, the writers say read-only and name the folder. As root, whom permissions do not
+// stop, the commands run as the unprivileged user nobody (setpriv): the store's files are
+// theirs, root's folder is not; otherwise the folder's own write permission is taken away.
 TEST(ReadOnlyStore, AFolderWithoutWritePermission) {
-  if (::geteuid() == 0) {
-    GTEST_SKIP() << "running as root, whom permissions do not stop (the read-only mount test "
-                    "covers this case)";
-  }
+  namespace fs = std::filesystem;
   TempDir dir, out;
   const LabDatabase lab = CopyLabDatabase(dir.path().string());
-  std::filesystem::permissions(
-      dir.path(), std::filesystem::perms::owner_read | std::filesystem::perms::owner_exec);
+  std::string launcher;
+  if (::geteuid() == 0) {
+    launcher = "setpriv --reuid=65534 --regid=65534 --clear-groups";
+    for (const auto& e : fs::directory_iterator(dir.path()))  // nobody's files, root's folder
+      ASSERT_EQ(::chown(e.path().c_str(), 65534, 65534), 0) << e.path();
+    fs::permissions(out.path(), fs::perms::all);  // the outputs go elsewhere
+    ASSERT_EQ(RunArmsigThrough(launcher, "--version").exit_code, 0) << "setpriv as nobody";
+  } else {
+    fs::permissions(dir.path(), fs::perms::owner_read | fs::perms::owner_exec);
+  }
   for (const auto& c : ReadingCommands(lab, out.path().string())) {
-    const auto r = RunArmsig("--db " + Quoted(lab.path) + " " + c);
+    const auto r = RunArmsigThrough(launcher, "--db " + Quoted(lab.path) + " " + c, "/");
     EXPECT_EQ(r.exit_code, 0) << c << "\n" << r.err;
   }
-  const auto r = RunArmsig("--db " + Quoted(lab.path) + " reduce");
+  const auto r = RunArmsigThrough(launcher, "--db " + Quoted(lab.path) + " reduce", "/");
   EXPECT_EQ(r.exit_code, 2) << r.err;
   EXPECT_NE(r.err.find("read-only: its folder"), std::string::npos) << r.err;
-  std::filesystem::permissions(dir.path(), std::filesystem::perms::owner_all);
+  fs::permissions(dir.path(), fs::perms::owner_all);
 }
 
 }  // namespace

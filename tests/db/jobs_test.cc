@@ -20,7 +20,9 @@
 #include "db/sqlite_connection.h"
 #include "support/postgres_server.h"
 #include "support/stores.h"
+#include "io/file_lock.h"
 #include "test_support.h"
+#include "workflows/recalibrate.h"
 
 namespace armsig::db {
 namespace {
@@ -199,8 +201,20 @@ TEST_P(JobQueue, ReleaseHandsTheJobBackWithoutCountingTheAttempt) {
   EXPECT_EQ(again->attempts, 1);
 }
 
-TEST_P(JobQueue, RobotLockExcludesASecondHolderOnPostgres) {
-  if (GetParam() == Backend::kSqlite) GTEST_SKIP() << "SQLite: the file lock of Recalibrate";
+// One recalibration per robot at a time, other robots in parallel: on PostgreSQL an advisory
+// lock of the server (db::RobotLock), on SQLite a file lock beside the store
+// (workflows::RobotLockPath), each released with its holder.
+TEST_P(JobQueue, RobotLockExcludesASecondHolder) {
+  if (GetParam() == Backend::kSqlite) {
+    const auto path = [&](const char* robot) { return workflows::RobotLockPath(target_, robot); };
+    {
+      io::FileLock lock(path("puma"), 1);
+      EXPECT_THROW(io::FileLock(path("puma"), 0), std::runtime_error);
+      io::FileLock different(path("ur10"), 0);  // another robot: no wait
+    }
+    io::FileLock after(path("puma"), 0);
+    return;
+  }
   auto other = Open(target_);
   {
     RobotLock lock(q(), "recalibrate", "puma", 1);
