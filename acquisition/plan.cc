@@ -140,7 +140,7 @@ std::optional<int> WholeNumber(std::string_view text, int lo, int hi) {
 
 }  // namespace
 
-Plan MakePlan(const std::string& spec, const calibration::RobotModel& model) {
+Plan MakePlan(const std::string& spec, const calibration::RobotModel& model, unsigned seed) {
   constexpr int kMostConfigurations = 100000;
   if (spec.rfind("auto:", 0) == 0) {
     const auto count = WholeNumber(std::string_view(spec).substr(5), 1, kMostConfigurations);
@@ -149,7 +149,7 @@ Plan MakePlan(const std::string& spec, const calibration::RobotModel& model) {
                        fmt::format("expected auto:N with N a whole number from 1 to {}, got '{}'",
                                    kMostConfigurations, spec));
     }
-    return WellSpreadPlan(model, *count, std::max(2000, 20 * *count), 7);
+    return WellSpreadPlan(model, *count, std::max(2000, 20 * *count), seed);
   }
   if (spec.rfind("single-joint:", 0) == 0) {
     const std::string_view rest = std::string_view(spec).substr(13);

@@ -39,7 +39,11 @@ Plan SingleJointPlan(const Eigen::VectorXd& start, int joint, double lo_rad, dou
                      int steps);
 
 // "FILE.csv", "auto:N" or "single-joint:J:STEPS" (J 1-based; sweep ±150° or the limits).
-Plan MakePlan(const std::string& spec, const calibration::RobotModel& model);
+// `seed` draws auto:N's candidates: the same seed, the same configurations (nights that
+// compare alike); another seed, another well-spread set.
+inline constexpr unsigned kDefaultPlanSeed = 7;
+Plan MakePlan(const std::string& spec, const calibration::RobotModel& model,
+              unsigned seed = kDefaultPlanSeed);
 
 // JSON array of {label, joints_rad[, target_mm]} (stored with the session so it can be
 // resumed).

@@ -50,6 +50,19 @@ int64_t CreateSession(db::Database& db, const io::LabConfig& lab, const std::str
                                    "(armsig robot add NAME --model FILE)",
                                    Quoted(robot), lab.robot_model_path, list));
     }
+  } else {
+    // A new name registers the lab's robot; one a typo away from a registered robot is that
+    // robot mistyped (`--robot pumaa` would start a second history of the same arm).
+    std::vector<std::string> names;
+    for (const auto& r : db::ListRobots(db)) names.push_back(r.name);
+    if (const auto nearest = NearestKey(robot, names)) {
+      throw InputError({"--robot", 0, 0, ""},
+                       fmt::format("no robot {} in {} (did you mean {}? a new robot with a name "
+                                   "this close is registered first: armsig robot add {} --model "
+                                   "{}); nothing was stored",
+                                   Quoted(robot), db.path(), Quoted(*nearest), robot,
+                                   lab.robot_model_path));
+    }
   }
   const int64_t robot_id = db::EnsureRobot(db, robot, lab.model.name, lab.model_yaml);
   const int64_t session = db::CreateSession(db, robot_id, lab.text, PlanToJson(plan), "running",

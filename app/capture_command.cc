@@ -29,8 +29,8 @@ void PromptMove(const acquisition::PlannedConfiguration& c) {
 // Asks the operator to point a laser tracker's beam at its reflector (only on a terminal;
 // otherwise such a configuration is an instrument fault).
 void PromptReflector(const std::string& station, const acquisition::PlannedConfiguration& c) {
-  std::cerr << "\n" << station << ": the reflector is not where the beam points (configuration "
-            << c.label
+  std::cerr << "\n"
+            << station << ": the reflector is not where the beam points (configuration " << c.label
             << "); point the beam at it (the tracker's camera, or turn the head by hand) and "
                "press Enter ";
   std::string line;
@@ -61,7 +61,13 @@ void SetupCaptureCommand(CLI::App& parent, const GlobalOptions& global, Runner& 
   sub->add_option("--lab", o->lab, "Lab configuration YAML")->type_name("FILE")->required();
   sub->add_option("--plan", o->plan, "PLAN.csv, auto:N (well spread) or single-joint:J:STEPS")
       ->type_name("PLAN");
-  NameOption(sub->add_option("--robot", o->robot, "Robot name (created in the database if new)"));
+  NameOption(sub->add_option("--robot", o->robot,
+                             "Robot name (a new name registers the lab's robot; one a typo away "
+                             "from a registered robot is refused)"));
+  NumberOption(sub->add_option("--seed", o->seed,
+                               "Draw of --plan auto:N: the same seed, the same configurations "
+                               "(default 7); another, another well-spread set"),
+               0, 4294967295.0);
   NumberOption(sub->add_option("--resume", o->resume, "Continue this session where it stopped"), 1,
                kMaxId);
   sub->add_flag("--skip-on-fault", o->skip_on_fault,

@@ -90,7 +90,8 @@ void SetupLifecycleCommands(CLI::App& parent, const GlobalOptions& global, Runne
   });
 
   o = std::make_shared<LifecycleOptions>();
-  auto* restore = session->add_subcommand("restore", "Use a discarded session's measurements again");
+  auto* restore =
+      session->add_subcommand("restore", "Use a discarded session's measurements again");
   NumberOption(restore->add_option("id", o->session, "Session id"), 1, kMaxId)->required();
   OnExistingDatabase(restore, global, run, [o = o](db::Database& database) {
     const std::string state = workflows::RestoreSession(database, o->session);
@@ -129,8 +130,13 @@ void SetupLifecycleCommands(CLI::App& parent, const GlobalOptions& global, Runne
       ->required();
   OnExistingDatabase(activate, global, run, [o = o](db::Database& database) {
     const auto previous = workflows::Activate(database, o->robot, o->version);
-    std::cout << fmt::format("robot {}: version {} active (was {})\n", o->robot, o->version,
-                             previous ? "version " + std::to_string(*previous) : "none");
+    if (previous == o->version) {
+      std::cout << fmt::format("robot {}: version {} was already active (nothing recorded)\n",
+                               o->robot, o->version);
+    } else {
+      std::cout << fmt::format("robot {}: version {} active (was {})\n", o->robot, o->version,
+                               previous ? "version " + std::to_string(*previous) : "none");
+    }
     return kOk;
   });
 }

@@ -215,7 +215,7 @@ CaptureOutcome RunCaptureSession(const CaptureRequest& request) {
                        session > 0 ? " --resume " + std::to_string(session) : std::string()));
   // The plan is made before the database is touched: a bad plan stores nothing.
   std::optional<acquisition::Plan> plan;
-  if (session == 0) plan = acquisition::MakePlan(request.plan, lab.model);
+  if (session == 0) plan = acquisition::MakePlan(request.plan, lab.model, request.seed);
   // Every device answers before a session is made or claimed (a new session: before the
   // database is touched): an instrument switched off, a wrong port or address is named
   // now and leaves nothing behind.

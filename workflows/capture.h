@@ -14,6 +14,7 @@ namespace armsig::workflows {
 
 struct CaptureRequest {
   std::string db_path, lab, plan, robot;
+  unsigned seed = acquisition::kDefaultPlanSeed;  // of --plan auto:N
   int64_t resume = 0;  // > 0: continue this session
   bool skip_on_fault = false;
   const std::atomic<bool>* stop = nullptr;  // Ctrl-C

@@ -373,6 +373,11 @@ std::optional<int> Activate(db::Database& database, const std::string& robot, in
                                  Hint(database.path(), {"versions", "--robot", robot})));
   }
   const std::optional<int> previous = before ? std::optional<int>(before->version) : std::nullopt;
+  if (previous == version) {  // nothing changed: no activation to record
+    spdlog::info("activate: robot {}: version {} is already active; nothing recorded", robot,
+                 version);
+    return previous;
+  }
   db::RecordActivation(database, robot_id, {version, previous, "", "activate", note});
   tx.commit();
   spdlog::info("activate: robot {}: version {} is now active (was {})", robot, version,

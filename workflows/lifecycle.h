@@ -139,8 +139,9 @@ struct VersionInfo {
 std::vector<VersionInfo> Versions(db::Database& database, const std::string& robot);
 
 // Makes `version` the robot's active set (one transaction, recorded in the activation
-// history as by `activate` with `note`) and logs it. Returns the version that was active
-// before. InputError for an unknown robot or version.
+// history as by `activate` with `note`) and logs it; the active version itself changes and
+// records nothing. Returns the version that was active before. InputError for an unknown
+// robot or version.
 std::optional<int> Activate(db::Database& database, const std::string& robot, int version,
                             const std::string& note = "");
 

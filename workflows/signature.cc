@@ -262,6 +262,10 @@ CompensationResult Compensate(const ActiveSignature& a, const Eigen::Isometry3d&
     throw InputError({targets_csv, 1, 0, ""},
                      "give all of q1…q" + std::to_string(n) + " (the nominal program) or none");
   }
+  if (t.rows().empty()) {  // an empty joints file would say "done" for a program never made
+    throw InputError({targets_csv, 2, 0, ""},
+                     "a header and no targets (expected one row per target: point,x_mm,y_mm,z_mm)");
+  }
   Eigen::VectorXd seed = Eigen::VectorXd::Zero(n);
   if (n >= 3) seed(2) = kPi / 2;
   if (seed_rad) {

@@ -608,6 +608,34 @@ TEST_F(VirtualLabFixture, ASecondCaptureOnTheSameDevicesIsRefused) {
   EXPECT_EQ(next.exit_code, 0) << next.err;
 }
 
+// A robot name a typo away from a registered one is that robot mistyped: refused, naming the
+// robot meant, nothing stored; registered first with `robot add`, the new name captures.
+TEST_F(VirtualLabFixture, ARobotNameATypoAwayFromARegisteredOneIsRefused) {
+  Start();
+  const std::string lab = dir_.File("lab.yaml");
+  ASSERT_EQ(testing::RunArmsig("--db '" + Db() + "' capture --lab '" + lab +
+                               "' --plan auto:3 --robot puma")
+                .exit_code,
+            0);
+  const auto typo = testing::RunArmsig("--db '" + Db() + "' capture --lab '" + lab +
+                                       "' --plan auto:3 --robot pumaa");
+  EXPECT_EQ(typo.exit_code, 2) << typo.err;
+  EXPECT_NE(typo.err.find("no robot 'pumaa'"), std::string::npos) << typo.err;
+  EXPECT_NE(typo.err.find("did you mean 'puma'?"), std::string::npos) << typo.err;
+  {
+    db::Database db(Db());
+    EXPECT_EQ(Count(db, "SELECT count(*) FROM robots"), 1);
+    EXPECT_EQ(Count(db, "SELECT count(*) FROM sessions"), 1);
+  }
+  ASSERT_EQ(testing::RunArmsig("--db '" + Db() + "' robot add pumaa --model '" +
+                               testing::SourcePath("models/puma760.yaml") + "'")
+                .exit_code,
+            0);
+  const auto added = testing::RunArmsig("--db '" + Db() + "' capture --lab '" + lab +
+                                        "' --plan auto:3 --robot pumaa");
+  EXPECT_EQ(added.exit_code, 0) << added.err;
+}
+
 // An instrument that is not there (switched off, a wrong port) is named before anything
 // is made: no database, no empty paused session; so is a silent robot controller.
 TEST_F(VirtualLabFixture, AnInstrumentThatDoesNotAnswerIsNamedBeforeASessionIsMade) {

@@ -24,6 +24,21 @@ TEST(MakePlan, AutoGivesNDistinctConfigurationsWithinTheLimits) {
   }
 }
 
+// auto:N draws with a seed: the same seed gives the same configurations (nights that compare
+// alike), another seed another well-spread set (capture --seed).
+TEST(MakePlan, AutoDrawsAnotherSetWithAnotherSeed) {
+  const auto model = testing::Puma();
+  const Plan a = MakePlan("auto:12", model), again = MakePlan("auto:12", model, kDefaultPlanSeed);
+  const Plan other = MakePlan("auto:12", model, 2026);
+  ASSERT_EQ(other.size(), 12u);
+  int same = 0;
+  for (size_t k = 0; k < a.size(); ++k) {
+    EXPECT_EQ(a[k].joints_rad, again[k].joints_rad) << k;
+    for (const auto& o : other) same += (a[k].joints_rad - o.joints_rad).norm() < 1e-9;
+  }
+  EXPECT_EQ(same, 0);
+}
+
 TEST(MakePlan, SingleJointSweepsOnlyThatJointOverItsRange) {
   const auto model = testing::Puma();
   const Plan plan = MakePlan("single-joint:2:5", model);

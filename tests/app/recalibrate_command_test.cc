@@ -151,6 +151,13 @@ TEST(Compensate, UnreachableTargetIsReportedByName) {
   EXPECT_EQ(r.exit_code, 1);
   EXPECT_NE(r.err.find("target FAR"), std::string::npos) << r.err;
   EXPECT_NE(r.err.find("no joint angles reach"), std::string::npos);
+  // A targets file with a header and no target is refused at its line 2, nothing written.
+  WriteText(dir.File("none.csv"), "point,x_mm,y_mm,z_mm\n");
+  const auto none = RunArmsig("--db '" + path + "' compensate --robot puma --targets '" +
+                              dir.File("none.csv") + "' --out '" + dir.File("none-j.csv") + "'");
+  EXPECT_EQ(none.exit_code, 2) << none.err;
+  EXPECT_NE(none.err.find("none.csv:2: a header and no targets"), std::string::npos) << none.err;
+  EXPECT_FALSE(std::filesystem::exists(dir.File("none-j.csv")));
 }
 
 TEST(Export, CorrectedModelYamlReproducesTheCalibratedRobot) {

@@ -299,6 +299,11 @@ TEST_P(Push, CarriesEveryActivationAndTheActiveStateOnce) {
   {
     db::Database database(cell);
     workflows::Activate(database, "puma", 1, "version 2 moved the tool");  // a roll-back
+    // Activating the active version changes nothing and records nothing.
+    const int64_t robot = *db::FindRobot(database, "puma");
+    const size_t recorded = db::ActivationHistory(database, robot).size();
+    EXPECT_EQ(workflows::Activate(database, "puma", 1, "again"), 1);
+    EXPECT_EQ(db::ActivationHistory(database, robot).size(), recorded);
   }
   const auto first = PushFiles(cell, central);
   EXPECT_EQ(first.activations_pushed, 3);
