@@ -9,6 +9,8 @@
 
 #include <algorithm>
 #include <cerrno>
+#include <charconv>
+#include <cmath>
 #include <filesystem>
 #include <fstream>
 #include <limits>
@@ -63,7 +65,17 @@ Eigen::VectorXd ParsePlantedChanges(const calibration::RobotModel& model,
                                       "joint2_zero=0.02deg, link2_length=0.2mm or a3=-50um");
     }
     const std::string name = m[1].str(), unit = m[3].str();
-    const double number = std::stod(m[2].str());
+    // A number a double holds, read without exceptions (1e-400 underflows, 1e400 overflows).
+    std::string digits = m[2].str();
+    if (digits.front() == '+') digits.erase(0, 1);
+    double number = 0.0;
+    const auto [end, ec] = std::from_chars(digits.data(), digits.data() + digits.size(), number);
+    if (ec != std::errc() || end != digits.data() + digits.size() || !std::isfinite(number)) {
+      throw InputError({"--change", 0, 0, ""},
+                       Quoted(text) + ": " + m[2].str() +
+                           " is not a number a double holds (expected a size such as 0.02deg "
+                           "or -50um)");
+    }
     const bool length = unit == "mm" || unit == "um";
     const double value = unit == "mm"     ? number
                          : unit == "um"   ? number * 1e-3
@@ -76,8 +88,15 @@ Eigen::VectorXd ParsePlantedChanges(const calibration::RobotModel& model,
     bool is_length = false;
     std::smatch alias;
     static const std::regex zero(R"(^joint([0-9]+)_zero$)"), link(R"(^link([0-9]+)_length$)");
+    // A joint or link number past any robot's (more digits than an int holds) is out of range.
+    const auto index_of = [&](const std::string& digits_text) {
+      int index = 0;
+      const auto [at, error] = std::from_chars(
+          digits_text.data(), digits_text.data() + digits_text.size(), index);
+      return error == std::errc() && at == digits_text.data() + digits_text.size() ? index : -1;
+    };
     if (std::regex_match(name, alias, zero)) {
-      const int joint = std::stoi(alias[1].str());
+      const int joint = index_of(alias[1].str());
       if (joint < 1 || joint > model.num_joints()) {
         throw InputError({"--change", 0, 0, ""},
                          fmt::format("{}: the robot has joints 1 to {}", Quoted(text),
@@ -85,7 +104,7 @@ Eigen::VectorXd ParsePlantedChanges(const calibration::RobotModel& model,
       }
       direction(6 * (joint - 1) + 5) = 1.0;
     } else if (std::regex_match(name, alias, link)) {
-      const int number_of_link = std::stoi(alias[1].str());
+      const int number_of_link = index_of(alias[1].str());
       if (number_of_link < 1 || number_of_link >= model.num_joints() ||
           model.links[number_of_link - 1].translation().norm() <= 1.0) {
         throw InputError({"--change", 0, 0, ""},

@@ -4,6 +4,7 @@
 
 #include <atomic>
 #include <nlohmann/json.hpp>
+#include <numbers>
 #include <regex>
 
 #include "core/error.h"
@@ -246,4 +247,33 @@ TEST(Demo, TrackerFromTheCommandLine) {
   EXPECT_EQ(testing::RunArmsig("demo --instrument laser").exit_code, 2);
 }
 
+}  // namespace armsig::workflows
+
+namespace armsig::workflows {
+namespace {
+
+// demo --change: each planted change becomes its parameter's shift in the model's units; a
+// value a double cannot hold (1e-400, 1e400) or a joint number past an int is refused naming
+// --change and the text, never "stod" or "stoi".
+TEST(PlantedChanges, AreParsedInTheirUnitsAndAbsurdNumbersAreNamed) {
+  const auto model = testing::Puma();
+  const Eigen::VectorXd delta =
+      ParsePlantedChanges(model, {"joint2_zero=0.02deg", "a3=-50um", "beta4=+1mrad"});
+  EXPECT_NEAR(delta(model.IndexOf("gamma2")), 0.02 * std::numbers::pi / 180, 1e-15);
+  EXPECT_NEAR(delta(model.IndexOf("a3")), -0.05, 1e-15);
+  EXPECT_NEAR(delta(model.IndexOf("beta4")), 1e-3, 1e-15);
+  EXPECT_EQ((delta.array() != 0).count(), 3);
+  for (const std::string bad :
+       {"a3=1e-400mm", "a3=1e400mm", "joint99999999999999_zero=1deg", "link99999999999_length=1mm"}) {
+    try {
+      ParsePlantedChanges(model, {bad});
+      ADD_FAILURE() << bad << " was accepted";
+    } catch (const InputError& e) {
+      EXPECT_NE(std::string(e.what()).find("--change"), std::string::npos) << e.what();
+      EXPECT_NE(std::string(e.what()).find(bad.substr(0, 4)), std::string::npos) << e.what();
+    }
+  }
+}
+
+}  // namespace
 }  // namespace armsig::workflows
