@@ -1,5 +1,7 @@
 #include "io/residual_map_json.h"
 
+#include <fmt/format.h>
+
 #include <cmath>
 #include <set>
 #include <stdexcept>
@@ -95,9 +97,21 @@ ResidualMapData ResidualMapFromJson(const nlohmann::json& json, const std::strin
     if (!json.contains(key)) throw fail(key, std::string("missing '") + key + "'");
     return json.at(key);
   };
+  // A whole number where one is meant: 180.5 knots is a damaged row, not 180.
+  auto whole = [&](const nlohmann::json& value, const std::string& key) {
+    if (!value.is_number_integer())
+      throw fail(key, key + ": expected a whole number, got " + value.dump().substr(0, 40));
+    return value.get<int>();
+  };
+  auto wholes = [&](const nlohmann::json& value, const std::string& key) {
+    if (!value.is_array()) throw fail(key, key + ": expected an array of whole numbers");
+    std::vector<int> out;
+    for (const auto& v : value) out.push_back(whole(v, key));
+    return out;
+  };
   ResidualMapData map;
   try {
-    map.version = field("version").get<int>();
+    map.version = whole(field("version"), "version");
     if (map.version < 1 || map.version > ResidualMapData::kVersion) {
       throw fail("version", "version " + std::to_string(map.version) +
                                 " was written by a newer armsig (this one reads version " +
@@ -105,8 +119,8 @@ ResidualMapData ResidualMapFromJson(const nlohmann::json& json, const std::strin
     }
     map.kind = field("kind").get<std::string>();
     map.output_frame = field("output_frame").get<std::string>();
-    map.num_joints = field("num_joints").get<int>();
-    for (int j : field("joints").get<std::vector<int>>()) map.joints.push_back(j - 1);
+    map.num_joints = whole(field("num_joints"), "num_joints");
+    for (int j : wholes(field("joints"), "joints")) map.joints.push_back(j - 1);
     map.feature_scale = field("feature_scale").get<std::vector<double>>();
     map.length_scale = field("length_scale").get<double>();
     map.regularisation = field("regularisation").get<double>();
@@ -126,14 +140,37 @@ ResidualMapData ResidualMapFromJson(const nlohmann::json& json, const std::strin
       for (const char* key : {"knots", "joints", "smoothing", "values_rad", "measured"}) {
         if (!c.contains(key)) throw fail(std::string("curves.") + key, std::string("missing '") + key + "'");
       }
-      map.curves.knots = c.at("knots").get<int>();
-      for (int j : c.at("joints").get<std::vector<int>>()) map.curves.joints.push_back(j - 1);
+      map.curves.knots = whole(c.at("knots"), "curves.knots");
+      for (int j : wholes(c.at("joints"), "curves.joints")) map.curves.joints.push_back(j - 1);
       map.curves.smoothing = c.at("smoothing").get<double>();
       map.curves.values_rad = c.at("values_rad").get<std::vector<std::vector<double>>>();
       map.curves.measured = c.at("measured").get<std::vector<std::vector<int>>>();
     }
   } catch (const nlohmann::json::exception& e) {
     throw fail("", std::string("malformed field: ") + e.what());
+  }
+  // Every number within what a fitted map can hold (a stored row damaged or edited: weights of
+  // 1e300 mm, a length scale of 1e-300, a joint curve of 1e300 rad would predict NaN or
+  // positions metres off), named by its field.
+  auto bounded = [&](const std::string& key, double value, double lo, double hi,
+                     const char* unit) {
+    if (std::isfinite(value) && value >= lo && value <= hi) return;
+    throw fail(key, fmt::format("{} {:g} is outside what a fitted map holds ({:g} to {:g}{})",
+                                key, value, lo, hi, unit));
+  };
+  bounded("length_scale", map.length_scale, 1e-3, 1e3, "");
+  bounded("regularisation", map.regularisation, 1e-9, 1e6, "");
+  bounded("noise_sigma_mm", map.noise_sigma_mm, 0.0, 100.0, " mm");
+  bounded("support_radius", map.support_radius, 0.0, 1e3, "");
+  for (double s : map.feature_scale) bounded("feature_scale", s, 1e-6, 1e6, "");
+  for (const auto& c : map.centres_rad)
+    for (double q : c) bounded("centres_rad", q, -100.0, 100.0, " rad");
+  for (const auto& w : map.weights_mm)
+    for (double v : w) bounded("weights_mm", v, -1e4, 1e4, " mm");
+  if (!map.curves.values_rad.empty() || map.curves.knots != 0) {
+    bounded("curves.smoothing", map.curves.smoothing, 0.0, 1e12, "");
+    for (const auto& curve : map.curves.values_rad)
+      for (double v : curve) bounded("curves.values_rad", v, -0.1, 0.1, " rad");
   }
   try {
     calibration::ResidualMap check(map);  // every consistency rule in one place

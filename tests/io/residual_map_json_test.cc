@@ -140,6 +140,42 @@ TEST(ResidualMapJson, RefusesWhatItCannotUse) {
   EXPECT_EQ(MapJsonRefusal(j).where().file, "set 3");
 }
 
+// Absurd finite numbers in a stored map (a damaged or edited row) are refused naming their
+// field, as a file's would be: they would predict NaN or positions metres off.
+TEST(ResidualMapJson, RefusesNumbersNoFittedMapHolds) {
+  const nlohmann::json good = ResidualMapToJson(FittedMap());
+  const nlohmann::json curved = ResidualMapToJson(CurveMap());
+  ASSERT_TRUE(curved.contains("curves"));
+  EXPECT_NO_THROW(ResidualMapFromJson(good, "set 3"));
+  EXPECT_NO_THROW(ResidualMapFromJson(curved, "set 3"));
+  const auto refused = [](nlohmann::json j, const std::string& field, const std::string& words) {
+    const InputError e = MapJsonRefusal(j);
+    EXPECT_EQ(e.where().column_name, field) << e.message();
+    EXPECT_NE(e.message().find(words), std::string::npos) << e.message();
+  };
+  nlohmann::json j = good;
+  j["weights_mm"][0][1] = 1e300;
+  refused(j, "weights_mm", "weights_mm 1e+300 is outside what a fitted map holds");
+  j = good;
+  j["length_scale"] = 1e-300;
+  refused(j, "length_scale", "length_scale 1e-300 is outside");
+  j = good;
+  j["noise_sigma_mm"] = 5e3;
+  refused(j, "noise_sigma_mm", "noise_sigma_mm 5000 is outside");
+  j = good;
+  j["centres_rad"][0][0] = -1e200;
+  refused(j, "centres_rad", "centres_rad -1e+200 is outside");
+  j = curved;
+  j["curves"]["values_rad"][0][3] = 1e300;
+  refused(j, "curves.values_rad", "curves.values_rad 1e+300 is outside");
+  j = curved;
+  j["curves"]["knots"] = 180.5;
+  refused(j, "curves.knots", "curves.knots: expected a whole number, got 180.5");
+  j = good;
+  j["num_joints"] = 6.5;
+  refused(j, "num_joints", "expected a whole number");
+}
+
 TEST(ResidualMapJson, ResidualModelSummaryHasTheSpecShape) {
   const calibration::ResidualMapFit fit = Fit();
   const nlohmann::json j = ResidualModelJson(fit);
