@@ -7,6 +7,7 @@
 #include <stdexcept>
 
 #include "core/error.h"
+#include "core/text.h"
 
 namespace armsig::io {
 
@@ -100,7 +101,7 @@ ResidualMapData ResidualMapFromJson(const nlohmann::json& json, const std::strin
   // A whole number where one is meant: 180.5 knots is a damaged row, not 180.
   auto whole = [&](const nlohmann::json& value, const std::string& key) {
     if (!value.is_number_integer())
-      throw fail(key, key + ": expected a whole number, got " + value.dump().substr(0, 40));
+      throw fail(key, key + ": expected a whole number, got " + Quoted(JsonText(value), 40));
     return value.get<int>();
   };
   auto wholes = [&](const nlohmann::json& value, const std::string& key) {

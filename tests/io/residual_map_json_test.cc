@@ -170,7 +170,7 @@ TEST(ResidualMapJson, RefusesNumbersNoFittedMapHolds) {
   refused(j, "curves.values_rad", "curves.values_rad 1e+300 is outside");
   j = curved;
   j["curves"]["knots"] = 180.5;
-  refused(j, "curves.knots", "curves.knots: expected a whole number, got 180.5");
+  refused(j, "curves.knots", "curves.knots: expected a whole number, got '180.5'");
   j = good;
   j["num_joints"] = 6.5;
   refused(j, "num_joints", "expected a whole number");
