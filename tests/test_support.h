@@ -154,15 +154,15 @@ struct CommandResult {
 };
 
 // Runs build/armsig with `args` (a shell-quoted string) in `cwd`.
-// Runs armsig with `args` in `cwd` (through `launcher` when given: e.g. setpriv, to run it as
-// another user); its exit code and output.
+// Runs armsig (`binary`) with `args` in `cwd` (through `launcher` when given: e.g. setpriv, to
+// run it as another user); its exit code and output.
 inline CommandResult RunArmsigThrough(const std::string& launcher, const std::string& args,
-                                      const std::string& cwd = ".") {
+                                      const std::string& cwd = ".",
+                                      const std::string& binary = ARMSIG_BINARY) {
   TempDir capture;
   const std::string out = capture.File("out"), err = capture.File("err");
-  const std::string command = "cd '" + cwd + "' && " + launcher + " '" +
-                              std::string(ARMSIG_BINARY) + "' " + args + " >'" + out + "' 2>'" +
-                              err + "'";
+  const std::string command = "cd '" + cwd + "' && " + launcher + " '" + binary + "' " + args +
+                              " >'" + out + "' 2>'" + err + "'";
   const int status = std::system(command.c_str());
   CommandResult result;
   result.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;

@@ -194,23 +194,27 @@ TEST(ReadOnlyStore, AWalWithoutItsShmIsReadAsAPrivateCopy) {
 // theirs, root's folder is not; otherwise the folder's own write permission is taken away.
 TEST(ReadOnlyStore, AFolderWithoutWritePermission) {
   namespace fs = std::filesystem;
-  TempDir dir, out;
+  TempDir dir, out, bin;
   const LabDatabase lab = CopyLabDatabase(dir.path().string());
-  std::string launcher;
+  std::string launcher, binary = ARMSIG_BINARY;
   if (::geteuid() == 0) {
     launcher = "setpriv --reuid=65534 --regid=65534 --clear-groups";
+    // The program where nobody may run it (a clone under /root is not theirs to enter).
+    binary = bin.File("armsig");
+    fs::copy_file(ARMSIG_BINARY, binary);
     for (const auto& e : fs::directory_iterator(dir.path()))  // nobody's files, root's folder
       ASSERT_EQ(::chown(e.path().c_str(), 65534, 65534), 0) << e.path();
     fs::permissions(out.path(), fs::perms::all);  // the outputs go elsewhere
-    ASSERT_EQ(RunArmsigThrough(launcher, "--version").exit_code, 0) << "setpriv as nobody";
+    ASSERT_EQ(RunArmsigThrough(launcher, "--version", "/", binary).exit_code, 0)
+        << "setpriv as nobody";
   } else {
     fs::permissions(dir.path(), fs::perms::owner_read | fs::perms::owner_exec);
   }
   for (const auto& c : ReadingCommands(lab, out.path().string())) {
-    const auto r = RunArmsigThrough(launcher, "--db " + Quoted(lab.path) + " " + c, "/");
+    const auto r = RunArmsigThrough(launcher, "--db " + Quoted(lab.path) + " " + c, "/", binary);
     EXPECT_EQ(r.exit_code, 0) << c << "\n" << r.err;
   }
-  const auto r = RunArmsigThrough(launcher, "--db " + Quoted(lab.path) + " reduce", "/");
+  const auto r = RunArmsigThrough(launcher, "--db " + Quoted(lab.path) + " reduce", "/", binary);
   EXPECT_EQ(r.exit_code, 2) << r.err;
   EXPECT_NE(r.err.find("read-only: its folder"), std::string::npos) << r.err;
   fs::permissions(dir.path(), fs::perms::owner_all);
