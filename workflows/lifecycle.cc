@@ -14,6 +14,7 @@
 #include "acquisition/session_owner.h"
 #include "calibration/data_checks.h"
 #include "core/error.h"
+#include "core/fnv.h"
 #include "core/plausibility.h"
 #include "core/text.h"
 #include "core/text_layout.h"
@@ -74,10 +75,9 @@ void PosesDigester::Add(const MeasuredPose& pose) {
     int64_t n = std::isfinite(steps) && std::abs(steps) < 9e18 ? static_cast<int64_t>(steps) : 0;
     uint64_t bits = 0;
     std::memcpy(&bits, &n, sizeof bits);
-    for (int k = 0; k < 8; ++k) {
-      hash_ ^= (bits >> (8 * k)) & 0xff;
-      hash_ *= 0x100000001b3ULL;
-    }
+    char bytes[8];  // least significant first, whatever the machine's byte order
+    for (int k = 0; k < 8; ++k) bytes[k] = static_cast<char>((bits >> (8 * k)) & 0xff);
+    hash_ = core::Fnv1a64(std::string_view(bytes, 8), hash_);
   };
   add(static_cast<double>(pose.joints_rad.size()), 1.0);
   for (int i = 0; i < pose.joints_rad.size(); ++i) add(pose.joints_rad(i), 1e-10);

@@ -39,7 +39,7 @@ class PosesDigester {
   std::string Hex() const;
 
  private:
-  uint64_t hash_ = 0xcbf29ce484222325ULL;
+  uint64_t hash_ = 0xcbf29ce484222325ULL;  // core::kFnv1a64Offset
 };
 
 struct StoredPoses {

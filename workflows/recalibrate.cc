@@ -28,6 +28,7 @@
 #include "calibration/iso9283_figures.h"
 #include "calibration/signature_limits.h"
 #include "core/error.h"
+#include "core/fnv.h"
 #include "core/text.h"
 #include "core/wording.h"
 #include "db/database.h"
@@ -501,20 +502,10 @@ nlohmann::json RecalibrationDecision::DriftJson() const {
 
 namespace {
 
-// FNV-1a, 64 bits: a name's fingerprint that every build of armsig computes alike.
-uint64_t Fingerprint(std::string_view text) {
-  uint64_t h = 0xcbf29ce484222325ULL;
-  for (unsigned char c : text) {
-    h ^= c;
-    h *= 0x100000001b3ULL;
-  }
-  return h;
-}
-
 // `text` cut to `keep` bytes and its fingerprint, when it is longer than that.
 std::string Shortened(const std::string& text, size_t keep) {
   if (text.size() <= keep) return text;
-  return text.substr(0, keep) + fmt::format("~{:016x}", Fingerprint(text));
+  return text.substr(0, keep) + fmt::format("~{:016x}", core::Fnv1a64(text));
 }
 
 }  // namespace
