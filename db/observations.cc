@@ -300,4 +300,20 @@ void ReplacePoints(Database& db, int64_t session_id, const std::vector<PointRow>
   for (const auto& p : points) InsertPoint(db, session_id, p);
 }
 
+SessionRowsMark MarkSessionRows(Database& db, int64_t session_id) {
+  auto q = Sql(db,
+               "SELECT (SELECT count(*) FROM observations WHERE session_id = ?1), "
+               "(SELECT coalesce(max(id), 0) FROM observations WHERE session_id = ?1), "
+               "(SELECT count(*) FROM station_setups WHERE session_id = ?1), "
+               "(SELECT coalesce(max(id), 0) FROM station_setups WHERE session_id = ?1), "
+               "(SELECT count(*) FROM points WHERE session_id = ?1), "
+               "(SELECT coalesce(max(id), 0) FROM points WHERE session_id = ?1)");
+  q->Bind(1, session_id);
+  SessionRowsMark mark;
+  if (q->Step()) {
+    mark = {q->Int(0), q->Int(1), q->Int(2), q->Int(3), q->Int(4), q->Int(5)};
+  }
+  return mark;
+}
+
 }  // namespace armsig::db

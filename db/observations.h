@@ -91,4 +91,16 @@ std::vector<PointRow> LoadPoints(Database& db, int64_t session_id);
 // Replaces the session's reduced points (call inside a transaction).
 void ReplacePoints(Database& db, int64_t session_id, const std::vector<PointRow>& points);
 
+// What a reduction of a session reads, as the count and the last id of its observations,
+// station set-ups and points: rows are only ever added (points replaced whole, with new
+// ids), so two equal marks mean the same rows. A reduction computed on a snapshot writes
+// its points only if the mark under the write lock is still the snapshot's.
+struct SessionRowsMark {
+  int64_t observations = 0, last_observation = 0;
+  int64_t setups = 0, last_setup = 0;
+  int64_t points = 0, last_point = 0;
+  bool operator==(const SessionRowsMark&) const = default;
+};
+SessionRowsMark MarkSessionRows(Database& db, int64_t session_id);
+
 }  // namespace armsig::db

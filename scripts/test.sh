@@ -6,10 +6,17 @@
 # same objects (scripts/fuzz.sh 3600 is the long campaign).
 set -euo pipefail
 cd "$(dirname "$0")/.."
+# Each phase's wall time, printed last (also when a phase fails): what a CI run's log needs to
+# tell where its minutes went.
+phases=() phase_start=$SECONDS
+phase() { phases+=("$1 $((SECONDS - phase_start)) s"); phase_start=$SECONDS; }
+trap 'echo "scripts/test.sh phases: ${phases[*]:-none finished} (${SECONDS} s in all)"' EXIT
 scripts/setup.sh --tests
+phase setup
 jobs="$(nproc)"
 CXX=clang++ scripts/build.sh build-fuzz -DARMSIG_WERROR=ON -DARMSIG_FUZZ=ON \
   -DARMSIG_BUILD_TESTS=ON -DARMSIG_BUILD_BENCH=OFF
+phase build
 # ctest starts the longest tests first when it knows their times; a new tree gets the times
 # measured in this configuration (tests/ctest-costs.txt), so a long test does not start
 # last. Two tests per core: many of them wait on a pty, a socket, a server or a deadline
@@ -21,4 +28,6 @@ if [[ ! -f "$costs" ]]; then
 fi
 ASAN_OPTIONS=detect_leaks=1 UBSAN_OPTIONS=print_stacktrace=1 \
   ctest --test-dir build-fuzz --output-on-failure --parallel "$((jobs * 2))"
+phase tests
 scripts/fuzz.sh "${ARMSIG_FUZZ_SECONDS:-10}"
+phase fuzz

@@ -32,15 +32,22 @@ reduction::PointChecks SessionChecks(db::Database& database, int64_t session_id)
   return checks;
 }
 
-ReduceSummary ReduceSession(db::Database& database, int64_t session_id,
-                            const reduction::PointOptions& options) {
+namespace {
+
+// The points a reduction of the session's stored readings gives, read inside the caller's
+// transaction (a snapshot or the write transaction); `points` empty with `observations` 0: a
+// session of measured points, nothing to replace.
+struct Reduction {
   ReduceSummary summary;
+  std::vector<db::PointRow> points;
+  bool replace = false;
+};
+
+Reduction Reduce(db::Database& database, int64_t session_id,
+                 const reduction::PointOptions& options) {
+  Reduction out;
+  ReduceSummary& summary = out.summary;
   summary.session = session_id;
-  // One transaction from the first read to the last write, the session locked: a capture
-  // of this session storing a configuration meanwhile waits, so that the points replaced
-  // are exactly those of the observations read (none lost, none from half a configuration).
-  db::WriteTransaction tx(database);
-  db::LockSessionForWrite(database, session_id);
   std::map<std::string, reduction::Station> stations;
   for (const auto& [code, setup] : db::LatestStationSetups(database, session_id))
     stations.emplace(code, acquisition::StationOf(setup));
@@ -51,7 +58,7 @@ ReduceSummary ReduceSession(db::Database& database, int64_t session_id,
   // lose them.
   if (observations.empty()) {
     summary.kept_points = db::LoadPoints(database, session_id).size();
-    return summary;
+    return out;
   }
   // The flags stored with the points this reduction replaces, by (pose, point).
   std::map<std::pair<std::optional<int64_t>, std::string>, reduction::PointFlags> stored;
@@ -64,7 +71,8 @@ ReduceSummary ReduceSession(db::Database& database, int64_t session_id,
     }
   }
   const reduction::InstrumentDefaults defaults;
-  std::vector<db::PointRow> points;
+  std::vector<db::PointRow>& points = out.points;
+  out.replace = true;
   reduction::RayGroup group;
   reduction::ReducedPoint reduced;
   size_t begin = 0;
@@ -105,9 +113,44 @@ ReduceSummary ReduceSession(db::Database& database, int64_t session_id,
     points.push_back(std::move(row));
     begin = end;
   }
-  db::ReplacePoints(database, session_id, points);
+  return out;
+}
+
+}  // namespace
+
+ReduceSummary ReduceSession(db::Database& database, int64_t session_id,
+                            const reduction::PointOptions& options) {
+  // The points replaced must be exactly those of the observations read (none lost to a
+  // configuration a capture stores meanwhile, none from half a configuration). The reduction
+  // is computed on a snapshot, without the store's write lock, and written only if the
+  // session's rows are still those it read: a capture storing configurations is kept waiting
+  // the length of the write, not of the computation (SQLite's waiting writer polls, and a
+  // lock held for the computation again and again could keep it out past its timeout).
+  constexpr int kOptimisticTries = 3;
+  for (int attempt = 0; attempt < kOptimisticTries; ++attempt) {
+    db::SessionRowsMark read_mark;
+    Reduction reduced;
+    {
+      db::ReadSnapshot snapshot(database);
+      read_mark = db::MarkSessionRows(database, session_id);
+      reduced = Reduce(database, session_id, options);
+      snapshot.commit();
+    }
+    db::WriteTransaction tx(database);
+    db::LockSessionForWrite(database, session_id);
+    if (!(db::MarkSessionRows(database, session_id) == read_mark)) continue;  // rolled back
+    if (reduced.replace) db::ReplacePoints(database, session_id, reduced.points);
+    tx.commit();
+    return reduced.summary;
+  }
+  // Rows keep coming faster than the reduction computes: reduce under the lock, the capture
+  // waiting this once.
+  db::WriteTransaction tx(database);
+  db::LockSessionForWrite(database, session_id);
+  Reduction reduced = Reduce(database, session_id, options);
+  if (reduced.replace) db::ReplacePoints(database, session_id, reduced.points);
   tx.commit();
-  return summary;
+  return reduced.summary;
 }
 
 std::string ImportNote(const std::string& file) {
