@@ -1,5 +1,8 @@
 #include "io/model_yaml.h"
 
+#include <fmt/format.h>
+
+#include <algorithm>
 #include <optional>
 #include <set>
 
@@ -86,7 +89,15 @@ NongeometricTerm Term(const YamlValue& value, int num_joints) {
     if (const auto mass = map.Find("mass_at"))
       mass->Fail("only gravity_torque terms take 'mass_at'");
     for (const YamlValue& j : map.Required("of", "a list of joint numbers").List(1)) {
-      term.of.push_back(j.Integer(1, num_joints) - 1);
+      const int joint = j.Integer(1, num_joints) - 1;
+      // The angles summed are distinct joints': [2, 2, 2] would be the third harmonic of one
+      // joint under another name, which 'order' says.
+      if (std::find(term.of.begin(), term.of.end(), joint) != term.of.end()) {
+        j.Fail(fmt::format("joint {} is listed twice in 'of' (expected distinct joints; a "
+                           "harmonic of one joint is 'of: [{}]' with 'order: N')",
+                           joint + 1, joint + 1));
+      }
+      term.of.push_back(joint);
     }
   }
   if (const auto order = map.Find("order")) {

@@ -189,6 +189,51 @@ int DaysInMonth(int year, int month) {
 
 }  // namespace
 
+namespace {
+
+// A wall-clock time of $TZ as the instant it names. A time the clocks skipped (the hour
+// daylight saving time begins) names none and one they passed twice (the hour it ends) two:
+// both are refused, with the offsets that make them exact, rather than read as mktime
+// guesses.
+template <typename Fail>
+std::time_t LocalTimeToUtc(const std::tm& wall, const Fail& fail) {
+  std::vector<std::pair<std::time_t, long>> readings;  // the instant and its UTC offset (s)
+  for (const int dst : {0, 1}) {
+    std::tm t = wall;
+    t.tm_isdst = dst;
+    const std::time_t at = std::mktime(&t);
+    std::tm back{};
+    if (!::localtime_r(&at, &back)) continue;
+    const bool same = back.tm_year == wall.tm_year && back.tm_mon == wall.tm_mon &&
+                      back.tm_mday == wall.tm_mday && back.tm_hour == wall.tm_hour &&
+                      back.tm_min == wall.tm_min && back.tm_sec == wall.tm_sec;
+    const bool seen = std::any_of(readings.begin(), readings.end(),
+                                  [&](const auto& r) { return r.first == at; });
+    if (same && !seen) readings.emplace_back(at, back.tm_gmtoff);
+  }
+  auto offset = [](long seconds) {
+    const long minutes = std::labs(seconds) / 60;
+    return fmt::format("{}{:02d}:{:02d}", seconds < 0 ? '-' : '+', minutes / 60, minutes % 60);
+  };
+  const char* tz = std::getenv("TZ");
+  const std::string zone = fmt::format("TZ={}", tz ? tz : "(unset)");
+  if (readings.empty()) {
+    throw fail(fmt::format("this local time ({}) does not exist: the clocks skipped it (daylight "
+                           "saving time began); give the time in UTC (…Z) or with its offset",
+                           zone));
+  }
+  if (readings.size() > 1) {
+    std::sort(readings.begin(), readings.end());
+    throw fail(fmt::format("this local time ({}) happened twice: the clocks went back over it "
+                           "(daylight saving time ended); give its offset, {} for the first or "
+                           "{} for the second",
+                           zone, offset(readings[0].second), offset(readings[1].second)));
+  }
+  return readings.front().first;
+}
+
+}  // namespace
+
 std::string SinceToUtc(const std::string& text) {
   static const std::regex iso(
       R"(^(\d{4})-(\d{2})-(\d{2})(?:[T ](\d{2}):(\d{2})(?::(\d{2})(?:\.(\d+))?)?(Z|([+-])(\d{2})(?::?(\d{2}))?)?)?$)");
@@ -227,11 +272,8 @@ std::string SinceToUtc(const std::string& text) {
   if (m[8].matched) {  // Z or an offset: that many hours east of UTC
     const int sign = m[9].matched && m[9].str() == "-" ? -1 : 1;
     utc = ::timegm(&tm) - sign * (offset_hours * 3600 + offset_minutes * 60);
-  } else {  // local time of $TZ (a time that a DST change skips is read as mktime does)
-    tm.tm_isdst = -1;
-    utc = std::mktime(&tm);
-    if (utc == static_cast<std::time_t>(-1) && !(year == 1969 && month == 12 && day == 31))
-      throw fail("not a time this system can represent");
+  } else {
+    utc = LocalTimeToUtc(tm, fail);
   }
   std::tm out{};
   if (!::gmtime_r(&utc, &out)) throw fail("not a time this system can represent");
@@ -629,6 +671,10 @@ class NightlyJob {
   void DriftConfigurations(const Signature& old);
   void Store(const nlohmann::json& inputs);
   void WriteRunReport();
+  // A drift-suspected night's page: no fit, the decision and the window (report.h).
+  void WriteDecisionOnlyReport();
+  // The decision's part of a report: the drift line, its causes, the window tested.
+  void AddDecision(ReportInput& input) const;
   void WriteOutput(const std::function<void()>& write);
   void Gate(const std::string& name, double value, double limit);
 
@@ -1375,6 +1421,35 @@ void NightlyJob::Store(const nlohmann::json& inputs) {
   tx.commit();
 }
 
+void NightlyJob::AddDecision(ReportInput& input) const {
+  input.drift = d_.drift;
+  input.drift_line = d_.DriftLine();
+  for (const auto& v : d_.tested) {
+    input.window.push_back({v.session, v.started_at, v.poses, v.mean_mm, v.effect_max_mm,
+                            v.p_value, v.disagrees, v.outlier});
+  }
+  for (const auto& c : d_.change ? d_.change->causes : d_.causes)
+    input.causes.push_back(c.Describe());
+}
+
+void NightlyJob::WriteDecisionOnlyReport() {
+  ReportInput input;
+  input.robot = o_.robot;
+  input.version = 0;
+  input.decision = d_.Describe();
+  input.armsig_version = ARMSIG_VERSION;
+  db::ReadSnapshot report_snapshot(*database_);
+  input.history = ReportHistoryOf(*database_, robot_id_);
+  input.drift_history = ReportDriftOf(*database_, model_, robot_id_, gates_.drift_mm);
+  if (current_) {
+    input.previous_version = current_->version;
+    input.previous_params_spec = current_->params_spec;
+  }
+  AddDecision(input);
+  d_.report_path = WriteDecisionReport(o_.report_dir, input);
+  Log("report: " + d_.report_path);
+}
+
 void NightlyJob::WriteRunReport() {
   const CalibrationRun& run = *run_;
   ReportInput input;
@@ -1421,14 +1496,7 @@ void NightlyJob::WriteRunReport() {
     input.previous_params_spec = current_->params_spec;
   }
   input.changes = changes_;
-  input.drift = d_.drift;
-  input.drift_line = d_.DriftLine();
-  for (const auto& v : d_.tested) {
-    input.window.push_back({v.session, v.started_at, v.poses, v.mean_mm, v.effect_max_mm,
-                            v.p_value, v.disagrees, v.outlier});
-  }
-  for (const auto& c : d_.change ? d_.change->causes : d_.causes)
-    input.causes.push_back(c.Describe());
+  AddDecision(input);
   if (d_.model_drift) {
     const auto& m = *d_.model_drift;
     input.changes_note = fmt::format(
@@ -1463,6 +1531,10 @@ RecalibrationDecision NightlyJob::Run() {
     d_.poses = d_.change->poses_after;
     d_.sessions = d_.change->after;
     Log(d_.Describe());
+    if (!o_.report_dir.empty()) {
+      RemoveReportDebris(o_.report_dir, 0.0);  // this run holds the robot's lock
+      WriteDecisionOnlyReport();  // nothing stored: a report that fails is the run's failure
+    }
     return d_;
   }
   const std::vector<MeasuredPose> poses = FitInput();

@@ -9,6 +9,7 @@
 #include "io/atomic_file.h"
 #include "workflows/html.h"
 #include "workflows/report_figures.h"
+#include "workflows/report_page.h"
 
 namespace armsig::workflows {
 
@@ -74,6 +75,34 @@ std::string WriteReport(const std::string& dir, const ReportInput& in) {
   html += Html("</div>\n");
   html +=
       ParameterSection(data) + ChangeSection(data) + WindowSection(in) + HistorySection(in, drift);
+  html += Html("</body></html>\n");
+  const std::string path = dir + "/index.html";
+  io::WriteFileAtomically(path, html.str());
+  return path;
+}
+
+std::string WriteDecisionReport(const std::string& dir, const ReportInput& in) {
+  namespace fs = std::filesystem;
+  fs::create_directories(dir);
+  RemoveReportDebris(dir, 60.0);
+  // Every figure but the drift chart, which is drawn again below (or dropped with them).
+  std::error_code error;
+  for (const auto& entry : fs::directory_iterator(dir, error)) {
+    const std::string name = entry.path().filename().string();
+    const bool figure = name == "errors.png" || name == "histogram.png" ||
+                        name == "vectors.png" || name == "residual_map.png" ||
+                        name == "temperature.png" || name == "drift.png" ||
+                        (name.starts_with("joint_") && name.ends_with(".png"));
+    std::error_code ignored;
+    if (figure) fs::remove(entry.path(), ignored);
+  }
+  const auto drift = DriftFigure(dir, in.drift_history, in.history);
+  Html html = PageStart(in);
+  html += Html(
+      "<p id=\"no-fit\">No set was fitted this night: the configurations measured since the "
+      "change are too few for a fit of their own, and a fit reaching back before it would blend "
+      "two robots. The active set stays as it was.</p>\n");
+  html += WindowSection(in) + HistorySection(in, drift);
   html += Html("</body></html>\n");
   const std::string path = dir + "/index.html";
   io::WriteFileAtomically(path, html.str());

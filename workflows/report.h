@@ -20,6 +20,12 @@ namespace armsig::workflows {
 // Writes DIR/index.html and DIR/*.png; returns the HTML path. Throws on I/O failure.
 // Temporary files a crashed writer left beside them (older than a minute) are removed.
 std::string WriteReport(const std::string& dir, const ReportInput& input);
+// The page of a night that fitted nothing (drift suspected, too few configurations since
+// the change for a fit of their own; exit 5): the decision, the drift line and its causes, the
+// window of sessions tested against the active set, the drift chart and the versions. The
+// figures of an earlier report in the folder are removed: they would describe another night.
+// `input.run` and `input.model` are not used. Returns the page's path.
+std::string WriteDecisionReport(const std::string& dir, const ReportInput& input);
 
 // The text index.html carries to say which robot's which version it reports (a <meta>
 // element of its head); "" for a run that stored nothing.

@@ -119,6 +119,23 @@ TEST(ModelYaml, WrongShapeNamesPositionAndWhatWasExpected) {
   EXPECT_EQ(base.message(), "expected 'auto' or a 4x4 matrix, got 'identity'");
 }
 
+// Issue 38: `of: [2, 2, 2]` was read as cos(3 q2) under a name that says three joints.
+TEST(ModelYaml, AJointListedTwiceInATermIsRefusedAtItsPosition) {
+  const std::string two_links =
+      "links:\n  - [[1,0,0,0],[0,1,0,0],[0,0,1,0],[0,0,0,1]]\n"
+      "  - [[1,0,0,0],[0,1,0,0],[0,0,1,0],[0,0,0,1]]\n";
+  const InputError e = ModelRefusal(
+      two_links + "nongeometric:\n  - {name: h1, joint: 1, basis: cos, of: [2, 1, 2]}\n");
+  EXPECT_EQ(e.where().line, 5);
+  EXPECT_EQ(e.where().column, 49);  // the second 2
+  EXPECT_EQ(e.message(),
+            "joint 2 is listed twice in 'of' (expected distinct joints; a harmonic of one joint "
+            "is 'of: [2]' with 'order: N')");
+  EXPECT_NO_THROW(ParseRobotModel(
+      two_links + "nongeometric:\n  - {name: h1, joint: 1, basis: cos, of: [2, 1], order: 3}\n",
+      "m.yaml"));
+}
+
 TEST(ModelYaml, GeneratedTermsAndGravityAreRead) {
   // The UR10 file asks for both families: its h1…h4, then 10 compliances and 20 harmonics.
   const auto ur10 = testing::Ur10();

@@ -34,8 +34,9 @@ class NightlyChange : public ::testing::Test {
   // One night: a session of `count` configurations of `robot`, then the job as the unit
   // runs it (no --since, the lab's defaults).
   // `stride`: a short session spread over the lab's whole test design (see AddSession).
+  // `report`: the --report folder ("" none).
   workflows::RecalibrationDecision Night(const Eigen::VectorXd& robot, int count,
-                                         int stride = 1) {
+                                         int stride = 1, const std::string& report = "") {
     ++night_;
     {
       db::Database database(path_);
@@ -45,6 +46,7 @@ class NightlyChange : public ::testing::Test {
     workflows::RecalibrateOptions o;
     o.db_path = path_;
     o.robot = "puma";
+    o.report_dir = report;
     return workflows::Recalibrate(o);
   }
 
@@ -100,13 +102,15 @@ TEST_F(NightlyChange, AJointZeroRemasteredIsNamedThenFollowedWithoutBlending) {
   Eigen::VectorXd after = before;
   const double shift = 0.02 * kRadPerDeg;
   after(model.IndexOf("gamma2")) += shift;
+  const std::string report = dir_.File("report");
   for (int n = 1; n <= 3; ++n) {
-    const auto d = Night(before, 60);
+    const auto d = Night(before, 60, 1, n == 3 ? report : "");
     ASSERT_EQ(d.outcome, Outcome::kStored) << "night " << n << ": " << d.Describe();
     EXPECT_EQ(d.ExitCode(), 0);
     EXPECT_FALSE(d.drift) << d.DriftLine();
   }
-  const auto suspected = Night(after, 24, 8);
+  ASSERT_TRUE(std::filesystem::exists(report + "/errors.png"));
+  const auto suspected = Night(after, 24, 8, report);
   ASSERT_EQ(suspected.outcome, Outcome::kDriftSuspected) << suspected.Describe();
   EXPECT_EQ(suspected.ExitCode(), 5);
   ASSERT_TRUE(suspected.change.has_value());
@@ -131,6 +135,18 @@ TEST_F(NightlyChange, AJointZeroRemasteredIsNamedThenFollowedWithoutBlending) {
       << cause.Describe();
   EXPECT_EQ(suspected.previous_version, 3);
   EXPECT_EQ(Versions(path_), 3);  // nothing stored
+  // Its report (issue 38: an exit-5 night wrote none): the decision in red, the drift line
+  // with its cause and the window, no figure of the third night's fit left beside it.
+  EXPECT_EQ(suspected.report_path, report + "/index.html");
+  const std::string page = ReadText(report + "/index.html");
+  EXPECT_NE(page.find("<p class=\"bad\"><b>"), std::string::npos);
+  EXPECT_NE(page.find("DRIFT SUSPECTED"), std::string::npos);
+  EXPECT_NE(page.find("id=\"drift-line\""), std::string::npos);
+  EXPECT_NE(page.find("joint 2 zero"), std::string::npos);
+  EXPECT_NE(page.find("id=\"no-fit\""), std::string::npos);
+  EXPECT_EQ(page.find("armsig-set"), std::string::npos);  // no set of this night
+  EXPECT_FALSE(std::filesystem::exists(report + "/errors.png"));
+  EXPECT_FALSE(std::filesystem::exists(report + "/joint_1.png"));
 
   const auto followed = Night(after, 60);
   ASSERT_EQ(followed.outcome, Outcome::kDriftStored) << followed.Describe();

@@ -420,6 +420,45 @@ TEST(SinceToUtc, ReadsIsoDatesInTheirTimeZoneAndRefusesImpossibleOnes) {
   tzset();
 }
 
+// Issue 38: a local time the clocks skipped or passed twice was read as mktime guessed (an
+// hour off, silently). POSIX rules for central Europe: summer time from the last Sunday of
+// March 02:00 to the last Sunday of October 03:00.
+TEST(SinceToUtc, ALocalTimeThatDoesNotExistOrHappenedTwiceIsRefusedWithItsOffsets) {
+  const char* saved = std::getenv("TZ");
+  const std::string saved_tz = saved ? saved : "";
+  setenv("TZ", "CET-1CEST,M3.5.0,M10.5.0/3", 1);
+  tzset();
+  EXPECT_EQ(workflows::SinceToUtc("2026-03-29T01:59"), "2026-03-29T00:59:00.000Z");
+  EXPECT_EQ(workflows::SinceToUtc("2026-03-29T03:00"), "2026-03-29T01:00:00.000Z");
+  EXPECT_EQ(workflows::SinceToUtc("2026-07-01"), "2026-06-30T22:00:00.000Z");
+  EXPECT_EQ(workflows::SinceToUtc("2026-10-25T03:00"), "2026-10-25T02:00:00.000Z");
+  EXPECT_EQ(workflows::SinceToUtc("2026-10-25T02:30+02:00"), "2026-10-25T00:30:00.000Z");
+  std::string skipped, twice;
+  try {
+    workflows::SinceToUtc("2026-03-29T02:30");
+  } catch (const InputError& e) {
+    skipped = e.what();
+  }
+  try {
+    workflows::SinceToUtc("2026-10-25T02:30");
+  } catch (const InputError& e) {
+    twice = e.what();
+  }
+  if (saved) {
+    setenv("TZ", saved_tz.c_str(), 1);
+  } else {
+    unsetenv("TZ");
+  }
+  tzset();
+  EXPECT_NE(skipped.find("'2026-03-29T02:30': this local time (TZ=CET-1CEST,M3.5.0,M10.5.0/3) "
+                         "does not exist: the clocks skipped it"),
+            std::string::npos)
+      << skipped;
+  EXPECT_NE(twice.find("happened twice"), std::string::npos) << twice;
+  EXPECT_NE(twice.find("+02:00 for the first or +01:00 for the second"), std::string::npos)
+      << twice;
+}
+
 // --since echoed its value raw; a line break in it began a line of its own.
 TEST(SinceToUtc, ARefusedValueIsQuotedWithItsControlCharactersEscapedAndCut) {
   try {
