@@ -6,6 +6,7 @@
 #include <iostream>
 
 #include "app/command.h"
+#include "calibration/iso9283_cube.h"
 #include "core/error.h"
 #include "core/plausibility.h"
 #include "core/units.h"
@@ -37,7 +38,12 @@ int RunIso9283Plan(const Iso9283PlanCommandOptions& o, db::Database& db) {
   };
   if (!o.cube.empty()) {
     options.cube = calibration::iso9283::TestCube{vector3(o.cube, "--cube", 4), o.cube[3]};
-    if (!(o.cube[3] > 0)) throw InputError({"--cube", 0, 0, ""}, "the edge must be > 0 mm");
+    if (!(o.cube[3] >= calibration::iso9283::kMinCubeEdgeMm)) {
+      throw InputError({"--cube", 0, 0, ""},
+                       fmt::format("an edge of {:g} mm is no test of the working space (ISO "
+                                   "9283: the largest cube it holds; expected at least {:g} mm)",
+                                   o.cube[3], calibration::iso9283::kMinCubeEdgeMm));
+    }
     if (!o.centre.empty()) throw InputError({"--centre", 0, 0, ""}, "--centre goes with --auto");
   }
   options.auto_cube = o.auto_cube;

@@ -30,6 +30,11 @@ struct TestCube {
   double edge_mm = 0.0;
 };
 
+// The smallest edge a test cube may have. The standard's cube is the largest the working
+// space holds; P2…P5 of a cube under 10 mm sit within a few millimetres of P1, closer than a
+// small desktop arm's own pose errors, and test nothing of its working space.
+inline constexpr double kMinCubeEdgeMm = 10.0;
+
 // C1…C8 in the order above.
 std::array<Eigen::Vector3d, 8> CubeCorners(const TestCube& cube);
 

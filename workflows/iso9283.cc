@@ -212,12 +212,13 @@ void Iso9283Planner::ChooseCube() {
     plan_.cube = *o_.cube;
   } else {
     const double edge = iso::LargestCubeEdge(
-        centre_, [this](const iso::TestCube& cube) { return Reachable(cube); }, 10.0, 4000.0, 1.0);
+        centre_, [this](const iso::TestCube& cube) { return Reachable(cube); },
+        iso::kMinCubeEdgeMm, 4000.0, 1.0);
     if (edge <= 0.0) {
       throw InputError({"--centre", 0, 0, ""},
-                       fmt::format("--auto: not even a 10 mm cube around {} mm is within the reach "
-                                   "of model {} with this tool orientation",
-                                   Mm(centre_), model_.name));
+                       fmt::format("--auto: not even a {:g} mm cube around {} mm is within the "
+                                   "reach of model {} with this tool orientation",
+                                   iso::kMinCubeEdgeMm, Mm(centre_), model_.name));
     }
     plan_.cube = {centre_, std::floor(edge / 10.0) * 10.0};
   }

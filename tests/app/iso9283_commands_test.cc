@@ -149,6 +149,17 @@ TEST(Iso9283Commands, RefusalsAreExitTwoNamingWhatIsWrong) {
   const auto far = RunArmsig(db + "iso9283 plan --robot puma --cube 5000,0,0,100" + out);
   EXPECT_EQ(far.exit_code, 2);
   EXPECT_NE(far.err.find("cannot be reached"), std::string::npos) << far.err;
+  // Issue 38: a cube of 1e-300 mm made a plan of five coinciding points, exit 0.
+  for (const char* edge : {"0", "-100", "1e-300", "9.99"}) {
+    const auto tiny =
+        RunArmsig(db + "iso9283 plan --robot puma --cube 600,100,700," + edge + out);
+    EXPECT_EQ(tiny.exit_code, 2) << edge;
+    EXPECT_NE(tiny.err.find("--cube: an edge of "), std::string::npos) << tiny.err;
+    EXPECT_NE(tiny.err.find("mm is no test of the working space (ISO 9283: the largest cube it "
+                            "holds; expected at least 10 mm)"),
+              std::string::npos)
+        << tiny.err;
+  }
   const auto three = RunArmsig(db + "iso9283 plan --robot puma --cube 600,100,700" + out);
   EXPECT_EQ(three.exit_code, 2);
   EXPECT_NE(three.err.find("expected 4 numbers, got 3"), std::string::npos) << three.err;
