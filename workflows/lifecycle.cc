@@ -9,6 +9,7 @@
 #include <cstdint>
 #include <cstring>
 #include <limits>
+#include <optional>
 
 #include "acquisition/plan.h"
 #include "acquisition/session_owner.h"
@@ -100,6 +101,33 @@ std::string PosesDigest(const std::vector<MeasuredPose>& poses) {
   return digest.Hex();
 }
 
+namespace {
+
+// Two sessions of poses are one measurement when every pose agrees within what writing it to a
+// file and reading it back may change (armsig's own export: 12 significant digits of a joint
+// in degrees, positions to 10 nm): 1e-8 rad (0.002″) a joint, 1 µm a coordinate (a tenth of
+// the best tracker's noise), 1e-6 of an orientation matrix's entry. Two measurings of the same
+// configurations differ by the instrument's noise on nearly every pose.
+bool SameMeasurement(const std::vector<MeasuredPose>& a, const std::vector<MeasuredPose>& b) {
+  constexpr double kJointRad = 1e-8, kPositionMm = 1e-3, kRotation = 1e-6;
+  if (a.size() != b.size()) return false;
+  for (size_t k = 0; k < a.size(); ++k) {
+    const MeasuredPose& p = a[k];
+    const MeasuredPose& q = b[k];
+    if (p.joints_rad.size() != q.joints_rad.size() || p.orientation.has_value() != q.orientation.has_value())
+      return false;
+    if ((p.joints_rad - q.joints_rad).cwiseAbs().maxCoeff() > kJointRad) return false;
+    if ((p.target_in_world - q.target_in_world).cwiseAbs().maxCoeff() > kPositionMm) return false;
+    if (p.orientation && (p.orientation->world_from_target - q.orientation->world_from_target)
+                                 .cwiseAbs()
+                                 .maxCoeff() > kRotation)
+      return false;
+  }
+  return true;
+}
+
+}  // namespace
+
 PosesSessionWriter::PosesSessionWriter(db::Database& database, const std::string& robot,
                                        const std::string& source, const std::string& kind)
     : database_(database),
@@ -185,11 +213,18 @@ StoredPoses PosesSessionWriter::Finish(bool allow_duplicate) {
   result.digest = digest_.Hex();
   spdlog::debug("import poses: {} poses from {}: content digest {}", count_, source_,
                 result.digest);
+  // This session's poses as stored, read back only when another session has as many.
+  std::optional<std::vector<MeasuredPose>> these;
   for (const auto& s : db::ListSessions(database_, robot_id_)) {
     if (s.id == session_ || s.measured != static_cast<int>(count_)) continue;
-    const std::string digest = PosesDigest(db::LoadSessionPoses(database_, s.id));
+    const auto stored = db::LoadSessionPoses(database_, s.id);
+    const std::string digest = PosesDigest(stored);
     spdlog::trace("import poses: session {} ({} poses): digest {}", s.id, s.measured, digest);
-    if (digest != result.digest) continue;
+    if (digest != result.digest) {
+      // The same poses after a round trip through a file (an export's rounding) hash apart.
+      if (!these) these = db::LoadSessionPoses(database_, session_);
+      if (!SameMeasurement(stored, *these)) continue;
+    }
     if (allow_duplicate) {
       spdlog::warn(
           "import poses: session {} already holds these {} poses; storing them again "

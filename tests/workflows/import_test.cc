@@ -14,6 +14,7 @@
 #include "core/error.h"
 #include "core/units.h"
 #include "db/database.h"
+#include "io/poses_csv.h"
 #include "test_support.h"
 #include "workflows/lifecycle.h"
 
@@ -117,6 +118,41 @@ TEST(ImportPosesFile, TheSameMeasurementsTwiceAreStoredOnce) {
   const auto copy = workflows::ImportPosesFile(request);
   EXPECT_FALSE(copy.duplicate);
   EXPECT_NE(copy.session, first.session);
+  db::Database database(request.db_path);
+  EXPECT_EQ(workflows::Sessions(database, "puma").size(), 2u);
+}
+
+// Issue 38: a session exported (`session export --poses`, io::FormatPosesCsv: 12 significant
+// digits of a joint in degrees, positions to 10 nm) and imported again was stored a second
+// time: the rounding moved the values off the digest's grid. One pose 5 µm off is another
+// measurement and is stored.
+TEST(ImportPosesFile, AnExportedSessionImportedAgainIsTheSameMeasurement) {
+  TempDir dir;
+  const auto truth = SimulatedPoses(6, 30);
+  WriteText(dir.File("full.csv"), PosesFile(truth));
+  workflows::ImportPosesRequest request;
+  request.robot = "puma";
+  request.db_path = LabDatabase(dir);
+  request.file = dir.File("full.csv");
+  const auto first = workflows::ImportPosesFile(request);
+  ASSERT_FALSE(first.duplicate);
+  std::vector<MeasuredPose> stored;
+  {
+    db::Database database(request.db_path);
+    stored = workflows::SessionPoses(database, first.session);
+  }
+  WriteText(dir.File("export.csv"), io::FormatPosesCsv(stored));
+  request.file = dir.File("export.csv");
+  const auto again = workflows::ImportPosesFile(request);
+  EXPECT_TRUE(again.duplicate);
+  EXPECT_EQ(again.session, first.session);
+  auto moved = stored;
+  moved[17].target_in_world.y() += 0.005;
+  WriteText(dir.File("moved.csv"), io::FormatPosesCsv(moved));
+  request.file = dir.File("moved.csv");
+  const auto other = workflows::ImportPosesFile(request);
+  EXPECT_FALSE(other.duplicate);
+  EXPECT_NE(other.session, first.session);
   db::Database database(request.db_path);
   EXPECT_EQ(workflows::Sessions(database, "puma").size(), 2u);
 }
