@@ -243,4 +243,27 @@ TEST(CsvReader, ARecordLongerThanTheLimitIsRefused) {
   EXPECT_NE(what.find("longer than 1 MiB"), std::string::npos) << what.substr(0, 200);
 }
 
+// Issue 38: a header of a million columns (10 MB on one line) kept every whole-file reader
+// (predict --joints, compensate --targets, …) busy for minutes: each column name was compared
+// with every earlier one. The whole-file reader takes records of at most 1 MiB, as the
+// streaming one does, and finds a repeated name in one pass.
+TEST(ParseCsv, AHeaderLongerThanTheRecordLimitIsRefusedAsTheStreamingReaderDoes) {
+  std::string header = "q1_deg";
+  for (int c = 0; header.size() <= kMaxCsvRecordBytes; ++c) header += ",c" + std::to_string(c);
+  const std::string text = "# a comment\n" + header + "\n1\n";
+  const std::string what = Message([&] { ParseCsv(text, "wide.csv"); });
+  EXPECT_EQ(what.substr(0, 29), "wide.csv:2: a record longer t") << what.substr(0, 200);
+  testing::TempDir dir;
+  testing::WriteText(dir.File("wide.csv"), text);
+  const std::string streamed = Message([&] { ReadRows(dir.File("wide.csv"), 1 << 16); });
+  EXPECT_NE(streamed.find("longer than 1 MiB"), std::string::npos) << streamed.substr(0, 200);
+  // 90,000 distinct names under the bound, the last one repeating the first: found at once.
+  std::string names = "c0";
+  for (int c = 1; c < 90000; ++c) names += ",c" + std::to_string(c);
+  names += ",c0";
+  EXPECT_EQ(Message([&] { ParseCsv(names + "\n", "dup.csv"); }),
+            "dup.csv:1:90001 (c0): duplicate column 'c0' (also column 1): expected each column "
+            "once");
+}
+
 }  // namespace armsig::io
