@@ -131,15 +131,8 @@ std::vector<AttainedRow> ReadAttainedCsv(const std::string& path) {
   return out;
 }
 
-std::string FormatIso9283PlanCsv(const std::vector<Iso9283PlanRow>& rows,
-                                 const std::string& comment) {
+std::string FormatIso9283PlanCsv(const std::vector<Iso9283PlanRow>& rows) {
   std::string out;
-  for (size_t start = 0; start < comment.size();) {
-    const size_t end = comment.find('\n', start);
-    out += "# " + comment.substr(start, end == std::string::npos ? end : end - start) + "\n";
-    if (end == std::string::npos) break;
-    start = end + 1;
-  }
   const int n = rows.empty() ? 0 : static_cast<int>(rows[0].joints_rad.size());
   out += "pose,point,cycle,approach,x_mm,y_mm,z_mm";
   for (int i = 1; i <= n; ++i) out += fmt::format(",q{}_deg", i);

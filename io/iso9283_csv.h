@@ -46,9 +46,9 @@ struct Iso9283PlanRow {
   Eigen::Vector3d target_mm = Eigen::Vector3d::Zero();  // in the robot frame
   Eigen::VectorXd joints_rad;
 };
-// `comment` goes first as '#' lines (the plan's conditions: cube, model, signature).
-std::string FormatIso9283PlanCsv(const std::vector<Iso9283PlanRow>& rows,
-                                 const std::string& comment);
+// The header and the rows only: a spreadsheet or pandas reads it as it is (the plan's
+// conditions, which were '#' lines read as rows there, are on the command's output).
+std::string FormatIso9283PlanCsv(const std::vector<Iso9283PlanRow>& rows);
 std::vector<Iso9283PlanRow> ReadIso9283PlanCsv(const std::string& path, int num_joints);
 
 }  // namespace armsig::io

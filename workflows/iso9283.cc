@@ -107,7 +107,7 @@ class Iso9283Planner {
   void PlanTestPoints();
   void PlanViaPoints();
   void PlanCycles();
-  std::string Comment() const;
+  std::string Conditions() const;
 
   const calibration::RobotModel& model_;
   const std::string& robot_;
@@ -161,7 +161,8 @@ Iso9283Plan Iso9283Planner::Make() {
   PlanTestPoints();
   PlanViaPoints();
   PlanCycles();
-  plan_.csv = io::FormatIso9283PlanCsv(plan_.rows, Comment());
+  plan_.conditions = Conditions();
+  plan_.csv = io::FormatIso9283PlanCsv(plan_.rows);
   return std::move(plan_);
 }
 
@@ -322,10 +323,10 @@ void Iso9283Planner::PlanCycles() {
 
 // The plan file's comment: the robot, the cube, the measuring plane, the cycles and how
 // the joints were found.
-std::string Iso9283Planner::Comment() const {
+std::string Iso9283Planner::Conditions() const {
   const Eigen::Vector3d abc = iso::AbcFromRotation(plan_.tool_rotation) / kRadPerDeg;
   return fmt::format(
-      "armsig iso9283 plan: robot {} (model {}); cube centre {} mm, edge {:.1f} mm\n"
+      "ISO 9283 test cube of robot {} (model {}): centre {} mm, edge {:.1f} mm\n"
       "measuring plane C1-C2-C7-C8; P2, P3, P4, P5 at 10 % of the diagonal from C1, C2, C7, C8\n"
       "{} cycles in the order P1 P5 P4 P3 P2{}; tool orientation a {:.4f}, b {:.4f}, c {:.4f} deg\n"
       "joints: {}; targets x_mm, y_mm, z_mm in the robot frame",
@@ -348,8 +349,7 @@ Iso9283Plan MakeIso9283Plan(const calibration::RobotModel& model, const std::str
 }
 
 std::string FormatIso9283PlanSummary(const Iso9283Plan& plan, const std::string& out_path) {
-  std::string out = fmt::format("ISO 9283 test cube: centre {} mm, edge {:.1f} mm\n",
-                                Mm(plan.cube.centre_mm), plan.cube.edge_mm);
+  std::string out = plan.conditions + "\n";
   for (const auto& p : plan.points) {
     out +=
         fmt::format("  {}  {} mm   joints {} deg", p.name, Mm(p.target_mm), Degrees(p.joints_rad));

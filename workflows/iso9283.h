@@ -59,6 +59,7 @@ struct Iso9283Plan {
   std::vector<Iso9283PlannedPoint> points;                      // P1…P5
   std::vector<io::Iso9283PlanRow> rows;                         // the cycles, in order
   int signature_version = 0;                                    // compensated with; 0 = nominal
+  std::string conditions;  // robot, model, cube, measuring plane, order, tool orientation (lines)
   std::string csv;
 };
 

@@ -44,6 +44,13 @@ TEST(Iso9283Commands, PlanMeasureImportReportAndEvaluate) {
   ASSERT_EQ(plan.exit_code, 0) << plan.err;
   EXPECT_NE(plan.out.find("30 configurations"), std::string::npos) << plan.out;
   EXPECT_NE(plan.out.find("distance P2-P4: 554.256 mm"), std::string::npos) << plan.out;
+  // The conditions on the output, the file the header and its rows (no '#' line a
+  // spreadsheet would read as a row).
+  EXPECT_NE(plan.out.find("ISO 9283 test cube of robot puma (model puma760): centre (600.000, "
+                          "100.000, 700.000) mm, edge 400.0 mm\nmeasuring plane C1-C2-C7-C8"),
+            std::string::npos)
+      << plan.out;
+  EXPECT_EQ(ReadText(dir.File("plan.csv")).rfind("pose,point,cycle,approach,x_mm", 0), 0u);
 
   // Measured elsewhere: the true robot (the paper's errors) with 0.05 mm of scatter, in a
   // tracker frame 2 m away and turned; the poses CSV keeps the plan's labels.

@@ -4,6 +4,8 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
+
 #include <cmath>
 #include <string>
 
@@ -87,13 +89,17 @@ TEST(Iso9283Csv, MalformedRowsAreRefusedAtTheirLine) {
   EXPECT_NE(refusal("point,x_mm,y_mm,z_mm\n", true).find("no attained poses"), std::string::npos);
 }
 
-TEST(Iso9283Csv, PlanRoundTripsWithViaPointsAndItsComment) {
+// Issue 38: the plan opened with '#' lines, which pandas and spreadsheets read as rows: it
+// is the header and the rows only.
+TEST(Iso9283Csv, PlanRoundTripsWithViaPointsAndOpensWithItsHeader) {
   std::vector<Iso9283PlanRow> rows = {
       {"P1-01-x-via", "", 0, "", {700, 100, 700}, Eigen::VectorXd::LinSpaced(6, -1, 1)},
       {"P1-01-x", "P1", 1, "x", {600, 100, 700}, Eigen::VectorXd::LinSpaced(6, -0.5, 0.5)}};
   testing::TempDir dir;
-  const std::string text = FormatIso9283PlanCsv(rows, "line one\nline two");
-  EXPECT_EQ(text.rfind("# line one\n# line two\npose,point,cycle,approach,x_mm", 0), 0u) << text;
+  const std::string text = FormatIso9283PlanCsv(rows);
+  EXPECT_EQ(text.rfind("pose,point,cycle,approach,x_mm,y_mm,z_mm,q1_deg,", 0), 0u) << text;
+  EXPECT_EQ(text.find('#'), std::string::npos) << text;
+  EXPECT_EQ(std::count(text.begin(), text.end(), '\n'), 3);
   testing::WriteText(dir.File("plan.csv"), text);
   const auto back = ReadIso9283PlanCsv(dir.File("plan.csv"), 6);
   ASSERT_EQ(back.size(), 2u);
