@@ -128,6 +128,9 @@ td.num,th.num{text-align:right;white-space:nowrap;font-variant-numeric:tabular-n
 .nowrap{white-space:nowrap}
 table.header th{white-space:nowrap}
 .bad{color:#b00}.good{color:#070}.note{font-style:italic}
+.banner{font-size:1.25em;padding:0.5em 0.8em;border:2px solid;margin:0.6em 0}
+.banner.good{background:#eef8ee}.banner.bad{background:#fbecec}
+.banner.warn{color:#8a5300;background:#fff4e0}
 figure{margin:1em 0;break-inside:avoid;page-break-inside:avoid}
 figure img{max-width:100%;border:1px solid #eee;display:block}
 figcaption{font-size:0.85em;color:#555}

@@ -104,12 +104,14 @@ std::string PosesDigest(const std::vector<MeasuredPose>& poses) {
 namespace {
 
 // Two sessions of poses are one measurement when every pose agrees within what writing it to a
-// file and reading it back may change (armsig's own export: 12 significant digits of a joint
-// in degrees, positions to 10 nm): 1e-8 rad (0.002″) a joint, 1 µm a coordinate (a tenth of
-// the best tracker's noise), 1e-6 of an orientation matrix's entry. Two measurings of the same
-// configurations differ by the instrument's noise on nearly every pose.
+// file and reading it back may change (armsig's own export, io::PosesCsvRow: 12 significant
+// digits of an angle in degrees, 9 of a coordinate in mm): 1e-8 rad a joint (0.002″), a
+// coordinate 0.1 µm or 1e-8 of its size (9 digits of a 100 m coordinate), 1e-9 an entry of an
+// orientation matrix. Two measurings of the same configurations differ by the instrument's
+// noise, and one coordinate 1 µm off is another measurement.
 bool SameMeasurement(const std::vector<MeasuredPose>& a, const std::vector<MeasuredPose>& b) {
-  constexpr double kJointRad = 1e-8, kPositionMm = 1e-3, kRotation = 1e-6;
+  constexpr double kJointRad = 1e-8, kPositionMm = 1e-4, kPositionRelative = 1e-8,
+                   kRotation = 1e-9;
   if (a.size() != b.size()) return false;
   for (size_t k = 0; k < a.size(); ++k) {
     const MeasuredPose& p = a[k];
@@ -117,7 +119,10 @@ bool SameMeasurement(const std::vector<MeasuredPose>& a, const std::vector<Measu
     if (p.joints_rad.size() != q.joints_rad.size() || p.orientation.has_value() != q.orientation.has_value())
       return false;
     if ((p.joints_rad - q.joints_rad).cwiseAbs().maxCoeff() > kJointRad) return false;
-    if ((p.target_in_world - q.target_in_world).cwiseAbs().maxCoeff() > kPositionMm) return false;
+    for (int c = 0; c < 3; ++c) {
+      const double a = p.target_in_world(c), b = q.target_in_world(c);
+      if (!(std::abs(a - b) <= std::max(kPositionMm, kPositionRelative * std::abs(a)))) return false;
+    }
     if (p.orientation && (p.orientation->world_from_target - q.orientation->world_from_target)
                                  .cwiseAbs()
                                  .maxCoeff() > kRotation)

@@ -384,6 +384,7 @@ nlohmann::json RecalibrationDecision::ToJson() const {
     j["version"] = nullptr;
     if (previous_version) j["previous_version"] = *previous_version;
     j["sessions"] = sessions;
+    if (!report_path.empty()) j["report"] = report_path;
     return j;
   }
   if (outcome == Outcome::kFailed) j["failure"] = failure;

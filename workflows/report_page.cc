@@ -40,14 +40,45 @@ ReportData::ReportData(const ReportInput& input) : in(input), model(*input.model
   if (trend_refusal.empty()) trend = LinearTrendOf(temperatures, temperature_errors);
 }
 
+ReportBanner BannerOf(const ReportInput& in) {
+  double moved_mm = 0.0;  // the largest effect at the tool of a session that disagreed
+  for (const auto& w : in.window)
+    if (w.disagrees) moved_mm = std::max(moved_mm, w.effect_max_mm);
+  const std::string moved =
+      moved_mm > 0.0 ? fmt::format("the robot moved by up to {:.3f} mm at the tool", moved_mm)
+                     : std::string("the robot changed");
+  std::string validated;
+  if (in.run && !in.run->validation_residuals.empty()) {
+    const auto v = StatsOf(in.run->validation_residuals);
+    validated = fmt::format("validation mean {:.3f} mm, max {:.3f} mm on {} configurations",
+                            v.mean_mm, v.max_mm, in.run->validation_residuals.size());
+  }
+  if (in.version > 0 && in.drift)
+    return {"DRIFT", "warn", fmt::format("{}; version {} follows it ({})", moved, in.version,
+                                         validated.empty() ? "stored" : validated)};
+  if (in.version > 0)
+    return {"PASS", "good", fmt::format("version {}: {}", in.version,
+                                        validated.empty() ? "stored" : validated)};
+  if (!in.run)
+    return {"DRIFT SUSPECTED", "bad",
+            fmt::format("{}; nothing stored, version {} stays active", moved,
+                        in.previous_version ? std::to_string(*in.previous_version) : "none")};
+  for (const auto& g : in.gates)
+    if (g.ends_with("FAILED")) return {"REJECTED", "bad", g + "; nothing stored"};
+  return {"REJECTED", "bad", in.decision};
+}
+
 Html PageStart(const ReportInput& in) {
   Html html = HtmlFormat(
       "<!doctype html>\n<html><head><meta charset=\"utf-8\"><title>armsig report: {}</title>\n"
       "{}<style>{}</style>\n</head><body>\n",
       in.robot, Html::Trusted(ReportSetMarker(in.robot, in.version)), Html::Trusted(kPageStyle));
   html += HtmlFormat("<h1>Recalibration of {}</h1>\n", in.robot);
-  html += HtmlFormat("<p class=\"{}\"><b>{}</b></p>\n", in.version > 0 ? Html("good") : Html("bad"),
-                     in.decision);
+  // One glance first: the word and the figure that matter, never green on a drift night.
+  const ReportBanner banner = BannerOf(in);
+  html += HtmlFormat("<p class=\"banner {}\" id=\"banner\"><b>{}</b> &mdash; {}</p>\n",
+                     Html::Text(banner.css_class), banner.word, banner.figure);
+  html += HtmlFormat("<p class=\"{}\"><b>{}</b></p>\n", Html::Text(banner.css_class), in.decision);
 
   return html;
 }

@@ -29,7 +29,17 @@ struct ReportData {
   std::string trend_refusal;
 };
 
-// <head> (with the set marker and the print stylesheet), the title and the decision.
+// The report's first line: PASS (a set stored), DRIFT (stored after the robot changed),
+// DRIFT SUSPECTED (nothing fitted) or REJECTED, with the one figure that matters for it: the
+// validation error, how far the robot moved, or the gate that failed.
+struct ReportBanner {
+  std::string word;       // PASS, DRIFT, DRIFT SUSPECTED, REJECTED
+  std::string css_class;  // good, warn, bad
+  std::string figure;
+};
+ReportBanner BannerOf(const ReportInput& in);
+// <head> (with the set marker and the print stylesheet), the title, the banner and the
+// decision.
 Html PageStart(const ReportInput& in);
 // Where the numbers come from: date, version, robot, parameter set, sessions,
 // instruments, the orientations' σ0 (equal ones said once), rank, condition number,

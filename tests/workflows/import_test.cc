@@ -123,9 +123,9 @@ TEST(ImportPosesFile, TheSameMeasurementsTwiceAreStoredOnce) {
 }
 
 // Issue 38: a session exported (`session export --poses`, io::FormatPosesCsv: 12 significant
-// digits of a joint in degrees, positions to 10 nm) and imported again was stored a second
-// time: the rounding moved the values off the digest's grid. One pose 5 µm off is another
-// measurement and is stored.
+// digits of a joint in degrees, 9 of a coordinate in mm) and imported again was stored a
+// second time: the rounding moved the values off the digest's grid. One coordinate 1 µm off
+// is another measurement and is stored.
 TEST(ImportPosesFile, AnExportedSessionImportedAgainIsTheSameMeasurement) {
   TempDir dir;
   const auto truth = SimulatedPoses(6, 30);
@@ -147,7 +147,7 @@ TEST(ImportPosesFile, AnExportedSessionImportedAgainIsTheSameMeasurement) {
   EXPECT_TRUE(again.duplicate);
   EXPECT_EQ(again.session, first.session);
   auto moved = stored;
-  moved[17].target_in_world.y() += 0.005;
+  moved[17].target_in_world.y() += 0.001;
   WriteText(dir.File("moved.csv"), io::FormatPosesCsv(moved));
   request.file = dir.File("moved.csv");
   const auto other = workflows::ImportPosesFile(request);

@@ -138,8 +138,10 @@ TEST_F(NightlyChange, AJointZeroRemasteredIsNamedThenFollowedWithoutBlending) {
   // Its report (issue 38: an exit-5 night wrote none): the decision in red, the drift line
   // with its cause and the window, no figure of the third night's fit left beside it.
   EXPECT_EQ(suspected.report_path, report + "/index.html");
+  EXPECT_EQ(suspected.ToJson().value("report", ""), report + "/index.html");
   const std::string page = ReadText(report + "/index.html");
-  EXPECT_NE(page.find("<p class=\"bad\"><b>"), std::string::npos);
+  EXPECT_NE(page.find("<p class=\"banner bad\" id=\"banner\"><b>DRIFT SUSPECTED</b>"),
+            std::string::npos);
   EXPECT_NE(page.find("DRIFT SUSPECTED"), std::string::npos);
   EXPECT_NE(page.find("id=\"drift-line\""), std::string::npos);
   EXPECT_NE(page.find("joint 2 zero"), std::string::npos);

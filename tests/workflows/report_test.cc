@@ -26,6 +26,7 @@
 #include "test_support.h"
 #include "workflows/calibration_run.h"
 #include "workflows/recalibrate.h"
+#include "workflows/report_page.h"
 
 namespace armsig::testing {
 namespace {
@@ -752,6 +753,45 @@ TEST(Report, EqualOrientationSigma0sAreSaidOnce) {
   for (size_t at = sigma0.find("<div>"); at != std::string::npos; at = sigma0.find("<div>", at + 1))
     ++lines;
   EXPECT_EQ(lines, 2u) << sigma0;
+}
+
+// Issue 38: a drift night was headlined in green like any stored set. The page opens with one
+// word and the figure that matters for it: the validation error, how far the robot moved, or
+// the gate that failed.
+TEST(ReportBanner, SaysPassDriftDriftSuspectedOrRejectedWithTheFigureThatMatters) {
+  workflows::CalibrationRun run;
+  run.validation_residuals = {{0.03, 0.04, 0.0}, {0.0, 0.0, 0.1}};  // 0.05 and 0.10 mm
+  workflows::ReportInput in;
+  in.robot = "ur10";
+  in.run = &run;
+  in.version = 3;
+  in.decision = "stored as version 3";
+  auto banner = workflows::BannerOf(in);
+  EXPECT_EQ(banner.word, "PASS");
+  EXPECT_EQ(banner.css_class, "good");
+  EXPECT_EQ(banner.figure, "version 3: validation mean 0.075 mm, max 0.100 mm on 2 configurations");
+  in.drift = true;
+  in.window = {{7, "", 30, 0.4, 0.612, 1e-9, true, false}, {8, "", 30, 0.2, 0.9, 0.5, false, false}};
+  banner = workflows::BannerOf(in);
+  EXPECT_EQ(banner.word, "DRIFT");
+  EXPECT_EQ(banner.css_class, "warn");  // never green
+  EXPECT_EQ(banner.figure,
+            "the robot moved by up to 0.612 mm at the tool; version 3 follows it (validation mean "
+            "0.075 mm, max 0.100 mm on 2 configurations)");
+  in.version = 0;
+  in.drift = false;
+  in.previous_version = 2;
+  in.gates = {"fit mean: 0.0400 mm (limit 0.5000 mm) passed",
+              "validation mean: 0.9000 mm (limit 0.5000 mm) FAILED"};
+  banner = workflows::BannerOf(in);
+  EXPECT_EQ(banner.word, "REJECTED");
+  EXPECT_EQ(banner.css_class, "bad");
+  EXPECT_EQ(banner.figure, "validation mean: 0.9000 mm (limit 0.5000 mm) FAILED; nothing stored");
+  in.run = nullptr;
+  banner = workflows::BannerOf(in);
+  EXPECT_EQ(banner.word, "DRIFT SUSPECTED");
+  EXPECT_EQ(banner.figure,
+            "the robot moved by up to 0.612 mm at the tool; nothing stored, version 2 stays active");
 }
 
 }  // namespace armsig::testing
