@@ -781,9 +781,9 @@ void NightlyJob::SelectWindow(const std::vector<db::SessionSummary>& sessions,
                       s.id, s.owner->pid, s.owner->host));
       continue;
     }
-    if (d_.floor_session &&
-        (s.started_at < floor_started_at_ ||
-         (s.started_at == floor_started_at_ && s.id < *d_.floor_session))) {
+    // Before the change point in the order the store gave the sessions their ids (a capture
+    // machine's clock may be wrong; the store's sequence is not).
+    if (d_.floor_session && s.id < *d_.floor_session) {
       spdlog::debug("recalibrate: session {} is from before the change at session {}: left out",
                     s.id, *d_.floor_session);
       continue;
@@ -807,10 +807,21 @@ void NightlyJob::SelectWindow(const std::vector<db::SessionSummary>& sessions,
     }
     candidates.push_back({s, std::move(it->second)});
   }
-  std::stable_sort(candidates.begin(), candidates.end(), [](const auto& a, const auto& b) {
-    return std::tie(a.summary.started_at, a.summary.id) <
-           std::tie(b.summary.started_at, b.summary.id);
-  });
+  // Oldest first in the order the store sequenced them, not by the capture machines' clocks:
+  // one session stamped 2031 by a wrong clock would stay "the newest" and hide every change
+  // after it ("a later session agrees"). A start time later than this machine's clock is
+  // said.
+  std::sort(candidates.begin(), candidates.end(),
+            [](const auto& a, const auto& b) { return a.summary.id < b.summary.id; });
+  const std::string tomorrow = DaysAgoUtc(-1);
+  for (const auto& w : candidates) {
+    if (w.summary.started_at > tomorrow) {
+      Log(fmt::format("session {} says it started at {}, after this machine's clock: the clock "
+                      "of the machine that captured it was wrong; it is taken in the order it "
+                      "was stored",
+                      w.summary.id, w.summary.started_at));
+    }
+  }
   if (gates_.window_days > 0) {
     const std::string cutoff = DaysAgoUtc(gates_.window_days);
     std::erase_if(candidates, [&](WindowSession& w) {

@@ -35,13 +35,19 @@ class NightlyChange : public ::testing::Test {
   // runs it (no --since, the lab's defaults).
   // `stride`: a short session spread over the lab's whole test design (see AddSession).
   // `report`: the --report folder ("" none).
+  // `started_at`: the session's start as a wrong clock stamped it ("" the true one).
   workflows::RecalibrationDecision Night(const Eigen::VectorXd& robot, int count,
-                                         int stride = 1, const std::string& report = "") {
+                                         int stride = 1, const std::string& report = "",
+                                         const std::string& started_at = "") {
     ++night_;
     {
       db::Database database(path_);
       AddSession(database, robot, count, 500 + night_, 0.0, "", "puma", NightFrame(night_),
                  stride);
+      if (!started_at.empty()) {
+        database.connection().Exec("UPDATE sessions SET started_at = '" + started_at +
+                                   "' WHERE id = (SELECT max(id) FROM sessions)");
+      }
     }
     workflows::RecalibrateOptions o;
     o.db_path = path_;
@@ -219,6 +225,27 @@ TEST_F(NightlyChange, ALinkLengthChangeIsNamed) {
   ASSERT_FALSE(d.change->causes.empty());
   EXPECT_EQ(d.change->causes.front().name.rfind("link 2 length", 0), 0u) << d.DriftLine();
   EXPECT_NEAR(d.change->causes.front().size, 0.2, 0.06) << d.DriftLine();
+}
+
+// Issue 38: the window was ordered by the sessions' start times, the capture machines'
+// clocks: one session stamped 2031 by a wrong clock stayed "the newest", and the real change
+// after it read as "a session disagrees but a later one agrees" (exit 0, the pre-change
+// robot's set activated). The store's own sequence orders them; the wrong clock is said.
+TEST_F(NightlyChange, ASessionFromAWrongClockHidesNoChangeAfterIt) {
+  const auto model = Puma();
+  const Eigen::VectorXd before = calibration::PaperTable3Parameters();
+  Eigen::VectorXd after = before;
+  after(model.IndexOf("gamma2")) += 0.02 * kRadPerDeg;
+  for (int n = 1; n <= 3; ++n) ASSERT_EQ(Night(before, 60).outcome, Outcome::kStored);
+  const auto future = Night(before, 60, 1, "", "2031-06-01T02:00:00.000Z");
+  ASSERT_EQ(future.outcome, Outcome::kStored) << future.Describe();
+  const auto changed = Night(after, 60);
+  EXPECT_TRUE(changed.drift) << changed.Describe() << "\n" << changed.DriftLine();
+  EXPECT_EQ(changed.ExitCode(), 4) << changed.Describe();
+  ASSERT_TRUE(changed.change.has_value()) << changed.DriftLine();
+  EXPECT_EQ(changed.change->from_session, 5);
+  ASSERT_FALSE(changed.change->causes.empty());
+  EXPECT_EQ(changed.change->causes.front().name, "joint 2 zero") << changed.DriftLine();
 }
 
 // Ten nights of the same robot, each from a new set-up, the window sliding past the
