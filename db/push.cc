@@ -7,6 +7,7 @@
 #include <boost/uuid/uuid_io.hpp>
 #include <functional>
 #include <map>
+#include <set>
 #include <nlohmann/json.hpp>
 #include <optional>
 #include <variant>
@@ -615,7 +616,8 @@ void PushActivations(Connection& source, Connection& target, NameMap& names, int
     if (!v->Step()) return std::nullopt;
     return static_cast<int>(v->Int(0));
   };
-  std::string latest_here;
+  std::set<std::string> cell_activations;  // the cell's activation UUIDs
+  bool carried = false;                     // this push stored one of them on the server
   auto a = source.Prepare(
       "SELECT uuid, version, previous_version, activated_at, activated_by, note FROM activations "
       "WHERE robot_id = ? ORDER BY id");
@@ -624,7 +626,7 @@ void PushActivations(Connection& source, Connection& target, NameMap& names, int
       "INSERT INTO activations(robot_id, version, previous_version, activated_at, activated_by, "
       "note, uuid) VALUES (?,?,?,?,?,?,?)");
   while (a->Step()) {
-    latest_here = std::max(latest_here, a->Text(3));
+    if (!a->IsNull(0)) cell_activations.insert(a->Text(0));
     if (a->IsNull(0) || ServerIdOf(target, "activations", a->Text(0))) continue;
     const auto version = version_there(static_cast<int>(a->Int(1)));
     if (!version) continue;  // its set is not on the server
@@ -645,19 +647,25 @@ void PushActivations(Connection& source, Connection& target, NameMap& names, int
     insert->Bind(7, a->Text(0));
     insert->Execute();
     ++summary.activations_pushed;
+    carried = true;
   }
-  // The active state as in the cell, unless the server chose later by itself.
-  if (active_uuid) {
+  // The active state as in the cell when the cell activated since the last push, or when the
+  // server's newest activation is still one the cell made; one made on the server since (an
+  // operator's roll-back) stands. "Since" is the order the server stored the rows in, never
+  // the two machines' clocks: a cell two days ahead undid a roll-back at every push.
+  bool server_chose = false;
+  if (!carried) {
+    auto newest = target.Prepare(
+        "SELECT uuid FROM activations WHERE robot_id = ? ORDER BY id DESC LIMIT 1");
+    newest->Bind(1, robot);
+    server_chose = newest->Step() && (newest->IsNull(0) || !cell_activations.count(newest->Text(0)));
+  }
+  if (active_uuid && !server_chose) {
     auto version = target.Prepare(
         "SELECT version, active FROM calibrations WHERE robot_id = ? AND uuid = ?");
     version->Bind(1, robot);
     version->Bind(2, *active_uuid);
-    auto later = target.Prepare(
-        "SELECT count(*) FROM activations WHERE robot_id = ? AND activated_at > ?");
-    later->Bind(1, robot);
-    later->Bind(2, latest_here);
-    later->Step();
-    if (version->Step() && version->Int(1) == 0 && later->Int(0) == 0) {
+    if (version->Step() && version->Int(1) == 0) {
       auto off =
           target.Prepare("UPDATE calibrations SET active = 0 WHERE robot_id = ? AND active = 1");
       off->Bind(1, robot);

@@ -330,6 +330,54 @@ TEST_P(Push, CarriesEveryActivationAndTheActiveStateOnce) {
   EXPECT_EQ(active_b->version, 1);
 }
 
+// Issue 38 (clocks): "a later activation" was decided by comparing the two machines' clock
+// texts, so a cell whose clock runs two days ahead undid an operator's roll-back on the
+// server at every push, and no activation row said so. The server's own order decides: a
+// roll-back made there stands until the cell activates something new, which then follows as
+// a row of its own.
+TEST_P(Push, ARollBackOnTheServerStandsWhateverTheCellsClock) {
+  TempDir dir;
+  const std::string cell = dir.File("cell.db"), central = NewStore(GetParam(), dir, "central");
+  MakeCell(cell);
+  {
+    db::Database database(cell);
+    AddSession(database, calibration::PaperTable3Parameters(), 60, 3);
+  }
+  ASSERT_EQ(workflows::Recalibrate(Nightly(cell)).outcome,
+            workflows::RecalibrationDecision::Outcome::kStored);
+  {
+    db::Database database(cell);  // the cell's clock two days ahead when it activated
+    database.connection().Exec("UPDATE activations SET activated_at = '2099-01-01T00:00:00.000Z'");
+  }
+  PushFiles(cell, central);
+  auto active_on_server = [&] {
+    db::Database b(central, db::OpenMode::kMustExist);
+    return db::ActiveCalibration(b, *db::FindRobot(b, "puma"))->version;
+  };
+  ASSERT_EQ(active_on_server(), 2);
+  {
+    db::Database b(central, db::OpenMode::kMustExist);
+    workflows::Activate(b, "puma", 1, "version 2 moved the tool (operator on the server)");
+  }
+  const auto again = PushFiles(cell, central);
+  EXPECT_EQ(again.activated, 0);
+  EXPECT_EQ(active_on_server(), 1);  // the roll-back stands
+  // The cell activates again: that is news, carried as its own row and followed.
+  {
+    db::Database database(cell);
+    workflows::Activate(database, "puma", 1, "the cell agrees");
+    workflows::Activate(database, "puma", 2, "the cell goes back to 2");
+  }
+  const auto news = PushFiles(cell, central);
+  EXPECT_EQ(news.activations_pushed, 2);
+  EXPECT_EQ(news.activated, 1);
+  EXPECT_EQ(active_on_server(), 2);
+  db::Database b(central, db::OpenMode::kMustExist);
+  const auto history = db::ActivationHistory(b, *db::FindRobot(b, "puma"));
+  ASSERT_FALSE(history.empty());
+  EXPECT_EQ(history.back().note, "the cell goes back to 2");
+}
+
 ARMSIG_BOTH_BACKENDS(Push);
 
 }  // namespace armsig::testing
