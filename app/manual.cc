@@ -22,10 +22,13 @@ std::vector<const CLI::App*> Subcommands(const CLI::App& app) {
   return app.get_subcommands([](const CLI::App* sub) { return Visible(sub); });
 }
 
+// --help, and the program's --version flag; `activate --version N` takes a value and is an
+// option like any other (the reference and the manual page left it out).
 bool IsHelp(const CLI::Option* option) {
   const auto& names = option->get_lnames();
+  const bool flag = option->get_items_expected_max() == 0;
   return std::find(names.begin(), names.end(), "help") != names.end() ||
-         std::find(names.begin(), names.end(), "version") != names.end();
+         (flag && std::find(names.begin(), names.end(), "version") != names.end());
 }
 
 // Options of `app` itself, without --help (and --version: it is in the synopsis).

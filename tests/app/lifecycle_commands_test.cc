@@ -635,3 +635,23 @@ TEST(LifecycleCommands, ResidualMapIsStoredAppliedExportedAndReported) {
 }
 
 }  // namespace armsig::testing
+
+namespace armsig::testing {
+
+// Issue 38: `activate --version N` was missing from the generated reference and the manual
+// page (every option named "version" was taken for the program's own --version flag).
+TEST(LifecycleCommands, ActivatesVersionOptionIsInTheReferenceAndTheManualPage) {
+  const auto markdown = RunArmsig("generate markdown");
+  ASSERT_EQ(markdown.exit_code, 0);
+  EXPECT_NE(markdown.out.find("armsig activate --robot NAME --version N"), std::string::npos);
+  EXPECT_NE(markdown.out.find("- `--version N` (required) — Version to activate."),
+            std::string::npos);
+  const auto man = RunArmsig("generate man");
+  ASSERT_EQ(man.exit_code, 0);
+  const size_t activate = man.out.find(".SS \"armsig activate\"");
+  ASSERT_NE(activate, std::string::npos);
+  EXPECT_NE(man.out.find(".B \\-\\-version N", activate), std::string::npos)
+      << man.out.substr(activate, 300);
+}
+
+}  // namespace armsig::testing
