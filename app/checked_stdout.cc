@@ -88,19 +88,33 @@ std::optional<CheckedStdout::Failure> CheckedStdout::Finish() {
 }
 
 std::string DescribeStdoutFailure(const CheckedStdout::Failure& failure, bool only_reads,
-                                  int command_exit_code) {
+                                  int command_exit_code, const std::vector<std::string>& written) {
   std::string text = fmt::format("standard output: write failed ({})", failure.reason);
   if (failure.lost > 0) {
     text += fmt::format(" after {} of {} bytes: the output is incomplete", failure.written,
                         failure.written + failure.lost);
   }
-  if (only_reads) {
+  if (only_reads && written.empty()) {
     return text +
            ". The command only reads: nothing was stored or changed; run it again where "
            "the output has room";
   }
-  text += fmt::format(". The command did its work (exit code {} but for this), and that stays done",
-                      command_exit_code);
+  if (only_reads) {
+    // `iso9283 plan --out`, `import gsi --out`, …: the store unchanged, the files whole.
+    std::string files;
+    constexpr size_t kNamed = 3;  // a report's dozen figures: the first three and a count
+    for (size_t k = 0; k < written.size() && k < kNamed; ++k)
+      files += (k ? ", " : "") + Printable(written[k]);
+    if (written.size() > kNamed) files += fmt::format(" and {} more files", written.size() - kNamed);
+    text += fmt::format(
+        ". The command changed nothing in the store and wrote {} whole (exit code {} but for "
+        "this)",
+        files, command_exit_code);
+  } else {
+    text += fmt::format(
+        ". The command did its work (exit code {} but for this), and that stays done",
+        command_exit_code);
+  }
   // A short summary ("session 12: 40 poses … stored in lab.db") says what was done; a long
   // output (a table) is not repeated.
   const auto lines = std::count(failure.lost_text.begin(), failure.lost_text.end(), '\n');

@@ -11,6 +11,7 @@
 #include <optional>
 #include <streambuf>
 #include <string>
+#include <vector>
 
 namespace armsig::app {
 
@@ -54,9 +55,11 @@ class CheckedStdout final : public std::streambuf {
 
 // The message for a failed standard output: "standard output: write failed (No space left
 // on device) after 1234 of 1290 bytes: the output is incomplete", then what the command did:
-// "The command only reads: nothing was stored or changed", or, for a command that stores,
-// that its work stays done and the summary it could not print (when that is short).
+// "The command only reads: nothing was stored or changed", or, for a command that stores or
+// wrote files (`written`: io::CommittedFiles()), that its work stays done and the summary it
+// could not print (when that is short).
 std::string DescribeStdoutFailure(const CheckedStdout::Failure& failure, bool only_reads,
-                                  int command_exit_code);
+                                  int command_exit_code,
+                                  const std::vector<std::string>& written = {});
 
 }  // namespace armsig::app

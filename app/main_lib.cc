@@ -506,7 +506,7 @@ int Main(int argc, const char* const* argv) {
   const auto failure = out.Finish();
   std::cout.rdbuf(previous);
   if (!failure) return code;
-  spdlog::error("{}", DescribeStdoutFailure(*failure, g_only_reads, code));
+  spdlog::error("{}", DescribeStdoutFailure(*failure, g_only_reads, code, io::CommittedFiles()));
   return kFailure;
 }
 

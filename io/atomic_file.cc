@@ -11,6 +11,7 @@
 #include <cstring>
 #include <filesystem>
 #include <fstream>
+#include <mutex>
 #include <stdexcept>
 
 #include "core/error.h"
@@ -265,6 +266,23 @@ void PreparedFile::Ready() {
   ready_ = true;
 }
 
+namespace {
+std::mutex committed_mutex;
+std::vector<std::string>& Committed() {
+  static std::vector<std::string> files;
+  return files;
+}
+void RecordCommitted(const std::string& path) {
+  const std::lock_guard lock(committed_mutex);
+  Committed().push_back(path);
+}
+}  // namespace
+
+std::vector<std::string> CommittedFiles() {
+  const std::lock_guard lock(committed_mutex);
+  return Committed();
+}
+
 void PreparedFile::Commit() {
   if (fd_ < 0) throw std::logic_error(path_ + ": committed twice");
   Ready();
@@ -272,6 +290,7 @@ void PreparedFile::Commit() {
     const int closed = ::close(fd_);
     fd_ = -1;
     if (closed != 0 && errno != EINTR) ThrowOutputError(path_, "write failed", errno);
+    RecordCommitted(path_);
     return;
   }
   // Renamed while still open and locked (a cleaner never takes a finished file); closed after.
@@ -289,6 +308,7 @@ void PreparedFile::Commit() {
   if (close_result != 0 && close_error != EINTR) {
     throw OutputError(path_ + ": write failed (" + std::strerror(close_error) + ")");
   }
+  RecordCommitted(path_);
 }
 
 void WriteFileAtomically(const std::string& path, std::string_view content) {

@@ -5,6 +5,7 @@
 #include <cstddef>
 #include <string>
 #include <string_view>
+#include <vector>
 
 namespace armsig::io {
 
@@ -57,6 +58,10 @@ void RemoveLiveTemporaries() noexcept;
 
 // PreparedFile(path, content).Commit(). Throws OutputError naming the path.
 void WriteFileAtomically(const std::string& path, std::string_view content);
+
+// The files this process has committed (PreparedFile::Commit), in order: what a command that
+// changes nothing in the store did write, for the message when its standard output fails.
+std::vector<std::string> CommittedFiles();
 
 // Removes the temporary files of `path` (`PATH.tmp.XXXXXX`, this user's) that no living
 // writer holds: what a killed writer left. Returns how many were removed.

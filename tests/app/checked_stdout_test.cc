@@ -101,12 +101,42 @@ TEST(CheckedStdout, EveryCommandThatPrintsFailsOnAFullDeviceSayingWhatItDid) {
               std::string::npos)
         << r.err;
     if (c.only_reads) {
-      EXPECT_NE(r.err.find("only reads: nothing was stored or changed"), std::string::npos)
-          << r.err;
+      // Nothing stored: either nothing written at all, or the files it wrote named (they
+      // exist, whole).
+      const size_t wrote = r.err.find("changed nothing in the store and wrote ");
+      if (wrote == std::string::npos) {
+        EXPECT_NE(r.err.find("only reads: nothing was stored or changed"), std::string::npos)
+            << r.err;
+      } else {
+        const size_t from = wrote + std::string("changed nothing in the store and wrote ").size();
+        const std::string first = r.err.substr(from, r.err.find_first_of(", ", from) - from);
+        EXPECT_TRUE(std::filesystem::exists(first)) << first;
+      }
     } else {
       EXPECT_NE(r.err.find("did its work"), std::string::npos) << r.err;
     }
   }
+}
+
+// Issue 38: a command that changes nothing in the store but writes a file (`iso9283 plan
+// --out`) said "the command only reads: nothing was stored or changed" while its plan lay
+// written; it names the file it wrote whole.
+TEST(CheckedStdout, ACommandThatWroteAFileSaysSoWhenItsOutputFails) {
+  TempDir dir;
+  const std::string db = "--db " + Quoted(dir.File("lab.db")) + " ";
+  ASSERT_EQ(RunArmsig(db + "robot add puma --model " + Quoted(SourcePath("models/puma760.yaml")))
+                .exit_code,
+            0);
+  const std::string plan = dir.File("plan.csv");
+  const auto r = RunWithStdout(
+      db + "iso9283 plan --robot puma --cube 600,100,700,400 --cycles 3 --out " + Quoted(plan),
+      "/dev/full");
+  EXPECT_EQ(r.exit_code, 1) << r.err;
+  EXPECT_TRUE(std::filesystem::exists(plan));
+  EXPECT_EQ(r.err.find("nothing was stored or changed"), std::string::npos) << r.err;
+  EXPECT_NE(r.err.find("The command changed nothing in the store and wrote " + plan + " whole"),
+            std::string::npos)
+      << r.err;
 }
 
 // A command that stores and cannot print its summary repeats it in the message, so that the
