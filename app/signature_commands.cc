@@ -125,8 +125,11 @@ void SetupSignatureCommands(CLI::App& parent, const GlobalOptions& global, Runne
     if (!c->seed_deg.empty()) {
       seed = Eigen::Map<const Eigen::VectorXd>(c->seed_deg.data(), c->seed_deg.size()) * kRadPerDeg;
     }
-    const auto result =
-        workflows::Compensate(active, workflows::FrameOf(active, c->frame), c->targets, seed);
+    // Where the set was validated: a file whose every target lies outside it and inside it
+    // in another unit is refused.
+    const auto volume = workflows::ValidatedVolumeOf(database, active);
+    const auto result = workflows::Compensate(active, workflows::FrameOf(active, c->frame),
+                                              c->targets, seed, volume ? &*volume : nullptr);
     for (const auto& why : result.unreachable) spdlog::warn("compensate: {}", why);
     if (result.outside_map > 0) {
       spdlog::warn(

@@ -30,6 +30,8 @@ ValidatedVolume::ValidatedVolume(std::vector<calibration::JointArc> arcs, const 
                                  std::string source)
     : arcs_(std::move(arcs)), source_(std::move(source)) {
   if (arcs_.empty() || points.empty()) throw std::invalid_argument("a validated volume of no configurations");
+  nearest_mm_ = INFINITY;
+  for (const auto& p : points) nearest_mm_ = std::min(nearest_mm_, p.norm());
   normals_ = SphereDirections(64);
   for (const auto& normal : normals_) {
     double offset = -INFINITY;

@@ -37,12 +37,16 @@ class ValidatedVolume {
   std::optional<std::string> OutsideJoints(const Eigen::VectorXd& joints_rad) const;
   // How far (mm) a point lies outside the measured volume: ≤ 0 inside.
   double DistanceOutside(const Eigen::Vector3d& point_mm) const;
+  // The measured points' nearest distance from the robot frame's origin (mm): the hull of
+  // points around a robot holds its base, where no target can be.
+  double nearest_mm() const { return nearest_mm_; }
 
  private:
   std::vector<calibration::JointArc> arcs_;
   std::vector<Eigen::Vector3d> normals_;
   std::vector<double> offsets_;  // plane k: normals_[k]·x ≤ offsets_[k]
   std::string source_;
+  double nearest_mm_ = 0.0;
 };
 
 }  // namespace armsig::programs

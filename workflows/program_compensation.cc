@@ -127,6 +127,34 @@ programs::Language LanguageOfProgram(const std::string& path) {
                    "(ABB RAPID), got " + Quoted(path));
 }
 
+std::optional<programs::ValidatedVolume> ValidatedVolumeOf(db::Database& database,
+                                                           const ActiveSignature& active,
+                                                           std::string* description) {
+  // The arcs of the joints the set was fitted on (stored with it; for a set stored before they
+  // were, those of its sessions' configurations) and its calibration point where those
+  // sessions measured it.
+  if (active.sessions.empty()) return std::nullopt;
+  std::vector<Eigen::VectorXd> joints;
+  for (int64_t id : active.sessions)
+    for (const auto& pose : db::LoadSessionPoses(database, id)) joints.push_back(pose.joints_rad);
+  if (joints.empty()) return std::nullopt;
+  std::vector<Eigen::Vector3d> points;
+  for (const auto& p : calibration::PredictPositions(
+           active.model, Eigen::Isometry3d::Identity(), active.signature.params,
+           active.signature.map.get(), joints, false, joints.size() >= 2048 ? 2 : 1))
+    points.push_back(p.position_mm);
+  const bool stored = !active.signature.validity.term_arcs.empty();
+  std::string text = fmt::format("the joint arcs {}; the points of session{} {}: {} configurations",
+                                 stored ? "stored with the set" : "of its sessions",
+                                 active.sessions.size() == 1 ? "" : "s",
+                                 VolumeSessions(active.sessions), joints.size());
+  if (description) *description = text;
+  return programs::ValidatedVolume(
+      stored ? active.signature.validity.term_arcs
+             : calibration::ArcsCovering(joints, active.model.num_joints()),
+      points, text);
+}
+
 ProgramCompensationRun CompensateProgramFiles(db::Database& database, const ProgramCompensationOptions& o) {
   const programs::Language language = LanguageOfProgram(o.program_path);
   if (LanguageOfProgram(o.out_path) != language)
@@ -150,29 +178,7 @@ ProgramCompensationRun CompensateProgramFiles(db::Database& database, const Prog
   robot.covariance = active.signature.covariance;
   run.validity = active.signature.validity;
 
-  // The validated volume: the arcs of the joints the set was fitted on (stored with it; for
-  // a set stored before they were, those of its sessions' configurations) and its
-  // calibration point where those sessions measured it.
-  std::optional<programs::ValidatedVolume> volume;
-  if (!active.sessions.empty()) {
-    std::vector<Eigen::VectorXd> joints;
-    for (int64_t id : active.sessions)
-      for (const auto& pose : db::LoadSessionPoses(database, id)) joints.push_back(pose.joints_rad);
-    if (!joints.empty()) {
-      std::vector<Eigen::Vector3d> points;
-      for (const auto& p : calibration::PredictPositions(active.model, Eigen::Isometry3d::Identity(),
-                                                         robot.params, robot.map, joints, false,
-                                                         joints.size() >= 2048 ? 2 : 1))
-        points.push_back(p.position_mm);
-      const bool stored = !active.signature.validity.term_arcs.empty();
-      run.volume = fmt::format("the joint arcs {}; the points of session{} {}: {} configurations",
-                               stored ? "stored with the set" : "of its sessions",
-                               active.sessions.size() == 1 ? "" : "s", VolumeSessions(active.sessions), joints.size());
-      volume.emplace(stored ? active.signature.validity.term_arcs
-                            : calibration::ArcsCovering(joints, active.model.num_joints()),
-                     points, run.volume);
-    }
-  }
+  std::optional<programs::ValidatedVolume> volume = ValidatedVolumeOf(database, active, &run.volume);
   programs::CompensationOptions options;
   options.allow_outside = o.allow_outside;
   run.result = programs::CompensateProgram(run.program, run.controller, robot, volume ? &*volume : nullptr, options);

@@ -13,6 +13,8 @@
 #include "db/database.h"
 #include "programs/compensation.h"
 #include "programs/program.h"
+#include "programs/volume.h"
+#include "workflows/signature.h"
 
 namespace armsig::workflows {
 
@@ -41,6 +43,13 @@ struct ProgramCompensationRun {
 // The language of a program from its file name (.script, .src, .mod, .modx; any case);
 // InputError naming --program otherwise.
 programs::Language LanguageOfProgram(const std::string& path);
+
+// Where the set `active` was validated: its joint arcs and the volume of the points its
+// sessions measured (robot frame); nullopt for a set without sessions. `description` gets
+// what it is made of ("the joint arcs stored with the set; the points of session 1: …").
+std::optional<programs::ValidatedVolume> ValidatedVolumeOf(db::Database& database,
+                                                           const ActiveSignature& active,
+                                                           std::string* description = nullptr);
 
 // Reads, parses, compensates and (unless refused) writes OUT and, for KRL, OUT's .dat.
 // Throws InputError for what cannot be read or parsed, OutputError when a file cannot be

@@ -244,9 +244,54 @@ std::string PredictCsv(const ActiveSignature& a, const Eigen::Isometry3d& frame,
   return out;
 }
 
+namespace {
+
+// No target where the set was validated (in its measured volume, not in the robot's base)
+// while at least 80 % of them lie there read in another length unit: the file's unit is
+// wrong, not the targets (0.8 in an x_mm column is 0.8 m).
+void CheckTargetsUnit(const io::CsvTable& t, int cx, int cy, int cz, const Eigen::Isometry3d& frame,
+                      const programs::ValidatedVolume& volume) {
+  constexpr double kSlackMm = 1.0;
+  const Eigen::Isometry3d base_from_world = frame.inverse();
+  // Where a target can be: inside the measured volume, no nearer the robot's origin than half
+  // the nearest measured point (the hull of points around a robot holds its base).
+  auto possible = [&](const Eigen::Vector3d& robot_frame) {
+    return volume.DistanceOutside(robot_frame) <= kSlackMm &&
+           robot_frame.norm() >= 0.5 * volume.nearest_mm();
+  };
+  std::vector<Eigen::Vector3d> targets;
+  for (const auto& row : t.rows()) {
+    const Eigen::Vector3d target(t.Number(row, cx, plausible::Quantity::kCoordinate),
+                                 t.Number(row, cy, plausible::Quantity::kCoordinate),
+                                 t.Number(row, cz, plausible::Quantity::kCoordinate));
+    if (possible(base_from_world * target)) return;  // one where a target can be
+    targets.push_back(target);
+  }
+  spdlog::debug("compensate: no target where the set was validated ({}; the nearest measured "
+                "point {:.1f} mm from the robot's origin)",
+                volume.source(), volume.nearest_mm());
+  for (const auto& [unit, factor] : {std::pair<const char*, double>{"metres", 1000.0},
+                                     std::pair<const char*, double>{"inches", 25.4}}) {
+    const double scale = factor;  // a structured binding cannot be captured in C++20 clang 14
+    const auto inside = std::count_if(targets.begin(), targets.end(), [&](const auto& x) {
+      return possible(base_from_world * (scale * x));
+    });
+    // Most of a program's targets lie where the robot was measured; a few may not.
+    if (inside < 0.8 * static_cast<double>(targets.size())) continue;
+    throw InputError(t.Where(t.rows().front(), cx),
+                     fmt::format("no target lies where the set was validated ({}), and read "
+                                 "in {} {} of the {} lie there: the columns say mm; "
+                                 "give the unit in their names (x_m, y_m, z_m) or convert",
+                                 volume.source(), unit, inside, targets.size()));
+  }
+}
+
+}  // namespace
+
 CompensationResult Compensate(const ActiveSignature& a, const Eigen::Isometry3d& frame,
                               const std::string& targets_csv,
-                              const std::optional<Eigen::VectorXd>& seed_rad) {
+                              const std::optional<Eigen::VectorXd>& seed_rad,
+                              const programs::ValidatedVolume* volume) {
   const int n = a.model.num_joints();
   const io::CsvTable t = io::ReadCsvFile(targets_csv);
   std::vector<std::string> known = {"point", "x_mm", "y_mm", "z_mm"};
@@ -266,6 +311,7 @@ CompensationResult Compensate(const ActiveSignature& a, const Eigen::Isometry3d&
     throw InputError({targets_csv, 2, 0, ""},
                      "a header and no targets (expected one row per target: point,x_mm,y_mm,z_mm)");
   }
+  if (volume) CheckTargetsUnit(t, cx, cy, cz, frame, *volume);
   Eigen::VectorXd seed = Eigen::VectorXd::Zero(n);
   if (n >= 3) seed(2) = kPi / 2;
   if (seed_rad) {

@@ -9,6 +9,7 @@
 #include <string>
 #include <vector>
 
+#include "programs/volume.h"
 #include "calibration/drift.h"
 #include "calibration/model.h"
 #include "calibration/residual_map.h"
@@ -92,9 +93,13 @@ struct CompensationResult {
   // Reached with a joint outside the range the set's terms were fitted on (held there).
   int outside_fit = 0;
 };
+// `volume` (ValidatedVolumeOf): where the set was validated, robot frame. When no target
+// lies in it and most (80 %) would read in metres or inches, the file is
+// refused naming its unit (a target in metres in an mm column "compensated" as ok).
 CompensationResult Compensate(const ActiveSignature& active, const Eigen::Isometry3d& frame,
                               const std::string& targets_csv,
-                              const std::optional<Eigen::VectorXd>& seed_rad);
+                              const std::optional<Eigen::VectorXd>& seed_rad,
+                              const programs::ValidatedVolume* volume = nullptr);
 
 // armsig export: the active set as json | model (corrected model YAML) | urdf. The JSON
 // carries the residual map; a model YAML or URDF cannot, and says so in `warning`.

@@ -97,6 +97,32 @@ TEST(Compensate, RoundTripAndTheTrueRobotLands) {
       "' compensate --robot puma --frame measurement --seed-deg 0,0,90,0,30,0 --targets '" +
       dir.File("targets.csv") + "' --out '" + dir.File("joints.csv") + "'");
   ASSERT_EQ(r.exit_code, 0) << r.err;
+  // Issue 38: the same targets in metres under mm columns compensated as "ok": none lies
+  // where the set was validated (they sit in the robot's base), most do read in metres.
+  // Points the session measured (inside the volume by construction), written in metres.
+  ASSERT_EQ(RunArmsig("--db '" + path + "' session export 1 --poses '" + dir.File("s.csv") + "'")
+                .exit_code,
+            0);
+  const auto measured = io::ReadCsvFile(dir.File("s.csv"));
+  std::string in_metres = "point,x_mm,y_mm,z_mm\n";
+  for (size_t k = 0; k < 25 && k < measured.rows().size(); ++k) {
+    const auto& row = measured.rows()[k];
+    in_metres += fmt::format("T{},{:.9f},{:.9f},{:.9f}\n", k + 1,
+                             measured.Number(row, measured.Column("x_mm")) / 1000,
+                             measured.Number(row, measured.Column("y_mm")) / 1000,
+                             measured.Number(row, measured.Column("z_mm")) / 1000);
+  }
+  WriteText(dir.File("metres.csv"), in_metres);
+  const auto metres = RunArmsig("--db '" + path +
+                                "' compensate --robot puma --frame measurement --targets '" +
+                                dir.File("metres.csv") + "' --out '" + dir.File("m.csv") + "'");
+  EXPECT_EQ(metres.exit_code, 2) << metres.err;
+  EXPECT_NE(metres.err.find("metres.csv:2:2 (x_mm): no target lies where the set was validated"),
+            std::string::npos)
+      << metres.err;
+  EXPECT_NE(metres.err.find("of the 25 lie there: the columns say mm"), std::string::npos)
+      << metres.err;
+  EXPECT_FALSE(std::filesystem::exists(dir.File("m.csv")));
   const auto t = io::ReadCsvFile(dir.File("joints.csv"));
   // Predict the compensated joints back with the calibrated model: < 0.01 mm.
   std::string joints = "pose";
