@@ -85,16 +85,12 @@ std::string WriteDecisionReport(const std::string& dir, const ReportInput& in) {
   namespace fs = std::filesystem;
   fs::create_directories(dir);
   RemoveReportDebris(dir, 60.0);
-  // Every figure but the drift chart, which is drawn again below (or dropped with them).
+  // Every figure of an earlier report (the folder's PNGs are the report's, as for
+  // RemoveReportDebris); the drift chart is drawn again below.
   std::error_code error;
   for (const auto& entry : fs::directory_iterator(dir, error)) {
-    const std::string name = entry.path().filename().string();
-    const bool figure = name == "errors.png" || name == "histogram.png" ||
-                        name == "vectors.png" || name == "residual_map.png" ||
-                        name == "temperature.png" || name == "drift.png" ||
-                        (name.starts_with("joint_") && name.ends_with(".png"));
     std::error_code ignored;
-    if (figure) fs::remove(entry.path(), ignored);
+    if (entry.path().extension() == ".png") fs::remove(entry.path(), ignored);
   }
   const auto drift = DriftFigure(dir, in.drift_history, in.history);
   Html html = PageStart(in);

@@ -43,6 +43,17 @@ void MakeCell(const std::string& path) {
   ASSERT_EQ(fit.outcome, workflows::RecalibrationDecision::Outcome::kStored) << fit.Describe();
 }
 
+// The cell with a third session and a second version fitted on all three (active).
+void MakeCellWithTwoVersions(const std::string& path) {
+  MakeCell(path);
+  {
+    db::Database database(path);
+    AddSession(database, calibration::PaperTable3Parameters(), 60, 3);
+  }
+  ASSERT_EQ(workflows::Recalibrate(Nightly(path)).outcome,
+            workflows::RecalibrationDecision::Outcome::kStored);
+}
+
 std::map<std::string, int64_t> Counts(db::Database& database) {
   std::map<std::string, int64_t> out;
   for (const auto& c : database.RowCounts()) out[c.table] = c.rows;
@@ -289,13 +300,7 @@ TEST_P(Push, OpenSessionsWaitAndAnotherModelIsRefused) {
 TEST_P(Push, CarriesEveryActivationAndTheActiveStateOnce) {
   TempDir dir;
   const std::string cell = dir.File("cell.db"), central = NewStore(GetParam(), dir, "central");
-  MakeCell(cell);
-  {
-    db::Database database(cell);
-    AddSession(database, calibration::PaperTable3Parameters(), 60, 3);
-  }
-  ASSERT_EQ(workflows::Recalibrate(Nightly(cell)).outcome,
-            workflows::RecalibrationDecision::Outcome::kStored);
+  MakeCellWithTwoVersions(cell);
   {
     db::Database database(cell);
     workflows::Activate(database, "puma", 1, "version 2 moved the tool");  // a roll-back
@@ -338,13 +343,7 @@ TEST_P(Push, CarriesEveryActivationAndTheActiveStateOnce) {
 TEST_P(Push, ARollBackOnTheServerStandsWhateverTheCellsClock) {
   TempDir dir;
   const std::string cell = dir.File("cell.db"), central = NewStore(GetParam(), dir, "central");
-  MakeCell(cell);
-  {
-    db::Database database(cell);
-    AddSession(database, calibration::PaperTable3Parameters(), 60, 3);
-  }
-  ASSERT_EQ(workflows::Recalibrate(Nightly(cell)).outcome,
-            workflows::RecalibrationDecision::Outcome::kStored);
+  MakeCellWithTwoVersions(cell);
   {
     db::Database database(cell);  // the cell's clock two days ahead when it activated
     database.connection().Exec("UPDATE activations SET activated_at = '2099-01-01T00:00:00.000Z'");

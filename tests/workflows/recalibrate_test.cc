@@ -5,6 +5,8 @@
 #include <fmt/format.h>
 #include <gtest/gtest.h>
 
+#include <optional>
+
 #include <chrono>
 #include <cstdlib>
 #include <ctime>
@@ -388,13 +390,33 @@ TEST_P(Recalibrate, RollbackIsRespectedAndEveryActivationIsRecorded) {
 
 ARMSIG_BOTH_BACKENDS(Recalibrate);
 
+// $TZ set for one test and put back as it was (unset stays unset) when it ends.
+class ScopedTimeZone {
+ public:
+  explicit ScopedTimeZone(const char* zone) {
+    if (const char* saved = std::getenv("TZ")) saved_ = saved;
+    setenv("TZ", zone, 1);
+    tzset();
+  }
+  ~ScopedTimeZone() {
+    if (saved_) {
+      setenv("TZ", saved_->c_str(), 1);
+    } else {
+      unsetenv("TZ");
+    }
+    tzset();
+  }
+  ScopedTimeZone(const ScopedTimeZone&) = delete;
+  ScopedTimeZone& operator=(const ScopedTimeZone&) = delete;
+
+ private:
+  std::optional<std::string> saved_;
+};
+
 // --since is read in the time zone it names (Z, an offset) or else in local time, and
 // becomes the UTC bound the sessions' start times are stored with.
 TEST(SinceToUtc, ReadsIsoDatesInTheirTimeZoneAndRefusesImpossibleOnes) {
-  const char* saved = std::getenv("TZ");
-  const std::string saved_tz = saved ? saved : "";
-  setenv("TZ", "XST-3", 1);  // POSIX: local time is three hours east of UTC
-  tzset();
+  const ScopedTimeZone zone("XST-3");  // POSIX: local time is three hours east of UTC
   EXPECT_EQ(workflows::SinceToUtc("2026-11-01T02:30:00Z"), "2026-11-01T02:30:00.000Z");
   EXPECT_EQ(workflows::SinceToUtc("2026-11-01T02:30+01:00"), "2026-11-01T01:30:00.000Z");
   EXPECT_EQ(workflows::SinceToUtc("2026-11-01T02:30-0130"), "2026-11-01T04:00:00.000Z");
@@ -412,44 +434,31 @@ TEST(SinceToUtc, ReadsIsoDatesInTheirTimeZoneAndRefusesImpossibleOnes) {
   } catch (const InputError& e) {
     EXPECT_NE(std::string(e.what()).find("2026-02 has 28 days"), std::string::npos) << e.what();
   }
-  if (saved) {
-    setenv("TZ", saved_tz.c_str(), 1);
-  } else {
-    unsetenv("TZ");
-  }
-  tzset();
 }
 
 // Issue 38: a local time the clocks skipped or passed twice was read as mktime guessed (an
 // hour off, silently). POSIX rules for central Europe: summer time from the last Sunday of
 // March 02:00 to the last Sunday of October 03:00.
 TEST(SinceToUtc, ALocalTimeThatDoesNotExistOrHappenedTwiceIsRefusedWithItsOffsets) {
-  const char* saved = std::getenv("TZ");
-  const std::string saved_tz = saved ? saved : "";
-  setenv("TZ", "CET-1CEST,M3.5.0,M10.5.0/3", 1);
-  tzset();
-  EXPECT_EQ(workflows::SinceToUtc("2026-03-29T01:59"), "2026-03-29T00:59:00.000Z");
-  EXPECT_EQ(workflows::SinceToUtc("2026-03-29T03:00"), "2026-03-29T01:00:00.000Z");
-  EXPECT_EQ(workflows::SinceToUtc("2026-07-01"), "2026-06-30T22:00:00.000Z");
-  EXPECT_EQ(workflows::SinceToUtc("2026-10-25T03:00"), "2026-10-25T02:00:00.000Z");
-  EXPECT_EQ(workflows::SinceToUtc("2026-10-25T02:30+02:00"), "2026-10-25T00:30:00.000Z");
   std::string skipped, twice;
-  try {
-    workflows::SinceToUtc("2026-03-29T02:30");
-  } catch (const InputError& e) {
-    skipped = e.what();
+  {
+    const ScopedTimeZone zone("CET-1CEST,M3.5.0,M10.5.0/3");
+    EXPECT_EQ(workflows::SinceToUtc("2026-03-29T01:59"), "2026-03-29T00:59:00.000Z");
+    EXPECT_EQ(workflows::SinceToUtc("2026-03-29T03:00"), "2026-03-29T01:00:00.000Z");
+    EXPECT_EQ(workflows::SinceToUtc("2026-07-01"), "2026-06-30T22:00:00.000Z");
+    EXPECT_EQ(workflows::SinceToUtc("2026-10-25T03:00"), "2026-10-25T02:00:00.000Z");
+    EXPECT_EQ(workflows::SinceToUtc("2026-10-25T02:30+02:00"), "2026-10-25T00:30:00.000Z");
+    try {
+      workflows::SinceToUtc("2026-03-29T02:30");
+    } catch (const InputError& e) {
+      skipped = e.what();
+    }
+    try {
+      workflows::SinceToUtc("2026-10-25T02:30");
+    } catch (const InputError& e) {
+      twice = e.what();
+    }
   }
-  try {
-    workflows::SinceToUtc("2026-10-25T02:30");
-  } catch (const InputError& e) {
-    twice = e.what();
-  }
-  if (saved) {
-    setenv("TZ", saved_tz.c_str(), 1);
-  } else {
-    unsetenv("TZ");
-  }
-  tzset();
   EXPECT_NE(skipped.find("'2026-03-29T02:30': this local time (TZ=CET-1CEST,M3.5.0,M10.5.0/3) "
                          "does not exist: the clocks skipped it"),
             std::string::npos)
