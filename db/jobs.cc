@@ -3,6 +3,7 @@
 #include <fmt/chrono.h>
 #include <fmt/format.h>
 
+#include <algorithm>
 #include <chrono>
 #include <thread>
 
@@ -141,14 +142,69 @@ EnqueueResult Enqueue(Connection& c, const std::string& kind, const std::string&
   return r;
 }
 
+bool SleepFor(std::chrono::milliseconds wait) {
+  std::this_thread::sleep_for(wait);
+  return true;
+}
+
+namespace {
+
+// A running job whose lease looks lapsed by the server's clock, as a claimer first saw it.
+struct Suspect {
+  int64_t id = 0;
+  std::string worker;
+  int64_t heartbeats = 0;
+  int64_t lease_ms = 0;
+};
+
+// Running jobs whose lease the server's clock says has expired, or whose expiry lies further
+// ahead than their whole lease (the clock stepped back since the last heartbeat).
+std::vector<Suspect> SuspectLeases(Connection& c) {
+  auto q = c.Prepare(Sql(c.backend(),
+                         "SELECT id, coalesce(worker, ''), heartbeats, coalesce(lease_ms, 0) FROM "
+                         "jobs WHERE state = 'running' AND (lease_expires_ms IS NULL OR "
+                         "lease_expires_ms < {now} OR (lease_ms IS NOT NULL AND "
+                         "lease_expires_ms > {now} + lease_ms + 1000)) ORDER BY id"));
+  std::vector<Suspect> out;
+  while (q->Step()) out.push_back({q->Int(0), q->Text(1), q->Int(2), q->Int(3)});
+  return out;
+}
+
+}  // namespace
+
 std::optional<Job> Claim(Connection& c, const std::string& worker, int64_t lease_ms,
-                         int max_attempts) {
+                         int max_attempts, const LeaseWait& wait) {
+  // Watch the suspects outside any transaction: their workers must be able to heartbeat.
+  std::vector<Suspect> lapsed;
+  if (auto suspects = SuspectLeases(c); !suspects.empty()) {
+    const bool queued =
+        c.QueryInt("SELECT count(*) FROM jobs WHERE state = 'queued'") > 0;
+    int64_t longest = 0;
+    for (const auto& s : suspects) longest = std::max(longest, s.lease_ms > 0 ? s.lease_ms : lease_ms);
+    // A queued job first in line needs no watch; otherwise watch half the longest lease.
+    if (!queued || c.QueryInt("SELECT min(id) FROM jobs WHERE state = 'queued'") > suspects[0].id) {
+      if (!wait(std::chrono::milliseconds(std::max<int64_t>(longest / 2, 1)))) return std::nullopt;
+      for (const auto& now : SuspectLeases(c)) {
+        for (const auto& then : suspects) {
+          if (now.id == then.id && now.worker == then.worker && now.heartbeats == then.heartbeats)
+            lapsed.push_back(now);
+        }
+      }
+    }
+  }
   Transaction tx(c, TransactionKind::kWrite);
-  const std::string pick_sql = Sql(c.backend(),
-                                   "SELECT id, state, attempts, worker FROM jobs WHERE state = "
-                                   "'queued' OR (state = 'running' AND lease_expires_ms < {now}) "
-                                   "ORDER BY id LIMIT 1{lock}");
   for (;;) {
+    // The oldest queued job or lapsed lease (one row: concurrent claimers on PostgreSQL skip
+    // it and take the next).
+    std::string lapsed_ids;
+    for (const auto& s : lapsed) lapsed_ids += (lapsed_ids.empty() ? "" : ",") + std::to_string(s.id);
+    const std::string pick_sql = Sql(
+        c.backend(),
+        "SELECT id, state, attempts, coalesce(worker, ''), heartbeats FROM jobs WHERE state = "
+        "'queued'" +
+            (lapsed_ids.empty() ? std::string()
+                                : " OR (state = 'running' AND id IN (" + lapsed_ids + "))") +
+            " ORDER BY id LIMIT 1{lock}");
     int64_t id = 0;
     int attempts = 0;
     bool expired = false;
@@ -164,7 +220,19 @@ std::optional<Job> Claim(Connection& c, const std::string& worker, int64_t lease
       expired = pick->Text(1) == "running";
       attempts = static_cast<int>(pick->Int(2));
       previous = pick->Text(3);
+      if (expired) {
+        // Still the one watched: the same worker, its count unchanged since the watch.
+        const auto it = std::find_if(lapsed.begin(), lapsed.end(),
+                                     [&](const Suspect& s) { return s.id == id; });
+        if (it->worker != previous || it->heartbeats != pick->Int(4)) {
+          lapsed.erase(it);
+          continue;
+        }
+      }
     }
+    lapsed.erase(std::remove_if(lapsed.begin(), lapsed.end(),
+                                [&](const Suspect& s) { return s.id == id; }),
+                 lapsed.end());
     if (expired && attempts >= max_attempts) {
       auto fail = c.Prepare(
           Sql(c.backend(),
@@ -180,10 +248,12 @@ std::optional<Job> Claim(Connection& c, const std::string& worker, int64_t lease
     auto take = c.Prepare(Sql(c.backend(),
                               "UPDATE jobs SET state = 'running', attempts = attempts + 1, "
                               "worker = ?, started_ms = {now}, lease_expires_ms = {now} + ?, "
-                              "finished_ms = NULL, error = NULL WHERE id = ?"));
+                              "lease_ms = ?, heartbeats = 0, finished_ms = NULL, error = NULL "
+                              "WHERE id = ?"));
     take->Bind(1, worker);
     take->Bind(2, lease_ms);
-    take->Bind(3, id);
+    take->Bind(3, lease_ms);
+    take->Bind(4, id);
     take->Execute();
     auto job = FindJob(c, id);
     tx.Commit();
@@ -193,8 +263,8 @@ std::optional<Job> Claim(Connection& c, const std::string& worker, int64_t lease
 
 bool Heartbeat(Connection& c, int64_t id, const std::string& worker, int64_t lease_ms) {
   auto s = c.Prepare(Sql(c.backend(),
-                         "UPDATE jobs SET lease_expires_ms = {now} + ? "
-                         "WHERE id = ? AND worker = ? AND state = 'running'"));
+                         "UPDATE jobs SET lease_expires_ms = {now} + ?, heartbeats = heartbeats "
+                         "+ 1 WHERE id = ? AND worker = ? AND state = 'running'"));
   s->Bind(1, lease_ms);
   s->Bind(2, id);
   s->Bind(3, worker);

@@ -21,7 +21,9 @@
 // "server" is the local machine.
 #pragma once
 
+#include <chrono>
 #include <cstdint>
+#include <functional>
 #include <optional>
 #include <string>
 #include <string_view>
@@ -69,13 +71,24 @@ struct EnqueueResult {
 EnqueueResult Enqueue(Connection& connection, const std::string& kind, const std::string& robot,
                       const std::string& options_json);
 
-// The oldest claimable job (queued, or running with an expired lease), now running for
-// `worker` with a lease of `lease_ms`; nullopt when there is none. A job whose lease expired
-// after `max_attempts` claims is marked failed instead (and the next one is looked at).
+// How a claimer waits while it watches a lease (a test passes its own; the worker one that a
+// stop request cuts short). Returns false when the claim is to be given up (stopping).
+using LeaseWait = std::function<bool(std::chrono::milliseconds)>;
+bool SleepFor(std::chrono::milliseconds wait);  // the default: sleeps, true
+
+// The oldest claimable job, now running for `worker` with a lease of `lease_ms`; nullopt when
+// there is none. Claimable: queued, or running with a lease that has lapsed — its worker's
+// heartbeat count did not move while this claimer watched it for half the lease the worker
+// asked for, on this process's monotonic clock (`wait`). Only a lease that looks expired by
+// the server's clock (or lies impossibly far ahead of it: the clock stepped back) is watched,
+// so a running job costs a claimer no wait; a step of the clock either way is survived: a
+// live worker's count moves (it heartbeats every third of its lease), a vanished one's not.
+// A job whose lease lapsed after `max_attempts` claims is marked failed instead (and the
+// next one is looked at).
 std::optional<Job> Claim(Connection& connection, const std::string& worker, int64_t lease_ms,
-                         int max_attempts);
-// Extends the lease; false when the job is no longer this worker's (its lease expired and
-// another worker claimed it, or it was finished).
+                         int max_attempts, const LeaseWait& wait = SleepFor);
+// Extends the lease and counts the heartbeat; false when the job is no longer this worker's
+// (its lease lapsed and another worker claimed it, or it was finished).
 bool Heartbeat(Connection& connection, int64_t id, const std::string& worker, int64_t lease_ms);
 // Records the outcome (state done, rejected or failed); false when the job is no longer this
 // worker's (then nothing is written).

@@ -302,6 +302,30 @@ ALTER TABLE robots ADD COLUMN kinematics_json TEXT;
 ALTER TABLE poses ADD COLUMN controller_time_s REAL;       -- the controller's clock when it gave the joints (UR RTDE timestamp, s since it started)
 )sql";
 
+// Schema v15 (the lab's round): a robot keeps its history when the lab reorganises. It can
+// be renamed, removed (hidden, refused for new work, every row kept: `removed_at`) and brought
+// back, and a session moved to another robot; each is a row of `robot_events`. A job counts
+// its worker's heartbeats and keeps the lease its claimer asked for: a claimer judges a lease
+// that looks expired (or impossibly far ahead) by whether the count still moves while it
+// watches on its own monotonic clock, so a step of the clock neither hands a running job to
+// a second worker nor strands a vanished worker's job.
+constexpr std::string_view kSchemaV15 = R"sql(
+ALTER TABLE robots ADD COLUMN removed_at TEXT;  -- `robot remove`: hidden, refused for new work, every row kept; NULL: in use
+CREATE TABLE robot_events (
+  id          INTEGER PRIMARY KEY,
+  robot_id    INTEGER NOT NULL REFERENCES robots(id),
+  event       TEXT NOT NULL CHECK (event IN ('renamed','removed','restored','session_moved_in','session_moved_out')),
+  session_id  INTEGER REFERENCES sessions(id),  -- the session moved
+  detail      TEXT NOT NULL,                    -- "renamed from ur10 to ur10-cell3", "session 4 moved in from puma"
+  reason      TEXT,                             -- as given (--reason)
+  at          TEXT NOT NULL DEFAULT (strftime('%Y-%m-%dT%H:%M:%fZ','now')),
+  by_user     TEXT                              -- the user who ran the command
+);
+CREATE INDEX robot_events_by_robot ON robot_events(robot_id, id);
+ALTER TABLE jobs ADD COLUMN heartbeats INTEGER NOT NULL DEFAULT 0;  -- the worker's heartbeats since its claim
+ALTER TABLE jobs ADD COLUMN lease_ms INTEGER;                       -- the lease its claimer asked for
+)sql";
+
 // PostgreSQL's text of the migrations whose SQLite text does not translate word for word
 // (PostgresDdl): v2 and v9 fill their new column from what only SQLite has (json_extract,
 // rowid). A PostgreSQL store is created by an armsig of schema v9 or later, in one
@@ -330,7 +354,7 @@ constexpr std::array<std::string_view, 11> kTablesV1 = {"robots",
                                                         "calibration_parameters",
                                                         "validation_residuals"};
 
-constexpr std::array<std::string_view, 13> kTables = {"robots",
+constexpr std::array<std::string_view, 14> kTables = {"robots",
                                                       "instruments",
                                                       "stations",
                                                       "sessions",
@@ -342,17 +366,18 @@ constexpr std::array<std::string_view, 13> kTables = {"robots",
                                                       "calibration_parameters",
                                                       "validation_residuals",
                                                       "activations",
-                                                      "jobs"};
+                                                      "jobs",
+                                                      "robot_events"};
 
 }  // namespace
 
 std::span<const std::string_view> Migrations() {
   static const std::string jobs = JobsSchemaSql(Backend::kSqlite);
-  static const std::array<std::string_view, 14> migrations = [] {
-    std::array<std::string_view, 14> m = {kSchemaV1,  kSchemaV2,  kSchemaV3,  kSchemaV4,
+  static const std::array<std::string_view, 15> migrations = [] {
+    std::array<std::string_view, 15> m = {kSchemaV1,  kSchemaV2,  kSchemaV3,  kSchemaV4,
                                           kSchemaV5,  kSchemaV6,  {},         kSchemaV8,
                                           kSchemaV9,  kSchemaV10, kSchemaV11, kSchemaV12,
-                                          kSchemaV13, kSchemaV14};
+                                          kSchemaV13, kSchemaV14, kSchemaV15};
     m[kJobsMigration - 1] = jobs;
     return m;
   }();

@@ -113,7 +113,7 @@ std::vector<Scheduled> Schedule(const ScheduleOptions& options) {
       for (const auto& r : db::ListRobots(store)) robots.push_back(r.name);
     } else {
       for (const auto& robot : robots) {
-        if (!db::FindRobot(store, robot))
+        if (!db::FindRobotInUse(store, robot))  // a removed robot: refused, named
           throw InputError({store.path(), 0, 0, "--robot"},
                            "no robot named '" + robot + "' (see `armsig robot list`)");
       }
@@ -355,7 +355,15 @@ WorkerSummary RunWorker(const WorkerOptions& options) {
           if (stopping()) break;
           std::optional<db::Job> job;
           try {
-            job = db::Claim(**queue, worker, lease_ms, options.max_attempts);
+            // A lapsed-looking lease is watched before it is taken; a stop cuts the watch short.
+            job = db::Claim(**queue, worker, lease_ms, options.max_attempts,
+                            [&](std::chrono::milliseconds wait) {
+                              const auto until = std::chrono::steady_clock::now() + wait;
+                              while (!stopping() && !abort &&
+                                     std::chrono::steady_clock::now() < until)
+                                std::this_thread::sleep_for(std::chrono::milliseconds(20));
+                              return !stopping() && !abort;
+                            });
           } catch (const db::DatabaseError& e) {
             if (!e.transient()) throw;
             spdlog::debug("worker {}: claim lost a race, again: {}", worker, e.what());

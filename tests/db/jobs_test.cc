@@ -161,6 +161,50 @@ TEST_P(JobQueue, AJobWhoseWorkerStopsHeartbeatingIsReclaimedAfterTheLease) {
   EXPECT_EQ(job->summary, "stored");
 }
 
+// A step of the server's clock (NTP, a wrong date set by hand) must neither hand a live
+// worker's job to a second claimer nor strand a vanished worker's job. The step is made on the
+// stored expiry: an hour earlier is what a forward step of an hour does to it, an hour later
+// what a backward one does. The second claimer watches the heartbeat count for half the
+// lease (its own wait, here instant) and claims only if it did not move.
+TEST_P(JobQueue, AClockStepNeitherHandsALiveJobOnNorStrandsAVanishedOne) {
+  Enqueue(q(), "recalibrate", "puma", "{}");
+  auto other = Open(target_);
+  const auto job = Claim(q(), "alive:1", 600, 3);
+  ASSERT_TRUE(job);
+  auto step = [&](int64_t ms) {
+    q().Exec("UPDATE jobs SET lease_expires_ms = lease_expires_ms + " + std::to_string(ms));
+  };
+  // No step: a running job costs the claimer no watch at all.
+  EXPECT_FALSE(Claim(*other, "thief:2", 600, 3, [](std::chrono::milliseconds) {
+    ADD_FAILURE() << "watched a lease that had not expired";
+    return true;
+  }));
+  // Forward: the lease looks an hour gone; the live worker heartbeats while it is watched.
+  step(-3600 * 1000);
+  int watched = 0;
+  const auto stolen = Claim(*other, "thief:2", 600, 3, [&](std::chrono::milliseconds wait) {
+    ++watched;
+    EXPECT_EQ(wait, 300ms);  // half the lease its worker asked for
+    EXPECT_TRUE(Heartbeat(q(), job->id, "alive:1", 600));
+    return true;
+  });
+  EXPECT_EQ(watched, 1);
+  EXPECT_FALSE(stolen);
+  EXPECT_EQ(FindJob(q(), job->id)->worker, "alive:1");
+  // Backward: the expiry an hour ahead of the server's clock, the worker gone (no heartbeat
+  // while watched): taken as a second attempt, and the vanished worker records nothing.
+  step(3600 * 1000);
+  const auto taken = Claim(*other, "next:2", 600, 3, [](std::chrono::milliseconds) { return true; });
+  ASSERT_TRUE(taken);
+  EXPECT_EQ(taken->id, job->id);
+  EXPECT_EQ(taken->attempts, 2);
+  EXPECT_FALSE(Heartbeat(q(), job->id, "alive:1", 600));
+  // A stop during the watch gives the claim up.
+  step(-3600 * 1000);
+  EXPECT_FALSE(Claim(q(), "third:3", 600, 3, [](std::chrono::milliseconds) { return false; }));
+  EXPECT_EQ(FindJob(q(), job->id)->worker, "next:2");
+}
+
 TEST_P(JobQueue, HeartbeatsKeepTheLease) {
   Enqueue(q(), "recalibrate", "puma", "{}");
   auto other = Open(target_);
