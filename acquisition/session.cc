@@ -34,7 +34,7 @@ using Clock = std::chrono::steady_clock;
 int64_t CreateSession(db::Database& db, const io::LabConfig& lab, const std::string& robot,
                       const Plan& plan) {
   db::WriteTransaction tx(db);
-  if (const auto registered = db::FindRobot(db, robot)) {
+  if (const auto registered = db::FindRobotInUse(db, robot)) {  // a removed one: refused
     // The robot is what was registered: a lab file naming another model (an edited link
     // length, another robot's file) would store measurements of one arm under another.
     const auto model = io::ParseRobotModel(db::RobotModelYaml(db, *registered),
@@ -279,6 +279,7 @@ class CaptureRun {
   }
   void SleepUnlessStopped(int ms) const;
   instruments::Reading Measure(size_t i, const PlannedConfiguration& target);
+  instruments::InstrumentError NobodyToPointTheBeam(const instruments::InstrumentError& e) const;
   void CheckJoints(const PlannedConfiguration& target, const Eigen::VectorXd& read) const;
   void CheckMoved(const PlannedConfiguration& target, const Eigen::VectorXd& read) const;
   // The joints and label of the last configuration this run measured (CheckMoved).
@@ -535,7 +536,8 @@ instruments::Reading CaptureRun::Measure(size_t i, const PlannedConfiguration& t
     beam->FindReflector(around);
     return read();
   } catch (const instruments::InstrumentError& e) {
-    if (!beam->ReflectorLost(e.code()) || Stopping() || !options_.prompt_reflector) throw;
+    if (!beam->ReflectorLost(e.code()) || Stopping()) throw;
+    if (!options_.prompt_reflector) throw NobodyToPointTheBeam(e);
     spdlog::info(
         "capture: {} {}: the reflector was not found around the beam ({}); asking the "
         "operator to point the beam at it",
@@ -545,6 +547,28 @@ instruments::Reading CaptureRun::Measure(size_t i, const PlannedConfiguration& t
   options_.prompt_reflector(station, target);
   CheckStop();
   return read();
+}
+
+// The reflector is not in the beam, a search did not find it, and no one can point the beam
+// here (capture is not on a terminal): what lets the tracker find the target by itself.
+instruments::InstrumentError CaptureRun::NobodyToPointTheBeam(
+    const instruments::InstrumentError& e) const {
+  std::string message = e.what();
+  if (message.starts_with(e.device() + ": ")) message.erase(0, e.device().size() + 2);
+  if (!predictor_.base()) {
+    message +=
+        "; no one can point the beam (capture is not on a terminal) and the robot's base is not "
+        "known yet: give the lab file `robot: base:` (the robot base in the tracker's frame, a "
+        "4x4 matrix in mm) so that the tracker points at the predicted target from the first "
+        "configuration on, or run capture on a terminal to point the beam by hand";
+  } else {
+    message += fmt::format(
+        "; the beam pointed where the model puts the target through the robot's base ({}) and "
+        "no one can point it by hand here (not a terminal): is the reflector on the robot, and "
+        "the lab file's `robot: base:` right?",
+        predictor_.Describe());
+  }
+  return instruments::InstrumentError(e.device(), e.code(), message);
 }
 
 // A robot armsig moved must be where it was sent: the joints read back within the lab's

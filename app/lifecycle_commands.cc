@@ -1,4 +1,6 @@
-// armsig robot add NAME --model FILE.yaml | robot list [--json]
+// armsig robot add NAME --model FILE.yaml | robot list [--json] [--removed]
+// armsig robot rename NAME NEW_NAME | remove NAME | restore NAME | history NAME
+// armsig session move ID --robot NAME
 // armsig sessions [--robot NAME] [--json] | session export ID --poses OUT.csv
 // armsig versions --robot NAME [--json] | activate --robot NAME --version N
 #include <fmt/format.h>
@@ -16,16 +18,16 @@ namespace armsig::app {
 namespace {
 
 struct LifecycleOptions {
-  std::string name, model, robot, poses;
+  std::string name, model, robot, poses, reason;
   int64_t session = 0;
   int version = 0;
-  bool json = false;
+  bool json = false, removed = false;
 };
 
 }  // namespace
 
 void SetupLifecycleCommands(CLI::App& parent, const GlobalOptions& global, Runner& run) {
-  auto* robot = parent.add_subcommand("robot", "Register robots and list them");
+  auto* robot = parent.add_subcommand("robot", "Register, list, rename and remove robots, with their history");
   robot->require_subcommand(1);
   {
     auto o = std::make_shared<LifecycleOptions>();
@@ -46,8 +48,55 @@ void SetupLifecycleCommands(CLI::App& parent, const GlobalOptions& global, Runne
   auto o = std::make_shared<LifecycleOptions>();
   auto* list = robot->add_subcommand("list", "List the registered robots");
   list->add_flag("--json", o->json, "Machine-readable output");
+  list->add_flag("--removed", o->removed, "The removed robots too");
   OnDatabaseToRead(list, global, run, [o = o](db::Database& database) {
-    std::cout << workflows::FormatRobots(db::ListRobots(database), o->json, database.path());
+    std::cout << workflows::FormatRobots(db::ListRobots(database, o->removed), o->json,
+                                         database.path());
+    return kOk;
+  });
+
+  // A robot's history when the lab reorganises: every change is recorded with who and why.
+  o = std::make_shared<LifecycleOptions>();
+  auto* rename = robot->add_subcommand(
+      "rename", "Rename a robot; its sessions, parameter sets and history follow it");
+  NameOption(rename->add_option("name", o->name, "Robot name"))->required();
+  NameOption(rename->add_option("new_name", o->robot, "Its new name"))->required();
+  NoteOption(rename->add_option("--reason", o->reason, "Why (kept in its history)"));
+  OnExistingDatabase(rename, global, run, [o = o](db::Database& database) {
+    workflows::RenameRobot(database, o->name, o->robot, o->reason);
+    std::cout << fmt::format("robot {} renamed {}: its sessions, parameter sets and history "
+                             "follow it (armsig robot history {})\n",
+                             Printable(o->name), Printable(o->robot), Printable(o->robot));
+    return kOk;
+  });
+  o = std::make_shared<LifecycleOptions>();
+  auto* remove = robot->add_subcommand(
+      "remove", "Retire a robot: hidden, no new work, every session and set kept");
+  NameOption(remove->add_option("name", o->name, "Robot name"))->required();
+  NoteOption(remove->add_option("--reason", o->reason, "Why (kept in its history)"));
+  OnExistingDatabase(remove, global, run, [o = o](db::Database& database) {
+    workflows::RemoveRobot(database, o->name, o->reason);
+    std::cout << fmt::format("robot {} removed: its history is kept and takes no new work "
+                             "(armsig robot restore {} brings it back)\n",
+                             Printable(o->name), Printable(o->name));
+    return kOk;
+  });
+  o = std::make_shared<LifecycleOptions>();
+  auto* bring_back = robot->add_subcommand("restore", "Bring a removed robot back into use");
+  NameOption(bring_back->add_option("name", o->name, "Robot name"))->required();
+  NoteOption(bring_back->add_option("--reason", o->reason, "Why (kept in its history)"));
+  OnExistingDatabase(bring_back, global, run, [o = o](db::Database& database) {
+    workflows::RestoreRobot(database, o->name, o->reason);
+    std::cout << fmt::format("robot {} restored\n", Printable(o->name));
+    return kOk;
+  });
+  o = std::make_shared<LifecycleOptions>();
+  auto* history = robot->add_subcommand(
+      "history", "A robot's renames, removals and sessions moved, with who and why");
+  NameOption(history->add_option("name", o->name, "Robot name"))->required();
+  history->add_flag("--json", o->json, "Machine-readable output");
+  OnDatabaseToRead(history, global, run, [o = o](db::Database& database) {
+    std::cout << workflows::FormatRobotHistory(database, o->name, o->json);
     return kOk;
   });
 
@@ -96,6 +145,21 @@ void SetupLifecycleCommands(CLI::App& parent, const GlobalOptions& global, Runne
   OnExistingDatabase(restore, global, run, [o = o](db::Database& database) {
     const std::string state = workflows::RestoreSession(database, o->session);
     std::cout << fmt::format("session {} restored ({})\n", o->session, state);
+    return kOk;
+  });
+
+  o = std::make_shared<LifecycleOptions>();
+  auto* move = session->add_subcommand(
+      "move", "Move a session to another robot (measured under the wrong name), with its history");
+  NumberOption(move->add_option("id", o->session, "Session id"), 1, kMaxId)->required();
+  NameOption(move->add_option("--robot", o->robot, "The robot it belongs to"))->required();
+  NoteOption(move->add_option("--reason", o->reason, "Why (kept in both robots' history)"));
+  OnExistingDatabase(move, global, run, [o = o](db::Database& database) {
+    const std::string from = workflows::MoveSession(database, o->session, o->robot, o->reason);
+    std::cout << fmt::format(
+        "session {} moved from robot {} to robot {}: the next recalibration of each uses what "
+        "it now holds; sets already fitted keep what they were fitted on\n",
+        o->session, Printable(from), Printable(o->robot));
     return kOk;
   });
 

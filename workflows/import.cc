@@ -11,6 +11,7 @@
 #include "core/text.h"
 #include "core/units.h"
 #include "db/database.h"
+#include "db/robots.h"
 #include "io/atomic_file.h"
 #include "io/gsi_import.h"
 #include "io/point_joint_join.h"
@@ -226,6 +227,7 @@ ImportPosesResult ImportPosesFile(const ImportPosesRequest& request) {
   int num_joints = 0;
   if (!request.robot.empty()) {
     database.emplace(request.db_path, db::OpenMode::kMustExist);
+    db::FindRobotInUse(*database, request.robot);  // a removed robot takes no new sessions
     num_joints = RegisteredModel(*database, request.robot).num_joints();
   }
   if (!tracker) return ImportPoseTable(request, database ? &*database : nullptr, num_joints);

@@ -2,7 +2,9 @@
 
 #include <fmt/format.h>
 #include <fmt/ranges.h>
+#include <pwd.h>
 #include <spdlog/spdlog.h>
+#include <unistd.h>
 
 #include <charconv>
 #include <cmath>
@@ -47,7 +49,7 @@ bool RegisterRobot(db::Database& database, const std::string& name, const std::s
   const std::string text = io::ReadWholeFile(model_path, io::kYamlFileLimit);
   const auto model = io::ParseRobotModel(text, model_path);  // refuses a bad file, by line
   db::WriteTransaction tx(database);
-  if (const auto id = db::FindRobot(database, name)) {
+  if (const auto id = db::FindRobotInUse(database, name)) {  // a removed one: said so
     if (db::RobotModelYaml(database, *id) == text) return false;
     throw InputError({model_path, 0, 0, ""},
                      "robot " + Quoted(name) +
@@ -59,6 +61,78 @@ bool RegisterRobot(db::Database& database, const std::string& name, const std::s
   spdlog::info("robot {}: registered with model {} ({} joints, {} parameters) from {}", name,
                model.name, model.num_joints(), model.num_parameters(), model_path);
   return true;
+}
+
+namespace {
+
+std::string CurrentUser() {
+  if (const passwd* pw = ::getpwuid(::geteuid())) return pw->pw_name;
+  return "uid " + std::to_string(::geteuid());
+}
+
+}  // namespace
+
+void RenameRobot(db::Database& database, const std::string& name, const std::string& new_name,
+                 const std::string& reason) {
+  if (new_name.empty()) throw InputError({"NEW_NAME", 0, 0, ""}, "a robot needs a name");
+  db::RenameRobot(database, name, new_name, reason, CurrentUser());
+}
+
+void RemoveRobot(db::Database& database, const std::string& name, const std::string& reason) {
+  db::RemoveRobot(database, name, reason, CurrentUser());
+}
+
+void RestoreRobot(db::Database& database, const std::string& name, const std::string& reason) {
+  db::RestoreRobot(database, name, reason, CurrentUser());
+}
+
+std::string MoveSession(db::Database& database, int64_t session_id, const std::string& robot,
+                        const std::string& reason) {
+  const auto session = db::LoadSession(database, session_id);
+  if (!session) {
+    throw InputError({database.path(), 0, 0, "sessions"},
+                     "no session " + std::to_string(session_id) + " (armsig sessions lists them)");
+  }
+  // The same arm's kind: as many joints (each pose's angles must mean the other's joints).
+  const int from = RegisteredModel(database, session->robot).num_joints();
+  const int to = RegisteredModel(database, robot).num_joints();
+  if (from != to) {
+    throw InputError({"--robot", 0, 0, ""},
+                     fmt::format("session {} holds {}-joint configurations of robot {}; robot {} "
+                                 "has {} joints: nothing was moved",
+                                 session_id, from, Quoted(session->robot), Quoted(robot), to));
+  }
+  return db::MoveSession(database, session_id, robot, reason, CurrentUser());
+}
+
+std::string FormatRobotHistory(db::Database& database, const std::string& robot, bool json) {
+  std::optional<int64_t> id;
+  for (const auto& r : db::ListRobots(database, true)) {
+    if (r.name == robot) id = r.id;
+  }
+  if (!id) {
+    throw InputError({database.path(), 0, 0, "--robot"}, UnknownRobotMessage(database, robot));
+  }
+  const auto events = db::RobotEvents(database, *id);
+  if (json) {
+    nlohmann::json out = nlohmann::json::array();
+    for (const auto& e : events) {
+      out.push_back({{"event", e.event},
+                     {"session", e.session_id ? nlohmann::json(*e.session_id) : nlohmann::json()},
+                     {"detail", e.detail},
+                     {"reason", e.reason},
+                     {"at", e.at},
+                     {"by", e.by_user}});
+    }
+    return JsonText(out, 2) + "\n";
+  }
+  if (events.empty()) return "robot " + Printable(robot) + ": no renames, removals or moves\n";
+  std::string text;
+  for (const auto& e : events) {
+    text += fmt::format("{}  {}{}, by {}\n", Printable(e.at), Printable(e.detail),
+                        e.reason.empty() ? "" : ": " + Printable(e.reason), Printable(e.by_user));
+  }
+  return text;
 }
 
 calibration::RobotModel RegisteredModel(db::Database& database, const std::string& robot) {
@@ -446,6 +520,7 @@ std::string FormatRobots(const std::vector<db::RobotRow>& robots, bool json,
         fmt::format("{:<20} model {:<12} {:>12}  active version {}\n", Printable(r.name),
                     Printable(r.model_name), Count(r.sessions, "session"),
                     r.active_version ? std::to_string(*r.active_version) : "none");
+    if (!r.removed_at.empty()) text += "  removed " + Printable(r.removed_at) + "\n";
   }
   return text;
 }
@@ -546,7 +621,8 @@ nlohmann::json ToJson(const db::RobotRow& r) {
           {"registered_at", r.created_at},
           {"sessions", r.sessions},
           {"active_version",
-           r.active_version ? nlohmann::json(*r.active_version) : nlohmann::json(nullptr)}};
+           r.active_version ? nlohmann::json(*r.active_version) : nlohmann::json(nullptr)},
+          {"removed_at", r.removed_at.empty() ? nlohmann::json(nullptr) : nlohmann::json(r.removed_at)}};
 }
 
 nlohmann::json ToJson(const db::SessionSummary& s) {

@@ -145,6 +145,18 @@ std::vector<VersionInfo> Versions(db::Database& database, const std::string& rob
 std::optional<int> Activate(db::Database& database, const std::string& robot, int version,
                             const std::string& note = "");
 
+// A robot's history when the lab reorganises (db/robots.h): renamed, removed (hidden, no new
+// work, every row kept), restored; a session moved to another robot of the same number of
+// joints (the robot it leaves is returned). The user running the command is recorded.
+void RenameRobot(db::Database& database, const std::string& name, const std::string& new_name,
+                 const std::string& reason);
+void RemoveRobot(db::Database& database, const std::string& name, const std::string& reason);
+void RestoreRobot(db::Database& database, const std::string& name, const std::string& reason);
+std::string MoveSession(db::Database& database, int64_t session_id, const std::string& robot,
+                        const std::string& reason);
+// `robot history NAME`: every change of the robot, oldest first (a table, or JSON).
+std::string FormatRobotHistory(db::Database& database, const std::string& robot, bool json);
+
 // What `robot list`, `sessions` and `versions` print: a table, or a JSON array.
 std::string FormatRobots(const std::vector<db::RobotRow>& robots, bool json,
                          const std::string& db_path);

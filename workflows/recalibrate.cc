@@ -34,6 +34,7 @@
 #include "db/database.h"
 #include "db/jobs.h"
 #include "db/report_queries.h"
+#include "db/robots.h"
 #include "db/store.h"
 #include "io/atomic_file.h"
 #include "io/file_lock.h"
@@ -429,8 +430,13 @@ std::string NamedCause::Describe() const {
   text += fmt::format(": up to {:.3f} mm at the tool{}, explains {:.0f} % of the change",
                       effect_max_mm, over.empty() ? "" : " " + over, 100.0 * explained);
   if (!equivalent.empty()) {
-    text += "; the same on these data as ";
-    for (size_t k = 0; k < equivalent.size(); ++k) text += (k ? ", " : "") + equivalent[k];
+    // Equivalent, not the same: these data move the arm alike for each of them, other
+    // configurations would tell them apart.
+    text += "; these data cannot tell it from ";
+    for (size_t k = 0; k < equivalent.size(); ++k) {
+      text += (k == 0 ? "" : k + 1 == equivalent.size() ? " or " : ", ") + equivalent[k];
+    }
+    text += " (an equivalent cause: configurations that move them differently would)";
   }
   return text;
 }
@@ -711,7 +717,7 @@ class NightlyJob {
 
 void NightlyJob::OpenAndLock() {
   database_.emplace(o_.db_path, db::OpenMode::kMustExist);
-  const auto robot_id = db::FindRobot(*database_, o_.robot);
+  const auto robot_id = db::FindRobotInUse(*database_, o_.robot);  // a removed one: refused
   if (!robot_id) {
     throw InputError({o_.db_path, 0, 0, "--robot"},
                      UnknownRobotMessage(*database_, o_.robot));
