@@ -59,7 +59,13 @@ void SetupInstrumentCommand(CLI::App& parent, const GlobalOptions&, Runner& run)
           std::cout << workflows::QueryInstrument(*o);
           return kOk;
         } catch (const instruments::InstrumentError& e) {
-          spdlog::error("instrument: {} (code {})", e.what(), e.code());
+          // An instrument's return code is named when it has one (a GeoCOM or emScon code);
+          // a controller's fault says what it is in words alone.
+          if (e.code() != 0) {
+            spdlog::error("instrument: {} (code {})", e.what(), e.code());
+          } else {
+            spdlog::error("instrument: {}", e.what());
+          }
           return kFailure;
         }
       };

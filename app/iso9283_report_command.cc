@@ -3,6 +3,7 @@
 #include <iostream>
 
 #include "app/command.h"
+#include "core/error.h"
 #include "core/text.h"
 #include "io/atomic_file.h"
 #include "workflows/iso9283_report.h"
@@ -13,16 +14,23 @@ struct Iso9283ReportCommandOptions {
   workflows::Iso9283ReportOptions report;
   double load_kg = -1.0, speed_percent = -1.0;  // < 0: not stated
   std::string json;
+  std::vector<std::string> limits;  // KEY=MM
 };
 
 int RunIso9283Report(const Iso9283ReportCommandOptions& o, db::Database& db) {
   workflows::Iso9283ReportOptions options = o.report;
   if (o.load_kg >= 0) options.load_kg = o.load_kg;
   if (o.speed_percent >= 0) options.speed_percent = o.speed_percent;
+  for (const auto& limit : o.limits) workflows::ParseIso9283Limit(limit, options.limits);
+  if (!options.limits.source.empty() && !options.limits.any()) {
+    throw InputError("--limits-from: names where limits come from, but no --limit KEY=MM is given");
+  }
   const auto result = workflows::RunIso9283Report(db, options);
   if (!o.json.empty()) io::WriteFileAtomically(o.json, JsonText(result.json, 2) + "\n");
   std::cout << result.text;
-  return kOk;
+  // A test outside the stated limits is a gate that failed: the page and the JSON say which
+  // figure, where and by how much.
+  return result.pass ? kOk : kQualityGate;
 }
 
 void SetupIso9283ReportCommand(CLI::App& iso, const GlobalOptions& global, Runner& run) {
@@ -47,6 +55,14 @@ void SetupIso9283ReportCommand(CLI::App& iso, const GlobalOptions& global, Runne
   NumberOption(sub->add_option("--speed-percent", o->speed_percent,
                                "Speed during the test, % of rated (stated on the page)"),
                0.0, 1000.0);
+  sub->add_option("--limit", o->limits,
+                  "A stated limit, KEY=MM with KEY one of AP, RP, AD, RD (repeat it): every "
+                  "point's (distance's) figure is judged against it; exit 3 when one is beyond")
+      ->type_name("KEY=MM");
+  NoteOption(sub->add_option("--limits-from", o->report.limits.source,
+                             "Who states the limits (on the page): \"KR 16-2 data sheet\", "
+                             "\"customer acceptance\"")
+                 ->type_name("TEXT"));
   OutputDirectory(sub->add_option("--out", o->report.out_dir, "Folder of the HTML page"))
       ->required();
   OutputFile(sub->add_option("--json", o->json, "The figures as JSON"));

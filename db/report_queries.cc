@@ -68,6 +68,19 @@ std::vector<InstrumentSummary> SessionInstruments(Database& db, int64_t session_
     i.sigma_distance_mm = optional(7);
     out.push_back(std::move(i));
   }
+  auto at = Sql(db,
+      "SELECT i.name, st.code FROM observations o JOIN stations st ON st.id = o.station_id "
+      "JOIN instruments i ON i.id = coalesce(o.instrument_id, st.instrument_id) "
+      "WHERE o.session_id = ?1 UNION "
+      "SELECT i.name, st.code FROM station_setups su JOIN stations st ON st.id = su.station_id "
+      "JOIN instruments i ON i.id = st.instrument_id WHERE su.session_id = ?1 ORDER BY 1, 2");
+  at->Bind(1, session_id);
+  while (at->Step()) {
+    const std::string name = at->Text(0);
+    for (auto& i : out) {
+      if (i.name == name) i.stations.push_back(at->Text(1));
+    }
+  }
   return out;
 }
 

@@ -31,8 +31,10 @@ std::map<std::string, double> PoseTemperatures(Database& db, const std::vector<i
 struct InstrumentSummary {
   std::string name, kind, protocol, serial_number, firmware;
   std::optional<double> sigma_hz_arcsec, sigma_v_arcsec, sigma_distance_mm;
+  std::vector<std::string> stations;  // the codes of the stations it stood at in the session
 };
-// The instruments a session's observations name, or whose stations it observed from.
+// The instruments a session's observations name, or whose stations it observed from, with
+// the stations each stood at.
 std::vector<InstrumentSummary> SessionInstruments(Database& db, int64_t session_id);
 
 // A stored parameter set's residuals (schema: validation_residuals), in stored order:

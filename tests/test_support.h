@@ -143,6 +143,26 @@ inline pid_t SpawnQuietly(std::vector<std::string> args) {
   return child;
 }
 
+// Starts the armsig binary with `args`, its stdout and stderr into the files `out` and `err`
+// (TMPDIR set to `tmpdir` when given); the child's pid.
+inline pid_t SpawnArmsig(std::vector<std::string> args, const std::string& out,
+                         const std::string& err, const std::string& tmpdir = "") {
+  args.insert(args.begin(), ARMSIG_BINARY);
+  std::fflush(nullptr);  // nothing buffered is written twice
+  const pid_t child = ::fork();
+  if (child == 0) {
+    std::vector<char*> argv;
+    for (auto& a : args) argv.push_back(a.data());
+    argv.push_back(nullptr);
+    ::dup2(::open(out.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0600), 1);
+    ::dup2(::open(err.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0600), 2);
+    if (!tmpdir.empty()) ::setenv("TMPDIR", tmpdir.c_str(), 1);
+    ::execv(argv[0], argv.data());
+    _exit(127);
+  }
+  return child;
+}
+
 inline calibration::RobotModel Puma() {
   return io::LoadRobotModel(SourcePath("models/puma760.yaml"));
 }

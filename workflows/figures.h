@@ -125,6 +125,7 @@ table{border-collapse:collapse;margin:0.8em 0}
 td,th{border:1px solid #ccc;padding:3px 8px;text-align:left;vertical-align:top}
 th{background:#f4f4f4}
 td.num,th.num{text-align:right;white-space:nowrap;font-variant-numeric:tabular-nums}
+th.num.wrap{white-space:normal;max-width:7em}
 .nowrap{white-space:nowrap}
 table.header th{white-space:nowrap}
 .bad{color:#b00}.good{color:#070}.note{font-style:italic}

@@ -582,4 +582,87 @@ std::string FormatIso9283Figures(const Iso9283Evaluation& e) {
   return out;
 }
 
+void ParseIso9283Limit(const std::string& text, Iso9283Limits& limits) {
+  const size_t eq = text.find('=');
+  const std::string key = text.substr(0, eq);
+  std::optional<double>* slot = key == "AP"   ? &limits.ap_mm
+                                : key == "RP" ? &limits.rp_mm
+                                : key == "AD" ? &limits.ad_mm
+                                : key == "RD" ? &limits.rd_mm
+                                              : nullptr;
+  double value = NAN;
+  if (eq != std::string::npos && slot) {
+    const std::string number = text.substr(eq + 1);
+    size_t used = 0;
+    try {
+      value = std::stod(number, &used);
+    } catch (const std::exception&) {
+      used = 0;
+    }
+    if (used != number.size() || number.empty()) value = NAN;
+  }
+  if (!slot || !std::isfinite(value) || value <= 0.0 || value > 1e4) {
+    throw InputError(fmt::format(
+        "--limit: '{}': expected KEY=MM with KEY one of AP, RP, AD, RD and MM a length in mm "
+        "above 0 (as the data sheet or the customer states it: --limit RP=0.04)",
+        text));
+  }
+  *slot = value;
+}
+
+Iso9283Verdict JudgeIso9283(const Iso9283Evaluation& e, const Iso9283Limits& limits) {
+  Iso9283Verdict v;
+  auto check = [&](const char* figure, const std::string& where, double value, double limit) {
+    // NaN (the figure needs more cycles than the test has) is not within any limit.
+    v.checks.push_back({figure, where, value, limit, std::isfinite(value) && value <= limit});
+  };
+  for (const auto& p : e.points) {
+    if (limits.ap_mm) check("AP", p.name, p.ap_mm, *limits.ap_mm);
+    if (limits.rp_mm) check("RP", p.name, p.rp_mm, *limits.rp_mm);
+  }
+  for (const auto& d : e.distances) {
+    const std::string where = d.from + "-" + d.to;
+    if (limits.ad_mm) check("AD", where, std::abs(d.ad_mm), *limits.ad_mm);
+    if (limits.rd_mm) check("RD", where, d.rd_mm, *limits.rd_mm);
+  }
+  std::string failed;
+  for (const auto& c : v.checks) {
+    if (c.pass) continue;
+    v.pass = false;
+    failed += fmt::format("{}{} at {} {} > {:.3f} mm", failed.empty() ? "" : "; ", c.figure,
+                          c.where,
+                          std::isfinite(c.value_mm) ? fmt::format("{:.3f} mm", c.value_mm)
+                                                    : std::string("not measured"),
+                          c.limit_mm);
+  }
+  if (v.checks.empty()) {
+    v.pass = false;
+    v.summary = "FAIL: no figure of this test to judge against the stated limits";
+  } else if (v.pass) {
+    v.summary = fmt::format("PASS: all {} figures within the stated limits", v.checks.size());
+  } else {
+    v.summary = "FAIL: " + failed;
+  }
+  if (!limits.source.empty()) v.summary += " (limits: " + limits.source + ")";
+  return v;
+}
+
+nlohmann::json Iso9283VerdictJson(const Iso9283Verdict& v, const Iso9283Limits& limits) {
+  nlohmann::json stated = {{"source", limits.source}};
+  if (limits.ap_mm) stated["AP_mm"] = *limits.ap_mm;
+  if (limits.rp_mm) stated["RP_mm"] = *limits.rp_mm;
+  if (limits.ad_mm) stated["AD_mm"] = *limits.ad_mm;
+  if (limits.rd_mm) stated["RD_mm"] = *limits.rd_mm;
+  nlohmann::json checks = nlohmann::json::array();
+  for (const auto& c : v.checks) {
+    checks.push_back({{"figure", c.figure},
+                      {"where", c.where},
+                      {"value_mm", std::isfinite(c.value_mm) ? nlohmann::json(c.value_mm)
+                                                             : nlohmann::json(nullptr)},
+                      {"limit_mm", c.limit_mm},
+                      {"pass", c.pass}});
+  }
+  return {{"limits", stated}, {"pass", v.pass}, {"summary", v.summary}, {"checks", checks}};
+}
+
 }  // namespace armsig::workflows

@@ -114,4 +114,34 @@ nlohmann::json Iso9283Json(const Iso9283Evaluation& e);
 // The figures as a table for a terminal (every point up to 20; more: a summary of AP).
 std::string FormatIso9283Figures(const Iso9283Evaluation& e);
 
+// ---- Pass / fail against stated limits ----
+
+// The limits a test is judged against, as stated by whoever states them: the maker's data
+// sheet (RP, the one figure data sheets give), a customer's acceptance (AP, RP, AD, RD).
+// Absent: not judged.
+struct Iso9283Limits {
+  std::optional<double> ap_mm, rp_mm, ad_mm, rd_mm;
+  std::string source;  // "KUKA KR 16-2 data sheet", "customer acceptance 2026-11"
+  bool any() const { return ap_mm || rp_mm || ad_mm || rd_mm; }
+};
+// "AP=0.5" → limits.ap_mm = 0.5 (KEY: AP, RP, AD or RD; mm, positive and finite); throws
+// InputError naming --limit and what was expected.
+void ParseIso9283Limit(const std::string& text, Iso9283Limits& limits);
+struct Iso9283Check {
+  std::string figure;  // "AP", "RP", "AD", "RD"
+  std::string where;   // "P3", "P2-P4"
+  double value_mm = NAN, limit_mm = NAN;
+  bool pass = false;
+};
+struct Iso9283Verdict {
+  std::vector<Iso9283Check> checks;  // every stated limit at every point (or distance)
+  bool pass = true;                  // every check passed
+  std::string summary;  // "PASS: …" or "FAIL: RP at P3 0.052 mm > 0.040 mm; …"
+};
+// Each stated limit at every point (AP, RP) or distance (AD as |D̄ − D_c|, RD) the test has;
+// a figure the test does not have (RP of a single cycle) fails: not shown to be within.
+Iso9283Verdict JudgeIso9283(const Iso9283Evaluation& e, const Iso9283Limits& limits);
+// {"source", "AP_mm"?…, "pass", "summary", "checks":[{"figure","where","value_mm","limit_mm","pass"}]}
+nlohmann::json Iso9283VerdictJson(const Iso9283Verdict& v, const Iso9283Limits& limits);
+
 }  // namespace armsig::workflows

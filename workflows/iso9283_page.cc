@@ -194,19 +194,21 @@ Html FiguresTable(const std::string& id, const Iso9283Evaluation& e) {
       "<table id=\"{}\"><tr><th>point</th><th class=\"num\">n</th><th class=\"num\">AP mm</th>"
       "<th class=\"num\">APx</th><th class=\"num\">APy</th><th class=\"num\">APz</th>"
       "<th class=\"num\">l&#772; mm</th><th class=\"num\">S<sub>l</sub> mm</th>"
-      "<th class=\"num\">RP mm</th><th class=\"num\">RP, 95 % bootstrap</th>{}{}</tr>\n",
+      "<th class=\"num\">RP mm</th><th class=\"num wrap\">RP, 95 % bootstrap</th>{}{}</tr>\n",
       id,
-      oriented
-          ? Html("<th class=\"num\">APa/b/c deg</th><th class=\"num\">RPa/b/c deg (&plusmn;)</th>")
-          : Html(),
+      oriented ? Html("<th class=\"num wrap\">APa, b, c deg</th><th class=\"num wrap\">RPa, b, c "
+                      "deg (&plusmn;)</th>")
+               : Html(),
       vap ? Html("<th class=\"num\">vAP mm</th>") : Html());
   for (size_t i = 0; i < e.points.size(); ++i) {
     const auto& f = e.points[i];
     const auto& iv = e.rp_intervals[i];
     Html orientation;
     if (oriented) {
+      // a, b and c one above the other: three numbers side by side made the table wider
+      // than a laptop's window (its last column cut at 1,400 px).
       auto triple = [](const std::optional<Eigen::Vector3d>& v) {
-        return v ? Deg(v->x()) + Html(" / ") + Deg(v->y()) + Html(" / ") + Deg(v->z())
+        return v ? Deg(v->x()) + Html("<br>") + Deg(v->y()) + Html("<br>") + Deg(v->z())
                  : Html("&mdash;");
       };
       orientation = HtmlFormat("<td class=\"num\">{}</td><td class=\"num\">{}</td>",
@@ -314,6 +316,30 @@ std::string WriteIso9283Page(const std::string& dir, const Iso9283PageInput& in)
   body += row("Date", Html::Text(in.generated_at.empty() ? Now() : in.generated_at));
   body += row("Program", HtmlFormat("armsig {}", in.armsig_version));
   body += "</table>\n";
+  // Against stated limits: the verdict first, then every check.
+  const Iso9283Verdict* decisive =
+      in.compensated_verdict ? &*in.compensated_verdict : (in.verdict ? &*in.verdict : nullptr);
+  if (decisive) {
+    body += HtmlFormat("<p class=\"banner {}\" id=\"verdict\"><b>{}</b> &mdash; {}{}</p>\n",
+                       Html::Text(decisive->pass ? "good" : "bad"),
+                       decisive->pass ? "PASS" : "FAIL", decisive->summary.substr(6),
+                       in.compensated_verdict ? Html(" (the compensated program)") : Html());
+    body += "<h2>Against the stated limits</h2>\n<table id=\"limits\"><tr><th>test</th>"
+            "<th>figure</th><th>at</th><th class=\"num\">mm</th><th class=\"num\">limit mm"
+            "</th><th></th></tr>\n";
+    auto checks = [&](const char* test, const Iso9283Verdict& v) {
+      for (const auto& c : v.checks) {
+        body += HtmlFormat(
+            "<tr><td>{}</td><td>{}</td><td>{}</td><td class=\"num\">{}</td><td "
+            "class=\"num\">{}</td><td class=\"{}\">{}</td></tr>\n",
+            test, c.figure, c.where, Num(c.value_mm), Num(c.limit_mm),
+            Html::Text(c.pass ? "good" : "bad"), c.pass ? "pass" : "FAIL");
+      }
+    };
+    if (in.verdict) checks("nominal program", *in.verdict);
+    if (in.compensated_verdict) checks("compensated program", *in.compensated_verdict);
+    body += "</table>\n";
+  }
 
   body += "<h2>Conditions</h2>\n<table id=\"conditions\">\n";
   body += row("Load", in.load_kg ? HtmlFormat("{} kg", fmt::format("{:g}", *in.load_kg))

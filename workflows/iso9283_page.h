@@ -46,6 +46,9 @@ struct Iso9283PageInput {
   std::string temperature;  // "20.7 °C (20.6–20.9) at the tracker", "" = not measured
   std::vector<std::string> instruments;  // one line each, with its stated uncertainty
   std::string point_precision;           // "mean 3-D σ of a measured point 0.018 mm"
+  // Judged against stated limits (--limit): the decisive test's verdict (the compensated
+  // one when there is one), and each test's checks.
+  std::optional<Iso9283Verdict> verdict, compensated_verdict;
 };
 
 // Writes DIR/index.html and its PNGs; returns the HTML path. Throws on I/O failure.

@@ -348,6 +348,19 @@ Iso9283ReportResult RunIso9283Report(db::Database& db, const Iso9283ReportOption
     c["session"] = o.compensated_session;
     result.json["compensated"] = c;
   }
+  if (o.limits.any()) {
+    result.verdict = JudgeIso9283(result.test, o.limits);
+    page.verdict = result.verdict;
+    result.json["verdict"] = Iso9283VerdictJson(*result.verdict, o.limits);
+    result.pass = result.verdict->pass;
+    if (result.compensated) {
+      result.compensated_verdict = JudgeIso9283(*result.compensated, o.limits);
+      page.compensated_verdict = result.compensated_verdict;
+      result.json["compensated"]["verdict"] =
+          Iso9283VerdictJson(*result.compensated_verdict, o.limits);
+      result.pass = result.compensated_verdict->pass;
+    }
+  }
   if (signature) {
     page.test.predicted_ap_mm = PredictedAp(test, model, *signature);
     page.signature =
@@ -394,6 +407,12 @@ Iso9283ReportResult RunIso9283Report(db::Database& db, const Iso9283ReportOption
         " mm for the nominal program; its held-out validation: mean {:.4f} mm, max "
         "{:.4f} mm on {} configurations\n",
         stored->validation_mean_mm, stored->validation_max_mm, stored->poses_validation);
+  }
+  if (result.verdict) {
+    text += "\nagainst the stated limits: " + result.verdict->summary + "\n";
+    if (result.compensated_verdict) {
+      text += "with compensation: " + result.compensated_verdict->summary + "\n";
+    }
   }
   if (!o.out_dir.empty()) {
     result.html_path = WriteIso9283Page(o.out_dir, page);

@@ -31,11 +31,16 @@ struct Iso9283ReportOptions {
   bool align = false;
   std::optional<double> load_kg, speed_percent;  // the conditions, as stated
   std::string generated_at;                      // "" = now (tests fix it)
+  Iso9283Limits limits;                          // none stated: not judged
 };
 
 struct Iso9283ReportResult {
   Iso9283Evaluation test;
   std::optional<Iso9283Evaluation> compensated;
+  // With stated limits: each test's verdict; `pass` is the decisive one's (the compensated
+  // test when there is one, else the test).
+  std::optional<Iso9283Verdict> verdict, compensated_verdict;
+  bool pass = true;
   nlohmann::json json;
   std::string text;       // for stdout
   std::string html_path;  // "" without out_dir

@@ -57,8 +57,10 @@ std::string WriteReport(const std::string& dir, const ReportInput& in) {
   const auto drift = DriftFigure(dir, in.drift_history, in.history);
   if (!drift) drop("drift.png");
   const auto joints = JointFigures(dir, data.model.num_joints(), data.distances, data.poses);
+  // The map's cross-validation curve only when the map is used: a map left out is one
+  // sentence (its decision), not a chart a reader must work out is not in effect.
   std::optional<figures::Figure> map;
-  if (run.residual_map) map = ResidualMapFigure(dir, *run.residual_map);
+  if (run.map_used()) map = ResidualMapFigure(dir, *run.residual_map);
   if (!map) drop("residual_map.png");
   const auto temperature = TemperatureFigure(dir, data.temperatures, data.temperature_errors,
                                              static_cast<int>(data.distances.size()), data.trend);

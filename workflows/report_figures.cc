@@ -302,6 +302,23 @@ std::optional<Figure> TemperatureFigure(const std::string& dir,
   return Save(dir, "temperature.png", "Error against the air temperature", p.image);
 }
 
+double DriftAxisTop(const ReportDrift& drift) {
+  // Each point's reach: its difference and two of its σ.
+  std::vector<double> reach;
+  for (const auto& d : drift.points) {
+    if (std::isfinite(d.max_mm))
+      reach.push_back(d.max_mm + 2.0 * (std::isfinite(d.sigma_max_mm) ? d.sigma_max_mm : 0.0));
+  }
+  const double floor = std::isfinite(drift.tolerance_mm) ? 1.25 * drift.tolerance_mm : 1e-3;
+  if (reach.empty()) return floor;
+  std::sort(reach.begin(), reach.end());
+  // One version far off (a set of another robot, a roll-back to a bad set) would press every
+  // other point onto the axis: the axis stops at three times what the rest and the tolerance
+  // reach, and what lies beyond is marked with its value.
+  const double rest = std::max(floor, reach.size() > 1 ? reach[reach.size() - 2] : 0.0);
+  return reach.back() > 5.0 * rest ? 3.0 * rest : std::max(floor, reach.back());
+}
+
 std::optional<Figure> DriftFigure(const std::string& dir, const ReportDrift& drift,
                                   const std::vector<ReportHistoryPoint>& history) {
   if (drift.points.empty()) return std::nullopt;
@@ -327,22 +344,27 @@ std::optional<Figure> DriftFigure(const std::string& dir, const ReportDrift& dri
   }
   x.lo = *xs.begin() - 0.5;
   x.hi = *xs.rbegin() + 0.5;
-  double top = std::isfinite(drift.tolerance_mm) ? 1.25 * drift.tolerance_mm : 1e-3;
-  for (const auto& d : drift.points) {
-    if (std::isfinite(d.max_mm))
-      top = std::max(top, d.max_mm + 2.0 * (std::isfinite(d.sigma_max_mm) ? d.sigma_max_mm : 0.0));
-  }
+  const double top = DriftAxisTop(drift);
   Plot p(900, 360, "How far each version moved the arm", x, LinearAxis(0, top * 1.1, 5),
          "parameter set version", "mm");
   if (std::isfinite(drift.tolerance_mm)) DashedLevel(p, drift.tolerance_mm, kRed);
-  bool any_drift = false, any_unsaved = false;
+  bool any_drift = false, any_unsaved = false, any_clipped = false;
   for (const auto& d : drift.points) {
     if (!std::isfinite(d.max_mm)) continue;
     const int px = p.X(x_of(d.version));
+    if (d.max_mm > top) {
+      // Beyond the axis: a triangle at its top, pointing up, with the value written beside.
+      const cv::Point at = p.At(x_of(d.version), top);
+      DrawMarker(p.image, at, Marker::kTriangle, d.drift ? kRed : kBlue, 6);
+      Text(p.image, fmt::format("{:.3g} mm", d.max_mm), {at.x + 9, at.y + 4}, 0.4);
+      any_clipped = true;
+      any_drift |= d.drift;
+      continue;
+    }
     if (std::isfinite(d.sigma_max_mm) && d.sigma_max_mm > 0.0) {
-      // ±2σ of the plotted difference: a bar with caps.
+      // ±2σ of the plotted difference: a bar with caps (cut at the axis's top).
       const int y0 = p.Y(std::max(0.0, d.max_mm - 2.0 * d.sigma_max_mm));
-      const int y1 = p.Y(d.max_mm + 2.0 * d.sigma_max_mm);
+      const int y1 = p.Y(std::min(top, d.max_mm + 2.0 * d.sigma_max_mm));
       cv::line(p.image, {px, y0}, {px, y1}, kGrey, 2, cv::LINE_AA);
       cv::line(p.image, {px - 5, y0}, {px + 5, y0}, kGrey, 2, cv::LINE_AA);
       cv::line(p.image, {px - 5, y1}, {px + 5, y1}, kGrey, 2, cv::LINE_AA);
@@ -361,6 +383,7 @@ std::optional<Figure> DriftFigure(const std::string& dir, const ReportDrift& dri
   if (any_drift) legend.push_back({Marker::kDiamond, kRed, "drift flagged"});
   if (std::isfinite(drift.tolerance_mm))
     legend.push_back({Marker::kLine, kRed, fmt::format("tolerance {:g} mm", drift.tolerance_mm)});
+  if (any_clipped) legend.push_back({Marker::kTriangle, kBlue, "beyond the axis: its value written"});
   p.Legend(legend);
   if (any_unsaved) p.Caption("red ring: this run (not stored)");
   // Made active: a row of its own under the axis title, never read as data.

@@ -32,6 +32,10 @@ figures::Figure VectorsFigure(const std::string& dir, const std::vector<Eigen::V
 // nothing to compare (fewer than two versions).
 std::optional<figures::Figure> DriftFigure(const std::string& dir, const ReportDrift& drift,
                                            const std::vector<ReportHistoryPoint>& history);
+// The drift chart's axis top (mm): every point and its 2σ, unless one reaches five times
+// beyond the others and the tolerance; then three times what those reach, the one beyond
+// drawn at the top with its value written.
+double DriftAxisTop(const ReportDrift& drift);
 // Error distance against each joint's angle, one small figure per joint.
 std::vector<figures::Figure> JointFigures(const std::string& dir, int joints,
                                           const std::vector<double>& distances_mm,

@@ -101,9 +101,8 @@ Html HeaderSection(const ReportData& data) {
   row("Robot", "robot",
       HtmlFormat("{} (model {}, {} joints)", in.robot, model.name, model.num_joints()));
   row("Parameter set", "params",
-      HtmlFormat("--params {} ({}), {} poses fitted, {} validated", run.params_spec,
-                 ParamsKind(run.params_spec), run.fit_pose_ids.size(),
-                 run.validation_pose_ids.size()));
+      HtmlFormat("{}; {} poses fitted, {} validated", ParamsInWords(run.params_spec),
+                 run.fit_pose_ids.size(), run.validation_pose_ids.size()));
   Html sessions;
   for (const auto& s : in.sources.sessions) {
     sessions += HtmlFormat(
@@ -618,6 +617,23 @@ std::string FormatChange(double value, bool millimetres) {
 std::string ParamsKind(const std::string& spec) {
   if (spec == "all" || spec == "geometric" || spec == "auto") return spec;
   return spec.empty() ? "unknown" : "list";
+}
+
+std::string ParamsInWords(const std::string& spec) {
+  const std::string kind = ParamsKind(spec);
+  if (kind == "all") return "every term of the model";
+  if (kind == "geometric") return "the geometric parameters";
+  if (kind == "auto") {
+    return "the geometric parameters and the terms that held on data the fit did not see";
+  }
+  if (kind == "unknown") return "not known";
+  std::string words;
+  for (size_t at = 0; at <= spec.size();) {
+    const size_t comma = std::min(spec.find(',', at), spec.size());
+    words += (words.empty() ? "" : ", ") + spec.substr(at, comma - at);
+    at = comma + 1;
+  }
+  return "the parameters " + words;
 }
 
 }  // namespace armsig::workflows

@@ -70,6 +70,10 @@ std::string FormatChange(double value, bool millimetres);
 
 // "all", "geometric", "auto" or "list" (a comma list of names and groups).
 std::string ParamsKind(const std::string& params_spec);
+// What a --params value fitted, in words: "every term of the model", "the geometric
+// parameters", "the geometric parameters and the terms that held on data the fit did not
+// see", "the parameters geometric, h3, h4"; "not known" for none.
+std::string ParamsInWords(const std::string& params_spec);
 
 // The stations' set-ups with equal figures said once: in a session, the stations with the
 // same σ0, dof and method (one network adjustment gives all its stations one σ0); then

@@ -121,6 +121,10 @@ ReportSources LoadSessionSources(db::Database& db,
   for (const auto& s : db::LoadSessionSummaries(db, ids)) {
     const auto [fitted, validated] = counts.at(s.id);
     out.sessions.push_back({s.id, s.started_at, s.finished_at, s.state, s.note, fitted, validated});
+    // Each instrument once: what the lab file said of a station (protocol, port, sigmas) and
+    // what the instrument said of itself when it stood there (name, serial, firmware) are
+    // one line, "station LT1: AT960 391234".
+    std::map<std::string, std::string> by_station;  // the lab file's, by station code
     if (!s.lab_yaml.empty()) {
       try {
         const auto lab = io::StoredLabSettings(s.lab_yaml, s.id, db.path());
@@ -135,7 +139,7 @@ ReportSources LoadSessionSources(db::Database& db,
             d += fmt::format(", sigma hz {:g}\" v {:g}\"", i.sigma_hz_arcsec, i.sigma_v_arcsec);
             if (i.distance) d += fmt::format(", distances (sigma {:g} mm)", i.sigma_distance_mm);
           }
-          instruments[{"station " + i.station, d}].push_back(s.id);
+          by_station[i.station] = d;
         }
       } catch (const InputError& e) {
         spdlog::warn("report: session {}: its stored lab file cannot be read: {}", s.id, e.what());
@@ -143,13 +147,28 @@ ReportSources LoadSessionSources(db::Database& db,
       }
     }
     for (const auto& i : db::SessionInstruments(db, s.id)) {
-      std::string d = i.kind + ", " + i.protocol;
+      std::string d;
+      for (const auto& station : i.stations) {
+        const auto lab = by_station.find(station);
+        if (lab == by_station.end() || !d.empty()) continue;
+        d = lab->second;
+        by_station.erase(lab);
+      }
+      const bool from_lab = !d.empty();
+      if (!from_lab) d = i.kind + ", " + i.protocol;
       if (!i.serial_number.empty()) d += ", serial " + i.serial_number;
       if (!i.firmware.empty()) d += ", firmware " + i.firmware;
-      if (i.sigma_hz_arcsec && i.sigma_v_arcsec)
+      if (!from_lab && i.sigma_hz_arcsec && i.sigma_v_arcsec)
         d += fmt::format(", sigma hz {:g}\" v {:g}\"", *i.sigma_hz_arcsec, *i.sigma_v_arcsec);
-      if (i.sigma_distance_mm) d += fmt::format(", sigma distance {:g} mm", *i.sigma_distance_mm);
-      instruments[{i.name, d}].push_back(s.id);
+      if (!from_lab && i.sigma_distance_mm)
+        d += fmt::format(", sigma distance {:g} mm", *i.sigma_distance_mm);
+      std::string label;
+      for (const auto& station : i.stations) label += (label.empty() ? "station " : ", ") + station;
+      label += (label.empty() ? "" : ": ") + i.name;
+      instruments[{label, d}].push_back(s.id);
+    }
+    for (const auto& [station, d] : by_station) {  // stations the session never read from
+      instruments[{"station " + station, d}].push_back(s.id);
     }
     for (const auto& [station, setup] : db::LatestStationSetups(db, s.id)) {
       out.setups.push_back({s.id, station, setup.sigma0, setup.dof, setup.method});

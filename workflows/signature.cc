@@ -399,9 +399,23 @@ ExportResult ExportSignature(const ActiveSignature& a, const std::string& robot,
            {"sigma",
             identified ? nlohmann::json(a.signature.sigmas(k)) : nlohmann::json(nullptr)}});
     }
+    // The frame the set is used in (--frame) and the measuring frame of its data: a 4x4
+    // row-major matrix, mm, each the frame from the robot's base.
+    auto matrix = [](const Eigen::Isometry3d& t) {
+      nlohmann::json rows = nlohmann::json::array();
+      for (int r = 0; r < 4; ++r) {
+        rows.push_back(nlohmann::json::array(
+            {t.matrix()(r, 0), t.matrix()(r, 1), t.matrix()(r, 2), t.matrix()(r, 3)}));
+      }
+      return rows;
+    };
     nlohmann::json out{{"robot", robot},
                        {"model", a.model.name},
                        {"version", a.signature.version},
+                       {"frame", {{"name", frame_name}, {"frame_from_base", matrix(frame)}}},
+                       {"world_from_base", a.signature.world_from_base
+                                               ? matrix(*a.signature.world_from_base)
+                                               : nlohmann::json(nullptr)},
                        {"parameters", params},
                        {"residual_map", a.signature.map ? io::ResidualMapToJson(a.signature.map->data())
                                                         : nlohmann::json(nullptr)}};

@@ -3,6 +3,7 @@
 #include <fmt/format.h>
 #include <spdlog/spdlog.h>
 
+#include <charconv>
 #include <cmath>
 #include <filesystem>
 #include <map>
@@ -130,6 +131,7 @@ struct StoredRun {
   std::vector<MeasuredPose> fit, validation;
   std::vector<double> fit_distances, fit_nominal, validation_nominal;
   int missing_poses = 0;
+  std::set<int64_t> missing_sessions;  // the sessions their labels name
 };
 
 StoredRun StoredRunOf(db::Database& database, int64_t robot_id, const db::StoredCalibration& set,
@@ -172,6 +174,16 @@ StoredRun StoredRunOf(db::Database& database, int64_t robot_id, const db::Stored
     }
     if (pose == by_id.end()) {
       ++out.missing_poses;
+      // Its session: named by the label ("<session>:<label>"), else the run's input sessions
+      // (a run on one session's poses named them by their bare labels).
+      const size_t colon = r.pose_label.find(':');
+      std::vector<std::string> sessions = input_sessions;
+      if (colon != std::string::npos) sessions = {r.pose_label.substr(0, colon)};
+      for (const auto& session : sessions) {
+        int64_t id = 0;
+        const auto [end, error] = std::from_chars(session.data(), session.data() + session.size(), id);
+        if (error == std::errc() && end == session.data() + session.size()) out.missing_sessions.insert(id);
+      }
       continue;
     }
     // "<session>:<label>", as the sources read them.
@@ -181,10 +193,21 @@ StoredRun StoredRunOf(db::Database& database, int64_t robot_id, const db::Stored
     out.validation.push_back(pose->second);
   }
   if (out.missing_poses > 0) {
-    spdlog::warn(
-        "report: {} validation configuration{} of version {} are no longer stored (a "
-        "discarded or deleted session): left out",
-        out.missing_poses, out.missing_poses == 1 ? "" : "s", set.version);
+    // Discarded sessions keep their rows (kept out of every fit, not deleted): say which.
+    std::vector<std::string> discarded;
+    const std::vector<int64_t> ids(out.missing_sessions.begin(), out.missing_sessions.end());
+    for (const auto& s : db::LoadSessionSummaries(database, ids)) {
+      if (s.state == "aborted") discarded.push_back(std::to_string(s.id));
+    }
+    std::string where = "no longer in the store";
+    if (!discarded.empty()) {
+      where = fmt::format("in session{} {} (discarded since: stored, kept out of use)",
+                          discarded.size() == 1 ? "" : "s", fmt::join(discarded, ", "));
+      if (discarded.size() < out.missing_sessions.size()) where += " or no longer in the store";
+    }
+    spdlog::warn("report: {} validation configuration{} of version {} {} {}: left out of this page",
+                 out.missing_poses, out.missing_poses == 1 ? "" : "s", set.version,
+                 out.missing_poses == 1 ? "is" : "are", where);
   }
 
   return out;

@@ -348,6 +348,12 @@ TEST_F(TrackerLabFixture, NoBaseAndNoOperatorPausesAtTheFirstConfiguration) {
   EXPECT_EQ(s.measured, 0);
   EXPECT_NE(s.pause_reason.find("MeasurementStatusNotReady"), std::string::npos) << s.pause_reason;
   EXPECT_GE(s.beam_searches, 1);
+  // What lets the tracker find the target by itself (issue 38: the message named nothing).
+  EXPECT_NE(s.pause_reason.find("give the lab file `robot: base:`"), std::string::npos)
+      << s.pause_reason;
+  EXPECT_NE(s.pause_reason.find("or run capture on a terminal to point the beam by hand"),
+            std::string::npos)
+      << s.pause_reason;
 }
 
 // The reflector left in a nest beside the robot: the tracker measures a fine point at

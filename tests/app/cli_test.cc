@@ -368,24 +368,6 @@ TEST(Cli, RepeatedDemosMeasureAnewAndTheNamedSeedRepeatsOne) {
 
 namespace {
 
-// Starts the binary with args, stdout and stderr to files and TMPDIR set; returns its pid.
-pid_t SpawnArmsig(std::vector<std::string> args, const std::string& out, const std::string& err,
-                  const std::string& tmpdir) {
-  args.insert(args.begin(), ARMSIG_BINARY);
-  const pid_t child = ::fork();
-  if (child == 0) {
-    std::vector<char*> argv;
-    for (auto& a : args) argv.push_back(a.data());
-    argv.push_back(nullptr);
-    ::dup2(::open(out.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0600), 1);
-    ::dup2(::open(err.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0600), 2);
-    ::setenv("TMPDIR", tmpdir.c_str(), 1);
-    ::execv(argv[0], argv.data());
-    _exit(127);
-  }
-  return child;
-}
-
 int TempEntries(const std::string& dir) {
   int n = 0;
   for (const auto& e : std::filesystem::directory_iterator(dir))

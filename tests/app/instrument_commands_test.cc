@@ -2,13 +2,16 @@
 
 #include <filesystem>
 #include <nlohmann/json.hpp>
+#include <yaml-cpp/yaml.h>
 
 #include "calibration/synthetic.h"
 #include "io/csv.h"
+#include "io/model_yaml.h"
 #include "reduction/intersection.h"
 #include "reduction/observation.h"
 #include "simulation/geocom_simulator.h"
 #include "simulation/simulator.h"
+#include "simulation/virtual_robots.h"
 #include "test_support.h"
 
 namespace armsig::testing {
@@ -60,6 +63,78 @@ TEST(InstrumentCommand, ProbeAndReadJsonAgainstAVirtualInstrument) {
   EXPECT_EQ(failed.exit_code, 1);
   EXPECT_TRUE(failed.out.empty());
   EXPECT_NE(failed.err.find("TMC_DIST_ERROR"), std::string::npos) << failed.err;
+}
+
+// `armsig instrument probe --protocol ur|kuka|abb --tcp HOST[:PORT]` against the virtual
+// controllers `demo --serve --robot …` runs: each names the arm its simulator was given (the
+// virtual robot of the same seed, made here independently); a UR adds its kinematics checksum.
+// The ABB's password comes from the environment and is never printed; without a pinned
+// certificate an OmniCore is refused, its fingerprint named.
+TEST(InstrumentCommand, ProbeNamesEachNetworkControllerOfTheServedLab) {
+  struct Case {
+    std::string robot, model_file;
+  };
+  for (const Case& c : {Case{"ur10", "models/ur10.yaml"}, Case{"kuka", "models/kr16_2.yaml"},
+                       Case{"abb", "models/irb4600.yaml"}}) {
+    SCOPED_TRACE(c.robot);
+    TempDir dir;
+    const std::string lab = dir.File("lab");
+    const pid_t served =
+        SpawnArmsig({"--db", dir.File("unused.db"), "demo", "--serve", lab, "--robot", c.robot,
+                     "--seed", "7", "--time-scale", "0", "--seconds", "120"},
+                    dir.File("serve.out"), dir.File("serve.err"), dir.path().string());
+    ASSERT_GT(served, 0);
+    int ended = 0;
+    WaitForChildOr(served, &ended, [&] {
+      return ReadText(dir.File("serve.out")).find("virtual lab ready") != std::string::npos;
+    });
+    ASSERT_NE(ReadText(dir.File("serve.out")).find("virtual lab ready"), std::string::npos)
+        << ReadText(dir.File("serve.err"));
+    const auto truth =
+        simulation::MakeVirtualRobot(c.robot, io::LoadRobotModel(SourcePath(c.model_file)), 7)
+            .identity;
+    const YAML::Node controller = YAML::LoadFile(lab + "/lab.yaml")["robot"]["controller"];
+    const std::string host = controller["host"].as<std::string>();
+    std::string args = "instrument probe --json --protocol " + c.robot.substr(0, 4) + " --tcp ";
+    std::string launcher;
+    if (c.robot == "ur10") {
+      args = "instrument probe --json --protocol ur --tcp " + host + ":" +
+             controller["dashboard_port"].as<std::string>();
+      for (const char* key : {"rtde_port", "primary_port", "secondary_port"})
+        args += std::string(" --controller-port ") + key + "=" + controller[key].as<std::string>();
+    } else if (c.robot == "kuka") {
+      args += host + ":" + controller["variable_server_port"].as<std::string>();
+    } else {
+      args += host + ":" + controller["rws_port"].as<std::string>();
+      const YAML::Node login = YAML::LoadFile(lab + "/abb-credentials.yaml");
+      const std::string password = login["password"].as<std::string>();
+      launcher = "env ARMSIG_CONTROLLER_USER='" + login["user"].as<std::string>() +
+                 "' ARMSIG_CONTROLLER_PASSWORD='" + password + "'";
+      const auto unpinned = RunArmsigThrough(launcher, args);
+      EXPECT_NE(unpinned.exit_code, 0);
+      EXPECT_NE(unpinned.err.find("certificate_sha256: " +
+                                  controller["certificate_sha256"].as<std::string>()),
+                std::string::npos)
+          << unpinned.err;
+      EXPECT_EQ(unpinned.err.find("(code 0)"), std::string::npos) << unpinned.err;
+      args += " --controller-setting certificate_sha256=" +
+              controller["certificate_sha256"].as<std::string>();
+      const auto probed = RunArmsigThrough(launcher, args);
+      EXPECT_EQ(probed.out.find(password), std::string::npos);
+      EXPECT_EQ(probed.err.find(password), std::string::npos);
+    }
+    const auto probe = RunArmsigThrough(launcher, args);
+    ASSERT_EQ(probe.exit_code, 0) << probe.err;
+    const auto j = nlohmann::json::parse(probe.out);
+    EXPECT_EQ(j["vendor"], truth.vendor);
+    EXPECT_EQ(j["model"], truth.model);
+    EXPECT_EQ(j["serial"], truth.serial);
+    if (c.robot == "ur10") EXPECT_FALSE(j["kinematics_checksum"].get<std::string>().empty());
+    ::kill(served, SIGINT);
+    int status = 0;
+    ::waitpid(served, &status, 0);
+    EXPECT_FALSE(std::filesystem::exists(dir.File("unused.db")));
+  }
 }
 
 TEST(InstrumentCommand, MissingPortAndUnknownProtocol) {

@@ -108,6 +108,51 @@ TEST(Iso9283Commands, PlanMeasureImportReportAndEvaluate) {
   // The imported session kept no targets: the nominal positions of the planned joints stand
   // in (said in a note), which for a nominal plan are the plan's targets: --commanded agrees.
   EXPECT_NE(j["notes"].dump().find("no stored target"), std::string::npos) << j["notes"];
+
+  // Pass / fail against stated limits, judged on RP computed here from the tracker's points:
+  // a limit above every point's RP passes; one below the largest fails at that point (exit 3,
+  // the page and the JSON written, the figure named).
+  double worst_rp = 0.0;
+  std::string worst_point;
+  for (const auto& [point, xs] : attained) {
+    if (RpOf(xs) > worst_rp) worst_rp = RpOf(xs), worst_point = point;
+  }
+  const std::string judged = db + "iso9283 report --robot puma --session 1 --align "
+                                  "--limits-from 'customer acceptance' --limit RP=";
+  const auto pass = RunArmsig(judged + fmt::format("{:.6f}", worst_rp + 1e-3) + " --out '" +
+                              dir.File("pass") + "' --json '" + dir.File("pass.json") + "'");
+  EXPECT_EQ(pass.exit_code, 0) << pass.err;
+  EXPECT_NE(pass.out.find("PASS: all 5 figures within the stated limits (limits: customer "
+                          "acceptance)"),
+            std::string::npos)
+      << pass.out;
+  const auto fail = RunArmsig(judged + fmt::format("{:.6f}", worst_rp - 1e-3) +
+                              " --limit AP=1000 --out '" + dir.File("fail") + "' --json '" +
+                              dir.File("fail.json") + "'");
+  EXPECT_EQ(fail.exit_code, 3) << fail.err;
+  const auto jf = nlohmann::json::parse(ReadText(dir.File("fail.json")));
+  EXPECT_FALSE(jf["verdict"]["pass"].get<bool>());
+  EXPECT_EQ(jf["verdict"]["checks"].size(), 10u);  // AP and RP at five points
+  int failed = 0;
+  for (const auto& c : jf["verdict"]["checks"]) {
+    if (c["pass"].get<bool>()) continue;
+    ++failed;
+    EXPECT_EQ(c["figure"], "RP");
+    EXPECT_EQ(c["where"], worst_point);
+    EXPECT_NEAR(c["value_mm"].get<double>(), worst_rp, 1e-6);
+  }
+  EXPECT_EQ(failed, 1);
+  const std::string page = ReadText(dir.File("fail/index.html"));
+  EXPECT_NE(page.find("id=\"verdict\"><b>FAIL</b> &mdash; RP at " + worst_point), std::string::npos);
+  for (const char* wrong : {"RP", "RP=", "RP=-1", "RP=0.1mm", "XY=1", "RP=nan"}) {
+    const auto refused = RunArmsig(db + "iso9283 report --robot puma --session 1 --align --limit '" +
+                                   wrong + "' --out '" + dir.File("refused") + "'");
+    EXPECT_EQ(refused.exit_code, 2) << wrong;
+    EXPECT_NE(refused.err.find("--limit: '" + std::string(wrong) + "': expected KEY=MM"),
+              std::string::npos)
+        << refused.err;
+  }
+  EXPECT_FALSE(std::filesystem::exists(dir.File("refused/index.html")));
   const auto given = RunArmsig(
       db + "iso9283 report --robot puma --session 1 --align --commanded '" + dir.File("plan.csv") +
       "' --out '" + dir.File("report2") + "' --json '" + dir.File("report2.json") + "'");

@@ -49,25 +49,6 @@ class SilentListener {
   int port_ = 0;
 };
 
-// The binary with `args`, its stdout and stderr into files; the child's pid.
-pid_t SpawnArmsigTo(const std::vector<std::string>& args, const std::string& out,
-                    const std::string& err) {
-  std::fflush(nullptr);  // nothing buffered is written twice
-  const pid_t pid = ::fork();
-  if (pid == 0) {
-    const int o = ::open(out.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
-    const int e = ::open(err.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
-    ::dup2(o, 1);
-    ::dup2(e, 2);
-    std::vector<char*> argv{const_cast<char*>(ARMSIG_BINARY)};
-    for (const auto& a : args) argv.push_back(const_cast<char*>(a.c_str()));
-    argv.push_back(nullptr);
-    ::execv(ARMSIG_BINARY, argv.data());
-    ::_exit(127);
-  }
-  return pid;
-}
-
 struct Timed {
   int exit_code = -1;
   double seconds = 0;
@@ -78,7 +59,7 @@ struct Timed {
 Timed RunWithin(const std::vector<std::string>& args, std::chrono::seconds limit) {
   TempDir dir;
   const auto start = Clock::now();
-  const pid_t pid = SpawnArmsigTo(args, dir.File("out"), dir.File("err"));
+  const pid_t pid = SpawnArmsig(args, dir.File("out"), dir.File("err"));
   int status = 0;
   const bool waited = WaitUntil([&] { return ::waitpid(pid, &status, WNOHANG) == pid; }, limit);
   Timed t;
@@ -153,7 +134,7 @@ TEST(ServerOutage, APollingWorkerRidesOutARestartAndAFrozenServer) {
   };
   schedule();
   const std::string out = dir.File("out"), log = dir.File("log");
-  const pid_t worker = SpawnArmsigTo({"--db", uri, "worker", "--poll-s", "0.2"}, out, log);
+  const pid_t worker = SpawnArmsig({"--db", uri, "worker", "--poll-s", "0.2"}, out, log);
   int status = 0;
   auto stop_worker = [&] {
     ::kill(worker, SIGKILL);
@@ -223,7 +204,7 @@ TEST(ServerOutage, AStoreOutageUnderASqliteQueueFailsNoJob) {
   server->Stop();
   const std::string out = dir.File("out"), log = dir.File("log");
   const pid_t worker =
-      SpawnArmsigTo({"--db", uri, "worker", "--poll-s", "0.2", "--queue", queue}, out, log);
+      SpawnArmsig({"--db", uri, "worker", "--poll-s", "0.2", "--queue", queue}, out, log);
   int status = 0;
   auto stop_worker = [&] {
     ::kill(worker, SIGKILL);

@@ -140,9 +140,22 @@ TEST_F(DemoOutput, TheReportOfADemoSetFindsItsValidationPoses) {
   const auto r = RunArmsig("--db '" + dir_->File("demo.db") +
                            "' report --robot puma760-demo --out '" + dir_->File("report") + "'");
   ASSERT_EQ(r.exit_code, 0) << r.err;
-  EXPECT_EQ(r.err.find("no longer stored"), std::string::npos) << r.err;
+  EXPECT_EQ(r.err.find("left out of this page"), std::string::npos) << r.err;
   EXPECT_NE(ReadText(dir_->File("report/index.html")).find("on the 36 validation poses"),
             std::string::npos);
+  // Its session discarded: the poses are still stored, only kept out of use, and the report
+  // says so (it said "no longer stored").
+  const std::string db = "--db '" + dir_->File("demo.db") + "' ";
+  ASSERT_EQ(RunArmsig(db + "session discard 1 --reason 'wrong set-up'").exit_code, 0);
+  const auto discarded =
+      RunArmsig(db + "report --robot puma760-demo --out '" + dir_->File("report2") + "'");
+  EXPECT_NE(discarded.err.find("36 validation configurations of version "), std::string::npos)
+      << discarded.err;
+  EXPECT_NE(discarded.err.find(" are in session 1 (discarded since: stored, kept out of use): "
+                               "left out of this page"),
+            std::string::npos)
+      << discarded.err;
+  ASSERT_EQ(RunArmsig(db + "session restore 1").exit_code, 0);
 }
 
 // calibrate's tables: whole rows within 100 columns; every sigma of an identified parameter

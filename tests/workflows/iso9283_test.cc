@@ -30,6 +30,7 @@
 #include "simulation/virtual_lab.h"
 #include "test_support.h"
 #include "workflows/capture.h"
+#include "workflows/iso9283_page.h"
 #include "workflows/iso9283_report.h"
 #include "workflows/recalibrate.h"
 
@@ -161,6 +162,58 @@ FilePair WriteFiles(const testing::TempDir& dir, const Eigen::Vector3d& offset) 
   testing::WriteText(f.commanded, commanded);
   testing::WriteText(f.attained, attained);
   return f;
+}
+
+// The certificate page at 1,400 px (a laptop's browser): every table whole within the
+// window, its last column not cut (issue 38), with every column there is (orientation, a
+// compensated test, stated limits). Chromium lays the page out; a script added to a copy of
+// the page (the page itself has none) measures each table against the window.
+TEST(Iso9283Page, EveryTableFitsA1400PixelWindow) {
+  if (std::system("command -v chromium > /dev/null 2>&1") != 0) {
+    GTEST_SKIP() << "chromium is not installed (scripts/setup.sh installs it)";
+  }
+  testing::TempDir dir;
+  const auto files = WriteFiles(dir, Eigen::Vector3d(0.3, -0.2, 0.1));
+  const auto aligned = EvaluateIso9283Files(files.commanded, files.attained, true);
+  auto raw = EvaluateIso9283Files(files.commanded, files.attained, false);
+  for (auto& p : raw.points) p.vap_mm = 0.0123;  // a multi-directional test's column too
+  Iso9283PageInput page;
+  page.robot = "puma";
+  page.model = "puma760";
+  page.test = {"nominal program", 4, "2026-11-20T01:00:00.000Z", &raw, {}};
+  page.compensated =
+      Iso9283PageTest{"compensated program", 5, "2026-11-21T01:00:00.000Z", &aligned, {}};
+  Iso9283Limits limits;
+  limits.ap_mm = 0.5;
+  limits.rp_mm = 0.06;
+  limits.source = "customer acceptance";
+  page.verdict = JudgeIso9283(raw, limits);
+  page.compensated_verdict = JudgeIso9283(aligned, limits);
+  const std::string html = testing::ReadText(WriteIso9283Page(dir.File("page"), page));
+  const std::string probe =
+      "<script>const w = document.documentElement.clientWidth; let cut = [], rights = [];"
+      "for (const t of document.querySelectorAll('table')) {"
+      "  const r = Math.round(t.getBoundingClientRect().right);"
+      "  rights.push((t.id || 'table') + ' ' + r);"
+      "  if (r > w) cut.push(t.id || 'table'); }"
+      "document.title = (cut.length ? 'cut: ' + cut.join(' ') : 'every table fits') + "
+      "' (window ' + w + ' px; right edges: ' + rights.join(', ') + ')';</script>";
+  const size_t end = html.rfind("</body>");
+  ASSERT_NE(end, std::string::npos);
+  testing::WriteText(dir.File("page/probe.html"), html.substr(0, end) + probe + html.substr(end));
+  const std::string dom = dir.File("dom.html");
+  const std::string chromium =
+      "timeout 120 chromium --headless --no-sandbox --disable-gpu --no-first-run "
+      "--disable-background-networking --disable-component-update --disable-sync "
+      "--window-size=1400,900 --user-data-dir='" + dir.File("profile") + "' --dump-dom 'file://" +
+      dir.File("page/probe.html") + "' > '" + dom + "' 2>/dev/null";
+  ASSERT_EQ(std::system(chromium.c_str()), 0);
+  const std::string rendered = testing::ReadText(dom);
+  const size_t title = rendered.find("<title>");
+  ASSERT_NE(title, std::string::npos);
+  const std::string measured = rendered.substr(title + 7, rendered.find("</title>") - title - 7);
+  std::cout << measured << "\n";
+  EXPECT_EQ(measured.rfind("every table fits", 0), 0u) << measured;
 }
 
 TEST(Iso9283Evaluate, FilesGiveTheFiguresInOneFrameOrAfterARigidBestFit) {

@@ -415,6 +415,24 @@ class ScopedTimeZone {
 
 // --since is read in the time zone it names (Z, an offset) or else in local time, and
 // becomes the UTC bound the sessions' start times are stored with.
+// A cause these data cannot tell from others is said to be equivalent on them, never "the
+// same" (issue 38): other configurations would tell them apart.
+TEST(NamedCauseText, EquivalentCausesAreSaidToBeIndistinguishableHere) {
+  workflows::NamedCause cause;
+  cause.name = "joint 2 zero";
+  cause.unit = "mrad";
+  cause.size = 0.35;
+  cause.explained = 1.0;
+  cause.effect_max_mm = 0.46;
+  cause.equivalent = {"joint 3 zero", "link 2 length"};
+  const std::string text = cause.Describe();
+  EXPECT_EQ(text.find("the same"), std::string::npos) << text;
+  EXPECT_NE(text.find("; these data cannot tell it from joint 3 zero or link 2 length (an "
+                      "equivalent cause: configurations that move them differently would)"),
+            std::string::npos)
+      << text;
+}
+
 TEST(SinceToUtc, ReadsIsoDatesInTheirTimeZoneAndRefusesImpossibleOnes) {
   const ScopedTimeZone zone("XST-3");  // POSIX: local time is three hours east of UTC
   EXPECT_EQ(workflows::SinceToUtc("2026-11-01T02:30:00Z"), "2026-11-01T02:30:00.000Z");

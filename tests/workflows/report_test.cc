@@ -26,6 +26,7 @@
 #include "test_support.h"
 #include "workflows/calibration_run.h"
 #include "workflows/recalibrate.h"
+#include "workflows/report_figures.h"
 #include "workflows/report_page.h"
 
 namespace armsig::testing {
@@ -102,8 +103,17 @@ double CellNumber(const std::string& html, const std::string& id) {
 
 }  // namespace
 
+// The fixture's robot is the model's own (PaperTable3Parameters): the map it tried is not
+// used. The tests that want every figure say it is, to draw its chart too.
+void UseTheMap(Fixture& f) {
+  ASSERT_TRUE(f.run.residual_map.has_value());
+  ASSERT_FALSE(f.run.residual_map->used);
+  f.run.residual_map->used = true;
+}
+
 TEST(Report, EmbedsEveryFigureAsAValidPngIdenticalToItsFile) {
   Fixture f;
+  UseTheMap(f);
   TempDir dir;
   const std::string page = workflows::WriteReport(dir.File("report"), f.input);
   const std::string html = ReadText(page);
@@ -144,6 +154,7 @@ TEST(Report, HeadlessChromiumRendersEveryFigure) {
     GTEST_SKIP() << "chromium is not installed (scripts/setup.sh installs it)";
   }
   Fixture f;
+  UseTheMap(f);
   TempDir dir;
   const std::string page = workflows::WriteReport(dir.File("report"), f.input);
   const std::string shot = dir.File("shot.png");
@@ -515,14 +526,65 @@ TEST(Report, ParameterSetKindsAreToldApart) {
   EXPECT_EQ(workflows::ParamsKind("geometric"), "geometric");
   EXPECT_EQ(workflows::ParamsKind("auto"), "auto");
   EXPECT_EQ(workflows::ParamsKind("geometric,h3,h4"), "list");
+  // In words on the page, never as the flag ("--params all (all)").
+  EXPECT_EQ(workflows::ParamsInWords("all"), "every term of the model");
+  EXPECT_EQ(workflows::ParamsInWords("geometric,h3,h4"), "the parameters geometric, h3, h4");
+  EXPECT_EQ(workflows::ParamsInWords(""), "not known");
   // The drift figure's legend names each kind present; the version table lists them.
   Fixture f;
   TempDir dir;
   const std::string html = ReadText(workflows::WriteReport(dir.File("report"), f.input));
+  EXPECT_EQ(Cell(html, "params").find("--params"), std::string::npos) << Cell(html, "params");
+  EXPECT_EQ(Cell(html, "params").rfind(workflows::ParamsInWords(f.run.params_spec) + "; 60 poses fitted", 0), 0u)
+      << Cell(html, "params");
   const size_t table = html.find("<table id=\"versions\">");
   ASSERT_NE(table, std::string::npos);
   EXPECT_NE(html.find("<td>geometric</td>", table), std::string::npos);
   EXPECT_NE(html.find("<td>all</td>", table), std::string::npos);
+}
+
+// Each instrument once: the lab file's station and the instrument that stood there (its
+// stored name, serial and firmware) are one line; a second instrument read at no station of
+// the lab file keeps its own line.
+TEST(Report, EachInstrumentIsNamedOnceWithItsStation) {
+  TempDir dir;
+  db::Database database(dir.File("lab.db"));
+  const std::string lab =
+      "robot:\n  model: m.yaml\n  controller: {protocol: as, port: p}\n"
+      "instruments:\n  - {station: T1, protocol: geocom, port: /dev/ttyS7}\n";
+  AddSession(database, calibration::PaperTable3Parameters(), 30, 21, 0.0, lab);
+  db::InstrumentRow tm30;
+  tm30.name = "TM30 358120";
+  tm30.kind = "theodolite";
+  tm30.protocol = "geocom";
+  tm30.port = "/dev/ttyS7";
+  tm30.serial_number = "358120";
+  tm30.firmware = "3.10";
+  db::InstrumentRow other = tm30;
+  other.name = "TM30 358121";
+  other.serial_number = "358121";
+  db::ObservationRow reading;
+  reading.point = "P1";
+  reading.station = "T1";
+  reading.instrument_id = db::EnsureInstrument(database, tm30);
+  db::ObservationRow second = reading;
+  second.station = "T9";
+  second.instrument_id = db::EnsureInstrument(database, other);
+  db::InsertObservations(database, 1, {reading, second});
+  const auto robot = db::FindRobot(database, "puma");
+  ASSERT_TRUE(robot);
+  workflows::CalibrationRun run;
+  for (const auto& p : db::LoadRobotPoses(database, *robot, "")) run.fit_pose_ids.push_back(p.id);
+  const auto sources = workflows::LoadReportSources(database, run);
+  ASSERT_EQ(sources.instruments.size(), 2u);
+  EXPECT_EQ(sources.instruments[0].name, "station T1: TM30 358120");
+  EXPECT_EQ(sources.instruments[0].description.rfind("geocom on /dev/ttyS7", 0), 0u)
+      << sources.instruments[0].description;
+  EXPECT_NE(sources.instruments[0].description.find("serial 358120, firmware 3.10"),
+            std::string::npos);
+  EXPECT_EQ(sources.instruments[1].name, "station T9: TM30 358121");
+  EXPECT_EQ(sources.instruments[1].description.rfind("theodolite, geocom, serial 358121", 0), 0u)
+      << sources.instruments[1].description;
 }
 
 // The sources of a report come from the database: the sessions behind the pose ids with
@@ -679,6 +741,51 @@ TEST(Report, DriftPanelShowsHowFarEachVersionMovedTheArm) {
   const std::string single = ReadText(workflows::WriteReport(dir.File("single"), f.input));
   EXPECT_TRUE(cv::imread(dir.File("single/drift.png")).empty());
   EXPECT_NE(single.find("No earlier parameter set to compare with"), std::string::npos);
+}
+
+// A map the cross-validation left out is its decision in one sentence, and no chart (nor the
+// chart of an earlier report in the same folder).
+TEST(Report, TheMapsChartOnlyWhenTheMapIsUsed) {
+  Fixture f;
+  TempDir dir;
+  UseTheMap(f);
+  workflows::WriteReport(dir.File("report"), f.input);
+  ASSERT_FALSE(cv::imread(dir.File("report/residual_map.png")).empty());
+  f.run.residual_map->used = false;
+  const std::string html = ReadText(workflows::WriteReport(dir.File("report"), f.input));
+  EXPECT_TRUE(cv::imread(dir.File("report/residual_map.png")).empty());
+  EXPECT_NE(html.find("<p id=\"residual-map\">Not used: "), std::string::npos);
+  int figures = 0;
+  for (size_t at = html.find("<img"); at != std::string::npos; at = html.find("<img", at + 1))
+    ++figures;
+  EXPECT_EQ(figures, 11);
+}
+
+// One version far off (here 12 mm where the others moved the arm 0.03-0.04 mm) must not press
+// the others onto the axis: the axis stops at three times what they and the tolerance reach,
+// the far one is drawn at the top with its value.
+TEST(ReportFigures, DriftAxisStopsShortOfAVersionFarOff) {
+  workflows::ReportDrift drift;
+  drift.tolerance_mm = 0.05;
+  drift.points = {{2, 1, 0.03, 0.02, 0.0, false}, {3, 2, 0.04, 0.02, 0.0, false}};
+  EXPECT_DOUBLE_EQ(workflows::DriftAxisTop(drift), 1.25 * 0.05);  // the tolerance line shows
+  drift.points.push_back({4, 3, 12.0, 5.0, 0.0, true});
+  EXPECT_DOUBLE_EQ(workflows::DriftAxisTop(drift), 3.0 * 1.25 * 0.05);
+  // A far-off version among others as far off is not clipped.
+  drift.points[1].max_mm = 10.0;
+  EXPECT_DOUBLE_EQ(workflows::DriftAxisTop(drift), 12.0);
+  // The chart with the far one: its value written at the top, the legend says so.
+  drift.points[1].max_mm = 0.04;
+  TempDir dir;
+  const auto figure = workflows::DriftFigure(dir.path().string(), drift, {});
+  ASSERT_TRUE(figure.has_value());
+  const cv::Mat clipped = cv::imread(dir.File("drift.png"), cv::IMREAD_COLOR);
+  drift.points.pop_back();
+  workflows::DriftFigure(dir.path().string(), drift, {});
+  const cv::Mat plain = cv::imread(dir.File("drift.png"), cv::IMREAD_COLOR);
+  ASSERT_FALSE(clipped.empty());
+  ASSERT_FALSE(plain.empty());
+  EXPECT_GT(clipped.rows, plain.rows);  // the legend's row for what lies beyond the axis
 }
 
 // Parameter sigmas with two significant digits (never "± 0.000"), the value to the same

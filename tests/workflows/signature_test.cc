@@ -139,6 +139,31 @@ TEST(ExportSignature, JsonCarriesEveryStoredParameterAsStored) {
   }
 }
 
+// The JSON says in which frame it is to be used (--frame) and carries the measuring frame of
+// the set's data (issue 38: --frame was ignored and the base left out).
+TEST(ExportSignature, JsonNamesItsFrameAndCarriesTheBase) {
+  Lab lab;
+  std::mt19937 rng(10);
+  const Eigen::Isometry3d base = SomeFrame();
+  lab.Store(calibration::RandomParameters(lab.model, 0.5, 1e-3, 0, rng), true, base);
+  const auto active = workflows::LoadActiveSignature(lab.database, "puma");
+  for (const char* frame : {"robot", "measurement"}) {
+    const auto json =
+        nlohmann::json::parse(workflows::ExportSignature(active, "puma", "json", frame).text);
+    EXPECT_EQ(json["frame"]["name"], frame);
+    const Eigen::Matrix4d expected = std::string(frame) == "robot"
+                                         ? Eigen::Matrix4d::Identity()
+                                         : Eigen::Matrix4d(base.matrix());
+    for (int r = 0; r < 4; ++r) {
+      for (int c = 0; c < 4; ++c) {
+        EXPECT_NEAR(json["frame"]["frame_from_base"][r][c].get<double>(), expected(r, c), 1e-12)
+            << frame << " " << r << c;
+        EXPECT_NEAR(json["world_from_base"][r][c].get<double>(), base.matrix()(r, c), 1e-12);
+      }
+    }
+  }
+}
+
 // The corrected model YAML, read back by the model reader: its nominal kinematics (its own
 // base, zero parameters) are the stored set's calibrated kinematics, in the robot's frame
 // or in the measuring frame the set was fitted in.
