@@ -69,6 +69,8 @@ void SetupIso9283EvaluateCommand(CLI::App& iso9283, const GlobalOptions& global,
 // second signal only repeats the request (the work being stopped is left resumable, never
 // half-written); a third ends the process at once.
 const std::atomic<bool>& StopRequested();
+// Installs those handlers (and unblocks the three signals); the program calls it before main.
+void InstallStopSignals();
 
 // Marks an option as naming a file (or a folder) the command will write: the path is
 // checked when the command line is parsed (its folder exists and is writable, it is not

@@ -68,13 +68,21 @@ void OnStopSignal(int signal) {
   }
 }
 
-// Every command, from the first moment of main: a command that asks for StopRequested()
-// stops at its own safe points; any other ends at once with exit 130 (OnStopSignal).
-void InstallStopSignals() {
-  for (int s : {SIGINT, SIGTERM, SIGHUP}) std::signal(s, OnStopSignal);
-}
-
 }  // namespace
+
+// Every command, from before main (app/main.cc) and again at its start: a command that asks
+// for StopRequested() stops at its own safe points; any other ends at once with exit 130
+// (OnStopSignal). The three signals are unblocked too: a parent that blocked them (a shell's
+// job control, a supervisor) must not leave one pending and unheard.
+void InstallStopSignals() {
+  sigset_t stop;
+  sigemptyset(&stop);
+  for (int s : {SIGINT, SIGTERM, SIGHUP}) {
+    std::signal(s, OnStopSignal);
+    sigaddset(&stop, s);
+  }
+  ::sigprocmask(SIG_UNBLOCK, &stop, nullptr);
+}
 
 const std::atomic<bool>& StopRequested() {
   g_polled = true;

@@ -563,13 +563,15 @@ std::string FormatSessions(const std::vector<db::SessionSummary>& sessions, bool
   if (sessions.empty()) return "no sessions\n";
   std::string text;
   for (const auto& s : sessions) {
+    // The counts whole, beside the session or on the next line; the note on its own line
+    // (a width-wrap had cut "2773 | usable" apart).
     text += OneLineOrTwo(
-        fmt::format("{:>4}  {:<14} {:<9} {:<11} {}  {} measured, {} skipped, {} usable, {} "
-                    "flagged",
-                    s.id, Printable(s.robot), Printable(s.state), Printable(s.kind),
-                    Printable(TimeToTheSecond(s.started_at)), s.measured, s.skipped, s.usable,
-                    s.flagged),
-        Printable(s.note), 6);
+        fmt::format("{:>4}  {:<14} {:<9} {:<11} {}", s.id, Printable(s.robot), Printable(s.state),
+                    Printable(s.kind), Printable(TimeToTheSecond(s.started_at))),
+        fmt::format("{} measured, {} skipped, {} usable, {} flagged", s.measured, s.skipped,
+                    s.usable, s.flagged),
+        6);
+    if (!s.note.empty()) text += "      " + Printable(s.note) + "\n";
   }
   return WrapLines(text, 100, 6);
 }

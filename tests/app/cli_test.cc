@@ -507,6 +507,32 @@ bool Catches(pid_t pid, int signal) {
 // cli.md: SIGINT, SIGTERM and SIGHUP stop every command with exit 130, also one with no
 // safe point of its own. An import waiting for the store (another writer holds it) is
 // stopped: 130, a message that says what is kept, nothing stored, no temporary file.
+// A signal that arrives before armsig's own code runs is a stop like any other: exit 130
+// with its message, not the default 143 (issue 38). Deterministic: sent while this thread
+// blocks it, it waits pending in the child across exec until armsig's handlers (installed
+// before main) unblock it; before them it stayed pending and `--version` ended 0.
+TEST(Cli, ASignalBeforeMainIsAStopToo) {
+  TempDir dir;
+  for (int signal : {SIGTERM, SIGINT, SIGHUP}) {
+    sigset_t blocked, old;
+    sigemptyset(&blocked);
+    sigaddset(&blocked, signal);
+    ASSERT_EQ(::pthread_sigmask(SIG_BLOCK, &blocked, &old), 0);
+    const pid_t child = SpawnArmsig({"--version"}, dir.File("out"), dir.File("err"));
+    ASSERT_GT(child, 0);
+    ::kill(child, signal);
+    ASSERT_EQ(::pthread_sigmask(SIG_SETMASK, &old, nullptr), 0);
+    int status = 0;
+    ASSERT_EQ(::waitpid(child, &status, 0), child);
+    ASSERT_TRUE(WIFEXITED(status)) << "signal " << signal << ": ended by signal "
+                                   << (WIFSIGNALED(status) ? WTERMSIG(status) : 0);
+    EXPECT_EQ(WEXITSTATUS(status), 130) << signal;
+    EXPECT_NE(ReadText(dir.File("err")).find("stopped by a signal before finishing (exit 130)"),
+              std::string::npos)
+        << ReadText(dir.File("err"));
+  }
+}
+
 TEST(Cli, ACommandWithoutSafePointsStoppedByASignalExits130AndStoresNothing) {
   TempDir dir;
   const std::string db = dir.File("lab.db");

@@ -129,4 +129,25 @@ TEST(SessionOwner, ARunningSessionOfAGoneProcessIsInterrupted) {
   EXPECT_EQ(workflows::Sessions(database, "puma").at(0).state, "running");
 }
 
+// `sessions` never cuts a count from its word: the counts stand whole beside the session or
+// on the next line, the note on its own (issue 38: the doc's sample read "2773 | usable").
+TEST(SessionsText, CountsStayWholeAndEveryLineFits) {
+  db::SessionSummary s;
+  s.id = 1;
+  s.robot = "ur10";
+  s.state = "completed";
+  s.kind = "calibration";
+  s.started_at = "2026-11-28T19:56:20.123Z";
+  s.measured = s.usable = 2773;
+  s.note = "poses imported from tests/data/ur10-ipa/series_C-measurements_random_poses.csv";
+  const std::string text = workflows::FormatSessions({s}, false);
+  EXPECT_NE(text.find("\n      2773 measured, 0 skipped, 2773 usable, 0 flagged\n"),
+            std::string::npos)
+      << text;
+  EXPECT_NE(text.find("\n      poses imported from"), std::string::npos) << text;
+  size_t start = 0;
+  for (size_t end; (end = text.find('\n', start)) != std::string::npos; start = end + 1)
+    EXPECT_LE(end - start, 100u) << text.substr(start, end - start);
+}
+
 }  // namespace armsig::testing
