@@ -24,10 +24,13 @@
 #include "core/wording.h"
 #include "db/store.h"
 #include "db/stored_json.h"
+#include "db/jobs.h"
 #include "io/atomic_file.h"
+#include "io/file_lock.h"
 #include "io/model_yaml.h"
 #include "workflows/signature.h"
 #include "workflows/hint.h"
+#include "workflows/recalibrate.h"
 
 namespace armsig::workflows {
 
@@ -70,15 +73,42 @@ std::string CurrentUser() {
   return "uid " + std::to_string(::geteuid());
 }
 
+// The nightly job's lock of a robot (its name's: a file beside SQLite, an advisory lock of a
+// PostgreSQL server), held while the robot's name or sessions change: a run under way keeps
+// the name it locked and the sessions it read, and no run starts meanwhile.
+class RobotChangeLock {
+ public:
+  RobotChangeLock(db::Database& database, const std::string& robot) {
+    constexpr int kWaitS = 5;
+    try {
+      if (database.backend() == db::Backend::kPostgres) {
+        server_.emplace(database.connection(), "recalibrate", robot, kWaitS);
+      } else {
+        file_.emplace(RobotLockPath(database.path(), robot), kWaitS);
+      }
+    } catch (const std::runtime_error& e) {
+      throw InputError({database.path(), 0, 0, "robots"},
+                       "robot " + Quoted(robot) + " is being recalibrated (" + e.what() +
+                           "): change it when that run has ended; nothing was changed");
+    }
+  }
+
+ private:
+  std::optional<io::FileLock> file_;
+  std::optional<db::RobotLock> server_;
+};
+
 }  // namespace
 
 void RenameRobot(db::Database& database, const std::string& name, const std::string& new_name,
                  const std::string& reason) {
   if (new_name.empty()) throw InputError({"NEW_NAME", 0, 0, ""}, "a robot needs a name");
+  const RobotChangeLock old_name(database, name), taken(database, new_name);
   db::RenameRobot(database, name, new_name, reason, CurrentUser());
 }
 
 void RemoveRobot(db::Database& database, const std::string& name, const std::string& reason) {
+  const RobotChangeLock lock(database, name);
   db::RemoveRobot(database, name, reason, CurrentUser());
 }
 
@@ -102,6 +132,7 @@ std::string MoveSession(db::Database& database, int64_t session_id, const std::s
                                  "has {} joints: nothing was moved",
                                  session_id, from, Quoted(session->robot), Quoted(robot), to));
   }
+  const RobotChangeLock from_lock(database, session->robot), to_lock(database, robot);
   return db::MoveSession(database, session_id, robot, reason, CurrentUser());
 }
 

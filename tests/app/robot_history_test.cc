@@ -11,8 +11,10 @@
 
 #include "calibration/synthetic.h"
 #include "db/database.h"
+#include "io/file_lock.h"
 #include "support/simulated_sessions.h"
 #include "test_support.h"
+#include "workflows/recalibrate.h"
 
 namespace armsig::testing {
 
@@ -56,6 +58,14 @@ TEST(RobotHistory, RenameMoveRemoveAndRestoreKeepEveryRowAndSayWhoAndWhy) {
             std::string::npos)
       << taken.err;
   EXPECT_EQ(RunArmsig(db + "robot rename nosuch x").exit_code, 2);
+  {  // A night's run of the robot under way (its lock held): nothing changes under it.
+    const io::FileLock night(workflows::RobotLockPath(path, "puma-cell3"), 1);
+    const auto busy = RunArmsig(db + "robot rename puma-cell3 other");
+    EXPECT_EQ(busy.exit_code, 2);
+    EXPECT_NE(busy.err.find("robot 'puma-cell3' is being recalibrated ("), std::string::npos)
+        << busy.err;
+    EXPECT_NE(busy.err.find("nothing was changed"), std::string::npos) << busy.err;
+  }
 
   // Moved: not to an arm of another joint count; to a twin, with both histories.
   const auto three = RunArmsig(db + "session move 1 --robot arm3");
