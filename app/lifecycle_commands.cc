@@ -50,8 +50,14 @@ void SetupLifecycleCommands(CLI::App& parent, const GlobalOptions& global, Runne
   list->add_flag("--json", o->json, "Machine-readable output");
   list->add_flag("--removed", o->removed, "The removed robots too");
   OnDatabaseToRead(list, global, run, [o = o](db::Database& database) {
-    std::cout << workflows::FormatRobots(db::ListRobots(database, o->removed), o->json,
-                                         database.path());
+    const auto robots = db::ListRobots(database, o->removed);
+    std::cout << workflows::FormatRobots(robots, o->json, database.path());
+    if (!o->json && !o->removed) {
+      const size_t removed = db::ListRobots(database, true).size() - robots.size();
+      if (removed > 0) {
+        std::cout << fmt::format("({} removed: armsig robot list --removed)\n", removed);
+      }
+    }
     return kOk;
   });
 

@@ -87,6 +87,8 @@ TEST(RobotHistory, RenameMoveRemoveAndRestoreKeepEveryRowAndSayWhoAndWhy) {
   // Removed: hidden, refused for new work (each named), every row kept; then restored.
   ASSERT_EQ(RunArmsig(db + "robot remove puma-b --reason 'sold'").exit_code, 0);
   EXPECT_EQ(nlohmann::json::parse(RunArmsig(db + "robot list --json").out).size(), 2u);
+  EXPECT_NE(RunArmsig(db + "robot list").out.find("(1 removed: armsig robot list --removed)"),
+            std::string::npos);
   const auto all = RunArmsig(db + "robot list --removed");
   EXPECT_NE(all.out.find("removed 20"), std::string::npos) << all.out;
   for (const std::string& work :
