@@ -271,14 +271,11 @@ InverseSolution ControllerInverse(const ControllerModel& c, const InverseRequest
     return best;
   };
   InverseSolution out;
-  if (request.near_rad && request.near_rad->size() == n) {
-    solve(*request.near_rad);
-    if (auto q = pick()) {  // the solution the controller's start leads to, in its configuration
-      out.joints_rad = q;
-      out.reachable = true;
-      return out;
-    }
-  }
+  // The solution where the controller's start leads, and every other: the nearest is picked
+  // among all of them (a UR's get_inverse_kin returns the solution nearest qnear, not the one
+  // a descent from qnear reaches: from a stretched elbow, as at all joints zero, a descent
+  // may go to either side).
+  if (request.near_rad && request.near_rad->size() == n) solve(*request.near_rad);
   // Seeds over the configurations: joint 1 facing the target or away, the upper arm at
   // several angles, the elbow on either side of stretched, the wrist flipped or not.
   const Eigen::Vector3d x = request.tcp.translation();
