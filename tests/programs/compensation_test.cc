@@ -296,8 +296,8 @@ TEST_F(UrRefusals, TaughtJointsThatMissTheirPoseAreRefused) {
 // A KUKA point taught with A1 just above 0 (Turn bit 0 clear) whose compensated A1 falls
 // below 0 needs another Turn: refused.
 TEST(CompensateProgram, KukaConfigurationChangeIsRefused) {
-  const auto model = testing::KukaLike();
-  const ControllerModel c = NominalController(model, ControllerKind::kKuka, "nominal kr16-like");
+  const auto model = testing::Kr16_2();
+  const ControllerModel c = NominalController(model, ControllerKind::kKuka, "nominal kr16_2");
   Eigen::VectorXd q(6);
   q << 0.001, -1.3, 1.6, 0.3, 0.9, 0.4;
   const ArmConfiguration a = ConfigurationOf(c, q);
@@ -329,8 +329,8 @@ TEST(CompensateProgram, KukaConfigurationChangeIsRefused) {
 // with the held-out figure), never a NaN beside joints it names. A set without a held-out
 // figure beside its fit poses promises the one among them there, never less.
 TEST(CompensateProgram, ATargetRefusedForItsConfigurationKeepsItsPromise) {
-  const auto model = testing::KukaLike();
-  const ControllerModel c = NominalController(model, ControllerKind::kKuka, "nominal kr16-like");
+  const auto model = testing::Kr16_2();
+  const ControllerModel c = NominalController(model, ControllerKind::kKuka, "nominal kr16_2");
   Eigen::VectorXd q(6);
   q << 0.001, -1.3, 1.6, 0.3, 0.9, 0.4;
   const ArmConfiguration a = ConfigurationOf(c, q);
@@ -372,8 +372,8 @@ TEST(CompensateProgram, ATargetRefusedForItsConfigurationKeepsItsPromise) {
 
 // A robtarget whose confdata fits none of its pose's solutions is refused.
 TEST(CompensateProgram, RapidConfdataThatMissesItsPoseIsRefused) {
-  const auto model = testing::AbbLike();
-  const ControllerModel c = NominalController(model, ControllerKind::kAbb, "nominal irb4600-like");
+  const auto model = testing::Irb4600();
+  const ControllerModel c = NominalController(model, ControllerKind::kAbb, "nominal irb4600");
   Eigen::VectorXd q(6);
   q << 0.3, 0.2, -0.1, 0.4, 0.7, -0.2;
   const Eigen::Isometry3d pose = TcpPose(c, q, Eigen::Isometry3d::Identity());
@@ -397,8 +397,8 @@ TEST(CompensateProgram, RapidConfdataThatMissesItsPoseIsRefused) {
 // A target whose tool the program leaves to the controller is named, not refused: the rest
 // of the program is written.
 TEST(CompensateProgram, UnknownToolIsNamedAndTheRestWritten) {
-  const auto model = testing::KukaLike();
-  const ControllerModel c = NominalController(model, ControllerKind::kKuka, "nominal kr16-like");
+  const auto model = testing::Kr16_2();
+  const ControllerModel c = NominalController(model, ControllerKind::kKuka, "nominal kr16_2");
   const std::string src =
       "DEF p()\nPTP {A1 10, A2 -80, A3 100, A4 0, A5 30, A6 0}\n$TOOL = $NULLFRAME\n"
       "PTP {A1 20, A2 -80, A3 100, A4 0, A5 30, A6 0}\n$TOOL = TOOL_DATA[3]\nPTP {A1 30, A2 -80, A3 100, A4 0, A5 30, A6 0}\nEND\n";
