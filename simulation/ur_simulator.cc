@@ -12,7 +12,6 @@
 #include <stdexcept>
 
 #include "instruments/frame_splitter.h"
-#include "programs/controller.h"
 #include "programs/urscript.h"
 #include "simulation/program_runner.h"
 
@@ -57,6 +56,18 @@ UrSimulatorOptions Cb3Options(UrSimulatorOptions o) {
   o.software = {3, 15, 7, 106331};
   o.build_date = "Jun 01 2021";
   return o;
+}
+
+programs::ControllerModel UrControllerModel(const instruments::ControllerKinematics& k) {
+  programs::UrKinematics u;
+  for (std::size_t j = 0; j < 6; ++j) {
+    u.theta[j] = k.dh_theta_rad.at(j);
+    u.a[j] = k.dh_a_mm.at(j) / 1000.0;
+    u.d[j] = k.dh_d_mm.at(j) / 1000.0;
+    u.alpha[j] = k.dh_alpha_rad.at(j);
+  }
+  u.source = "the controller's KinematicsInfo";
+  return programs::UrController(u);
 }
 
 struct UrSimulator::Connection {
@@ -513,18 +524,6 @@ bool StartsProgram(const std::string& line) {
   return first != std::string::npos && (line.compare(first, 4, "def ") == 0 || line.compare(first, 4, "sec ") == 0);
 }
 
-// The controller's own kinematics (KinematicsInfo, mm) as the inverse takes them (m).
-programs::ControllerModel ControllerOf(const instruments::ControllerKinematics& k) {
-  programs::UrKinematics u;
-  for (std::size_t j = 0; j < 6; ++j) {
-    u.theta[j] = k.dh_theta_rad[j];
-    u.a[j] = k.dh_a_mm[j] / 1000.0;
-    u.d[j] = k.dh_d_mm[j] / 1000.0;
-    u.alpha[j] = k.dh_alpha_rad[j];
-  }
-  u.source = "the controller's KinematicsInfo";
-  return programs::UrController(u);
-}
 
 }  // namespace
 
@@ -587,7 +586,7 @@ void UrSimulator::StartProgram(const ConnectionPtr& c, const std::string& text) 
     return;
   }
   const VirtualArm::State now = arm_->Now();
-  const Execution run = simulation::RunProgram(program, ControllerOf(kinematics), now.q);
+  const Execution run = simulation::RunProgram(program, UrControllerModel(kinematics), now.q);
   if (!run.skipped.empty()) {
     refuse(fmt::format("line {}: {}", run.skipped.front().place.line, run.skipped.front().why));
     return;

@@ -53,6 +53,7 @@
 #include <vector>
 
 #include "instruments/ur_codec.h"
+#include "programs/controller.h"
 #include "simulation/virtual_arm.h"
 #include "simulation/virtual_lab.h"
 
@@ -76,6 +77,10 @@ struct UrSimulatorOptions {
 
 // The CB3 options: software 3.15.7, RTDE at 125 Hz, no remote control.
 UrSimulatorOptions Cb3Options(UrSimulatorOptions options = {});
+
+// The controller's own model from its kinematics (KinematicsInfo, mm and rad): what its
+// inverse kinematics runs a program's Cartesian targets on.
+programs::ControllerModel UrControllerModel(const instruments::ControllerKinematics& kinematics);
 
 class UrSimulator {
  public:

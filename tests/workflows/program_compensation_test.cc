@@ -300,14 +300,7 @@ TEST_F(ProgramsOnVirtualRobots, Ur10CompensatedUrScriptLandsWithinTheNoiseFloorO
   CalibrateDemo("ur10", ur, 300, 12, /*six_dof=*/true);  // the gripper's TCP is 71 mm beyond the probe
   // The controller's model: its factory calibration, as its KinematicsInfo tells it.
   testing::WriteText(dir_.File("kinematics.yaml"), KinematicsYaml(ur.truth.kinematics));
-  programs::UrKinematics k;
-  for (std::size_t j = 0; j < 6; ++j) {
-    k.theta[j] = ur.truth.kinematics.dh_theta_rad[j];
-    k.a[j] = ur.truth.kinematics.dh_a_mm[j] / 1000.0;
-    k.d[j] = ur.truth.kinematics.dh_d_mm[j] / 1000.0;
-    k.alpha[j] = ur.truth.kinematics.dh_alpha_rad[j];
-  }
-  const ControllerModel c = programs::UrController(k);
+  const ControllerModel c = simulation::UrControllerModel(ur.truth.kinematics);
 
   // A PolyScope-style program taught on the pendant (the waypoints' poses are the
   // controller's forward kinematics at their taught joints): the TCP, waypoints as pose +
