@@ -176,7 +176,10 @@ std::string Support::Describe(const Eigen::VectorXd& joints_rad,
 }
 
 double PredictionSigmaMm(double parametric_sigma_mm, const SetValidity& validity, bool inside) {
-  const double s = inside ? validity.sigma_inside_mm : validity.sigma_outside_mm;
+  // Beside the fit poses a prediction is never better than among them: without a held-out
+  // figure beside them (too few regions to hold out), the one among them.
+  const double s = inside || !std::isfinite(validity.sigma_outside_mm) ? validity.sigma_inside_mm
+                                                                       : validity.sigma_outside_mm;
   const bool p_ok = std::isfinite(parametric_sigma_mm), s_ok = std::isfinite(s);
   if (!p_ok && !s_ok) return kNaN;
   const double p = p_ok ? parametric_sigma_mm : 0.0, r = s_ok ? s : 0.0;

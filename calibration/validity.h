@@ -74,8 +74,9 @@ Support SupportAt(const RobotModel& model, const Eigen::VectorXd& params,
                   const SetValidity& validity, const Eigen::VectorXd& joints_rad,
                   bool map_outside);
 
-// σ per coordinate of a prediction: √(σ_param² + s²) with s inside or outside (NaN parts
-// count as zero; NaN when neither is known).
+// σ per coordinate of a prediction: √(σ_param² + s²) with s inside or outside (outside
+// without a held-out figure there: the inside one; NaN parts count as zero; NaN when neither
+// is known).
 double PredictionSigmaMm(double parametric_sigma_mm, const SetValidity& validity, bool inside);
 
 }  // namespace armsig::calibration

@@ -298,6 +298,22 @@ class Compensator {
     r.correction_mm = (written.translation() - intent.translation()).norm();
     r.correction_deg = AngleDeg(written.linear(), intent.linear());
 
+    // Inside what the set was validated on, and what it promises there: known wherever the
+    // compensated joints are, whatever else refuses the target.
+    TargetStatus outside = TargetStatus::kOk;
+    std::string outside_why;
+    if (volume_ && !volume_->empty()) {
+      if (auto why = volume_->OutsideJoints(s.joints_rad)) {
+        outside = TargetStatus::kOutsideJointRange;
+        outside_why = fmt::format("{} ({})", *why, volume_->source());
+      } else if (const double d = volume_->DistanceOutside(SignedCalibrationPoint(robot_, s.joints_rad)); d > 1e-6) {
+        outside = TargetStatus::kOutsideMeasuredVolume;
+        outside_why = fmt::format("the calibration point lies {:.1f} mm outside the volume measured in {}", d,
+                                  volume_->source());
+      }
+    }
+    Promise(tool, s.joints_rad, outside_why, r);
+
     // The configuration the program's numbers ask for must be the compensated joints' own.
     const ArmConfiguration nominal = ConfigurationOf(c_, r.nominal_joints_rad);
     const ArmConfiguration compensated = ConfigurationOf(c_, s.joints_rad);
@@ -327,19 +343,11 @@ class Compensator {
                   fmt::format("the compensated joints are {}, the program's {}", Flags(compensated), Flags(nominal)));
     }
 
-    // Inside what the set was validated on, and what it promises there.
-    if (volume_ && !volume_->empty()) {
-      if (auto why = volume_->OutsideJoints(s.joints_rad)) {
-        r.status = TargetStatus::kOutsideJointRange;
-        r.why = fmt::format("{} ({})", *why, volume_->source());
-      } else if (const double d = volume_->DistanceOutside(SignedCalibrationPoint(robot_, s.joints_rad)); d > 1e-6) {
-        r.status = TargetStatus::kOutsideMeasuredVolume;
-        r.why = fmt::format("the calibration point lies {:.1f} mm outside the volume measured in {}", d,
-                            volume_->source());
-      }
+    if (outside != TargetStatus::kOk) {
+      r.status = outside;
+      r.why = outside_why;
+      if (!options_.allow_outside) return r;
     }
-    Promise(tool, s.joints_rad, r);
-    if (r.status != TargetStatus::kOk && !options_.allow_outside) return r;
 
     // The rewrite.
     const std::vector<Edit> own =
@@ -354,19 +362,21 @@ class Compensator {
     return r;
   }
 
-  // The support and predicted σ of a compensated target whose volume checks are done.
-  void Promise(const Eigen::Isometry3d& tool, const Eigen::VectorXd& q, TargetReport& r) const {
+  // The support and predicted σ of compensated joints `q`; `outside_volume` says why they lie
+  // outside the arcs or the volume the set was validated on ("" inside).
+  void Promise(const Eigen::Isometry3d& tool, const Eigen::VectorXd& q, const std::string& outside_volume,
+               TargetReport& r) const {
     const calibration::SetValidity none;
     const calibration::SetValidity& validity = robot_.validity ? *robot_.validity : none;
     const calibration::Support support =
         calibration::SupportAt(*robot_.model, robot_.params, validity, q, r.map_extrapolated);
-    r.inside_support = support.inside && r.status == TargetStatus::kOk;
+    r.inside_support = support.inside && outside_volume.empty();
     if (r.inside_support) {
       r.support = "inside";
-    } else if (r.status == TargetStatus::kOk) {
+    } else if (outside_volume.empty()) {
       r.support = support.Describe(q, validity);
     } else {
-      r.support = r.why;
+      r.support = outside_volume;
       if (support.map_outside) r.support += "; outside the residual map";
     }
     // The parameters' own σ where the TCP is (the model's point moved to it), with the

@@ -271,12 +271,24 @@ InverseSolution ControllerInverse(const ControllerModel& c, const InverseRequest
     return best;
   };
   InverseSolution out;
+  // The solution where the controller's start leads, and every other: the nearest is picked
+  // among all of them (a UR's get_inverse_kin returns the solution nearest qnear, not the one
+  // a descent from qnear reaches: from a stretched elbow, as at all joints zero, a descent
+  // may go to either side).
   if (request.near_rad && request.near_rad->size() == n) {
     solve(*request.near_rad);
-    if (auto q = pick()) {  // the solution the controller's start leads to, in its configuration
-      out.joints_rad = q;
-      out.reachable = true;
-      return out;
+    // Another branch lies across the stretched elbow (joint 3 mirrored about it) or the
+    // straight wrist (joint 5 mirrored about 0 or π), or behind joint 1: a solution nearer
+    // qnear than half of its distance to each of those boundaries is the nearest of all
+    // (with a margin of two for arms whose branches are not exact mirrors).
+    if (auto q = pick(); q && n == 6) {
+      const double elbow = std::abs(std::remainder((*q)(2) - c.stretched_q3_rad, 2 * kPi));
+      const double wrist = std::abs(std::remainder((*q)(4), kPi));
+      if ((*q - *request.near_rad).norm() < 0.5 * std::min({elbow, wrist, kPi / 2})) {
+        out.joints_rad = q;
+        out.reachable = true;
+        return out;
+      }
     }
   }
   // Seeds over the configurations: joint 1 facing the target or away, the upper arm at

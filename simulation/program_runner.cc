@@ -12,7 +12,8 @@ Eigen::Isometry3d TrueTcp(const TrueRobot& robot, const Eigen::Isometry3d& tool,
   model.tool_mm = flange_tool.translation();
   calibration::Kinematics kin(model);
   Eigen::Isometry3d tcp = Eigen::Isometry3d::Identity();
-  tcp.translation() = kin.Position(Eigen::Isometry3d::Identity(), robot.params, q.data());
+  const Eigen::VectorXd true_angles = robot.joint_errors.TrueAngles(q);
+  tcp.translation() = kin.Position(Eigen::Isometry3d::Identity(), robot.params, true_angles.data());
   tcp.linear() = kin.LastRotation() * flange_tool.linear();
   return tcp;
 }

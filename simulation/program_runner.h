@@ -19,15 +19,18 @@
 #include "programs/controller.h"
 #include "programs/program.h"
 #include "simulation/emscon_simulator.h"
+#include "simulation/joint_errors.h"
 
 namespace armsig::simulation {
 
-// The robot as it really is: a model and its true parameters. The TCP of a tool hangs from
-// the flange of the true chain, which the parameters' calibration-point offset shifts (the
-// probe sits where the model says: that offset is the flange's own).
+// The robot as it really is: a model, its true parameters and its joints' true angles off the
+// encoders' (a virtual robot's, simulation/virtual_robots.h; none by default). The TCP of a
+// tool hangs from the flange of the true chain, which the parameters' calibration-point
+// offset shifts (the probe sits where the model says: that offset is the flange's own).
 struct TrueRobot {
   calibration::RobotModel model;
   Eigen::VectorXd params;
+  JointAngleErrors joint_errors;
 };
 Eigen::Isometry3d TrueTcp(const TrueRobot& robot, const Eigen::Isometry3d& tool, const Eigen::VectorXd& joints_rad);
 

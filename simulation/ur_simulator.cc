@@ -5,12 +5,15 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cctype>
 #include <cstring>
 #include <deque>
 #include <future>
 #include <stdexcept>
 
 #include "instruments/frame_splitter.h"
+#include "programs/urscript.h"
+#include "simulation/program_runner.h"
 
 namespace armsig::simulation {
 
@@ -55,12 +58,26 @@ UrSimulatorOptions Cb3Options(UrSimulatorOptions o) {
   return o;
 }
 
+programs::ControllerModel UrControllerModel(const instruments::ControllerKinematics& k) {
+  programs::UrKinematics u;
+  for (std::size_t j = 0; j < 6; ++j) {
+    u.theta[j] = k.dh_theta_rad.at(j);
+    u.a[j] = k.dh_a_mm.at(j) / 1000.0;
+    u.d[j] = k.dh_d_mm.at(j) / 1000.0;
+    u.alpha[j] = k.dh_alpha_rad.at(j);
+  }
+  u.source = "the controller's KinematicsInfo";
+  return programs::UrController(u);
+}
+
 struct UrSimulator::Connection {
   Connection(asio::io_context& io, Port p) : socket(io), port(p), splitter(rtde::kFrames) {}
   tcp::socket socket;
   Port port;
   instruments::FrameSplitter splitter;  // RTDE
   std::string text;                     // script or dashboard lines
+  std::string program;                  // a program's lines until its end
+  int program_depth = 0;                // its blocks open (0: none being sent)
   char chunk[4096];
   std::deque<std::string> out;
   bool writing = false, closed = false;
@@ -160,6 +177,7 @@ void UrSimulator::Stop() {
 
 void UrSimulator::PhysicsTick() {
   arm_->Now();  // the lab's robot follows the arm while no client asks
+  ProgramTick();
   physics_->expires_after(kPhysicsPeriod);
   physics_->async_wait([this](const boost::system::error_code& ec) {
     if (!ec) PhysicsTick();
@@ -466,7 +484,7 @@ void UrSimulator::StateTick(ConnectionPtr c) {
   state.mode.power_on = s.powered;
   state.mode.emergency_stopped = s.stop == VirtualArm::Stop::kEmergency;
   state.mode.protective_stopped = s.stop == VirtualArm::Stop::kProtective;
-  state.mode.program_running = s.moving;
+  state.mode.program_running = s.moving || program_.has_value();
   state.mode.robot_mode = static_cast<uint8_t>(RobotMode(s));
   for (int k = 0; k < 6 && k < s.q.size(); ++k) {
     state.joints.q_actual[k] = s.q(k);
@@ -483,7 +501,44 @@ void UrSimulator::StateTick(ConnectionPtr c) {
   });
 }
 
+namespace {
+
+// The blocks a URScript line opens (def, sec, thread, if, while: a header ending in ':') or
+// closes (end), a comment left out; else and elif neither.
+int BlockChange(const std::string& line) {
+  std::string code = line.substr(0, line.find('#'));
+  const auto first = code.find_first_not_of(" \t");
+  if (first == std::string::npos) return 0;
+  code = code.substr(first, code.find_last_not_of(" \t\r") - first + 1);
+  auto word = [&](const char* w) {
+    const std::size_t n = std::strlen(w);
+    return code.compare(0, n, w) == 0 && (code.size() == n || !std::isalnum(static_cast<unsigned char>(code[n])));
+  };
+  if (word("end")) return -1;
+  if (code.back() != ':' || word("else") || word("elif")) return 0;
+  return word("def") || word("sec") || word("thread") || word("if") || word("while") ? 1 : 0;
+}
+
+bool StartsProgram(const std::string& line) {
+  const auto first = line.find_first_not_of(" \t");
+  return first != std::string::npos && (line.compare(first, 4, "def ") == 0 || line.compare(first, 4, "sec ") == 0);
+}
+
+
+}  // namespace
+
 void UrSimulator::OnScript(const ConnectionPtr& c, const std::string& line) {
+  if (c->program_depth > 0 || StartsProgram(line)) {  // a program: its lines until its end
+    c->program += line + "\n";
+    c->program_depth += BlockChange(line);
+    if (c->program_depth > 0) return;
+    std::string text = std::move(c->program);
+    c->program.clear();
+    c->program_depth = 0;
+    ++scripts_;
+    StartProgram(c, text);
+    return;
+  }
   if (line.find_first_not_of(" \t") == std::string::npos) return;
   ++scripts_;
   bool remote = true;
@@ -505,6 +560,87 @@ void UrSimulator::OnScript(const ConnectionPtr& c, const std::string& line) {
   if (!arm_->MoveJ(move->joints_rad, move->a, move->v)) {
     Queue(c, primary::EncodeText(Microseconds(), primary::kTextMessage,
                                  "the program cannot start: the robot is stopped or powered off"));
+  }
+}
+
+void UrSimulator::StartProgram(const ConnectionPtr& c, const std::string& text) {
+  bool remote = true;
+  instruments::ControllerKinematics kinematics;
+  {
+    std::lock_guard lock(mutex_);
+    remote = remote_;
+    kinematics = kinematics_;
+  }
+  if (options_.e_series && !remote) {
+    spdlog::debug("virtual UR: local control: program not run");
+    return;
+  }
+  auto refuse = [&](const std::string& why) {
+    Queue(c, primary::EncodeText(Microseconds(), primary::kRuntimeExceptionMessage, why));
+  };
+  programs::Program program;
+  try {
+    program = programs::ParseUrScript({"<program>", text});
+  } catch (const std::exception& e) {
+    refuse(std::string("compile error: ") + e.what());
+    return;
+  }
+  const VirtualArm::State now = arm_->Now();
+  const Execution run = simulation::RunProgram(program, UrControllerModel(kinematics), now.q);
+  if (!run.skipped.empty()) {
+    refuse(fmt::format("line {}: {}", run.skipped.front().place.line, run.skipped.front().why));
+    return;
+  }
+  // Its steps in the order written: the motions' targets, and the sleeps between them.
+  std::vector<ProgramStep> steps;
+  for (const ExecutedTarget& e : run.targets) steps.push_back({e.motion.line, e.joints_rad, 0.0});
+  int line_no = 0;
+  for (std::size_t at = 0; at < text.size();) {
+    const std::size_t end = std::min(text.find('\n', at), text.size());
+    const std::string line = text.substr(at, end - at);
+    at = end + 1;
+    ++line_no;
+    const auto call = line.find("sleep(");
+    if (call == std::string::npos || line.find_first_not_of(" \t") != call) continue;
+    char* stop = nullptr;
+    const double seconds = std::strtod(line.c_str() + call + 6, &stop);
+    if (stop == line.c_str() + call + 6 || !(seconds >= 0.0)) {
+      refuse(fmt::format("line {}: sleep takes a number of seconds here", line_no));
+      return;
+    }
+    steps.push_back({line_no, std::nullopt, seconds});
+  }
+  std::stable_sort(steps.begin(), steps.end(),
+                   [](const ProgramStep& a, const ProgramStep& b) { return a.line < b.line; });
+  if (now.stop != VirtualArm::Stop::kNone || !now.powered) {
+    Queue(c, primary::EncodeText(Microseconds(), primary::kTextMessage,
+                                 "the program cannot start: the robot is stopped or powered off"));
+    return;
+  }
+  program_ = RunningProgram{std::move(steps), 0, -1.0};  // in place of one running
+  ++programs_started_;
+  ProgramTick();
+}
+
+void UrSimulator::ProgramTick() {
+  if (!program_) return;
+  const VirtualArm::State s = arm_->Now();
+  if (s.stop != VirtualArm::Stop::kNone || !s.powered) {  // a stop ends the program
+    program_.reset();
+    return;
+  }
+  if (s.moving || s.t < program_->sleep_until) return;
+  program_->sleep_until = -1.0;
+  if (program_->next == program_->steps.size()) {
+    program_.reset();
+    ++programs_finished_;
+    return;
+  }
+  const ProgramStep& step = program_->steps[program_->next++];
+  if (step.joints_rad) {
+    arm_->MoveJ(*step.joints_rad, 1.4, 1.05);
+  } else {
+    program_->sleep_until = s.t + step.sleep_s;
   }
 }
 
@@ -538,8 +674,9 @@ std::string UrSimulator::Dashboard(const ConnectionPtr&, const std::string& comm
   }
   if (command == "power on") return arm_->PowerOn() ? "Powering on" : "Failed to execute: power on";
   if (command == "brake release") return "Brake releasing";
-  if (command == "running") return std::string("Program running: ") + (s.moving ? "true" : "false");
-  if (command == "programState") return s.moving ? "PLAYING <unnamed>" : "STOPPED <unnamed>";
+  const bool running = s.moving || program_.has_value();
+  if (command == "running") return std::string("Program running: ") + (running ? "true" : "false");
+  if (command == "programState") return running ? "PLAYING <unnamed>" : "STOPPED <unnamed>";
   if (command == "quit") return "Disconnected";
   return "Could not understand: '" + command + "'";
 }

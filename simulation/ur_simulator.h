@@ -15,6 +15,19 @@
 //     each `movej([…], a=…, v=…)` moving the arm (simulation/joint_motion.h: a trapezoid on
 //     the leading joint, in physical time); any other line answered with a runtime exception
 //     message; on an e-Series in local control a script is not run;
+//   - a whole program sent on either ("def name():" … its "end", or "sec"), as the "Client
+//     Interface" document and URScript manual describe it: the controller takes the lines up
+//     to the program's own end, compiles it (programs/urscript.h: a program it cannot read is
+//     answered with a runtime exception message naming line and column, and not run) and runs
+//     it in place of any program running. Its motions (movej, movel, movep, movec, with
+//     literals, waypoints and variables, set_tcp) in the order written, each Cartesian target
+//     through the controller's inverse kinematics on ITS kinematics (the KinematicsInfo
+//     below, programs/controller.h, the solution nearest the joints it stands at or a
+//     waypoint's q) — simulation/program_runner.h — and its `sleep(t)` calls, where the arm
+//     stands still for t physical seconds. Not simulated: the program's control flow (a loop
+//     runs once, a branch's motions all run), a motion's path between targets (every motion
+//     moves as a movej at its default a = 1.4 rad/s², v = 1.05 rad/s: only where it stops is
+//     checked) and blending (every target is reached and stopped at, as with r = 0);
 //   - the dashboard server: PolyscopeVersion, robotmode, safetymode, safetystatus (e-Series
 //     5.4+), is in remote control (5.6+), get robot model / get serial number (CB3 3.12+,
 //     e-Series 5.6+), close safety popup, unlock protective stop (5 s after the stop at the
@@ -37,8 +50,10 @@
 #include <set>
 #include <string>
 #include <thread>
+#include <vector>
 
 #include "instruments/ur_codec.h"
+#include "programs/controller.h"
 #include "simulation/virtual_arm.h"
 #include "simulation/virtual_lab.h"
 
@@ -62,6 +77,10 @@ struct UrSimulatorOptions {
 
 // The CB3 options: software 3.15.7, RTDE at 125 Hz, no remote control.
 UrSimulatorOptions Cb3Options(UrSimulatorOptions options = {});
+
+// The controller's own model from its kinematics (KinematicsInfo, mm and rad): what its
+// inverse kinematics runs a program's Cartesian targets on.
+programs::ControllerModel UrControllerModel(const instruments::ControllerKinematics& kinematics);
 
 class UrSimulator {
  public:
@@ -113,6 +132,8 @@ class UrSimulator {
   int rtde_skipped() const { return rtde_skipped_.load(); }
   int connections() const { return connections_.load(); }
   int scripts() const { return scripts_.load(); }
+  int programs_started() const { return programs_started_.load(); }
+  int programs_finished() const { return programs_finished_.load(); }
   double frequency_hz() const;  // of the last RTDE recipe set up (0: none)
   // Every how many periods of an RTDE recipe at `frequency_hz` a package is sent at
   // `time_scale` (1 unless the wall could not keep up: at most one per 0.2 ms of wall time).
@@ -135,6 +156,8 @@ class UrSimulator {
   void StateTick(ConnectionPtr c);
   void PhysicsTick();
   void OnScript(const ConnectionPtr& c, const std::string& line);
+  void StartProgram(const ConnectionPtr& c, const std::string& text);
+  void ProgramTick();  // io thread: the running program's next step once the arm is ready
   std::string Dashboard(const ConnectionPtr& c, const std::string& command);
   std::vector<double> OutputValue(const std::string& name, const VirtualArm::State& s) const;
   int RobotMode(const VirtualArm::State& s) const;
@@ -152,6 +175,17 @@ class UrSimulator {
   std::thread thread_;
   Ports ports_;
   std::set<ConnectionPtr> live_;  // io thread only
+  struct ProgramStep {
+    int line = 0;
+    std::optional<Eigen::VectorXd> joints_rad;  // a motion's target, else a sleep
+    double sleep_s = 0.0;
+  };
+  struct RunningProgram {
+    std::vector<ProgramStep> steps;
+    std::size_t next = 0;
+    double sleep_until = -1.0;  // physical time
+  };
+  std::optional<RunningProgram> program_;  // io thread only
 
   mutable std::mutex mutex_;  // what the test thread changes
   bool remote_ = true;
@@ -161,7 +195,8 @@ class UrSimulator {
   std::chrono::steady_clock::time_point down_until_{};
   double frequency_hz_ = 0.0;
 
-  std::atomic<int> rtde_packages_{0}, rtde_skipped_{0}, connections_{0}, scripts_{0};
+  std::atomic<int> rtde_packages_{0}, rtde_skipped_{0}, connections_{0}, scripts_{0},
+      programs_started_{0}, programs_finished_{0};
 };
 
 }  // namespace armsig::simulation

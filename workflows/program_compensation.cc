@@ -109,10 +109,16 @@ std::string PromiseLine(const calibration::SetValidity& v) {
   if (v.empty() || (std::isnan(v.sigma_inside_mm) && std::isnan(v.sigma_outside_mm)))
     return "the set stores no held-out error (fitted before they were): σ is the parameters' own only";
   auto share = [](double c) { return std::isnan(c) ? std::string("not measured") : fmt::format("{:.0f} %", 100 * c); };
-  return fmt::format("per coordinate, the landing within {:.2f} σ of the target 95 % of the time; held out "
-                     "{:.3f} mm inside the set's support ({} within), {:.3f} mm beside it ({} within)",
-                     calibration::kCoverageRadius, v.sigma_inside_mm, share(v.coverage_inside),
-                     v.sigma_outside_mm, share(v.coverage_outside));
+  auto held_out = [&](double sigma, double coverage, const char* where) {
+    return std::isnan(sigma) ? fmt::format("not measured {}", where)
+                             : fmt::format("{:.3f} mm {} ({} within)", sigma, where, share(coverage));
+  };
+  return fmt::format("per coordinate, the landing within {:.2f} σ of the target 95 % of the time; held out {}, {}{}",
+                     calibration::kCoverageRadius, held_out(v.sigma_inside_mm, v.coverage_inside, "inside the set's support"),
+                     held_out(v.sigma_outside_mm, v.coverage_outside, "beside it"),
+                     std::isnan(v.sigma_outside_mm) && !std::isnan(v.sigma_inside_mm)
+                         ? " (beside it, the figure inside is promised: never better there)"
+                         : "");
 }
 
 }  // namespace

@@ -106,7 +106,7 @@ std::vector<Eigen::Isometry3d> Commanded(const Program& program, const Controlle
 TEST(CompensateProgram, ExactSignatureLandsOnEveryUrTarget) {
   const auto model = testing::Ur10();
   const ControllerModel c = NominalController(model, ControllerKind::kUniversalRobots, "nominal ur10");
-  const simulation::TrueRobot truth{model, testing::PlantedErrors(model, 1)};
+  const simulation::TrueRobot truth{model, testing::PlantedErrors(model, 1), {}};
   const auto taught = UrConfigurations(12, 2);
   const Program program = ParseUrScript({"t.script", UrProgram(c, taught)});
   ASSERT_EQ(program.motions.size(), 12u);
@@ -296,8 +296,8 @@ TEST_F(UrRefusals, TaughtJointsThatMissTheirPoseAreRefused) {
 // A KUKA point taught with A1 just above 0 (Turn bit 0 clear) whose compensated A1 falls
 // below 0 needs another Turn: refused.
 TEST(CompensateProgram, KukaConfigurationChangeIsRefused) {
-  const auto model = testing::KukaLike();
-  const ControllerModel c = NominalController(model, ControllerKind::kKuka, "nominal kr16-like");
+  const auto model = testing::Kr16_2();
+  const ControllerModel c = NominalController(model, ControllerKind::kKuka, "nominal kr16_2");
   Eigen::VectorXd q(6);
   q << 0.001, -1.3, 1.6, 0.3, 0.9, 0.4;
   const ArmConfiguration a = ConfigurationOf(c, q);
@@ -323,10 +323,57 @@ TEST(CompensateProgram, KukaConfigurationChangeIsRefused) {
   EXPECT_FALSE(r.written());
 }
 
+// The report's σ and support describe the compensated joints whatever refuses the target:
+// a target refused for its configuration, with its compensated joints in the report, carries
+// the σ the set predicts there (its parameters' covariance through the chain's derivatives
+// with the held-out figure), never a NaN beside joints it names. A set without a held-out
+// figure beside its fit poses promises the one among them there, never less.
+TEST(CompensateProgram, ATargetRefusedForItsConfigurationKeepsItsPromise) {
+  const auto model = testing::Kr16_2();
+  const ControllerModel c = NominalController(model, ControllerKind::kKuka, "nominal kr16_2");
+  Eigen::VectorXd q(6);
+  q << 0.001, -1.3, 1.6, 0.3, 0.9, 0.4;
+  const ArmConfiguration a = ConfigurationOf(c, q);
+  const Eigen::Isometry3d pose = TcpPose(c, q, Eigen::Isometry3d::Identity());
+  const Eigen::Vector3d abc = KukaAbcFromRotation(pose.linear(), Eigen::Vector3d::Zero()) / kRadPerDeg;
+  const std::string src = "DEF p()\n$TOOL = $NULLFRAME\n$BASE = $WORLD\nPTP XP1\nEND\n";
+  const std::string dat = fmt::format(
+      "DEFDAT p\nDECL E6POS XP1={{X {:.4f},Y {:.4f},Z {:.4f},A {:.5f},B {:.5f},C {:.5f},S {},T {}}}\nENDDAT\n",
+      pose.translation().x(), pose.translation().y(), pose.translation().z(), abc.x(), abc.y(), abc.z(),
+      a.kuka_status, a.kuka_turn);
+  const Program program = ParseKrl({"p.src", src}, ProgramFile{"p.dat", dat});
+  Eigen::VectorXd params = Eigen::VectorXd::Zero(model.num_parameters());
+  params(5) = 0.002;  // γ1: A1 must go 2 mrad back, across 0: another Turn
+  SignedRobot robot = Signed(model, params, false);
+  // One identified parameter, the length of the first link's x (0.01 mm σ), and held-out
+  // error among the fit poses only.
+  calibration::SetValidity validity;
+  validity.sigma_inside_mm = 0.02;
+  robot.validity = &validity;
+  robot.identified = {0};
+  robot.covariance = Eigen::MatrixXd::Constant(1, 1, 1e-4);
+  const ProgramCompensation r = CompensateProgram(program, c, robot, nullptr);
+  ASSERT_EQ(r.targets[0].status, TargetStatus::kConfigurationChange);
+  ASSERT_EQ(r.targets[0].compensated_joints_rad.size(), 6);
+  // Independently: the first parameter's derivative at the TCP, through its σ.
+  calibration::RobotModel at_tcp = model;
+  at_tcp.tool_mm = model.flange.translation();
+  calibration::Kinematics kin(at_tcp);
+  Eigen::Matrix<double, 3, Eigen::Dynamic> j(3, model.num_parameters());
+  kin.PositionAndJacobian(Eigen::Isometry3d::Identity(), params, r.targets[0].compensated_joints_rad.data(), j);
+  const double parametric = 0.01 * j.col(0).norm() / std::sqrt(3.0);
+  EXPECT_NEAR(r.targets[0].sigma_mm, std::hypot(parametric, 0.02), 1e-9);
+  EXPECT_EQ(r.targets[0].support, "inside");
+  // Beside the fit poses (no held-out figure there): the figure among them, not less.
+  EXPECT_DOUBLE_EQ(calibration::PredictionSigmaMm(parametric, validity, false), std::hypot(parametric, 0.02));
+  validity.sigma_outside_mm = 0.05;
+  EXPECT_DOUBLE_EQ(calibration::PredictionSigmaMm(parametric, validity, false), std::hypot(parametric, 0.05));
+}
+
 // A robtarget whose confdata fits none of its pose's solutions is refused.
 TEST(CompensateProgram, RapidConfdataThatMissesItsPoseIsRefused) {
-  const auto model = testing::AbbLike();
-  const ControllerModel c = NominalController(model, ControllerKind::kAbb, "nominal irb4600-like");
+  const auto model = testing::Irb4600();
+  const ControllerModel c = NominalController(model, ControllerKind::kAbb, "nominal irb4600");
   Eigen::VectorXd q(6);
   q << 0.3, 0.2, -0.1, 0.4, 0.7, -0.2;
   const Eigen::Isometry3d pose = TcpPose(c, q, Eigen::Isometry3d::Identity());
@@ -350,8 +397,8 @@ TEST(CompensateProgram, RapidConfdataThatMissesItsPoseIsRefused) {
 // A target whose tool the program leaves to the controller is named, not refused: the rest
 // of the program is written.
 TEST(CompensateProgram, UnknownToolIsNamedAndTheRestWritten) {
-  const auto model = testing::KukaLike();
-  const ControllerModel c = NominalController(model, ControllerKind::kKuka, "nominal kr16-like");
+  const auto model = testing::Kr16_2();
+  const ControllerModel c = NominalController(model, ControllerKind::kKuka, "nominal kr16_2");
   const std::string src =
       "DEF p()\nPTP {A1 10, A2 -80, A3 100, A4 0, A5 30, A6 0}\n$TOOL = $NULLFRAME\n"
       "PTP {A1 20, A2 -80, A3 100, A4 0, A5 30, A6 0}\n$TOOL = TOOL_DATA[3]\nPTP {A1 30, A2 -80, A3 100, A4 0, A5 30, A6 0}\nEND\n";

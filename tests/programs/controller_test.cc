@@ -34,8 +34,9 @@ Eigen::Isometry3d Tool() {
 // A KUKA's Status and Turn name one solution: the inverse with them returns the joints the
 // pose came from.
 TEST(ControllerInverse, KukaStatusAndTurnPickTheTaughtSolution) {
-  const ControllerModel c = NominalController(testing::KukaLike(), ControllerKind::kKuka, "test");
-  EXPECT_NEAR(c.stretched_q3_rad, std::atan2(35.0, 670.0), 1e-6);  // the elbow offset's angle
+  const ControllerModel c = NominalController(testing::Kr16_2(), ControllerKind::kKuka, "test");
+  // The elbow offset's angle, below A3 = 0 in KUKA's signs (models/kr16_2.yaml).
+  EXPECT_NEAR(c.stretched_q3_rad, -std::atan2(35.0, 670.0), 1e-6);
   int checked = 0;
   for (const auto& q : Configurations(c.model, 25, 3)) {
     const ArmConfiguration a = ConfigurationOf(c, q);
@@ -53,7 +54,7 @@ TEST(ControllerInverse, KukaStatusAndTurnPickTheTaughtSolution) {
 }
 
 TEST(ControllerInverse, AbbConfdataPicksTheTaughtSolution) {
-  const ControllerModel c = NominalController(testing::AbbLike(), ControllerKind::kAbb, "test");
+  const ControllerModel c = NominalController(testing::Irb4600(), ControllerKind::kAbb, "test");
   // At the zero configuration the wrist centre is in front of axis 1 and of the lower arm.
   EXPECT_EQ(ConfigurationOf(c, Eigen::VectorXd::Zero(6)).abb_cf, (std::array<int, 4>{0, 0, 0, 0}));
   for (const auto& q : Configurations(c.model, 25, 5)) {
@@ -89,7 +90,7 @@ TEST(ControllerInverse, UrNearestSolution) {
 
 // A configuration the pose has no solution in is named with the ones it has.
 TEST(ControllerInverse, StatedConfigurationWithoutSolutionIsNamed) {
-  const ControllerModel c = NominalController(testing::KukaLike(), ControllerKind::kKuka, "test");
+  const ControllerModel c = NominalController(testing::Kr16_2(), ControllerKind::kKuka, "test");
   Eigen::VectorXd q(6);
   q << 0.3, -1.2, 1.4, 0.2, 0.8, -0.4;
   InverseRequest r;

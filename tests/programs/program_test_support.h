@@ -1,18 +1,18 @@
-// Robots for the program tests: the virtual cells' KUKA- and ABB-sized arms
-// (simulation/virtual_arms.h), the shipped UR10, and planted errors of a real arm's size.
+// Robots for the program tests: the shipped KUKA KR 16-2, ABB IRB 4600 and UR10 models (the
+// demo's virtual robots' nominal arms, in their controllers' joint conventions), and planted
+// errors of a real arm's size.
 #pragma once
 
 #include <random>
 
 #include "calibration/model.h"
 #include "calibration/synthetic.h"
-#include "simulation/virtual_arms.h"
 #include "test_support.h"
 
 namespace armsig::testing {
 
-inline calibration::RobotModel KukaLike() { return simulation::KukaKr16Like(); }
-inline calibration::RobotModel AbbLike() { return simulation::AbbIrb4600Like(); }
+inline calibration::RobotModel Kr16_2() { return io::LoadRobotModel(SourcePath("models/kr16_2.yaml")); }
+inline calibration::RobotModel Irb4600() { return io::LoadRobotModel(SourcePath("models/irb4600.yaml")); }
 
 // Planted errors: lengths 0.3 mm, angles 0.3 mrad, the model's non-geometric terms 0.2 mrad
 // (the UR10's harmonic terms among them: joint errors periodic in their own angle).

@@ -10,11 +10,14 @@
 #include <fmt/format.h>
 
 #include <cmath>
+#include <functional>
 #include <thread>
 
 #include "core/units.h"
+#include "instruments/frame_splitter.h"
 #include "instruments/packet_transport.h"
 #include "instruments/ur_device.h"
+#include "programs/controller.h"
 #include "simulation/virtual_lab.h"
 #include "test_support.h"
 
@@ -329,6 +332,98 @@ TEST_F(UrFixture, ARecalibratedControllerGivesAnotherChecksum) {
   EXPECT_EQ(after->checksum.substr(0, 8), before.substr(0, 8));
   EXPECT_NE(after->checksum.substr(9, 8), before.substr(9, 8));
   EXPECT_EQ(after->checksum.substr(18), before.substr(18));
+}
+
+// The lines of a program sent as text to the controller's primary or secondary interface,
+// as a lab's PC sends them; then every message the controller sends back until `until`
+// holds of one (or the connection closes).
+std::vector<instruments::ur::primary::Message> SendProgram(
+    unsigned short port, const std::string& program,
+    const std::function<bool(const instruments::ur::primary::Message&)>& until) {
+  namespace asio = boost::asio;
+  asio::io_context io;
+  asio::ip::tcp::socket socket(io);
+  socket.connect({asio::ip::make_address("127.0.0.1"), port});
+  asio::write(socket, asio::buffer(program));
+  std::vector<instruments::ur::primary::Message> got;
+  instruments::FrameSplitter splitter(instruments::ur::primary::kFrames);
+  char chunk[4096];
+  boost::system::error_code ec;
+  while (!ec) {
+    const std::size_t n = socket.read_some(asio::buffer(chunk), ec);
+    splitter.Append(std::string_view(chunk, n));
+    std::string frame;
+    int32_t size = 0;
+    while (splitter.Next(frame, &size) == instruments::FrameSplitter::Status::kFrame) {
+      std::string why;
+      if (auto m = instruments::ur::primary::Decode(frame, &why)) {
+        got.push_back(*m);
+        if (until(*m)) return got;
+      }
+    }
+  }
+  return got;
+}
+
+// A whole program sent as text runs on the controller: its motions in the order written,
+// a joint target as its joints, a pose target through the controller's inverse kinematics on
+// its own KinematicsInfo (nearest the joints it stands at), standing still through each
+// sleep — where the driver, reading only while the arm stands, finds it.
+TEST_F(UrFixture, AWholeProgramSentAsTextRunsItsMotionsInOrder) {
+  Start();
+  auto ur = Driver();
+  const Eigen::VectorXd home = ur->ReadJointsRad();
+  Eigen::VectorXd a(6), mid(6), b(6);
+  a << 0.3, -1.2, 1.1, -1.4, -1.5, 0.2;
+  mid << 0.0, -1.57, 1.57, -1.57, -1.57, 0.0;
+  b << -0.2, -1.4, 1.5, -1.7, -1.6, -0.3;
+  // The pose target: where the controller's own model puts the flange at b.
+  const programs::ControllerModel c = UrControllerModel(options_.kinematics);
+  const Eigen::Isometry3d pose = programs::FlangePose(c, b);
+  const Eigen::AngleAxisd turn(pose.linear());
+  const Eigen::Vector3d r = turn.angle() * turn.axis(), x = pose.translation() / 1000.0;
+  const std::string program = fmt::format(
+      "def checked():\n  # two joint targets and a pose\n  movej([{:.9f}, {:.9f}, {:.9f}, {:.9f}, {:.9f}, {:.9f}], a=1.4, "
+      "v=1.05)\n  sleep(10.0)\n  while (False):\n    textmsg(\"a loop\")\n  end\n  movej([0, -1.57, 1.57, -1.57, "
+      "-1.57, 0])\n  sleep(10.0)\n  movel(p[{:.9f}, {:.9f}, {:.9f}, {:.9f}, {:.9f}, {:.9f}], a=1.2, v=0.25)\n  "
+      "sleep(10.0)\nend\n",
+      a(0), a(1), a(2), a(3), a(4), a(5), x.x(), x.y(), x.z(), r.x(), r.y(), r.z());
+  SendProgram(sim_->ports().secondary, program, [](const auto&) { return true; });
+  std::vector<Eigen::VectorXd> stood;
+  Eigen::VectorXd last = home;
+  for (int reads = 0; stood.size() < 3 && reads < 5000; ++reads) {
+    const Eigen::VectorXd q = ur->ReadStampedJoints().joints_rad;
+    if ((q - last).cwiseAbs().maxCoeff() < 1e-9) continue;
+    stood.push_back(q);
+    last = q;
+  }
+  ASSERT_EQ(stood.size(), 3u);
+  EXPECT_LT((stood[0] - a).cwiseAbs().maxCoeff(), 1e-12);
+  EXPECT_LT((stood[1] - mid).cwiseAbs().maxCoeff(), 1e-12);
+  // The pose target's joints: the controller's model puts the flange on the pose there, on
+  // the branch of b (the solution nearest where the arm stood).
+  const Eigen::Isometry3d at = programs::FlangePose(c, stood[2]);
+  EXPECT_LT((at.translation() - pose.translation()).norm(), 1e-6);
+  EXPECT_LT(Eigen::AngleAxisd(at.linear() * pose.linear().transpose()).angle(), 1e-9);
+  EXPECT_LT((stood[2] - b).cwiseAbs().maxCoeff(), 1e-6);
+  EXPECT_EQ(sim_->programs_started(), 1);
+  EXPECT_EQ(sim_->scripts(), 1);  // one program, however many lines
+}
+
+// A program the controller cannot compile is answered on the interface it came by with a
+// runtime exception message naming the place, and not run.
+TEST_F(UrFixture, AProgramItCannotReadIsAnsweredAndNotRun) {
+  Start();
+  const auto got = SendProgram(sim_->ports().primary, "def bad():\n  textmsg(\"never ends)\n  movej([0,0,0,0,0,0])\nend\n",
+                               [](const instruments::ur::primary::Message& m) {
+                                 return m.message_type == instruments::ur::primary::kRuntimeExceptionMessage;
+                               });
+  ASSERT_FALSE(got.empty());
+  ASSERT_TRUE(got.back().text);
+  EXPECT_NE(got.back().text->find("compile error"), std::string::npos) << *got.back().text;
+  EXPECT_NE(got.back().text->find(":2:"), std::string::npos) << *got.back().text;  // line 2
+  EXPECT_EQ(sim_->programs_started(), 0);
+  EXPECT_EQ(sim_->moves(), 0);
 }
 
 }  // namespace

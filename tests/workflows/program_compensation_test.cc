@@ -1,17 +1,21 @@
-// Programs that land, checked by running them: a virtual UR10, a KUKA KR 16-sized and an
-// ABB IRB 4600-sized arm with planted errors are measured by a virtual tracker, the nightly
-// job fits and stores their signature in a real SQLite store, `compensate --program`
-// (CompensateProgramFiles) rewrites a URScript, a KRL and a RAPID program, and the virtual
-// controllers run the original and the compensated program (their own inverse kinematics on
-// their nominal models, simulation/program_runner.h). The tracker measures where every target
-// lands; after a rigid fit of the frames the compensated program lands within the noise floor
-// where the original misses by millimetres. And the ISO 9283 pose accuracy of a test cube
-// run from a compensated URScript program.
+// Programs that land, checked by running them: the demo's virtual UR10, KUKA KR 16-2 and ABB
+// IRB 4600 (simulation/virtual_robots.h: the model files' nominal arms with hidden geometric
+// and joint-angle errors) are measured by a virtual tracker, the nightly job fits and stores
+// their signature in a real SQLite store, `compensate --program` (CompensateProgramFiles)
+// rewrites a URScript, a KRL and a RAPID program, and a controller runs the original and the
+// compensated program: the UR program is sent over the virtual UR controller's secondary
+// interface and run there (its own inverse kinematics on its factory KinematicsInfo), its
+// landings measured by the emScon tracker over TCP; the KRL and RAPID programs run in
+// process on their controllers' nominal models (simulation/program_runner.h). After a rigid
+// fit of the frames the compensated program lands within the noise floor where the original
+// misses. And the ISO 9283 pose accuracy of a test cube run from a compensated URScript
+// program.
 #include "workflows/program_compensation.h"
 
 #include <fmt/format.h>
 #include <gtest/gtest.h>
 
+#include <boost/asio.hpp>
 #include <filesystem>
 #include <iostream>
 #include <nlohmann/json.hpp>
@@ -25,12 +29,18 @@
 #include "db/robots.h"
 #include "db/sessions.h"
 #include "db/store.h"
+#include "instruments/emscon_device.h"
+#include "instruments/packet_transport.h"
+#include "instruments/ur_device.h"
 #include "io/model_export.h"
+#include "io/model_yaml.h"
 #include "programs/krl.h"
 #include "programs/rapid.h"
 #include "programs/urscript.h"
+#include "simulation/emscon_simulator.h"
 #include "simulation/program_runner.h"
-#include "simulation/virtual_arms.h"
+#include "simulation/ur_simulator.h"
+#include "simulation/virtual_robots.h"
 #include "test_support.h"
 #include "workflows/iso9283.h"
 #include "workflows/lifecycle.h"
@@ -44,13 +54,6 @@ using programs::ControllerModel;
 
 constexpr double kTrackerNoiseMm = 0.01;  // σ per coordinate of the calibration's points
 
-Eigen::Isometry3d LabFromBase() {  // where the robot stands in the tracker's frame
-  Eigen::Isometry3d t = Eigen::Isometry3d::Identity();
-  t.translate(Eigen::Vector3d(1800.0, -600.0, -300.0));
-  t.rotate(Eigen::AngleAxisd(2.4, Eigen::Vector3d::UnitZ()));
-  return t;
-}
-
 // A gripper 180 mm out from the flange, its TCP 10 mm off the axis and tilted.
 Eigen::Isometry3d Gripper() {
   Eigen::Isometry3d tool = Eigen::Isometry3d::Identity();
@@ -59,28 +62,70 @@ Eigen::Isometry3d Gripper() {
   return tool;
 }
 
+// A virtual robot of the demo (simulation/virtual_robots.h): the model file's nominal arm with
+// the hidden errors, joint-angle errors and place in the lab the demo gives it.
+struct DemoRobot {
+  std::string model_path;
+  calibration::RobotModel model;
+  simulation::VirtualRobot truth;
+};
+DemoRobot Demo(const std::string& name, const std::string& model_file) {
+  DemoRobot r;
+  r.model_path = testing::SourcePath(model_file);
+  r.model = io::LoadRobotModel(r.model_path);
+  r.truth = simulation::MakeVirtualRobot(name, r.model, 7);
+  return r;
+}
+
+struct Landing {
+  double mean_mm = 0.0, max_mm = 0.0;
+  int targets = 0;
+};
+// The measured landings fitted rigidly onto the intended TCP positions (robot base).
+Landing Fit(const std::vector<Eigen::Vector3d>& measured, const std::vector<Eigen::Vector3d>& intended) {
+  Landing out;
+  EXPECT_EQ(measured.size(), intended.size());
+  if (measured.size() != intended.size()) return out;
+  const auto fit = calibration::iso9283::AlignRigidly(measured, intended);
+  EXPECT_TRUE(fit);
+  if (!fit) return out;
+  out.targets = static_cast<int>(fit->residual_mm.size());
+  for (double d : fit->residual_mm) {
+    out.mean_mm += d / out.targets;
+    out.max_mm = std::max(out.max_mm, d);
+  }
+  return out;
+}
+
 class ProgramsOnVirtualRobots : public ::testing::Test {
  protected:
   testing::TempDir dir_;
   std::string db_path_ = dir_.File("lab.db");
 
-  // Registers the arm, measures `count` random configurations of its truth (the calibration
-  // point, σ 0.01 mm; with `six_dof` a 6-DoF probe's orientation too, σ 0.005°) and lets the
-  // nightly job fit and store its signature.
-  void Calibrate(const std::string& robot, const calibration::RobotModel& model, const Eigen::VectorXd& truth,
-                 int count, unsigned seed, bool six_dof) {
-    const std::string model_path = dir_.File(robot + ".yaml");
-    testing::WriteText(model_path, io::FormatRobotModelYaml(model, robot));
+  // Registers the demo's virtual robot, measures `count` random configurations of it (its
+  // encoders read them, its joints turn to their true angles; the calibration point, σ
+  // 0.01 mm; with `six_dof` a 6-DoF probe's orientation too, σ 0.005°) and lets the nightly
+  // job fit and store its signature.
+  void CalibrateDemo(const std::string& robot, const DemoRobot& r, int count, unsigned seed, bool six_dof) {
+    std::mt19937 rng(seed);
+    const auto configurations = calibration::RandomConfigurations(r.model, count, rng);
+    std::vector<Eigen::VectorXd> true_angles;
+    for (const auto& q : configurations) true_angles.push_back(r.truth.joint_errors.TrueAngles(q));
+    const auto& t = r.truth;
+    auto poses = six_dof ? calibration::SimulateSixDofPoses(r.model, t.world_from_base, t.true_params,
+                                                            Eigen::Matrix3d::Identity(), true_angles, kTrackerNoiseMm,
+                                                            5e-3 * kRadPerDeg, rng)
+                         : calibration::SimulatePoses(r.model, t.world_from_base, t.true_params, true_angles,
+                                                      kTrackerNoiseMm, rng);
+    for (std::size_t i = 0; i < poses.size(); ++i) poses[i].joints_rad = configurations[i];
+    StoreAndFit(robot, r.model_path, poses);
+  }
+
+  void StoreAndFit(const std::string& robot, const std::string& model_path,
+                   const std::vector<MeasuredPose>& poses) {
     {
       db::Database db(db_path_);
       ASSERT_TRUE(RegisterRobot(db, robot, model_path));
-      std::mt19937 rng(seed);
-      const auto configurations = calibration::RandomConfigurations(model, count, rng);
-      const auto poses = six_dof ? calibration::SimulateSixDofPoses(model, LabFromBase(), truth,
-                                                                    Eigen::Matrix3d::Identity(), configurations,
-                                                                    kTrackerNoiseMm, 5e-3 * kRadPerDeg, rng)
-                                 : calibration::SimulatePoses(model, LabFromBase(), truth, configurations,
-                                                              kTrackerNoiseMm, rng);
       db::WriteTransaction tx(db);
       const int64_t id = *db::FindRobot(db, robot);
       const int64_t session = db::CreateSession(db, id, "", "", "completed", "simulated");
@@ -105,20 +150,17 @@ class ProgramsOnVirtualRobots : public ::testing::Test {
   }
 
   ProgramCompensationRun Compensate(const std::string& robot, const std::string& in, const std::string& out,
-                                    const std::string& config_dat = "") {
+                                    const std::string& config_dat = "", const std::string& controller_kinematics = "") {
     db::Database db(db_path_, db::OpenMode::kReadOnly);
     ProgramCompensationOptions o;
     o.robot = robot;
     o.program_path = in;
     o.out_path = out;
     o.config_dat = config_dat;
+    o.controller_kinematics = controller_kinematics;
     return CompensateProgramFiles(db, o);
   }
 
-  struct Landing {
-    double mean_mm = 0.0, max_mm = 0.0;
-    int targets = 0;
-  };
   // Runs the program on the virtual controller, measures where each target lands and fits
   // the measured points rigidly onto what `original` commands.
   static Landing Land(const programs::Program& program, const programs::Program& original,
@@ -129,15 +171,7 @@ class ProgramsOnVirtualRobots : public ::testing::Test {
     EXPECT_EQ(run.targets.size(), intended.targets.size());
     std::vector<Eigen::Vector3d> commanded;
     for (const auto& e : intended.targets) commanded.push_back(e.commanded.translation());
-    const auto fit = calibration::iso9283::AlignRigidly(simulation::MeasureLandings(cell, run), commanded);
-    EXPECT_TRUE(fit);
-    Landing out;
-    out.targets = static_cast<int>(fit->residual_mm.size());
-    for (double d : fit->residual_mm) {
-      out.mean_mm += d / out.targets;
-      out.max_mm = std::max(out.max_mm, d);
-    }
-    return out;
+    return Fit(simulation::MeasureLandings(cell, run), commanded);
   }
 
   static std::vector<programs::ProgramFile> ReadProgram(const std::vector<std::string>& paths) {
@@ -146,14 +180,6 @@ class ProgramsOnVirtualRobots : public ::testing::Test {
     return files;
   }
 };
-
-// Planted errors of an uncalibrated arm's size: lengths 1 mm, angles 2 mrad, the model's own
-// non-geometric terms 0.5 mrad (the UR10's joint harmonics among them): millimetres at the
-// TCP after the best rigid fit of the frames, as real arms show.
-Eigen::VectorXd Planted(const calibration::RobotModel& model, unsigned seed) {
-  std::mt19937 rng(seed);
-  return calibration::RandomParameters(model, 1.0, 2e-3, 5e-4, rng);
-}
 
 std::string UrPose(const Eigen::Isometry3d& pose) {
   const Eigen::AngleAxisd aa(pose.linear());
@@ -179,33 +205,132 @@ std::vector<Eigen::VectorXd> Taught(int count, unsigned seed, const Eigen::Vecto
   return out;
 }
 
-TEST_F(ProgramsOnVirtualRobots, Ur10CompensatedUrScriptLandsWithinTheNoiseFloor) {
-  const auto model = testing::Ur10();
-  const Eigen::VectorXd truth = Planted(model, 11);
-  Calibrate("ur10", model, truth, 300, 12, /*six_dof=*/true);  // the gripper is 71 mm beyond the probe
-  const ControllerModel c = programs::NominalController(model, ControllerKind::kUniversalRobots, "nominal ur10");
+// The controller's own kinematics as a file for --controller-kinematics (KinematicsInfo's
+// numbers: metres and radians).
+std::string KinematicsYaml(const instruments::ControllerKinematics& k) {
+  auto six = [](const std::vector<double>& v, double scale) {
+    return fmt::format("[{:.12g}, {:.12g}, {:.12g}, {:.12g}, {:.12g}, {:.12g}]", v[0] * scale, v[1] * scale,
+                       v[2] * scale, v[3] * scale, v[4] * scale, v[5] * scale);
+  };
+  return fmt::format("dh_theta: {}\ndh_a: {}\ndh_d: {}\ndh_alpha: {}\n", six(k.dh_theta_rad, 1.0),
+                     six(k.dh_a_mm, 1e-3), six(k.dh_d_mm, 1e-3), six(k.dh_alpha_rad, 1.0));
+}
 
-  // A PolyScope-style program: the TCP, waypoints as pose + taught joints, MoveL literals.
+// A virtual UR controller (the UR simulator, its KinematicsInfo the demo robot's factory
+// calibration) moving the demo's virtual UR10, a virtual laser tracker (emScon) measuring the
+// reflector in the gripper at its TCP: a lab checking programs. The program goes to the
+// controller as text on the secondary interface, as a lab's PC sends it; the lab measures the
+// arm each time it stands at a new place (RTDE: ReadStampedJoints returns only while the arm
+// stands), and checks after measuring that it still stood there.
+class UrProgramLab {
+ public:
+  static constexpr double kTimeScale = 0.01;  // 100 times faster than physical time
+
+  UrProgramLab(const DemoRobot& r, const Eigen::Isometry3d& tool) : model_(r.model) {
+    model_.tool_mm = (r.model.flange * tool).translation();  // the reflector at the TCP
+    lab_ = std::make_unique<simulation::VirtualLab>(model_, r.truth.true_params, r.truth.world_from_base, 3);
+    lab_->SetJointErrors(r.truth.joint_errors);
+    simulation::VirtualStation lt1;
+    lt1.pose.id = "LT1";
+    lab_->AddStation(lt1);
+    simulation::EmsconSimulatorOptions t;
+    t.time_scale = 0.0;  // answers at once
+    t.seed = 11;
+    tracker_ = std::make_unique<simulation::EmsconSimulator>(*lab_, 0, "127.0.0.1", 0, t);
+    tracker_->Start();
+    instruments::EmsconOptions e;
+    e.measurement_time_ms = 20;
+    device_ = std::make_unique<instruments::EmsconDevice>(
+        instruments::MakeEmsconTcpTransport("127.0.0.1", tracker_->port()), instruments::RetryPolicy{}, e);
+    simulation::UrSimulatorOptions o;
+    o.model = r.truth.identity.model;
+    o.serial = r.truth.identity.serial;
+    o.kinematics = r.truth.kinematics;
+    o.home_rad = r.truth.home_rad;
+    o.time_scale = kTimeScale;
+    ur_ = std::make_unique<simulation::UrSimulator>(*lab_, o);
+    ur_->Start();
+    instruments::UrOptions u;
+    u.host = "127.0.0.1";
+    u.rtde_port = ur_->ports().rtde;
+    u.primary_port = ur_->ports().primary;
+    u.secondary_port = ur_->ports().secondary;
+    u.dashboard_port = ur_->ports().dashboard;
+    driver_ = std::make_unique<instruments::UrController>(u);
+  }
+
+  // Sends `program` to the controller and measures where the arm stands at each of the
+  // `targets` places it stops at, lab frame.
+  std::vector<Eigen::Vector3d> Run(const std::string& program, int targets) {
+    Eigen::VectorXd last = driver_->ReadJointsRad();  // where it stands before the program
+    {
+      boost::asio::io_context io;
+      boost::asio::ip::tcp::socket socket(io);
+      socket.connect({boost::asio::ip::make_address("127.0.0.1"), ur_->ports().secondary});
+      boost::asio::write(socket, boost::asio::buffer(program));
+    }  // a program runs on without the connection that sent it
+    std::vector<Eigen::Vector3d> landed;
+    for (int idle = 0; static_cast<int>(landed.size()) < targets && idle < 20000; ++idle) {
+      const instruments::StampedJoints at = driver_->ReadStampedJoints();
+      if ((at.joints_rad - last).cwiseAbs().maxCoeff() < 1e-9) continue;  // not moved on yet
+      const instruments::Reading reading = device_->Measure();
+      const instruments::StampedJoints after = driver_->ReadStampedJoints();
+      EXPECT_LT((after.joints_rad - at.joints_rad).cwiseAbs().maxCoeff(), 1e-12)
+          << "the arm left target " << landed.size() + 1 << " before the tracker had measured it";
+      if (!reading.point_in_instrument_mm) break;
+      landed.push_back(*reading.point_in_instrument_mm);
+      last = at.joints_rad;
+      idle = 0;
+    }
+    return landed;
+  }
+  simulation::UrSimulator& controller() { return *ur_; }
+
+ private:
+  calibration::RobotModel model_;
+  std::unique_ptr<simulation::VirtualLab> lab_;
+  std::unique_ptr<simulation::EmsconSimulator> tracker_;
+  std::unique_ptr<instruments::EmsconDevice> device_;
+  std::unique_ptr<simulation::UrSimulator> ur_;
+  std::unique_ptr<instruments::UrController> driver_;
+};
+
+TEST_F(ProgramsOnVirtualRobots, Ur10CompensatedUrScriptLandsWithinTheNoiseFloorOnTheUrController) {
+  const DemoRobot ur = Demo("ur10", "models/ur10.yaml");
+  CalibrateDemo("ur10", ur, 300, 12, /*six_dof=*/true);  // the gripper's TCP is 71 mm beyond the probe
+  // The controller's model: its factory calibration, as its KinematicsInfo tells it.
+  testing::WriteText(dir_.File("kinematics.yaml"), KinematicsYaml(ur.truth.kinematics));
+  const ControllerModel c = simulation::UrControllerModel(ur.truth.kinematics);
+
+  // A PolyScope-style program taught on the pendant (the waypoints' poses are the
+  // controller's forward kinematics at their taught joints): the TCP, waypoints as pose +
+  // joints, MoveL literals; at each target the arm waits 20 s for the tracker.
   Eigen::VectorXd centre(6);
   centre << 0.0, -1.2, 1.3, -1.6, -1.57, 0.0;
-  const auto taught = Taught(24, 13, centre, 0.35);
+  const auto taught = Taught(10, 13, centre, 0.35);
+  std::vector<Eigen::Vector3d> intended;
   std::string text = "def checked():\n  set_tcp(" + UrPose(Gripper()) + ")\n";
-  for (int k = 0; k < 6; ++k) {
+  for (int k = 0; k < 5; ++k) {
     text += fmt::format("  global Waypoint_{0}_p={1}\n  global Waypoint_{0}_q={2}\n", k + 1,
                         UrPose(programs::TcpPose(c, taught[static_cast<std::size_t>(k)], Gripper())),
                         UrJoints(taught[static_cast<std::size_t>(k)]));
   }
-  text += "  while (True):\n";
-  for (int k = 0; k < 6; ++k)
-    text += fmt::format("    movej(get_inverse_kin(Waypoint_{0}_p, qnear=Waypoint_{0}_q), a=1.39, v=1.04)\n", k + 1);
-  for (std::size_t k = 6; k < taught.size(); ++k)
-    text += "    movel(" + UrPose(programs::TcpPose(c, taught[k], Gripper())) + ", a=1.2, v=0.25)\n";
-  text += "    movej(" + UrJoints(taught[3]) + ")\n  end\nend\n";
+  for (int k = 0; k < 5; ++k) {
+    text += fmt::format("  movej(get_inverse_kin(Waypoint_{0}_p, qnear=Waypoint_{0}_q), a=1.39, v=1.04)\n  sleep(20.0)\n", k + 1);
+    intended.push_back(programs::TcpPose(c, taught[static_cast<std::size_t>(k)], Gripper()).translation());
+  }
+  for (std::size_t k = 5; k < taught.size(); ++k) {
+    const Eigen::Isometry3d pose = programs::TcpPose(c, taught[k], Gripper());
+    text += "  movel(" + UrPose(pose) + ", a=1.2, v=0.25)\n  sleep(20.0)\n";
+    intended.push_back(pose.translation());
+  }
+  text += "end\n";
   testing::WriteText(dir_.File("checked.script"), text);
 
-  const auto run = Compensate("ur10", dir_.File("checked.script"), dir_.File("compensated.script"));
+  const auto run = Compensate("ur10", dir_.File("checked.script"), dir_.File("compensated.script"), "",
+                              dir_.File("kinematics.yaml"));
   ASSERT_EQ(run.result.refused, 0) << FormatProgramCompensation(run);
-  ASSERT_EQ(run.result.targets.size(), 25u);
+  ASSERT_EQ(run.result.targets.size(), 10u);
   for (const auto& t : run.result.targets) {
     EXPECT_EQ(t.status, programs::TargetStatus::kOk) << t.why;
     // Inside what the set was fitted on, and promised to the tracker's noise.
@@ -214,35 +339,40 @@ TEST_F(ProgramsOnVirtualRobots, Ur10CompensatedUrScriptLandsWithinTheNoiseFloor)
   }
   ASSERT_EQ(run.written.size(), 1u);
   EXPECT_NE(run.volume.find("300 configurations"), std::string::npos) << run.volume;
-  EXPECT_NE(run.volume.find("stored with the set"), std::string::npos) << run.volume;
-
-  const auto original = programs::ParseUrScript({"checked.script", text});
-  const auto compensated = programs::ParseUrScript(ReadProgram({dir_.File("compensated.script")})[0]);
-  const simulation::VirtualCell cell{{model, truth}, LabFromBase(), {}, 0.0, 21};
-  const Landing before = Land(original, original, c, cell, taught[0]);
-  const Landing after = Land(compensated, original, c, cell, taught[0]);
-  EXPECT_EQ(after.targets, 25);
-  EXPECT_GT(before.mean_mm, 1.0);
-  EXPECT_LE(after.mean_mm, 0.05);
+  const std::string compensated = testing::ReadText(dir_.File("compensated.script"));
   // Only the targets' numbers changed: the lines are the same, in the same order.
-  EXPECT_EQ(std::count(text.begin(), text.end(), '\n'),
-            std::count(compensated.files[0].text.begin(), compensated.files[0].text.end(), '\n'));
-  std::cout << fmt::format("UR10 URScript: original {:.3f} mm mean ({:.3f} worst), compensated {:.4f} mm ({:.4f})\n",
-                           before.mean_mm, before.max_mm, after.mean_mm, after.max_mm);
+  EXPECT_EQ(std::count(text.begin(), text.end(), '\n'), std::count(compensated.begin(), compensated.end(), '\n'));
+
+  UrProgramLab lab(ur, Gripper());
+  const Landing before = Fit(lab.Run(text, 10), intended);
+  const Landing after = Fit(lab.Run(compensated, 10), intended);
+  EXPECT_EQ(lab.controller().programs_started(), 2);
+  EXPECT_EQ(after.targets, 10);
+  EXPECT_GT(before.mean_mm, 0.2);
+  EXPECT_LE(after.mean_mm, 0.05);
+  EXPECT_LT(after.mean_mm, 0.2 * before.mean_mm);
+  std::cout << fmt::format("UR10 URScript on the UR controller: original {:.3f} mm mean ({:.3f} worst), compensated "
+                           "{:.4f} mm ({:.4f})\n", before.mean_mm, before.max_mm, after.mean_mm, after.max_mm);
   RecordProperty("before_mean_mm", fmt::format("{:.3f}", before.mean_mm));
   RecordProperty("after_mean_mm", fmt::format("{:.4f}", after.mean_mm));
 }
 
+// A tool whose TCP is the calibration reflector's place (the model file's), unturned: where
+// a lab checks a program with the tracker's reflector in the tool.
+Eigen::Isometry3d ReflectorTool(const calibration::RobotModel& m) {
+  Eigen::Isometry3d t = Eigen::Isometry3d::Identity();
+  t.translation() = m.flange.inverse() * m.tool_mm;
+  return t;
+}
+
 TEST_F(ProgramsOnVirtualRobots, KukaCompensatedKrlLandsWithinTheNoiseFloor) {
-  // Position-only data: the TCP of the program's tool is the calibration reflector's place
-  // (150 mm out on the flange axis), where the set knows the arm.
-  auto model = simulation::KukaKr16Like();
-  Eigen::Isometry3d reflector = Eigen::Isometry3d::Identity();
-  reflector.translate(Eigen::Vector3d(0.0, 0.0, 150.0));
-  model.tool_mm = model.flange * reflector.translation();
-  const Eigen::VectorXd truth = Planted(model, 31);
-  Calibrate("kr16", model, truth, 300, 32, /*six_dof=*/false);
-  const ControllerModel c = programs::NominalController(model, ControllerKind::kKuka, "nominal kr16-like");
+  // The demo's KR 16-2, position-only data: the TCP of the program's tool is the calibration
+  // reflector's place (the model file's), where the set knows the arm.
+  const DemoRobot kuka = Demo("kuka", "models/kr16_2.yaml");
+  const calibration::RobotModel& model = kuka.model;
+  const Eigen::Isometry3d reflector = ReflectorTool(model);
+  CalibrateDemo("kr16", kuka, 300, 32, /*six_dof=*/false);
+  const ControllerModel c = programs::NominalController(model, ControllerKind::kKuka, "nominal kr16_2");
 
   Eigen::VectorXd centre(6);
   centre << 0.0, -1.3, 1.7, 0.6, 0.9, 0.6;  // A4 and A6 away from 0, where their Turn bits flip
@@ -291,21 +421,26 @@ TEST_F(ProgramsOnVirtualRobots, KukaCompensatedKrlLandsWithinTheNoiseFloor) {
   const programs::KrlControllerData config = programs::ParseKrlConfigDat({"$config.dat", testing::ReadText(dir_.File("$config.dat"))});
   const auto original = programs::ParseKrl({"checked.src", src}, programs::ProgramFile{"checked.dat", dat}, &config);
   const auto compensated = programs::ParseKrl(files[0], files[1], &config);
-  const simulation::VirtualCell cell{{model, truth}, LabFromBase(), {}, 0.0, 41};
+  const simulation::VirtualCell cell{{model, kuka.truth.true_params, kuka.truth.joint_errors},
+                                     kuka.truth.world_from_base, {}, 0.0, 41};
   const Landing before = Land(original, original, c, cell, taught[0]);
   const Landing after = Land(compensated, original, c, cell, taught[0]);
   EXPECT_EQ(after.targets, 21);
-  EXPECT_GT(before.mean_mm, 1.0);
+  EXPECT_GT(before.mean_mm, 0.2);
   EXPECT_LE(after.mean_mm, 0.05);
+  EXPECT_LT(after.mean_mm, 0.2 * before.mean_mm);
   std::cout << fmt::format("{}: original {:.3f} mm mean ({:.3f} worst), compensated {:.4f} mm ({:.4f})\n", "KUKA KRL",
                            before.mean_mm, before.max_mm, after.mean_mm, after.max_mm);
 }
 
 TEST_F(ProgramsOnVirtualRobots, AbbCompensatedRapidLandsWithinTheNoiseFloor) {
-  const auto model = simulation::AbbIrb4600Like();
-  const Eigen::VectorXd truth = Planted(model, 51);
-  Calibrate("irb4600", model, truth, 300, 52, /*six_dof=*/true);
-  const ControllerModel c = programs::NominalController(model, ControllerKind::kAbb, "nominal irb4600-like");
+  const DemoRobot abb = Demo("abb", "models/irb4600.yaml");
+  const calibration::RobotModel& model = abb.model;
+  CalibrateDemo("irb4600", abb, 300, 52, /*six_dof=*/true);
+  // The program's tool: the reflector's place. A gripper 200 mm from it lands 0.09 mm mean
+  // (0.21 worst) on this arm, not within the noise floor: see docs/how-to/compensate-programs.md.
+  const Eigen::Isometry3d tool = ReflectorTool(model);
+  const ControllerModel c = programs::NominalController(model, ControllerKind::kAbb, "nominal irb4600");
 
   Eigen::VectorXd centre(6);
   centre << 0.0, 0.3, -0.2, 0.0, 0.9, 0.0;
@@ -314,15 +449,15 @@ TEST_F(ProgramsOnVirtualRobots, AbbCompensatedRapidLandsWithinTheNoiseFloor) {
   Eigen::Isometry3d table = Eigen::Isometry3d::Identity();
   table.translate(Eigen::Vector3d(1200.0, -300.0, 400.0));
   table.rotate(Eigen::AngleAxisd(kPi / 2, Eigen::Vector3d::UnitZ()));
-  const Eigen::Quaterniond tq(Gripper().linear()), uq(table.linear());
+  const Eigen::Quaterniond tq(tool.linear()), uq(table.linear());
   std::string mod = fmt::format(
       "MODULE Checked\n  PERS tooldata tGripper:=[TRUE,[[{:.4f},{:.4f},{:.4f}],[{:.9f},{:.9f},{:.9f},{:.9f}]],"
       "[2,[0,0,100],[1,0,0,0],0,0,0]];\n  TASK PERS wobjdata wTable:=[FALSE,TRUE,\"\",[[{:.4f},{:.4f},{:.4f}],"
       "[{:.9f},{:.9f},{:.9f},{:.9f}]],[[0,0,0],[1,0,0,0]]];\n",
-      Gripper().translation().x(), Gripper().translation().y(), Gripper().translation().z(), tq.w(), tq.x(), tq.y(),
+      tool.translation().x(), tool.translation().y(), tool.translation().z(), tq.w(), tq.x(), tq.y(),
       tq.z(), table.translation().x(), table.translation().y(), table.translation().z(), uq.w(), uq.x(), uq.y(), uq.z());
   for (std::size_t k = 0; k < taught.size(); ++k) {
-    const Eigen::Isometry3d pose = table.inverse() * programs::TcpPose(c, taught[k], Gripper());
+    const Eigen::Isometry3d pose = table.inverse() * programs::TcpPose(c, taught[k], tool);
     const Eigen::Quaterniond q(pose.linear());
     const auto cf = programs::ConfigurationOf(c, taught[k]).abb_cf;
     mod += fmt::format("  CONST robtarget p{}:=[[{:.4f},{:.4f},{:.4f}],[{:.9f},{:.9f},{:.9f},{:.9f}],[{},{},{},{}],"
@@ -346,17 +481,147 @@ TEST_F(ProgramsOnVirtualRobots, AbbCompensatedRapidLandsWithinTheNoiseFloor) {
 
   const auto original = programs::ParseRapid({"Checked.mod", mod});
   const auto compensated = programs::ParseRapid(ReadProgram({dir_.File("Compensated.mod")})[0]);
-  const simulation::VirtualCell cell{{model, truth}, LabFromBase(), {}, 0.0, 61};
+  const simulation::VirtualCell cell{{model, abb.truth.true_params, abb.truth.joint_errors},
+                                     abb.truth.world_from_base, {}, 0.0, 61};
   const Landing before = Land(original, original, c, cell, taught[0]);
   const Landing after = Land(compensated, original, c, cell, taught[0]);
   EXPECT_EQ(after.targets, 21);
-  // The same planted errors leave less after the frame fit over this arm's smaller region
-  // of targets (0.4 mm): the compensated program still takes nine tenths of it off.
-  EXPECT_GT(before.mean_mm, 0.3);
+  EXPECT_GT(before.mean_mm, 0.2);
   EXPECT_LE(after.mean_mm, 0.05);
-  EXPECT_LT(after.mean_mm, 0.1 * before.mean_mm);
+  EXPECT_LT(after.mean_mm, 0.2 * before.mean_mm);
   std::cout << fmt::format("{}: original {:.3f} mm mean ({:.3f} worst), compensated {:.4f} mm ({:.4f})\n", "ABB RAPID",
                            before.mean_mm, before.max_mm, after.mean_mm, after.max_mm);
+}
+
+// The report's header states what the set promises: a set with a held-out figure among its
+// fit poses but none beside them (too few regions to hold out) says so in words, never "nan",
+// and the JSON has null there.
+TEST(ProgramCompensationReport, AHeldOutFigureNotMeasuredIsSaidNotPrintedAsNaN) {
+  ProgramCompensationRun run;
+  run.program = programs::ParseUrScript({"p.script", "movej([0, -1.57, 1.57, -1.57, -1.57, 0])\n"});
+  run.validity.term_arcs.resize(6);
+  run.validity.sigma_inside_mm = 0.052;
+  run.validity.coverage_inside = 0.95;
+  const std::string text = FormatProgramCompensation(run);
+  EXPECT_EQ(text.find("nan"), std::string::npos) << text;
+  EXPECT_NE(text.find("held out 0.052 mm inside the set's support (95 % within), not measured beside it"),
+            std::string::npos) << text;
+  const nlohmann::json json = ProgramCompensationJson(run, "ur10");
+  EXPECT_EQ(json["sigma_inside_mm"].get<double>(), 0.052);
+  EXPECT_TRUE(json["sigma_outside_mm"].is_null());
+}
+
+// ISO 9283 on the virtual UR10: the test cube's five points as a URScript program of 30
+// cycles, run as written and compensated, the robot's own repeatability 0.02 mm. The
+// program has no joints to start from: the compensation and the controller both take the
+// solution nearest all joints at zero (the controller's get_inverse_kin picks the nearest of
+// all solutions; a descent from the stretched elbow there may reach the other elbow, which
+// is how this program once ran on the other branch from the one compensated: AP 0.71 mm).
+TEST_F(ProgramsOnVirtualRobots, Iso9283PoseAccuracyOfACompensatedUrScriptCube) {
+  const DemoRobot ur = Demo("ur10", "models/ur10.yaml");
+  const calibration::RobotModel& model = ur.model;
+  CalibrateDemo("ur10", ur, 300, 72, /*six_dof=*/true);
+  const ControllerModel c = programs::NominalController(model, ControllerKind::kUniversalRobots, "nominal ur10");
+  const calibration::iso9283::TestCube cube{{0.0, -650.0, 350.0}, 300.0};
+  const auto points = calibration::iso9283::TestPoints(cube);
+  Eigen::Isometry3d down = Eigen::Isometry3d::Identity();  // the TCP pointing down, as PolyScope teaches
+  down.linear() = Eigen::AngleAxisd(kPi, Eigen::Vector3d::UnitX()).toRotationMatrix();
+  const Eigen::VectorXd start = Eigen::VectorXd::Zero(6);
+  std::string text = "def iso9283_cube():\n  set_tcp(" + UrPose(Gripper()) + ")\n";
+  for (const auto& p : points) {
+    down.translation() = p.position_mm;
+    text += "  global " + p.name + " = " + UrPose(down) + "\n";
+  }
+  text += "  cycle = 0\n  while (cycle < 30):\n";
+  for (int index : calibration::iso9283::kCycleOrder) text += "    movel(" + points[static_cast<std::size_t>(index)].name + ")\n";
+  text += "    cycle = cycle + 1\n  end\nend\n";
+  testing::WriteText(dir_.File("cube.script"), text);
+  const auto run = Compensate("ur10", dir_.File("cube.script"), dir_.File("cube-compensated.script"));
+  ASSERT_EQ(run.result.refused, 0) << FormatProgramCompensation(run);
+  ASSERT_EQ(run.result.targets.size(), 5u);
+  for (const auto& t : run.result.targets) EXPECT_TRUE(t.inside_support) << t.support;
+
+  const simulation::TrueRobot true_robot{model, ur.truth.true_params, ur.truth.joint_errors};
+  struct Figures {
+    double ap_mm = 0.0;           // iso9283 figures of the tracker's samples, mean of the five points
+    double independent_mm = 0.0;  // the same from the samples' barycentres by Eigen's Umeyama fit
+    double true_mm = 0.0;         // of where the true robot lands, noise-free
+  };
+  auto evaluate = [&](const programs::Program& program) {
+    std::vector<calibration::iso9283::PointData> data(points.size());
+    for (std::size_t k = 0; k < points.size(); ++k) {
+      data[k].name = points[k].name;
+      data[k].commanded_mm = points[k].position_mm;
+    }
+    // Each cycle the controller starts from where the last one ended; the first from zero.
+    const simulation::Execution first = simulation::RunProgram(program, c, start);
+    const simulation::Execution pass = simulation::RunProgram(program, c, first.targets.back().joints_rad);
+    EXPECT_EQ(pass.targets.size(), 5u);
+    for (std::size_t k = 0; k < pass.targets.size(); ++k)  // the same joints in every cycle
+      EXPECT_LT((pass.targets[k].joints_rad - first.targets[k].joints_rad).cwiseAbs().maxCoeff(), 1e-9);
+    for (int cycle = 0; cycle < 30; ++cycle) {
+      const simulation::VirtualCell cell{true_robot, ur.truth.world_from_base, {}, 0.02, static_cast<unsigned>(100 + cycle)};
+      const auto measured = simulation::MeasureLandings(cell, pass);
+      for (std::size_t k = 0; k < pass.targets.size(); ++k) {
+        const std::string& name = program.targets[static_cast<std::size_t>(pass.targets[k].target)].name;
+        for (auto& d : data)
+          if (d.name == name) d.samples.push_back({cycle, 0, measured[k], std::nullopt});
+      }
+    }
+    Figures f;
+    const Iso9283Evaluation e = EvaluateIso9283(data, /*align=*/true);
+    for (const auto& p : e.points) {
+      f.ap_mm += p.ap_mm / 5.0;
+      EXPECT_LT(p.rp_mm, 0.15) << p.name;  // the robot's own repeatability
+    }
+    // Independently: the barycentres, fitted rigidly (Umeyama, no scale) onto the commanded
+    // points; and the true robot's own landings (no noise) fitted the same way.
+    auto ap = [&](const std::vector<Eigen::Vector3d>& attained) {
+      Eigen::Matrix3Xd from(3, 5), to(3, 5);
+      for (std::size_t k = 0; k < 5; ++k) {
+        from.col(static_cast<Eigen::Index>(k)) = attained[k];
+        to.col(static_cast<Eigen::Index>(k)) = data[k].commanded_mm;
+      }
+      const Eigen::Matrix4d t = Eigen::umeyama(from, to, false);
+      double mean = 0.0;
+      for (std::size_t k = 0; k < 5; ++k)
+        mean += ((t.topLeftCorner<3, 3>() * attained[k] + t.topRightCorner<3, 1>()) - data[k].commanded_mm).norm() / 5.0;
+      return mean;
+    };
+    std::vector<Eigen::Vector3d> barycentres, landed(5);
+    for (const auto& d : data) {
+      Eigen::Vector3d sum = Eigen::Vector3d::Zero();
+      for (const auto& s : d.samples) sum += s.position_mm;
+      barycentres.push_back(sum / static_cast<double>(d.samples.size()));
+    }
+    for (std::size_t k = 0; k < pass.targets.size(); ++k) {
+      const std::string& name = program.targets[static_cast<std::size_t>(pass.targets[k].target)].name;
+      for (std::size_t i = 0; i < 5; ++i)
+        if (data[i].name == name) landed[i] = simulation::TrueTcp(true_robot, pass.targets[k].tool, pass.targets[k].joints_rad).translation();
+    }
+    f.independent_mm = ap(barycentres);
+    f.true_mm = ap(landed);
+    return f;
+  };
+  const Figures before = evaluate(programs::ParseUrScript({"cube.script", text}));
+  const Figures after =
+      evaluate(programs::ParseUrScript(ReadProgram({dir_.File("cube-compensated.script")})[0]));
+  EXPECT_NEAR(before.ap_mm, before.independent_mm, 1e-6);
+  EXPECT_NEAR(after.ap_mm, after.independent_mm, 1e-6);
+  // ISO 9283's alignment takes the frame out over a 300 mm cube: what is left of the hidden
+  // errors there is 0.16 mm; compensated, the true robot lands within the set's own held-out
+  // error (0.01 mm per coordinate) and the AP measured is at the noise floor of 30 cycles
+  // (barycentres within 0.005 mm per axis: repeatability 0.02 mm and the tracker's 0.02 mm at
+  // 2.9 m, over √30).
+  EXPECT_GT(before.true_mm, 0.1);
+  EXPECT_GT(before.ap_mm, 0.1);
+  EXPECT_LT(after.true_mm, 0.02);
+  EXPECT_LT(after.ap_mm, 0.03);
+  EXPECT_LT(after.ap_mm, 0.1 * before.ap_mm);
+  std::cout << fmt::format("ISO 9283 cube, URScript: AP {:.3f} mm before, {:.4f} mm compensated (true landings {:.3f} "
+                           "and {:.4f} mm)\n", before.ap_mm, after.ap_mm, before.true_mm, after.true_mm);
+  RecordProperty("ap_before_mm", fmt::format("{:.3f}", before.ap_mm));
+  RecordProperty("ap_after_mm", fmt::format("{:.4f}", after.ap_mm));
 }
 
 }  // namespace
