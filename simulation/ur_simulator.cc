@@ -585,6 +585,11 @@ void UrSimulator::StartProgram(const ConnectionPtr& c, const std::string& text) 
     refuse(std::string("compile error: ") + e.what());
     return;
   }
+  if (text.compare(text.find_first_not_of(" \t"), 4, "sec ") == 0 && !program.motions.empty()) {
+    // A secondary program runs beside the main one and may not move the arm.
+    refuse(fmt::format("line {}: a secondary program cannot move the robot", program.motions.front().place.line));
+    return;
+  }
   const VirtualArm::State now = arm_->Now();
   const Execution run = simulation::RunProgram(program, UrControllerModel(kinematics), now.q);
   if (!run.skipped.empty()) {
