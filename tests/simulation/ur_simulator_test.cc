@@ -433,6 +433,15 @@ TEST_F(UrFixture, AProgramItCannotReadIsAnsweredAndNotRun) {
   ASSERT_TRUE(moving.back().text);
   EXPECT_NE(moving.back().text->find("line 2: a secondary program cannot move"), std::string::npos)
       << *moving.back().text;
+  // A program whose end never comes: dropped, and said so, past 1 MiB.
+  std::string endless = "def endless():\n";
+  while (endless.size() <= (1u << 20)) endless += "  textmsg(\"waiting\")\n";
+  const auto dropped = SendProgram(sim_->ports().primary, endless, [](const instruments::ur::primary::Message& m) {
+    return m.message_type == instruments::ur::primary::kRuntimeExceptionMessage;
+  });
+  ASSERT_FALSE(dropped.empty());
+  ASSERT_TRUE(dropped.back().text);
+  EXPECT_NE(dropped.back().text->find("does not end within 1 MiB"), std::string::npos) << *dropped.back().text;
   EXPECT_EQ(sim_->programs_started(), 0);
   EXPECT_EQ(sim_->moves(), 0);
 }
