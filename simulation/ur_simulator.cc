@@ -34,6 +34,8 @@ constexpr auto kPhysicsPeriod = std::chrono::milliseconds(4);
 // Writes queued beyond this on a slow reader's connection: a state or data message is
 // dropped instead (the controller does not wait for a client).
 constexpr size_t kMaxQueued = 64;
+// A program longer than this without its end is dropped (and said so).
+constexpr std::size_t kMaxProgramBytes = 1 << 20;
 // A protective stop unlocks 5 s after it happened at the earliest (the dashboard's answer).
 constexpr double kUnlockAfterS = 5.0;
 
@@ -531,6 +533,13 @@ void UrSimulator::OnScript(const ConnectionPtr& c, const std::string& line) {
   if (c->program_depth > 0 || StartsProgram(line)) {  // a program: its lines until its end
     c->program += line + "\n";
     c->program_depth += BlockChange(line);
+    if (c->program.size() > kMaxProgramBytes) {  // no end in sight: not a program it takes
+      c->program.clear();
+      c->program_depth = 0;
+      Queue(c, primary::EncodeText(Microseconds(), primary::kRuntimeExceptionMessage,
+                                   "compile error: the program does not end within 1 MiB"));
+      return;
+    }
     if (c->program_depth > 0) return;
     std::string text = std::move(c->program);
     c->program.clear();
@@ -583,6 +592,11 @@ void UrSimulator::StartProgram(const ConnectionPtr& c, const std::string& text) 
     program = programs::ParseUrScript({"<program>", text});
   } catch (const std::exception& e) {
     refuse(std::string("compile error: ") + e.what());
+    return;
+  }
+  if (text.compare(text.find_first_not_of(" \t"), 4, "sec ") == 0 && !program.motions.empty()) {
+    // A secondary program runs beside the main one and may not move the arm.
+    refuse(fmt::format("line {}: a secondary program cannot move the robot", program.motions.front().place.line));
     return;
   }
   const VirtualArm::State now = arm_->Now();

@@ -15,19 +15,20 @@
 //     each `movej([…], a=…, v=…)` moving the arm (simulation/joint_motion.h: a trapezoid on
 //     the leading joint, in physical time); any other line answered with a runtime exception
 //     message; on an e-Series in local control a script is not run;
-//   - a whole program sent on either ("def name():" … its "end", or "sec"), as the "Client
-//     Interface" document and URScript manual describe it: the controller takes the lines up
-//     to the program's own end, compiles it (programs/urscript.h: a program it cannot read is
-//     answered with a runtime exception message naming line and column, and not run) and runs
-//     it in place of any program running. Its motions (movej, movel, movep, movec, with
-//     literals, waypoints and variables, set_tcp) in the order written, each Cartesian target
-//     through the controller's inverse kinematics on ITS kinematics (the KinematicsInfo
-//     below, programs/controller.h, the solution nearest the joints it stands at or a
-//     waypoint's q) — simulation/program_runner.h — and its `sleep(t)` calls, where the arm
-//     stands still for t physical seconds. Not simulated: the program's control flow (a loop
-//     runs once, a branch's motions all run), a motion's path between targets (every motion
-//     moves as a movej at its default a = 1.4 rad/s², v = 1.05 rad/s: only where it stops is
-//     checked) and blending (every target is reached and stopped at, as with r = 0);
+//   - a whole program sent on either ("def name():" … its "end"; "sec name():" a secondary
+//     program, which may not move the arm), as the "Client Interface" document and the
+//     URScript manual describe it: the controller takes the lines up to the program's own
+//     end, compiles it (programs/urscript.h: a program it cannot read is answered with a
+//     runtime exception message naming line and column, and not run) and runs it in place of
+//     any program running. Its motions (movej, movel, movep, movec, with literals, waypoints
+//     and variables, set_tcp) in the order written, each Cartesian target through the
+//     controller's inverse kinematics on ITS kinematics (the KinematicsInfo below,
+//     programs/controller.h, the solution nearest the joints it stands at or a waypoint's
+//     q) — simulation/program_runner.h — and its `sleep(t)` calls, where the arm stands still
+//     for t physical seconds. Not simulated: the program's control flow (a loop runs once, a
+//     branch's motions all run), a motion's path between targets (every motion moves as a
+//     movej at its default a = 1.4 rad/s², v = 1.05 rad/s: only where it stops is checked)
+//     and blending (every target is reached and stopped at, as with r = 0);
 //   - the dashboard server: PolyscopeVersion, robotmode, safetymode, safetystatus (e-Series
 //     5.4+), is in remote control (5.6+), get robot model / get serial number (CB3 3.12+,
 //     e-Series 5.6+), close safety popup, unlock protective stop (5 s after the stop at the

@@ -410,8 +410,9 @@ TEST_F(UrFixture, AWholeProgramSentAsTextRunsItsMotionsInOrder) {
   EXPECT_EQ(sim_->scripts(), 1);  // one program, however many lines
 }
 
-// A program the controller cannot compile is answered on the interface it came by with a
-// runtime exception message naming the place, and not run.
+// A program the controller cannot compile, or a secondary program that would move the arm,
+// is answered on the interface it came by with a runtime exception message naming the place,
+// and not run.
 TEST_F(UrFixture, AProgramItCannotReadIsAnsweredAndNotRun) {
   Start();
   const auto got = SendProgram(sim_->ports().primary, "def bad():\n  textmsg(\"never ends)\n  movej([0,0,0,0,0,0])\nend\n",
@@ -422,6 +423,25 @@ TEST_F(UrFixture, AProgramItCannotReadIsAnsweredAndNotRun) {
   ASSERT_TRUE(got.back().text);
   EXPECT_NE(got.back().text->find("compile error"), std::string::npos) << *got.back().text;
   EXPECT_NE(got.back().text->find(":2:"), std::string::npos) << *got.back().text;  // line 2
+  // A secondary program that would move the arm: refused as the controller refuses it.
+  const auto moving = SendProgram(sim_->ports().secondary,
+                                  "sec s():\n  movej([0, -1.57, 1.57, -1.57, -1.57, 0])\nend\n",
+                                  [](const instruments::ur::primary::Message& m) {
+                                    return m.message_type == instruments::ur::primary::kRuntimeExceptionMessage;
+                                  });
+  ASSERT_FALSE(moving.empty());
+  ASSERT_TRUE(moving.back().text);
+  EXPECT_NE(moving.back().text->find("line 2: a secondary program cannot move"), std::string::npos)
+      << *moving.back().text;
+  // A program whose end never comes: dropped, and said so, past 1 MiB.
+  std::string endless = "def endless():\n";
+  while (endless.size() <= (1u << 20)) endless += "  textmsg(\"waiting\")\n";
+  const auto dropped = SendProgram(sim_->ports().primary, endless, [](const instruments::ur::primary::Message& m) {
+    return m.message_type == instruments::ur::primary::kRuntimeExceptionMessage;
+  });
+  ASSERT_FALSE(dropped.empty());
+  ASSERT_TRUE(dropped.back().text);
+  EXPECT_NE(dropped.back().text->find("does not end within 1 MiB"), std::string::npos) << *dropped.back().text;
   EXPECT_EQ(sim_->programs_started(), 0);
   EXPECT_EQ(sim_->moves(), 0);
 }
