@@ -3,7 +3,10 @@
 #include <fmt/format.h>
 
 #include <algorithm>
+#include <array>
 #include <cmath>
+#include <set>
+#include <stdexcept>
 #include <vector>
 
 #include "calibration/pose_solver.h"
@@ -213,36 +216,48 @@ InverseSolution ControllerInverse(const ControllerModel& c, const InverseRequest
   options.max_iterations = 200;
   const bool limits = static_cast<int>(model.joint_min_rad.size()) == n &&
                       static_cast<int>(model.joint_max_rad.size()) == n;
-  auto within = [&](const Eigen::VectorXd& q) {
+  auto within = [&](const auto& q) {
     for (int i = 0; i < n && limits; ++i)
       if (q(i) < model.joint_min_rad[static_cast<std::size_t>(i)] - 1e-9 ||
           q(i) > model.joint_max_rad[static_cast<std::size_t>(i)] + 1e-9)
         return false;
     return true;
   };
-  std::vector<Eigen::VectorXd> found;
-  auto add = [&](Eigen::VectorXd q) {
-    // Every turn of 2π of each joint its limits allow (about the solution as found).
-    std::vector<Eigen::VectorXd> variants = {q};
+  // The solutions as found (each once, on a grid of 1 µrad), and on demand every variant of
+  // one: each joint turned by whole turns its limits allow. A UR10's joints turn ±2π, so a
+  // solution has up to 3⁶ variants: storing them all, and flipping and comparing each,
+  // made the 632 goals of the real series D take minutes under the sanitizers.
+  using Small = Eigen::Matrix<double, Eigen::Dynamic, 1, 0, 8, 1>;
+  if (n > 8) throw std::invalid_argument("ControllerInverse: more than 8 joints");
+  auto for_each_variant = [&](const Eigen::VectorXd& q, const auto& visit) {
+    std::vector<Small> variants;
+    variants.reserve(729);
+    variants.emplace_back(q);
     for (int i = 0; i < n; ++i) {
-      std::vector<Eigen::VectorXd> more;
-      for (const auto& v : variants) {
+      const std::size_t before = variants.size();
+      for (std::size_t k = 0; k < before; ++k) {
         for (int turn : {-2, -1, 1, 2}) {
-          Eigen::VectorXd w = v;
+          Small w = variants[k];
           w(i) += turn * 2 * kPi;
           if (limits && w(i) >= model.joint_min_rad[static_cast<std::size_t>(i)] - 1e-9 &&
               w(i) <= model.joint_max_rad[static_cast<std::size_t>(i)] + 1e-9)
-            more.push_back(w);
+            variants.push_back(w);
         }
       }
-      variants.insert(variants.end(), more.begin(), more.end());
     }
     for (const auto& v : variants) {
-      if (!within(v)) continue;
-      bool known = false;
-      for (const auto& f : found) known = known || (f - v).cwiseAbs().maxCoeff() < 1e-6;
-      if (!known) found.push_back(v);
+      if (within(v)) visit(v);
     }
+  };
+  std::vector<Eigen::VectorXd> found;
+  std::set<std::array<long long, 8>> known;
+  auto add = [&](const Eigen::VectorXd& q) {
+    std::array<long long, 8> key{};
+    for (int i = 0; i < n; ++i) key[static_cast<std::size_t>(i)] = std::llround(q(i) * 1e6);
+    if (!known.insert(key).second) return;
+    bool usable = false;
+    for_each_variant(q, [&](const Small&) { usable = true; });
+    if (usable) found.push_back(q);
   };
   auto solve = [&](const Eigen::VectorXd& seed) {
     const auto s = calibration::SolvePose(model, Eigen::Isometry3d::Identity(), zero,
@@ -260,13 +275,16 @@ InverseSolution ControllerInverse(const ControllerModel& c, const InverseRequest
   auto pick = [&]() -> std::optional<Eigen::VectorXd> {
     std::optional<Eigen::VectorXd> best;
     double best_distance = INFINITY;
-    for (const auto& q : found) {
-      if (!Matches(request.stated, ConfigurationOf(c, q))) continue;
-      const double d = request.near_rad ? (q - *request.near_rad).norm() : q.norm();
-      if (d < best_distance) {
-        best_distance = d;
-        best = q;
-      }
+    for (const auto& base : found) {
+      for_each_variant(base, [&](const Small& v) {
+        const Eigen::VectorXd q = v;
+        if (!Matches(request.stated, ConfigurationOf(c, q))) return;
+        const double d = request.near_rad ? (q - *request.near_rad).norm() : q.norm();
+        if (d < best_distance) {
+          best_distance = d;
+          best = q;
+        }
+      });
     }
     return best;
   };
