@@ -123,6 +123,23 @@ std::string StoredDigest(const db::StoredCalibration& c) {
              : std::string();
 }
 
+// Whether a stored set was fitted on the same measurements as this night: the same sessions
+// and as many poses (sessions only grow; the same ones re-reduced are the same robot too).
+bool SameMeasurements(const db::StoredCalibration& c, const std::vector<int64_t>& sessions,
+                      size_t poses) {
+  const auto stored = nlohmann::json::parse(c.inputs_json.empty() ? "{}" : c.inputs_json, nullptr,
+                                            false);
+  if (!stored.is_object() || !stored.contains("sessions") || !stored["sessions"].is_array() ||
+      !stored.contains("poses") || !stored["poses"].is_number_unsigned())
+    return false;
+  std::vector<int64_t> theirs;
+  for (const auto& s : stored["sessions"]) {
+    if (!s.is_number_integer()) return false;
+    theirs.push_back(s.get<int64_t>());
+  }
+  return theirs == sessions && stored["poses"].get<size_t>() == poses;
+}
+
 // "2026-11-27T02:30:00.123Z" → "2026-11-27 02:30 UTC".
 std::string ShortTime(const std::string& iso) {
   if (iso.size() < 16) return iso;
@@ -700,6 +717,7 @@ class NightlyJob {
   std::string floor_started_at_;
   std::vector<db::StoredCalibration> history_;
   std::optional<db::StoredCalibration> current_;
+  size_t input_poses_ = 0;  // the poses this night fits and validates on
   std::vector<Eigen::VectorXd> spread_;
   // The configurations two sets are compared on: spread_, kept where both sets were fitted
   // (their terms' arcs), else the window's configurations there (DriftConfigurations).
@@ -1354,8 +1372,17 @@ void NightlyJob::CompareWithActive() {
   // new region, which the set could not judge) changes what the fit covers: the two sets then
   // differ without the robot having changed, and only the sessions can say it did.
   const bool sets_differ = m.significant && m.max_mm > m.tolerance_mm;
-  d_.drift = (sets_differ && !extended_) || d_.change.has_value();
+  // The same measurements fitted again (another --params, --select, residual model) cannot
+  // show the robot changed: whatever differs is the model's.
+  const bool same_measurements = SameMeasurements(*current_, d_.sessions, input_poses_);
+  d_.drift = (sets_differ && !extended_ && !same_measurements) || d_.change.has_value();
   d_.model_drift = m;
+  if (sets_differ && same_measurements && !d_.change) {
+    Log(fmt::format("the new set differs from version {} by up to {:.3f} mm on the same "
+                    "measurements (sessions and poses): another model (--params {} against {}), "
+                    "not a change of the robot: not called drift",
+                    current_->version, m.max_mm, o_.params, current_->params_spec));
+  }
   if (sets_differ && extended_ && !d_.change) {
     Log(fmt::format("the new set differs from version {} by up to {:.3f} mm where both were "
                     "fitted, but this night extends the fit to configurations version {} never "
@@ -1570,6 +1597,7 @@ RecalibrationDecision NightlyJob::Run() {
                       (o_.orientation == "auto" ? "" : "|orientation=" + o_.orientation) +
                       (o_.tool_rotation == "per-session" ? "" : "|tool-rotation=" + o_.tool_rotation),
                   o_.select);
+  input_poses_ = poses.size();
   nlohmann::json inputs = {{"digest", digest},         {"poses", poses.size()},
                            {"sessions", d_.sessions},  {"since", since_},
                            {"params", o_.params},      {"select", o_.select},
