@@ -103,6 +103,9 @@ class RobotChangeLock {
 void RenameRobot(db::Database& database, const std::string& name, const std::string& new_name,
                  const std::string& reason) {
   if (new_name.empty()) throw InputError({"NEW_NAME", 0, 0, ""}, "a robot needs a name");
+  if (new_name == name) {
+    throw InputError({"NEW_NAME", 0, 0, ""}, "robot " + Quoted(name) + " has that name already");
+  }
   const RobotChangeLock old_name(database, name), taken(database, new_name);
   db::RenameRobot(database, name, new_name, reason, CurrentUser());
 }
@@ -131,6 +134,10 @@ std::string MoveSession(db::Database& database, int64_t session_id, const std::s
                      fmt::format("session {} holds {}-joint configurations of robot {}; robot {} "
                                  "has {} joints: nothing was moved",
                                  session_id, from, Quoted(session->robot), Quoted(robot), to));
+  }
+  if (session->robot == robot) {
+    throw InputError({database.path(), 0, 0, "sessions"},
+                     "session " + std::to_string(session_id) + " is robot " + robot + "'s already");
   }
   const RobotChangeLock from_lock(database, session->robot), to_lock(database, robot);
   return db::MoveSession(database, session_id, robot, reason, CurrentUser());

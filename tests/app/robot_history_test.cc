@@ -58,6 +58,9 @@ TEST(RobotHistory, RenameMoveRemoveAndRestoreKeepEveryRowAndSayWhoAndWhy) {
             std::string::npos)
       << taken.err;
   EXPECT_EQ(RunArmsig(db + "robot rename nosuch x").exit_code, 2);
+  const auto same = RunArmsig(db + "robot rename puma-b puma-b");  // no wait on its own lock
+  EXPECT_EQ(same.exit_code, 2);
+  EXPECT_NE(same.err.find("robot 'puma-b' has that name already"), std::string::npos) << same.err;
   {  // A night's run of the robot under way (its lock held): nothing changes under it.
     const io::FileLock night(workflows::RobotLockPath(path, "puma-cell3"), 1);
     const auto busy = RunArmsig(db + "robot rename puma-cell3 other");
@@ -80,6 +83,9 @@ TEST(RobotHistory, RenameMoveRemoveAndRestoreKeepEveryRowAndSayWhoAndWhy) {
   EXPECT_NE(moved.out.find("session 1 moved from robot puma-cell3 to robot puma-b"),
             std::string::npos)
       << moved.out;
+  const auto again = RunArmsig(db + "session move 1 --robot puma-b");  // no wait on its own lock
+  EXPECT_EQ(again.exit_code, 2);
+  EXPECT_NE(again.err.find("session 1 is robot puma-b's already"), std::string::npos) << again.err;
   const auto sessions = nlohmann::json::parse(RunArmsig(db + "sessions --json").out);
   ASSERT_EQ(sessions.size(), 1u);
   EXPECT_EQ(sessions[0]["robot"], "puma-b");
