@@ -26,7 +26,10 @@ struct LifecycleOptions {
 
 }  // namespace
 
-void SetupLifecycleCommands(CLI::App& parent, const GlobalOptions& global, Runner& run) {
+namespace {
+
+// armsig robot add | list | rename | remove | restore | history
+void SetupRobotCommands(CLI::App& parent, const GlobalOptions& global, Runner& run) {
   auto* robot = parent.add_subcommand("robot", "Register, list, rename and remove robots, with their history");
   robot->require_subcommand(1);
   {
@@ -105,8 +108,13 @@ void SetupLifecycleCommands(CLI::App& parent, const GlobalOptions& global, Runne
     std::cout << workflows::FormatRobotHistory(database, o->name, o->json);
     return kOk;
   });
+}
 
-  o = std::make_shared<LifecycleOptions>();
+}  // namespace
+
+void SetupLifecycleCommands(CLI::App& parent, const GlobalOptions& global, Runner& run) {
+  SetupRobotCommands(parent, global, run);
+  auto o = std::make_shared<LifecycleOptions>();
   auto* sessions = parent.add_subcommand("sessions", "List the measurement sessions");
   NameOption(sessions->add_option("--robot", o->robot, "Only this robot's"));
   sessions->add_flag("--json", o->json, "Machine-readable output");

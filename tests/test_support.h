@@ -143,11 +143,10 @@ inline pid_t SpawnQuietly(std::vector<std::string> args) {
   return child;
 }
 
-// Starts the armsig binary with `args`, its stdout and stderr into the files `out` and `err`
-// (TMPDIR set to `tmpdir` when given); the child's pid.
-inline pid_t SpawnArmsig(std::vector<std::string> args, const std::string& out,
-                         const std::string& err, const std::string& tmpdir = "") {
-  args.insert(args.begin(), ARMSIG_BINARY);
+// Starts args[0] with `args`, its stdout and stderr into the files `out` and `err` (TMPDIR
+// set to `tmpdir` when given); the child's pid.
+inline pid_t Spawn(std::vector<std::string> args, const std::string& out, const std::string& err,
+                   const std::string& tmpdir = "") {
   std::fflush(nullptr);  // nothing buffered is written twice
   const pid_t child = ::fork();
   if (child == 0) {
@@ -161,6 +160,12 @@ inline pid_t SpawnArmsig(std::vector<std::string> args, const std::string& out,
     _exit(127);
   }
   return child;
+}
+// The same for the armsig binary: `args` are its arguments.
+inline pid_t SpawnArmsig(std::vector<std::string> args, const std::string& out,
+                         const std::string& err, const std::string& tmpdir = "") {
+  args.insert(args.begin(), ARMSIG_BINARY);
+  return Spawn(std::move(args), out, err, tmpdir);
 }
 
 inline calibration::RobotModel Puma() {

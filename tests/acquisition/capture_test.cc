@@ -126,25 +126,6 @@ std::string Text(db::Database& db, const std::string& sql) {
   return q->Step() ? q->Text(0) : std::string();
 }
 
-// Starts args[0] with args, output to /dev/null; returns its pid (−1 on failure).
-// Starts args[0] with args, stdout and stderr to files, TMPDIR set when given; returns
-// its pid (−1 on failure).
-pid_t Spawn(std::vector<std::string> args, const std::string& out, const std::string& err,
-            const std::string& tmpdir = "") {
-  const pid_t child = ::fork();
-  if (child == 0) {
-    std::vector<char*> argv;
-    for (auto& a : args) argv.push_back(a.data());
-    argv.push_back(nullptr);
-    ::dup2(::open(out.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0600), 1);
-    ::dup2(::open(err.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0600), 2);
-    if (!tmpdir.empty()) ::setenv("TMPDIR", tmpdir.c_str(), 1);
-    ::execv(argv[0], argv.data());
-    _exit(127);
-  }
-  return child;
-}
-
 // The command after "resume with: " in a log, "" when there is none.
 std::string ResumeHint(const std::string& log) {
   const std::string marker = "resume with: ";
@@ -741,7 +722,7 @@ TEST_F(VirtualLabFixture, CtrlCAtRandomMomentsLeavesAResumableSession) {
   int waited_sessions = 0, sessions = 0, paused = 0;
   for (int round = 0; round < 6; ++round) {
     const std::string db = dir_.File("ctrl-c-" + std::to_string(round) + ".db");
-    const pid_t child = Spawn({binary, "--db", db, "capture", "--lab", dir_.File("lab.yaml"),
+    const pid_t child = testing::Spawn({binary, "--db", db, "capture", "--lab", dir_.File("lab.yaml"),
                                "--plan", "auto:12", "--robot", "puma"},
                               dir_.File("out"), dir_.File("err"));
     ASSERT_GE(child, 0);
@@ -1134,7 +1115,7 @@ TEST_F(VirtualLabFixture, CtrlCDuringAFloodEndsTheCaptureAtOnce) {
   std::string yaml = testing::ReadText(dir_.File("lab.yaml"));
   yaml.replace(yaml.find("timeout_ms: 300"), 15, "timeout_ms: 5000");
   testing::WriteText(dir_.File("slow.yaml"), yaml);
-  const pid_t child = Spawn({ARMSIG_BINARY, "--db", Db(), "capture", "--lab", dir_.File("slow.yaml"),
+  const pid_t child = testing::Spawn({ARMSIG_BINARY, "--db", Db(), "capture", "--lab", dir_.File("slow.yaml"),
                              "--plan", "auto:40", "--robot", "puma"},
                             dir_.File("out"), dir_.File("err"));
   ASSERT_GE(child, 0);
