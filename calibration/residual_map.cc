@@ -52,21 +52,28 @@ class FlushDenormals {
 #endif
 };
 
-// Runs body(f) for f = 0 … count−1 on up to `threads` threads.
+// Runs body(f, worker) for f = 0 … count−1 on up to `threads` threads; `worker` (0 … threads−1)
+// names the thread, for buffers of its own.
 template <typename Body>
-void ParallelFor(int count, int threads, const Body& body) {
+void ParallelForWorkers(int count, int threads, const Body& body) {
   threads = std::min(threads, count);
   if (threads <= 1) {
-    for (int f = 0; f < count; ++f) body(f);
+    for (int f = 0; f < count; ++f) body(f, 0);
     return;
   }
   std::vector<std::thread> workers;
   for (int t = 0; t < threads; ++t) {
     workers.emplace_back([&, t] {
-      for (int f = t; f < count; f += threads) body(f);
+      for (int f = t; f < count; f += threads) body(f, t);
     });
   }
   for (auto& w : workers) w.join();
+}
+
+// Runs body(f) for f = 0 … count−1 on up to `threads` threads.
+template <typename Body>
+void ParallelFor(int count, int threads, const Body& body) {
+  ParallelForWorkers(count, threads, [&](int f, int) { body(f); });
 }
 
 }  // namespace
@@ -492,6 +499,13 @@ class MapFitter {
   Eigen::MatrixXd half_d2_;             // half squared feature distances, mt × mt
   std::vector<std::vector<int>> fold_rows_, train_rows_;  // per fold: in it, and not
   std::map<int, Eigen::MatrixXf> kernels_;                // by ℓ index, the few most recent
+  // Per cross-validation worker: the fold's kernel matrix (factorised in place) and its
+  // cross-kernel, sized once for the largest fold and reused by every grid point: a fresh
+  // matrix of a thousand poses each time was 4 MB of new pages to fault in and clear.
+  struct FoldBuffers {
+    Eigen::MatrixXf a, kft;
+  };
+  std::vector<FoldBuffers> fold_buffers_;
   std::map<std::pair<int, int>, Score> scored_;
   // Joint curves: per training pose and curve joint, the bumps under its angle and the
   // joint's lever ∂x/∂θ_j in the map frame (mt × curve joints, row-major).
@@ -807,11 +821,26 @@ MapFitter::Score MapFitter::CrossValidate(int li, int ri, std::vector<double>* d
   const float lambda = static_cast<float>(options_.regularisations[ri]);
   std::vector<double> sum(folds_, 0.0), sum_sq(folds_, 0.0);
   std::vector<char> failed(folds_, 0);
-  ParallelFor(folds_, options_.threads, [&](int f) {
+  const int workers = std::max(1, std::min(options_.threads, folds_));
+  if (static_cast<int>(fold_buffers_.size()) != workers) {
+    size_t most_train = 0, most_test = 0;
+    for (int f = 0; f < folds_; ++f) {
+      most_train = std::max(most_train, train_rows_[f].size());
+      most_test = std::max(most_test, fold_rows_[f].size());
+    }
+    fold_buffers_.resize(workers);
+    for (auto& b : fold_buffers_) {
+      b.a.resize(most_train, most_train);
+      b.kft.resize(most_test, most_train);
+    }
+  }
+  ParallelForWorkers(folds_, workers, [&](int f, int worker) {
     const FlushDenormals flush;
     const std::vector<int>& tr = train_rows_[f];
     const std::vector<int>& te = fold_rows_[f];
-    Eigen::MatrixXf a(tr.size(), tr.size()), kft(te.size(), tr.size());
+    const Eigen::Index n = static_cast<Eigen::Index>(tr.size());
+    Eigen::Ref<Eigen::MatrixXf> a = fold_buffers_[worker].a.topLeftCorner(n, n);
+    auto kft = fold_buffers_[worker].kft.topLeftCorner(static_cast<Eigen::Index>(te.size()), n);
     Eigen::MatrixXf y(tr.size(), 3);
     for (size_t c = 0; c < tr.size(); ++c) {
       for (size_t r = 0; r < tr.size(); ++r) a(r, c) = k(tr[r], tr[c]);
@@ -819,7 +848,7 @@ MapFitter::Score MapFitter::CrossValidate(int li, int ri, std::vector<double>* d
       y.row(c) = (-refit_[f].row(tr[c])).cast<float>();
     }
     a.diagonal().array() += lambda;
-    const Eigen::LLT<Eigen::MatrixXf> llt(a);
+    const Eigen::LLT<Eigen::Ref<Eigen::MatrixXf>> llt(a);  // in place: a holds the factor
     if (llt.info() != Eigen::Success) {
       failed[f] = 1;
       return;
@@ -884,6 +913,7 @@ bool MapFitter::SearchGrid() {
   result_.cv_mean_mm_with_map = best.mean;
   CrossValidate(li, ri, &result_.cv_distances_mm);
   kernels_.clear();
+  fold_buffers_.clear();
   result_.cv_poses = train_;
   return true;
 }
