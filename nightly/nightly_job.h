@@ -108,6 +108,7 @@ class NightlyJob {
   void Fit(const std::vector<MeasuredPose>& poses);
   void JudgeGates();
   void CompareWithActive();
+  void CompareOnSameData(const Signature& old);
   void TryElsewhere();
   void DriftConfigurations(const Signature& old);
   void Store(const nlohmann::json& inputs);

@@ -11,6 +11,35 @@
 
 namespace armsig::workflows::nightly {
 
+namespace {
+
+// The sessions a stored set was fitted on (its inputs' "sessions").
+std::set<int64_t> OwnSessions(const db::StoredCalibration& set) {
+  std::set<int64_t> own;
+  const auto inputs = nlohmann::json::parse(set.inputs_json, nullptr, false);
+  if (inputs.is_object() && inputs.contains("sessions") && inputs["sessions"].is_array()) {
+    for (const auto& id : inputs["sessions"]) {
+      if (id.is_number_integer()) own.insert(id.get<int64_t>());
+    }
+  }
+  return own;
+}
+
+// A session's verdict against the active set.
+SessionVerdict VerdictOf(const db::SessionSummary& session, const calibration::SessionTest& t) {
+  SessionVerdict v;
+  v.session = session.id;
+  v.started_at = session.started_at;
+  v.poses = t.poses;
+  v.mean_mm = t.mean_mm;
+  v.disagrees = t.poses > 0 && t.disagrees;
+  v.p_value = t.p_value;
+  v.effect_max_mm = t.effect_max_mm;
+  return v;
+}
+
+}  // namespace
+
 // Every session of the window against the active set, its own measuring frame placed:
 // where does the robot stop agreeing with it, and why?
 void NightlyJob::TestAgainstActive() {
@@ -30,15 +59,7 @@ void NightlyJob::TestAgainstActive() {
   // The reference: the active set refitted on every configuration of its own sessions
   // still in the window (what they say the robot is, not the selection its fit used), with
   // the scatter those sessions show between them.
-  std::set<int64_t> own;
-  {
-    const auto inputs = nlohmann::json::parse(current_->inputs_json, nullptr, false);
-    if (inputs.is_object() && inputs.contains("sessions") && inputs["sessions"].is_array()) {
-      for (const auto& id : inputs["sessions"]) {
-        if (id.is_number_integer()) own.insert(id.get<int64_t>());
-      }
-    }
-  }
+  const std::set<int64_t> own = OwnSessions(*current_);
   std::vector<MeasuredPose> reference_poses;
   for (const auto& w : window_) {
     if (own.count(w.summary.id))
@@ -109,14 +130,7 @@ void NightlyJob::TestAgainstActive() {
                     w.summary.id, inside.size(), w.poses.size(), current_->version);
     }
     const auto t = against(inside);
-    SessionVerdict v;
-    v.session = w.summary.id;
-    v.started_at = w.summary.started_at;
-    v.poses = t.poses;
-    v.mean_mm = t.mean_mm;
-    v.disagrees = t.poses > 0 && t.disagrees;
-    v.p_value = t.p_value;
-    v.effect_max_mm = t.effect_max_mm;
+    const SessionVerdict v = VerdictOf(w.summary, t);
     spdlog::debug(
         "recalibrate: session {} ({} configurations) against version {}: mean {:.4f} mm; most "
         "significant cause changes it by up to {:.3f} mm, p = {:.2g}: {}",
@@ -279,14 +293,12 @@ void NightlyJob::TryElsewhere() {
   }
 }
 
-// The new set against the active one: on the same validation data (a gate), and by the
-// positions both predict over the work volume (drift), the difference named by its causes.
-void NightlyJob::CompareWithActive() {
-  if (!current_ || !run_->estimate.status.ok()) return;
+// The active set on the new fit's validation data (a gate): not worse than it by more than
+// the tolerance.
+void NightlyJob::CompareOnSameData(const Signature& old) {
   // The current set on the same validation data, each session's base re-aligned on that
   // session's fit poses (the measuring frame moves between set-ups; the arm signature
   // does not), as the new fit placed each frame on them.
-  const Signature old = SignatureOf(model_, *current_);
   calibration::FrameBases old_bases = calibration::AlignFrameBases(model_, old.params, fit_);
   {
     std::vector<MeasuredPose> unplaced;
@@ -340,6 +352,14 @@ void NightlyJob::CompareWithActive() {
                   "on the same data",
                   current_->version);
   }
+}
+
+// The new set against the active one: on the same validation data (a gate), and by the
+// positions both predict over the work volume (drift), the difference named by its causes.
+void NightlyJob::CompareWithActive() {
+  if (!current_ || !run_->estimate.status.ok()) return;
+  const Signature old = SignatureOf(model_, *current_);
+  CompareOnSameData(old);
   // Drift: do the two models put the arm in different places, beyond what both fits'
   // uncertainty explains and by more than the tolerance?
   const CalibrationRun& run = *run_;

@@ -275,6 +275,48 @@ class Outage {
   int tries_ = 0;
 };
 
+// Records a job's outcome in the queue and counts it (throws DatabaseError when the queue's
+// server is gone: the caller records it again once it is back).
+void RecordOutcome(db::Connection& queue, const std::string& worker, const db::Job& job,
+                   const Outcome& outcome, const WorkerOptions& options, WorkerSummary& summary,
+                   std::mutex& mutex) {
+  if (outcome.interrupted) {
+    const bool ours = db::Requeue(
+        queue, job.id, worker,
+        fmt::format("attempt {} was interrupted by the infrastructure, queued again: {}",
+                    job.attempts, outcome.error));
+    std::lock_guard lock(mutex);
+    if (ours)
+      ++summary.interrupted;
+    else
+      ++summary.lost;
+    spdlog::warn("worker {}: job {} ({}): {}: {}", worker, job.id, job.robot,
+                 ours ? "interrupted by the infrastructure, handed back to the queue"
+                      : "interrupted, and its lease went to another worker meanwhile",
+                 outcome.error);
+    return;
+  }
+  const bool recorded = db::Finish(queue, job.id, worker, outcome.state, outcome.result_json,
+                                   outcome.summary, outcome.error, outcome.version);
+  const auto finished = db::FindJob(queue, job.id);
+  std::lock_guard lock(mutex);
+  if (!recorded) {
+    ++summary.lost;
+    spdlog::warn(
+        "worker {}: job {} ({}): finished after its lease went to another worker; this "
+        "run's outcome ({}) is not recorded with the job",
+        worker, job.id, job.robot, db::ToString(outcome.state));
+    return;
+  }
+  if (outcome.state == db::JobState::kDone) ++summary.done;
+  if (outcome.state == db::JobState::kRejected) ++summary.rejected;
+  if (outcome.state == db::JobState::kFailed) {
+    ++summary.failed;
+    spdlog::error("worker {}: job {} ({}) failed: {}", worker, job.id, job.robot, outcome.error);
+  }
+  if (options.on_finished && finished) options.on_finished(*finished);
+}
+
 }  // namespace
 
 WorkerSummary RunWorker(const WorkerOptions& options) {
@@ -289,45 +331,9 @@ WorkerSummary RunWorker(const WorkerOptions& options) {
   std::exception_ptr error;
   std::atomic<bool> abort{false};
 
-  // Records a job's outcome in the queue (throws DatabaseError when the queue's server is
-  // gone: the caller records it again once it is back).
   auto record = [&](db::Connection& queue, const std::string& worker, const db::Job& job,
                     const Outcome& outcome) {
-    if (outcome.interrupted) {
-      const bool ours = db::Requeue(
-          queue, job.id, worker,
-          fmt::format("attempt {} was interrupted by the infrastructure, queued again: {}",
-                      job.attempts, outcome.error));
-      std::lock_guard lock(mutex);
-      if (ours)
-        ++summary.interrupted;
-      else
-        ++summary.lost;
-      spdlog::warn("worker {}: job {} ({}): {}: {}", worker, job.id, job.robot,
-                   ours ? "interrupted by the infrastructure, handed back to the queue"
-                        : "interrupted, and its lease went to another worker meanwhile",
-                   outcome.error);
-      return;
-    }
-    const bool recorded = db::Finish(queue, job.id, worker, outcome.state, outcome.result_json,
-                                     outcome.summary, outcome.error, outcome.version);
-    const auto finished = db::FindJob(queue, job.id);
-    std::lock_guard lock(mutex);
-    if (!recorded) {
-      ++summary.lost;
-      spdlog::warn(
-          "worker {}: job {} ({}): finished after its lease went to another worker; this "
-          "run's outcome ({}) is not recorded with the job",
-          worker, job.id, job.robot, db::ToString(outcome.state));
-      return;
-    }
-    if (outcome.state == db::JobState::kDone) ++summary.done;
-    if (outcome.state == db::JobState::kRejected) ++summary.rejected;
-    if (outcome.state == db::JobState::kFailed) {
-      ++summary.failed;
-      spdlog::error("worker {}: job {} ({}) failed: {}", worker, job.id, job.robot, outcome.error);
-    }
-    if (options.on_finished && finished) options.on_finished(*finished);
+    RecordOutcome(queue, worker, job, outcome, options, summary, mutex);
   };
 
   auto loop = [&](int index) {
