@@ -1,5 +1,5 @@
 // The nightly job's private parts, shared by its sources: the gates and limits it judges
-// by, the helpers its steps share, and the job itself (recalibrate.cc: reading, fitting,
+// by, the helpers its steps share, and the job itself (nightly_job.cc: reading, fitting,
 // storing and reporting a night; recalibrate_compare.cc: the window and the new set against
 // the active set; recalibrate_decision.cc: the decision's text and JSON). Not an interface:
 // nightly/recalibrate.h is.
@@ -72,7 +72,7 @@ struct WindowSession {
   db::SessionSummary summary;
   std::vector<MeasuredPose> poses;
 };
-// Configurations a run of sessions needs for a fit of its own (recalibrate.cc).
+// Configurations a run of sessions needs for a fit of its own (nightly_job.cc).
 int PosesNeeded(int identified, int sessions);
 // The time `days` before now as session start times are stored (UTC, ISO 8601).
 std::string DaysAgoUtc(int days);

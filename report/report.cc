@@ -13,11 +13,6 @@
 
 namespace armsig::workflows {
 
-std::string ReportSetMarker(const std::string& robot, int version) {
-  if (version <= 0) return "";
-  return HtmlFormat("<meta name=\"armsig-set\" content=\"{} {}\">\n", robot, version).str();
-}
-
 int RemoveReportDebris(const std::string& dir, double min_age_s) {
   namespace fs = std::filesystem;
   std::error_code error;

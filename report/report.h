@@ -27,10 +27,6 @@ std::string WriteReport(const std::string& dir, const ReportInput& input);
 // `input.run` and `input.model` are not used. Returns the page's path.
 std::string WriteDecisionReport(const std::string& dir, const ReportInput& input);
 
-// The text index.html carries to say which robot's which version it reports (a <meta>
-// element of its head); "" for a run that stored nothing.
-std::string ReportSetMarker(const std::string& robot, int version);
-
 // Removes the temporary files (NAME.tmp.XXXXXX, io/atomic_file.h) of the report's own
 // files left in DIR by a writer that died, when older than `min_age_s`. Returns how many.
 int RemoveReportDebris(const std::string& dir, double min_age_s);

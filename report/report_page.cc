@@ -10,7 +10,6 @@
 
 #include "calibration/statistics.h"
 #include "core/wording.h"
-#include "report/report.h"
 
 namespace armsig::workflows {
 
@@ -38,6 +37,11 @@ ReportData::ReportData(const ReportInput& input) : in(input), model(*input.model
   }
   trend_refusal = TemperatureTrendRefusal(temperatures);
   if (trend_refusal.empty()) trend = LinearTrendOf(temperatures, temperature_errors);
+}
+
+std::string ReportSetMarker(const std::string& robot, int version) {
+  if (version <= 0) return "";
+  return HtmlFormat("<meta name=\"armsig-set\" content=\"{} {}\">\n", robot, version).str();
 }
 
 ReportBanner BannerOf(const ReportInput& in) {

@@ -40,6 +40,10 @@ struct ReportBanner {
 ReportBanner BannerOf(const ReportInput& in);
 // <head> (with the set marker and the print stylesheet), the title, the banner and the
 // decision.
+// The text index.html carries to say which robot's which version it reports (a <meta>
+// element of its head); "" for a run that stored nothing.
+std::string ReportSetMarker(const std::string& robot, int version);
+
 Html PageStart(const ReportInput& in);
 // Where the numbers come from: date, version, robot, parameter set, sessions,
 // instruments, the orientations' σ0 (equal ones said once), rank, condition number,

@@ -1,4 +1,6 @@
-#include "nightly/recalibrate.h"
+// The nightly job's run (nightly/recalibrate.h): open and lock, read the window, fit,
+// judge, store, report; and --since read as an instant.
+#include "nightly/nightly_job.h"
 
 #include <fmt/format.h>
 #include <fmt/ranges.h>
@@ -40,7 +42,6 @@
 #include "io/file_lock.h"
 #include "io/model_yaml.h"
 #include "io/time_stamp.h"
-#include "nightly/nightly_job.h"
 #include "workflows/calibration_run.h"
 #include "workflows/hint.h"
 #include "workflows/lifecycle.h"
