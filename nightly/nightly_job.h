@@ -18,6 +18,7 @@
 #include "calibration/change.h"
 #include "calibration/model.h"
 #include "db/database.h"
+#include "db/jobs.h"
 #include "db/robots.h"
 #include "db/store.h"
 #include "io/file_lock.h"
