@@ -65,7 +65,7 @@ int64_t CreateSession(db::Database& db, const io::LabConfig& lab, const std::str
     }
   }
   const int64_t robot_id = db::EnsureRobot(db, robot, lab.model.name, lab.model_yaml);
-  const int64_t session = db::CreateSession(db, robot_id, lab.text, PlanToJson(plan), "running",
+  const int64_t session = db::CreateSession(db, robot_id, lab.text, PlanToJson(plan), db::SessionState::kRunning,
                                             "capture from " + lab.source);
   db::SetSessionOwner(db, session, ThisProcess());  // running: in this process
   // A plan that says where every target is meant to be is an ISO 9283 test (`iso9283 plan`):
@@ -249,7 +249,7 @@ void CaptureRun::SetUp() {
   done_ = std::set<int>(stored.begin(), stored.end());
   summary_.already = static_cast<int>(done_.size());
   db::SetSessionOwner(db_, session_, ThisProcess());
-  db::SetSessionState(db_, session_, "running");
+  db::SetSessionState(db_, session_, db::SessionState::kRunning);
   for (size_t i = 0; i < devices_.size(); ++i) {
     for (const auto& s : lab_.stations) {
       if (s.pose.id == lab_.instruments[i].station) station_of_[i] = &s;
@@ -850,7 +850,7 @@ CaptureSummary CaptureRun::Finish() {
   if (any_beam_) summary_.beam_base = predictor_.Describe();
   if (!summary_.paused && !summary_.stopped) {
     summary_.completed = true;
-    db::SetSessionState(db_, session_, "completed");
+    db::SetSessionState(db_, session_, db::SessionState::kCompleted);
   }
   return summary_;
 }
@@ -864,7 +864,7 @@ CaptureSummary CaptureRun::Run() {
     // configuration, the session paused as at any other stop.
     if (!Stopping()) throw;
     summary_.stopped = true;
-    db::SetSessionState(db_, session_, "paused");
+    db::SetSessionState(db_, session_, db::SessionState::kPaused);
     return Finish();
   }
   const bool stored_points_wrong = PauseUnlessFollowing(
@@ -874,7 +874,7 @@ CaptureSummary CaptureRun::Run() {
     if (done_.count(seq)) continue;
     if (Stopping()) {
       summary_.stopped = true;
-      db::SetSessionState(db_, session_, "paused");
+      db::SetSessionState(db_, session_, db::SessionState::kPaused);
       break;
     }
     const PlannedConfiguration& target = plan_[seq];
@@ -882,14 +882,14 @@ CaptureSummary CaptureRun::Run() {
     if (outcome.stopped && !outcome.accepted) {
       // Nothing of this configuration is stored: --resume measures it again.
       summary_.stopped = true;
-      db::SetSessionState(db_, session_, "paused");
+      db::SetSessionState(db_, session_, db::SessionState::kPaused);
       break;
     }
     if (!outcome.accepted && (!options_.skip_on_fault || outcome.controller_fault)) {
       summary_.paused = true;
       summary_.pause_reason = "configuration " + target.label + " (" + std::to_string(seq + 1) +
                               " of " + std::to_string(plan_.size()) + "): " + outcome.fault;
-      db::SetSessionState(db_, session_, "paused");
+      db::SetSessionState(db_, session_, db::SessionState::kPaused);
       break;
     }
     const bool not_following = Store(seq, target, outcome);

@@ -66,12 +66,13 @@ OwnerState StateOf(const db::SessionOwner& owner) {
   return owner.started.empty() || token == owner.started ? OwnerState::kAlive : OwnerState::kGone;
 }
 
-std::string DisplayState(const std::string& stored_state,
+std::string DisplayState(db::SessionState stored_state,
                          const std::optional<db::SessionOwner>& owner) {
-  if (stored_state == "aborted") return "discarded";  // its measurements are not used
-  if (stored_state != "running") return stored_state;
+  using db::SessionState;
+  if (stored_state == SessionState::kAborted) return "discarded";  // its measurements are not used
+  if (stored_state != SessionState::kRunning) return db::ToString(stored_state);
   if (!owner) return "interrupted";
-  return StateOf(*owner) == OwnerState::kGone ? "interrupted" : stored_state;
+  return StateOf(*owner) == OwnerState::kGone ? "interrupted" : db::ToString(stored_state);
 }
 
 void ClaimSession(db::Database& db, int64_t session) {
@@ -79,7 +80,7 @@ void ClaimSession(db::Database& db, int64_t session) {
   const auto row = db::LoadSession(db, session);
   if (!row) throw InputError({db.path(), 0, 0, ""}, fmt::format("no session {}", session));
   const db::SessionOwner me = ThisProcess();
-  if (row->state == "running" && row->owner && !(*row->owner == me)) {
+  if (row->state == db::SessionState::kRunning && row->owner && !(*row->owner == me)) {
     const auto& o = *row->owner;
     switch (StateOf(o)) {
       case OwnerState::kAlive:
@@ -101,7 +102,7 @@ void ClaimSession(db::Database& db, int64_t session) {
     }
   }
   db::SetSessionOwner(db, session, me);
-  db::SetSessionState(db, session, "running");
+  db::SetSessionState(db, session, db::SessionState::kRunning);
   tx.commit();
 }
 

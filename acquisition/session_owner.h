@@ -28,7 +28,7 @@ OwnerState StateOf(const db::SessionOwner& owner);
 // The state `sessions` shows: a `running` session whose owner is not alive (or was never
 // recorded, before schema v4) is `interrupted`; an `aborted` one is `discarded` (its
 // measurements are not used); other states are as stored.
-std::string DisplayState(const std::string& stored_state,
+std::string DisplayState(db::SessionState stored_state,
                          const std::optional<db::SessionOwner>& owner);
 
 // Makes this process the owner of `session` and marks it running, in one write

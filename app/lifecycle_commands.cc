@@ -157,8 +157,8 @@ void SetupLifecycleCommands(CLI::App& parent, const GlobalOptions& global, Runne
       session->add_subcommand("restore", "Use a discarded session's measurements again");
   NumberOption(restore->add_option("id", o->session, "Session id"), 1, kMaxId)->required();
   OnExistingDatabase(restore, global, run, [o = o](db::Database& database) {
-    const std::string state = workflows::RestoreSession(database, o->session);
-    std::cout << fmt::format("session {} restored ({})\n", o->session, state);
+    const db::SessionState state = workflows::RestoreSession(database, o->session);
+    std::cout << fmt::format("session {} restored ({})\n", o->session, db::ToString(state));
     return kOk;
   });
 

@@ -103,7 +103,7 @@ void AddRobots(db::Database& db, int robots, int configurations) {
     }
     db::WriteTransaction tx(db);
     const int64_t robot = db::EnsureRobot(db, "r" + std::to_string(r), "puma760", PumaYaml());
-    const int64_t session = db::CreateSession(db, robot, "", "", "completed", "bench");
+    const int64_t session = db::CreateSession(db, robot, "", "", db::SessionState::kCompleted, "bench");
     for (int i = 0; i < configurations; ++i) {
       const int64_t pose =
           db::InsertPose(db, session, i, poses[i].id, poses[i].joints_rad, "measured", 1);
@@ -183,7 +183,7 @@ void BM_ConcurrentWriters(benchmark::State& state) {
     for (const char* station : {"S1", "S2", "S3"}) db::EnsureStation(db, station);
     const int64_t robot = db::EnsureRobot(db, "puma", "puma760", PumaYaml());
     for (int w = 0; w < writers; ++w)
-      sessions.push_back(db::CreateSession(db, robot, "", "", "running", "writer"));
+      sessions.push_back(db::CreateSession(db, robot, "", "", db::SessionState::kRunning, "writer"));
     tx.commit();
   }
   int next_seq = 0;
@@ -261,12 +261,12 @@ void BM_Push(benchmark::State& state) {
       int64_t session = 0;
       {
         db::WriteTransaction tx(db);
-        session = db::CreateSession(db, robot, "", "", "running", "cell");
+        session = db::CreateSession(db, robot, "", "", db::SessionState::kRunning, "cell");
         tx.commit();
       }
       for (int i = 0; i < kConfigurations; ++i) StoreConfiguration(db, session, i, pose);
       db::WriteTransaction tx(db);
-      db::SetSessionState(db, session, "completed");
+      db::SetSessionState(db, session, db::SessionState::kCompleted);
       tx.commit();
     }
   }

@@ -25,7 +25,7 @@ std::string SessionStore(int64_t poses, int64_t& session) {
   db::Database database(path);
   db::WriteTransaction tx(database);
   const int64_t robot = db::EnsureRobot(database, "bench", "", "");
-  session = db::CreateSession(database, robot, "", "", "completed", "bench");
+  session = db::CreateSession(database, robot, "", "", db::SessionState::kCompleted, "bench");
   std::mt19937 rng(1);
   std::uniform_real_distribution<double> u(-1.0, 1.0);
   for (int64_t k = 0; k < poses; ++k) {

@@ -104,7 +104,7 @@ void AddRobot(db::Database& db, const std::string& name, int count, unsigned see
                                  calibration::LabTestConfigurations(model, rng), 0.01, rng);
   db::WriteTransaction tx(db);
   const int64_t robot = db::EnsureRobot(db, name, "puma760", yaml);
-  const int64_t session = db::CreateSession(db, robot, "", "", "completed", "bench");
+  const int64_t session = db::CreateSession(db, robot, "", "", db::SessionState::kCompleted, "bench");
   for (int i = 0; i < count && i < static_cast<int>(poses.size()); ++i) {
     const int64_t pose =
         db::InsertPose(db, session, i, poses[i].id, poses[i].joints_rad, "measured", 1);

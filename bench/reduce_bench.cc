@@ -23,7 +23,7 @@ std::string MakeDatabase(int64_t observations) {
   db::Database database(path);
   db::WriteTransaction tx(database);
   const int64_t robot = db::EnsureRobot(database, "bench", "", "");
-  const int64_t session = db::CreateSession(database, robot, "", "", "completed", "bench");
+  const int64_t session = db::CreateSession(database, robot, "", "", db::SessionState::kCompleted, "bench");
   const Eigen::Vector3d positions[3] = {{3500, 0, 1500}, {-1750, 3000, 1400}, {-1750, -3000, 1600}};
   const double azimuths[3] = {0.3, 2.2, 4.1};
   for (int s = 0; s < 3; ++s) {

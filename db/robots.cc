@@ -2,6 +2,7 @@
 
 #include "core/error.h"
 #include "db/schema.h"
+#include "db/sessions.h"
 #include "db/sql_util.h"
 
 namespace armsig::db {
@@ -168,13 +169,14 @@ std::string MoveSession(Database& db, int64_t session_id, const std::string& to,
     throw InputError({db.path(), 0, 0, "sessions"}, "no session " + std::to_string(session_id));
   }
   const int64_t from_id = q->Int(0);
-  const std::string from = q->Text(1), state = q->Text(2);
+  const std::string from = q->Text(1);
+  const SessionState state = SessionStateOf(q->Text(2));
   q.reset();
   if (from_id == target.id) {
     throw InputError({db.path(), 0, 0, "sessions"},
                      "session " + std::to_string(session_id) + " is robot " + to + "'s already");
   }
-  if (state == "running") {
+  if (state == SessionState::kRunning) {
     throw InputError({db.path(), 0, 0, "sessions"},
                      "session " + std::to_string(session_id) +
                          " is being captured: pause or end it before moving it");

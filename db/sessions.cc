@@ -18,9 +18,27 @@ std::string FinishedAtSql(Database& db) {
 
 }  // namespace
 
+const char* ToString(SessionState state) {
+  switch (state) {
+    case SessionState::kRunning: return "running";
+    case SessionState::kPaused: return "paused";
+    case SessionState::kCompleted: return "completed";
+    case SessionState::kAborted: return "aborted";
+  }
+  return "running";
+}
+
+SessionState SessionStateOf(const std::string& text) {
+  for (SessionState s : {SessionState::kRunning, SessionState::kPaused, SessionState::kCompleted,
+                         SessionState::kAborted}) {
+    if (text == ToString(s)) return s;
+  }
+  throw std::invalid_argument("session state '" + text +
+                              "': expected running, paused, completed or aborted");
+}
+
 int64_t CreateSession(Database& db, int64_t robot_id, const std::string& lab_yaml,
-                      const std::string& plan_json, const std::string& state,
-                      const std::string& note) {
+                      const std::string& plan_json, SessionState state, const std::string& note) {
   auto s = Sql(db,
                "INSERT INTO sessions(robot_id, lab_yaml, plan_json, state, note, finished_at) "
                "VALUES (?,?,?,?,?, " +
@@ -28,9 +46,9 @@ int64_t CreateSession(Database& db, int64_t robot_id, const std::string& lab_yam
   s->Bind(1, robot_id);
   s->Bind(2, lab_yaml);
   s->Bind(3, plan_json);
-  s->Bind(4, state);
+  s->Bind(4, std::string(ToString(state)));
   s->Bind(5, note);
-  s->Bind(6, state);
+  s->Bind(6, std::string(ToString(state)));
   return InsertedId(*s, db.path() + ": a session");
 }
 
@@ -51,11 +69,11 @@ void SetSessionKind(Database& db, int64_t session_id, const std::string& kind) {
   s->Step();
 }
 
-void SetSessionState(Database& db, int64_t session_id, const std::string& state) {
+void SetSessionState(Database& db, int64_t session_id, SessionState state) {
   auto s = Sql(db, "UPDATE sessions SET state = ?, finished_at = " + FinishedAtSql(db) +
                        " WHERE id = ?");
-  s->Bind(1, state);
-  s->Bind(2, state);
+  s->Bind(1, std::string(ToString(state)));
+  s->Bind(2, std::string(ToString(state)));
   s->Bind(3, session_id);
   s->Execute();
 }
@@ -144,7 +162,7 @@ void ReadSession(const Statement& q, SessionRow& out) {
   out.robot = q.Text(1);
   out.lab_yaml = q.Text(2);
   out.plan_json = q.Text(3);
-  out.state = q.Text(4);
+  out.state = SessionStateOf(q.Text(4));  // the schema's CHECK allows no other word
   out.note = q.Text(5);
   out.started_at = q.Text(6);
   out.finished_at = q.Text(7);

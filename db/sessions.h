@@ -13,11 +13,18 @@
 
 namespace armsig::db {
 
-// A session created `completed` (an import) is finished at once: finished_at is set.
+// A session's state as stored (sessions.state): running while a process captures it, paused
+// (resumable), completed, aborted (discarded: its measurements are not used).
+enum class SessionState { kRunning, kPaused, kCompleted, kAborted };
+// The stored word: "running", "paused", "completed", "aborted".
+const char* ToString(SessionState state);
+// The state a stored word names; std::invalid_argument for another word.
+SessionState SessionStateOf(const std::string& text);
+
+// A session created completed (an import) is finished at once: finished_at is set.
 int64_t CreateSession(Database& db, int64_t robot_id, const std::string& lab_yaml,
-                      const std::string& plan_json, const std::string& state,
-                      const std::string& note);
-void SetSessionState(Database& db, int64_t session_id, const std::string& state);
+                      const std::string& plan_json, SessionState state, const std::string& note);
+void SetSessionState(Database& db, int64_t session_id, SessionState state);
 // What a session was measured for (schema v13): `calibration` (the default: the nightly job
 // fits it), `test` (an ISO 9283 test: never fitted unless asked), `check` (data to judge a
 // set where it was not fitted). std::invalid_argument for another word.
@@ -47,7 +54,8 @@ struct SessionRow {
   int64_t id = 0;
   std::string robot;
   std::string lab_yaml, plan_json;  // "" when none was stored (imported poses)
-  std::string state, note;
+  SessionState state = SessionState::kRunning;
+  std::string note;
   std::string started_at, finished_at;  // ISO-8601 UTC; finished_at "" while not finished
   std::string kind = "calibration";     // calibration | test | check
   std::optional<SessionOwner> owner{};  // absent when none was recorded

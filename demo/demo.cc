@@ -529,7 +529,7 @@ void DemoRun::OpenResumedSession() {
   stored_plan_ = acquisition::PlanFromJson(
       row->plan_json, {database_->path(), "sessions", options_.resume_session, "plan_json"});
   stored_lab_yaml_ = row->lab_yaml;
-  if (row->state != "completed") {
+  if (row->state != db::SessionState::kCompleted) {
     // Refused while another live process runs it (exit 2, naming the pid).
     acquisition::ClaimSession(*database_, options_.resume_session);
   }

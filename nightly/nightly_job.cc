@@ -324,11 +324,11 @@ void NightlyJob::SelectWindow(const std::vector<db::SessionSummary>& sessions,
   std::vector<WindowSession> candidates;
   for (const auto& s : sessions) {
     if (!since_.empty() && s.started_at < since_) continue;
-    if (s.state == "aborted") {
+    if (s.state == db::SessionState::kAborted) {
       Log(fmt::format("session {} is discarded ({}): left out", s.id, s.note));
       continue;
     }
-    if (s.state == "running" && s.owner &&
+    if (s.state == db::SessionState::kRunning && s.owner &&
         acquisition::StateOf(*s.owner) != acquisition::OwnerState::kGone) {
       Log(fmt::format("session {} is still being captured (process {} on {}): left out until "
                       "it is finished",

@@ -120,7 +120,8 @@ ReportSources LoadSessionSources(db::Database& db,
   std::map<std::pair<std::string, std::string>, std::vector<int64_t>> instruments;
   for (const auto& s : db::LoadSessionSummaries(db, ids)) {
     const auto [fitted, validated] = counts.at(s.id);
-    out.sessions.push_back({s.id, s.started_at, s.finished_at, s.state, s.note, fitted, validated});
+    out.sessions.push_back(
+        {s.id, s.started_at, s.finished_at, db::ToString(s.state), s.note, fitted, validated});
     // Each instrument once: what the lab file said of a station (protocol, port, sigmas) and
     // what the instrument said of itself when it stood there (name, serial, firmware) are
     // one line, "station LT1: AT960 391234".

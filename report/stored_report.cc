@@ -196,7 +196,7 @@ StoredRun StoredRunOf(db::Database& database, int64_t robot_id, const db::Stored
     std::vector<std::string> discarded;
     const std::vector<int64_t> ids(out.missing_sessions.begin(), out.missing_sessions.end());
     for (const auto& s : db::LoadSessionSummaries(database, ids)) {
-      if (s.state == "aborted") discarded.push_back(std::to_string(s.id));
+      if (s.state == db::SessionState::kAborted) discarded.push_back(std::to_string(s.id));
     }
     std::string where = "no longer in the store";
     if (!discarded.empty()) {

@@ -81,7 +81,7 @@ acquisition::CaptureSummary CaptureWith(
     }
     return acquisition::RunCapture(db, lab, session, devices, controller, options);
   } catch (...) {
-    db::SetSessionState(db, session, "paused");
+    db::SetSessionState(db, session, db::SessionState::kPaused);
     throw;
   }
 }
@@ -185,7 +185,7 @@ acquisition::CaptureSummary CaptureInto(db::Database& db, const io::LabConfig& l
     controller = acquisition::OpenController(lab);
     identified.identities = Identities(devices, *controller, options.stop);
   } catch (...) {
-    db::SetSessionState(db, session, "paused");  // resumable, never left running
+    db::SetSessionState(db, session, db::SessionState::kPaused);  // resumable, never left running
     throw;
   }
   return CaptureWith(db, lab, session, devices, *controller, identified);
@@ -248,7 +248,7 @@ CaptureOutcome RunCaptureSession(const CaptureRequest& request) {
                        fmt::format("no session {} to resume ({} lists them)", session,
                                    Hint(database.path(), {"sessions"})));
     }
-    if (row->state == "aborted") {
+    if (row->state == db::SessionState::kAborted) {
       throw InputError({database.path(), 0, 0, ""},
                        fmt::format("session {} was discarded ({}); start a new session, or "
                                    "{} first if its set-up was right after all",
@@ -256,7 +256,7 @@ CaptureOutcome RunCaptureSession(const CaptureRequest& request) {
                                    Hint(database.path(), {"session", "restore",
                                                           std::to_string(session)})));
     }
-    if (row->state == "completed") {
+    if (row->state == db::SessionState::kCompleted) {
       out.already_complete = out.ok = true;
       out.summary.session = session;
       return out;
@@ -264,7 +264,7 @@ CaptureOutcome RunCaptureSession(const CaptureRequest& request) {
     if (!open_devices()) return out;
     // Refused while another live process runs it; an interrupted one is ours now.
     spdlog::debug("capture: session {} is {} (stored state {}); claiming it", session,
-                  acquisition::DisplayState(row->state, row->owner), row->state);
+                  acquisition::DisplayState(row->state, row->owner), db::ToString(row->state));
     acquisition::ClaimSession(database, session);
   } else {
     // Another arm than the lab's robot (its model) or the robot as registered (its model and
@@ -277,7 +277,7 @@ CaptureOutcome RunCaptureSession(const CaptureRequest& request) {
   out.resume_hint = Hint(database.path(), {"capture", "--lab", AbsolutePath(request.lab),
                                            "--resume", std::to_string(session)});
   if (request.stop != nullptr && *request.stop) {  // before any device was opened
-    db::SetSessionState(database, session, "paused");
+    db::SetSessionState(database, session, db::SessionState::kPaused);
     out.stopped_before_start = true;
     spdlog::warn("capture: stopped before the first configuration; resume with: {}",
                  out.resume_hint);

@@ -256,7 +256,7 @@ PosesSessionWriter::PosesSessionWriter(db::Database& database, const std::string
   model_ = io::ParseRobotModel(db::RobotModelYaml(database, robot_id_), "model of robot " + robot);
   num_joints_ = model_.num_joints();
   model_name_ = model_.name;
-  session_ = db::CreateSession(database, robot_id_, "", "", "completed",
+  session_ = db::CreateSession(database, robot_id_, "", "", db::SessionState::kCompleted,
                                // The file name is input: shown in the note, never obeyed.
                                std::string(TruncateUtf8("poses imported from " + Printable(source),
                                                         plausible::kMaxNoteLength)));
@@ -397,20 +397,22 @@ int SessionJoints(db::Database& database, int64_t session_id) {
       .num_joints();
 }
 
-std::vector<db::SessionSummary> Sessions(db::Database& database, const std::string& robot) {
-  auto sessions = db::ListSessions(
-      database, robot.empty() ? std::nullopt : std::optional<int64_t>(RobotId(database, robot)));
-  for (auto& s : sessions) {
+std::vector<ListedSession> Sessions(db::Database& database, const std::string& robot) {
+  std::vector<ListedSession> listed;
+  for (auto& s : db::ListSessions(database, robot.empty() ? std::nullopt
+                                                          : std::optional<int64_t>(
+                                                                RobotId(database, robot)))) {
     const std::string shown = acquisition::DisplayState(s.state, s.owner);
-    if (shown != s.state) {
-      spdlog::debug("sessions: session {} is stored as {}, its process {} is gone: {}", s.id,
-                    s.state, s.owner ? fmt::format("{} on {}", s.owner->pid, s.owner->host)
-                                     : std::string("(not recorded)"),
+    if (s.state == db::SessionState::kRunning && shown != db::ToString(s.state)) {
+      spdlog::debug("sessions: session {} is stored as running, its process {} is gone: {}",
+                    s.id,
+                    s.owner ? fmt::format("{} on {}", s.owner->pid, s.owner->host)
+                            : std::string("(not recorded)"),
                     shown);
     }
-    s.state = shown;
+    listed.push_back({std::move(s), shown});
   }
-  return sessions;
+  return listed;
 }
 
 namespace {
@@ -427,11 +429,12 @@ db::SessionRow SessionToChange(db::Database& database, int64_t session_id) {
 
 }  // namespace
 
-std::string DiscardSession(db::Database& database, int64_t session_id, const std::string& reason) {
+db::SessionState DiscardSession(db::Database& database, int64_t session_id,
+                                const std::string& reason) {
   db::WriteTransaction tx(database);
   const db::SessionRow row = SessionToChange(database, session_id);
-  if (row.state == "aborted") return "aborted";
-  if (row.state == "running" && row.owner &&
+  if (row.state == db::SessionState::kAborted) return db::SessionState::kAborted;
+  if (row.state == db::SessionState::kRunning && row.owner &&
       acquisition::StateOf(*row.owner) != acquisition::OwnerState::kGone) {
     throw InputError({database.path(), 0, 0, ""},
                      fmt::format("session {} is being captured by process {} on {}: stop it "
@@ -440,13 +443,13 @@ std::string DiscardSession(db::Database& database, int64_t session_id, const std
   }
   db::DiscardSession(database, session_id, reason.empty() ? "by hand" : reason);
   tx.commit();
-  return "aborted";
+  return db::SessionState::kAborted;
 }
 
-std::string RestoreSession(db::Database& database, int64_t session_id) {
+db::SessionState RestoreSession(db::Database& database, int64_t session_id) {
   db::WriteTransaction tx(database);
   const db::SessionRow row = SessionToChange(database, session_id);
-  if (row.state != "aborted") {
+  if (row.state != db::SessionState::kAborted) {
     throw InputError({database.path(), 0, 0, ""},
                      fmt::format("session {} is not discarded (it is {})", session_id,
                                  acquisition::DisplayState(row.state, row.owner)));
@@ -457,7 +460,8 @@ std::string RestoreSession(db::Database& database, int64_t session_id) {
                                                                         session_id, "plan_json"})
                                   .size();
   const size_t stored = db::StoredSeqs(database, session_id).size();
-  const std::string state = stored >= planned ? "completed" : "paused";
+  const db::SessionState state =
+      stored >= planned ? db::SessionState::kCompleted : db::SessionState::kPaused;
   db::SetSessionState(database, session_id, state);
   db::AppendSessionNote(database, session_id, "restored");
   tx.commit();
@@ -597,7 +601,7 @@ std::string SetSessionKind(db::Database& database, int64_t session_id, const std
   return was;
 }
 
-std::string FormatSessions(const std::vector<db::SessionSummary>& sessions, bool json) {
+std::string FormatSessions(const std::vector<ListedSession>& sessions, bool json) {
   if (json) return JsonArray(sessions);
   if (sessions.empty()) return "no sessions\n";
   std::string text;
@@ -605,7 +609,7 @@ std::string FormatSessions(const std::vector<db::SessionSummary>& sessions, bool
     // The counts whole, beside the session or on the next line; the note on its own line
     // (a width-wrap had cut "2773 | usable" apart).
     text += OneLineOrTwo(
-        fmt::format("{:>4}  {:<14} {:<9} {:<11} {}", s.id, Printable(s.robot), Printable(s.state),
+        fmt::format("{:>4}  {:<14} {:<9} {:<11} {}", s.id, Printable(s.robot), Printable(s.shown_state),
                     Printable(s.kind), Printable(TimeToTheSecond(s.started_at))),
         fmt::format("{} measured, {} skipped, {} usable, {} flagged", s.measured, s.skipped,
                     s.usable, s.flagged),
@@ -666,12 +670,12 @@ nlohmann::json ToJson(const db::RobotRow& r) {
           {"removed_at", r.removed_at.empty() ? nlohmann::json(nullptr) : nlohmann::json(r.removed_at)}};
 }
 
-nlohmann::json ToJson(const db::SessionSummary& s) {
+nlohmann::json ToJson(const ListedSession& s) {
   nlohmann::json owner = nullptr;
   if (s.owner) owner = {{"pid", s.owner->pid}, {"host", s.owner->host}};
   return {{"id", s.id},
           {"robot", s.robot},
-          {"state", s.state},
+          {"state", s.shown_state},
           {"kind", s.kind},
           {"owner", owner},
           {"note", s.note},

@@ -101,9 +101,14 @@ std::vector<MeasuredPose> SessionPoses(db::Database& database, int64_t session_i
 // usable pose still exports the full poses header.
 int SessionJoints(db::Database& database, int64_t session_id);
 
-// Sessions, optionally of one robot (InputError when it is unknown). A `running` session
-// whose process is gone is shown `interrupted` (acquisition::DisplayState).
-std::vector<db::SessionSummary> Sessions(db::Database& database, const std::string& robot);
+// A session as `sessions` lists it: as stored, and the state it is shown in (a `running`
+// session whose process is gone is `interrupted`, an `aborted` one `discarded`:
+// acquisition::DisplayState).
+struct ListedSession : db::SessionSummary {
+  std::string shown_state;
+};
+// Sessions, optionally of one robot (InputError when it is unknown).
+std::vector<ListedSession> Sessions(db::Database& database, const std::string& robot);
 
 // A session whose measurements no recalibration may use (a wrong set-up found later, a
 // reflector that was not on the robot): stored state `aborted`, shown `discarded`, the
@@ -111,8 +116,9 @@ std::vector<db::SessionSummary> Sessions(db::Database& database, const std::stri
 // one a live process is capturing. `RestoreSession` undoes it: the session is `completed`
 // when every configuration of its plan is stored, else `paused`; InputError when it was
 // not discarded. Both in one write transaction; return the state now stored.
-std::string DiscardSession(db::Database& database, int64_t session_id, const std::string& reason);
-std::string RestoreSession(db::Database& database, int64_t session_id);
+db::SessionState DiscardSession(db::Database& database, int64_t session_id,
+                                const std::string& reason);
+db::SessionState RestoreSession(db::Database& database, int64_t session_id);
 // What a session is for (db::kSessionKinds): the nightly job fits `calibration` sessions only
 // (unless `recalibrate --kinds` says otherwise) and tries a new set on the others. The change
 // is noted on the session. Returns the kind it had.
@@ -160,12 +166,12 @@ std::string FormatRobotHistory(db::Database& database, const std::string& robot,
 // What `robot list`, `sessions` and `versions` print: a table, or a JSON array.
 std::string FormatRobots(const std::vector<db::RobotRow>& robots, bool json,
                          const std::string& db_path);
-std::string FormatSessions(const std::vector<db::SessionSummary>& sessions, bool json);
+std::string FormatSessions(const std::vector<ListedSession>& sessions, bool json);
 std::string FormatVersions(const std::vector<VersionInfo>& versions, bool json,
                            const std::string& robot);
 
 nlohmann::json ToJson(const db::RobotRow& robot);
-nlohmann::json ToJson(const db::SessionSummary& session);
+nlohmann::json ToJson(const ListedSession& session);
 nlohmann::json ToJson(const VersionInfo& version);
 
 // The file lock of one robot's recalibration beside the SQLite database

@@ -179,7 +179,7 @@ ImportObservationsResult ImportObservations(db::Database& database,
   db::WriteTransaction tx(database);
   const int64_t robot = db::EnsureRobot(database, options.robot, "", "");
   result.session =
-      db::CreateSession(database, robot, "", "", "completed",
+      db::CreateSession(database, robot, "", "", db::SessionState::kCompleted,
                         options.note.empty() ? ImportNote(options.file) : options.note);
   for (const auto& s : stations) {
     db::InsertStationSetup(database, result.session, acquisition::StationSetupRowOf(s, "file"));

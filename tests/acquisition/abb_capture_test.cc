@@ -230,7 +230,7 @@ TEST_F(AbbCaptureFixture, AnEmergencyStopPausesTheSessionNamingWhatToDoAndItResu
   EXPECT_TRUE(first.paused);
   EXPECT_NE(first.pause_reason.find("emergency stop"), std::string::npos) << first.pause_reason;
   EXPECT_NE(first.pause_reason.find("release the emergency stop button"), std::string::npos);
-  EXPECT_EQ(db::LoadSession(db, session)->state, "paused");
+  EXPECT_EQ(db::LoadSession(db, session)->state, db::SessionState::kPaused);
   EXPECT_EQ(db::StoredSeqs(db, session).size(), 2u);  // nothing of the third configuration
   abb_->ResetStop();
   abb_->SetMotors(true);
@@ -315,7 +315,7 @@ TEST_F(AbbCaptureFixture, MotorsOffThenAWrongPasswordLoseNothingAndNameTheContro
   }
   EXPECT_GE(abb_->snapshot().refused_logins, 1);
   EXPECT_EQ(db::StoredSeqs(db, session).size(), 2u);
-  EXPECT_EQ(db::LoadSession(db, session)->state, "paused");
+  EXPECT_EQ(db::LoadSession(db, session)->state, db::SessionState::kPaused);
   testing::WriteText(dir_.File("abb.yaml"), "user: armsig\npassword: \"c3ll-2 pa55\"\n");
   const CaptureSummary resumed = workflows::CaptureInto(db, Lab(), session, {});
   ASSERT_TRUE(resumed.completed) << resumed.pause_reason;

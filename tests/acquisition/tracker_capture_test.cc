@@ -376,7 +376,7 @@ TEST_F(TrackerLabFixture, AReflectorThatDoesNotFollowTheRobotPausesTheSession) {
   EXPECT_EQ(Count(db, "SELECT COUNT(*) FROM points"), s.measured);
   // Discarded: its rows stay, no recalibration reads them.
   EXPECT_TRUE(s.discarded);
-  EXPECT_EQ(db::LoadSession(db, s.session)->state, "aborted");
+  EXPECT_EQ(db::LoadSession(db, s.session)->state, db::SessionState::kAborted);
   EXPECT_NE(db::LoadSession(db, s.session)->note.find("discarded: set-up check"), std::string::npos);
   EXPECT_TRUE(db::LoadRobotPoses(db, *db::FindRobot(db, "puma"), "").empty());
   // The library run again on it stops at once: nothing more measured.

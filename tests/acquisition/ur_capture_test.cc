@@ -211,7 +211,7 @@ TEST_F(UrCaptureFixture, AnEmergencyStopPausesTheSessionNamingWhatToDoAndItResum
   EXPECT_TRUE(first.paused);
   EXPECT_NE(first.pause_reason.find("emergency stop"), std::string::npos) << first.pause_reason;
   EXPECT_NE(first.pause_reason.find("release the emergency stop button"), std::string::npos);
-  EXPECT_EQ(db::LoadSession(db, session)->state, "paused");
+  EXPECT_EQ(db::LoadSession(db, session)->state, db::SessionState::kPaused);
   EXPECT_EQ(Stored(db, session).size(), 2u);  // nothing of the third configuration
   EXPECT_EQ(db::StoredSeqs(db, session).size(), 2u);
   ur_->ReleaseEmergencyStop();

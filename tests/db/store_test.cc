@@ -54,9 +54,9 @@ TEST_P(TypedStore, TheControllersIdentityIsKeptWithTheSessionAndTheRobot) {
   WriteTransaction tx(db);
   const int64_t robot = EnsureRobot(db, "ur10", "ur10", "model: text\n");
   EXPECT_FALSE(RobotControllerRecord(db, robot));
-  const int64_t s1 = CreateSession(db, robot, "", "[]", "running", "");
-  const int64_t s2 = CreateSession(db, robot, "", "[]", "running", "");
-  const int64_t s3 = CreateSession(db, robot, "", "[]", "running", "");
+  const int64_t s1 = CreateSession(db, robot, "", "[]", SessionState::kRunning, "");
+  const int64_t s2 = CreateSession(db, robot, "", "[]", SessionState::kRunning, "");
+  const int64_t s3 = CreateSession(db, robot, "", "[]", SessionState::kRunning, "");
   EXPECT_FALSE(SessionController(db, s1));
   const ControllerRecord first{"UR10", "20183010001", "URSoftware 5.11.1.108318 (Nov 03 2021)",
                                "0a-0b", R"({"checksum":"0a-0b"})"};
@@ -94,7 +94,7 @@ TEST_P(TypedStore, EveryTypedRowReadsBackExactly) {
   WriteTransaction tx(db);
   const int64_t robot = EnsureRobot(db, "puma", "puma760", "model: text\n");
   EXPECT_EQ(EnsureRobot(db, "puma", "other", "other"), robot);  // found, not stored again
-  const int64_t session = CreateSession(db, robot, "lab: yaml", "[1,2]", "running", "note ü");
+  const int64_t session = CreateSession(db, robot, "lab: yaml", "[1,2]", SessionState::kRunning, "note ü");
   SetSessionOwner(db, session, {4242, "cell7", "boot:123"});
   const Eigen::VectorXd joints =
       (Eigen::VectorXd(6) << 0.1, -1.0 / 3.0, 2.5e-9, 3.14159, -2.0, 1e-300).finished();
@@ -156,7 +156,7 @@ TEST_P(TypedStore, EveryTypedRowReadsBackExactly) {
   EXPECT_EQ(row->robot, "puma");
   EXPECT_EQ(row->lab_yaml, "lab: yaml");
   EXPECT_EQ(row->plan_json, "[1,2]");
-  EXPECT_EQ(row->state, "running");
+  EXPECT_EQ(row->state, SessionState::kRunning);
   EXPECT_EQ(row->note, "note ü");
   EXPECT_EQ(row->owner, (SessionOwner{4242, "cell7", "boot:123"}));
   EXPECT_EQ(StoredSeqs(db, session), (std::vector<int>{0, 1}));
@@ -235,7 +235,7 @@ TEST_P(TypedStore, EveryTypedRowReadsBackExactly) {
   EXPECT_EQ(LatestLabYaml(db, robot)->lab_yaml, "lab: yaml");
   {
     WriteTransaction finish(db);
-    SetSessionState(db, session, "completed");
+    SetSessionState(db, session, SessionState::kCompleted);
     finish.commit();
   }
   EXPECT_FALSE(ListSessions(db, robot)[0].finished_at.empty());
@@ -249,7 +249,7 @@ TEST_P(TypedStore, APartlyStoredOrientationIsRefusedNamingTheCell) {
   {
     WriteTransaction tx(db);
     const int64_t robot = EnsureRobot(db, "ur", "ur10", "model: text\n");
-    session = CreateSession(db, robot, "", "", "completed", "");
+    session = CreateSession(db, robot, "", "", SessionState::kCompleted, "");
     const int64_t pose =
         InsertPose(db, session, 0, "p", Eigen::VectorXd::Zero(6), "measured", 1);
     PointRow point;
@@ -332,7 +332,7 @@ TEST_P(TypedStore, ParameterSetsAndTheirActivationsReadBackExactly) {
 TEST_P(TypedStore, TimeStampsAreIsoUtcWithMilliseconds) {
   Database db(NewStore());
   const int64_t robot = EnsureRobot(db, "puma", "puma760", "x");
-  const int64_t session = CreateSession(db, robot, "", "", "completed", "");
+  const int64_t session = CreateSession(db, robot, "", "", SessionState::kCompleted, "");
   const auto s = ListSessions(db, robot).at(0);
   const std::regex iso(R"(\d{4}-\d\d-\d\dT\d\d:\d\d:\d\d\.\d{3}Z)");
   EXPECT_TRUE(std::regex_match(s.started_at, iso)) << s.started_at;
@@ -357,7 +357,7 @@ TEST_P(TypedStore, EightCaptureProcessesStoreEveryRowOnce) {
     WriteTransaction tx(db);
     const int64_t robot = EnsureRobot(db, "puma", "puma760", "x");
     for (int w = 0; w < kWriters; ++w)
-      sessions.push_back(CreateSession(db, robot, "", "", "running", "writer"));
+      sessions.push_back(CreateSession(db, robot, "", "", SessionState::kRunning, "writer"));
     tx.commit();
   }
   std::vector<pid_t> children;
@@ -456,7 +456,7 @@ TEST_P(TypedStore, ASnapshotDoesNotSeeWhatIsCommittedWhileItReads) {
   const std::string store = NewStore();
   Database reader(store), writer(store, OpenMode::kMustExist);
   const int64_t robot = EnsureRobot(writer, "puma", "puma760", "x");
-  const int64_t session = CreateSession(writer, robot, "", "", "running", "");
+  const int64_t session = CreateSession(writer, robot, "", "", SessionState::kRunning, "");
   InsertPose(writer, session, 0, "c0", Eigen::VectorXd::Zero(6), "measured", 1);
   {
     ReadSnapshot snapshot(reader);

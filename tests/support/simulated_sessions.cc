@@ -29,7 +29,7 @@ void AddSession(db::Database& db, const Eigen::VectorXd& truth, int count, unsig
   db::WriteTransaction tx(db);
   const int64_t robot =
       db::EnsureRobot(db, robot_name, "puma760", ReadText(SourcePath("models/puma760.yaml")));
-  const int64_t session = db::CreateSession(db, robot, lab_yaml, "", "completed", "simulated");
+  const int64_t session = db::CreateSession(db, robot, lab_yaml, "", db::SessionState::kCompleted, "simulated");
   std::uniform_real_distribution<double> u(0, 1);
   for (int i = 0; i < count && i < static_cast<int>(poses.size()); ++i) {
     const int64_t pose =

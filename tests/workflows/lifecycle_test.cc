@@ -83,10 +83,10 @@ TEST(SessionOwner, ARunningSessionOfAGoneProcessIsInterrupted) {
   db::Database database(dir.File("lab.db"));
   AddSession(database, calibration::PaperTable3Parameters(), 5, 1);
   const int64_t session = 1;
-  db::SetSessionState(database, session, "running");
+  db::SetSessionState(database, session, db::SessionState::kRunning);
 
   // Never recorded (a database from before owners): interrupted.
-  EXPECT_EQ(workflows::Sessions(database, "puma").at(0).state, "interrupted");
+  EXPECT_EQ(workflows::Sessions(database, "puma").at(0).shown_state, "interrupted");
 
   const db::SessionOwner me = acquisition::ThisProcess();
   EXPECT_EQ(me.pid, ::getpid());
@@ -106,14 +106,14 @@ TEST(SessionOwner, ARunningSessionOfAGoneProcessIsInterrupted) {
   const db::SessionOwner gone{child, me.host, "boot/1"};
   EXPECT_EQ(acquisition::StateOf(gone), acquisition::OwnerState::kGone);
   db::SetSessionOwner(database, session, gone);
-  EXPECT_EQ(workflows::Sessions(database, "puma").at(0).state, "interrupted");
-  EXPECT_EQ(acquisition::DisplayState("paused", gone), "paused");
+  EXPECT_EQ(workflows::Sessions(database, "puma").at(0).shown_state, "interrupted");
+  EXPECT_EQ(acquisition::DisplayState(db::SessionState::kPaused, gone), "paused");
   acquisition::ClaimSession(database, session);  // resumable: it is ours now
   auto row = db::LoadSession(database, session);
   ASSERT_TRUE(row && row->owner);
   EXPECT_EQ(*row->owner, me);
-  EXPECT_EQ(row->state, "running");
-  EXPECT_EQ(workflows::Sessions(database, "puma").at(0).state, "running");
+  EXPECT_EQ(row->state, db::SessionState::kRunning);
+  EXPECT_EQ(workflows::Sessions(database, "puma").at(0).shown_state, "running");
 
   // A live process (this one, recorded without a start token, as by another armsig
   // process of the same pid namespace) and another host's process keep their claim.
@@ -126,16 +126,17 @@ TEST(SessionOwner, ARunningSessionOfAGoneProcessIsInterrupted) {
   } catch (const InputError& e) {
     EXPECT_NE(std::string(e.what()).find("capture-pc-2"), std::string::npos) << e.what();
   }
-  EXPECT_EQ(workflows::Sessions(database, "puma").at(0).state, "running");
+  EXPECT_EQ(workflows::Sessions(database, "puma").at(0).shown_state, "running");
 }
 
 // `sessions` never cuts a count from its word: the counts stand whole beside the session or
 // on the next line, the note on its own (issue 38: the doc's sample read "2773 | usable").
 TEST(SessionsText, CountsStayWholeAndEveryLineFits) {
-  db::SessionSummary s;
+  workflows::ListedSession s;
   s.id = 1;
   s.robot = "ur10";
-  s.state = "completed";
+  s.state = db::SessionState::kCompleted;
+  s.shown_state = "completed";
   s.kind = "calibration";
   s.started_at = "2026-11-28T19:56:20.123Z";
   s.measured = s.usable = 2773;

@@ -38,7 +38,7 @@ int64_t StoreSession(db::Database& db, const std::vector<MeasuredPose>& poses) {
   db::WriteTransaction tx(db);
   const int64_t robot =
       db::EnsureRobot(db, "puma", "puma760", ReadText(SourcePath("models/puma760.yaml")));
-  const int64_t session = db::CreateSession(db, robot, "", "", "completed", "simulated");
+  const int64_t session = db::CreateSession(db, robot, "", "", db::SessionState::kCompleted, "simulated");
   for (size_t i = 0; i < poses.size(); ++i) {
     const int64_t pose = db::InsertPose(db, session, static_cast<int>(i), poses[i].id,
                                         poses[i].joints_rad, "measured", 1);
@@ -84,7 +84,7 @@ TEST_F(NeverWorse, ASessionStillBeingCapturedIsNotFitted) {
     AddSession(database, calibration::PaperTable3Parameters(), 150, 2);
     live = 2;
     // Session 2 is being captured right now, by this very process.
-    db::SetSessionState(database, live, "running");
+    db::SetSessionState(database, live, db::SessionState::kRunning);
     db::SetSessionOwner(database, live, acquisition::ThisProcess());
   }
   const auto night = workflows::Recalibrate(Options(Path()));
@@ -92,7 +92,7 @@ TEST_F(NeverWorse, ASessionStillBeingCapturedIsNotFitted) {
   EXPECT_EQ(night.sessions, std::vector<int64_t>{1});
   {
     db::Database database(Path());
-    db::SetSessionState(database, live, "completed");
+    db::SetSessionState(database, live, db::SessionState::kCompleted);
   }
   const auto next = workflows::Recalibrate(Options(Path()));
   EXPECT_EQ(next.sessions, (std::vector<int64_t>{1, 2}));

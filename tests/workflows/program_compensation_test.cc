@@ -128,7 +128,7 @@ class ProgramsOnVirtualRobots : public ::testing::Test {
       ASSERT_TRUE(RegisterRobot(db, robot, model_path));
       db::WriteTransaction tx(db);
       const int64_t id = *db::FindRobot(db, robot);
-      const int64_t session = db::CreateSession(db, id, "", "", "completed", "simulated");
+      const int64_t session = db::CreateSession(db, id, "", "", db::SessionState::kCompleted, "simulated");
       for (int i = 0; i < static_cast<int>(poses.size()); ++i) {
         db::PointRow point;
         point.pose_id = db::InsertPose(db, session, i, poses[i].id, poses[i].joints_rad, "measured", 1);

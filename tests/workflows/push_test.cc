@@ -262,7 +262,7 @@ TEST_P(Push, OpenSessionsWaitAndAnotherModelIsRefused) {
   MakeCell(cell);
   {
     db::Database a(cell, db::OpenMode::kMustExist);
-    db::SetSessionState(a, 2, "paused");
+    db::SetSessionState(a, 2, db::SessionState::kPaused);
   }
   auto s = PushFiles(cell, central);
   EXPECT_EQ(s.sessions_pushed, 1);
@@ -270,7 +270,7 @@ TEST_P(Push, OpenSessionsWaitAndAnotherModelIsRefused) {
   EXPECT_EQ(s.open_sessions[0], "session 2 (paused)");
   {
     db::Database a(cell, db::OpenMode::kMustExist);
-    db::SetSessionState(a, 2, "completed");
+    db::SetSessionState(a, 2, db::SessionState::kCompleted);
   }
   s = PushFiles(cell, central);
   EXPECT_EQ(s.sessions_pushed, 1);

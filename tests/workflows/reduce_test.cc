@@ -123,7 +123,7 @@ TEST_P(ReduceWhileCapturing, NoConfigurationLosesItsPoint) {
     db::Database db(store);
     db::WriteTransaction tx(db);
     const int64_t robot = db::EnsureRobot(db, "puma", "puma760", "x");
-    session = db::CreateSession(db, robot, "", "", "running", "capture");
+    session = db::CreateSession(db, robot, "", "", db::SessionState::kRunning, "capture");
     for (int s = 0; s < 3; ++s) {
       db::StationSetupRow setup;
       setup.station = codes[s];
