@@ -148,6 +148,8 @@ class RwsSimulator : public Simulator {
     int logins = 0;       // sessions opened by authentication
     int refused_logins = 0;
     int connections = 0;  // accepted
+    int routines_run = 0;  // routines of loaded modules started (simulation/rws_programs.h)
+    std::string program_pointer;  // "main", or MODULE/routine
   };
   Snapshot snapshot() const;
   // A RAPID datum's value text (the module's declaration), "" when unknown.
