@@ -31,8 +31,10 @@ void AbbController::LoadProgram(const std::string& file_name, const std::string&
   const std::string path = "$HOME/" + file_name;
   // A module loads only while RAPID stands: armsig's own module's main, when it runs, is
   // stopped first and started again from main by UnloadProgram.
-  resume_main_ = ReadStateBy(deadline).execution == rws::ExecutionState::kRunning;
-  if (resume_main_) Call(rws::StopExecution(settings_.version), deadline);
+  if (ReadStateBy(deadline).execution == rws::ExecutionState::kRunning) {
+    Call(rws::StopExecution(settings_.version), deadline);
+    resume_main_ = true;
+  }
   try {
     Call(rws::UploadFile(settings_.version, path, text), deadline);
   } catch (const RwsRefused& e) {
