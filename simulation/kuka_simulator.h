@@ -23,6 +23,11 @@
 //    STOP key, a mode change, the drives switched off) stands where it halted and goes on to
 //    its target when the program is started again.
 //
+// Programs of the lab's own: with a program folder (KRC:\R1\Program, a directory), the
+// submit interpreter's runner of controllers/kuka/ARMSIG_SPS.sub selects and starts one when
+// ARMSIG_RUN_CMD changes, and runs its motions with the controller's inverse kinematics on its
+// nominal model (simulation/kuka_programs.cc says how, and what it refuses).
+//
 // The arm is a simulation::VirtualArm (physical time, scaled; the lab's robot follows it):
 // ARMSIG's PTP is its joint move, with the speed and acceleration that give the leading
 // axis's profile; an EMERGENCY STOP brakes it and cuts the drives, a safety stop or the STOP

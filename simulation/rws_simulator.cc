@@ -11,7 +11,6 @@
 #include <boost/beast/core.hpp>
 #include <boost/beast/http.hpp>
 #include <cmath>
-#include <deque>
 #include <future>
 #include <limits>
 #include <map>
@@ -19,8 +18,8 @@
 #include <random>
 
 #include "core/text.h"
-#include "instruments/http_auth.h"
 #include "simulation/rws_programs.h"
+#include "simulation/rws_sessions.h"
 #include "simulation/tls_certificate.h"
 #include "simulation/virtual_arm.h"
 
@@ -31,19 +30,16 @@ namespace beast = boost::beast;
 namespace bhttp = boost::beast::http;
 namespace ssl = boost::asio::ssl;
 namespace rws = instruments::rws;
-namespace http = instruments::http;
 using tcp = asio::ip::tcp;
 using SteadyClock = std::chrono::steady_clock;
 
 namespace {
 
 constexpr double kRadPerDeg = std::numbers::pi / 180.0;
-constexpr const char* kRealm = "validusers@robapi.abb";
 constexpr int64_t kEventOutsideReach = 50050;  // "Position outside reach"
 
 double AsFloat(double v) { return static_cast<double>(static_cast<float>(v)); }
 
-std::string RandomHex(std::mt19937_64& rng) { return fmt::format("{:016x}", rng()); }
 
 std::string Upper(std::string_view s) {
   std::string out(s);
@@ -73,8 +69,7 @@ struct RwsSimulator::Impl {
         host(std::move(host_)),
         requested_port(port_),
         ssl_context(ssl::context::tls_server),
-        tick(io),
-        rng(std::random_device{}()) {
+        tick(io) {
     if (o.robotware.empty()) {
       o.robotware = o.version == rws::Version::kRws1 ? "6.15.03.00" : "7.16.0.0";
     }
@@ -276,60 +271,6 @@ struct RwsSimulator::Impl {
     return true;
   }
 
-  // ---- Sessions and authentication ----
-
-  std::optional<std::string> SessionOf(const bhttp::request<bhttp::string_body>& req) const {
-    const auto it = req.find(bhttp::field::cookie);
-    if (it == req.end()) return std::nullopt;
-    std::string http_session, abbcx;
-    for (const auto& c : http::ParseCookieHeader(std::string(it->value()))) {
-      if (c.name == "-http-session-") http_session = c.value;
-      if (c.name == "ABBCX") abbcx = c.value;
-    }
-    const auto s = sessions.find(http_session);
-    if (s == sessions.end() || s->second != abbcx) return std::nullopt;
-    return http_session;
-  }
-
-  bool CredentialsValid(const bhttp::request<bhttp::string_body>& req) {
-    const auto it = req.find(bhttp::field::authorization);
-    if (it == req.end()) return false;
-    const std::string header(it->value());
-    if (o.version == rws::Version::kRws2) {
-      const auto basic = http::ParseBasicAuthorization(header);
-      return basic && basic->first == o.user && basic->second == o.password;
-    }
-    http::Challenge c;
-    try {
-      c = http::ParseCredentials(header);
-    } catch (const http::HeaderError&) {
-      return false;
-    }
-    if (Upper(c.scheme) != "DIGEST") return false;
-    auto p = [&](const char* n) {
-      const std::string* v = c.Param(n);
-      return v ? *v : std::string();
-    };
-    const bool nonce_known = std::find(nonces.begin(), nonces.end(), p("nonce")) != nonces.end();
-    if (!nonce_known || p("realm") != kRealm || p("username") != o.user || p("qop") != "auth" ||
-        p("uri") != std::string(req.target())) {
-      return false;
-    }
-    const std::string expected =
-        http::DigestResponse(o.user, kRealm, o.password, std::string(req.method_string()),
-                             p("uri"), p("nonce"), p("nc"), p("cnonce"));
-    return expected == p("response");
-  }
-
-  std::string Challenge() {
-    if (o.version == rws::Version::kRws2) return std::string("Basic realm=\"") + kRealm + "\"";
-    nonces.push_back(RandomHex(rng) + RandomHex(rng));
-    if (nonces.size() > 256) nonces.pop_front();
-    return fmt::format("Digest realm=\"{}\", qop=\"auth\", nonce=\"{}\", opaque=\"{}\", "
-                       "algorithm=MD5",
-                       kRealm, nonces.back(), opaque);
-  }
-
   // ---- Answers ----
 
   rws::Representation RepresentationFor(const bhttp::request<bhttp::string_body>& req,
@@ -419,7 +360,7 @@ struct RwsSimulator::Impl {
       for (const char* e : {"eax_a", "eax_b", "eax_c", "eax_d", "eax_e", "eax_f"}) r.fields.emplace_back(e, "9E+09");
       d.resources.push_back(std::move(r));
     } else if (c.path == "/logout") {
-      sessions.erase(c.session);
+      users.Logout(c.session);
       if (mastership == c.session) mastership.reset();
     } else {
       return std::nullopt;
@@ -557,25 +498,6 @@ struct RwsSimulator::Impl {
     }
   }
 
-  // The session of the request: its cookie, or credentials answering the challenge (a new
-  // session, its cookies set on `res`); nullopt: refused (401 and a challenge set on `res`).
-  std::optional<std::string> Authenticate(const bhttp::request<bhttp::string_body>& req,
-                                          bhttp::response<bhttp::string_body>& res) {
-    if (std::optional<std::string> session = SessionOf(req)) return session;
-    if (!CredentialsValid(req)) {
-      if (req.find(bhttp::field::authorization) != req.end()) ++refused_logins;
-      res.set(bhttp::field::www_authenticate, Challenge());
-      return std::nullopt;
-    }
-    const std::string id = fmt::format("{}::http.session::{}", ++next_session, RandomHex(rng));
-    const std::string abbcx = std::to_string(next_session);
-    sessions[id] = abbcx;
-    ++logins;
-    res.insert(bhttp::field::set_cookie, "-http-session-=" + id + "; path=/; httponly");
-    res.insert(bhttp::field::set_cookie, "ABBCX=" + abbcx + "; path=/; httponly");
-    return id;
-  }
-
   // The query and, for a POST, the form body; an error answer when they cannot be read.
   std::optional<Answer> ReadParameters(const bhttp::request<bhttp::string_body>& req, const std::string& query,
                                        Call& c) const {
@@ -632,7 +554,7 @@ struct RwsSimulator::Impl {
     };
     if (fault.fault == Fault::kErrorCode)
       return answer(500, Error(fault.code, "internal error (a fault injected by the test)"));
-    const std::optional<std::string> session = Authenticate(req, res);
+    const std::optional<std::string> session = users.Authenticate(req, res);
     if (!session) return answer(401, {});
     c.session = *session;
     if (!acceptable) return answer(406, Error(0, "Not Acceptable: ask for application/hal+json;v=2.0"));
@@ -802,7 +724,6 @@ struct RwsSimulator::Impl {
   std::vector<std::shared_ptr<Connection>> silent;  // kept open without an answer
 
   mutable std::mutex mutex;  // everything below
-  std::mt19937_64 rng;
   std::optional<RapidModule> module;
   std::map<std::string, std::string> values;  // upper-case name → value text
   rws::ControllerState ctrl = rws::ControllerState::kMotorsOn;
@@ -815,11 +736,8 @@ struct RwsSimulator::Impl {
   double request = 0;
   Eigen::VectorXd target_deg_;  // of the move running or interrupted
   bool record_pending = false;  // armsig_record waits for zero speed
-  int moves = 0, logins = 0, refused_logins = 0, accepted = 0;
-  std::map<std::string, std::string> sessions;  // -http-session- → ABBCX
-  int next_session = 0;
-  std::deque<std::string> nonces;
-  std::string opaque = "799d5e6b1c2c4d7e";
+  int moves = 0, accepted = 0;
+  RwsSessions users{o.version, o.user, o.password};
   std::optional<std::string> mastership;  // the session holding it; "elsewhere"
   std::optional<RwsSimulator::CellStop> armed_stop;  // for the next move
   RwsSimulator::CellStop stop_kind = RwsSimulator::CellStop::kGuardStop;  // of the planned stop
@@ -1012,8 +930,8 @@ RwsSimulator::Snapshot RwsSimulator::snapshot() const {
     s.error = impl_->Num("armsig_error");
   }
   s.moves = impl_->moves;
-  s.logins = impl_->logins;
-  s.refused_logins = impl_->refused_logins;
+  s.logins = impl_->users.logins();
+  s.refused_logins = impl_->users.refused_logins();
   s.connections = impl_->accepted;
   s.routines_run = impl_->rapid_programs->routines_run();
   s.program_pointer = impl_->rapid_programs->Pointer();

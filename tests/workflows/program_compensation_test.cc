@@ -568,7 +568,6 @@ class AbbProgramLab {
     return landed;
   }
   simulation::RwsSimulator& controller() { return *rws_; }
-  instruments::AbbController& driver() { return *driver_; }
 
  private:
   TrackerLab lab_;
