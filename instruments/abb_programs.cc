@@ -19,14 +19,14 @@ using Kind = ControllerError::Kind;
 std::string StatusWords(const RwsRefused& e) {
   const auto& s = e.status();
   if (!s) return fmt::format("HTTP {}", e.http_status());
-  return fmt::format("{} (return code {}, HTTP {})", s->message.empty() ? "no message" : s->message, s->code,
-                     e.http_status());
+  return fmt::format("{} (return code {}, HTTP {})", s->message.empty() ? "no message" : s->message,
+                     s->code, e.http_status());
 }
 
 }  // namespace
 
-void AbbController::LoadProgram(const std::string& file_name, const std::string& text, const std::string& module,
-                                const std::string& routine) {
+void AbbController::LoadProgram(const std::string& file_name, const std::string& text,
+                                const std::string& module, const std::string& routine) {
   const Deadline deadline = Clock::now() + policy_.timeout;
   const std::string path = "$HOME/" + file_name;
   // A module loads only while RAPID stands: armsig's own module's main, when it runs, is
@@ -38,24 +38,26 @@ void AbbController::LoadProgram(const std::string& file_name, const std::string&
   try {
     Call(rws::UploadFile(settings_.version, path, text), deadline);
   } catch (const RwsRefused& e) {
-    throw RwsRefused(name_, e.http_status(), e.status(),
-                     fmt::format("refused the upload of {} to {}: {}", file_name, path, StatusWords(e)));
+    throw RwsRefused(
+        name_, e.http_status(), e.status(),
+        fmt::format("refused the upload of {} to {}: {}", file_name, path, StatusWords(e)));
   }
   const auto mastership = HoldMastership(fmt::format(" (loading {})", file_name), deadline);
   try {
     Call(rws::LoadModule(settings_.version, settings_.task, path, /*replace=*/true), deadline);
   } catch (const RwsRefused& e) {
-    throw RwsRefused(name_, e.http_status(), e.status(),
-                     fmt::format("did not load {} into task {}: {}. Check the module in RobotStudio or "
-                                 "on the FlexPendant's event log: nothing of it was loaded",
-                                 file_name, settings_.task, StatusWords(e)));
+    throw RwsRefused(
+        name_, e.http_status(), e.status(),
+        fmt::format("did not load {} into task {}: {}. Check the module in RobotStudio or "
+                    "on the FlexPendant's event log: nothing of it was loaded",
+                    file_name, settings_.task, StatusWords(e)));
   }
   try {
     Call(rws::SetProgramPointer(settings_.version, settings_.task, module, routine), deadline);
   } catch (const RwsRefused& e) {
     throw RwsRefused(name_, e.http_status(), e.status(),
-                     fmt::format("did not set the program pointer to {} of module {}: {}", routine, module,
-                                 StatusWords(e)));
+                     fmt::format("did not set the program pointer to {} of module {}: {}", routine,
+                                 module, StatusWords(e)));
   }
 }
 
@@ -77,7 +79,8 @@ void AbbController::StartProgram(const std::string& module) {
 bool AbbController::ProgramRunning() {
   const State s = ReadStateBy(Clock::now() + policy_.timeout);
   if (s.execution == rws::ExecutionState::kRunning) return true;
-  if (s.controller != rws::ControllerState::kMotorsOn && s.controller != rws::ControllerState::kMotorsOff) {
+  if (s.controller != rws::ControllerState::kMotorsOn &&
+      s.controller != rws::ControllerState::kMotorsOff) {
     ThrowForState(s, " while the program ran");
   }
   return false;
@@ -95,7 +98,8 @@ void AbbController::UnloadProgram(const std::string& module) {
 Eigen::VectorXd AbbController::ReadJointTargetDeg() {
   const Deadline deadline = Clock::now() + policy_.timeout;
   try {
-    return rws::DecodeJointTargetDeg(Call(rws::GetJointTarget(settings_.version, settings_.mechunit), deadline));
+    return rws::DecodeJointTargetDeg(
+        Call(rws::GetJointTarget(settings_.version, settings_.mechunit), deadline));
   } catch (const rws::DecodeError& e) {
     throw InstrumentError(name_, 3074, std::string("the jointtarget: ") + e.what());
   }

@@ -39,7 +39,8 @@ std::string UpperCase(std::string s) {
 }
 
 // The file of the program folder whose name is `name` (any case), or nullopt.
-std::optional<std::filesystem::path> FindInFolder(const std::string& folder, const std::string& name) {
+std::optional<std::filesystem::path> FindInFolder(const std::string& folder,
+                                                  const std::string& name) {
   std::error_code ec;
   for (const auto& entry : std::filesystem::directory_iterator(folder, ec))
     if (UpperCase(entry.path().filename().string()) == UpperCase(name)) return entry.path();
@@ -63,16 +64,23 @@ std::optional<std::string> KukaSimulator::SelectRun(const std::string& name) {
   programs::Program program;
   try {
     std::optional<programs::ProgramFile> data;
-    if (dat) data = programs::ProgramFile{dat->filename().string(), io::ReadWholeFile(dat->string(), io::kProgramFileLimit)};
-    program = programs::ParseKrl({src->filename().string(), io::ReadWholeFile(src->string(), io::kProgramFileLimit)}, data, &options_.config);
+    if (dat)
+      data = programs::ProgramFile{dat->filename().string(),
+                                   io::ReadWholeFile(dat->string(), io::kProgramFileLimit)};
+    program = programs::ParseKrl(
+        {src->filename().string(), io::ReadWholeFile(src->string(), io::kProgramFileLimit)}, data,
+        &options_.config);
   } catch (const std::exception& e) {
     return e.what();
   }
-  std::erase_if(program.motions, [&](const programs::Motion& m) { return UpperCase(m.routine) != UpperCase(name); });
-  std::erase_if(program.waits, [&](const programs::Wait& w) { return UpperCase(w.routine) != UpperCase(name); });
+  std::erase_if(program.motions,
+                [&](const programs::Motion& m) { return UpperCase(m.routine) != UpperCase(name); });
+  std::erase_if(program.waits,
+                [&](const programs::Wait& w) { return UpperCase(w.routine) != UpperCase(name); });
   const Execution run = RunProgram(program, controller_, arm_state_.q);
   if (!run.skipped.empty())
-    return fmt::format("{}: {}", programs::Where(program, run.skipped.front().place), run.skipped.front().why);
+    return fmt::format("{}: {}", programs::Where(program, run.skipped.front().place),
+                       run.skipped.front().why);
   run_.emplace(StepsOf(run, program.waits));
   return std::nullopt;
 }
@@ -88,7 +96,8 @@ void KukaSimulator::AdvanceRunner() {
     run_.reset();
     program_.clear();
     program_state_ = "P_FREE";
-    const std::string name = instruments::kuka::ParseString(globals_.at(contract::kRunName).text).value_or("");
+    const std::string name =
+        instruments::kuka::ParseString(globals_.at(contract::kRunName).text).value_or("");
     if (const auto why = SelectRun(name)) {
       last_run_refusal_ = *why;
       return EndRun(contract::kRunNotSelected);

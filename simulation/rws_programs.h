@@ -44,7 +44,8 @@ namespace armsig::simulation {
 class RwsPrograms {
  public:
   // `resident`: the module the task runs besides (ArmsigServer, whose main is the task's).
-  RwsPrograms(std::string task, programs::ControllerModel controller, std::optional<RapidModule> resident);
+  RwsPrograms(std::string task, programs::ControllerModel controller,
+              std::optional<RapidModule> resident);
 
   struct Request {
     std::string method, path, body;
@@ -58,8 +59,8 @@ class RwsPrograms {
     unsigned status = 204;
     instruments::rws::Document document;
   };
-  // PUT of a file below $HOME, and the task's module, program-pointer and resetpp resources; nullopt
-  // for any other request.
+  // PUT of a file below $HOME, and the task's module, program-pointer and resetpp resources;
+  // nullopt for any other request.
   std::optional<Answer> Route(const Request& request);
 
   // Whether the program pointer is in a loaded module's routine: the task runs it (from
@@ -69,7 +70,8 @@ class RwsPrograms {
   // (started, or continuing after a stop).
   std::optional<std::string> Start(const Eigen::VectorXd& at_rad);
   // The routine's next step once the arm is ready; kFinished at its end.
-  ProgramPlayer::Status Tick(VirtualArm& arm, const std::function<void(const Eigen::VectorXd&)>& move);
+  ProgramPlayer::Status Tick(VirtualArm& arm,
+                             const std::function<void(const Eigen::VectorXd&)>& move);
   // Where the routine is (module, routine), for messages.
   std::string Pointer() const;
   int routines_run() const { return routines_run_; }

@@ -81,8 +81,9 @@ bool RwsSessions::CredentialsValid(const Request& req) const {
       p("uri") != std::string(req.target())) {
     return false;
   }
-  const std::string expected = http::DigestResponse(user_, kRealm, password_, std::string(req.method_string()),
-                                                    p("uri"), p("nonce"), p("nc"), p("cnonce"));
+  const std::string expected =
+      http::DigestResponse(user_, kRealm, password_, std::string(req.method_string()), p("uri"),
+                           p("nonce"), p("nc"), p("cnonce"));
   return expected == p("response");
 }
 
@@ -90,8 +91,9 @@ std::string RwsSessions::Challenge() {
   if (version_ == rws::Version::kRws2) return std::string("Basic realm=\"") + kRealm + "\"";
   nonces_.push_back(RandomHex(rng_) + RandomHex(rng_));
   if (nonces_.size() > 256) nonces_.pop_front();
-  return fmt::format("Digest realm=\"{}\", qop=\"auth\", nonce=\"{}\", opaque=\"{}\", algorithm=MD5", kRealm,
-                     nonces_.back(), opaque_);
+  return fmt::format(
+      "Digest realm=\"{}\", qop=\"auth\", nonce=\"{}\", opaque=\"{}\", algorithm=MD5", kRealm,
+      nonces_.back(), opaque_);
 }
 
 }  // namespace armsig::simulation

@@ -68,5 +68,4 @@ Certificate MakeCertificate(const std::string& host, const std::string& common_n
   return c;
 }
 
-
 }  // namespace armsig::simulation

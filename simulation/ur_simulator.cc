@@ -621,7 +621,7 @@ void UrSimulator::StartProgram(const ConnectionPtr& c, const std::string& text) 
       refuse(fmt::format("line {}: sleep takes a number of seconds here", line_no));
       return;
     }
-    sleeps.push_back({{0, line_no}, seconds});
+    sleeps.push_back({{0, line_no}, seconds, ""});
   }
   if (now.stop != VirtualArm::Stop::kNone || !now.powered) {
     Queue(c, primary::EncodeText(Microseconds(), primary::kTextMessage,
