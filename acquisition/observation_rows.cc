@@ -4,30 +4,34 @@
 
 namespace armsig::acquisition {
 
+namespace {
+
+// The fields an observation and its row share, named alike: one list for both directions.
+template <typename From, typename To>
+void CopyObservation(const From& from, To& to) {
+  to.point = from.point;
+  to.station = from.station;
+  to.reading = from.reading;
+  to.distance_mm = from.distance_mm;
+  to.sigma_hz_rad = from.sigma_hz_rad;
+  to.sigma_v_rad = from.sigma_v_rad;
+  to.sigma_distance_mm = from.sigma_distance_mm;
+}
+
+}  // namespace
+
 db::ObservationRow ObservationRowOf(const reduction::Observation& o, std::optional<int64_t> pose_id,
                                     int return_code) {
   db::ObservationRow row;
   row.pose_id = pose_id;
-  row.point = o.point;
-  row.station = o.station;
-  row.reading = o.reading;
-  row.distance_mm = o.distance_mm;
-  row.sigma_hz_rad = o.sigma_hz_rad;
-  row.sigma_v_rad = o.sigma_v_rad;
-  row.sigma_distance_mm = o.sigma_distance_mm;
+  CopyObservation(o, row);
   row.return_code = return_code;
   return row;
 }
 
 reduction::Observation ObservationOf(const db::ObservationRow& row) {
   reduction::Observation o;
-  o.point = row.point;
-  o.station = row.station;
-  o.reading = row.reading;
-  o.distance_mm = row.distance_mm;
-  o.sigma_hz_rad = row.sigma_hz_rad;
-  o.sigma_v_rad = row.sigma_v_rad;
-  o.sigma_distance_mm = row.sigma_distance_mm;
+  CopyObservation(row, o);
   return o;
 }
 

@@ -4,8 +4,6 @@
 #include <spdlog/spdlog.h>
 
 #include <algorithm>
-#include <boost/asio/post.hpp>
-#include <boost/asio/thread_pool.hpp>
 #include <chrono>
 #include <cmath>
 #include <functional>
@@ -16,13 +14,15 @@
 
 #include "acquisition/beam_pointing.h"
 #include "acquisition/controller_record.h"
+#include "acquisition/crew.h"
 #include "acquisition/observation_rows.h"
 #include "acquisition/session_owner.h"
+#include "acquisition/station_reading.h"
 #include "core/error.h"
 #include "core/text.h"
-#include "io/model_yaml.h"
 #include "core/units.h"
 #include "db/store.h"
+#include "io/model_yaml.h"
 #include "reduction/intersection.h"
 #include "reduction/point_flags.h"
 #include "reduction/polar_checks.h"
@@ -90,12 +90,6 @@ int64_t CreateSession(db::Database& db, const io::LabConfig& lab, const std::str
 
 namespace {
 
-struct StationReading {
-  instruments::Reading reading;
-  int instrument = 0;
-  int round = 0;  // which round of readings (repeat or face) it came from
-};
-
 // Ctrl-C: the flag was raised while a configuration was being measured.
 struct StopRequested {};
 
@@ -106,71 +100,6 @@ struct Measurement {
   reduction::ReducedPoint point;         // its flags carry the tolerance checks
   double device_ms = 0.0;                // slowest device call of each parallel step, summed
 };
-
-bool UsableSigmas(const std::optional<instruments::ReadingSigmas>& s) {
-  return s && std::isfinite(s->hz_rad) && std::isfinite(s->v_rad) &&
-         std::isfinite(s->distance_mm) && s->hz_rad > 0.0 && s->v_rad > 0.0 && s->distance_mm > 0.0;
-}
-
-// A reading of the capture's target as an observation: with the sigmas the instrument
-// stated with it (a laser tracker), else its configured ones.
-reduction::Observation TargetObservation(const StationReading& r, const io::InstrumentConfig& c) {
-  reduction::Observation o;
-  o.point = "target";
-  o.station = c.station;
-  o.reading = r.reading.angles;
-  o.distance_mm = r.reading.distance_mm;
-  o.sigma_hz_rad = c.sigma_hz_arcsec * kRadPerArcsec;
-  o.sigma_v_rad = c.sigma_v_arcsec * kRadPerArcsec;
-  o.sigma_distance_mm = c.sigma_distance_mm;
-  if (UsableSigmas(r.reading.sigma)) {
-    o.sigma_hz_rad = r.reading.sigma->hz_rad;
-    o.sigma_v_rad = r.reading.sigma->v_rad;
-    o.sigma_distance_mm = r.reading.sigma->distance_mm;
-  }
-  return o;
-}
-
-// A reading as stored: the observation with the instrument's own record of it (when its
-// answer arrived, its warning, its return code, the air at it) and the instrument's id.
-db::ObservationRow StoredReading(const StationReading& r, const io::InstrumentConfig& c,
-                                 int64_t pose, int64_t instrument_id) {
-  db::ObservationRow row = ObservationRowOf(TargetObservation(r, c), pose, r.reading.return_code);
-  if (const auto& air = r.reading.environment) {
-    row.temperature_c = air->temperature_c;
-    row.pressure_hpa = air->pressure_hpa;
-    row.humidity_percent = air->humidity_percent;
-  }
-  if (r.reading.time.time_since_epoch().count() > 0) {
-    row.measured_at = db::MeasuredAt(r.reading.time);
-  }
-  row.note = r.reading.note;
-  row.instrument_id = instrument_id;
-  return row;
-}
-
-// An instrument as the instruments table records it: named by its model and serial number
-// when it gave them (the same instrument on another port or station is the same row), else
-// by its protocol and port.
-db::InstrumentRow InstrumentRowOf(const io::InstrumentConfig& c,
-                                  const instruments::DeviceInfo& who) {
-  db::InstrumentRow row;
-  row.protocol = c.protocol;
-  row.port = c.tcp.empty() ? c.port : c.tcp;
-  row.kind = c.protocol == "emscon" ? "laser_tracker" : c.distance ? "total_station" : "theodolite";
-  row.serial_number = who.serial;
-  row.firmware = who.firmware;
-  const std::string model = who.name.empty() ? c.protocol : who.name;
-  row.name = who.serial.empty() ? fmt::format("{} at {}", model, row.port)
-                                : fmt::format("{} {}", model, who.serial);
-  // A laser tracker's readings carry their own sigmas, which take the place of a-priori ones.
-  if (c.protocol != "emscon") {
-    row.sigma_hz_arcsec = c.sigma_hz_arcsec;
-    row.sigma_v_arcsec = c.sigma_v_arcsec;
-    if (c.distance) row.sigma_distance_mm = c.sigma_distance_mm;
-  }
-  return row;
-}
 
 // A streaming controller's joints read before and after the instruments may differ by this
 // much and the arm still count as standing (0.001°: 0.02 mm at a metre, below any
@@ -185,57 +114,6 @@ double MsSince(std::chrono::steady_clock::time_point start) {
   return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start)
       .count();
 }
-
-// The threads of a capture's parallel steps (every instrument and the joints at once),
-// started once for the session: a step starts no thread, and its first task runs on the
-// calling thread, so one tracker alone is measured without any hand-over between threads.
-class Crew {
- public:
-  explicit Crew(size_t threads) : pool_(std::max<size_t>(threads, 1)) {}
-  ~Crew() { pool_.join(); }
-  Crew(const Crew&) = delete;
-  Crew& operator=(const Crew&) = delete;
-
-  template <typename F>
-  auto Spawn(F f) -> std::future<decltype(f())> {
-    auto task = std::make_shared<std::packaged_task<decltype(f())()>>(std::move(f));
-    auto future = task->get_future();
-    boost::asio::post(pool_, [task] { (*task)(); });
-    return future;
-  }
-
-  // Runs every task at once, the first here, and waits for all of them (they may hold
-  // references into the caller's frame); their results in order, else the first failure
-  // in task order.
-  template <typename T>
-  std::vector<T> Together(std::vector<std::function<T()>>& tasks) {
-    std::vector<std::future<T>> others;
-    for (size_t i = 1; i < tasks.size(); ++i) others.push_back(Spawn(tasks[i]));
-    std::vector<std::optional<T>> results(tasks.size());
-    std::exception_ptr failure;
-    if (!tasks.empty()) {
-      try {
-        results[0] = tasks[0]();
-      } catch (...) {
-        failure = std::current_exception();
-      }
-    }
-    for (size_t i = 1; i < tasks.size(); ++i) {
-      try {
-        results[i] = others[i - 1].get();
-      } catch (...) {
-        if (!failure) failure = std::current_exception();
-      }
-    }
-    if (failure) std::rethrow_exception(failure);
-    std::vector<T> out;
-    for (auto& r : results) out.push_back(std::move(*r));
-    return out;
-  }
-
- private:
-  boost::asio::thread_pool pool_;
-};
 
 }  // namespace
 

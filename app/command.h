@@ -15,7 +15,7 @@
 #include "db/database.h"
 #include "acquisition/session.h"
 #include "io/csv.h"
-#include "workflows/recalibrate.h"
+#include "nightly/recalibrate.h"
 
 namespace armsig::app {
 

@@ -1,6 +1,6 @@
 // armsig demo [--json OUT] [--configurations N] [--select M] [--robot puma|ur10|kuka|abb]
 // [--instrument theodolites|tracker] [--resume SESSION]: the main
-// job on the embedded default (workflows/demo.h).
+// job on the embedded default (demo/demo.h).
 #include <fmt/format.h>
 #include <spdlog/spdlog.h>
 #include <unistd.h>
@@ -9,7 +9,7 @@
 #include <iostream>
 
 #include "app/command.h"
-#include "workflows/demo.h"
+#include "demo/demo.h"
 
 namespace armsig::app {
 

@@ -1,7 +1,7 @@
 // armsig schedule recalibrate (--robot NAME… | --all) [recalibrate options] [--queue URI]
 // armsig worker [--jobs N] [--once] [--lease-s S] [--queue URI]
 // armsig jobs [--json] [--queue URI]
-// The nightly job as a queue (workflows/worker.h); exit codes as docs/reference/cli.md.
+// The nightly job as a queue (nightly/worker.h); exit codes as docs/reference/cli.md.
 #include <fmt/format.h>
 #include <spdlog/spdlog.h>
 
@@ -16,7 +16,7 @@
 #include "core/wording.h"
 #include "db/postgres_address.h"
 #include "db/stored_json.h"
-#include "workflows/worker.h"
+#include "nightly/worker.h"
 
 namespace armsig::app {
 

@@ -10,7 +10,7 @@
 #include "core/text.h"
 #include "instruments/device.h"
 #include "workflows/instrument.h"
-#include "workflows/virtual_instrument.h"
+#include "demo/virtual_instrument.h"
 
 namespace armsig::app {
 

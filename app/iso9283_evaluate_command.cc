@@ -4,7 +4,7 @@
 #include "app/command.h"
 #include "core/text.h"
 #include "io/atomic_file.h"
-#include "workflows/iso9283.h"
+#include "iso9283/iso9283.h"
 
 namespace armsig::app {
 

@@ -14,7 +14,7 @@
 #include "io/atomic_file.h"
 #include "io/model_yaml.h"
 #include "workflows/hint.h"
-#include "workflows/iso9283.h"
+#include "iso9283/iso9283.h"
 #include "workflows/signature.h"
 
 namespace armsig::app {

@@ -6,7 +6,7 @@
 #include "core/error.h"
 #include "core/text.h"
 #include "io/atomic_file.h"
-#include "workflows/iso9283_report.h"
+#include "iso9283/iso9283_report.h"
 
 namespace armsig::app {
 

@@ -1,5 +1,5 @@
 // armsig recalibrate --robot NAME [--since …] [--select N] [--params …|auto] [--report DIR]
-// [--json OUT] [--notify CMD]: the nightly job (workflows/recalibrate.h). Exit codes: 0
+// [--json OUT] [--notify CMD]: the nightly job (nightly/recalibrate.h). Exit codes: 0
 // stored or up to date, 4 drift (a set fitted after the change stored), 5 drift suspected
 // (too few configurations since the change; nothing stored), 3 a gate failed, 1 the fit
 // failed, 2 input.
@@ -15,7 +15,7 @@
 #include "db/sessions.h"
 #include "io/atomic_file.h"
 #include "io/notify.h"
-#include "workflows/recalibrate.h"
+#include "nightly/recalibrate.h"
 
 namespace armsig::app {
 

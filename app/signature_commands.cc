@@ -17,7 +17,7 @@
 #include "io/atomic_file.h"
 #include "workflows/program_compensation.h"
 #include "workflows/signature.h"
-#include "workflows/stored_report.h"
+#include "report/stored_report.h"
 
 namespace armsig::app {
 

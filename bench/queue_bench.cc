@@ -24,7 +24,7 @@
 #include "db/store.h"
 #include "io/model_yaml.h"
 #include "support/postgres_server.h"
-#include "workflows/worker.h"
+#include "nightly/worker.h"
 
 namespace armsig {
 namespace {

@@ -1,5 +1,5 @@
 // The software's own time per configuration of a UR capture session, beyond the move, the
-// settle and the instrument's measurement: the virtual UR10 lab (workflows/demo_lab.h — the
+// settle and the instrument's measurement: the virtual UR10 lab (demo/demo_lab.h — the
 // UR controller over RTDE, the secondary interface, the dashboard and the primary interface,
 // and the emScon laser tracker, all on loopback TCP) captures configurations into a SQLite
 // file through the real drivers, with the simulators' time scaled down so that the physical
@@ -22,7 +22,7 @@
 #include "io/builtin_models.h"
 #include "io/model_yaml.h"
 #include "workflows/capture.h"
-#include "workflows/demo_lab.h"
+#include "demo/demo_lab.h"
 
 namespace armsig {
 namespace {

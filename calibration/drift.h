@@ -14,6 +14,10 @@
 
 namespace armsig::calibration {
 
+// Drift needs two sets' predicted positions to differ by more than this (mm) too: the
+// nightly job's default gate, and what a stored set's report judges by when it stored none.
+inline constexpr double kDefaultDriftMm = 0.05;
+
 // One fitted parameter set: values of every parameter, and the covariance of the
 // identified ones (rows in the order of `identified`).
 struct FittedSet {

@@ -205,6 +205,21 @@ class Kinematics {
   Eigen::Matrix3d last_rot_ = Eigen::Matrix3d::Identity();
 };
 
+// A turn by `a` about coordinate axis `axis` (0 x, 1 y, 2 z) as a 4 × 4 homogeneous matrix
+// (core/rotation.h's turns, on any scalar type).
+template <typename T>
+Eigen::Matrix<T, 4, 4> AxisTurn(int axis, const T& a) {
+  using std::cos;
+  using std::sin;
+  Eigen::Matrix<T, 4, 4> m = Eigen::Matrix<T, 4, 4>::Identity();
+  const int i = (axis + 1) % 3, j = (axis + 2) % 3;
+  m(i, i) = cos(a);
+  m(i, j) = -sin(a);
+  m(j, i) = sin(a);
+  m(j, j) = cos(a);
+  return m;
+}
+
 // The same model templated on the scalar type (for automatic differentiation with
 // ceres::Jet and as an independent check of the analytic Jacobian).
 template <typename T>
@@ -221,36 +236,6 @@ Eigen::Matrix<T, 3, 1> TargetPosition(const RobotModel& model,
     const auto& term = model.nongeometric[k];
     theta[term.joint] += (params[model.num_geometric() + k] + T(term.fixed_rad)) * f[k];
   }
-  auto rx = [](const T& a) {
-    Mat4 m = Mat4::Identity();
-    using std::cos;
-    using std::sin;
-    m(1, 1) = cos(a);
-    m(1, 2) = -sin(a);
-    m(2, 1) = sin(a);
-    m(2, 2) = cos(a);
-    return m;
-  };
-  auto ry = [](const T& a) {
-    Mat4 m = Mat4::Identity();
-    using std::cos;
-    using std::sin;
-    m(0, 0) = cos(a);
-    m(0, 2) = sin(a);
-    m(2, 0) = -sin(a);
-    m(2, 2) = cos(a);
-    return m;
-  };
-  auto rz = [](const T& a) {
-    Mat4 m = Mat4::Identity();
-    using std::cos;
-    using std::sin;
-    m(0, 0) = cos(a);
-    m(0, 1) = -sin(a);
-    m(1, 0) = sin(a);
-    m(1, 1) = cos(a);
-    return m;
-  };
   Mat4 chain = world_from_base.matrix().template cast<T>();
   for (int i = 0; i < n; ++i) {
     if (i > 0) chain = chain * model.links[i - 1].matrix().template cast<T>();
@@ -259,7 +244,8 @@ Eigen::Matrix<T, 3, 1> TargetPosition(const RobotModel& model,
     translation(0, 3) = p[0];
     translation(1, 3) = p[1];
     translation(2, 3) = p[2];
-    chain = chain * translation * rx(p[3]) * ry(p[4]) * rz(p[5]) * rz(theta[i]);
+    chain = chain * translation * AxisTurn(0, p[3]) * AxisTurn(1, p[4]) * AxisTurn(2, p[5]) *
+            AxisTurn(2, theta[i]);
   }
   Eigen::Matrix<T, 4, 1> point;
   const T* tool = params + 6 * n;

@@ -15,9 +15,13 @@
 #include <xmmintrin.h>
 #endif
 
+#include "calibration/map_fitter.h"
 #include "calibration/transfer_folds.h"
 
 namespace armsig::calibration {
+
+using detail::ParallelFor;
+using detail::ParallelForWorkers;
 
 namespace {
 
@@ -27,8 +31,6 @@ constexpr int kBatchBlock = 64;
 constexpr double kNegligibleExponent = 34.5;
 // Centres the local GP variance is conditioned on.
 constexpr int kVarianceNeighbours = 32;
-// A joint curve's knot within this of a training pose's angle counts as measured (5°).
-constexpr double kCurveReachRad = 5.0 * 3.14159265358979323846 / 180.0;
 
 Eigen::Matrix3d TurnAboutZ(double angle) {
   return Eigen::AngleAxisd(angle, Eigen::Vector3d::UnitZ()).toRotationMatrix();
@@ -51,23 +53,6 @@ class FlushDenormals {
   unsigned saved_;
 #endif
 };
-
-// Runs body(f) for f = 0 … count−1 on up to `threads` threads.
-template <typename Body>
-void ParallelFor(int count, int threads, const Body& body) {
-  threads = std::min(threads, count);
-  if (threads <= 1) {
-    for (int f = 0; f < count; ++f) body(f);
-    return;
-  }
-  std::vector<std::thread> workers;
-  for (int t = 0; t < threads; ++t) {
-    workers.emplace_back([&, t] {
-      for (int f = t; f < count; f += threads) body(f);
-    });
-  }
-  for (auto& w : workers) w.join();
-}
 
 }  // namespace
 
@@ -426,82 +411,9 @@ double Quantile(std::vector<double> v, double q) {
   return v[lo] + (pos - static_cast<double>(lo)) * (v[hi] - v[lo]);
 }
 
-// Fits the residual map to what a parametric fit leaves and decides whether to use it. The
-// steps share the fit poses' features, the training poses, their residuals under the
-// parametric refit without each fold and the kernel's distances, so they are the methods
-// of one object that is used once: Run() reads like the procedure (linearise the fit,
-// choose the features and the training poses, cross-validate the parametric model, the
-// support radius, walk the (ℓ, λ) grid, fit the map, decide).
-class MapFitter {
- public:
-  MapFitter(const RobotModel& model, const EstimationResult& fit,
-            const std::vector<MeasuredPose>& poses, const ResidualMapOptions& options)
-      : model_(model),
-        fit_(fit),
-        poses_(poses),
-        options_(options),
-        m_(static_cast<int>(poses.size())),
-        folds_(options.folds) {}
-  ResidualMapFit Run();
+}  // namespace
 
- private:
-  // The cross-validated mean error distance of one (ℓ, λ) (infinite when a kernel matrix
-  // was not positive definite), and the sum of squared errors.
-  struct Score {
-    double mean = std::numeric_limits<double>::infinity(), sum_sq = 0.0;
-  };
-
-  bool HasFitToLearnFrom();
-  void LineariseParametricFit();
-  bool ChooseFeatures();
-  void CrossValidateParametricModel();
-  void FitCurves();
-  void SetSupportRadius();
-  const Eigen::MatrixXf& Kernel(int li);
-  // `distances` (when given): each training pose's held-out error distance (mt_).
-  Score CrossValidate(int li, int ri, std::vector<double>* distances = nullptr);
-  Score ScoreOf(int li, int ri);
-  bool SearchGrid();
-  void FitMap();
-  void TransferCheck();
-  void Decide();
-  ResidualMapData& map() { return result_.map; }
-  // Joint curves: training pose t's contribution to the normal equations of the curve
-  // coefficients (P = joints × knots) for the target y (map frame), and its correction.
-  void AddCurveRows(int t, const Eigen::Vector3d& y, Eigen::MatrixXd* normal,
-                    Eigen::VectorXd& rhs) const;
-  Eigen::Vector3d CurveCorrection(int t, const Eigen::VectorXd& x) const;
-  Eigen::VectorXd SolveCurves(const Eigen::MatrixXd& normal, const Eigen::VectorXd& rhs,
-                              double smoothing, const std::vector<int>& measured) const;
-
-  const RobotModel& model_;
-  const EstimationResult& fit_;
-  const std::vector<MeasuredPose>& poses_;
-  const ResidualMapOptions& options_;
-  const int m_;  // fit poses
-  const int folds_;
-  ResidualMapFit result_;
-
-  std::optional<LinearisedCrossValidation> cv_;  // of the parametric model
-  std::vector<int> train_;              // the training poses (indices into poses_), ascending
-  int mt_ = 0;                          // how many
-  Eigen::MatrixXd u_;                   // their scaled features, mt × 2 per feature joint
-  std::vector<Eigen::Matrix3d> frame_;  // each one's map frame in the measuring frame
-  std::vector<int> fold_of_;            // each one's fold
-  std::vector<Eigen::MatrixXd> refit_;  // per fold: mt × 3 residuals, refit without it
-  Eigen::MatrixXd half_d2_;             // half squared feature distances, mt × mt
-  std::vector<std::vector<int>> fold_rows_, train_rows_;  // per fold: in it, and not
-  std::map<int, Eigen::MatrixXf> kernels_;                // by ℓ index, the few most recent
-  std::map<std::pair<int, int>, Score> scored_;
-  // Joint curves: per training pose and curve joint, the bumps under its angle and the
-  // joint's lever ∂x/∂θ_j in the map frame (mt × curve joints, row-major).
-  int knots_ = 0, curve_joints_ = 0;
-  std::vector<CurveSpan> span_;
-  std::vector<Eigen::Vector3d> lever_;
-  Eigen::MatrixXd penalty_;  // P × P: the periodic second differences' DᵀD
-  double penalty_scale_ = 0.0;
-  std::vector<int> measured_;  // per coefficient: 1 when a training pose lies within 5° of it
-};
+namespace detail {
 
 ResidualMapFit MapFitter::Run() {
   if (!HasFitToLearnFrom()) return std::move(result_);
@@ -613,158 +525,6 @@ void MapFitter::CrossValidateParametricModel() {
   }
 }
 
-void MapFitter::AddCurveRows(int t, const Eigen::Vector3d& y, Eigen::MatrixXd* normal,
-                             Eigen::VectorXd& rhs) const {
-  // Four bumps per curve joint: at most 4 × joints columns of the design row are non-zero.
-  thread_local std::vector<int> column;
-  thread_local std::vector<Eigen::Vector3d> g;
-  column.resize(4 * curve_joints_);
-  g.resize(4 * curve_joints_);
-  int used = 0;
-  for (int k = 0; k < curve_joints_; ++k) {
-    const CurveSpan& s = span_[t * curve_joints_ + k];
-    for (int b = 0; b < 4; ++b) {
-      column[used] = k * knots_ + (s.first + b) % knots_;
-      g[used++] = lever_[t * curve_joints_ + k] * s.weight[b];
-    }
-  }
-  for (int a = 0; a < used; ++a) {
-    rhs(column[a]) += g[a].dot(y);
-    if (!normal) continue;
-    for (int b = 0; b < used; ++b) (*normal)(column[a], column[b]) += g[a].dot(g[b]);
-  }
-}
-
-Eigen::Vector3d MapFitter::CurveCorrection(int t, const Eigen::VectorXd& x) const {
-  Eigen::Vector3d c = Eigen::Vector3d::Zero();
-  for (int k = 0; k < curve_joints_; ++k) {
-    const CurveSpan& s = span_[t * curve_joints_ + k];
-    double delta = 0.0;
-    for (int b = 0; b < 4; ++b) delta += s.weight[b] * x(k * knots_ + (s.first + b) % knots_);
-    c += lever_[t * curve_joints_ + k] * delta;
-  }
-  return c;
-}
-
-// Penalised least squares: the second differences of neighbouring coefficients weigh
-// `smoothing` times the data's mean weight per coefficient. Where no pose was measured the
-// curve is pulled to zero (as hard as the data's mean weight pulls a measured knot): an
-// arc of a joint never measured gets no correction, not the bridge between its ends. A
-// millionth keeps a constant the parametric model already took determined.
-Eigen::VectorXd MapFitter::SolveCurves(const Eigen::MatrixXd& normal, const Eigen::VectorXd& rhs,
-                                       double smoothing, const std::vector<int>& measured) const {
-  Eigen::MatrixXd a = normal + (smoothing * penalty_scale_) * penalty_;
-  a.diagonal().array() += 1e-6 * penalty_scale_;
-  for (size_t c = 0; c < measured.size(); ++c) {
-    if (!measured[c]) a(c, c) += penalty_scale_;
-  }
-  return a.llt().solve(rhs);  // symmetric positive definite: the blocked Cholesky
-}
-
-// Stage 1: the joint curves, their smoothing chosen by the same folds as the kernel's
-// hyperparameters (walked from the middle of the grid to the best neighbour). Each fold's
-// refit residuals then become what that fold's curves leave, so the kernel's
-// cross-validation below scores the two stages together.
-void MapFitter::FitCurves() {
-  if (options_.curve_knots == 0 || mt_ < options_.curve_min_poses) return;
-  knots_ = options_.curve_knots;
-  const std::vector<int>& joints = map().joints;
-  curve_joints_ = static_cast<int>(joints.size());
-  const int p = curve_joints_ * knots_;
-  span_.resize(static_cast<size_t>(mt_) * curve_joints_);
-  lever_.resize(span_.size());
-  Kinematics kin(model_);
-  for (int t = 0; t < mt_; ++t) {
-    const MeasuredPose& pose = poses_[train_[t]];
-    kin.Position(fit_.base_of(pose.frame), fit_.params, pose.joints_rad.data());
-    const Eigen::Matrix<double, 3, Eigen::Dynamic> lever = kin.JointJacobian();
-    for (int k = 0; k < curve_joints_; ++k) {
-      span_[t * curve_joints_ + k] = CurveSpanAt(knots_, pose.joints_rad(joints[k]));
-      lever_[t * curve_joints_ + k] = frame_[t].transpose() * lever.col(joints[k]);
-    }
-  }
-  // A knot is measured when a training pose lies within kCurveReachRad of it: gaps between
-  // sparse poses are bridged by the smoothing, not taken for arcs nobody measured.
-  measured_.assign(p, 0);
-  const double spacing = 2.0 * std::acos(-1.0) / knots_;
-  const int reach = static_cast<int>(std::floor(kCurveReachRad / spacing));
-  for (int t = 0; t < mt_; ++t) {
-    for (int k = 0; k < curve_joints_; ++k) {
-      const int nearest = span_[t * curve_joints_ + k].nearest;
-      for (int d = -reach; d <= reach; ++d)
-        measured_[k * knots_ + ((nearest + d) % knots_ + knots_) % knots_] = 1;
-    }
-  }
-  // Normal matrices: all training poses, and each fold's share (its complement trains).
-  Eigen::MatrixXd all = Eigen::MatrixXd::Zero(p, p);
-  std::vector<Eigen::MatrixXd> train(folds_);
-  std::vector<Eigen::VectorXd> rhs(folds_, Eigen::VectorXd::Zero(p));
-  Eigen::VectorXd unused = Eigen::VectorXd::Zero(p);
-  for (int t = 0; t < mt_; ++t) AddCurveRows(t, Eigen::Vector3d::Zero(), &all, unused);
-  for (int f = 0; f < folds_; ++f) {
-    Eigen::MatrixXd in_fold = Eigen::MatrixXd::Zero(p, p);
-    for (int t : fold_rows_[f]) AddCurveRows(t, Eigen::Vector3d::Zero(), &in_fold, unused);
-    train[f] = all - in_fold;
-    for (int t : train_rows_[f]) AddCurveRows(t, -refit_[f].row(t).transpose(), nullptr, rhs[f]);
-  }
-  penalty_scale_ = all.diagonal().mean();
-  if (!(penalty_scale_ > 0)) return;  // no joint moves the target at these poses
-  penalty_ = Eigen::MatrixXd::Zero(p, p);
-  for (int k = 0; k < curve_joints_; ++k) {
-    for (int m = 0; m < knots_; ++m) {
-      const int c[3] = {k * knots_ + m, k * knots_ + (m + 1) % knots_, k * knots_ + (m + 2) % knots_};
-      const double w[3] = {1.0, -2.0, 1.0};
-      for (int a = 0; a < 3; ++a)
-        for (int b = 0; b < 3; ++b) penalty_(c[a], c[b]) += w[a] * w[b];
-    }
-  }
-  const std::vector<double>& grid = options_.curve_smoothing;
-  std::map<int, std::pair<double, std::vector<Eigen::VectorXd>>> scored;  // by grid index
-  auto score = [&](int gi) -> double {
-    if (auto it = scored.find(gi); it != scored.end()) return it->second.first;
-    options_.stop.ThrowIfRequested();
-    std::vector<Eigen::VectorXd> x(folds_);
-    std::vector<double> sum(folds_, 0.0);
-    ParallelFor(folds_, options_.threads, [&](int f) {
-      x[f] = SolveCurves(train[f], rhs[f], grid[gi], measured_);
-      for (int t : fold_rows_[f])
-        sum[f] += (refit_[f].row(t).transpose() + CurveCorrection(t, x[f])).norm();
-    });
-    double mean = 0.0;
-    for (double v : sum) mean += v / mt_;
-    if (!std::isfinite(mean)) mean = std::numeric_limits<double>::infinity();
-    scored[gi] = {mean, std::move(x)};
-    return mean;
-  };
-  int best = static_cast<int>(grid.size()) / 2;
-  for (double best_mean = score(best);;) {
-    int next = best;
-    for (int step : {-1, 1}) {
-      const int gi = best + step;
-      if (gi < 0 || gi >= static_cast<int>(grid.size())) continue;
-      if (const double m = score(gi); m < best_mean) {
-        best_mean = m;
-        next = gi;
-      }
-    }
-    if (next == best) break;
-    best = next;
-  }
-  const auto& [mean, x] = scored[best];
-  if (!std::isfinite(mean)) return;
-  result_.cv_mean_mm_curves = mean;
-  // Curves that do not beat the parametric model on their own are left out: the error is
-  // not of one joint's angle, and the kernel alone learns it (as a map without curves).
-  if (!(mean < result_.cv_mean_mm_parametric)) return;
-  for (int f = 0; f < folds_; ++f) {
-    for (int t = 0; t < mt_; ++t) refit_[f].row(t) += CurveCorrection(t, x[f]).transpose();
-  }
-  JointCurvesData& curves = map().curves;
-  curves.knots = knots_;
-  curves.joints = joints;
-  curves.smoothing = grid[best];
-}
-
 // Half squared distances between the training poses, and the support radius from their
 // leave-one-out nearest neighbours.
 void MapFitter::SetSupportRadius() {
@@ -807,11 +567,26 @@ MapFitter::Score MapFitter::CrossValidate(int li, int ri, std::vector<double>* d
   const float lambda = static_cast<float>(options_.regularisations[ri]);
   std::vector<double> sum(folds_, 0.0), sum_sq(folds_, 0.0);
   std::vector<char> failed(folds_, 0);
-  ParallelFor(folds_, options_.threads, [&](int f) {
+  const int workers = std::max(1, std::min(options_.threads, folds_));
+  if (static_cast<int>(fold_buffers_.size()) != workers) {
+    size_t most_train = 0, most_test = 0;
+    for (int f = 0; f < folds_; ++f) {
+      most_train = std::max(most_train, train_rows_[f].size());
+      most_test = std::max(most_test, fold_rows_[f].size());
+    }
+    fold_buffers_.resize(workers);
+    for (auto& b : fold_buffers_) {
+      b.a.resize(most_train, most_train);
+      b.kft.resize(most_test, most_train);
+    }
+  }
+  ParallelForWorkers(folds_, workers, [&](int f, int worker) {
     const FlushDenormals flush;
     const std::vector<int>& tr = train_rows_[f];
     const std::vector<int>& te = fold_rows_[f];
-    Eigen::MatrixXf a(tr.size(), tr.size()), kft(te.size(), tr.size());
+    const Eigen::Index n = static_cast<Eigen::Index>(tr.size());
+    Eigen::Ref<Eigen::MatrixXf> a = fold_buffers_[worker].a.topLeftCorner(n, n);
+    auto kft = fold_buffers_[worker].kft.topLeftCorner(static_cast<Eigen::Index>(te.size()), n);
     Eigen::MatrixXf y(tr.size(), 3);
     for (size_t c = 0; c < tr.size(); ++c) {
       for (size_t r = 0; r < tr.size(); ++r) a(r, c) = k(tr[r], tr[c]);
@@ -819,7 +594,7 @@ MapFitter::Score MapFitter::CrossValidate(int li, int ri, std::vector<double>* d
       y.row(c) = (-refit_[f].row(tr[c])).cast<float>();
     }
     a.diagonal().array() += lambda;
-    const Eigen::LLT<Eigen::MatrixXf> llt(a);
+    const Eigen::LLT<Eigen::Ref<Eigen::MatrixXf>> llt(a);  // in place: a holds the factor
     if (llt.info() != Eigen::Success) {
       failed[f] = 1;
       return;
@@ -884,6 +659,7 @@ bool MapFitter::SearchGrid() {
   result_.cv_mean_mm_with_map = best.mean;
   CrossValidate(li, ri, &result_.cv_distances_mm);
   kernels_.clear();
+  fold_buffers_.clear();
   result_.cv_poses = train_;
   return true;
 }
@@ -1049,13 +825,13 @@ void MapFitter::Decide() {
   result_.decision = text;
 }
 
-}  // namespace
+}  // namespace detail
 
 ResidualMapFit FitResidualMap(const RobotModel& model, const EstimationResult& fit,
                               const std::vector<MeasuredPose>& poses,
                               const ResidualMapOptions& options) {
   options.Check();
-  return MapFitter(model, fit, poses, options).Run();
+  return detail::MapFitter(model, fit, poses, options).Run();
 }
 
 }  // namespace armsig::calibration

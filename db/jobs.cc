@@ -19,7 +19,7 @@ CREATE TABLE IF NOT EXISTS jobs (
   id                @ID@,
   kind              TEXT NOT NULL CHECK (kind IN ('recalibrate')),
   robot             TEXT NOT NULL,
-  options_json      TEXT NOT NULL,                  -- the run's options (workflows/worker.h)
+  options_json      TEXT NOT NULL,                  -- the run's options (nightly/worker.h)
   state             TEXT NOT NULL DEFAULT 'queued'
                     CHECK (state IN ('queued','running','done','failed','rejected')),
   attempts          INTEGER NOT NULL DEFAULT 0,     -- claims so far (a vanished worker's too)

@@ -98,7 +98,7 @@ bool Finish(Connection& connection, int64_t id, const std::string& worker, JobSt
 // Hands a claimed job back to the queue without counting the attempt; false when not ours.
 bool Release(Connection& connection, int64_t id, const std::string& worker);
 // Hands a claimed job back after an infrastructure fault interrupted its attempt (its store
-// went away; workflows/worker.h): queued again, the attempt not counted, `why` in the error
+// went away; nightly/worker.h): queued again, the attempt not counted, `why` in the error
 // column until the next claim. False when not ours.
 bool Requeue(Connection& connection, int64_t id, const std::string& worker, const std::string& why);
 

@@ -15,7 +15,7 @@
 //   stopped process, a cut link) ends the wait with DatabaseError::connection_lost() and
 //   the connection is closed. A statement_timeout of 0 (set by the user) waits without end.
 // Each such failure, a lost connection and a server that cannot be reached are
-// connection_lost(): the work may be retried once the server is back (workflows/worker.h).
+// connection_lost(): the work may be retried once the server is back (nightly/worker.h).
 #pragma once
 
 #include <chrono>

@@ -9,20 +9,8 @@ namespace armsig::db {
 std::vector<ReportSession> LoadSessionSummaries(Database& db,
                                                 const std::vector<int64_t>& session_ids) {
   std::vector<ReportSession> out;
-  auto q = Sql(db,
-      "SELECT id, started_at, coalesce(finished_at, ''), state, coalesce(note, ''), "
-      "coalesce(lab_yaml, '') FROM sessions WHERE id = ?");
   for (int64_t id : session_ids) {
-    q->Bind(1, id);
-    if (!q->Step()) continue;
-    ReportSession s;
-    s.id = q->Int(0);
-    s.started_at = q->Text(1);
-    s.finished_at = q->Text(2);
-    s.state = q->Text(3);
-    s.note = q->Text(4);
-    s.lab_yaml = q->Text(5);
-    out.push_back(std::move(s));
+    if (auto s = LoadSession(db, id)) out.push_back(std::move(*s));
   }
   std::sort(out.begin(), out.end(), [](const auto& a, const auto& b) { return a.id < b.id; });
   return out;

@@ -10,14 +10,11 @@
 #include <vector>
 
 #include "db/database.h"
+#include "db/sessions.h"
 
 namespace armsig::db {
 
-struct ReportSession {
-  int64_t id = 0;
-  std::string started_at, finished_at;  // ISO-8601 UTC; finished_at "" while not finished
-  std::string state, note, lab_yaml;    // lab_yaml "" when none was stored (imported poses)
-};
+using ReportSession = SessionRow;
 // The sessions with these ids, by id; ids without a session are left out.
 std::vector<ReportSession> LoadSessionSummaries(Database& db,
                                                 const std::vector<int64_t>& session_ids);

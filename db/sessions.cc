@@ -129,16 +129,39 @@ int64_t InsertPose(Database& db, int64_t session_id, int seq, const std::string&
   return InsertedId(*s, db.path() + ": a pose");
 }
 
+namespace {
+
+// The sessions table's columns as SessionRow holds them (ReadSession), joined to the robots.
+constexpr const char* kSessionColumns =
+    "s.id, r.name, coalesce(s.lab_yaml,''), coalesce(s.plan_json,''), s.state, "
+    "coalesce(s.note,''), s.started_at, coalesce(s.finished_at, ''), s.kind, s.owner_pid, "
+    "coalesce(s.owner_host, ''), coalesce(s.owner_started, '')";
+constexpr int kSessionColumnCount = 12;
+constexpr const char* kSessionsWithRobots = " FROM sessions s JOIN robots r ON r.id = s.robot_id ";
+
+void ReadSession(const Statement& q, SessionRow& out) {
+  out.id = q.Int(0);
+  out.robot = q.Text(1);
+  out.lab_yaml = q.Text(2);
+  out.plan_json = q.Text(3);
+  out.state = q.Text(4);
+  out.note = q.Text(5);
+  out.started_at = q.Text(6);
+  out.finished_at = q.Text(7);
+  out.kind = q.Text(8);
+  out.owner = OwnerOf(q, 9);
+}
+
+}  // namespace
+
 std::optional<SessionRow> LoadSession(Database& db, int64_t session_id) {
-  auto s = Sql(db,
-               "SELECT s.id, r.name, coalesce(s.lab_yaml,''), coalesce(s.plan_json,''), "
-               "s.state, coalesce(s.note,''), s.owner_pid, coalesce(s.owner_host, ''), "
-               "coalesce(s.owner_started, '') "
-               "FROM sessions s JOIN robots r ON r.id = s.robot_id WHERE s.id = ?");
+  auto s =
+      Sql(db, std::string("SELECT ") + kSessionColumns + kSessionsWithRobots + "WHERE s.id = ?");
   s->Bind(1, session_id);
   if (!s->Step()) return std::nullopt;
-  return SessionRow{s->Int(0),  s->Text(1), s->Text(2),   s->Text(3),
-                    s->Text(4), s->Text(5), OwnerOf(*s, 6)};
+  SessionRow row;
+  ReadSession(*s, row);
+  return row;
 }
 
 std::vector<int> StoredSeqs(Database& db, int64_t session_id) {
@@ -215,33 +238,22 @@ std::vector<MeasuredPose> LoadSessionPoses(Database& db, int64_t session_id,
 std::vector<SessionSummary> ListSessions(Database& db, std::optional<int64_t> robot_id) {
   auto q = Sql(
       db,
-      std::string(
-          "SELECT s.id, r.name, s.state, coalesce(s.note, ''), s.started_at, "
-          "coalesce(s.finished_at, ''), "
-          "(SELECT count(*) FROM poses p WHERE p.session_id = s.id AND p.status = 'measured'), "
+      std::string("SELECT ") + kSessionColumns +
+          ", (SELECT count(*) FROM poses p WHERE p.session_id = s.id AND p.status = 'measured'), "
           "(SELECT count(*) FROM poses p WHERE p.session_id = s.id AND p.status = 'skipped'), "
           "(SELECT count(*) FROM points t WHERE t.session_id = s.id AND t.x_mm IS NOT NULL), "
           "(SELECT count(*) FROM points t WHERE t.session_id = s.id AND t.x_mm IS NOT NULL AND "
-          "coalesce(t.flags, '') <> ''), s.owner_pid, coalesce(s.owner_host, ''), "
-          "coalesce(s.owner_started, ''), s.kind "
-          "FROM sessions s JOIN robots r ON r.id = s.robot_id ") +
-          (robot_id ? "WHERE s.robot_id = ? " : "") + "ORDER BY s.id");
+          "coalesce(t.flags, '') <> '')" +
+          kSessionsWithRobots + (robot_id ? "WHERE s.robot_id = ? " : "") + "ORDER BY s.id");
   if (robot_id) q->Bind(1, *robot_id);
   std::vector<SessionSummary> out;
   while (q->Step()) {
     SessionSummary s;
-    s.id = q->Int(0);
-    s.robot = q->Text(1);
-    s.state = q->Text(2);
-    s.note = q->Text(3);
-    s.started_at = q->Text(4);
-    s.finished_at = q->Text(5);
-    s.measured = static_cast<int>(q->Int(6));
-    s.skipped = static_cast<int>(q->Int(7));
-    s.usable = static_cast<int>(q->Int(8));
-    s.flagged = static_cast<int>(q->Int(9));
-    s.owner = OwnerOf(*q, 10);
-    s.kind = q->Text(13);
+    ReadSession(*q, s);
+    s.measured = static_cast<int>(q->Int(kSessionColumnCount));
+    s.skipped = static_cast<int>(q->Int(kSessionColumnCount + 1));
+    s.usable = static_cast<int>(q->Int(kSessionColumnCount + 2));
+    s.flagged = static_cast<int>(q->Int(kSessionColumnCount + 3));
     out.push_back(std::move(s));
   }
   return out;

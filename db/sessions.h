@@ -42,21 +42,21 @@ void SetSessionOwner(Database& db, int64_t session_id, const SessionOwner& owner
 std::vector<int64_t> SessionIds(Database& db);
 bool SessionExists(Database& db, int64_t session_id);
 
+// A row of the sessions table with its robot's name: what every reader of a session takes.
 struct SessionRow {
   int64_t id = 0;
   std::string robot;
-  std::string lab_yaml, plan_json, state, note;
+  std::string lab_yaml, plan_json;  // "" when none was stored (imported poses)
+  std::string state, note;
+  std::string started_at, finished_at;  // ISO-8601 UTC; finished_at "" while not finished
+  std::string kind = "calibration";     // calibration | test | check
   std::optional<SessionOwner> owner{};  // absent when none was recorded
 };
 std::optional<SessionRow> LoadSession(Database& db, int64_t session_id);
-struct SessionSummary {
-  int64_t id = 0;
-  std::string robot, state, note, started_at, finished_at;
-  std::string kind = "calibration";  // calibration | test | check
+struct SessionSummary : SessionRow {
   int measured = 0, skipped = 0;  // configurations
   int usable = 0;                 // reduced points with coordinates
   int flagged = 0;                // of which carry a flag
-  std::optional<SessionOwner> owner{};
 };
 // Every session (of one robot when given), oldest first.
 std::vector<SessionSummary> ListSessions(Database& db, std::optional<int64_t> robot_id);

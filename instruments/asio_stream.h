@@ -167,4 +167,76 @@ inline void ConnectTcp(AsioStream<asio::ip::tcp::socket>& socket, const std::str
   socket.stream().set_option(asio::ip::tcp::no_delay(true));
 }
 
+// What the Asio line and packet transports share whatever they carry: the stream, its
+// name, closing, writing, the read loop and draining. `Interface` is LineTransport or
+// PacketTransport; the subclass keeps what was received (lines or frames) through the
+// three hooks below.
+template <typename Interface, typename Stream, size_t kChunkBytes>
+class AsioTransport : public Interface {
+ public:
+  explicit AsioTransport(std::string name) : name_(std::move(name)), conn_(*this) {}
+
+  void Close() override {
+    conn_.Close();
+    ClearReceived();
+  }
+  bool IsOpen() const override { return conn_.IsOpen(); }
+  const std::string& name() const override { return name_; }
+  void Write(std::string_view data, Deadline deadline) override { conn_.Write(data, deadline); }
+
+  int Drain(Millis quiet, Deadline until) override {
+    int bytes = static_cast<int>(Received());
+    DiscardReceived(nullptr, 0);
+    if (!conn_.IsOpen()) return bytes;
+    while (Clock::now() < until) {
+      size_t n = 0;
+      try {
+        n = conn_.ReadSome(chunk_, sizeof chunk_, std::min(until, Clock::now() + quiet));
+      } catch (const TransportError& e) {
+        if (e.kind() != TransportError::Kind::kTimeout) throw;
+        break;  // quiet
+      }
+      DiscardReceived(chunk_, n);
+      bytes += static_cast<int>(n);
+    }
+    return bytes;
+  }
+
+ protected:
+  // Bytes received and not yet taken.
+  virtual size_t Received() const = 0;
+  virtual void Receive(const char* data, size_t size) = 0;
+  // Forgets them (a closed or reopened stream).
+  virtual void ClearReceived() = 0;
+  // Drops them and `size` drained bytes (Drain, which starts with none).
+  virtual void DiscardReceived(const char* data, size_t size) = 0;
+
+  // Reads until `next(out)` takes a whole `what` (a line, a packet) from what was
+  // received; kTimeout at the deadline.
+  template <typename Next>
+  std::string ReadUntil(Deadline deadline, std::string_view what, Next&& next) {
+    std::string out;
+    for (;;) {
+      if (next(out)) return out;
+      if (Clock::now() >= deadline) {
+        throw TransportError(TransportError::Kind::kTimeout, name_,
+                             "no complete " + std::string(what) + " by the deadline");
+      }
+      Receive(chunk_, conn_.ReadSome(chunk_, sizeof chunk_, deadline));
+    }
+  }
+
+  // (Re)opens a TCP stream to host:port.
+  void OpenTcp(const std::string& host, unsigned short port, Millis timeout) {
+    Close();
+    ConnectTcp(conn_, host, port, timeout, *this);
+  }
+
+  std::string name_;
+  AsioStream<Stream> conn_;
+
+ private:
+  char chunk_[kChunkBytes];
+};
+
 }  // namespace armsig::instruments::detail

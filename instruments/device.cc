@@ -21,7 +21,7 @@ std::string RangeMessage(const std::string& quantity, double value, double min, 
 
 ReadingRangeError::ReadingRangeError(const std::string& device, std::string quantity, double value,
                                      double min, double max, const std::string& unit)
-    : InstrumentError(device, 3074, RangeMessage(quantity, value, min, max, unit)),
+    : InstrumentError(device, grc::kComCantDecode, RangeMessage(quantity, value, min, max, unit)),
       quantity_(std::move(quantity)),
       value_(value),
       min_(min),

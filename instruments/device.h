@@ -11,6 +11,7 @@
 
 #include "core/plausibility.h"
 #include "core/types.h"
+#include "instruments/return_codes.h"
 
 namespace armsig::instruments {
 
@@ -70,7 +71,7 @@ class InstrumentError : public std::runtime_error {
 class ConventionMismatch : public InstrumentError {
  public:
   ConventionMismatch(std::string device, const std::string& message)
-      : InstrumentError(std::move(device), 3074, message) {}
+      : InstrumentError(std::move(device), grc::kComCantDecode, message) {}
 };
 
 // A reply that decodes but cannot be a reading: a value outside what the instrument or

@@ -53,13 +53,16 @@ inline constexpr int32_t kAllOk = 0;
 inline constexpr int32_t kServerBusy = 1;
 inline constexpr int32_t kNotImplemented = 2;
 inline constexpr int32_t kWrongParameter = 3;
+inline constexpr int32_t kWrongParameter1 = 4;
 inline constexpr int32_t kNoDistanceSet = 37;
 inline constexpr int32_t kTrackerNotInitialized = 39;
 inline constexpr int32_t kMeasurementStatusNotReady = 10004;
 inline constexpr int32_t kNoStationaryResult = 10009;
+inline constexpr int32_t kSensorNotStable = 10013;
 }  // namespace status
 
 namespace status_change {  // ES_SystemStatusChange (a few; StatusChangeName knows them all)
+inline constexpr int32_t kEnvironmentParamsChanged = 2;
 inline constexpr int32_t kUnitsChanged = 6;
 inline constexpr int32_t kReflectorChanged = 7;
 inline constexpr int32_t kSystemSettingsChanged = 8;
@@ -71,6 +74,7 @@ inline constexpr int32_t kMeasStatusBusy = 26;
 inline constexpr int32_t kMeasStatusReady = 27;
 inline constexpr int32_t kIsFace1 = 30;
 inline constexpr int32_t kIsFace2 = 31;
+inline constexpr int32_t kInitializationStatusChanged = 151;
 }  // namespace status_change
 
 namespace length_unit {  // ES_LengthUnit

@@ -143,7 +143,7 @@ auto EmsconDevice::WithRetries(int32_t command, Deadline deadline, F&& attempt, 
   const std::string what = command >= 0 ? es::CommandName(command) : "set-up";
   const auto start = Clock::now();
   std::string last = "no attempt before the deadline";
-  int code = 3077;  // COM_TIMEDOUT
+  int code = grc::kComTimedOut;
   int made = 0;
   last_unsolicited_.reset();
   last_sent_ = -1;
@@ -171,7 +171,7 @@ auto EmsconDevice::WithRetries(int32_t command, Deadline deadline, F&& attempt, 
       if (e.kind() == TransportError::Kind::kTimeout && stale_in_call_ > 0) {
         last = fmt::format("{} {} echoed other command ids", stale_in_call_,
                            stale_in_call_ == 1 ? "reply" : "replies");
-        code = 3093;  // COM_TR_ID_MISMATCH: answers, but none to this command
+        code = grc::kComTrIdMismatch;  // answers, but none to this command
       }
       if (e.kind() == TransportError::Kind::kBadFrame) ++stats_.bad_frames;
       if (e.kind() == TransportError::Kind::kTimeout ||
@@ -223,7 +223,9 @@ Clock::duration EmsconDevice::Configure(Deadline deadline) {
   Clock::duration initializing = Clock::duration::zero();
   const auto status = Exchange(es::GetSystemStatus{}, deadline);
   const auto* s = std::get_if<es::SystemStatus>(&status.data);
-  if (!s) throw InstrumentError(name(), 3074, "GetSystemStatus: the reply carries no status");
+  if (!s)
+    throw InstrumentError(name(), grc::kComCantDecode,
+                          "GetSystemStatus: the reply carries no status");
   if (options_.force_initialize ||
       s->tracker_processor_status != es::tracker_processor_status::kInitialized) {
     spdlog::info("{}: initializing the tracker (processor status {})", name(),
@@ -236,7 +238,8 @@ Clock::duration EmsconDevice::Configure(Deadline deadline) {
   const auto read = Exchange(es::GetSystemSettings{}, deadline);
   const auto* current = std::get_if<es::SystemSettings>(&read.data);
   if (!current)
-    throw InstrumentError(name(), 3074, "GetSystemSettings: the reply carries no settings");
+    throw InstrumentError(name(), grc::kComCantDecode,
+                          "GetSystemSettings: the reply carries no settings");
   es::SystemSettings settings = *current;  // keeps the weather station and hardware flags
   settings.apply_transformation = false;   // results in the tracker's own frame
   settings.apply_station_orientation = false;
@@ -268,7 +271,8 @@ Clock::duration EmsconDevice::Configure(Deadline deadline) {
   } else {
     const auto active = Exchange(es::GetReflector{}, deadline);
     const auto* id = std::get_if<es::Int32Value>(&active.data);
-    if (!id) throw InstrumentError(name(), 3074, "GetReflector: the reply carries no id");
+    if (!id)
+      throw InstrumentError(name(), grc::kComCantDecode, "GetReflector: the reply carries no id");
     reflector_id_ = id->value;
   }
   configured_ = true;
@@ -306,7 +310,8 @@ es::SystemStatus EmsconDevice::Status() {
         const auto a = Exchange(es::GetSystemStatus{}, until);
         const auto* s = std::get_if<es::SystemStatus>(&a.data);
         if (!s) {
-          throw InstrumentError(name(), 3074, "GetSystemStatus: the reply carries no status");
+          throw InstrumentError(name(), grc::kComCantDecode,
+                                "GetSystemStatus: the reply carries no status");
         }
         return *s;
       },
@@ -318,13 +323,15 @@ void EmsconDevice::CheckResult(const es::MeasResult& m) const {
     ThrowStatus(es::StartMeasurement::kCommand, m.status, "result:");
   if (m.meas_mode != es::meas_mode::kStationary) {
     throw InstrumentError(
-        name(), 3074,
+        name(), grc::kComCantDecode,
         fmt::format("a result in measurement mode {}, not stationary (0)", m.meas_mode));
   }
-  if (m.try_mode) throw InstrumentError(name(), 3074, "a try-mode result is no measurement");
+  if (m.try_mode)
+    throw InstrumentError(name(), grc::kComCantDecode, "a try-mode result is no measurement");
   if (!Finite(m.value) || !Finite(m.std_dev) || !std::isfinite(m.temperature) ||
       !std::isfinite(m.pressure) || !std::isfinite(m.humidity)) {
-    throw InstrumentError(name(), 3074, "a result with a value that is not a finite number");
+    throw InstrumentError(name(), grc::kComCantDecode,
+                          "a result with a value that is not a finite number");
   }
   for (int i = 0; i < 3; ++i) {
     if (!(m.std_dev[i] >= 0.0)) {
@@ -510,7 +517,7 @@ int EmsconDevice::Face() {
     const auto* face = std::get_if<es::Int32Value>(&a.data);
     if (!face || (face->value != 1 && face->value != 2)) {
       throw InstrumentError(
-          name(), 3074,
+          name(), grc::kComCantDecode,
           fmt::format("GetFace: face {} is neither 1 nor 2", face ? face->value : -1));
     }
     return static_cast<int>(face->value);
@@ -528,7 +535,7 @@ bool EmsconDevice::CompensatorOn() {
         Exchange(es::GetLongSystemParameter{es::system_parameter::kInclinationSensorState}, until);
     const auto* p = std::get_if<es::LongParameter>(&a.data);
     if (!p || p->parameter != es::system_parameter::kInclinationSensorState) {
-      throw InstrumentError(name(), 3074,
+      throw InstrumentError(name(), grc::kComCantDecode,
                             "GetLongSystemParameter: the reply is for another parameter");
     }
     return p->value != 0;  // 0 off, 2 apply corrections
@@ -537,7 +544,7 @@ bool EmsconDevice::CompensatorOn() {
 
 void EmsconDevice::GoPosition(const Eigen::Vector3d& point_in_instrument_mm) {
   if (!point_in_instrument_mm.allFinite())
-    throw InstrumentError(name(), 3074, "GoPosition: the point is not finite");
+    throw InstrumentError(name(), grc::kComCantDecode, "GoPosition: the point is not finite");
   const es::SphericalCcw s = es::SccFromPoint(point_in_instrument_mm);  // SCC, as set up
   const double per_rad = 1.0 / *es::RadiansPer(options_.angle_unit);
   WithRetries(es::GoPosition::kCommand, CallDeadline(), [&](Deadline until) {
@@ -562,7 +569,9 @@ Environment EmsconDevice::GetEnvironment() {
   return WithRetries(es::GetEnvironmentParams::kCommand, CallDeadline(), [&](Deadline until) {
     const auto a = Exchange(es::GetEnvironmentParams{}, until);
     const auto* e = std::get_if<es::EnvironmentParams>(&a.data);
-    if (!e) throw InstrumentError(name(), 3074, "GetEnvironmentParams: no values in the reply");
+    if (!e)
+      throw InstrumentError(name(), grc::kComCantDecode,
+                            "GetEnvironmentParams: no values in the reply");
     return Environment{e->temperature, e->pressure, e->humidity};
   });
 }
@@ -577,7 +586,9 @@ std::vector<es::ReflectorInfo> EmsconDevice::ReadReflectors(Deadline until) {
     std::vector<es::ReflectorInfo> out;
     auto take = [&](const es::CommandAnswer& a) {
       const auto* r = std::get_if<es::ReflectorInfo>(&a.data);
-      if (!r) throw InstrumentError(name(), 3074, "GetReflectors: no reflector in the reply");
+      if (!r)
+        throw InstrumentError(name(), grc::kComCantDecode,
+                              "GetReflectors: no reflector in the reply");
       out.push_back(*r);
       return r->total;
     };

@@ -4,6 +4,7 @@
 #include <cmath>
 #include <cstdio>
 #include <map>
+#include <span>
 
 #include "core/text.h"
 
@@ -302,65 +303,102 @@ std::optional<long> LongAt(const std::vector<std::string>& values, size_t index,
 constexpr int kAngleDigits = 15;
 constexpr int kDistanceDigits = 6;  // µm
 
+// One value of a typed reply: its name in the GeoCOM manual and the member it fills, a
+// double (encoded with `digits` decimals) or a long.
+template <typename T>
+struct Field {
+  std::string_view name;
+  double T::*real = nullptr;
+  long T::*integer = nullptr;
+  int digits = kAngleDigits;
+  constexpr Field(std::string_view n, double T::*m, int d = kAngleDigits)
+      : name(n), real(m), digits(d) {}
+  constexpr Field(std::string_view n, long T::*m) : name(n), integer(m) {}
+};
+
+template <typename T>
+std::vector<std::string> EncodeFields(const T& in, std::span<const Field<T>> fields) {
+  std::vector<std::string> out;
+  out.reserve(fields.size());
+  for (const Field<T>& f : fields)
+    out.push_back(f.real ? EncodeDouble(in.*f.real, f.digits) : EncodeLong(in.*f.integer));
+  return out;
+}
+
+// Decodes values[0…fields) into `out` in order; nullopt (with `why` naming the RPC, the
+// value and what was expected) at the first value missing or malformed.
+template <typename T>
+std::optional<T> DecodeFields(const std::vector<std::string>& values, std::string_view rpc,
+                              std::span<const Field<T>> fields, std::string* why) {
+  T out{};
+  for (size_t i = 0; i < fields.size(); ++i) {
+    const Field<T>& f = fields[i];
+    if (f.real) {
+      const auto v = DoubleAt(values, i, rpc, f.name, why);
+      if (!v) return std::nullopt;
+      out.*f.real = *v;
+    } else {
+      const auto v = LongAt(values, i, rpc, f.name, why);
+      if (!v) return std::nullopt;
+      out.*f.integer = *v;
+    }
+  }
+  return out;
+}
+
+// The reply layouts (GeoCOM Reference Manual TPS1200+ v1.50, the RPCs' "Out" parameters).
+constexpr Field<AngleComplete> kAngleComplete[] = {
+    {"Hz", &AngleComplete::hz_rad},
+    {"V", &AngleComplete::v_rad},
+    {"AngleAccuracy", &AngleComplete::angle_accuracy_rad},
+    {"AngleTime", &AngleComplete::angle_time_ms},
+    {"CrossIncline", &AngleComplete::cross_incline_rad},
+    {"LengthIncline", &AngleComplete::length_incline_rad},
+    {"InclineAccuracy", &AngleComplete::incline_accuracy_rad},
+    {"InclineTime", &AngleComplete::incline_time_ms},
+    {"Face", &AngleComplete::face},
+};
+constexpr Field<AngleSimple> kAngleSimple[] = {{"Hz", &AngleSimple::hz_rad},
+                                               {"V", &AngleSimple::v_rad}};
+// The angles; the slope distance, optional, is read after them.
+constexpr Field<SimpleMeasurement> kSimpleMeasurementAngles[] = {{"Hz", &SimpleMeasurement::hz_rad},
+                                                                 {"V", &SimpleMeasurement::v_rad}};
+constexpr Field<DistanceAngle> kDistanceAngle[] = {
+    {"Hz", &DistanceAngle::hz_rad},
+    {"V", &DistanceAngle::v_rad},
+    {"SlopeDistance", &DistanceAngle::slope_distance_m, kDistanceDigits},
+    {"DistMode", &DistanceAngle::dist_mode},
+};
+constexpr Field<Version> kVersion[] = {{"Release", &Version::release},
+                                       {"Version", &Version::version},
+                                       {"Subversion", &Version::subversion}};
+
 }  // namespace
 
 std::vector<std::string> EncodeValues(const AngleComplete& a) {
-  return {EncodeDouble(a.hz_rad, kAngleDigits),
-          EncodeDouble(a.v_rad, kAngleDigits),
-          EncodeDouble(a.angle_accuracy_rad, kAngleDigits),
-          EncodeLong(a.angle_time_ms),
-          EncodeDouble(a.cross_incline_rad, kAngleDigits),
-          EncodeDouble(a.length_incline_rad, kAngleDigits),
-          EncodeDouble(a.incline_accuracy_rad, kAngleDigits),
-          EncodeLong(a.incline_time_ms),
-          EncodeLong(a.face)};
+  return EncodeFields<AngleComplete>(a, kAngleComplete);
 }
 
 std::optional<AngleComplete> DecodeAngleComplete(const std::vector<std::string>& v,
                                                  std::string* why) {
-  constexpr std::string_view rpc = "TMC_GetAngle1";
-  AngleComplete a;
-  auto hz = DoubleAt(v, 0, rpc, "Hz", why);
-  if (!hz) return std::nullopt;
-  auto vertical = DoubleAt(v, 1, rpc, "V", why);
-  if (!vertical) return std::nullopt;
-  auto accuracy = DoubleAt(v, 2, rpc, "AngleAccuracy", why);
-  if (!accuracy) return std::nullopt;
-  auto time = LongAt(v, 3, rpc, "AngleTime", why);
-  if (!time) return std::nullopt;
-  auto cross = DoubleAt(v, 4, rpc, "CrossIncline", why);
-  if (!cross) return std::nullopt;
-  auto length = DoubleAt(v, 5, rpc, "LengthIncline", why);
-  if (!length) return std::nullopt;
-  auto incline_accuracy = DoubleAt(v, 6, rpc, "InclineAccuracy", why);
-  if (!incline_accuracy) return std::nullopt;
-  auto incline_time = LongAt(v, 7, rpc, "InclineTime", why);
-  if (!incline_time) return std::nullopt;
-  auto face = LongAt(v, 8, rpc, "Face", why);
-  if (!face) return std::nullopt;
-  if (*face != 0 && *face != 1) {
+  auto a = DecodeFields<AngleComplete>(v, "TMC_GetAngle1", kAngleComplete, why);
+  if (a && a->face != 0 && a->face != 1) {
     if (why) *why = "TMC_GetAngle1: value 9 (Face): expected 0 or 1, got " + Quoted(v[8]);
     return std::nullopt;
   }
-  a = {*hz, *vertical, *accuracy, *time, *cross, *length, *incline_accuracy, *incline_time, *face};
   return a;
 }
 
 std::vector<std::string> EncodeValues(const AngleSimple& a) {
-  return {EncodeDouble(a.hz_rad, kAngleDigits), EncodeDouble(a.v_rad, kAngleDigits)};
+  return EncodeFields<AngleSimple>(a, kAngleSimple);
 }
 
 std::optional<AngleSimple> DecodeAngleSimple(const std::vector<std::string>& v, std::string* why) {
-  auto hz = DoubleAt(v, 0, "TMC_GetAngle5", "Hz", why);
-  if (!hz) return std::nullopt;
-  auto vertical = DoubleAt(v, 1, "TMC_GetAngle5", "V", why);
-  if (!vertical) return std::nullopt;
-  return AngleSimple{*hz, *vertical};
+  return DecodeFields<AngleSimple>(v, "TMC_GetAngle5", kAngleSimple, why);
 }
 
 std::vector<std::string> EncodeValues(const SimpleMeasurement& m) {
-  std::vector<std::string> out = {EncodeDouble(m.hz_rad, kAngleDigits),
-                                  EncodeDouble(m.v_rad, kAngleDigits)};
+  auto out = EncodeFields<SimpleMeasurement>(m, kSimpleMeasurementAngles);
   if (m.slope_distance_m) out.push_back(EncodeDouble(*m.slope_distance_m, kDistanceDigits));
   return out;
 }
@@ -368,50 +406,29 @@ std::vector<std::string> EncodeValues(const SimpleMeasurement& m) {
 std::optional<SimpleMeasurement> DecodeSimpleMeasurement(const std::vector<std::string>& v,
                                                          std::string* why) {
   constexpr std::string_view rpc = "TMC_GetSimpleMea";
-  auto hz = DoubleAt(v, 0, rpc, "Hz", why);
-  if (!hz) return std::nullopt;
-  auto vertical = DoubleAt(v, 1, rpc, "V", why);
-  if (!vertical) return std::nullopt;
-  SimpleMeasurement m{*hz, *vertical, std::nullopt};
-  if (v.size() > 2) {
-    m.slope_distance_m = DoubleAt(v, 2, rpc, "SlopeDistance", why);
-    if (!m.slope_distance_m) return std::nullopt;
+  auto m = DecodeFields<SimpleMeasurement>(v, rpc, kSimpleMeasurementAngles, why);
+  if (m && v.size() > 2) {
+    m->slope_distance_m = DoubleAt(v, 2, rpc, "SlopeDistance", why);
+    if (!m->slope_distance_m) return std::nullopt;
   }
   return m;
 }
 
 std::vector<std::string> EncodeValues(const DistanceAngle& d) {
-  return {EncodeDouble(d.hz_rad, kAngleDigits), EncodeDouble(d.v_rad, kAngleDigits),
-          EncodeDouble(d.slope_distance_m, kDistanceDigits), EncodeLong(d.dist_mode)};
+  return EncodeFields<DistanceAngle>(d, kDistanceAngle);
 }
 
 std::optional<DistanceAngle> DecodeDistanceAngle(const std::vector<std::string>& v,
                                                  std::string* why) {
-  constexpr std::string_view rpc = "BAP_MeasDistanceAngle";
-  auto hz = DoubleAt(v, 0, rpc, "Hz", why);
-  if (!hz) return std::nullopt;
-  auto vertical = DoubleAt(v, 1, rpc, "V", why);
-  if (!vertical) return std::nullopt;
-  auto distance = DoubleAt(v, 2, rpc, "SlopeDistance", why);
-  if (!distance) return std::nullopt;
-  auto mode = LongAt(v, 3, rpc, "DistMode", why);
-  if (!mode) return std::nullopt;
-  return DistanceAngle{*hz, *vertical, *distance, *mode};
+  return DecodeFields<DistanceAngle>(v, "BAP_MeasDistanceAngle", kDistanceAngle, why);
 }
 
 std::vector<std::string> EncodeValues(const Version& v) {
-  return {EncodeLong(v.release), EncodeLong(v.version), EncodeLong(v.subversion)};
+  return EncodeFields<Version>(v, kVersion);
 }
 
 std::optional<Version> DecodeVersion(const std::vector<std::string>& v, std::string* why) {
-  constexpr std::string_view rpc = "GetSWVersion";
-  auto release = LongAt(v, 0, rpc, "Release", why);
-  if (!release) return std::nullopt;
-  auto version = LongAt(v, 1, rpc, "Version", why);
-  if (!version) return std::nullopt;
-  auto sub = LongAt(v, 2, rpc, "Subversion", why);
-  if (!sub) return std::nullopt;
-  return Version{*release, *version, *sub};
+  return DecodeFields<Version>(v, "GetSWVersion", kVersion, why);
 }
 
 std::optional<std::string> DecodeStringValue(const std::vector<std::string>& values,
@@ -487,15 +504,15 @@ struct CodeInfo {
 
 const std::map<int, CodeInfo>& Codes() {
   static const std::map<int, CodeInfo> codes = {
-      {0, {"GRC_OK", "ok"}},
+      {grc::kOk, {"GRC_OK", "ok"}},
       {1, {"GRC_UNDEFINED", "unknown error"}},
-      {2, {"GRC_IVPARAM", "invalid parameter"}},
+      {grc::kIvParam, {"GRC_IVPARAM", "invalid parameter"}},
       {4, {"GRC_FATAL", "fatal error"}},
       {5, {"GRC_NOT_IMPL", "not implemented on this instrument"}},
       {6, {"GRC_TIME_OUT", "function timed out on the instrument"}},
       {8, {"GRC_ABORT", "aborted"}},
       {12, {"GRC_SHUT_DOWN", "instrument is shutting down"}},
-      {13, {"GRC_SYSBUSY", "system busy: retry"}},
+      {grc::kSysBusy, {"GRC_SYSBUSY", "system busy: retry"}},
       {16, {"GRC_LOW_POWER", "battery low"}},
       {18, {"GRC_BATT_EMPTY", "battery empty"}},
       {22, {"GRC_INSTRUMENT_TILT", "instrument tilted beyond the compensator range"}},
@@ -503,37 +520,42 @@ const std::map<int, CodeInfo>& Codes() {
       {27, {"GRC_NA", "not available"}},
       {770, {"EDM_NOSIGNAL", "no EDM signal"}},
       {775, {"EDM_TIMEOUT", "EDM timeout: signal too weak or beam interrupted"}},
-      {786, {"EDM_BUSY", "EDM busy: retry"}},
-      {1283, {"TMC_NO_FULL_CORRECTION", "data valid, not all corrections applied"}},
-      {1284, {"TMC_ACCURACY_GUARANTEE", "data valid, accuracy not guaranteed"}},
-      {1285, {"TMC_ANGLE_OK", "angles valid, no distance"}},
-      {1288, {"TMC_ANGLE_NO_FULL_CORRECTION", "angles only, not fully corrected"}},
-      {1289, {"TMC_ANGLE_ACCURACY_GUARANTEE", "angles only, accuracy not guaranteed"}},
+      {grc::kEdmBusy, {"EDM_BUSY", "EDM busy: retry"}},
+      {grc::kTmcNoFullCorrection,
+       {"TMC_NO_FULL_CORRECTION", "data valid, not all corrections applied"}},
+      {grc::kTmcAccuracyGuarantee,
+       {"TMC_ACCURACY_GUARANTEE", "data valid, accuracy not guaranteed"}},
+      {grc::kTmcAngleOk, {"TMC_ANGLE_OK", "angles valid, no distance"}},
+      {grc::kTmcAngleNoFullCorrection,
+       {"TMC_ANGLE_NO_FULL_CORRECTION", "angles only, not fully corrected"}},
+      {grc::kTmcAngleAccuracyGuarantee,
+       {"TMC_ANGLE_ACCURACY_GUARANTEE", "angles only, accuracy not guaranteed"}},
       {1290, {"TMC_ANGLE_ERROR", "no angle measurement"}},
       {1291, {"TMC_DIST_PPM", "wrong PPM/MM setting"}},
-      {1292, {"TMC_DIST_ERROR", "distance not measured (no target)"}},
-      {1293, {"TMC_BUSY", "measurement busy: retry"}},
+      {grc::kTmcDistError, {"TMC_DIST_ERROR", "distance not measured (no target)"}},
+      {grc::kTmcBusy, {"TMC_BUSY", "measurement busy: retry"}},
       {1294, {"TMC_SIGNAL_ERROR", "signal error"}},
-      {1793, {"MOT_BUSY", "motorisation busy: retry"}},
+      {grc::kMotBusy, {"MOT_BUSY", "motorisation busy: retry"}},
       {1806, {"MOT_TIMEOUT", "motorisation timeout"}},
       {3073, {"COM_CANT_ENCODE", "cannot encode"}},
-      {3074, {"COM_CANT_DECODE", "cannot decode the reply"}},
+      {grc::kComCantDecode, {"COM_CANT_DECODE", "cannot decode the reply"}},
       {3075, {"COM_CANT_SEND", "cannot send"}},
       {3076, {"COM_CANT_RECV", "cannot receive"}},
-      {3077, {"COM_TIMEDOUT", "no reply in time"}},
+      {grc::kComTimedOut, {"COM_TIMEDOUT", "no reply in time"}},
       {3078, {"COM_WRONG_FORMAT", "wrong format"}},
-      {3080, {"COM_CANT_DECODE_REQ", "instrument cannot decode the request"}},
-      {3081, {"COM_PROC_UNAVAIL", "RPC not available on this instrument"}},
-      {3085, {"COM_FAILED", "communication failed"}},
-      {3093, {"COM_TR_ID_MISMATCH", "transaction id mismatch"}},
+      {grc::kComCantDecodeReq, {"COM_CANT_DECODE_REQ", "instrument cannot decode the request"}},
+      {grc::kComProcUnavail, {"COM_PROC_UNAVAIL", "RPC not available on this instrument"}},
+      {grc::kComFailed, {"COM_FAILED", "communication failed"}},
+      {grc::kComTrIdMismatch, {"COM_TR_ID_MISMATCH", "transaction id mismatch"}},
       {3094, {"COM_NOT_GEOCOM", "not a GeoCOM reply"}},
-      {3100, {"COM_OVERRUN", "line longer than the maximum"}},
-      {3101, {"COM_SRVR_RX_CHECKSUM_ERROR", "instrument received a bad checksum"}},
-      {3102, {"COM_CLNT_RX_CHECKSUM_ERROR", "reply had a bad checksum"}},
-      {3107, {"COM_CONS_REQ", "request sent before the previous reply: retry"}},
-      {3108, {"COM_SRVR_IS_SLEEPING", "instrument asleep: retry"}},
+      {grc::kComOverrun, {"COM_OVERRUN", "line longer than the maximum"}},
+      {grc::kComSrvrRxChecksumError,
+       {"COM_SRVR_RX_CHECKSUM_ERROR", "instrument received a bad checksum"}},
+      {grc::kComClntRxChecksumError, {"COM_CLNT_RX_CHECKSUM_ERROR", "reply had a bad checksum"}},
+      {grc::kComConsReq, {"COM_CONS_REQ", "request sent before the previous reply: retry"}},
+      {grc::kComSrvrIsSleeping, {"COM_SRVR_IS_SLEEPING", "instrument asleep: retry"}},
       {3109, {"COM_SRVR_IS_OFF", "instrument is off"}},
-      {3110, {"COM_NO_CHECKSUM", "no checksum in ASCII protocol"}},
+      {grc::kComNoChecksum, {"COM_NO_CHECKSUM", "no checksum in ASCII protocol"}},
       {8704, {"AUT_TIMEOUT", "position not reached"}},
       {8706, {"AUT_ANGLE_ERROR", "angle error"}},
       {8707, {"AUT_MOTOR_ERROR", "motor error"}},
@@ -551,21 +573,21 @@ const std::map<int, CodeInfo>& Codes() {
 
 CodeClass Classify(int code) {
   switch (code) {
-    case 0:
+    case grc::kOk:
       return CodeClass::kOk;
-    case 1283:
-    case 1284:
+    case grc::kTmcNoFullCorrection:
+    case grc::kTmcAccuracyGuarantee:
       return CodeClass::kWarningDataValid;
-    case 1285:
-    case 1288:
-    case 1289:
+    case grc::kTmcAngleOk:
+    case grc::kTmcAngleNoFullCorrection:
+    case grc::kTmcAngleAccuracyGuarantee:
       return CodeClass::kAnglesOnly;
-    case 13:
-    case 786:
-    case 1293:
-    case 1793:
-    case 3107:
-    case 3108:
+    case grc::kSysBusy:
+    case grc::kEdmBusy:
+    case grc::kTmcBusy:
+    case grc::kMotBusy:
+    case grc::kComConsReq:
+    case grc::kComSrvrIsSleeping:
       return CodeClass::kBusy;
     default:
       return CodeClass::kError;

@@ -11,6 +11,8 @@
 #include <string_view>
 #include <vector>
 
+#include "instruments/return_codes.h"
+
 namespace armsig::instruments::geocom {
 
 // CRC-16/ARC: reflected polynomial 0xA001, init 0, no final xor ("123456789" → 0xBB3D).
@@ -126,7 +128,9 @@ std::optional<std::string> DecodeStringValue(const std::vector<std::string>& val
 std::optional<long> DecodeLongValue(const std::vector<std::string>& values, std::string_view what,
                                     std::string* why = nullptr);
 
-// Return codes.
+// Return codes: the constants in instruments/return_codes.h (geocom::grc::kOk …).
+namespace grc = instruments::grc;
+
 enum class CodeClass {
   kOk,
   kWarningDataValid,  // 1283, 1284: data valid, a correction or accuracy caveat

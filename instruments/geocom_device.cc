@@ -33,7 +33,7 @@ geocom::Reply GeoComDevice::Call(int rpc, const std::vector<std::string>& params
   ++stats_.requests;
   const auto start = Clock::now();
   std::string last_error = "no attempt before the deadline";
-  int last_code = 3077;
+  int last_code = grc::kComTimedOut;
   // This call's transaction ids: a late reply to an earlier attempt of the same request
   // is still its reply (a slow instrument is not asked twice for nothing).
   std::vector<int> sent;
@@ -68,7 +68,7 @@ geocom::Reply GeoComDevice::Call(int rpc, const std::vector<std::string>& params
           last_error = (missing ? "reply without a CRC on a CRC link: "
                                 : "reply failed its CRC check: ") +
                        parsed.why;
-          last_code = missing ? 3110 : 3102;  // COM_NO_CHECKSUM, COM_CLNT_RX_CHECKSUM_ERROR
+          last_code = missing ? grc::kComNoChecksum : grc::kComClntRxChecksumError;
           retry = true;
           break;
         }
@@ -87,10 +87,11 @@ geocom::Reply GeoComDevice::Call(int rpc, const std::vector<std::string>& params
           retry = true;
           break;
         }
-        if (reply.rc_com == 3101) {  // the instrument saw our CRC as bad: send again
+        if (reply.rc_com ==
+            grc::kComSrvrRxChecksumError) {  // the instrument saw our CRC as bad: send again
           ++stats_.crc_errors;
           last_error = "instrument reports a checksum error";
-          last_code = 3101;
+          last_code = grc::kComSrvrRxChecksumError;
           retry = true;
           break;
         }
@@ -108,7 +109,7 @@ geocom::Reply GeoComDevice::Call(int rpc, const std::vector<std::string>& params
       if (e.kind() == TransportError::Kind::kTimeout && stale > 0) {
         last_error = std::to_string(stale) + " replies carried other transaction ids than " +
                      std::to_string(sent.back());
-        last_code = 3093;  // COM_TR_ID_MISMATCH
+        last_code = grc::kComTrIdMismatch;
       }
       // A timeout: a late reply may still arrive and will be dropped by its transaction
       // id. An over-long line: what is left of it (a flood's bytes still in the port)
@@ -142,7 +143,7 @@ DeviceInfo GeoComDevice::Identify() {
   };
   std::string why;
   auto decoded = [&](auto value) {
-    if (!value) throw InstrumentError(name(), 3074, why);
+    if (!value) throw InstrumentError(name(), grc::kComCantDecode, why);
     return *value;
   };
   DeviceInfo info;
@@ -177,7 +178,7 @@ Reading GeoComDevice::MeasureAngles() {
   ThrowIfNoData(reply);
   std::string why;
   const auto a = geocom::DecodeAngleComplete(reply.values, &why);
-  if (!a) throw InstrumentError(name(), 3074, why);
+  if (!a) throw InstrumentError(name(), grc::kComCantDecode, why);
   CheckAngles(name(), a->hz_rad, a->v_rad);
   Reading r = StartReading(reply);
   r.angles = {a->hz_rad, a->v_rad, a->face == 1 ? 2 : 1};
@@ -189,7 +190,7 @@ Reading GeoComDevice::MeasureAnglesSimple() {
   ThrowIfNoData(reply);
   std::string why;
   const auto a = geocom::DecodeAngleSimple(reply.values, &why);
-  if (!a) throw InstrumentError(name(), 3074, why);
+  if (!a) throw InstrumentError(name(), grc::kComCantDecode, why);
   CheckAngles(name(), a->hz_rad, a->v_rad);
   Reading r = StartReading(reply);
   r.angles = {a->hz_rad, a->v_rad, a->v_rad > std::numbers::pi ? 2 : 1};
@@ -204,19 +205,20 @@ Reading GeoComDevice::MeasureDistanceAndAngles() {
   ThrowIfNoData(reply);
   std::string why;
   const auto m = geocom::DecodeSimpleMeasurement(reply.values, &why);
-  if (!m) throw InstrumentError(name(), 3074, why);
+  if (!m) throw InstrumentError(name(), grc::kComCantDecode, why);
   CheckAngles(name(), m->hz_rad, m->v_rad);
   Reading r = StartReading(reply);
   r.angles = {m->hz_rad, m->v_rad, m->v_rad > std::numbers::pi ? 2 : 1};
   // Angles-only codes: the distance is not valid even if a number is present.
   if (geocom::Classify(reply.rc) != CodeClass::kAnglesOnly) {
     if (!m->slope_distance_m)
-      throw InstrumentError(name(), 3074, "TMC_GetSimpleMea: reply has no slope distance");
+      throw InstrumentError(name(), grc::kComCantDecode,
+                            "TMC_GetSimpleMea: reply has no slope distance");
     CheckDistance(name(), *m->slope_distance_m * 1000.0);
     if (*m->slope_distance_m > 0) r.distance_mm = *m->slope_distance_m * 1000.0;
   }
   if (!r.distance_mm && r.return_code == 0) {
-    throw InstrumentError(name(), 1292, "TMC_DIST_ERROR: no distance in the reply");
+    throw InstrumentError(name(), grc::kTmcDistError, "TMC_DIST_ERROR: no distance in the reply");
   }
   return r;
 }
@@ -226,7 +228,7 @@ int GeoComDevice::Face() {
   if (r.rc != 0) throw InstrumentError(name(), r.rc, "TMC_GetFace failed: " + geocom::CodeName(r.rc));
   std::string why;
   const auto face = geocom::DecodeLongValue(r.values, "TMC_GetFace", &why);
-  if (!face) throw InstrumentError(name(), 3074, why);
+  if (!face) throw InstrumentError(name(), grc::kComCantDecode, why);
   return *face == 1 ? 2 : 1;
 }
 
@@ -242,7 +244,7 @@ bool GeoComDevice::CompensatorOn() {
     throw InstrumentError(name(), r.rc, "TMC_GetInclineSwitch failed: " + geocom::CodeName(r.rc));
   std::string why;
   const auto on = geocom::DecodeLongValue(r.values, "TMC_GetInclineSwitch", &why);
-  if (!on) throw InstrumentError(name(), 3074, why);
+  if (!on) throw InstrumentError(name(), grc::kComCantDecode, why);
   return *on == 1;
 }
 

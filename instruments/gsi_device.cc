@@ -76,9 +76,9 @@ Reading GsiOnlineDevice::MeasureAngles() {
   const gsi::Word v = Get('I', 22, deadline);
   std::string why;
   auto hz_rad = gsi::AngleRad(hz, &why);
-  if (!hz_rad) throw InstrumentError(name(), 3074, "WI21: " + why);
+  if (!hz_rad) throw InstrumentError(name(), grc::kComCantDecode, "WI21: " + why);
   auto v_rad = gsi::AngleRad(v, &why);
-  if (!v_rad) throw InstrumentError(name(), 3074, "WI22: " + why);
+  if (!v_rad) throw InstrumentError(name(), grc::kComCantDecode, "WI22: " + why);
   CheckAngles(name(), *hz_rad, *v_rad);
   Reading r;
   r.time = std::chrono::system_clock::now();
@@ -91,13 +91,13 @@ Reading GsiOnlineDevice::MeasureDistanceAndAngles() {
   const gsi::Word distance = Get('M', 31, deadline);
   std::string why;
   auto mm = gsi::LengthMm(distance, &why);
-  if (!mm) throw InstrumentError(name(), 3074, "WI31: " + why);
+  if (!mm) throw InstrumentError(name(), grc::kComCantDecode, "WI31: " + why);
   CheckDistance(name(), *mm);
   if (!(*mm > 0)) throw InstrumentError(name(), 1292, "WI31: no distance measured");
   auto hz = gsi::AngleRad(Get('I', 21, deadline), &why);
-  if (!hz) throw InstrumentError(name(), 3074, "WI21: " + why);
+  if (!hz) throw InstrumentError(name(), grc::kComCantDecode, "WI21: " + why);
   auto v = gsi::AngleRad(Get('I', 22, deadline), &why);
-  if (!v) throw InstrumentError(name(), 3074, "WI22: " + why);
+  if (!v) throw InstrumentError(name(), grc::kComCantDecode, "WI22: " + why);
   CheckAngles(name(), *hz, *v);
   Reading r;
   r.time = std::chrono::system_clock::now();

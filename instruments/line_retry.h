@@ -13,6 +13,7 @@
 
 #include "instruments/device.h"
 #include "instruments/geocom_codec.h"
+#include "instruments/return_codes.h"
 #include "instruments/transport.h"
 
 namespace armsig::instruments {
@@ -32,12 +33,12 @@ inline Deadline AttemptDeadline(Deadline deadline, int attempts_left) {
 inline int CodeOf(const TransportError& e) {
   switch (e.kind()) {
     case TransportError::Kind::kTimeout:
-      return 3077;  // COM_TIMEDOUT
+      return grc::kComTimedOut;
     case TransportError::Kind::kLineTooLong:
     case TransportError::Kind::kBadFrame:
-      return 3100;  // COM_OVERRUN: a line or packet beyond the maximum, or out of frame
+      return grc::kComOverrun;  // a line or packet beyond the maximum, or out of frame
     default:
-      return 3085;  // COM_FAILED: the port is gone or cannot be opened
+      return grc::kComFailed;  // the port is gone or cannot be opened
   }
 }
 
@@ -55,7 +56,7 @@ auto WithRetries(LineTransport& transport, const RetryPolicy& policy, Deadline d
                  F&& attempt) {
   const auto start = Clock::now();
   std::string last = "no attempt before the deadline";
-  int code = 3077;
+  int code = grc::kComTimedOut;
   int made = 0;
   for (; made < policy.attempts && Clock::now() < deadline; ++made) {
     const Deadline until = AttemptDeadline(deadline, policy.attempts - made);

@@ -17,75 +17,48 @@ TransportError BadFrame(const std::string& name, int32_t size,
                             " bytes: the stream lost its framing");
 }
 
-class TcpPacketTransport : public PacketTransport {
+class TcpPacketTransport
+    : public detail::AsioTransport<PacketTransport, asio::ip::tcp::socket, 4096> {
  public:
   TcpPacketTransport(std::string host, unsigned short port, Millis timeout,
                      FrameSplitter::Format format)
-      : name_(host + ":" + std::to_string(port)),
+      : AsioTransport(host + ":" + std::to_string(port)),
         host_(std::move(host)),
         port_(port),
         timeout_(timeout),
-        conn_(*this),
         splitter_(format) {}
 
-  void Open() override {
-    Close();
-    detail::ConnectTcp(conn_, host_, port_, timeout_, *this);
-  }
-  void Close() override {
-    conn_.Close();
-    splitter_.Clear();
-  }
-  bool IsOpen() const override { return conn_.IsOpen(); }
-  const std::string& name() const override { return name_; }
-
-  void Write(std::string_view packet, Deadline deadline) override { conn_.Write(packet, deadline); }
+  void Open() override { OpenTcp(host_, port_, timeout_); }
 
   std::string ReadPacket(Deadline deadline) override {
-    std::string frame;
-    for (;;) {
+    return ReadUntil(deadline, "packet", [this](std::string& frame) {
       int32_t size = 0;
       switch (splitter_.Next(frame, &size)) {
         case FrameSplitter::Status::kFrame:
-          return frame;
+          return true;
         case FrameSplitter::Status::kBadSize:
           throw BadFrame(name_, size, splitter_.format());
         case FrameSplitter::Status::kNeedMore:
           break;
       }
-      if (Clock::now() >= deadline) {
-        throw TransportError(TransportError::Kind::kTimeout, name_,
-                             "no complete packet by the deadline");
-      }
-      const size_t n = conn_.ReadSome(chunk_, sizeof chunk_, deadline);
-      splitter_.Append(std::string_view(chunk_, n));
-    }
+      return false;
+    });
   }
 
-  int Drain(Millis quiet, Deadline until) override {
-    int bytes = static_cast<int>(splitter_.buffered());
-    splitter_.Clear();
-    if (!conn_.IsOpen()) return bytes;
-    while (Clock::now() < until) {
-      size_t n = 0;
-      try {
-        n = conn_.ReadSome(chunk_, sizeof chunk_, std::min(until, Clock::now() + quiet));
-      } catch (const TransportError& e) {
-        if (e.kind() != TransportError::Kind::kTimeout) throw;
-        break;  // quiet
-      }
-      bytes += static_cast<int>(n);
-    }
-    return bytes;
+ protected:
+  size_t Received() const override { return splitter_.buffered(); }
+  void Receive(const char* data, size_t size) override {
+    splitter_.Append(std::string_view(data, size));
   }
+  void ClearReceived() override { splitter_.Clear(); }
+  // Drained bytes are dropped unsplit: what follows starts a new frame.
+  void DiscardReceived(const char*, size_t) override { splitter_.Clear(); }
 
  private:
-  std::string name_, host_;
+  std::string host_;
   unsigned short port_;
   Millis timeout_;
-  detail::AsioStream<asio::ip::tcp::socket> conn_;
   FrameSplitter splitter_;
-  char chunk_[4096];
 };
 
 }  // namespace

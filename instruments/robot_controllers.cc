@@ -21,7 +21,7 @@ std::string ValController::Command(const MonitorCommand& command, Deadline deadl
   std::string text;
   for (int lines = 0;; ++lines) {
     if (lines >= kMaxMonitorReplyLines) {
-      throw InstrumentError(name(), 3100,
+      throw InstrumentError(name(), grc::kComOverrun,
                             "no prompt after " + std::to_string(kMaxMonitorReplyLines) +
                                 " lines in reply to " + shown +
                                 ": the controller is not answering the command");
@@ -54,7 +54,7 @@ Eigen::VectorXd ValController::ReadJointsRad() {
     const std::string text = Command({MonitorCommand::Kind::kWhere, {}}, until);
     std::string why;
     auto where = ParseWhere(text, &why);
-    if (!where) throw InstrumentError(name(), 3074, why);
+    if (!where) throw InstrumentError(name(), grc::kComCantDecode, why);
     const Eigen::VectorXd joints_rad = where->joints_deg * (std::numbers::pi / 180.0);
     CheckJoints(name(), joints_rad);
     return joints_rad;

@@ -82,60 +82,31 @@ bool LineBuffer::Next(size_t max_bytes, std::string& line) {
 namespace {
 
 template <typename Stream>
-class AsioLineTransport : public LineTransport {
+class AsioLineTransport : public detail::AsioTransport<LineTransport, Stream, 512> {
  public:
-  explicit AsioLineTransport(std::string name) : name_(std::move(name)), conn_(*this) {}
-
-  void Close() override {
-    conn_.Close();
-    buffer_.Clear();
-  }
-  bool IsOpen() const override { return conn_.IsOpen(); }
-  const std::string& name() const override { return name_; }
-
-  void Write(std::string_view data, Deadline deadline) override { conn_.Write(data, deadline); }
+  using detail::AsioTransport<LineTransport, Stream, 512>::AsioTransport;
 
   std::string ReadLine(Deadline deadline) override {
-    std::string line;
-    for (;;) {
+    return this->ReadUntil(deadline, "line", [this](std::string& line) {
       try {
-        while (buffer_.Next(max_line_bytes(), line)) {
-          if (!line.empty()) return line;
+        while (buffer_.Next(this->max_line_bytes(), line)) {
+          if (!line.empty()) return true;
         }
       } catch (const std::length_error& e) {
-        throw TransportError(TransportError::Kind::kLineTooLong, name_, e.what());
+        throw TransportError(TransportError::Kind::kLineTooLong, this->name_, e.what());
       }
-      if (Clock::now() >= deadline) {
-        throw TransportError(TransportError::Kind::kTimeout, name_,
-                             "no complete line by the deadline");
-      }
-      buffer_.Append(chunk_, conn_.ReadSome(chunk_, sizeof chunk_, deadline));
-    }
-  }
-
-  int Drain(Millis quiet, Deadline until) override {
-    int bytes = static_cast<int>(buffer_.size());
-    buffer_.Discard(nullptr, 0);
-    if (!conn_.IsOpen()) return bytes;
-    while (Clock::now() < until) {
-      size_t n = 0;
-      try {
-        n = conn_.ReadSome(chunk_, sizeof chunk_, std::min(until, Clock::now() + quiet));
-      } catch (const TransportError& e) {
-        if (e.kind() != TransportError::Kind::kTimeout) throw;
-        break;  // quiet
-      }
-      buffer_.Discard(chunk_, n);
-      bytes += static_cast<int>(n);
-    }
-    return bytes;
+      return false;
+    });
   }
 
  protected:
-  std::string name_;
-  detail::AsioStream<Stream> conn_;
+  size_t Received() const override { return buffer_.size(); }
+  void Receive(const char* data, size_t size) override { buffer_.Append(data, size); }
+  void ClearReceived() override { buffer_.Clear(); }
+  void DiscardReceived(const char* data, size_t size) override { buffer_.Discard(data, size); }
+
+ private:
   LineBuffer buffer_;
-  char chunk_[512];
 };
 
 class SerialTransport : public AsioLineTransport<asio::serial_port> {
@@ -188,10 +159,7 @@ class TcpTransport : public AsioLineTransport<asio::ip::tcp::socket> {
         port_(port),
         timeout_(timeout) {}
 
-  void Open() override {
-    Close();
-    detail::ConnectTcp(conn_, host_, port_, timeout_, *this);
-  }
+  void Open() override { OpenTcp(host_, port_, timeout_); }
 
  private:
   std::string host_;

@@ -4,6 +4,10 @@
 #include <charconv>
 #include <cstdint>
 
+#include <fmt/format.h>
+
+#include <string>
+
 #include "core/text.h"
 #include "io/csv.h"
 
@@ -27,70 +31,113 @@ int64_t DaysFromCivil(int64_t y, unsigned m, unsigned d) {
 
 bool ParseDigits(std::string_view s, int& value) {
   if (s.empty()) return false;
+  for (const char c : s) {
+    if (!std::isdigit(static_cast<unsigned char>(c))) return false;
+  }
   const auto [end, ec] = std::from_chars(s.data(), s.data() + s.size(), value);
   return ec == std::errc() && end == s.data() + s.size();
 }
 
-// The seconds after "hh:mm": ":ss" or ":ss.fff", taken off the front of `*rest`; 0 when
-// none are written, nullopt when what follows the ':' is no number of at least two digits.
-std::optional<double> TakeSeconds(std::string_view* rest) {
-  if (rest->empty() || rest->front() != ':') return 0.0;
-  rest->remove_prefix(1);
-  size_t n = 0;
-  while (n < rest->size() &&
-         (std::isdigit(static_cast<unsigned char>((*rest)[n])) || (*rest)[n] == '.'))
-    ++n;
-  const auto s = ParseNumber(rest->substr(0, n), false);
-  if (!s || n < 2) return std::nullopt;
-  rest->remove_prefix(n);
-  return s;
+bool LeapYear(int y) { return (y % 4 == 0 && y % 100 != 0) || y % 400 == 0; }
+
+int DaysInMonth(int year, int month) {
+  static constexpr int kDays[12] = {31, 28, 31, 30, 31, 30, 31, 31, 30, 31, 30, 31};
+  return month == 2 && LeapYear(year) ? 29 : kDays[month - 1];
 }
 
-// The zone written after the time, as seconds to subtract for UTC: nothing (the time as
-// written), "Z", or "±hh:mm", "±hhmm", "±hh"; nullopt for anything else.
-std::optional<double> ZoneOffsetSeconds(std::string_view rest) {
-  if (rest.empty() || rest == "Z" || rest == "z") return 0.0;
-  if (rest.front() != '+' && rest.front() != '-') return std::nullopt;
+// The zone after the time: "Z", or "±hh:mm", "±hhmm", "±hh"; false for anything else.
+// `*in_range`: false for an offset of 24 hours or more, or 60 minutes or more.
+bool ParseZone(std::string_view rest, IsoDateTime& t, bool* in_range) {
+  if (rest == "Z" || rest == "z") {
+    t.zone = std::string(rest);
+    return true;
+  }
+  if (rest.empty() || (rest.front() != '+' && rest.front() != '-')) return false;
   const int sign = rest.front() == '-' ? -1 : 1;
-  rest.remove_prefix(1);
+  const std::string_view digits = rest.substr(1);
   int oh = 0, om = 0;
-  const bool parsed = (rest.size() == 5 && rest[2] == ':' && ParseDigits(rest.substr(0, 2), oh) &&
-                       ParseDigits(rest.substr(3, 2), om)) ||
-                      (rest.size() == 4 && ParseDigits(rest.substr(0, 2), oh) &&
-                       ParseDigits(rest.substr(2, 2), om)) ||
-                      (rest.size() == 2 && ParseDigits(rest, oh));
-  if (!parsed || oh > 23 || om > 59) return std::nullopt;
-  return sign * (oh * 3600.0 + om * 60.0);
+  const bool parsed =
+      (digits.size() == 5 && digits[2] == ':' && ParseDigits(digits.substr(0, 2), oh) &&
+       ParseDigits(digits.substr(3, 2), om)) ||
+      (digits.size() == 4 && ParseDigits(digits.substr(0, 2), oh) &&
+       ParseDigits(digits.substr(2, 2), om)) ||
+      (digits.size() == 2 && ParseDigits(digits, oh));
+  if (!parsed) return false;
+  t.zone = std::string(rest);
+  t.offset_s = sign * (oh * 3600 + om * 60);
+  *in_range = oh <= 23 && om <= 59;
+  return true;
+}
+
+// The time after the date's separator: hh:mm[:ss[.f…]] and the zone.
+bool ParseTimeOfDay(std::string_view rest, IsoDateTime& t, bool* zone_in_range) {
+  if (rest.size() < 5 || rest[2] != ':' || !ParseDigits(rest.substr(0, 2), t.hour) ||
+      !ParseDigits(rest.substr(3, 2), t.minute))
+    return false;
+  rest.remove_prefix(5);
+  if (!rest.empty() && rest.front() == ':') {
+    if (rest.size() < 3 || !ParseDigits(rest.substr(1, 2), t.second)) return false;
+    rest.remove_prefix(3);
+    if (!rest.empty() && rest.front() == '.') {
+      size_t n = 1;
+      while (n < rest.size() && std::isdigit(static_cast<unsigned char>(rest[n]))) ++n;
+      if (n == 1) return false;
+      const std::string digits(rest.substr(1, n - 1));
+      t.fraction = std::stod("0." + digits);
+      t.milliseconds = std::stoi((digits + "00").substr(0, 3));
+      rest.remove_prefix(n);
+    }
+  }
+  t.has_time = true;
+  return rest.empty() || ParseZone(rest, t, zone_in_range);
 }
 
 }  // namespace
+
+std::optional<IsoDateTime> ParseIsoDateTime(std::string_view text, std::string* why) {
+  auto fail = [&](std::string reason) -> std::optional<IsoDateTime> {
+    if (why) *why = std::move(reason);
+    return std::nullopt;
+  };
+  IsoDateTime t;
+  bool zone_in_range = true;
+  if (text.size() < 10 || text[4] != '-' || text[7] != '-' ||
+      !ParseDigits(text.substr(0, 4), t.year) || !ParseDigits(text.substr(5, 2), t.month) ||
+      !ParseDigits(text.substr(8, 2), t.day) ||
+      (text.size() > 10 && ((text[10] != 'T' && text[10] != ' ') ||
+                            !ParseTimeOfDay(text.substr(11), t, &zone_in_range)))) {
+    return fail(
+        "expected an ISO 8601 date or date and time, e.g. 2026-11-01, 2026-11-01T02:30 (local "
+        "time), 2026-11-01T02:30:00Z (UTC) or 2026-11-01T02:30+01:00");
+  }
+  if (t.month < 1 || t.month > 12) return fail(fmt::format("there is no month {:02d}", t.month));
+  if (t.day < 1 || t.day > DaysInMonth(t.year, t.month)) {
+    return fail(fmt::format("{:04d}-{:02d} has {} days, there is no day {:02d}", t.year, t.month,
+                            DaysInMonth(t.year, t.month), t.day));
+  }
+  if (t.hour > 23 || t.minute > 59 || t.second > 60) {
+    return fail(
+        fmt::format("{:02d}:{:02d}:{:02d} is no time of day", t.hour, t.minute, t.second));
+  }
+  if (!zone_in_range) return fail(fmt::format("{} is no offset from UTC", t.zone));
+  return t;
+}
+
+double UtcSecondsOf(const IsoDateTime& t) {
+  return static_cast<double>(DaysFromCivil(t.year, static_cast<unsigned>(t.month),
+                                           static_cast<unsigned>(t.day))) *
+             86400.0 +
+         t.hour * 3600.0 + t.minute * 60.0 + t.second + t.fraction;
+}
 
 std::optional<TimeStamp> ParseTimeStamp(std::string_view text) {
   text = Trim(text, kBlank);
   if (text.empty()) return std::nullopt;
   if (auto v = ParseNumber(text, false)) return TimeStamp{*v, false};
   if (auto v = ParseNumber(text, true)) return TimeStamp{*v, false};
-  // YYYY-MM-DD[T ]hh:mm[:ss[.fff]][Z|±hh[:mm]]
-  if (text.size() < 16 || text[4] != '-' || text[7] != '-' || (text[10] != 'T' && text[10] != ' '))
-    return std::nullopt;
-  int year = 0, month = 0, day = 0, hour = 0, minute = 0;
-  if (!ParseDigits(text.substr(0, 4), year) || !ParseDigits(text.substr(5, 2), month) ||
-      !ParseDigits(text.substr(8, 2), day) || !ParseDigits(text.substr(11, 2), hour) ||
-      text[13] != ':' || !ParseDigits(text.substr(14, 2), minute))
-    return std::nullopt;
-  std::string_view rest = text.substr(16);
-  const std::optional<double> second = TakeSeconds(&rest);
-  if (!second) return std::nullopt;
-  const std::optional<double> offset_s = ZoneOffsetSeconds(rest);
-  if (!offset_s) return std::nullopt;
-  if (month < 1 || month > 12 || day < 1 || day > 31 || hour > 23 || minute > 59 ||
-      !(*second >= 0.0 && *second < 61.0))
-    return std::nullopt;
-  const double seconds = static_cast<double>(DaysFromCivil(year, static_cast<unsigned>(month),
-                                                           static_cast<unsigned>(day))) *
-                             86400.0 +
-                         hour * 3600.0 + minute * 60.0 + *second - *offset_s;
-  return TimeStamp{seconds, true};
+  const std::optional<IsoDateTime> t = ParseIsoDateTime(text);
+  if (!t || !t->has_time) return std::nullopt;
+  return TimeStamp{UtcSecondsOf(*t) - t->offset_s, true};
 }
 
 }  // namespace armsig::io

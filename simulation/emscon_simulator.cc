@@ -311,7 +311,7 @@ std::vector<EmsconSimulator::Step> EmsconSimulator::Answer(const es::Request& re
           if constexpr (std::is_same_v<T, es::Initialize>) {
             s.initialized = true;
             reply_latency = Scaled(options_.initialize_latency);
-            change(151);  // InitializationStatusChanged
+            change(es::status_change::kInitializationStatusChanged);
           } else if constexpr (std::is_same_v<T, es::GetSystemStatus>) {
             a.data = es::SystemStatus{0,    s.initialized ? 5 : 3,
                                       3,    2,
@@ -329,7 +329,8 @@ std::vector<EmsconSimulator::Step> EmsconSimulator::Answer(const es::Request& re
               change(es::status_change::kUnitsChanged);
             }
           } else if constexpr (std::is_same_v<T, es::SetEnvironmentParams>) {
-            change(2);  // EnvironmentParamsChanged (the weather station keeps measuring)
+            // The weather station keeps measuring.
+            change(es::status_change::kEnvironmentParamsChanged);
           } else if constexpr (std::is_same_v<T, es::GetEnvironmentParams>) {
             const auto w = WeatherAt(Seconds());
             a.data = es::EnvironmentParams{*es::FromCelsius(w.temperature, s.units.temperature),
@@ -353,7 +354,7 @@ std::vector<EmsconSimulator::Step> EmsconSimulator::Answer(const es::Request& re
             }
           } else if constexpr (std::is_same_v<T, es::SetStationaryModeParams>) {
             if (r.meas_time_ms < 1 || r.meas_time_ms > 100000) {
-              a.status = 4;  // WrongParameter1
+              a.status = es::status::kWrongParameter1;
             } else {
               s.meas_time_ms = r.meas_time_ms;
               s.use_adm = r.use_adm;
@@ -366,7 +367,7 @@ std::vector<EmsconSimulator::Step> EmsconSimulator::Answer(const es::Request& re
               s.reflector = r.reflector_id;
               change(es::status_change::kReflectorChanged);
             } else {
-              a.status = 4;  // WrongParameter1
+              a.status = es::status::kWrongParameter1;
             }
           } else if constexpr (std::is_same_v<T, es::GetReflector>) {
             a.data = es::Int32Value{s.reflector};
@@ -476,7 +477,7 @@ std::vector<EmsconSimulator::Step> EmsconSimulator::Answer(const es::Request& re
     std::vector<Step> mixed;
     mixed.push_back({steps.front().delay,
                      es::EncodePacket(es::StatusChange{es::status_change::kMeasStatusBusy}) +
-                         es::EncodePacket(es::ErrorResponse{64, 10013})});
+                         es::EncodePacket(es::ErrorResponse{64, es::status::kSensorNotStable})});
     const std::string& reply = steps.front().bytes;
     mixed.push_back({std::chrono::milliseconds(0), reply.substr(0, es::kHeaderBytes)});
     mixed.push_back({std::chrono::milliseconds(5), reply.substr(es::kHeaderBytes)});

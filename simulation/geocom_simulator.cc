@@ -24,10 +24,12 @@ std::optional<LineSimulator::Response> GeoComSimulator::Handle(const std::string
   if (parsed.error == geocom::ParseError::kNotAFrame) return std::nullopt;  // garbage: silence
   const bool crc = parsed.had_crc;
   if (parsed.error == geocom::ParseError::kBadCrc) {
-    return Response{geocom::EncodeReply({3101, 0, 0, {}}, crc), std::chrono::milliseconds(5)};
+    return Response{geocom::EncodeReply({geocom::grc::kComSrvrRxChecksumError, 0, 0, {}}, crc),
+                    std::chrono::milliseconds(5)};
   }
   if (parsed.error)
-    return Response{geocom::EncodeReply({3080, 0, 0, {}}, crc), std::chrono::milliseconds(5)};
+    return Response{geocom::EncodeReply({geocom::grc::kComCantDecodeReq, 0, 0, {}}, crc),
+                    std::chrono::milliseconds(5)};
   const geocom::Request& q = *parsed.request;
   geocom::Reply r;
   r.trid = q.trid.value_or(0);
@@ -101,7 +103,7 @@ std::optional<LineSimulator::Response> GeoComSimulator::Handle(const std::string
       const AngleReading a = lab_.Read(station_, distance_ready_ ? &distance_mm : nullptr);
       geocom::SimpleMeasurement m{a.hz_rad, a.v_rad, distance_mm / 1000.0};
       if (!distance_ready_) {
-        r.rc = 1285;  // angles valid, no distance measured
+        r.rc = geocom::grc::kTmcAngleOk;  // angles valid, no distance measured
         m.slope_distance_m = 0.0;
       }
       r.values = geocom::EncodeValues(m);
@@ -111,7 +113,7 @@ std::optional<LineSimulator::Response> GeoComSimulator::Handle(const std::string
     case geocom::rpc::kMeasDistanceAngle: {
       const auto mode = q.params.empty() ? std::optional<long>(2) : geocom::DecodeLong(q.params[0]);
       if (!mode) {
-        r.rc = 2;  // GRC_IVPARAM
+        r.rc = geocom::grc::kIvParam;
         break;
       }
       double distance_mm = 0.0;
@@ -122,14 +124,14 @@ std::optional<LineSimulator::Response> GeoComSimulator::Handle(const std::string
       break;
     }
     default:
-      r.rc_com = 3081;  // PROC_UNAVAIL
+      r.rc_com = geocom::grc::kComProcUnavail;
       r.values.clear();
   }
   switch (fault.fault) {
     case Fault::kOtherReply:
       // The right transaction id with another RPC's values (CSV_GetFirmwareVersion).
-      r.rc_com = 0;
-      r.rc = 0;
+      r.rc_com = geocom::grc::kOk;
+      r.rc = geocom::grc::kOk;
       r.values = geocom::EncodeValues(geocom::Version{3, 20, 7});
       break;
     case Fault::kOutOfRange:
@@ -144,7 +146,7 @@ std::optional<LineSimulator::Response> GeoComSimulator::Handle(const std::string
       }
       break;
     case Fault::kBusy:
-      r.rc = 13;
+      r.rc = geocom::grc::kSysBusy;
       r.values.clear();
       break;
     case Fault::kErrorCode:

@@ -6,7 +6,9 @@
 #include <spdlog/spdlog.h>
 #include <unistd.h>
 
+#include <cctype>
 #include <charconv>
+#include <filesystem>
 #include <cmath>
 #include <cstdint>
 #include <cstring>
@@ -30,7 +32,6 @@
 #include "io/model_yaml.h"
 #include "workflows/signature.h"
 #include "workflows/hint.h"
-#include "workflows/recalibrate.h"
 
 namespace armsig::workflows {
 
@@ -721,5 +722,40 @@ nlohmann::json ToJson(const VersionInfo& v) {
           {"floor_session",
            v.floor_session ? nlohmann::json(*v.floor_session) : nlohmann::json(nullptr)}};
 }
+
+namespace {
+
+// `text` cut to `keep` bytes and its fingerprint, when it is longer than that.
+std::string Shortened(const std::string& text, size_t keep) {
+  if (text.size() <= keep) return text;
+  return text.substr(0, keep) + fmt::format("~{:016x}", core::Fnv1a64(text));
+}
+
+}  // namespace
+
+std::string RobotLockPath(const std::string& db_path, const std::string& robot) {
+  std::string name;
+  for (unsigned char c : robot) {
+    if (std::isalnum(c) || c == '-' || c == '_' || c == '.')
+      name += static_cast<char>(c);
+    else
+      name += fmt::format("%{:02X}", c);
+  }
+  // The store's own file, whatever path named it (a symlink, a relative path, ./): two runs
+  // on one store take one lock.
+  std::error_code error;
+  const std::filesystem::path real = std::filesystem::weakly_canonical(db_path, error);
+  const std::filesystem::path store = error ? std::filesystem::path(db_path) : real;
+  std::string file = store.filename().string() + ".recalibrate." + name + ".lock";
+  // A file name has at most 255 bytes (NAME_MAX): a long store name beside a long robot name
+  // (a 64-byte name is 192 bytes %-encoded) are cut and told apart by their fingerprints.
+  constexpr size_t kNameMax = 255;
+  if (file.size() > kNameMax) {
+    file = Shortened(store.filename().string(), 100) + ".recalibrate." + Shortened(name, 80) +
+           ".lock";
+  }
+  return (store.parent_path() / file).string();
+}
+
 
 }  // namespace armsig::workflows

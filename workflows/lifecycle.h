@@ -168,4 +168,8 @@ nlohmann::json ToJson(const db::RobotRow& robot);
 nlohmann::json ToJson(const db::SessionSummary& session);
 nlohmann::json ToJson(const VersionInfo& version);
 
+// The file lock of one robot's recalibration beside the SQLite database
+// ("lab.db.recalibrate.puma.lock"; characters other than [A-Za-z0-9._-] as %XX).
+std::string RobotLockPath(const std::string& db_path, const std::string& robot);
+
 }  // namespace armsig::workflows

@@ -17,7 +17,7 @@
 #include "support/simulated_sessions.h"
 #include "support/stores.h"
 #include "test_support.h"
-#include "workflows/worker.h"
+#include "nightly/worker.h"
 
 namespace armsig::testing {
 namespace {

@@ -11,7 +11,7 @@
 
 #include "calibration/synthetic.h"
 #include "core/units.h"
-#include "io/iso9283_csv.h"
+#include "iso9283/iso9283_csv.h"
 #include "test_support.h"
 
 namespace armsig::testing {

@@ -14,7 +14,8 @@
 #include "io/file_lock.h"
 #include "support/simulated_sessions.h"
 #include "test_support.h"
-#include "workflows/recalibrate.h"
+#include "nightly/recalibrate.h"
+#include "workflows/lifecycle.h"
 
 namespace armsig::testing {
 

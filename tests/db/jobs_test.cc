@@ -22,7 +22,8 @@
 #include "support/stores.h"
 #include "io/file_lock.h"
 #include "test_support.h"
-#include "workflows/recalibrate.h"
+#include "nightly/recalibrate.h"
+#include "workflows/lifecycle.h"
 
 namespace armsig::db {
 namespace {

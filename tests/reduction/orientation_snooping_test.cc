@@ -249,7 +249,7 @@ TEST(OrientationSnooping, GnuGamaNetworksLoseNothing) {
 
 namespace {
 
-// The virtual lab's set-up (workflows/demo.cc): three levelled theodolites 3.6 m around the
+// The virtual lab's set-up (demo/demo.cc): three levelled theodolites 3.6 m around the
 // robot sighting each other, a 1 m bar at three places, 0.5″ readings.
 OrientationProblem VirtualLabNetwork(std::mt19937& rng) {
   const double sigma = 0.5 * kRadPerArcsec;

@@ -18,7 +18,7 @@
 #include "test_support.h"
 #include "workflows/import.h"
 #include "workflows/lifecycle.h"
-#include "workflows/recalibrate.h"
+#include "nightly/recalibrate.h"
 
 namespace armsig::testing {
 namespace {

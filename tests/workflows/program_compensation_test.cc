@@ -48,9 +48,9 @@
 #include "simulation/ur_simulator.h"
 #include "simulation/virtual_robots.h"
 #include "test_support.h"
-#include "workflows/iso9283.h"
+#include "iso9283/iso9283.h"
 #include "workflows/lifecycle.h"
-#include "workflows/recalibrate.h"
+#include "nightly/recalibrate.h"
 
 namespace armsig::workflows {
 namespace {

@@ -1,0 +1,116 @@
+// The ISO 9283 files: commanded and attained poses in any angle unit, with or without a
+// cycle column, and every malformed row refused at its line and column.
+#include "iso9283/iso9283_csv.h"
+
+#include <gtest/gtest.h>
+
+#include <algorithm>
+
+#include <cmath>
+#include <string>
+
+#include "core/error.h"
+#include "core/units.h"
+#include "test_support.h"
+
+namespace armsig::io {
+namespace {
+
+// The message of the InputError `read` throws ("" when it throws none).
+template <typename Read>
+std::string Iso9283Refusal(Read read) {
+  try {
+    read();
+  } catch (const InputError& e) {
+    return e.what();
+  }
+  return "";
+}
+
+TEST(Iso9283Csv, ReadsCommandedPosesWithOrientationInAnyUnit) {
+  testing::TempDir dir;
+  testing::WriteText(dir.File("c.csv"),
+                     "point,x_mm,y_mm,z_mm,a_deg,b_gon,c_rad,note\n"
+                     "P1,600,100,700,90,100,0.5,centre\n"
+                     "P2,440,-60,860,0,0,0,\n");
+  const auto c = ReadCommandedCsv(dir.File("c.csv"));
+  ASSERT_EQ(c.size(), 2u);
+  EXPECT_EQ(c[0].point, "P1");
+  EXPECT_EQ(c[0].position_mm, Eigen::Vector3d(600, 100, 700));
+  ASSERT_TRUE(c[0].orientation_rad);
+  EXPECT_NEAR(c[0].orientation_rad->x(), kPi / 2, 1e-15);
+  EXPECT_NEAR(c[0].orientation_rad->y(), kPi / 2, 1e-15);
+  EXPECT_NEAR(c[0].orientation_rad->z(), 0.5, 1e-15);
+  EXPECT_EQ(c[1].line, 3);
+  // A poses CSV serves too: `pose` names the point, the joints are ignored.
+  testing::WriteText(dir.File("poses.csv"), "pose,q1_deg,x_mm,y_mm,z_mm\n7,10,1,2,3\n");
+  EXPECT_EQ(ReadCommandedCsv(dir.File("poses.csv"))[0].point, "7");
+}
+
+TEST(Iso9283Csv, AttainedCyclesAreNumberedInFileOrderWhenTheFileGivesNone) {
+  testing::TempDir dir;
+  testing::WriteText(dir.File("a.csv"), "point,x_mm,y_mm,z_mm\nP1,1,2,3\nP2,4,5,6\nP1,1.1,2,3\n");
+  const auto a = ReadAttainedCsv(dir.File("a.csv"));
+  ASSERT_EQ(a.size(), 3u);
+  EXPECT_EQ(a[0].cycle, 1);
+  EXPECT_EQ(a[1].cycle, 1);
+  EXPECT_EQ(a[2].cycle, 2);
+  EXPECT_FALSE(a[0].orientation_rad);
+  testing::WriteText(dir.File("b.csv"),
+                     "point,cycle,approach,x_mm,y_mm,z_mm\nP1,4,x,1,2,3\nP1,4,y,1,2,3\n");
+  const auto b = ReadAttainedCsv(dir.File("b.csv"));
+  EXPECT_EQ(b[1].approach, "y");
+  EXPECT_EQ(b[1].cycle, 4);
+}
+
+TEST(Iso9283Csv, MalformedRowsAreRefusedAtTheirLine) {
+  testing::TempDir dir;
+  auto refusal = [&](const std::string& text, bool attained) {
+    testing::WriteText(dir.File("f.csv"), text);
+    return Iso9283Refusal([&] {
+      attained ? (void)ReadAttainedCsv(dir.File("f.csv"))
+               : (void)ReadCommandedCsv(dir.File("f.csv"));
+    });
+  };
+  EXPECT_NE(refusal("point,x_mm,y_mm,z_mm\nP1,1,2,3\nP1,1,2,3\n", false).find("f.csv:3"),
+            std::string::npos);
+  EXPECT_NE(refusal("point,cycle,x_mm,y_mm,z_mm\nP1,1,1,2,3\nP1,1,1,2,3\n", true)
+                .find("cycle 1 is given twice (first on line 2)"),
+            std::string::npos);
+  EXPECT_NE(refusal("point,cycle,x_mm,y_mm,z_mm\nP1,0,1,2,3\n", true).find("f.csv:2"),
+            std::string::npos);
+  EXPECT_NE(refusal("point,x_mm,y_mm,z_mm\nP1,1,two,3\n", false).find("f.csv:2"),
+            std::string::npos);
+  EXPECT_NE(
+      refusal("point,x_mm,y_mm,z_mm,a_deg,b_deg\nP1,1,2,3,0,0\n", false).find("all of a, b and c"),
+      std::string::npos);
+  EXPECT_NE(refusal("point,x_m,y_mm,z_mm\nP1,1,2,3\n", false).find("x_m"), std::string::npos);
+  EXPECT_NE(refusal("name,x_mm,y_mm,z_mm\nP1,1,2,3\n", false).find("'point'"), std::string::npos);
+  EXPECT_NE(refusal("point,x_mm,y_mm,z_mm\n", true).find("no attained poses"), std::string::npos);
+}
+
+// Issue 38: the plan opened with '#' lines, which pandas and spreadsheets read as rows: it
+// is the header and the rows only.
+TEST(Iso9283Csv, PlanRoundTripsWithViaPointsAndOpensWithItsHeader) {
+  std::vector<Iso9283PlanRow> rows = {
+      {"P1-01-x-via", "", 0, "", {700, 100, 700}, Eigen::VectorXd::LinSpaced(6, -1, 1)},
+      {"P1-01-x", "P1", 1, "x", {600, 100, 700}, Eigen::VectorXd::LinSpaced(6, -0.5, 0.5)}};
+  testing::TempDir dir;
+  const std::string text = FormatIso9283PlanCsv(rows);
+  EXPECT_EQ(text.rfind("pose,point,cycle,approach,x_mm,y_mm,z_mm,q1_deg,", 0), 0u) << text;
+  EXPECT_EQ(text.find('#'), std::string::npos) << text;
+  EXPECT_EQ(std::count(text.begin(), text.end(), '\n'), 3);
+  testing::WriteText(dir.File("plan.csv"), text);
+  const auto back = ReadIso9283PlanCsv(dir.File("plan.csv"), 6);
+  ASSERT_EQ(back.size(), 2u);
+  EXPECT_EQ(back[0].pose, "P1-01-x-via");
+  EXPECT_TRUE(back[0].point.empty());
+  EXPECT_EQ(back[1].point, "P1");
+  EXPECT_EQ(back[1].cycle, 1);
+  EXPECT_EQ(back[1].approach, "x");
+  EXPECT_LT((back[1].target_mm - rows[1].target_mm).norm(), 1e-6);
+  EXPECT_LT((back[1].joints_rad - rows[1].joints_rad).cwiseAbs().maxCoeff(), 1e-9);
+}
+
+}  // namespace
+}  // namespace armsig::io
