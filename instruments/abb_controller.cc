@@ -138,6 +138,8 @@ rws::Document AbbController::Attempt(const rws::Request& request, Deadline deadl
     r.headers.emplace_back("Accept", rws::AcceptHeader(settings_.representation));
     if (request.method == "POST") {
       r.headers.emplace_back("Content-Type", rws::FormContentType(settings_.version));
+    } else if (!request.content_type.empty()) {
+      r.headers.emplace_back("Content-Type", request.content_type);
     }
     if (!cookies_.empty()) {
       std::string cookie;
@@ -258,31 +260,31 @@ double AbbController::ReadNum(const abb_contract::Symbol& symbol, Deadline deadl
   }
 }
 
-void AbbController::WriteSymbols(
-    const std::vector<std::pair<abb_contract::Symbol, std::string>>& values, Deadline deadline) {
+std::shared_ptr<void> AbbController::HoldMastership(const std::string& during, Deadline deadline) {
   try {
     Call(rws::RequestMastership(settings_.version), deadline);
   } catch (const RwsRefused& e) {
     const auto& s = e.status();
     if (s && s->code == rws::code::kHeldBySomeoneElse) {
       throw ControllerError(Kind::kNotRemote, name_,
-                            "another client holds the write access (mastership) to RAPID",
+                            "another client holds the write access (mastership) to RAPID" + during,
                             "release it there (RobotStudio: Release Write Access; or close the "
                             "other program), then resume the session");
     }
     throw;
   }
-  struct Release {
-    AbbController& c;
-    Deadline d;
-    ~Release() {
-      try {
-        c.Call(rws::ReleaseMastership(c.settings_.version), std::max(d, Clock::now() + Millis(500)));
-      } catch (const std::exception& e) {
-        spdlog::debug("{}: releasing mastership: {}", c.name_, e.what());
-      }
+  return std::shared_ptr<void>(nullptr, [this, deadline](void*) {
+    try {
+      Call(rws::ReleaseMastership(settings_.version), std::max(deadline, Clock::now() + Millis(500)));
+    } catch (const std::exception& e) {
+      spdlog::debug("{}: releasing mastership: {}", name_, e.what());
     }
-  } release{*this, deadline};
+  });
+}
+
+void AbbController::WriteSymbols(
+    const std::vector<std::pair<abb_contract::Symbol, std::string>>& values, Deadline deadline) {
+  const auto mastership = HoldMastership("", deadline);
   for (const auto& [symbol, value] : values) {
     try {
       Call(rws::SetSymbol(settings_.version, PathOf(symbol), value), deadline);

@@ -168,6 +168,26 @@ class AbbController : public RobotController {
   // with the motors on: what a move needs.
   void CheckReady() override;
 
+  // A RAPID program run as a lab runs one (instruments/abb_programs.cc; docs/how-to/
+  // compensate-programs.md): the module's text uploaded to $HOME/`file_name`, loaded into the
+  // task (replacing a module of its name), the program pointer set to `routine` of `module`
+  // (RAPID mastership held meanwhile; RAPID stopped first when it runs), then execution
+  // started once from there. A module the
+  // controller does not load comes as RwsRefused naming the file and the controller's
+  // message; mastership held elsewhere, manual mode, motors off or a stop of the cell as
+  // ControllerError.
+  void LoadProgram(const std::string& file_name, const std::string& text, const std::string& module,
+                   const std::string& routine);
+  void StartProgram(const std::string& module);
+  // Whether RAPID still executes; a stop of the cell meanwhile as ControllerError.
+  bool ProgramRunning();
+  // The program pointer back to main and the module unloaded; main started again when
+  // LoadProgram stopped it.
+  void UnloadProgram(const std::string& module);
+  // The mechanical unit's joints as the jointtarget resource states them (degrees, to its
+  // precision: not a reading for a calibration, which ReadJointsRad is).
+  Eigen::VectorXd ReadJointTargetDeg();
+
   int exchanges() const { return exchanges_; }  // HTTP exchanges so far
   const AbbSettings& settings() const { return settings_; }
 
@@ -187,6 +207,9 @@ class AbbController : public RobotController {
   bool Ready(const State& state) const;
   void WaitDone(int request, Deadline deadline);
   rws::SymbolPath PathOf(const abb_contract::Symbol& symbol) const;
+  // RAPID mastership for the calls of `during`, released when the returned guard ends;
+  // ControllerError kNotRemote when another client holds it.
+  std::shared_ptr<void> HoldMastership(const std::string& during, Deadline deadline);
 
   AbbSettings settings_;
   std::unique_ptr<HttpTransport> transport_;
@@ -200,6 +223,7 @@ class AbbController : public RobotController {
   // recovery (reset, motors on, program started) is still that stop.
   std::optional<ControllerError::Kind> recovering_;
   int exchanges_ = 0;
+  bool resume_main_ = false;  // LoadProgram stopped armsig's module's main: UnloadProgram restarts it
 };
 
 }  // namespace armsig::instruments

@@ -164,6 +164,13 @@ inline constexpr char kDone[] = "ARMSIG_DONE";
 inline constexpr char kResult[] = "ARMSIG_RESULT";
 inline constexpr char kContractVersion[] = "ARMSIG_VERSION";
 inline constexpr char kProgram[] = "ARMSIG";  // the .src module's name
+// The program runner (controllers/kuka/ARMSIG_SPS.sub, in the submit interpreter).
+inline constexpr char kRunName[] = "ARMSIG_RUN_NAME[]";
+inline constexpr char kRunCommand[] = "ARMSIG_RUN_CMD";
+inline constexpr char kRunBusy[] = "ARMSIG_RUN_BUSY";
+inline constexpr char kRunDone[] = "ARMSIG_RUN_DONE";
+inline constexpr char kRunResult[] = "ARMSIG_RUN_RESULT";
+inline constexpr char kRunPhase[] = "ARMSIG_RUN_PHASE";
 
 struct Global {
   const char* name;
@@ -172,7 +179,9 @@ struct Global {
 // Every global of the contract, in config_globals.dat's order.
 inline constexpr Global kGlobals[] = {
     {kCommand, "INT"},       {kTarget, "E6AXIS"}, {kVelocity, "INT"}, {kAcceleration, "INT"},
-    {kBusy, "INT"},          {kDone, "INT"},      {kResult, "INT"},   {kContractVersion, "INT"}};
+    {kBusy, "INT"},          {kDone, "INT"},      {kResult, "INT"},   {kContractVersion, "INT"},
+    {kRunName, "CHAR"},      {kRunCommand, "INT"}, {kRunBusy, "INT"},  {kRunDone, "INT"},
+    {kRunResult, "INT"},     {kRunPhase, "INT"}};
 
 // ARMSIG_RESULT values (ARMSIG.src).
 enum Result : int {
@@ -185,6 +194,8 @@ inline constexpr int kResults[] = {kReached, kBeyondSoftwareLimit, kVelocityOutO
                                    kNotExecuted};
 // What an ARMSIG_RESULT value means, in words ("result 7 (not one of ARMSIG's)" when unknown).
 std::string ResultMeaning(int result);
+// ARMSIG_RUN_RESULT values (ARMSIG_SPS.sub).
+enum RunResult : int { kRunEnded = 0, kRunNotAutomatic = 1, kRunNotSelected = 2, kRunStopped = 3 };
 }  // namespace contract
 
 // --- KRL system variables armsig reads (KUKA "System Variables, KSS 8.1, 8.2, 8.3, 8.4",

@@ -39,6 +39,7 @@
 #include <memory>
 #include <optional>
 #include <string>
+#include <vector>
 
 #include "instruments/device.h"
 #include "instruments/kuka_codec.h"
@@ -69,6 +70,11 @@ struct KukaState {
   bool Automatic() const { return mode == "AUT" || mode == "EX"; }
   bool ProgramIsArmsig() const;  // $PRO_NAME1[]'s module is ARMSIG
 };
+
+// Copies a program's files (its .src and .dat) into the controller's program folder:
+// KRC:\R1\Program as the lab's PC mounts the controller's share (a KR C4 shares it over SMB
+// when the lab sets it up). InstrumentError naming the file and the folder when it fails.
+void CopyToProgramFolder(const std::vector<std::string>& files, const std::string& folder);
 
 // The arm's type in a kinematic model's name, as armsig compares it with the lab's robot
 // model: "#KR16_2 C4 FLR" → "KR16_2" (the first word without '#').
@@ -101,6 +107,16 @@ class KukaController : public RobotController {
   // One variable read / write, with the retries above (for `instrument probe` and tests).
   std::string Read(const std::string& variable);
   void Write(const std::string& variable, const std::string& value);
+
+  // A KRL program run as a lab runs one (instruments/kuka_programs.cc; the submit
+  // interpreter's part controllers/kuka/ARMSIG_SPS.sub): its .src and .dat already in the
+  // controller's program folder (CopyToProgramFolder), ARMSIG_RUN_NAME[] written, then
+  // ARMSIG_RUN_CMD = the next run's number, which is returned.
+  int64_t RunProgram(const std::string& name);
+  // Whether run `n` still runs; once it ended, nothing when it reached its END, else the
+  // ControllerError of how it ended (not in AUT or EXT: kNotRemote; not selected, or stopped
+  // before its END: kNotRunning, naming the program).
+  bool ProgramRunning(int64_t n, const std::string& name);
 
   struct Statistics {
     int exchanges = 0, retries = 0, reconnects = 0, stale_answers = 0, bad_frames = 0,

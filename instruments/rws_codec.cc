@@ -223,9 +223,9 @@ std::string Symbol(Version v, const SymbolPath& s) {
   return v == Version::kRws1 ? "/rw/rapid/symbol/data/" + path : "/rw/rapid/symbol/" + path + "/data";
 }
 
-Request Get(std::string target) { return {"GET", std::move(target), ""}; }
+Request Get(std::string target) { return {"GET", std::move(target), "", ""}; }
 Request Post(std::string target, std::string body = "") {
-  return {"POST", std::move(target), std::move(body)};
+  return {"POST", std::move(target), std::move(body), ""};
 }
 
 }  // namespace
@@ -645,10 +645,9 @@ Request ReleaseMastership(Version v) {
   return Post(v == Version::kRws1 ? "/rw/mastership/rapid?action=release"
                                   : "/rw/mastership/edit/release");
 }
-Request StartExecution(Version v) {
-  const std::string body =
-      "regain=continue&execmode=continue&cycle=forever&condition=none&stopatbp=disabled&"
-      "alltaskbytsp=false";
+Request StartExecution(Version v, std::string_view cycle) {
+  const std::string body = "regain=continue&execmode=continue&cycle=" + FormEncode(cycle) +
+                           "&condition=none&stopatbp=disabled&alltaskbytsp=false";
   return Post(v == Version::kRws1 ? "/rw/rapid/execution?action=start"
                                   : "/rw/rapid/execution/start",
               body);
@@ -658,6 +657,29 @@ Request StopExecution(Version v) {
                              : Post("/rw/rapid/execution/stop", "stopmode=stop&usetsp=normal");
 }
 Request Logout(Version) { return Get("/logout"); }
+
+Request UploadFile(Version v, std::string_view path, std::string text) {
+  Request r{"PUT", "/fileservice/" + std::string(path), std::move(text), ""};
+  r.content_type = v == Version::kRws1 ? "text/plain" : "text/plain;v=2.0";
+  return r;
+}
+Request LoadModule(Version v, std::string_view task, std::string_view path, bool replace) {
+  const std::string at = "/rw/rapid/tasks/" + std::string(task);
+  const std::string body = "modulepath=" + FormEncode(path) + "&replace=" + (replace ? "true" : "false");
+  return Post(v == Version::kRws1 ? at + "?action=loadmod" : at + "/loadmod", body);
+}
+Request UnloadModule(Version v, std::string_view task, std::string_view module) {
+  const std::string at = "/rw/rapid/tasks/" + std::string(task);
+  return Post(v == Version::kRws1 ? at + "?action=unloadmod" : at + "/unloadmod", "module=" + FormEncode(module));
+}
+Request SetProgramPointer(Version v, std::string_view task, std::string_view module, std::string_view routine) {
+  const std::string at = "/rw/rapid/tasks/" + std::string(task) + "/pcp";
+  const std::string body = "module=" + FormEncode(module) + "&routine=" + FormEncode(routine) + "&userlevel=false";
+  return Post(v == Version::kRws1 ? at + "?action=set-pp-routine" : at + "/routine?mastership=implicit", body);
+}
+Request ResetProgramPointer(Version v) {
+  return Post(v == Version::kRws1 ? "/rw/rapid/execution?action=resetpp" : "/rw/rapid/execution/resetpp");
+}
 
 std::string TargetFor(const Request& request, Version version, Representation representation) {
   if (version != Version::kRws1 || representation != Representation::kJson1) {

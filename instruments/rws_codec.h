@@ -109,6 +109,10 @@ inline constexpr int64_t kRejected = -1073445881;           // UAS grant / RMMP 
 inline constexpr int64_t kNotFound = -1073414146;           // resource or symbol not found
 inline constexpr int64_t kSymbolNotFound = -1073442816;     // RWS 2.0 symbol GET
 inline constexpr int64_t kWrongState = -1073442809;         // execution start refused
+// A module that did not load (syntax or semantic errors, a name already in the task): the code
+// armsig's virtual controller gives; the public manual's list was not checked for RobotWare's
+// own, so armsig's messages name the module and the controller's message, never the code alone.
+inline constexpr int64_t kModuleNotLoaded = -1073442796;
 }  // namespace code
 
 // ---- Controller state, operation mode, RAPID execution ----
@@ -175,9 +179,10 @@ std::string FormatRapidJointTarget(const JointTarget& target);
 // ---- Requests ----
 
 struct Request {
-  std::string method;  // GET or POST
+  std::string method;  // GET, POST or PUT
   std::string target;  // path and query, without the representation's parameter
-  std::string body;    // form-encoded, empty for GET
+  std::string body;    // form-encoded, empty for GET; a file's bytes for PUT
+  std::string content_type;  // PUT: the file's media type (a POST's is the form's)
 };
 struct SymbolPath {
   std::string task, module, name;  // T_ROB1, ArmsigServer, armsig_cmd
@@ -195,8 +200,18 @@ Request GetSymbol(Version version, const SymbolPath& symbol);
 Request SetSymbol(Version version, const SymbolPath& symbol, std::string_view value);
 Request RequestMastership(Version version);
 Request ReleaseMastership(Version version);
-// Continue where the program pointer is, cycle forever, no breakpoints.
-Request StartExecution(Version version);
+// Continue where the program pointer is, cycle `cycle` (forever, once, asis), no breakpoints.
+Request StartExecution(Version version, std::string_view cycle = "forever");
+// Programs (Application Manual - Robot Web Services: "Upload a file", "Load module into a
+// rapid task", "Unload module", "Set the Program pointer position to routine", "Reset RAPID
+// program pointer to main"; RWS 2.0 as simulation/rws_programs.h says). `path` is the
+// controller's, "$HOME/NAME.mod"; a PUT's body is the file as it is (text/plain).
+Request UploadFile(Version version, std::string_view path, std::string text);
+Request LoadModule(Version version, std::string_view task, std::string_view path, bool replace);
+Request UnloadModule(Version version, std::string_view task, std::string_view module);
+Request SetProgramPointer(Version version, std::string_view task, std::string_view module,
+                          std::string_view routine);
+Request ResetProgramPointer(Version version);
 Request StopExecution(Version version);
 Request Logout(Version version);
 

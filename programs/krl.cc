@@ -660,6 +660,11 @@ class Parser {
                                             "robot is", T(f)[k].text)});
         continue;
       }
+      if (w == "WAIT" && Word(f, k + 1) == "SEC") {  // WAIT SEC t, t a number: the program stands
+        std::size_t n = k + 2;
+        if (auto s = detail::SignedNumber(T(f), &n); s && n == st.end) program_.waits.push_back({{f, T(f)[k].line}, s->value, scope});
+        continue;
+      }
       if (!kMotions.count(w)) continue;
       AddMotion(st, k, w, scope, tool, base);
     }
@@ -713,6 +718,7 @@ class Parser {
     Motion m;
     m.place = {f, T(f)[k].line};
     m.instruction = std::string(T(f)[k].text);
+    m.routine = scope;
     m.type = circular ? MotionType::kCircular
              : (word == "PTP" || word == "SPTP") ? MotionType::kJoint
                                                  : MotionType::kLinear;

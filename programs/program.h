@@ -92,6 +92,7 @@ struct Motion {
   // Indices into Program::targets: the end point last (a circular motion's via point first).
   std::vector<int> targets;
   FrameRef tool, base;
+  std::string routine;  // the PROC / DEF / def it is in, as written ("" outside any)
 };
 
 // A place the parser names instead of guessing: a motion target behind an expression it
@@ -101,11 +102,20 @@ struct NamedPlace {
   std::string why;
 };
 
+// A fixed wait the program makes where it stands (RAPID WaitTime t; KRL WAIT SEC t), a number
+// literal of seconds: what a virtual controller runs between the motions (the arm stands).
+struct Wait {
+  TextPlace place;
+  double seconds = 0.0;
+  std::string routine;  // the PROC / DEF it is in
+};
+
 struct Program {
   Language language = Language::kUrScript;
   std::vector<ProgramFile> files;
   std::vector<Target> targets;
   std::vector<Motion> motions;             // in file order
+  std::vector<Wait> waits;                 // in file order (RAPID and KRL; the .src's)
   std::vector<NamedPlace> not_evaluated;   // motion targets left as they are, and why
   std::vector<NamedPlace> notes;           // what else a reader should know (an open fold, …)
 };

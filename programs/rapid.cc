@@ -353,6 +353,13 @@ class Parser {
       w = Word(k);
     }
     if (kMotions.count(w)) motions_.push_back({{k, r.end}, scope});
+    // WaitTime [\InPos,] t; with t a number: the time the program stands there.
+    if (w == "WAITTIME") {
+      std::size_t n = k + 1;
+      if (n + 2 < r.end && t_[n].Is("\\") && Word(n + 1) == "INPOS" && t_[n + 2].Is(",")) n += 3;
+      if (auto f = detail::SignedNumber(t_, &n); f && n == r.end)
+        program_.waits.push_back({{0, t_[k].line}, f->value, scope});
+    }
   }
 
   // The ":=" of an assignment in r, or r.end: the first at depth 0 before any "\".
@@ -625,6 +632,7 @@ class Parser {
     m.place = {0, t_[s.r.begin].line};
     m.instruction = std::string(t_[s.r.begin].text);
     m.type = form.type;
+    m.routine = s.scope;
     // Positional arguments, each cut at its first "\"; the optional ones collected.
     std::vector<Range> positional;
     std::map<std::string, std::optional<Range>> optional;

@@ -84,6 +84,9 @@ KukaSimulator::KukaSimulator(VirtualLab& lab, std::string host, unsigned short p
   joints_deg_.head(axes_) = home / kRadPerDeg;
   mode_ = options_.mode;
   if (!options_.program_running) program_state_ = "P_RESET";
+  controller_ = programs::NominalController(model, programs::ControllerKind::kKuka, "nominal " + options_.trafo_name);
+  for (auto& [name, g] : globals_)
+    if (g.type == "CHAR" && g.text.empty()) g.text = Quoted("");
 }
 
 KukaSimulator::~KukaSimulator() { Stop(); }
@@ -305,22 +308,25 @@ double KukaSimulator::MoveSeconds(const Eigen::VectorXd& from_deg, const Eigen::
 // runs the joint that turns farthest on a trapezoid of speed v and acceleration a; these give
 // it the PTP's duration T and ramp r (v = D / (T − r), a = v / r), and the other axes follow
 // in proportion, as in the PTP.
-void KukaSimulator::Issue() {
-  Command& c = *command_;
+bool KukaSimulator::Ptp(const Eigen::VectorXd& target_rad, int velocity_percent, int acceleration_percent) {
   const Eigen::VectorXd from = arm_state_.q;
   Eigen::VectorXd from_deg = Eigen::VectorXd::Zero(6);
   from_deg.head(axes_) = from / kRadPerDeg;
   Eigen::VectorXd to_deg = from_deg;
-  to_deg.head(axes_) = c.target_rad / kRadPerDeg;
-  const MovePlan plan = Plan(from_deg, to_deg, c.velocity, c.acceleration);
+  to_deg.head(axes_) = target_rad / kRadPerDeg;
+  const MovePlan plan = Plan(from_deg, to_deg, velocity_percent, acceleration_percent);
   last_move_seconds_ = plan.seconds;
-  const double distance = (c.target_rad - from).cwiseAbs().maxCoeff();
-  if (!(distance > 0.0) || !(plan.seconds > 0.0) || !(plan.ramp > 0.0)) {
-    c.issued = true;  // nothing to move: done on the next cycle
-    return;
-  }
+  const double distance = (target_rad - from).cwiseAbs().maxCoeff();
+  if (!(distance > 0.0) || !(plan.seconds > 0.0) || !(plan.ramp > 0.0)) return false;
   const double v = distance / (plan.seconds - plan.ramp);
-  c.issued = arm_->MoveJ(c.target_rad, v / plan.ramp, v);
+  return arm_->MoveJ(target_rad, v / plan.ramp, v);
+}
+
+void KukaSimulator::Issue() {
+  Command& c = *command_;
+  const bool turn = (c.target_rad - arm_state_.q).cwiseAbs().maxCoeff() > 0.0;
+  // Nothing to move: done on the next cycle.
+  c.issued = Ptp(c.target_rad, c.velocity, c.acceleration) || !turn;
 }
 
 void KukaSimulator::Halt(HaltKind kind) {
@@ -346,6 +352,7 @@ void KukaSimulator::Halt(HaltKind kind) {
 void KukaSimulator::Advance() {
   arm_state_ = arm_->Now();
   joints_deg_.head(axes_) = arm_state_.q / kRadPerDeg;
+  AdvanceRunner();
   // The PTP has ended (a halt un-issues it): the interpolator is done, so WAIT SEC 0 lets
   // ARMSIG go on, whatever moves the arm afterwards.
   if (command_ && command_->issued && !arm_state_.moving &&
@@ -454,6 +461,12 @@ bool KukaSimulator::WriteVariable(const std::string& name, const std::string& va
     const auto v = kuka::ParseInt(value);
     if (!v) return false;
     g->second.text = std::to_string(*v);
+    return true;
+  }
+  if (g->second.type == "CHAR") {  // NAME[] = "text"
+    const auto text = kuka::ParseString(value);
+    if (!text || text->size() > 24) return false;
+    g->second.text = Quoted(*text);
     return true;
   }
   if (g->second.type == "E6AXIS") {
@@ -592,6 +605,8 @@ KukaSimulator::Snapshot KukaSimulator::snapshot() const {
   s.program_state = program_state_;
   s.program = program_;
   s.last_move_seconds = last_move_seconds_;
+  s.runs = runs_;
+  s.last_run_refusal = last_run_refusal_;
   return s;
 }
 

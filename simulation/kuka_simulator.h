@@ -23,6 +23,11 @@
 //    STOP key, a mode change, the drives switched off) stands where it halted and goes on to
 //    its target when the program is started again.
 //
+// Programs of the lab's own: with a program folder (KRC:\R1\Program, a directory), the
+// submit interpreter's runner of controllers/kuka/ARMSIG_SPS.sub selects and starts one when
+// ARMSIG_RUN_CMD changes, and runs its motions with the controller's inverse kinematics on its
+// nominal model (simulation/kuka_programs.cc says how, and what it refuses).
+//
 // The arm is a simulation::VirtualArm (physical time, scaled; the lab's robot follows it):
 // ARMSIG's PTP is its joint move, with the speed and acceleration that give the leading
 // axis's profile; an EMERGENCY STOP brakes it and cuts the drives, a safety stop or the STOP
@@ -56,6 +61,9 @@
 #include <vector>
 
 #include "instruments/kuka_codec.h"
+#include "programs/controller.h"
+#include "programs/krl.h"
+#include "simulation/program_runner.h"
 #include "simulation/simulator.h"
 #include "simulation/tcp_peer.h"
 #include "simulation/virtual_arm.h"
@@ -78,6 +86,11 @@ struct KukaSimulatorOptions {
   std::vector<std::pair<double, double>> software_limits_deg;
   std::string mode = "AUT";       // $MODE_OP at start
   bool program_running = true;    // ARMSIG selected and started at start
+  // The program folder KRC:\R1\Program (the share a lab's PC copies programs into): a
+  // directory; empty, none (a run is never selected).
+  std::string program_folder;
+  // TOOL_DATA and BASE_DATA of the controller's $CONFIG.DAT, for the programs it runs.
+  programs::KrlControllerData config;
 };
 
 class KukaSimulator : public Simulator {
@@ -126,6 +139,8 @@ class KukaSimulator : public Simulator {
     bool moving = false, halted = false;
     int64_t cmd = 0, busy = 0, done = 0, result = 0, version = 0;
     int moves = 0, refused = 0, halts = 0;
+    int runs = 0;  // programs the runner selected and started
+    std::string last_run_refusal;  // why the last run was not selected, as the smartPAD says
     std::string mode, program_state, program;
     double last_move_seconds = 0.0;  // the last move's planned duration (physical)
   };
@@ -165,6 +180,14 @@ class KukaSimulator : public Simulator {
   MovePlan Plan(const Eigen::VectorXd& from_deg, const Eigen::VectorXd& to_deg,
                 int velocity_percent, int acceleration_percent) const;
   void Issue();  // the command's PTP from where the arm stands
+  // A synchronous PTP to `target_rad` from where the arm stands (Plan's profile); false when
+  // the arm does not move (no turn, or it is stopped).
+  bool Ptp(const Eigen::VectorXd& target_rad, int velocity_percent, int acceleration_percent);
+  // The program runner of the submit interpreter (ARMSIG_SPS.sub; kuka_programs.cc): a new
+  // run selected and started, the running program's next step, its end reported.
+  void AdvanceRunner();
+  std::optional<std::string> SelectRun(const std::string& name);  // why not, or nullopt
+  void EndRun(int result);
   // A halt: an EMERGENCY STOP, a safety stop (the arm stays stopped until acknowledged), or
   // the STOP key and a mode change (it brakes and stands).
   enum class HaltKind { kEmergency, kSafety, kStopKey };
@@ -203,7 +226,10 @@ class KukaSimulator : public Simulator {
   std::string program_state_ = "P_ACTIVE";
   bool fresh_start_ = true;  // ARMSIG runs its first lines on the next cycle
   bool alarm_stop_ = true, stop_message_ = false, user_saf_ = true, drives_on_ = true;
-  int moves_ = 0, refused_ = 0, halts_ = 0;
+  int moves_ = 0, refused_ = 0, halts_ = 0, runs_ = 0;
+  programs::ControllerModel controller_;  // its nominal model: the IK its programs run on
+  std::optional<ProgramPlayer> run_;      // the program the runner started
+  std::string last_run_refusal_;          // why the last run was not selected (the smartPAD's message)
   double last_move_seconds_ = 0.0;
   std::atomic<bool> reachable_{true};
 

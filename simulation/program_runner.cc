@@ -2,6 +2,7 @@
 
 #include <fmt/format.h>
 
+#include <algorithm>
 #include <random>
 
 namespace armsig::simulation {
@@ -77,6 +78,31 @@ Execution RunProgram(const programs::Program& program, const programs::Controlle
     for (auto& e : reached) out.targets.push_back(std::move(e));
   }
   return out;
+}
+
+std::vector<ProgramStep> StepsOf(const Execution& run, const std::vector<programs::Wait>& waits) {
+  std::vector<ProgramStep> steps;
+  for (const ExecutedTarget& e : run.targets) steps.push_back({e.motion.line, e.joints_rad, 0.0});
+  for (const programs::Wait& w : waits) steps.push_back({w.place.line, std::nullopt, w.seconds});
+  std::stable_sort(steps.begin(), steps.end(),
+                   [](const ProgramStep& a, const ProgramStep& b) { return a.line < b.line; });
+  return steps;
+}
+
+ProgramPlayer::Status ProgramPlayer::Tick(VirtualArm& arm,
+                                          const std::function<void(const Eigen::VectorXd&)>& move) {
+  const VirtualArm::State s = arm.Now();
+  if (s.stop != VirtualArm::Stop::kNone || !s.powered) return Status::kStopped;
+  if (s.moving || s.t < wait_until_) return Status::kRunning;
+  wait_until_ = -1.0;
+  if (next_ == steps_.size()) return Status::kFinished;
+  const ProgramStep& step = steps_[next_++];
+  if (step.joints_rad) {
+    move(*step.joints_rad);
+  } else {
+    wait_until_ = s.t + step.wait_s;
+  }
+  return Status::kRunning;
 }
 
 std::vector<Eigen::Vector3d> MeasureLandings(const VirtualCell& cell, const Execution& run) {

@@ -12,6 +12,8 @@
 
 #include <Eigen/Core>
 #include <Eigen/Geometry>
+#include <functional>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -20,6 +22,7 @@
 #include "programs/program.h"
 #include "simulation/emscon_simulator.h"
 #include "simulation/joint_errors.h"
+#include "simulation/virtual_arm.h"
 
 namespace armsig::simulation {
 
@@ -51,6 +54,33 @@ struct Execution {
 // Runs the motions from `start_rad` (the joints the arm stands at).
 Execution RunProgram(const programs::Program& program, const programs::ControllerModel& controller,
                      const Eigen::VectorXd& start_rad);
+
+// What a controller does when it runs a program, in the order written: each executed
+// target a move to its joints, each wait (programs::Wait: WaitTime, WAIT SEC, sleep) the arm
+// standing that long.
+struct ProgramStep {
+  int line = 0;
+  std::optional<Eigen::VectorXd> joints_rad;  // a target, else a wait
+  double wait_s = 0.0;
+};
+std::vector<ProgramStep> StepsOf(const Execution& run, const std::vector<programs::Wait>& waits);
+
+// Plays steps on a virtual arm, one at a time as the arm gets there (call Tick from the
+// controller's cycle): `move` starts the joint move of a target, a wait runs in physical time.
+// A stop of the arm (protective, emergency, power off) ends the program.
+class ProgramPlayer {
+ public:
+  enum class Status { kRunning, kFinished, kStopped };
+  explicit ProgramPlayer(std::vector<ProgramStep> steps) : steps_(std::move(steps)) {}
+  Status Tick(VirtualArm& arm, const std::function<void(const Eigen::VectorXd&)>& move);
+  std::size_t next() const { return next_; }
+  std::size_t size() const { return steps_.size(); }
+
+ private:
+  std::vector<ProgramStep> steps_;
+  std::size_t next_ = 0;
+  double wait_until_ = -1.0;  // physical time
+};
 
 // A robot in a lab with a laser tracker at the lab frame's origin: where each executed
 // target's TCP really lands (the robot's repeatability drawn per arrival), as the tracker

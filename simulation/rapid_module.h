@@ -29,6 +29,11 @@ struct RapidModule {
   const RapidData* Find(std::string_view name) const;  // case-insensitive, as RAPID
 };
 
+// A datum's value text as the controller keeps it: num components as single-precision floats
+// (9 significant digits), dnum with 15; instruments::rws::DecodeError for text that is not a
+// value of its type, or a type the virtual controller does not keep.
+std::string CanonicalValue(const RapidData& datum, const std::string& text);
+
 // Throws InputError (`source`, line) for text that is not a module this reader knows.
 RapidModule ParseRapidModule(std::string_view text, const std::string& source);
 

@@ -5,17 +5,12 @@
 #include <boost/asio.hpp>
 // clang-format on
 #include <fmt/format.h>
-#include <openssl/evp.h>
-#include <openssl/pem.h>
-#include <openssl/x509.h>
-#include <openssl/x509v3.h>
 #include <spdlog/spdlog.h>
 
 #include <boost/asio/ssl.hpp>
 #include <boost/beast/core.hpp>
 #include <boost/beast/http.hpp>
 #include <cmath>
-#include <deque>
 #include <future>
 #include <limits>
 #include <map>
@@ -23,7 +18,9 @@
 #include <random>
 
 #include "core/text.h"
-#include "instruments/http_auth.h"
+#include "simulation/rws_programs.h"
+#include "simulation/rws_sessions.h"
+#include "simulation/tls_certificate.h"
 #include "simulation/virtual_arm.h"
 
 namespace armsig::simulation {
@@ -33,82 +30,21 @@ namespace beast = boost::beast;
 namespace bhttp = boost::beast::http;
 namespace ssl = boost::asio::ssl;
 namespace rws = instruments::rws;
-namespace http = instruments::http;
 using tcp = asio::ip::tcp;
 using SteadyClock = std::chrono::steady_clock;
 
 namespace {
 
 constexpr double kRadPerDeg = std::numbers::pi / 180.0;
-constexpr const char* kRealm = "validusers@robapi.abb";
 constexpr int64_t kEventOutsideReach = 50050;  // "Position outside reach"
 
 double AsFloat(double v) { return static_cast<double>(static_cast<float>(v)); }
 
-std::string RandomHex(std::mt19937_64& rng) { return fmt::format("{:016x}", rng()); }
 
 std::string Upper(std::string_view s) {
   std::string out(s);
   for (char& c : out) c = static_cast<char>(std::toupper(static_cast<unsigned char>(c)));
   return out;
-}
-
-// A self-signed certificate for `host` (an EC P-256 key, SHA-256, valid a year, CA:TRUE so
-// that a test can trust it as its own CA), its PEM and fingerprint.
-struct Certificate {
-  std::unique_ptr<X509, decltype(&X509_free)> x509{nullptr, X509_free};
-  std::unique_ptr<EVP_PKEY, decltype(&EVP_PKEY_free)> key{nullptr, EVP_PKEY_free};
-  std::string pem, fingerprint;
-};
-
-void AddExtension(X509* x, int nid, const std::string& value) {
-  X509V3_CTX ctx;
-  X509V3_set_ctx_nodb(&ctx);
-  X509V3_set_ctx(&ctx, x, x, nullptr, nullptr, 0);
-  X509_EXTENSION* ext = X509V3_EXT_conf_nid(nullptr, &ctx, nid, value.c_str());
-  if (!ext) throw std::runtime_error("cannot make the certificate extension " + value);
-  X509_add_ext(x, ext, -1);
-  X509_EXTENSION_free(ext);
-}
-
-Certificate MakeCertificate(const std::string& host, const std::string& common_name) {
-  Certificate c;
-  c.key.reset(EVP_EC_gen("P-256"));
-  c.x509.reset(X509_new());
-  if (!c.key || !c.x509) throw std::runtime_error("OpenSSL cannot make a key or a certificate");
-  X509* x = c.x509.get();
-  X509_set_version(x, 2);
-  std::random_device rd;
-  ASN1_INTEGER_set(X509_get_serialNumber(x), static_cast<long>(rd() & 0x7fffffff));
-  X509_gmtime_adj(X509_getm_notBefore(x), -3600);
-  X509_gmtime_adj(X509_getm_notAfter(x), 365L * 24 * 3600);
-  X509_set_pubkey(x, c.key.get());
-  X509_NAME* name = X509_get_subject_name(x);
-  X509_NAME_add_entry_by_txt(name, "CN", MBSTRING_ASC,
-                             reinterpret_cast<const unsigned char*>(common_name.c_str()), -1, -1,
-                             0);
-  X509_set_issuer_name(x, name);
-  boost::system::error_code ec;
-  asio::ip::make_address(host, ec);
-  std::string san = "DNS:localhost,IP:127.0.0.1";
-  if (host != "127.0.0.1" && host != "localhost") san += (ec ? ",DNS:" : ",IP:") + host;
-  AddExtension(x, NID_subject_alt_name, san);
-  AddExtension(x, NID_basic_constraints, "critical,CA:TRUE");
-  AddExtension(x, NID_key_usage, "critical,digitalSignature,keyCertSign");
-  if (X509_sign(x, c.key.get(), EVP_sha256()) <= 0) {
-    throw std::runtime_error("OpenSSL cannot sign the certificate");
-  }
-  std::unique_ptr<BIO, decltype(&BIO_free)> bio(BIO_new(BIO_s_mem()), BIO_free);
-  PEM_write_bio_X509(bio.get(), x);
-  char* data = nullptr;
-  const long n = BIO_get_mem_data(bio.get(), &data);
-  c.pem.assign(data, static_cast<size_t>(n));
-  const int der_size = i2d_X509(x, nullptr);
-  std::string der(static_cast<size_t>(der_size), '\0');
-  auto* p = reinterpret_cast<unsigned char*>(der.data());
-  i2d_X509(x, &p);
-  c.fingerprint = http::Sha256Fingerprint(der);
-  return c;
 }
 
 struct Reply {
@@ -133,47 +69,23 @@ struct RwsSimulator::Impl {
         host(std::move(host_)),
         requested_port(port_),
         ssl_context(ssl::context::tls_server),
-        tick(io),
-        rng(std::random_device{}()) {
+        tick(io) {
     if (o.robotware.empty()) {
       o.robotware = o.version == rws::Version::kRws1 ? "6.15.03.00" : "7.16.0.0";
     }
     if (!o.module_text.empty()) {
       module = ParseRapidModule(o.module_text, "the simulator's module");
-      for (const RapidData& d : module->data) values[Upper(d.name)] = Canonical(d, d.initial);
+      for (const RapidData& d : module->data) values[Upper(d.name)] = CanonicalValue(d, d.initial);
     }
     Eigen::VectorXd home(6);
     for (int i = 0; i < 6; ++i) home(i) = o.start_deg[static_cast<size_t>(i)] * kRadPerDeg;
     arm = std::make_unique<VirtualArm>(lab, clock, home);
+    rapid_programs = std::make_unique<RwsPrograms>(
+        o.task, programs::NominalController(lab.model(), programs::ControllerKind::kAbb, "nominal " + o.model), module);
     running = o.running && module.has_value();
   }
 
   // ---- RAPID data ----
-
-  // The value text as the controller keeps it: num components as floats.
-  static std::string Canonical(const RapidData& d, const std::string& text) {
-    const std::string type = Upper(d.type);
-    if (d.elements > 0) {
-      std::vector<double> v = rws::ParseRapidArray(text);
-      if (static_cast<int>(v.size()) != d.elements) {
-        throw rws::DecodeError(fmt::format("{} has {} elements", d.name, d.elements));
-      }
-      if (type == "NUM") {
-        for (double& x : v) x = AsFloat(x);
-        return rws::FormatRapidArray(v, 9);
-      }
-      return rws::FormatRapidArray(v, 15);
-    }
-    if (type == "NUM") return rws::FormatRapidNum(AsFloat(rws::ParseRapidNum(text)));
-    if (type == "DNUM") return rws::FormatRapidArray({rws::ParseRapidNum(text)}, 15).substr(1);
-    if (type == "JOINTTARGET") {
-      rws::JointTarget t = rws::ParseRapidJointTarget(text);
-      for (double& x : t.robax_deg) x = AsFloat(x);
-      for (double& x : t.extax) x = AsFloat(x);
-      return rws::FormatRapidJointTarget(t);
-    }
-    throw rws::DecodeError("the simulator keeps no RAPID " + d.type);
-  }
 
   double Num(const char* name) const { return rws::ParseRapidNum(values.at(Upper(name))); }
   void SetNum(const char* name, double value) {
@@ -201,23 +113,41 @@ struct RwsSimulator::Impl {
     record_pending = false;
   }
 
-  // MoveAbsJ at `speed_percent` of the axes' speeds: the leading joint (the largest turn) at
-  // the speed and acceleration that keep every axis within its own maximum.
-  void StartMove(const Eigen::VectorXd& target_deg, double speed_percent) {
-    const Eigen::VectorXd from = arm->Now().q, to = target_deg * kRadPerDeg;
+  // A joint move at `speed_percent` of the axes' speeds: the leading joint (the largest turn)
+  // at the speed and acceleration that keep every axis within its own maximum; {a, v}.
+  std::pair<double, double> Profile(const Eigen::VectorXd& from, const Eigen::VectorXd& to,
+                                    double speed_percent) const {
     const Eigen::VectorXd turn = (to - from).cwiseAbs();
     const double lead = turn.maxCoeff();
-    double v = 1.0, a = 1.0;  // no turn: any
-    if (lead > 0) {
-      v = a = std::numeric_limits<double>::infinity();
-      for (int i = 0; i < 6; ++i) {
-        if (turn(i) <= 0) continue;
-        const double vi =
-            o.max_speed_deg_s[static_cast<size_t>(i)] * kRadPerDeg * speed_percent / 100.0;
-        v = std::min(v, vi * lead / turn(i));
-        a = std::min(a, vi / o.accel_time_s * lead / turn(i));
-      }
+    if (!(lead > 0)) return {1.0, 1.0};  // no turn: any
+    double v = std::numeric_limits<double>::infinity(), a = v;
+    for (int i = 0; i < 6; ++i) {
+      if (turn(i) <= 0) continue;
+      const double vi = o.max_speed_deg_s[static_cast<size_t>(i)] * kRadPerDeg * speed_percent / 100.0;
+      v = std::min(v, vi * lead / turn(i));
+      a = std::min(a, vi / o.accel_time_s * lead / turn(i));
     }
+    return {a, v};
+  }
+
+  // Whether a target is within the working ranges; if not, the motion planner stops the
+  // program (event 50050) and the arm does not move.
+  bool WithinReach(const Eigen::VectorXd& target_deg) {
+    for (int i = 0; i < 6; ++i) {
+      const auto [lo, hi] = o.limits_deg[static_cast<size_t>(i)];
+      if (target_deg(i) >= lo && target_deg(i) <= hi) continue;
+      running = false;
+      events.push_back(fmt::format("{} Position outside reach: {} joint {} at {:.2f}°", kEventOutsideReach,
+                                   o.mechunit, i + 1, target_deg(i)));
+      return false;
+    }
+    return true;
+  }
+
+  // MoveAbsJ of armsig_serve at `speed_percent` (Profile).
+  void StartMove(const Eigen::VectorXd& target_deg, double speed_percent) {
+    const Eigen::VectorXd to = target_deg * kRadPerDeg;
+    const auto [a, v] = Profile(arm->Now().q, to, speed_percent);
     if (armed_stop) {
       arm->ProtectiveStopDuringNextMove(armed_fraction);
       stop_kind = *armed_stop;
@@ -255,7 +185,22 @@ struct RwsSimulator::Impl {
     running = false;
   }
 
+  // The routine the program pointer was set to runs instead of armsig_serve; its moves at
+  // the axes' full speed (the program's speed data are not followed: the arm stands at each
+  // fine point before the next step, which is what the landings depend on).
+  void AdvanceProgram() {
+    if (!running) return;
+    const auto status = rapid_programs->Tick(*arm, [&](const Eigen::VectorXd& q) {
+      if (WithinReach(q / kRadPerDeg)) {
+        const auto [a, v] = Profile(arm->Now().q, q, 100.0);
+        arm->MoveJ(q, a, v);
+      }
+    });
+    if (status != ProgramPlayer::Status::kRunning) running = false;  // its end, or a stop
+  }
+
   void Advance() {
+    if (rapid_programs->Armed()) return AdvanceProgram();
     if (!HasContract()) return;
     VirtualArm::State st = arm->Now();
     if (phase == Phase::kMoving && st.stop != VirtualArm::Stop::kNone) {
@@ -296,18 +241,22 @@ struct RwsSimulator::Impl {
       const rws::JointTarget t = rws::ParseRapidJointTarget(values.at("ARMSIG_TARGET"));
       Eigen::VectorXd target(6);
       for (int i = 0; i < 6; ++i) target(i) = t.robax_deg[static_cast<size_t>(i)];
-      for (int i = 0; i < 6; ++i) {
-        const auto [lo, hi] = o.limits_deg[static_cast<size_t>(i)];
-        if (target(i) < lo || target(i) > hi) {
-          running = false;  // the motion planner stops the program at MoveAbsJ
-          events.push_back(fmt::format("{} Position outside reach: {} joint {} at {:.2f}°",
-                                       kEventOutsideReach, o.mechunit, i + 1, target(i)));
-          return;
-        }
-      }
+      if (!WithinReach(target)) return;
       StartMove(target, speed);
       if (!running) return;
     }
+  }
+
+  // Why execution cannot start (motors off, a routine that cannot run), or nullopt: started.
+  std::optional<std::string> StartTaskWhy(bool from_main) {
+    if (ctrl != rws::ControllerState::kMotorsOn) return "the motors are off";
+    if (rapid_programs->Armed()) {
+      if (auto why = rapid_programs->Start(arm->Now().q)) return why;
+      running = true;
+      return std::nullopt;
+    }
+    if (!StartTask(from_main)) return "no program in the task";
+    return std::nullopt;
   }
 
   bool StartTask(bool from_main) {
@@ -320,60 +269,6 @@ struct RwsSimulator::Impl {
     }
     running = true;
     return true;
-  }
-
-  // ---- Sessions and authentication ----
-
-  std::optional<std::string> SessionOf(const bhttp::request<bhttp::string_body>& req) const {
-    const auto it = req.find(bhttp::field::cookie);
-    if (it == req.end()) return std::nullopt;
-    std::string http_session, abbcx;
-    for (const auto& c : http::ParseCookieHeader(std::string(it->value()))) {
-      if (c.name == "-http-session-") http_session = c.value;
-      if (c.name == "ABBCX") abbcx = c.value;
-    }
-    const auto s = sessions.find(http_session);
-    if (s == sessions.end() || s->second != abbcx) return std::nullopt;
-    return http_session;
-  }
-
-  bool CredentialsValid(const bhttp::request<bhttp::string_body>& req) {
-    const auto it = req.find(bhttp::field::authorization);
-    if (it == req.end()) return false;
-    const std::string header(it->value());
-    if (o.version == rws::Version::kRws2) {
-      const auto basic = http::ParseBasicAuthorization(header);
-      return basic && basic->first == o.user && basic->second == o.password;
-    }
-    http::Challenge c;
-    try {
-      c = http::ParseCredentials(header);
-    } catch (const http::HeaderError&) {
-      return false;
-    }
-    if (Upper(c.scheme) != "DIGEST") return false;
-    auto p = [&](const char* n) {
-      const std::string* v = c.Param(n);
-      return v ? *v : std::string();
-    };
-    const bool nonce_known = std::find(nonces.begin(), nonces.end(), p("nonce")) != nonces.end();
-    if (!nonce_known || p("realm") != kRealm || p("username") != o.user || p("qop") != "auth" ||
-        p("uri") != std::string(req.target())) {
-      return false;
-    }
-    const std::string expected =
-        http::DigestResponse(o.user, kRealm, o.password, std::string(req.method_string()),
-                             p("uri"), p("nonce"), p("nc"), p("cnonce"));
-    return expected == p("response");
-  }
-
-  std::string Challenge() {
-    if (o.version == rws::Version::kRws2) return std::string("Basic realm=\"") + kRealm + "\"";
-    nonces.push_back(RandomHex(rng) + RandomHex(rng));
-    if (nonces.size() > 256) nonces.pop_front();
-    return fmt::format("Digest realm=\"{}\", qop=\"auth\", nonce=\"{}\", opaque=\"{}\", "
-                       "algorithm=MD5",
-                       kRealm, nonces.back(), opaque);
   }
 
   // ---- Answers ----
@@ -410,169 +305,165 @@ struct RwsSimulator::Impl {
     return d;
   }
 
-  // The answer to an authenticated request: HTTP status and the document.
-  std::pair<unsigned, rws::Document> Route(const std::string& method, const std::string& path,
-                                           const std::vector<std::pair<std::string, std::string>>&
-                                               query,
-                                           const std::vector<std::pair<std::string, std::string>>&
-                                               form,
-                                           const std::string& session) {
-    const bool v1 = o.version == rws::Version::kRws1;
-    auto param = [](const std::vector<std::pair<std::string, std::string>>& list,
-                    const char* name) -> std::string {
-      for (const auto& [n, v] : list) {
+  // One authenticated request: its method, path (no query), query and form pairs, raw body.
+  using Pairs = std::vector<std::pair<std::string, std::string>>;
+  struct Call {
+    std::string method, path;
+    Pairs query, form;
+    std::string body, session;
+    bool get() const { return method == "GET"; }
+    bool post() const { return method == "POST"; }
+    std::string Param(const char* name, bool in_form = false) const {
+      for (const auto& [n, v] : in_form ? form : query)
         if (n == name) return v;
-      }
       return "";
-    };
-    const bool get = method == "GET", post = method == "POST";
+    }
+  };
+  using Answer = std::pair<unsigned, rws::Document>;
+
+  // The controller's identity and states: read-only resources.
+  std::optional<Answer> RouteTable(const Call& c) {
+    if (!c.get()) return std::nullopt;
+    const bool v1 = o.version == rws::Version::kRws1;
     rws::Document d;
-    if (get && path == "/ctrl/identity") {
+    if (c.path == "/ctrl/identity") {
       d.resources.push_back(Li("ctrl-identity-info", "identity",
                                {{"ctrl-name", o.controller_name},
                                 {"ctrl-type", "Virtual Controller"},
                                 {"ctrl-id", o.controller_id}}));
-      return {200, d};
-    }
-    if (get && path == "/rw/system") {
+    } else if (c.path == "/rw/system") {
       d.resources.push_back(Li("sys-system-li", "system",
                                {{"name", o.controller_name},
                                 {"rwversion", o.robotware},
                                 {"sysid", "{7E16B1D3-0000-4A2B-9C3D-000000000001}"},
                                 {"rwversionname", o.robotware}}));
-      return {200, d};
-    }
-    if (get && path == "/rw/system/robottype") {
+    } else if (c.path == "/rw/system/robottype") {
       d.resources.push_back(Li("sys-robottype", "1", {{"robot-type", o.model}}));
-      return {200, d};
-    }
-    if (get && path == "/rw/cfg/moc/ROBOT_SERIAL_NUMBER/instances") {
+    } else if (c.path == "/rw/cfg/moc/ROBOT_SERIAL_NUMBER/instances") {
       rws::Resource inst = Li("cfg-dt-instance-li", "rob_1", {});
       inst.children.push_back(Li("cfg-ia-t-li", "name", {{"value", "rob_1"}}));
-      inst.children.push_back(
-          Li("cfg-ia-t-li", "robot_serial_number_high_part", {{"value", o.serial_high}}));
-      inst.children.push_back(
-          Li("cfg-ia-t-li", "robot_serial_number_low_part", {{"value", o.serial_low}}));
+      inst.children.push_back(Li("cfg-ia-t-li", "robot_serial_number_high_part", {{"value", o.serial_high}}));
+      inst.children.push_back(Li("cfg-ia-t-li", "robot_serial_number_low_part", {{"value", o.serial_low}}));
       d.resources.push_back(std::move(inst));
-      return {200, d};
-    }
-    if (get && path == (v1 ? "/rw/panel/ctrlstate" : "/rw/panel/ctrl-state")) {
+    } else if (c.path == (v1 ? "/rw/panel/ctrlstate" : "/rw/panel/ctrl-state")) {
       d.resources.push_back(Li("pnl-ctrlstate", "ctrlstate", {{"ctrlstate", rws::Text(ctrl)}}));
-      return {200, d};
-    }
-    if (get && path == "/rw/panel/opmode") {
+    } else if (c.path == "/rw/panel/opmode") {
       d.resources.push_back(Li("pnl-opmode", "opmode", {{"opmode", rws::Text(mode)}}));
-      return {200, d};
-    }
-    const bool exec_start = v1 ? (post && path == "/rw/rapid/execution" &&
-                                  param(query, "action") == "start")
-                               : (post && path == "/rw/rapid/execution/start");
-    const bool exec_stop = v1 ? (post && path == "/rw/rapid/execution" &&
-                                 param(query, "action") == "stop")
-                              : (post && path == "/rw/rapid/execution/stop");
-    if (get && path == "/rw/rapid/execution") {
+    } else if (c.path == "/rw/rapid/execution") {
       d.resources.push_back(Li("rap-execution", "execution",
                                {{"ctrlexecstate", running ? "running" : "stopped"},
-                                {"cycle", "forever"}}));
-      return {200, d};
-    }
-    if (exec_start) {
-      if (mode != rws::OperationMode::kAuto || !StartTask(false)) {
-        return {400, Error(rws::code::kWrongState, "execution start refused: motors off or not "
-                                                   "in AUTO")};
-      }
-      return {204, d};
-    }
-    if (exec_stop) {
-      StopTask();
-      return {204, d};
-    }
-    if (get && path == "/rw/motionsystem/mechunits/" + o.mechunit + "/jointtarget") {
+                                {"cycle", rapid_programs->Armed() ? "once" : "forever"}}));
+    } else if (c.path == "/rw/motionsystem/mechunits/" + o.mechunit + "/jointtarget") {
       const Eigen::VectorXd q = JointsDeg();
       rws::Resource r = Li("ms-jointtarget", o.mechunit, {});
-      for (int i = 0; i < 6; ++i) {
-        r.fields.emplace_back("rax_" + std::to_string(i + 1), fmt::format("{:.2f}", q(i)));
-      }
-      for (const char* e : {"eax_a", "eax_b", "eax_c", "eax_d", "eax_e", "eax_f"}) {
-        r.fields.emplace_back(e, "9E+09");
-      }
+      for (int i = 0; i < 6; ++i) r.fields.emplace_back("rax_" + std::to_string(i + 1), fmt::format("{:.2f}", q(i)));
+      for (const char* e : {"eax_a", "eax_b", "eax_c", "eax_d", "eax_e", "eax_f"}) r.fields.emplace_back(e, "9E+09");
       d.resources.push_back(std::move(r));
-      return {200, d};
+    } else if (c.path == "/logout") {
+      users.Logout(c.session);
+      if (mastership == c.session) mastership.reset();
+    } else {
+      return std::nullopt;
     }
-    // Mastership over RAPID (RWS 1.0: the rapid domain, or all; RWS 2.0: edit).
-    std::string mastership_action;
-    if (v1 && post && (path == "/rw/mastership/rapid" || path == "/rw/mastership")) {
-      mastership_action = param(query, "action");
-    } else if (!v1 && post && path == "/rw/mastership/edit/request") {
-      mastership_action = "request";
-    } else if (!v1 && post && path == "/rw/mastership/edit/release") {
-      mastership_action = "release";
+    return Answer{200, d};
+  }
+
+  // RAPID execution start and stop, and mastership over RAPID (RWS 1.0: the rapid domain,
+  // or all; RWS 2.0: edit).
+  std::optional<Answer> RouteExecution(const Call& c) {
+    if (!c.post()) return std::nullopt;
+    const bool v1 = o.version == rws::Version::kRws1;
+    const bool action_path = v1 && c.path == "/rw/rapid/execution";
+    if (action_path ? c.Param("action") == "start" : c.path == "/rw/rapid/execution/start") {
+      if (mode != rws::OperationMode::kAuto)
+        return Answer{400, Error(rws::code::kWrongState, "execution start refused: not in AUTO")};
+      if (auto why = StartTaskWhy(false))
+        return Answer{400, Error(rws::code::kWrongState, "execution start refused: " + *why)};
+      return Answer{204, {}};
     }
-    if (mastership_action == "request") {
-      if (mastership && *mastership != session) {
-        return {403, Error(rws::code::kHeldBySomeoneElse,
-                           "Requested resource is held by someone else")};
-      }
-      mastership = session;
-      return {204, d};
+    if (action_path ? c.Param("action") == "stop" : c.path == "/rw/rapid/execution/stop") {
+      StopTask();
+      return Answer{204, {}};
     }
-    if (mastership_action == "release") {
-      if (mastership == session) mastership.reset();
-      return {204, d};
+    std::string action;
+    if (v1 && (c.path == "/rw/mastership/rapid" || c.path == "/rw/mastership")) action = c.Param("action");
+    if (!v1 && c.path == "/rw/mastership/edit/request") action = "request";
+    if (!v1 && c.path == "/rw/mastership/edit/release") action = "release";
+    if (action == "request") {
+      if (mastership && *mastership != c.session)
+        return Answer{403, Error(rws::code::kHeldBySomeoneElse, "Requested resource is held by someone else")};
+      mastership = c.session;
+      return Answer{204, {}};
     }
-    // RAPID symbols.
+    if (action == "release") {
+      if (mastership == c.session) mastership.reset();
+      return Answer{204, {}};
+    }
+    return std::nullopt;
+  }
+
+  // A RAPID symbol of the resident module: read, or written with mastership in AUTO.
+  std::optional<Answer> RouteSymbol(const Call& c) {
+    const bool v1 = o.version == rws::Version::kRws1;
     const std::string prefix = v1 ? "/rw/rapid/symbol/data/RAPID/" : "/rw/rapid/symbol/RAPID/";
-    if (path.rfind(prefix, 0) == 0) {
-      std::string rest = path.substr(prefix.size());
-      if (!v1) {
-        if (rest.size() < 5 || rest.substr(rest.size() - 5) != "/data") {
-          return {404, Error(rws::code::kNotFound, "Resource not found")};
-        }
-        rest.resize(rest.size() - 5);
-      }
-      const std::string wanted_prefix = o.task + "/" + (module ? module->name : "") + "/";
-      const RapidData* datum = nullptr;
-      if (module && Upper(rest.substr(0, wanted_prefix.size())) == Upper(wanted_prefix)) {
-        datum = module->Find(rest.substr(wanted_prefix.size()));
-      }
-      if (!datum) {
-        return {v1 ? 400u : 404u,
-                Error(v1 ? rws::code::kNotFound : rws::code::kSymbolNotFound, "Symbol not found")};
-      }
-      const bool set = v1 ? (post && param(query, "action") == "set") : post;
-      if (get) {
-        d.resources.push_back(Li("rap-data", "RAPID/" + o.task + "/" + module->name + "/" +
-                                                 datum->name,
-                                 {{"value", values.at(Upper(datum->name))}}));
-        return {200, d};
-      }
-      if (!set) return {400, Error(rws::code::kNotFound, "unknown action")};
-      if (mode != rws::OperationMode::kAuto) {
-        return {403, Error(rws::code::kRejected, "Rejected: RMMP needed in manual mode")};
-      }
-      if (mastership && *mastership != session) {
-        return {403, Error(rws::code::kHeldBySomeoneElse,
-                           "Requested resource is held by someone else")};
-      }
-      if (!v1 && mastership != session) {
-        return {403, Error(rws::code::kNoMastership,
-                           "The user does not have required mastership")};
-      }
-      if (datum->storage == "CONST") {
-        return {400, Error(rws::code::kRejected, "a constant cannot be written")};
-      }
-      try {
-        values[Upper(datum->name)] = Canonical(*datum, param(form, "value"));
-      } catch (const rws::DecodeError& e) {
-        return {400, Error(0, std::string("value not valid for ") + datum->type + ": " + e.what())};
-      }
-      Advance();
-      return {204, d};
+    if (c.path.rfind(prefix, 0) != 0) return std::nullopt;
+    std::string rest = c.path.substr(prefix.size());
+    if (!v1) {
+      if (rest.size() < 5 || rest.substr(rest.size() - 5) != "/data")
+        return Answer{404, Error(rws::code::kNotFound, "Resource not found")};
+      rest.resize(rest.size() - 5);
     }
-    if (get && path == "/logout") {
-      sessions.erase(session);
-      if (mastership == session) mastership.reset();
-      return {200, d};
+    const std::string wanted_prefix = o.task + "/" + (module ? module->name : "") + "/";
+    const RapidData* datum = nullptr;
+    if (module && Upper(rest.substr(0, wanted_prefix.size())) == Upper(wanted_prefix))
+      datum = module->Find(rest.substr(wanted_prefix.size()));
+    if (!datum)
+      return Answer{v1 ? 400u : 404u, Error(v1 ? rws::code::kNotFound : rws::code::kSymbolNotFound, "Symbol not found")};
+    if (c.get()) {
+      rws::Document d;
+      d.resources.push_back(Li("rap-data", "RAPID/" + o.task + "/" + module->name + "/" + datum->name,
+                               {{"value", values.at(Upper(datum->name))}}));
+      return Answer{200, d};
+    }
+    const bool set = v1 ? (c.post() && c.Param("action") == "set") : c.post();
+    if (!set) return Answer{400, Error(rws::code::kNotFound, "unknown action")};
+    if (mode != rws::OperationMode::kAuto)
+      return Answer{403, Error(rws::code::kRejected, "Rejected: RMMP needed in manual mode")};
+    if (mastership && *mastership != c.session)
+      return Answer{403, Error(rws::code::kHeldBySomeoneElse, "Requested resource is held by someone else")};
+    if (!v1 && mastership != c.session)
+      return Answer{403, Error(rws::code::kNoMastership, "The user does not have required mastership")};
+    if (datum->storage == "CONST") return Answer{400, Error(rws::code::kRejected, "a constant cannot be written")};
+    try {
+      values[Upper(datum->name)] = CanonicalValue(*datum, c.Param("value", true));
+    } catch (const rws::DecodeError& e) {
+      return Answer{400, Error(0, std::string("value not valid for ") + datum->type + ": " + e.what())};
+    }
+    Advance();
+    return Answer{204, {}};
+  }
+
+  // The program side: files, modules, the program pointer (simulation/rws_programs.h).
+  std::optional<Answer> RoutePrograms(const Call& c) {
+    RwsPrograms::Request r;
+    r.method = c.method;
+    r.path = c.path;
+    r.body = c.body;
+    r.query = c.query;
+    r.form = c.form;
+    r.v1 = o.version == rws::Version::kRws1;
+    r.mastership = mastership == c.session;
+    r.automatic = mode == rws::OperationMode::kAuto;
+    r.running = running;
+    auto a = rapid_programs->Route(r);
+    if (!a) return std::nullopt;
+    return Answer{a->status, std::move(a->document)};
+  }
+
+  // The answer to an authenticated request: HTTP status and the document.
+  Answer Route(const Call& c) {
+    for (auto route : {&Impl::RouteTable, &Impl::RouteExecution, &Impl::RouteSymbol, &Impl::RoutePrograms}) {
+      if (auto a = (this->*route)(c)) return std::move(*a);
     }
     return {404, Error(rws::code::kNotFound, "Resource not found")};
   }
@@ -586,6 +477,44 @@ struct RwsSimulator::Impl {
     return path.substr(1, a == std::string::npos ? std::string::npos : a - 1);
   }
 
+  // The fault injected for this request, as the reply's action; true when the request ends
+  // there (the answer is not computed).
+  static bool Faulted(const FaultSpec& fault, Reply& reply) {
+    switch (fault.fault) {
+      case Fault::kVanish:
+        reply.action = Reply::Action::kClose;
+        return true;
+      case Fault::kDropReply:
+        reply.action = Reply::Action::kSilence;
+        return true;
+      case Fault::kNoiseBytes:
+        reply.action = Reply::Action::kGarbage;
+        return true;
+      case Fault::kTruncateReply:
+        reply.action = Reply::Action::kTruncate;
+        return false;
+      default:
+        return false;
+    }
+  }
+
+  // The query and, for a POST, the form body; an error answer when they cannot be read.
+  std::optional<Answer> ReadParameters(const bhttp::request<bhttp::string_body>& req, const std::string& query,
+                                       Call& c) const {
+    try {
+      c.query = rws::ParseForm(query);
+      if (req.method() != bhttp::verb::post) return std::nullopt;
+      const auto ct = req.find(bhttp::field::content_type);
+      const std::string content_type = ct == req.end() ? "" : std::string(ct->value());
+      if (o.version == rws::Version::kRws2 && !req.body().empty() && content_type.find(";v=2.0") == std::string::npos)
+        return Answer{415, Error(0, "Unsupported media type: form bodies are application/x-www-form-urlencoded;v=2.0")};
+      c.form = rws::ParseForm(req.body());
+    } catch (const rws::DecodeError& e) {
+      return Answer{400, Error(0, e.what())};
+    }
+    return std::nullopt;
+  }
+
   Reply Handle(const bhttp::request<bhttp::string_body>& req) {
     std::lock_guard lock(mutex);
     Reply reply;
@@ -596,30 +525,18 @@ struct RwsSimulator::Impl {
     res.version(11);
     res.keep_alive(req.keep_alive());
     res.set(bhttp::field::server, "armsig virtual ABB controller");
-    switch (fault.fault) {
-      case Fault::kVanish:
-        reply.action = Reply::Action::kClose;
-        return reply;
-      case Fault::kDropReply:
-        reply.action = Reply::Action::kSilence;
-        return reply;
-      case Fault::kNoiseBytes:
-        reply.action = Reply::Action::kGarbage;
-        return reply;
-      case Fault::kTruncateReply:
-        reply.action = Reply::Action::kTruncate;
-        break;
-      default:
-        break;
-    }
+    if (Faulted(fault, reply)) return reply;
     Advance();
 
     const std::string target(req.target());
     const size_t q = target.find('?');
-    const std::string path = target.substr(0, q);
+    Call c;
+    c.method = std::string(req.method_string());
+    c.path = target.substr(0, q);
+    c.body = req.body();
     const std::string query = q == std::string::npos ? "" : target.substr(q + 1);
     const std::string scheme = o.version == rws::Version::kRws1 ? "http" : "https";
-    const std::string base = fmt::format("{}://{}:{}{}/", scheme, host, port, path);
+    const std::string base = fmt::format("{}://{}:{}{}/", scheme, host, port, c.path);
     bool acceptable = true;
     rws::Representation representation = rws::Representation::kXhtml;
     try {
@@ -630,59 +547,20 @@ struct RwsSimulator::Impl {
       res.result(status);
       if (status != 204 && (status >= 300 || !doc.resources.empty() || doc.status)) {
         res.set(bhttp::field::content_type, rws::MediaType(representation));
-        res.body() = rws::Format(doc, representation, Service(path), base);
+        res.body() = rws::Format(doc, representation, Service(c.path), base);
       }
       res.prepare_payload();
+      return reply;
     };
-    if (fault.fault == Fault::kErrorCode) {
-      answer(500, Error(fault.code, "internal error (a fault injected by the test)"));
-      return reply;
-    }
-
-    // Authentication: a session cookie, or credentials answering the challenge.
-    std::optional<std::string> session = SessionOf(req);
-    if (!session) {
-      if (CredentialsValid(req)) {
-        const std::string id = fmt::format("{}::http.session::{}", ++next_session, RandomHex(rng));
-        const std::string abbcx = std::to_string(next_session);
-        sessions[id] = abbcx;
-        session = id;
-        ++logins;
-        res.insert(bhttp::field::set_cookie, "-http-session-=" + id + "; path=/; httponly");
-        res.insert(bhttp::field::set_cookie, "ABBCX=" + abbcx + "; path=/; httponly");
-      } else {
-        if (req.find(bhttp::field::authorization) != req.end()) ++refused_logins;
-        res.set(bhttp::field::www_authenticate, Challenge());
-        answer(401, {});
-        return reply;
-      }
-    }
-    if (!acceptable) {
-      answer(406, Error(0, "Not Acceptable: ask for application/hal+json;v=2.0"));
-      return reply;
-    }
-    std::vector<std::pair<std::string, std::string>> query_params, form;
-    try {
-      query_params = rws::ParseForm(query);
-      if (req.method() == bhttp::verb::post) {
-        const auto ct = req.find(bhttp::field::content_type);
-        const std::string content_type = ct == req.end() ? "" : std::string(ct->value());
-        if (o.version == rws::Version::kRws2 && !req.body().empty() &&
-            content_type.find(";v=2.0") == std::string::npos) {
-          answer(415, Error(0, "Unsupported media type: form bodies are "
-                               "application/x-www-form-urlencoded;v=2.0"));
-          return reply;
-        }
-        form = rws::ParseForm(req.body());
-      }
-    } catch (const rws::DecodeError& e) {
-      answer(400, Error(0, e.what()));
-      return reply;
-    }
-    const auto [status, doc] =
-        Route(std::string(req.method_string()), path, query_params, form, *session);
-    answer(status, doc);
-    return reply;
+    if (fault.fault == Fault::kErrorCode)
+      return answer(500, Error(fault.code, "internal error (a fault injected by the test)"));
+    const std::optional<std::string> session = users.Authenticate(req, res);
+    if (!session) return answer(401, {});
+    c.session = *session;
+    if (!acceptable) return answer(406, Error(0, "Not Acceptable: ask for application/hal+json;v=2.0"));
+    if (auto refused = ReadParameters(req, query, c)) return answer(refused->first, refused->second);
+    const auto [status, doc] = Route(c);
+    return answer(status, doc);
   }
 
   // ---- Server ----
@@ -715,7 +593,7 @@ struct RwsSimulator::Impl {
    private:
     void Read() {
       parser_.emplace();
-      parser_->body_limit(64 * 1024);
+      parser_->body_limit(1024 * 1024);  // a module uploaded to $HOME
       auto self = this->shared_from_this();
       bhttp::async_read(stream_, buffer_, *parser_,
                         [self](const boost::system::error_code& ec, size_t) {
@@ -846,7 +724,6 @@ struct RwsSimulator::Impl {
   std::vector<std::shared_ptr<Connection>> silent;  // kept open without an answer
 
   mutable std::mutex mutex;  // everything below
-  std::mt19937_64 rng;
   std::optional<RapidModule> module;
   std::map<std::string, std::string> values;  // upper-case name → value text
   rws::ControllerState ctrl = rws::ControllerState::kMotorsOn;
@@ -854,15 +731,13 @@ struct RwsSimulator::Impl {
   bool running = true;
   PhysicalClock clock{o.time_scale};
   std::unique_ptr<VirtualArm> arm;  // moved by the task's MoveAbsJ
+  std::unique_ptr<RwsPrograms> rapid_programs;  // loaded modules, the program pointer
   enum class Phase { kWaiting, kMoving, kInterrupted } phase = Phase::kWaiting;
   double request = 0;
   Eigen::VectorXd target_deg_;  // of the move running or interrupted
   bool record_pending = false;  // armsig_record waits for zero speed
-  int moves = 0, logins = 0, refused_logins = 0, accepted = 0;
-  std::map<std::string, std::string> sessions;  // -http-session- → ABBCX
-  int next_session = 0;
-  std::deque<std::string> nonces;
-  std::string opaque = "799d5e6b1c2c4d7e";
+  int moves = 0, accepted = 0;
+  RwsSessions users{o.version, o.user, o.password};
   std::optional<std::string> mastership;  // the session holding it; "elsewhere"
   std::optional<RwsSimulator::CellStop> armed_stop;  // for the next move
   RwsSimulator::CellStop stop_kind = RwsSimulator::CellStop::kGuardStop;  // of the planned stop
@@ -1055,9 +930,11 @@ RwsSimulator::Snapshot RwsSimulator::snapshot() const {
     s.error = impl_->Num("armsig_error");
   }
   s.moves = impl_->moves;
-  s.logins = impl_->logins;
-  s.refused_logins = impl_->refused_logins;
+  s.logins = impl_->users.logins();
+  s.refused_logins = impl_->users.refused_logins();
   s.connections = impl_->accepted;
+  s.routines_run = impl_->rapid_programs->routines_run();
+  s.program_pointer = impl_->rapid_programs->Pointer();
   return s;
 }
 

@@ -18,6 +18,13 @@
 // armsig_joints, sets armsig_done; a start from main drops a pending request. RAPID num
 // values are single-precision floats, as on the controller.
 //
+// A lab's own programs reach the task as on the real controller (simulation/rws_programs.h):
+// a module uploaded to $HOME, loaded into the task with mastership while RAPID stands, the
+// program pointer set to one of its routines; execution started then runs that routine's
+// motions with the controller's inverse kinematics on its nominal model (the lab's model)
+// until its end, and resetpp gives the task back to the shipped module's main. Users and
+// sessions: simulation/rws_sessions.h.
+//
 // Moves take the time the real arm would take (times time_scale), on the arm every virtual
 // controller shares (simulation/virtual_arm.h): a synchronised joint move whose leading joint
 // (the largest turn) runs at the speed and acceleration that keep every axis within its
@@ -148,6 +155,8 @@ class RwsSimulator : public Simulator {
     int logins = 0;       // sessions opened by authentication
     int refused_logins = 0;
     int connections = 0;  // accepted
+    int routines_run = 0;  // routines of loaded modules started (simulation/rws_programs.h)
+    std::string program_pointer;  // "main", or MODULE/routine
   };
   Snapshot snapshot() const;
   // A RAPID datum's value text (the module's declaration), "" when unknown.

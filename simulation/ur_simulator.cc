@@ -606,8 +606,7 @@ void UrSimulator::StartProgram(const ConnectionPtr& c, const std::string& text) 
     return;
   }
   // Its steps in the order written: the motions' targets, and the sleeps between them.
-  std::vector<ProgramStep> steps;
-  for (const ExecutedTarget& e : run.targets) steps.push_back({e.motion.line, e.joints_rad, 0.0});
+  std::vector<programs::Wait> sleeps;
   int line_no = 0;
   for (std::size_t at = 0; at < text.size();) {
     const std::size_t end = std::min(text.find('\n', at), text.size());
@@ -622,40 +621,24 @@ void UrSimulator::StartProgram(const ConnectionPtr& c, const std::string& text) 
       refuse(fmt::format("line {}: sleep takes a number of seconds here", line_no));
       return;
     }
-    steps.push_back({line_no, std::nullopt, seconds});
+    sleeps.push_back({{0, line_no}, seconds, ""});
   }
-  std::stable_sort(steps.begin(), steps.end(),
-                   [](const ProgramStep& a, const ProgramStep& b) { return a.line < b.line; });
   if (now.stop != VirtualArm::Stop::kNone || !now.powered) {
     Queue(c, primary::EncodeText(Microseconds(), primary::kTextMessage,
                                  "the program cannot start: the robot is stopped or powered off"));
     return;
   }
-  program_ = RunningProgram{std::move(steps), 0, -1.0};  // in place of one running
+  program_.emplace(StepsOf(run, sleeps));  // in place of one running
   ++programs_started_;
   ProgramTick();
 }
 
 void UrSimulator::ProgramTick() {
   if (!program_) return;
-  const VirtualArm::State s = arm_->Now();
-  if (s.stop != VirtualArm::Stop::kNone || !s.powered) {  // a stop ends the program
-    program_.reset();
-    return;
-  }
-  if (s.moving || s.t < program_->sleep_until) return;
-  program_->sleep_until = -1.0;
-  if (program_->next == program_->steps.size()) {
-    program_.reset();
-    ++programs_finished_;
-    return;
-  }
-  const ProgramStep& step = program_->steps[program_->next++];
-  if (step.joints_rad) {
-    arm_->MoveJ(*step.joints_rad, 1.4, 1.05);
-  } else {
-    program_->sleep_until = s.t + step.sleep_s;
-  }
+  const auto status = program_->Tick(*arm_, [&](const Eigen::VectorXd& q) { arm_->MoveJ(q, 1.4, 1.05); });
+  if (status == ProgramPlayer::Status::kRunning) return;
+  if (status == ProgramPlayer::Status::kFinished) ++programs_finished_;
+  program_.reset();  // finished, or a stop ended it
 }
 
 // --- Dashboard ------------------------------------------------------------------------------

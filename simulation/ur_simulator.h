@@ -55,6 +55,7 @@
 
 #include "instruments/ur_codec.h"
 #include "programs/controller.h"
+#include "simulation/program_runner.h"
 #include "simulation/virtual_arm.h"
 #include "simulation/virtual_lab.h"
 
@@ -176,17 +177,7 @@ class UrSimulator {
   std::thread thread_;
   Ports ports_;
   std::set<ConnectionPtr> live_;  // io thread only
-  struct ProgramStep {
-    int line = 0;
-    std::optional<Eigen::VectorXd> joints_rad;  // a motion's target, else a sleep
-    double sleep_s = 0.0;
-  };
-  struct RunningProgram {
-    std::vector<ProgramStep> steps;
-    std::size_t next = 0;
-    double sleep_until = -1.0;  // physical time
-  };
-  std::optional<RunningProgram> program_;  // io thread only
+  std::optional<ProgramPlayer> program_;  // io thread only
 
   mutable std::mutex mutex_;  // what the test thread changes
   bool remote_ = true;

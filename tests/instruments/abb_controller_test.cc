@@ -260,6 +260,55 @@ TEST(AbbController, NotInAutoMotorsOffOrProgramStoppedIsSaidBeforeMoving) {
   EXPECT_EQ(cell->sim.snapshot().moves, 1);
 }
 
+// A program module as a lab runs one: uploaded, loaded, run from its routine, unloaded; the
+// arm goes where its MoveAbsJ says and armsig's own module's main runs again afterwards.
+// What the controller refuses is said with the file and the controller's words: a module that
+// does not compile (nothing loaded), a routine whose name the task already has, another
+// client's mastership, a start in manual mode.
+TEST(AbbController, RunsAProgramModuleAndSaysWhatTheControllerRefuses) {
+  for (const auto version : {rws::Version::kRws1, rws::Version::kRws2}) {
+    SCOPED_TRACE(rws::VersionName(version));
+    auto cell = MakeCell(version, {}, 0.002);
+    auto abb = cell->Connect();
+    const std::string module =
+        "MODULE Probe\n  CONST jointtarget j1:=[[10,0,0,0,30,0],[9E9,9E9,9E9,9E9,9E9,9E9]];\n"
+        "  PROC go()\n    MoveAbsJ j1, v1000, fine, tool0;\n    WaitTime 1;\n  ENDPROC\nENDMODULE\n";
+    abb->LoadProgram("Probe.mod", module, "Probe", "go");
+    abb->StartProgram("Probe");
+    EXPECT_TRUE(testing::WaitUntil([&] { return !abb->ProgramRunning(); }));
+    EXPECT_LT((abb->ReadJointTargetDeg() - Eigen::Vector<double, 6>(10, 0, 0, 0, 30, 0)).cwiseAbs().maxCoeff(), 0.006);
+    abb->UnloadProgram("Probe");
+    EXPECT_EQ(cell->sim.snapshot().routines_run, 1);
+    EXPECT_EQ(cell->sim.snapshot().program_pointer, "main");
+    EXPECT_TRUE(cell->sim.snapshot().running);  // armsig's module runs again
+
+    const RwsRefused syntax = Thrown<RwsRefused>(
+        [&] { abb->LoadProgram("Broken.mod", "MODULE Broken\n  PROC go()\n    MoveJ p1, v100, fine, tool0;\n", "Broken", "go"); });
+    EXPECT_TRUE(Says(syntax, "did not load Broken.mod into task T_ROB1")) << syntax.what();
+    EXPECT_TRUE(Says(syntax, "Broken.mod")) << syntax.what();
+    ASSERT_TRUE(syntax.status());
+    EXPECT_EQ(syntax.status()->code, rws::code::kModuleNotLoaded);
+    const RwsRefused ambiguous = Thrown<RwsRefused>([&] {
+      abb->LoadProgram("Main.mod", "MODULE MainMod\n  PROC main()\n  ENDPROC\nENDMODULE\n", "MainMod", "main");
+    });
+    EXPECT_TRUE(Says(ambiguous, "ambiguous name main (also in module ArmsigServer)")) << ambiguous.what();
+
+    cell->sim.HoldMastershipElsewhere(true);
+    const ControllerError held = StateError([&] { abb->LoadProgram("Probe.mod", module, "Probe", "go"); });
+    EXPECT_EQ(held.kind(), Kind::kNotRemote);
+    EXPECT_TRUE(Says(held, "mastership) to RAPID (loading Probe.mod)")) << held.what();
+    cell->sim.HoldMastershipElsewhere(false);
+
+    abb->LoadProgram("Probe.mod", module, "Probe", "go");
+    cell->sim.SetMode(rws::OperationMode::kManualReduced);
+    cell->sim.SetMotors(true);
+    const ControllerError manual = StateError([&] { abb->StartProgram("Probe"); });
+    EXPECT_EQ(manual.kind(), Kind::kNotRemote);
+    EXPECT_TRUE(Says(manual, "operating mode MANR (manual, reduced speed) (starting Probe)")) << manual.what();
+    EXPECT_EQ(cell->sim.snapshot().routines_run, 1);
+  }
+}
+
 TEST(AbbController, ConnectionCutMidMoveAndRestoredGoesOn) {
   auto cell = MakeCell(rws::Version::kRws1, {}, 0.2);
   auto abb = cell->Connect();

@@ -131,6 +131,20 @@ TEST(Krl, InlineFormsTheirPointsToolsAndBases) {
   EXPECT_TRUE(p.notes.empty());
 }
 
+// WAIT SEC with a number is a wait a controller runs where the arm stands, in its DEF; WAIT
+// FOR and a WAIT SEC of an expression are not.
+TEST(Krl, WaitSecondsAndTheRoutinesOfMotions) {
+  const Program p = ParseKrl({"w.src", "DEF w( )\n  PTP {A1 0, A2 -90, A3 90, A4 0, A5 30, A6 0}\n  WAIT SEC 1.5\n"
+                                       "  WAIT FOR $IN[1]\n  WAIT SEC t\nEND\n"},
+                             std::nullopt);
+  ASSERT_EQ(p.motions.size(), 1u);
+  EXPECT_EQ(p.motions[0].routine, "W");
+  ASSERT_EQ(p.waits.size(), 1u);
+  EXPECT_EQ(p.waits[0].seconds, 1.5);
+  EXPECT_EQ(p.waits[0].place.line, 3);
+  EXPECT_EQ(p.waits[0].routine, "W");
+}
+
 TEST(Krl, WithoutConfigDatTheNumberedToolIsUnknown) {
   const Program p = ParseKrl({"cell_test.src", kSrc}, ProgramFile{"cell_test.dat", kDat});
   ASSERT_EQ(p.motions.size(), 3u);

@@ -93,6 +93,24 @@ TEST(Rapid, TargetsToolsAndWorkObjects) {
   EXPECT_NE(p.not_evaluated[2].why.find("target is a parameter of go"), std::string::npos) << p.not_evaluated[2].why;
 }
 
+// WaitTime with a number is a wait a controller runs where the arm stands (with \InPos or
+// not), in the routine it is in; one with an expression is not a fixed wait.
+TEST(Rapid, WaitTimesAndTheRoutinesOfMotions) {
+  const Program p = ParseRapid({"W.mod",
+                                "MODULE W\n  PROC a()\n    MoveAbsJ [[0,0,0,0,30,0],[9E9,9E9,9E9,9E9,9E9,9E9]], v100, fine, tool0;\n"
+                                "    WaitTime 2.5;\n    WaitTime \\InPos, 1;\n    WaitTime t;\n  ENDPROC\n"
+                                "  PROC b()\n    WaitTime 4;\n  ENDPROC\nENDMODULE\n"});
+  ASSERT_EQ(p.motions.size(), 1u);
+  EXPECT_EQ(p.motions[0].routine, "a");
+  ASSERT_EQ(p.waits.size(), 3u);
+  EXPECT_EQ(p.waits[0].seconds, 2.5);
+  EXPECT_EQ(p.waits[0].place.line, 4);
+  EXPECT_EQ(p.waits[0].routine, "a");
+  EXPECT_EQ(p.waits[1].seconds, 1.0);
+  EXPECT_EQ(p.waits[2].seconds, 4.0);
+  EXPECT_EQ(p.waits[2].routine, "b");
+}
+
 TEST(Rapid, RewritesAQuaternionOfTheSameSign) {
   const Program p = ParseRapid({"Cell.mod", kModule});
   const Target& p10 = p.targets.at(static_cast<std::size_t>(p.motions[1].targets[0]));

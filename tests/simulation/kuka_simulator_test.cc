@@ -5,6 +5,7 @@
 
 #include <gtest/gtest.h>
 
+#include <filesystem>
 #include <future>
 #include <numbers>
 #include <thread>
@@ -276,6 +277,49 @@ TEST_F(KukaCell, AProgramNotRunningOrAnotherProgramIsNamed) {
   EXPECT_EQ(sim_->snapshot().result, 3);
   controller_->MoveTo(Deg({10, -90, 90, 0, 0, 0}));
   EXPECT_EQ(sim_->snapshot().moves, 1);
+}
+
+// A program copied into the controller's program folder and run by the submit interpreter's
+// runner (controllers/kuka/ARMSIG_SPS.sub): it replaces ARMSIG in the robot interpreter, its
+// PTP goes where it says, its WAIT SEC holds the arm, its END is reported. Refused and named:
+// a run outside AUT and EXT, a program not in the folder, one the controller cannot compile.
+TEST_F(KukaCell, RunsAProgramFromItsFolderAndNamesWhatItRefuses) {
+  testing::TempDir dir;
+  KukaSimulatorOptions options;
+  options.program_folder = dir.File("Program");
+  std::filesystem::create_directories(options.program_folder);
+  Open(0.002, options);
+  testing::WriteText(dir.File("Probe.src"),
+                     "DEF probe( )\n  $TOOL = {X 0, Y 0, Z 0, A 0, B 0, C 0}\n  PTP {A1 10, A2 -80, A3 80, A4 0, A5 20, A6 0}\n  WAIT SEC 1\nEND\n");
+  testing::WriteText(dir.File("Broken.src"), "DEF broken( )\n  PTP {A1 10\n");
+  instruments::CopyToProgramFolder({dir.File("Probe.src"), dir.File("Broken.src")}, options.program_folder);
+
+  const int64_t run = controller_->RunProgram("probe");
+  EXPECT_NO_THROW(testing::WaitUntil([&] { return !controller_->ProgramRunning(run, "probe"); }))
+      << sim_->snapshot().last_run_refusal;
+  EXPECT_LT((controller_->ReadJointsRad() - Deg({10, -80, 80, 0, 20, 0})).cwiseAbs().maxCoeff(), 1e-6);
+  const auto s = sim_->snapshot();
+  EXPECT_EQ(s.runs, 1);
+  EXPECT_EQ(s.program, "probe");
+  EXPECT_EQ(s.program_state, "P_END");
+
+  const int64_t missing = controller_->RunProgram("nothere");
+  ControllerError e = StateErrorOf([&] { testing::WaitUntil([&] { return !controller_->ProgramRunning(missing, "nothere"); }); });
+  EXPECT_EQ(e.kind(), Kind::kNotRunning);
+  EXPECT_NE(std::string(e.what()).find("did not select nothere: no nothere.src in KRC:\\R1\\Program"), std::string::npos)
+      << e.what();
+  EXPECT_NE(sim_->snapshot().last_run_refusal.find("nothere.src is not in the program folder"), std::string::npos);
+  const int64_t broken = controller_->RunProgram("broken");
+  e = StateErrorOf([&] { testing::WaitUntil([&] { return !controller_->ProgramRunning(broken, "broken"); }); });
+  EXPECT_EQ(e.kind(), Kind::kNotRunning);
+  EXPECT_NE(sim_->snapshot().last_run_refusal.find("Broken.src"), std::string::npos) << sim_->snapshot().last_run_refusal;
+
+  sim_->SetMode("T1");
+  const int64_t manual = controller_->RunProgram("probe");
+  e = StateErrorOf([&] { testing::WaitUntil([&] { return !controller_->ProgramRunning(manual, "probe"); }); });
+  EXPECT_EQ(e.kind(), Kind::kNotRemote);
+  EXPECT_NE(std::string(e.what()).find("not in AUT or EXT"), std::string::npos) << e.what();
+  EXPECT_EQ(sim_->snapshot().runs, 1);
 }
 
 TEST_F(KukaCell, ATargetBeyondASoftwareLimitIsRefusedByArmsig) {
