@@ -6,7 +6,7 @@
 
 namespace armsig::db {
 
-std::vector<ReportSession> LoadSessionSummaries(Database& db,
+std::vector<ReportSession> LoadReportSessions(Database& db,
                                                 const std::vector<int64_t>& session_ids) {
   std::vector<ReportSession> out;
   for (int64_t id : session_ids) {

@@ -16,7 +16,7 @@ namespace armsig::db {
 
 using ReportSession = SessionRow;
 // The sessions with these ids, by id; ids without a session are left out.
-std::vector<ReportSession> LoadSessionSummaries(Database& db,
+std::vector<ReportSession> LoadReportSessions(Database& db,
                                                 const std::vector<int64_t>& session_ids);
 
 // The mean air temperature (°C) of each measured pose's readings that carry one (laser

@@ -81,7 +81,7 @@ SessionTest LoadTest(db::Database& db, int64_t session, const std::string& robot
                                  ShellWord(row->robot), ShellWord(robot)));
   }
   t.row = *row;
-  for (const auto& s : db::LoadSessionSummaries(db, {session})) t.started_at = s.started_at;
+  for (const auto& s : db::LoadReportSessions(db, {session})) t.started_at = s.started_at;
   t.poses = db::LoadSessionPoses(db, session, &t.covariances);
   std::map<std::string, acquisition::PlannedConfiguration> planned;
   if (!row->plan_json.empty()) {

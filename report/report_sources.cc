@@ -118,7 +118,7 @@ ReportSources LoadSessionSources(db::Database& db,
   for (const auto& [id, c] : counts) ids.push_back(id);
 
   std::map<std::pair<std::string, std::string>, std::vector<int64_t>> instruments;
-  for (const auto& s : db::LoadSessionSummaries(db, ids)) {
+  for (const auto& s : db::LoadReportSessions(db, ids)) {
     const auto [fitted, validated] = counts.at(s.id);
     out.sessions.push_back(
         {s.id, s.started_at, s.finished_at, db::ToString(s.state), s.note, fitted, validated});

@@ -195,7 +195,7 @@ StoredRun StoredRunOf(db::Database& database, int64_t robot_id, const db::Stored
     // Discarded sessions keep their rows (kept out of every fit, not deleted): say which.
     std::vector<std::string> discarded;
     const std::vector<int64_t> ids(out.missing_sessions.begin(), out.missing_sessions.end());
-    for (const auto& s : db::LoadSessionSummaries(database, ids)) {
+    for (const auto& s : db::LoadReportSessions(database, ids)) {
       if (s.state == db::SessionState::kAborted) discarded.push_back(std::to_string(s.id));
     }
     std::string where = "no longer in the store";
