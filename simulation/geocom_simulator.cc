@@ -18,18 +18,25 @@ GeoComSimulator::GeoComSimulator(VirtualLab& lab, int station, std::string link_
 // lines. Kept whole on purpose (about 150 lines): it is the protocol's table, read side by
 // side with the GeoCOM reference and instruments/geocom_codec.h; split into helpers it
 // would scatter one table over a dozen small functions.
+namespace {
+
+// What the instrument answers to a request it cannot take: the checksum or decode return code
+// of a damaged or malformed request (GeoCOM reference, COM_*).
+std::string RefusalReply(const geocom::ParsedRequest& parsed) {
+  const int code = parsed.error == geocom::ParseError::kBadCrc
+                       ? geocom::grc::kComSrvrRxChecksumError
+                       : geocom::grc::kComCantDecodeReq;
+  return geocom::EncodeReply({code, 0, 0, {}}, parsed.had_crc);
+}
+
+}  // namespace
+
 std::optional<LineSimulator::Response> GeoComSimulator::Handle(const std::string& line,
                                                                const FaultSpec& fault) {
   const auto parsed = geocom::ParseRequest(line);
   if (parsed.error == geocom::ParseError::kNotAFrame) return std::nullopt;  // garbage: silence
+  if (parsed.error) return Response{RefusalReply(parsed), std::chrono::milliseconds(5)};
   const bool crc = parsed.had_crc;
-  if (parsed.error == geocom::ParseError::kBadCrc) {
-    return Response{geocom::EncodeReply({geocom::grc::kComSrvrRxChecksumError, 0, 0, {}}, crc),
-                    std::chrono::milliseconds(5)};
-  }
-  if (parsed.error)
-    return Response{geocom::EncodeReply({geocom::grc::kComCantDecodeReq, 0, 0, {}}, crc),
-                    std::chrono::milliseconds(5)};
   const geocom::Request& q = *parsed.request;
   geocom::Reply r;
   r.trid = q.trid.value_or(0);
