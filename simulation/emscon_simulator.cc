@@ -278,11 +278,9 @@ void EmsconSimulator::OnFrame(const std::shared_ptr<Connection>& c, const std::s
   TcpPeer::Send(c, std::move(steps));
 }
 
-// One decoded request to the packets it answers with: one branch per emScon command (an
-// `if constexpr` per request type), each a few lines. Kept whole on purpose (about 200
-// lines): it is the protocol's table, read side by side with the emScon TPI manual and
-// instruments/emscon_codec.h; split into helpers it would scatter one table over many
-// small functions that share the tracker's state under one lock.
+// One decoded request to the packets it answers with: the faults that answer instead, the
+// protocol's table (FromTable), a measurement's sequence (MeasurementSteps), the faults that
+// reorder the packets (InterleaveStatus).
 std::vector<EmsconSimulator::Step> EmsconSimulator::Answer(const es::Request& request,
                                                            const FaultSpec& fault) {
   const int32_t id = es::CommandOf(request);
@@ -294,11 +292,34 @@ std::vector<EmsconSimulator::Step> EmsconSimulator::Answer(const es::Request& re
     const int32_t code = fault.code != 0 ? fault.code : es::status::kTrackerNotInitialized;
     return {{latency, es::EncodePacket(es::ErrorResponse{id, code})}};
   }
-  std::vector<Step> steps;
-  std::vector<std::string> after;  // status changes once the reply is out
-  es::CommandAnswer a{id, es::status::kAllOk, {}};
-  auto reply_latency = latency;
-  bool measured = false;
+  TableAnswer t = FromTable(request, id, latency, fault);
+  es::CommandAnswer& a = t.answer;
+  std::vector<std::string>& after = t.after;
+  std::vector<Step> steps = std::move(t.before);
+  const bool wrong_id = fault.fault == Fault::kWrongCommandId;
+  if (wrong_id) a.command = OtherCommand(id);
+  if (!t.measured) {
+    steps.push_back({t.latency, es::EncodePacket(a)});
+  } else {
+    MeasurementSteps(a, fault, wrong_id, steps, after);
+  }
+  if (fault.fault == Fault::kStatusBetween) steps = InterleaveStatus(std::move(steps));
+  for (auto& bytes : after) steps.push_back({std::chrono::milliseconds(0), std::move(bytes)});
+  return steps;
+}
+
+// The protocol's table: one branch per emScon command (an `if constexpr` per request type),
+// each a few lines, read side by side with the emScon TPI manual and
+// instruments/emscon_codec.h; the tracker's state under its lock.
+EmsconSimulator::TableAnswer EmsconSimulator::FromTable(const es::Request& request, int32_t id,
+                                                        std::chrono::milliseconds latency,
+                                                        const FaultSpec& fault) {
+  TableAnswer t{{id, es::status::kAllOk, {}}, latency, false, {}, {}};
+  std::vector<Step>& steps = t.before;
+  es::CommandAnswer& a = t.answer;
+  auto& reply_latency = t.latency;
+  bool& measured = t.measured;
+  std::vector<std::string>& after = t.after;
   {
     std::lock_guard lock(mutex_);
     State& s = state_;
@@ -431,65 +452,65 @@ std::vector<EmsconSimulator::Step> EmsconSimulator::Answer(const es::Request& re
         request);
     if (a.status != es::status::kAllOk) a.data = std::monostate{};
   }
+  return t;
+}
 
-  const bool wrong_id = fault.fault == Fault::kWrongCommandId;
-  if (wrong_id) a.command = OtherCommand(id);
-  if (!measured) {
-    steps.push_back({reply_latency, es::EncodePacket(a)});
+// A measurement's sequence: refused (not initialised, no reflector in the beam), or accepted
+// and its result after the measuring time (a beam break instead, under that fault).
+void EmsconSimulator::MeasurementSteps(es::CommandAnswer a, const FaultSpec& fault, bool wrong_id,
+                                       std::vector<Step>& steps, std::vector<std::string>& after) {
+  const auto latency = Scaled(options_.command_latency);
+  int32_t meas_time = 0;
+  bool initialized = false;
+  const bool out_of_beam = options_.acquire_radius_mm > 0.0 &&
+                           BeamMissMm() > options_.acquire_radius_mm;
+  {
+    std::lock_guard lock(mutex_);
+    meas_time = state_.meas_time_ms;
+    initialized = state_.initialized;
+    if (out_of_beam && initialized) ++state_.not_found;
+  }
+  if (!initialized) {
+    a.status = es::status::kTrackerNotInitialized;
+    steps.push_back({latency, es::EncodePacket(a)});
+  } else if (fault.fault == Fault::kReflectorNotFound || out_of_beam) {
+    steps.push_back(
+        {latency, es::EncodePacket(es::StatusChange{es::status_change::kMeasStatusNotReady})});
+    a.status = es::status::kMeasurementStatusNotReady;
+    steps.push_back({std::chrono::milliseconds(0), es::EncodePacket(a)});
   } else {
-    int32_t meas_time = 0;
-    bool initialized = false;
-    const bool out_of_beam = options_.acquire_radius_mm > 0.0 &&
-                             BeamMissMm() > options_.acquire_radius_mm;
-    {
-      std::lock_guard lock(mutex_);
-      meas_time = state_.meas_time_ms;
-      initialized = state_.initialized;
-      if (out_of_beam && initialized) ++state_.not_found;
-    }
-    if (!initialized) {
-      a.status = es::status::kTrackerNotInitialized;
-      steps.push_back({latency, es::EncodePacket(a)});
-    } else if (fault.fault == Fault::kReflectorNotFound || out_of_beam) {
+    steps.push_back({latency, es::EncodePacket(a)});  // accepted
+    const auto measuring = Scaled(std::chrono::milliseconds(meas_time));
+    if (fault.fault == Fault::kBeamBreak) {
       steps.push_back(
-          {latency, es::EncodePacket(es::StatusChange{es::status_change::kMeasStatusNotReady})});
-      a.status = es::status::kMeasurementStatusNotReady;
-      steps.push_back({std::chrono::milliseconds(0), es::EncodePacket(a)});
-    } else {
-      steps.push_back({latency, es::EncodePacket(a)});  // accepted
-      const auto measuring = Scaled(std::chrono::milliseconds(meas_time));
-      if (fault.fault == Fault::kBeamBreak) {
-        steps.push_back(
-            {measuring, es::EncodePacket(es::ErrorResponse{es::StartMeasurement::kCommand,
-                                                           es::status::kNoDistanceSet})});
-        after.push_back(es::EncodePacket(es::StatusChange{es::status_change::kMeasStatusNotReady}));
-      } else if (!wrong_id) {
-        steps.push_back(
-            {measuring, es::EncodePacket(MeasureNow(fault.fault == Fault::kOutOfRange))});
-        after.push_back(es::EncodePacket(es::StatusChange{es::status_change::kMeasStatusReady}));
-      }
+          {measuring, es::EncodePacket(es::ErrorResponse{es::StartMeasurement::kCommand,
+                                                         es::status::kNoDistanceSet})});
+      after.push_back(es::EncodePacket(es::StatusChange{es::status_change::kMeasStatusNotReady}));
+    } else if (!wrong_id) {
+      steps.push_back(
+          {measuring, es::EncodePacket(MeasureNow(fault.fault == Fault::kOutOfRange))});
+      after.push_back(es::EncodePacket(es::StatusChange{es::status_change::kMeasStatusReady}));
     }
   }
-  if (fault.fault == Fault::kStatusBetween) {
-    // Before the reply: a status change and an unsolicited error about something else;
-    // the reply's header and body in two writes; between the reply and the result another
-    // status change.
-    std::vector<Step> mixed;
-    mixed.push_back({steps.front().delay,
-                     es::EncodePacket(es::StatusChange{es::status_change::kMeasStatusBusy}) +
-                         es::EncodePacket(es::ErrorResponse{64, es::status::kSensorNotStable})});
-    const std::string& reply = steps.front().bytes;
-    mixed.push_back({std::chrono::milliseconds(0), reply.substr(0, es::kHeaderBytes)});
-    mixed.push_back({std::chrono::milliseconds(5), reply.substr(es::kHeaderBytes)});
-    for (size_t i = 1; i < steps.size(); ++i) {
-      mixed.push_back({std::chrono::milliseconds(0),
-                       es::EncodePacket(es::StatusChange{es::status_change::kMeasStatusReady})});
-      mixed.push_back(std::move(steps[i]));
-    }
-    steps = std::move(mixed);
+}
+
+// Fault::kStatusBetween: before the reply a status change and an unsolicited error about
+// something else; the reply's header and body in two writes; between the reply and the
+// result another status change.
+std::vector<EmsconSimulator::Step> EmsconSimulator::InterleaveStatus(std::vector<Step> steps) {
+  std::vector<Step> mixed;
+  mixed.push_back({steps.front().delay,
+                   es::EncodePacket(es::StatusChange{es::status_change::kMeasStatusBusy}) +
+                       es::EncodePacket(es::ErrorResponse{64, es::status::kSensorNotStable})});
+  const std::string& reply = steps.front().bytes;
+  mixed.push_back({std::chrono::milliseconds(0), reply.substr(0, es::kHeaderBytes)});
+  mixed.push_back({std::chrono::milliseconds(5), reply.substr(es::kHeaderBytes)});
+  for (size_t i = 1; i < steps.size(); ++i) {
+    mixed.push_back({std::chrono::milliseconds(0),
+                     es::EncodePacket(es::StatusChange{es::status_change::kMeasStatusReady})});
+    mixed.push_back(std::move(steps[i]));
   }
-  for (auto& bytes : after) steps.push_back({std::chrono::milliseconds(0), std::move(bytes)});
-  return steps;
+  return mixed;
 }
 
 es::MeasResult EmsconSimulator::MeasureNow(bool out_of_range) {

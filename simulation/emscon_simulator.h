@@ -151,6 +151,20 @@ class EmsconSimulator : public Simulator {
                   bool packets, bool printable, int64_t k, uint64_t generation);
   // The packets answering `request` (before faults), and the latency of the first.
   std::vector<Step> Answer(const instruments::emscon::Request& request, const FaultSpec& fault);
+  // What the table answers a request: the reply, its latency, whether a measurement follows,
+  // the status changes to send once the reply is out, the packets before the reply.
+  struct TableAnswer {
+    instruments::emscon::CommandAnswer answer;
+    std::chrono::milliseconds latency;
+    bool measured = false;
+    std::vector<std::string> after;
+    std::vector<Step> before;
+  };
+  TableAnswer FromTable(const instruments::emscon::Request& request, int32_t id,
+                        std::chrono::milliseconds latency, const FaultSpec& fault);
+  void MeasurementSteps(instruments::emscon::CommandAnswer answer, const FaultSpec& fault,
+                        bool wrong_id, std::vector<Step>& steps, std::vector<std::string>& after);
+  static std::vector<Step> InterleaveStatus(std::vector<Step> steps);
   instruments::emscon::MeasResult MeasureNow(bool out_of_range);
   double Seconds() const;
   std::chrono::milliseconds Scaled(std::chrono::milliseconds latency) const;
