@@ -204,6 +204,38 @@ std::string Describe(const StatedConfiguration& s) {
   return out;
 }
 
+namespace {
+
+// Seeds over the configurations for a TCP at `x`: joint 1 facing the target or away, the
+// upper arm at several angles, the elbow on either side of stretched, the wrist flipped or not.
+std::vector<Eigen::VectorXd> ConfigurationSeeds(const ControllerModel& c,
+                                               const Eigen::Vector3d& x) {
+  const int n = c.num_joints();
+  std::vector<Eigen::VectorXd> seeds;
+  const Eigen::VectorXd zero_q = Eigen::VectorXd::Zero(n);
+  const Chain home = ChainAt(c.model, zero_q);
+  const Eigen::Vector3d w0 = WristCentre(home);
+  const double axis_sign = home.before[0].linear().col(2).z() >= 0 ? 1.0 : -1.0;
+  const double facing = axis_sign * (std::atan2(x.y(), x.x()) - std::atan2(w0.y(), w0.x()));
+  for (double q1 : {facing, facing + kPi}) {
+    for (double q2 : {-2.2, -1.6, -1.0, -0.3, 0.4, 1.0}) {
+      for (double side : {1.0, -1.0}) {
+        for (double q5 : {0.9, -0.9}) {
+          Eigen::VectorXd seed = Eigen::VectorXd::Zero(n);
+          seed(0) = WrapPi(q1);
+          if (n >= 2) seed(1) = q2;
+          if (n >= 3) seed(2) = c.stretched_q3_rad + side * 1.0;
+          if (n >= 5) seed(4) = q5;
+          seeds.push_back(seed);
+        }
+      }
+    }
+  }
+  return seeds;
+}
+
+}  // namespace
+
 InverseSolution ControllerInverse(const ControllerModel& c, const InverseRequest& request) {
   const int n = c.num_joints();
   calibration::RobotModel model = c.model;
@@ -309,28 +341,8 @@ InverseSolution ControllerInverse(const ControllerModel& c, const InverseRequest
       }
     }
   }
-  // Seeds over the configurations: joint 1 facing the target or away, the upper arm at
-  // several angles, the elbow on either side of stretched, the wrist flipped or not.
-  const Eigen::Vector3d x = request.tcp.translation();
-  const Eigen::VectorXd zero_q = Eigen::VectorXd::Zero(n);
-  const Chain home = ChainAt(c.model, zero_q);
-  const Eigen::Vector3d w0 = WristCentre(home);
-  const double axis_sign = home.before[0].linear().col(2).z() >= 0 ? 1.0 : -1.0;
-  const double facing = axis_sign * (std::atan2(x.y(), x.x()) - std::atan2(w0.y(), w0.x()));
-  for (double q1 : {facing, facing + kPi}) {
-    for (double q2 : {-2.2, -1.6, -1.0, -0.3, 0.4, 1.0}) {
-      for (double side : {1.0, -1.0}) {
-        for (double q5 : {0.9, -0.9}) {
-          Eigen::VectorXd seed = Eigen::VectorXd::Zero(n);
-          seed(0) = WrapPi(q1);
-          if (n >= 2) seed(1) = q2;
-          if (n >= 3) seed(2) = c.stretched_q3_rad + side * 1.0;
-          if (n >= 5) seed(4) = q5;
-          solve(seed);
-        }
-      }
-    }
-  }
+  for (const Eigen::VectorXd& seed : ConfigurationSeeds(c, request.tcp.translation()))
+    solve(seed);
   // Each solution's wrist flipped (joint 4 and 6 a half turn on, joint 5 mirrored): the
   // other wrist configuration of the same arm position, found from there at once.
   if (n == 6) {
