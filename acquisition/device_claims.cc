@@ -234,9 +234,9 @@ DeviceClaims ClaimDevices(const io::LabConfig& lab, const std::string& what,
                           const std::string& lock_dir) {
   std::vector<std::string> devices;
   for (const auto& i : lab.instruments)
-    devices.push_back(i.tcp.empty() ? SerialName(i.port) : TcpName(i.tcp));
+    devices.push_back(i.tcp ? TcpName(i.tcp->Text()) : SerialName(i.port));
   const auto& c = lab.controller;
-  if (c.protocol == "counter") {
+  if (c.protocol == io::ControllerProtocol::kCounter) {
     for (const auto& p : c.counter_ports) devices.push_back(SerialName(p));
   } else if (!c.port.empty()) {
     devices.push_back(SerialName(c.port));

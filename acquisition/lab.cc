@@ -7,13 +7,13 @@
 
 #include "core/error.h"
 #include "core/text.h"
-#include "instruments/abb_controller.h"
+#include "robots/abb_controller.h"
 #include "instruments/emscon_device.h"
 #include "instruments/geocom_device.h"
 #include "instruments/gsi_device.h"
-#include "instruments/kuka_controller.h"
-#include "instruments/robot_controllers.h"
-#include "instruments/ur_device.h"
+#include "robots/kuka_controller.h"
+#include "robots/robot_controllers.h"
+#include "robots/ur_device.h"
 #include "io/credentials.h"
 
 namespace armsig::acquisition {
@@ -21,19 +21,12 @@ namespace armsig::acquisition {
 using io::ControllerConfig;
 using io::InstrumentConfig;
 using io::LabConfig;
-using io::SplitHostPort;
 
 namespace {
 std::unique_ptr<instruments::LineTransport> Transport(const std::string& port,
-                                                      const std::string& tcp, unsigned baud) {
-  if (!tcp.empty()) {
-    const auto address = SplitHostPort(tcp);
-    if (!address) {
-      throw InputError({"tcp", 0, 0, ""},
-                       Quoted(tcp) + ": expected HOST:PORT with a port from 1 to 65535");
-    }
-    return instruments::MakeTcpTransport(address->host, address->port);
-  }
+                                                      const std::optional<io::HostPort>& tcp,
+                                                      unsigned baud) {
+  if (tcp) return instruments::MakeTcpTransport(tcp->host, tcp->port);
   if (port.empty()) throw InputError({"port", 0, 0, ""}, "give a serial port or HOST:PORT");
   instruments::SerialSettings s;
   s.path = port;
@@ -44,27 +37,25 @@ std::unique_ptr<instruments::LineTransport> Transport(const std::string& port,
 
 std::unique_ptr<instruments::DistanceInstrument> OpenInstrument(
     const InstrumentConfig& c, const instruments::RetryPolicy& policy) {
-  if (c.protocol == "geocom") {
-    return std::make_unique<instruments::GeoComDevice>(Transport(c.port, c.tcp, c.baud), policy,
-                                                       c.crc);
-  }
-  if (c.protocol == "gsi") {
-    return std::make_unique<instruments::GsiOnlineDevice>(Transport(c.port, c.tcp, c.baud), policy);
-  }
-  if (c.protocol == "emscon") {  // a laser tracker: binary packets over TCP only
-    const auto address = SplitHostPort(c.tcp);
-    if (!address) {
-      throw InputError({"tcp", 0, 0, ""},
-                       "protocol emscon needs --tcp HOST:PORT (port 1 to "
-                       "65535; emScon servers listen on 700)");
+  switch (c.protocol) {
+    case io::InstrumentProtocol::kGeoCom:
+      return std::make_unique<instruments::GeoComDevice>(Transport(c.port, c.tcp, c.baud), policy,
+                                                         c.crc);
+    case io::InstrumentProtocol::kGsi:
+      return std::make_unique<instruments::GsiOnlineDevice>(Transport(c.port, c.tcp, c.baud), policy);
+    case io::InstrumentProtocol::kEmScon: {  // a laser tracker: binary packets over TCP only
+      if (!c.tcp) {
+        throw InputError({"tcp", 0, 0, ""},
+                         "protocol emscon needs --tcp HOST:PORT (port 1 to "
+                         "65535; emScon servers listen on 700)");
+      }
+      instruments::EmsconOptions options;
+      options.measurement_time_ms = c.measurement_time_ms;
+      return std::make_unique<instruments::EmsconDevice>(
+          instruments::MakeEmsconTcpTransport(c.tcp->host, c.tcp->port), policy, options);
     }
-    instruments::EmsconOptions options;
-    options.measurement_time_ms = c.measurement_time_ms;
-    return std::make_unique<instruments::EmsconDevice>(
-        instruments::MakeEmsconTcpTransport(address->host, address->port), policy, options);
   }
-  throw InputError({"protocol", 0, 0, ""}, "unknown instrument protocol " + Quoted(c.protocol) +
-                                               " (expected geocom, gsi or emscon)");
+  throw InputError({"protocol", 0, 0, ""}, "unknown instrument protocol");
 }
 
 namespace {
@@ -74,19 +65,19 @@ namespace {
 using NetworkOpener = std::unique_ptr<instruments::RobotController> (*)(
     const ControllerConfig&, const instruments::RetryPolicy&);
 struct NetworkController {
-  const char* protocol;
+  io::ControllerProtocol protocol;
   NetworkOpener open;
 };
 std::unique_ptr<instruments::RobotController> OpenUr(const ControllerConfig& c,
                                                      const instruments::RetryPolicy& policy) {
-  instruments::UrOptions o;
+  robots::UrOptions o;
   o.host = c.host;
   o.rtde_port = c.Port("rtde_port");
   o.primary_port = c.Port("primary_port");
   o.secondary_port = c.Port("secondary_port");
   o.dashboard_port = c.Port("dashboard_port");
   o.can_move = c.can_move;
-  return std::make_unique<instruments::UrController>(o, policy);
+  return std::make_unique<robots::UrController>(o, policy);
 }
 
 // ABB through Robot Web Services: the lab file's settings, each checked here and refused
@@ -95,7 +86,7 @@ std::unique_ptr<instruments::RobotController> OpenUr(const ControllerConfig& c,
 // mechunit (RAPID names), speed_percent (1 … 100), representation (RWS 1.0: xhtml or json).
 std::unique_ptr<instruments::RobotController> OpenAbb(const ControllerConfig& c,
                                                       const instruments::RetryPolicy& policy) {
-  namespace rws = instruments::rws;
+  namespace rws = robots::rws;
   auto setting = [&](const char* key) -> std::optional<std::string> {
     const auto it = c.settings.find(key);
     if (it == c.settings.end()) return std::nullopt;
@@ -105,7 +96,7 @@ std::unique_ptr<instruments::RobotController> OpenAbb(const ControllerConfig& c,
     throw InputError({"", 0, 0, ""}, "robot.controller." + std::string(key) + ": expected " +
                                           expected + ", got " + Quoted(got));
   };
-  instruments::AbbSettings s;
+  robots::AbbSettings s;
   const std::string version = setting("rws").value_or("2");
   if (version == "1") {
     s.version = rws::Version::kRws1;
@@ -138,7 +129,7 @@ std::unique_ptr<instruments::RobotController> OpenAbb(const ControllerConfig& c,
     }
     s.speed_percent = percent;
   }
-  instruments::TlsSettings tls;
+  robots::TlsSettings tls;
   tls.enabled = s.version == rws::Version::kRws2;
   const auto pin = setting("certificate_sha256");
   const auto ca = setting("ca_file");
@@ -147,7 +138,7 @@ std::unique_ptr<instruments::RobotController> OpenAbb(const ControllerConfig& c,
                      "robot.controller: RWS 1.0 (rws: 1) is plain HTTP: no certificate to pin");
   }
   if (pin) {
-    const auto canonical = instruments::http::CanonicalFingerprint(*pin);
+    const auto canonical = robots::http::CanonicalFingerprint(*pin);
     if (!canonical) refuse("certificate_sha256", "a SHA-256 fingerprint (64 hex digits)", *pin);
     tls.pinned_sha256 = *canonical;
   }
@@ -168,8 +159,8 @@ std::unique_ptr<instruments::RobotController> OpenAbb(const ControllerConfig& c,
   s.can_move = c.can_move;
   unsigned short port = c.Port("rws_port");
   if (port == 0) port = s.version == rws::Version::kRws1 ? 80 : 443;
-  return std::make_unique<instruments::AbbController>(
-      s, instruments::MakeHttpTransport(c.host, port, tls), policy);
+  return std::make_unique<robots::AbbController>(
+      s, robots::MakeHttpTransport(c.host, port, tls), policy);
 }
 
 // ARMSIG's PTP velocity and acceleration (% of each axis's maximum) from the lab file's
@@ -190,19 +181,19 @@ int Percent(const ControllerConfig& c, const std::string& key, int fallback) {
 
 std::unique_ptr<instruments::RobotController> OpenKuka(const ControllerConfig& c,
                                                        const instruments::RetryPolicy& policy) {
-  instruments::KukaOptions o;
+  robots::KukaOptions o;
   o.velocity_percent = Percent(c, "velocity_percent", o.velocity_percent);
   o.acceleration_percent = Percent(c, "acceleration_percent", o.acceleration_percent);
-  return std::make_unique<instruments::KukaController>(
+  return std::make_unique<robots::KukaController>(
       instruments::MakeFramedTcpTransport(c.host, c.Port("variable_server_port"),
-                                          instruments::kuka::kResponseFrames),
+                                          robots::kuka::kResponseFrames),
       c.can_move, policy, o);
 }
 
 constexpr NetworkController kNetworkControllers[] = {
-    {"ur", OpenUr},
-    {"abb", OpenAbb},
-    {"kuka", OpenKuka},
+    {io::ControllerProtocol::kUr, OpenUr},
+    {io::ControllerProtocol::kAbb, OpenAbb},
+    {io::ControllerProtocol::kKuka, OpenKuka},
 };
 
 }  // namespace
@@ -210,24 +201,30 @@ constexpr NetworkController kNetworkControllers[] = {
 std::unique_ptr<instruments::RobotController> OpenController(
     const ControllerConfig& c, const instruments::RetryPolicy& policy) {
   if (io::FindNetworkControllerProtocol(c.protocol)) {
-    if (c.host.empty()) throw InputError({"host", 0, 0, ""}, "protocol " + c.protocol + " needs a host");
+    if (c.host.empty()) {
+      throw InputError({"host", 0, 0, ""}, std::string("protocol ") + io::NameOf(c.protocol) + " needs a host");
+    }
     for (const auto& n : kNetworkControllers) {
       if (n.open && c.protocol == n.protocol) return n.open(c, policy);
     }
     throw InputError({"protocol", 0, 0, ""},
-                     "controller protocol " + Quoted(c.protocol) +
+                     "controller protocol " + Quoted(io::NameOf(c.protocol)) +
                          ": its driver is not built into this armsig yet");
   }
-  if (c.protocol == "counter") {
-    std::vector<std::unique_ptr<instruments::LineTransport>> ports;
-    for (const auto& p : c.counter_ports) ports.push_back(Transport(p, "", c.baud));
-    return std::make_unique<instruments::CounterBox>(std::move(ports), c.encoders, policy);
+  switch (c.protocol) {
+    case io::ControllerProtocol::kCounter: {
+      std::vector<std::unique_ptr<instruments::LineTransport>> ports;
+      for (const auto& p : c.counter_ports) ports.push_back(Transport(p, std::nullopt, c.baud));
+      return std::make_unique<robots::CounterBox>(std::move(ports), c.encoders, policy);
+    }
+    case io::ControllerProtocol::kValII:
+    case io::ControllerProtocol::kKawasakiAs:
+      return std::make_unique<robots::ValController>(Transport(c.port, std::nullopt, c.baud), c.can_move,
+                                                     policy);
+    default:
+      break;
   }
-  if (c.protocol == "val" || c.protocol == "as") {
-    return std::make_unique<instruments::ValController>(Transport(c.port, "", c.baud), c.can_move,
-                                                        policy);
-  }
-  throw InputError({"protocol", 0, 0, ""}, "unknown controller protocol " + Quoted(c.protocol) +
+  throw InputError({"protocol", 0, 0, ""}, "unknown controller protocol " + Quoted(io::NameOf(c.protocol)) +
                                                " (expected val, as, counter or a network "
                                                "controller's)");
 }

@@ -73,7 +73,7 @@ int64_t CreateSession(db::Database& db, const io::LabConfig& lab, const std::str
   const bool test = !plan.empty() && std::all_of(plan.begin(), plan.end(), [](const auto& c) {
     return c.target_mm.has_value();
   });
-  if (test) db::SetSessionKind(db, session, "test");
+  if (test) db::SetSessionKind(db, session, db::SessionKind::kTest);
   for (const auto& s : lab.stations) {
     db::StationSetupRow row = StationSetupRowOf(s, "lab");
     for (const auto& c : lab.instruments) {

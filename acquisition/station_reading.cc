@@ -50,16 +50,17 @@ db::ObservationRow StoredReading(const StationReading& r, const io::InstrumentCo
 db::InstrumentRow InstrumentRowOf(const io::InstrumentConfig& c,
                                   const instruments::DeviceInfo& who) {
   db::InstrumentRow row;
-  row.protocol = c.protocol;
-  row.port = c.tcp.empty() ? c.port : c.tcp;
-  row.kind = c.protocol == "emscon" ? "laser_tracker" : c.distance ? "total_station" : "theodolite";
+  const bool tracker = c.protocol == io::InstrumentProtocol::kEmScon;
+  row.protocol = io::NameOf(c.protocol);
+  row.port = c.Where();
+  row.kind = tracker ? "laser_tracker" : c.distance ? "total_station" : "theodolite";
   row.serial_number = who.serial;
   row.firmware = who.firmware;
-  const std::string model = who.name.empty() ? c.protocol : who.name;
+  const std::string model = who.name.empty() ? row.protocol : who.name;
   row.name = who.serial.empty() ? fmt::format("{} at {}", model, row.port)
                                 : fmt::format("{} {}", model, who.serial);
   // A laser tracker's readings carry their own sigmas, which take the place of a-priori ones.
-  if (c.protocol != "emscon") {
+  if (!tracker) {
     row.sigma_hz_arcsec = c.sigma_hz_arcsec;
     row.sigma_v_arcsec = c.sigma_v_arcsec;
     if (c.distance) row.sigma_distance_mm = c.sigma_distance_mm;

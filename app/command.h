@@ -108,6 +108,25 @@ CLI::Validator NumberCheck(double min, double max);
 CLI::Option* ChoiceOption(CLI::Option* option, std::vector<std::string> choices);
 // The choices ChoiceOption gave `option` (empty for any other option).
 const std::vector<std::string>& ChoicesOf(const CLI::Option* option);
+// ChoiceOption for an option bound to an enum (or a list of them): the words are the
+// values' ToString, checked as ChoiceOption checks them, then turned into the value. Its
+// default is shown as the word.
+template <typename Enum>
+CLI::Option* EnumOption(CLI::Option* option, std::vector<Enum> values, Enum shown_default) {
+  std::vector<std::string> words;
+  for (const Enum v : values) words.emplace_back(ToString(v));
+  ChoiceOption(option, words);
+  option->transform(CLI::Validator(
+      [values](std::string& text) -> std::string {
+        for (const Enum v : values) {
+          if (text == ToString(v)) text = std::to_string(static_cast<int>(v));
+        }
+        return {};
+      },
+      "", "the value a word names"));
+  option->default_str(ToString(shown_default));
+  return option;
+}
 
 // `--set N`: a stored parameter set (version) of the robot instead of the active one.
 CLI::Option* AddSetOption(CLI::App& sub, std::optional<int>& set);

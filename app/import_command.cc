@@ -106,12 +106,12 @@ void SetupImportCommand(CLI::App& parent, const GlobalOptions& global, Runner& r
   p->add_option("--id", poses->id_column, "Pose id column (default: row number)");
   p->add_option("--delimiter", poses->delimiter, "Field delimiter: one character or 'tab'");
   p->add_flag("--decimal-comma", poses->decimal_comma, "Numbers use a decimal comma");
-  ChoiceOption(p->add_option("--kind", poses->kind,
-                             "What the session is for (with --robot): calibration (the nightly "
-                             "job fits it) | check (a set is tried on it, never fitted) | test "
-                             "(an ISO 9283 test, never fitted)"),
-               {"calibration", "check", "test"})
-      ->capture_default_str();
+  EnumOption(p->add_option("--kind", poses->kind,
+                           "What the session is for (with --robot): calibration (the nightly "
+                           "job fits it) | check (a set is tried on it, never fitted) | test "
+                           "(an ISO 9283 test, never fitted)"),
+             {db::SessionKind::kCalibration, db::SessionKind::kCheck, db::SessionKind::kTest},
+             db::SessionKind::kCalibration);
   p->add_flag("--allow-duplicate", poses->allow_duplicate,
               "Store the poses even when a session of the robot already holds exactly these "
               "joints and targets (default: nothing is stored, that session is named)");

@@ -185,8 +185,9 @@ void SetupLifecycleCommands(CLI::App& parent, const GlobalOptions& global, Runne
                {"calibration", "check", "test"})
       ->required();
   OnExistingDatabase(kind, global, run, [o = o](db::Database& database) {
-    const std::string was = workflows::SetSessionKind(database, o->session, o->name);
-    std::cout << fmt::format("session {}: {} ({} before)\n", o->session, o->name, was);
+    const db::SessionKind was =
+        workflows::SetSessionKind(database, o->session, *db::SessionKindNamed(o->name));
+    std::cout << fmt::format("session {}: {} ({} before)\n", o->session, o->name, db::ToString(was));
     return kOk;
   });
 

@@ -125,14 +125,11 @@ void AddRecalibrateOptions(CLI::App& sub, workflows::RecalibrateOptions& o) {
                  "auto: the geometric model plus the terms that pay on sessions or joint-space "
                  "regions the fit did not see | geometric | all | list")
       ->capture_default_str();
-  sub.add_option("--kinds", o.kinds,
-                 "Session kinds to fit, comma-separated: calibration, check, test (ISO 9283)")
-      ->delimiter(',')
-      ->check([](const std::string& k) {
-        return db::IsSessionKind(k) ? std::string()
-                                    : "expected calibration, check or test, got '" + k + "'";
-      })
-      ->capture_default_str();
+  EnumOption(sub.add_option("--kinds", o.kinds,
+                            "Session kinds to fit, comma-separated: calibration, check, test (ISO 9283)")
+                 ->delimiter(','),
+             {db::SessionKind::kCalibration, db::SessionKind::kCheck, db::SessionKind::kTest},
+             db::SessionKind::kCalibration);
   ChoiceOption(sub.add_option("--residual-model", o.residual_model,
                   "auto: a cross-validated residual map stored with the set when it clearly "
                   "helps; off: parametric only"), {"auto", "off"})

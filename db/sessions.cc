@@ -52,19 +52,31 @@ int64_t CreateSession(Database& db, int64_t robot_id, const std::string& lab_yam
   return InsertedId(*s, db.path() + ": a session");
 }
 
-bool IsSessionKind(const std::string& kind) {
-  for (const char* k : kSessionKinds) {
-    if (kind == k) return true;
+namespace {
+constexpr std::pair<SessionKind, const char*> kSessionKinds[] = {
+    {SessionKind::kCalibration, "calibration"},
+    {SessionKind::kTest, "test"},
+    {SessionKind::kCheck, "check"},
+};
+}  // namespace
+
+const char* ToString(SessionKind kind) {
+  for (const auto& [k, word] : kSessionKinds) {
+    if (k == kind) return word;
   }
-  return false;
+  return "?";
 }
 
-void SetSessionKind(Database& db, int64_t session_id, const std::string& kind) {
-  if (!IsSessionKind(kind)) {
-    throw std::invalid_argument("session kind '" + kind + "': expected calibration, test or check");
+std::optional<SessionKind> SessionKindNamed(const std::string& text) {
+  for (const auto& [k, word] : kSessionKinds) {
+    if (text == word) return k;
   }
+  return std::nullopt;
+}
+
+void SetSessionKind(Database& db, int64_t session_id, SessionKind kind) {
   auto s = Sql(db, "UPDATE sessions SET kind = ? WHERE id = ?");
-  s->Bind(1, kind);
+  s->Bind(1, std::string(ToString(kind)));
   s->Bind(2, session_id);
   s->Step();
 }
@@ -166,7 +178,8 @@ void ReadSession(const Statement& q, SessionRow& out) {
   out.note = q.Text(5);
   out.started_at = q.Text(6);
   out.finished_at = q.Text(7);
-  out.kind = q.Text(8);
+  // The schema's CHECK allows no other word.
+  out.kind = SessionKindNamed(q.Text(8)).value_or(SessionKind::kCalibration);
   out.owner = OwnerOf(q, 9);
 }
 

@@ -25,12 +25,16 @@ SessionState SessionStateOf(const std::string& text);
 int64_t CreateSession(Database& db, int64_t robot_id, const std::string& lab_yaml,
                       const std::string& plan_json, SessionState state, const std::string& note);
 void SetSessionState(Database& db, int64_t session_id, SessionState state);
-// What a session was measured for (schema v13): `calibration` (the default: the nightly job
-// fits it), `test` (an ISO 9283 test: never fitted unless asked), `check` (data to judge a
-// set where it was not fitted). std::invalid_argument for another word.
-inline constexpr const char* kSessionKinds[] = {"calibration", "test", "check"};
-bool IsSessionKind(const std::string& kind);
-void SetSessionKind(Database& db, int64_t session_id, const std::string& kind);
+// What a session was measured for (schema v13).
+enum class SessionKind {
+  kCalibration,  // the default: the nightly job fits it
+  kTest,         // an ISO 9283 test: never fitted unless asked
+  kCheck,        // data to judge a set where it was not fitted
+};
+const char* ToString(SessionKind kind);  // calibration | test | check
+// The kind a word names; nullopt for another word.
+std::optional<SessionKind> SessionKindNamed(const std::string& text);
+void SetSessionKind(Database& db, int64_t session_id, SessionKind kind);
 // A session whose measurements must not be used (its set-up was wrong): state `aborted`,
 // the reason appended to its note ("discarded: …"). Its rows stay; LoadRobotPoses leaves
 // it out.
@@ -57,7 +61,7 @@ struct SessionRow {
   SessionState state = SessionState::kRunning;
   std::string note;
   std::string started_at, finished_at;  // ISO-8601 UTC; finished_at "" while not finished
-  std::string kind = "calibration";     // calibration | test | check
+  SessionKind kind = SessionKind::kCalibration;
   std::optional<SessionOwner> owner{};  // absent when none was recorded
 };
 std::optional<SessionRow> LoadSession(Database& db, int64_t session_id);

@@ -586,7 +586,7 @@ void DemoRun::Introduce() {
     return;
   }
   const std::string controller =
-      robot_->controller == "ur" || robot_->controller == "kuka"
+      robot_->controller == io::ControllerProtocol::kUr || robot_->controller == io::ControllerProtocol::kKuka
           ? robot_->controller_text + " at " + lab_->controller_address()
           : robot_->controller_text;
   Say("armsig demo: virtual lab with " + robot_->description +

@@ -107,7 +107,7 @@ DemoLab::DemoLab(const calibration::RobotModel& model, const DemoLabOptions& opt
 // its certificate.
 void DemoLab::StartAbb() {
   simulation::RwsSimulatorOptions o;
-  o.version = instruments::rws::Version::kRws2;
+  o.version = robots::rws::Version::kRws2;
   o.model = truth_.identity.model;
   const std::string& serial = truth_.identity.serial;
   const size_t dash = serial.find('-');
@@ -133,8 +133,8 @@ void DemoLab::StartAbb() {
 
 // The robot's controller, by the protocol its DemoRobot names.
 void DemoLab::StartController() {
-  if (robot_.controller == "abb") return StartAbb();
-  if (robot_.controller == "ur") {
+  if (robot_.controller == io::ControllerProtocol::kAbb) return StartAbb();
+  if (robot_.controller == io::ControllerProtocol::kUr) {
     simulation::UrSimulatorOptions o;
     o.model = truth_.identity.model;
     o.serial = truth_.identity.serial;
@@ -151,7 +151,7 @@ void DemoLab::StartController() {
                {"dashboard_port", ur_->ports().dashboard}};
     return;
   }
-  if (robot_.controller == "kuka") {
+  if (robot_.controller == io::ControllerProtocol::kKuka) {
     simulation::KukaSimulatorOptions o;
     o.time_scale = options_.time_scale;
     o.trafo_name = "#" + truth_.identity.model + " C4 FLR";
@@ -199,8 +199,8 @@ void DemoLab::AddTracker() {
   tracker_ = tracker.get();
   io::InstrumentConfig i;
   i.station = "LT1";
-  i.protocol = "emscon";
-  i.tcp = tracker->path();
+  i.protocol = io::InstrumentProtocol::kEmScon;
+  i.tcp = io::SplitHostPort(tracker->path());
   i.distance = true;
   i.measurement_time_ms = 200;
   lab_file_.instruments.push_back(i);
@@ -226,7 +226,7 @@ void DemoLab::AddTheodolites() {
     simulators_.back()->Start();
     io::InstrumentConfig i;
     i.station = id;
-    i.protocol = "geocom";
+    i.protocol = io::InstrumentProtocol::kGeoCom;
     i.port = simulators_.back()->path();
     i.sigma_hz_arcsec = i.sigma_v_arcsec = kSigmaArcsec;
     lab_file_.instruments.push_back(i);

@@ -15,7 +15,7 @@ const std::vector<DemoRobot>& DemoRobots() {
     puma.description = "a PUMA 760 (hidden errors: the paper's Table 3)";
     puma.model_file = "puma760.yaml";
     puma.model_yaml = io::kPuma760Yaml;
-    puma.controller = "as";
+    puma.controller = io::ControllerProtocol::kKawasakiAs;
     puma.controller_text = "a robot controller on a pseudo-terminal";
     puma.paper = true;
     puma.stages = {"geometric", "geometric,h3,h4", "all"};
@@ -29,7 +29,7 @@ const std::vector<DemoRobot>& DemoRobots() {
         "arc-seconds periodic in each joint's angle)";
     ur10.model_file = "ur10.yaml";
     ur10.model_yaml = io::kUr10Yaml;
-    ur10.controller = "ur";
+    ur10.controller = io::ControllerProtocol::kUr;
     ur10.controller_text =
         "its e-Series controller speaking RTDE, the primary and secondary interfaces and the "
         "dashboard server on loopback TCP";
@@ -45,7 +45,7 @@ const std::vector<DemoRobot>& DemoRobots() {
         "periodic in each joint's angle)";
     kuka.model_file = "kr16_2.yaml";
     kuka.model_yaml = io::kKr16Yaml;
-    kuka.controller = "kuka";
+    kuka.controller = io::ControllerProtocol::kKuka;
     kuka.controller_text =
         "its KR C4 controller running ARMSIG, read and commanded through a variable server "
         "(KukaVarProxy's protocol) on loopback TCP";
@@ -61,7 +61,7 @@ const std::vector<DemoRobot>& DemoRobots() {
         "arc-seconds periodic in each joint's angle)";
     abb.model_file = "irb4600.yaml";
     abb.model_yaml = io::kIrb4600Yaml;
-    abb.controller = "abb";
+    abb.controller = io::ControllerProtocol::kAbb;
     abb.controller_text =
         "its OmniCore controller speaking Robot Web Services 2.0 over TLS on loopback TCP, "
         "running armsig's RAPID module";

@@ -6,6 +6,8 @@
 #include <string>
 #include <vector>
 
+#include "io/lab_file.h"
+
 namespace armsig::workflows {
 
 struct DemoRobot {
@@ -14,7 +16,7 @@ struct DemoRobot {
   std::string description;  // "a PUMA 760 (hidden errors: the paper's Table 3)"
   std::string model_file;   // the model's file in the lab folder: puma760.yaml
   const char* model_yaml = nullptr;  // its text (io/builtin_models.h)
-  std::string controller;            // the lab file's protocol: as, ur
+  io::ControllerProtocol controller = io::ControllerProtocol::kKawasakiAs;  // its lab file's
   std::string controller_text;       // "a Kawasaki-AS-style controller on a pseudo-terminal"
   bool tracker_only = false;         // measured by the laser tracker alone
   bool paper = false;                // the narrative compares with the paper's figures

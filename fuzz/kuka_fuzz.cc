@@ -14,11 +14,11 @@
 #include <string_view>
 
 #include "fuzz/fuzz_support.h"
-#include "instruments/kuka_codec.h"
+#include "robots/kuka_codec.h"
 
 namespace {
 
-namespace kuka = armsig::instruments::kuka;
+namespace kuka = armsig::robots::kuka;
 
 void Values(std::string_view text) {
   (void)kuka::ParseBool(text);

@@ -11,13 +11,13 @@
 #include <string_view>
 
 #include "fuzz/fuzz_support.h"
-#include "instruments/http_auth.h"
-#include "instruments/rws_codec.h"
+#include "robots/http_auth.h"
+#include "robots/rws_codec.h"
 
 namespace {
 
-namespace rws = armsig::instruments::rws;
-namespace http = armsig::instruments::http;
+namespace rws = armsig::robots::rws;
+namespace http = armsig::robots::http;
 
 template <typename F>
 void Refusable(F&& f) {

@@ -12,10 +12,10 @@
 #include <vector>
 
 #include "fuzz/fuzz_support.h"
-#include "instruments/ur_codec.h"
+#include "robots/ur_codec.h"
 
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
-  namespace ur = armsig::instruments::ur;
+  namespace ur = armsig::robots::ur;
   using armsig::instruments::FrameSplitter;
   const std::string_view bytes = armsig::fuzz::Text(data, size);
   const size_t step = size > 0 ? size_t{static_cast<uint8_t>(bytes[0])} + 1 : 1;

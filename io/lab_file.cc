@@ -55,7 +55,8 @@ constexpr double kMaxGateMm = plausible::kMaxLengthMm;
 
 const std::vector<NetworkControllerProtocol>& NetworkControllerProtocols() {
   static const std::vector<NetworkControllerProtocol> protocols = {
-      {"ur",
+      {ControllerProtocol::kUr,
+       "ur",
        "Universal Robots (CB3 from 3.4, e-Series)",
        {{"rtde_port", 30004}, {"primary_port", 30001}, {"secondary_port", 30002},
         {"dashboard_port", 29999}},
@@ -63,14 +64,16 @@ const std::vector<NetworkControllerProtocol>& NetworkControllerProtocols() {
        false,
        {}},
       // Robot Web Services: rws_port 0 is the generation's own (80 for RWS 1.0, 443 for 2.0).
-      {"abb",
+      {ControllerProtocol::kAbb,
+       "abb",
        "ABB IRC5 (RobotWare 6, RWS 1.0) and OmniCore (RobotWare 7, RWS 2.0)",
        {{"rws_port", 0}},
        "rws_port",
        true,
        {"rws", "certificate_sha256", "ca_file", "task", "module", "mechunit", "speed_percent",
         "representation"}},
-      {"kuka",
+      {ControllerProtocol::kKuka,
+       "kuka",
        "KUKA KR C4 / KR C5 (a variable server, KukaVarProxy or C3 Bridge, and ARMSIG.src)",
        {{"variable_server_port", 7000}},
        "variable_server_port",
@@ -87,6 +90,35 @@ const NetworkControllerProtocol* FindNetworkControllerProtocol(const std::string
   return nullptr;
 }
 
+const NetworkControllerProtocol* FindNetworkControllerProtocol(ControllerProtocol protocol) {
+  for (const auto& p : NetworkControllerProtocols()) {
+    if (p.id == protocol) return &p;
+  }
+  return nullptr;
+}
+
+namespace {
+constexpr std::pair<ControllerProtocol, const char*> kControllerProtocols[] = {
+    {ControllerProtocol::kValII, "val"}, {ControllerProtocol::kKawasakiAs, "as"},
+    {ControllerProtocol::kCounter, "counter"}, {ControllerProtocol::kUr, "ur"},
+    {ControllerProtocol::kAbb, "abb"}, {ControllerProtocol::kKuka, "kuka"},
+};
+}  // namespace
+
+const char* NameOf(ControllerProtocol protocol) {
+  for (const auto& [p, name] : kControllerProtocols) {
+    if (p == protocol) return name;
+  }
+  return "?";
+}
+
+std::optional<ControllerProtocol> ControllerProtocolNamed(const std::string& name) {
+  for (const auto& [p, n] : kControllerProtocols) {
+    if (name == n) return p;
+  }
+  return std::nullopt;
+}
+
 unsigned short ControllerConfig::Port(const std::string& key) const {
   if (const auto it = ports.find(key); it != ports.end()) return it->second;
   if (const auto* p = FindNetworkControllerProtocol(protocol)) {
@@ -95,6 +127,30 @@ unsigned short ControllerConfig::Port(const std::string& key) const {
     }
   }
   return 0;
+}
+
+std::string HostPort::Text() const { return host + ":" + std::to_string(port); }
+
+namespace {
+constexpr std::pair<InstrumentProtocol, const char*> kInstrumentProtocols[] = {
+    {InstrumentProtocol::kGeoCom, "geocom"},
+    {InstrumentProtocol::kGsi, "gsi"},
+    {InstrumentProtocol::kEmScon, "emscon"},
+};
+}  // namespace
+
+const char* NameOf(InstrumentProtocol protocol) {
+  for (const auto& [p, name] : kInstrumentProtocols) {
+    if (p == protocol) return name;
+  }
+  return "?";
+}
+
+std::optional<InstrumentProtocol> InstrumentProtocolNamed(const std::string& name) {
+  for (const auto& [p, n] : kInstrumentProtocols) {
+    if (name == n) return p;
+  }
+  return std::nullopt;
 }
 
 std::optional<HostPort> SplitHostPort(const std::string& text) {
@@ -202,7 +258,8 @@ ControllerConfig ControllerFrom(const YamlValue& value, const std::string& sourc
   owned.erase(std::unique(owned.begin() + 10, owned.end()), owned.end());
   const YamlMap map = value.Map(std::vector<std::string_view>(owned.begin(), owned.end()));
   ControllerConfig c;
-  c.protocol = Choice(map.Required("protocol", OrList(choices)), choices);
+  const std::string name = Choice(map.Required("protocol", OrList(choices)), choices);
+  c.protocol = *ControllerProtocolNamed(name);
   if (const auto can_move = map.Find("can_move")) c.can_move = can_move->Flag();
   // A key of another protocol is refused, naming whose it is.
   for (const auto& key : owned) {
@@ -210,22 +267,22 @@ ControllerConfig ControllerFrom(const YamlValue& value, const std::string& sourc
     const auto v = map.Find(key);
     if (!v) continue;
     const auto owners = OwnersOf(key);
-    if (std::find(owners.begin(), owners.end(), c.protocol) != owners.end()) continue;
-    if (key == "port" && c.protocol == "counter")
+    if (std::find(owners.begin(), owners.end(), name) != owners.end()) continue;
+    if (key == "port" && c.protocol == ControllerProtocol::kCounter)
       v->Fail("counter: give 'ports' (one per joint), not 'port'");
     if (key == "port" || key == "baud") {
-      v->Fail(c.protocol + ": the controller is reached over the network: give 'host' (and its "
+      v->Fail(name + ": the controller is reached over the network: give 'host' (and its "
               "ports), not " + Quoted(key));
     }
-    if (owners.empty()) v->Fail(Quoted(key) + " is no setting of protocol " + c.protocol);
-    v->Fail(Quoted(key) + " belongs to protocol " + OrList(owners) + ", not " + c.protocol);
+    if (owners.empty()) v->Fail(Quoted(key) + " is no setting of protocol " + name);
+    v->Fail(Quoted(key) + " belongs to protocol " + OrList(owners) + ", not " + name);
   }
   if (const auto* network = FindNetworkControllerProtocol(c.protocol)) {
     NetworkControllerFrom(map, *network, source, c);
     return c;
   }
   if (const auto baud = map.Find("baud")) c.baud = Baud(*baud);
-  if (c.protocol != "counter") {
+  if (c.protocol != ControllerProtocol::kCounter) {
     c.port = Resolve(source, map.Required("port", "the controller's serial port").Text());
     return c;
   }
@@ -272,11 +329,11 @@ InstrumentConfig InstrumentFrom(const YamlValue& value, const std::string& sourc
   const YamlValue station = map.Required("station", "the id of the station it stands on");
   c.station = station.Name();
   *station_where = station.Where();
-  c.protocol =
-      Choice(map.Required("protocol", "geocom, gsi or emscon"), {"geocom", "gsi", "emscon"});
+  c.protocol = *InstrumentProtocolNamed(
+      Choice(map.Required("protocol", "geocom, gsi or emscon"), {"geocom", "gsi", "emscon"}));
   const auto port = map.Find("port");
   const auto tcp = map.Find("tcp");
-  if (c.protocol == "emscon") {
+  if (c.protocol == InstrumentProtocol::kEmScon) {
     // A laser tracker behind an emScon server: binary packets over TCP, always distances.
     for (const char* key : {"port", "baud", "crc"}) {
       if (const auto v = map.Find(key)) {
@@ -293,20 +350,18 @@ InstrumentConfig InstrumentFrom(const YamlValue& value, const std::string& sourc
       c.measurement_time_ms = static_cast<int>(v->Integer(1, 100000));
     }
   } else if (const auto v = map.Find("measurement_time_ms")) {
-    v->Fail("'measurement_time_ms' belongs to protocol emscon, not " + c.protocol);
+    v->Fail(std::string("'measurement_time_ms' belongs to protocol emscon, not ") + NameOf(c.protocol));
   }
   if (port && tcp) tcp->Fail("instrument " + c.station + ": give port or tcp, not both");
   if (port) c.port = Resolve(source, port->Text());
   if (tcp) {
-    c.tcp = tcp->Text();
-    if (!SplitHostPort(c.tcp)) {
-      tcp->Fail("expected HOST:PORT with a port from 1 to 65535, got " + Quoted(c.tcp));
-    }
+    c.tcp = SplitHostPort(tcp->Text());
+    if (!c.tcp) tcp->Fail("expected HOST:PORT with a port from 1 to 65535, got " + Quoted(tcp->Text()));
   }
   if (!port && !tcp) map.Fail("instrument " + c.station + ": missing 'port' or 'tcp'");
   if (const auto v = map.Find("baud")) c.baud = Baud(*v);
   if (const auto v = map.Find("crc")) c.crc = v->Flag();
-  if (const auto v = map.Find("distance"); v && c.protocol != "emscon") c.distance = v->Flag();
+  if (const auto v = map.Find("distance"); v && c.protocol != InstrumentProtocol::kEmScon) c.distance = v->Flag();
   using plausible::Quantity;
   if (const auto v = map.Find("sigma_hz_arcsec"))
     c.sigma_hz_arcsec = v->Plausible(Quantity::kSigmaAngle, plausible::kArcsec);
@@ -476,7 +531,7 @@ LabConfig ParseLab(const std::string& text, const std::string& source) {
   lab.model = io::ParseRobotModel(lab.model_yaml, settings.robot_model_path);
   lab.robot_base = settings.robot_base;
   lab.controller = settings.controller;
-  if (lab.controller.protocol == "counter" &&
+  if (lab.controller.protocol == ControllerProtocol::kCounter &&
       static_cast<int>(lab.controller.counter_ports.size()) != lab.model.num_joints()) {
     throw InputError(parsed.ports_where, "counter: the controller gives " +
                                              std::to_string(lab.controller.counter_ports.size()) +
@@ -513,7 +568,7 @@ std::string FormatLabYaml(const LabFile& lab) {
   out << YAML::Key << "model" << YAML::Value << lab.model_path;
   const ControllerConfig& c = lab.controller;
   out << YAML::Key << "controller" << YAML::Value << YAML::Flow << YAML::BeginMap;
-  out << YAML::Key << "protocol" << YAML::Value << c.protocol;
+  out << YAML::Key << "protocol" << YAML::Value << NameOf(c.protocol);
   if (const auto* network = FindNetworkControllerProtocol(c.protocol)) {
     out << YAML::Key << "host" << YAML::Value << c.host;
     for (const auto& [key, default_port] : network->ports) {
@@ -541,11 +596,11 @@ std::string FormatLabYaml(const LabFile& lab) {
   out << YAML::Key << "instruments" << YAML::Value << YAML::BeginSeq;
   for (const auto& i : lab.instruments) {
     out << YAML::Flow << YAML::BeginMap << YAML::Key << "station" << YAML::Value << i.station
-        << YAML::Key << "protocol" << YAML::Value << i.protocol;
+        << YAML::Key << "protocol" << YAML::Value << NameOf(i.protocol);
     if (!i.port.empty()) out << YAML::Key << "port" << YAML::Value << i.port;
-    if (!i.tcp.empty()) out << YAML::Key << "tcp" << YAML::Value << i.tcp;
+    if (i.tcp) out << YAML::Key << "tcp" << YAML::Value << i.tcp->Text();
     if (i.baud != default_instrument.baud) out << YAML::Key << "baud" << YAML::Value << i.baud;
-    if (i.protocol == "emscon") {  // the tracker states its sigmas with every reading
+    if (i.protocol == InstrumentProtocol::kEmScon) {  // the tracker states its sigmas with every reading
       if (i.measurement_time_ms != default_instrument.measurement_time_ms) {
         out << YAML::Key << "measurement_time_ms" << YAML::Value << i.measurement_time_ms;
       }

@@ -9,17 +9,35 @@
 
 #include "calibration/model.h"
 #include "instruments/device.h"
-#include "instruments/robot_codec.h"
+#include "robots/robot_codec.h"
 #include "instruments/transport.h"
 #include "reduction/network.h"
 
 namespace armsig::io {
 
+// A TCP address, checked where it is read (the lab file's `tcp:`, --tcp) and kept whole.
+struct HostPort {
+  std::string host;
+  unsigned short port = 0;
+  std::string Text() const;  // HOST:PORT
+};
+
+// The protocol an instrument speaks (the lab file's `protocol:`).
+enum class InstrumentProtocol {
+  kGeoCom,  // Leica GeoCOM (serial or TCP)
+  kGsi,     // Leica GSI online (serial or TCP)
+  kEmScon,  // a laser tracker's emScon server: binary packets over TCP, always distances
+};
+const char* NameOf(InstrumentProtocol protocol);  // geocom | gsi | emscon
+std::optional<InstrumentProtocol> InstrumentProtocolNamed(const std::string& name);
+
 struct InstrumentConfig {
-  std::string station;   // station id (matches the stations file / orientation)
-  std::string protocol;  // geocom | gsi | emscon (a laser tracker: TCP, always distances)
-  std::string port;      // serial path, or empty with tcp
-  std::string tcp;       // HOST:PORT
+  std::string station;  // station id (matches the stations file / orientation)
+  InstrumentProtocol protocol = InstrumentProtocol::kGeoCom;
+  std::string port;              // serial path, or empty with tcp
+  std::optional<HostPort> tcp;   // or the instrument's address
+  // Where it is reached, as a person names it: the address or the serial path.
+  std::string Where() const { return tcp ? tcp->Text() : port; }
   unsigned baud = 19200;
   bool crc = false;
   bool distance = false;  // measure distances (laser tracker / total station)
@@ -28,13 +46,25 @@ struct InstrumentConfig {
   int measurement_time_ms = 500;  // emscon: the stationary measurement averages this long
 };
 
+// The protocol a robot controller speaks (the lab file's controller `protocol:`).
+enum class ControllerProtocol {
+  kValII,       // val: a Unimation VAL II monitor on a serial port
+  kKawasakiAs,  // as: a Kawasaki AS monitor on a serial port
+  kCounter,     // counter: an encoder counter box, one serial port per joint
+  kUr,          // the network controllers (NetworkControllerProtocols)
+  kAbb,
+  kKuka,
+};
+const char* NameOf(ControllerProtocol protocol);  // val | as | counter | ur | abb | kuka
+std::optional<ControllerProtocol> ControllerProtocolNamed(const std::string& name);
+
 struct ControllerConfig {
-  std::string protocol;  // val | as | counter, or a network controller (ur, …)
+  ControllerProtocol protocol = ControllerProtocol::kValII;
   std::string port;
   unsigned baud = 9600;
   bool can_move = false;                   // armsig commands the moves (else the operator does)
   std::vector<std::string> counter_ports;  // counter: one per joint
-  instruments::EncoderCalibration encoders;
+  robots::EncoderCalibration encoders;
   // A controller on the network (NetworkControllerProtocols): its address and every port
   // its protocol names, the defaults filled in (ur: rtde_port 30004, primary_port 30001,
   // secondary_port 30002, dashboard_port 29999).
@@ -56,6 +86,7 @@ struct ControllerConfig {
 // Adding a controller is one entry here (its keys) and one in acquisition/lab.cc (its
 // device); the lab file refuses every key its protocol does not name.
 struct NetworkControllerProtocol {
+  ControllerProtocol id;
   std::string name;         // the lab file's protocol: ur
   std::string description;  // "Universal Robots (CB3 from 3.4, e-Series)"
   std::vector<std::pair<std::string, unsigned short>> ports;  // optional keys, their defaults
@@ -67,6 +98,7 @@ struct NetworkControllerProtocol {
 const std::vector<NetworkControllerProtocol>& NetworkControllerProtocols();
 // nullptr for a protocol that is not a network controller's (val, as, counter).
 const NetworkControllerProtocol* FindNetworkControllerProtocol(const std::string& name);
+const NetworkControllerProtocol* FindNetworkControllerProtocol(ControllerProtocol protocol);
 
 struct Tolerances {
   double max_miss_mm = 0.2;        // largest ray miss distance of an accepted point
@@ -168,10 +200,6 @@ struct LabFile {
   int timeout_ms = 3000;
 };
 std::string FormatLabYaml(const LabFile& lab);
-struct HostPort {
-  std::string host;
-  unsigned short port = 0;
-};
 // "HOST:PORT" with a port from 1 to 65535, else nullopt.
 std::optional<HostPort> SplitHostPort(const std::string& text);
 }  // namespace armsig::io

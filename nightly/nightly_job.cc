@@ -185,6 +185,13 @@ double SetSigmaMm(const db::StoredCalibration& c) {
 
 namespace {
 
+// "calibration,test": the kinds a night fits, as --kinds names them.
+std::string KindsText(const std::vector<db::SessionKind>& kinds) {
+  std::string text;
+  for (const auto kind : kinds) text += (text.empty() ? "" : ",") + std::string(db::ToString(kind));
+  return text;
+}
+
 // A wall-clock time of $TZ as the instant it names. A time the clocks skipped (the hour
 // daylight saving time begins) names none and one they passed twice (the hour it ends) two:
 // both are refused, with the offsets that make them exact, rather than read as mktime
@@ -355,7 +362,7 @@ void NightlyJob::SelectWindow(const std::vector<db::SessionSummary>& sessions,
     }
     if (std::find(options_.kinds.begin(), options_.kinds.end(), s.kind) == options_.kinds.end()) {
       spdlog::debug("recalibrate: session {} is a {} session: not fitted (--kinds {})", s.id,
-                    s.kind, fmt::join(options_.kinds, ","));
+                    db::ToString(s.kind), KindsText(options_.kinds));
       elsewhere_.push_back({s, std::move(it->second)});
       continue;
     }

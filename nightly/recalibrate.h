@@ -11,6 +11,7 @@
 
 #include "calibration/drift.h"
 #include "calibration/estimation.h"
+#include "db/sessions.h"
 
 namespace armsig::workflows {
 
@@ -23,9 +24,9 @@ struct RecalibrateOptions {
   // transfer folds): the set that travels to another day's set-up. "all": every term of the
   // model, wherever the data put them.
   std::string params = "auto";
-  // The session kinds fitted (db::kSessionKinds): ISO 9283 tests and check sessions are not
+  // The session kinds fitted (db::SessionKind): ISO 9283 tests and check sessions are not
   // calibration data unless asked for.
-  std::vector<std::string> kinds = {"calibration"};
+  std::vector<db::SessionKind> kinds = {db::SessionKind::kCalibration};
   std::string residual_model = "auto";  // auto | off (calibrate's --residual-model)
   std::string orientation = "auto";     // auto | off (calibrate's --orientation)
   std::string tool_rotation = "per-session";  // per-session | shared

@@ -279,7 +279,7 @@ void NightlyJob::TryElsewhere() {
                                   gates_.tolerance_mm;
     Log(fmt::format("tried on session {} ({} {}, {} configurations, placed by its own frame): "
                     "{:.4f} mm, {} {:.4f} mm: {}",
-                    e.session, w.summary.kind, ShortTime(w.summary.started_at), e.poses,
+                    e.session, db::ToString(w.summary.kind), ShortTime(w.summary.started_at), e.poses,
                     e.new_mean_mm, e.reference, e.reference_mean_mm,
                     e.held ? "holds" : "WORSE"));
     if (!e.held) {

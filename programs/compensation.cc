@@ -203,149 +203,52 @@ class Compensator {
  private:
   TargetReport One(int index, const std::optional<Eigen::VectorXd>& previous, std::vector<Edit>* edits) {
     const Target& t = p_.targets[static_cast<std::size_t>(index)];
-    const int n = c_.num_joints();
     TargetReport r;
     r.target = index;
     r.orientation_measured = robot_.orientation_measured;
     const auto& uses = uses_.at(index);
     for (const Motion* m : uses) r.motions.push_back(m->place.line);
-    auto fail = [&](TargetStatus status, std::string why) {
-      r.status = status;
-      r.why = std::move(why);
+    auto fail = [&](Refusal refusal) {
+      r.status = refusal.status;
+      r.why = std::move(refusal.why);
       return r;
     };
     // One tool and one base for all its motions.
-    const Motion& first = *uses.front();
     const bool pose_target = t.kind() == TargetKind::kPose;
-    for (const Motion* m : uses) {
-      if (!m->tool.known())
-        return fail(TargetStatus::kFrameUnknown,
-                    fmt::format("the tool of {} at line {} ({}): {}", m->instruction, m->place.line,
-                                m->tool.name, m->tool.unknown_why));
-      if (pose_target && !m->base.known())
-        return fail(TargetStatus::kFrameUnknown,
-                    fmt::format("the base of {} at line {} ({}): {}", m->instruction, m->place.line,
-                                m->base.name, m->base.unknown_why));
-      if (first.tool.known() && !SameFrame(*m->tool.transform, *first.tool.transform))
-        return fail(TargetStatus::kConflictingUse,
-                    fmt::format("used with tool {} at line {} and tool {} at line {}: one set of numbers "
-                                "cannot land both", first.tool.name, first.place.line, m->tool.name, m->place.line));
-      if (pose_target && first.base.known() && !SameFrame(*m->base.transform, *first.base.transform))
-        return fail(TargetStatus::kConflictingUse,
-                    fmt::format("used in base {} at line {} and base {} at line {}", first.base.name,
-                                first.place.line, m->base.name, m->place.line));
-    }
+    if (auto refused = FramesOf(uses, pose_target)) return fail(std::move(*refused));
+    const Motion& first = *uses.front();
     const Eigen::Isometry3d tool = *first.tool.transform;
     const Eigen::Isometry3d base = pose_target ? *first.base.transform : Eigen::Isometry3d::Identity();
 
     // Intent and the controller's own joints.
-    Eigen::Isometry3d intent;
-    std::optional<Eigen::VectorXd> near = previous;
-    const Target* near_target = nullptr;
-    if (!pose_target) {
-      if (static_cast<int>(t.fields.size()) != n)
-        return fail(TargetStatus::kOutOfReach,
-                    fmt::format("{} joint values for a robot of {} joints", t.fields.size(), n));
-      r.nominal_joints_rad = JointsOf(t);
-      intent = TcpPose(c_, r.nominal_joints_rad, tool);
-    } else {
-      intent = base * PoseOf(t);
-      if (t.config.near_target) {
-        near_target = &p_.targets[static_cast<std::size_t>(*t.config.near_target)];
-        if (static_cast<int>(near_target->fields.size()) == n) {
-          const Eigen::VectorXd taught = JointsOf(*near_target);
-          const Eigen::Isometry3d at = TcpPose(c_, taught, tool);
-          const double mm = (at.translation() - intent.translation()).norm();
-          const double deg = AngleDeg(at.linear(), intent.linear());
-          if (mm > options_.taught_tolerance_mm || deg > options_.taught_tolerance_deg) {
-            r.nominal_joints_rad = taught;
-            return fail(TargetStatus::kTaughtJointsMissPose,
-                        fmt::format("its taught joints {} put the TCP {:.3f} mm and {:.4f}° from it on the "
-                                    "controller's model ({})", near_target->name, mm, deg, c_.description));
-          }
-          near = taught;
-        }
-      }
-      if (!near && !HasStated(t.config))
-        r.note = "no joints to start from (no qnear, no target before it): the controller's solution "
-                 "nearest all joints at zero is assumed";
-      InverseRequest request;
-      request.tcp = intent;
-      request.tool = tool;
-      request.stated = t.config;
-      request.stated.near_target.reset();
-      request.near_rad = near;
-      const InverseSolution inv = ControllerInverse(c_, request);
-      if (!inv.joints_rad) {
-        if (inv.reachable && HasStated(t.config))
-          return fail(TargetStatus::kTaughtJointsMissPose,
-                      fmt::format("its configuration data {} fit none of its pose's solutions on the "
-                                  "controller's model: {}", Describe(t.config), inv.why));
-        return fail(TargetStatus::kOutOfReach, fmt::format("the controller's model: {}", inv.why));
-      }
-      r.nominal_joints_rad = *inv.joints_rad;
-    }
+    Intent intent;
+    intent.near = previous;
+    if (auto refused = IntentOf(t, tool, base, intent, r)) return fail(std::move(*refused));
 
     // The signed robot onto the intent, from the controller's joints.
     const calibration::JointSolution s =
-        SolveSigned(robot_, tool, intent, r.nominal_joints_rad, options_.solve);
+        SolveSigned(robot_, tool, intent.pose, r.nominal_joints_rad, options_.solve);
     if (!s.status.ok())
-      return fail(TargetStatus::kOutOfReach, fmt::format("the calibrated robot: {}", s.status.message));
+      return fail({TargetStatus::kOutOfReach, fmt::format("the calibrated robot: {}", s.status.message)});
     r.compensated_joints_rad = s.joints_rad;
     r.residual_mm = s.residual_mm;
     r.map_extrapolated = s.map_extrapolated;
     const Eigen::Isometry3d written = TcpPose(c_, s.joints_rad, tool);
-    r.correction_mm = (written.translation() - intent.translation()).norm();
-    r.correction_deg = AngleDeg(written.linear(), intent.linear());
+    r.correction_mm = (written.translation() - intent.pose.translation()).norm();
+    r.correction_deg = AngleDeg(written.linear(), intent.pose.linear());
 
     // Inside what the set was validated on, and what it promises there: known wherever the
     // compensated joints are, whatever else refuses the target.
-    TargetStatus outside = TargetStatus::kOk;
-    std::string outside_why;
-    if (volume_ && !volume_->empty()) {
-      if (auto why = volume_->OutsideJoints(s.joints_rad)) {
-        outside = TargetStatus::kOutsideJointRange;
-        outside_why = fmt::format("{} ({})", *why, volume_->source());
-      } else if (const double d = volume_->DistanceOutside(SignedCalibrationPoint(robot_, s.joints_rad)); d > 1e-6) {
-        outside = TargetStatus::kOutsideMeasuredVolume;
-        outside_why = fmt::format("the calibration point lies {:.1f} mm outside the volume measured in {}", d,
-                                  volume_->source());
-      }
-    }
-    Promise(tool, s.joints_rad, outside_why, r);
+    const Refusal outside = OutsideVolume(s.joints_rad);
+    Promise(tool, s.joints_rad, outside.why, r);
 
     // The configuration the program's numbers ask for must be the compensated joints' own.
-    const ArmConfiguration nominal = ConfigurationOf(c_, r.nominal_joints_rad);
-    const ArmConfiguration compensated = ConfigurationOf(c_, s.joints_rad);
-    if (pose_target && c_.kind == ControllerKind::kUniversalRobots) {
-      InverseRequest again;
-      again.tcp = written;
-      again.tool = tool;
-      again.near_rad = near;
-      const InverseSolution back = ControllerInverse(c_, again);
-      if (!back.joints_rad || (*back.joints_rad - s.joints_rad).cwiseAbs().maxCoeff() > 1e-5)
-        return fail(TargetStatus::kConfigurationChange,
-                    "the controller's solution nearest the joints it starts from is another configuration "
-                    "than the compensated joints");
-    } else if (pose_target && HasStated(t.config)) {
-      if (!Matches(t.config, compensated)) {
-        StatedConfiguration got;
-        if (t.config.abb_cf) got.abb_cf = compensated.abb_cf;
-        if (t.config.kuka_status) got.kuka_status = compensated.kuka_status;
-        if (t.config.kuka_turn) got.kuka_turn = compensated.kuka_turn;
-        return fail(TargetStatus::kConfigurationChange,
-                    fmt::format("the compensated joints are in configuration {}, the program's {}",
-                                Describe(got), Describe(t.config)));
-      }
-    } else if (nominal.overhead != compensated.overhead || nominal.elbow != compensated.elbow ||
-               nominal.wrist != compensated.wrist) {
-      return fail(TargetStatus::kConfigurationChange,
-                  fmt::format("the compensated joints are {}, the program's {}", Flags(compensated), Flags(nominal)));
-    }
+    if (auto refused = ConfigurationChange(t, tool, written, intent, r.nominal_joints_rad, s.joints_rad))
+      return fail(std::move(*refused));
 
-    if (outside != TargetStatus::kOk) {
-      r.status = outside;
-      r.why = outside_why;
+    if (outside.status != TargetStatus::kOk) {
+      r.status = outside.status;
+      r.why = outside.why;
       if (!options_.allow_outside) return r;
     }
 
@@ -354,12 +257,151 @@ class Compensator {
         pose_target ? RewritePose(t, base.inverse() * written) : RewriteJoints(t, s.joints_rad);
     edits->insert(edits->end(), own.begin(), own.end());
     // A waypoint's taught joints follow its pose (unless a motion moves to them on their own).
-    if (near_target && !uses_.count(*t.config.near_target) && rewritten_near_.insert(*t.config.near_target).second) {
-      const std::vector<Edit> q = RewriteJoints(*near_target, s.joints_rad);
+    if (intent.near_target && !uses_.count(*t.config.near_target) &&
+        rewritten_near_.insert(*t.config.near_target).second) {
+      const std::vector<Edit> q = RewriteJoints(*intent.near_target, s.joints_rad);
       edits->insert(edits->end(), q.begin(), q.end());
     }
     r.written = true;
     return r;
+  }
+
+  // Why a target is not rewritten (kOk and "" where nothing refuses it).
+  struct Refusal {
+    TargetStatus status = TargetStatus::kOk;
+    std::string why;
+  };
+
+  // Every motion to a target with a known tool (and, for a pose, base), all the same.
+  static std::optional<Refusal> FramesOf(const std::vector<const Motion*>& uses, bool pose_target) {
+    const Motion& first = *uses.front();
+    for (const Motion* m : uses) {
+      if (!m->tool.known())
+        return Refusal{TargetStatus::kFrameUnknown,
+                       fmt::format("the tool of {} at line {} ({}): {}", m->instruction, m->place.line,
+                                   m->tool.name, m->tool.unknown_why)};
+      if (pose_target && !m->base.known())
+        return Refusal{TargetStatus::kFrameUnknown,
+                       fmt::format("the base of {} at line {} ({}): {}", m->instruction, m->place.line,
+                                   m->base.name, m->base.unknown_why)};
+      if (first.tool.known() && !SameFrame(*m->tool.transform, *first.tool.transform))
+        return Refusal{TargetStatus::kConflictingUse,
+                       fmt::format("used with tool {} at line {} and tool {} at line {}: one set of numbers "
+                                   "cannot land both", first.tool.name, first.place.line, m->tool.name,
+                                   m->place.line)};
+      if (pose_target && first.base.known() && !SameFrame(*m->base.transform, *first.base.transform))
+        return Refusal{TargetStatus::kConflictingUse,
+                       fmt::format("used in base {} at line {} and base {} at line {}", first.base.name,
+                                   first.place.line, m->base.name, m->place.line)};
+    }
+    return std::nullopt;
+  }
+
+  // Where the program means the TCP to be, and the joints to start from.
+  struct Intent {
+    Eigen::Isometry3d pose = Eigen::Isometry3d::Identity();
+    std::optional<Eigen::VectorXd> near;  // the joints the controller's solution is nearest
+    const Target* near_target = nullptr;  // a waypoint's taught joints (RAPID, KRL)
+  };
+
+  // The intent of target `t` and the joints the controller's own model gives it
+  // (r.nominal_joints_rad), or why there are none.
+  std::optional<Refusal> IntentOf(const Target& t, const Eigen::Isometry3d& tool, const Eigen::Isometry3d& base,
+                                  Intent& intent, TargetReport& r) const {
+    const int n = c_.num_joints();
+    if (t.kind() != TargetKind::kPose) {
+      if (static_cast<int>(t.fields.size()) != n)
+        return Refusal{TargetStatus::kOutOfReach,
+                       fmt::format("{} joint values for a robot of {} joints", t.fields.size(), n)};
+      r.nominal_joints_rad = JointsOf(t);
+      intent.pose = TcpPose(c_, r.nominal_joints_rad, tool);
+      return std::nullopt;
+    }
+    intent.pose = base * PoseOf(t);
+    if (t.config.near_target) {
+      intent.near_target = &p_.targets[static_cast<std::size_t>(*t.config.near_target)];
+      if (static_cast<int>(intent.near_target->fields.size()) == n) {
+        const Eigen::VectorXd taught = JointsOf(*intent.near_target);
+        const Eigen::Isometry3d at = TcpPose(c_, taught, tool);
+        const double mm = (at.translation() - intent.pose.translation()).norm();
+        const double deg = AngleDeg(at.linear(), intent.pose.linear());
+        if (mm > options_.taught_tolerance_mm || deg > options_.taught_tolerance_deg) {
+          r.nominal_joints_rad = taught;
+          return Refusal{TargetStatus::kTaughtJointsMissPose,
+                         fmt::format("its taught joints {} put the TCP {:.3f} mm and {:.4f}° from it on the "
+                                     "controller's model ({})", intent.near_target->name, mm, deg, c_.description)};
+        }
+        intent.near = taught;
+      }
+    }
+    if (!intent.near && !HasStated(t.config))
+      r.note = "no joints to start from (no qnear, no target before it): the controller's solution "
+               "nearest all joints at zero is assumed";
+    InverseRequest request;
+    request.tcp = intent.pose;
+    request.tool = tool;
+    request.stated = t.config;
+    request.stated.near_target.reset();
+    request.near_rad = intent.near;
+    const InverseSolution inv = ControllerInverse(c_, request);
+    if (!inv.joints_rad) {
+      if (inv.reachable && HasStated(t.config))
+        return Refusal{TargetStatus::kTaughtJointsMissPose,
+                       fmt::format("its configuration data {} fit none of its pose's solutions on the "
+                                   "controller's model: {}", Describe(t.config), inv.why)};
+      return Refusal{TargetStatus::kOutOfReach, fmt::format("the controller's model: {}", inv.why)};
+    }
+    r.nominal_joints_rad = *inv.joints_rad;
+    return std::nullopt;
+  }
+
+  // Compensated joints `q` outside the joint arcs or the volume the set was validated on.
+  Refusal OutsideVolume(const Eigen::VectorXd& q) const {
+    if (!volume_ || volume_->empty()) return {};
+    if (auto why = volume_->OutsideJoints(q))
+      return {TargetStatus::kOutsideJointRange, fmt::format("{} ({})", *why, volume_->source())};
+    if (const double d = volume_->DistanceOutside(SignedCalibrationPoint(robot_, q)); d > 1e-6)
+      return {TargetStatus::kOutsideMeasuredVolume,
+              fmt::format("the calibration point lies {:.1f} mm outside the volume measured in {}", d,
+                          volume_->source())};
+    return {};
+  }
+
+  // The compensated joints `q` in another configuration than the program's numbers ask for
+  // (the controller's nominal joints `nominal`; a UR: its solution nearest where it starts).
+  std::optional<Refusal> ConfigurationChange(const Target& t, const Eigen::Isometry3d& tool,
+                                             const Eigen::Isometry3d& written, const Intent& intent,
+                                             const Eigen::VectorXd& nominal_q, const Eigen::VectorXd& q) const {
+    const bool pose_target = t.kind() == TargetKind::kPose;
+    const ArmConfiguration nominal = ConfigurationOf(c_, nominal_q);
+    const ArmConfiguration compensated = ConfigurationOf(c_, q);
+    if (pose_target && c_.kind == ControllerKind::kUniversalRobots) {
+      InverseRequest again;
+      again.tcp = written;
+      again.tool = tool;
+      again.near_rad = intent.near;
+      const InverseSolution back = ControllerInverse(c_, again);
+      if (!back.joints_rad || (*back.joints_rad - q).cwiseAbs().maxCoeff() > 1e-5)
+        return Refusal{TargetStatus::kConfigurationChange,
+                       "the controller's solution nearest the joints it starts from is another configuration "
+                       "than the compensated joints"};
+    } else if (pose_target && HasStated(t.config)) {
+      if (!Matches(t.config, compensated)) {
+        StatedConfiguration got;
+        if (t.config.abb_cf) got.abb_cf = compensated.abb_cf;
+        if (t.config.kuka_status) got.kuka_status = compensated.kuka_status;
+        if (t.config.kuka_turn) got.kuka_turn = compensated.kuka_turn;
+        return Refusal{TargetStatus::kConfigurationChange,
+                       fmt::format("the compensated joints are in configuration {}, the program's {}",
+                                   Describe(got), Describe(t.config))};
+      }
+    } else if (nominal.overhead != compensated.overhead || nominal.elbow != compensated.elbow ||
+               nominal.wrist != compensated.wrist) {
+      return Refusal{TargetStatus::kConfigurationChange,
+                     fmt::format("the compensated joints are {}, the program's {}", Flags(compensated),
+                                 Flags(nominal))};
+    }
+    return std::nullopt;
   }
 
   // The support and predicted σ of compensated joints `q`; `outside_volume` says why they lie

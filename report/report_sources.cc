@@ -130,8 +130,8 @@ ReportSources LoadSessionSources(db::Database& db,
       try {
         const auto lab = io::StoredLabSettings(s.lab_yaml, s.id, db.path());
         for (const auto& i : lab ? lab->instruments : std::vector<io::InstrumentConfig>{}) {
-          std::string d = i.protocol + (i.tcp.empty() ? " on " + i.port : " over " + i.tcp);
-          if (i.protocol == "emscon") {
+          std::string d = io::NameOf(i.protocol) + (i.tcp ? " over " + i.tcp->Text() : " on " + i.port);
+          if (i.protocol == io::InstrumentProtocol::kEmScon) {
             // A laser tracker's readings carry their own sigmas, which take the place of
             // any a-priori ones.
             d += fmt::format(", laser tracker, stationary mode {} ms; sigmas: each reading's own",

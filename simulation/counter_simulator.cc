@@ -5,7 +5,7 @@
 namespace armsig::simulation {
 
 CounterSimulator::CounterSimulator(VirtualLab& lab, int joint,
-                                   instruments::EncoderCalibration calibration,
+                                   robots::EncoderCalibration calibration,
                                    std::string link_path, SimulatorOptions options)
     : LineSimulator(std::move(link_path), options),
       lab_(lab),
@@ -14,14 +14,14 @@ CounterSimulator::CounterSimulator(VirtualLab& lab, int joint,
 
 std::optional<LineSimulator::Response> CounterSimulator::Handle(const std::string& line,
                                                                 const FaultSpec& fault) {
-  instruments::CounterReading error;
+  robots::CounterReading error;
   error.kind = 'e';
-  const std::string error_reply = instruments::FormatCounterReply(error);
+  const std::string error_reply = robots::FormatCounterReply(error);
   if (fault.fault == Fault::kErrorCode) return Response{error_reply, std::chrono::milliseconds(2)};
-  const auto q = instruments::ParseCounterRequest(line);
+  const auto q = robots::ParseCounterRequest(line);
   if (!q || q->kind == 'S')
     return Response{error_reply, std::chrono::milliseconds(2)};  // no streaming
-  instruments::CounterReading r;
+  robots::CounterReading r;
   r.kind = static_cast<char>(std::tolower(static_cast<unsigned char>(q->kind)));
   r.reg = q->reg;
   if (fault.fault == Fault::kOtherReply) {
@@ -32,15 +32,15 @@ std::optional<LineSimulator::Response> CounterSimulator::Handle(const std::strin
     r.value = static_cast<int64_t>(counts(joint_));
     if (fault.fault == Fault::kOutOfRange) r.value = 2147483647;  // the counter's limit
   }
-  return Response{instruments::FormatCounterReply(r), std::chrono::milliseconds(2)};
+  return Response{robots::FormatCounterReply(r), std::chrono::milliseconds(2)};
 }
 
 std::string CounterSimulator::FloodLine(const std::string&, int64_t k) {
   // Replies for another register (the stream-interval register), never the count.
-  instruments::CounterReading r;
+  robots::CounterReading r;
   r.reg = 0x0C;
   r.value = k % 1000;
-  return instruments::FormatCounterReply(r);
+  return robots::FormatCounterReply(r);
 }
 
 }  // namespace armsig::simulation

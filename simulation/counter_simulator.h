@@ -1,11 +1,11 @@
-// A virtual encoder counter box on a pseudo-terminal (instruments/robot_codec.h): one
+// A virtual encoder counter box on a pseudo-terminal (robots/robot_codec.h): one
 // channel reading one joint of the VirtualLab's robot.
 #pragma once
 
 #include <optional>
 #include <string>
 
-#include "instruments/robot_codec.h"
+#include "robots/robot_codec.h"
 #include "simulation/line_simulator.h"
 #include "simulation/virtual_lab.h"
 
@@ -14,7 +14,7 @@ namespace armsig::simulation {
 // One QSB-style counter channel reading one joint's encoder.
 class CounterSimulator : public LineSimulator {
  public:
-  CounterSimulator(VirtualLab& lab, int joint, instruments::EncoderCalibration calibration,
+  CounterSimulator(VirtualLab& lab, int joint, robots::EncoderCalibration calibration,
                    std::string link_path, SimulatorOptions options = {});
   // Stops the io thread before this part of the object goes: it calls Handle and
   // FloodLine.
@@ -27,7 +27,7 @@ class CounterSimulator : public LineSimulator {
  private:
   VirtualLab& lab_;
   int joint_;
-  instruments::EncoderCalibration calibration_;
+  robots::EncoderCalibration calibration_;
 };
 
 }  // namespace armsig::simulation

@@ -7,7 +7,7 @@
 #include "instruments/emscon_device.h"
 #include "instruments/geocom_device.h"
 #include "instruments/gsi_device.h"
-#include "instruments/robot_controllers.h"
+#include "robots/robot_controllers.h"
 #include "simulation/counter_simulator.h"
 #include "simulation/emscon_simulator.h"
 #include "simulation/geocom_simulator.h"
@@ -175,7 +175,7 @@ FaultOutcome RunFaultCase(VirtualLab& lab, const FaultCase& c, const std::string
   instruments::SerialSettings port;
   port.path = link;
   port.baud = 115200;
-  instruments::EncoderCalibration encoders;  // 10000 counts per rad on every joint
+  robots::EncoderCalibration encoders;  // 10000 counts per rad on every joint
   encoders.counts_per_rad = Eigen::VectorXd::Constant(lab.model().num_joints(), 10000.0);
   encoders.offset_rad = Eigen::VectorXd::Zero(lab.model().num_joints());
   encoders.coupling = Eigen::MatrixXd::Identity(lab.model().num_joints(), lab.model().num_joints());
@@ -232,17 +232,17 @@ FaultOutcome RunFaultCase(VirtualLab& lab, const FaultCase& c, const std::string
       break;
     case Protocol::kValII:
     case Protocol::kKawasakiAs:
-      controller = std::make_unique<instruments::ValController>(
+      controller = std::make_unique<robots::ValController>(
           instruments::MakeSerialTransport(port), false, policy);
       break;
     case Protocol::kCounter: {
-      instruments::EncoderCalibration one;
+      robots::EncoderCalibration one;
       one.counts_per_rad = encoders.counts_per_rad.head(1);
       one.offset_rad = encoders.offset_rad.head(1);
       one.coupling = Eigen::MatrixXd::Identity(1, 1);
       std::vector<std::unique_ptr<instruments::LineTransport>> channels;
       channels.push_back(instruments::MakeSerialTransport(port));
-      controller = std::make_unique<instruments::CounterBox>(std::move(channels), one, policy);
+      controller = std::make_unique<robots::CounterBox>(std::move(channels), one, policy);
       break;
     }
   }

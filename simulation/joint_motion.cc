@@ -4,7 +4,7 @@
 #include <cmath>
 #include <stdexcept>
 
-#include "instruments/ur_codec.h"
+#include "robots/ur_codec.h"
 
 namespace armsig::simulation {
 
@@ -27,7 +27,7 @@ JointMove::JointMove(Eigen::VectorXd from, Eigen::VectorXd to, double a, double 
   const Eigen::VectorXd delta = to_ - from_;
   distance_ = delta.cwiseAbs().maxCoeff();
   direction_ = distance_ > 0.0 ? Eigen::VectorXd(delta / distance_) : Eigen::VectorXd(delta * 0.0);
-  duration_ = instruments::ur::MoveJDuration(distance_, a_, v_);
+  duration_ = robots::ur::MoveJDuration(distance_, a_, v_);
   // The profile's ramp time and top speed: v reached, or the triangle's peak.
   peak_ = std::min(v_, std::sqrt(a_ * distance_));
   ramp_ = peak_ / a_;

@@ -4,7 +4,7 @@
 //   - PhysicalClock: the simulators' time, physical seconds, optionally scaled: a scale of
 //     0.1 runs ten times faster than the wall clock (every latency times 0.1).
 //   - JointMove: a joint move with synchronised joints, the leading one (the largest turn)
-//     on a trapezoidal speed profile — URScript's movej (instruments::ur::MoveJDuration):
+//     on a trapezoidal speed profile — URScript's movej (robots::ur::MoveJDuration):
 //     accelerate at a to v, cruise, brake at a; the others scaled to start and end with it.
 //     A stop brakes along the same path (Braked).
 #pragma once

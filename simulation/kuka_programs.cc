@@ -27,7 +27,7 @@
 
 namespace armsig::simulation {
 
-namespace contract = instruments::kuka::contract;
+namespace contract = robots::kuka::contract;
 
 namespace {
 
@@ -97,7 +97,7 @@ void KukaSimulator::AdvanceRunner() {
     program_.clear();
     program_state_ = "P_FREE";
     const std::string name =
-        instruments::kuka::ParseString(globals_.at(contract::kRunName).text).value_or("");
+        robots::kuka::ParseString(globals_.at(contract::kRunName).text).value_or("");
     if (const auto why = SelectRun(name)) {
       last_run_refusal_ = *why;
       return EndRun(contract::kRunNotSelected);

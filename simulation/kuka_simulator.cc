@@ -13,9 +13,9 @@
 namespace armsig::simulation {
 
 namespace asio = boost::asio;
-namespace kuka = instruments::kuka;
-namespace contract = instruments::kuka::contract;
-namespace sv = instruments::kuka::system_variable;
+namespace kuka = robots::kuka;
+namespace contract = robots::kuka::contract;
+namespace sv = robots::kuka::system_variable;
 using tcp = asio::ip::tcp;
 
 struct KukaSimulator::Connection : FramedPeer {

@@ -60,7 +60,7 @@
 #include <thread>
 #include <vector>
 
-#include "instruments/kuka_codec.h"
+#include "robots/kuka_codec.h"
 #include "programs/controller.h"
 #include "programs/krl.h"
 #include "simulation/program_runner.h"

@@ -7,7 +7,7 @@
 
 #include "core/error.h"
 #include "core/text.h"
-#include "instruments/rws_codec.h"
+#include "robots/rws_codec.h"
 #include "simulation/shipped_abb_module.h"  // generated: kShippedAbbModule
 
 namespace armsig::simulation {
@@ -49,25 +49,25 @@ double AsFloat(double v) { return static_cast<double>(static_cast<float>(v)); }
 std::string CanonicalValue(const RapidData& d, const std::string& text) {
   const std::string type = Upper(d.type);
   if (d.elements > 0) {
-    std::vector<double> v = instruments::rws::ParseRapidArray(text);
+    std::vector<double> v = robots::rws::ParseRapidArray(text);
     if (static_cast<int>(v.size()) != d.elements) {
-      throw instruments::rws::DecodeError(fmt::format("{} has {} elements", d.name, d.elements));
+      throw robots::rws::DecodeError(fmt::format("{} has {} elements", d.name, d.elements));
     }
     if (type == "NUM") {
       for (double& x : v) x = AsFloat(x);
-      return instruments::rws::FormatRapidArray(v, 9);
+      return robots::rws::FormatRapidArray(v, 9);
     }
-    return instruments::rws::FormatRapidArray(v, 15);
+    return robots::rws::FormatRapidArray(v, 15);
   }
-  if (type == "NUM") return instruments::rws::FormatRapidNum(AsFloat(instruments::rws::ParseRapidNum(text)));
-  if (type == "DNUM") return instruments::rws::FormatRapidArray({instruments::rws::ParseRapidNum(text)}, 15).substr(1);
+  if (type == "NUM") return robots::rws::FormatRapidNum(AsFloat(robots::rws::ParseRapidNum(text)));
+  if (type == "DNUM") return robots::rws::FormatRapidArray({robots::rws::ParseRapidNum(text)}, 15).substr(1);
   if (type == "JOINTTARGET") {
-    instruments::rws::JointTarget t = instruments::rws::ParseRapidJointTarget(text);
+    robots::rws::JointTarget t = robots::rws::ParseRapidJointTarget(text);
     for (double& x : t.robax_deg) x = AsFloat(x);
     for (double& x : t.extax) x = AsFloat(x);
-    return instruments::rws::FormatRapidJointTarget(t);
+    return robots::rws::FormatRapidJointTarget(t);
   }
-  throw instruments::rws::DecodeError("the simulator keeps no RAPID " + d.type);
+  throw robots::rws::DecodeError("the simulator keeps no RAPID " + d.type);
 }
 
 

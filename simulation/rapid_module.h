@@ -30,7 +30,7 @@ struct RapidModule {
 };
 
 // A datum's value text as the controller keeps it: num components as single-precision floats
-// (9 significant digits), dnum with 15; instruments::rws::DecodeError for text that is not a
+// (9 significant digits), dnum with 15; robots::rws::DecodeError for text that is not a
 // value of its type, or a type the virtual controller does not keep.
 std::string CanonicalValue(const RapidData& datum, const std::string& text);
 

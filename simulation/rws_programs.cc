@@ -9,7 +9,7 @@
 
 namespace armsig::simulation {
 
-namespace rws = instruments::rws;
+namespace rws = robots::rws;
 
 namespace {
 

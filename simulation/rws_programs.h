@@ -33,7 +33,7 @@
 #include <utility>
 #include <vector>
 
-#include "instruments/rws_codec.h"
+#include "robots/rws_codec.h"
 #include "programs/controller.h"
 #include "programs/program.h"
 #include "simulation/program_runner.h"
@@ -57,7 +57,7 @@ class RwsPrograms {
   };
   struct Answer {
     unsigned status = 204;
-    instruments::rws::Document document;
+    robots::rws::Document document;
   };
   // PUT of a file below $HOME, and the task's module, program-pointer and resetpp resources;
   // nullopt for any other request.

@@ -5,13 +5,13 @@
 #include <algorithm>
 #include <cctype>
 
-#include "instruments/http_auth.h"
+#include "robots/http_auth.h"
 
 namespace armsig::simulation {
 
 namespace bhttp = boost::beast::http;
-namespace http = instruments::http;
-namespace rws = instruments::rws;
+namespace http = robots::http;
+namespace rws = robots::rws;
 
 namespace {
 

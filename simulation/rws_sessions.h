@@ -16,13 +16,13 @@
 #include <random>
 #include <string>
 
-#include "instruments/rws_codec.h"
+#include "robots/rws_codec.h"
 
 namespace armsig::simulation {
 
 class RwsSessions {
  public:
-  RwsSessions(instruments::rws::Version version, std::string user, std::string password);
+  RwsSessions(robots::rws::Version version, std::string user, std::string password);
 
   using Request = boost::beast::http::request<boost::beast::http::string_body>;
   using Response = boost::beast::http::response<boost::beast::http::string_body>;
@@ -39,7 +39,7 @@ class RwsSessions {
   bool CredentialsValid(const Request& request) const;
   std::string Challenge();
 
-  instruments::rws::Version version_;
+  robots::rws::Version version_;
   std::string user_, password_;
   std::mt19937_64 rng_{std::random_device{}()};
   std::map<std::string, std::string> sessions_;  // -http-session- → ABBCX

@@ -29,7 +29,7 @@ namespace asio = boost::asio;
 namespace beast = boost::beast;
 namespace bhttp = boost::beast::http;
 namespace ssl = boost::asio::ssl;
-namespace rws = instruments::rws;
+namespace rws = robots::rws;
 using tcp = asio::ip::tcp;
 using SteadyClock = std::chrono::steady_clock;
 

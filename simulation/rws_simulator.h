@@ -1,12 +1,12 @@
 // A virtual ABB robot controller behind Robot Web Services: an IRC5 (RobotWare 6, RWS 1.0:
 // HTTP, Digest authentication, XHTML or ?json=1) or an OmniCore (RobotWare 7, RWS 2.0: HTTPS
 // with a self-signed certificate made at start, Basic authentication, hal+json), serving
-// the resources armsig's driver uses (instruments/rws_codec.h names them) with Boost.Beast
+// the resources armsig's driver uses (robots/rws_codec.h names them) with Boost.Beast
 // on its own thread, answering through the same codec as the driver.
 //
 // Followed: ABB, "Application Manual - Robot Web Services", 3HAC050973-001 Revision M (RWS
 // 1.0), and ABB's OmniCore App SDK 1.5.0 RWS library (RWS 2.0 paths and media types); the
-// return codes as RobotWare 6.16 / 7.21 give them (instruments/rws_codec.h). Where ABB does
+// return codes as RobotWare 6.16 / 7.21 give them (robots/rws_codec.h). Where ABB does
 // not say, it chooses and says so: the jointtarget resource is written with two decimals
 // (the manual states no precision; armsig must not depend on it), the realm is
 // "validusers@robapi.abb", the session cookies are -http-session- and ABBCX.
@@ -62,7 +62,7 @@
 #include <utility>
 #include <vector>
 
-#include "instruments/rws_codec.h"
+#include "robots/rws_codec.h"
 #include "simulation/rapid_module.h"
 #include "simulation/simulator.h"
 #include "simulation/virtual_lab.h"
@@ -70,7 +70,7 @@
 namespace armsig::simulation {
 
 struct RwsSimulatorOptions {
-  instruments::rws::Version version = instruments::rws::Version::kRws2;
+  robots::rws::Version version = robots::rws::Version::kRws2;
   std::string user = "Default User";
   std::string password = "robotics";  // ABB's factory default
   // What the controller says it is.
@@ -120,7 +120,7 @@ class RwsSimulator : public Simulator {
   void EmergencyStop();
   void ResetStop();  // the stop cleared and acknowledged: motors off
   void SetMotors(bool on);
-  void SetMode(instruments::rws::OperationMode mode);
+  void SetMode(robots::rws::OperationMode mode);
   // Starts the program (continue where it stopped; or from main). Refused (false) unless the
   // motors are on.
   bool StartProgram(bool from_main = false);
@@ -145,8 +145,8 @@ class RwsSimulator : public Simulator {
   void StopDuringNextMove(CellStop stop, double fraction);
 
   struct Snapshot {
-    instruments::rws::ControllerState controller;
-    instruments::rws::OperationMode mode;
+    robots::rws::ControllerState controller;
+    robots::rws::OperationMode mode;
     bool running = false;
     bool moving = false;
     Eigen::VectorXd joints_deg;

@@ -10,7 +10,7 @@
 #include <random>
 #include <stdexcept>
 
-#include "instruments/http_auth.h"
+#include "robots/http_auth.h"
 
 namespace armsig::simulation {
 
@@ -64,7 +64,7 @@ Certificate MakeCertificate(const std::string& host, const std::string& common_n
   std::string der(static_cast<size_t>(der_size), '\0');
   auto* p = reinterpret_cast<unsigned char*>(der.data());
   i2d_X509(x, &p);
-  c.fingerprint = instruments::http::Sha256Fingerprint(der);
+  c.fingerprint = robots::http::Sha256Fingerprint(der);
   return c;
 }
 

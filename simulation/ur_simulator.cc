@@ -19,9 +19,9 @@ namespace armsig::simulation {
 
 namespace asio = boost::asio;
 using tcp = asio::ip::tcp;
-namespace ur = instruments::ur;
-namespace rtde = instruments::ur::rtde;
-namespace primary = instruments::ur::primary;
+namespace ur = robots::ur;
+namespace rtde = robots::ur::rtde;
+namespace primary = robots::ur::primary;
 
 namespace {
 

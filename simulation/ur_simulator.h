@@ -1,6 +1,6 @@
 // A virtual Universal Robots controller (CB3 3.x or e-Series 5.x) on loopback TCP, written
 // from Universal Robots' public documents — the same ones as the driver's codec
-// (instruments/ur_codec.h): "Real-Time Data Exchange (RTDE) Guide" (support article 22229,
+// (robots/ur_codec.h): "Real-Time Data Exchange (RTDE) Guide" (support article 22229,
 // protocol version 2), the "Client Interface" document and its Excel of packet layouts
 // (primary and secondary interfaces), "Dashboard Server CB-Series" and "Dashboard Server
 // e-Series". Four Boost.Asio acceptors on one io thread:
@@ -53,7 +53,7 @@
 #include <thread>
 #include <vector>
 
-#include "instruments/ur_codec.h"
+#include "robots/ur_codec.h"
 #include "programs/controller.h"
 #include "simulation/program_runner.h"
 #include "simulation/virtual_arm.h"
@@ -64,7 +64,7 @@ namespace armsig::simulation {
 struct UrSimulatorOptions {
   bool e_series = true;
   // PolyScope's version (CB3: 3.15.7.106331; e-Series: 5.11.1.108318) and its build date.
-  instruments::ur::SoftwareVersion software{5, 11, 1, 108318};
+  robots::ur::SoftwareVersion software{5, 11, 1, 108318};
   std::string build_date = "Nov 03 2021";
   std::string model = "UR10";
   std::string serial = "20183010001";
@@ -141,7 +141,7 @@ class UrSimulator {
   // `time_scale` (1 unless the wall could not keep up: at most one per 0.2 ms of wall time).
   static int Thinning(double frequency_hz, double time_scale);
   // The KinematicsInfo it sends (checksums computed from the table).
-  instruments::ur::primary::KinematicsInfo kinematics_info() const;
+  robots::ur::primary::KinematicsInfo kinematics_info() const;
 
  private:
   enum class Port { kRtde, kPrimary, kSecondary, kDashboard };

@@ -1,11 +1,11 @@
 // A virtual robot controller's monitor on a pseudo-terminal (VAL II / Kawasaki AS,
-// instruments/robot_codec.h): WHERE reads the VirtualLab's robot, DO JMOVE moves it.
+// robots/robot_codec.h): WHERE reads the VirtualLab's robot, DO JMOVE moves it.
 #pragma once
 
 #include <optional>
 #include <string>
 
-#include "instruments/robot_codec.h"
+#include "robots/robot_codec.h"
 #include "simulation/line_simulator.h"
 #include "simulation/virtual_lab.h"
 
@@ -14,7 +14,7 @@ namespace armsig::simulation {
 // VAL II / Kawasaki AS monitor: WHERE and DO JMOVE #[…].
 class ValSimulator : public LineSimulator {
  public:
-  using Layout = instruments::MonitorDialect;
+  using Layout = robots::MonitorDialect;
   ValSimulator(VirtualLab& lab, std::string link_path, Layout layout = Layout::kKawasakiAs,
                SimulatorOptions options = {});
   // Stops the io thread before this part of the object goes: it calls Handle and

@@ -73,7 +73,7 @@ acquisition::CaptureSummary CaptureWith(
     instruments::RobotController& controller, const acquisition::CaptureOptions& options) {
   try {
     const bool tracker = std::any_of(lab.instruments.begin(), lab.instruments.end(),
-                                     [](const auto& i) { return i.protocol == "emscon"; });
+                                     [](const auto& i) { return i.protocol == io::InstrumentProtocol::kEmScon; });
     if (tracker && !options.prediction_params) {
       acquisition::CaptureOptions with_signature = options;
       with_signature.prediction_params = ActiveParameters(db, lab, session);
@@ -102,7 +102,7 @@ std::vector<instruments::DeviceInfo> ProbeDevices(
       const instruments::DeviceInfo info = devices[i]->Identify();
       identities.push_back(info);
       spdlog::info("capture: station {}: {} on {}{}{}", config.station,
-                   info.name.empty() ? config.protocol : info.name, devices[i]->name(),
+                   info.name.empty() ? io::NameOf(config.protocol) : info.name, devices[i]->name(),
                    info.serial.empty() ? std::string() : ", serial " + info.serial,
                    info.firmware.empty() ? std::string() : ", firmware " + info.firmware);
     } catch (const std::exception& e) {
@@ -110,7 +110,7 @@ std::vector<instruments::DeviceInfo> ProbeDevices(
       throw std::runtime_error(fmt::format("station {}: the instrument does not answer ({}); "
                                            "check that it is on and its {}; nothing was stored",
                                            config.station, e.what(),
-                                           config.tcp.empty() ? "port" : "address"));
+                                           config.tcp ? "address" : "port"));
     }
   }
   // A laser tracker checks its reading convention now (the reflector where its beam is,

@@ -4,6 +4,7 @@
 #include <cstdint>
 #include <string>
 
+#include "db/sessions.h"
 #include "io/csv.h"
 
 namespace armsig::workflows {
@@ -31,9 +32,9 @@ struct ImportPosesRequest {
   bool decimal_comma = false;
   double length_scale = 1.0;     // factor to mm
   bool allow_duplicate = false;  // store a copy of poses a session of the robot already holds
-  // What the stored session is for (db::kSessionKinds): calibration data, an ISO 9283 test,
-  // or a check of a set where it was not fitted.
-  std::string kind = "calibration";
+  // What the stored session is for: calibration data, an ISO 9283 test, or a check of a set
+  // where it was not fitted.
+  db::SessionKind kind = db::SessionKind::kCalibration;
   io::ReadProgressFn progress;   // how far a pose table has been read
 };
 struct ImportPosesResult {

@@ -47,7 +47,7 @@ io::ControllerConfig NetworkControllerOf(const InstrumentRequest& o,
     throw InputError({"--port", 0, 0, ""}, o.protocol + " is reached over the network: give --tcp HOST[:PORT]");
   if (o.tcp.empty()) throw InputError({"--tcp", 0, 0, ""}, o.protocol + " needs --tcp HOST[:PORT]");
   io::ControllerConfig c;
-  c.protocol = o.protocol;
+  c.protocol = protocol.id;
   c.host = o.tcp;
   for (const auto& [key, port] : protocol.ports) c.ports[key] = port;
   if (const auto address = io::SplitHostPort(o.tcp)) {
@@ -86,12 +86,13 @@ io::ControllerConfig NetworkControllerOf(const InstrumentRequest& o,
   return c;
 }
 
-std::string ReadController(const InstrumentRequest& o, const instruments::RetryPolicy& policy) {
+std::string ReadController(const InstrumentRequest& o, io::ControllerProtocol protocol,
+                           const instruments::RetryPolicy& policy) {
   io::ControllerConfig config;
-  config.protocol = o.protocol;
+  config.protocol = protocol;
   config.port = o.port;
   config.baud = o.baud;
-  if (const auto* network = io::FindNetworkControllerProtocol(o.protocol))
+  if (const auto* network = io::FindNetworkControllerProtocol(protocol))
     config = NetworkControllerOf(o, *network);
   const auto robot = acquisition::OpenController(config, policy);
   if (o.action == "probe") {
@@ -142,22 +143,32 @@ std::string QueryInstrument(const InstrumentRequest& o) {
     throw InputError({"--port", 0, 0, ""}, "give --port PATH or --tcp HOST:PORT");
   instruments::RetryPolicy policy;
   policy.timeout = std::chrono::milliseconds(o.timeout_ms);
-  if (o.protocol == "kuka" && !io::FindNetworkControllerProtocol(o.protocol)) {
-    throw InputError({"--protocol", 0, 0, ""},
-                     o.protocol + ": this controller's driver is not built into armsig yet");
-  }
   if (!o.controller_ports.empty() && !io::FindNetworkControllerProtocol(o.protocol))
     throw InputError({"--controller-port", 0, 0, ""}, "only for a network controller (ur, …)");
   if (!o.controller_settings.empty() && !io::FindNetworkControllerProtocol(o.protocol)) {
     throw InputError({"--controller-setting", 0, 0, ""},
                      "only for a network controller (abb, …)");
   }
-  if (o.protocol == "val" || o.protocol == "as" || io::FindNetworkControllerProtocol(o.protocol))
-    return ReadController(o, policy);
+  if (const auto controller = io::ControllerProtocolNamed(o.protocol);
+      controller && *controller != io::ControllerProtocol::kCounter) {
+    return ReadController(o, *controller, policy);
+  }
   io::InstrumentConfig config;
-  config.protocol = o.protocol;
+  const auto protocol = io::InstrumentProtocolNamed(o.protocol);
+  if (!protocol) {
+    throw InputError({"--protocol", 0, 0, ""}, "unknown instrument protocol " + Quoted(o.protocol) +
+                                                   " (expected geocom, gsi or emscon)");
+  }
+  config.protocol = *protocol;
   config.port = o.port;
-  config.tcp = o.tcp;
+  if (!o.tcp.empty()) {
+    config.tcp = io::SplitHostPort(o.tcp);
+    if (!config.tcp) {
+      throw InputError({"--tcp", 0, 0, ""},
+                       Quoted(o.tcp) + ": expected HOST:PORT with a port from 1 to 65535" +
+                           (*protocol == io::InstrumentProtocol::kEmScon ? " (emScon servers listen on 700)" : ""));
+    }
+  }
   config.baud = o.baud;
   config.crc = o.crc;
   const auto device = acquisition::OpenInstrument(config, policy);

@@ -247,7 +247,7 @@ bool SameMeasurement(const std::vector<MeasuredPose>& a, const std::vector<Measu
 }  // namespace
 
 PosesSessionWriter::PosesSessionWriter(db::Database& database, const std::string& robot,
-                                       const std::string& source, const std::string& kind)
+                                       const std::string& source, db::SessionKind kind)
     : database_(database),
       robot_(robot),
       source_(source),
@@ -260,7 +260,7 @@ PosesSessionWriter::PosesSessionWriter(db::Database& database, const std::string
                                // The file name is input: shown in the note, never obeyed.
                                std::string(TruncateUtf8("poses imported from " + Printable(source),
                                                         plausible::kMaxNoteLength)));
-  if (kind != "calibration") db::SetSessionKind(database, session_, kind);
+  if (kind != db::SessionKind::kCalibration) db::SetSessionKind(database, session_, kind);
 }
 
 void PosesSessionWriter::Add(const MeasuredPose& pose, const Eigen::Matrix3d* covariance_mm2) {
@@ -369,7 +369,7 @@ StoredPoses StorePosesSession(db::Database& database, const std::string& robot,
                               const std::vector<MeasuredPose>& poses, const std::string& source,
                               bool allow_duplicate,
                               const std::vector<Eigen::Matrix3d>& covariances_mm2,
-                              const std::string& kind) {
+                              db::SessionKind kind) {
   PosesSessionWriter writer(database, robot, source, kind);
   for (size_t k = 0; k < poses.size(); ++k)
     writer.Add(poses[k], k < covariances_mm2.size() ? &covariances_mm2[k] : nullptr);
@@ -580,23 +580,19 @@ std::string OneLineOrTwo(const std::string& line, const std::string& more, int i
 
 }  // namespace
 
-std::string SetSessionKind(db::Database& database, int64_t session_id, const std::string& kind) {
-  if (!db::IsSessionKind(kind)) {
-    throw InputError({"kind", 0, 0, ""},
-                     "expected calibration, check or test, got " + Quoted(kind));
-  }
+db::SessionKind SetSessionKind(db::Database& database, int64_t session_id, db::SessionKind kind) {
   db::WriteTransaction tx(database);
   if (!db::SessionExists(database, session_id)) {
     throw InputError({database.path(), 0, 0, "session"},
                      fmt::format("no session {} ({})", session_id,
                                  Hint(database.path(), {"sessions"})));
   }
-  std::string was = "calibration";
-  for (const auto& s : db::ListSessions(database, std::nullopt)) {
-    if (s.id == session_id) was = s.kind;
-  }
+  const db::SessionKind was = db::LoadSession(database, session_id)->kind;
   db::SetSessionKind(database, session_id, kind);
-  if (was != kind) db::AppendSessionNote(database, session_id, "kind " + was + " -> " + kind);
+  if (was != kind) {
+    db::AppendSessionNote(database, session_id,
+                          std::string("kind ") + db::ToString(was) + " -> " + db::ToString(kind));
+  }
   tx.commit();
   return was;
 }
@@ -610,7 +606,7 @@ std::string FormatSessions(const std::vector<ListedSession>& sessions, bool json
     // (a width-wrap had cut "2773 | usable" apart).
     text += OneLineOrTwo(
         fmt::format("{:>4}  {:<14} {:<9} {:<11} {}", s.id, Printable(s.robot), Printable(s.shown_state),
-                    Printable(s.kind), Printable(TimeToTheSecond(s.started_at))),
+                    db::ToString(s.kind), Printable(TimeToTheSecond(s.started_at))),
         fmt::format("{} measured, {} skipped, {} usable, {} flagged", s.measured, s.skipped,
                     s.usable, s.flagged),
         6);
@@ -676,7 +672,7 @@ nlohmann::json ToJson(const ListedSession& s) {
   return {{"id", s.id},
           {"robot", s.robot},
           {"state", s.shown_state},
-          {"kind", s.kind},
+          {"kind", db::ToString(s.kind)},
           {"owner", owner},
           {"note", s.note},
           {"started_at", s.started_at},

@@ -58,7 +58,7 @@ StoredPoses StorePosesSession(db::Database& database, const std::string& robot,
                               const std::vector<MeasuredPose>& poses, const std::string& source,
                               bool allow_duplicate = false,
                               const std::vector<Eigen::Matrix3d>& covariances_mm2 = {},
-                              const std::string& kind = "calibration");
+                              db::SessionKind kind = db::SessionKind::kCalibration);
 
 // StorePosesSession one pose at a time (a file read row by row): the write transaction and
 // the session begin with the writer, each Add stores a pose, Finish commits (or, when the
@@ -72,7 +72,7 @@ StoredPoses StorePosesSession(db::Database& database, const std::string& robot,
 class PosesSessionWriter {
  public:
   PosesSessionWriter(db::Database& database, const std::string& robot, const std::string& source,
-                     const std::string& kind = "calibration");
+                     db::SessionKind kind = db::SessionKind::kCalibration);
   void Add(const MeasuredPose& pose, const Eigen::Matrix3d* covariance_mm2 = nullptr);
   StoredPoses Finish(bool allow_duplicate);
   size_t poses() const { return count_; }
@@ -119,10 +119,10 @@ std::vector<ListedSession> Sessions(db::Database& database, const std::string& r
 db::SessionState DiscardSession(db::Database& database, int64_t session_id,
                                 const std::string& reason);
 db::SessionState RestoreSession(db::Database& database, int64_t session_id);
-// What a session is for (db::kSessionKinds): the nightly job fits `calibration` sessions only
+// What a session is for (db::SessionKind): the nightly job fits `calibration` sessions only
 // (unless `recalibrate --kinds` says otherwise) and tries a new set on the others. The change
 // is noted on the session. Returns the kind it had.
-std::string SetSessionKind(db::Database& database, int64_t session_id, const std::string& kind);
+db::SessionKind SetSessionKind(db::Database& database, int64_t session_id, db::SessionKind kind);
 
 struct VersionInfo {
   int version = 0;

@@ -12,7 +12,7 @@
 
 #include "acquisition/lab.h"
 #include "acquisition/session.h"
-#include "instruments/abb_controller.h"
+#include "robots/abb_controller.h"
 #include "core/units.h"
 #include "db/database.h"
 #include "db/store.h"
@@ -29,7 +29,7 @@ namespace armsig::acquisition {
 namespace {
 
 using namespace std::chrono_literals;
-namespace rws = instruments::rws;
+namespace rws = robots::rws;
 
 constexpr int kAbbConfigurations = 5;
 // RAPID nums are floats: a target and the joints the module records keep ~7 digits (2e-5°
@@ -304,9 +304,9 @@ TEST_F(AbbCaptureFixture, MotorsOffThenAWrongPasswordLoseNothingAndNameTheContro
   try {
     workflows::CaptureInto(db, Lab(), session, {});
     FAIL() << "resumed with a wrong password";
-  } catch (const instruments::AbbFault& e) {
+  } catch (const robots::AbbFault& e) {
     const std::string what = e.what();
-    EXPECT_EQ(e.kind(), instruments::AbbFault::Kind::kCredentials);
+    EXPECT_EQ(e.kind(), robots::AbbFault::Kind::kCredentials);
     EXPECT_NE(what.find("ABB controller at 127.0.0.1:"), std::string::npos) << what;
     EXPECT_NE(what.find("refused the user 'armsig'"), std::string::npos) << what;
     EXPECT_NE(what.find("the credentials file " + dir_.File("abb.yaml")), std::string::npos)

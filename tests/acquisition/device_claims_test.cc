@@ -29,10 +29,10 @@ io::LabConfig TwoDeviceLab() {
   lab.source = "lab.yaml";
   io::InstrumentConfig tracker;
   tracker.station = "LT1";
-  tracker.protocol = "emscon";
-  tracker.tcp = "127.0.0.1:7000";
+  tracker.protocol = io::InstrumentProtocol::kEmScon;
+  tracker.tcp = io::HostPort{"127.0.0.1", 7000};
   lab.instruments.push_back(tracker);
-  lab.controller.protocol = "val";
+  lab.controller.protocol = io::ControllerProtocol::kValII;
   lab.controller.port = "/dev/ttyS47";
   return lab;
 }

@@ -57,12 +57,13 @@ TEST_F(LabFile, LoadsEverythingItGives) {
   const LabConfig lab = LoadLab(Path("lab.yaml"));
   EXPECT_EQ(lab.model.num_joints(), 6);
   EXPECT_EQ(lab.model_yaml, testing::ReadText(testing::SourcePath("models/puma760.yaml")));
-  EXPECT_EQ(lab.controller.protocol, "as");
+  EXPECT_EQ(lab.controller.protocol, ControllerProtocol::kKawasakiAs);
   EXPECT_EQ(lab.controller.port, "/dev/ttyS0");
   EXPECT_TRUE(lab.controller.can_move);
   ASSERT_EQ(lab.instruments.size(), 2u);
   EXPECT_EQ(lab.instruments[0].sigma_hz_arcsec, 0.3);
-  EXPECT_EQ(lab.instruments[1].tcp, "192.168.0.12:1212");
+  ASSERT_TRUE(lab.instruments[1].tcp);
+  EXPECT_EQ(lab.instruments[1].tcp->Text(), "192.168.0.12:1212");
   ASSERT_EQ(lab.stations.size(), 2u);
   EXPECT_EQ(lab.stations[1].pose.position_mm.x(), 3000.0);
   EXPECT_DOUBLE_EQ(lab.stations[1].pose.azimuth_rad, kPi / 2);
@@ -234,8 +235,9 @@ TEST(LabSettings, TrackerInstrumentsAndTheRobotBase) {
       "tolerances: {max_sigma_mm: 0.03, max_repeat_sigma: 3.5}\n";
   const LabSettings s = ParseLabSettings(text, "lab.yaml");
   ASSERT_EQ(s.instruments.size(), 2u);
-  EXPECT_EQ(s.instruments[0].protocol, "emscon");
-  EXPECT_EQ(s.instruments[0].tcp, "192.168.0.20:700");
+  EXPECT_EQ(s.instruments[0].protocol, io::InstrumentProtocol::kEmScon);
+  ASSERT_TRUE(s.instruments[0].tcp);
+  EXPECT_EQ(s.instruments[0].tcp->Text(), "192.168.0.20:700");
   EXPECT_TRUE(s.instruments[0].distance);
   EXPECT_EQ(s.instruments[0].measurement_time_ms, 250);
   EXPECT_FALSE(s.instruments[1].distance);
@@ -294,12 +296,12 @@ TEST(LabSettings, FormattedTrackerLabReadsBack) {
   io::LabFile lab;
   lab.model_path = "puma760.yaml";
   lab.stations_path = "stations.yaml";
-  lab.controller.protocol = "as";
+  lab.controller.protocol = ControllerProtocol::kKawasakiAs;
   lab.controller.port = "/dev/pts/3";
   InstrumentConfig tracker;
   tracker.station = "LT1";
-  tracker.protocol = "emscon";
-  tracker.tcp = "127.0.0.1:7000";
+  tracker.protocol = io::InstrumentProtocol::kEmScon;
+  tracker.tcp = io::HostPort{"127.0.0.1", 7000};
   tracker.distance = true;
   tracker.measurement_time_ms = 200;
   lab.instruments.push_back(tracker);
@@ -317,8 +319,9 @@ TEST(LabSettings, FormattedTrackerLabReadsBack) {
   EXPECT_LT((s.robot_base->matrix() - base.matrix()).cwiseAbs().maxCoeff(), 1e-9);
   EXPECT_EQ(s.tolerances.max_joint_error_deg, 0.25);
   ASSERT_EQ(s.instruments.size(), 1u);
-  EXPECT_EQ(s.instruments[0].protocol, "emscon");
-  EXPECT_EQ(s.instruments[0].tcp, "127.0.0.1:7000");
+  EXPECT_EQ(s.instruments[0].protocol, io::InstrumentProtocol::kEmScon);
+  ASSERT_TRUE(s.instruments[0].tcp);
+  EXPECT_EQ(s.instruments[0].tcp->Text(), "127.0.0.1:7000");
   EXPECT_EQ(s.instruments[0].measurement_time_ms, 200);
   EXPECT_EQ(s.tolerances.max_sigma_mm, 0.02);
 }
@@ -400,7 +403,7 @@ std::string UrRefusal(const std::string& controller) {
 TEST(NetworkControllers, AUrIsItsHostAndItsInterfacesPortsWithUrsDefaults) {
   const auto lab = UrLab("{protocol: ur, host: 192.168.0.20, can_move: true}");
   const ControllerConfig& c = lab.controller;
-  EXPECT_EQ(c.protocol, "ur");
+  EXPECT_EQ(c.protocol, ControllerProtocol::kUr);
   EXPECT_EQ(c.host, "192.168.0.20");
   EXPECT_TRUE(c.can_move);
   EXPECT_EQ(c.Port("rtde_port"), 30004);
@@ -448,7 +451,7 @@ TEST(NetworkControllers, KeysOfAnotherProtocolOrMisspeltOnesAreRefusedByName) {
 // acceleration as written; no credentials (a variable server asks for none), no UR ports.
 TEST(NetworkControllers, AKukaIsItsHostItsVariableServerPortAndArmsigsSettings) {
   auto c = UrLab("{protocol: kuka, host: 192.168.1.147, can_move: true}").controller;
-  EXPECT_EQ(c.protocol, "kuka");
+  EXPECT_EQ(c.protocol, ControllerProtocol::kKuka);
   EXPECT_EQ(c.host, "192.168.1.147");
   EXPECT_EQ(c.Port("variable_server_port"), 7000);
   EXPECT_TRUE(c.settings.empty());
@@ -467,15 +470,15 @@ TEST(NetworkControllers, AFormattedUrLabReadsBackTheSame) {
   ::armsig::io::LabFile file;
   file.model_path = "ur10.yaml";
   file.stations_path = "stations.yaml";
-  file.controller.protocol = "ur";
+  file.controller.protocol = ControllerProtocol::kUr;
   file.controller.host = "127.0.0.1";
   file.controller.can_move = true;
   file.controller.ports = {{"rtde_port", 41000}, {"primary_port", 30001},
                            {"secondary_port", 41002}, {"dashboard_port", 41003}};
   InstrumentConfig tracker;
   tracker.station = "LT1";
-  tracker.protocol = "emscon";
-  tracker.tcp = "127.0.0.1:700";
+  tracker.protocol = io::InstrumentProtocol::kEmScon;
+  tracker.tcp = io::HostPort{"127.0.0.1", 700};
   tracker.distance = true;
   file.instruments = {tracker};
   const std::string text = FormatLabYaml(file);

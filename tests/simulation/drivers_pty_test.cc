@@ -8,7 +8,7 @@
 #include "calibration/synthetic.h"
 #include "instruments/geocom_device.h"
 #include "instruments/gsi_device.h"
-#include "instruments/robot_controllers.h"
+#include "robots/robot_controllers.h"
 #include "reduction/intersection.h"
 #include "reduction/observation.h"
 #include "simulation/counter_simulator.h"
@@ -216,7 +216,7 @@ TEST_F(PtyLab, ValAndKawasakiControllersReadAndMove) {
     ValSimulator sim(lab_, dir_.File(layout == ValSimulator::Layout::kValII ? "val" : "as"), layout,
                      options_);
     sim.Start();
-    instruments::ValController robot(Port(sim.path()), true, policy_);
+    robots::ValController robot(Port(sim.path()), true, policy_);
     const Eigen::VectorXd q = robot.ReadJointsRad();
     EXPECT_LT((q - lab_.Joints()).cwiseAbs().maxCoeff(), 1e-5);  // 0.001° printed
     Eigen::VectorXd target(6);
@@ -229,7 +229,7 @@ TEST_F(PtyLab, ValAndKawasakiControllersReadAndMove) {
 }
 
 TEST_F(PtyLab, CounterBoxReadsCoupledJoints) {
-  instruments::EncoderCalibration c;
+  robots::EncoderCalibration c;
   c.counts_per_rad = Eigen::VectorXd::Constant(6, 10000.0);
   c.counts_per_rad(0) = -9965.0;
   c.offset_rad = Eigen::VectorXd::Constant(6, 0.05);
@@ -243,7 +243,7 @@ TEST_F(PtyLab, CounterBoxReadsCoupledJoints) {
     sims.back()->Start();
     ports.push_back(Port(sims.back()->path()));
   }
-  instruments::CounterBox box(std::move(ports), c, policy_);
+  robots::CounterBox box(std::move(ports), c, policy_);
   EXPECT_LT((box.ReadJointsRad() - lab_.Joints()).cwiseAbs().maxCoeff(), 2e-4);  // one count
   EXPECT_THROW(box.MoveTo(Eigen::VectorXd::Zero(6)), InstrumentError);
   sims[2]->InjectOnce({Fault::kErrorCode, 0});

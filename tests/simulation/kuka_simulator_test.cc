@@ -10,7 +10,7 @@
 #include <numbers>
 #include <thread>
 
-#include "instruments/kuka_controller.h"
+#include "robots/kuka_controller.h"
 #include "io/model_yaml.h"
 #include "test_support.h"
 
@@ -18,7 +18,7 @@ namespace armsig::simulation {
 namespace {
 
 using instruments::ControllerError;
-using instruments::KukaController;
+using robots::KukaController;
 using Kind = instruments::ControllerError::Kind;
 using namespace std::chrono_literals;
 
@@ -53,7 +53,7 @@ class KukaCell : public ::testing::Test {
     controller_ = Connect();
   }
 
-  std::unique_ptr<KukaController> Connect(instruments::KukaOptions options = {}) {
+  std::unique_ptr<KukaController> Connect(robots::KukaOptions options = {}) {
     instruments::RetryPolicy policy;
     policy.attempts = 3;
     policy.timeout = 1000ms;
@@ -62,7 +62,7 @@ class KukaCell : public ::testing::Test {
     options.accept_timeout = 300ms;
     options.move_timeout = 20s;
     return std::make_unique<KukaController>(
-        instruments::MakeFramedTcpTransport("127.0.0.1", sim_->port(), instruments::kuka::kResponseFrames), true, policy, options);
+        instruments::MakeFramedTcpTransport("127.0.0.1", sim_->port(), robots::kuka::kResponseFrames), true, policy, options);
   }
 
   // MoveTo on another thread, returned once the controller has taken the command.
@@ -292,7 +292,7 @@ TEST_F(KukaCell, RunsAProgramFromItsFolderAndNamesWhatItRefuses) {
   testing::WriteText(dir.File("Probe.src"),
                      "DEF probe( )\n  $TOOL = {X 0, Y 0, Z 0, A 0, B 0, C 0}\n  PTP {A1 10, A2 -80, A3 80, A4 0, A5 20, A6 0}\n  WAIT SEC 1\nEND\n");
   testing::WriteText(dir.File("Broken.src"), "DEF broken( )\n  PTP {A1 10\n");
-  instruments::CopyToProgramFolder({dir.File("Probe.src"), dir.File("Broken.src")}, options.program_folder);
+  robots::CopyToProgramFolder({dir.File("Probe.src"), dir.File("Broken.src")}, options.program_folder);
 
   const int64_t run = controller_->RunProgram("probe");
   EXPECT_NO_THROW(testing::WaitUntil([&] { return !controller_->ProgramRunning(run, "probe"); }))

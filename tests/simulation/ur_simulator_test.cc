@@ -1,4 +1,4 @@
-// The UR driver (instruments/ur_device.h) against the virtual UR controller over loopback
+// The UR driver (robots/ur_device.h) against the virtual UR controller over loopback
 // TCP, Boost.Asio on both ends: who it is and its kinematics, RTDE at 125 Hz (CB3) and
 // 500 Hz (e-Series), moves that take the arm's physical time, and every fault a lab meets —
 // each named by its kind, with what the operator must do. The simulator runs 100 times
@@ -16,7 +16,7 @@
 #include "core/units.h"
 #include "instruments/frame_splitter.h"
 #include "instruments/packet_transport.h"
-#include "instruments/ur_device.h"
+#include "robots/ur_device.h"
 #include "programs/controller.h"
 #include "simulation/virtual_lab.h"
 #include "test_support.h"
@@ -48,8 +48,8 @@ class UrFixture : public ::testing::Test {
     sim_ = std::make_unique<UrSimulator>(*lab_, o);
     sim_->Start();
   }
-  std::unique_ptr<instruments::UrController> Driver(int timeout_ms = 2000) {
-    instruments::UrOptions o;
+  std::unique_ptr<robots::UrController> Driver(int timeout_ms = 2000) {
+    robots::UrOptions o;
     o.host = "127.0.0.1";
     o.rtde_port = sim_->ports().rtde;
     o.primary_port = sim_->ports().primary;
@@ -59,7 +59,7 @@ class UrFixture : public ::testing::Test {
     instruments::RetryPolicy p;
     p.timeout = std::chrono::milliseconds(timeout_ms);
     p.reconnect_delay = 20ms;
-    return std::make_unique<instruments::UrController>(o, p);
+    return std::make_unique<robots::UrController>(o, p);
   }
   // What the controller's error says, by kind (another exception fails the test).
   template <typename F>
@@ -139,10 +139,10 @@ TEST_F(UrFixture, DataPackagesComeEveryPeriodOfTheRecipe) {
     sim_->Start();
     const double hz = e_series ? 500.0 : 125.0;
     auto t = instruments::MakeFramedTcpTransport("127.0.0.1", sim_->ports().rtde,
-                                                 instruments::ur::rtde::kFrames);
+                                                 robots::ur::rtde::kFrames);
     t->Open();
     const auto deadline = instruments::Clock::now() + 2s;
-    namespace rtde = instruments::ur::rtde;
+    namespace rtde = robots::ur::rtde;
     std::string why;
     t->Write(rtde::RequestProtocolVersion(2), deadline);
     EXPECT_EQ(rtde::DecodeAccepted(rtde::Decode(t->ReadPacket(deadline), &why)->payload), true);
@@ -190,7 +190,7 @@ TEST_F(UrFixture, AMoveTakesTheArmsTimeAndEndsAtItsTarget) {
   const double before = sim_->arm().Now().t;
   ur->MoveTo(target);
   const double after = sim_->arm().Now().t;
-  const double duration = instruments::ur::MoveJDuration(0.6, 1.4, 1.05);
+  const double duration = robots::ur::MoveJDuration(0.6, 1.4, 1.05);
   // No faster than physics allows (wall-time delays only add to it).
   EXPECT_GE(after - before, duration);
   EXPECT_GE(ur->statistics().last_move_s, duration);
@@ -337,16 +337,16 @@ TEST_F(UrFixture, ARecalibratedControllerGivesAnotherChecksum) {
 // The lines of a program sent as text to the controller's primary or secondary interface,
 // as a lab's PC sends them; then every message the controller sends back until `until`
 // holds of one (or the connection closes).
-std::vector<instruments::ur::primary::Message> SendProgram(
+std::vector<robots::ur::primary::Message> SendProgram(
     unsigned short port, const std::string& program,
-    const std::function<bool(const instruments::ur::primary::Message&)>& until) {
+    const std::function<bool(const robots::ur::primary::Message&)>& until) {
   namespace asio = boost::asio;
   asio::io_context io;
   asio::ip::tcp::socket socket(io);
   socket.connect({asio::ip::make_address("127.0.0.1"), port});
   asio::write(socket, asio::buffer(program));
-  std::vector<instruments::ur::primary::Message> got;
-  instruments::FrameSplitter splitter(instruments::ur::primary::kFrames);
+  std::vector<robots::ur::primary::Message> got;
+  instruments::FrameSplitter splitter(robots::ur::primary::kFrames);
   char chunk[4096];
   boost::system::error_code ec;
   while (!ec) {
@@ -356,7 +356,7 @@ std::vector<instruments::ur::primary::Message> SendProgram(
     int32_t size = 0;
     while (splitter.Next(frame, &size) == instruments::FrameSplitter::Status::kFrame) {
       std::string why;
-      if (auto m = instruments::ur::primary::Decode(frame, &why)) {
+      if (auto m = robots::ur::primary::Decode(frame, &why)) {
         got.push_back(*m);
         if (until(*m)) return got;
       }
@@ -416,8 +416,8 @@ TEST_F(UrFixture, AWholeProgramSentAsTextRunsItsMotionsInOrder) {
 TEST_F(UrFixture, AProgramItCannotReadIsAnsweredAndNotRun) {
   Start();
   const auto got = SendProgram(sim_->ports().primary, "def bad():\n  textmsg(\"never ends)\n  movej([0,0,0,0,0,0])\nend\n",
-                               [](const instruments::ur::primary::Message& m) {
-                                 return m.message_type == instruments::ur::primary::kRuntimeExceptionMessage;
+                               [](const robots::ur::primary::Message& m) {
+                                 return m.message_type == robots::ur::primary::kRuntimeExceptionMessage;
                                });
   ASSERT_FALSE(got.empty());
   ASSERT_TRUE(got.back().text);
@@ -426,8 +426,8 @@ TEST_F(UrFixture, AProgramItCannotReadIsAnsweredAndNotRun) {
   // A secondary program that would move the arm: refused as the controller refuses it.
   const auto moving = SendProgram(sim_->ports().secondary,
                                   "sec s():\n  movej([0, -1.57, 1.57, -1.57, -1.57, 0])\nend\n",
-                                  [](const instruments::ur::primary::Message& m) {
-                                    return m.message_type == instruments::ur::primary::kRuntimeExceptionMessage;
+                                  [](const robots::ur::primary::Message& m) {
+                                    return m.message_type == robots::ur::primary::kRuntimeExceptionMessage;
                                   });
   ASSERT_FALSE(moving.empty());
   ASSERT_TRUE(moving.back().text);
@@ -436,8 +436,8 @@ TEST_F(UrFixture, AProgramItCannotReadIsAnsweredAndNotRun) {
   // A program whose end never comes: dropped, and said so, past 1 MiB.
   std::string endless = "def endless():\n";
   while (endless.size() <= (1u << 20)) endless += "  textmsg(\"waiting\")\n";
-  const auto dropped = SendProgram(sim_->ports().primary, endless, [](const instruments::ur::primary::Message& m) {
-    return m.message_type == instruments::ur::primary::kRuntimeExceptionMessage;
+  const auto dropped = SendProgram(sim_->ports().primary, endless, [](const robots::ur::primary::Message& m) {
+    return m.message_type == robots::ur::primary::kRuntimeExceptionMessage;
   });
   ASSERT_FALSE(dropped.empty());
   ASSERT_TRUE(dropped.back().text);

@@ -137,7 +137,7 @@ TEST(SessionsText, CountsStayWholeAndEveryLineFits) {
   s.robot = "ur10";
   s.state = db::SessionState::kCompleted;
   s.shown_state = "completed";
-  s.kind = "calibration";
+  s.kind = db::SessionKind::kCalibration;
   s.started_at = "2026-11-28T19:56:20.123Z";
   s.measured = s.usable = 2773;
   s.note = "poses imported from tests/data/ur10-ipa/series_C-measurements_random_poses.csv";

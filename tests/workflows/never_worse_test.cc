@@ -104,12 +104,12 @@ TEST_F(NeverWorse, TestAndCheckSessionsAreFittedOnlyWhenAsked) {
     AddSession(database, calibration::PaperTable3Parameters(), 150, 3);
     AddSession(database, calibration::PaperTable3Parameters(), 150, 4);
     AddSession(database, calibration::PaperTable3Parameters(), 150, 5);
-    workflows::SetSessionKind(database, 2, "test");
-    workflows::SetSessionKind(database, 3, "check");
+    workflows::SetSessionKind(database, 2, db::SessionKind::kTest);
+    workflows::SetSessionKind(database, 3, db::SessionKind::kCheck);
     const auto sessions = db::ListSessions(database, std::nullopt);
-    EXPECT_EQ(sessions[1].kind, "test");
-    EXPECT_EQ(sessions[2].kind, "check");
-    EXPECT_THROW(workflows::SetSessionKind(database, 1, "tset"), InputError);
+    EXPECT_EQ(sessions[1].kind, db::SessionKind::kTest);
+    EXPECT_EQ(sessions[2].kind, db::SessionKind::kCheck);
+    EXPECT_FALSE(db::SessionKindNamed("tset"));
   }
   const auto night = workflows::Recalibrate(Options(Path()));
   ASSERT_EQ(night.outcome, Outcome::kStored) << night.Describe();
@@ -122,7 +122,7 @@ TEST_F(NeverWorse, TestAndCheckSessionsAreFittedOnlyWhenAsked) {
     EXPECT_LT(e.new_mean_mm, 0.1 * e.reference_mean_mm);
   }
   auto options = Options(Path());
-  options.kinds = {"calibration", "test"};
+  options.kinds = {db::SessionKind::kCalibration, db::SessionKind::kTest};
   const auto asked = workflows::Recalibrate(options);
   EXPECT_EQ(asked.sessions, (std::vector<int64_t>{1, 2}));
 }
@@ -206,11 +206,11 @@ class Door : public ::testing::Test {
 
 TEST_F(Door, TheRobotsOwnPosesAreStoredWithTheirKind) {
   auto r = Request(TruePoses(40, 10));
-  r.kind = "check";
+  r.kind = db::SessionKind::kCheck;
   const auto stored = workflows::ImportPosesFile(r);
   EXPECT_EQ(stored.poses, 40u);
   db::Database database(dir_.File("lab.db"));
-  EXPECT_EQ(db::ListSessions(database, std::nullopt).at(0).kind, "check");
+  EXPECT_EQ(db::ListSessions(database, std::nullopt).at(0).kind, db::SessionKind::kCheck);
 }
 
 TEST_F(Door, AnotherRobotsPosesAreRefusedAndNothingIsStored) {

@@ -33,11 +33,11 @@
 #include "db/robots.h"
 #include "db/sessions.h"
 #include "db/store.h"
-#include "instruments/abb_controller.h"
+#include "robots/abb_controller.h"
 #include "instruments/emscon_device.h"
-#include "instruments/kuka_controller.h"
+#include "robots/kuka_controller.h"
 #include "instruments/packet_transport.h"
-#include "instruments/ur_device.h"
+#include "robots/ur_device.h"
 #include "io/model_export.h"
 #include "io/model_yaml.h"
 #include "programs/krl.h"
@@ -317,13 +317,13 @@ class UrProgramLab {
     o.time_scale = kTimeScale;
     ur_ = std::make_unique<simulation::UrSimulator>(lab_.lab(), o);
     ur_->Start();
-    instruments::UrOptions u;
+    robots::UrOptions u;
     u.host = "127.0.0.1";
     u.rtde_port = ur_->ports().rtde;
     u.primary_port = ur_->ports().primary;
     u.secondary_port = ur_->ports().secondary;
     u.dashboard_port = ur_->ports().dashboard;
-    driver_ = std::make_unique<instruments::UrController>(u);
+    driver_ = std::make_unique<robots::UrController>(u);
   }
 
   // Sends `program` to the controller and measures where the arm stands at each of the
@@ -344,7 +344,7 @@ class UrProgramLab {
  private:
   TrackerLab lab_;
   std::unique_ptr<simulation::UrSimulator> ur_;
-  std::unique_ptr<instruments::UrController> driver_;
+  std::unique_ptr<robots::UrController> driver_;
 };
 
 TEST_F(ProgramsOnVirtualRobots, Ur10CompensatedUrScriptLandsWithinTheNoiseFloorOnTheUrController) {
@@ -435,12 +435,12 @@ class KukaProgramLab {
     o.config = std::move(config);
     kuka_ = std::make_unique<simulation::KukaSimulator>(lab_.lab(), "127.0.0.1", 0, o);
     kuka_->Start();
-    driver_ = std::make_unique<instruments::KukaController>(
-        instruments::MakeFramedTcpTransport("127.0.0.1", kuka_->port(), instruments::kuka::kResponseFrames), false);
+    driver_ = std::make_unique<robots::KukaController>(
+        instruments::MakeFramedTcpTransport("127.0.0.1", kuka_->port(), robots::kuka::kResponseFrames), false);
   }
 
   std::vector<Eigen::Vector3d> Run(const std::vector<std::string>& files, const std::string& name, int targets) {
-    instruments::CopyToProgramFolder(files, folder_);
+    robots::CopyToProgramFolder(files, folder_);
     const Eigen::VectorXd before = driver_->ReadJointsRad();
     const int64_t run = driver_->RunProgram(name);
     auto standing = [&]() -> std::optional<Eigen::VectorXd> {
@@ -461,7 +461,7 @@ class KukaProgramLab {
   TrackerLab lab_;
   std::string folder_;
   std::unique_ptr<simulation::KukaSimulator> kuka_;
-  std::unique_ptr<instruments::KukaController> driver_;
+  std::unique_ptr<robots::KukaController> driver_;
 };
 
 TEST_F(ProgramsOnVirtualRobots, KukaCompensatedKrlLandsWithinTheNoiseFloorOnTheKukaController) {
@@ -541,7 +541,7 @@ TEST_F(ProgramsOnVirtualRobots, KukaCompensatedKrlLandsWithinTheNoiseFloorOnTheK
 }
 
 // The virtual ABB controller (Robot Web Services 1.0, as an IRC5 serves it) in the lab. The
-// program reaches it as a lab sends one (instruments/abb_controller.h LoadProgram): uploaded
+// program reaches it as a lab sends one (robots/abb_controller.h LoadProgram): uploaded
 // to $HOME, loaded into T_ROB1, the program pointer set to its routine, started once; the
 // jointtarget resource read twice alike is the arm standing (its two decimals tell a new
 // place from the last).
@@ -549,16 +549,16 @@ class AbbProgramLab {
  public:
   AbbProgramLab(const DemoRobot& r, const Eigen::Isometry3d& tool) : lab_(r, tool) {
     simulation::RwsSimulatorOptions o;
-    o.version = instruments::rws::Version::kRws1;
+    o.version = robots::rws::Version::kRws1;
     o.time_scale = kTimeScale;
     rws_ = std::make_unique<simulation::RwsSimulator>(lab_.lab(), o);
     rws_->Start();
-    instruments::AbbSettings s;
+    robots::AbbSettings s;
     s.version = o.version;
-    s.representation = instruments::rws::Representation::kXhtml;
+    s.representation = robots::rws::Representation::kXhtml;
     s.user = o.user;
     s.password = o.password;
-    driver_ = std::make_unique<instruments::AbbController>(s, instruments::MakeHttpTransport("127.0.0.1", rws_->port()));
+    driver_ = std::make_unique<robots::AbbController>(s, robots::MakeHttpTransport("127.0.0.1", rws_->port()));
   }
 
   std::vector<Eigen::Vector3d> Run(const std::string& file, const std::string& text, const std::string& module,
@@ -582,7 +582,7 @@ class AbbProgramLab {
  private:
   TrackerLab lab_;
   std::unique_ptr<simulation::RwsSimulator> rws_;
-  std::unique_ptr<instruments::AbbController> driver_;
+  std::unique_ptr<robots::AbbController> driver_;
 };
 
 TEST_F(ProgramsOnVirtualRobots, AbbCompensatedRapidLandsWithinTheNoiseFloorOnTheRwsController) {
