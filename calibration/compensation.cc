@@ -63,7 +63,10 @@ JointSolution SolveJoints(const RobotModel& model, const Eigen::Isometry3d& worl
     // ∂x/∂θ̄ (encoder angles): the joint Jacobian; the terms' and the curves' own dependence
     // on the angles is second order (a coefficient times a basis's slope) and left to the
     // iteration.
-    if (jacobian) *jacobian = kin.JointJacobian();
+    if (jacobian) {
+      jacobian->resize(3, n);
+      kin.WriteJointJacobian(*jacobian);
+    }
     if (map) {
       const MapPrediction p = map->PredictWithJacobian(q.data(), map_jacobian);
       s.map_extrapolated = !(p.supported && curves_inside);
@@ -74,12 +77,13 @@ JointSolution SolveJoints(const RobotModel& model, const Eigen::Isometry3d& worl
   };
   Eigen::MatrixXd j;
   StallWatch watch;
+  DampedStepper stepper;
   for (; s.iterations < options.max_iterations; ++s.iterations) {
     const Eigen::Vector3d x = position(s.joints_rad, &j);
     const Eigen::Vector3d e = target_mm - x;
     s.residual_mm = e.norm();
     if (s.residual_mm < options.tolerance_mm) break;
-    s.joints_rad += DampedJointStep(j, e, s.residual_mm, options);
+    s.joints_rad += stepper.Step(j, e, s.residual_mm, options);
     if (watch.Stalled(s.residual_mm)) break;
   }
   s.residual_mm = (target_mm - position(s.joints_rad, nullptr)).norm();

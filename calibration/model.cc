@@ -361,10 +361,13 @@ Eigen::Vector3d Kinematics::PoseAndJacobian(
 }
 
 Eigen::Matrix<double, 3, Eigen::Dynamic> Kinematics::JointJacobian() const {
-  const int n = model_.num_joints();
-  Eigen::Matrix<double, 3, Eigen::Dynamic> j(3, n);
-  for (int i = 0; i < n; ++i) j.col(i) = g_rot_[i].col(2).cross(x_ - h_origin_[i]);
+  Eigen::Matrix<double, 3, Eigen::Dynamic> j(3, model_.num_joints());
+  WriteJointJacobian(j);
   return j;
+}
+
+void Kinematics::WriteJointJacobian(Eigen::Ref<Eigen::Matrix<double, 3, Eigen::Dynamic>> jacobian) const {
+  for (int i = 0; i < model_.num_joints(); ++i) jacobian.col(i) = g_rot_[i].col(2).cross(x_ - h_origin_[i]);
 }
 
 std::vector<std::string> ModelDifferences(const RobotModel& a, const RobotModel& b,
@@ -416,10 +419,13 @@ std::vector<std::string> ModelDifferences(const RobotModel& a, const RobotModel&
 }
 
 Eigen::Matrix<double, 3, Eigen::Dynamic> Kinematics::JointAxes() const {
-  const int n = model_.num_joints();
-  Eigen::Matrix<double, 3, Eigen::Dynamic> axes(3, n);
-  for (int i = 0; i < n; ++i) axes.col(i) = g_rot_[i].col(2);
+  Eigen::Matrix<double, 3, Eigen::Dynamic> axes(3, model_.num_joints());
+  WriteJointAxes(axes);
   return axes;
+}
+
+void Kinematics::WriteJointAxes(Eigen::Ref<Eigen::Matrix<double, 3, Eigen::Dynamic>> axes) const {
+  for (int i = 0; i < model_.num_joints(); ++i) axes.col(i) = g_rot_[i].col(2);
 }
 
 }  // namespace armsig::calibration

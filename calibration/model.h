@@ -174,12 +174,15 @@ class Kinematics {
   // ∂x/∂θ_i with respect to the true joint angles (3 × n), from the last evaluation.
   // Used by compensation (inverse kinematics on the calibrated model).
   Eigen::Matrix<double, 3, Eigen::Dynamic> JointJacobian() const;
+  // The same into `jacobian` (3 × n, allocated by the caller: a solver's loop allocates nothing).
+  void WriteJointJacobian(Eigen::Ref<Eigen::Matrix<double, 3, Eigen::Dynamic>> jacobian) const;
 
   // The rotation of the last link frame (world from link n) and the joint axes in the world
   // frame (3 × n: ∂ω/∂θ_i), from the last evaluation. Used to solve for a whole pose (the
   // ISO 9283 plan keeps the tool's orientation).
   const Eigen::Matrix3d& LastRotation() const { return last_rot_; }
   Eigen::Matrix<double, 3, Eigen::Dynamic> JointAxes() const;
+  void WriteJointAxes(Eigen::Ref<Eigen::Matrix<double, 3, Eigen::Dynamic>> axes) const;
 
   // True joint angles for the encoder angles under the model's h-terms.
   void TrueJointAngles(const Eigen::VectorXd& params, const double* joints_rad, double* true_rad);

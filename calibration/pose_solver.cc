@@ -29,15 +29,17 @@ JointSolution SolvePose(const RobotModel& model, const Eigen::Isometry3d& world_
     e.tail<3>() = kPoseLeverMm * turn.angle() * turn.axis();
     // ∂x/∂θ and the angular velocity's ∂ω/∂θ (the joint axes), as in SolveJoints the
     // h-terms' own dependence on the angles is left to the iteration.
-    j.topRows<3>() = kin.JointJacobian();
-    j.bottomRows<3>() = kPoseLeverMm * kin.JointAxes();
+    kin.WriteJointJacobian(j.topRows<3>());
+    kin.WriteJointAxes(j.bottomRows<3>());
+    j.bottomRows<3>() *= kPoseLeverMm;
     return e.norm();
   };
   StallWatch watch;
+  DampedStepper stepper;
   for (; s.iterations < options.max_iterations; ++s.iterations) {
     s.residual_mm = evaluate(s.joints_rad);
     if (!(s.residual_mm >= options.tolerance_mm)) break;  // converged, or not a number
-    s.joints_rad += DampedJointStep(j, e, s.residual_mm, options);
+    s.joints_rad += stepper.Step(j, e, s.residual_mm, options);
     if (watch.Stalled(s.residual_mm)) break;
   }
   s.residual_mm = evaluate(s.joints_rad);

@@ -261,9 +261,10 @@ InverseSolution ControllerInverse(const ControllerModel& c, const InverseRequest
   // made the 632 goals of the real series D take minutes under the sanitizers.
   using Small = Eigen::Matrix<double, Eigen::Dynamic, 1, 0, 8, 1>;
   if (n > 8) throw std::invalid_argument("ControllerInverse: more than 8 joints");
+  std::vector<Small> variants;  // one buffer for every call: up to 3⁶ of them
+  variants.reserve(729);
   auto for_each_variant = [&](const Eigen::VectorXd& q, const auto& visit) {
-    std::vector<Small> variants;
-    variants.reserve(729);
+    variants.clear();
     variants.emplace_back(q);
     for (int i = 0; i < n; ++i) {
       const std::size_t before = variants.size();
