@@ -51,7 +51,7 @@ void SetupRecalibrateCommand(CLI::App& parent, const GlobalOptions& global, Runn
 // The nightly fit's options (--since, --select, --params, --residual-model, the gates and
 // drift thresholds, --lock-wait, --force), range-checked, for `recalibrate` and for
 // `schedule recalibrate` alike.
-void AddRecalibrateOptions(CLI::App& sub, workflows::RecalibrateOptions& options);
+void AddRecalibrateOptions(CLI::App& sub, nightly::RecalibrateOptions& options);
 void SetupImportCommand(CLI::App& parent, const GlobalOptions& global, Runner& run);
 void SetupInstrumentCommand(CLI::App& parent, const GlobalOptions& global, Runner& run);
 void SetupDbCommand(CLI::App& parent, const GlobalOptions& global, Runner& run);
@@ -105,7 +105,10 @@ CLI::Validator NumberCheck(double min, double max);
 // An option that takes one of `choices`: refused at parse time (exit 2) with the choices and
 // the nearest one ("expected robot or measurement, got 'robt' (did you mean 'robot'?)");
 // the bash completion offers the choices.
-CLI::Option* ChoiceOption(CLI::Option* option, std::vector<std::string> choices);
+// `convert`, when given, turns an accepted word into the text the option's variable is parsed
+// from (EnumOption: the value's number).
+CLI::Option* ChoiceOption(CLI::Option* option, std::vector<std::string> choices,
+                          std::function<std::string(const std::string&)> convert = {});
 // The choices ChoiceOption gave `option` (empty for any other option).
 const std::vector<std::string>& ChoicesOf(const CLI::Option* option);
 // ChoiceOption for an option bound to an enum (or a list of them): the words are the
@@ -115,15 +118,12 @@ template <typename Enum>
 CLI::Option* EnumOption(CLI::Option* option, std::vector<Enum> values, Enum shown_default) {
   std::vector<std::string> words;
   for (const Enum v : values) words.emplace_back(ToString(v));
-  ChoiceOption(option, words);
-  option->transform(CLI::Validator(
-      [values](std::string& text) -> std::string {
-        for (const Enum v : values) {
-          if (text == ToString(v)) text = std::to_string(static_cast<int>(v));
-        }
-        return {};
-      },
-      "", "the value a word names"));
+  ChoiceOption(option, words, [values](const std::string& word) {
+    for (const Enum v : values) {
+      if (word == ToString(v)) return std::to_string(static_cast<int>(v));
+    }
+    return word;
+  });
   option->default_str(ToString(shown_default));
   return option;
 }

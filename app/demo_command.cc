@@ -14,7 +14,7 @@
 namespace armsig::app {
 
 void SetupDemoCommand(CLI::App& parent, const GlobalOptions& global, Runner& run) {
-  auto o = std::make_shared<workflows::DemoOptions>();
+  auto o = std::make_shared<demo::DemoOptions>();
   auto* sub = parent.add_subcommand(
       "demo", "The whole chain on a virtual lab: orientation, capture, reduction, calibration");
   OutputFile(sub->add_option("--json", o->json_path, "Write the demo's results as JSON"));
@@ -65,13 +65,13 @@ void SetupDemoCommand(CLI::App& parent, const GlobalOptions& global, Runner& run
                0.0, 100.0);
   sub->callback([&run, &global, o] {
     run = [&global, o] {
-      workflows::DemoOptions options = *o;
+      demo::DemoOptions options = *o;
       options.db_path = global.DbPath();
       options.stop = &StopRequested();
-      workflows::DemoObserver observer;
+      demo::DemoObserver observer;
       observer.say = [](const std::string& text) { std::cout << text << std::flush; };
       observer.progress = TerminalCaptureProgress(true);
-      const auto result = workflows::RunDemo(options, observer);
+      const auto result = demo::RunDemo(options, observer);
       if (observer.progress) std::cerr << "\r\x1b[K" << std::flush;  // a stopped capture's line
       if (result.completed) return kOk;
       if (!result.resume_hint.empty())

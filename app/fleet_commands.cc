@@ -27,11 +27,11 @@ constexpr char kQueueHelp[] =
     "environment, ~/.pgpass or a service file) or a SQLite file (default: the --db file)";
 
 struct ScheduleCommand {
-  workflows::ScheduleOptions options;
+  nightly::ScheduleOptions options;
 };
 
 struct WorkerCommand {
-  workflows::WorkerOptions options;
+  nightly::WorkerOptions options;
 };
 
 struct JobsCommand {
@@ -74,7 +74,7 @@ nlohmann::json JobJson(const db::Job& j, const std::string& queue) {
 int RunSchedule(ScheduleCommand c, const GlobalOptions& global) {
   c.options.store_db = global.DbPath();
   if (c.options.queue.empty()) c.options.queue = c.options.store_db;
-  const auto scheduled = workflows::Schedule(c.options);
+  const auto scheduled = nightly::Schedule(c.options);
   if (scheduled.empty()) {
     std::cout << fmt::format("no robots in {}: nothing scheduled\n",
                              Printable(QueueName(c.options.store_db)));
@@ -88,7 +88,7 @@ int RunSchedule(ScheduleCommand c, const GlobalOptions& global) {
                                Printable(s.robot), db::ToString(s.job.state));
   }
   const auto queued = std::count_if(scheduled.begin(), scheduled.end(),
-                                    [](const workflows::Scheduled& s) { return s.job.created; });
+                                    [](const nightly::Scheduled& s) { return s.job.created; });
   spdlog::info("schedule: {} queued, {} already open, in {}", queued,
                static_cast<long>(scheduled.size()) - queued, QueueName(c.options.queue));
   return kOk;
@@ -105,7 +105,7 @@ int RunWorkerCommand(WorkerCommand c, const GlobalOptions& global) {
                      j.summary.empty() || j.summary == "failed" ? "" : " — " + Printable(j.summary))
               << std::flush;
   };
-  const auto s = workflows::RunWorker(c.options);
+  const auto s = nightly::RunWorker(c.options);
   spdlog::info("worker: {} done, {} rejected, {} failed{}{}{}", s.done, s.rejected, s.failed,
                s.lost ? fmt::format(", {} lost to other workers", s.lost) : "",
                s.interrupted ? fmt::format(", {} attempts interrupted by server outages and "
@@ -121,7 +121,7 @@ int RunWorkerCommand(WorkerCommand c, const GlobalOptions& global) {
 
 int RunJobs(const JobsCommand& c, const GlobalOptions& global) {
   const std::string queue = c.queue.empty() ? global.DbPath() : c.queue;
-  workflows::QueueConnection connection(queue, db::OpenMode::kReadOnly);
+  nightly::QueueConnection connection(queue, db::OpenMode::kReadOnly);
   const auto jobs = db::ListJobs(*connection, c.limit);
   if (c.json) {
     nlohmann::json out = nlohmann::json::array();

@@ -71,7 +71,7 @@ void SetupInstrumentCommand(CLI::App& parent, const GlobalOptions&, Runner& run)
       };
     });
   }
-  auto o = std::make_shared<workflows::SimulateRequest>();
+  auto o = std::make_shared<demo::SimulateRequest>();
   auto* s = sub->add_subcommand(
       "simulate", "Start a virtual instrument on a pseudo-terminal for manual trials");
   s->add_option("--protocol", o->protocol, "geocom | gsi | val | as | emscon")
@@ -91,9 +91,9 @@ void SetupInstrumentCommand(CLI::App& parent, const GlobalOptions&, Runner& run)
   OnlyReads(s);
   s->callback([&run, o] {
     run = [o] {
-      workflows::SimulateRequest request = *o;
+      demo::SimulateRequest request = *o;
       request.stop = &StopRequested();
-      const int64_t served = workflows::RunVirtualInstrument(request, [&](const std::string& path) {
+      const int64_t served = demo::RunVirtualInstrument(request, [&](const std::string& path) {
         std::cout << fmt::format("virtual {} instrument on {}{}", request.protocol, Printable(path),
                                  request.seconds > 0 ? fmt::format(" for {} s", request.seconds)
                                                      : std::string(" until Ctrl-C"))

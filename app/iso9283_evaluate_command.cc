@@ -14,9 +14,9 @@ struct Iso9283EvaluateOptions {
 };
 
 int RunIso9283Evaluate(const Iso9283EvaluateOptions& o) {
-  const auto e = workflows::EvaluateIso9283Files(o.commanded, o.attained, o.align);
-  io::WriteFileAtomically(o.json, JsonText(workflows::Iso9283Json(e), 2) + "\n");
-  std::cout << workflows::FormatIso9283Figures(e);
+  const auto e = iso9283::EvaluateIso9283Files(o.commanded, o.attained, o.align);
+  io::WriteFileAtomically(o.json, JsonText(iso9283::Iso9283Json(e), 2) + "\n");
+  std::cout << iso9283::FormatIso9283Figures(e);
   return kOk;
 }
 

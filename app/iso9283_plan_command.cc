@@ -23,13 +23,13 @@ struct Iso9283PlanCommandOptions {
   std::string robot, out;
   std::vector<double> cube, centre, orientation_deg, seed_deg;
   bool auto_cube = false;
-  workflows::Iso9283PlanOptions plan;
+  iso9283::Iso9283PlanOptions plan;
 };
 
 int RunIso9283Plan(const Iso9283PlanCommandOptions& o, db::Database& db) {
   if (o.cube.empty() == !o.auto_cube)
     throw InputError({"--cube", 0, 0, ""}, "give the cube (--cube CX,CY,CZ,EDGE_MM) or --auto");
-  workflows::Iso9283PlanOptions options = o.plan;
+  iso9283::Iso9283PlanOptions options = o.plan;
   auto vector3 = [](const std::vector<double>& v, const char* option, int count) {
     if (static_cast<int>(v.size()) != count)
       throw InputError({option, 0, 0, ""},
@@ -63,9 +63,9 @@ int RunIso9283Plan(const Iso9283PlanCommandOptions& o, db::Database& db) {
   std::optional<workflows::ActiveSignature> signature;
   if (options.compensated) signature = workflows::LoadActiveSignature(db, o.robot);
   const auto plan =
-      workflows::MakeIso9283Plan(model, o.robot, options, signature ? &*signature : nullptr);
+      iso9283::MakeIso9283Plan(model, o.robot, options, signature ? &*signature : nullptr);
   io::WriteFileAtomically(o.out, plan.csv);
-  std::cout << workflows::FormatIso9283PlanSummary(plan, o.out) << "capture it: "
+  std::cout << iso9283::FormatIso9283PlanSummary(plan, o.out) << "capture it: "
             << workflows::Hint(db.path(), {"capture", "--lab", "LAB.yaml", "--plan",
                                            workflows::AbsolutePath(o.out), "--robot", o.robot})
             << "\n";

@@ -11,21 +11,21 @@
 namespace armsig::app {
 
 struct Iso9283ReportCommandOptions {
-  workflows::Iso9283ReportOptions report;
+  iso9283::Iso9283ReportOptions report;
   double load_kg = -1.0, speed_percent = -1.0;  // < 0: not stated
   std::string json;
   std::vector<std::string> limits;  // KEY=MM
 };
 
 int RunIso9283Report(const Iso9283ReportCommandOptions& o, db::Database& db) {
-  workflows::Iso9283ReportOptions options = o.report;
+  iso9283::Iso9283ReportOptions options = o.report;
   if (o.load_kg >= 0) options.load_kg = o.load_kg;
   if (o.speed_percent >= 0) options.speed_percent = o.speed_percent;
-  for (const auto& limit : o.limits) workflows::ParseIso9283Limit(limit, options.limits);
+  for (const auto& limit : o.limits) iso9283::ParseIso9283Limit(limit, options.limits);
   if (!options.limits.source.empty() && !options.limits.any()) {
     throw InputError("--limits-from: names where limits come from, but no --limit KEY=MM is given");
   }
-  const auto result = workflows::RunIso9283Report(db, options);
+  const auto result = iso9283::RunIso9283Report(db, options);
   if (!o.json.empty()) io::WriteFileAtomically(o.json, JsonText(result.json, 2) + "\n");
   std::cout << result.text;
   // A test outside the stated limits is a gate that failed: the page and the JSON say which

@@ -158,18 +158,29 @@ std::map<const CLI::Option*, std::vector<std::string>>& ChoiceRegistry() {
 }
 }  // namespace
 
-CLI::Option* ChoiceOption(CLI::Option* option, std::vector<std::string> choices) {
+CLI::Option* ChoiceOption(CLI::Option* option, std::vector<std::string> choices,
+                          std::function<std::string(const std::string&)> convert) {
   std::string list;
   for (size_t k = 0; k < choices.size(); ++k)
     list += (k == 0 ? "" : k + 1 == choices.size() ? " or " : ", ") + choices[k];
-  option->check(CLI::Validator(
-      [choices, list](std::string& text) -> std::string {
-        if (std::find(choices.begin(), choices.end(), text) != choices.end()) return {};
+  CLI::Validator validator(
+      [choices, list, convert](std::string& text) -> std::string {
+        if (std::find(choices.begin(), choices.end(), text) != choices.end()) {
+          if (convert) text = convert(text);
+          return {};
+        }
         const auto nearest = NearestKey(text, choices);
         return "expected " + list + ", got " + Quoted(text) +
                (nearest ? " (did you mean " + Quoted(*nearest) + "?)" : std::string());
       },
-      "", "one of the choices"));
+      "", "one of the choices");
+  // A converting validator must be a transform (CLI11 hands a check a copy); it is the
+  // option's only validator, so that no other sees the converted text.
+  if (convert) {
+    option->transform(validator);
+  } else {
+    option->check(validator);
+  }
   std::string type;
   for (const auto& c : choices) type += (type.empty() ? "" : "|") + c;
   option->type_name(type);

@@ -20,7 +20,7 @@
 namespace armsig::app {
 
 struct RecalibrateCommand {
-  workflows::RecalibrateOptions options;
+  nightly::RecalibrateOptions options;
   std::string json;
   std::string notify;
   double notify_timeout_s = 60;
@@ -59,9 +59,9 @@ int RunRecalibrate(RecalibrateCommand c, const GlobalOptions& global) {
   c.options.db_path = global.DbPath();
   c.options.json_path = c.json;
   c.options.stop = &StopRequested();  // Ctrl-C, SIGTERM: stop before storing, exit 130
-  workflows::RecalibrationDecision d;
+  nightly::RecalibrationDecision d;
   try {
-    d = workflows::Recalibrate(c.options);
+    d = nightly::Recalibrate(c.options);
   } catch (const InputError& e) {
     // The job did not run: a person must see that as much as a drift.
     Notify(c, {{"robot", c.options.robot}, {"decision", "error"}, {"exit_code", kInputError},
@@ -95,7 +95,7 @@ int RunRecalibrate(RecalibrateCommand c, const GlobalOptions& global) {
     }
   }
   const nlohmann::json summary = d.ToJson();
-  using Outcome = workflows::RecalibrationDecision::Outcome;
+  using Outcome = nightly::RecalibrationDecision::Outcome;
   if (d.outcome == Outcome::kFailed || d.outcome == Outcome::kDriftSuspected) {
     std::cout << d.robot << ": " << d.Describe() << "\n";  // no statistics of an unfinished fit
   } else if (d.outcome != Outcome::kUpToDate) {
@@ -115,7 +115,7 @@ int RunRecalibrate(RecalibrateCommand c, const GlobalOptions& global) {
   return d.ExitCode();
 }
 
-void AddRecalibrateOptions(CLI::App& sub, workflows::RecalibrateOptions& o) {
+void AddRecalibrateOptions(CLI::App& sub, nightly::RecalibrateOptions& o) {
   sub.add_option("--since", o.since, "Only sessions started at or after this ISO date/time")
       ->type_name("DATE");
   NumberOption(
@@ -175,12 +175,12 @@ void AddRecalibrateOptions(CLI::App& sub, workflows::RecalibrateOptions& o) {
   NumberOption(sub.add_option("--window-sessions", o.window_sessions,
                                fmt::format("Fit at most the newest N sessions (0: all; default: "
                                            "lab file, else {})",
-                                           workflows::kDefaultWindowSessions)),
+                                           nightly::kDefaultWindowSessions)),
                0, 100000);
   NumberOption(sub.add_option("--window-days", o.window_days,
                                fmt::format("Fit only sessions started within the last D days (0: "
                                            "no limit; default: lab file, else {})",
-                                           workflows::kDefaultWindowDays)),
+                                           nightly::kDefaultWindowDays)),
                0, 100000);
 }
 

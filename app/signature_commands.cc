@@ -169,7 +169,7 @@ void SetupSignatureCommands(CLI::App& parent, const GlobalOptions& global, Runne
   OutputDirectory(report->add_option("--out", r->out, "Folder for index.html and its figures"))
       ->required();
   OnDatabaseToRead(report, global, run, [r](db::Database& database) {
-    const auto written = workflows::WriteStoredReport(database, r->robot, r->set, r->out);
+    const auto written = report::WriteStoredReport(database, r->robot, r->set, r->out);
     std::cout << fmt::format("armsig report: {} version {} -> {}\n", r->robot, written.version,
                              Printable(written.path));
     return kOk;

@@ -139,18 +139,18 @@ void BM_NightlyFleet(benchmark::State& state) {
   int64_t done = 0, other = 0;
   for (auto _ : state) {
     state.PauseTiming();
-    workflows::ScheduleOptions schedule;
+    nightly::ScheduleOptions schedule;
     schedule.store_db = store[postgres];
     schedule.all = true;
     schedule.recalibrate.residual_model = "off";
     schedule.recalibrate.force = true;
-    workflows::Schedule(schedule);
+    nightly::Schedule(schedule);
     state.ResumeTiming();
-    workflows::WorkerOptions worker;
+    nightly::WorkerOptions worker;
     worker.store_db = store[postgres];
     worker.jobs = workers;
     worker.once = true;
-    const auto s = workflows::RunWorker(worker);
+    const auto s = nightly::RunWorker(worker);
     done += s.done;
     other += s.rejected + s.failed;
   }

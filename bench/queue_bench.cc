@@ -4,7 +4,7 @@
 // Claims: every claim is a write transaction (claim + finish, as a worker does), by 1 or 4
 // threads with their own connections. PostgreSQL: a server of the bench's own (the tests'
 // support/postgres_server, initdb into a temporary directory, Unix socket).
-// Worker: workflows::RunWorker on 24 simulated PUMA 760 robots (120 configurations each),
+// Worker: nightly::RunWorker on 24 simulated PUMA 760 robots (120 configurations each),
 // 1 vs 2 worker threads (force: every iteration refits; the residual map off).
 #include <benchmark/benchmark.h>
 #include <unistd.h>
@@ -53,13 +53,13 @@ void Claims(benchmark::State& state, bool postgres) {
   for (auto _ : state) {
     state.PauseTiming();
     {
-      workflows::QueueConnection q(queue);
+      nightly::QueueConnection q(queue);
       for (int k = 0; k < kBatch; ++k)
         db::Enqueue(*q, "recalibrate", "r" + std::to_string(claimed + k), "{}");
     }
-    std::vector<std::unique_ptr<workflows::QueueConnection>> connections;
+    std::vector<std::unique_ptr<nightly::QueueConnection>> connections;
     for (int t = 0; t < threads; ++t)
-      connections.push_back(std::make_unique<workflows::QueueConnection>(queue));
+      connections.push_back(std::make_unique<nightly::QueueConnection>(queue));
     std::atomic<int64_t> count{0};
     state.ResumeTiming();
     std::vector<std::thread> pool;
@@ -133,18 +133,18 @@ void BM_Worker(benchmark::State& state) {
   int64_t jobs = 0, failed = 0;
   for (auto _ : state) {
     state.PauseTiming();
-    workflows::ScheduleOptions schedule;
+    nightly::ScheduleOptions schedule;
     schedule.store_db = path;
     schedule.all = true;
     schedule.recalibrate.residual_model = "off";
     schedule.recalibrate.force = true;  // refit every time: the same work each iteration
-    workflows::Schedule(schedule);
+    nightly::Schedule(schedule);
     state.ResumeTiming();
-    workflows::WorkerOptions worker;
+    nightly::WorkerOptions worker;
     worker.store_db = path;
     worker.jobs = threads;
     worker.once = true;
-    const auto s = workflows::RunWorker(worker);
+    const auto s = nightly::RunWorker(worker);
     jobs += s.done + s.rejected + s.failed;
     failed += s.failed;
   }

@@ -40,12 +40,12 @@ void BM_UrCaptureSoftwarePerConfiguration(benchmark::State& state) {
   for (auto _ : state) {
     std::filesystem::remove_all(folder);
     std::filesystem::create_directories(folder);
-    workflows::DemoLabOptions o;
+    demo::DemoLabOptions o;
     o.robot = "ur10";
     o.tracker = true;
     o.time_scale = kTimeScale;
     o.folder = folder;
-    workflows::DemoLab lab(model, o);
+    demo::DemoLab lab(model, o);
     io::LabConfig config = lab.WriteLabFiles(lab.TrackerStations(), true);
     config.instruments[0].measurement_time_ms = kMeasurementMs;
     // Configurations a few tenths of a radian apart, as a lab's plan ordered by distance.

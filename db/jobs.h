@@ -109,7 +109,7 @@ std::optional<Job> FindJob(Connection& connection, int64_t id);
 // Per-robot exclusion by the database: on PostgreSQL a session advisory lock
 // (pg_advisory_lock on a 64-bit hash of the kind and robot) held for the object's life,
 // so that two runs never work on the same robot at once whatever machine they are on
-// (workflows::Recalibrate holds it on a PostgreSQL store); on SQLite nothing (Recalibrate
+// (nightly::Recalibrate holds it on a PostgreSQL store); on SQLite nothing (Recalibrate
 // takes its file lock beside the database file).
 class RobotLock {
  public:

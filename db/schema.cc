@@ -341,19 +341,9 @@ constexpr std::string_view kSqliteNow = "strftime('%Y-%m-%dT%H:%M:%fZ','now')";
 constexpr std::string_view kPostgresNow =
     "to_char(now() AT TIME ZONE 'UTC', 'YYYY-MM-DD\"T\"HH24:MI:SS.MS\"Z\"')";
 
-// The tables of schema v1: an armsig file from before application_id has at least these.
-constexpr std::array<std::string_view, 11> kTablesV1 = {"robots",
-                                                        "instruments",
-                                                        "stations",
-                                                        "sessions",
-                                                        "station_setups",
-                                                        "poses",
-                                                        "observations",
-                                                        "points",
-                                                        "calibrations",
-                                                        "calibration_parameters",
-                                                        "validation_residuals"};
-
+// Every table, in the order the schema versions added them: the first kTablesOfV1 are schema
+// v1's (an armsig file from before application_id has at least those).
+constexpr std::size_t kTablesOfV1 = 11;
 constexpr std::array<std::string_view, 14> kTables = {"robots",
                                                       "instruments",
                                                       "stations",
@@ -443,6 +433,6 @@ std::string_view NowIsoSql(Backend backend) {
   return backend == Backend::kSqlite ? kSqliteNow : kPostgresNow;
 }
 std::span<const std::string_view> TableNames() { return kTables; }
-std::span<const std::string_view> LegacyTableNames() { return kTablesV1; }
+std::span<const std::string_view> LegacyTableNames() { return std::span(kTables).first(kTablesOfV1); }
 
 }  // namespace armsig::db

@@ -45,7 +45,7 @@
 #include "workflows/orient_triangulate.h"
 #include "workflows/reduce.h"
 
-namespace armsig::workflows {
+namespace armsig::demo {
 
 namespace {
 
@@ -248,7 +248,7 @@ unsigned StoredDemoSessions(const std::string& db_path, const std::string& db_ro
 
 }  // namespace
 
-std::string DemoProgressionText(const std::vector<CalibrationRun>& runs, double noise_floor_mm,
+std::string DemoProgressionText(const std::vector<workflows::CalibrationRun>& runs, double noise_floor_mm,
                                 bool paper) {
   if (runs.empty()) return "";
   static const char* kPaper[] = {"1 (2)", "0.5 (1)", "0.27 (0.6)"};
@@ -269,7 +269,7 @@ std::string DemoProgressionText(const std::vector<CalibrationRun>& runs, double 
     std::vector<std::string> row = {
         runs[k].params_spec,
         fmt::format("{} of {}", e.identifiability.rank, e.identifiability.candidates.size()),
-        mean_max(e.fit), mean_max(StatsOf(runs[k].validation_residuals))};
+        mean_max(e.fit), mean_max(workflows::StatsOf(runs[k].validation_residuals))};
     if (paper) row.push_back(k < 3 ? kPaper[k] : "");
     table.AddRow(row);
   }
@@ -278,7 +278,7 @@ std::string DemoProgressionText(const std::vector<CalibrationRun>& runs, double 
   return fmt::format("{}, from this session's own data ({} fitted, {} validated):\n",
                      paper ? "The paper's progression" : "The calibration's progression", fit,
                      validated) +
-         table.Render(kTextWidth, 2) +
+         table.Render(workflows::kTextWidth, 2) +
          fmt::format("  measurement noise floor (mean 3-D error of a reduced point): {:.3f} mm\n",
                      noise_floor_mm);
 }
@@ -413,7 +413,7 @@ class DemoRun {
   // The narrative, each line at most 100 columns; a step's continuation lines under its
   // text ("1. …").
   void Say(const std::string& text, int hanging = 3) const {
-    if (observer_.say) observer_.say(WrapLines(text, kTextWidth, hanging));
+    if (observer_.say) observer_.say(WrapLines(text, workflows::kTextWidth, hanging));
   }
 
   void CheckOptions();
@@ -453,11 +453,11 @@ class DemoRun {
   acquisition::Plan plan_;
   int64_t session_ = 0;
   acquisition::CaptureSummary captured_;
-  ReduceSummary reduced_;
+  workflows::ReduceSummary reduced_;
   std::vector<MeasuredPose> poses_, fit_, validation_;
   double noise_floor_mm_ = 0.0;
   nlohmann::json stages_ = nlohmann::json::array();
-  std::vector<CalibrationRun> runs_;
+  std::vector<workflows::CalibrationRun> runs_;
   double seconds_ = 0.0;
   DemoResult result_;
 };
@@ -568,7 +568,7 @@ void DemoRun::BuildLab() {
     }
     Say(DemoOrientationText(oriented.setup, oriented.result));
     // With the orientation's σ0, dof and method, which the session's set-ups then keep.
-    stations = OrientedStations(oriented.setup, oriented.result);
+    stations = workflows::OrientedStations(oriented.setup, oriented.result);
   }
   stations_ = static_cast<int>(stations.size());
   lab_config_ = lab_->WriteLabFiles(stations, serving_);
@@ -662,8 +662,8 @@ bool DemoRun::Capture() {
     if (options_.select > 0)
       words.insert(words.end(), {"--select", std::to_string(options_.select)});
     if (!options_.json_path.empty())
-      words.insert(words.end(), {"--json", AbsolutePath(options_.json_path)});
-    result_.resume_hint = Hint(database.path(), words);
+      words.insert(words.end(), {"--json", workflows::AbsolutePath(options_.json_path)});
+    result_.resume_hint = workflows::Hint(database.path(), words);
   }
   acquisition::CaptureOptions capture;
   capture.progress = observer_.progress;
@@ -676,7 +676,7 @@ bool DemoRun::Capture() {
     };
   }
   try {
-    captured_ = CaptureInto(database, lab_config_, session_, capture);
+    captured_ = workflows::CaptureInto(database, lab_config_, session_, capture);
   } catch (const std::exception& e) {
     // Ctrl-C while the devices were asked who they are cuts the call short: stopped, the
     // session paused (CaptureInto), as a stop between configurations.
@@ -710,7 +710,7 @@ bool DemoRun::Capture() {
 
 // Reduction in the database, then the poses for calibration and their precision.
 void DemoRun::Reduce() {
-  reduced_ = ReduceSession(*database_, session_, reduction::PointOptions{});
+  reduced_ = workflows::ReduceSession(*database_, session_, reduction::PointOptions{});
   std::vector<Eigen::Matrix3d> covariances;
   poses_ = db::LoadSessionPoses(*database_, session_, &covariances);
   // Mean length of a 3-D normal error with these covariances ≈ 0.921·√trace (isotropic).
@@ -760,14 +760,14 @@ bool DemoRun::Calibrate() {
                       session_));
       return false;
     }
-    CalibrateSettings settings;
+    workflows::CalibrateSettings settings;
     settings.params = spec;
     settings.model_subset = true;  // the robot's subset, as every later recalibration uses
     // The paper's stages are parametric models: their progression is compared with its
     // table without a residual map (which would hide what the missing terms cost). The last
     // stage, the set that becomes active, is fitted as `recalibrate` fits (map by CV).
     settings.residual_model = spec == "all" ? "auto" : "off";
-    CalibrationRun run = RunCalibration(model_, fit_, validation_, settings);
+    workflows::CalibrationRun run = RunCalibration(model_, fit_, validation_, settings);
     Say("--- params: " + spec + "\n" + FormatCalibrationReport(model_, run) + "\n");
     nlohmann::json stage = CalibrationJson(model_, run);
     stage["params"] = spec;
@@ -803,7 +803,7 @@ void DemoRun::Summarise() {
   seconds_ = std::chrono::duration<double>(std::chrono::steady_clock::now() - started_).count();
   Say(DemoProgressionText(runs_, noise_floor_mm_, robot_->paper));
   Say(fmt::format("\nDone in {:.1f} s. The database stays for inspection: {} ({})\n", seconds_,
-                  Printable(database_->path()), Hint(database_->path(), {"db", "info"})));
+                  Printable(database_->path()), workflows::Hint(database_->path(), {"db", "info"})));
 }
 
 // The --json document: the session's figures and the three stages as `calibrate` writes
@@ -851,4 +851,4 @@ DemoResult RunDemo(const DemoOptions& options, const DemoObserver& observer) {
   return DemoRun(options, observer).Run();
 }
 
-}  // namespace armsig::workflows
+}  // namespace armsig::demo

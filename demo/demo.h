@@ -19,7 +19,7 @@
 #include "reduction/orientation.h"
 #include "workflows/calibration_run.h"
 
-namespace armsig::workflows {
+namespace armsig::demo {
 
 struct DemoOptions {
   std::string db_path;
@@ -111,7 +111,7 @@ std::string DemoOrientationText(const reduction::OrientationProblem& setup,
 std::string DemoCaptureText(const acquisition::CaptureSummary& captured, bool tracker);
 // The closing table: nominal and each stage's fit and validation mean (max), against the
 // paper's when `paper` (the PUMA), and the measurement noise floor.
-std::string DemoProgressionText(const std::vector<CalibrationRun>& runs, double noise_floor_mm,
+std::string DemoProgressionText(const std::vector<workflows::CalibrationRun>& runs, double noise_floor_mm,
                                 bool paper = true);
 
 // Checks the options (DemoSelectCount) before anything is created. The virtual lab lives
@@ -120,4 +120,4 @@ std::string DemoProgressionText(const std::vector<CalibrationRun>& runs, double 
 // gone.
 DemoResult RunDemo(const DemoOptions& options, const DemoObserver& observer);
 
-}  // namespace armsig::workflows
+}  // namespace armsig::demo

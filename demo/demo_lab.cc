@@ -23,7 +23,7 @@
 #include "simulation/geocom_simulator.h"
 #include "workflows/orient_triangulate.h"
 
-namespace armsig::workflows {
+namespace armsig::demo {
 
 namespace {
 
@@ -299,4 +299,4 @@ io::LabConfig DemoLab::WriteLabFiles(const std::vector<reduction::Station>& stat
   return io::LoadLab((folder / "lab.yaml").string());
 }
 
-}  // namespace armsig::workflows
+}  // namespace armsig::demo

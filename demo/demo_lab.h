@@ -28,7 +28,7 @@
 #include "simulation/virtual_robots.h"
 #include "demo/demo_robots.h"
 
-namespace armsig::workflows {
+namespace armsig::demo {
 
 struct DemoLabOptions {
   std::string robot = "puma";  // DemoRobots()
@@ -111,4 +111,4 @@ class DemoLab {
   io::LabFile lab_file_;
 };
 
-}  // namespace armsig::workflows
+}  // namespace armsig::demo

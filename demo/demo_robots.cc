@@ -4,7 +4,7 @@
 #include "core/text.h"
 #include "io/builtin_models.h"
 
-namespace armsig::workflows {
+namespace armsig::demo {
 
 const std::vector<DemoRobot>& DemoRobots() {
   static const std::vector<DemoRobot> robots = [] {
@@ -99,4 +99,4 @@ const DemoRobot* DemoRobotOfStored(const std::string& db_robot) {
   return nullptr;
 }
 
-}  // namespace armsig::workflows
+}  // namespace armsig::demo

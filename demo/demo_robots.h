@@ -8,7 +8,7 @@
 
 #include "io/lab_file.h"
 
-namespace armsig::workflows {
+namespace armsig::demo {
 
 struct DemoRobot {
   std::string name;         // --robot: puma, ur10, kuka, abb
@@ -34,4 +34,4 @@ const DemoRobot& FindDemoRobot(const std::string& name);
 // The entry whose database robot is `db_robot` (a resumed session's), nullptr when none.
 const DemoRobot* DemoRobotOfStored(const std::string& db_robot);
 
-}  // namespace armsig::workflows
+}  // namespace armsig::demo

@@ -19,7 +19,7 @@
 #include "simulation/gsi_online_simulator.h"
 #include "simulation/val_simulator.h"
 
-namespace armsig::workflows {
+namespace armsig::demo {
 
 VirtualInstrument StartVirtualInstrument(const std::string& protocol, const std::string& link,
                                          const std::string& tcp) {
@@ -109,4 +109,4 @@ int64_t RunVirtualInstrument(const SimulateRequest& request,
   return sim->requests();
 }
 
-}  // namespace armsig::workflows
+}  // namespace armsig::demo

@@ -10,7 +10,7 @@
 #include "simulation/simulator.h"
 #include "simulation/virtual_lab.h"
 
-namespace armsig::workflows {
+namespace armsig::demo {
 
 // The virtual lab behind it (a PUMA 760 with the paper's Table 3 errors in one fixed
 // configuration, one station 3 m away) and the simulator speaking `protocol` (geocom,
@@ -39,4 +39,4 @@ struct SimulateRequest {
 int64_t RunVirtualInstrument(const SimulateRequest& request,
                              const std::function<void(const std::string& path)>& started);
 
-}  // namespace armsig::workflows
+}  // namespace armsig::demo

@@ -49,17 +49,45 @@ inline std::string GaveUp(int attempts, Clock::time_point start, const std::stri
                      attempts == 1 ? "" : "s", ms, why);
 }
 
+// The bookkeeping of a driver's retry loop: attempts made, since when, the last failure.
+//   Attempts a(policy, deadline);
+//   for (; a.Left(); a.Next()) { … a.Until() … a.Failed(e); }
+//   throw …(a.code(), a.GaveUp());
+class Attempts {
+ public:
+  Attempts(const RetryPolicy& policy, Deadline deadline) : policy_(policy), deadline_(deadline) {}
+  bool Left() const { return made_ < policy_.attempts && Clock::now() < deadline_; }
+  void Next() { ++made_; }
+  // This attempt's deadline: its share of the time left.
+  Deadline Until() const { return AttemptDeadline(deadline_, policy_.attempts - made_); }
+  void Failed(const TransportError& e) { Failed(CodeOf(e), e.message()); }
+  void Failed(int code, std::string why) {
+    code_ = code;
+    last_ = std::move(why);
+  }
+  int made() const { return made_; }
+  int code() const { return code_; }
+  const std::string& last() const { return last_; }
+  // "no usable reply after 3 attempts in 1001 ms: <the last failure>"
+  std::string GaveUp() const { return instruments::GaveUp(made_, start_, last_); }
+
+ private:
+  const RetryPolicy& policy_;
+  Deadline deadline_;
+  Clock::time_point start_ = Clock::now();
+  std::string last_ = "no attempt before the deadline";
+  int code_ = grc::kComTimedOut;
+  int made_ = 0;
+};
+
 // Calls attempt(attempt_deadline) until it returns, at most policy.attempts times and
 // never past `deadline`.
 template <typename F>
 auto WithRetries(LineTransport& transport, const RetryPolicy& policy, Deadline deadline,
                  F&& attempt) {
-  const auto start = Clock::now();
-  std::string last = "no attempt before the deadline";
-  int code = grc::kComTimedOut;
-  int made = 0;
-  for (; made < policy.attempts && Clock::now() < deadline; ++made) {
-    const Deadline until = AttemptDeadline(deadline, policy.attempts - made);
+  Attempts a(policy, deadline);
+  for (; a.Left(); a.Next()) {
+    const Deadline until = a.Until();
     try {
       if (!transport.IsOpen()) {
         transport.Open();
@@ -68,10 +96,9 @@ auto WithRetries(LineTransport& transport, const RetryPolicy& policy, Deadline d
       return attempt(until);
     } catch (const TransportError& e) {
       if (e.kind() == TransportError::Kind::kInterrupted) throw;
-      last = e.message();
-      code = CodeOf(e);
-      spdlog::debug("{}: attempt {} of {} failed: {}", transport.name(), made + 1,
-                    policy.attempts, last);
+      a.Failed(e);
+      spdlog::debug("{}: attempt {} of {} failed: {}", transport.name(), a.made() + 1,
+                    policy.attempts, a.last());
       if (e.kind() == TransportError::Kind::kTimeout ||
           e.kind() == TransportError::Kind::kLineTooLong) {
         try {
@@ -87,8 +114,7 @@ auto WithRetries(LineTransport& transport, const RetryPolicy& policy, Deadline d
       }
     }
   }
-  throw InstrumentError(transport.name(), code,
-                        geocom::CodeName(code) + ": " + GaveUp(made, start, last));
+  throw InstrumentError(transport.name(), a.code(), geocom::CodeName(a.code()) + ": " + a.GaveUp());
 }
 
 }  // namespace armsig::instruments

@@ -17,7 +17,7 @@
 #include "core/units.h"
 #include "workflows/hint.h"
 
-namespace armsig::workflows {
+namespace armsig::iso9283 {
 
 namespace iso = calibration::iso9283;
 
@@ -95,7 +95,7 @@ std::string CycleLabel(int cycle, int cycles) {
 class Iso9283Planner {
  public:
   Iso9283Planner(const calibration::RobotModel& model, const std::string& robot,
-                 const Iso9283PlanOptions& options, const ActiveSignature* signature);
+                 const Iso9283PlanOptions& options, const workflows::ActiveSignature* signature);
   Iso9283Plan Make();
 
  private:
@@ -112,7 +112,7 @@ class Iso9283Planner {
   const calibration::RobotModel& model_;
   const std::string& robot_;
   const Iso9283PlanOptions& o_;
-  const ActiveSignature* signature_;
+  const workflows::ActiveSignature* signature_;
   const int n_;  // joints
   const Eigen::VectorXd zero_;
   Eigen::VectorXd seed_;
@@ -131,7 +131,7 @@ class Iso9283Planner {
 // Refuses a plan without cycles, --compensated without a signature and a seed of the
 // wrong length; the cube's centre: the given cube's, --centre, or the target at the seed.
 Iso9283Planner::Iso9283Planner(const calibration::RobotModel& model, const std::string& robot,
-                               const Iso9283PlanOptions& options, const ActiveSignature* signature)
+                               const Iso9283PlanOptions& options, const workflows::ActiveSignature* signature)
     : model_(model),
       robot_(robot),
       o_(options),
@@ -143,7 +143,7 @@ Iso9283Planner::Iso9283Planner(const calibration::RobotModel& model, const std::
   if (o_.cycles < 1) throw InputError({"--cycles", 0, 0, ""}, "expected at least one cycle");
   if (o_.compensated && !signature_) {
     throw InputError({"--compensated", 0, 0, ""},
-                     "robot " + ShellWord(robot_) +
+                     "robot " + workflows::ShellWord(robot_) +
                          " has no active arm signature to compensate with (fit one with "
                          "recalibrate, or plan without --compensated)");
   }
@@ -162,7 +162,7 @@ Iso9283Plan Iso9283Planner::Make() {
   PlanViaPoints();
   PlanCycles();
   plan_.conditions = Conditions();
-  plan_.csv = io::FormatIso9283PlanCsv(plan_.rows);
+  plan_.csv = iso9283::FormatIso9283PlanCsv(plan_.rows);
   return std::move(plan_);
 }
 
@@ -344,7 +344,7 @@ std::string Iso9283Planner::Conditions() const {
 }  // namespace
 
 Iso9283Plan MakeIso9283Plan(const calibration::RobotModel& model, const std::string& robot,
-                            const Iso9283PlanOptions& o, const ActiveSignature* signature) {
+                            const Iso9283PlanOptions& o, const workflows::ActiveSignature* signature) {
   return Iso9283Planner(model, robot, o, signature).Make();
 }
 
@@ -426,8 +426,8 @@ Iso9283Evaluation EvaluateIso9283(std::vector<iso::PointData> points, bool align
 
 Iso9283Evaluation EvaluateIso9283Files(const std::string& commanded_csv,
                                        const std::string& attained_csv, bool align) {
-  const auto commanded = io::ReadCommandedCsv(commanded_csv);
-  const auto attained = io::ReadAttainedCsv(attained_csv);
+  const auto commanded = iso9283::ReadCommandedCsv(commanded_csv);
+  const auto attained = iso9283::ReadAttainedCsv(attained_csv);
   std::vector<iso::PointData> points;
   std::map<std::string, size_t> index;
   for (const auto& c : commanded) {
@@ -665,4 +665,4 @@ nlohmann::json Iso9283VerdictJson(const Iso9283Verdict& v, const Iso9283Limits& 
   return {{"limits", stated}, {"pass", v.pass}, {"summary", v.summary}, {"checks", checks}};
 }
 
-}  // namespace armsig::workflows
+}  // namespace armsig::iso9283

@@ -18,7 +18,7 @@
 #include "iso9283/iso9283_csv.h"
 #include "workflows/signature.h"
 
-namespace armsig::workflows {
+namespace armsig::iso9283 {
 
 // ---- The plan ----
 
@@ -57,7 +57,7 @@ struct Iso9283Plan {
   calibration::iso9283::TestCube cube;
   Eigen::Matrix3d tool_rotation = Eigen::Matrix3d::Identity();  // every pose's last link frame
   std::vector<Iso9283PlannedPoint> points;                      // P1…P5
-  std::vector<io::Iso9283PlanRow> rows;                         // the cycles, in order
+  std::vector<iso9283::Iso9283PlanRow> rows;                         // the cycles, in order
   int signature_version = 0;                                    // compensated with; 0 = nominal
   std::string conditions;  // robot, model, cube, measuring plane, order, tool orientation (lines)
   std::string csv;
@@ -67,7 +67,7 @@ struct Iso9283Plan {
 // (with the model's message), and --compensated when there is no signature to compensate
 // with.
 Iso9283Plan MakeIso9283Plan(const calibration::RobotModel& model, const std::string& robot,
-                            const Iso9283PlanOptions& options, const ActiveSignature* signature);
+                            const Iso9283PlanOptions& options, const workflows::ActiveSignature* signature);
 std::string FormatIso9283PlanSummary(const Iso9283Plan& plan, const std::string& out_path);
 
 // ---- The figures ----
@@ -144,4 +144,4 @@ Iso9283Verdict JudgeIso9283(const Iso9283Evaluation& e, const Iso9283Limits& lim
 // {"source", "AP_mm"?…, "pass", "summary", "checks":[{"figure","where","value_mm","limit_mm","pass"}]}
 nlohmann::json Iso9283VerdictJson(const Iso9283Verdict& v, const Iso9283Limits& limits);
 
-}  // namespace armsig::workflows
+}  // namespace armsig::iso9283

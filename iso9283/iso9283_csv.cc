@@ -11,14 +11,14 @@
 #include "core/units.h"
 #include "io/csv.h"
 
-namespace armsig::io {
+namespace armsig::iso9283 {
 
 namespace {
 
 using plausible::Quantity;
 
 // The id column: `point`, else `pose`.
-int IdColumn(const CsvTable& t) {
+int IdColumn(const io::CsvTable& t) {
   if (const auto c = t.FindColumn("point")) return *c;
   if (const auto c = t.FindColumn("pose")) return *c;
   throw InputError({t.source(), t.header_line(), 0, ""},
@@ -27,10 +27,10 @@ int IdColumn(const CsvTable& t) {
 
 struct PositionColumns {
   int x = -1, y = -1, z = -1;
-  std::optional<AngleColumn> a, b, c;
+  std::optional<io::AngleColumn> a, b, c;
 };
 
-PositionColumns PositionColumnsOf(const CsvTable& t) {
+PositionColumns PositionColumnsOf(const io::CsvTable& t) {
   t.RefuseUnreadUnits(
       {"point", "pose", "cycle", "approach", "x_mm", "y_mm", "z_mm", "a_*", "b_*", "c_*"});
   PositionColumns p;
@@ -49,23 +49,23 @@ PositionColumns PositionColumnsOf(const CsvTable& t) {
   return p;
 }
 
-Eigen::Vector3d PositionOf(const CsvTable& t, const CsvRow& row, const PositionColumns& p) {
+Eigen::Vector3d PositionOf(const io::CsvTable& t, const io::CsvRow& row, const PositionColumns& p) {
   return {t.Number(row, p.x, Quantity::kCoordinate), t.Number(row, p.y, Quantity::kCoordinate),
           t.Number(row, p.z, Quantity::kCoordinate)};
 }
 
-std::optional<Eigen::Vector3d> OrientationOf(const CsvTable& t, const CsvRow& row,
+std::optional<Eigen::Vector3d> OrientationOf(const io::CsvTable& t, const io::CsvRow& row,
                                              const PositionColumns& p) {
   if (!p.a) return std::nullopt;
   return Eigen::Vector3d(t.AngleRad(row, *p.a), t.AngleRad(row, *p.b), t.AngleRad(row, *p.c));
 }
 
 // A name that may be left empty (a via point's point, the one approach).
-std::string OptionalName(const CsvTable& t, const CsvRow& row, int column) {
+std::string OptionalName(const io::CsvTable& t, const io::CsvRow& row, int column) {
   return t.Text(row, column).empty() ? std::string() : t.Name(row, column);
 }
 
-const std::string& PointName(const CsvTable& t, const CsvRow& row, int column) {
+const std::string& PointName(const io::CsvTable& t, const io::CsvRow& row, int column) {
   const std::string& name = t.Name(row, column);
   if (name.empty()) throw InputError(t.Where(row, column), "expected a point name");
   return name;
@@ -74,12 +74,12 @@ const std::string& PointName(const CsvTable& t, const CsvRow& row, int column) {
 }  // namespace
 
 std::vector<CommandedPoint> ReadCommandedCsv(const std::string& path) {
-  const CsvTable t = ReadCsvFile(path);
+  const io::CsvTable t = io::ReadCsvFile(path);
   const int id = IdColumn(t);
   const PositionColumns p = PositionColumnsOf(t);
   std::vector<CommandedPoint> out;
   std::set<std::string> seen;
-  for (const CsvRow& row : t.rows()) {
+  for (const io::CsvRow& row : t.rows()) {
     CommandedPoint c;
     c.point = PointName(t, row, id);
     if (!seen.insert(c.point).second)
@@ -94,7 +94,7 @@ std::vector<CommandedPoint> ReadCommandedCsv(const std::string& path) {
 }
 
 std::vector<AttainedRow> ReadAttainedCsv(const std::string& path) {
-  const CsvTable t = ReadCsvFile(path);
+  const io::CsvTable t = io::ReadCsvFile(path);
   const int id = IdColumn(t);
   const PositionColumns p = PositionColumnsOf(t);
   const std::optional<int> cycle = t.FindColumn("cycle");
@@ -102,7 +102,7 @@ std::vector<AttainedRow> ReadAttainedCsv(const std::string& path) {
   std::vector<AttainedRow> out;
   std::map<std::tuple<std::string, int, std::string>, int> seen;  // → line
   std::map<std::pair<std::string, std::string>, int> counted;     // cycles without a column
-  for (const CsvRow& row : t.rows()) {
+  for (const io::CsvRow& row : t.rows()) {
     AttainedRow a;
     a.point = PointName(t, row, id);
     if (approach) a.approach = OptionalName(t, row, *approach);
@@ -138,8 +138,8 @@ std::string FormatIso9283PlanCsv(const std::vector<Iso9283PlanRow>& rows) {
   for (int i = 1; i <= n; ++i) out += fmt::format(",q{}_deg", i);
   out += "\n";
   for (const auto& r : rows) {
-    out += fmt::format("{},{},{},{},{:.6f},{:.6f},{:.6f}", CsvEscape(r.pose), CsvEscape(r.point),
-                       r.cycle > 0 ? std::to_string(r.cycle) : std::string(), CsvEscape(r.approach),
+    out += fmt::format("{},{},{},{},{:.6f},{:.6f},{:.6f}", io::CsvEscape(r.pose), io::CsvEscape(r.point),
+                       r.cycle > 0 ? std::to_string(r.cycle) : std::string(), io::CsvEscape(r.approach),
                        r.target_mm.x(), r.target_mm.y(), r.target_mm.z());
     for (int i = 0; i < n; ++i) out += fmt::format(",{:.8f}", r.joints_rad(i) / kRadPerDeg);
     out += "\n";
@@ -148,18 +148,18 @@ std::string FormatIso9283PlanCsv(const std::vector<Iso9283PlanRow>& rows) {
 }
 
 std::vector<Iso9283PlanRow> ReadIso9283PlanCsv(const std::string& path, int num_joints) {
-  const CsvTable t = ReadCsvFile(path);
+  const io::CsvTable t = io::ReadCsvFile(path);
   std::vector<std::string> known = {"pose", "point", "cycle", "approach", "x_mm", "y_mm", "z_mm"};
   for (int i = 1; i <= num_joints; ++i) known.push_back("q" + std::to_string(i) + "_*");
   t.RefuseUnreadUnits(known);
   const int pose = t.Column("pose"), point = t.Column("point"), cycle = t.Column("cycle");
   const std::optional<int> approach = t.FindColumn("approach");
   const int x = t.Column("x_mm"), y = t.Column("y_mm"), z = t.Column("z_mm");
-  std::vector<AngleColumn> q;
+  std::vector<io::AngleColumn> q;
   for (int i = 1; i <= num_joints; ++i) q.push_back(t.AngleColumnOf("q" + std::to_string(i)));
   std::vector<Iso9283PlanRow> out;
   std::set<std::string> labels;
-  for (const CsvRow& row : t.rows()) {
+  for (const io::CsvRow& row : t.rows()) {
     Iso9283PlanRow r;
     r.pose = t.Name(row, pose);
     if (r.pose.empty()) throw InputError(t.Where(row, pose), "expected a pose label");
@@ -184,4 +184,4 @@ std::vector<Iso9283PlanRow> ReadIso9283PlanCsv(const std::string& path, int num_
   return out;
 }
 
-}  // namespace armsig::io
+}  // namespace armsig::iso9283

@@ -14,7 +14,7 @@
 #include <string>
 #include <vector>
 
-namespace armsig::io {
+namespace armsig::iso9283 {
 
 struct CommandedPoint {
   std::string point;
@@ -51,4 +51,4 @@ struct Iso9283PlanRow {
 std::string FormatIso9283PlanCsv(const std::vector<Iso9283PlanRow>& rows);
 std::vector<Iso9283PlanRow> ReadIso9283PlanCsv(const std::string& path, int num_joints);
 
-}  // namespace armsig::io
+}  // namespace armsig::iso9283

@@ -13,9 +13,11 @@
 #include "report/figures.h"
 #include "report/html.h"
 
-namespace armsig::workflows {
+namespace armsig::iso9283 {
 
-using namespace figures;  // the drawing pieces (report/figures.h)
+using namespace report::figures;  // the drawing pieces (report/figures.h)
+using report::Html;
+using report::HtmlFormat;
 namespace iso = calibration::iso9283;
 
 std::optional<iso::TestCube> CubeOfTestPoints(const Iso9283Evaluation& e) {
@@ -113,7 +115,7 @@ void ScatterPanel(cv::Mat& image, const cv::Rect& box, const iso::PointData& dat
   double extent = std::isfinite(f.rp_mm) ? 1.15 * f.rp_mm : 0.0;
   for (const auto& p : d) extent = std::max({extent, 1.1 * std::abs(p.x()), 1.1 * std::abs(p.y())});
   if (!(extent > 0)) extent = 0.01;
-  const auto ticks = NiceTicks(-extent, extent, 4);
+  const auto ticks = report::NiceTicks(-extent, extent, 4);
   extent = std::max(std::abs(ticks.front()), std::abs(ticks.back()));
   const double px = box.width / (2.0 * extent);
   const cv::Point centre(box.x + box.width / 2, box.y + box.height / 2);
@@ -182,34 +184,34 @@ Figure ScatterFigure(const std::string& dir, const std::string& file, const std:
   return Save(dir, file, title, image);
 }
 
-Html Deg(double rad) { return Num(rad / kRadPerDeg, 4); }
+report::Html Deg(double rad) { return Num(rad / kRadPerDeg, 4); }
 
 // The figures table of one test.
-Html FiguresTable(const std::string& id, const Iso9283Evaluation& e) {
+report::Html FiguresTable(const std::string& id, const Iso9283Evaluation& e) {
   const bool oriented = std::any_of(e.points.begin(), e.points.end(),
                                     [](const auto& f) { return f.rp_abc_rad.has_value(); });
   const bool vap = std::any_of(e.points.begin(), e.points.end(),
                                [](const auto& f) { return f.vap_mm.has_value(); });
-  Html h = HtmlFormat(
+  report::Html h = HtmlFormat(
       "<table id=\"{}\"><tr><th>point</th><th class=\"num\">n</th><th class=\"num\">AP mm</th>"
       "<th class=\"num\">APx</th><th class=\"num\">APy</th><th class=\"num\">APz</th>"
       "<th class=\"num\">l&#772; mm</th><th class=\"num\">S<sub>l</sub> mm</th>"
       "<th class=\"num\">RP mm</th><th class=\"num wrap\">RP, 95 % bootstrap</th>{}{}</tr>\n",
       id,
-      oriented ? Html("<th class=\"num wrap\">APa, b, c deg</th><th class=\"num wrap\">RPa, b, c "
+      oriented ? report::Html("<th class=\"num wrap\">APa, b, c deg</th><th class=\"num wrap\">RPa, b, c "
                       "deg (&plusmn;)</th>")
-               : Html(),
-      vap ? Html("<th class=\"num\">vAP mm</th>") : Html());
+               : report::Html(),
+      vap ? report::Html("<th class=\"num\">vAP mm</th>") : report::Html());
   for (size_t i = 0; i < e.points.size(); ++i) {
     const auto& f = e.points[i];
     const auto& iv = e.rp_intervals[i];
-    Html orientation;
+    report::Html orientation;
     if (oriented) {
       // a, b and c one above the other: three numbers side by side made the table wider
       // than a laptop's window (its last column cut at 1,400 px).
       auto triple = [](const std::optional<Eigen::Vector3d>& v) {
-        return v ? Deg(v->x()) + Html("<br>") + Deg(v->y()) + Html("<br>") + Deg(v->z())
-                 : Html("&mdash;");
+        return v ? Deg(v->x()) + report::Html("<br>") + Deg(v->y()) + report::Html("<br>") + Deg(v->z())
+                 : report::Html("&mdash;");
       };
       orientation = HtmlFormat("<td class=\"num\">{}</td><td class=\"num\">{}</td>",
                                triple(f.ap_abc_rad), triple(f.rp_abc_rad));
@@ -221,13 +223,13 @@ Html FiguresTable(const std::string& id, const Iso9283Evaluation& e) {
         "<td class=\"num\">{}</td>{}{}</tr>\n",
         id, f.name, f.name, f.n, Num(f.ap_mm), Num(f.ap_xyz_mm.x()), Num(f.ap_xyz_mm.y()),
         Num(f.ap_xyz_mm.z()), Num(f.mean_l_mm), Num(f.s_l_mm), Num(f.rp_mm),
-        iv ? Num(iv->lo) + Html(" &ndash; ") + Num(iv->hi) : Html("&mdash;"), orientation,
-        vap ? HtmlFormat("<td class=\"num\">{}</td>", f.vap_mm ? Num(*f.vap_mm) : Html("&mdash;"))
-            : Html());
+        iv ? Num(iv->lo) + report::Html(" &ndash; ") + Num(iv->hi) : report::Html("&mdash;"), orientation,
+        vap ? HtmlFormat("<td class=\"num\">{}</td>", f.vap_mm ? Num(*f.vap_mm) : report::Html("&mdash;"))
+            : report::Html());
   }
   h += "</table>\n";
   if (!e.distances.empty()) {
-    h += HtmlFormat(
+    h += report::HtmlFormat(
         "<table id=\"{}-distance\"><tr><th>distance</th><th class=\"num\">n</th><th "
         "class=\"num\">commanded mm</th><th class=\"num\">mean attained mm</th><th "
         "class=\"num\">AD mm</th><th class=\"num\">RD mm (&plusmn;)</th></tr>\n",
@@ -241,16 +243,16 @@ Html FiguresTable(const std::string& id, const Iso9283Evaluation& e) {
     }
     h += "</table>\n";
   }
-  h += HtmlFormat("<p>Frame: {}</p>\n", e.frame.detail.empty() ? e.frame.method : e.frame.detail);
-  for (const auto& n : e.notes) h += HtmlFormat("<p class=\"note\">{}</p>\n", n);
+  h += report::HtmlFormat("<p>Frame: {}</p>\n", e.frame.detail.empty() ? e.frame.method : e.frame.detail);
+  for (const auto& n : e.notes) h += report::HtmlFormat("<p class=\"note\">{}</p>\n", n);
   return h;
 }
 
 // Before and after: the measured AP, the signature's prediction and the compensated test.
-Html ComparisonTable(const Iso9283PageInput& in) {
+report::Html ComparisonTable(const Iso9283PageInput& in) {
   const auto& before = *in.test.figures;
   const Iso9283Evaluation* after = in.compensated ? in.compensated->figures : nullptr;
-  Html h(
+  report::Html h(
       "<table id=\"comparison\"><tr><th>point</th><th class=\"num\">AP measured, nominal "
       "program</th><th class=\"num\">AP predicted by the signature</th><th class=\"num\">AP "
       "attained with compensation</th><th class=\"num\">RP nominal program</th><th "
@@ -262,18 +264,18 @@ Html ComparisonTable(const Iso9283PageInput& in) {
       for (const auto& p : after->points)
         if (p.name == f.name) g = &p;
     }
-    const Html predicted = i < in.test.predicted_ap_mm.size()
+    const report::Html predicted = i < in.test.predicted_ap_mm.size()
                                ? Num(in.test.predicted_ap_mm[i].norm())
-                               : Html("&mdash;");
+                               : report::Html("&mdash;");
     h += HtmlFormat(
         "<tr><td>{}</td><td class=\"num\">{}</td><td class=\"num\">{}</td><td "
         "class=\"num\"><b>{}</b></td><td class=\"num\">{}</td><td class=\"num\">{}</td></tr>\n",
-        f.name, Num(f.ap_mm), predicted, g ? Num(g->ap_mm) : Html("not measured"), Num(f.rp_mm),
-        g ? Num(g->rp_mm) : Html("&mdash;"));
+        f.name, Num(f.ap_mm), predicted, g ? Num(g->ap_mm) : report::Html("not measured"), Num(f.rp_mm),
+        g ? Num(g->rp_mm) : report::Html("&mdash;"));
   }
   h += "</table>\n";
   if (before.frame.method == "rigid best fit") {
-    h += Html(
+    h += report::Html(
         "<p class=\"note\">The measured AP is taken after a rigid best fit, which removes the "
         "rigid part of the error; the signature's prediction keeps it. Without --align both are in "
         "the robot's frame.</p>\n");
@@ -298,11 +300,11 @@ std::string WriteIso9283Page(const std::string& dir, const Iso9283PageInput& in)
   if (!in.test.figures) throw std::logic_error("WriteIso9283Page: no figures");
   std::filesystem::create_directories(dir);
   const Iso9283Evaluation& e = *in.test.figures;
-  Html body = HtmlFormat(
+  report::Html body = HtmlFormat(
       "<!DOCTYPE html>\n<html lang=\"en\"><head><meta charset=\"utf-8\"><title>ISO 9283 test: "
       "{}</title><style>{}</style></head><body>\n<h1>ISO 9283 pose test: robot {}</h1>\n",
-      in.robot, Html::Trusted(kPageStyle), in.robot);
-  auto row = [](const char* name, Html value) {
+      in.robot, report::Html::Trusted(kPageStyle), in.robot);
+  auto row = [](const char* name, report::Html value) {
     return HtmlFormat("<tr><th>{}</th><td>{}</td></tr>\n", name, value);
   };
   body += "<table class=\"header\">\n";
@@ -313,17 +315,17 @@ std::string WriteIso9283Page(const std::string& dir, const Iso9283PageInput& in)
     body += row("Compensated", HtmlFormat("{}: session {}, started {}", in.compensated->title,
                                           in.compensated->session, in.compensated->started_at));
   }
-  body += row("Date", Html::Text(in.generated_at.empty() ? Now() : in.generated_at));
-  body += row("Program", HtmlFormat("armsig {}", in.armsig_version));
+  body += row("Date", report::Html::Text(in.generated_at.empty() ? Now() : in.generated_at));
+  body += row("Program", report::HtmlFormat("armsig {}", in.armsig_version));
   body += "</table>\n";
   // Against stated limits: the verdict first, then every check.
   const Iso9283Verdict* decisive =
       in.compensated_verdict ? &*in.compensated_verdict : (in.verdict ? &*in.verdict : nullptr);
   if (decisive) {
     body += HtmlFormat("<p class=\"banner {}\" id=\"verdict\"><b>{}</b> &mdash; {}{}</p>\n",
-                       Html::Text(decisive->pass ? "good" : "bad"),
+                       report::Html::Text(decisive->pass ? "good" : "bad"),
                        decisive->pass ? "PASS" : "FAIL", decisive->summary.substr(6),
-                       in.compensated_verdict ? Html(" (the compensated program)") : Html());
+                       in.compensated_verdict ? report::Html(" (the compensated program)") : report::Html());
     body += "<h2>Against the stated limits</h2>\n<table id=\"limits\"><tr><th>test</th>"
             "<th>figure</th><th>at</th><th class=\"num\">mm</th><th class=\"num\">limit mm"
             "</th><th></th></tr>\n";
@@ -333,7 +335,7 @@ std::string WriteIso9283Page(const std::string& dir, const Iso9283PageInput& in)
             "<tr><td>{}</td><td>{}</td><td>{}</td><td class=\"num\">{}</td><td "
             "class=\"num\">{}</td><td class=\"{}\">{}</td></tr>\n",
             test, c.figure, c.where, Num(c.value_mm), Num(c.limit_mm),
-            Html::Text(c.pass ? "good" : "bad"), c.pass ? "pass" : "FAIL");
+            report::Html::Text(c.pass ? "good" : "bad"), c.pass ? "pass" : "FAIL");
       }
     };
     if (in.verdict) checks("nominal program", *in.verdict);
@@ -342,27 +344,27 @@ std::string WriteIso9283Page(const std::string& dir, const Iso9283PageInput& in)
   }
 
   body += "<h2>Conditions</h2>\n<table id=\"conditions\">\n";
-  body += row("Load", in.load_kg ? HtmlFormat("{} kg", fmt::format("{:g}", *in.load_kg))
-                                 : Html("not stated (--load-kg)"));
-  body += row("Speed", in.speed_percent ? HtmlFormat("{} % of rated speed",
+  body += row("Load", in.load_kg ? report::HtmlFormat("{} kg", fmt::format("{:g}", *in.load_kg))
+                                 : report::Html("not stated (--load-kg)"));
+  body += row("Speed", in.speed_percent ? report::HtmlFormat("{} % of rated speed",
                                                      fmt::format("{:g}", *in.speed_percent))
-                                        : Html("not stated (--speed-percent)"));
+                                        : report::Html("not stated (--speed-percent)"));
   body += row("Temperature",
-              in.temperature.empty() ? Html("not measured") : Html::Text(in.temperature));
-  Html instruments;
-  for (const auto& i : in.instruments) instruments += HtmlFormat("{}<br>", i);
-  body += row("Instruments", instruments.empty() ? Html("&mdash;") : instruments);
-  if (!in.point_precision.empty()) body += row("Point precision", Html::Text(in.point_precision));
+              in.temperature.empty() ? report::Html("not measured") : report::Html::Text(in.temperature));
+  report::Html instruments;
+  for (const auto& i : in.instruments) instruments += report::HtmlFormat("{}<br>", i);
+  body += row("Instruments", instruments.empty() ? report::Html("&mdash;") : instruments);
+  if (!in.point_precision.empty()) body += row("Point precision", report::Html::Text(in.point_precision));
   body += "</table>\n";
 
   if (in.cube) body += FigureHtml(CubeFigure(dir, *in.cube, e));
-  body += "<h2>Figures: " + Html::Text(in.test.title) + "</h2>\n";
+  body += "<h2>Figures: " + report::Html::Text(in.test.title) + "</h2>\n";
   body += FiguresTable("figures", e);
   body += FigureHtml(ScatterFigure(
       dir, "scatter.png",
       "The five points: attained positions around their barycentre (" + in.test.title + ")", e));
   if (in.compensated && in.compensated->figures) {
-    body += "<h2>Figures: " + Html::Text(in.compensated->title) + "</h2>\n";
+    body += "<h2>Figures: " + report::Html::Text(in.compensated->title) + "</h2>\n";
     body += FiguresTable("compensated", *in.compensated->figures);
     body += FigureHtml(
         ScatterFigure(dir, "scatter-compensated.png",
@@ -391,4 +393,4 @@ std::string WriteIso9283Page(const std::string& dir, const Iso9283PageInput& in)
   return path;
 }
 
-}  // namespace armsig::workflows
+}  // namespace armsig::iso9283

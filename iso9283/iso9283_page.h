@@ -13,7 +13,7 @@
 #include "calibration/iso9283_cube.h"
 #include "iso9283/iso9283.h"
 
-namespace armsig::workflows {
+namespace armsig::iso9283 {
 
 // One measured test (a session) on the page.
 struct Iso9283PageTest {
@@ -59,4 +59,4 @@ std::string WriteIso9283Page(const std::string& dir, const Iso9283PageInput& inp
 // nullopt otherwise (data from elsewhere with other names).
 std::optional<calibration::iso9283::TestCube> CubeOfTestPoints(const Iso9283Evaluation& e);
 
-}  // namespace armsig::workflows
+}  // namespace armsig::iso9283

@@ -24,7 +24,7 @@
 #include "report/report.h"
 #include "workflows/signature.h"
 
-namespace armsig::workflows {
+namespace armsig::iso9283 {
 
 namespace iso = calibration::iso9283;
 
@@ -78,7 +78,7 @@ SessionTest LoadTest(db::Database& db, int64_t session, const std::string& robot
   if (row->robot != robot) {
     throw InputError({db.path(), 0, 0, "--session"},
                      fmt::format("session {} is of robot {}, not {}", session,
-                                 ShellWord(row->robot), ShellWord(robot)));
+                                 workflows::ShellWord(row->robot), workflows::ShellWord(robot)));
   }
   t.row = *row;
   for (const auto& s : db::LoadReportSessions(db, {session})) t.started_at = s.started_at;
@@ -179,7 +179,7 @@ SessionTest LoadTest(db::Database& db, int64_t session, const std::string& robot
 // The robot's frame for a session: the signature located on its measured configurations,
 // else the lab file's base.
 Iso9283Frame FrameOf(const SessionTest& t, const calibration::RobotModel& model,
-                     const ActiveSignature* signature, const std::string& db_path) {
+                     const workflows::ActiveSignature* signature, const std::string& db_path) {
   Iso9283Frame frame;
   if (signature) {
     std::vector<Eigen::VectorXd> joints;
@@ -226,7 +226,7 @@ Iso9283Frame FrameOf(const SessionTest& t, const calibration::RobotModel& model,
 }
 
 Iso9283Evaluation Evaluate(SessionTest& t, const calibration::RobotModel& model,
-                           const ActiveSignature* signature, bool align,
+                           const workflows::ActiveSignature* signature, bool align,
                            const std::string& db_path) {
   Iso9283Evaluation e;
   if (align) {
@@ -243,7 +243,7 @@ Iso9283Evaluation Evaluate(SessionTest& t, const calibration::RobotModel& model,
 
 // AP predicted by the signature for each point's attained joints (robot frame).
 std::vector<Eigen::Vector3d> PredictedAp(const SessionTest& t, const calibration::RobotModel& model,
-                                         const ActiveSignature& signature) {
+                                         const workflows::ActiveSignature& signature) {
   std::vector<Eigen::Vector3d> out;
   for (size_t i = 0; i < t.points.size(); ++i) {
     const auto positions = calibration::PredictPositions(
@@ -270,7 +270,7 @@ std::string Conditions(db::Database& db, const SessionTest& t, Iso9283PageInput&
     json["temperature_c"] = {{"mean", sum / c.size()}, {"min", *lo}, {"max", *hi}};
   }
   nlohmann::json instruments = nlohmann::json::array();
-  for (const auto& i : LoadReportSources(db, std::vector<int64_t>{t.id}).instruments) {
+  for (const auto& i : report::LoadReportSources(db, std::vector<int64_t>{t.id}).instruments) {
     page.instruments.push_back(i.name + ": " + i.description);
     instruments.push_back(page.instruments.back());
   }
@@ -296,17 +296,17 @@ std::string Conditions(db::Database& db, const SessionTest& t, Iso9283PageInput&
 Iso9283ReportResult RunIso9283Report(db::Database& db, const Iso9283ReportOptions& o) {
   const auto robot_id = db::FindRobot(db, o.robot);
   if (!robot_id)
-    throw InputError({db.path(), 0, 0, "--robot"}, UnknownRobotMessage(db, o.robot));
+    throw InputError({db.path(), 0, 0, "--robot"}, workflows::UnknownRobotMessage(db, o.robot));
   const calibration::RobotModel model =
       io::ParseRobotModel(db::RobotModelYaml(db, *robot_id), "model of robot " + o.robot);
-  std::optional<ActiveSignature> signature;
+  std::optional<workflows::ActiveSignature> signature;
   std::optional<db::StoredCalibration> stored = db::ActiveCalibration(db, *robot_id);
-  if (stored) signature = LoadActiveSignature(db, o.robot);
+  if (stored) signature = workflows::LoadActiveSignature(db, o.robot);
 
   std::optional<std::map<std::string, Commanded>> plan_file;
   if (!o.commanded_csv.empty()) {
     plan_file.emplace();
-    for (const auto& r : io::ReadIso9283PlanCsv(o.commanded_csv, model.num_joints()))
+    for (const auto& r : iso9283::ReadIso9283PlanCsv(o.commanded_csv, model.num_joints()))
       (*plan_file)[r.pose] = {r.point, r.approach, r.cycle, r.target_mm};
   }
   SessionTest test = LoadTest(db, o.session, o.robot, model,
@@ -421,4 +421,4 @@ Iso9283ReportResult RunIso9283Report(db::Database& db, const Iso9283ReportOption
   return result;
 }
 
-}  // namespace armsig::workflows
+}  // namespace armsig::iso9283

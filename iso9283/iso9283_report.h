@@ -12,7 +12,7 @@
 #include "db/database.h"
 #include "iso9283/iso9283.h"
 
-namespace armsig::workflows {
+namespace armsig::iso9283 {
 
 struct Iso9283ReportOptions {
   std::string robot;
@@ -60,4 +60,4 @@ struct Iso9283Label {
 };
 std::optional<Iso9283Label> ParseIso9283Label(const std::string& label);
 
-}  // namespace armsig::workflows
+}  // namespace armsig::iso9283

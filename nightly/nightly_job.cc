@@ -49,9 +49,8 @@
 #include "workflows/signature.h"
 #include "report/stored_report.h"
 
-namespace armsig::workflows {
+namespace armsig::nightly {
 
-namespace nightly {
 
 // What the measurements are, not how they were asked for: every pose's id, joints and
 // target, in order, with the options that shape the fit. Equal digests = same inputs.
@@ -181,7 +180,6 @@ double SetSigmaMm(const db::StoredCalibration& c) {
   return 0.01;
 }
 
-}  // namespace nightly
 
 namespace {
 
@@ -268,14 +266,13 @@ std::string SinceToUtc(const std::string& text) {
 }
 
 
-namespace nightly {
 
 void NightlyJob::OpenAndLock() {
   database_.emplace(options_.db_path, db::OpenMode::kMustExist);
   const auto robot_id = db::FindRobotInUse(*database_, options_.robot);  // a removed one: refused
   if (!robot_id) {
     throw InputError({options_.db_path, 0, 0, "--robot"},
-                     UnknownRobotMessage(*database_, options_.robot));
+                     workflows::UnknownRobotMessage(*database_, options_.robot));
   }
   robot_id_ = *robot_id;
   // One run per robot at a time (the lock guards the robot's versions); other robots of
@@ -284,7 +281,7 @@ void NightlyJob::OpenAndLock() {
   if (database_->backend() == db::Backend::kPostgres)
     server_lock_.emplace(database_->connection(), "recalibrate", options_.robot, options_.lock_wait_s);
   else
-    file_lock_.emplace(RobotLockPath(options_.db_path, options_.robot), options_.lock_wait_s);
+    file_lock_.emplace(workflows::RobotLockPath(options_.db_path, options_.robot), options_.lock_wait_s);
 }
 
 // What the run decides on is read from one snapshot (a capture or a push may write
@@ -293,7 +290,7 @@ void NightlyJob::ReadInputs() {
   db::ReadSnapshot snapshot(*database_);
   model_ = io::ParseRobotModel(db::RobotModelYaml(*database_, robot_id_),
                                "model of robot " + options_.robot);
-  ParamsOf(model_, options_.params);  // a typo in --params is refused before any data is read
+  workflows::ParamsOf(model_, options_.params);  // a typo in --params is refused before any data is read
   gates_ = LoadGates(*database_, robot_id_, options_);
   spdlog::debug(
       "recalibrate: gates: validation mean <= {} mm, max <= {} mm, tolerance {} mm, drift {} mm "
@@ -477,7 +474,7 @@ void NightlyJob::Fit(const std::vector<MeasuredPose>& poses) {
   Log(fmt::format("{} configurations from {}: fitting {} ({}), validating on the rest",
                   poses.size(), SessionList(decision_.sessions), settings_.select, options_.params));
   run_.emplace(RunCalibration(model_, poses, {}, settings_));
-  const CalibrationRun& run = *run_;
+  const workflows::CalibrationRun& run = *run_;
   if (run.residual_map) {  // the nightly log is where this run says it (once)
     Log(fmt::format("residual map {}: {}", run.residual_map->used ? "used" : "not used",
                     run.residual_map->decision));
@@ -489,7 +486,7 @@ void NightlyJob::Fit(const std::vector<MeasuredPose>& poses) {
     if (fit_ids.count(p.id)) fit_.push_back(p);
     if (validation_ids.count(p.id)) validation_.push_back(p);
   }
-  decision_.validation = StatsOf(run.validation_residuals);
+  decision_.validation = workflows::StatsOf(run.validation_residuals);
   const nlohmann::json calibration_json = CalibrationJson(model_, run);
   decision_.residual_model = calibration_json["residual_model"];
   const auto orientation_of = [&](const char* part) {
@@ -547,7 +544,7 @@ void NightlyJob::JudgeGates() {
 
 
 void NightlyJob::Store(const nlohmann::json& inputs) {
-  const CalibrationRun& run = *run_;
+  const workflows::CalibrationRun& run = *run_;
   const nlohmann::json options = {{"select", settings_.select},
                                   {"params", options_.params},
                                   {"gates",
@@ -582,7 +579,7 @@ void NightlyJob::Store(const nlohmann::json& inputs) {
   tx.commit();
 }
 
-void NightlyJob::AddDecision(ReportInput& input) const {
+void NightlyJob::AddDecision(report::ReportInput& input) const {
   input.drift = decision_.drift;
   input.drift_line = decision_.DriftLine();
   for (const auto& v : decision_.tested) {
@@ -594,14 +591,14 @@ void NightlyJob::AddDecision(ReportInput& input) const {
 }
 
 void NightlyJob::WriteDecisionOnlyReport() {
-  ReportInput input;
+  report::ReportInput input;
   input.robot = options_.robot;
   input.version = 0;
   input.decision = decision_.Describe();
   input.armsig_version = ARMSIG_VERSION;
   db::ReadSnapshot report_snapshot(*database_);
-  input.history = ReportHistoryOf(*database_, robot_id_);
-  input.drift_history = ReportDriftOf(*database_, model_, robot_id_, gates_.drift_mm);
+  input.history = report::ReportHistoryOf(*database_, robot_id_);
+  input.drift_history = report::ReportDriftOf(*database_, model_, robot_id_, gates_.drift_mm);
   if (current_) {
     input.previous_version = current_->version;
     input.previous_params_spec = current_->params_spec;
@@ -612,8 +609,8 @@ void NightlyJob::WriteDecisionOnlyReport() {
 }
 
 void NightlyJob::WriteRunReport() {
-  const CalibrationRun& run = *run_;
-  ReportInput input;
+  const workflows::CalibrationRun& run = *run_;
+  report::ReportInput input;
   input.robot = options_.robot;
   input.version = decision_.version;
   input.decision = decision_.Describe();
@@ -626,20 +623,20 @@ void NightlyJob::WriteRunReport() {
   input.validation = validation_;
   input.armsig_version = ARMSIG_VERSION;
   db::ReadSnapshot report_snapshot(*database_);  // the report's reads agree with each other
-  input.sources = LoadReportSources(*database_, run);
+  input.sources = report::LoadReportSources(*database_, run);
   {
     std::vector<int64_t> sessions;
     for (const auto& s : input.sources.sessions) sessions.push_back(s.id);
     input.temperature_c = db::PoseTemperatures(*database_, sessions);
   }
-  input.history = ReportHistoryOf(*database_, robot_id_);
-  input.drift_history = ReportDriftOf(*database_, model_, robot_id_, gates_.drift_mm);
+  input.history = report::ReportHistoryOf(*database_, robot_id_);
+  input.drift_history = report::ReportDriftOf(*database_, model_, robot_id_, gates_.drift_mm);
   if (decision_.version == 0 && current_) {
     // This run, not stored: against the active set, as its drift decision was taken.
     const calibration::FittedSet now{run.estimate.params, run.estimate.identifiability.identified,
                                      run.estimate.covariance};
-    ReportDriftPoint point = DriftPointOf(
-        model_, FittedSetOf(model_, SignatureOf(model_, *current_), *current_), now,
+    report::ReportDriftPoint point = report::DriftPointOf(
+        model_, FittedSetOf(model_, workflows::SignatureOf(model_, *current_), *current_), now,
         compared_.empty() ? spread_ : compared_);
     point.version = 0;
     point.against = current_->version;
@@ -647,7 +644,7 @@ void NightlyJob::WriteRunReport() {
     input.drift_history.points.push_back(point);
   }
   if (decision_.version == 0) {
-    ReportHistoryPoint rejected{0, "this run (rejected)", decision_.validation.mean_mm, run.params_spec,
+    report::ReportHistoryPoint rejected{0, "this run (rejected)", decision_.validation.mean_mm, run.params_spec,
                                 false};
     rejected.drift = decision_.drift;
     input.history.push_back(rejected);
@@ -693,7 +690,7 @@ RecalibrationDecision NightlyJob::Run() {
     decision_.sessions = decision_.change->after;
     Log(decision_.Describe());
     if (!options_.report_dir.empty()) {
-      RemoveReportDebris(options_.report_dir, 0.0);  // this run holds the robot's lock
+      report::RemoveReportDebris(options_.report_dir, 0.0);  // this run holds the robot's lock
       WriteDecisionOnlyReport();  // nothing stored: a report that fails is the run's failure
     }
     return decision_;
@@ -733,9 +730,9 @@ RecalibrationDecision NightlyJob::Run() {
                 poses.size(), JsonText(nlohmann::json(decision_.sessions)), options_.params, options_.select, digest);
   if (!options_.force && UpToDate(digest)) {
     // A report the night that stored the set could not write is written now.
-    if (!options_.report_dir.empty() && !HasReportOf(options_.report_dir, options_.robot, decision_.version))
+    if (!options_.report_dir.empty() && !report::HasReportOf(options_.report_dir, options_.robot, decision_.version))
       WriteOutput([&] {
-        decision_.report_path = WriteStoredReport(*database_, options_.robot, decision_.version, options_.report_dir).path;
+        decision_.report_path = report::WriteStoredReport(*database_, options_.robot, decision_.version, options_.report_dir).path;
         Log(fmt::format("report of version {}: {}", decision_.version, decision_.report_path));
       });
     return decision_;
@@ -747,7 +744,7 @@ RecalibrationDecision NightlyJob::Run() {
         fmt::format("robot {} has {} measured configurations{} in its window; a recalibration "
                     "needs at least 20 (some to fit, the rest to validate); {} lists its sessions",
                     options_.robot, poses.size(), since_.empty() ? "" : " since " + since_,
-                    Hint(database_->path(), {"sessions", "--robot", options_.robot})));
+                    workflows::Hint(database_->path(), {"sessions", "--robot", options_.robot})));
   }
   auto stopped = [&] {
     if (!options_.stop || !options_.stop->load()) return false;
@@ -780,7 +777,7 @@ RecalibrationDecision NightlyJob::Run() {
   if (!options_.report_dir.empty()) {
     // This run holds the robot's lock: temporary files in its report folder are a stopped
     // run's.
-    RemoveReportDebris(options_.report_dir, 0.0);
+    report::RemoveReportDebris(options_.report_dir, 0.0);
     if (decision_.version > 0)
       WriteOutput([&] { WriteRunReport(); });
     else
@@ -799,16 +796,15 @@ void NightlyJob::WriteOutput(const std::function<void()>& write) {
         "version {} is stored, but its report could not be written to {}: {}; write it with "
         "{} (or run the job again)",
         decision_.version, options_.report_dir, e.what(),
-        Hint(database_->path(), {"report", "--robot", options_.robot, "--set",
+        workflows::Hint(database_->path(), {"report", "--robot", options_.robot, "--set",
                                  std::to_string(decision_.version), "--out", options_.report_dir}));
     spdlog::error("recalibrate: {}: {}", options_.robot, decision_.output_error);
   }
 }
 
-}  // namespace nightly
 
 RecalibrationDecision Recalibrate(const RecalibrateOptions& options) {
-  return nightly::NightlyJob(options).Run();
+  return NightlyJob(options).Run();
 }
 
-}  // namespace armsig::workflows
+}  // namespace armsig::nightly

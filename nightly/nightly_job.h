@@ -27,7 +27,7 @@
 #include "workflows/calibration_run.h"
 #include "workflows/signature.h"
 
-namespace armsig::workflows::nightly {
+namespace armsig::nightly {
 
 struct Gates {
   double max_mean_mm = 0.5, max_max_mm = 2.0, tolerance_mm = 0.02, drift_sigma = 5.0,
@@ -109,15 +109,15 @@ class NightlyJob {
   void Fit(const std::vector<MeasuredPose>& poses);
   void JudgeGates();
   void CompareWithActive();
-  void CompareOnSameData(const Signature& old);
+  void CompareOnSameData(const workflows::Signature& old);
   void TryElsewhere();
-  void DriftConfigurations(const Signature& old);
+  void DriftConfigurations(const workflows::Signature& old);
   void Store(const nlohmann::json& inputs);
   void WriteRunReport();
   // A drift-suspected night's page: no fit, the decision and the window (report.h).
   void WriteDecisionOnlyReport();
   // The decision's part of a report: the drift line, its causes, the window tested.
-  void AddDecision(ReportInput& input) const;
+  void AddDecision(report::ReportInput& input) const;
   void WriteOutput(const std::function<void()>& write);
   void Gate(const std::string& name, double value, double limit);
 
@@ -145,12 +145,12 @@ class NightlyJob {
   // A window session lay outside the active set's support and was not tested against it.
   bool extended_ = false;
   RecalibrationDecision decision_;
-  std::optional<CalibrationRun> run_;
-  CalibrateSettings settings_;
+  std::optional<workflows::CalibrationRun> run_;
+  workflows::CalibrateSettings settings_;
   std::vector<MeasuredPose> fit_, validation_;
   std::vector<calibration::ParameterChange> changes_;
   bool pass_ = false;
 };
 
 
-}  // namespace armsig::workflows::nightly
+}  // namespace armsig::nightly

@@ -13,7 +13,7 @@
 #include "calibration/estimation.h"
 #include "db/sessions.h"
 
-namespace armsig::workflows {
+namespace armsig::nightly {
 
 struct RecalibrateOptions {
   std::string db_path;
@@ -222,4 +222,4 @@ struct RecalibrationDecision {
 // lab file; std::runtime_error when another recalibration holds the lock too long.
 RecalibrationDecision Recalibrate(const RecalibrateOptions& options);
 
-}  // namespace armsig::workflows
+}  // namespace armsig::nightly

@@ -9,7 +9,7 @@
 
 #include "nightly/nightly_job.h"
 
-namespace armsig::workflows::nightly {
+namespace armsig::nightly {
 
 namespace {
 
@@ -44,7 +44,7 @@ SessionVerdict VerdictOf(const db::SessionSummary& session, const calibration::S
 // where does the robot stop agreeing with it, and why?
 void NightlyJob::TestAgainstActive() {
   if (!current_ || window_.empty()) return;
-  const Signature old = SignatureOf(model_, *current_);
+  const workflows::Signature old = workflows::SignatureOf(model_, *current_);
   calibration::FittedSet set = FittedSetOf(model_, old, *current_);
   if (set.identified.empty()) {
     // A set stored before covariances were: the subset its kind of fit identifies, with no
@@ -154,7 +154,7 @@ void NightlyJob::TestAgainstActive() {
         "session agrees: a set-up fault, not the robot; left out of this fit ({} keeps it out "
         "for good)",
         decision_.tested[i].session, current_->version, decision_.tested[i].effect_max_mm,
-        Hint(database_->path(), {"session", "discard", std::to_string(decision_.tested[i].session)})));
+        workflows::Hint(database_->path(), {"session", "discard", std::to_string(decision_.tested[i].session)})));
   }
   if (point.first_changed < 0) return;
   ChangeFinding change;
@@ -217,7 +217,7 @@ std::optional<double> PlacedMeanMm(const calibration::RobotModel& model,
 // volume inside both sets' term arcs; when fewer than half of them are, the window's own
 // configurations inside both (at most kDriftConfigurations, evenly taken). Beyond the arcs
 // each set extrapolates, and two extrapolations differ without the robot having changed.
-void NightlyJob::DriftConfigurations(const Signature& old) {
+void NightlyJob::DriftConfigurations(const workflows::Signature& old) {
   compared_.clear();
   const calibration::SetValidity fresh = run_->validity.value_or(calibration::SetValidity{});
   auto inside_both = [&](const Eigen::VectorXd& q) {
@@ -254,8 +254,8 @@ void NightlyJob::TryElsewhere() {
   if (run_->validity) signed_model.term_support = run_->validity->term_arcs;
   std::optional<calibration::ResidualMap> new_map;
   if (run_->map_used()) new_map.emplace(run_->residual_map->map);
-  std::optional<ActiveSignature> active;
-  if (current_) active = LoadSignature(*database_, options_.robot, current_->version);
+  std::optional<workflows::ActiveSignature> active;
+  if (current_) active = workflows::LoadSignature(*database_, options_.robot, current_->version);
   for (const auto& w : elsewhere_) {
     // After a change the older sessions are another robot's: not a test of this one.
     if (decision_.change && !after.count(w.summary.id)) continue;
@@ -295,7 +295,7 @@ void NightlyJob::TryElsewhere() {
 
 // The active set on the new fit's validation data (a gate): not worse than it by more than
 // the tolerance.
-void NightlyJob::CompareOnSameData(const Signature& old) {
+void NightlyJob::CompareOnSameData(const workflows::Signature& old) {
   // The current set on the same validation data, each session's base re-aligned on that
   // session's fit poses (the measuring frame moves between set-ups; the arm signature
   // does not), as the new fit placed each frame on them.
@@ -336,8 +336,8 @@ void NightlyJob::CompareOnSameData(const Signature& old) {
   if (placed && !unseen.empty()) {
     // With its residual map when it has one: the set as predict and compensate use it.
     decision_.previous_on_same_data =
-        StatsOf(MappedResiduals(model_, old_bases, old.params, old.map.get(), unseen));
-    const calibration::ErrorStats now = StatsOf(now_residuals);
+        workflows::StatsOf(workflows::MappedResiduals(model_, old_bases, old.params, old.map.get(), unseen));
+    const calibration::ErrorStats now = workflows::StatsOf(now_residuals);
     spdlog::debug(
         "recalibrate: version {} on the same validation data ({} of {} configurations, the "
         "others trained its map; {} frames re-aligned): mean {:.4f} mm, max {:.4f} mm; the new "
@@ -358,11 +358,11 @@ void NightlyJob::CompareOnSameData(const Signature& old) {
 // positions both predict over the work volume (drift), the difference named by its causes.
 void NightlyJob::CompareWithActive() {
   if (!current_ || !run_->estimate.status.ok()) return;
-  const Signature old = SignatureOf(model_, *current_);
+  const workflows::Signature old = workflows::SignatureOf(model_, *current_);
   CompareOnSameData(old);
   // Drift: do the two models put the arm in different places, beyond what both fits'
   // uncertainty explains and by more than the tolerance?
-  const CalibrationRun& run = *run_;
+  const workflows::CalibrationRun& run = *run_;
   const calibration::FittedSet now{run.estimate.params, run.estimate.identifiability.identified,
                                    run.estimate.covariance};
   calibration::FittedSet before = FittedSetOf(model_, old, *current_);
@@ -456,4 +456,4 @@ void NightlyJob::CompareWithActive() {
 }
 
 
-}  // namespace armsig::workflows::nightly
+}  // namespace armsig::nightly

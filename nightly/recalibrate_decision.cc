@@ -12,9 +12,8 @@
 #include "core/wording.h"
 #include "nightly/nightly_job.h"
 
-namespace armsig::workflows {
+namespace armsig::nightly {
 
-namespace nightly {
 
 nlohmann::json StatsJson(const calibration::ErrorStats& s) {
   return {{"poses", s.poses}, {"mean_mm", s.mean_mm}, {"max_mm", s.max_mm}, {"rms_mm", s.rms_mm}};
@@ -78,7 +77,6 @@ nlohmann::json ChangeJson(const std::optional<ChangeFinding>& change) {
           {"indistinguishable_from_frame", change->indistinguishable}};
 }
 
-}  // namespace nightly
 
 using namespace nightly;
 
@@ -342,4 +340,4 @@ nlohmann::json RecalibrationDecision::DriftJson() const {
   return j;
 }
 
-}  // namespace armsig::workflows
+}  // namespace armsig::nightly

@@ -21,7 +21,7 @@
 #include "db/robots.h"
 #include "db/stored_json.h"
 
-namespace armsig::workflows {
+namespace armsig::nightly {
 
 namespace {
 
@@ -437,4 +437,4 @@ WorkerSummary RunWorker(const WorkerOptions& options) {
   return summary;
 }
 
-}  // namespace armsig::workflows
+}  // namespace armsig::nightly

@@ -1,6 +1,6 @@
 // The nightly job as a queue: `schedule` enqueues one recalibration job per robot,
 // any number of workers (threads, processes, machines) drain the queue, each job running
-// workflows::Recalibrate with its gates, the outcome stored with the job (db/jobs.h).
+// nightly::Recalibrate with its gates, the outcome stored with the job (db/jobs.h).
 //
 // Where things live: the store (robots, sessions, parameter sets) is a SQLite file (workers
 // on one machine) or a PostgreSQL database (workers on any number of machines); the queue is
@@ -27,7 +27,7 @@
 #include "db/jobs.h"
 #include "nightly/recalibrate.h"
 
-namespace armsig::workflows {
+namespace armsig::nightly {
 
 // The queue of `queue`: an armsig store (a SQLite file or a postgresql:// URI), opened
 // with `mode`.
@@ -94,4 +94,4 @@ WorkerSummary RunWorker(const WorkerOptions& options);
 // "host:pid".
 std::string DefaultWorkerId();
 
-}  // namespace armsig::workflows
+}  // namespace armsig::nightly

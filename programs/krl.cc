@@ -189,32 +189,14 @@ class Parser {
   }
 
   std::size_t Closing(int f, std::size_t open, std::size_t end) const {
-    int depth = 0;
-    for (std::size_t k = open; k < end; ++k) {
-      const Token& t = T(f)[k];
-      if (t.Is("(") || t.Is("[") || t.Is("{")) ++depth;
-      if (t.Is(")") || t.Is("]") || t.Is("}")) {
-        if (--depth == 0) return k;
-      }
-    }
-    return end;
+    return ClosingBracket(T(f), open, end);
   }
 
   // Top-level pieces of [begin, end) split at `sep`.
   std::vector<Range> Split(const Range& r, std::string_view sep) const {
     std::vector<Range> out;
-    int depth = 0;
-    std::size_t start = r.begin;
-    for (std::size_t k = r.begin; k <= r.end; ++k) {
-      if (k < r.end) {
-        const Token& t = T(r.file)[k];
-        if (t.Is("(") || t.Is("[") || t.Is("{")) ++depth;
-        if (t.Is(")") || t.Is("]") || t.Is("}")) --depth;
-        if (!(depth == 0 && t.Is(sep))) continue;
-      }
-      out.push_back({r.file, start, k});
-      start = k + 1;
-    }
+    for (const auto& [first, last] : SplitTopLevel(T(r.file), r.begin, r.end, sep))
+      out.push_back({r.file, first, last});
     return out;
   }
 
@@ -318,17 +300,7 @@ class Parser {
 
   void Assignment(const Range& st, const std::string& scope) {
     const int f = st.file;
-    std::size_t eq = st.end;
-    int depth = 0;
-    for (std::size_t k = st.begin; k < st.end; ++k) {
-      const Token& t = T(f)[k];
-      if (t.Is("(") || t.Is("[") || t.Is("{")) ++depth;
-      if (t.Is(")") || t.Is("]") || t.Is("}")) --depth;
-      if (depth == 0 && t.Is("=")) {
-        eq = k;
-        break;
-      }
-    }
+    const std::size_t eq = FindTopLevel(T(f), st.begin, st.end, "=");
     if (eq == st.end || T(f)[st.begin].kind != Kind::kIdentifier) return;
     // Not a condition (IF a = …) or a loop head (FOR i = 1 TO …).
     const std::string first = Word(f, st.begin);

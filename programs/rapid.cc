@@ -139,35 +139,15 @@ class Parser {
     for (; k < t_.size(); ++k) {
       const Token& t = t_[k];
       if (depth == 0 && (word ? t.IsWord(what) : t.Is(what))) return k;
-      if (t.Is("(") || t.Is("[") || t.Is("{")) ++depth;
-      if ((t.Is(")") || t.Is("]") || t.Is("}")) && depth > 0) --depth;
+      if (OpensBracket(t)) ++depth;
+      if (ClosesBracket(t) && depth > 0) --depth;
     }
     return t_.size();
   }
-  std::size_t Closing(std::size_t open, std::size_t end) const {
-    int depth = 0;
-    for (std::size_t k = open; k < end; ++k) {
-      if (t_[k].Is("(") || t_[k].Is("[") || t_[k].Is("{")) ++depth;
-      if (t_[k].Is(")") || t_[k].Is("]") || t_[k].Is("}")) {
-        if (--depth == 0) return k;
-      }
-    }
-    return end;
-  }
+  std::size_t Closing(std::size_t open, std::size_t end) const { return ClosingBracket(t_, open, end); }
   std::vector<Range> Split(const Range& r, std::string_view sep) const {
     std::vector<Range> out;
-    int depth = 0;
-    std::size_t start = r.begin;
-    for (std::size_t k = r.begin; k <= r.end; ++k) {
-      if (k < r.end) {
-        const Token& t = t_[k];
-        if (t.Is("(") || t.Is("[") || t.Is("{")) ++depth;
-        if (t.Is(")") || t.Is("]") || t.Is("}")) --depth;
-        if (!(depth == 0 && t.Is(sep))) continue;
-      }
-      out.push_back({start, k});
-      start = k + 1;
-    }
+    for (const auto& [first, last] : SplitTopLevel(t_, r.begin, r.end, sep)) out.push_back({first, last});
     return out;
   }
 

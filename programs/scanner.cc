@@ -75,6 +75,49 @@ std::size_t ScanNumber(std::string_view text, std::size_t at) {
   return i;
 }
 
+bool OpensBracket(const Token& t) { return t.Is("(") || t.Is("[") || t.Is("{"); }
+bool ClosesBracket(const Token& t) { return t.Is(")") || t.Is("]") || t.Is("}"); }
+
+std::size_t ClosingBracket(const std::vector<Token>& tokens, std::size_t open, std::size_t end) {
+  int depth = 0;
+  for (std::size_t k = open; k < end; ++k) {
+    if (OpensBracket(tokens[k])) ++depth;
+    if (ClosesBracket(tokens[k]) && --depth == 0) return k;
+  }
+  return end;
+}
+
+std::size_t FindTopLevel(const std::vector<Token>& tokens, std::size_t begin, std::size_t end,
+                         std::string_view punct) {
+  int depth = 0;
+  for (std::size_t k = begin; k < end; ++k) {
+    const Token& t = tokens[k];
+    if (OpensBracket(t)) ++depth;
+    if (ClosesBracket(t)) --depth;
+    if (depth == 0 && t.Is(punct)) return k;
+  }
+  return end;
+}
+
+std::vector<std::pair<std::size_t, std::size_t>> SplitTopLevel(const std::vector<Token>& tokens,
+                                                               std::size_t begin, std::size_t end,
+                                                               std::string_view sep) {
+  std::vector<std::pair<std::size_t, std::size_t>> out;
+  int depth = 0;
+  std::size_t start = begin;
+  for (std::size_t k = begin; k <= end; ++k) {
+    if (k < end) {
+      const Token& t = tokens[k];
+      if (OpensBracket(t)) ++depth;
+      if (ClosesBracket(t)) --depth;
+      if (!(depth == 0 && t.Is(sep))) continue;
+    }
+    out.emplace_back(start, k);
+    start = k + 1;
+  }
+  return out;
+}
+
 std::optional<NumberField> SignedNumber(const std::vector<Token>& tokens, std::size_t* i) {
   std::size_t k = *i;
   if (k >= tokens.size()) return std::nullopt;

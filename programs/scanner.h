@@ -46,6 +46,21 @@ std::string Upper(std::string_view text);
 // the sign to the number's end), advancing *i past it; nullopt when none is there.
 std::optional<NumberField> SignedNumber(const std::vector<Token>& tokens, std::size_t* i);
 
+// Brackets: ( [ { open, ) ] } close.
+bool OpensBracket(const Token& t);
+bool ClosesBracket(const Token& t);
+// The index of the bracket that closes the one at tokens[open], looking before `end`; `end`
+// when none does.
+std::size_t ClosingBracket(const std::vector<Token>& tokens, std::size_t open, std::size_t end);
+// The first `punct` outside brackets in tokens[begin, end), or `end`.
+std::size_t FindTopLevel(const std::vector<Token>& tokens, std::size_t begin, std::size_t end,
+                         std::string_view punct);
+// The top-level pieces of tokens[begin, end) split at `sep` (outside brackets), as
+// [first, last) index pairs: one piece more than separators.
+std::vector<std::pair<std::size_t, std::size_t>> SplitTopLevel(const std::vector<Token>& tokens,
+                                                               std::size_t begin, std::size_t end,
+                                                               std::string_view sep);
+
 // Throws the InputError of a lexer or parser: file, line, column of `at`.
 [[noreturn]] void Fail(const ProgramFile& file, std::size_t at, const std::string& message);
 

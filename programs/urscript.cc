@@ -99,33 +99,18 @@ MotionType TypeOf(const std::string& name) {
 
 // The index of the bracket closing the one at `open`, within [open, end).
 std::size_t Closing(const std::vector<Token>& t, std::size_t open, std::size_t end) {
-  int depth = 0;
-  for (std::size_t k = open; k < end; ++k) {
-    if (t[k].Is("(") || t[k].Is("[") || t[k].Is("{")) ++depth;
-    if (t[k].Is(")") || t[k].Is("]") || t[k].Is("}")) {
-      if (--depth == 0) return k;
-    }
-  }
-  return end;
+  return ClosingBracket(t, open, end);
 }
 
 // Arguments between the parentheses at `open` and `close`: positional and name=value.
 void SplitArguments(const std::vector<Token>& t, std::size_t open, std::size_t close,
                     std::vector<Range>* positional, std::map<std::string, Range>* keyword) {
-  std::size_t start = open + 1;
-  int depth = 0;
-  for (std::size_t k = open + 1; k <= close; ++k) {
-    if (k < close && (t[k].Is("(") || t[k].Is("[") || t[k].Is("{"))) ++depth;
-    if (k < close && (t[k].Is(")") || t[k].Is("]") || t[k].Is("}"))) --depth;
-    if (k == close || (depth == 0 && t[k].Is(","))) {
-      if (k > start) {
-        if (k - start >= 2 && t[start].kind == Kind::kIdentifier && t[start + 1].Is("="))
-          (*keyword)[std::string(t[start].text)] = {start + 2, k};
-        else
-          positional->push_back({start, k});
-      }
-      start = k + 1;
-    }
+  for (const auto& [first, last] : SplitTopLevel(t, open + 1, close, ",")) {
+    if (last <= first) continue;
+    if (last - first >= 2 && t[first].kind == Kind::kIdentifier && t[first + 1].Is("="))
+      (*keyword)[std::string(t[first].text)] = {first + 2, last};
+    else
+      positional->push_back({first, last});
   }
 }
 
@@ -216,16 +201,7 @@ class Parser {
   }
 
   void Assignments(const Range& st, const std::string& scope) {
-    std::size_t eq = st.end;
-    int depth = 0;
-    for (std::size_t k = st.begin; k < st.end; ++k) {
-      if (tokens_[k].Is("(") || tokens_[k].Is("[") || tokens_[k].Is("{")) ++depth;
-      if (tokens_[k].Is(")") || tokens_[k].Is("]") || tokens_[k].Is("}")) --depth;
-      if (depth == 0 && tokens_[k].Is("=")) {
-        eq = k;
-        break;
-      }
-    }
+    const std::size_t eq = FindTopLevel(tokens_, st.begin, st.end, "=");
     if (eq == st.end || eq == st.begin) return;
     std::size_t k = st.begin;
     bool global = false, local = false;

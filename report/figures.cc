@@ -12,7 +12,7 @@
 
 #include "io/atomic_file.h"
 
-namespace armsig::workflows {
+namespace armsig::report {
 
 // 1, 2 or 5 × 10^k, the smallest not below `raw`.
 double NiceStep(double raw) {
@@ -304,4 +304,4 @@ void Plot::Note(const std::string& text) {
 }
 
 }  // namespace figures
-}  // namespace armsig::workflows
+}  // namespace armsig::report

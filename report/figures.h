@@ -14,7 +14,7 @@
 
 #include "report/html.h"
 
-namespace armsig::workflows {
+namespace armsig::report {
 
 // Axis ticks: steps of 1, 2 or 5 × 10^k covering [lo, hi] with about `max_ticks` steps.
 std::vector<double> NiceTicks(double lo, double hi, int max_ticks);
@@ -146,4 +146,4 @@ figcaption{font-size:0.85em;color:#555}
 )css";
 
 }  // namespace figures
-}  // namespace armsig::workflows
+}  // namespace armsig::report

@@ -20,7 +20,7 @@
 
 #include "core/text.h"
 
-namespace armsig::workflows {
+namespace armsig::report {
 
 class Html {
  public:
@@ -81,4 +81,4 @@ Html HtmlFormat(fmt::format_string<html_detail::ArgumentType<Args>...> format,
   return Html::Trusted(fmt::format(format, html_detail::Argument(args)...));
 }
 
-}  // namespace armsig::workflows
+}  // namespace armsig::report

@@ -11,7 +11,7 @@
 #include "report/report_figures.h"
 #include "report/report_page.h"
 
-namespace armsig::workflows {
+namespace armsig::report {
 
 int RemoveReportDebris(const std::string& dir, double min_age_s) {
   namespace fs = std::filesystem;
@@ -45,7 +45,7 @@ std::string WriteReport(const std::string& dir, const ReportInput& in) {
     std::filesystem::remove(std::filesystem::path(dir) / file, ignored);
   };
   const ReportData data(in);
-  const CalibrationRun& run = data.run;
+  const workflows::CalibrationRun& run = data.run;
   const figures::Figure errors = ErrorsFigure(dir, run);
   const figures::Figure histogram = HistogramFigure(dir, data.distances, data.stats[3]);
   const figures::Figure vectors = VectorsFigure(dir, run.validation_residuals, data.poses);
@@ -102,4 +102,4 @@ std::string WriteDecisionReport(const std::string& dir, const ReportInput& in) {
   return path;
 }
 
-}  // namespace armsig::workflows
+}  // namespace armsig::report

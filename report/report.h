@@ -15,7 +15,7 @@
 #include "report/report_sources.h"
 #include "report/report_statistics.h"
 
-namespace armsig::workflows {
+namespace armsig::report {
 
 // Writes DIR/index.html and DIR/*.png; returns the HTML path. Throws on I/O failure.
 // Temporary files a crashed writer left beside them (older than a minute) are removed.
@@ -31,4 +31,4 @@ std::string WriteDecisionReport(const std::string& dir, const ReportInput& input
 // files left in DIR by a writer that died, when older than `min_age_s`. Returns how many.
 int RemoveReportDebris(const std::string& dir, double min_age_s);
 
-}  // namespace armsig::workflows
+}  // namespace armsig::report

@@ -13,7 +13,7 @@
 #include "core/text.h"
 #include "core/wording.h"
 
-namespace armsig::workflows {
+namespace armsig::report {
 
 using namespace figures;  // the drawing pieces (report/figures.h)
 
@@ -33,7 +33,7 @@ void DashedLevel(Plot& p, double y, const cv::Scalar& color) {
 
 }  // namespace
 
-Figure ErrorsFigure(const std::string& dir, const CalibrationRun& run) {
+Figure ErrorsFigure(const std::string& dir, const workflows::CalibrationRun& run) {
   const auto& residuals = run.validation_residuals;
   const size_t n = residuals.size();
   double lo = 1e9, hi = 1e-9;
@@ -414,4 +414,4 @@ std::optional<Figure> DriftFigure(const std::string& dir, const ReportDrift& dri
   return Save(dir, "drift.png", "Drift: how far each version moved the arm", p.image);
 }
 
-}  // namespace armsig::workflows
+}  // namespace armsig::report

@@ -14,10 +14,10 @@
 #include "report/report_input.h"
 #include "report/report_statistics.h"
 
-namespace armsig::workflows {
+namespace armsig::report {
 
 // Error distance per validation configuration, nominal and calibrated, on a log scale.
-figures::Figure ErrorsFigure(const std::string& dir, const CalibrationRun& run);
+figures::Figure ErrorsFigure(const std::string& dir, const workflows::CalibrationRun& run);
 // The calibrated error distances' histogram with the 50, 95 and 99 % lines.
 figures::Figure HistogramFigure(const std::string& dir, const std::vector<double>& distances_mm,
                                 const AxisStatistics& distance);
@@ -53,4 +53,4 @@ std::optional<figures::Figure> TemperatureFigure(const std::string& dir,
                                                  int validation_poses,
                                                  const std::optional<LinearTrend>& trend);
 
-}  // namespace armsig::workflows
+}  // namespace armsig::report

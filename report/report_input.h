@@ -14,7 +14,7 @@
 #include "calibration/model.h"
 #include "workflows/calibration_run.h"
 
-namespace armsig::workflows {
+namespace armsig::report {
 
 struct ReportActivation {
   std::string at;  // ISO-8601 UTC
@@ -80,7 +80,7 @@ struct ReportInput {
   std::string decision;            // "stored as version 4" / "rejected: …"
   std::vector<std::string> gates;  // one line per gate with its figures
   const calibration::RobotModel* model = nullptr;
-  const CalibrationRun* run = nullptr;
+  const workflows::CalibrationRun* run = nullptr;
   std::vector<MeasuredPose> validation;  // the poses of run->validation_pose_ids
   // Air temperature (°C) at the instrument for validation poses that have one (laser
   // trackers), by pose id: the error-against-temperature figure.
@@ -111,4 +111,4 @@ struct ReportInput {
   std::vector<std::string> causes{};
 };
 
-}  // namespace armsig::workflows
+}  // namespace armsig::report

@@ -11,7 +11,7 @@
 #include "calibration/statistics.h"
 #include "core/wording.h"
 
-namespace armsig::workflows {
+namespace armsig::report {
 
 using namespace figures;  // Num, Now, FigureHtml, kPageStyle (report/figures.h)
 
@@ -53,7 +53,7 @@ ReportBanner BannerOf(const ReportInput& in) {
                      : std::string("the robot changed");
   std::string validated;
   if (in.run && !in.run->validation_residuals.empty()) {
-    const auto v = StatsOf(in.run->validation_residuals);
+    const auto v = workflows::StatsOf(in.run->validation_residuals);
     validated = fmt::format("validation mean {:.3f} mm, max {:.3f} mm on {} configurations",
                             v.mean_mm, v.max_mm, in.run->validation_residuals.size());
   }
@@ -197,8 +197,8 @@ Html ErrorSection(const ReportData& data, const std::optional<Figure>& map_figur
   const size_t n = residuals.size();
   const auto& stats = data.stats;
   Html html;
-  const auto v = StatsOf(residuals);
-  const auto vn = StatsOf(run.validation_nominal_residuals);
+  const auto v = workflows::StatsOf(residuals);
+  const auto vn = workflows::StatsOf(run.validation_nominal_residuals);
   html +=
       "<h2>Error distances</h2>\n<table><tr><th>error distance (mm)</th><th "
       "class=\"num\">poses</th><th class=\"num\">mean</th><th class=\"num\">max</th><th "
@@ -213,7 +213,7 @@ Html ErrorSection(const ReportData& data, const std::optional<Figure>& map_figur
   line("calibrated, fit", run.estimate.fit);
   line("nominal, validation", vn);
   if (run.map_used() && !run.validation_parametric_residuals.empty()) {
-    line("parametric, validation (before the map)", StatsOf(run.validation_parametric_residuals));
+    line("parametric, validation (before the map)", workflows::StatsOf(run.validation_parametric_residuals));
     line("with the residual map, validation", v);
   } else {
     line("calibrated, validation", v);
@@ -640,4 +640,4 @@ std::string ParamsInWords(const std::string& spec) {
   return "the parameters " + words;
 }
 
-}  // namespace armsig::workflows
+}  // namespace armsig::report

@@ -11,14 +11,14 @@
 #include "report/report_input.h"
 #include "report/report_statistics.h"
 
-namespace armsig::workflows {
+namespace armsig::report {
 
 // What several sections and figures read, computed once from the input.
 struct ReportData {
   explicit ReportData(const ReportInput& input);
   const ReportInput& in;
   const calibration::RobotModel& model;
-  const CalibrationRun& run;
+  const workflows::CalibrationRun& run;
   std::vector<double> distances;           // of the validation residuals
   std::vector<const MeasuredPose*> poses;  // of each validation residual (null: not known)
   std::vector<AxisStatistics> stats;       // dX, dY, dZ, distance
@@ -92,4 +92,4 @@ struct Sigma0Group {
 };
 std::vector<Sigma0Group> Sigma0Groups(const std::vector<ReportStationSetup>& setups);
 
-}  // namespace armsig::workflows
+}  // namespace armsig::report

@@ -14,7 +14,7 @@
 #include "report/report_statistics.h"
 #include "workflows/signature.h"
 
-namespace armsig::workflows {
+namespace armsig::report {
 
 std::vector<ReportHistoryPoint> ReportHistoryOf(db::Database& db, int64_t robot_id) {
   std::vector<ReportHistoryPoint> out;
@@ -59,8 +59,8 @@ ReportDrift ReportDriftOf(db::Database& db, const calibration::RobotModel& model
     if (!against) continue;
     try {
       ReportDriftPoint point =
-          DriftPointOf(model, FittedSetOf(model, SignatureOf(model, *against), *against),
-                       FittedSetOf(model, SignatureOf(model, c), c), spread);
+          DriftPointOf(model, FittedSetOf(model, workflows::SignatureOf(model, *against), *against),
+                       FittedSetOf(model, workflows::SignatureOf(model, c), c), spread);
       point.version = c.version;
       point.against = against->version;
       point.drift = decision.is_object() && decision.contains("flag") &&
@@ -82,7 +82,7 @@ ReportSources LoadSessionSources(db::Database& db,
                                  const std::map<int64_t, std::pair<int, int>>& counts);
 }  // namespace
 
-ReportSources LoadReportSources(db::Database& db, const CalibrationRun& run) {
+ReportSources LoadReportSources(db::Database& db, const workflows::CalibrationRun& run) {
   // Pose ids are "<session>:<label>" (db::LoadRobotPoses).
   std::map<int64_t, std::pair<int, int>> counts;  // session → fitted, validated
   auto count = [&](const std::vector<std::string>& ids, bool fit) {
@@ -183,4 +183,4 @@ ReportSources LoadSessionSources(db::Database& db,
 
 }  // namespace
 
-}  // namespace armsig::workflows
+}  // namespace armsig::report

@@ -11,7 +11,7 @@
 #include "workflows/calibration_run.h"
 #include "report/report_input.h"
 
-namespace armsig::workflows {
+namespace armsig::report {
 
 // Every stored version of the robot with its drift flag and activations (schema v4).
 std::vector<ReportHistoryPoint> ReportHistoryOf(db::Database& db, int64_t robot_id);
@@ -28,8 +28,8 @@ ReportDrift ReportDriftOf(db::Database& db, const calibration::RobotModel& model
 // The sessions behind the run's pose ids ("<session>:<label>", as db::LoadRobotPoses
 // names them), with their dates, the instruments of their stored lab files and of the
 // instruments table, and their stations' latest orientation.
-ReportSources LoadReportSources(db::Database& db, const CalibrationRun& run);
+ReportSources LoadReportSources(db::Database& db, const workflows::CalibrationRun& run);
 // The same for sessions given by id (no pose counts): what the ISO 9283 page names.
 ReportSources LoadReportSources(db::Database& db, const std::vector<int64_t>& session_ids);
 
-}  // namespace armsig::workflows
+}  // namespace armsig::report

@@ -10,7 +10,7 @@
 #include "calibration/statistics.h"
 #include "report/figures.h"
 
-namespace armsig::workflows {
+namespace armsig::report {
 
 double PercentileNearestRank(std::vector<double> values, int percent) {
   if (values.empty()) return NAN;
@@ -144,4 +144,4 @@ std::string TemperatureTrendRefusal(const std::vector<double>& temperatures_c) {
   return "";
 }
 
-}  // namespace armsig::workflows
+}  // namespace armsig::report

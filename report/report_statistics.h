@@ -13,7 +13,7 @@
 #include "calibration/drift.h"
 #include "report/report_input.h"
 
-namespace armsig::workflows {
+namespace armsig::report {
 
 // Nearest-rank percentile: the smallest value v with at least `percent` % of the values
 // ≤ v (sorted[ceil(percent·n/100) − 1]). NaN for no values.
@@ -73,4 +73,4 @@ inline constexpr int kMinTrendPoints = 10;
 // span only 0.01 °C; a slope needs at least 1 °C").
 std::string TemperatureTrendRefusal(const std::vector<double>& temperatures_c);
 
-}  // namespace armsig::workflows
+}  // namespace armsig::report

@@ -30,7 +30,7 @@
 #include "report/report.h"
 #include "workflows/signature.h"
 
-namespace armsig::workflows {
+namespace armsig::report {
 
 namespace {
 
@@ -126,7 +126,7 @@ namespace {
 // named them, "<session>:<label>"), their residuals and distances; `missing_poses` counts
 // validation configurations no longer stored.
 struct StoredRun {
-  CalibrationRun run;
+  workflows::CalibrationRun run;
   std::vector<MeasuredPose> fit, validation;
   std::vector<double> fit_distances, fit_nominal, validation_nominal;
   int missing_poses = 0;
@@ -213,7 +213,7 @@ StoredRun StoredRunOf(db::Database& database, int64_t robot_id, const db::Stored
 }
 
 // The estimate as stored: parameters, sigmas, what was identified, the fit's figures.
-void RestoreEstimate(const calibration::RobotModel& model, const Signature& sig,
+void RestoreEstimate(const calibration::RobotModel& model, const workflows::Signature& sig,
                      const db::StoredCalibration& set, StoredRun& out) {
   calibration::EstimationResult& estimate = out.run.estimate;
   estimate.params = sig.params;
@@ -240,7 +240,7 @@ void RestoreEstimate(const calibration::RobotModel& model, const Signature& sig,
 
 // The frames placed with the stored parameters, the condition number, the nominal model's
 // validation errors and the residual map's, as the run had them.
-void RestoreValidation(const calibration::RobotModel& model, const Signature& sig,
+void RestoreValidation(const calibration::RobotModel& model, const workflows::Signature& sig,
                        const db::StoredCalibration& set, const std::string& robot, StoredRun& out) {
   auto& id = out.run.estimate.identifiability;
   // Each frame placed on its fitted configurations with the stored parameters (the fit
@@ -293,7 +293,7 @@ void RestoreValidation(const calibration::RobotModel& model, const Signature& si
     if (placed) {
       out.run.validation_parametric_residuals =
           calibration::Residuals(model, bases, sig.params, out.validation);
-      MappedResiduals(model, bases, sig.params, sig.map.get(), out.validation,
+      workflows::MappedResiduals(model, bases, sig.params, sig.map.get(), out.validation,
                       &out.run.validation_map_extrapolated);
       for (const auto& p : out.validation) {
         const double latent = sig.map->CorrectionSigmaMm(p.joints_rad.data());
@@ -306,7 +306,7 @@ void RestoreValidation(const calibration::RobotModel& model, const Signature& si
 
 // The change against the set active before this one was stored, and the drift decision as
 // stored (its causes, drift line and window).
-void AddStoredDecision(const calibration::RobotModel& model, const Signature& sig,
+void AddStoredDecision(const calibration::RobotModel& model, const workflows::Signature& sig,
                        const db::StoredCalibration& set,
                        const std::vector<db::StoredCalibration>& history, ReportInput& input) {
   // The change against the set active before this one was stored.
@@ -319,7 +319,7 @@ void AddStoredDecision(const calibration::RobotModel& model, const Signature& si
     if (!previous || c.version != *previous) continue;
     input.previous_version = c.version;
     input.previous_params_spec = c.params_spec;
-    const Signature before = SignatureOf(model, c);
+    const workflows::Signature before = workflows::SignatureOf(model, c);
     const auto comparison = calibration::CompareModels(
         model, FittedSetOf(model, before, c), FittedSetOf(model, sig, set),
         calibration::SpreadConfigurations(model, kReportDriftConfigurations));
@@ -372,11 +372,11 @@ StoredReport WriteStoredReport(db::Database& database, const std::string& robot,
   db::ReadSnapshot snapshot(database);  // every read of the report agrees with the others
   const auto robot_id = db::FindRobot(database, robot);
   if (!robot_id) {
-    throw InputError({database.path(), 0, 0, "--robot"}, UnknownRobotMessage(database, robot));
+    throw InputError({database.path(), 0, 0, "--robot"}, workflows::UnknownRobotMessage(database, robot));
   }
-  const ActiveSignature loaded = LoadSignature(database, robot, version);
+  const workflows::ActiveSignature loaded = workflows::LoadSignature(database, robot, version);
   const calibration::RobotModel& model = loaded.model;
-  const Signature& sig = loaded.signature;
+  const workflows::Signature& sig = loaded.signature;
   const auto history = db::CalibrationHistory(database, *robot_id);
   const db::StoredCalibration* set = nullptr;
   for (const auto& c : history) {
@@ -388,7 +388,7 @@ StoredReport WriteStoredReport(db::Database& database, const std::string& robot,
     throw InputError({"--set", 0, 0, ""},
                      fmt::format("version {} of robot {} has no recorded residuals: no report "
                                  "can be made of it",
-                                 set->version, ShellWord(robot)));
+                                 set->version, workflows::ShellWord(robot)));
   }
 
   StoredRun stored = StoredRunOf(database, *robot_id, *set, rows);
@@ -397,7 +397,7 @@ StoredReport WriteStoredReport(db::Database& database, const std::string& robot,
   out.missing_poses = stored.missing_poses;
   RestoreEstimate(model, sig, *set, stored);
   RestoreValidation(model, sig, *set, robot, stored);
-  const CalibrationRun& run = stored.run;
+  const workflows::CalibrationRun& run = stored.run;
 
   ReportInput input;
   input.robot = robot;
@@ -427,4 +427,4 @@ StoredReport WriteStoredReport(db::Database& database, const std::string& robot,
   return out;
 }
 
-}  // namespace armsig::workflows
+}  // namespace armsig::report

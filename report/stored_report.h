@@ -8,7 +8,7 @@
 
 #include "db/database.h"
 
-namespace armsig::workflows {
+namespace armsig::report {
 
 struct StoredReport {
   int version = 0;
@@ -27,4 +27,4 @@ StoredReport WriteStoredReport(db::Database& database, const std::string& robot,
 // Whether DIR holds the report of this robot's version (its index.html says so).
 bool HasReportOf(const std::string& dir, const std::string& robot, int version);
 
-}  // namespace armsig::workflows
+}  // namespace armsig::report

@@ -11,9 +11,7 @@
 #include "instruments/line_retry.h"
 
 namespace armsig::robots {
-using instruments::AttemptDeadline;
 using instruments::CheckJoints;
-using instruments::GaveUp;
 using instruments::Clock;
 using instruments::ControllerError;
 using instruments::ControllerIdentity;
@@ -204,14 +202,10 @@ rws::Document AbbController::Attempt(const rws::Request& request, Deadline deadl
 }
 
 rws::Document AbbController::Call(const rws::Request& request, Deadline deadline) {
-  const auto start = Clock::now();
-  std::string last = "no attempt before the deadline";
-  int code = 3077;
-  int made = 0;
-  for (; made < policy_.attempts && Clock::now() < deadline; ++made) {
-    const Deadline until = AttemptDeadline(deadline, policy_.attempts - made);
+  instruments::Attempts a(policy_, deadline);
+  for (; a.Left(); a.Next()) {
     try {
-      return Attempt(request, until);
+      return Attempt(request, a.Until());
     } catch (const CertificateError& e) {
       std::string message = "refused the TLS connection: " + e.message() + ". ";
       if (!e.fingerprint().empty()) {
@@ -223,19 +217,16 @@ rws::Document AbbController::Call(const rws::Request& request, Deadline deadline
       throw AbbFault(AbbFault::Kind::kCertificate, name_, message);
     } catch (const TransportError& e) {
       if (e.kind() == TransportError::Kind::kInterrupted) throw;
-      last = e.message();
-      code = CodeOf(e);
-      spdlog::debug("{}: attempt {} of {} failed: {}", name_, made + 1, policy_.attempts, last);
+      a.Failed(e);
+      spdlog::debug("{}: attempt {} of {} failed: {}", name_, a.made() + 1, policy_.attempts, a.last());
       transport_->Close();
       transport_->Pause(policy_.reconnect_delay, deadline);
     } catch (const rws::DecodeError& e) {
-      last = std::string("a reply that is no RWS page: ") + e.what();
-      code = 3074;
-      spdlog::debug("{}: attempt {} of {}: {}", name_, made + 1, policy_.attempts, last);
+      a.Failed(instruments::grc::kComCantDecode, std::string("a reply that is no RWS page: ") + e.what());
+      spdlog::debug("{}: attempt {} of {}: {}", name_, a.made() + 1, policy_.attempts, a.last());
     }
   }
-  (void)code;
-  ThrowLost(GaveUp(made, start, last));
+  ThrowLost(a.GaveUp());
 }
 
 void AbbController::ThrowLost(const std::string& why) const {

@@ -10,9 +10,7 @@
 #include "instruments/line_retry.h"
 
 namespace armsig::robots {
-using instruments::AttemptDeadline;
 using instruments::CheckJoints;
-using instruments::GaveUp;
 namespace geocom = instruments::geocom;
 using instruments::Clock;
 using instruments::ControllerError;
@@ -108,29 +106,25 @@ kuka::Response KukaController::ExchangeOnce(const kuka::Request& request, Deadli
 
 kuka::Response KukaController::Exchange(kuka::MessageType type, const std::string& variable,
                                         const std::string& value, Deadline deadline) {
-  const auto start = Clock::now();
-  std::string last = "no attempt before the deadline";
-  int code = 3077;
-  int made = 0;
-  for (; made < policy_.attempts && Clock::now() < deadline; ++made) {
-    const Deadline until = AttemptDeadline(deadline, policy_.attempts - made);
+  instruments::Attempts a(policy_, deadline);
+  for (; a.Left(); a.Next()) {
+    const Deadline until = a.Until();
     try {
       if (!transport_->IsOpen()) {
-        if (stats_.exchanges > 0 || made > 0) ++stats_.reconnects;
+        if (stats_.exchanges > 0 || a.made() > 0) ++stats_.reconnects;
         transport_->Open();
       }
       kuka::Request request{next_tag_, type, variable, value};
       next_tag_ = static_cast<uint16_t>(next_tag_ == 0xFFFF ? 1 : next_tag_ + 1);
       auto response = ExchangeOnce(request, until);
       ++stats_.exchanges;
-      stats_.retries += made;
+      stats_.retries += a.made();
       return response;
     } catch (const TransportError& e) {
       if (e.kind() == TransportError::Kind::kInterrupted) throw;
-      last = e.message();
-      code = CodeOf(e);
-      spdlog::debug("{}: {} attempt {} of {} failed: {}", name_, variable, made + 1,
-                    policy_.attempts, last);
+      a.Failed(e);
+      spdlog::debug("{}: {} attempt {} of {} failed: {}", name_, variable, a.made() + 1,
+                    policy_.attempts, a.last());
       if (e.kind() == TransportError::Kind::kBadFrame) ++stats_.bad_frames;
       // A late answer is told by its tag: a timeout keeps the connection. A lost
       // connection or a stream out of frame is opened again.
@@ -142,7 +136,7 @@ kuka::Response KukaController::Exchange(kuka::MessageType type, const std::strin
   }
   throw Error(ControllerError::Kind::kConnectionLost,
               fmt::format("the variable server did not answer for {} ({}: {})", variable,
-                          geocom::CodeName(code), GaveUp(made, start, last)),
+                          geocom::CodeName(a.code()), a.GaveUp()),
               "check that the controller is on, that its variable server (KukaVarProxy or C3 "
               "Bridge) runs and listens on TCP " +
                   std::to_string(kuka::kDefaultPort) +

@@ -55,7 +55,7 @@ TEST(Iso9283Commands, PlanMeasureImportReportAndEvaluate) {
   // Measured elsewhere: the true robot (the paper's errors) with 0.05 mm of scatter, in a
   // tracker frame 2 m away and turned; the poses CSV keeps the plan's labels.
   const auto model = Puma();
-  const auto rows = io::ReadIso9283PlanCsv(dir.File("plan.csv"), 6);
+  const auto rows = iso9283::ReadIso9283PlanCsv(dir.File("plan.csv"), 6);
   Eigen::Isometry3d tracker_from_robot = Eigen::Isometry3d::Identity();
   tracker_from_robot.translate(Eigen::Vector3d(2000.0, -300.0, 100.0));
   tracker_from_robot.rotate(Eigen::AngleAxisd(1.1, Eigen::Vector3d::UnitZ()));

@@ -13,7 +13,7 @@
 #include "io/model_yaml.h"
 #include "test_support.h"
 
-namespace armsig::workflows {
+namespace armsig::demo {
 namespace {
 
 DemoLimits PumaLimits() {
@@ -247,9 +247,9 @@ TEST(Demo, TrackerFromTheCommandLine) {
   EXPECT_EQ(testing::RunArmsig("demo --instrument laser").exit_code, 2);
 }
 
-}  // namespace armsig::workflows
+}  // namespace armsig::demo
 
-namespace armsig::workflows {
+namespace armsig::demo {
 namespace {
 
 // demo --change: each planted change becomes its parameter's shift in the model's units; a
@@ -276,4 +276,4 @@ TEST(PlantedChanges, AreParsedInTheirUnitsAndAbsurdNumbersAreNamed) {
 }
 
 }  // namespace
-}  // namespace armsig::workflows
+}  // namespace armsig::demo

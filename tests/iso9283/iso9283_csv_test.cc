@@ -33,7 +33,7 @@ TEST(Iso9283Csv, ReadsCommandedPosesWithOrientationInAnyUnit) {
                      "point,x_mm,y_mm,z_mm,a_deg,b_gon,c_rad,note\n"
                      "P1,600,100,700,90,100,0.5,centre\n"
                      "P2,440,-60,860,0,0,0,\n");
-  const auto c = ReadCommandedCsv(dir.File("c.csv"));
+  const auto c = iso9283::ReadCommandedCsv(dir.File("c.csv"));
   ASSERT_EQ(c.size(), 2u);
   EXPECT_EQ(c[0].point, "P1");
   EXPECT_EQ(c[0].position_mm, Eigen::Vector3d(600, 100, 700));
@@ -44,13 +44,13 @@ TEST(Iso9283Csv, ReadsCommandedPosesWithOrientationInAnyUnit) {
   EXPECT_EQ(c[1].line, 3);
   // A poses CSV serves too: `pose` names the point, the joints are ignored.
   testing::WriteText(dir.File("poses.csv"), "pose,q1_deg,x_mm,y_mm,z_mm\n7,10,1,2,3\n");
-  EXPECT_EQ(ReadCommandedCsv(dir.File("poses.csv"))[0].point, "7");
+  EXPECT_EQ(iso9283::ReadCommandedCsv(dir.File("poses.csv"))[0].point, "7");
 }
 
 TEST(Iso9283Csv, AttainedCyclesAreNumberedInFileOrderWhenTheFileGivesNone) {
   testing::TempDir dir;
   testing::WriteText(dir.File("a.csv"), "point,x_mm,y_mm,z_mm\nP1,1,2,3\nP2,4,5,6\nP1,1.1,2,3\n");
-  const auto a = ReadAttainedCsv(dir.File("a.csv"));
+  const auto a = iso9283::ReadAttainedCsv(dir.File("a.csv"));
   ASSERT_EQ(a.size(), 3u);
   EXPECT_EQ(a[0].cycle, 1);
   EXPECT_EQ(a[1].cycle, 1);
@@ -58,7 +58,7 @@ TEST(Iso9283Csv, AttainedCyclesAreNumberedInFileOrderWhenTheFileGivesNone) {
   EXPECT_FALSE(a[0].orientation_rad);
   testing::WriteText(dir.File("b.csv"),
                      "point,cycle,approach,x_mm,y_mm,z_mm\nP1,4,x,1,2,3\nP1,4,y,1,2,3\n");
-  const auto b = ReadAttainedCsv(dir.File("b.csv"));
+  const auto b = iso9283::ReadAttainedCsv(dir.File("b.csv"));
   EXPECT_EQ(b[1].approach, "y");
   EXPECT_EQ(b[1].cycle, 4);
 }
@@ -68,8 +68,8 @@ TEST(Iso9283Csv, MalformedRowsAreRefusedAtTheirLine) {
   auto refusal = [&](const std::string& text, bool attained) {
     testing::WriteText(dir.File("f.csv"), text);
     return Iso9283Refusal([&] {
-      attained ? (void)ReadAttainedCsv(dir.File("f.csv"))
-               : (void)ReadCommandedCsv(dir.File("f.csv"));
+      attained ? (void)iso9283::ReadAttainedCsv(dir.File("f.csv"))
+               : (void)iso9283::ReadCommandedCsv(dir.File("f.csv"));
     });
   };
   EXPECT_NE(refusal("point,x_mm,y_mm,z_mm\nP1,1,2,3\nP1,1,2,3\n", false).find("f.csv:3"),
@@ -92,7 +92,7 @@ TEST(Iso9283Csv, MalformedRowsAreRefusedAtTheirLine) {
 // Issue 38: the plan opened with '#' lines, which pandas and spreadsheets read as rows: it
 // is the header and the rows only.
 TEST(Iso9283Csv, PlanRoundTripsWithViaPointsAndOpensWithItsHeader) {
-  std::vector<Iso9283PlanRow> rows = {
+  std::vector<iso9283::Iso9283PlanRow> rows = {
       {"P1-01-x-via", "", 0, "", {700, 100, 700}, Eigen::VectorXd::LinSpaced(6, -1, 1)},
       {"P1-01-x", "P1", 1, "x", {600, 100, 700}, Eigen::VectorXd::LinSpaced(6, -0.5, 0.5)}};
   testing::TempDir dir;
@@ -101,7 +101,7 @@ TEST(Iso9283Csv, PlanRoundTripsWithViaPointsAndOpensWithItsHeader) {
   EXPECT_EQ(text.find('#'), std::string::npos) << text;
   EXPECT_EQ(std::count(text.begin(), text.end(), '\n'), 3);
   testing::WriteText(dir.File("plan.csv"), text);
-  const auto back = ReadIso9283PlanCsv(dir.File("plan.csv"), 6);
+  const auto back = iso9283::ReadIso9283PlanCsv(dir.File("plan.csv"), 6);
   ASSERT_EQ(back.size(), 2u);
   EXPECT_EQ(back[0].pose, "P1-01-x-via");
   EXPECT_TRUE(back[0].point.empty());

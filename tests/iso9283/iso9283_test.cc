@@ -34,7 +34,7 @@
 #include "iso9283/iso9283_report.h"
 #include "nightly/recalibrate.h"
 
-namespace armsig::workflows {
+namespace armsig::iso9283 {
 namespace {
 
 namespace iso = calibration::iso9283;
@@ -110,7 +110,7 @@ TEST(Iso9283Plan, MultiDirectionalPlanApproachesFromViaPoints) {
 
 TEST(Iso9283Plan, CompensatedPlanLandsTheCalibratedModelOnTheTargets) {
   const auto model = testing::Puma();
-  ActiveSignature signature{model, {}, {}};
+  workflows::ActiveSignature signature{model, {}, {}};
   signature.signature.version = 7;
   signature.signature.params = calibration::PaperTable3Parameters();
   signature.signature.sigmas = Eigen::VectorXd::Constant(model.num_parameters(), NAN);
@@ -343,18 +343,18 @@ class Iso9283VirtualLab : public ::testing::Test {
 
   // Captures `plan` (a CSV file) as a new session of robot puma; returns its id.
   int64_t Capture(const std::string& plan_csv) {
-    CaptureRequest request;
+    workflows::CaptureRequest request;
     request.db_path = Db();
     request.lab = dir_.File("lab.yaml");
     request.plan = plan_csv;
     request.robot = "puma";
     const auto outcome = RunCaptureSession(request);
-    EXPECT_TRUE(outcome.ok) << FormatCaptureSummary(outcome.summary);
+    EXPECT_TRUE(outcome.ok) << workflows::FormatCaptureSummary(outcome.summary);
     return outcome.summary.session;
   }
 
   std::string PlanFile(const Iso9283PlanOptions& o, const std::string& name,
-                       const ActiveSignature* signature = nullptr) {
+                       const workflows::ActiveSignature* signature = nullptr) {
     const auto plan = MakeIso9283Plan(testing::Puma(), "puma", o, signature);
     testing::WriteText(dir_.File(name), plan.csv);
     return dir_.File(name);
@@ -446,21 +446,21 @@ TEST_F(Iso9283VirtualLab, AKinematicErrorShowsAsApAndCompensationBringsItToTheRe
       dir_.File("spread.csv"),
       acquisition::FormatPlanCsv(acquisition::WellSpreadPlan(testing::Puma(), 40, 800, 3)));
   Capture(dir_.File("spread.csv"));
-  RecalibrateOptions fit;
+  nightly::RecalibrateOptions fit;
   fit.db_path = Db();
   fit.robot = "puma";
   fit.residual_model = "off";
   const auto decision = Recalibrate(fit);
-  ASSERT_EQ(decision.outcome, RecalibrationDecision::Outcome::kStored) << decision.Describe();
+  ASSERT_EQ(decision.outcome, nightly::RecalibrationDecision::Outcome::kStored) << decision.Describe();
 
   Iso9283PlanOptions o;
   o.cube = kCube;
   o.cycles = 10;
   const int64_t nominal = Capture(PlanFile(o, "iso.csv"));
-  std::optional<ActiveSignature> signature;
+  std::optional<workflows::ActiveSignature> signature;
   {
     db::Database db(Db(), db::OpenMode::kReadOnly);
-    signature = LoadActiveSignature(db, "puma");
+    signature = workflows::LoadActiveSignature(db, "puma");
   }
   o.compensated = true;
   const int64_t compensated = Capture(PlanFile(o, "iso-compensated.csv", &*signature));
@@ -533,4 +533,4 @@ TEST_F(Iso9283VirtualLab, AKinematicErrorShowsAsApAndCompensationBringsItToTheRe
 }
 
 }  // namespace
-}  // namespace armsig::workflows
+}  // namespace armsig::iso9283

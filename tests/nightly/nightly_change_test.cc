@@ -27,7 +27,7 @@ namespace armsig::testing {
 
 namespace {
 
-using Outcome = workflows::RecalibrationDecision::Outcome;
+using Outcome = nightly::RecalibrationDecision::Outcome;
 
 class NightlyChange : public ::testing::Test {
  protected:
@@ -36,7 +36,7 @@ class NightlyChange : public ::testing::Test {
   // `stride`: a short session spread over the lab's whole test design (see AddSession).
   // `report`: the --report folder ("" none).
   // `started_at`: the session's start as a wrong clock stamped it ("" the true one).
-  workflows::RecalibrationDecision Night(const Eigen::VectorXd& robot, int count,
+  nightly::RecalibrationDecision Night(const Eigen::VectorXd& robot, int count,
                                          int stride = 1, const std::string& report = "",
                                          const std::string& started_at = "") {
     ++night_;
@@ -49,11 +49,11 @@ class NightlyChange : public ::testing::Test {
                                    "' WHERE id = (SELECT max(id) FROM sessions)");
       }
     }
-    workflows::RecalibrateOptions o;
+    nightly::RecalibrateOptions o;
     o.db_path = path_;
     o.robot = "puma";
     o.report_dir = report;
-    return workflows::Recalibrate(o);
+    return nightly::Recalibrate(o);
   }
 
   // The sessions every stored version was fitted on.
@@ -197,10 +197,10 @@ TEST_F(NightlyChange, AJointZeroRemasteredIsNamedThenFollowedWithoutBlending) {
       AddSession(database, after, n == 4 ? 24 : 60, 500 + n, 0.0, "", "puma", NightFrame(n),
                  n == 4 ? 8 : 1);
   }
-  workflows::RecalibrateOptions o;
+  nightly::RecalibrateOptions o;
   o.db_path = fresh;
   o.robot = "puma";
-  ASSERT_EQ(workflows::Recalibrate(o).outcome, Outcome::kStored);
+  ASSERT_EQ(nightly::Recalibrate(o).outcome, Outcome::kStored);
   db::Database database(fresh, db::OpenMode::kMustExist);
   const double reference =
       ErrorOf(*db::ActiveCalibration(database, *db::FindRobot(database, "puma")), after, 9001);
@@ -262,11 +262,11 @@ TEST_F(NightlyChange, TenUnchangedNightsRaiseNoFlag) {
     }
   }
   // The window: the newest ten sessions.
-  workflows::RecalibrateOptions o;
+  nightly::RecalibrateOptions o;
   o.db_path = path_;
   o.robot = "puma";
   o.force = true;
-  const auto d = workflows::Recalibrate(o);
+  const auto d = nightly::Recalibrate(o);
   EXPECT_EQ(d.sessions.size(), 10u);
   EXPECT_EQ(d.sessions.front(), 3);
 }
@@ -356,12 +356,12 @@ TEST(NightlyChangeUr10, RealNightsRaiseNoFlagAndPlantedChangesAreNamed) {
   TempDir dir;
   const std::string base = dir.File("unchanged.db");
   auto run = [](const std::string& path) {
-    workflows::RecalibrateOptions o;
+    nightly::RecalibrateOptions o;
     o.db_path = path;
     o.robot = "ur10";
     o.params = "geometric";
     o.max_validation_mean_mm = 0.8;
-    return workflows::Recalibrate(o);
+    return nightly::Recalibrate(o);
   };
   auto store = [](const std::string& path, const std::vector<MeasuredPose>& poses, int n) {
     db::Database database(path);

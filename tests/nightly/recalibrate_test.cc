@@ -31,8 +31,8 @@ namespace armsig::testing {
 
 namespace {
 
-workflows::RecalibrateOptions Options(const std::string& path) {
-  workflows::RecalibrateOptions o;
+nightly::RecalibrateOptions Options(const std::string& path) {
+  nightly::RecalibrateOptions o;
   o.db_path = path;
   o.robot = "puma";
   return o;
@@ -61,8 +61,8 @@ TEST_P(Recalibrate, PassesThenRejectsPlantedBadDataKeepingTheActiveSet) {
     db::Database database(path);
     AddSession(database, calibration::PaperTable3Parameters(), 150, 1);
   }
-  const auto first = workflows::Recalibrate(Options(path));
-  ASSERT_EQ(first.outcome, workflows::RecalibrationDecision::Outcome::kStored) << first.Describe();
+  const auto first = nightly::Recalibrate(Options(path));
+  ASSERT_EQ(first.outcome, nightly::RecalibrationDecision::Outcome::kStored) << first.Describe();
   EXPECT_EQ(first.version, 1);
   EXPECT_FALSE(first.previous_version.has_value());
   EXPECT_LT(first.validation.mean_mm, 0.03);
@@ -75,8 +75,8 @@ TEST_P(Recalibrate, PassesThenRejectsPlantedBadDataKeepingTheActiveSet) {
     db::Database database(path);
     AddSession(database, calibration::PaperTable3Parameters(), 150, 2, 0.33);
   }
-  const auto second = workflows::Recalibrate(Options(path));
-  EXPECT_EQ(second.outcome, workflows::RecalibrationDecision::Outcome::kRejected);
+  const auto second = nightly::Recalibrate(Options(path));
+  EXPECT_EQ(second.outcome, nightly::RecalibrationDecision::Outcome::kRejected);
   EXPECT_FALSE(second.passed());
   bool failed_gate = false;
   for (const auto& g : second.gates) failed_gate |= !g.passed;
@@ -104,10 +104,10 @@ TEST_P(Recalibrate, SameInputsAreUpToDate) {
     db::Database database(path);
     AddSession(database, calibration::PaperTable3Parameters(), 150, 3);
   }
-  EXPECT_EQ(workflows::Recalibrate(Options(path)).outcome,
-            workflows::RecalibrationDecision::Outcome::kStored);
-  const auto again = workflows::Recalibrate(Options(path));
-  EXPECT_EQ(again.outcome, workflows::RecalibrationDecision::Outcome::kUpToDate);
+  EXPECT_EQ(nightly::Recalibrate(Options(path)).outcome,
+            nightly::RecalibrationDecision::Outcome::kStored);
+  const auto again = nightly::Recalibrate(Options(path));
+  EXPECT_EQ(again.outcome, nightly::RecalibrationDecision::Outcome::kUpToDate);
   EXPECT_EQ(again.version, 1);
   EXPECT_EQ(Versions(path), 1);
 }
@@ -125,10 +125,10 @@ TEST_P(Recalibrate, AnotherModelOnTheSameMeasurementsIsNotDrift) {
   }
   auto o = Options(path);
   o.params = "geometric";  // the h-terms left out: 0.49 mm on validation, the gates pass
-  ASSERT_EQ(workflows::Recalibrate(o).outcome, workflows::RecalibrationDecision::Outcome::kStored);
+  ASSERT_EQ(nightly::Recalibrate(o).outcome, nightly::RecalibrationDecision::Outcome::kStored);
   o.params = "all";  // the model the truth has: not worse, and 1.7 mm apart from the first
-  const auto other = workflows::Recalibrate(o);
-  EXPECT_EQ(other.outcome, workflows::RecalibrationDecision::Outcome::kStored);
+  const auto other = nightly::Recalibrate(o);
+  EXPECT_EQ(other.outcome, nightly::RecalibrationDecision::Outcome::kStored);
   EXPECT_FALSE(other.drift);
   EXPECT_EQ(other.ExitCode(), 0);
   ASSERT_TRUE(other.model_drift.has_value());
@@ -149,25 +149,25 @@ TEST_P(Recalibrate, IdempotentOnContentAndSinceIsIso) {
   }
   auto options = Options(path);
   options.since = "2000-01-01";
-  EXPECT_EQ(workflows::Recalibrate(options).outcome,
-            workflows::RecalibrationDecision::Outcome::kStored);
+  EXPECT_EQ(nightly::Recalibrate(options).outcome,
+            nightly::RecalibrationDecision::Outcome::kStored);
   for (const std::string since :
        {"1999-12-31T23:59", "2001-02-03 04:05:06", "1970-01-01T00:00:00Z", ""}) {
     options.since = since;
-    EXPECT_EQ(workflows::Recalibrate(options).outcome,
-              workflows::RecalibrationDecision::Outcome::kUpToDate)
+    EXPECT_EQ(nightly::Recalibrate(options).outcome,
+              nightly::RecalibrationDecision::Outcome::kUpToDate)
         << since;
   }
   EXPECT_EQ(Versions(path), 1);
   for (const std::string bad : {"yesterday", "2026-13-01", "2026-11-01T25:00", "01.11.2026"}) {
     options.since = bad;
-    EXPECT_THROW(workflows::Recalibrate(options), InputError) << bad;
+    EXPECT_THROW(nightly::Recalibrate(options), InputError) << bad;
   }
   // Different options are a different fit.
   options.since = "";
   options.select = 100;
-  EXPECT_EQ(workflows::Recalibrate(options).outcome,
-            workflows::RecalibrationDecision::Outcome::kStored);
+  EXPECT_EQ(nightly::Recalibrate(options).outcome,
+            nightly::RecalibrationDecision::Outcome::kStored);
   EXPECT_EQ(Versions(path), 2);
 }
 
@@ -182,11 +182,11 @@ TEST_P(Recalibrate, UnwritableOutputsStoreNothing) {
   }
   auto options = Options(path);
   options.json_path = dir.File("missing/summary.json");
-  EXPECT_THROW(workflows::Recalibrate(options), InputError);
+  EXPECT_THROW(nightly::Recalibrate(options), InputError);
   options.json_path = "";
   WriteText(dir.File("plain-file"), "x");
   options.report_dir = dir.File("plain-file");
-  EXPECT_THROW(workflows::Recalibrate(options), InputError);
+  EXPECT_THROW(nightly::Recalibrate(options), InputError);
   EXPECT_EQ(Versions(path), 0);
   const auto cli = RunArmsig("--db '" + path + "' recalibrate --robot puma --json '" +
                              dir.File("missing/summary.json") + "'");
@@ -203,7 +203,7 @@ TEST_P(Recalibrate, DetectsAPlantedDrift) {
     db::Database database(path);
     AddSession(database, before, 150, 4);
   }
-  ASSERT_TRUE(workflows::Recalibrate(Options(path)).passed());
+  ASSERT_TRUE(nightly::Recalibrate(Options(path)).passed());
   // The robot changes: joint 3's backlash h4 triples, its arm offset c4 grows 0.4 mm.
   Eigen::VectorXd after = before;
   const auto model = Puma();
@@ -218,7 +218,7 @@ TEST_P(Recalibrate, DetectsAPlantedDrift) {
   }
   auto options = Options(path);
   options.since = since;
-  const auto d = workflows::Recalibrate(options);
+  const auto d = nightly::Recalibrate(options);
   EXPECT_TRUE(d.passed()) << d.Describe();
   EXPECT_EQ(d.poses, 150);  // only the new session
   EXPECT_TRUE(d.drift);
@@ -244,7 +244,7 @@ TEST_P(Recalibrate, AChangedControllerCalibrationIsNamedFirstAmongTheCauses) {
     db::SetSessionController(database, db::SessionIds(database).back(),
                              {"UR10", "2018", "URSoftware 5.11", "aaaa-0001", "{}"});
   }
-  ASSERT_TRUE(workflows::Recalibrate(Options(path)).passed());
+  ASSERT_TRUE(nightly::Recalibrate(Options(path)).passed());
   {
     db::Database database(path);
     since = StoreNow(database);
@@ -255,7 +255,7 @@ TEST_P(Recalibrate, AChangedControllerCalibrationIsNamedFirstAmongTheCauses) {
   }
   auto options = Options(path);
   options.since = since;
-  const auto d = workflows::Recalibrate(options);
+  const auto d = nightly::Recalibrate(options);
   EXPECT_TRUE(d.drift);
   EXPECT_EQ(d.controller_calibration,
             "the controller's own calibration changed (KinematicsInfo checksum aaaa-0001 in "
@@ -286,13 +286,13 @@ TEST_P(Recalibrate, TenNightsWithoutFalseDriftThenPlantedChangesAreFlagged) {
     }
     auto options = Options(path);
     options.since = since;
-    return workflows::Recalibrate(options);
+    return nightly::Recalibrate(options);
   };
   int nights_with_drift = 0;
   double worst_mm = 0.0;
   for (unsigned n = 1; n <= 10; ++n) {
     const auto d = night(truth, 100 + n);
-    ASSERT_EQ(d.outcome, workflows::RecalibrationDecision::Outcome::kStored) << d.Describe();
+    ASSERT_EQ(d.outcome, nightly::RecalibrationDecision::Outcome::kStored) << d.Describe();
     EXPECT_EQ(d.poses, 150);
     if (n > 1) {
       ASSERT_TRUE(d.model_drift.has_value());
@@ -342,7 +342,7 @@ TEST_P(Recalibrate, MalformedStoredRecalibrationBlockIsAnInputError) {
     AddSession(database, calibration::PaperTable3Parameters(), 150, 12, 0.0, lab);
   }
   try {
-    workflows::Recalibrate(Options(path));
+    nightly::Recalibrate(Options(path));
     FAIL() << "a malformed recalibration block was accepted";
   } catch (const InputError& e) {
     EXPECT_NE(std::string(e.what()).find("max_validation_mean_mm"), std::string::npos) << e.what();
@@ -364,22 +364,22 @@ TEST_P(Recalibrate, RollbackIsRespectedAndEveryActivationIsRecorded) {
     db::Database database(path);
     AddSession(database, calibration::PaperTable3Parameters(), 120, 31);
   }
-  ASSERT_EQ(workflows::Recalibrate(Options(path)).outcome,
-            workflows::RecalibrationDecision::Outcome::kStored);
+  ASSERT_EQ(nightly::Recalibrate(Options(path)).outcome,
+            nightly::RecalibrationDecision::Outcome::kStored);
   {
     db::Database database(path);
     AddSession(database, calibration::PaperTable3Parameters(), 120, 32);
   }
-  const auto second = workflows::Recalibrate(Options(path));
-  ASSERT_EQ(second.outcome, workflows::RecalibrationDecision::Outcome::kStored)
+  const auto second = nightly::Recalibrate(Options(path));
+  ASSERT_EQ(second.outcome, nightly::RecalibrationDecision::Outcome::kStored)
       << second.Describe();
   EXPECT_EQ(second.sessions, (std::vector<int64_t>{1, 2}));
   {
     db::Database database(path);
     EXPECT_EQ(workflows::Activate(database, "puma", 1, "v2 moved the tool"), 2);
   }
-  const auto night = workflows::Recalibrate(Options(path));
-  EXPECT_EQ(night.outcome, workflows::RecalibrationDecision::Outcome::kUpToDate);
+  const auto night = nightly::Recalibrate(Options(path));
+  EXPECT_EQ(night.outcome, nightly::RecalibrationDecision::Outcome::kUpToDate);
   EXPECT_EQ(night.version, 2);
   EXPECT_EQ(night.previous_version, 1);
   EXPECT_EQ(night.active_chosen_by, "activate");
@@ -391,8 +391,8 @@ TEST_P(Recalibrate, RollbackIsRespectedAndEveryActivationIsRecorded) {
   // --force refits and the new set becomes active as a nightly result.
   auto force = Options(path);
   force.force = true;
-  const auto forced = workflows::Recalibrate(force);
-  EXPECT_EQ(forced.outcome, workflows::RecalibrationDecision::Outcome::kStored);
+  const auto forced = nightly::Recalibrate(force);
+  EXPECT_EQ(forced.outcome, nightly::RecalibrationDecision::Outcome::kStored);
   EXPECT_EQ(ActiveVersion(path), 3);
 
   db::Database database(path);
@@ -444,7 +444,7 @@ class ScopedTimeZone {
 // A cause these data cannot tell from others is said to be equivalent on them, never "the
 // same" (issue 38): other configurations would tell them apart.
 TEST(NamedCauseText, EquivalentCausesAreSaidToBeIndistinguishableHere) {
-  workflows::NamedCause cause;
+  nightly::NamedCause cause;
   cause.name = "joint 2 zero";
   cause.unit = "mrad";
   cause.size = 0.35;
@@ -461,19 +461,19 @@ TEST(NamedCauseText, EquivalentCausesAreSaidToBeIndistinguishableHere) {
 
 TEST(SinceToUtc, ReadsIsoDatesInTheirTimeZoneAndRefusesImpossibleOnes) {
   const ScopedTimeZone zone("XST-3");  // POSIX: local time is three hours east of UTC
-  EXPECT_EQ(workflows::SinceToUtc("2026-11-01T02:30:00Z"), "2026-11-01T02:30:00.000Z");
-  EXPECT_EQ(workflows::SinceToUtc("2026-11-01T02:30+01:00"), "2026-11-01T01:30:00.000Z");
-  EXPECT_EQ(workflows::SinceToUtc("2026-11-01T02:30-0130"), "2026-11-01T04:00:00.000Z");
-  EXPECT_EQ(workflows::SinceToUtc("2026-11-01 12:00"), "2026-11-01T09:00:00.000Z");
-  EXPECT_EQ(workflows::SinceToUtc("2026-11-01"), "2026-10-31T21:00:00.000Z");
-  EXPECT_EQ(workflows::SinceToUtc("2024-02-29T00:00:00.25Z"), "2024-02-29T00:00:00.250Z");
+  EXPECT_EQ(nightly::SinceToUtc("2026-11-01T02:30:00Z"), "2026-11-01T02:30:00.000Z");
+  EXPECT_EQ(nightly::SinceToUtc("2026-11-01T02:30+01:00"), "2026-11-01T01:30:00.000Z");
+  EXPECT_EQ(nightly::SinceToUtc("2026-11-01T02:30-0130"), "2026-11-01T04:00:00.000Z");
+  EXPECT_EQ(nightly::SinceToUtc("2026-11-01 12:00"), "2026-11-01T09:00:00.000Z");
+  EXPECT_EQ(nightly::SinceToUtc("2026-11-01"), "2026-10-31T21:00:00.000Z");
+  EXPECT_EQ(nightly::SinceToUtc("2024-02-29T00:00:00.25Z"), "2024-02-29T00:00:00.250Z");
   for (const std::string bad : {"2026-02-29", "2026-11-31", "2026-04-31T00:00Z", "2026-00-10",
                                 "2026-11-01T24:00", "2026-11-01T12:60", "2026-11-01T12:00+25:00",
                                 "yesterday", "2026-11-1", "1.11.2026", "2026-11-01T12:00 Z"}) {
-    EXPECT_THROW(workflows::SinceToUtc(bad), InputError) << bad;
+    EXPECT_THROW(nightly::SinceToUtc(bad), InputError) << bad;
   }
   try {
-    workflows::SinceToUtc("2026-02-30");
+    nightly::SinceToUtc("2026-02-30");
     ADD_FAILURE();
   } catch (const InputError& e) {
     EXPECT_NE(std::string(e.what()).find("2026-02 has 28 days"), std::string::npos) << e.what();
@@ -487,18 +487,18 @@ TEST(SinceToUtc, ALocalTimeThatDoesNotExistOrHappenedTwiceIsRefusedWithItsOffset
   std::string skipped, twice;
   {
     const ScopedTimeZone zone("CET-1CEST,M3.5.0,M10.5.0/3");
-    EXPECT_EQ(workflows::SinceToUtc("2026-03-29T01:59"), "2026-03-29T00:59:00.000Z");
-    EXPECT_EQ(workflows::SinceToUtc("2026-03-29T03:00"), "2026-03-29T01:00:00.000Z");
-    EXPECT_EQ(workflows::SinceToUtc("2026-07-01"), "2026-06-30T22:00:00.000Z");
-    EXPECT_EQ(workflows::SinceToUtc("2026-10-25T03:00"), "2026-10-25T02:00:00.000Z");
-    EXPECT_EQ(workflows::SinceToUtc("2026-10-25T02:30+02:00"), "2026-10-25T00:30:00.000Z");
+    EXPECT_EQ(nightly::SinceToUtc("2026-03-29T01:59"), "2026-03-29T00:59:00.000Z");
+    EXPECT_EQ(nightly::SinceToUtc("2026-03-29T03:00"), "2026-03-29T01:00:00.000Z");
+    EXPECT_EQ(nightly::SinceToUtc("2026-07-01"), "2026-06-30T22:00:00.000Z");
+    EXPECT_EQ(nightly::SinceToUtc("2026-10-25T03:00"), "2026-10-25T02:00:00.000Z");
+    EXPECT_EQ(nightly::SinceToUtc("2026-10-25T02:30+02:00"), "2026-10-25T00:30:00.000Z");
     try {
-      workflows::SinceToUtc("2026-03-29T02:30");
+      nightly::SinceToUtc("2026-03-29T02:30");
     } catch (const InputError& e) {
       skipped = e.what();
     }
     try {
-      workflows::SinceToUtc("2026-10-25T02:30");
+      nightly::SinceToUtc("2026-10-25T02:30");
     } catch (const InputError& e) {
       twice = e.what();
     }
@@ -515,7 +515,7 @@ TEST(SinceToUtc, ALocalTimeThatDoesNotExistOrHappenedTwiceIsRefusedWithItsOffset
 // --since echoed its value raw; a line break in it began a line of its own.
 TEST(SinceToUtc, ARefusedValueIsQuotedWithItsControlCharactersEscapedAndCut) {
   try {
-    workflows::SinceToUtc("2026\narmsig: info: forged" + std::string(200, '9'));
+    nightly::SinceToUtc("2026\narmsig: info: forged" + std::string(200, '9'));
     ADD_FAILURE();
   } catch (const InputError& e) {
     const std::string what = e.what();
@@ -528,15 +528,15 @@ TEST(SinceToUtc, ARefusedValueIsQuotedWithItsControlCharactersEscapedAndCut) {
 // A queued job runs with the options it was scheduled with: the orientation and tool-rotation
 // choices survive the queue's JSON, and a job queued before they existed gets the defaults.
 TEST(RecalibrateOptionsJson, CarriesTheOrientationChoices) {
-  workflows::RecalibrateOptions o;
+  nightly::RecalibrateOptions o;
   o.orientation = "off";
   o.tool_rotation = "shared";
   o.params = "auto";
-  const auto back = workflows::RecalibrateOptionsFromJson(workflows::RecalibrateOptionsToJson(o), 1);
+  const auto back = nightly::RecalibrateOptionsFromJson(nightly::RecalibrateOptionsToJson(o), 1);
   EXPECT_EQ(back.orientation, "off");
   EXPECT_EQ(back.tool_rotation, "shared");
   EXPECT_EQ(back.params, "auto");
-  const auto old = workflows::RecalibrateOptionsFromJson(R"({"params": "all"})", 2);
+  const auto old = nightly::RecalibrateOptionsFromJson(R"({"params": "all"})", 2);
   EXPECT_EQ(old.orientation, "auto");
   EXPECT_EQ(old.tool_rotation, "per-session");
 }
@@ -586,7 +586,7 @@ TEST(CalibrationRunOrientations, AValidationOnlySessionTakesTheSharedToolRotatio
 
 }  // namespace armsig::testing
 
-namespace armsig::workflows {
+namespace armsig::nightly {
 namespace {
 
 // The nightly job's lock is the store's, whatever path names it: through a symlink or a
@@ -598,12 +598,12 @@ TEST(RobotLockPath, OneStoreOneLockAndNamesTheSystemAccepts) {
   const std::string db = dir.File("lab.db");
   testing::WriteText(db, "");
   std::filesystem::create_symlink(db, dir.File("link.db"));
-  EXPECT_EQ(RobotLockPath(dir.File("link.db"), "ur10"), RobotLockPath(db, "ur10"));
-  EXPECT_EQ(RobotLockPath(dir.File("sub/../lab.db"), "ur10"), RobotLockPath(db, "ur10"));
-  EXPECT_NE(RobotLockPath(db, "ur10"), RobotLockPath(db, "ur5"));
+  EXPECT_EQ(workflows::RobotLockPath(dir.File("link.db"), "ur10"), workflows::RobotLockPath(db, "ur10"));
+  EXPECT_EQ(workflows::RobotLockPath(dir.File("sub/../lab.db"), "ur10"), workflows::RobotLockPath(db, "ur10"));
+  EXPECT_NE(workflows::RobotLockPath(db, "ur10"), workflows::RobotLockPath(db, "ur5"));
   {
-    io::FileLock first(RobotLockPath(dir.File("link.db"), "ur10"), 0);
-    EXPECT_THROW(io::FileLock(RobotLockPath(db, "ur10"), 0), std::runtime_error);
+    io::FileLock first(workflows::RobotLockPath(dir.File("link.db"), "ur10"), 0);
+    EXPECT_THROW(io::FileLock(workflows::RobotLockPath(db, "ur10"), 0), std::runtime_error);
   }
 
   const std::string store = dir.File(std::string(200, 's') + ".db");
@@ -611,7 +611,7 @@ TEST(RobotLockPath, OneStoreOneLockAndNamesTheSystemAccepts) {
   std::string robot_a, robot_b;
   for (int k = 0; k < 32; ++k) robot_a += "é";  // 64 bytes, 192 %-encoded
   robot_b = robot_a.substr(0, 62) + "ü";
-  const std::string a = RobotLockPath(store, robot_a), b = RobotLockPath(store, robot_b);
+  const std::string a = workflows::RobotLockPath(store, robot_a), b = workflows::RobotLockPath(store, robot_b);
   EXPECT_LE(std::filesystem::path(a).filename().string().size(), 255u) << a;
   EXPECT_NE(a, b);
   EXPECT_EQ(std::filesystem::path(a).parent_path(), dir.path());
@@ -619,4 +619,4 @@ TEST(RobotLockPath, OneStoreOneLockAndNamesTheSystemAccepts) {
 }
 
 }  // namespace
-}  // namespace armsig::workflows
+}  // namespace armsig::nightly

@@ -7,7 +7,7 @@
 #include <opencv2/core.hpp>
 #include <opencv2/imgproc.hpp>
 
-namespace armsig::workflows::figures {
+namespace armsig::report::figures {
 namespace {
 
 Plot Drawn(bool legend, bool note) {
@@ -69,4 +69,4 @@ TEST(Plot, ACaptionSurvivesTheLegendsRows) {
   EXPECT_EQ(cv::norm(before, p.image(cv::Rect(0, 0, p.image.cols, 24)), cv::NORM_INF), 0.0);
 }
 
-}  // namespace armsig::workflows::figures
+}  // namespace armsig::report::figures

@@ -24,7 +24,7 @@ struct HostileReport {
   calibration::RobotModel model = io::LoadRobotModel(DataPath("faults/model-term-script.yaml"));
   std::vector<MeasuredPose> poses;
   workflows::CalibrationRun run;
-  workflows::ReportInput input;
+  report::ReportInput input;
 
   HostileReport() {
     std::mt19937 rng(3);
@@ -64,7 +64,7 @@ TEST(ReportEscaping, NamesFromTheModelAndTheDatabaseAreEscaped) {
   const auto names = f.model.ParameterNames();
   ASSERT_NE(std::find(names.begin(), names.end(), kScript), names.end());
   TempDir dir;
-  const std::string html = ReadText(workflows::WriteReport(dir.File("report"), f.input));
+  const std::string html = ReadText(report::WriteReport(dir.File("report"), f.input));
   EXPECT_EQ(html.find("<img src=x"), std::string::npos);
   EXPECT_EQ(html.find("<script"), std::string::npos);
   EXPECT_NE(html.find("&lt;img src=x onerror=alert(1)&gt;"), std::string::npos);
@@ -90,8 +90,8 @@ TEST(ReportEscaping, NamesFromTheModelAndTheDatabaseAreEscaped) {
 }
 
 TEST(ReportEscaping, HtmlTextIsEscapedUnlessMarkedAsMarkup) {
-  using workflows::Html;
-  using workflows::HtmlFormat;
+  using report::Html;
+  using report::HtmlFormat;
   const std::string name = "a<b>&\"c'";
   EXPECT_EQ(HtmlFormat("<td>{}</td>", name).str(), "<td>a&lt;b&gt;&amp;&quot;c&#39;</td>");
   EXPECT_EQ(HtmlFormat("<td>{}</td>", Html("<b>x</b>")).str(), "<td><b>x</b></td>");
@@ -116,7 +116,7 @@ TEST(ReportEscaping, PlantedSymlinksAtTemporaryNamesAreNotFollowed) {
     std::filesystem::create_symlink(victim, report + "/" + file + ".tmp");
     std::filesystem::create_symlink(victim, report + "/" + file + "~");
   }
-  workflows::WriteReport(report, f.input);
+  report::WriteReport(report, f.input);
   EXPECT_EQ(ReadText(victim), "precious\n");
   EXPECT_TRUE(std::filesystem::is_regular_file(report + "/index.html"));
   EXPECT_FALSE(std::filesystem::is_symlink(report + "/index.html"));

@@ -36,7 +36,7 @@ struct Fixture {
   calibration::RobotModel model = Puma();
   std::vector<MeasuredPose> poses;
   workflows::CalibrationRun run;
-  workflows::ReportInput input;
+  report::ReportInput input;
 
   Fixture() {
     std::mt19937 rng(7);
@@ -115,7 +115,7 @@ TEST(Report, EmbedsEveryFigureAsAValidPngIdenticalToItsFile) {
   Fixture f;
   UseTheMap(f);
   TempDir dir;
-  const std::string page = workflows::WriteReport(dir.File("report"), f.input);
+  const std::string page = report::WriteReport(dir.File("report"), f.input);
   const std::string html = ReadText(page);
   // Names from the database are escaped, never markup.
   EXPECT_NE(html.find("puma &lt;&amp;&gt; &quot;one&quot;"), std::string::npos);
@@ -156,7 +156,7 @@ TEST(Report, HeadlessChromiumRendersEveryFigure) {
   Fixture f;
   UseTheMap(f);
   TempDir dir;
-  const std::string page = workflows::WriteReport(dir.File("report"), f.input);
+  const std::string page = report::WriteReport(dir.File("report"), f.input);
   const std::string shot = dir.File("shot.png");
   const std::string chromium =
       "timeout 120 chromium --headless --no-sandbox --disable-gpu --disable-quic --no-first-run "
@@ -182,7 +182,7 @@ TEST(Report, HeadlessChromiumRendersEveryFigure) {
 TEST(Report, HeaderNamesDateVersionRobotSessionsInstrumentsSigma0RankAndUnidentified) {
   Fixture f;
   TempDir dir;
-  const std::string html = ReadText(workflows::WriteReport(dir.File("report"), f.input));
+  const std::string html = ReadText(report::WriteReport(dir.File("report"), f.input));
   EXPECT_EQ(Cell(html, "generated-at"), "2026-11-23T02:30:00Z");
   EXPECT_EQ(Cell(html, "armsig-version"), "9.8.7");
   EXPECT_NE(Cell(html, "robot").find("puma &lt;&amp;&gt; &quot;one&quot;"), std::string::npos);
@@ -221,7 +221,7 @@ TEST(Report, HeaderNamesDateVersionRobotSessionsInstrumentsSigma0RankAndUnidenti
 TEST(Report, PercentilesAndAxisStatisticsEqualAnIndependentComputation) {
   Fixture f;
   TempDir dir;
-  const std::string html = ReadText(workflows::WriteReport(dir.File("report"), f.input));
+  const std::string html = ReadText(report::WriteReport(dir.File("report"), f.input));
   const auto& r = f.run.validation_residuals;
   ASSERT_GE(r.size(), 50u);
   for (int c = 0; c < 4; ++c) {
@@ -252,17 +252,17 @@ TEST(Report, PercentilesAndAxisStatisticsEqualAnIndependentComputation) {
 TEST(Report, PercentileIsTheNearestRankWithoutFloatingPointSlips) {
   std::vector<double> sixty;
   for (int i = 60; i >= 1; --i) sixty.push_back(i);  // unsorted on purpose
-  EXPECT_EQ(workflows::PercentileNearestRank(sixty, 50), 30.0);
-  EXPECT_EQ(workflows::PercentileNearestRank(sixty, 95), 57.0);  // 0.95 · 60 = 57 exactly
-  EXPECT_EQ(workflows::PercentileNearestRank(sixty, 99), 60.0);  // ceil(59.4) = 60
-  EXPECT_EQ(workflows::PercentileNearestRank({4.0}, 99), 4.0);
-  EXPECT_TRUE(std::isnan(workflows::PercentileNearestRank({}, 50)));
+  EXPECT_EQ(report::PercentileNearestRank(sixty, 50), 30.0);
+  EXPECT_EQ(report::PercentileNearestRank(sixty, 95), 57.0);  // 0.95 · 60 = 57 exactly
+  EXPECT_EQ(report::PercentileNearestRank(sixty, 99), 60.0);  // ceil(59.4) = 60
+  EXPECT_EQ(report::PercentileNearestRank({4.0}, 99), 4.0);
+  EXPECT_TRUE(std::isnan(report::PercentileNearestRank({}, 50)));
 }
 
 TEST(Report, TenWorstPosesAreListedByIdLargestFirst) {
   Fixture f;
   TempDir dir;
-  const std::string html = ReadText(workflows::WriteReport(dir.File("report"), f.input));
+  const std::string html = ReadText(report::WriteReport(dir.File("report"), f.input));
   std::vector<std::pair<double, std::string>> by_error;
   for (size_t i = 0; i < f.run.validation_residuals.size(); ++i)
     by_error.push_back({f.run.validation_residuals[i].norm(), f.run.validation_pose_ids[i]});
@@ -291,7 +291,7 @@ TEST(Report, WorstPosesSayWhetherTheMapAppliedAndItsSigma) {
   Fixture f;
   TempDir dir;
   auto worst_table = [&](const std::string& name) {
-    const std::string html = ReadText(workflows::WriteReport(dir.File(name), f.input));
+    const std::string html = ReadText(report::WriteReport(dir.File(name), f.input));
     const size_t table = html.find("<table id=\"worst\">");
     EXPECT_NE(table, std::string::npos);
     return html.substr(table, html.find("</table>", table) - table);
@@ -332,7 +332,7 @@ TEST(Report, ChangeSectionIsNeverAnEmptyTableWithoutASentence) {
   TempDir dir;
   // No previous version.
   {
-    const std::string html = ReadText(workflows::WriteReport(dir.File("first"), f.input));
+    const std::string html = ReadText(report::WriteReport(dir.File("first"), f.input));
     EXPECT_NE(Cell(html, "change-note").find("No previous version"), std::string::npos);
     EXPECT_EQ(html.find("<table id=\"changes\">"), std::string::npos);
   }
@@ -340,7 +340,7 @@ TEST(Report, ChangeSectionIsNeverAnEmptyTableWithoutASentence) {
   f.input.previous_version = 1;
   f.input.previous_params_spec = "geometric";
   {
-    const std::string html = ReadText(workflows::WriteReport(dir.File("subset"), f.input));
+    const std::string html = ReadText(report::WriteReport(dir.File("subset"), f.input));
     const std::string note = Cell(html, "change-note");
     EXPECT_NE(note.find("--params geometric"), std::string::npos) << note;
     EXPECT_NE(note.find("different parameter subsets"), std::string::npos) << note;
@@ -350,14 +350,14 @@ TEST(Report, ChangeSectionIsNeverAnEmptyTableWithoutASentence) {
   f.input.previous_params_spec = "all";
   f.input.changes = {{0, 0.0, 0.0}};
   {
-    const std::string html = ReadText(workflows::WriteReport(dir.File("none"), f.input));
+    const std::string html = ReadText(report::WriteReport(dir.File("none"), f.input));
     EXPECT_NE(Cell(html, "change-note").find("share no parameter"), std::string::npos);
     EXPECT_EQ(html.find("<table id=\"changes\">"), std::string::npos);
   }
   // Real changes: a table, no apology.
   f.input.changes = {{1, 0.05, 2.5}};
   {
-    const std::string html = ReadText(workflows::WriteReport(dir.File("changes"), f.input));
+    const std::string html = ReadText(report::WriteReport(dir.File("changes"), f.input));
     EXPECT_EQ(html.find("id=\"change-note\""), std::string::npos);
     ASSERT_NE(html.find("<table id=\"changes\">"), std::string::npos);
     EXPECT_NE(html.find("0.0500 mm"), std::string::npos);
@@ -367,7 +367,7 @@ TEST(Report, ChangeSectionIsNeverAnEmptyTableWithoutASentence) {
 TEST(Report, PrintsOnA4WithFiguresKeptWholeAndNumbersUnwrapped) {
   Fixture f;
   TempDir dir;
-  const std::string html = ReadText(workflows::WriteReport(dir.File("report"), f.input));
+  const std::string html = ReadText(report::WriteReport(dir.File("report"), f.input));
   EXPECT_NE(html.find("@page{size:A4"), std::string::npos);
   EXPECT_NE(html.find("@media print{"), std::string::npos);
   EXPECT_NE(html.find("figure{margin:1em 0;break-inside:avoid;page-break-inside:avoid}"),
@@ -390,7 +390,7 @@ TEST(Report, PrintsOnA4WithFiguresKeptWholeAndNumbersUnwrapped) {
 TEST(Report, ErrorAgainstTemperatureGivesTheLeastSquaresSlope) {
   Fixture f;
   TempDir dir;
-  const std::string html = ReadText(workflows::WriteReport(dir.File("report"), f.input));
+  const std::string html = ReadText(report::WriteReport(dir.File("report"), f.input));
   const auto& ids = f.run.validation_pose_ids;
   Eigen::MatrixXd a(ids.size(), 2);
   Eigen::VectorXd b(ids.size());
@@ -428,7 +428,7 @@ TEST(Report, ErrorAgainstTemperatureGivesTheLeastSquaresSlope) {
   // No temperatures (theodolites): the section says why, and there is no empty chart.
   const auto temperatures = f.input.temperature_c;
   f.input.temperature_c.clear();
-  const std::string none = ReadText(workflows::WriteReport(dir.File("none"), f.input));
+  const std::string none = ReadText(report::WriteReport(dir.File("none"), f.input));
   EXPECT_NE(none.find("No validation pose has an air temperature"), std::string::npos);
   EXPECT_EQ(none.find("temperature-slope"), std::string::npos);
   EXPECT_TRUE(cv::imread(dir.File("none/temperature.png")).empty());
@@ -438,7 +438,7 @@ TEST(Report, ErrorAgainstTemperatureGivesTheLeastSquaresSlope) {
   // show one, and the page says why.
   for (const auto& [id, t] : temperatures)
     f.input.temperature_c[id] = 20.0 + 0.01 * (t - 20.1) / 2.0;
-  const std::string steady = ReadText(workflows::WriteReport(dir.File("steady"), f.input));
+  const std::string steady = ReadText(report::WriteReport(dir.File("steady"), f.input));
   EXPECT_EQ(steady.find("temperature-slope"), std::string::npos);
   EXPECT_NE(steady.find("the temperatures span only 0.01 °C; a slope needs at least 1 °C"),
             std::string::npos)
@@ -447,13 +447,13 @@ TEST(Report, ErrorAgainstTemperatureGivesTheLeastSquaresSlope) {
   // Enough span but too few poses with a temperature.
   f.input.temperature_c.clear();
   for (size_t k = 0; k < 5; ++k) f.input.temperature_c[ids[k]] = 19.0 + k;
-  const std::string few = ReadText(workflows::WriteReport(dir.File("few"), f.input));
+  const std::string few = ReadText(report::WriteReport(dir.File("few"), f.input));
   EXPECT_EQ(few.find("temperature-slope"), std::string::npos);
   EXPECT_NE(few.find("only 5 poses have a temperature; a slope needs at least 10"),
             std::string::npos);
   // One temperature for all: no slope to give.
-  EXPECT_FALSE(workflows::LinearTrendOf({20.0, 20.0, 20.0}, {0.1, 0.2, 0.3}).has_value());
-  const auto t = workflows::LinearTrendOf({19.0, 20.0, 21.0}, {0.1, 0.2, 0.3});
+  EXPECT_FALSE(report::LinearTrendOf({20.0, 20.0, 20.0}, {0.1, 0.2, 0.3}).has_value());
+  const auto t = report::LinearTrendOf({19.0, 20.0, 21.0}, {0.1, 0.2, 0.3});
   ASSERT_TRUE(t.has_value());
   EXPECT_NEAR(t->slope, 0.1, 1e-12);
   EXPECT_NEAR(t->intercept, -1.8, 1e-12);
@@ -461,13 +461,13 @@ TEST(Report, ErrorAgainstTemperatureGivesTheLeastSquaresSlope) {
   EXPECT_EQ(t->p_value, 0.0);
   // Scattered: slope 0.8, σ √(0.9 / 5), t² = 32/9 on 2 dof, whose two-sided p is
   // 1 − t / √(2 + t²) = 0.2 exactly (Student's t with 2 degrees of freedom).
-  const auto scattered = workflows::LinearTrendOf({1.0, 2.0, 3.0, 4.0}, {1.0, 3.0, 2.0, 4.0});
+  const auto scattered = report::LinearTrendOf({1.0, 2.0, 3.0, 4.0}, {1.0, 3.0, 2.0, 4.0});
   ASSERT_TRUE(scattered.has_value());
   EXPECT_NEAR(scattered->slope, 0.8, 1e-12);
   EXPECT_NEAR(scattered->sigma_slope, std::sqrt(0.9 / 5.0), 1e-12);
   EXPECT_NEAR(scattered->p_value, 0.2, 1e-9);
   // Two points: a slope, no significance.
-  const auto two = workflows::LinearTrendOf({1.0, 2.0}, {1.0, 3.0});
+  const auto two = report::LinearTrendOf({1.0, 2.0}, {1.0, 3.0});
   ASSERT_TRUE(two.has_value());
   EXPECT_TRUE(std::isnan(two->sigma_slope));
 }
@@ -475,7 +475,7 @@ TEST(Report, ErrorAgainstTemperatureGivesTheLeastSquaresSlope) {
 TEST(Report, OneErrorAgainstAngleFigurePerJoint) {
   Fixture f;
   TempDir dir;
-  const std::string html = ReadText(workflows::WriteReport(dir.File("report"), f.input));
+  const std::string html = ReadText(report::WriteReport(dir.File("report"), f.input));
   for (int j = 1; j <= f.model.num_joints(); ++j) {
     EXPECT_NE(html.find("alt=\"Error against joint " + std::to_string(j) + "\""), std::string::npos)
         << j;
@@ -486,16 +486,16 @@ TEST(Report, OneErrorAgainstAngleFigurePerJoint) {
 }
 
 TEST(Report, HistogramCountsAndTheirTicksAreIntegers) {
-  EXPECT_EQ(workflows::IntegerTicks(3), (std::vector<int>{0, 1, 2, 3}));
-  EXPECT_EQ(workflows::IntegerTicks(7), (std::vector<int>{0, 2, 4, 6, 8}));
-  EXPECT_EQ(workflows::IntegerTicks(1), (std::vector<int>{0, 1}));
-  EXPECT_EQ(workflows::IntegerTicks(0), (std::vector<int>{0, 1}));  // an empty histogram
-  EXPECT_EQ(workflows::IntegerTicks(95).back(), 100);
-  EXPECT_EQ(workflows::IntegerTicks(95)[1], 20);
+  EXPECT_EQ(report::IntegerTicks(3), (std::vector<int>{0, 1, 2, 3}));
+  EXPECT_EQ(report::IntegerTicks(7), (std::vector<int>{0, 2, 4, 6, 8}));
+  EXPECT_EQ(report::IntegerTicks(1), (std::vector<int>{0, 1}));
+  EXPECT_EQ(report::IntegerTicks(0), (std::vector<int>{0, 1}));  // an empty histogram
+  EXPECT_EQ(report::IntegerTicks(95).back(), 100);
+  EXPECT_EQ(report::IntegerTicks(95)[1], 20);
   // The histogram drawn for the fixture's validation errors.
   Fixture f;
   const auto distances = calibration::Distances(f.run.validation_residuals);
-  const auto h = workflows::HistogramOf(distances);
+  const auto h = report::HistogramOf(distances);
   int total = 0, most = 0;
   for (int c : h.counts) {
     total += c;
@@ -522,20 +522,20 @@ TEST(Report, HistogramCountsAndTheirTicksAreIntegers) {
 }
 
 TEST(Report, ParameterSetKindsAreToldApart) {
-  EXPECT_EQ(workflows::ParamsKind("all"), "all");
-  EXPECT_EQ(workflows::ParamsKind("geometric"), "geometric");
-  EXPECT_EQ(workflows::ParamsKind("auto"), "auto");
-  EXPECT_EQ(workflows::ParamsKind("geometric,h3,h4"), "list");
+  EXPECT_EQ(report::ParamsKind("all"), "all");
+  EXPECT_EQ(report::ParamsKind("geometric"), "geometric");
+  EXPECT_EQ(report::ParamsKind("auto"), "auto");
+  EXPECT_EQ(report::ParamsKind("geometric,h3,h4"), "list");
   // In words on the page, never as the flag ("--params all (all)").
-  EXPECT_EQ(workflows::ParamsInWords("all"), "every term of the model");
-  EXPECT_EQ(workflows::ParamsInWords("geometric,h3,h4"), "the parameters geometric, h3, h4");
-  EXPECT_EQ(workflows::ParamsInWords(""), "not known");
+  EXPECT_EQ(report::ParamsInWords("all"), "every term of the model");
+  EXPECT_EQ(report::ParamsInWords("geometric,h3,h4"), "the parameters geometric, h3, h4");
+  EXPECT_EQ(report::ParamsInWords(""), "not known");
   // The drift figure's legend names each kind present; the version table lists them.
   Fixture f;
   TempDir dir;
-  const std::string html = ReadText(workflows::WriteReport(dir.File("report"), f.input));
+  const std::string html = ReadText(report::WriteReport(dir.File("report"), f.input));
   EXPECT_EQ(Cell(html, "params").find("--params"), std::string::npos) << Cell(html, "params");
-  EXPECT_EQ(Cell(html, "params").rfind(workflows::ParamsInWords(f.run.params_spec) + "; 60 poses fitted", 0), 0u)
+  EXPECT_EQ(Cell(html, "params").rfind(report::ParamsInWords(f.run.params_spec) + "; 60 poses fitted", 0), 0u)
       << Cell(html, "params");
   const size_t table = html.find("<table id=\"versions\">");
   ASSERT_NE(table, std::string::npos);
@@ -575,7 +575,7 @@ TEST(Report, EachInstrumentIsNamedOnceWithItsStation) {
   ASSERT_TRUE(robot);
   workflows::CalibrationRun run;
   for (const auto& p : db::LoadRobotPoses(database, *robot, "")) run.fit_pose_ids.push_back(p.id);
-  const auto sources = workflows::LoadReportSources(database, run);
+  const auto sources = report::LoadReportSources(database, run);
   ASSERT_EQ(sources.instruments.size(), 2u);
   EXPECT_EQ(sources.instruments[0].name, "station T1: TM30 358120");
   EXPECT_EQ(sources.instruments[0].description.rfind("geocom on /dev/ttyS7", 0), 0u)
@@ -610,7 +610,7 @@ TEST(Report, SourcesAreReadFromTheSessionsBehindThePoses) {
   workflows::CalibrationRun run;
   for (size_t i = 0; i < poses.size(); ++i)
     (i % 5 == 0 ? run.validation_pose_ids : run.fit_pose_ids).push_back(poses[i].id);
-  const auto sources = workflows::LoadReportSources(database, run);
+  const auto sources = report::LoadReportSources(database, run);
   ASSERT_EQ(sources.sessions.size(), 2u);
   int validation_of_first = 0;
   for (size_t i = 0; i < 30; i += 5) ++validation_of_first;
@@ -640,11 +640,11 @@ TEST(Report, RecalibrateWritesTheHeaderFromTheDatabase) {
     db::Database database(path);
     AddSession(database, calibration::PaperTable3Parameters(), 150, 31);
   }
-  workflows::RecalibrateOptions o;
+  nightly::RecalibrateOptions o;
   o.db_path = path;
   o.robot = "puma";
   o.report_dir = dir.File("report");
-  const auto d = workflows::Recalibrate(o);
+  const auto d = nightly::Recalibrate(o);
   ASSERT_FALSE(d.report_path.empty());
   const std::string html = ReadText(d.report_path);
   EXPECT_NE(Cell(html, "armsig-version"), "not known");
@@ -679,14 +679,14 @@ TEST(Report, DriftPanelShowsHowFarEachVersionMovedTheArm) {
   const calibration::FittedSet b{second.estimate.params, second.estimate.identifiability.identified,
                                  second.estimate.covariance};
   const auto spread = calibration::SpreadConfigurations(model, 50);
-  workflows::ReportDriftPoint point = workflows::DriftPointOf(model, a, b, spread);
+  report::ReportDriftPoint point = report::DriftPointOf(model, a, b, spread);
   point.version = 2;
   point.against = 1;
   point.drift = true;
   f.input.drift_history.points = {point};
   f.input.drift_history.tolerance_mm = 0.05;
   TempDir dir;
-  const std::string html = ReadText(workflows::WriteReport(dir.File("report"), f.input));
+  const std::string html = ReadText(report::WriteReport(dir.File("report"), f.input));
 
   // Independently: positions of both, b aligned onto a, the largest and mean distance.
   Eigen::Matrix3Xd xa(3, spread.size()), xb(3, spread.size());
@@ -738,7 +738,7 @@ TEST(Report, DriftPanelShowsHowFarEachVersionMovedTheArm) {
 
   // Nothing to compare (one version): no empty panel, a sentence instead.
   f.input.drift_history.points.clear();
-  const std::string single = ReadText(workflows::WriteReport(dir.File("single"), f.input));
+  const std::string single = ReadText(report::WriteReport(dir.File("single"), f.input));
   EXPECT_TRUE(cv::imread(dir.File("single/drift.png")).empty());
   EXPECT_NE(single.find("No earlier parameter set to compare with"), std::string::npos);
 }
@@ -749,10 +749,10 @@ TEST(Report, TheMapsChartOnlyWhenTheMapIsUsed) {
   Fixture f;
   TempDir dir;
   UseTheMap(f);
-  workflows::WriteReport(dir.File("report"), f.input);
+  report::WriteReport(dir.File("report"), f.input);
   ASSERT_FALSE(cv::imread(dir.File("report/residual_map.png")).empty());
   f.run.residual_map->used = false;
-  const std::string html = ReadText(workflows::WriteReport(dir.File("report"), f.input));
+  const std::string html = ReadText(report::WriteReport(dir.File("report"), f.input));
   EXPECT_TRUE(cv::imread(dir.File("report/residual_map.png")).empty());
   EXPECT_NE(html.find("<p id=\"residual-map\">Not used: "), std::string::npos);
   int figures = 0;
@@ -765,23 +765,23 @@ TEST(Report, TheMapsChartOnlyWhenTheMapIsUsed) {
 // the others onto the axis: the axis stops at three times what they and the tolerance reach,
 // the far one is drawn at the top with its value.
 TEST(ReportFigures, DriftAxisStopsShortOfAVersionFarOff) {
-  workflows::ReportDrift drift;
+  report::ReportDrift drift;
   drift.tolerance_mm = 0.05;
   drift.points = {{2, 1, 0.03, 0.02, 0.0, false}, {3, 2, 0.04, 0.02, 0.0, false}};
-  EXPECT_DOUBLE_EQ(workflows::DriftAxisTop(drift), 1.25 * 0.05);  // the tolerance line shows
+  EXPECT_DOUBLE_EQ(report::DriftAxisTop(drift), 1.25 * 0.05);  // the tolerance line shows
   drift.points.push_back({4, 3, 12.0, 5.0, 0.0, true});
-  EXPECT_DOUBLE_EQ(workflows::DriftAxisTop(drift), 3.0 * 1.25 * 0.05);
+  EXPECT_DOUBLE_EQ(report::DriftAxisTop(drift), 3.0 * 1.25 * 0.05);
   // A far-off version among others as far off is not clipped.
   drift.points[1].max_mm = 10.0;
-  EXPECT_DOUBLE_EQ(workflows::DriftAxisTop(drift), 12.0);
+  EXPECT_DOUBLE_EQ(report::DriftAxisTop(drift), 12.0);
   // The chart with the far one: its value written at the top, the legend says so.
   drift.points[1].max_mm = 0.04;
   TempDir dir;
-  const auto figure = workflows::DriftFigure(dir.path().string(), drift, {});
+  const auto figure = report::DriftFigure(dir.path().string(), drift, {});
   ASSERT_TRUE(figure.has_value());
   const cv::Mat clipped = cv::imread(dir.File("drift.png"), cv::IMREAD_COLOR);
   drift.points.pop_back();
-  workflows::DriftFigure(dir.path().string(), drift, {});
+  report::DriftFigure(dir.path().string(), drift, {});
   const cv::Mat plain = cv::imread(dir.File("drift.png"), cv::IMREAD_COLOR);
   ASSERT_FALSE(clipped.empty());
   ASSERT_FALSE(plain.empty());
@@ -793,7 +793,7 @@ TEST(ReportFigures, DriftAxisStopsShortOfAVersionFarOff) {
 TEST(Report, ParameterSigmasHaveSignificantDigits) {
   Fixture f;
   TempDir dir;
-  const std::string html = ReadText(workflows::WriteReport(dir.File("report"), f.input));
+  const std::string html = ReadText(report::WriteReport(dir.File("report"), f.input));
   EXPECT_EQ(html.find("&plusmn; 0.000<"), std::string::npos);
   const auto names = f.model.ParameterNames();
   int checked = 0;
@@ -831,13 +831,13 @@ TEST(Report, ParameterSigmasHaveSignificantDigits) {
 // Four nightly sessions whose one network gave all three stations the same σ0: one line,
 // not twelve; a session whose σ0 differs keeps a line of its own.
 TEST(Report, EqualOrientationSigma0sAreSaidOnce) {
-  std::vector<workflows::ReportStationSetup> setups;
+  std::vector<report::ReportStationSetup> setups;
   for (int64_t session : {4, 5, 6, 7})
     for (const char* station : {"T1", "T2", "T3"})
       setups.push_back({session, station, 0.942, 25, "mutual+scale_bar"});
   for (const char* station : {"T1", "T2", "T3"})
     setups.push_back({8, station, 1.310, 25, "mutual+scale_bar"});
-  const auto groups = workflows::Sigma0Groups(setups);
+  const auto groups = report::Sigma0Groups(setups);
   ASSERT_EQ(groups.size(), 2u);
   EXPECT_EQ(groups[0].sessions, (std::vector<int64_t>{4, 5, 6, 7}));
   EXPECT_EQ(groups[0].stations, (std::vector<std::string>{"T1", "T2", "T3"}));
@@ -845,12 +845,12 @@ TEST(Report, EqualOrientationSigma0sAreSaidOnce) {
   // Within a session, stations with different figures stay apart.
   setups.push_back({9, "T1", 0.9, 25, "m"});
   setups.push_back({9, "T2", std::nullopt, 0, ""});
-  EXPECT_EQ(workflows::Sigma0Groups(setups).size(), 4u);
+  EXPECT_EQ(report::Sigma0Groups(setups).size(), 4u);
 
   Fixture f;
   f.input.sources.setups.assign(setups.begin(), setups.begin() + 15);
   TempDir dir;
-  const std::string html = ReadText(workflows::WriteReport(dir.File("report"), f.input));
+  const std::string html = ReadText(report::WriteReport(dir.File("report"), f.input));
   const std::string sigma0 = Cell(html, "sigma0");
   EXPECT_NE(sigma0.find("sessions 4, 5, 6, 7, stations T1, T2, T3: &sigma;<sub>0</sub> = 0.942 "
                         "(25 dof, mutual+scale_bar)"),
@@ -868,18 +868,18 @@ TEST(Report, EqualOrientationSigma0sAreSaidOnce) {
 TEST(ReportBanner, SaysPassDriftDriftSuspectedOrRejectedWithTheFigureThatMatters) {
   workflows::CalibrationRun run;
   run.validation_residuals = {{0.03, 0.04, 0.0}, {0.0, 0.0, 0.1}};  // 0.05 and 0.10 mm
-  workflows::ReportInput in;
+  report::ReportInput in;
   in.robot = "ur10";
   in.run = &run;
   in.version = 3;
   in.decision = "stored as version 3";
-  auto banner = workflows::BannerOf(in);
+  auto banner = report::BannerOf(in);
   EXPECT_EQ(banner.word, "PASS");
   EXPECT_EQ(banner.css_class, "good");
   EXPECT_EQ(banner.figure, "version 3: validation mean 0.075 mm, max 0.100 mm on 2 configurations");
   in.drift = true;
   in.window = {{7, "", 30, 0.4, 0.612, 1e-9, true, false}, {8, "", 30, 0.2, 0.9, 0.5, false, false}};
-  banner = workflows::BannerOf(in);
+  banner = report::BannerOf(in);
   EXPECT_EQ(banner.word, "DRIFT");
   EXPECT_EQ(banner.css_class, "warn");  // never green
   EXPECT_EQ(banner.figure,
@@ -890,12 +890,12 @@ TEST(ReportBanner, SaysPassDriftDriftSuspectedOrRejectedWithTheFigureThatMatters
   in.previous_version = 2;
   in.gates = {"fit mean: 0.0400 mm (limit 0.5000 mm) passed",
               "validation mean: 0.9000 mm (limit 0.5000 mm) FAILED"};
-  banner = workflows::BannerOf(in);
+  banner = report::BannerOf(in);
   EXPECT_EQ(banner.word, "REJECTED");
   EXPECT_EQ(banner.css_class, "bad");
   EXPECT_EQ(banner.figure, "validation mean: 0.9000 mm (limit 0.5000 mm) FAILED; nothing stored");
   in.run = nullptr;
-  banner = workflows::BannerOf(in);
+  banner = report::BannerOf(in);
   EXPECT_EQ(banner.word, "DRIFT SUSPECTED");
   EXPECT_EQ(banner.figure,
             "the robot moved by up to 0.612 mm at the tool; nothing stored, version 2 stays active");

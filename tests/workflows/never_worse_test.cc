@@ -23,10 +23,10 @@
 namespace armsig::testing {
 namespace {
 
-using Outcome = workflows::RecalibrationDecision::Outcome;
+using Outcome = nightly::RecalibrationDecision::Outcome;
 
-workflows::RecalibrateOptions Options(const std::string& path) {
-  workflows::RecalibrateOptions o;
+nightly::RecalibrateOptions Options(const std::string& path) {
+  nightly::RecalibrateOptions o;
   o.db_path = path;
   o.robot = "puma";
   return o;
@@ -87,14 +87,14 @@ TEST_F(NeverWorse, ASessionStillBeingCapturedIsNotFitted) {
     db::SetSessionState(database, live, db::SessionState::kRunning);
     db::SetSessionOwner(database, live, acquisition::ThisProcess());
   }
-  const auto night = workflows::Recalibrate(Options(Path()));
+  const auto night = nightly::Recalibrate(Options(Path()));
   ASSERT_EQ(night.outcome, Outcome::kStored) << night.Describe();
   EXPECT_EQ(night.sessions, std::vector<int64_t>{1});
   {
     db::Database database(Path());
     db::SetSessionState(database, live, db::SessionState::kCompleted);
   }
-  const auto next = workflows::Recalibrate(Options(Path()));
+  const auto next = nightly::Recalibrate(Options(Path()));
   EXPECT_EQ(next.sessions, (std::vector<int64_t>{1, 2}));
 }
 
@@ -111,7 +111,7 @@ TEST_F(NeverWorse, TestAndCheckSessionsAreFittedOnlyWhenAsked) {
     EXPECT_EQ(sessions[2].kind, db::SessionKind::kCheck);
     EXPECT_FALSE(db::SessionKindNamed("tset"));
   }
-  const auto night = workflows::Recalibrate(Options(Path()));
+  const auto night = nightly::Recalibrate(Options(Path()));
   ASSERT_EQ(night.outcome, Outcome::kStored) << night.Describe();
   EXPECT_EQ(night.sessions, std::vector<int64_t>{1});
   // The sessions not fitted are where the new set was tried before it became active.
@@ -123,7 +123,7 @@ TEST_F(NeverWorse, TestAndCheckSessionsAreFittedOnlyWhenAsked) {
   }
   auto options = Options(Path());
   options.kinds = {db::SessionKind::kCalibration, db::SessionKind::kTest};
-  const auto asked = workflows::Recalibrate(options);
+  const auto asked = nightly::Recalibrate(options);
   EXPECT_EQ(asked.sessions, (std::vector<int64_t>{1, 2}));
 }
 
@@ -136,7 +136,7 @@ TEST_F(NeverWorse, ASetWorseWhereItWasNotFittedIsNotActivated) {
     StoreSession(database, TruePoses(150, 6));
     StoreSession(database, TruePoses(150, 7));
   }
-  const auto first = workflows::Recalibrate(Options(Path()));
+  const auto first = nightly::Recalibrate(Options(Path()));
   ASSERT_EQ(first.outcome, Outcome::kStored) << first.Describe();
   {
     db::Database database(Path());
@@ -144,7 +144,7 @@ TEST_F(NeverWorse, ASetWorseWhereItWasNotFittedIsNotActivated) {
   }
   auto options = Options(Path());
   options.window_sessions = 1;  // the nightly window: the newest session alone
-  const auto night = workflows::Recalibrate(options);
+  const auto night = nightly::Recalibrate(options);
   EXPECT_EQ(night.outcome, Outcome::kRejected) << night.Describe();
   EXPECT_EQ(night.ExitCode(), 3);
   ASSERT_FALSE(night.refusals.empty());
@@ -163,7 +163,7 @@ TEST_F(NeverWorse, AnImplausibleSetIsRefusedWithTheFigure) {
     db::Database database(Path());
     StoreSession(database, TruePoses(200, 9, 2.5, 1.03));
   }
-  const auto night = workflows::Recalibrate(Options(Path()));
+  const auto night = nightly::Recalibrate(Options(Path()));
   EXPECT_EQ(night.outcome, Outcome::kRejected) << night.Describe();
   ASSERT_FALSE(night.refusals.empty());
   EXPECT_NE(night.refusals.front().find("not this robot or not these units"), std::string::npos)

@@ -149,12 +149,12 @@ class ProgramsOnVirtualRobots : public ::testing::Test {
       }
       tx.commit();
     }
-    RecalibrateOptions fit;
+    nightly::RecalibrateOptions fit;
     fit.db_path = db_path_;
     fit.robot = robot;
     fit.residual_model = "off";
     const auto decision = Recalibrate(fit);
-    ASSERT_EQ(decision.outcome, RecalibrationDecision::Outcome::kStored) << decision.Describe();
+    ASSERT_EQ(decision.outcome, nightly::RecalibrationDecision::Outcome::kStored) << decision.Describe();
   }
 
   ProgramCompensationRun Compensate(const std::string& robot, const std::string& in, const std::string& out,
@@ -728,7 +728,7 @@ TEST_F(ProgramsOnVirtualRobots, Iso9283PoseAccuracyOfACompensatedUrScriptCube) {
       }
     }
     Figures f;
-    const Iso9283Evaluation e = EvaluateIso9283(data, /*align=*/true);
+    const iso9283::Iso9283Evaluation e = iso9283::EvaluateIso9283(data, /*align=*/true);
     for (const auto& p : e.points) {
       f.ap_mm += p.ap_mm / 5.0;
       EXPECT_LT(p.rp_mm, 0.15) << p.name;  // the robot's own repeatability

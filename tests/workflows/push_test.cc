@@ -24,8 +24,8 @@ namespace armsig::testing {
 
 namespace {
 
-workflows::RecalibrateOptions Nightly(const std::string& path) {
-  workflows::RecalibrateOptions o;
+nightly::RecalibrateOptions Nightly(const std::string& path) {
+  nightly::RecalibrateOptions o;
   o.db_path = path;
   o.robot = "puma";
   o.residual_model = "off";
@@ -39,8 +39,8 @@ void MakeCell(const std::string& path) {
     AddSession(database, calibration::PaperTable3Parameters(), 60, 1);
     AddSession(database, calibration::PaperTable3Parameters(), 60, 2);
   }
-  const auto fit = workflows::Recalibrate(Nightly(path));
-  ASSERT_EQ(fit.outcome, workflows::RecalibrationDecision::Outcome::kStored) << fit.Describe();
+  const auto fit = nightly::Recalibrate(Nightly(path));
+  ASSERT_EQ(fit.outcome, nightly::RecalibrationDecision::Outcome::kStored) << fit.Describe();
 }
 
 // The cell with a third session and a second version fitted on all three (active).
@@ -50,8 +50,8 @@ void MakeCellWithTwoVersions(const std::string& path) {
     db::Database database(path);
     AddSession(database, calibration::PaperTable3Parameters(), 60, 3);
   }
-  ASSERT_EQ(workflows::Recalibrate(Nightly(path)).outcome,
-            workflows::RecalibrationDecision::Outcome::kStored);
+  ASSERT_EQ(nightly::Recalibrate(Nightly(path)).outcome,
+            nightly::RecalibrationDecision::Outcome::kStored);
 }
 
 std::map<std::string, int64_t> Counts(db::Database& database) {
