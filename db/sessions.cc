@@ -3,6 +3,7 @@
 #include <nlohmann/json.hpp>
 #include <stdexcept>
 
+#include "core/enum_words.h"
 #include "db/schema.h"
 #include "db/sql_util.h"
 
@@ -18,23 +19,31 @@ std::string FinishedAtSql(Database& db) {
 
 }  // namespace
 
-const char* ToString(SessionState state) {
-  switch (state) {
-    case SessionState::kRunning: return "running";
-    case SessionState::kPaused: return "paused";
-    case SessionState::kCompleted: return "completed";
-    case SessionState::kAborted: return "aborted";
-  }
-  return "running";
-}
+namespace {
+constexpr EnumWord<SessionState> kSessionStates[] = {
+    {SessionState::kRunning, "running"},
+    {SessionState::kPaused, "paused"},
+    {SessionState::kCompleted, "completed"},
+    {SessionState::kAborted, "aborted"},
+};
+constexpr EnumWord<SessionKind> kSessionKinds[] = {
+    {SessionKind::kCalibration, "calibration"},
+    {SessionKind::kTest, "test"},
+    {SessionKind::kCheck, "check"},
+};
+}  // namespace
+
+const char* ToString(SessionState state) { return WordOf(kSessionStates, state); }
 
 SessionState SessionStateOf(const std::string& text) {
-  for (SessionState s : {SessionState::kRunning, SessionState::kPaused, SessionState::kCompleted,
-                         SessionState::kAborted}) {
-    if (text == ToString(s)) return s;
-  }
+  if (const auto state = ValueNamed(kSessionStates, text)) return *state;
   throw std::invalid_argument("session state '" + text +
                               "': expected running, paused, completed or aborted");
+}
+
+const char* ToString(SessionKind kind) { return WordOf(kSessionKinds, kind); }
+std::optional<SessionKind> SessionKindNamed(const std::string& text) {
+  return ValueNamed(kSessionKinds, text);
 }
 
 int64_t CreateSession(Database& db, int64_t robot_id, const std::string& lab_yaml,
@@ -50,28 +59,6 @@ int64_t CreateSession(Database& db, int64_t robot_id, const std::string& lab_yam
   s->Bind(5, note);
   s->Bind(6, std::string(ToString(state)));
   return InsertedId(*s, db.path() + ": a session");
-}
-
-namespace {
-constexpr std::pair<SessionKind, const char*> kSessionKinds[] = {
-    {SessionKind::kCalibration, "calibration"},
-    {SessionKind::kTest, "test"},
-    {SessionKind::kCheck, "check"},
-};
-}  // namespace
-
-const char* ToString(SessionKind kind) {
-  for (const auto& [k, word] : kSessionKinds) {
-    if (k == kind) return word;
-  }
-  return "?";
-}
-
-std::optional<SessionKind> SessionKindNamed(const std::string& text) {
-  for (const auto& [k, word] : kSessionKinds) {
-    if (text == word) return k;
-  }
-  return std::nullopt;
 }
 
 void SetSessionKind(Database& db, int64_t session_id, SessionKind kind) {

@@ -11,6 +11,7 @@
 #include <limits>
 #include <sstream>
 
+#include "core/enum_words.h"
 #include "core/error.h"
 #include "core/text.h"
 #include "core/units.h"
@@ -98,25 +99,16 @@ const NetworkControllerProtocol* FindNetworkControllerProtocol(ControllerProtoco
 }
 
 namespace {
-constexpr std::pair<ControllerProtocol, const char*> kControllerProtocols[] = {
+constexpr EnumWord<ControllerProtocol> kControllerProtocols[] = {
     {ControllerProtocol::kValII, "val"}, {ControllerProtocol::kKawasakiAs, "as"},
     {ControllerProtocol::kCounter, "counter"}, {ControllerProtocol::kUr, "ur"},
     {ControllerProtocol::kAbb, "abb"}, {ControllerProtocol::kKuka, "kuka"},
 };
 }  // namespace
 
-const char* NameOf(ControllerProtocol protocol) {
-  for (const auto& [p, name] : kControllerProtocols) {
-    if (p == protocol) return name;
-  }
-  return "?";
-}
-
+const char* NameOf(ControllerProtocol protocol) { return WordOf(kControllerProtocols, protocol); }
 std::optional<ControllerProtocol> ControllerProtocolNamed(const std::string& name) {
-  for (const auto& [p, n] : kControllerProtocols) {
-    if (name == n) return p;
-  }
-  return std::nullopt;
+  return ValueNamed(kControllerProtocols, name);
 }
 
 unsigned short ControllerConfig::Port(const std::string& key) const {
@@ -132,25 +124,16 @@ unsigned short ControllerConfig::Port(const std::string& key) const {
 std::string HostPort::Text() const { return host + ":" + std::to_string(port); }
 
 namespace {
-constexpr std::pair<InstrumentProtocol, const char*> kInstrumentProtocols[] = {
+constexpr EnumWord<InstrumentProtocol> kInstrumentProtocols[] = {
     {InstrumentProtocol::kGeoCom, "geocom"},
     {InstrumentProtocol::kGsi, "gsi"},
     {InstrumentProtocol::kEmScon, "emscon"},
 };
 }  // namespace
 
-const char* NameOf(InstrumentProtocol protocol) {
-  for (const auto& [p, name] : kInstrumentProtocols) {
-    if (p == protocol) return name;
-  }
-  return "?";
-}
-
+const char* NameOf(InstrumentProtocol protocol) { return WordOf(kInstrumentProtocols, protocol); }
 std::optional<InstrumentProtocol> InstrumentProtocolNamed(const std::string& name) {
-  for (const auto& [p, n] : kInstrumentProtocols) {
-    if (name == n) return p;
-  }
-  return std::nullopt;
+  return ValueNamed(kInstrumentProtocols, name);
 }
 
 std::optional<HostPort> SplitHostPort(const std::string& text) {
