@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # Builds the libFuzzer targets (fuzz/) with clang into build-fuzz/ and runs each for
-# SECONDS (default 20; CI uses 10, a real campaign hours: scripts/fuzz.sh 3600). Seeds:
+# SECONDS (default 20; CI uses 5, a real campaign hours: scripts/fuzz.sh 3600). Seeds:
 # fuzz/seeds, the real files in tests/data (cut to MAX_LEN bytes at a line end) and every
 # kept fault input in tests/data/faults/ of the target's format, chosen by its name's prefix
 # (model-*.yaml seeds model_yaml_fuzz, orient-*.csv observations_fuzz and csv_fuzz, …). New

@@ -8,9 +8,13 @@ set -euo pipefail
 cd "$(dirname "$0")/.."
 # Each phase's wall time, printed last (also when a phase fails): what a CI run's log needs to
 # tell where its minutes went.
+# The free disk space after each phase too: a CI run once failed mid-suite on a full disk
+# ("No space left on device" from the test PostgreSQL server and SQLite).
+free_mb() { df -Pm . | awk 'NR == 2 { print $4 }'; }
 phases=() phase_start=$SECONDS
-phase() { phases+=("$1 $((SECONDS - phase_start)) s"); phase_start=$SECONDS; }
-trap 'echo "scripts/test.sh phases: ${phases[*]:-none finished} (${SECONDS} s in all)"' EXIT
+phase() { phases+=("$1 $((SECONDS - phase_start)) s [$(free_mb) MB free]"); phase_start=$SECONDS; }
+start_free="$(free_mb)"
+trap 'echo "scripts/test.sh phases: ${phases[*]:-none finished} (${SECONDS} s in all; ${start_free} MB free at the start)"' EXIT
 scripts/setup.sh --tests
 phase setup
 jobs="$(nproc)"
@@ -29,5 +33,5 @@ fi
 ASAN_OPTIONS=detect_leaks=1 UBSAN_OPTIONS=print_stacktrace=1 \
   ctest --test-dir build-fuzz --output-on-failure --parallel "$((jobs * 2))"
 phase tests
-scripts/fuzz.sh "${ARMSIG_FUZZ_SECONDS:-10}"
+scripts/fuzz.sh "${ARMSIG_FUZZ_SECONDS:-5}"
 phase fuzz

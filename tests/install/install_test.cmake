@@ -128,3 +128,6 @@ if(DEB)
   endif()
 endif()
 message(STATUS "installed into ${prefix}: every file present, demo ran")
+# Passed: the prefix, the package and its unpacked copy (three copies of the program, half a
+# gigabyte in the sanitizer tree) go; a failure above keeps them for a look.
+file(REMOVE_RECURSE "${WORK_DIR}")

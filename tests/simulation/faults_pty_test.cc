@@ -157,7 +157,10 @@ TEST(FaultOnTheLineCommand, InstrumentReadEndsByItsTimeout) {
     const std::string command = "instrument read --port '" + link + "' --protocol " +
                                 c.protocol + " --timeout-ms 1000 --json";
     // The program's own start-up and one healthy exchange, as the machine is right now:
-    // the fault must add no more than the deadline (and its + 50 % margin) to that.
+    // the fault must add no more than the deadline and a margin to that. A reader that
+    // ignores the deadline, or starts it again at every line, never ends while the port
+    // floods; the margin is the machine's: a flood's reader on a loaded machine (eight
+    // processes on two cores) took 1.63 s over the healthy run with its deadline at 1 s.
     auto start = std::chrono::steady_clock::now();
     ASSERT_EQ(testing::RunArmsig(command).exit_code, 0) << c.protocol;
     const auto healthy = std::chrono::steady_clock::now() - start;
@@ -168,7 +171,7 @@ TEST(FaultOnTheLineCommand, InstrumentReadEndsByItsTimeout) {
     EXPECT_EQ(r.exit_code, 1) << c.protocol << " " << FaultName(c.fault) << ": " << r.err;
     EXPECT_TRUE(r.out.empty()) << r.out;  // no reading
     EXPECT_NE(r.err.find(c.error), std::string::npos) << r.err;
-    EXPECT_LT(took - healthy, 1500ms) << c.protocol << " " << FaultName(c.fault);
+    EXPECT_LT(took - healthy, 3000ms) << c.protocol << " " << FaultName(c.fault);
     sim->Stop();
   }
 }

@@ -10,8 +10,12 @@
 // variable, starts a server of its own, stopped and removed when the program ends.
 #pragma once
 
+#include <sys/types.h>
+
 #include <memory>
 #include <string>
+#include <utility>
+#include <vector>
 
 namespace armsig::testing {
 
@@ -68,6 +72,8 @@ class PostgresServer {
   std::string bin_, dir_, run_as_, superuser_ = "armsig_test";
   int port_ = 0;
   bool started_ = false;  // by this object: stopped and removed by it
+  // Made by NewDatabase, with the process that made them: dropped with a shared server's handle.
+  std::vector<std::pair<pid_t, std::string>> databases_;
 };
 
 }  // namespace armsig::testing
