@@ -224,8 +224,8 @@ void PostgresServer::SignalAll(int signal) {
 
 PostgresServer::~PostgresServer() {
   if (!started_) {  // attached to a fixture's server, or left running for one
-    // The shared server outlives this process: the databases it made here go with it (a
-    // whole suite's ~600 databases of 7.5 MB each filled a CI machine's disk). FORCE ends a
+    // The shared server outlives this process: the databases it made here go with it (each test's
+    // 7.5 MB or more stayed until the suite ended, and a CI machine's disk filled mid-suite). FORCE ends a
     // connection a child process or a leaked handle still holds.
     for (const auto& [pid, name] : databases_) {
       if (pid != ::getpid()) continue;  // a forked child's exit leaves its parent's alone
