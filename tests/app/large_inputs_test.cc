@@ -92,7 +92,7 @@ void WritePoseTable(const std::string& path, int rows) {
   std::fclose(f);
 }
 
-size_t Lines(const std::string& path) {
+size_t LineCount(const std::string& path) {
   std::ifstream in(path);
   size_t n = 0;
   for (std::string line; std::getline(in, line);) ++n;
@@ -118,7 +118,7 @@ TEST(LargeInputs, AMillionRowPoseTableStaysWithinTheMemoryBound) {
             << " MiB, bound " << bound_kib / 1024 << " MiB)\n";
   EXPECT_EQ(import.exit_code, 0) << import.err;
   EXPECT_LE(import.peak_kib, bound_kib);
-  EXPECT_EQ(Lines(out), 1000001u);
+  EXPECT_EQ(LineCount(out), 1000001u);
 
   // calibrate --poses: refused at the row past its limit, having held no more than that.
   const Measured calibrate = RunMeasured(

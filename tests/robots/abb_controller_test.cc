@@ -10,9 +10,9 @@
 #include <spdlog/spdlog.h>
 
 #include <future>
-#include <numbers>
 #include <sstream>
 
+#include "core/units.h"
 #include "simulation/rws_simulator.h"
 #include "test_support.h"
 
@@ -26,8 +26,6 @@ using simulation::RwsSimulator;
 using simulation::RwsSimulatorOptions;
 using simulation::VirtualLab;
 using Kind = ControllerError::Kind;
-
-constexpr double kDeg = std::numbers::pi / 180.0;
 
 RetryPolicy AbbFast() {
   RetryPolicy p;
@@ -92,7 +90,7 @@ std::unique_ptr<Cell> MakeCell(rws::Version v, RwsSimulatorOptions o = {},
 Eigen::VectorXd Deg(std::initializer_list<double> d) {
   Eigen::VectorXd q(static_cast<Eigen::Index>(d.size()));
   int i = 0;
-  for (double v : d) q(i++) = v * kDeg;
+  for (double v : d) q(i++) = v * kRadPerDeg;
   return q;
 }
 
@@ -171,8 +169,8 @@ TEST(AbbController, MovesInThePhysicalTimeAndReadsWhereTheArmStands) {
     EXPECT_GE(elapsed, 0.05 * (200.0 / 180.0 + 0.25) - 0.002);
     const Eigen::VectorXd q = abb->ReadJointsRad();
     // RAPID nums are single-precision: 2e-5° is a float's step near 200°.
-    EXPECT_LT((q - target).cwiseAbs().maxCoeff(), 2e-5 * kDeg) << q.transpose() / kDeg;
-    EXPECT_LT((cell->lab.Joints() - target).cwiseAbs().maxCoeff(), 2e-5 * kDeg);
+    EXPECT_LT((q - target).cwiseAbs().maxCoeff(), 2e-5 * kRadPerDeg) << q.transpose() / kRadPerDeg;
+    EXPECT_LT((cell->lab.Joints() - target).cwiseAbs().maxCoeff(), 2e-5 * kRadPerDeg);
     const auto snap = cell->sim.snapshot();
     EXPECT_EQ(snap.moves, 1);
     EXPECT_EQ(snap.cmd, snap.done);
@@ -211,7 +209,7 @@ TEST(AbbController, GuardStopDuringAMoveIsOneStopUntilTheProgramRunsAgain) {
   cell->sim.StartProgram();
   abb->CheckReady();
   abb->MoveTo(target);
-  EXPECT_LT((abb->ReadJointsRad() - target).cwiseAbs().maxCoeff(), 2e-5 * kDeg);
+  EXPECT_LT((abb->ReadJointsRad() - target).cwiseAbs().maxCoeff(), 2e-5 * kRadPerDeg);
 }
 
 TEST(AbbController, EmergencyStopNamesTheButtonAndResumes) {
@@ -231,7 +229,7 @@ TEST(AbbController, EmergencyStopNamesTheButtonAndResumes) {
   cell->sim.SetMotors(true);
   cell->sim.StartProgram();
   abb->MoveTo(target);
-  EXPECT_LT((abb->ReadJointsRad() - target).cwiseAbs().maxCoeff(), 2e-5 * kDeg);
+  EXPECT_LT((abb->ReadJointsRad() - target).cwiseAbs().maxCoeff(), 2e-5 * kRadPerDeg);
 }
 
 TEST(AbbController, NotInAutoMotorsOffOrProgramStoppedIsSaidBeforeMoving) {
@@ -327,7 +325,7 @@ TEST(AbbController, ConnectionCutMidMoveAndRestoredGoesOn) {
   // The same configuration again: the request left running is waited for, then the arm is
   // asked once more (it is there already).
   abb->MoveTo(target);
-  EXPECT_LT((abb->ReadJointsRad() - target).cwiseAbs().maxCoeff(), 2e-5 * kDeg);
+  EXPECT_LT((abb->ReadJointsRad() - target).cwiseAbs().maxCoeff(), 2e-5 * kRadPerDeg);
   EXPECT_EQ(cell->sim.snapshot().logins, 1);  // the session survived the cut
 }
 
@@ -462,7 +460,7 @@ TEST(AbbController, ATargetOutsideTheWorkingRangeStopsTheProgramNotTheArm) {
   EXPECT_NE(std::string(f.what()).find("not running during move 1"), std::string::npos)
       << f.what();
   EXPECT_EQ(cell->sim.snapshot().moves, 0);
-  EXPECT_LT((cell->sim.snapshot().joints_deg - Deg({0, 0, 0, 0, 30, 0}) / kDeg).norm(), 1e-9);
+  EXPECT_LT((cell->sim.snapshot().joints_deg - Deg({0, 0, 0, 0, 30, 0}) / kRadPerDeg).norm(), 1e-9);
 }
 
 TEST(AbbController, LostRepliesAreRetriedAndSilenceEndsByTheDeadline) {

@@ -4,7 +4,7 @@
 
 #include <gtest/gtest.h>
 
-#include <numbers>
+#include "core/units.h"
 
 namespace armsig::robots {
 using instruments::FakeTransport;
@@ -26,8 +26,6 @@ RetryPolicy ControllerFast() {
   return p;
 }
 
-constexpr double kDeg = std::numbers::pi / 180.0;
-
 }  // namespace
 
 TEST(ValController, ReadsWhereAndSendsJMoveInDegrees) {
@@ -45,10 +43,10 @@ TEST(ValController, ReadsWhereAndSendsJMoveInDegrees) {
   ValController robot(std::move(fake), true, ControllerFast());
   const Eigen::VectorXd q = robot.ReadJointsRad();
   ASSERT_EQ(q.size(), 6);
-  EXPECT_NEAR(q(0), -6.552 * kDeg, 1e-12);
-  EXPECT_NEAR(q(5), -167.663 * kDeg, 1e-12);
+  EXPECT_NEAR(q(0), -6.552 * kRadPerDeg, 1e-12);
+  EXPECT_NEAR(q(5), -167.663 * kRadPerDeg, 1e-12);
   Eigen::VectorXd target(3);
-  target << 10.0 * kDeg, -20.5 * kDeg, 0.0;
+  target << 10.0 * kRadPerDeg, -20.5 * kRadPerDeg, 0.0;
   robot.MoveTo(target);
   ASSERT_EQ(port->written().size(), 2u);
   EXPECT_EQ(port->written()[0], "WHERE\r\n");
