@@ -238,9 +238,8 @@ std::vector<Eigen::VectorXd> ConfigurationSeeds(const ControllerModel& c,
 
 InverseSolution ControllerInverse(const ControllerModel& c, const InverseRequest& request) {
   const int n = c.num_joints();
-  calibration::RobotModel model = c.model;
   const Eigen::Isometry3d flange_tcp = c.flange * request.tool;
-  model.tool_mm = flange_tcp.translation();
+  calibration::RobotModel model = calibration::AtPoint(c.model, flange_tcp.translation());
   const Eigen::Matrix3d last_rotation = request.tcp.linear() * flange_tcp.linear().transpose();
   const Eigen::VectorXd zero = Eigen::VectorXd::Zero(model.num_parameters());
   calibration::JointSolveOptions options;

@@ -243,7 +243,7 @@ std::string KinematicsYaml(const instruments::ControllerKinematics& k) {
 class TrackerLab {
  public:
   TrackerLab(const DemoRobot& r, const Eigen::Isometry3d& tool) : model_(r.model) {
-    model_.tool_mm = (r.model.flange * tool).translation();  // the reflector at the TCP
+    model_ = calibration::AtPoint(r.model, (r.model.flange * tool).translation());  // the reflector at the TCP
     lab_ = std::make_unique<simulation::VirtualLab>(model_, r.truth.true_params, r.truth.world_from_base, 3);
     lab_->SetJointErrors(r.truth.joint_errors);
     simulation::VirtualStation lt1;
