@@ -100,6 +100,9 @@ calibration::RobotModel ControllerChain(calibration::RobotModel model) {
   model.base = Eigen::Isometry3d::Identity();
   model.nongeometric.clear();  // a controller knows no non-geometric terms
   model.tool_mm.setZero();
+  // Nor where a calibration target sits on the flange: its nominal flange has no turn.
+  model.tool_mounting = calibration::ToolMounting::kFitted;
+  model.turn_lever_mm.reset();
   return model;
 }
 
