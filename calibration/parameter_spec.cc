@@ -45,7 +45,8 @@ std::vector<int> ParseParameterSpec(const RobotModel& model, const std::string& 
     } else if (int index = model.IndexOf(token); index >= 0) {
       if (model.IsHeld(index)) {
         throw std::invalid_argument(
-            Quoted(token) + " is held at zero with 'tool_mounting: known' (the target's place on "
+            Quoted(token) +
+            " is held at zero with 'tool_mounting: known' (the target's place on "
             "the flange is known: " +
             (index == model.tool_index() - 1
                  ? std::string("a turn about the last joint and one about the lever are one "

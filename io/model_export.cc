@@ -46,7 +46,8 @@ std::string FormatRobotModelYaml(const calibration::RobotModel& model, const std
       << YamlNumber(model.tool_mm.x()) << YamlNumber(model.tool_mm.y())
       << YamlNumber(model.tool_mm.z()) << YAML::EndSeq;
   if (model.known_mounting()) {
-    out << YAML::Key << "tool_mounting" << YAML::Value << calibration::ToString(model.tool_mounting);
+    out << YAML::Key << "tool_mounting" << YAML::Value
+        << calibration::ToString(model.tool_mounting);
   }
   if (!model.flange.isApprox(Eigen::Isometry3d::Identity(), 1e-15)) {
     out << YAML::Key << "flange" << YAML::Value;

@@ -108,7 +108,6 @@ struct Entry {
 };
 constexpr Entry kRobots[] = {{"ur10", Ur10, 6}, {"kuka", Kr16, 6}, {"abb", Irb4600, 6}};
 
-
 // The truth of a robot whose model has a known tool mounting, from the truth drawn on the
 // same model with a fitted one (so that the arm's other errors, its joint-angle errors and
 // everything else the seed draws stay those of the demo's robot): the probe sits where the

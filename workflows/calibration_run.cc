@@ -394,8 +394,8 @@ nlohmann::json CalibrationJson(const calibration::RobotModel& model, const Calib
   for (int k : model.HeldParameters()) held.push_back(names[k]);
   mounting["held"] = held;
   if (model.known_mounting()) {
-    mounting["not_identifiable"] = "the flange's turn about the lever arm (held with " +
-                                   names[model.tool_index() - 1] + ")";
+    mounting["not_identifiable"] =
+        "the flange's turn about the lever arm (held with " + names[model.tool_index() - 1] + ")";
   }
   out["tool"] = mounting;
   out["tool_mounting"] = calibration::ToString(model.tool_mounting);

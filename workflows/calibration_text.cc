@@ -94,8 +94,9 @@ std::string IdentifiabilityText(const calibration::RobotModel& model, const Cali
         "{} {}, is fitted; its turn about the lever arm is not identifiable; held at zero: {})\n",
         names[model.flange_turn_index()], names[model.flange_turn_index() + 1], held);
   } else {
-    out += "tool_mounting: fitted (the offset at the target takes the flange's turn after the "
-           "last joint and the probe's mounting together)\n";
+    out +=
+        "tool_mounting: fitted (the offset at the target takes the flange's turn after the "
+        "last joint and the probe's mounting together)\n";
   }
   if (id.structural_rank >= 0 && id.structural_rank != id.rank) {
     out +=
@@ -226,9 +227,9 @@ std::string FormatCalibrationReport(const calibration::RobotModel& model,
       "— not identifiable from these data (kept at 0); off: not asked for (--params);\n"
       "i = {}: the tool (the target on the flange), {}\n\n",
       model.num_joints() + 1,
-      model.known_mounting()
-          ? "its lengths held at 0 (tool_mounting: known), alpha beta the flange's turn across the lever"
-          : "lengths only");
+      model.known_mounting() ? "its lengths held at 0 (tool_mounting: known), alpha beta the "
+                               "flange's turn across the lever"
+                             : "lengths only");
   out += ParameterTableText(model, run, true);
   out += "\n";
   out += IdentifiabilityText(model, run);
