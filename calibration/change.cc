@@ -125,7 +125,7 @@ std::vector<Cause> CandidateCauses(const RobotModel& model,
   };
   for (int i = 0; i < n; ++i) {
     const int joint = i + 1, at = 6 * i;
-    single(fmt::format("joint {} zero", joint), at + 5, true, 0);
+    if (!model.IsHeld(at + 5)) single(fmt::format("joint {} zero", joint), at + 5, true, 0);
     single(fmt::format("joint {} axis tilt about x", joint), at + 3, true, 1);
     single(fmt::format("joint {} axis tilt about y", joint), at + 4, true, 1);
     static constexpr const char* kAxis[3] = {"x", "y", "z"};
@@ -144,11 +144,18 @@ std::vector<Cause> CandidateCauses(const RobotModel& model,
                                   joint, t.norm()),
                       "", false, false, direction, 0});
   }
-  const int tool = 6 * n;
+  const int tool = model.tool_index();
   static constexpr const char* kToolAxis[3] = {"x", "y", "z"};
-  for (int k = 0; k < 3; ++k)
-    single(fmt::format("tool offset along {}", kToolAxis[k]), tool + k, false, 0);
-  if (model.tool_mm.norm() > 1.0) {
+  if (model.known_mounting()) {
+    // The target's place is known: what moves it there is the flange's turn.
+    for (int k = 0; k < 2; ++k)
+      single(fmt::format("flange turn about axis u{} across the lever", k + 1),
+             model.flange_turn_index() + k, true, 0);
+  } else {
+    for (int k = 0; k < 3; ++k)
+      single(fmt::format("tool offset along {}", kToolAxis[k]), tool + k, false, 0);
+  }
+  if (!model.known_mounting() && model.tool_mm.norm() > 1.0) {
     Eigen::VectorXd direction = Eigen::VectorXd::Zero(np);
     direction.segment<3>(tool) = model.tool_mm.normalized();
     causes.push_back({fmt::format("tool length ({:.0f} mm)", model.tool_mm.norm()), "", false,

@@ -131,7 +131,12 @@ RobotModel CorrectedModel(const RobotModel& model, const Eigen::VectorXd& params
       world_from_base.value_or(model.base.value_or(Eigen::Isometry3d::Identity()));
   out.base = base * h(0);
   for (int i = 1; i < n; ++i) out.links[i - 1] = model.links[i - 1] * h(i);
-  out.tool_mm = model.tool_mm + params.segment<3>(6 * n);
+  // A known mounting's flange turn moves the target and the flange alike; the exported model
+  // carries it in both (its own turn parameters start at zero again).
+  const Eigen::Matrix3d turn = FlangeTurn(model, params);
+  out.tool_mm = turn * (model.tool_mm + params.segment<3>(model.tool_index()));
+  out.flange.linear() = turn * model.flange.linear();
+  out.flange.translation() = turn * model.flange.translation();
   for (size_t k = 0; k < out.nongeometric.size(); ++k) {
     out.nongeometric[k].fixed_rad += params(model.num_geometric() + static_cast<int>(k));
   }

@@ -185,9 +185,14 @@ std::vector<Eigen::VectorXd> SpreadConfigurations(const RobotModel& model, int c
 IdentifiabilityReport AnalyseIdentifiability(const RobotModel& model,
                                              const Eigen::Isometry3d& world_from_base,
                                              const std::vector<Eigen::VectorXd>& joints_rad,
-                                             const std::vector<int>& candidates,
+                                             const std::vector<int>& asked,
                                              const IdentifiabilityOptions& options,
                                              const OrientationRows* orientation) {
+  // The model's held parameters are never candidates (RobotModel::HeldParameters).
+  std::vector<int> candidates;
+  for (int k : asked) {
+    if (!model.IsHeld(k)) candidates.push_back(k);
+  }
   const Eigen::VectorXd zero = Eigen::VectorXd::Zero(model.num_parameters());
   const int spread_count = std::max(20, static_cast<int>(candidates.size()));
   const auto spread = SpreadConfigurations(model, spread_count);
@@ -232,6 +237,7 @@ IdentifiabilityReport AnalyseIdentifiability(const RobotModel& model,
     report = AnalyseJacobian(jacobian, candidates, options);
   }
   report.structural_rank = structural_rank;
+  report.held = model.HeldParameters();
 
   // A joint whose encoder angle never changes cannot separate the parameters around it.
   const int n = model.num_joints();

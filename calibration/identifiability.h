@@ -33,6 +33,9 @@ struct IdentifiabilityReport {
   std::vector<int> candidates;    // parameters asked for
   std::vector<int> identified;    // chosen subset, ascending parameter index
   std::vector<int> unidentified;  // kept at zero, ascending
+  // Held at zero by the model itself (RobotModel::HeldParameters: a known tool mounting's
+  // offset at the target and gamma{n}), never candidates, ascending.
+  std::vector<int> held;
   int rank = 0;
   int structural_rank = -1;       // rank on well-spread configurations (-1: not computed)
   double condition_number = 0.0;  // of the scaled Jacobian of the identified subset

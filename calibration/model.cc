@@ -166,6 +166,55 @@ void EvaluateTerms(const RobotModel& model, const double* joints_rad, double* va
   }
 }
 
+const char* ToString(ToolMounting mounting) {
+  return mounting == ToolMounting::kKnown ? "known" : "fitted";
+}
+
+Eigen::Matrix<double, 3, 2> AxesAcross(const Eigen::Vector3d& lever) {
+  if (!(lever.norm() > 0.0)) throw std::invalid_argument("no axes across a lever of zero length");
+  const Eigen::Vector3d along = lever.normalized();
+  Eigen::Vector3d u1 = Eigen::Vector3d::UnitY().cross(along);
+  // Along e_y (to rounding) e_y × l̂ has no direction: take e_z × l̂.
+  if (u1.norm() < 1e-9) u1 = Eigen::Vector3d::UnitZ().cross(along);
+  Eigen::Matrix<double, 3, 2> axes;
+  axes.col(0) = u1.normalized();
+  axes.col(1) = along.cross(axes.col(0));
+  return axes;
+}
+
+RobotModel AtPoint(const RobotModel& model, const Eigen::Vector3d& point_mm) {
+  RobotModel out = model;
+  if (!out.turn_lever_mm) out.turn_lever_mm = model.tool_mm;
+  out.tool_mm = point_mm;
+  return out;
+}
+
+Eigen::Matrix3d FlangeTurn(const RobotModel& model, const Eigen::VectorXd& params) {
+  if (!model.known_mounting()) return Eigen::Matrix3d::Identity();
+  const Eigen::Matrix<double, 3, 2> u = model.FlangeTurnAxes();
+  const int t = model.flange_turn_index();
+  return TurnAbout<double>(u.col(0), params(t)) * TurnAbout<double>(u.col(1), params(t + 1));
+}
+
+std::vector<int> RobotModel::HeldParameters() const {
+  if (!known_mounting()) return {};
+  const int t = tool_index();
+  return {t - 1, t, t + 1, t + 2};  // gamma{n}, a b c{n+1}
+}
+
+bool RobotModel::IsHeld(int parameter) const {
+  const std::vector<int> held = HeldParameters();
+  return std::find(held.begin(), held.end(), parameter) != held.end();
+}
+
+int RobotModel::GeometricIndex(int frame, int row) const {
+  const int n = num_joints();
+  if (frame < 0 || frame > n || row < 0 || row > 5) return -1;
+  if (frame < n) return 6 * frame + row;
+  if (row < 3) return tool_index() + row;
+  return known_mounting() && row < 5 ? flange_turn_index() + row - 3 : -1;
+}
+
 std::vector<std::string> RobotModel::ParameterNames() const {
   static const char* kPerJoint[] = {"a", "b", "c", "alpha", "beta", "gamma"};
   std::vector<std::string> names;
@@ -175,13 +224,17 @@ std::vector<std::string> RobotModel::ParameterNames() const {
     for (const char* p : kPerJoint) names.push_back(std::string(p) + std::to_string(i));
   }
   for (const char* p : {"a", "b", "c"}) names.push_back(std::string(p) + std::to_string(n + 1));
+  if (known_mounting()) {
+    for (const char* p : {"alpha", "beta"}) names.push_back(std::string(p) + std::to_string(n + 1));
+  }
   for (const auto& term : nongeometric) names.push_back(term.name);
   return names;
 }
 
 ParameterUnit RobotModel::UnitOf(int parameter) const {
   if (parameter >= num_geometric()) return ParameterUnit::kRad;
-  if (parameter >= 6 * num_joints()) return ParameterUnit::kMm;
+  if (known_mounting() && parameter >= flange_turn_index()) return ParameterUnit::kRad;
+  if (parameter >= tool_index()) return ParameterUnit::kMm;
   return (parameter % 6) < 3 ? ParameterUnit::kMm : ParameterUnit::kRad;
 }
 
@@ -244,6 +297,7 @@ Kinematics::Kinematics(const RobotModel& model) : model_(model) {
   term_values_.resize(model.nongeometric.size());
   h_rot_.resize(n);
   hx_rot_.resize(n);
+  if (model.known_mounting()) turn_axes_ = model.FlangeTurnAxes();
 }
 
 void Kinematics::PrepareParameters(const Eigen::VectorXd& params) {
@@ -253,6 +307,11 @@ void Kinematics::PrepareParameters(const Eigen::VectorXd& params) {
     const double* p = params.data() + 6 * i;
     hx_rot_[i] = Rx(p[3]);
     h_rot_[i] = hx_rot_[i] * Ry(p[4]) * Rz(p[5]);
+  }
+  if (model_.known_mounting()) {
+    const double* turn = params.data() + model_.flange_turn_index();
+    turn_rot_ = TurnAbout<double>(turn_axes_.col(0), turn[0]) *
+                TurnAbout<double>(turn_axes_.col(1), turn[1]);  // FlangeTurn, axes kept
   }
   prepared_params_ = params;
 }
@@ -302,9 +361,20 @@ void Kinematics::Forward(const Eigen::Isometry3d& world_from_base, const Eigen::
     rot.col(1) = c * rot.col(1) - s * rot.col(0);
     rot.col(0) = x_axis;
   }
-  last_rot_ = rot;
-  const double* tool = params.data() + 6 * n;
-  x_ = pos + rot * (model_.tool_mm + Eigen::Vector3d(tool[0], tool[1], tool[2]));
+  // A known mounting's flange turns after Θ_n about link n's origin, and the target (and a
+  // production tool) with it.
+  link_rot_ = rot;
+  flange_origin_ = pos;
+  last_rot_ = model_.known_mounting() ? Eigen::Matrix3d(rot * turn_rot_) : rot;
+  const double* tool = params.data() + model_.tool_index();
+  x_ = pos + last_rot_ * (model_.tool_mm + Eigen::Vector3d(tool[0], tool[1], tool[2]));
+}
+
+Eigen::Vector3d Kinematics::FlangeTurnAxis(int k) const {
+  const double* turn = prepared_params_.data() + model_.flange_turn_index();
+  const Eigen::Vector3d u1 = turn_axes_.col(0);
+  if (k == 0) return link_rot_ * u1;
+  return link_rot_ * (TurnAbout<double>(u1, turn[0]) * turn_axes_.col(1));
 }
 
 Eigen::Vector3d Kinematics::Position(const Eigen::Isometry3d& world_from_base,
@@ -330,7 +400,14 @@ Eigen::Vector3d Kinematics::PositionAndJacobian(
     // γ_i and θ_i turn about the same axis (the joint axis, z of G_i).
     jacobian.col(6 * i + 5) = g_rot_[i].col(2).cross(lever);
   }
-  jacobian.middleCols(6 * n, 3) = last_rot_;
+  jacobian.middleCols(model_.tool_index(), 3) = last_rot_;
+  if (model_.known_mounting()) {
+    // The flange turn: Rot(u1, α)·Rot(u2, β) about link n's origin; β's axis is u2 turned by α.
+    const Eigen::Vector3d lever = x_ - flange_origin_;
+    const int t = model_.flange_turn_index();
+    jacobian.col(t) = FlangeTurnAxis(0).cross(lever);
+    jacobian.col(t + 1) = FlangeTurnAxis(1).cross(lever);
+  }
   const int g = model_.num_geometric();
   for (size_t k = 0; k < model_.nongeometric.size(); ++k) {
     const auto& term = model_.nongeometric[k];
@@ -351,6 +428,10 @@ Eigen::Vector3d Kinematics::PoseAndJacobian(
     rotation.col(6 * i + 3) = alpha_axis_[i];
     rotation.col(6 * i + 4) = beta_axis_[i];
     rotation.col(6 * i + 5) = g_rot_[i].col(2);  // γ_i and θ_i: the joint axis
+  }
+  if (model_.known_mounting()) {
+    rotation.col(model_.flange_turn_index()) = FlangeTurnAxis(0);
+    rotation.col(model_.flange_turn_index() + 1) = FlangeTurnAxis(1);
   }
   const int g = model_.num_geometric();
   for (size_t k = 0; k < model_.nongeometric.size(); ++k) {
@@ -402,6 +483,10 @@ std::vector<std::string> ModelDifferences(const RobotModel& a, const RobotModel&
     transform("base (N1)", *a.base, *b.base);
   }
   transform("flange", a.flange, b.flange);
+  if (a.tool_mounting != b.tool_mounting) {
+    out.push_back(fmt::format("tool mounting: {} against {}", ToString(a.tool_mounting),
+                              ToString(b.tool_mounting)));
+  }
   for (int k = 0; k < 3; ++k) {
     if (std::abs(a.tool_mm(k) - b.tool_mm(k)) > tolerance_mm) {
       out.push_back(fmt::format("tool_mm[{}]: {:.6g} mm against {:.6g} mm", k, a.tool_mm(k),

@@ -2,6 +2,10 @@
 //   x = (N1 H1 Θ1)(N2 H2 Θ2)…(Nn Hn Θn)(x̄ + [a_{n+1} b_{n+1} c_{n+1} 0]ᵀ)
 // with H_i = Trans(a_i, b_i, c_i)·Rx(α_i)·Ry(β_i)·Rz(γ_i) and Θ_i a rotation about z
 // by the true joint angle θ_i = θ̄_i + Σ h_k f_k(θ̄) (non-geometric terms).
+// With a known tool mounting (ToolMounting::kKnown) the target sits exactly at x̄ and the
+// flange's own turn after Θ_n takes the place of the offset:
+//   x = (N1 H1 Θ1)…(Nn Hn Θn)·T·x̄,  T = Rot(u1, α_{n+1})·Rot(u2, β_{n+1})
+// about two axes across the lever x̄ (AxesAcross).
 //
 // RobotModel is immutable and shared; Kinematics evaluates it with its own scratch
 // space (one per thread), Pinocchio-style.
@@ -73,6 +77,28 @@ struct JointArc {
 // largest gap between them). Configurations: num_joints values each.
 std::vector<JointArc> ArcsCovering(const std::vector<Eigen::VectorXd>& joints_rad, int num_joints);
 
+// Where the calibration target sits on the flange. kFitted: the model file's x̄ is nominal, and
+// the fit's offset a b c{n+1} at the target takes the probe's mounting and the flange's own
+// turn after the last joint together (they cannot be told apart). kKnown: the target sits
+// exactly at x̄ (a machined adapter, measured), so what the fit finds there is the flange's:
+// its turn α β{n+1} across the lever, which a production tool inherits.
+enum class ToolMounting { kFitted, kKnown };
+const char* ToString(ToolMounting mounting);  // "fitted", "known"
+
+// Two unit axes across a lever `lever` (not zero), in its frame: u1 = normalize(e_y × l̂) (e_z
+// × l̂ when the lever lies along e_y), u2 = l̂ × u1. A lever along z gives u1 = x, u2 = y.
+Eigen::Matrix<double, 3, 2> AxesAcross(const Eigen::Vector3d& lever);
+
+// A turn by `angle` about unit axis `u` (Rodrigues), on any scalar type.
+template <typename T>
+Eigen::Matrix<T, 3, 3> TurnAbout(const Eigen::Vector3d& u, const T& angle) {
+  using std::cos;
+  using std::sin;
+  Eigen::Matrix<T, 3, 3> k;
+  k << T(0), T(-u.z()), T(u.y()), T(u.z()), T(0), T(-u.x()), T(-u.y()), T(u.x()), T(0);
+  return Eigen::Matrix<T, 3, 3>::Identity() + sin(angle) * k + (T(1) - cos(angle)) * (k * k);
+}
+
 struct RobotModel {
   std::string name;
   // N1: measurement frame from robot base. nullopt = "auto" (rigid best fit to the data).
@@ -95,12 +121,38 @@ struct RobotModel {
   // nearest edge instead of following its formula where no data checked it. Empty: the
   // formulas everywhere (fitting, and sets stored before supports were).
   std::vector<JointArc> term_support;
+  // Whether the target's place on the flange is known (the model file's `tool_mounting`).
+  ToolMounting tool_mounting = ToolMounting::kFitted;
+  // The lever the flange turn's axes lie across: the calibration target's x̄, kept when the
+  // model is evaluated at another point of the last link (AtPoint: a production TCP), so that
+  // alpha{n+1} beta{n+1} turn about the same axes there. nullopt: tool_mm.
+  std::optional<Eigen::Vector3d> turn_lever_mm;
 
   int num_joints() const { return static_cast<int>(links.size()) + 1; }
-  int num_geometric() const { return 6 * num_joints() + 3; }
+  bool known_mounting() const { return tool_mounting == ToolMounting::kKnown; }
+  // 6n + 3, and the flange turn's 2 with a known mounting.
+  int num_geometric() const { return 6 * num_joints() + 3 + (known_mounting() ? 2 : 0); }
   int num_parameters() const { return num_geometric() + static_cast<int>(nongeometric.size()); }
+  // Index of a{n+1} (the offset at the target; b, c follow).
+  int tool_index() const { return 6 * num_joints(); }
+  // Index of alpha{n+1} (beta{n+1} follows), -1 with a fitted mounting.
+  int flange_turn_index() const { return known_mounting() ? 6 * num_joints() + 3 : -1; }
+  // The parameters held at zero, never identified (ascending): with a known mounting the
+  // offset a b c{n+1} (the target's place is known: a lateral shift there is the turn) and
+  // gamma{n} (on a position it and the turn about the lever are one unknown, the rest of it
+  // is the turn across). Empty with a fitted mounting.
+  std::vector<int> HeldParameters() const;
+  bool IsHeld(int parameter) const;
+  // The index of row `row` (0–5: a b c alpha beta gamma) of frame `frame` (0-based; n: the
+  // target's a b c and, with a known mounting, the flange turn's alpha beta), or -1.
+  int GeometricIndex(int frame, int row) const;
+  // u1 u2 of a known mounting's flange turn (AxesAcross the target's lever).
+  Eigen::Matrix<double, 3, 2> FlangeTurnAxes() const {
+    return AxesAcross(turn_lever_mm.value_or(tool_mm));
+  }
 
-  // a1 b1 c1 alpha1 beta1 gamma1 … gamma{n} a{n+1} b{n+1} c{n+1}, then the h-terms.
+  // a1 b1 c1 alpha1 beta1 gamma1 … gamma{n} a{n+1} b{n+1} c{n+1} [alpha{n+1} beta{n+1}], then
+  // the h-terms.
   std::vector<std::string> ParameterNames() const;
   ParameterUnit UnitOf(int parameter) const;
   // Index of a parameter name, or -1.
@@ -140,6 +192,14 @@ HeldTerms TermsHeldAtSupport(const RobotModel& model, const double* joints_rad);
 void EvaluateTerms(const RobotModel& model, const double* joints_rad, double* values,
                    NominalFrames& scratch);
 
+// The same arm evaluated at another point of its last link (`point_mm` in the last link frame,
+// a production tool's TCP): its parameters mean what they meant at the target.
+RobotModel AtPoint(const RobotModel& model, const Eigen::Vector3d& point_mm);
+
+// A known mounting's flange turn T = Rot(u1, alpha{n+1})·Rot(u2, beta{n+1}) in the last link
+// frame for `params` (identity with a fitted mounting).
+Eigen::Matrix3d FlangeTurn(const RobotModel& model, const Eigen::VectorXd& params);
+
 // Homogeneous transforms of paper eq. (2) and (3).
 Eigen::Isometry3d ErrorTransform(double a, double b, double c, double alpha, double beta,
                                  double gamma);
@@ -177,7 +237,8 @@ class Kinematics {
   // The same into `jacobian` (3 × n, allocated by the caller: a solver's loop allocates nothing).
   void WriteJointJacobian(Eigen::Ref<Eigen::Matrix<double, 3, Eigen::Dynamic>> jacobian) const;
 
-  // The rotation of the last link frame (world from link n) and the joint axes in the world
+  // The rotation of the last link frame (world from link n, turned by a known mounting's
+  // flange turn: a production tool turns with the flange) and the joint axes in the world
   // frame (3 × n: ∂ω/∂θ_i), from the last evaluation. Used to solve for a whole pose (the
   // ISO 9283 plan keeps the tool's orientation).
   const Eigen::Matrix3d& LastRotation() const { return last_rot_; }
@@ -194,12 +255,18 @@ class Kinematics {
                const double* joints_rad);
   // H_i rotations do not depend on the pose: recomputed only when the parameters change.
   void PrepareParameters(const Eigen::VectorXd& params);
+  // The world axis of a known mounting's flange turn α (k = 0) or β (k = 1), last evaluation.
+  Eigen::Vector3d FlangeTurnAxis(int k) const;
 
   const RobotModel& model_;
   // Scratch, per joint i: frame before H_i (F), after H_i (G), axes for α, β.
   std::vector<Eigen::Matrix3d> f_rot_, g_rot_;
   std::vector<Eigen::Vector3d> h_origin_, alpha_axis_, beta_axis_;
   std::vector<double> true_angles_;
+  Eigen::Matrix<double, 3, 2> turn_axes_ = Eigen::Matrix<double, 3, 2>::Zero();  // u1 u2 (link n)
+  Eigen::Matrix3d turn_rot_ = Eigen::Matrix3d::Identity();   // T of a known mounting
+  Eigen::Matrix3d link_rot_ = Eigen::Matrix3d::Identity();   // world from link n, before T
+  Eigen::Vector3d flange_origin_ = Eigen::Vector3d::Zero();  // pivot of T (link n's origin)
   std::vector<double> term_values_;  // f_k(θ̄) of the last evaluation
   NominalFrames nominal_frames_;
   std::vector<Eigen::Matrix3d> h_rot_, hx_rot_;  // Rx·Ry·Rz and Rx of every H_i
@@ -250,10 +317,16 @@ Eigen::Matrix<T, 3, 1> TargetPosition(const RobotModel& model,
     chain = chain * translation * AxisTurn(0, p[3]) * AxisTurn(1, p[4]) * AxisTurn(2, p[5]) *
             AxisTurn(2, theta[i]);
   }
+  const T* tool = params + model.tool_index();
+  Eigen::Matrix<T, 3, 1> at_target(T(model.tool_mm.x()) + tool[0], T(model.tool_mm.y()) + tool[1],
+                                   T(model.tool_mm.z()) + tool[2]);
+  if (model.known_mounting()) {
+    const Eigen::Matrix<double, 3, 2> u = model.FlangeTurnAxes();
+    const T* turn = params + model.flange_turn_index();
+    at_target = TurnAbout<T>(u.col(0), turn[0]) * TurnAbout<T>(u.col(1), turn[1]) * at_target;
+  }
   Eigen::Matrix<T, 4, 1> point;
-  const T* tool = params + 6 * n;
-  point << T(model.tool_mm.x()) + tool[0], T(model.tool_mm.y()) + tool[1],
-      T(model.tool_mm.z()) + tool[2], T(1.0);
+  point << at_target, T(1.0);
   return (chain * point).template head<3>();
 }
 

@@ -23,9 +23,13 @@ std::vector<int> ParseParameterSpec(const RobotModel& model, const std::string& 
     if (token.empty()) continue;
     any = true;
     if (token == "geometric") {
-      for (int i = 0; i < model.num_geometric(); ++i) chosen.insert(i);
+      for (int i = 0; i < model.num_geometric(); ++i) {
+        if (!model.IsHeld(i)) chosen.insert(i);
+      }
     } else if (token == "all") {
-      for (int i = 0; i < model.num_parameters(); ++i) chosen.insert(i);
+      for (int i = 0; i < model.num_parameters(); ++i) {
+        if (!model.IsHeld(i)) chosen.insert(i);
+      }
     } else if (const auto family = TermFamilyFromName(token)) {
       bool found = false;
       for (size_t k = 0; k < model.nongeometric.size(); ++k) {
@@ -39,6 +43,17 @@ std::vector<int> ParseParameterSpec(const RobotModel& model, const std::string& 
                                     "]' in the model file)");
       }
     } else if (int index = model.IndexOf(token); index >= 0) {
+      if (model.IsHeld(index)) {
+        throw std::invalid_argument(
+            Quoted(token) +
+            " is held at zero with 'tool_mounting: known' (the target's place on "
+            "the flange is known: " +
+            (index == model.tool_index() - 1
+                 ? std::string("a turn about the last joint and one about the lever are one "
+                               "unknown on a position; the flange turn alpha, beta takes the rest")
+                 : std::string("a shift there is the flange's turn alpha, beta")) +
+            "); leave it out, or use 'tool_mounting: fitted'");
+      }
       chosen.insert(index);
     } else {
       std::vector<std::string> words = {"geometric", "all", "compliance", "harmonics"};

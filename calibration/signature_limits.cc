@@ -69,11 +69,17 @@ std::vector<ImplausibleValue> ImplausibleParameters(const RobotModel& model,
         bad.limit = limits.angle_rad * 1e3;
         bad.unit = "mrad";
       }
-    } else if (k < model.num_geometric()) {
-      bad.what = fmt::format("tool offset along {}", kAxis[k - 6 * n]);
+    } else if (k < model.tool_index() + 3) {
+      bad.what = fmt::format("tool offset along {}", kAxis[k - model.tool_index()]);
       bad.value = v;
       bad.limit = limits.tool_mm;
       bad.unit = "mm";
+    } else if (k < model.num_geometric()) {
+      bad.what = fmt::format("flange turn about axis u{} across the lever",
+                             k - model.flange_turn_index() + 1);
+      bad.value = v * 1e3;
+      bad.limit = limits.angle_rad * 1e3;
+      bad.unit = "mrad";
     } else {
       const auto& term = model.nongeometric[k - model.num_geometric()];
       bad.what = fmt::format("term {}'s largest turn of joint {}", term.name, term.joint + 1);

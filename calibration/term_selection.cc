@@ -107,7 +107,9 @@ AutoSelection SelectTerms(const RobotModel& model, const std::vector<MeasuredPos
   selection_options.Check();
   AutoSelection selection;
   EstimationOptions opts = options;
-  for (int i = 0; i < model.num_geometric(); ++i) selection.parameters.push_back(i);
+  for (int i = 0; i < model.num_geometric(); ++i) {
+    if (!model.IsHeld(i)) selection.parameters.push_back(i);
+  }
   opts.parameters = selection.parameters;
   EstimationResult current = Estimate(model, poses, opts);
   // With orientation equations every later fit keeps the weight the geometric fit found, so

@@ -45,6 +45,10 @@ std::string FormatRobotModelYaml(const calibration::RobotModel& model, const std
   out << YAML::Key << "tool_mm" << YAML::Value << YAML::Flow << YAML::BeginSeq
       << YamlNumber(model.tool_mm.x()) << YamlNumber(model.tool_mm.y())
       << YamlNumber(model.tool_mm.z()) << YAML::EndSeq;
+  if (model.known_mounting()) {
+    out << YAML::Key << "tool_mounting" << YAML::Value
+        << calibration::ToString(model.tool_mounting);
+  }
   if (!model.flange.isApprox(Eigen::Isometry3d::Identity(), 1e-15)) {
     out << YAML::Key << "flange" << YAML::Value;
     EmitMatrix(out, model.flange);

@@ -119,10 +119,27 @@ NongeometricTerm Term(const YamlValue& value, int num_joints) {
   return term;
 }
 
+// `tool_mounting: known | fitted`. Known: the target sits exactly at tool_mm on the flange,
+// which needs a lever for the flange's turn to show at it.
+calibration::ToolMounting ReadToolMounting(const YamlValue& value, const RobotModel& model) {
+  const std::string word = value.Text();
+  if (word == "fitted") return calibration::ToolMounting::kFitted;
+  if (word != "known")
+    value.Fail("expected tool_mounting 'known' or 'fitted', got " + Quoted(word));
+  if (!(model.tool_mm.norm() >= 1.0)) {
+    value.Fail(
+        fmt::format("'tool_mounting: known' needs the target at least 1 mm from the last "
+                    "joint's frame (tool_mm puts it {:.3g} mm from it): a turn of the flange "
+                    "does not move a target without a lever, so the fit could not find it",
+                    model.tool_mm.norm()));
+  }
+  return calibration::ToolMounting::kKnown;
+}
+
 RobotModel Parse(const YamlValue& root_value) {
-  const YamlMap root = root_value.Map({"name", "base", "links", "dh", "tool_mm", "flange",
-                                       "nongeometric", "generated_terms", "gravity",
-                                       "joint_limits_deg"});
+  const YamlMap root =
+      root_value.Map({"name", "base", "links", "dh", "tool_mm", "tool_mounting", "flange",
+                      "nongeometric", "generated_terms", "gravity", "joint_limits_deg"});
   RobotModel model;
   model.name = root.Has("name") ? root.Find("name")->Name() : "robot";
 
@@ -155,6 +172,8 @@ RobotModel Parse(const YamlValue& root_value) {
   model.flange = folded_tool;
   if (const auto flange = root.Find("flange"))
     model.flange = ReadRigidTransform(*flange, plausible::Quantity::kLength);
+  if (const auto mounting = root.Find("tool_mounting"))
+    model.tool_mounting = ReadToolMounting(*mounting, model);
 
   const int n = model.num_joints();
   std::set<std::string> names;

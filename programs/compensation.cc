@@ -28,7 +28,7 @@ class SignedChain {
     if (params_.size() != model_.num_parameters())
       throw std::invalid_argument("the signature's parameters do not fit its model");
     flange_tool_ = model_.flange * tool;
-    model_.tool_mm = flange_tool_.translation();
+    model_ = calibration::AtPoint(model_, flange_tool_.translation());
     corrected_.resize(n);
     map_jacobian_.resize(3, n);
   }
@@ -236,6 +236,10 @@ class Compensator {
     const Eigen::Isometry3d written = TcpPose(c_, s.joints_rad, tool);
     r.correction_mm = (written.translation() - intent.pose.translation()).norm();
     r.correction_deg = AngleDeg(written.linear(), intent.pose.linear());
+    // A fitted mounting put the flange's turn into the offset at the calibration point: it
+    // misses the TCP by the lever between them.
+    if (!robot_.model->known_mounting())
+      r.lever_mm = ((robot_.model->flange * tool).translation() - robot_.model->tool_mm).norm();
 
     // Inside what the set was validated on, and what it promises there: known wherever the
     // compensated joints are, whatever else refuses the target.
@@ -423,8 +427,8 @@ class Compensator {
     }
     // The parameters' own σ where the TCP is (the model's point moved to it), with the
     // held-out σ of inside or outside.
-    calibration::RobotModel at_tcp = *robot_.model;
-    at_tcp.tool_mm = (robot_.model->flange * tool).translation();
+    const calibration::RobotModel at_tcp =
+        calibration::AtPoint(*robot_.model, (robot_.model->flange * tool).translation());
     const double parametric =
         calibration::ParametricSigmaMm(at_tcp, robot_.params, robot_.identified, robot_.covariance, q);
     r.sigma_mm = calibration::PredictionSigmaMm(parametric, validity, r.inside_support);

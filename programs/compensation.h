@@ -116,6 +116,11 @@ struct TargetReport {
   bool inside_support = false;
   std::string support;
   double sigma_mm = NAN;
+  // With a fitted tool mounting (calibration::ToolMounting): the lever from the calibration
+  // point to the TCP (mm). The flange's turn after the last joint is not known to such a set
+  // (the fit put it into the offset at the target), and each mrad of it moves the TCP by
+  // lever_mm / 1000 mm. NaN with a known mounting (the turn is the set's).
+  double lever_mm = NAN;
   bool written = false;
 };
 

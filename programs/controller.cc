@@ -100,6 +100,9 @@ calibration::RobotModel ControllerChain(calibration::RobotModel model) {
   model.base = Eigen::Isometry3d::Identity();
   model.nongeometric.clear();  // a controller knows no non-geometric terms
   model.tool_mm.setZero();
+  // Nor where a calibration target sits on the flange: its nominal flange has no turn.
+  model.tool_mounting = calibration::ToolMounting::kFitted;
+  model.turn_lever_mm.reset();
   return model;
 }
 
@@ -238,9 +241,8 @@ std::vector<Eigen::VectorXd> ConfigurationSeeds(const ControllerModel& c,
 
 InverseSolution ControllerInverse(const ControllerModel& c, const InverseRequest& request) {
   const int n = c.num_joints();
-  calibration::RobotModel model = c.model;
   const Eigen::Isometry3d flange_tcp = c.flange * request.tool;
-  model.tool_mm = flange_tcp.translation();
+  calibration::RobotModel model = calibration::AtPoint(c.model, flange_tcp.translation());
   const Eigen::Matrix3d last_rotation = request.tcp.linear() * flange_tcp.linear().transpose();
   const Eigen::VectorXd zero = Eigen::VectorXd::Zero(model.num_parameters());
   calibration::JointSolveOptions options;

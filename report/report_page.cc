@@ -421,8 +421,9 @@ Html ParameterSection(const ReportData& data) {
   for (int r = 0; r < 6; ++r) {
     html += HtmlFormat("<tr><th>{}</th>", rows[r]);
     for (int i = 0; i <= joints; ++i) {
-      // Links 1…n carry six parameters each; the tool (the last column) its three lengths.
-      const int k = i < joints ? 6 * i + r : (r < 3 ? 6 * joints + r : -1);
+      // Links 1…n carry six parameters each; the tool (the last column) its three lengths
+      // and, with a known mounting, the flange's turn α β.
+      const int k = model.GeometricIndex(i, r);
       if (k < 0) {
         html += "<td></td>";
         continue;
@@ -437,8 +438,11 @@ Html ParameterSection(const ReportData& data) {
   }
   html += HtmlFormat(
       "</table>\n<p class=\"note\">&mdash;: not identifiable from these data (kept nominal); "
-      "i = {}: the tool, lengths only.</p>\n",
-      joints + 1);
+      "i = {}: the tool, lengths only{}.</p>\n",
+      joints + 1,
+      model.known_mounting()
+          ? Html(" (held at zero: the mounting is known), and the flange's turn &alpha; &beta;")
+          : Html(""));
   for (int k = model.num_geometric(); k < model.num_parameters(); ++k) {
     html +=
         identified[k]

@@ -8,9 +8,8 @@
 namespace armsig::simulation {
 
 Eigen::Isometry3d TrueTcp(const TrueRobot& robot, const Eigen::Isometry3d& tool, const Eigen::VectorXd& q) {
-  calibration::RobotModel model = robot.model;
   const Eigen::Isometry3d flange_tool = robot.model.flange * tool;
-  model.tool_mm = flange_tool.translation();
+  const calibration::RobotModel model = calibration::AtPoint(robot.model, flange_tool.translation());
   calibration::Kinematics kin(model);
   Eigen::Isometry3d tcp = Eigen::Isometry3d::Identity();
   const Eigen::VectorXd true_angles = robot.joint_errors.TrueAngles(q);

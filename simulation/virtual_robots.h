@@ -29,8 +29,10 @@ struct VirtualRobot {
   instruments::ControllerKinematics kinematics;  // the controller's own (factory) DH table
 };
 
-// The robot `name` on its nominal `model`, with errors drawn from `seed`;
-// std::invalid_argument for a name VirtualRobotNames() has not, or a model of another joint
+// The robot `name` on its nominal `model`, with errors drawn from `seed`. A model with a known
+// tool mounting (calibration::ToolMounting) opts in to a physically consistent truth for it:
+// the probe exactly where the file says and a planted turn of the flange (1 mrad), the arm's
+// other errors those of the fitted-mounting robot. std::invalid_argument for a name VirtualRobotNames() has not, or a model of another joint
 // count.
 VirtualRobot MakeVirtualRobot(const std::string& name, const calibration::RobotModel& model,
                               unsigned seed);

@@ -387,6 +387,18 @@ nlohmann::json CalibrationJson(const calibration::RobotModel& model, const Calib
   out["parameters"] = params;
   out["rank"] = est.identifiability.rank;
   out["structural_rank"] = est.identifiability.structural_rank;
+  // The tool mounting: known (the target's place is the lab's; the flange's turn across the
+  // lever is fitted, its turn about the lever is not identifiable, gamma{n} held) or fitted.
+  json mounting{{"tool_mounting", calibration::ToString(model.tool_mounting)}};
+  json held = json::array();
+  for (int k : model.HeldParameters()) held.push_back(names[k]);
+  mounting["held"] = held;
+  if (model.known_mounting()) {
+    mounting["not_identifiable"] =
+        "the flange's turn about the lever arm (held with " + names[model.tool_index() - 1] + ")";
+  }
+  out["tool"] = mounting;
+  out["tool_mounting"] = calibration::ToString(model.tool_mounting);
   out["poses_used"] = static_cast<int>(run.fit_pose_ids.size());
   out["nominal"] = stats(est.nominal);
   json fit = stats(est.fit);

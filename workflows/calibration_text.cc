@@ -41,8 +41,9 @@ std::string ParameterTableText(const calibration::RobotModel& model, const Calib
   for (int r = 0; r < 6; ++r) {
     std::vector<std::string> cells = {kRows[r]};
     for (int i = 0; i <= n; ++i) {
-      // Links 1…n carry six parameters each; the tool (column n + 1) its three lengths.
-      const int index = i < n ? 6 * i + r : (r < 3 ? 6 * n + r : -1);
+      // Links 1…n carry six parameters each; the tool (column n + 1) its three lengths and,
+      // with a known mounting, the flange's turn alpha beta.
+      const int index = model.GeometricIndex(i, r);
       const double scale = r < 3 ? 1.0 : 1e3;
       if (index < 0) {
         cells.push_back("");
@@ -85,6 +86,18 @@ std::string IdentifiabilityText(const calibration::RobotModel& model, const Cali
   const auto& id = est.identifiability;
   const auto names = model.ParameterNames();
   std::string out;
+  if (model.known_mounting()) {
+    std::string held;
+    for (int k : model.HeldParameters()) held += (held.empty() ? "" : " ") + names[k];
+    out += fmt::format(
+        "tool_mounting: known (the target sits at tool_mm: the flange's turn across the lever, "
+        "{} {}, is fitted; its turn about the lever arm is not identifiable; held at zero: {})\n",
+        names[model.flange_turn_index()], names[model.flange_turn_index() + 1], held);
+  } else {
+    out +=
+        "tool_mounting: fitted (the offset at the target takes the flange's turn after the "
+        "last joint and the probe's mounting together)\n";
+  }
   if (id.structural_rank >= 0 && id.structural_rank != id.rank) {
     out +=
         fmt::format("warning: these data identify {}, the model {} on well-spread configurations\n",
@@ -212,8 +225,11 @@ std::string FormatCalibrationReport(const calibration::RobotModel& model,
   out += NonGeometricText(model, run);
   out += fmt::format(
       "— not identifiable from these data (kept at 0); off: not asked for (--params);\n"
-      "i = {}: the tool (the target on the flange), lengths only\n\n",
-      model.num_joints() + 1);
+      "i = {}: the tool (the target on the flange), {}\n\n",
+      model.num_joints() + 1,
+      model.known_mounting() ? "its lengths held at 0 (tool_mounting: known), alpha beta the "
+                               "flange's turn across the lever"
+                             : "lengths only");
   out += ParameterTableText(model, run, true);
   out += "\n";
   out += IdentifiabilityText(model, run);

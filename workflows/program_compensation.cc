@@ -179,6 +179,7 @@ ProgramCompensationRun CompensateProgramFiles(db::Database& database, const Prog
   robot.map = active.signature.map.get();
   robot.orientation_measured = active.signature.tool_rotation.has_value();
   run.orientation_measured = robot.orientation_measured;
+  run.tool_mounting = active.model.tool_mounting;
   if (!active.signature.validity.empty()) robot.validity = &active.signature.validity;
   robot.identified = active.signature.identified;
   robot.covariance = active.signature.covariance;
@@ -206,6 +207,10 @@ ProgramCompensationRun CompensateProgramFiles(db::Database& database, const Prog
   return run;
 }
 
+// A target's lever from the calibration point is said from here on: below it, the TCP is the
+// calibration point's place (a reflector in the program's tool).
+constexpr double kShownLeverMm = 1.0;
+
 std::string FormatProgramCompensation(const ProgramCompensationRun& run) {
   const programs::Program& p = run.program;
   const programs::ProgramCompensation& r = run.result;
@@ -232,6 +237,10 @@ std::string FormatProgramCompensation(const ProgramCompensationRun& run) {
       if (solved && !t.inside_support && t.support != t.why)
         out += fmt::format("    support: {}\n", Printable(t.support));
       if (!t.note.empty()) out += fmt::format("    note: {}\n", Printable(t.note));
+      if (t.lever_mm >= kShownLeverMm)
+        out += fmt::format("    tool: {:.1f} mm from the calibration point: {:.3f} mm per mrad of the "
+                           "flange's turn, which this set does not know\n",
+                           t.lever_mm, t.lever_mm / 1000.0);
     }
     out += fmt::format("{} of {} target{} inside the set's support\n", inside, r.targets.size(),
                        r.targets.size() == 1 ? "" : "s");
@@ -240,6 +249,11 @@ std::string FormatProgramCompensation(const ProgramCompensationRun& run) {
                                               ? "compensated as the set measured it (fitted to 6-DoF data)"
                                               : "compensated as the set's model gives it (fitted to positions "
                                                 "only: the orientation correction is not measured)");
+  out += run.tool_mounting == calibration::ToolMounting::kKnown
+             ? "tool mounting: known (the flange's turn after the last joint is the set's and carries to "
+               "the TCP)\n"
+             : "tool mounting: fitted (the flange's turn after the last joint is not known: it misses a "
+               "TCP by its lever from the calibration point; 'tool_mounting: known' in the model file)\n";
   for (const auto& n : p.not_evaluated)
     out += fmt::format("not compensated, left as written: {}: {}\n", Printable(programs::Where(p, n.place)),
                        Printable(n.why));
@@ -286,6 +300,9 @@ nlohmann::json ProgramCompensationJson(const ProgramCompensationRun& run, const 
                                : t.map_extrapolated               ? "outside"
                                                                   : "applied"},
                        {"written", t.written},
+                       {"tool", std::isnan(t.lever_mm) ? json(nullptr)
+                                                       : json{{"lever_mm", t.lever_mm},
+                                                              {"mm_per_mrad", t.lever_mm / 1000.0}}},
                        {"nominal_joints_rad", vector(t.nominal_joints_rad)},
                        {"compensated_joints_rad", vector(t.compensated_joints_rad)}});
   }
@@ -303,6 +320,7 @@ nlohmann::json ProgramCompensationJson(const ProgramCompensationRun& run, const 
           {"set", run.version},
           {"controller", run.controller.description},
           {"orientation", run.orientation_measured ? "measured" : "model"},
+          {"tool_mounting", calibration::ToString(run.tool_mounting)},
           {"volume", run.volume},
           {"sigma_inside_mm", number(run.validity.sigma_inside_mm)},
           {"sigma_outside_mm", number(run.validity.sigma_outside_mm)},

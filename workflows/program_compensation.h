@@ -35,6 +35,9 @@ struct ProgramCompensationRun {
   programs::ProgramCompensation result;
   int version = 0;                     // the parameter set used
   bool orientation_measured = false;   // the set was fitted to measured orientations
+  // The set's model's tool mounting: with kFitted each target says its lever from the
+  // calibration point to the TCP and what an unknown flange turn costs there.
+  calibration::ToolMounting tool_mounting = calibration::ToolMounting::kFitted;
   std::string volume;                  // where the validated volume came from ("" none)
   calibration::SetValidity validity;   // the set's support and held-out σ (empty: not stored)
   std::vector<std::string> written;    // the files written (none when refused)

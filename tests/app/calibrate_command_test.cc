@@ -8,6 +8,7 @@
 
 #include "calibration/synthetic.h"
 #include "core/units.h"
+#include "io/model_yaml.h"
 #include "io/poses_csv.h"
 #include "test_support.h"
 
@@ -111,6 +112,50 @@ TEST_F(CalibrateCommand, UnknownParameterNameIsAnInputError) {
   EXPECT_EQ(r.exit_code, 2);
   EXPECT_NE(r.err.find("unknown parameter 'h7'"), std::string::npos) << r.err;
   EXPECT_FALSE(std::filesystem::exists(dir_.File("x.json")));
+}
+
+// The PUMA with its target on a machined adapter (tool_mounting: known): calibrate says the
+// mounting and what it holds, fits the flange's turn, and refuses a held parameter by name.
+TEST_F(CalibrateCommand, AKnownToolMountingFitsTheFlangeTurnAndSaysWhatItHolds) {
+  std::string text = ReadText(SourcePath("models/puma760.yaml"));
+  const std::string tool = "tool_mm: [0, 0, 0]";
+  text.replace(text.find(tool), tool.size(), "tool_mm: [40, 0, 235]\ntool_mounting: known");
+  WriteText(dir_.File("known.yaml"), text);
+  const calibration::RobotModel model = io::LoadRobotModel(dir_.File("known.yaml"));
+  ASSERT_TRUE(model.known_mounting());
+  std::mt19937 rng(36);
+  Eigen::VectorXd truth = Eigen::VectorXd::Zero(model.num_parameters());
+  truth(model.IndexOf("alpha7")) = 0.8e-3;
+  truth(model.IndexOf("beta7")) = -0.6e-3;
+  truth(model.IndexOf("alpha2")) = 0.3e-3;
+  Eigen::Isometry3d base = Eigen::Isometry3d::Identity();
+  base.translation() << 1800, -2200, 400;
+  const auto poses = calibration::SimulatePoses(
+      model, base, truth, calibration::RandomConfigurations(model, 120, rng), 0.01, rng);
+  WriteText(dir_.File("known.csv"), io::FormatPosesCsv(poses));
+  const std::string command = "calibrate --model '" + dir_.File("known.yaml") + "' --poses '" + dir_.File("known.csv") + "'";
+  const auto r = RunArmsig(command + " --params geometric --json '" + dir_.File("known.json") + "'");
+  ASSERT_EQ(r.exit_code, 0) << r.err << r.out;
+  EXPECT_NE(r.out.find("tool_mounting: known"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("its turn about the lever arm is not identifiable; held at zero: gamma6 a7 b7 c7"),
+            std::string::npos)
+      << r.out;
+  const auto j = nlohmann::json::parse(ReadText(dir_.File("known.json")));
+  EXPECT_EQ(j["tool_mounting"], "known");
+  EXPECT_EQ(j["tool"]["held"], (nlohmann::json{"gamma6", "a7", "b7", "c7"}));
+  EXPECT_EQ(j["parameters"].size(), 45u);
+  EXPECT_EQ(j["parameters"][39]["name"], "alpha7");
+  EXPECT_EQ(j["parameters"][39]["unit"], "rad");
+  EXPECT_TRUE(j["parameters"][39]["identified"].get<bool>());
+  EXPECT_NEAR(j["parameters"][39]["value"].get<double>(), 0.8e-3, 3 * j["parameters"][39]["sigma"].get<double>());
+  EXPECT_FALSE(j["parameters"][36]["identified"].get<bool>());  // a7
+
+  const auto held = RunArmsig(command + " --params geometric,a7");
+  EXPECT_EQ(held.exit_code, 2);
+  EXPECT_NE(held.err.find("'a7' is held at zero with 'tool_mounting: known'"), std::string::npos) << held.err;
+  // A fitted mounting says so too.
+  const auto fitted = RunArmsig("calibrate " + Model() + "--poses '" + dir_.File("poses.csv") + "'");
+  EXPECT_NE(fitted.out.find("tool_mounting: fitted"), std::string::npos) << fitted.out;
 }
 
 TEST_F(CalibrateCommand, TooFewPosesIsAnInputError) {

@@ -89,5 +89,31 @@ TEST(CorrectedModel, NominalOfTheCorrectedModelIsTheCalibratedRobot) {
   }
 }
 
+// With a known tool mounting the corrected model carries the flange's turn in its target
+// point and its flange: the same positions, and the same flange orientation.
+TEST(CorrectedModel, AKnownMountingsFlangeTurnIsCarriedByTheTargetAndTheFlange) {
+  RobotModel model = testing::Puma();
+  model.tool_mm = Eigen::Vector3d(40.0, 0.0, 235.0);
+  model.flange.translation() = Eigen::Vector3d(0.0, 0.0, 135.0);
+  model.tool_mounting = ToolMounting::kKnown;
+  Eigen::VectorXd params = Eigen::VectorXd::Zero(model.num_parameters());
+  params.head(39) = PaperTable3Parameters().head(39);
+  for (int k : model.HeldParameters()) params(k) = 0.0;
+  params(model.flange_turn_index()) = 0.8e-3;
+  params(model.flange_turn_index() + 1) = -0.6e-3;
+  const RobotModel corrected = CorrectedModel(model, params, Base());
+  Kinematics calibrated(model), folded(corrected);
+  std::mt19937 rng(9);
+  for (const auto& q : RandomConfigurations(model, 30, rng)) {
+    const Eigen::Vector3d a = calibrated.Position(Base(), params, q.data());
+    const Eigen::Vector3d b = folded.Position(
+        *corrected.base, Eigen::VectorXd::Zero(corrected.num_parameters()), q.data());
+    EXPECT_LT((a - b).norm(), 1e-9);
+    const Eigen::Matrix3d flange_a = calibrated.LastRotation() * model.flange.linear();
+    const Eigen::Matrix3d flange_b = folded.LastRotation() * corrected.flange.linear();
+    EXPECT_LT((flange_a - flange_b).norm(), 1e-12);
+  }
+}
+
 }  // namespace
 }  // namespace armsig::calibration

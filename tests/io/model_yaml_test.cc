@@ -282,3 +282,40 @@ TEST(ModelYaml, Irb4600IsAbbsJointZeroAndDirections) {
 
 }  // namespace
 }  // namespace armsig::io
+
+namespace armsig::io {
+
+// tool_mounting: known (the target on a machined adapter at tool_mm) reads and writes back;
+// fitted is the default and is not written.
+TEST(ModelYaml, AKnownToolMountingReadsAndWritesBack) {
+  const std::string text = std::string("name: x\n") + kOneLink + "tool_mm: [40, 0, 235]\ntool_mounting: known\n";
+  const calibration::RobotModel model = ParseRobotModel(text, "m.yaml");
+  EXPECT_EQ(model.tool_mounting, calibration::ToolMounting::kKnown);
+  EXPECT_EQ(model.num_geometric(), 6 * 2 + 3 + 2);
+  EXPECT_EQ(model.ParameterNames()[15], "alpha3");
+  const std::string written = FormatRobotModelYaml(model, "");
+  EXPECT_NE(written.find("tool_mounting: known"), std::string::npos) << written;
+  const calibration::RobotModel back = ParseRobotModel(written, "w.yaml");
+  EXPECT_TRUE(calibration::ModelDifferences(model, back).empty());
+  EXPECT_EQ(back.tool_mounting, calibration::ToolMounting::kKnown);
+
+  const calibration::RobotModel fitted =
+      ParseRobotModel(std::string(kOneLink) + "tool_mm: [40, 0, 235]\ntool_mounting: fitted\n", "m.yaml");
+  EXPECT_EQ(fitted.tool_mounting, calibration::ToolMounting::kFitted);
+  EXPECT_EQ(fitted.num_geometric(), 15);
+  EXPECT_EQ(FormatRobotModelYaml(fitted, "").find("tool_mounting"), std::string::npos);
+  EXPECT_EQ(testing::Ur10().tool_mounting, calibration::ToolMounting::kFitted);
+}
+
+TEST(ModelYaml, AKnownToolMountingWithoutALeverIsRefused) {
+  const InputError none = ModelRefusal(std::string(kOneLink) + "tool_mm: [0, 0.5, 0.5]\ntool_mounting: known\n");
+  EXPECT_EQ(none.where().line, 4);
+  EXPECT_NE(std::string(none.what()).find("m.yaml:4:16 (tool_mounting): 'tool_mounting: known' needs the target at "
+                                          "least 1 mm from the last joint's frame"),
+            std::string::npos)
+      << none.what();
+  const InputError word = ModelRefusal(std::string(kOneLink) + "tool_mm: [0, 0, 100]\ntool_mounting: measured\n");
+  EXPECT_STREQ(word.what(), "m.yaml:4:16 (tool_mounting): expected tool_mounting 'known' or 'fitted', got 'measured'");
+}
+
+}  // namespace armsig::io
