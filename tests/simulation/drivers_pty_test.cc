@@ -261,7 +261,10 @@ TEST(FakeTransport, DriverLogicWithoutAPort) {
                instruments::geocom::EncodeReply({0, *q.request->trid, 0, {"358"}}, false);
       });
   instruments::RetryPolicy policy;
-  policy.timeout = 10ms;
+  // The first attempt waits out its share of the deadline for its own reply after the stale
+  // one; 10 ms left the retry none on a loaded machine ("no usable reply after 1 attempt in
+  // 15 ms").
+  policy.timeout = 300ms;
   instruments::GeoComDevice device(std::move(fake), policy);
   const auto reply = device.Call(5004, {});
   EXPECT_EQ(reply.values[0], "\"TS30\"");

@@ -466,8 +466,12 @@ class KukaProgramLab {
 
 TEST_F(ProgramsOnVirtualRobots, KukaCompensatedKrlLandsWithinTheNoiseFloorOnTheKukaController) {
   // The demo's KR 16-2, position-only data: the TCP of the program's tool is the calibration
-  // reflector's place (the model file's), where the set knows the arm.
-  const DemoRobot kuka = Demo("kuka", "models/kr16_2.yaml");
+  // reflector's place (the model file's), where the set knows the arm. Built four times
+  // further from its drawings than the demo's arm (σ 1.2 mm and 1.2 mrad per geometric
+  // parameter), so that the program as written misses by millimetres, as a real arm run on
+  // its nominal model does (the real UR10: 2.8 mm after a frame fit).
+  DemoRobot kuka = Demo("kuka", "models/kr16_2.yaml");
+  kuka.truth.true_params.head(kuka.model.num_geometric()) *= 4.0;
   const calibration::RobotModel& model = kuka.model;
   const Eigen::Isometry3d reflector = ReflectorTool(model);
   CalibrateDemo("kr16", kuka, 300, 32, /*six_dof=*/false);
@@ -531,7 +535,7 @@ TEST_F(ProgramsOnVirtualRobots, KukaCompensatedKrlLandsWithinTheNoiseFloorOnTheK
   EXPECT_EQ(lab.controller().snapshot().runs, 2);
   EXPECT_EQ(lab.controller().snapshot().program_state, "P_END");
   EXPECT_EQ(after.targets, 13);
-  EXPECT_GT(before.mean_mm, 0.2);
+  EXPECT_GT(before.mean_mm, 1.0);  // millimetres as written
   EXPECT_LE(after.mean_mm, 0.05);
   EXPECT_LT(after.mean_mm, 0.2 * before.mean_mm);
   std::cout << fmt::format("{}: original {:.3f} mm mean ({:.3f} worst), compensated {:.4f} mm ({:.4f})\n",
