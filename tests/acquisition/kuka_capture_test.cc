@@ -102,26 +102,33 @@ TEST_F(KukaCapture, ASafetyStopDuringAMoveIsWaitedOutAndTheSessionGoesOn) {
   db::Database db(dir_.File("lab.db"));
   const int64_t session = NewSession(db);
   std::vector<std::string> told, waiting;
-  std::thread operator_;
+  std::thread opener, operator_;
   CaptureOptions options;
   options.progress = [&](const Progress& p) {
     if (!p.waiting.empty()) waiting.push_back(p.waiting);
-    if (p.done != 1 || operator_.joinable()) return;
-    operator_ = std::thread([this] {
-      if (!testing::WaitUntil([&] { return kuka_->snapshot().moving; })) return;
-      kuka_->OpenSafetyGate();
-      std::this_thread::sleep_for(30ms);
-      kuka_->CloseSafetyGate();
-      kuka_->Acknowledge();
-      kuka_->StartProgram();
+    if (p.done != 1 || opener.joinable()) return;
+    opener = std::thread([this] {
+      if (testing::WaitUntil([&] { return kuka_->snapshot().moving; })) kuka_->OpenSafetyGate();
     });
   };
+  // The operator closes the gate, acknowledges and starts ARMSIG once the session has named
+  // the stop (acting on the gate alone raced the driver's next look at the controller, which
+  // under load came after ARMSIG ran again and found nothing to name).
   options.controller_fault = [&](const instruments::ControllerError& e) {
     told.push_back(e.what());
+    if (!operator_.joinable()) {
+      operator_ = std::thread([this] {
+        std::this_thread::sleep_for(30ms);
+        kuka_->CloseSafetyGate();
+        kuka_->Acknowledge();
+        kuka_->StartProgram();
+      });
+    }
     return false;  // armsig cannot clear it: it waits
   };
   const CaptureSummary s = workflows::CaptureInto(db, Lab(), session, options);
-  operator_.join();
+  if (opener.joinable()) opener.join();
+  if (operator_.joinable()) operator_.join();
   ASSERT_TRUE(s.completed) << s.pause_reason;
   ASSERT_EQ(told.size(), 1u);
   EXPECT_NE(told[0].find("protective stop: the move stopped: a safety stop"), std::string::npos)
