@@ -362,6 +362,33 @@ CalibrationRun RunCalibration(const calibration::RobotModel& model,
   return run;
 }
 
+namespace {
+
+// A rigid transform as its four matrix rows.
+nlohmann::json RowsJson(const Eigen::Isometry3d& t) {
+  nlohmann::json rows = nlohmann::json::array();
+  for (int r = 0; r < 4; ++r)
+    rows.push_back({t.matrix()(r, 0), t.matrix()(r, 1), t.matrix()(r, 2), t.matrix()(r, 3)});
+  return rows;
+}
+
+// The tool mounting: known (the target's place is the lab's; the flange's turn across the
+// lever is fitted, its turn about the lever is not identifiable, gamma{n} held) or fitted.
+nlohmann::json ToolMountingJson(const calibration::RobotModel& model,
+                                const std::vector<std::string>& names) {
+  nlohmann::json mounting{{"tool_mounting", calibration::ToString(model.tool_mounting)}};
+  nlohmann::json held = nlohmann::json::array();
+  for (int k : model.HeldParameters()) held.push_back(names[k]);
+  mounting["held"] = held;
+  if (model.known_mounting()) {
+    mounting["not_identifiable"] =
+        "the flange's turn about the lever arm (held with " + names[model.tool_index() - 1] + ")";
+  }
+  return mounting;
+}
+
+}  // namespace
+
 nlohmann::json CalibrationJson(const calibration::RobotModel& model, const CalibrationRun& run) {
   using nlohmann::json;
   const auto& est = run.estimate;
@@ -387,17 +414,7 @@ nlohmann::json CalibrationJson(const calibration::RobotModel& model, const Calib
   out["parameters"] = params;
   out["rank"] = est.identifiability.rank;
   out["structural_rank"] = est.identifiability.structural_rank;
-  // The tool mounting: known (the target's place is the lab's; the flange's turn across the
-  // lever is fitted, its turn about the lever is not identifiable, gamma{n} held) or fitted.
-  json mounting{{"tool_mounting", calibration::ToString(model.tool_mounting)}};
-  json held = json::array();
-  for (int k : model.HeldParameters()) held.push_back(names[k]);
-  mounting["held"] = held;
-  if (model.known_mounting()) {
-    mounting["not_identifiable"] =
-        "the flange's turn about the lever arm (held with " + names[model.tool_index() - 1] + ")";
-  }
-  out["tool"] = mounting;
+  out["tool"] = ToolMountingJson(model, names);
   out["tool_mounting"] = calibration::ToString(model.tool_mounting);
   out["poses_used"] = static_cast<int>(run.fit_pose_ids.size());
   out["nominal"] = stats(est.nominal);
@@ -445,12 +462,7 @@ nlohmann::json CalibrationJson(const calibration::RobotModel& model, const Calib
                                                   {"hyperparameters", nullptr},
                                                   {"decision", "--residual-model off"}};
   out["validity"] = run.validity ? io::ValidityToJson(*run.validity) : json();
-  json base = json::array();
-  for (int r = 0; r < 4; ++r) {
-    base.push_back({est.world_from_base.matrix()(r, 0), est.world_from_base.matrix()(r, 1),
-                    est.world_from_base.matrix()(r, 2), est.world_from_base.matrix()(r, 3)});
-  }
-  out["base"] = base;
+  out["base"] = RowsJson(est.world_from_base);
   auto matrix3 = [](const Eigen::Matrix3d& m) {
     json rows = json::array();
     for (int r = 0; r < 3; ++r) rows.push_back({m(r, 0), m(r, 1), m(r, 2)});
@@ -461,14 +473,9 @@ nlohmann::json CalibrationJson(const calibration::RobotModel& model, const Calib
   }
   json frames = json::array();
   for (const auto& f : run.frames) {
-    json rows = json::array();
-    for (int r = 0; r < 4; ++r) {
-      rows.push_back({f.world_from_base.matrix()(r, 0), f.world_from_base.matrix()(r, 1),
-                      f.world_from_base.matrix()(r, 2), f.world_from_base.matrix()(r, 3)});
-    }
     frames.push_back({{"frame", f.frame},
                       {"reference", f.frame == est.reference_frame},
-                      {"base", rows},
+                      {"base", RowsJson(f.world_from_base)},
                       {"fit_poses", f.fit_poses},
                       {"validation_poses", f.validation_poses},
                       {"base_from_validation", f.base_from_validation}});
