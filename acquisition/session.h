@@ -16,6 +16,7 @@
 
 #include "acquisition/lab.h"
 #include "acquisition/plan.h"
+#include "calibration/clock_sync.h"
 #include "db/database.h"
 #include "instruments/device.h"
 
@@ -32,6 +33,43 @@ struct Progress {
   // The session waits for the controller (a protective stop): what it waits for, else empty.
   std::string waiting;
 };
+
+// Measuring on the move (acquisition/on_the_move.h).
+struct SweepOptions {
+  // The leading joint's speed on the sweep; 0: SweepSpeed (chosen so the synchronisation's
+  // error stays under the tracker's noise).
+  double speed_rad_s = 0.0;
+  double acceleration_rad_s2 = 1.4;
+  int tracker_separation_ms = 50;  // the tracker's continuous time separation
+  int waypoints_per_segment = 6;
+  calibration::ClockOptions clock;
+  calibration::PairingOptions pairing;
+  // Rounds of (fit the model to the paired points, refine the clock with it).
+  int clock_rounds = 3;
+  // Testing what the estimate is worth: the clock taken as this offset (ms) with no drift,
+  // never estimated (a lab that trusted its clocks).
+  std::optional<double> assumed_offset_ms;
+};
+
+
+struct ClockEstimate {
+  double offset_ms = 0.0, drift_ppm = 0.0, sigma_ms = 0.0;  // tracker = offset + (1+drift)·controller
+  double sigma0_mm = 0.0;                                   // the last refinement's RMS residual
+  bool assumed = false;                                      // SweepOptions::assumed_offset_ms
+};
+
+struct SweepSummary {
+  int segments = 0, segments_before = 0;  // in all; stored by an earlier run
+  int joint_packages = 0, tracker_records = 0;
+  int paired = 0, left_accelerating = 0, left_gaps = 0, left_outside = 0, left_uncertain = 0;
+  int refused_records = 0;
+  std::vector<std::string> beam_breaks;  // named: station, tracker time, what the tracker said
+  double robot_time_s = 0.0;             // the controller's time the sweeps took (this run's)
+  double speed_rad_s = 0.0;
+  std::optional<ClockEstimate> clock;
+  double mean_sync_sigma_mm = 0.0, max_sync_sigma_mm = 0.0;
+};
+
 
 struct CaptureOptions {
   bool skip_on_fault = false;               // else pause the session
@@ -59,6 +97,9 @@ struct CaptureOptions {
   // How long the session waits for such a stop to be cleared before it pauses; 0: as long as
   // it takes (Ctrl-C ends the wait).
   double max_controller_wait_s = 0.0;
+  // Measuring on the move: how the sweep runs (a session marked on the move uses the
+  // defaults when this is absent).
+  std::optional<SweepOptions> sweep;
 };
 
 // A configuration that gave no usable point, and why (its point flags, or the fault).
@@ -105,6 +146,10 @@ struct CaptureSummary {
   double controller_wait_s = 0.0;
   // Readings refused because the arm moved (before or while the instruments measured).
   int moving_refused = 0;
+  // A session measured on the move: its sweep's figures (total, already and measured then
+  // count the sweep's segments until the streams are paired, then measured = usable = the
+  // paired points).
+  std::optional<SweepSummary> sweep;
 };
 
 // A new session: the robot (created if new), the lab text, the plan and the stations'

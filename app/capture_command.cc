@@ -1,4 +1,4 @@
-// armsig capture --lab LAB.yaml --plan PLAN --robot NAME [--skip-on-fault]
+// armsig capture --lab LAB.yaml --plan PLAN --robot NAME [--skip-on-fault] [--on-the-move]
 // armsig capture --lab LAB.yaml --resume SESSION
 #include <unistd.h>
 
@@ -74,6 +74,11 @@ void SetupCaptureCommand(CLI::App& parent, const GlobalOptions& global, Runner& 
                 "Record a configuration whose instrument keeps failing as skipped and go on "
                 "(default: pause), and exit 0 although configurations failed or were flagged "
                 "(default: exit 1, naming them)");
+  sub->add_flag("--on-the-move", o->on_the_move,
+                "Sweep the plan without stopping while the laser tracker measures continuously; "
+                "each point paired with the joints at its own time stamp, the two clocks' "
+                "offset and drift estimated from the data (one emscon tracker and a ur "
+                "controller with can_move: true)");
   sub->callback([&run, &global, o] {
     run = [&global, o] {
       workflows::CaptureRequest request = *o;

@@ -63,6 +63,22 @@ void SetupDemoCommand(CLI::App& parent, const GlobalOptions& global, Runner& run
                                "Multiplies every simulated latency and move time (default: the "
                                "robot's, puma 0.25, ur10 and kuka 0.02)"),
                0.0, 100.0);
+  sub->add_flag("--on-the-move", o->on_the_move,
+                "With --robot ur10: sweep well-spread waypoints without stopping while the "
+                "tracker measures continuously on its own clock; the clocks' offset and drift "
+                "estimated from the data (the JSON adds robot_time_s and sync)");
+  NumberOption(sub->add_option("--waypoints", o->waypoints,
+                               "With --on-the-move: the well-spread configurations swept through"),
+               3, 10000)
+      ->capture_default_str();
+  NumberOption(sub->add_option("--clock-offset-ms", o->clock_offset_ms,
+                               "With --on-the-move: the virtual tracker's clock offset from the "
+                               "controller's (default: drawn from the seed, within ±250 ms)"),
+               -1e7, 1e7);
+  NumberOption(sub->add_option("--clock-drift-ppm", o->clock_drift_ppm,
+                               "With --on-the-move: the virtual tracker's clock drift (default: "
+                               "drawn from the seed, within ±30 ppm)"),
+               -1000.0, 1000.0);
   sub->callback([&run, &global, o] {
     run = [&global, o] {
       demo::DemoOptions options = *o;

@@ -235,7 +235,7 @@ void InsertPoint(Database& db, int64_t session_id, const PointRow& p) {
       db,
       std::string("INSERT INTO points(session_id, pose_id, point, x_mm, y_mm, z_mm, sx_mm, "
                   "sy_mm, sz_mm, covariance_json, rays, rejected_rays, sigma0, miss_mm, flags, ") +
-          kOrientationColumns + ") VALUES (?,?,?,?,?,?,?,?,?,?,?,?,?,?,?,?,?,?,?,?,?)");
+          kOrientationColumns + ", sync_sigma_mm) VALUES (?,?,?,?,?,?,?,?,?,?,?,?,?,?,?,?,?,?,?,?,?,?)");
   s->Bind(1, session_id);
   if (p.pose_id)
     s->Bind(2, *p.pose_id);
@@ -260,6 +260,7 @@ void InsertPoint(Database& db, int64_t session_id, const PointRow& p) {
   s->Bind(14, p.miss_mm);
   s->Bind(15, p.flags);
   BindOrientation(*s, 16, p.orientation);
+  s->Bind(22, p.sync_sigma_mm);
   s->Execute();
 }
 
@@ -269,7 +270,7 @@ std::vector<PointRow> LoadPoints(Database& db, int64_t session_id) {
                            "coalesce(covariance_json, ''), rays, rejected_rays, sigma0, miss_mm, "
                            "flags, id, ") +
                    kOrientationColumns +
-                   " FROM points WHERE session_id = ? ORDER BY pose_id, point");
+                   ", sync_sigma_mm FROM points WHERE session_id = ? ORDER BY pose_id, point");
   q->Bind(1, session_id);
   std::vector<PointRow> out;
   while (q->Step()) {
@@ -288,6 +289,7 @@ std::vector<PointRow> LoadPoints(Database& db, int64_t session_id) {
     if (!q->IsNull(9)) p.miss_mm = q->Double(9);
     p.flags = q->Text(10);
     p.orientation = OrientationAt(*q, 12, {db.path(), "points", q->Int(11), "rx_rad"});
+    if (!q->IsNull(18)) p.sync_sigma_mm = q->Double(18);
     out.push_back(std::move(p));
   }
   return out;

@@ -82,6 +82,9 @@ struct PointRow {
   // The target frame's measured orientation (a 6-DoF probe; imported poses); nullopt for a
   // position-only point.
   std::optional<MeasuredOrientation> orientation;
+  // A point paired from a sweep's streams (measuring on the move): the clock's share of its
+  // error, speed × σ_t (mm, included in covariance_mm2); nullopt for a point measured standing.
+  std::optional<double> sync_sigma_mm;
 };
 // Adds one reduced point (call inside the configuration's transaction).
 void InsertPoint(Database& db, int64_t session_id, const PointRow& point);

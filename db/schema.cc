@@ -326,6 +326,45 @@ ALTER TABLE jobs ADD COLUMN heartbeats INTEGER NOT NULL DEFAULT 0;  -- the worke
 ALTER TABLE jobs ADD COLUMN lease_ms INTEGER;                       -- the lease its claimer asked for
 )sql";
 
+constexpr std::string_view kSchemaV16 = R"sql(
+-- Measuring on the move (`capture --on-the-move`): a sweep's raw streams, one segment (a run of
+-- the plan's waypoints) per transaction, kept so the pairing can be done again.
+CREATE TABLE stream_joints (
+  id          INTEGER PRIMARY KEY,
+  session_id  INTEGER NOT NULL REFERENCES sessions(id),
+  segment     INTEGER NOT NULL,   -- the sweep's segment (0-based)
+  t_s         REAL NOT NULL,      -- the controller's clock (UR RTDE timestamp)
+  q_json      TEXT NOT NULL,      -- encoder angles, rad, JSON array
+  qd_json     TEXT NOT NULL       -- their speeds, rad/s
+);
+CREATE INDEX stream_joints_by_session ON stream_joints(session_id, segment, t_s);
+CREATE TABLE stream_points (
+  id           INTEGER PRIMARY KEY,
+  session_id   INTEGER NOT NULL REFERENCES sessions(id),
+  segment      INTEGER NOT NULL,
+  station_id   INTEGER NOT NULL REFERENCES stations(id),
+  t_s          REAL NOT NULL,     -- the tracker's own clock
+  hz_rad REAL NOT NULL, v_rad REAL NOT NULL, distance_mm REAL NOT NULL,
+  status       INTEGER NOT NULL DEFAULT 0  -- the record's ES_MeasurementStatus
+);
+CREATE INDEX stream_points_by_session ON stream_points(session_id, segment, t_s);
+-- What interrupted a stream (the beam broke), on the tracker's clock of the record before.
+CREATE TABLE stream_events (
+  id          INTEGER PRIMARY KEY,
+  session_id  INTEGER NOT NULL REFERENCES sessions(id),
+  segment     INTEGER NOT NULL,
+  station_id  INTEGER NOT NULL REFERENCES stations(id),
+  t_s         REAL NOT NULL,
+  status      INTEGER NOT NULL,
+  what        TEXT NOT NULL
+);
+-- A point paired from the streams carries the clock's share of its error (speed × σ_t), mm;
+-- NULL for a point measured standing.
+ALTER TABLE points ADD COLUMN sync_sigma_mm REAL;
+-- The clock estimate of a session measured on the move (offset, drift, σ, what was left out).
+ALTER TABLE sessions ADD COLUMN sync_json TEXT;
+)sql";
+
 // PostgreSQL's text of the migrations whose SQLite text does not translate word for word
 // (PostgresDdl): v2 and v9 fill their new column from what only SQLite has (json_extract,
 // rowid). A PostgreSQL store is created by an armsig of schema v9 or later, in one
@@ -344,7 +383,7 @@ constexpr std::string_view kPostgresNow =
 // Every table, in the order the schema versions added them: the first kTablesOfV1 are schema
 // v1's (an armsig file from before application_id has at least those).
 constexpr std::size_t kTablesOfV1 = 11;
-constexpr std::array<std::string_view, 14> kTables = {"robots",
+constexpr std::array<std::string_view, 17> kTables = {"robots",
                                                       "instruments",
                                                       "stations",
                                                       "sessions",
@@ -357,17 +396,20 @@ constexpr std::array<std::string_view, 14> kTables = {"robots",
                                                       "validation_residuals",
                                                       "activations",
                                                       "jobs",
-                                                      "robot_events"};
+                                                      "robot_events",
+                                                      "stream_joints",
+                                                      "stream_points",
+                                                      "stream_events"};
 
 }  // namespace
 
 std::span<const std::string_view> Migrations() {
   static const std::string jobs = JobsSchemaSql(Backend::kSqlite);
-  static const std::array<std::string_view, 15> migrations = [] {
-    std::array<std::string_view, 15> m = {kSchemaV1,  kSchemaV2,  kSchemaV3,  kSchemaV4,
+  static const std::array<std::string_view, 16> migrations = [] {
+    std::array<std::string_view, 16> m = {kSchemaV1,  kSchemaV2,  kSchemaV3,  kSchemaV4,
                                           kSchemaV5,  kSchemaV6,  {},         kSchemaV8,
                                           kSchemaV9,  kSchemaV10, kSchemaV11, kSchemaV12,
-                                          kSchemaV13, kSchemaV14, kSchemaV15};
+                                          kSchemaV13, kSchemaV14, kSchemaV15, kSchemaV16};
     m[kJobsMigration - 1] = jobs;
     return m;
   }();

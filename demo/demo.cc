@@ -20,6 +20,7 @@
 #include <thread>
 
 #include "acquisition/lab.h"
+#include "acquisition/on_the_move.h"
 #include "acquisition/session_owner.h"
 #include "calibration/identifiability.h"
 #include "calibration/selection.h"
@@ -460,6 +461,9 @@ class DemoRun {
   std::vector<workflows::CalibrationRun> runs_;
   double seconds_ = 0.0;
   DemoResult result_;
+  // Measuring on the move: how the session is captured, the virtual tracker's planted clock.
+  bool on_the_move_ = false;
+  double planted_offset_ms_ = 0.0, planted_drift_ppm_ = 0.0;
 };
 
 // Everything the options decide is checked before anything is created.
@@ -472,6 +476,16 @@ void DemoRun::CheckOptions() {
   if (options_.resume_session > 0) OpenResumedSession();
   model_ = io::ParseRobotModel(robot_->model_yaml, "built-in " + robot_->model_file);
   time_scale_ = options_.time_scale.value_or(robot_->time_scale);
+  // On the move the joint stream must keep up: RTDE sends at most a package per 0.2 ms of wall
+  // time, so a sweep runs at most 20 times faster than the real arm (250 Hz of physical time).
+  if (options_.on_the_move && !options_.time_scale) time_scale_ = std::max(time_scale_, 0.05);
+  if (options_.on_the_move && time_scale_ < 0.05) {
+    throw InputError({"--time-scale", 0, 0, ""},
+                     fmt::format("{:g} is too fast to measure on the move: the virtual UR sends at "
+                                 "most one RTDE package per 0.2 ms of wall time, so the joint "
+                                 "stream keeps up only from 0.05 on",
+                                 time_scale_));
+  }
   seed_ = options_.seed ? *options_.seed
           : serving_    ? kFirstSeed
                      : kFirstSeed + StoredDemoSessions(options_.db_path, robot_->db_robot,
@@ -483,6 +497,14 @@ void DemoRun::CheckOptions() {
                      "expected theodolites or tracker, got '" + options_.instrument + "'");
   }
   use_tracker_ = options_.instrument == "tracker";
+  if (options_.on_the_move && robot_->controller != io::ControllerProtocol::kUr) {
+    throw InputError({"--on-the-move", 0, 0, ""},
+                     "measuring on the move needs a controller that streams its joints: "
+                     "--robot ur10");
+  }
+  if (options_.on_the_move && options_.waypoints < 3) {
+    throw InputError({"--waypoints", 0, 0, ""}, "a sweep needs at least 3 waypoints");
+  }
   if (robot_->tracker_only) {
     if (options_.instrument == "theodolites") {
       throw InputError({"--instrument", 0, 0, ""},
@@ -504,9 +526,13 @@ void DemoRun::CheckOptions() {
     }
     use_tracker_ = stored_tracker;
   }
+  on_the_move_ = options_.on_the_move;
+  if (options_.resume_session > 0) {
+    on_the_move_ = acquisition::IsOnTheMoveSession(*database_, options_.resume_session);
+  }
   const int configurations =
       options_.resume_session > 0 ? static_cast<int>(stored_plan_.size()) : options_.configurations;
-  select_count_ = DemoSelectCount(configurations, options_.select, limits_);
+  select_count_ = on_the_move_ ? 0 : DemoSelectCount(configurations, options_.select, limits_);
 }
 
 // The stored session to resume: its plan and lab file, claimed unless it is complete.
@@ -546,6 +572,19 @@ void DemoRun::BuildLab() {
   o.repeatability_mm = options_.repeatability_mm;
   o.planted = ParsePlantedChanges(model_, options_.changes);
   o.folder = folder_->path();
+  // A UR and a tracker can always be measured on the move (a served lab too: `capture
+  // --on-the-move` by hand); the tracker's clock is off the controller's either way.
+  o.on_the_move = use_tracker_ && robot_->controller == io::ControllerProtocol::kUr;
+  if (o.on_the_move) {
+    // The tracker's clock: an offset of up to a quarter second and a drift of tens of ppm,
+    // drawn from the seed unless given (what a lab never knows beforehand).
+    std::mt19937 rng(seed_ + 101);
+    std::uniform_real_distribution<double> offset(-250.0, 250.0), drift(-30.0, 30.0);
+    planted_offset_ms_ = options_.clock_offset_ms.value_or(offset(rng));
+    planted_drift_ppm_ = options_.clock_drift_ppm.value_or(drift(rng));
+    o.tracker_clock_offset_s = planted_offset_ms_ * 1e-3;
+    o.tracker_clock_drift_ppm = planted_drift_ppm_;
+  }
   lab_ = std::make_unique<DemoLab>(model_, o);
   if (!options_.changes.empty()) {
     std::string list;
@@ -594,6 +633,19 @@ void DemoRun::Introduce() {
           controller + ", in " + folder + seed,
       0);
   if (serving_) return;
+  if (on_the_move_) {
+    Say(fmt::format(
+        "1. station LT1, a laser tracker, measuring on the move: the arm sweeps {} well-spread "
+        "waypoints without stopping while the tracker measures continuously (a point every 50 ms "
+        "of its own clock) and the controller streams its joints over RTDE (stamped with its "
+        "clock). The two clocks differ (here by a planted {:.3f} ms and {:.2f} ppm, which armsig "
+        "is not told): the offset and drift are estimated from the data themselves, each tracker "
+        "point is paired with the joints at its own instant, and points taken while the arm "
+        "accelerates are left out.\n",
+        options_.resume_session > 0 ? stored_plan_.size() : static_cast<size_t>(options_.waypoints),
+        planted_offset_ms_, planted_drift_ppm_));
+    return;
+  }
   Say("1. station LT1, a laser tracker: it measures direction and distance, so one station "
       "gives each point, and a tracker-only lab needs no orientation by mutual pointings: the "
       "tracker's own frame is the lab frame (LT1 at the origin, azimuth 0). Where the robot "
@@ -641,8 +693,9 @@ bool DemoRun::Capture() {
       joints = calibration::LabTestConfigurations(model_, rng);
       if (static_cast<int>(joints.size()) > options_.configurations) joints.clear();
     }
+    const int count = on_the_move_ ? options_.waypoints : options_.configurations;
     for (const auto& q : calibration::RandomConfigurations(
-             model_, options_.configurations - static_cast<int>(joints.size()), rng)) {
+             model_, count - static_cast<int>(joints.size()), rng)) {
       joints.push_back(q);
     }
     // An arm whose moves take their real time: each next configuration the one nearest the
@@ -655,6 +708,7 @@ bool DemoRun::Capture() {
   session_ = options_.resume_session > 0
                  ? options_.resume_session
                  : acquisition::CreateSession(database, lab_config_, robot_->db_robot, plan_);
+  if (on_the_move_ && options_.resume_session == 0) acquisition::MarkOnTheMove(database, session_);
   result_.session = session_;
   {
     std::vector<std::string> words = {"demo", "--resume", std::to_string(session_), "--time-scale",
@@ -693,13 +747,19 @@ bool DemoRun::Capture() {
   if (!captured_.completed)
     throw std::runtime_error("demo: capture did not complete: " + captured_.pause_reason);
   captured_.session = session_;
-  Say(DemoCaptureText(captured_, use_tracker_));
+  if (captured_.sweep) {
+    Say("2. " + workflows::FormatCaptureSummary(captured_));
+  } else {
+    Say(DemoCaptureText(captured_, use_tracker_));
+  }
   if (auto* ur = lab_->ur()) {
     const int thinning = simulation::UrSimulator::Thinning(ur->frequency_hz(), time_scale_);
-    Say(fmt::format("   the arm moved for {:.1f} min of its own time (movej, 1.05 rad/s; {:.1f} s of "
+    Say(fmt::format("   the arm moved for {:.1f} min of its own time (movej, {:.2f} rad/s; {:.1f} s of "
                     "wall time at time scale {:g}); joints from RTDE's {:g} Hz recipe{}, each "
                     "stamped with the controller's clock; the controller: {}\n",
-                    ur->arm().moving_s() / 60.0, ur->arm().moving_s() * time_scale_, time_scale_,
+                    ur->arm().moving_s() / 60.0,
+                    captured_.sweep ? captured_.sweep->speed_rad_s : 1.05,
+                    ur->arm().moving_s() * time_scale_, time_scale_,
                     ur->frequency_hz(),
                     thinning > 1 ? fmt::format(" (one package in {} sent at this time scale)", thinning)
                                  : std::string(),
@@ -725,8 +785,17 @@ void DemoRun::Reduce() {
 // The best-spread configurations (D-optimal on all 43 parameters) to fit, the rest to
 // validate.
 void DemoRun::SelectConfigurations() {
+  std::vector<MeasuredPose> pool = poses_;
+  std::vector<MeasuredPose> held_out;
+  if (on_the_move_) {
+    // The swept stream's neighbours are alike: the validation holds out whole stretches of
+    // the sweep (every third of nine, in time order), and the fit selects from the rest.
+    pool.clear();
+    const size_t n = poses_.size();
+    for (size_t i = 0; i < n; ++i) (((9 * i) / std::max<size_t>(n, 1)) % 3 == 1 ? held_out : pool).push_back(poses_[i]);
+  }
   std::vector<Eigen::VectorXd> joints;
-  for (const auto& p : poses_) joints.push_back(p.joints_rad);
+  for (const auto& p : pool) joints.push_back(p.joints_rad);
   std::vector<int> all(model_.num_parameters());
   for (int i = 0; i < model_.num_parameters(); ++i) all[i] = i;
   const auto id = calibration::AnalyseJacobian(
@@ -734,21 +803,35 @@ void DemoRun::SelectConfigurations() {
                                    Eigen::VectorXd::Zero(model_.num_parameters()), joints),
       all);
   calibration::SelectionOptions selection;
-  selection.count =
-      std::min<int>(select_count_, static_cast<int>(poses_.size()) - limits_.min_validation);
+  if (on_the_move_) {
+    selection.count = std::min<int>(options_.select > 0 ? options_.select : 300,
+                                    static_cast<int>(pool.size()));
+  } else {
+    selection.count =
+        std::min<int>(select_count_, static_cast<int>(poses_.size()) - limits_.min_validation);
+  }
   if (selection.count < limits_.min_fit) {
     throw std::runtime_error(fmt::format(
         "demo: {} usable points of {} configurations: too few to fit and validate (need {})",
         poses_.size(), plan_.size(), limits_.min_configurations));
   }
   const auto selected = calibration::SelectConfigurations(model_, joints, id.identified, selection);
-  std::vector<char> chosen(poses_.size(), 0);
+  std::vector<char> chosen(pool.size(), 0);
   for (int i : selected.selected) chosen[i] = 1;
-  for (size_t i = 0; i < poses_.size(); ++i) (chosen[i] ? fit_ : validation_).push_back(poses_[i]);
+  for (size_t i = 0; i < pool.size(); ++i) {
+    if (chosen[i]) {
+      fit_.push_back(pool[i]);
+    } else if (!on_the_move_) {
+      validation_.push_back(pool[i]);
+    }
+  }
+  if (on_the_move_) validation_ = held_out;
   Say(fmt::format(
-      "4. selected {} of {} configurations (D-optimal, condition number {:.1f}); validating on "
-      "the other {}\n\n",
-      fit_.size(), poses_.size(), selected.condition_number, validation_.size()));
+      "4. selected {} of {} configurations (D-optimal{}, condition number {:.1f}); validating on "
+      "{} {}\n\n",
+      fit_.size(), pool.size(), on_the_move_ ? " on the swept stream" : "",
+      selected.condition_number, validation_.size(),
+      on_the_move_ ? "points of the held-out stretches of the sweep" : "others"));
 }
 
 // The paper's three parameter sets fitted on the selection, validated on the rest. False
@@ -818,6 +901,28 @@ void DemoRun::WriteJson() {
                     {"stations", stations_},
                     {"noise_floor_mm", noise_floor_mm_},
                     {"seconds", seconds_}};
+  if (on_the_move_ && captured_.sweep) {
+    const acquisition::SweepSummary& w = *captured_.sweep;
+    out["robot_time_s"] = lab_->ur() ? lab_->ur()->arm().moving_s() : w.robot_time_s;
+    if (w.clock) {
+      out["sync"] = {{"offset_ms", w.clock->offset_ms},
+                     {"drift_ppm", w.clock->drift_ppm},
+                     {"sigma_ms", w.clock->sigma_ms}};
+    }
+    out["session"]["on_the_move"] = {{"waypoints", static_cast<int>(plan_.size())},
+                                     {"segments", w.segments},
+                                     {"joint_packages", w.joint_packages},
+                                     {"tracker_points", w.tracker_records},
+                                     {"paired", w.paired},
+                                     {"left_accelerating", w.left_accelerating},
+                                     {"left_gaps", w.left_gaps},
+                                     {"left_outside", w.left_outside},
+                                     {"left_uncertain", w.left_uncertain},
+                                     {"speed_rad_s", w.speed_rad_s},
+                                     {"mean_sync_sigma_mm", w.mean_sync_sigma_mm},
+                                     {"planted_offset_ms", planted_offset_ms_},
+                                     {"planted_drift_ppm", planted_drift_ppm_}};
+  }
   if (auto* ur = lab_->ur()) {
     out["session"]["controller"] = {{"description", captured_.controller},
                                     {"rtde_hz", ur->frequency_hz()},

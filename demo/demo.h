@@ -58,6 +58,14 @@ struct DemoOptions {
   // Changes planted in the virtual robot's truth (`--change joint2_zero=0.02deg`,
   // ParsePlantedChanges), to rehearse what the nightly job does when a robot changes.
   std::vector<std::string> changes;
+  // --on-the-move (ur10): the UR sweeps well-spread waypoints without stopping while the
+  // tracker measures continuously on a clock `clock_offset_ms` and `clock_drift_ppm` off the
+  // controller's (unset: drawn from the seed); the clock is estimated from the data, the
+  // paired points calibrated (the D-optimal selection on the swept stream), validated on the
+  // sweep's held-out segments; `waypoints` well-spread configurations are swept through.
+  bool on_the_move = false;
+  int waypoints = 60;
+  std::optional<double> clock_offset_ms, clock_drift_ppm;
   // Ctrl-C: stop at the next safe point (between configurations, between stages).
   const std::atomic<bool>* stop = nullptr;
 };

@@ -143,6 +143,7 @@ void DemoLab::StartController() {
     o.time_scale = options_.time_scale;
     ur_ = std::make_unique<simulation::UrSimulator>(lab_, o);
     ur_->Start();
+    if (tracker_ && options_.on_the_move) tracker_->FollowArm(&ur_->arm());
     auto& c = lab_file_.controller;
     c.host = ur_->host();
     c.ports = {{"rtde_port", ur_->ports().rtde},
@@ -194,6 +195,9 @@ void DemoLab::AddTracker() {
   // 150 mm by a search (FindReflector).
   o.acquire_radius_mm = 25.0;
   o.search_radius_mm = 150.0;
+  o.continuous_modes = options_.on_the_move;
+  o.clock_offset_s = options_.tracker_clock_offset_s;
+  o.clock_drift_ppm = options_.tracker_clock_drift_ppm;
   auto tracker = std::make_unique<simulation::EmsconSimulator>(lab_, 0, "127.0.0.1", 0, o);
   tracker->Start();
   tracker_ = tracker.get();

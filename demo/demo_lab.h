@@ -38,6 +38,11 @@ struct DemoLabOptions {
   double repeatability_mm = 0.0;
   Eigen::VectorXd planted;       // added to the paper's Table 3 (empty: nothing planted)
   std::filesystem::path folder;  // the devices' links and the lab files
+  // Measuring on the move: the tracker measures continuously, following the arm on its own
+  // clock, which runs this far off the controller's (as no two clocks of a cell agree).
+  bool on_the_move = false;
+  double tracker_clock_offset_s = 0.0;
+  double tracker_clock_drift_ppm = 0.0;
 };
 
 // The theodolites' set-up as adjusted (reduction::Orient) from their readings.

@@ -63,6 +63,15 @@ void RobotController::ClearProtectiveStop() {
                         "clear it on the controller's pendant");
 }
 
+void RobotController::Sweep(const std::vector<Eigen::VectorXd>&, double, double,
+                            const std::function<void(const JointSample&)>&) {
+  throw ControllerError(ControllerError::Kind::kMoveRefused, name(),
+                        "this controller does not stream its joints, so it cannot be measured "
+                        "on the move",
+                        "capture stop-and-go (without --on-the-move), or use a controller "
+                        "that streams its joints (protocol: ur)");
+}
+
 void CheckAngles(const std::string& device, double hz_rad, double v_rad) {
   // The one rule for circle readings (core/plausibility.h), as in files: [0, 2π], 2π itself
   // being what a value just below it rounds to.

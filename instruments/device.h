@@ -4,6 +4,7 @@
 #include <Eigen/Core>
 #include <atomic>
 #include <chrono>
+#include <functional>
 #include <optional>
 #include <stdexcept>
 #include <string>
@@ -212,6 +213,12 @@ class ControllerError : public InstrumentError {
 // "protective stop", "emergency stop", "not in remote control", …
 const char* KindName(ControllerError::Kind kind);
 
+// One package of a controller's joint stream, on the controller's clock.
+struct JointSample {
+  double controller_time_s = 0.0;
+  Eigen::VectorXd q_rad, qd_rad_s;
+};
+
 class RobotController : public Interruptible {
  public:
   virtual ~RobotController() = default;
@@ -240,6 +247,14 @@ class RobotController : public Interruptible {
   // session then reads them again after the instruments and stores a configuration only
   // when the arm did not move in between.
   virtual bool StreamsJoints() const { return false; }
+  // Measuring on the move: moves through `waypoints` in order without waiting to measure
+  // (each joint move at `speed_rad_s` / `acceleration_rad_s2` of its leading joint), and
+  // hands every package of the joint stream to `each` from before the first move until the
+  // arm stands at the last waypoint. A stop throws its ControllerError as MoveTo does. The
+  // default cannot (a controller that does not stream its joints): ControllerError
+  // kMoveRefused naming the controllers that can.
+  virtual void Sweep(const std::vector<Eigen::VectorXd>& waypoints, double speed_rad_s,
+                     double acceleration_rad_s2, const std::function<void(const JointSample&)>& each);
 };
 
 // How a driver retries: busy codes, bad checksums, silence, a lost port; then it gives

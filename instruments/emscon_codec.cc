@@ -130,6 +130,8 @@ inline constexpr int32_t kBasicCommandBytes = 12;  // BasicCommandCT
 inline constexpr int32_t kBasicReplyBytes = 16;    // BasicCommandRT
 inline constexpr int32_t kSingleMeasResultBytes = 156;
 inline constexpr int32_t kSingleMeasResult2Bytes = 204;
+inline constexpr int32_t kMultiHeadBytes = 48;   // MultiMeasResultT before its records
+inline constexpr int32_t kMeasRecordBytes = 36;  // MeasValueT
 
 // The size of a successful reply to `command` when it carries a payload this codec
 // decodes (0 = a bare BasicCommandRT; nullopt = a command whose reply layout is not
@@ -158,6 +160,9 @@ std::optional<int32_t> ReplyBytes(int32_t command) {
     case SetReflector::kCommand:
     case SetSystemSettings::kCommand:
     case StartMeasurement::kCommand:
+    case StopMeasurement::kCommand:
+    case SetContinuousTimeModeParams::kCommand:
+    case SetContinuousDistanceModeParams::kCommand:
     case ChangeFace::kCommand:
     case GoPosition::kCommand:
     case FindReflector::kCommand:
@@ -384,6 +389,22 @@ bool ExpectSize(std::string_view frame, int32_t expected, const std::string& wha
 
 }  // namespace
 
+double TimeOf(const MeasRecord& record) {
+  return static_cast<double>(record.time1) + 1e-6 * static_cast<double>(record.time2);
+}
+
+void SetTime(MeasRecord& record, double tracker_time_s) {
+  const double whole = std::floor(tracker_time_s);
+  auto micro = static_cast<int64_t>(std::llround((tracker_time_s - whole) * 1e6));
+  auto seconds = static_cast<int64_t>(whole);
+  if (micro >= 1000000) {
+    micro -= 1000000;
+    ++seconds;
+  }
+  record.time1 = static_cast<int32_t>(seconds);
+  record.time2 = static_cast<int32_t>(micro);
+}
+
 // --- Requests -------------------------------------------------------------------------
 
 int32_t CommandOf(const Request& request) {
@@ -416,6 +437,25 @@ std::string EncodeRequest(const Request& request) {
       return Basic(StartMeasurement::kCommand, 12);
     }
     std::string operator()(const ChangeFace&) const { return Basic(ChangeFace::kCommand, 12); }
+    std::string operator()(const StopMeasurement&) const {
+      return Basic(StopMeasurement::kCommand, 12);
+    }
+    std::string operator()(const SetContinuousTimeModeParams& r) const {  // 28 bytes
+      std::string out = Basic(SetContinuousTimeModeParams::kCommand, 28);
+      PutI32(out, 12, r.time_separation_ms);
+      PutI32(out, 16, r.number_of_points);
+      PutBool(out, 20, r.use_region);
+      PutI32(out, 24, r.region_type);
+      return out;
+    }
+    std::string operator()(const SetContinuousDistanceModeParams& r) const {  // 32 bytes
+      std::string out = Basic(SetContinuousDistanceModeParams::kCommand, 32);
+      PutF64(out, 12, r.spatial_distance);
+      PutI32(out, 20, r.number_of_points);
+      PutBool(out, 24, r.use_region);
+      PutI32(out, 28, r.region_type);
+      return out;
+    }
     std::string operator()(const GetFace&) const { return Basic(GetFace::kCommand, 12); }
     std::string operator()(const SetUnits& r) const {  // 32 bytes
       std::string out = Basic(SetUnits::kCommand, 32);
@@ -522,6 +562,21 @@ DecodedRequest DecodeRequest(std::string_view frame) {
     case ChangeFace::kCommand:
       take(12, [] { return Request{ChangeFace{}}; });
       break;
+    case StopMeasurement::kCommand:
+      take(12, [] { return Request{StopMeasurement{}}; });
+      break;
+    case SetContinuousTimeModeParams::kCommand:
+      take(28, [&] {
+        return Request{SetContinuousTimeModeParams{GetI32(frame, 12), GetI32(frame, 16),
+                                                   GetBool(frame, 20), GetI32(frame, 24)}};
+      });
+      break;
+    case SetContinuousDistanceModeParams::kCommand:
+      take(32, [&] {
+        return Request{SetContinuousDistanceModeParams{GetF64(frame, 12), GetI32(frame, 20),
+                                                       GetBool(frame, 24), GetI32(frame, 28)}};
+      });
+      break;
     case GetFace::kCommand:
       take(12, [] { return Request{GetFace{}}; });
       break;
@@ -585,6 +640,26 @@ std::string EncodePacket(const Packet& packet) {
     std::string operator()(const StatusChange& s) const {  // SystemStatusChangeT, 12 bytes
       std::string out = Frame(12, packet_type::kSystemStatusChange);
       PutI32(out, 8, s.change);
+      return out;
+    }
+    std::string operator()(const MultiMeasResult& m) const {  // 48 + 36 n bytes
+      const auto n = static_cast<int32_t>(m.records.size());
+      std::string out = Frame(kMultiHeadBytes + kMeasRecordBytes * n, packet_type::kMultiMeasResult);
+      PutI32(out, 8, m.status);
+      PutI32(out, 12, n);
+      PutI32(out, 16, m.meas_mode);
+      PutBool(out, 20, m.try_mode);
+      PutF64(out, 24, m.temperature);
+      PutF64(out, 32, m.pressure);
+      PutF64(out, 40, m.humidity);
+      for (int32_t i = 0; i < n; ++i) {
+        const size_t at = kMultiHeadBytes + static_cast<size_t>(kMeasRecordBytes) * i;
+        const MeasRecord& r = m.records[i];
+        PutI32(out, at, r.status);
+        PutI32(out, at + 4, r.time1);
+        PutI32(out, at + 8, r.time2);
+        for (int k = 0; k < 3; ++k) PutF64(out, at + 12 + 8 * k, r.value[k]);
+      }
       return out;
     }
     std::string operator()(const ReflectorPosition& r) const {  // ReflectorPosResultT, 36
@@ -660,6 +735,42 @@ DecodedPacket DecodePacket(std::string_view frame) {
       if (!ExpectSize(frame, kSingleMeasResult2Bytes, "SingleMeasResult2", out)) return out;
       out.packet = DecodeMeasResult(frame, true);
       return out;
+    case packet_type::kMultiMeasResult: {
+      if (size < kMultiHeadBytes) {
+        out.error = DecodeError::kBadLength;
+        out.why = "MultiMeasResult: " + std::to_string(size) + " bytes, at least 48";
+        return out;
+      }
+      const int32_t n = GetI32(frame, 12);
+      if (n < 0 || n > kMaxRecordsPerPacket) {
+        out.error = DecodeError::kBadLength;
+        out.why = "MultiMeasResult: " + std::to_string(n) + " records (0 to " +
+                  std::to_string(kMaxRecordsPerPacket) + ")";
+        return out;
+      }
+      if (!ExpectSize(frame, kMultiHeadBytes + kMeasRecordBytes * n,
+                      "MultiMeasResult of " + std::to_string(n) + " records", out)) {
+        return out;
+      }
+      MultiMeasResult m;
+      m.status = GetI32(frame, 8);
+      m.meas_mode = GetI32(frame, 16);
+      m.try_mode = GetBool(frame, 20);
+      m.temperature = GetF64(frame, 24);
+      m.pressure = GetF64(frame, 32);
+      m.humidity = GetF64(frame, 40);
+      m.records.resize(n);
+      for (int32_t i = 0; i < n; ++i) {
+        const size_t at = kMultiHeadBytes + static_cast<size_t>(kMeasRecordBytes) * i;
+        MeasRecord& r = m.records[i];
+        r.status = GetI32(frame, at);
+        r.time1 = GetI32(frame, at + 4);
+        r.time2 = GetI32(frame, at + 8);
+        for (int k = 0; k < 3; ++k) r.value[k] = GetF64(frame, at + 12 + 8 * k);
+      }
+      out.packet = std::move(m);
+      return out;
+    }
     case packet_type::kSystemStatusChange:
       if (!ExpectSize(frame, 12, "SystemStatusChange", out)) return out;
       out.packet = StatusChange{GetI32(frame, 8)};

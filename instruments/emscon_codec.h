@@ -15,6 +15,7 @@
 #include <string>
 #include <string_view>
 #include <variant>
+#include <vector>
 
 #include "instruments/frame_splitter.h"
 
@@ -99,6 +100,15 @@ inline constexpr int32_t kRHR = 0, kLHRX = 1, kLHRY = 2, kLHRZ = 3, kCCW = 4, kC
 }
 namespace meas_mode {  // ES_MeasMode
 inline constexpr int32_t kStationary = 0;
+inline constexpr int32_t kContinuousTime = 1;
+inline constexpr int32_t kContinuousDistance = 2;
+}
+namespace region_type {  // ES_RegionType (continuous modes' optional region)
+inline constexpr int32_t kSphere = 0, kBox = 1;
+}
+namespace continuous_status {  // ES_MeasurementStatus of a continuous record
+inline constexpr int32_t kAllOk = 0, kSpeedWarning = 1, kSpeedExceeded = 2, kPrismError = 3,
+                         kTriggerTimeViolation = 4;
 }
 namespace tracker_processor_status {  // ES_TrackerProcessorStatus
 inline constexpr int32_t kInitialized = 5;
@@ -204,6 +214,29 @@ struct StartMeasurement {
   static constexpr int32_t kCommand = 49;
   bool operator==(const StartMeasurement&) const = default;
 };
+// ContinuousTimeModeDataT: a point every `time_separation_ms`, `number_of_points` of them (0:
+// until StopMeasurement), optionally only inside a region.
+struct SetContinuousTimeModeParams {
+  static constexpr int32_t kCommand = 30;
+  int32_t time_separation_ms = 10;
+  int32_t number_of_points = 0;
+  bool use_region = false;
+  int32_t region_type = region_type::kSphere;
+  bool operator==(const SetContinuousTimeModeParams&) const = default;
+};
+// ContinuousDistanceModeDataT: a point every `spatial_distance` (current length unit).
+struct SetContinuousDistanceModeParams {
+  static constexpr int32_t kCommand = 32;
+  double spatial_distance = 1.0;
+  int32_t number_of_points = 0;
+  bool use_region = false;
+  int32_t region_type = region_type::kSphere;
+  bool operator==(const SetContinuousDistanceModeParams&) const = default;
+};
+struct StopMeasurement {
+  static constexpr int32_t kCommand = 52;
+  bool operator==(const StopMeasurement&) const = default;
+};
 struct ChangeFace {
   static constexpr int32_t kCommand = 53;
   bool operator==(const ChangeFace&) const = default;
@@ -233,7 +266,9 @@ using Request = std::variant<Initialize, GetSystemStatus, SetUnits, SetEnvironme
                              GetEnvironmentParams, SetMeasurementMode, SetCoordinateSystemType,
                              SetStationaryModeParams, SetReflector, GetReflector, GetReflectors,
                              SetSystemSettings, GetSystemSettings, StartMeasurement, ChangeFace,
-                             GoPosition, FindReflector, GetFace, GetLongSystemParameter>;
+                             GoPosition, FindReflector, GetFace, GetLongSystemParameter,
+                             SetContinuousTimeModeParams, SetContinuousDistanceModeParams,
+                             StopMeasurement>;
 
 int32_t CommandOf(const Request& request);
 std::string EncodeRequest(const Request& request);
@@ -304,6 +339,31 @@ struct MeasResult {
   bool operator==(const MeasResult&) const = default;
 };
 
+// MultiMeasResultT (type 3): the continuous modes' results, `records` of MeasValueT (36
+// bytes each: status, lTime1, lTime2, three values in the current coordinate system type
+// and units) after a 48-byte head. The time stamp is the tracker's own clock: lTime1 whole
+// seconds, lTime2 microseconds within them (instruments/EMSCON.md §3.2 [uncertain]: the
+// header names the two fields only; TimeOf below is the one place that reads them).
+struct MeasRecord {
+  int32_t status = continuous_status::kAllOk;
+  int32_t time1 = 0, time2 = 0;
+  std::array<double, 3> value{};
+  bool operator==(const MeasRecord&) const = default;
+};
+struct MultiMeasResult {
+  int32_t status = status::kAllOk;
+  int32_t meas_mode = meas_mode::kContinuousTime;
+  bool try_mode = false;
+  double temperature = 0, pressure = 0, humidity = 0;
+  std::vector<MeasRecord> records;
+  bool operator==(const MultiMeasResult&) const = default;
+};
+// A record's time stamp on the tracker's clock, seconds; and the fields for one.
+double TimeOf(const MeasRecord& record);
+void SetTime(MeasRecord& record, double tracker_time_s);
+// The most records one packet can carry (64 KiB).
+inline constexpr int kMaxRecordsPerPacket = 1800;
+
 struct StatusChange {  // SystemStatusChangeT (type 8)
   int32_t change = 0;
   bool operator==(const StatusChange&) const = default;
@@ -315,8 +375,8 @@ struct ReflectorPosition {  // ReflectorPosResultT (type 7), streamed while lock
   bool operator==(const ReflectorPosition&) const = default;
 };
 
-using Packet =
-    std::variant<CommandAnswer, ErrorResponse, MeasResult, StatusChange, ReflectorPosition>;
+using Packet = std::variant<CommandAnswer, ErrorResponse, MeasResult, StatusChange,
+                            ReflectorPosition, MultiMeasResult>;
 
 std::string EncodePacket(const Packet& packet);
 

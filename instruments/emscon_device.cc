@@ -402,7 +402,8 @@ es::MeasResult EmsconDevice::MeasureResult(Deadline share) {
       FailUnlessUnsolicited(*e, id);
       continue;
     }
-    return std::get<es::MeasResult>(*packet);
+    if (const auto* m = std::get_if<es::MeasResult>(&*packet)) return *m;
+    ++stats_.stale_results;  // a continuous stream's results: not this reading
   }
 }
 
@@ -608,6 +609,96 @@ std::vector<es::ReflectorInfo> EmsconDevice::ReadReflectors(Deadline until) {
     }
     return out;
   }
+}
+
+void EmsconDevice::StartContinuous(const ContinuousOptions& o) {
+  if (o.spatial_distance_mm ? !(*o.spatial_distance_mm > 0.0) : o.time_separation_ms < 1) {
+    throw std::invalid_argument("continuous measurement: a time separation of at least 1 ms or "
+                                "a distance above 0 mm");
+  }
+  WithRetries(es::StartMeasurement::kCommand, CallDeadline(), [&](Deadline until) {
+    if (o.spatial_distance_mm) {
+      Exchange(es::SetMeasurementMode{es::meas_mode::kContinuousDistance}, until);
+      Exchange(es::SetContinuousDistanceModeParams{*o.spatial_distance_mm, 0, false,
+                                                   es::region_type::kSphere},
+               until);
+    } else {
+      Exchange(es::SetMeasurementMode{es::meas_mode::kContinuousTime}, until);
+      Exchange(es::SetContinuousTimeModeParams{o.time_separation_ms, 0, false,
+                                               es::region_type::kSphere},
+               until);
+    }
+    Exchange(es::StartMeasurement{}, until);
+    continuous_ = true;
+    last_record_time_s_ = 0.0;
+    return 0;
+  });
+}
+
+void EmsconDevice::ReadContinuous(Deadline until, const std::atomic<bool>& done,
+                                  const std::function<void(const ContinuousRecord&)>& each,
+                                  const std::function<void(const ContinuousEvent&)>& event) {
+  if (!continuous_) throw std::logic_error("ReadContinuous before StartContinuous");
+  const double to_rad = *es::RadiansPer(options_.angle_unit);
+  while (!done.load() && Clock::now() < until) {
+    std::optional<es::Packet> packet;
+    try {
+      packet = NextPacket(std::min(until, Clock::now() + Millis(50)));
+    } catch (const TransportError& e) {
+      if (e.kind() == TransportError::Kind::kTimeout) continue;  // no record yet: look again
+      if (e.kind() == TransportError::Kind::kInterrupted) throw;
+      throw InstrumentError(name(), CodeOf(e), "continuous measurement: " + e.message());
+    }
+    if (!packet) continue;
+    if (const auto* e = std::get_if<es::ErrorResponse>(&*packet)) {
+      Record(Event::Kind::kUnsolicitedError, e->status, e->command);
+      const std::string advice = es::StatusAdvice(e->status);
+      if (event) {
+        event({last_record_time_s_, e->status,
+               fmt::format("{} ({}){}", es::StatusName(e->status), e->status,
+                           advice.empty() ? std::string() : ": " + advice)});
+      }
+      continue;
+    }
+    const auto* m = std::get_if<es::MultiMeasResult>(&*packet);
+    if (!m) {
+      ++stats_.stale_results;
+      continue;
+    }
+    for (const es::MeasRecord& rec : m->records) {
+      const bool usable_status = rec.status == es::continuous_status::kAllOk ||
+                                 rec.status == es::continuous_status::kSpeedWarning;
+      const es::SphericalCcw scc{rec.value[0] * to_rad, rec.value[1] * to_rad, rec.value[2]};
+      const bool sane = m->status == es::status::kAllOk && !m->try_mode && Finite(rec.value) &&
+                        std::abs(scc.hz_rad) <= 2.0 * std::numbers::pi &&
+                        plausible::IsPlausible(plausible::Quantity::kZenithAngle, scc.v_rad) &&
+                        scc.distance_mm > 0.0 && scc.distance_mm < 1e6;
+      if (!usable_status || !sane) {
+        ++continuous_refused_;
+        continue;
+      }
+      ContinuousRecord r;
+      r.tracker_time_s = es::TimeOf(rec);
+      r.status = rec.status;
+      r.point_in_instrument_mm = es::PointFromScc(scc);
+      const es::Spherical s = es::SphericalFromPoint(r.point_in_instrument_mm);
+      r.angles = {s.hz_rad, s.v_rad, 1};
+      r.distance_mm = s.distance_mm;
+      last_record_time_s_ = r.tracker_time_s;
+      each(r);
+    }
+  }
+}
+
+void EmsconDevice::StopContinuous() {
+  if (!continuous_) return;
+  WithRetries(es::StopMeasurement::kCommand, CallDeadline(), [&](Deadline until) {
+    Exchange(es::StopMeasurement{}, until);  // records still in flight are skipped
+    Exchange(es::SetMeasurementMode{es::meas_mode::kStationary}, until);
+    Exchange(es::SetStationaryModeParams{options_.measurement_time_ms, options_.use_adm}, until);
+    return 0;
+  });
+  continuous_ = false;
 }
 
 }  // namespace armsig::instruments

@@ -27,7 +27,9 @@
 // every value is finite and in range.
 #pragma once
 
+#include <atomic>
 #include <deque>
+#include <functional>
 #include <memory>
 #include <optional>
 #include <string>
@@ -49,6 +51,33 @@ struct EmsconOptions {
   Millis initialize_timeout{120000};
   // "radians or what is available": the angle unit set with SetUnits (emscon::angle_unit).
   int32_t angle_unit = emscon::angle_unit::kRadian;
+};
+
+// Continuous measurement (measuring on the move): time-triggered (a point every
+// `time_separation_ms` of the tracker's clock) or distance-triggered (a point every
+// `spatial_distance_mm` of reflector travel).
+struct ContinuousOptions {
+  int time_separation_ms = 10;
+  std::optional<double> spatial_distance_mm;  // set: distance-triggered instead
+};
+
+// One continuous record, converted as a stationary reading is (the tracker's RHR frame, mm),
+// stamped with the tracker's own clock.
+struct ContinuousRecord {
+  double tracker_time_s = 0.0;
+  int32_t status = 0;  // ES_MeasurementStatus: 0 AllOK; 1 speed warning … (not used)
+  Eigen::Vector3d point_in_instrument_mm = Eigen::Vector3d::Zero();
+  AngleReading angles;
+  double distance_mm = 0.0;
+};
+
+// What ended or interrupted the stream meanwhile: the tracker's own words (an unsolicited
+// error such as 37 NoDistanceSet when the beam broke), on the tracker's clock of the last
+// record before it.
+struct ContinuousEvent {
+  double after_tracker_time_s = 0.0;
+  int32_t status = 0;
+  std::string what;
 };
 
 class EmsconDevice : public DistanceInstrument, public BeamSteering {
@@ -88,6 +117,23 @@ class EmsconDevice : public DistanceInstrument, public BeamSteering {
   std::vector<emscon::ReflectorInfo> Reflectors();  // GetReflectors (one reply each)
 
   void SetInterrupt(const std::atomic<bool>* flag) override { transport_->SetInterrupt(flag); }
+
+  // --- Measuring on the move ----------------------------------------------------------
+  // SetMeasurementMode (continuous time or distance) → its parameters → StartMeasurement,
+  // with the retry policy by policy.timeout (the set-up first on a new connection).
+  void StartContinuous(const ContinuousOptions& options);
+  // Reads the stream until `done` is set (checked at least every 50 ms) or `until` passes:
+  // every record that is a reading goes to `each` (in the tracker's order); a record that is
+  // not (a status other than AllOK or SpeedWarning, a value out of range or not finite) is
+  // counted in refused(); an error the tracker pushes (the beam broke) goes to `event` and the
+  // stream goes on (a tracker relocks and resumes on its own). A lost connection throws.
+  void ReadContinuous(Deadline until, const std::atomic<bool>& done,
+                      const std::function<void(const ContinuousRecord&)>& each,
+                      const std::function<void(const ContinuousEvent&)>& event);
+  // StopMeasurement (the results still in flight are read and dropped), then stationary mode
+  // again, by policy.timeout.
+  void StopContinuous();
+  int continuous_refused() const { return continuous_refused_; }
 
   // A packet the server pushed while the driver waited for an answer.
   struct Event {
@@ -155,6 +201,9 @@ class EmsconDevice : public DistanceInstrument, public BeamSteering {
   int stale_in_call_ = 0;
   int32_t last_sent_ = -1;  // the command sent last in the current call
   Deadline call_deadline_;  // the current call's deadline (Initialize's time added)
+  bool continuous_ = false;  // StartContinuous ran and StopContinuous has not yet
+  double last_record_time_s_ = 0.0;
+  int continuous_refused_ = 0;
   Statistics stats_;
 };
 

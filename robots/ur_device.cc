@@ -350,6 +350,92 @@ StampedJoints UrController::ReadStampedJoints() {
   return out;
 }
 
+void UrController::Sweep(const std::vector<Eigen::VectorXd>& waypoints, double speed,
+                         double acceleration,
+                         const std::function<void(const instruments::JointSample&)>& each) {
+  if (!options_.can_move)
+    throw InstrumentError(name_, 5, "this controller is not commanded by armsig (can_move: false)");
+  if (waypoints.empty()) return;
+  if (!(speed > 0.0 && speed <= options_.speed_rad_s * 3.0) || !(acceleration > 0.0))
+    throw std::invalid_argument(fmt::format("{}: a sweep at {} rad/s, {} rad/s²", name_, speed,
+                                            acceleration));
+  for (const auto& w : waypoints) {
+    if (w.size() != 6)
+      throw std::invalid_argument(fmt::format("{}: a UR has 6 joints, not {}", name_, w.size()));
+    CheckJoints(name_, w);
+  }
+  CheckReady();
+  size_t next = 0;  // the waypoint the arm goes to (sent), or the first to send
+  bool sent = false;
+  std::optional<double> arrived_since;
+  int arrived_packages = 0;
+  std::optional<double> sent_at;
+  Clock::time_point sent_wall;
+  Eigen::Matrix<double, 6, 1> from = Eigen::Matrix<double, 6, 1>::Zero();
+  // The whole sweep's time on the controller's clock, with margin, on the wall.
+  double duration = 0.0;
+  for (size_t k = 1; k < waypoints.size(); ++k) {
+    duration += ur::MoveJDuration((waypoints[k] - waypoints[k - 1]).cwiseAbs().maxCoeff(),
+                                  acceleration, speed) + 0.1;
+  }
+  Deadline deadline = Clock::now() + policy_.timeout +
+                      std::chrono::duration_cast<Clock::duration>(
+                          std::chrono::duration<double>(1.5 * duration + 10.0));
+  try {
+    Stream(deadline, "sweep", [&](const Sample& s) {
+      CheckSample(s);
+      each({s.timestamp_s, Eigen::VectorXd(s.q), Eigen::VectorXd(s.qd)});
+      const Eigen::VectorXd& target = waypoints[next];
+      if (!sent) {
+        from = s.q;
+        SendScript(ur::MoveJ(target, acceleration, speed), deadline);
+        ++stats_.moves;
+        sent = true;
+        sent_at.reset();
+        sent_wall = Clock::now();
+        return false;
+      }
+      if (!sent_at) sent_at = s.timestamp_s;
+      const double off = (s.q - target).cwiseAbs().maxCoeff();
+      if (off < options_.arrive_tolerance_rad) {
+        if (next + 1 < waypoints.size()) {
+          ++next;
+          sent = false;  // the next line goes out with the next package
+          return false;
+        }
+        // The last waypoint: done once the arm stands there.
+        if (s.qd.cwiseAbs().maxCoeff() < options_.still_speed_rad_s) {
+          if (!arrived_since) arrived_since = s.timestamp_s;
+          if (++arrived_packages >= 3 && s.timestamp_s - *arrived_since >= options_.still_window_s)
+            return true;
+        }
+        return false;
+      }
+      arrived_since.reset();
+      arrived_packages = 0;
+      const bool begun = (s.q - from).cwiseAbs().maxCoeff() > options_.arrive_tolerance_rad ||
+                         s.runtime_state == ur::rtde::runtime_state::kPlaying;
+      if (!begun && s.timestamp_s - *sent_at > options_.start_timeout_s &&
+          Clock::now() - sent_wall > kMinStartWait) {
+        throw ControllerError(
+            Kind::kMoveRefused, name_,
+            fmt::format("the controller did not begin the sweep's move {} of {} within {:g} s{}",
+                        next + 1, waypoints.size(), options_.start_timeout_s,
+                        last_message_.empty() ? ""
+                                              : " (its last message: " + Printable(last_message_) + ")"),
+            "check that no program is running on the pendant and that the controller takes "
+            "programs from the network (remote control), then resume the session");
+      }
+      return false;
+    });
+  } catch (const StreamDeadline&) {
+    throw ControllerError(Kind::kMoveRefused, name_,
+                          fmt::format("the sweep did not end by its deadline (at waypoint {} of {})",
+                                      next + 1, waypoints.size()),
+                          "check the arm and the pendant, then resume the session");
+  }
+}
+
 void UrController::MoveTo(const Eigen::VectorXd& target) {
   if (!options_.can_move)
     throw InstrumentError(name_, 5, "this controller is not commanded by armsig (can_move: false)");

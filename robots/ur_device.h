@@ -74,6 +74,12 @@ class UrController : public instruments::RobotController {
   void CheckReady() override;
   void ClearProtectiveStop() override;
   bool StreamsJoints() const override { return true; }
+  // One `movej` line per waypoint on the secondary interface, the next sent as the arm
+  // arrives at the one before (within arrive_tolerance_rad: it does not wait to stand still),
+  // every RTDE package to `each`.
+  void Sweep(const std::vector<Eigen::VectorXd>& waypoints, double speed_rad_s,
+             double acceleration_rad_s2,
+             const std::function<void(const instruments::JointSample&)>& each) override;
   void SetInterrupt(const std::atomic<bool>* flag) override;
 
   // What RTDE was set up with (after the first call that used it).

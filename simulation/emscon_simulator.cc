@@ -276,6 +276,137 @@ void EmsconSimulator::OnFrame(const std::shared_ptr<Connection>& c, const std::s
       break;
   }
   TcpPeer::Send(c, std::move(steps));
+  bool start = false;
+  {
+    std::lock_guard lock(mutex_);
+    std::swap(start, start_stream_);
+  }
+  if (start) StartStream(c);
+}
+
+// --- Continuous measurement -------------------------------------------------------------
+
+void EmsconSimulator::FollowArm(const VirtualArm* arm) {
+  std::lock_guard lock(mutex_);
+  arm_ = arm;
+}
+
+void EmsconSimulator::BreakBeam(double from_s, double to_s) {
+  std::lock_guard lock(mutex_);
+  beam_break_.emplace(from_s, to_s);
+}
+
+double EmsconSimulator::TrackerTime(double physical_s) const {
+  return options_.clock_offset_s + (1.0 + options_.clock_drift_ppm * 1e-6) * physical_s;
+}
+
+double EmsconSimulator::PhysicalNow() const {
+  if (arm_) return arm_->clock().Now();
+  return std::chrono::duration<double>(std::chrono::steady_clock::now() - start_).count() /
+         std::max(options_.time_scale, 1e-3);
+}
+
+Eigen::Vector3d EmsconSimulator::TrackerPointAt(double physical_s) const {
+  if (!arm_ || lab_.AimedAt(station_) != "robot") return TruePointInTracker();
+  const VirtualStation& st = lab_.station(station_);
+  const Eigen::Vector3d x = lab_.RobotTargetAt(arm_->At(physical_s).q);
+  return st.pose.world_from_station.transpose() * (x - st.pose.position_mm);
+}
+
+// One record of the point at physical time t, in the client's units and coordinate type, with
+// the model's noise, stamped with the tracker's clock then (under the lock).
+es::MeasRecord EmsconSimulator::RecordAt(double physical_s) {
+  const Eigen::Vector3d truth = TrackerPointAt(physical_s);
+  std::normal_distribution<double> noise(0.0, SigmaMm(truth.norm()));
+  const Eigen::Vector3d p = truth + Eigen::Vector3d(noise(rng_), noise(rng_), noise(rng_));
+  const State& s = state_;
+  const double mm = *es::MillimetresPer(s.units.length);
+  const double rad = *es::RadiansPer(s.units.angle);
+  es::MeasRecord r;
+  if (s.coordinate_system == es::coordinate_system::kRHR) {
+    for (int i = 0; i < 3; ++i) r.value[i] = p[i] / mm;
+  } else {
+    const auto [hz, v, d] = SphericalOf(p, s.coordinate_system, options_.scc_convention);
+    r.value = {hz / rad, v / rad, d / mm};
+  }
+  es::SetTime(r, TrackerTime(physical_s));
+  last_streamed_ = truth;
+  return r;
+}
+
+void EmsconSimulator::StartStream(const std::shared_ptr<Connection>& c) {
+  const uint64_t generation = ++stream_generation_;
+  {
+    std::lock_guard lock(mutex_);
+    next_sample_s_ = PhysicalNow();
+    last_streamed_.reset();
+    broken_now_ = false;
+  }
+  StreamTick(c, generation);
+}
+
+// Every tick (5 ms of wall time) the records due since the last: time-triggered at every
+// separation of the tracker's clock, distance-triggered whenever the point has travelled the
+// distance (looked at every physical millisecond), in packets of at most 500 records.
+void EmsconSimulator::StreamTick(std::shared_ptr<Connection> c, uint64_t generation) {
+  if (c->closed || generation != stream_generation_.load()) return;
+  std::vector<Step> steps;
+  std::vector<es::MeasRecord> records;
+  es::MultiMeasResult head;
+  const auto flush = [&] {
+    if (records.empty()) return;
+    es::MultiMeasResult m = head;
+    m.records = std::move(records);
+    records.clear();
+    continuous_records_ += static_cast<int>(m.records.size());
+    steps.push_back({std::chrono::microseconds(0), es::EncodePacket(m)});
+  };
+  {
+    std::lock_guard lock(mutex_);
+    const double now = PhysicalNow();
+    const State& s = state_;
+    head.meas_mode = s.meas_mode;
+    const auto w = WeatherAt(Seconds());
+    head.temperature = *es::FromCelsius(w.temperature, s.units.temperature);
+    head.pressure = *es::FromHectopascal(w.pressure, s.units.pressure);
+    head.humidity = w.humidity;
+    const double drift = 1.0 + options_.clock_drift_ppm * 1e-6;
+    // Time-triggered: evenly spaced on the tracker's clock.
+    const double step_s = continuous_distance_mm_ > 0.0 ? 1e-3 : continuous_time_ms_ * 1e-3 / drift;
+    while (next_sample_s_ <= now) {
+      const double t = next_sample_s_;
+      next_sample_s_ += step_s;
+      const bool broken = beam_break_ && t >= beam_break_->first && t < beam_break_->second;
+      if (broken != broken_now_) {
+        flush();
+        broken_now_ = broken;
+        steps.push_back(
+            {std::chrono::microseconds(0),
+             broken ? es::EncodePacket(es::ErrorResponse{es::StartMeasurement::kCommand,
+                                                         es::status::kNoDistanceSet}) +
+                          es::EncodePacket(es::StatusChange{es::status_change::kMeasStatusNotReady})
+                    : es::EncodePacket(es::StatusChange{es::status_change::kMeasStatusReady})});
+        last_streamed_.reset();
+      }
+      if (broken) {
+        if (continuous_distance_mm_ <= 0.0) ++records_broken_;
+        continue;
+      }
+      if (continuous_distance_mm_ > 0.0 && last_streamed_ &&
+          (TrackerPointAt(t) - *last_streamed_).norm() < continuous_distance_mm_) {
+        continue;
+      }
+      records.push_back(RecordAt(t));
+      if (records.size() >= 500) flush();
+    }
+    flush();
+  }
+  if (!steps.empty()) TcpPeer::Send(c, std::move(steps));
+  if (!stream_timer_) stream_timer_.emplace(io_);
+  stream_timer_->expires_after(std::chrono::milliseconds(5));
+  stream_timer_->async_wait([this, c, generation](const boost::system::error_code& ec) {
+    if (!ec) StreamTick(c, generation);
+  });
 }
 
 // One decoded request to the packets it answers with: the faults that answer instead, the
@@ -358,7 +489,10 @@ EmsconSimulator::TableAnswer EmsconSimulator::FromTable(const es::Request& reque
                                            *es::FromHectopascal(w.pressure, s.units.pressure),
                                            w.humidity};
           } else if constexpr (std::is_same_v<T, es::SetMeasurementMode>) {
-            if (r.mode != es::meas_mode::kStationary) {
+            const bool continuous = r.mode == es::meas_mode::kContinuousTime ||
+                                    r.mode == es::meas_mode::kContinuousDistance;
+            if (r.mode != es::meas_mode::kStationary &&
+                !(continuous && options_.continuous_modes)) {
               a.status = es::status::kNotImplemented;  // AT4xx: stationary only
             } else {
               s.meas_mode = r.mode;
@@ -408,7 +542,32 @@ EmsconSimulator::TableAnswer EmsconSimulator::FromTable(const es::Request& reque
           } else if constexpr (std::is_same_v<T, es::GetSystemSettings>) {
             a.data = s.settings;
           } else if constexpr (std::is_same_v<T, es::StartMeasurement>) {
-            measured = true;
+            if (s.meas_mode == es::meas_mode::kStationary) {
+              measured = true;
+            } else if (!s.initialized) {
+              a.status = es::status::kTrackerNotInitialized;
+            } else {
+              start_stream_ = true;  // the records follow the reply (OnFrame)
+            }
+          } else if constexpr (std::is_same_v<T, es::StopMeasurement>) {
+            ++stream_generation_;  // a stream that runs ends; none: nothing to stop, AllOK
+          } else if constexpr (std::is_same_v<T, es::SetContinuousTimeModeParams>) {
+            if (r.time_separation_ms < 1 || r.time_separation_ms > 100000 ||
+                r.number_of_points < 0) {
+              a.status = es::status::kWrongParameter1;
+            } else {
+              continuous_time_ms_ = r.time_separation_ms;
+              continuous_distance_mm_ = 0.0;
+              change(19);  // ContinuousTimeModeParamsChanged
+            }
+          } else if constexpr (std::is_same_v<T, es::SetContinuousDistanceModeParams>) {
+            const double mm = r.spatial_distance * *es::MillimetresPer(s.units.length);
+            if (!(mm > 0.0) || mm > 1e5 || r.number_of_points < 0) {
+              a.status = es::status::kWrongParameter1;
+            } else {
+              continuous_distance_mm_ = mm;
+              change(20);  // ContinuousDistanceModeParamsChanged
+            }
           } else if constexpr (std::is_same_v<T, es::ChangeFace>) {
             s.face = 3 - s.face;
             lab_.SetFace(station_, s.face);

@@ -43,6 +43,7 @@
 #include "instruments/emscon_codec.h"
 #include "simulation/simulator.h"
 #include "simulation/tcp_peer.h"
+#include "simulation/virtual_arm.h"
 #include "simulation/virtual_lab.h"
 
 namespace armsig::simulation {
@@ -75,6 +76,14 @@ struct EmsconSimulatorOptions {
   double acquire_radius_mm = 0.0;
   // FindReflector searches this far around the beam (at the reflector) and locks on it.
   double search_radius_mm = 150.0;
+  // Continuous modes (an AT9xx behind emScon; an AT4xx measures stationary only): time-
+  // triggered (SetContinuousTimeModeParams) or distance-triggered, the records in
+  // MultiMeasResult packets stamped with the tracker's own clock, which runs
+  // `clock_offset_s` + (1 + `clock_drift_ppm`·10⁻⁶) · t on the arm's physical time t (the
+  // two clocks of a real cell never agree: armsig must estimate this from the data).
+  bool continuous_modes = false;
+  double clock_offset_s = 0.0;
+  double clock_drift_ppm = 0.0;
 };
 
 // σ of each Cartesian component at `distance_mm` of a tracker with these options: half the
@@ -132,6 +141,20 @@ class EmsconSimulator : public Simulator {
   void DegradeNextMeasurements(int count, double noise_factor, double stated_factor);
   // How far the beam passes from the reflector now, mm (at the reflector's distance).
   double BeamMissMm() const;
+  // Measure the arm as it moves: continuous records sample the arm's joints at their own
+  // instant (VirtualArm::At) instead of the lab's robot as last set, on the arm's physical
+  // clock. Without it the tracker's physical time is the wall time since start.
+  void FollowArm(const VirtualArm* arm);
+  // The beam breaks (someone walks through it) over the arm's physical time [from_s, to_s):
+  // no records then; the tracker pushes ES_RS_NoDistanceSet when it breaks and
+  // MeasStatus_Ready when it relocks.
+  void BreakBeam(double from_s, double to_s);
+  // Continuous records sent so far, and those a beam break left out.
+  int continuous_records() const { return continuous_records_.load(); }
+  int records_lost_to_breaks() const { return records_broken_.load(); }
+  // The tracker's clock at physical time t.
+  double TrackerTime(double physical_s) const;
+
   // The weather at `seconds` after start (°C, hPa, %RH).
   static instruments::emscon::EnvironmentParams WeatherAt(double seconds);
 
@@ -166,6 +189,12 @@ class EmsconSimulator : public Simulator {
                         bool wrong_id, std::vector<Step>& steps, std::vector<std::string>& after);
   static std::vector<Step> InterleaveStatus(std::vector<Step> steps);
   instruments::emscon::MeasResult MeasureNow(bool out_of_range);
+  // Continuous measurement: the stream's next records up to now, sent each tick.
+  void StartStream(const std::shared_ptr<Connection>& c);
+  void StreamTick(std::shared_ptr<Connection> c, uint64_t generation);
+  double PhysicalNow() const;
+  Eigen::Vector3d TrackerPointAt(double physical_s) const;  // the true point then
+  instruments::emscon::MeasRecord RecordAt(double physical_s);
   double Seconds() const;
   std::chrono::milliseconds Scaled(std::chrono::milliseconds latency) const;
 
@@ -188,6 +217,20 @@ class EmsconSimulator : public Simulator {
   int degraded_ = 0;
   double noise_factor_ = 1.0, stated_factor_ = 1.0;
   std::mt19937 rng_;
+
+  const VirtualArm* arm_ = nullptr;
+  std::optional<std::pair<double, double>> beam_break_;  // physical [from, to)
+  int32_t continuous_time_ms_ = 10;
+  double continuous_distance_mm_ = 0.0;  // > 0: distance-triggered
+  // The stream (io thread): the next sample's physical time, the last point sent (distance
+  // mode), whether the beam is broken now.
+  double next_sample_s_ = 0.0;
+  std::optional<Eigen::Vector3d> last_streamed_;
+  bool broken_now_ = false;
+  bool start_stream_ = false;  // StartMeasurement in a continuous mode was accepted
+  std::optional<boost::asio::steady_timer> stream_timer_;
+  std::atomic<uint64_t> stream_generation_{0};
+  std::atomic<int> continuous_records_{0}, records_broken_{0};
 
   std::atomic<int> requests_{0}, connections_{0};
   std::atomic<int64_t> flood_bytes_{0};

@@ -444,9 +444,18 @@ void UrSimulator::StreamTick(ConnectionPtr c) {
     c->packages = due;
   }
   const double stamp = c->first_stamp + static_cast<double>(c->packages) * step;
+  // The values of the period the stamp names, as the controller samples them: the arm's
+  // motion at the stamp (what a drift added meanwhile kept from now), not at this tick's
+  // wall time — a tick a step late would otherwise date a moving arm wrong by up to a step.
+  VirtualArm::State sampled = s;
+  if (stamp < s.t) {
+    const VirtualArm::Motion then = arm_->At(stamp), now = arm_->At(s.t);
+    sampled.q = then.q + (s.q - now.q);
+    sampled.qd = then.qd + (s.qd - now.qd);
+  }
   std::vector<std::vector<double>> values;
   for (const auto& name : c->names)
-    values.push_back(name == "timestamp" ? std::vector<double>{stamp} : OutputValue(name, s));
+    values.push_back(name == "timestamp" ? std::vector<double>{stamp} : OutputValue(name, sampled));
   Queue(c, rtde::EncodeData(1, c->types, values), true);
   ++c->packages;
   ++rtde_packages_;

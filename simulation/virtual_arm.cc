@@ -48,6 +48,7 @@ VirtualArm::State VirtualArm::StateAt(double t) {
         s.moving = true;
       }
     } else if (tau >= move_->duration_s()) {
+      Remember(move_start_, move_start_ + move_->duration_s(), *move_);
       rest_ = move_->to();
       s.q = rest_;
       moving_s_ += move_->duration_s();
@@ -78,6 +79,32 @@ VirtualArm::State VirtualArm::StateAt(double t) {
   return s;
 }
 
+void VirtualArm::Remember(double start, double end, const JointMove& move) {
+  constexpr size_t kKept = 256;
+  past_.push_back({start, end, move});
+  if (past_.size() > kKept) past_.pop_front();
+}
+
+VirtualArm::Motion VirtualArm::At(double t) const {
+  std::lock_guard lock(mutex_);
+  const auto zero = Eigen::VectorXd::Zero(rest_.size());
+  if (move_ && t >= move_start_) {
+    const double tau = t - move_start_;
+    if (halt_at_ && tau >= *halt_at_) {
+      const JointMove::PathPoint p = move_->Braked(*halt_at_, halt_deceleration_, tau);
+      return {move_->PositionAlong(p.s), move_->VelocityAlong(p.ds)};
+    }
+    if (tau >= move_->duration_s()) return {move_->to(), zero};
+    return {move_->PositionAt(tau), move_->VelocityAt(tau)};
+  }
+  for (auto it = past_.rbegin(); it != past_.rend(); ++it) {
+    if (t < it->start) continue;
+    if (t >= it->end) return {it->move.PositionAt(it->end - it->start), zero};
+    return {it->move.PositionAt(t - it->start), it->move.VelocityAt(t - it->start)};
+  }
+  return {rest_, zero};
+}
+
 VirtualArm::State VirtualArm::Now() {
   std::lock_guard lock(mutex_);
   State s = StateAt(clock_.Now());
@@ -95,6 +122,7 @@ bool VirtualArm::MoveJ(const Eigen::VectorXd& target, double a, double v) {
   if (stop_ != Stop::kNone || !powered_) return false;
   // A move starts from where the arm stands (one still running ends where it is).
   if (move_) {
+    if (!halt_at_) Remember(move_start_, t, *move_);
     moving_s_ += t - move_start_;
     move_.reset();
   }

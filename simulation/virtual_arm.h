@@ -5,6 +5,8 @@
 // own words. Thread-safe (the protocol's io thread moves it, a test injects its faults).
 #pragma once
 
+#include <deque>
+
 #include <Eigen/Core>
 #include <mutex>
 #include <optional>
@@ -29,6 +31,15 @@ class VirtualArm {
   };
   // The state now; the lab's robot follows it.
   State Now();
+  // Where the controller's moves had the joints at physical time `t` (now or in the recent
+  // past: the last 256 moves are kept), and how fast they turned: what an instrument that
+  // samples on its own clock (a tracker's continuous mode, RTDE's period) saw then. Side-
+  // effect free. Leaves out drifts (another program's motion) and a stop's braking before
+  // the running move.
+  struct Motion {
+    Eigen::VectorXd q, qd;
+  };
+  Motion At(double t) const;
   const PhysicalClock& clock() const { return clock_; }
 
   // Starts a joint move from where the arm is; false (nothing moves) while it is stopped or
@@ -91,6 +102,12 @@ class VirtualArm {
   std::optional<PendingDrift> pending_drift_;
   void EndDrift(double t);  // under the lock
   Eigen::VectorXd pushed_;  // the joints last given to the lab
+  struct PastMove {
+    double start = 0.0, end = 0.0;  // physical time; `end` before the move's own when cut short
+    JointMove move;
+  };
+  std::deque<PastMove> past_;  // the latest last
+  void Remember(double start, double end, const JointMove& move);  // under the lock
   int moves_ = 0, stops_ = 0;
   double moving_s_ = 0.0;
 };

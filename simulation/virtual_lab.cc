@@ -92,6 +92,13 @@ Eigen::Vector3d VirtualLab::TruePositionLocked(const std::string& target) const 
   throw std::invalid_argument("virtual lab: unknown target '" + target + "'");
 }
 
+Eigen::Vector3d VirtualLab::RobotTargetAt(const Eigen::VectorXd& joints_rad) const {
+  std::lock_guard lock(mutex_);
+  calibration::Kinematics kin(model_);
+  const Eigen::VectorXd q = joint_errors_.TrueAngles(joints_rad);
+  return kin.Position(world_from_base_, true_params_, q.data()) + landed_off_;
+}
+
 Eigen::Vector3d VirtualLab::TruePosition(const std::string& target) const {
   std::lock_guard lock(mutex_);
   return TruePositionLocked(target);

@@ -52,6 +52,11 @@ class VirtualLab {
   // instrument errors; distance if asked.
   AngleReading Read(int station, double* distance_mm = nullptr);
   Eigen::Vector3d TruePosition(const std::string& target) const;
+  // Where the robot's target truly is (world frame, mm) with the encoders at `joints_rad`:
+  // the true kinematics, joint-angle errors and the current move's repeatability offset.
+  // Side-effect free: an instrument that samples the arm on its own clock asks for the
+  // joints of that instant.
+  Eigen::Vector3d RobotTargetAt(const Eigen::VectorXd& joints_rad) const;
 
   const calibration::RobotModel& model() const { return model_; }
   const Eigen::VectorXd& true_params() const { return true_params_; }

@@ -1,5 +1,7 @@
 #include "workflows/capture.h"
 
+#include "acquisition/on_the_move.h"
+
 #include <fmt/format.h>
 #include <spdlog/spdlog.h>
 
@@ -72,6 +74,8 @@ acquisition::CaptureSummary CaptureWith(
     std::vector<std::unique_ptr<instruments::DistanceInstrument>>& devices,
     instruments::RobotController& controller, const acquisition::CaptureOptions& options) {
   try {
+    if (acquisition::IsOnTheMoveSession(db, session))
+      return acquisition::RunSweepCapture(db, lab, session, devices, controller, options);
     const bool tracker = std::any_of(lab.instruments.begin(), lab.instruments.end(),
                                      [](const auto& i) { return i.protocol == io::InstrumentProtocol::kEmScon; });
     if (tracker && !options.prediction_params) {
@@ -216,6 +220,7 @@ CaptureOutcome RunCaptureSession(const CaptureRequest& request) {
   // The plan is made before the database is touched: a bad plan stores nothing.
   std::optional<acquisition::Plan> plan;
   if (session == 0) plan = acquisition::MakePlan(request.plan, lab.model, request.seed);
+  if (request.on_the_move) acquisition::CheckOnTheMoveLab(lab);
   // Every device answers before a session is made or claimed (a new session: before the
   // database is touched): an instrument switched off, a wrong port or address is named
   // now and leaves nothing behind.
@@ -261,6 +266,12 @@ CaptureOutcome RunCaptureSession(const CaptureRequest& request) {
       out.summary.session = session;
       return out;
     }
+    if (request.on_the_move && !acquisition::IsOnTheMoveSession(database, session)) {
+      throw InputError({"--on-the-move", 0, 0, ""},
+                       fmt::format("session {} was captured standing; resume it without "
+                                   "--on-the-move",
+                                   session));
+    }
     if (!open_devices()) return out;
     // Refused while another live process runs it; an interrupted one is ours now.
     spdlog::debug("capture: session {} is {} (stored state {}); claiming it", session,
@@ -271,6 +282,7 @@ CaptureOutcome RunCaptureSession(const CaptureRequest& request) {
     // serial number) is refused before a session is made.
     acquisition::CheckControllerFacts(database, lab, request.robot, 0, facts);
     session = acquisition::CreateSession(database, lab, request.robot, *plan);
+    if (request.on_the_move) acquisition::MarkOnTheMove(database, session);
     spdlog::info("capture: session {}, {} configurations", session, plan->size());
   }
   out.summary.session = session;
@@ -323,7 +335,42 @@ CaptureOutcome RunCaptureSession(const CaptureRequest& request) {
   return out;
 }
 
+namespace {
+
+// A session measured on the move: the sweep's segments, the clock, what was paired and left.
+std::string FormatSweepSummary(const acquisition::CaptureSummary& s) {
+  const acquisition::SweepSummary& w = *s.sweep;
+  std::string text = fmt::format(
+      "session {} (on the move): {} of {} sweep segments stored ({} before); {} joint packages "
+      "and {} tracker points this run, {:.1f} s of robot time at {:.2f} rad/s\n",
+      s.session, w.segments_before + (s.completed ? w.segments - w.segments_before : s.measured),
+      w.segments, w.segments_before, w.joint_packages, w.tracker_records, w.robot_time_s,
+      w.speed_rad_s);
+  if (w.clock) {
+    const auto& c = *w.clock;
+    text += c.assumed
+                ? fmt::format("  clock ASSUMED (not estimated): tracker = controller + {:.3f} ms\n",
+                              c.offset_ms)
+                : fmt::format("  clock estimated from the data: tracker = controller + {:.4f} ms, "
+                              "drift {:.2f} ppm, σ {:.4f} ms (fit RMS {:.4f} mm)\n",
+                              c.offset_ms, c.drift_ppm, c.sigma_ms, c.sigma0_mm);
+    text += fmt::format(
+        "  {} points paired as configurations (synchronisation σ mean {:.4f} mm, max {:.4f} mm); "
+        "left out: {} accelerating, {} in gaps of the joint stream, {} outside it, {} too "
+        "uncertain in time\n",
+        w.paired, w.mean_sync_sigma_mm, w.max_sync_sigma_mm, w.left_accelerating, w.left_gaps,
+        w.left_outside, w.left_uncertain);
+  }
+  if (w.refused_records > 0)
+    text += fmt::format("  {} tracker records refused (status or range)\n", w.refused_records);
+  for (const auto& b : w.beam_breaks) text += "  beam break: " + b + "\n";
+  return text;
+}
+
+}  // namespace
+
 std::string FormatCaptureSummary(const acquisition::CaptureSummary& s) {
+  if (s.sweep) return FormatSweepSummary(s);
   std::string text = fmt::format(
       "session {}: {} of {} stored ({} now, {} before): {} usable, {} flagged, {} failed, {} "
       "skipped; {} re-measured\n",

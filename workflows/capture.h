@@ -17,6 +17,9 @@ struct CaptureRequest {
   unsigned seed = acquisition::kDefaultPlanSeed;  // of --plan auto:N
   int64_t resume = 0;  // > 0: continue this session
   bool skip_on_fault = false;
+  // --on-the-move: a new session sweeps its plan while the tracker measures continuously
+  // (acquisition/on_the_move.h); a resumed session keeps how it was captured.
+  bool on_the_move = false;
   const std::atomic<bool>* stop = nullptr;  // Ctrl-C
   std::function<void(const acquisition::Progress&)> progress;
   std::function<void(const acquisition::PlannedConfiguration&)> prompt_move;

@@ -62,7 +62,10 @@ Reduction Reduce(db::Database& database, int64_t session_id,
   }
   // The flags stored with the points this reduction replaces, by (pose, point).
   std::map<std::pair<std::optional<int64_t>, std::string>, reduction::PointFlags> stored;
+  // And a paired point's clock share (measuring on the move), which no reading holds.
+  std::map<std::pair<std::optional<int64_t>, std::string>, double> sync_sigma;
   for (const auto& p : db::LoadPoints(database, session_id)) {
+    if (p.sync_sigma_mm) sync_sigma[{p.pose_id, p.point}] = *p.sync_sigma_mm;
     if (const auto flags = reduction::ParsePointFlags(p.flags)) {
       stored[{p.pose_id, p.point}] = *flags;
     } else {
@@ -104,6 +107,10 @@ Reduction Reduce(db::Database& database, int64_t session_id,
       flags |= reduction::CarriedOverFlags(it->second, options.checks);
     db::PointRow row = acquisition::PointRowOf(first.pose_id, first.point,
                                                static_cast<int>(group.rays.size()), result, flags);
+    if (auto it = sync_sigma.find({first.pose_id, first.point}); it != sync_sigma.end()) {
+      row.sync_sigma_mm = it->second;
+      row.covariance_mm2 += it->second * it->second * Eigen::Matrix3d::Identity();
+    }
     if (result.status.ok()) {
       ++summary.reduced;
       summary.rejected_rays += result.rejected;

@@ -13,10 +13,12 @@
 
 #include "acquisition/controller_record.h"
 #include "acquisition/lab.h"
+#include "acquisition/on_the_move.h"
 #include "acquisition/session.h"
 #include "core/units.h"
 #include "db/database.h"
 #include "db/store.h"
+#include "db/streams.h"
 #include "io/lab_file.h"
 #include "simulation/ur_simulator.h"
 #include "support/tracker_cell.h"
@@ -375,6 +377,90 @@ TEST_F(UrCaptureFixture, AChangedKinematicsInfoRefusesTheResumeAndIsNamedAsACaus
   // The robot keeps the newest kinematics.
   EXPECT_EQ(db::RobotControllerRecord(db, *db::FindRobot(db, "ur10"))->kinematics_checksum,
             db::SessionController(db, second)->kinematics_checksum);
+}
+
+// Measuring on the move through the real drivers: the UR sweeps thirteen waypoints in two
+// segments while the tracker measures continuously on its own clock (42.1 ms, −8 ppm off).
+// Ctrl-C after the first segment: it is kept, the session paused; the resume sweeps the
+// second segment only, through a beam break (named, its records missing, the stream going on),
+// then pairs every point at the tracker's time with the clock estimated from the data.
+TEST_F(UrCaptureFixture, OnTheMoveKeepsItsSegmentsThroughCtrlCAndNamesABeamBreak) {
+  StartController(Options(true, 0.05));
+  tracker_->FollowArm(&ur_->arm());
+  Plan sweep;
+  std::mt19937 rng(21);
+  std::uniform_real_distribution<double> around(-0.7, 0.7);
+  for (int k = 0; k < 13; ++k) {
+    Eigen::VectorXd q = truth_.home_rad;
+    for (int j = 0; j < q.size(); ++j) q(j) += around(rng);
+    sweep.push_back({"W" + std::to_string(k + 1), q});
+  }
+  db::Database db(Db());
+  const int64_t session = CreateSession(db, Lab(), "ur10", sweep);
+  MarkOnTheMove(db, session);
+  std::atomic<bool> stop{false};
+  CaptureOptions options;
+  options.stop = &stop;
+  options.progress = [&](const Progress& p) {
+    if (p.done == 1) stop = true;  // Ctrl-C once the first segment is stored
+  };
+  const CaptureSummary first = workflows::CaptureInto(db, Lab(), session, options);
+  EXPECT_TRUE(first.stopped);
+  ASSERT_TRUE(first.sweep);
+  EXPECT_EQ(first.sweep->segments, 2);
+  EXPECT_EQ(db::StoredStreamSegments(db, session), std::set<int>{0});
+  EXPECT_EQ(db::LoadSession(db, session)->state, db::SessionState::kPaused);
+  EXPECT_EQ(db.sql().execAndGet("SELECT count(*) FROM poses").getInt(), 0);  // not paired yet
+
+  // The beam breaks for half a second, two seconds into the resumed run.
+  const double now = ur_->arm().clock().Now();
+  tracker_->BreakBeam(now + 2.0, now + 2.5);
+  stop = false;
+  options.progress = nullptr;
+  const CaptureSummary second = workflows::CaptureInto(db, Lab(), session, options);
+  ASSERT_TRUE(second.completed) << second.pause_reason;
+  ASSERT_TRUE(second.sweep);
+  const SweepSummary& w = *second.sweep;
+  EXPECT_EQ(w.segments_before, 1);
+  EXPECT_EQ(db::StoredStreamSegments(db, session), (std::set<int>{0, 1}));
+  ASSERT_FALSE(w.beam_breaks.empty());
+  EXPECT_NE(w.beam_breaks.front().find("NoDistanceSet"), std::string::npos) << w.beam_breaks.front();
+  EXPECT_GT(tracker_->records_lost_to_breaks(), 5);
+  EXPECT_EQ(db.sql().execAndGet("SELECT count(*) FROM stream_events").getInt(), 1);
+  // No package stored twice.
+  EXPECT_EQ(db.sql().execAndGet("SELECT count(*) FROM stream_joints").getInt(),
+            db.sql().execAndGet("SELECT count(DISTINCT t_s) FROM stream_joints").getInt());
+  ASSERT_TRUE(w.clock);
+  EXPECT_NEAR(w.clock->offset_ms, 42.1, 0.5);
+  EXPECT_GT(w.paired, 150);
+  EXPECT_EQ(second.usable, w.paired);
+  EXPECT_EQ(db.sql().execAndGet("SELECT count(*) FROM poses WHERE controller_time_s IS NOT NULL")
+                .getInt(),
+            w.paired);
+  // Each paired configuration is the true robot at its joints, within the tracker's noise and
+  // its clock share.
+  calibration::Kinematics kin(model_);
+  const auto poses = db::LoadSessionPoses(db, session);
+  ASSERT_EQ(static_cast<int>(poses.size()), w.paired);
+  double worst = 0.0;
+  for (const auto& p : poses) {
+    const Eigen::VectorXd q = truth_.joint_errors.TrueAngles(p.joints_rad);
+    worst = std::max(worst, (kin.Position(truth_.world_from_base, truth_.true_params, q.data()) -
+                             p.target_in_world).norm());
+  }
+  EXPECT_LT(worst, 0.15);
+}
+
+// A lab that cannot be measured on the move is refused before a session is made.
+TEST_F(UrCaptureFixture, OnTheMoveNeedsAStreamingControllerArmsigMoves) {
+  StartController(Options());
+  io::LabConfig lab = Lab();
+  EXPECT_NO_THROW(CheckOnTheMoveLab(lab));
+  lab.controller.can_move = false;
+  EXPECT_THROW(CheckOnTheMoveLab(lab), InputError);
+  lab.controller.can_move = true;
+  lab.instruments.clear();
+  EXPECT_THROW(CheckOnTheMoveLab(lab), InputError);
 }
 
 }  // namespace

@@ -30,6 +30,11 @@ TrackerCell::TrackerCell(const std::string& robot, const std::string& model_file
   t.initialize_latency = 2ms;
   t.acquire_radius_mm = acquire_radius_mm;
   t.seed = 11;
+  // An AT9xx-class tracker: it also measures continuously, on a clock 42.1 ms and −8 ppm off
+  // the controller's (measuring on the move; stationary readings carry no time).
+  t.continuous_modes = true;
+  t.clock_offset_s = 0.0421;
+  t.clock_drift_ppm = -8.0;
   tracker = std::make_unique<simulation::EmsconSimulator>(*lab, 0, "127.0.0.1", 0, t);
   tracker->Start();
   std::vector<reduction::Station> stations(1);
