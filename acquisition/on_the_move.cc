@@ -6,6 +6,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <limits>
 #include <mutex>
 #include <nlohmann/json.hpp>
 #include <numeric>
@@ -79,6 +80,31 @@ void CheckOnTheMoveLab(const io::LabConfig& lab) {
                      "--on-the-move needs a controller that streams its joints and that armsig "
                      "moves: robot.controller {protocol: ur, host: …, can_move: true}");
   }
+}
+
+Plan SweepOrder(const Plan& plan) {
+  Plan out;
+  if (plan.empty()) return out;
+  std::vector<char> used(plan.size(), 0);
+  size_t at = 0;
+  used[0] = 1;
+  out.push_back(plan[0]);
+  for (size_t n = 1; n < plan.size(); ++n) {
+    size_t best = plan.size();
+    double nearest = std::numeric_limits<double>::infinity();
+    for (size_t k = 0; k < plan.size(); ++k) {
+      if (used[k]) continue;
+      const double turn = (plan[k].joints_rad - plan[at].joints_rad).cwiseAbs().maxCoeff();
+      if (turn < nearest) {
+        nearest = turn;
+        best = k;
+      }
+    }
+    used[best] = 1;
+    at = best;
+    out.push_back(plan[best]);
+  }
+  return out;
 }
 
 bool IsOnTheMoveSession(db::Database& db, int64_t session) {

@@ -43,6 +43,11 @@ CaptureSummary RunSweepCapture(
 // session is made.
 void CheckOnTheMoveLab(const io::LabConfig& lab);
 
+// The plan in the order a sweep takes it: from the first configuration, each next the nearest
+// (the smallest largest joint turn) of those left, so the robot's time goes into measuring,
+// not into crossing the workspace back and forth. Labels are kept.
+Plan SweepOrder(const Plan& plan);
+
 // Whether a stored session was captured on the move (sessions.sync_json says so).
 bool IsOnTheMoveSession(db::Database& db, int64_t session);
 // Marks a new session as one captured on the move (before its first segment).

@@ -506,6 +506,13 @@ void Adjustment::Evaluate(const Eigen::VectorXd& params, const Bases& bases, con
       b.leftCols<3>() << 0, v.z(), -v.y(), -v.z(), 0, v.x(), v.y(), -v.x(), 0;
       b.rightCols<3>().setIdentity();
     }
+    // A pose's own weight (a point paired on the move) scales its position rows by √w, so
+    // the cost, the normal equations and σ0 all see it; ResidualVectors undoes it.
+    if (poses_[i].weight != 1.0) {
+      const double root = std::sqrt(poses_[i].weight);
+      e.residual.segment<3>(3 * i) *= root;
+      e.jacobian.middleRows<3>(3 * i) *= root;
+    }
     if (o < 0) continue;
     // The orientation residual ε = log(R_measᵀ·R), R = R_last·R_tool: a world-side turn ω
     // (a parameter, a base) moves it by J_r⁻¹(ε)·Rᵀ·ω, a turn δ of the tool in the target
@@ -559,7 +566,7 @@ Adjustment::Tools Adjustment::TurnedTools(const Tools& tools, const Eigen::Vecto
 
 std::vector<Eigen::Vector3d> Adjustment::ResidualVectors(const Evaluation& e) const {
   std::vector<Eigen::Vector3d> r(m_);
-  for (int i = 0; i < m_; ++i) r[i] = e.residual.segment<3>(3 * i);
+  for (int i = 0; i < m_; ++i) r[i] = e.residual.segment<3>(3 * i) / std::sqrt(poses_[i].weight);
   return r;
 }
 
@@ -767,6 +774,7 @@ Eigen::MatrixXd Adjustment::TwoStageCovariance(const Eigen::MatrixXd& normal_inv
     const Eigen::Vector3d x = poses_[i].target_in_world + result_.fit_residuals[i] - origin;
     base_jacobian.block<3, 3>(3 * i, 0) << 0, x.z(), -x.y(), -x.z(), 0, x.x(), x.y(), -x.x(), 0;
     base_jacobian.block<3, 3>(3 * i, 3).setIdentity();
+    base_jacobian.middleRows<3>(3 * i) *= std::sqrt(poses_[i].weight);
   }
   Eigen::MatrixXd c = current_.jacobian;
   for (int i = 0; i < m_; ++i) c.middleRows<3>(3 * i) *= weights_[i];
@@ -801,6 +809,10 @@ void Adjustment::Check() {
 EstimationResult Estimate(const RobotModel& model, const std::vector<MeasuredPose>& poses,
                           const EstimationOptions& options) {
   options.Check();
+  for (const auto& p : poses) {
+    if (!(p.weight > 0.0) || !std::isfinite(p.weight))
+      throw std::invalid_argument("pose " + p.id + ": a weight must be a positive number");
+  }
   return Adjustment(model, poses, options).Run();
 }
 

@@ -47,6 +47,10 @@ struct MeasuredPose {
   // The target frame's measured orientation in the same frame; nullopt for a position-only
   // measurement (a reflector, a theodolite intersection).
   std::optional<MeasuredOrientation> orientation = std::nullopt;
+  // The position equations' weight relative to a point measured standing (1): a point paired
+  // from a sweep's streams (measuring on the move) weighs σ² / (σ² + σ_sync²), σ the
+  // instrument's, σ_sync its speed × the clock's uncertainty (calibration::Estimate).
+  double weight = 1.0;
 };
 
 // Station pose: world point = position + R · instrument point (docs/reference/conventions.md).

@@ -196,7 +196,7 @@ std::vector<int> StoredSeqs(Database& db, int64_t session_id) {
 const char* const kRobotPosesQuery =
     "SELECT s.id, p.label, p.joints_json, pt.x_mm, pt.y_mm, pt.z_mm, p.id, pt.id, "
     "pt.rx_rad, pt.ry_rad, pt.rz_rad, pt.sigma_rx_rad, pt.sigma_ry_rad, "
-    "pt.sigma_rz_rad FROM poses p "
+    "pt.sigma_rz_rad, pt.sync_sigma_mm, coalesce(pt.covariance_json, '') FROM poses p "
     "JOIN sessions s ON s.id = p.session_id "
     "JOIN points pt ON pt.session_id = p.session_id AND pt.pose_id = p.id "
     "WHERE s.robot_id = ? AND s.state <> 'aborted' AND p.status = 'measured' "
@@ -205,10 +205,23 @@ const char* const kRobotPosesQuery =
 const char* const kSessionPosesQuery =
     "SELECT p.label, p.joints_json, pt.x_mm, pt.y_mm, pt.z_mm, "
     "coalesce(pt.covariance_json, ''), p.id, pt.id, pt.rx_rad, pt.ry_rad, pt.rz_rad, "
-    "pt.sigma_rx_rad, pt.sigma_ry_rad, pt.sigma_rz_rad FROM poses p "
+    "pt.sigma_rx_rad, pt.sigma_ry_rad, pt.sigma_rz_rad, pt.sync_sigma_mm FROM poses p "
     "JOIN points pt ON pt.session_id = p.session_id AND pt.pose_id = p.id "
     "WHERE p.session_id = ? AND pt.x_mm IS NOT NULL AND p.joints_json IS NOT NULL "
     "ORDER BY p.seq";
+
+namespace {
+
+// A paired point's weight (MeasuredPose::weight) from its clock share and its covariance (which
+// includes the share): σ² / (σ² + σ_sync²), σ² the covariance's mean variance without it.
+double SyncWeight(std::optional<double> sync_sigma_mm, const std::optional<Eigen::Matrix3d>& covariance) {
+  if (!sync_sigma_mm || !(*sync_sigma_mm > 0.0) || !covariance || !covariance->allFinite()) return 1.0;
+  const double share = *sync_sigma_mm * *sync_sigma_mm;
+  const double own = std::max(covariance->trace() / 3.0 - share, 1e-12);
+  return own / (own + share);
+}
+
+}  // namespace
 
 std::vector<MeasuredPose> LoadRobotPoses(Database& db, int64_t robot_id, const std::string& since,
                                          int64_t* max_pose_row) {
@@ -224,6 +237,10 @@ std::vector<MeasuredPose> LoadRobotPoses(Database& db, int64_t robot_id, const s
     pose.joints_rad = ParseJoints(q->Text(2), {db.path(), "poses", q->Int(6), "joints_json"});
     pose.target_in_world = {q->Double(3), q->Double(4), q->Double(5)};
     pose.orientation = OrientationAt(*q, 8, {db.path(), "points", q->Int(7), "rx_rad"});
+    if (!q->IsNull(14)) {
+      pose.weight = SyncWeight(q->Double(14), ParseMatrix3(q->Text(15), {db.path(), "points", q->Int(7),
+                                                                          "covariance_json"}));
+    }
     newest = std::max<int64_t>(newest, q->Int(6));
     out.push_back(std::move(pose));
   }
@@ -243,11 +260,10 @@ std::vector<MeasuredPose> LoadSessionPoses(Database& db, int64_t session_id,
     pose.joints_rad = ParseJoints(q->Text(1), {db.path(), "poses", q->Int(6), "joints_json"});
     pose.target_in_world = {q->Double(2), q->Double(3), q->Double(4)};
     pose.orientation = OrientationAt(*q, 8, {db.path(), "points", q->Int(7), "rx_rad"});
-    if (covariances) {
-      covariances->push_back(
-          ParseMatrix3(q->Text(5), {db.path(), "points", q->Int(7), "covariance_json"})
-              .value_or(Eigen::Matrix3d::Constant(NAN)));
-    }
+    const auto covariance =
+        ParseMatrix3(q->Text(5), {db.path(), "points", q->Int(7), "covariance_json"});
+    if (!q->IsNull(14)) pose.weight = SyncWeight(q->Double(14), covariance);
+    if (covariances) covariances->push_back(covariance.value_or(Eigen::Matrix3d::Constant(NAN)));
     out.push_back(std::move(pose));
   }
   return out;

@@ -220,7 +220,10 @@ CaptureOutcome RunCaptureSession(const CaptureRequest& request) {
   // The plan is made before the database is touched: a bad plan stores nothing.
   std::optional<acquisition::Plan> plan;
   if (session == 0) plan = acquisition::MakePlan(request.plan, lab.model, request.seed);
-  if (request.on_the_move) acquisition::CheckOnTheMoveLab(lab);
+  if (request.on_the_move) {
+    acquisition::CheckOnTheMoveLab(lab);
+    if (plan) plan = acquisition::SweepOrder(*plan);
+  }
   // Every device answers before a session is made or claimed (a new session: before the
   // database is touched): an instrument switched off, a wrong port or address is named
   // now and leaves nothing behind.

@@ -1,7 +1,10 @@
 // Capture plans from the command line's --plan: auto:N, single-joint:J:STEPS, a CSV file.
 #include "acquisition/plan.h"
+#include "acquisition/on_the_move.h"
 
 #include <gtest/gtest.h>
+
+#include <set>
 
 #include "core/error.h"
 #include "core/units.h"
@@ -109,6 +112,37 @@ TEST(PlanJson, RoundTripsLabelsAndJointsExactly) {
     EXPECT_EQ(back[k].label, plan[k].label);
     EXPECT_EQ(back[k].joints_rad, plan[k].joints_rad);
   }
+}
+
+}  // namespace
+}  // namespace armsig::acquisition
+
+namespace armsig::acquisition {
+namespace {
+
+// A sweep's order: every configuration once, from the first, each next the nearest of those
+// left; on a well-spread plan the robot's path (the largest joint turn per leg, summed) is
+// shorter than the plan's own order.
+TEST(SweepOrderTest, VisitsEachConfigurationOnceNearestFirst) {
+  const Plan plan = WellSpreadPlan(testing::Ur10(), 30, 300, 3);
+  const Plan swept = SweepOrder(plan);
+  ASSERT_EQ(swept.size(), plan.size());
+  std::set<std::string> labels;
+  for (const auto& c : swept) labels.insert(c.label);
+  EXPECT_EQ(labels.size(), plan.size());
+  EXPECT_EQ(swept.front().label, plan.front().label);
+  const auto length = [](const Plan& p) {
+    double sum = 0.0;
+    for (size_t k = 1; k < p.size(); ++k)
+      sum += (p[k].joints_rad - p[k - 1].joints_rad).cwiseAbs().maxCoeff();
+    return sum;
+  };
+  EXPECT_LT(length(swept), 0.8 * length(plan));
+  // Each next is the nearest of those left (checked independently for the second leg).
+  double nearest = 1e9;
+  for (size_t k = 1; k < plan.size(); ++k)
+    nearest = std::min(nearest, (plan[k].joints_rad - plan[0].joints_rad).cwiseAbs().maxCoeff());
+  EXPECT_DOUBLE_EQ((swept[1].joints_rad - swept[0].joints_rad).cwiseAbs().maxCoeff(), nearest);
 }
 
 }  // namespace

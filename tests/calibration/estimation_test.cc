@@ -180,6 +180,41 @@ TEST(Estimation, RobustLossReportsBlunderPoses) {
   EXPECT_GT(Validate(lab, plain).mean_mm, Validate(lab, robust).mean_mm);
 }
 
+// A pose's own weight (a point paired on the move whose clock is uncertain): the weighted
+// least-squares solution, computed independently with every pose repeated in proportion to its
+// weight (integer weights are repetitions: the same normal equations); a pose of weight 1e-6
+// with a 3 mm blunder barely moves the fit; a weight that is not a positive number is refused.
+TEST(Estimation, PoseWeightsAreTheWeightedLeastSquaresSolution) {
+  const Lab lab = MakeLab(60, kNoiseMm, 12);
+  std::vector<MeasuredPose> weighted = lab.fit, repeated;
+  for (size_t i = 0; i < weighted.size(); ++i) {
+    const int w = 1 + static_cast<int>(i % 3);  // 1, 2, 3
+    weighted[i].weight = w;
+    for (int k = 0; k < w; ++k) repeated.push_back(lab.fit[i]);
+  }
+  const auto a = Estimate(lab.model, weighted, With(lab.model, "geometric"));
+  const auto b = Estimate(lab.model, repeated, With(lab.model, "geometric"));
+  ASSERT_TRUE(a.usable());
+  ASSERT_TRUE(b.usable());
+  EXPECT_LT((a.params - b.params).cwiseAbs().maxCoeff(), 1e-9);
+  // Residuals are reported unweighted: the same pose, the same error vector.
+  for (size_t i = 0; i < weighted.size(); ++i) {
+    size_t j = 0;
+    for (size_t k = 0; k < i; ++k) j += 1 + k % 3;
+    EXPECT_LT((a.fit_residuals[i] - b.fit_residuals[j]).norm(), 1e-6);
+  }
+  std::vector<MeasuredPose> blunder = lab.fit;
+  blunder[7].target_in_world += Eigen::Vector3d(3.0, 0.0, 0.0);
+  const double plain = Validate(lab, Estimate(lab.model, blunder, With(lab.model, "geometric"))).mean_mm;
+  blunder[7].weight = 1e-6;
+  const double light = Validate(lab, Estimate(lab.model, blunder, With(lab.model, "geometric"))).mean_mm;
+  const double clean = Validate(lab, Estimate(lab.model, lab.fit, With(lab.model, "geometric"))).mean_mm;
+  EXPECT_GT(plain, clean + 0.01);
+  EXPECT_NEAR(light, clean, 0.002);
+  blunder[7].weight = 0.0;
+  EXPECT_THROW(Estimate(lab.model, blunder, With(lab.model, "geometric")), std::invalid_argument);
+}
+
 TEST(Estimation, TooFewPosesIsRefusedWithTheNumbers) {
   const Lab lab = MakeLab(9, kNoiseMm, 6);  // 27 equations < 29 identifiable
   const auto r = Estimate(lab.model, lab.fit, With(lab.model, "all"));

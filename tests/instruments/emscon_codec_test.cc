@@ -293,6 +293,58 @@ TEST(EmsconCodec, SingleMeasResultFieldsAtTheirPacked4Offsets) {
   EXPECT_EQ(EncodePacket(m2), kSingleMeasResult2);
 }
 
+// SetContinuousTimeModeParams(lTimeSeparation 50 ms, lNumberOfPoints 0, bUseRegion 0,
+// regionType 0): 28 bytes, command 30 = 0x1E; StopMeasurement: 12 bytes, command 52 = 0x34.
+const std::string kContinuousTime50 =
+    Hex("1C 00 00 00  00 00 00 00  1E 00 00 00"   // size 28, type 0, command 30
+        "32 00 00 00  00 00 00 00  00 00 00 00"   // 12 separation 50, 16 points 0, 20 region off
+        "00 00 00 00");                           // 24 region type
+const std::string kStopMeasurement = Hex("0C 00 00 00  00 00 00 00  34 00 00 00");
+
+// MultiMeasResultT (type 3) with two MeasValueT records: 48 + 2 × 36 = 120 bytes.
+const std::string kMultiMeasResult =
+    Hex("78 00 00 00  03 00 00 00  00 00 00 00"  // size 120, type 3, status 0
+        "02 00 00 00  01 00 00 00  00 00 00 00"  // 12 records 2, 16 mode ContinuousTime, 20 try 0
+        "00 00 00 00 00 80 34 40"                // 24 temperature 20.5
+        "00 00 00 00 00 AA 8F 40"                // 32 pressure 1013.25
+        "00 00 00 00 00 80 46 40"                // 40 humidity 45
+        // record 1 at 48: status 0, lTime1 100 s, lTime2 250000 µs, 1.5, 0.25, 2000
+        "00 00 00 00  64 00 00 00  90 D0 03 00"
+        "00 00 00 00 00 00 F8 3F  00 00 00 00 00 00 D0 3F  00 00 00 00 00 40 9F 40"
+        // record 2 at 84: status 3 (PrismError), lTime1 100, lTime2 300000, -0.5, 3, 2000
+        "03 00 00 00  64 00 00 00  E0 93 04 00"
+        "00 00 00 00 00 00 E0 BF  00 00 00 00 00 00 08 40  00 00 00 00 00 40 9F 40");
+
+TEST(EmsconCodec, ContinuousCommandsAndMultiMeasResultFromTheHandWrittenBytes) {
+  EXPECT_EQ(EncodeRequest(SetContinuousTimeModeParams{50, 0, false, region_type::kSphere}),
+            kContinuousTime50);
+  EXPECT_EQ(EncodeRequest(StopMeasurement{}), kStopMeasurement);
+  const DecodedRequest r = DecodeRequest(kContinuousTime50);
+  ASSERT_TRUE(r.request);
+  EXPECT_EQ(std::get<SetContinuousTimeModeParams>(*r.request).time_separation_ms, 50);
+  ASSERT_EQ(kMultiMeasResult.size(), 120u);
+  const auto m = DecodeAs<MultiMeasResult>(kMultiMeasResult);
+  EXPECT_EQ(m.meas_mode, meas_mode::kContinuousTime);
+  EXPECT_EQ(m.temperature, 20.5);
+  EXPECT_EQ(m.pressure, 1013.25);
+  EXPECT_EQ(m.humidity, 45.0);
+  ASSERT_EQ(m.records.size(), 2u);
+  EXPECT_EQ(m.records[0].value, (std::array<double, 3>{1.5, 0.25, 2000.0}));
+  EXPECT_EQ(m.records[1].status, continuous_status::kPrismError);
+  EXPECT_DOUBLE_EQ(TimeOf(m.records[0]), 100.25);
+  EXPECT_DOUBLE_EQ(TimeOf(m.records[1]), 100.3);
+  EXPECT_EQ(EncodePacket(m), kMultiMeasResult);
+  // A time stamp set and read back, to the microsecond; a record count that disagrees with the
+  // size is a typed error.
+  MeasRecord rec;
+  SetTime(rec, 86399.9999996);
+  EXPECT_EQ(rec.time1, 86400);
+  EXPECT_EQ(rec.time2, 0);
+  std::string wrong = kMultiMeasResult;
+  wrong[12] = 3;
+  EXPECT_EQ(DecodePacket(wrong).error, DecodeError::kBadLength);
+}
+
 // Values the tables do not know are kept as numbers and named by them.
 TEST(EmsconCodec, UnknownStatusValuesAreKeptRawAndNamedByNumber) {
   const auto err = DecodeAs<ErrorResponse>(Hex("10 00 00 00 01 00 00 00 40 00 00 00 D1 5D 00 00"));

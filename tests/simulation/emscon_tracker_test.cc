@@ -135,6 +135,50 @@ TEST(VirtualTracker, DriverSetsEveryStateAndMeasuresTheTruth) {
 
 // A cold tracker: Initialize takes 1.5 s, longer than the call's 1 s deadline; it has its
 // own deadline and the measurement after it still gets its time.
+// Continuous time mode (an AT9xx): records every separation of the tracker's own clock, its
+// offset and drift as planted, each the truth within the noise; an AT4xx refuses the mode;
+// after StopContinuous the tracker measures standing again.
+TEST(VirtualTracker, ContinuousRecordsOnTheTrackersOwnClock) {
+  EmsconSimulatorOptions o = Quick();
+  o.time_scale = 1.0;
+  o.continuous_modes = true;
+  o.clock_offset_s = 12.5;
+  o.clock_drift_ppm = 40.0;
+  TrackerRig rig(o);
+  rig.device->Measure();  // set up (stationary)
+  rig.device->StartContinuous({20, std::nullopt});
+  std::vector<instruments::ContinuousRecord> records;
+  std::atomic<bool> done{false};
+  std::thread stopper([&] {
+    std::this_thread::sleep_for(400ms);
+    done = true;
+  });
+  rig.device->ReadContinuous(instruments::Clock::now() + 5s, done,
+                             [&](const instruments::ContinuousRecord& r) { records.push_back(r); },
+                             {});
+  stopper.join();
+  rig.device->StopContinuous();
+  ASSERT_GE(records.size(), 10u);
+  EXPECT_LE(records.size(), 25u);
+  const Eigen::Vector3d truth = rig.sim->TruePointInTracker();
+  const double sigma = rig.sim->SigmaMm(truth.norm());
+  for (size_t k = 0; k < records.size(); ++k) {
+    EXPECT_LT((records[k].point_in_instrument_mm - truth).cwiseAbs().maxCoeff(), 6 * sigma);
+    if (k > 0) {
+      EXPECT_NEAR(records[k].tracker_time_s - records[k - 1].tracker_time_s, 0.020, 2e-6);
+    }
+  }
+  // The tracker's clock: offset 12.5 s on the simulator's physical time (a second at most).
+  EXPECT_GT(records.front().tracker_time_s, 12.5);
+  EXPECT_LT(records.front().tracker_time_s, 14.0);
+  EXPECT_EQ(rig.sim->state().meas_mode, es::meas_mode::kStationary);
+  rig.ExpectTruth(rig.device->Measure());
+
+  TrackerRig at4xx;  // continuous modes not offered
+  at4xx.device->Measure();
+  EXPECT_THROW(at4xx.device->StartContinuous({20, std::nullopt}), instruments::InstrumentError);
+}
+
 TEST(VirtualTracker, ColdTrackerIsInitializedWithinItsOwnDeadline) {
   EmsconSimulatorOptions options;
   options.time_scale = 1.0;
