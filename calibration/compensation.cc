@@ -4,6 +4,7 @@
 
 #include <Eigen/Cholesky>
 #include <Eigen/Geometry>
+#include <algorithm>
 #include <cmath>
 #include <stdexcept>
 
@@ -32,7 +33,30 @@ std::optional<Eigen::Isometry3d> AlignBaseWithParams(const RobotModel& model,
   const Eigen::Vector3d spread = PrincipalSpread(from);
   if (!(spread(1) > 1e-6 * spread(0))) return std::nullopt;
   Eigen::Isometry3d base = Eigen::Isometry3d::Identity();
-  base.matrix() = Eigen::umeyama(from, to, false);
+  const bool weighted = std::any_of(poses.begin(), poses.end(), [](const MeasuredPose& p) { return p.weight != 1.0; });
+  if (!weighted) {
+    base.matrix() = Eigen::umeyama(from, to, false);
+    return base;
+  }
+  // Poses of their own weight (paired on the move): the weighted rigid fit, as the
+  // weighted least squares of the estimation that follows it.
+  double total = 0.0;
+  Eigen::Vector3d mean_from = Eigen::Vector3d::Zero(), mean_to = Eigen::Vector3d::Zero();
+  for (int i = 0; i < m; ++i) {
+    total += poses[i].weight;
+    mean_from += poses[i].weight * from.col(i);
+    mean_to += poses[i].weight * to.col(i);
+  }
+  mean_from /= total;
+  mean_to /= total;
+  Eigen::Matrix3d cross = Eigen::Matrix3d::Zero();
+  for (int i = 0; i < m; ++i)
+    cross += poses[i].weight * (to.col(i) - mean_to) * (from.col(i) - mean_from).transpose();
+  const Eigen::JacobiSVD<Eigen::Matrix3d> svd(cross, Eigen::ComputeFullU | Eigen::ComputeFullV);
+  Eigen::Matrix3d d = Eigen::Matrix3d::Identity();
+  if ((svd.matrixU() * svd.matrixV().transpose()).determinant() < 0.0) d(2, 2) = -1.0;
+  base.linear() = svd.matrixU() * d * svd.matrixV().transpose();
+  base.translation() = mean_to - base.linear() * mean_from;
   return base;
 }
 

@@ -80,6 +80,7 @@ class DemoLab {
   simulation::VirtualLab& truth() { return lab_; }
   const DemoRobot& robot() const { return robot_; }
   // Where the arm stands when the lab starts (joints, rad).
+  const simulation::VirtualRobot& robot_truth() const { return truth_; }
   Eigen::VectorXd home() const {
     return truth_.home_rad.size() ? truth_.home_rad
                                   : Eigen::VectorXd(Eigen::VectorXd::Zero(truth_.model.num_joints()));

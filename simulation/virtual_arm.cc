@@ -16,12 +16,74 @@ VirtualArm::VirtualArm(VirtualLab& lab, PhysicalClock clock, Eigen::VectorXd hom
   lab_.SetJoints(rest_);
 }
 
+VirtualArm::Motion VirtualArm::SampledPath::At(double tau) const {
+  const double clamped = std::clamp(tau, 0.0, duration());
+  const auto i = std::min(static_cast<size_t>(clamped / dt), q.size() - 2);
+  const double f = (clamped - dt * static_cast<double>(i)) / dt;
+  Motion m{q[i] + f * (q[i + 1] - q[i]), (q[i + 1] - q[i]) / dt};
+  if (tau >= duration() || tau <= 0.0) m.qd.setZero();
+  return m;
+}
+
+bool VirtualArm::MovePath(std::vector<Eigen::VectorXd> joints, double dt) {
+  if (joints.size() < 2 || !(dt > 0.0)) return false;
+  std::lock_guard lock(mutex_);
+  const double t = clock_.Now();
+  const State now = StateAt(t);
+  if (stop_ != Stop::kNone || !powered_) return false;
+  if (move_) {
+    if (!halt_at_) Remember(move_start_, t, *move_);
+    moving_s_ += t - move_start_;
+    move_.reset();
+  }
+  if (path_) {
+    past_.push_back({path_->start, t, JointMove(rest_, rest_, 1.0, 1.0),
+                     std::make_shared<const SampledPath>(*path_)});
+    moving_s_ += t - path_->start;
+    path_.reset();
+  }
+  rest_ = now.q;
+  drift_offset_.setZero();
+  drift_joint_.reset();
+  drift_until_.reset();
+  path_ = SampledPath{t, dt, std::move(joints)};
+  ++moves_;
+  return true;
+}
+
 VirtualArm::State VirtualArm::StateAt(double t) {
   State s;
   s.t = t;
   s.q = rest_;
   s.qd = Eigen::VectorXd::Zero(rest_.size());
   s.target = rest_;
+  if (path_) {
+    const double tau = t - path_->start;
+    if (stop_ != Stop::kNone) {  // held where the stop found it
+      rest_ = path_->At(std::min(tau, stopped_at_ - path_->start)).q;
+      moving_s_ += std::max(0.0, stopped_at_ - path_->start);
+      path_.reset();
+      s.q = rest_;
+    } else if (tau >= path_->duration()) {
+      rest_ = path_->q.back();
+      moving_s_ += path_->duration();
+      past_.push_back({path_->start, path_->start + path_->duration(), JointMove(rest_, rest_, 1.0, 1.0),
+                       std::make_shared<const SampledPath>(*path_)});
+      if (past_.size() > 256) past_.pop_front();
+      path_.reset();
+      s.q = rest_;
+      s.target = rest_;
+    } else {
+      const Motion m = path_->At(tau);
+      s.q = m.q;
+      s.qd = m.qd;
+      s.target = path_->q.back();
+      s.moving = true;
+    }
+    s.stop = stop_;
+    s.powered = powered_;
+    return s;
+  }
   if (move_) {
     const double tau = t - move_start_;
     if (stop_at_ && !halt_at_ && t >= *stop_at_) {
@@ -81,13 +143,14 @@ VirtualArm::State VirtualArm::StateAt(double t) {
 
 void VirtualArm::Remember(double start, double end, const JointMove& move) {
   constexpr size_t kKept = 256;
-  past_.push_back({start, end, move});
+  past_.push_back({start, end, move, nullptr});
   if (past_.size() > kKept) past_.pop_front();
 }
 
 VirtualArm::Motion VirtualArm::At(double t) const {
   std::lock_guard lock(mutex_);
   const auto zero = Eigen::VectorXd::Zero(rest_.size());
+  if (path_ && t >= path_->start) return path_->At(t - path_->start);
   if (move_ && t >= move_start_) {
     const double tau = t - move_start_;
     if (halt_at_ && tau >= *halt_at_) {
@@ -99,6 +162,11 @@ VirtualArm::Motion VirtualArm::At(double t) const {
   }
   for (auto it = past_.rbegin(); it != past_.rend(); ++it) {
     if (t < it->start) continue;
+    if (it->path) {
+      Motion m = it->path->At(std::min(t, it->end) - it->start);
+      if (t >= it->end) m.qd.setZero();
+      return m;
+    }
     if (t >= it->end) return {it->move.PositionAt(it->end - it->start), zero};
     return {it->move.PositionAt(t - it->start), it->move.VelocityAt(t - it->start)};
   }
@@ -121,6 +189,12 @@ bool VirtualArm::MoveJ(const Eigen::VectorXd& target, double a, double v) {
   const State now = StateAt(t);
   if (stop_ != Stop::kNone || !powered_) return false;
   // A move starts from where the arm stands (one still running ends where it is).
+  if (path_) {
+    past_.push_back({path_->start, t, JointMove(rest_, rest_, 1.0, 1.0),
+                     std::make_shared<const SampledPath>(*path_)});
+    moving_s_ += t - path_->start;
+    path_.reset();
+  }
   if (move_) {
     if (!halt_at_) Remember(move_start_, t, *move_);
     moving_s_ += t - move_start_;

@@ -6,6 +6,7 @@
 #pragma once
 
 #include <deque>
+#include <memory>
 
 #include <Eigen/Core>
 #include <mutex>
@@ -45,6 +46,12 @@ class VirtualArm {
   // Starts a joint move from where the arm is; false (nothing moves) while it is stopped or
   // not powered. A move replaces the one running.
   bool MoveJ(const Eigen::VectorXd& target_rad, double a_rad_s2, double v_rad_s);
+
+  // A move along a path the controller computed (a linear TCP move by its own inverse
+  // kinematics, simulation/path_motion.h): the joints every `dt_s` of physical time from now,
+  // linearly interpolated between. Replaces a move running; false while stopped or not
+  // powered. A stop during it holds the arm where it is (no braking modelled).
+  bool MovePath(std::vector<Eigen::VectorXd> joints_rad, double dt_s);
 
   // Stops: the arm brakes along its path (a protective stop at the move's own deceleration,
   // at least 2 rad/s²; an emergency stop at 10 rad/s², and the arm is powered off).
@@ -102,9 +109,17 @@ class VirtualArm {
   std::optional<PendingDrift> pending_drift_;
   void EndDrift(double t);  // under the lock
   Eigen::VectorXd pushed_;  // the joints last given to the lab
+  struct SampledPath {
+    double start = 0.0, dt = 0.0;
+    std::vector<Eigen::VectorXd> q;
+    double duration() const { return dt * static_cast<double>(q.size() - 1); }
+    Motion At(double tau) const;  // clamped to [0, duration]
+  };
+  std::optional<SampledPath> path_;  // a path move running
   struct PastMove {
     double start = 0.0, end = 0.0;  // physical time; `end` before the move's own when cut short
     JointMove move;
+    std::shared_ptr<const SampledPath> path;  // a path move instead of `move`
   };
   std::deque<PastMove> past_;  // the latest last
   void Remember(double start, double end, const JointMove& move);  // under the lock

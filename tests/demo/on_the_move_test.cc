@@ -6,6 +6,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <string>
 
 #include "db/database.h"
 #include "demo/demo.h"
@@ -58,6 +59,19 @@ TEST(DemoOnTheMove, AThousandConfigurationsInMinutesOfRobotTimeWithTheClockFromT
   EXPECT_EQ(db.sql().execAndGet("SELECT count(*) FROM points WHERE sync_sigma_mm IS NOT NULL").getInt(),
             poses);
   EXPECT_NE(narrative.find("clock estimated from the data"), std::string::npos) << narrative;
+  // ISO 9283 path accuracy on the standard's line and rectangle, movel on the controller's
+  // own kinematics, before and after compensation by the set just fitted.
+  ASSERT_TRUE(j.contains("iso9283_path")) << narrative;
+  const auto& path = j["iso9283_path"];
+  for (const char* name : {"line", "rectangle"}) {
+    const double before = path[name]["original"]["AT_mm"], after = path[name]["compensated"]["AT_mm"];
+    EXPECT_GT(before, 0.1) << name;  // the controller's factory kinematics miss the path
+    EXPECT_LT(after, 0.5 * before) << name;
+    EXPECT_LT(after, 0.1) << name;
+    EXPECT_LT(std::abs(path[name]["compensated"]["AV_percent"].get<double>()), 1.0) << name;
+  }
+  EXPECT_LT(path["rectangle"]["compensated"]["CR_mm"].get<double>(),
+            0.5 * path["rectangle"]["original"]["CR_mm"].get<double>());
 }
 
 TEST(DemoOnTheMove, NeedsAControllerThatStreamsItsJoints) {
