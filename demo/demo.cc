@@ -474,6 +474,7 @@ class DemoRun {
   bool on_the_move_ = false;
   double planted_offset_ms_ = 0.0, planted_drift_ppm_ = 0.0;
   nlohmann::json iso9283_paths_;  // Iso9283Paths' figures
+  double capture_robot_time_s_ = 0.0;  // the arm's moving time when the capture ended
 };
 
 // Everything the options decide is checked before anything is created.
@@ -763,6 +764,7 @@ bool DemoRun::Capture() {
     Say(DemoCaptureText(captured_, use_tracker_));
   }
   if (auto* ur = lab_->ur()) {
+    capture_robot_time_s_ = ur->arm().moving_s();
     const int thinning = simulation::UrSimulator::Thinning(ur->frequency_hz(), time_scale_);
     Say(fmt::format("   the arm moved for {:.1f} min of its own time (movej, {:.2f} rad/s; {:.1f} s of "
                     "wall time at time scale {:g}); joints from RTDE's {:g} Hz recipe{}, each "
@@ -1064,7 +1066,7 @@ void DemoRun::WriteJson() {
                     {"seconds", seconds_}};
   if (on_the_move_ && captured_.sweep) {
     const acquisition::SweepSummary& w = *captured_.sweep;
-    out["robot_time_s"] = lab_->ur() ? lab_->ur()->arm().moving_s() : w.robot_time_s;
+    out["robot_time_s"] = capture_robot_time_s_ > 0.0 ? capture_robot_time_s_ : w.robot_time_s;
     if (w.clock) {
       out["sync"] = {{"offset_ms", w.clock->offset_ms},
                      {"drift_ppm", w.clock->drift_ppm},
