@@ -17,6 +17,7 @@
 #include "acquisition/session_owner.h"
 #include "calibration/estimation.h"
 #include "core/error.h"
+#include "core/text.h"
 #include "db/controllers.h"
 #include "db/observations.h"
 #include "db/robots.h"
@@ -472,7 +473,7 @@ CaptureSummary RunSweepCapture(
                            {"left_uncertain", figures.left_uncertain},
                            {"beam_breaks", streams.events.size()},
                            {"speed_rad_s", figures.speed_rad_s}};
-    db::SetSessionSync(db, session, sync.dump());
+    db::SetSessionSync(db, session, JsonText(sync));
     db::SetSessionState(db, session, db::SessionState::kCompleted);
     tx.commit();
   }

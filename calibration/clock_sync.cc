@@ -163,7 +163,9 @@ std::optional<ClockMap> CoarseClock(const RobotModel& model, const Eigen::Vector
     speed_t.push_back((points.point_mm[i] - points.point_mm[i - 1]).norm() / dt);
   }
   const double step = options.grid_s;
-  const Profile controller = Resample(joints.t_s, speed_c, step, options.max_gap_s);
+  // The speed profile is smooth: a lag to a grid step survives gaps the pairing would not
+  // interpolate across (a stream that lost packages now and then).
+  const Profile controller = Resample(joints.t_s, speed_c, step, std::max(options.max_gap_s, 0.25));
   const Profile tracker = Resample(t_mid, speed_t, step, std::max(0.1, 20 * step));
   if (tracker.value.size() * step < 2.0 || controller.value.size() * step < 2.0) return std::nullopt;
   // Wide and coarse (every 10th grid step, every 4th sample), then narrow and fine.

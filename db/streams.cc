@@ -4,6 +4,7 @@
 #include <nlohmann/json.hpp>
 
 #include "core/error.h"
+#include "core/text.h"
 
 #include "db/observations.h"
 #include "db/sql_util.h"
@@ -16,7 +17,7 @@ namespace {
 std::string JsonOf(const Eigen::VectorXd& v) {
   nlohmann::json a = nlohmann::json::array();
   for (Eigen::Index i = 0; i < v.size(); ++i) a.push_back(v(i));
-  return a.dump();
+  return JsonText(a);
 }
 
 Eigen::VectorXd VectorOf(const std::string& text, int64_t row, const char* column) {

@@ -489,7 +489,10 @@ void DemoRun::CheckOptions() {
   time_scale_ = options_.time_scale.value_or(robot_->time_scale);
   // On the move the joint stream must keep up: RTDE sends at most a package per 0.2 ms of wall
   // time, so a sweep runs at most 20 times faster than the real arm (250 Hz of physical time).
-  if (options_.on_the_move && !options_.time_scale) time_scale_ = std::max(time_scale_, 0.05);
+  if ((options_.on_the_move || (serving_ && robot_->controller == io::ControllerProtocol::kUr)) &&
+      !options_.time_scale) {
+    time_scale_ = std::max(time_scale_, 0.05);  // a served UR is measured on the move too
+  }
   if (options_.on_the_move && time_scale_ < 0.05) {
     throw InputError({"--time-scale", 0, 0, ""},
                      fmt::format("{:g} is too fast to measure on the move: the virtual UR sends at "
@@ -680,6 +683,11 @@ DemoResult DemoRun::Serve() {
           ? fmt::format("Serving for {:g} s (Ctrl-C ends it sooner).", options_.serve_seconds)
           : std::string("Ctrl-C ends it."),
       robot_->model_file, robot_->name));
+  if (robot_->controller == io::ControllerProtocol::kUr && use_tracker_) {
+    Say(fmt::format("or on the move (the tracker measures continuously while the arm sweeps):\n"
+                    "  armsig --db lab.db capture --lab {} --plan auto:30 --robot {} --on-the-move\n",
+                    (lab_->folder() / "lab.yaml").string(), robot_->name));
+  }
   const auto until =
       std::chrono::steady_clock::now() + std::chrono::duration<double>(options_.serve_seconds);
   while (!Stopped(options_) &&

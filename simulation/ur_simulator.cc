@@ -444,11 +444,13 @@ void UrSimulator::StreamTick(ConnectionPtr c) {
     c->packages = due;
   }
   const double stamp = c->first_stamp + static_cast<double>(c->packages) * step;
-  // The values of the period the stamp names, as the controller samples them: the arm's
-  // motion at the stamp (what a drift added meanwhile kept from now), not at this tick's
-  // wall time — a tick a step late would otherwise date a moving arm wrong by up to a step.
+  // The values of the period the stamp names, as the controller samples them: a moving arm's
+  // motion at the stamp (what a drift added meanwhile kept from now), not at this tick's wall
+  // time — a tick a step late would otherwise date a moving arm wrong by up to a step. An arm
+  // at rest, turned by something else, or whose move began after the stamp is sampled now
+  // (VirtualArm::At knows the controller's moves, not what else turned the arm before them).
   VirtualArm::State sampled = s;
-  if (stamp < s.t) {
+  if (stamp < s.t && s.moving && stamp >= s.move_start) {
     const VirtualArm::Motion then = arm_->At(stamp), now = arm_->At(s.t);
     sampled.q = then.q + (s.q - now.q);
     sampled.qd = then.qd + (s.qd - now.qd);

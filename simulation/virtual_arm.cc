@@ -79,6 +79,7 @@ VirtualArm::State VirtualArm::StateAt(double t) {
       s.qd = m.qd;
       s.target = path_->q.back();
       s.moving = true;
+      s.move_start = path_->start;
     }
     s.stop = stop_;
     s.powered = powered_;
@@ -108,6 +109,7 @@ VirtualArm::State VirtualArm::StateAt(double t) {
         s.qd = move_->VelocityAlong(p.ds);
         s.target = move_->to();
         s.moving = true;
+        s.move_start = move_start_;
       }
     } else if (tau >= move_->duration_s()) {
       Remember(move_start_, move_start_ + move_->duration_s(), *move_);
@@ -127,6 +129,7 @@ VirtualArm::State VirtualArm::StateAt(double t) {
       s.qd = move_->VelocityAt(tau);
       s.target = move_->to();
       s.moving = true;
+      s.move_start = move_start_;
     }
     if (!move_) s.target = rest_;
   }

@@ -27,6 +27,7 @@ class VirtualArm {
     Eigen::VectorXd q, qd;  // encoder angles (rad) and speeds (rad/s)
     Eigen::VectorXd target;  // where the running move goes (q when none)
     bool moving = false;     // a move runs (not yet arrived, not stopped)
+    double move_start = 0.0;  // when the running move began (physical s), with `moving`
     Stop stop = Stop::kNone;
     bool powered = true;     // false after an emergency stop until powered on again
   };

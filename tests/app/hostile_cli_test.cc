@@ -309,9 +309,11 @@ TEST(HostileCli, EveryNumericOptionOfEveryCommandIsRangeChecked) {
     walk(&app, {});
   }
   ASSERT_GT(numeric.size(), 20u);  // calibrate, recalibrate, orient, triangulate, demo, …
-  // Joint angles, coordinates and orientation angles may be negative.
+  // Joint angles, coordinates and orientation angles may be negative; so may a virtual
+  // tracker's clock offset and drift.
   const std::set<std::string> negative_allowed = {"--seed-deg", "--cube", "--centre",
-                                                  "--orientation"};
+                                                  "--orientation", "--clock-offset-ms",
+                                                  "--clock-drift-ppm"};
   for (const auto& option : numeric) {
     std::vector<std::string> values = {"nan", "inf", "1e999", "1e300", "-1"};
     if (!option.positional) values.push_back("-inf");
