@@ -63,6 +63,7 @@ void SetupIso9283Commands(CLI::App& parent, const GlobalOptions& global, Runner&
 void SetupIso9283PlanCommand(CLI::App& iso9283, const GlobalOptions& global, Runner& run);
 void SetupIso9283ReportCommand(CLI::App& iso9283, const GlobalOptions& global, Runner& run);
 void SetupIso9283EvaluateCommand(CLI::App& iso9283, const GlobalOptions& global, Runner& run);
+void SetupIso9283EvaluatePathCommand(CLI::App& iso9283, const GlobalOptions& global, Runner& run);
 
 // Ctrl-C, SIGTERM (systemctl stop, kill) and SIGHUP (a closed terminal) ask the running
 // command to stop at its next safe point; the first call installs the handlers. A

@@ -1,4 +1,4 @@
-// armsig iso9283: ISO 9283 performance tests (plan, report, evaluate; one file each).
+// armsig iso9283: ISO 9283 performance tests (plan, report, evaluate, evaluate-path; one file each).
 #include "app/command.h"
 
 namespace armsig::app {
@@ -10,6 +10,7 @@ void SetupIso9283Commands(CLI::App& parent, const GlobalOptions& global, Runner&
   SetupIso9283PlanCommand(*iso, global, run);
   SetupIso9283ReportCommand(*iso, global, run);
   SetupIso9283EvaluateCommand(*iso, global, run);
+  SetupIso9283EvaluatePathCommand(*iso, global, run);
 }
 
 }  // namespace armsig::app

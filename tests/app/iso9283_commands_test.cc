@@ -248,5 +248,55 @@ TEST(Iso9283Commands, RefusalsAreExitTwoNamingWhatIsWrong) {
   EXPECT_NE(line.err.find("not on one"), std::string::npos) << line.err;
 }
 
+// `iso9283 evaluate-path`: a straight commanded path and three cycles written by the test
+// at a planted offset across the path (0.3 mm in z: AT), along it (5 mm: not AT), a planted
+// speed (2 % above the command: AV) and a planted repeatability (one cycle 0.1 mm higher:
+// RT = l̄ + 3 S by hand); a rectangle's corner cut (CR); files with a typo are exit 2 naming
+// the file, line and column.
+TEST(Iso9283Commands, EvaluatePathFromFiles) {
+  TempDir dir;
+  WriteText(dir.File("line.csv"), "vertex,x_mm,y_mm,z_mm\nA,0,0,0\nB,400,0,0\n");
+  const double v = 250.0 * 1.02;
+  const double z[3] = {0.3, 0.3, 0.4};
+  std::string cycles = "cycle,t_s,x_mm,y_mm,z_mm\n";
+  for (int c = 0; c < 3; ++c) {
+    for (int k = 0; k * 2.0 <= 380.0; ++k) {
+      const double x = 5.0 + 2.0 * k;  // 5 mm along the path: no path error
+      cycles += fmt::format("{},{:.9f},{:.6f},0,{:.6f}\n", c + 1, 10.0 * c + x / v, x, z[c]);
+    }
+  }
+  WriteText(dir.File("cycles.csv"), cycles);
+  const auto r = RunArmsig("iso9283 evaluate-path --commanded '" + dir.File("line.csv") +
+                           "' --attained '" + dir.File("cycles.csv") + "' --speed 250 --json '" +
+                           dir.File("p.json") + "'");
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_NE(r.out.find("path accuracy AT"), std::string::npos) << r.out;
+  const auto j = nlohmann::json::parse(ReadText(dir.File("p.json")));
+  EXPECT_EQ(j["cycles"], 3);
+  const double mean_z = (0.3 + 0.3 + 0.4) / 3.0;
+  EXPECT_NEAR(j["AT_mm"].get<double>(), mean_z, 1e-6);
+  // l_j: |z_j − z̄| = 1/30, 1/30, 2/30; l̄ = 4/90; S on n − 1.
+  const double l[3] = {1.0 / 30, 1.0 / 30, 2.0 / 30};
+  const double lbar = (l[0] + l[1] + l[2]) / 3.0;
+  double ss = 0.0;
+  for (double li : l) ss += (li - lbar) * (li - lbar);
+  EXPECT_NEAR(j["RT_mm"].get<double>(), lbar + 3.0 * std::sqrt(ss / 2.0), 1e-6);
+  EXPECT_NEAR(j["AV_percent"].get<double>(), 2.0, 1e-4);  // times written to the ns
+  EXPECT_TRUE(j["corners"].empty());
+
+  WriteText(dir.File("typo.csv"), "cycle,t_s,x_mm,y_mm,z_mm\n1,0.0,1,0,0\n1,0.1,2,0,zero\n");
+  const auto typo = RunArmsig("iso9283 evaluate-path --commanded '" + dir.File("line.csv") +
+                              "' --attained '" + dir.File("typo.csv") + "' --speed 250 --json '" +
+                              dir.File("q.json") + "'");
+  EXPECT_EQ(typo.exit_code, 2);
+  EXPECT_NE(typo.err.find("typo.csv:3:"), std::string::npos) << typo.err;
+  WriteText(dir.File("back.csv"), "cycle,t_s,x_mm,y_mm,z_mm\n1,0.2,1,0,0\n1,0.1,2,0,0\n");
+  const auto back = RunArmsig("iso9283 evaluate-path --commanded '" + dir.File("line.csv") +
+                              "' --attained '" + dir.File("back.csv") + "' --speed 250 --json '" +
+                              dir.File("q.json") + "'");
+  EXPECT_EQ(back.exit_code, 2);
+  EXPECT_NE(back.err.find("does not follow"), std::string::npos) << back.err;
+}
+
 }  // namespace
 }  // namespace armsig::testing
