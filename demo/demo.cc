@@ -22,9 +22,7 @@
 #include "acquisition/lab.h"
 #include "acquisition/on_the_move.h"
 #include "acquisition/session_owner.h"
-#include "calibration/compensation.h"
 #include "calibration/identifiability.h"
-#include "calibration/iso9283_path.h"
 #include "calibration/selection.h"
 #include "calibration/synthetic.h"
 #include "core/error.h"
@@ -36,14 +34,12 @@
 #include "db/postgres_connection.h"
 #include "db/store.h"
 #include "demo/demo_lab.h"
-#include "instruments/emscon_device.h"
+#include "demo/demo_paths.h"
 #include "io/atomic_file.h"
 #include "io/builtin_models.h"
 #include "io/gsi_import.h"
 #include "io/model_yaml.h"
-#include "programs/controller.h"
 #include "reduction/observation.h"
-#include "simulation/path_motion.h"
 #include "simulation/ur_simulator.h"
 #include "workflows/calibration_run.h"
 #include "workflows/calibration_text.h"
@@ -435,7 +431,6 @@ class DemoRun {
   bool Calibrate();
   void StoreSets();
   void Iso9283Paths();
-  void RunIso9283Paths();
   void Summarise();
   void WriteJson();
 
@@ -902,155 +897,24 @@ void DemoRun::StoreSets() {
   tx.commit();
 }
 
-// ISO 9283 path characteristics on the virtual UR10 (on the move): the standard's line and
-// rectangle in a 300 mm cube around the arm's home target, each run by the controller's
-// linear moves (its own inverse kinematics, 250 mm/s, 1.2 m/s²: URScript's movel defaults)
-// and measured continuously by the tracker, before and after compensation of their vertices
-// by the set just fitted; the attained paths in the robot frame by that set's base.
+// ISO 9283 path characteristics on the virtual UR10 (on the move, demo/demo_paths.h), after
+// the calibration: a failure is said, never the demo's.
 void DemoRun::Iso9283Paths() {
-  simulation::UrSimulator* ur = lab_->ur();
-  simulation::EmsconSimulator* sim = lab_->tracker();
-  if (!ur || !sim || runs_.empty() || lab_config_.stations.empty()) return;
+  if (!lab_->ur() || !lab_->tracker() || runs_.empty() || lab_config_.stations.empty()) return;
   try {
-    RunIso9283Paths();
+    const DemoPathFigures f =
+        MeasureIso9283Paths(*lab_, model_, runs_.back().estimate, lab_config_, options_.stop);
+    if (f.stopped) return;
+    iso9283_paths_ = f.json;
+    Say("5. ISO 9283 path characteristics (clause 8), the standard's paths in a 300 mm cube, movel "
+        "at 250 mm/s on the controller's own kinematics, measured on the move (the attained paths "
+        "in the robot frame of the set just fitted):\n"
+        "  path       program        AT mm  mean AT   RT mm     AV %    RV %  FV mm/s\n" + f.table,
+        0);
   } catch (const std::exception& e) {
     if (Stopped(options_)) return;
     Say(fmt::format("5. ISO 9283 path characteristics not measured: {}\n", e.what()));
   }
-}
-
-void DemoRun::RunIso9283Paths() {
-  simulation::UrSimulator* ur = lab_->ur();
-  simulation::EmsconSimulator* sim = lab_->tracker();
-  namespace iso = calibration::iso9283;
-  const calibration::EstimationResult& fit = runs_.back().estimate;
-  const programs::ControllerModel controller = simulation::UrControllerModel(lab_->robot_truth().kinematics);
-  const Eigen::VectorXd home = lab_->home();
-  // The TCP is the reflector: where the nominal model puts it, on the controller's flange
-  // (tool0 need not be the model's last link frame).
-  Eigen::Isometry3d tool = Eigen::Isometry3d::Identity();
-  {
-    calibration::Kinematics kin(model_);
-    const Eigen::Vector3d reflector = kin.Position(
-        Eigen::Isometry3d::Identity(), Eigen::VectorXd::Zero(model_.num_parameters()), home.data());
-    tool.translation() = programs::FlangePose(controller, home).inverse() * reflector;
-  }
-  const Eigen::Isometry3d home_tcp = programs::TcpPose(controller, home, tool);
-  const iso::TestPaths paths = iso::BuildTestPaths({home_tcp.translation(), 300.0});
-  constexpr double kSpeed = 250.0, kAcceleration = 1200.0, kDt = 0.004;
-  instruments::EmsconDevice tracker(instruments::MakeEmsconTcpTransport("127.0.0.1", sim->port()),
-                                    lab_config_.policy);
-  simulation::VirtualArm& arm = ur->arm();
-  const StationPose& station = lab_config_.stations.front().pose;
-  const Eigen::Isometry3d base_from_world = fit.world_from_base.inverse();
-  const auto stand = [&] {
-    while (arm.Now().moving) std::this_thread::sleep_for(std::chrono::milliseconds(1));
-  };
-  nlohmann::json out = nlohmann::json::object();
-  std::string table;
-  struct Case {
-    const char* name;
-    const std::vector<Eigen::Vector3d>* vertices;
-    int cycles;
-  };
-  const Case cases[] = {{"line", &paths.line_mm, 10}, {"rectangle", &paths.rectangle_mm, 3}};
-  for (const Case& c : cases) {
-    for (const bool compensated : {false, true}) {
-      if (Stopped(options_)) return;
-      // Each vertex's command: the TCP at the vertex (the home's orientation), or where the
-      // controller must be sent so the calibrated robot lands there.
-      std::vector<Eigen::Isometry3d> commands;
-      std::vector<Eigen::VectorXd> vertex_joints;
-      Eigen::VectorXd near = home;
-      for (const Eigen::Vector3d& v : *c.vertices) {
-        Eigen::Isometry3d tcp = home_tcp;
-        tcp.translation() = v;
-        programs::InverseRequest request{tcp, tool, {}, near};
-        const auto solved = programs::ControllerInverse(controller, request);
-        if (!solved.joints_rad) throw std::runtime_error("demo: ISO 9283 path vertex out of reach: " + solved.why);
-        Eigen::VectorXd q = *solved.joints_rad;
-        if (compensated) {
-          const auto c_solved = calibration::SolveJoints(model_, Eigen::Isometry3d::Identity(), fit.params, v, q);
-          if (c_solved.status.ok()) q = c_solved.joints_rad;
-          tcp = programs::TcpPose(controller, q, tool);
-        }
-        commands.push_back(tcp);
-        vertex_joints.push_back(q);
-        near = q;
-      }
-      // The controller's joint paths between the vertices (the same every cycle).
-      std::vector<std::vector<Eigen::VectorXd>> legs;
-      for (size_t k = 1; k < commands.size(); ++k) {
-        simulation::LinearPathRequest r;
-        // From where the leg before ended (the controller follows its solutions along the
-        // path; another branch at a vertex would be a jump).
-        r.start_rad = legs.empty() ? vertex_joints.front() : legs.back().back();
-        r.to_tcp = commands[k];
-        r.tool = tool;
-        r.speed_mm_s = kSpeed;
-        r.acceleration_mm_s2 = kAcceleration;
-        r.dt_s = kDt;
-        std::string why;
-        auto leg = simulation::LinearPath(controller, r, &why);
-        if (!leg) throw std::runtime_error("demo: ISO 9283 path: " + why);
-        legs.push_back(std::move(*leg));
-      }
-      std::vector<iso::AttainedCycle> attained;
-      for (int cycle = 0; cycle < c.cycles; ++cycle) {
-        arm.MoveJ(vertex_joints.front(), 1.4, 1.05);
-        std::this_thread::sleep_for(std::chrono::milliseconds(2));
-        stand();
-        tracker.StartContinuous({4, std::nullopt});
-        std::atomic<bool> done{false};
-        iso::AttainedCycle cyc;
-        std::thread reader([&] {
-          tracker.ReadContinuous(
-              instruments::Clock::now() + std::chrono::minutes(10), done,
-              [&](const instruments::ContinuousRecord& rec) {
-                const Eigen::Vector3d world = station.position_mm + station.world_from_station * rec.point_in_instrument_mm;
-                cyc.samples.push_back({rec.tracker_time_s, base_from_world * world});
-              },
-              {});
-        });
-        for (const auto& leg : legs) {
-          arm.MovePath(leg, kDt);
-          stand();
-        }
-        done = true;
-        reader.join();
-        tracker.StopContinuous();
-        attained.push_back(std::move(cyc));
-      }
-      // Speeds over 100 ms (25 records): over one record's 4 ms the tracker's noise alone
-      // would be 10 mm/s.
-      iso::PathOptions path_options;
-      path_options.speed_stride = 25;
-      const iso::PathFigures f = iso::EvaluatePath({*c.vertices, kSpeed}, attained, path_options);
-      nlohmann::json j = {{"cycles", f.n},          {"AT_mm", f.at_mm},
-                          {"mean_AT_mm", f.mean_at_mm}, {"RT_mm", f.rt_mm},
-                          {"AV_percent", f.av_percent}, {"RV_percent", f.rv_percent},
-                          {"FV_mm_s", f.fv_mm_s},   {"planes", f.planes_used}};
-      double cr = 0.0, co = 0.0;
-      for (const auto& corner : f.corners) {
-        cr = std::max(cr, corner.cr_max_mm);
-        if (!std::isnan(corner.co_max_mm)) co = std::max(co, corner.co_max_mm);
-      }
-      if (!f.corners.empty()) {
-        j["CR_mm"] = cr;
-        j["CO_mm"] = co;
-      }
-      out[c.name][compensated ? "compensated" : "original"] = j;
-      table += fmt::format("  {:<10} {:<12} {:>7.3f} {:>7.3f} {:>7.3f} {:>8.2f} {:>7.2f} {:>7.1f}{}\n", c.name,
-                           compensated ? "compensated" : "original", f.at_mm, f.mean_at_mm, f.rt_mm,
-                           f.av_percent, f.rv_percent, f.fv_mm_s,
-                           f.corners.empty() ? std::string() : fmt::format("  CR {:.3f} CO {:.3f}", cr, co));
-    }
-  }
-  iso9283_paths_ = out;
-  Say("5. ISO 9283 path characteristics (clause 8), the standard's paths in a 300 mm cube, movel at "
-      "250 mm/s on the controller's own kinematics, measured on the move (the attained paths in "
-      "the robot frame of the set just fitted):\n"
-      "  path       program        AT mm  mean AT   RT mm     AV %    RV %  FV mm/s\n" + table, 0);
 }
 
 void DemoRun::Summarise() {

@@ -286,6 +286,31 @@ void EmsconSimulator::OnFrame(const std::shared_ptr<Connection>& c, const std::s
 
 // --- Continuous measurement -------------------------------------------------------------
 
+// The continuous modes' commands (under the lock, FromTable's part for them).
+void EmsconSimulator::ContinuousCommand(const es::Request& request, es::CommandAnswer& a,
+                                        std::vector<std::string>& after) {
+  const auto change = [&](int32_t value) { after.push_back(es::EncodePacket(es::StatusChange{value})); };
+  if (std::holds_alternative<es::StopMeasurement>(request)) {
+    ++stream_generation_;  // a stream that runs ends; none: nothing to stop, AllOK
+  } else if (const auto* t = std::get_if<es::SetContinuousTimeModeParams>(&request)) {
+    if (t->time_separation_ms < 1 || t->time_separation_ms > 100000 || t->number_of_points < 0) {
+      a.status = es::status::kWrongParameter1;
+    } else {
+      continuous_time_ms_ = t->time_separation_ms;
+      continuous_distance_mm_ = 0.0;
+      change(19);  // ContinuousTimeModeParamsChanged
+    }
+  } else if (const auto* d = std::get_if<es::SetContinuousDistanceModeParams>(&request)) {
+    const double mm = d->spatial_distance * *es::MillimetresPer(state_.units.length);
+    if (!(mm > 0.0) || mm > 1e5 || d->number_of_points < 0) {
+      a.status = es::status::kWrongParameter1;
+    } else {
+      continuous_distance_mm_ = mm;
+      change(20);  // ContinuousDistanceModeParamsChanged
+    }
+  }
+}
+
 void EmsconSimulator::FollowArm(const VirtualArm* arm) {
   std::lock_guard lock(mutex_);
   arm_ = arm;
@@ -549,25 +574,10 @@ EmsconSimulator::TableAnswer EmsconSimulator::FromTable(const es::Request& reque
             } else {
               start_stream_ = true;  // the records follow the reply (OnFrame)
             }
-          } else if constexpr (std::is_same_v<T, es::StopMeasurement>) {
-            ++stream_generation_;  // a stream that runs ends; none: nothing to stop, AllOK
-          } else if constexpr (std::is_same_v<T, es::SetContinuousTimeModeParams>) {
-            if (r.time_separation_ms < 1 || r.time_separation_ms > 100000 ||
-                r.number_of_points < 0) {
-              a.status = es::status::kWrongParameter1;
-            } else {
-              continuous_time_ms_ = r.time_separation_ms;
-              continuous_distance_mm_ = 0.0;
-              change(19);  // ContinuousTimeModeParamsChanged
-            }
-          } else if constexpr (std::is_same_v<T, es::SetContinuousDistanceModeParams>) {
-            const double mm = r.spatial_distance * *es::MillimetresPer(s.units.length);
-            if (!(mm > 0.0) || mm > 1e5 || r.number_of_points < 0) {
-              a.status = es::status::kWrongParameter1;
-            } else {
-              continuous_distance_mm_ = mm;
-              change(20);  // ContinuousDistanceModeParamsChanged
-            }
+          } else if constexpr (std::is_same_v<T, es::StopMeasurement> ||
+                               std::is_same_v<T, es::SetContinuousTimeModeParams> ||
+                               std::is_same_v<T, es::SetContinuousDistanceModeParams>) {
+            ContinuousCommand(r, a, after);
           } else if constexpr (std::is_same_v<T, es::ChangeFace>) {
             s.face = 3 - s.face;
             lab_.SetFace(station_, s.face);
