@@ -45,13 +45,8 @@ constexpr double kClockBudgetS = 5e-5;
 
 bool Stopping(const CaptureOptions& o) { return o.stop && o.stop->load(); }
 
-struct Segment {
-  int index = 0;
-  size_t first = 0, last = 0;  // waypoints, inclusive
-};
-
-std::vector<Segment> Segments(size_t waypoints, int per_segment) {
-  std::vector<Segment> out;
+std::vector<SweepSpan> Segments(size_t waypoints, int per_segment) {
+  std::vector<SweepSpan> out;
   const auto step = static_cast<size_t>(std::max(1, per_segment));
   for (size_t first = 0; first + 1 < waypoints; first += step) {
     out.push_back({static_cast<int>(out.size()), first, std::min(first + step, waypoints - 1)});
@@ -60,6 +55,20 @@ std::vector<Segment> Segments(size_t waypoints, int per_segment) {
 }
 
 }  // namespace
+
+std::vector<SweepSpan> PathSegments(const Plan& plan) {
+  std::vector<SweepSpan> out;
+  size_t first = 0;
+  for (size_t k = 1; k <= plan.size(); ++k) {
+    const bool linear = k < plan.size() && plan[k].linear_speed_mm_s;
+    const bool same = linear && (k == first + 1 ||
+                                 plan[k].linear_speed_mm_s == plan[k - 1].linear_speed_mm_s);
+    if (same) continue;
+    if (k - 1 > first) out.push_back({static_cast<int>(out.size()), first, k - 1});
+    first = linear ? k - 1 : k;
+  }
+  return out;
+}
 
 double SweepSpeed(double noise_mm, double clock_sigma_s, double reach_mm) {
   const double v_mm_s = noise_mm / std::max(clock_sigma_s, 1e-9);
@@ -183,8 +192,8 @@ class SweepRun {
   bool SetUp();
   void SweepSegments();
   // Sweeps one segment into `rows` (the devices' work; throws what they throw).
-  void SweepSegment(const Segment& seg, db::StreamSegment& rows);
-  void Stored(const Segment& seg, const db::StreamSegment& rows);
+  void SweepSegment(const SweepSpan& seg, db::StreamSegment& rows);
+  void Stored(const SweepSpan& seg, const db::StreamSegment& rows);
   LoadedStreams LoadStreams() const;
   // nullopt when no clock lines the streams up (the session is paused, saying why).
   std::optional<ClockFit> EstimateClock(const LoadedStreams& s);
@@ -204,7 +213,8 @@ class SweepRun {
   std::string station_code_;
   const reduction::Station* station_ = nullptr;
   Plan plan_;
-  std::vector<Segment> segments_;
+  std::vector<SweepSpan> segments_;
+  bool path_ = false;  // an ISO 9283 path plan (linear moves)
 };
 
 // One laser tracker, a controller that streams its joints, the plan; who the controller is.
@@ -278,7 +288,8 @@ bool SweepRun::SetUp() {
   figures_.speed_rad_s = sweep_.speed_rad_s > 0.0
                              ? sweep_.speed_rad_s
                              : SweepSpeed(2.0 * TrackerSigmaMm(2000.0), kClockBudgetS, reach_mm);
-  segments_ = Segments(plan_.size(), sweep_.waypoints_per_segment);
+  path_ = HasLinearMoves(plan_);
+  segments_ = path_ ? PathSegments(plan_) : Segments(plan_.size(), sweep_.waypoints_per_segment);
   return true;
 }
 
@@ -291,7 +302,7 @@ void SweepRun::SweepSegments() {
   summary_.total = figures_.segments;
   summary_.already = figures_.segments_before;
   const InterruptScope interrupts(devices_, controller_, options_.stop);
-  for (const Segment& seg : segments_) {
+  for (const SweepSpan& seg : segments_) {
     if (stored.count(seg.index)) continue;
     if (Stopping(options_)) return Stop();
     db::StreamSegment rows;
@@ -314,12 +325,13 @@ void SweepRun::SweepSegments() {
 
 // The arm to the segment's first waypoint, the tracker measuring continuously on a thread of
 // its own while the controller sweeps through the rest and streams its joints.
-void SweepRun::SweepSegment(const Segment& seg, db::StreamSegment& rows) {
+void SweepRun::SweepSegment(const SweepSpan& seg, db::StreamSegment& rows) {
   std::mutex tracker_rows;
   std::exception_ptr tracker_failed;
   std::atomic<bool> done{false};
   controller_.MoveTo(plan_[seg.first].joints_rad);
-  tracker_->StartContinuous({sweep_.tracker_separation_ms, std::nullopt});
+  tracker_->StartContinuous(
+      {path_ ? sweep_.path_tracker_separation_ms : sweep_.tracker_separation_ms, std::nullopt});
   std::thread reader([&] {
     try {
       tracker_->ReadContinuous(
@@ -340,10 +352,16 @@ void SweepRun::SweepSegment(const Segment& seg, db::StreamSegment& rows) {
   std::vector<Eigen::VectorXd> waypoints;
   for (size_t k = seg.first + 1; k <= seg.last; ++k) waypoints.push_back(plan_[k].joints_rad);
   try {
-    controller_.Sweep(waypoints, figures_.speed_rad_s, sweep_.acceleration_rad_s2,
-                      [&](const instruments::JointSample& s) {
-                        rows.joints.push_back({s.controller_time_s, s.q_rad, s.qd_rad_s});
-                      });
+    instruments::SweepMotion motion;
+    motion.speed_rad_s = figures_.speed_rad_s;
+    motion.acceleration_rad_s2 = sweep_.acceleration_rad_s2;
+    if (const auto& v = plan_[seg.last].linear_speed_mm_s) {
+      motion.linear_speed_mm_s = *v;
+      motion.linear_acceleration_mm_s2 = sweep_.linear_acceleration_mm_s2;
+    }
+    controller_.Sweep(waypoints, motion, [&](const instruments::JointSample& s) {
+      rows.joints.push_back({s.controller_time_s, s.q_rad, s.qd_rad_s});
+    });
   } catch (...) {
     done = true;
     reader.join();
@@ -356,7 +374,7 @@ void SweepRun::SweepSegment(const Segment& seg, db::StreamSegment& rows) {
 }
 
 // A swept segment's rows in one transaction, its figures and the progress.
-void SweepRun::Stored(const Segment& seg, const db::StreamSegment& rows) {
+void SweepRun::Stored(const SweepSpan& seg, const db::StreamSegment& rows) {
   if (rows.joints.size() >= 2)
     figures_.robot_time_s += rows.joints.back().t_s - rows.joints.front().t_s;
   figures_.joint_packages += static_cast<int>(rows.joints.size());
@@ -420,6 +438,10 @@ std::optional<ClockFit> SweepRun::EstimateClock(const LoadedStreams& s) {
   const calibration::RobotModel& model = lab_.model;
   ClockFit fit;
   fit.params = Eigen::VectorXd::Zero(model.num_parameters());
+  // A path's points lie in one plane of the work space: no model of their own to fit, so
+  // they are paired with the robot's active arm signature (else the nominal model).
+  if (path_ && options_.prediction_params && options_.prediction_params->size() == fit.params.size())
+    fit.params = *options_.prediction_params;
   if (sweep_.assumed_offset_ms) {
     fit.clock.offset_s = *sweep_.assumed_offset_ms * 1e-3;
     fit.clock.reference_s = s.points.t_s.front();
@@ -451,7 +473,7 @@ std::optional<ClockFit> SweepRun::EstimateClock(const LoadedStreams& s) {
     fit_options.parameters = calibration::ParseParameterSpec(model, "geometric");
     calibration::PairingOptions loose = sweep_.pairing;
     loose.max_sync_sigma_mm = std::numeric_limits<double>::infinity();
-    for (int round = 0; round < sweep_.clock_rounds; ++round) {
+    for (int round = 0; round < (path_ ? 0 : sweep_.clock_rounds); ++round) {
       const auto paired =
           calibration::PairStreams(model, fit.params, fit.base, s.joints, s.points, fit.clock, loose);
       std::vector<MeasuredPose> poses;

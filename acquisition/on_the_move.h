@@ -28,6 +28,18 @@ namespace armsig::acquisition {
 // target `reach_mm` from the first joint less than `noise_mm`, within [0.05, 1.05] rad/s.
 double SweepSpeed(double noise_mm, double clock_sigma_s, double reach_mm);
 
+// A sweep's segment: configurations first…last of its plan (inclusive), stored as one.
+struct SweepSpan {
+  int index = 0;
+  size_t first = 0, last = 0;
+};
+// A path plan's segments (HasLinearMoves: an ISO 9283 path plan): each from a configuration
+// reached by a joint move (a path cycle's start, where the arm stands) through the linear
+// moves after it at one speed (a change of speed starts the next segment where this one
+// ends). A plan without linear moves is swept in segments of SweepOptions::
+// waypoints_per_segment waypoints instead.
+std::vector<SweepSpan> PathSegments(const Plan& plan);
+
 // Runs (or resumes) `session` on the move: `instruments` must hold one laser tracker (an
 // emScon device) and `controller` must stream its joints (RobotController::Sweep); anything
 // else is an InputError naming what is needed. The CaptureSummary counts configurations as

@@ -2,6 +2,7 @@
 
 #include <fmt/format.h>
 
+#include <algorithm>
 #include <charconv>
 #include <cmath>
 #include <nlohmann/json.hpp>
@@ -26,10 +27,11 @@ namespace {
 Plan ReadPlanCsvWithin(const std::string& path, int num_joints,
                        const calibration::RobotModel* model) {
   const io::CsvTable t = io::ReadCsvFile(path);
-  std::vector<std::string> known = {"pose", "x_mm", "y_mm", "z_mm"};
+  std::vector<std::string> known = {"pose", "x_mm", "y_mm", "z_mm", "speed_mm_s"};
   for (int i = 1; i <= num_joints; ++i) known.push_back("q" + std::to_string(i) + "_*");
   t.RefuseUnreadUnits(known);
   const int id = t.Column("pose");
+  const std::optional<int> speed = t.FindColumn("speed_mm_s");
   // A target only when all three coordinates are there (one or two is a broken file).
   const std::optional<int> tx = t.FindColumn("x_mm"), ty = t.FindColumn("y_mm"),
                            tz = t.FindColumn("z_mm");
@@ -68,6 +70,22 @@ Plan ReadPlanCsvWithin(const std::string& path, int num_joints,
       c.target_mm = Eigen::Vector3d(t.Number(row, *tx, Quantity::kCoordinate),
                                     t.Number(row, *ty, Quantity::kCoordinate),
                                     t.Number(row, *tz, Quantity::kCoordinate));
+    }
+    if (const std::optional<double> v = speed ? t.OptionalNumber(row, *speed) : std::nullopt) {
+      if (!(*v > 0.0 && *v <= kMostLinearSpeedMmS)) {
+        throw InputError(t.Where(row, *speed),
+                         fmt::format("pose {}: a linear move at {:g} mm/s (expected a speed above "
+                                     "0 and at most {:g} mm/s, or the cell empty for a joint move)",
+                                     Quoted(c.label), *v, kMostLinearSpeedMmS));
+      }
+      if (plan.empty()) {
+        throw InputError(t.Where(row, *speed),
+                         fmt::format("pose {}: the first configuration is reached by a joint move "
+                                     "(a linear move needs a configuration to start from; leave "
+                                     "its speed_mm_s empty)",
+                                     Quoted(c.label)));
+      }
+      c.linear_speed_mm_s = *v;
     }
     plan.push_back(std::move(c));
   }
@@ -179,6 +197,11 @@ Plan MakePlan(const std::string& spec, const calibration::RobotModel& model, uns
   return ReadPlanCsv(spec, model);
 }
 
+bool HasLinearMoves(const Plan& plan) {
+  return std::any_of(plan.begin(), plan.end(),
+                     [](const PlannedConfiguration& c) { return c.linear_speed_mm_s.has_value(); });
+}
+
 std::string PlanToJson(const Plan& plan) {
   nlohmann::json j = nlohmann::json::array();
   for (const auto& c : plan) {
@@ -187,6 +210,7 @@ std::string PlanToJson(const Plan& plan) {
         {"joints_rad",
          std::vector<double>(c.joints_rad.data(), c.joints_rad.data() + c.joints_rad.size())}};
     if (c.target_mm) item["target_mm"] = {c.target_mm->x(), c.target_mm->y(), c.target_mm->z()};
+    if (c.linear_speed_mm_s) item["linear_speed_mm_s"] = *c.linear_speed_mm_s;
     j.push_back(std::move(item));
   }
   return JsonText(j);
@@ -204,6 +228,12 @@ Plan PlanFromJson(const std::string& json, const db::JsonCell& where) {
         const auto x = item.at("target_mm").get<std::vector<double>>();
         if (x.size() != 3) db::RefuseStoredJson(where, "expected target_mm as [x, y, z]");
         c.target_mm = Eigen::Vector3d(x[0], x[1], x[2]);
+      }
+      if (item.contains("linear_speed_mm_s")) {
+        const double v = item.at("linear_speed_mm_s").get<double>();
+        if (!(v > 0.0 && v <= kMostLinearSpeedMmS))
+          db::RefuseStoredJson(where, "expected linear_speed_mm_s above 0 and at most 10000");
+        c.linear_speed_mm_s = v;
       }
       plan.push_back(std::move(c));
     }

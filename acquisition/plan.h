@@ -11,6 +11,9 @@
 
 namespace armsig::acquisition {
 
+// The fastest linear move a plan may ask for: no industrial arm's TCP goes 10 m/s.
+inline constexpr double kMostLinearSpeedMmS = 10000.0;
+
 struct PlannedConfiguration {
   std::string label;
   Eigen::VectorXd joints_rad;
@@ -18,11 +21,16 @@ struct PlannedConfiguration {
   // x_mm, y_mm, z_mm columns of an ISO 9283 plan): kept with the session, so its
   // evaluation knows the commanded positions. Capture does not use it.
   std::optional<Eigen::Vector3d> target_mm{};
+  // How the robot gets there from the configuration before: a linear move (the TCP on a
+  // straight line, the controller's own path) at this TCP speed, mm/s (the `speed_mm_s`
+  // column of an ISO 9283 path plan, measured on the move); a joint move when absent.
+  std::optional<double> linear_speed_mm_s{};
 };
 using Plan = std::vector<PlannedConfiguration>;
 
 // "pose,q1_deg,…,qn_deg" (any angle unit suffix), with the target x_mm, y_mm, z_mm when
-// the file gives all three. Throws InputError with line numbers.
+// the file gives all three, and speed_mm_s (a linear move to that row; empty: a joint move)
+// when it has that column. Throws InputError with line numbers.
 Plan ReadPlanCsv(const std::string& path, int num_joints);
 // The same, refusing a configuration outside the model's joint limits (when it has them):
 // the plan is sent to the robot, and a limit is where it stops short or faults.
@@ -45,7 +53,10 @@ inline constexpr unsigned kDefaultPlanSeed = 7;
 Plan MakePlan(const std::string& spec, const calibration::RobotModel& model,
               unsigned seed = kDefaultPlanSeed);
 
-// JSON array of {label, joints_rad[, target_mm]} (stored with the session so it can be
+// Whether any configuration is reached by a linear move (an ISO 9283 path plan).
+bool HasLinearMoves(const Plan& plan);
+
+// JSON array of {label, joints_rad[, target_mm][, linear_speed_mm_s]} (stored with the session so it can be
 // resumed).
 std::string PlanToJson(const Plan& plan);
 // A plan as stored with its session (sessions.plan_json): input like a file, refused with an

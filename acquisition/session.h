@@ -41,6 +41,10 @@ struct SweepOptions {
   double speed_rad_s = 0.0;
   double acceleration_rad_s2 = 1.4;
   int tracker_separation_ms = 50;  // the tracker's continuous time separation
+  // A path plan's (linear moves, ISO 9283): its records a millimetre or so apart at a path
+  // speed of a few hundred mm/s, for the standard's normal planes and corners.
+  int path_tracker_separation_ms = 4;
+  double linear_acceleration_mm_s2 = 1200.0;  // a path's linear moves (URScript movel's default)
   int waypoints_per_segment = 6;
   calibration::ClockOptions clock;
   calibration::PairingOptions pairing;

@@ -1,6 +1,7 @@
 // armsig iso9283 plan --robot NAME (--cube CX,CY,CZ,EDGE_MM | --auto [--centre X,Y,Z])
 //                     [--orientation A,B,C] [--cycles 30] [--compensated]
-//                     [--approach [--approach-mm 100]] --out PLAN.csv
+//                     [--approach [--approach-mm 100]] [--path line,rectangle [--speed 250]]
+//                     --out PLAN.csv
 #include <fmt/format.h>
 
 #include <iostream>
@@ -24,6 +25,7 @@ struct Iso9283PlanCommandOptions {
   std::vector<double> cube, centre, orientation_deg, seed_deg;
   bool auto_cube = false;
   iso9283::Iso9283PlanOptions plan;
+  const CLI::Option* cycles = nullptr;  // given or not: a path test's default is 10
 };
 
 int RunIso9283Plan(const Iso9283PlanCommandOptions& o, db::Database& db) {
@@ -47,6 +49,8 @@ int RunIso9283Plan(const Iso9283PlanCommandOptions& o, db::Database& db) {
     if (!o.centre.empty()) throw InputError({"--centre", 0, 0, ""}, "--centre goes with --auto");
   }
   options.auto_cube = o.auto_cube;
+  // The standard's number of cycles: 30 for the pose test, 10 for a path.
+  if (!options.paths.empty() && o.cycles && o.cycles->count() == 0) options.cycles = 10;
   if (!o.centre.empty()) options.centre_mm = vector3(o.centre, "--centre", 3);
   if (!o.orientation_deg.empty())
     options.orientation_rad = vector3(o.orientation_deg, "--orientation", 3) * kRadPerDeg;
@@ -65,10 +69,11 @@ int RunIso9283Plan(const Iso9283PlanCommandOptions& o, db::Database& db) {
   const auto plan =
       iso9283::MakeIso9283Plan(model, o.robot, options, signature ? &*signature : nullptr);
   io::WriteFileAtomically(o.out, plan.csv);
-  std::cout << iso9283::FormatIso9283PlanSummary(plan, o.out) << "capture it: "
-            << workflows::Hint(db.path(), {"capture", "--lab", "LAB.yaml", "--plan",
-                                           workflows::AbsolutePath(o.out), "--robot", o.robot})
-            << "\n";
+  std::vector<std::string> capture = {"capture", "--lab",  "LAB.yaml", "--plan",
+                                      workflows::AbsolutePath(o.out), "--robot", o.robot};
+  if (!options.paths.empty()) capture.push_back("--on-the-move");  // linear moves, measured moving
+  std::cout << iso9283::FormatIso9283PlanSummary(plan, o.out)
+            << "capture it: " << workflows::Hint(db.path(), capture) << "\n";
   return kOk;
 }
 
@@ -94,12 +99,26 @@ void SetupIso9283PlanCommand(CLI::App& iso, const GlobalOptions& global, Runner&
                   "Rx(A); default: the orientation the inverse gives P1)")
       ->delimiter(',')
       ->check(NumberCheck(-360.0, 360.0));
-  NumberOption(sub->add_option("--cycles", o->plan.cycles, "Cycles (the standard: 30)"), 1, 10000)
-      ->capture_default_str();
+  o->cycles = NumberOption(sub->add_option("--cycles", o->plan.cycles,
+                                           "Cycles (the standard: 30; 10 for --path)"),
+                           1, 10000)
+                  ->capture_default_str();
   sub->add_flag("--compensated", o->plan.compensated,
                 "Joints from the robot's active arm signature (compensated program)");
-  sub->add_flag("--approach", o->plan.multi_directional,
-                "Multi-directional test (vAP): approach each point from its +x, +y and +z side");
+  auto* approach = sub->add_flag(
+      "--approach", o->plan.multi_directional,
+      "Multi-directional test (vAP): approach each point from its +x, +y and +z side");
+  auto* path = sub->add_option("--path", o->plan.paths,
+                               "A path test instead (ISO 9283 clause 8): line, rectangle or both "
+                               "(comma-separated), linear moves measured on the move")
+                   ->delimiter(',')
+                   ->check(CLI::IsMember({"line", "rectangle"}));
+  path->excludes(approach);
+  NumberOption(sub->add_option("--speed", o->plan.path_speed_mm_s,
+                               "The path speed of --path, mm/s (URScript movel's default 250)"),
+               1.0, 5000.0)
+      ->capture_default_str()
+      ->needs(path);
   NumberOption(sub->add_option("--approach-mm", o->plan.approach_mm,
                                "Distance of the via points of --approach"),
                1.0, 2000.0)

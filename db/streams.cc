@@ -107,13 +107,13 @@ SessionStreams LoadSessionStreams(Database& db, int64_t session_id) {
   }
   {
     auto s = Sql(db,
-                 "SELECT st.code, p.t_s, p.hz_rad, p.v_rad, p.distance_mm, p.status "
+                 "SELECT st.code, p.t_s, p.hz_rad, p.v_rad, p.distance_mm, p.status, p.segment "
                  "FROM stream_points p JOIN stations st ON st.id = p.station_id "
                  "WHERE p.session_id = ? ORDER BY p.segment, p.t_s, p.id");
     s->Bind(1, session_id);
     while (s->Step()) {
       out.points.push_back({s->Text(0), s->Double(1), s->Double(2), s->Double(3), s->Double(4),
-                            static_cast<int>(s->Int(5))});
+                            static_cast<int>(s->Int(5)), static_cast<int>(s->Int(6))});
     }
   }
   {

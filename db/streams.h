@@ -24,6 +24,7 @@ struct StreamPointRow {
   double t_s = 0.0;     // the tracker's clock
   double hz_rad = 0.0, v_rad = 0.0, distance_mm = 0.0;  // armsig's convention (the station frame)
   int status = 0;
+  int segment = 0;  // the sweep's segment it was stored with (loaded; insert takes the segment's)
 };
 
 struct StreamEventRow {

@@ -65,8 +65,11 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
     (void)ur::dashboard::Boolean(line);
     (void)ur::dashboard::PolyscopeVersion(line);
     (void)ur::dashboard::NotUnderstood(line);
-    if (const auto move = ur::ParseMoveJ(line, &why)) {
-      const auto again = ur::ParseMoveJ(ur::MoveJ(move->joints_rad, move->a, move->v), &why);
+    if (const auto move = ur::ParseMove(line, &why)) {
+      const auto again = ur::ParseMove(
+          move->linear ? ur::MoveL(move->joints_rad, move->a, move->v)
+                       : ur::MoveJ(move->joints_rad, move->a, move->v),
+          &why);
       if (!again) std::abort();
     }
     start = end + 1;

@@ -63,7 +63,7 @@ void RobotController::ClearProtectiveStop() {
                         "clear it on the controller's pendant");
 }
 
-void RobotController::Sweep(const std::vector<Eigen::VectorXd>&, double, double,
+void RobotController::Sweep(const std::vector<Eigen::VectorXd>&, const SweepMotion&,
                             const std::function<void(const JointSample&)>&) {
   throw ControllerError(ControllerError::Kind::kMoveRefused, name(),
                         "this controller does not stream its joints, so it cannot be measured "

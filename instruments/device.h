@@ -219,6 +219,16 @@ struct JointSample {
   Eigen::VectorXd q_rad, qd_rad_s;
 };
 
+// How a sweep (RobotController::Sweep) moves from one waypoint to the next.
+struct SweepMotion {
+  // Joint moves: the leading joint's speed and acceleration.
+  double speed_rad_s = 1.05, acceleration_rad_s2 = 1.4;
+  // Linear moves (the TCP on a straight line to each waypoint's pose, along the controller's
+  // own path) at this TCP speed and acceleration, when the speed is above 0; joint moves else.
+  double linear_speed_mm_s = 0.0, linear_acceleration_mm_s2 = 1200.0;
+  bool linear() const { return linear_speed_mm_s > 0.0; }
+};
+
 class RobotController : public Interruptible {
  public:
   virtual ~RobotController() = default;
@@ -248,13 +258,12 @@ class RobotController : public Interruptible {
   // when the arm did not move in between.
   virtual bool StreamsJoints() const { return false; }
   // Measuring on the move: moves through `waypoints` in order without waiting to measure
-  // (each joint move at `speed_rad_s` / `acceleration_rad_s2` of its leading joint), and
-  // hands every package of the joint stream to `each` from before the first move until the
+  // (joint or linear moves, as `motion` says), and hands every package of the joint stream to `each` from before the first move until the
   // arm stands at the last waypoint. A stop throws its ControllerError as MoveTo does. The
   // default cannot (a controller that does not stream its joints): ControllerError
   // kMoveRefused naming the controllers that can.
-  virtual void Sweep(const std::vector<Eigen::VectorXd>& waypoints, double speed_rad_s,
-                     double acceleration_rad_s2, const std::function<void(const JointSample&)>& each);
+  virtual void Sweep(const std::vector<Eigen::VectorXd>& waypoints, const SweepMotion& motion,
+                     const std::function<void(const JointSample&)>& each);
 };
 
 // How a driver retries: busy codes, bad checksums, silence, a lost port; then it gives

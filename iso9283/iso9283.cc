@@ -1,6 +1,7 @@
 #include "iso9283/iso9283.h"
 
 #include <fmt/format.h>
+#include <fmt/ranges.h>
 #include <spdlog/spdlog.h>
 
 #include <algorithm>
@@ -10,7 +11,9 @@
 #include <optional>
 #include <utility>
 
+#include "acquisition/plan.h"
 #include "calibration/compensation.h"
+#include "calibration/iso9283_path.h"
 #include "calibration/pose_solver.h"
 #include "core/error.h"
 #include "core/text.h"
@@ -107,6 +110,7 @@ class Iso9283Planner {
   void PlanTestPoints();
   void PlanViaPoints();
   void PlanCycles();
+  void PlanPaths();
   std::string Conditions() const;
 
   const calibration::RobotModel& model_;
@@ -159,8 +163,12 @@ Iso9283Plan Iso9283Planner::Make() {
   SolveCentre();
   ChooseCube();
   PlanTestPoints();
-  PlanViaPoints();
-  PlanCycles();
+  if (!o_.paths.empty()) {
+    PlanPaths();
+  } else {
+    PlanViaPoints();
+    PlanCycles();
+  }
   plan_.conditions = Conditions();
   plan_.csv = iso9283::FormatIso9283PlanCsv(plan_.rows);
   return std::move(plan_);
@@ -308,16 +316,64 @@ void Iso9283Planner::PlanCycles() {
       const auto& p = plan_.points[index];
       const std::string label = p.name + "-" + CycleLabel(c, o_.cycles);
       if (!o_.multi_directional) {
-        plan_.rows.push_back({label, p.name, c, "", p.target_mm, p.joints_rad});
+        plan_.rows.push_back({label, p.name, c, "", p.target_mm, p.joints_rad, std::nullopt});
         continue;
       }
       for (int k = 0; k < 3; ++k) {
         const std::string side = iso::ApproachName(k);
         plan_.rows.push_back({label + "-" + side + "-via", "", 0, "", via_targets_[index][k],
-                              via_joints_[index][k]});
-        plan_.rows.push_back({label + "-" + side, p.name, c, side, p.target_mm, p.joints_rad});
+                              via_joints_[index][k], std::nullopt});
+        plan_.rows.push_back(
+            {label + "-" + side, p.name, c, side, p.target_mm, p.joints_rad, std::nullopt});
       }
     }
+  }
+}
+
+// The path test: each path's vertices by the inverse, each from the joints of the vertex
+// before (one branch along the path, as the controller's linear moves follow it), then (with
+// --compensated) the signature's; every cycle the vertices in order, the first a joint move,
+// the others linear moves at the path speed.
+void Iso9283Planner::PlanPaths() {
+  if (!(o_.path_speed_mm_s > 0.0 && o_.path_speed_mm_s <= acquisition::kMostLinearSpeedMmS))
+    throw InputError({"--speed", 0, 0, ""}, "expected a path speed above 0 mm/s");
+  const iso::TestPaths paths = iso::BuildTestPaths(plan_.cube);
+  for (const std::string& name : o_.paths) {
+    const std::vector<Eigen::Vector3d>* vertices = name == "line"        ? &paths.line_mm
+                                                   : name == "rectangle" ? &paths.rectangle_mm
+                                                                         : nullptr;
+    if (!vertices) {
+      throw InputError({"--path", 0, 0, ""},
+                       fmt::format("unknown path {} (expected line or rectangle)", Quoted(name)));
+    }
+    for (const auto& [done, ignored] : plan_.paths) {
+      if (done == name) throw InputError({"--path", 0, 0, ""}, "path " + name + " given twice");
+    }
+    std::vector<Eigen::VectorXd> joints;
+    Eigen::VectorXd q = q_centre_;
+    Eigen::Vector3d from = centre_;
+    for (const Eigen::Vector3d& v : *vertices) {
+      const auto solved = inverse_->Solve(v, q, from);
+      if (!solved.status.ok()) {
+        throw InputError({where_, 0, 0, ""},
+                         fmt::format("the {} path's vertex {} mm cannot be reached by model {}: {}",
+                                     name, Mm(v), model_.name, solved.status.message));
+      }
+      q = solved.joints_rad;
+      from = v;
+      joints.push_back(o_.compensated ? Compensated(v, q, "the " + name + " path's vertex") : q);
+    }
+    for (int c = 1; c <= o_.cycles; ++c) {
+      for (size_t k = 0; k < vertices->size(); ++k) {
+        Iso9283PlanRow row;
+        row.pose = fmt::format("{}-{}-v{}", name, CycleLabel(c, o_.cycles), k + 1);
+        row.target_mm = (*vertices)[k];
+        row.joints_rad = joints[k];
+        if (k > 0) row.speed_mm_s = o_.path_speed_mm_s;
+        plan_.rows.push_back(std::move(row));
+      }
+    }
+    plan_.paths.emplace_back(name, *vertices);
   }
 }
 
@@ -328,13 +384,18 @@ std::string Iso9283Planner::Conditions() const {
   return fmt::format(
       "ISO 9283 test cube of robot {} (model {}): centre {} mm, edge {:.1f} mm\n"
       "measuring plane C1-C2-C7-C8; P2, P3, P4, P5 at 10 % of the diagonal from C1, C2, C7, C8\n"
-      "{} cycles in the order P1 P5 P4 P3 P2{}; tool orientation a {:.4f}, b {:.4f}, c {:.4f} deg\n"
+      "{}; tool orientation a {:.4f}, b {:.4f}, c {:.4f} deg\n"
       "joints: {}; targets x_mm, y_mm, z_mm in the robot frame",
-      robot_, model_.name, Mm(plan_.cube.centre_mm), plan_.cube.edge_mm, o_.cycles,
+      robot_, model_.name, Mm(plan_.cube.centre_mm), plan_.cube.edge_mm,
+      !o_.paths.empty()
+          ? fmt::format("path test: {} cycles of {} at {:g} mm/s (linear moves; measure it with "
+                        "capture --on-the-move)",
+                        o_.cycles, fmt::join(o_.paths, ", "), o_.path_speed_mm_s)
+          : fmt::format("{} cycles in the order P1 P5 P4 P3 P2{}", o_.cycles,
       o_.multi_directional
           ? fmt::format(", each point approached from its +x, +y and +z side ({:g} mm via points)",
                         o_.approach_mm)
-          : std::string(),
+          : std::string()),
       abc.x(), abc.y(), abc.z(),
       o_.compensated
           ? fmt::format("compensated with arm signature version {}", plan_.signature_version)
@@ -357,7 +418,14 @@ std::string FormatIso9283PlanSummary(const Iso9283Plan& plan, const std::string&
       out += fmt::format("   (compensation {:.3f} mm)", p.compensation_mm);
     out += "\n";
   }
+  for (const auto& [name, vertices] : plan.paths) {
+    double length = 0.0;
+    for (size_t k = 1; k < vertices.size(); ++k) length += (vertices[k] - vertices[k - 1]).norm();
+    out += fmt::format("  path {}: {} vertices, {:.1f} mm from {} mm\n", name, vertices.size(),
+                       length, Mm(vertices.front()));
+  }
   for (const auto& pair : iso::kDistancePairs) {
+    if (!plan.paths.empty()) break;  // the pose test's distances
     out += fmt::format("  distance {}-{}: {:.3f} mm\n", plan.points[pair.from].name,
                        plan.points[pair.to].name,
                        (plan.points[pair.from].target_mm - plan.points[pair.to].target_mm).norm());

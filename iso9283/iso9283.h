@@ -44,7 +44,17 @@ struct Iso9283PlanOptions {
   // Start of the inverse for P1: default 0, 0, 90°, 0, 30°, 0 (elbow bent, wrist off its
   // singularity; 0, 0, 90°, 0, … for other joint counts).
   std::optional<Eigen::VectorXd> seed_rad;
+  // A path test (clause 8) instead of the pose test: the standard's paths in the cube's
+  // measuring plane ("line", "rectangle": calibration/iso9283_path.h BuildTestPaths), in the
+  // order given, each cycle from its first vertex (reached by a joint move, where the arm
+  // stands) along the others by linear moves at `path_speed_mm_s` (the plan's speed_mm_s
+  // column), measured on the move (`capture --on-the-move`).
+  std::vector<std::string> paths;
+  double path_speed_mm_s = 250.0;
 };
+
+// The paths `iso9283 plan --path` knows, by name.
+inline constexpr const char* kIso9283PathNames[] = {"line", "rectangle"};
 
 struct Iso9283PlannedPoint {
   std::string name;
@@ -58,6 +68,8 @@ struct Iso9283Plan {
   Eigen::Matrix3d tool_rotation = Eigen::Matrix3d::Identity();  // every pose's last link frame
   std::vector<Iso9283PlannedPoint> points;                      // P1…P5
   std::vector<iso9283::Iso9283PlanRow> rows;                         // the cycles, in order
+  // A path plan's paths: name and commanded vertices (robot frame), as in `rows`.
+  std::vector<std::pair<std::string, std::vector<Eigen::Vector3d>>> paths;
   int signature_version = 0;                                    // compensated with; 0 = nominal
   std::string conditions;  // robot, model, cube, measuring plane, order, tool orientation (lines)
   std::string csv;

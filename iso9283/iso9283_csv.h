@@ -1,6 +1,8 @@
 // The files of an ISO 9283 test (the interface reference, "ISO 9283 tests"):
 //   the plan        pose,point,cycle,approach,x_mm,y_mm,z_mm,q1_deg,…  (a capture plan:
 //                   `capture --plan` reads pose and the joints, and keeps the target);
+//                   a path plan (`iso9283 plan --path`) adds speed_mm_s: the row is reached
+//                   by a linear move at that speed (empty: a joint move, a cycle's start);
 //   commanded poses point,x_mm,y_mm,z_mm[,a_deg,b_deg,c_deg]           (one row per point);
 //   attained poses  point,cycle,x_mm,y_mm,z_mm[,a_deg,b_deg,c_deg]     (one row per cycle).
 // Angles take any unit suffix (_deg, _gon, _rad); the id column may be called `pose`
@@ -45,6 +47,7 @@ struct Iso9283PlanRow {
   std::string approach;  // "" (the one approach) or x, y, z
   Eigen::Vector3d target_mm = Eigen::Vector3d::Zero();  // in the robot frame
   Eigen::VectorXd joints_rad;
+  std::optional<double> speed_mm_s;  // a path's vertex reached by a linear move
 };
 // The header and the rows only: a spreadsheet or pandas reads it as it is (the plan's
 // conditions, which were '#' lines read as rows there, are on the command's output).

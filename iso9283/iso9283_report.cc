@@ -21,6 +21,7 @@
 #include "io/model_yaml.h"
 #include "workflows/hint.h"
 #include "iso9283/iso9283_page.h"
+#include "iso9283/iso9283_path_report.h"
 #include "report/report.h"
 #include "workflows/signature.h"
 
@@ -291,6 +292,66 @@ std::string Conditions(db::Database& db, const SessionTest& t, Iso9283PageInput&
   return page.temperature;
 }
 
+// A path test (ISO 9283 clause 8), and the same paths compensated: their figures, text, JSON
+// and page.
+Iso9283ReportResult PathReport(db::Database& db, const Iso9283ReportOptions& o,
+                               const calibration::RobotModel& model,
+                               const workflows::ActiveSignature* signature) {
+  const auto refuse = [&](const char* option, const char* why) {
+    throw InputError({option, 0, 0, ""},
+                     fmt::format("session {} is an ISO 9283 path test: {}", o.session, why));
+  };
+  if (o.align) refuse("--align", "its frame is the robot's (an arm signature or the lab's base)");
+  if (o.limits.any()) refuse("--limit", "--limit judges the pose test's AP, RP, AD and RD");
+  if (!o.commanded_csv.empty()) refuse("--commanded", "its commanded path is its stored plan");
+  const auto check_robot = [&](int64_t session) {
+    const auto row = db::LoadSession(db, session);
+    if (!row) throw InputError({db.path(), 0, 0, "--session"}, fmt::format("no session {}", session));
+    if (row->robot != o.robot) {
+      throw InputError({db.path(), 0, 0, "--session"},
+                       fmt::format("session {} is of robot {}, not {}", session,
+                                   workflows::ShellWord(row->robot), workflows::ShellWord(o.robot)));
+    }
+  };
+  check_robot(o.session);
+  const Iso9283PathEvaluation test = EvaluateIso9283PathSession(db, o.session, model, signature);
+  std::optional<Iso9283PathEvaluation> after;
+  if (o.compensated_session > 0) {
+    check_robot(o.compensated_session);
+    if (!IsIso9283PathSession(db, o.compensated_session)) {
+      throw InputError({"--compensated-session", 0, 0, ""},
+                       fmt::format("session {} is no path test, session {} is",
+                                   o.compensated_session, o.session));
+    }
+    after = EvaluateIso9283PathSession(db, o.compensated_session, model, signature);
+  }
+  Iso9283ReportResult result;
+  result.json = Iso9283PathJson(test);
+  result.json["robot"] = o.robot;
+  if (after) result.json["compensated"] = Iso9283PathJson(*after);
+  result.text = fmt::format("ISO 9283 path test of robot {}, session {} ({} tracker records)\n",
+                            o.robot, o.session, test.records);
+  result.text += FormatIso9283PathFigures(test);
+  if (after) {
+    result.text += fmt::format("\nwith compensation, session {}:\n", o.compensated_session);
+    result.text += FormatIso9283PathFigures(*after);
+  }
+  if (!o.out_dir.empty()) {
+    Iso9283PathPageInput page;
+    page.generated_at = o.generated_at;
+    page.armsig_version = ARMSIG_VERSION;
+    page.robot = o.robot;
+    page.model = model.name;
+    page.test = &test;
+    page.compensated = after ? &*after : nullptr;
+    for (const auto& i : report::LoadReportSources(db, std::vector<int64_t>{o.session}).instruments)
+      page.instruments.push_back(i.name + ": " + i.description);
+    result.html_path = WriteIso9283PathPage(o.out_dir, page);
+    result.text += "report: " + result.html_path + "\n";
+  }
+  return result;
+}
+
 }  // namespace
 
 Iso9283ReportResult RunIso9283Report(db::Database& db, const Iso9283ReportOptions& o) {
@@ -302,6 +363,8 @@ Iso9283ReportResult RunIso9283Report(db::Database& db, const Iso9283ReportOption
   std::optional<workflows::ActiveSignature> signature;
   std::optional<db::StoredCalibration> stored = db::ActiveCalibration(db, *robot_id);
   if (stored) signature = workflows::LoadActiveSignature(db, o.robot);
+  if (IsIso9283PathSession(db, o.session))
+    return PathReport(db, o, model, signature ? &*signature : nullptr);
 
   std::optional<std::map<std::string, Commanded>> plan_file;
   if (!o.commanded_csv.empty()) {

@@ -686,6 +686,12 @@ std::string MoveJ(const Eigen::VectorXd& joints_rad, double a_rad_s2, double v_r
   return fmt::format("movej([{}], a={:.6g}, v={:.6g})\n", list, a_rad_s2, v_rad_s);
 }
 
+std::string MoveL(const Eigen::VectorXd& joints_rad, double a_m_s2, double v_m_s) {
+  std::string line = MoveJ(joints_rad, a_m_s2, v_m_s);
+  line[4] = 'l';
+  return line;
+}
+
 namespace {
 
 std::string_view Trim(std::string_view s) {
@@ -705,20 +711,28 @@ std::optional<double> Number(std::string_view text) {
 
 }  // namespace
 
-std::optional<MoveJCommand> ParseMoveJ(std::string_view line, std::string* why) {
-  const auto fail = [&](const std::string& what) -> std::optional<MoveJCommand> {
+std::optional<MoveCommand> ParseMove(std::string_view line, std::string* why) {
+  const auto fail = [&](const std::string& what) -> std::optional<MoveCommand> {
     if (why) *why = what;
     return std::nullopt;
   };
   line = Trim(line);
-  constexpr std::string_view kHead = "movej(";
-  if (line.compare(0, kHead.size(), kHead) != 0 || line.back() != ')')
-    return fail("not a movej(...) call");
-  std::string_view args = Trim(line.substr(kHead.size(), line.size() - kHead.size() - 1));
-  if (args.empty() || args.front() != '[') return fail("movej's first argument is no joint list");
+  MoveCommand out;
+  constexpr std::string_view kJoint = "movej(", kLinear = "movel(";
+  if (line.compare(0, kLinear.size(), kLinear) == 0) {
+    out.linear = true;
+    out.a = 1.2;
+    out.v = 0.25;
+  } else if (line.compare(0, kJoint.size(), kJoint) != 0) {
+    return fail("not a movej(...) or movel(...) call");
+  }
+  if (line.back() != ')') return fail("the call has no closing ')'");
+  const std::string_view name = out.linear ? "movel" : "movej";
+  std::string_view args = Trim(line.substr(kJoint.size(), line.size() - kJoint.size() - 1));
+  if (args.empty() || args.front() != '[')
+    return fail(std::string(name) + "'s first argument is no joint list");
   const size_t close = args.find(']');
   if (close == std::string_view::npos) return fail("the joint list has no ']'");
-  MoveJCommand out;
   std::vector<double> joints;
   for (const auto& item : SplitCommas(args.substr(1, close - 1))) {
     const auto v = Number(item);

@@ -273,12 +273,18 @@ double MoveJDuration(double distance_rad, double a_rad_s2, double v_rad_s);
 
 // "movej([q1, …, q6], a=A, v=V)\n", joints in rad with 12 decimals (sub-nanoradian).
 std::string MoveJ(const Eigen::VectorXd& joints_rad, double a_rad_s2, double v_rad_s);
-struct MoveJCommand {
+// "movel([q1, …, q6], a=A, v=V)\n": a linear move of the TCP to the pose the controller's
+// forward kinematics gives those joints (the URScript manual: "pose can also be specified as
+// joint positions"), a in m/s², v in m/s.
+std::string MoveL(const Eigen::VectorXd& joints_rad, double a_m_s2, double v_m_s);
+struct MoveCommand {
+  bool linear = false;  // movel; else movej
   Eigen::VectorXd joints_rad;
-  double a = 1.4, v = 1.05;  // URScript's defaults
+  // URScript's defaults: movej a = 1.4 rad/s², v = 1.05 rad/s; movel a = 1.2 m/s², v = 0.25 m/s.
+  double a = 1.4, v = 1.05;
 };
-// One script line that is a movej with a joint list (a, v optional, in either order);
-// nullopt with `why` for any other line.
-std::optional<MoveJCommand> ParseMoveJ(std::string_view line, std::string* why);
+// One script line that is a movej or a movel with a joint list (a, v optional, in either
+// order); nullopt with `why` for any other line.
+std::optional<MoveCommand> ParseMove(std::string_view line, std::string* why);
 
 }  // namespace armsig::robots::ur

@@ -35,8 +35,11 @@ constexpr const char* kRecipe[] = {"timestamp",  "actual_q",    "actual_qd",
                                    "robot_mode", "safety_mode", "runtime_state"};
 // A running stream sends a package every 2 or 8 ms; a second without one is a lost stream.
 constexpr Millis kSilence{1000};
-// A move not begun is refused only after this much wall time too.
-constexpr auto kMinStartWait = std::chrono::milliseconds(500);
+// A move not begun is refused only after this much wall time too (as much as the controller
+// time it is given, UrOptions::start_timeout_s by default): a controller whose clock runs
+// faster than the wall's (a virtual one) may take longer than its own seconds to plan a linear
+// move on a loaded machine; a real one's clock is the wall's, so this changes nothing there.
+constexpr auto kMinStartWait = std::chrono::milliseconds(2000);
 // Pausing a stream as a call ends in a failure: bounded apart from the call's deadline.
 constexpr Millis kPauseTime{500};
 
@@ -350,15 +353,26 @@ StampedJoints UrController::ReadStampedJoints() {
   return out;
 }
 
-void UrController::Sweep(const std::vector<Eigen::VectorXd>& waypoints, double speed,
-                         double acceleration,
+// The longest linear leg a sweep's deadline allows for: no UR reaches farther than 1.3 m
+// from its base, so no straight leg between two of its poses is longer than 2.6 m.
+constexpr double kLongestLinearLegMm = 3000.0;
+
+void UrController::Sweep(const std::vector<Eigen::VectorXd>& waypoints,
+                         const instruments::SweepMotion& motion,
                          const std::function<void(const instruments::JointSample&)>& each) {
   if (!options_.can_move)
     throw InstrumentError(name_, 5, "this controller is not commanded by armsig (can_move: false)");
   if (waypoints.empty()) return;
-  if (!(speed > 0.0 && speed <= options_.speed_rad_s * 3.0) || !(acceleration > 0.0))
+  const double speed = motion.speed_rad_s, acceleration = motion.acceleration_rad_s2;
+  if (motion.linear()) {
+    if (!(motion.linear_speed_mm_s <= 5000.0) || !(motion.linear_acceleration_mm_s2 > 0.0))
+      throw std::invalid_argument(fmt::format("{}: a linear sweep at {} mm/s, {} mm/s²", name_,
+                                              motion.linear_speed_mm_s,
+                                              motion.linear_acceleration_mm_s2));
+  } else if (!(speed > 0.0 && speed <= options_.speed_rad_s * 3.0) || !(acceleration > 0.0)) {
     throw std::invalid_argument(fmt::format("{}: a sweep at {} rad/s, {} rad/s²", name_, speed,
                                             acceleration));
+  }
   for (const auto& w : waypoints) {
     if (w.size() != 6)
       throw std::invalid_argument(fmt::format("{}: a UR has 6 joints, not {}", name_, w.size()));
@@ -372,15 +386,24 @@ void UrController::Sweep(const std::vector<Eigen::VectorXd>& waypoints, double s
   std::optional<double> sent_at;
   Clock::time_point sent_wall;
   Eigen::Matrix<double, 6, 1> from = Eigen::Matrix<double, 6, 1>::Zero();
-  // The whole sweep's time on the controller's clock, with margin, on the wall.
+  // The whole sweep's time on the controller's clock, with margin, on the wall (a linear
+  // leg's length is the controller's to know: the longest any UR has).
   double duration = 0.0;
   for (size_t k = 1; k < waypoints.size(); ++k) {
-    duration += ur::MoveJDuration((waypoints[k] - waypoints[k - 1]).cwiseAbs().maxCoeff(),
-                                  acceleration, speed) + 0.1;
+    duration += motion.linear()
+                    ? ur::MoveJDuration(kLongestLinearLegMm, motion.linear_acceleration_mm_s2,
+                                        motion.linear_speed_mm_s) + 0.1
+                    : ur::MoveJDuration((waypoints[k] - waypoints[k - 1]).cwiseAbs().maxCoeff(),
+                                        acceleration, speed) + 0.1;
   }
   Deadline deadline = Clock::now() + policy_.timeout +
                       std::chrono::duration_cast<Clock::duration>(
                           std::chrono::duration<double>(1.5 * duration + 10.0));
+  const auto line = [&](const Eigen::VectorXd& target) {
+    return motion.linear() ? ur::MoveL(target, motion.linear_acceleration_mm_s2 * 1e-3,
+                                       motion.linear_speed_mm_s * 1e-3)
+                           : ur::MoveJ(target, acceleration, speed);
+  };
   try {
     Stream(deadline, "sweep", [&](const Sample& s) {
       CheckSample(s);
@@ -388,7 +411,7 @@ void UrController::Sweep(const std::vector<Eigen::VectorXd>& waypoints, double s
       const Eigen::VectorXd& target = waypoints[next];
       if (!sent) {
         from = s.q;
-        SendScript(ur::MoveJ(target, acceleration, speed), deadline);
+        SendScript(line(target), deadline);
         ++stats_.moves;
         sent = true;
         sent_at.reset();

@@ -74,11 +74,10 @@ class UrController : public instruments::RobotController {
   void CheckReady() override;
   void ClearProtectiveStop() override;
   bool StreamsJoints() const override { return true; }
-  // One `movej` line per waypoint on the secondary interface, the next sent as the arm
-  // arrives at the one before (within arrive_tolerance_rad: it does not wait to stand still),
-  // every RTDE package to `each`.
-  void Sweep(const std::vector<Eigen::VectorXd>& waypoints, double speed_rad_s,
-             double acceleration_rad_s2,
+  // One `movej` (or, for linear motion, `movel` to the waypoint's joints) line per waypoint
+  // on the secondary interface, the next sent as the arm arrives at the one before (within
+  // arrive_tolerance_rad: it does not wait to stand still), every RTDE package to `each`.
+  void Sweep(const std::vector<Eigen::VectorXd>& waypoints, const instruments::SweepMotion& motion,
              const std::function<void(const instruments::JointSample&)>& each) override;
   void SetInterrupt(const std::atomic<bool>* flag) override;
 

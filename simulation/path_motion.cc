@@ -2,6 +2,7 @@
 
 #include <fmt/format.h>
 
+#include <Eigen/QR>
 #include <algorithm>
 #include <cmath>
 
@@ -21,18 +22,16 @@ Eigen::Matrix<double, 6, 1> PoseError(const programs::ControllerModel& controlle
   return e;
 }
 
-// Newton's method from `seed` (a solution a few millimetres away: the sample before), with a
-// central-difference Jacobian; nullopt when it does not settle within 10 steps.
-std::optional<Eigen::VectorXd> NearInverse(const programs::ControllerModel& controller,
-                                           const Eigen::Isometry3d& tool,
-                                           const Eigen::Isometry3d& target,
-                                           const Eigen::VectorXd& seed) {
-  Eigen::VectorXd q = seed;
-  const auto n = q.size();
-  for (int step = 0; step < 10; ++step) {
-    const Eigen::Matrix<double, 6, 1> e = PoseError(controller, tool, q, target);
-    if (e.head<3>().norm() < 1e-7 && e.tail<3>().norm() < 1e-10) return q;
-    Eigen::Matrix<double, 6, Eigen::Dynamic> J(6, n);
+// The pose's Jacobian at some joints near the path's current ones, and its factorisation: a
+// Jacobian changes little over a few millimetres of path, so one serves several samples (each
+// Newton step then costs one forward kinematics instead of thirteen).
+struct PathJacobian {
+  Eigen::CompleteOrthogonalDecomposition<Eigen::MatrixXd> solver;
+  bool valid = false;
+  void At(const programs::ControllerModel& controller, const Eigen::Isometry3d& tool,
+          const Eigen::Isometry3d& target, const Eigen::VectorXd& q) {
+    const auto n = q.size();
+    Eigen::MatrixXd J(6, n);
     constexpr double h = 1e-7;
     for (Eigen::Index j = 0; j < n; ++j) {
       Eigen::VectorXd plus = q, minus = q;
@@ -42,7 +41,25 @@ std::optional<Eigen::VectorXd> NearInverse(const programs::ControllerModel& cont
       J.col(j) = (PoseError(controller, tool, minus, target) - PoseError(controller, tool, plus, target)) /
                  (2.0 * h);
     }
-    const Eigen::VectorXd dq = J.completeOrthogonalDecomposition().solve(e);
+    solver.compute(J);
+    valid = true;
+  }
+};
+
+// Newton's method from `seed` (a solution a few millimetres away: the sample before), with
+// `jacobian` kept from the samples before while it converges (a central-difference Jacobian
+// made again when there is none, and after every fourth step without convergence); nullopt
+// when it does not settle within 12 steps.
+std::optional<Eigen::VectorXd> NearInverse(const programs::ControllerModel& controller,
+                                           const Eigen::Isometry3d& tool,
+                                           const Eigen::Isometry3d& target,
+                                           const Eigen::VectorXd& seed, PathJacobian& jacobian) {
+  Eigen::VectorXd q = seed;
+  for (int step = 0; step < 12; ++step) {
+    const Eigen::Matrix<double, 6, 1> e = PoseError(controller, tool, q, target);
+    if (e.head<3>().norm() < 1e-7 && e.tail<3>().norm() < 1e-10) return q;
+    if (!jacobian.valid || (step > 0 && step % 4 == 0)) jacobian.At(controller, tool, target, q);
+    const Eigen::VectorXd dq = jacobian.solver.solve(Eigen::VectorXd(e));
     if (!dq.allFinite()) return std::nullopt;
     q += dq;
   }
@@ -68,7 +85,11 @@ std::optional<std::vector<Eigen::VectorXd>> LinearPath(const programs::Controlle
   std::vector<Eigen::VectorXd> joints;
   joints.reserve(steps + 1);
   joints.push_back(r.start_rad);
+  const auto every = static_cast<size_t>(std::max(1, r.solve_every));
+  PathJacobian jacobian;
+  size_t solved = 0;  // the index of the last solved sample
   for (size_t k = 1; k <= steps; ++k) {
+    if (k % every != 0 && k != steps) continue;
     const double t = std::min(duration, r.dt_s * static_cast<double>(k));
     double s = 0.0;
     if (t < ramp) {
@@ -85,20 +106,25 @@ std::optional<std::vector<Eigen::VectorXd>> LinearPath(const programs::Controlle
     tcp.translation() = from.translation() + f * delta;
     // From the sample before (a few millimetres back), as a controller's inverse follows a
     // path; its full search only when that does not settle.
-    if (auto near = NearInverse(controller, r.tool, tcp, joints.back())) {
-      joints.push_back(*near);
-      continue;
+    std::optional<Eigen::VectorXd> q = NearInverse(controller, r.tool, tcp, joints.back(), jacobian);
+    if (!q) {
+      jacobian.valid = false;  // made again at the full search's joints
+      programs::InverseRequest request;
+      request.tcp = tcp;
+      request.tool = r.tool;
+      request.near_rad = joints.back();
+      const programs::InverseSolution solution = programs::ControllerInverse(controller, request);
+      if (!solution.joints_rad) {
+        if (why) *why = fmt::format("no joints at {:.1f} mm of the line: {}", s, solution.why);
+        return std::nullopt;
+      }
+      q = *solution.joints_rad;
     }
-    programs::InverseRequest request;
-    request.tcp = tcp;
-    request.tool = r.tool;
-    request.near_rad = joints.back();
-    const programs::InverseSolution solution = programs::ControllerInverse(controller, request);
-    if (!solution.joints_rad) {
-      if (why) *why = fmt::format("no joints at {:.1f} mm of the line: {}", s, solution.why);
-      return std::nullopt;
-    }
-    joints.push_back(*solution.joints_rad);
+    const Eigen::VectorXd from_q = joints.back();
+    for (size_t i = solved + 1; i < k; ++i)
+      joints.push_back(from_q + (*q - from_q) * static_cast<double>(i - solved) / static_cast<double>(k - solved));
+    joints.push_back(*q);
+    solved = k;
   }
   // The last sample at the exact target time: dt apart like the others (the path is sampled
   // every dt; the last step may be shorter, which MovePath's constant dt rounds up).

@@ -13,6 +13,7 @@
 
 #include "instruments/frame_splitter.h"
 #include "programs/urscript.h"
+#include "simulation/path_motion.h"
 #include "simulation/program_runner.h"
 
 namespace armsig::simulation {
@@ -38,6 +39,8 @@ constexpr size_t kMaxQueued = 64;
 constexpr std::size_t kMaxProgramBytes = 1 << 20;
 // A protective stop unlocks 5 s after it happened at the earliest (the dashboard's answer).
 constexpr double kUnlockAfterS = 5.0;
+// A linear move's joints, one every 4 ms of physical time (a controller's interpolation).
+constexpr double kLinearStepS = 0.004;
 
 // A checksum per joint of the controller's own DH parameters (FNV-1a over their bytes):
 // what changes when the calibration does.
@@ -166,6 +169,7 @@ void UrSimulator::Stop() {
   });
   io_.stop();
   thread_.join();
+  if (planner_.joinable()) planner_.join();
   boost::system::error_code ignored;
   for (auto& a : acceptors_) {
     if (a) a->close(ignored);
@@ -571,16 +575,64 @@ void UrSimulator::OnScript(const ConnectionPtr& c, const std::string& line) {
     return;  // the real controller runs no program from the network in local control
   }
   std::string why;
-  const auto move = ur::ParseMoveJ(line, &why);
+  const auto move = ur::ParseMove(line, &why);
   if (!move) {
     Queue(c, primary::EncodeText(Microseconds(), primary::kRuntimeExceptionMessage,
                                  "compile error: " + why));
     return;
   }
+  if (move->linear) return MoveLinear(c, *move);
   if (!arm_->MoveJ(move->joints_rad, move->a, move->v)) {
     Queue(c, primary::EncodeText(Microseconds(), primary::kTextMessage,
                                  "the program cannot start: the robot is stopped or powered off"));
   }
+}
+
+// movel to joint positions: the TCP (the flange: a one-line script sets no TCP) on a straight
+// line to the pose the controller's kinematics give the joints, at v (m/s) with acceleration
+// a (m/s²), the joints by the controller's inverse along it (simulation/path_motion.h, solved
+// every 20 ms and interpolated between) and the last exactly the ones sent; planned on a
+// thread of its own while RTDE streams the arm standing (a loaded machine's planning would
+// otherwise stop the stream); a line the inverse cannot follow is refused as the real
+// controller refuses it, with a runtime exception message, and the arm does not move.
+void UrSimulator::MoveLinear(const ConnectionPtr& c, const ur::MoveCommand& move) {
+  instruments::ControllerKinematics kinematics;
+  {
+    std::lock_guard lock(mutex_);
+    kinematics = kinematics_;
+  }
+  LinearPathRequest request;
+  request.start_rad = arm_->Now().q;  // a running move is replaced from where the arm is
+  request.speed_mm_s = move.v * 1e3;
+  request.acceleration_mm_s2 = move.a * 1e3;
+  request.dt_s = kLinearStepS;
+  request.solve_every = 5;
+  if (planner_.joinable()) planner_.join();  // the move before (sent before it was planned)
+  planner_ = std::thread([this, c, move, kinematics, request]() mutable {
+    const programs::ControllerModel controller = UrControllerModel(kinematics);
+    request.to_tcp = programs::TcpPose(controller, move.joints_rad, Eigen::Isometry3d::Identity());
+    std::string why;
+    auto path = LinearPath(controller, request, &why);
+    if (path && (path->back() - move.joints_rad).cwiseAbs().maxCoeff() > 1e-6) {
+      path.reset();
+      why = "the target joints are not where the linear path ends (another configuration)";
+    }
+    std::string refused;
+    if (!path) {
+      refused = "movel: " + why;
+    } else {
+      path->back() = move.joints_rad;
+      if (!arm_->MovePath(std::move(*path), kLinearStepS))
+        refused = "the program cannot start: the robot is stopped or powered off";
+    }
+    if (refused.empty()) return;
+    asio::post(io_, [this, c, refused] {
+      Queue(c, primary::EncodeText(Microseconds(),
+                                   refused.rfind("movel", 0) == 0 ? primary::kRuntimeExceptionMessage
+                                                                  : primary::kTextMessage,
+                                   refused));
+    });
+  });
 }
 
 void UrSimulator::StartProgram(const ConnectionPtr& c, const std::string& text) {

@@ -13,7 +13,9 @@
 //   - primary and secondary interfaces: the version message on connect, then the robot state
 //     at 10 Hz (robot mode data, joint data, KinematicsInfo); script lines taken on both,
 //     each `movej([…], a=…, v=…)` moving the arm (simulation/joint_motion.h: a trapezoid on
-//     the leading joint, in physical time); any other line answered with a runtime exception
+//     the leading joint, in physical time), each `movel([…], a=…, v=…)` moving the flange on
+//     a straight line to the pose of those joints (simulation/path_motion.h: the controller's
+//     inverse every 4 ms on a trapezoid of the path speed); any other line answered with a runtime exception
 //     message; on an e-Series in local control a script is not run;
 //   - a whole program sent on either ("def name():" … its "end"; "sec name():" a secondary
 //     program, which may not move the arm), as the "Client Interface" document and the
@@ -158,6 +160,7 @@ class UrSimulator {
   void StateTick(ConnectionPtr c);
   void PhysicsTick();
   void OnScript(const ConnectionPtr& c, const std::string& line);
+  void MoveLinear(const ConnectionPtr& c, const robots::ur::MoveCommand& move);
   void StartProgram(const ConnectionPtr& c, const std::string& text);
   void ProgramTick();  // io thread: the running program's next step once the arm is ready
   std::string Dashboard(const ConnectionPtr& c, const std::string& command);
@@ -175,6 +178,9 @@ class UrSimulator {
   std::optional<boost::asio::executor_work_guard<boost::asio::io_context::executor_type>> work_;
   std::unique_ptr<boost::asio::steady_timer> physics_;
   std::thread thread_;
+  // Plans a linear move (the controller's inverse along the line) beside the io thread, which
+  // keeps streaming meanwhile; the arm stands until the plan starts it.
+  std::thread planner_;
   Ports ports_;
   std::set<ConnectionPtr> live_;  // io thread only
   std::optional<ProgramPlayer> program_;  // io thread only

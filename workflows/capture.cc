@@ -74,8 +74,14 @@ acquisition::CaptureSummary CaptureWith(
     std::vector<std::unique_ptr<instruments::DistanceInstrument>>& devices,
     instruments::RobotController& controller, const acquisition::CaptureOptions& options) {
   try {
-    if (acquisition::IsOnTheMoveSession(db, session))
-      return acquisition::RunSweepCapture(db, lab, session, devices, controller, options);
+    if (acquisition::IsOnTheMoveSession(db, session)) {
+      // A path (ISO 9283) pairs its points with the robot's active signature when it has one:
+      // one plane's paths identify no model of their own to pair with.
+      acquisition::CaptureOptions with_signature = options;
+      if (!with_signature.prediction_params)
+        with_signature.prediction_params = ActiveParameters(db, lab, session);
+      return acquisition::RunSweepCapture(db, lab, session, devices, controller, with_signature);
+    }
     const bool tracker = std::any_of(lab.instruments.begin(), lab.instruments.end(),
                                      [](const auto& i) { return i.protocol == io::InstrumentProtocol::kEmScon; });
     if (tracker && !options.prediction_params) {
@@ -222,7 +228,8 @@ CaptureOutcome RunCaptureSession(const CaptureRequest& request) {
   if (session == 0) plan = acquisition::MakePlan(request.plan, lab.model, request.seed);
   if (request.on_the_move) {
     acquisition::CheckOnTheMoveLab(lab);
-    if (plan) plan = acquisition::SweepOrder(*plan);
+    // A path plan is swept in its own order (its cycles are the test); any other nearest-first.
+    if (plan && !acquisition::HasLinearMoves(*plan)) plan = acquisition::SweepOrder(*plan);
   }
   // Every device answers before a session is made or claimed (a new session: before the
   // database is touched): an instrument switched off, a wrong port or address is named

@@ -9,6 +9,7 @@
 #include <nlohmann/json.hpp>
 #include <random>
 
+#include "calibration/iso9283_path.h"
 #include "calibration/synthetic.h"
 #include "core/units.h"
 #include "iso9283/iso9283_csv.h"
@@ -246,6 +247,56 @@ TEST(Iso9283Commands, RefusalsAreExitTwoNamingWhatIsWrong) {
                 dir.File("on.csv") + "' --align --json '" + dir.File("e.json") + "'");
   EXPECT_EQ(line.exit_code, 2);
   EXPECT_NE(line.err.find("not on one"), std::string::npos) << line.err;
+}
+
+// `iso9283 plan --path`: the standard's line and rectangle in the cube's measuring plane, 10
+// cycles unless told (the standard's number for paths), every vertex's joints putting the
+// nominal model on it, the first of each cycle a joint move and the rest linear moves at the
+// speed; what does not make a path plan is exit 2 naming the option.
+TEST(Iso9283Commands, APathPlanIsTheStandardsLineAndRectangleAsLinearMoves) {
+  TempDir dir;
+  const std::string db = "--db '" + dir.File("lab.db") + "' ";
+  ASSERT_EQ(RunArmsig(db + "robot add puma --model '" + SourcePath("models/puma760.yaml") + "'")
+                .exit_code,
+            0);
+  const auto plan = RunArmsig(db + "iso9283 plan --robot puma --cube 600,100,700,400 --path "
+                                   "line,rectangle --speed 200 --out '" + dir.File("path.csv") + "'");
+  ASSERT_EQ(plan.exit_code, 0) << plan.err;
+  EXPECT_NE(plan.out.find("path test: 10 cycles of line, rectangle at 200 mm/s"), std::string::npos)
+      << plan.out;
+  EXPECT_NE(plan.out.find("capture --on-the-move"), std::string::npos) << plan.out;
+  const auto rows = iso9283::ReadIso9283PlanCsv(dir.File("path.csv"), 6);
+  ASSERT_EQ(rows.size(), 10u * (2 + 6));  // the line's 2 vertices, the rectangle's 6
+  const calibration::iso9283::TestPaths paths =
+      calibration::iso9283::BuildTestPaths({Eigen::Vector3d(600, 100, 700), 400.0});
+  const auto model = Puma();
+  calibration::Kinematics kin(model);
+  const Eigen::VectorXd zero = Eigen::VectorXd::Zero(model.num_parameters());
+  for (size_t i = 0; i < rows.size(); ++i) {
+    const bool line = i < 20;
+    const size_t k = line ? i % 2 : (i - 20) % 6;
+    const auto& vertices = line ? paths.line_mm : paths.rectangle_mm;
+    EXPECT_EQ(rows[i].pose, fmt::format("{}-{:02d}-v{}", line ? "line" : "rectangle",
+                                        (line ? i / 2 : (i - 20) / 6) + 1, k + 1));
+    EXPECT_LT((rows[i].target_mm - vertices[k]).norm(), 1e-5) << rows[i].pose;
+    EXPECT_LT((kin.Position(Eigen::Isometry3d::Identity(), zero, rows[i].joints_rad.data()) -
+               vertices[k]).norm(), 1e-4)
+        << rows[i].pose;
+    EXPECT_EQ(rows[i].speed_mm_s.has_value(), k > 0) << rows[i].pose;
+    if (k > 0) EXPECT_DOUBLE_EQ(*rows[i].speed_mm_s, 200.0);
+  }
+  for (const auto& [args, option] : std::vector<std::pair<std::string, std::string>>{
+           {"--path circle", "--path"},
+           {"--path line,line", "given twice"},
+           {"--path line --approach", "--approach"},
+           {"--speed 200", "--speed"},
+           {"--path line --speed 0", "--speed"}}) {
+    const auto refused = RunArmsig(db + "iso9283 plan --robot puma --cube 600,100,700,400 " + args +
+                                   " --out '" + dir.File("bad.csv") + "'");
+    EXPECT_EQ(refused.exit_code, 2) << args;
+    EXPECT_NE(refused.err.find(option), std::string::npos) << args << ": " << refused.err;
+    EXPECT_FALSE(std::filesystem::exists(dir.File("bad.csv"))) << args;
+  }
 }
 
 // `iso9283 evaluate-path`: a straight commanded path and three cycles written by the test

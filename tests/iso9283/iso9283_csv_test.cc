@@ -9,6 +9,8 @@
 #include <cmath>
 #include <string>
 
+#include "acquisition/on_the_move.h"
+#include "acquisition/plan.h"
 #include "core/error.h"
 #include "core/units.h"
 #include "test_support.h"
@@ -93,8 +95,8 @@ TEST(Iso9283Csv, MalformedRowsAreRefusedAtTheirLine) {
 // is the header and the rows only.
 TEST(Iso9283Csv, PlanRoundTripsWithViaPointsAndOpensWithItsHeader) {
   std::vector<iso9283::Iso9283PlanRow> rows = {
-      {"P1-01-x-via", "", 0, "", {700, 100, 700}, Eigen::VectorXd::LinSpaced(6, -1, 1)},
-      {"P1-01-x", "P1", 1, "x", {600, 100, 700}, Eigen::VectorXd::LinSpaced(6, -0.5, 0.5)}};
+      {"P1-01-x-via", "", 0, "", {700, 100, 700}, Eigen::VectorXd::LinSpaced(6, -1, 1), {}},
+      {"P1-01-x", "P1", 1, "x", {600, 100, 700}, Eigen::VectorXd::LinSpaced(6, -0.5, 0.5), {}}};
   testing::TempDir dir;
   const std::string text = FormatIso9283PlanCsv(rows);
   EXPECT_EQ(text.rfind("pose,point,cycle,approach,x_mm,y_mm,z_mm,q1_deg,", 0), 0u) << text;
@@ -110,6 +112,65 @@ TEST(Iso9283Csv, PlanRoundTripsWithViaPointsAndOpensWithItsHeader) {
   EXPECT_EQ(back[1].approach, "x");
   EXPECT_LT((back[1].target_mm - rows[1].target_mm).norm(), 1e-6);
   EXPECT_LT((back[1].joints_rad - rows[1].joints_rad).cwiseAbs().maxCoeff(), 1e-9);
+  EXPECT_FALSE(back[1].speed_mm_s);
+}
+
+// A path plan (`iso9283 plan --path`) adds the speed_mm_s column: empty for a cycle's first
+// vertex (a joint move), the path speed for the others; the capture plan reads it as the
+// linear moves it sweeps, and refuses a speed that is none and a first row that is linear.
+TEST(Iso9283Csv, APathPlanCarriesItsLinearSpeedsIntoTheCapturePlan) {
+  std::vector<iso9283::Iso9283PlanRow> rows = {
+      {"line-01-v1", "", 0, "", {700, 100, 700}, Eigen::VectorXd::LinSpaced(6, -1, 1), {}},
+      {"line-01-v2", "", 0, "", {500, 300, 700}, Eigen::VectorXd::LinSpaced(6, -0.5, 0.5), 250.0}};
+  testing::TempDir dir;
+  const std::string text = FormatIso9283PlanCsv(rows);
+  EXPECT_NE(text.find(",q6_deg,speed_mm_s\n"), std::string::npos) << text;
+  testing::WriteText(dir.File("path.csv"), text);
+  const auto back = iso9283::ReadIso9283PlanCsv(dir.File("path.csv"), 6);
+  ASSERT_EQ(back.size(), 2u);
+  EXPECT_FALSE(back[0].speed_mm_s);
+  ASSERT_TRUE(back[1].speed_mm_s);
+  EXPECT_DOUBLE_EQ(*back[1].speed_mm_s, 250.0);
+  const acquisition::Plan plan = acquisition::ReadPlanCsv(dir.File("path.csv"), 6);
+  ASSERT_EQ(plan.size(), 2u);
+  EXPECT_FALSE(plan[0].linear_speed_mm_s);
+  ASSERT_TRUE(plan[1].linear_speed_mm_s);
+  EXPECT_DOUBLE_EQ(*plan[1].linear_speed_mm_s, 250.0);
+  EXPECT_TRUE(acquisition::HasLinearMoves(plan));
+  // Stored with the session and read back: the same moves.
+  const acquisition::Plan stored = acquisition::PlanFromJson(acquisition::PlanToJson(plan));
+  ASSERT_TRUE(stored[1].linear_speed_mm_s);
+  EXPECT_DOUBLE_EQ(*stored[1].linear_speed_mm_s, 250.0);
+  EXPECT_FALSE(stored[0].linear_speed_mm_s);
+  // Each segment of the sweep is one cycle: from its joint move through its linear moves.
+  acquisition::Plan two = plan;
+  two.push_back(plan[0]);
+  two.back().label = "line-02-v1";
+  two.push_back(plan[1]);
+  two.back().label = "line-02-v2";
+  const auto spans = acquisition::PathSegments(two);
+  ASSERT_EQ(spans.size(), 2u);
+  EXPECT_EQ(spans[0].first, 0u);
+  EXPECT_EQ(spans[0].last, 1u);
+  EXPECT_EQ(spans[1].first, 2u);
+  EXPECT_EQ(spans[1].last, 3u);
+  EXPECT_EQ(spans[1].index, 1);
+
+  const auto refused = [&](const std::string& body, const char* what) {
+    testing::WriteText(dir.File("bad.csv"),
+                       "pose,q1_deg,q2_deg,q3_deg,q4_deg,q5_deg,q6_deg,speed_mm_s\n" + body);
+    try {
+      (void)acquisition::ReadPlanCsv(dir.File("bad.csv"), 6);
+      ADD_FAILURE() << "accepted: " << body;
+    } catch (const InputError& e) {
+      EXPECT_NE(std::string(e.what()).find(what), std::string::npos) << e.what();
+      EXPECT_NE(std::string(e.what()).find("bad.csv:"), std::string::npos) << e.what();
+    }
+  };
+  refused("a,0,0,90,0,30,0,250\n", "the first configuration is reached by a joint move");
+  refused("a,0,0,90,0,30,0,\nb,0,0,80,0,30,0,0\n", "expected a speed above 0");
+  refused("a,0,0,90,0,30,0,\nb,0,0,80,0,30,0,fast\n", "");
+  refused("a,0,0,90,0,30,0,\nb,0,0,80,0,30,0,20000\n", "at most 10000");
 }
 
 }  // namespace

@@ -355,11 +355,22 @@ TEST(UrScript, MovejIsWrittenWithEveryDigitAMoveNeeds) {
             "movej([0.100000000000, -1.570796326795, 2.000000000000, 0.000000000000, "
             "-3.250000000000, 0.000000001000], a=1.4, v=1.05)\n");
   std::string why;
-  const auto back = ParseMoveJ(MoveJ(q, 1.4, 1.05), &why);
+  const auto back = ParseMove(MoveJ(q, 1.4, 1.05), &why);
   ASSERT_TRUE(back) << why;
+  EXPECT_FALSE(back->linear);
   EXPECT_LT((back->joints_rad - q).cwiseAbs().maxCoeff(), 1e-12);
   EXPECT_DOUBLE_EQ(back->a, 1.4);
   EXPECT_DOUBLE_EQ(back->v, 1.05);
+  // movel to joint positions: the same list, a in m/s², v in m/s.
+  EXPECT_EQ(MoveL(q, 1.2, 0.25),
+            "movel([0.100000000000, -1.570796326795, 2.000000000000, 0.000000000000, "
+            "-3.250000000000, 0.000000001000], a=1.2, v=0.25)\n");
+  const auto linear = ParseMove(MoveL(q, 1.2, 0.25), &why);
+  ASSERT_TRUE(linear) << why;
+  EXPECT_TRUE(linear->linear);
+  EXPECT_LT((linear->joints_rad - q).cwiseAbs().maxCoeff(), 1e-12);
+  EXPECT_DOUBLE_EQ(linear->a, 1.2);
+  EXPECT_DOUBLE_EQ(linear->v, 0.25);
 }
 
 struct ScriptVector {
@@ -367,26 +378,32 @@ struct ScriptVector {
   bool ok;
   double a, v;
   const char* why;  // a part of the refusal
+  bool linear = false;
 };
 
-TEST(UrScript, OnlyAMovejWithSixJointsIsAMove) {
+TEST(UrScript, OnlyAMovejOrMovelWithSixJointsIsAMove) {
   const ScriptVector table[] = {
       {"movej([0,0,0,0,0,0])", true, 1.4, 1.05, ""},
+      {"movel([0,0,0,0,0,0])", true, 1.2, 0.25, "", true},  // URScript's movel defaults
+      {"movel([1,2,3,4,5,6], v=0.1, a=0.5)", true, 0.5, 0.1, "", true},
+      {"movel([1,2,3,4,5], v=0.1)", false, 0, 0, "5 joints"},
       {"  movej([1, 2, 3, 4, 5, 6], v=0.5, a=2)  ", true, 2.0, 0.5, ""},
       {"movej([1,2,3,4,5,6], a=1, v=1, r=0.01)", true, 1.0, 1.0, ""},
       {"movej([1,2,3,4,5], a=1, v=1)", false, 0, 0, "5 joints"},
       {"movej([1,2,3,4,5,x], a=1, v=1)", false, 0, 0, "joint 6"},
       {"movej([1,2,3,4,5,6], a=-1)", false, 0, 0, "a is no positive"},
       {"movej([1,2,3,4,5,6], t=2)", false, 0, 0, "unsupported argument t"},
-      {"movel(p[0,0,0,0,0,0])", false, 0, 0, "not a movej"},
+      {"movel(p[0,0,0,0,0,0])", false, 0, 0, "movel's first argument is no joint list"},
+      {"movep([0,0,0,0,0,0])", false, 0, 0, "not a movej(...) or movel(...)"},
       {"movej(p[0,0,0,0,0,0])", false, 0, 0, "no joint list"},
-      {"movej([1,2,3,4,5,6]", false, 0, 0, "not a movej"},
+      {"movej([1,2,3,4,5,6]", false, 0, 0, "no closing ')'"},
   };
   for (const auto& t : table) {
     std::string why;
-    const auto move = ParseMoveJ(t.line, &why);
+    const auto move = ParseMove(t.line, &why);
     EXPECT_EQ(move.has_value(), t.ok) << t.line;
     if (move) {
+      EXPECT_EQ(move->linear, t.linear) << t.line;
       EXPECT_DOUBLE_EQ(move->a, t.a) << t.line;
       EXPECT_DOUBLE_EQ(move->v, t.v) << t.line;
     } else {
