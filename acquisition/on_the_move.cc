@@ -289,6 +289,9 @@ bool SweepRun::SetUp() {
                              ? sweep_.speed_rad_s
                              : SweepSpeed(2.0 * TrackerSigmaMm(2000.0), kClockBudgetS, reach_mm);
   path_ = HasLinearMoves(plan_);
+  for (const auto& c : plan_) {
+    if (c.linear_speed_mm_s) figures_.path_speed_mm_s = std::max(figures_.path_speed_mm_s, *c.linear_speed_mm_s);
+  }
   segments_ = path_ ? PathSegments(plan_) : Segments(plan_.size(), sweep_.waypoints_per_segment);
   return true;
 }

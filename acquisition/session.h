@@ -70,6 +70,7 @@ struct SweepSummary {
   std::vector<std::string> beam_breaks;  // named: station, tracker time, what the tracker said
   double robot_time_s = 0.0;             // the controller's time the sweeps took (this run's)
   double speed_rad_s = 0.0;
+  double path_speed_mm_s = 0.0;  // an ISO 9283 path plan's linear moves (0: joint moves)
   std::optional<ClockEstimate> clock;
   double mean_sync_sigma_mm = 0.0, max_sync_sigma_mm = 0.0;
 };

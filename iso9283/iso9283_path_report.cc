@@ -119,7 +119,16 @@ Iso9283Frame PathFrameOf(db::Database& db, const db::SessionRow& row, int64_t se
                          const workflows::ActiveSignature* signature) {
   Iso9283Frame frame;
   const std::vector<MeasuredPose> poses = db::LoadSessionPoses(db, session);
-  if (signature && poses.size() >= 3) {
+  if (signature && poses.size() < 3) {
+    // Its records are paired with the joints once the last segment is stored: a stopped test
+    // has none yet, and the lab file's base is no stand-in for the signature's.
+    throw InputError({db.path(), 0, 0, "--session"},
+                     fmt::format("session {} has no paired configurations yet to locate the robot "
+                                 "with arm signature version {} (it stopped before its last "
+                                 "segment): resume it with capture --resume {}",
+                                 session, signature->signature.version, session));
+  }
+  if (signature) {
     const size_t stride = std::max<size_t>(1, poses.size() / 2000);
     std::vector<Eigen::VectorXd> joints;
     std::vector<Eigen::Vector3d> measured;
@@ -310,25 +319,29 @@ report::figures::Figure DeviationFigure(const std::string& dir, const std::strin
     for (const auto& plane : t->figures.planes)
       if (std::isfinite(plane.at_mm)) largest = std::max(largest, plane.at_mm);
   }
-  fig::Plot plot(720, 300, "AT per normal plane along the " + path + " path",
+  fig::Plot plot(720, 300, "|barycentre - commanded| per normal plane along the " + path + " path",
                  fig::LinearAxis(0.0, std::max(test.figures.length_mm, 1.0), 8),
                  fig::LinearAxis(0.0, std::max(largest * 1.1, 1e-3), 6), "path position s (mm)",
-                 "|barycentre - commanded| (mm)");
+                 "mm");
   std::vector<fig::LegendEntry> legend = {{fig::Marker::kLine, fig::kRed, "nominal program"}};
   if (compensated) legend.push_back({fig::Marker::kLine, fig::kBlue, "compensated"});
   plot.Legend(legend);
   for (const auto* t : {&test, compensated}) {
     if (!t) continue;
     const cv::Scalar colour = t == &test ? fig::kRed : fig::kBlue;
+    // Consecutive planes joined; none across a margin (planes farther apart than the spacing).
     std::optional<cv::Point> before;
+    double before_s = 0.0;
     for (const auto& plane : t->figures.planes) {
       if (!std::isfinite(plane.at_mm)) {
         before.reset();
         continue;
       }
       const cv::Point at = plot.At(plane.s_mm, plane.at_mm);
-      if (before && std::abs(before->x - at.x) < 30) cv::line(plot.image, *before, at, colour, 1, cv::LINE_AA);
+      if (before && plane.s_mm - before_s <= 1.5 * t->figures.plane_spacing_mm)
+        cv::line(plot.image, *before, at, colour, 1, cv::LINE_AA);
       before = at;
+      before_s = plane.s_mm;
     }
   }
   plot.Note("Each plane: the barycentre of the cycles' crossings; gaps are the corners' and the "

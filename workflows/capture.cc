@@ -352,10 +352,13 @@ std::string FormatSweepSummary(const acquisition::CaptureSummary& s) {
   const acquisition::SweepSummary& w = *s.sweep;
   std::string text = fmt::format(
       "session {} (on the move): {} of {} sweep segments stored ({} before); {} joint packages "
-      "and {} tracker points this run, {:.1f} s of robot time at {:.2f} rad/s\n",
+      "and {} tracker points this run, {:.1f} s of robot time at {}\n",
       s.session, w.segments_before + (s.completed ? w.segments - w.segments_before : s.measured),
       w.segments, w.segments_before, w.joint_packages, w.tracker_records, w.robot_time_s,
-      w.speed_rad_s);
+      w.path_speed_mm_s > 0.0
+          ? fmt::format("{:g} mm/s (linear moves: an ISO 9283 path test, see iso9283 report)",
+                        w.path_speed_mm_s)
+          : fmt::format("{:.2f} rad/s", w.speed_rad_s));
   if (w.clock) {
     const auto& c = *w.clock;
     text += c.assumed
