@@ -74,6 +74,9 @@ void SetupDbCommand(CLI::App& parent, const GlobalOptions& global, Runner& run) 
         Count(s.observations, "observation"), Count(s.points, "point"),
         Count(s.sets_pushed, "parameter set"), Printable(into.name()),
         Count(s.sessions_present, "session"), Count(s.sets_present, "set"));
+    if (s.stream_rows)
+      std::cout << fmt::format("with the raw streams of the sessions measured on the move: {} rows\n",
+                               s.stream_rows);
     if (s.robots_created) std::cout << fmt::format("new robots there: {}\n", s.robots_created);
     for (const auto& v : s.versions) std::cout << "  parameter set " << Printable(v) << " there\n";
     if (s.activations_pushed)

@@ -144,7 +144,8 @@ constexpr Column kSessionColumns[] = {{"lab_yaml", Kind::kText},
                                       {"controller_serial", Kind::kText},
                                       {"controller_software", Kind::kText},
                                       {"kinematics_checksum", Kind::kText},
-                                      {"kinematics_json", Kind::kText}};
+                                      {"kinematics_json", Kind::kText},
+                                      {"sync_json", Kind::kText}};
 constexpr Column kSetupColumns[] = {
     {"x_mm", Kind::kReal},          {"y_mm", Kind::kReal},         {"z_mm", Kind::kReal},
     {"levelled", Kind::kInt},       {"azimuth_rad", Kind::kReal},  {"rotation_json", Kind::kText},
@@ -180,7 +181,18 @@ constexpr Column kPointColumns[] = {{"point", Kind::kText},  {"x_mm", Kind::kRea
                                     {"rx_rad", Kind::kReal}, {"ry_rad", Kind::kReal},
                                     {"rz_rad", Kind::kReal}, {"sigma_rx_rad", Kind::kReal},
                                     {"sigma_ry_rad", Kind::kReal},
-                                    {"sigma_rz_rad", Kind::kReal}};
+                                    {"sigma_rz_rad", Kind::kReal},
+                                    {"sync_sigma_mm", Kind::kReal}};
+// A session measured on the move: its raw streams (db/streams.h), station ids mapped.
+constexpr Column kStreamJointColumns[] = {
+    {"segment", Kind::kInt}, {"t_s", Kind::kReal}, {"q_json", Kind::kText}, {"qd_json", Kind::kText}};
+constexpr Column kStreamPointColumns[] = {{"t_s", Kind::kReal},         {"hz_rad", Kind::kReal},
+                                          {"v_rad", Kind::kReal},       {"distance_mm", Kind::kReal},
+                                          {"status", Kind::kInt},       {"segment", Kind::kInt}};
+constexpr Column kStreamEventColumns[] = {{"t_s", Kind::kReal},
+                                          {"status", Kind::kInt},
+                                          {"what", Kind::kText},
+                                          {"segment", Kind::kInt}};
 constexpr Column kCalibrationColumns[] = {
     {"params_spec", Kind::kText},        {"inputs_json", Kind::kText},
     {"options_json", Kind::kText},       {"rank", Kind::kInt},
@@ -392,6 +404,49 @@ std::optional<int64_t> ServerIdOf(Connection& target, const char* table, const s
 }
 
 // One session with everything measured in it, in one server transaction.
+// The raw streams of a session measured on the move (none for a stationary one), in the
+// caller's transaction; returns the rows copied.
+int64_t PushStreams(Connection& source, Connection& target, NameMap& names, int64_t local,
+                    int64_t session) {
+  int64_t rows = 0;
+  {
+    auto q = source.Prepare("SELECT " + Names(kStreamJointColumns) +
+                            " FROM stream_joints WHERE session_id = ? ORDER BY id");
+    q->Bind(1, local);
+    BatchedInsert w(target, "INSERT INTO stream_joints(session_id, " + Names(kStreamJointColumns) + ")",
+                    1 + static_cast<int>(std::size(kStreamJointColumns)));
+    while (q->Step()) {
+      std::vector<Value> row = {session};
+      for (size_t k = 0; k < std::size(kStreamJointColumns); ++k)
+        row.push_back(ValueOf(*q, static_cast<int>(k), kStreamJointColumns[k].kind));
+      w.Row(std::move(row));
+      ++rows;
+    }
+    w.Flush();
+  }
+  // Points and events: the station by its code on the server.
+  const auto with_station = [&](const char* table, const auto& columns) {
+    auto q = source.Prepare("SELECT station_id, " + Names(columns) + " FROM " + table +
+                            " WHERE session_id = ? ORDER BY id");
+    q->Bind(1, local);
+    BatchedInsert w(target,
+                    std::string("INSERT INTO ") + table + "(session_id, station_id, " +
+                        Names(columns) + ")",
+                    2 + static_cast<int>(std::size(columns)));
+    while (q->Step()) {
+      std::vector<Value> row = {session, names.Station(q->Int(0))};
+      for (size_t k = 0; k < std::size(columns); ++k)
+        row.push_back(ValueOf(*q, 1 + static_cast<int>(k), columns[k].kind));
+      w.Row(std::move(row));
+      ++rows;
+    }
+    w.Flush();
+  };
+  with_station("stream_points", kStreamPointColumns);
+  with_station("stream_events", kStreamEventColumns);
+  return rows;
+}
+
 void PushSession(Connection& source, Connection& target, NameMap& names, int64_t local,
                  const std::string& uuid, PushSummary& summary) {
   Transaction tx(target, TransactionKind::kWrite);
@@ -491,6 +546,7 @@ void PushSession(Connection& source, Connection& target, NameMap& names, int64_t
     }
     w.Flush();
   }
+  summary.stream_rows += PushStreams(source, target, names, local, session);
   tx.Commit();
   ++summary.sessions_pushed;
 }

@@ -34,6 +34,7 @@ struct PushOptions {
 struct PushSummary {
   int sessions_pushed = 0, sessions_present = 0;
   int64_t poses = 0, observations = 0, points = 0;  // rows the pushed sessions carried
+  int64_t stream_rows = 0;  // their raw streams' rows (sessions measured on the move)
   int sets_pushed = 0, sets_present = 0;
   int activations_pushed = 0;  // rows of the cell's activation history new to the server
   int activated = 0;           // robots whose active set the server took from the cell

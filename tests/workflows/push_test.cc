@@ -6,6 +6,7 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <map>
 
 #include "calibration/synthetic.h"
@@ -14,6 +15,7 @@
 #include "db/database.h"
 #include "db/robots.h"
 #include "db/sessions.h"
+#include "db/streams.h"
 #include "support/simulated_sessions.h"
 #include "support/stores.h"
 #include "test_support.h"
@@ -375,6 +377,75 @@ TEST_P(Push, ARollBackOnTheServerStandsWhateverTheCellsClock) {
   const auto history = db::ActivationHistory(b, *db::FindRobot(b, "puma"));
   ASSERT_FALSE(history.empty());
   EXPECT_EQ(history.back().note, "the cell goes back to 2");
+}
+
+// A session measured on the move carries its raw streams (joint packages, tracker records,
+// what broke the beam), its clock estimate and each paired point's clock share to the
+// server: the server reads the same streams and weighs the points alike.
+TEST_P(Push, ASweptSessionCarriesItsStreamsClockAndWeights) {
+  TempDir dir;
+  const std::string cell = dir.File("cell.db"), central = NewStore(GetParam(), dir, "central");
+  MakeCell(cell);
+  db::StreamSegment segment;
+  for (int k = 0; k < 70; ++k) {  // more than one batch of rows
+    segment.joints.push_back({0.008 * k, Eigen::VectorXd::Constant(6, 0.01 * k),
+                              Eigen::VectorXd::Constant(6, 1.25)});
+    segment.points.push_back({"T1", 100.0 + 0.05 * k, 0.1 * k, 1.5, 2000.0 + k, k % 2});
+  }
+  segment.events.push_back({"T1", 101.5, 9, "ES_RS_NoDistanceSet"});
+  const std::string sync = R"({"mode":"on_the_move","offset_ms":145.4,"paired":true})";
+  {
+    db::Database a(cell, db::OpenMode::kMustExist);
+    db::WriteTransaction tx(a);
+    db::InsertStreamSegment(a, 1, segment);
+    segment.segment = 1;
+    db::InsertStreamSegment(a, 1, segment);
+    db::SetSessionSync(a, 1, sync);
+    a.connection().Exec("UPDATE points SET sync_sigma_mm = 0.004 * id WHERE session_id = 1");
+    tx.commit();
+  }
+  const auto pushed = PushFiles(cell, central);
+  EXPECT_EQ(pushed.sessions_pushed, 2);
+  EXPECT_EQ(pushed.stream_rows, 2 * (70 + 70 + 1));
+  db::Database a(cell, db::OpenMode::kMustExist), b(central, db::OpenMode::kMustExist);
+  auto uuid = a.connection().Prepare("SELECT uuid FROM sessions WHERE id = 1");
+  ASSERT_TRUE(uuid->Step());
+  auto by_uuid = b.connection().Prepare("SELECT id FROM sessions WHERE uuid = ?");
+  by_uuid->Bind(1, uuid->Text(0));
+  ASSERT_TRUE(by_uuid->Step());
+  const int64_t server = by_uuid->Int(0);
+  EXPECT_EQ(db::SessionSync(b, server), sync);
+  const db::SessionStreams from = db::LoadSessionStreams(a, 1), to = db::LoadSessionStreams(b, server);
+  ASSERT_EQ(to.joints.size(), from.joints.size());
+  ASSERT_EQ(to.points.size(), from.points.size());
+  ASSERT_EQ(to.events.size(), from.events.size());
+  for (size_t k = 0; k < from.joints.size(); ++k) {
+    EXPECT_EQ(to.joints[k].t_s, from.joints[k].t_s);
+    EXPECT_EQ(to.joints[k].q_rad, from.joints[k].q_rad);
+  }
+  for (size_t k = 0; k < from.points.size(); ++k) {
+    EXPECT_EQ(to.points[k].station, from.points[k].station);
+    EXPECT_EQ(to.points[k].segment, from.points[k].segment);
+    EXPECT_EQ(to.points[k].t_s, from.points[k].t_s);
+    EXPECT_EQ(to.points[k].distance_mm, from.points[k].distance_mm);
+    EXPECT_EQ(to.points[k].status, from.points[k].status);
+  }
+  EXPECT_EQ(to.events[0].what, "ES_RS_NoDistanceSet");
+  // Each point's clock share (the estimator's weight comes from it) is the cell's.
+  const auto shares = [](db::Database& d, int64_t id) {
+    auto q = d.connection().Prepare(
+        "SELECT p.sync_sigma_mm FROM points p JOIN poses o ON o.id = p.pose_id "
+        "WHERE p.session_id = ? ORDER BY o.seq");
+    q->Bind(1, id);
+    std::vector<double> out;
+    while (q->Step()) out.push_back(q->IsNull(0) ? -1.0 : q->Double(0));
+    return out;
+  };
+  const auto from_shares = shares(a, 1);
+  ASSERT_EQ(from_shares.size(), 60u);
+  EXPECT_GT(*std::min_element(from_shares.begin(), from_shares.end()), 0.0);
+  EXPECT_EQ(shares(b, server), from_shares);
+  EXPECT_EQ(PushFiles(cell, central).stream_rows, 0);  // and once only
 }
 
 ARMSIG_BOTH_BACKENDS(Push);
