@@ -6,6 +6,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <functional>
 #include <limits>
 #include <mutex>
 #include <nlohmann/json.hpp>
@@ -335,15 +336,16 @@ void SweepRun::SweepSegment(const SweepSpan& seg, db::StreamSegment& rows) {
   controller_.MoveTo(plan_[seg.first].joints_rad);
   tracker_->StartContinuous(
       {path_ ? sweep_.path_tracker_separation_ms : sweep_.tracker_separation_ms, std::nullopt});
+  const std::function<void(const instruments::ContinuousRecord&)> keep =
+      [&](const instruments::ContinuousRecord& r) {
+        std::lock_guard lock(tracker_rows);
+        rows.points.push_back({station_code_, r.tracker_time_s, r.angles.hz_rad, r.angles.v_rad,
+                               r.distance_mm, r.status});
+      };
   std::thread reader([&] {
     try {
       tracker_->ReadContinuous(
-          instruments::Clock::now() + std::chrono::hours(2), done,
-          [&](const instruments::ContinuousRecord& r) {
-            std::lock_guard lock(tracker_rows);
-            rows.points.push_back({station_code_, r.tracker_time_s, r.angles.hz_rad, r.angles.v_rad,
-                                   r.distance_mm, r.status});
-          },
+          instruments::Clock::now() + std::chrono::hours(2), done, keep,
           [&](const instruments::ContinuousEvent& e) {
             std::lock_guard lock(tracker_rows);
             rows.events.push_back({station_code_, e.after_tracker_time_s, e.status, e.what});
@@ -373,7 +375,8 @@ void SweepRun::SweepSegment(const SweepSpan& seg, db::StreamSegment& rows) {
   done = true;
   reader.join();
   if (tracker_failed) std::rethrow_exception(tracker_failed);
-  tracker_->StopContinuous();
+  // The records a reader behind the tracker has not read yet (the arm's last moments) are kept.
+  tracker_->StopContinuous(keep);
 }
 
 // A swept segment's rows in one transaction, its figures and the progress.

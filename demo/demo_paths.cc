@@ -4,6 +4,7 @@
 
 #include <chrono>
 #include <cmath>
+#include <functional>
 #include <thread>
 #include <vector>
 
@@ -104,23 +105,21 @@ iso::AttainedCycle RunCycle(simulation::VirtualArm& arm, instruments::EmsconDevi
   tracker.StartContinuous({4, std::nullopt});
   std::atomic<bool> done{false};
   iso::AttainedCycle cycle;
-  std::thread reader([&] {
-    tracker.ReadContinuous(
-        instruments::Clock::now() + std::chrono::minutes(10), done,
-        [&](const instruments::ContinuousRecord& rec) {
-          const Eigen::Vector3d world =
-              station.position_mm + station.world_from_station * rec.point_in_instrument_mm;
-          cycle.samples.push_back({rec.tracker_time_s, base_from_world * world});
-        },
-        {});
-  });
+  const std::function<void(const instruments::ContinuousRecord&)> keep =
+      [&](const instruments::ContinuousRecord& rec) {
+        const Eigen::Vector3d world =
+            station.position_mm + station.world_from_station * rec.point_in_instrument_mm;
+        cycle.samples.push_back({rec.tracker_time_s, base_from_world * world});
+      };
+  std::thread reader(
+      [&] { tracker.ReadContinuous(instruments::Clock::now() + std::chrono::minutes(10), done, keep, {}); });
   for (const auto& leg : program.legs) {
     arm.MovePath(leg, kDt);
     stand();
   }
   done = true;
   reader.join();
-  tracker.StopContinuous();
+  tracker.StopContinuous(keep);  // and what the reader had not read yet: the last leg's end
   return cycle;
 }
 

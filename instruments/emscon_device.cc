@@ -134,6 +134,12 @@ es::CommandAnswer EmsconDevice::Exchange(const es::Request& request, Deadline un
       FailUnlessUnsolicited(*e, id);
       continue;
     }
+    if (in_flight_) {  // stopping a continuous measurement: its last records
+      if (const auto* m = std::get_if<es::MultiMeasResult>(&*packet)) {
+        DeliverRecords(*m, *in_flight_);
+        continue;
+      }
+    }
     ++stats_.stale_results;  // a measurement result nobody asked for now
   }
 }
@@ -639,7 +645,6 @@ void EmsconDevice::ReadContinuous(Deadline until, const std::atomic<bool>& done,
                                   const std::function<void(const ContinuousRecord&)>& each,
                                   const std::function<void(const ContinuousEvent&)>& event) {
   if (!continuous_) throw std::logic_error("ReadContinuous before StartContinuous");
-  const double to_rad = *es::RadiansPer(options_.angle_unit);
   while (!done.load() && Clock::now() < until) {
     std::optional<es::Packet> packet;
     try {
@@ -665,35 +670,49 @@ void EmsconDevice::ReadContinuous(Deadline until, const std::atomic<bool>& done,
       ++stats_.stale_results;
       continue;
     }
-    for (const es::MeasRecord& rec : m->records) {
-      const bool usable_status = rec.status == es::continuous_status::kAllOk ||
-                                 rec.status == es::continuous_status::kSpeedWarning;
-      const es::SphericalCcw scc{rec.value[0] * to_rad, rec.value[1] * to_rad, rec.value[2]};
-      const bool sane = m->status == es::status::kAllOk && !m->try_mode && Finite(rec.value) &&
-                        std::abs(scc.hz_rad) <= 2.0 * std::numbers::pi &&
-                        plausible::IsPlausible(plausible::Quantity::kZenithAngle, scc.v_rad) &&
-                        scc.distance_mm > 0.0 && scc.distance_mm < 1e6;
-      if (!usable_status || !sane) {
-        ++continuous_refused_;
-        continue;
-      }
-      ContinuousRecord r;
-      r.tracker_time_s = es::TimeOf(rec);
-      r.status = rec.status;
-      r.point_in_instrument_mm = es::PointFromScc(scc);
-      const es::Spherical s = es::SphericalFromPoint(r.point_in_instrument_mm);
-      r.angles = {s.hz_rad, s.v_rad, 1};
-      r.distance_mm = s.distance_mm;
-      last_record_time_s_ = r.tracker_time_s;
-      each(r);
-    }
+    DeliverRecords(*m, each);
   }
 }
 
-void EmsconDevice::StopContinuous() {
+void EmsconDevice::DeliverRecords(const es::MultiMeasResult& m,
+                                  const std::function<void(const ContinuousRecord&)>& each) {
+  const double to_rad = *es::RadiansPer(options_.angle_unit);
+  for (const es::MeasRecord& rec : m.records) {
+    const bool usable_status = rec.status == es::continuous_status::kAllOk ||
+                               rec.status == es::continuous_status::kSpeedWarning;
+    const es::SphericalCcw scc{rec.value[0] * to_rad, rec.value[1] * to_rad, rec.value[2]};
+    const bool sane = m.status == es::status::kAllOk && !m.try_mode && Finite(rec.value) &&
+                      std::abs(scc.hz_rad) <= 2.0 * std::numbers::pi &&
+                      plausible::IsPlausible(plausible::Quantity::kZenithAngle, scc.v_rad) &&
+                      scc.distance_mm > 0.0 && scc.distance_mm < 1e6;
+    if (!usable_status || !sane) {
+      ++continuous_refused_;
+      continue;
+    }
+    ContinuousRecord r;
+    r.tracker_time_s = es::TimeOf(rec);
+    r.status = rec.status;
+    r.point_in_instrument_mm = es::PointFromScc(scc);
+    const es::Spherical s = es::SphericalFromPoint(r.point_in_instrument_mm);
+    r.angles = {s.hz_rad, s.v_rad, 1};
+    r.distance_mm = s.distance_mm;
+    last_record_time_s_ = r.tracker_time_s;
+    each(r);
+  }
+}
+
+void EmsconDevice::StopContinuous(const std::function<void(const ContinuousRecord&)>& in_flight) {
   if (!continuous_) return;
   WithRetries(es::StopMeasurement::kCommand, CallDeadline(), [&](Deadline until) {
-    Exchange(es::StopMeasurement{}, until);  // records still in flight are skipped
+    // The records still in flight arrive before the stop's answer: to `in_flight` (Exchange).
+    in_flight_ = in_flight ? &in_flight : nullptr;
+    try {
+      Exchange(es::StopMeasurement{}, until);
+    } catch (...) {
+      in_flight_ = nullptr;
+      throw;
+    }
+    in_flight_ = nullptr;
     Exchange(es::SetMeasurementMode{es::meas_mode::kStationary}, until);
     Exchange(es::SetStationaryModeParams{options_.measurement_time_ms, options_.use_adm}, until);
     return 0;

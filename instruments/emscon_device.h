@@ -130,9 +130,11 @@ class EmsconDevice : public DistanceInstrument, public BeamSteering {
   void ReadContinuous(Deadline until, const std::atomic<bool>& done,
                       const std::function<void(const ContinuousRecord&)>& each,
                       const std::function<void(const ContinuousEvent&)>& event);
-  // StopMeasurement (the results still in flight are read and dropped), then stationary mode
-  // again, by policy.timeout.
-  void StopContinuous();
+  // StopMeasurement, then stationary mode again, by policy.timeout. The records still in
+  // flight (measured before the tracker took the stop, not read yet: a reader that fell
+  // behind) go to `in_flight` as ReadContinuous would hand them over, or are dropped without
+  // it: nothing the tracker measured while the caller's motion ran need be lost.
+  void StopContinuous(const std::function<void(const ContinuousRecord&)>& in_flight = {});
   int continuous_refused() const { return continuous_refused_; }
 
   // A packet the server pushed while the driver waited for an answer.
@@ -204,6 +206,11 @@ class EmsconDevice : public DistanceInstrument, public BeamSteering {
   bool continuous_ = false;  // StartContinuous ran and StopContinuous has not yet
   double last_record_time_s_ = 0.0;
   int continuous_refused_ = 0;
+  // While StopContinuous waits for the stop's answer: where the records in flight go.
+  const std::function<void(const ContinuousRecord&)>* in_flight_ = nullptr;
+  // A continuous result's records that are readings, to `each` (the others counted refused).
+  void DeliverRecords(const emscon::MultiMeasResult& m,
+                      const std::function<void(const ContinuousRecord&)>& each);
   Statistics stats_;
 };
 

@@ -226,6 +226,12 @@ CaptureOutcome RunCaptureSession(const CaptureRequest& request) {
   // The plan is made before the database is touched: a bad plan stores nothing.
   std::optional<acquisition::Plan> plan;
   if (session == 0) plan = acquisition::MakePlan(request.plan, lab.model, request.seed);
+  if (plan && !request.on_the_move && acquisition::HasLinearMoves(*plan)) {
+    // Stop-and-go would measure the vertices standing: no path, and no path test to report.
+    throw InputError({request.plan, 0, 0, "speed_mm_s"},
+                     "a path plan (linear moves, from iso9283 plan --path) is measured on the "
+                     "move: add --on-the-move");
+  }
   if (request.on_the_move) {
     acquisition::CheckOnTheMoveLab(lab);
     // A path plan is swept in its own order (its cycles are the test); any other nearest-first.

@@ -13,6 +13,7 @@
 #include <functional>
 #include <nlohmann/json.hpp>
 #include <thread>
+#include <tuple>
 
 #include "acquisition/controller_record.h"
 #include "acquisition/lab.h"
@@ -606,6 +607,29 @@ TEST_F(UrCaptureFixture, OnTheMoveNeedsAStreamingControllerArmsigMoves) {
   lab.controller.can_move = true;
   lab.instruments.clear();
   EXPECT_THROW(CheckOnTheMoveLab(lab), InputError);
+  // A path plan (linear moves) captured stop-and-go would measure its vertices standing: it
+  // is refused, naming the plan and what to add, before anything is stored.
+  Eigen::VectorXd next = truth_.home_rad;
+  next(0) += 0.2;
+  std::string csv = "pose,q1_rad,q2_rad,q3_rad,q4_rad,q5_rad,q6_rad,speed_mm_s\n";
+  for (const auto& [label, q, speed] : {std::tuple{"line-01-v1", truth_.home_rad, ""},
+                                        std::tuple{"line-01-v2", next, "250"}}) {
+    csv += label;
+    for (int j = 0; j < 6; ++j) csv += fmt::format(",{:.12f}", q(j));
+    csv += std::string(",") + speed + "\n";
+  }
+  testing::WriteText(dir_.File("path.csv"), csv);
+  workflows::CaptureRequest request = Request();
+  request.plan = dir_.File("path.csv");
+  try {
+    workflows::RunCaptureSession(request);
+    ADD_FAILURE() << "a path plan captured stop-and-go";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("path.csv"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("add --on-the-move"), std::string::npos) << e.what();
+  }
+  db::Database db(Db());
+  EXPECT_TRUE(db::SessionIds(db).empty());
 }
 
 }  // namespace
