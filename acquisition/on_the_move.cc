@@ -363,6 +363,7 @@ void SweepRun::SweepSegment(const SweepSpan& seg, db::StreamSegment& rows) {
     if (const auto& v = plan_[seg.last].linear_speed_mm_s) {
       motion.linear_speed_mm_s = *v;
       motion.linear_acceleration_mm_s2 = sweep_.linear_acceleration_mm_s2;
+      motion.circular = plan_[seg.first + 1].via;  // a circle: (via, target) pairs
     }
     controller_.Sweep(waypoints, motion, [&](const instruments::JointSample& s) {
       rows.joints.push_back({s.controller_time_s, s.q_rad, s.qd_rad_s});

@@ -24,14 +24,38 @@ namespace armsig::acquisition {
 
 namespace {
 
+// The `motion` column of a row: empty (a joint move without a speed, a linear move with one),
+// "joint", "linear", "via" (the via point of a circular move to the next row) or "circular"
+// (the row after a via); each with the speed it needs, and a via row's move completed by the
+// next row (the last row checked at the end).
+void CheckMotion(const io::CsvTable& t, const io::CsvRow& row, int column, const Plan& before,
+                 PlannedConfiguration& c) {
+  const std::string word = t.Text(row, column);
+  const bool after_via = !before.empty() && before.back().via;
+  const auto refuse = [&](const std::string& why) {
+    throw InputError(t.Where(row, column), fmt::format("pose {}: {}", Quoted(c.label), why));
+  };
+  if (word != "" && word != "joint" && word != "linear" && word != "via" && word != "circular")
+    refuse(fmt::format("motion {} (expected joint, linear, via or circular)", Quoted(word)));
+  if (after_via != (word == "circular"))
+    refuse(after_via ? "the row after a via point is its circular move's target (motion circular)"
+                     : "a circular move's target follows its via point (motion via)");
+  // Empty: the speed says (a joint move without one, a linear move with one).
+  if (word == "joint" && c.linear_speed_mm_s) refuse("a joint move takes no speed_mm_s");
+  if (!word.empty() && word != "joint" && !c.linear_speed_mm_s)
+    refuse("a " + word + " move needs its speed_mm_s");
+  c.via = word == "via";
+}
+
 Plan ReadPlanCsvWithin(const std::string& path, int num_joints,
                        const calibration::RobotModel* model) {
   const io::CsvTable t = io::ReadCsvFile(path);
-  std::vector<std::string> known = {"pose", "x_mm", "y_mm", "z_mm", "speed_mm_s"};
+  std::vector<std::string> known = {"pose", "x_mm", "y_mm", "z_mm", "speed_mm_s", "motion"};
   for (int i = 1; i <= num_joints; ++i) known.push_back("q" + std::to_string(i) + "_*");
   t.RefuseUnreadUnits(known);
   const int id = t.Column("pose");
   const std::optional<int> speed = t.FindColumn("speed_mm_s");
+  const std::optional<int> motion = t.FindColumn("motion");
   // A target only when all three coordinates are there (one or two is a broken file).
   const std::optional<int> tx = t.FindColumn("x_mm"), ty = t.FindColumn("y_mm"),
                            tz = t.FindColumn("z_mm");
@@ -87,9 +111,15 @@ Plan ReadPlanCsvWithin(const std::string& path, int num_joints,
       }
       c.linear_speed_mm_s = *v;
     }
+    if (motion) CheckMotion(t, row, *motion, plan, c);
     plan.push_back(std::move(c));
   }
   if (plan.empty()) throw InputError({path, 0, 0, ""}, "empty plan");
+  if (plan.back().via) {
+    throw InputError({path, 0, 0, "motion"},
+                     fmt::format("pose {}: the last row is a via point with no target after it",
+                                 Quoted(plan.back().label)));
+  }
   return plan;
 }
 
@@ -211,6 +241,7 @@ std::string PlanToJson(const Plan& plan) {
          std::vector<double>(c.joints_rad.data(), c.joints_rad.data() + c.joints_rad.size())}};
     if (c.target_mm) item["target_mm"] = {c.target_mm->x(), c.target_mm->y(), c.target_mm->z()};
     if (c.linear_speed_mm_s) item["linear_speed_mm_s"] = *c.linear_speed_mm_s;
+    if (c.via) item["via"] = true;
     j.push_back(std::move(item));
   }
   return JsonText(j);
@@ -235,6 +266,7 @@ Plan PlanFromJson(const std::string& json, const db::JsonCell& where) {
           db::RefuseStoredJson(where, "expected linear_speed_mm_s above 0 and at most 10000");
         c.linear_speed_mm_s = v;
       }
+      if (item.contains("via")) c.via = item.at("via").get<bool>();
       plan.push_back(std::move(c));
     }
     return plan;

@@ -25,12 +25,17 @@ struct PlannedConfiguration {
   // straight line, the controller's own path) at this TCP speed, mm/s (the `speed_mm_s`
   // column of an ISO 9283 path plan, measured on the move); a joint move when absent.
   std::optional<double> linear_speed_mm_s{};
+  // The via point of a circular move (URScript movec) to the next configuration: not stopped
+  // at; the TCP passes through its position on the arc (the `motion` column's "via"; the row
+  // after it, "circular", carries the speed).
+  bool via = false;
 };
 using Plan = std::vector<PlannedConfiguration>;
 
 // "pose,q1_deg,…,qn_deg" (any angle unit suffix), with the target x_mm, y_mm, z_mm when
-// the file gives all three, and speed_mm_s (a linear move to that row; empty: a joint move)
-// when it has that column. Throws InputError with line numbers.
+// the file gives all three, speed_mm_s (a linear move to that row; empty: a joint move) and
+// motion (linear, via or circular: a via row and the circular row after it make one circular
+// move) when it has those columns. Throws InputError with line numbers.
 Plan ReadPlanCsv(const std::string& path, int num_joints);
 // The same, refusing a configuration outside the model's joint limits (when it has them):
 // the plan is sent to the robot, and a limit is where it stops short or faults.

@@ -1,6 +1,6 @@
 // armsig iso9283 plan --robot NAME (--cube CX,CY,CZ,EDGE_MM | --auto [--centre X,Y,Z])
 //                     [--orientation A,B,C] [--cycles 30] [--compensated]
-//                     [--approach [--approach-mm 100]] [--path line,rectangle [--speed 250]]
+//                     [--approach [--approach-mm 100]] [--path line,rectangle,… [--speed 250]]
 //                     --out PLAN.csv
 #include <fmt/format.h>
 
@@ -109,10 +109,11 @@ void SetupIso9283PlanCommand(CLI::App& iso, const GlobalOptions& global, Runner&
       "--approach", o->plan.multi_directional,
       "Multi-directional test (vAP): approach each point from its +x, +y and +z side");
   auto* path = sub->add_option("--path", o->plan.paths,
-                               "A path test instead (ISO 9283 clause 8): line, rectangle or both "
-                               "(comma-separated), linear moves measured on the move")
+                               "A path test instead (ISO 9283 clause 8): line, rectangle, "
+                               "circle-large, circle-small (comma-separated), linear and "
+                               "circular moves measured on the move")
                    ->delimiter(',')
-                   ->check(CLI::IsMember({"line", "rectangle"}));
+                   ->check(CLI::IsMember({"line", "rectangle", "circle-large", "circle-small"}));
   path->excludes(approach);
   NumberOption(sub->add_option("--speed", o->plan.path_speed_mm_s,
                                "The path speed of --path, mm/s (URScript movel's default 250)"),

@@ -453,4 +453,32 @@ TestPaths BuildTestPaths(const TestCube& cube, int circle_segments) {
   return paths;
 }
 
+std::optional<CircleArc> ArcThrough(const Eigen::Vector3d& from, const Eigen::Vector3d& via,
+                                    const Eigen::Vector3d& to) {
+  // The circumcentre of the triangle (0, a, b) with `from` at the origin:
+  // p = ((|a|² b − |b|² a) × (a × b)) / (2 |a × b|²).
+  const Eigen::Vector3d a = via - from, b = to - from, n = a.cross(b);
+  const double scale = std::max({a.norm(), b.norm(), 1e-12});
+  if (!(n.norm() > 1e-9 * scale * scale) || !n.allFinite()) return std::nullopt;
+  const Eigen::Vector3d p = (a.squaredNorm() * b - b.squaredNorm() * a).cross(n) / (2.0 * n.squaredNorm());
+  CircleArc arc;
+  arc.centre_mm = from + p;
+  arc.radius_mm = p.norm();
+  arc.e1 = -p / arc.radius_mm;
+  // The triangle from → via → to turns about n: the arc through them in that order too.
+  arc.e2 = n.normalized().cross(arc.e1);
+  const Eigen::Vector3d c = to - arc.centre_mm;
+  double angle = std::atan2(c.dot(arc.e2), c.dot(arc.e1));
+  if (angle <= 0.0) angle += 2.0 * kPi;
+  arc.angle_rad = angle;
+  return arc;
+}
+
+std::vector<Eigen::Vector3d> ArcPolyline(const CircleArc& arc, double max_step_rad) {
+  const int n = std::max(1, static_cast<int>(std::ceil(arc.angle_rad / max_step_rad - 1e-9)));
+  std::vector<Eigen::Vector3d> out;
+  for (int k = 1; k <= n; ++k) out.push_back(arc.At(static_cast<double>(k) / n));
+  return out;
+}
+
 }  // namespace armsig::calibration::iso9283

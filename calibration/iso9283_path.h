@@ -57,6 +57,7 @@
 
 #include <Eigen/Core>
 #include <cmath>
+#include <optional>
 #include <vector>
 
 #include "calibration/iso9283_cube.h"
@@ -174,5 +175,25 @@ inline constexpr double kLargeCircleFraction = 0.80;  // of the cube's edge
 inline constexpr double kSmallCircleFraction = 0.10;  // of the large circle's diameter
 // Throws std::invalid_argument for an edge that is not positive or fewer than 360 segments.
 TestPaths BuildTestPaths(const TestCube& cube, int circle_segments = 360);
+
+// A circular arc from `from` through `via` to `to` (a controller's circular move, URScript
+// movec): its centre, radius, the unit vectors e1 (centre → from) and e2 (in the plane, a
+// quarter turn on in the direction of travel), and the angle it turns, in (0, 2π).
+struct CircleArc {
+  Eigen::Vector3d centre_mm = Eigen::Vector3d::Zero();
+  Eigen::Vector3d e1 = Eigen::Vector3d::UnitX(), e2 = Eigen::Vector3d::UnitY();
+  double radius_mm = 0.0, angle_rad = 0.0;
+  double length_mm() const { return radius_mm * angle_rad; }
+  // The point at fraction f ∈ [0, 1] of the arc.
+  Eigen::Vector3d At(double f) const {
+    return centre_mm + radius_mm * (std::cos(f * angle_rad) * e1 + std::sin(f * angle_rad) * e2);
+  }
+};
+// nullopt when the three points are (nearly) on one line or two coincide.
+std::optional<CircleArc> ArcThrough(const Eigen::Vector3d& from, const Eigen::Vector3d& via,
+                                    const Eigen::Vector3d& to);
+// The arc as a polyline from `from` (excluded) to `to` (included), chords turning at most
+// `max_step_rad` each.
+std::vector<Eigen::Vector3d> ArcPolyline(const CircleArc& arc, double max_step_rad);
 
 }  // namespace armsig::calibration::iso9283

@@ -67,8 +67,9 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
     (void)ur::dashboard::NotUnderstood(line);
     if (const auto move = ur::ParseMove(line, &why)) {
       const auto again = ur::ParseMove(
-          move->linear ? ur::MoveL(move->joints_rad, move->a, move->v)
-                       : ur::MoveJ(move->joints_rad, move->a, move->v),
+          move->circular ? ur::MoveC(*move->via_rad, move->joints_rad, move->a, move->v)
+          : move->linear ? ur::MoveL(move->joints_rad, move->a, move->v)
+                         : ur::MoveJ(move->joints_rad, move->a, move->v),
           &why);
       if (!again) std::abort();
     }

@@ -226,6 +226,9 @@ struct SweepMotion {
   // Linear moves (the TCP on a straight line to each waypoint's pose, along the controller's
   // own path) at this TCP speed and acceleration, when the speed is above 0; joint moves else.
   double linear_speed_mm_s = 0.0, linear_acceleration_mm_s2 = 1200.0;
+  // Circular moves at that speed instead: the waypoints in pairs, a via point (its position
+  // only) and a target, the TCP on the arc through them.
+  bool circular = false;
   bool linear() const { return linear_speed_mm_s > 0.0; }
 };
 

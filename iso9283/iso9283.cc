@@ -316,15 +316,15 @@ void Iso9283Planner::PlanCycles() {
       const auto& p = plan_.points[index];
       const std::string label = p.name + "-" + CycleLabel(c, o_.cycles);
       if (!o_.multi_directional) {
-        plan_.rows.push_back({label, p.name, c, "", p.target_mm, p.joints_rad, std::nullopt});
+        plan_.rows.push_back({label, p.name, c, "", p.target_mm, p.joints_rad, std::nullopt, ""});
         continue;
       }
       for (int k = 0; k < 3; ++k) {
         const std::string side = iso::ApproachName(k);
         plan_.rows.push_back({label + "-" + side + "-via", "", 0, "", via_targets_[index][k],
-                              via_joints_[index][k], std::nullopt});
+                              via_joints_[index][k], std::nullopt, ""});
         plan_.rows.push_back(
-            {label + "-" + side, p.name, c, side, p.target_mm, p.joints_rad, std::nullopt});
+            {label + "-" + side, p.name, c, side, p.target_mm, p.joints_rad, std::nullopt, ""});
       }
     }
   }
@@ -339,13 +339,25 @@ void Iso9283Planner::PlanPaths() {
     throw InputError({"--speed", 0, 0, ""}, "expected a path speed above 0 mm/s");
   const iso::TestPaths paths = iso::BuildTestPaths(plan_.cube);
   for (const std::string& name : o_.paths) {
-    const std::vector<Eigen::Vector3d>* vertices = name == "line"        ? &paths.line_mm
-                                                   : name == "rectangle" ? &paths.rectangle_mm
-                                                                         : nullptr;
-    if (!vertices) {
+    const bool circle = name == "circle-large" || name == "circle-small";
+    const std::vector<Eigen::Vector3d>* polyline = name == "line"           ? &paths.line_mm
+                                                   : name == "rectangle"    ? &paths.rectangle_mm
+                                                   : name == "circle-large" ? &paths.large_circle_mm
+                                                   : name == "circle-small" ? &paths.small_circle_mm
+                                                                            : nullptr;
+    if (!polyline) {
       throw InputError({"--path", 0, 0, ""},
-                       fmt::format("unknown path {} (expected line or rectangle)", Quoted(name)));
+                       fmt::format("unknown path {} (expected line, rectangle, circle-large or "
+                                   "circle-small)",
+                                   Quoted(name)));
     }
+    // A circle's rows: its start, then via its quarter points to its half and back to its
+    // start (two circular moves); 360 segments from BuildTestPaths.
+    std::vector<Eigen::Vector3d> circle_rows;
+    if (circle) {
+      for (size_t k : {0, 90, 180, 270, 360}) circle_rows.push_back((*polyline)[k]);
+    }
+    const std::vector<Eigen::Vector3d>* vertices = circle ? &circle_rows : polyline;
     for (const auto& [done, ignored] : plan_.paths) {
       if (done == name) throw InputError({"--path", 0, 0, ""}, "path " + name + " given twice");
     }
@@ -370,10 +382,11 @@ void Iso9283Planner::PlanPaths() {
         row.target_mm = (*vertices)[k];
         row.joints_rad = joints[k];
         if (k > 0) row.speed_mm_s = o_.path_speed_mm_s;
+        if (circle && k > 0) row.motion = k % 2 == 1 ? "via" : "circular";
         plan_.rows.push_back(std::move(row));
       }
     }
-    plan_.paths.emplace_back(name, *vertices);
+    plan_.paths.emplace_back(name, *polyline);
   }
 }
 

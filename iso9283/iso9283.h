@@ -45,16 +45,19 @@ struct Iso9283PlanOptions {
   // singularity; 0, 0, 90°, 0, … for other joint counts).
   std::optional<Eigen::VectorXd> seed_rad;
   // A path test (clause 8) instead of the pose test: the standard's paths in the cube's
-  // measuring plane ("line", "rectangle": calibration/iso9283_path.h BuildTestPaths), in the
-  // order given, each cycle from its first vertex (reached by a joint move, where the arm
-  // stands) along the others by linear moves at `path_speed_mm_s` (the plan's speed_mm_s
-  // column), measured on the move (`capture --on-the-move`).
+  // measuring plane ("line", "rectangle", "circle-large", "circle-small":
+  // calibration/iso9283_path.h BuildTestPaths), in the order given, each cycle from its first
+  // vertex (reached by a joint move, where the arm stands) along the others by linear moves,
+  // a circle by two circular moves (via its quarter points to its half and back to its
+  // start), at `path_speed_mm_s` (the plan's speed_mm_s and motion columns), measured on the
+  // move (`capture --on-the-move`).
   std::vector<std::string> paths;
   double path_speed_mm_s = 250.0;
 };
 
 // The paths `iso9283 plan --path` knows, by name.
-inline constexpr const char* kIso9283PathNames[] = {"line", "rectangle"};
+inline constexpr const char* kIso9283PathNames[] = {"line", "rectangle", "circle-large",
+                                                     "circle-small"};
 
 struct Iso9283PlannedPoint {
   std::string name;

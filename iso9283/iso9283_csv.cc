@@ -139,7 +139,10 @@ std::string FormatIso9283PlanCsv(const std::vector<Iso9283PlanRow>& rows) {
                                   [](const Iso9283PlanRow& r) { return r.speed_mm_s.has_value(); });
   out += "pose,point,cycle,approach,x_mm,y_mm,z_mm";
   for (int i = 1; i <= n; ++i) out += fmt::format(",q{}_deg", i);
+  const bool motions = std::any_of(rows.begin(), rows.end(),
+                                   [](const Iso9283PlanRow& r) { return !r.motion.empty(); });
   if (speeds) out += ",speed_mm_s";
+  if (motions) out += ",motion";
   out += "\n";
   for (const auto& r : rows) {
     out += fmt::format("{},{},{},{},{:.6f},{:.6f},{:.6f}", io::CsvEscape(r.pose), io::CsvEscape(r.point),
@@ -147,6 +150,7 @@ std::string FormatIso9283PlanCsv(const std::vector<Iso9283PlanRow>& rows) {
                        r.target_mm.x(), r.target_mm.y(), r.target_mm.z());
     for (int i = 0; i < n; ++i) out += fmt::format(",{:.8f}", r.joints_rad(i) / kRadPerDeg);
     if (speeds) out += r.speed_mm_s ? fmt::format(",{:g}", *r.speed_mm_s) : std::string(",");
+    if (motions) out += "," + r.motion;
     out += "\n";
   }
   return out;
@@ -155,12 +159,13 @@ std::string FormatIso9283PlanCsv(const std::vector<Iso9283PlanRow>& rows) {
 std::vector<Iso9283PlanRow> ReadIso9283PlanCsv(const std::string& path, int num_joints) {
   const io::CsvTable t = io::ReadCsvFile(path);
   std::vector<std::string> known = {"pose",     "point", "cycle", "approach",
-                                    "x_mm",     "y_mm",  "z_mm",  "speed_mm_s"};
+                                    "x_mm",     "y_mm",  "z_mm",  "speed_mm_s", "motion"};
   for (int i = 1; i <= num_joints; ++i) known.push_back("q" + std::to_string(i) + "_*");
   t.RefuseUnreadUnits(known);
   const int pose = t.Column("pose"), point = t.Column("point"), cycle = t.Column("cycle");
   const std::optional<int> approach = t.FindColumn("approach");
   const std::optional<int> speed = t.FindColumn("speed_mm_s");
+  const std::optional<int> motion = t.FindColumn("motion");
   const int x = t.Column("x_mm"), y = t.Column("y_mm"), z = t.Column("z_mm");
   std::vector<io::AngleColumn> q;
   for (int i = 1; i <= num_joints; ++i) q.push_back(t.AngleColumnOf("q" + std::to_string(i)));
@@ -186,6 +191,7 @@ std::vector<Iso9283PlanRow> ReadIso9283PlanCsv(const std::string& path, int num_
     for (int i = 0; i < num_joints; ++i)
       r.joints_rad(i) = t.AngleRad(row, q[i], Quantity::kJointAngle);
     if (speed) r.speed_mm_s = t.OptionalNumber(row, *speed);
+    if (motion) r.motion = t.Text(row, *motion);
     out.push_back(std::move(r));
   }
   if (out.empty()) throw InputError({path, 0, 0, ""}, "empty plan");

@@ -48,6 +48,9 @@ struct Iso9283PlanRow {
   Eigen::Vector3d target_mm = Eigen::Vector3d::Zero();  // in the robot frame
   Eigen::VectorXd joints_rad;
   std::optional<double> speed_mm_s;  // a path's vertex reached by a linear move
+  // A circle's rows: "via" (a circular move's via point) and "circular" (its target); ""
+  // for the others (the `motion` column, written when a row has one).
+  std::string motion;
 };
 // The header and the rows only: a spreadsheet or pandas reads it as it is (the plan's
 // conditions, which were '#' lines read as rows there, are on the command's output).

@@ -90,7 +90,20 @@ std::vector<PlannedPath> PathsOfPlan(const acquisition::Plan& plan, int64_t sess
                                      "plan from `iso9283 plan --path` has x_mm, y_mm, z_mm)",
                                      session, plan[k].label));
       }
-      vertices.push_back(*plan[k].target_mm);
+      if (!plan[k].via || k == span.first || k + 1 > span.last || !plan[k + 1].target_mm) {
+        vertices.push_back(*plan[k].target_mm);
+        continue;
+      }
+      // A circular move: the commanded arc as chords of 1° (inside the arc by r (1 − cos
+      // 0.5°), 0.005 mm for the large circle of a 300 mm cube).
+      const auto arc = iso::ArcThrough(vertices.back(), *plan[k].target_mm, *plan[k + 1].target_mm);
+      if (!arc) {
+        throw InputError({db_path, 0, 0, "--session"},
+                         fmt::format("session {}: the circular move through {} lies on one line",
+                                     session, plan[k].label));
+      }
+      for (const auto& v : iso::ArcPolyline(*arc, kRadPerDeg)) vertices.push_back(v);
+      ++k;  // the target: the arc's last chord ends there
     }
     std::vector<int>& segments = it->segments[label->cycle];
     if (segments.empty() && it->segments.size() == 1) {  // the path's first cycle
@@ -284,12 +297,12 @@ nlohmann::json Iso9283PathJson(const Iso9283PathEvaluation& e) {
 }
 
 std::string FormatIso9283PathFigures(const Iso9283PathEvaluation& e) {
-  std::string out = fmt::format("{:<10} {:>6} {:>8} {:>8} {:>9} {:>8} {:>8} {:>8} {:>8} {:>8}\n",
+  std::string out = fmt::format("{:<12} {:>6} {:>8} {:>8} {:>9} {:>8} {:>8} {:>8} {:>8} {:>8}\n",
                                 "path", "cycles", "v mm/s", "AT mm", "mean AT", "RT mm", "AV %",
                                 "RV %", "FV mm/s", "planes");
   for (const auto& p : e.paths) {
     const iso::PathFigures& f = p.figures;
-    out += fmt::format("{:<10} {:>6} {:>8.1f} {:>8.4f} {:>9.4f} {:>8.4f} {:>8.3f} {:>8.3f} {:>8.2f} {:>8}\n",
+    out += fmt::format("{:<12} {:>6} {:>8.1f} {:>8.4f} {:>9.4f} {:>8.4f} {:>8.3f} {:>8.3f} {:>8.2f} {:>8}\n",
                        p.name, f.n, p.command.speed_mm_s, f.at_mm, f.mean_at_mm, f.rt_mm,
                        f.av_percent, f.rv_percent, f.fv_mm_s, f.planes_used);
     for (const auto& c : f.corners) {

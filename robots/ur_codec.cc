@@ -692,6 +692,17 @@ std::string MoveL(const Eigen::VectorXd& joints_rad, double a_m_s2, double v_m_s
   return line;
 }
 
+std::string MoveC(const Eigen::VectorXd& via_rad, const Eigen::VectorXd& joints_rad, double a_m_s2,
+                  double v_m_s) {
+  const auto list = [](const Eigen::VectorXd& q) {
+    std::string out;
+    for (Eigen::Index k = 0; k < q.size(); ++k) out += fmt::format("{}{:.12f}", k ? ", " : "", q(k));
+    return out;
+  };
+  return fmt::format("movec([{}], [{}], a={:.6g}, v={:.6g})\n", list(via_rad), list(joints_rad),
+                     a_m_s2, v_m_s);
+}
+
 namespace {
 
 std::string_view Trim(std::string_view s) {
@@ -718,30 +729,58 @@ std::optional<MoveCommand> ParseMove(std::string_view line, std::string* why) {
   };
   line = Trim(line);
   MoveCommand out;
-  constexpr std::string_view kJoint = "movej(", kLinear = "movel(";
-  if (line.compare(0, kLinear.size(), kLinear) == 0) {
+  constexpr std::string_view kJoint = "movej(", kLinear = "movel(", kCircular = "movec(";
+  if (line.compare(0, kLinear.size(), kLinear) == 0 || line.compare(0, kCircular.size(), kCircular) == 0) {
     out.linear = true;
+    out.circular = line[4] == 'c';
     out.a = 1.2;
     out.v = 0.25;
   } else if (line.compare(0, kJoint.size(), kJoint) != 0) {
-    return fail("not a movej(...) or movel(...) call");
+    return fail("not a movej(...), movel(...) or movec(...) call");
   }
   if (line.back() != ')') return fail("the call has no closing ')'");
-  const std::string_view name = out.linear ? "movel" : "movej";
+  const std::string name(line.substr(0, 5));
   std::string_view args = Trim(line.substr(kJoint.size(), line.size() - kJoint.size() - 1));
-  if (args.empty() || args.front() != '[')
-    return fail(std::string(name) + "'s first argument is no joint list");
-  const size_t close = args.find(']');
-  if (close == std::string_view::npos) return fail("the joint list has no ']'");
-  std::vector<double> joints;
-  for (const auto& item : SplitCommas(args.substr(1, close - 1))) {
-    const auto v = Number(item);
-    if (!v) return fail("joint " + std::to_string(joints.size() + 1) + " is no number");
-    joints.push_back(*v);
+  // A joint list "[q1, …, q6]" at the front of `args`, which moves past it.
+  std::string list_error;
+  const auto list = [&](const char* which) -> std::optional<Eigen::VectorXd> {
+    if (args.empty() || args.front() != '[') {
+      list_error = fmt::format("{}'s {} argument is no joint list", name, which);
+      return std::nullopt;
+    }
+    const size_t close = args.find(']');
+    if (close == std::string_view::npos) {
+      list_error = "the joint list has no ']'";
+      return std::nullopt;
+    }
+    std::vector<double> joints;
+    for (const auto& item : SplitCommas(args.substr(1, close - 1))) {
+      const auto v = Number(item);
+      if (!v) {
+        list_error = "joint " + std::to_string(joints.size() + 1) + " is no number";
+        return std::nullopt;
+      }
+      joints.push_back(*v);
+    }
+    if (joints.size() != 6) {
+      list_error = fmt::format("{} joints, a UR has 6", joints.size());
+      return std::nullopt;
+    }
+    args = Trim(args.substr(close + 1));
+    return Eigen::Map<const Eigen::VectorXd>(joints.data(), 6);
+  };
+  const auto first = list("first");
+  if (!first) return fail(list_error);
+  out.joints_rad = *first;
+  if (out.circular) {  // movec(via, to, …): the first list is the via point
+    if (args.empty() || args.front() != ',') return fail("movec takes a via point and a target");
+    args = Trim(args.substr(1));
+    const auto to = list("second");
+    if (!to) return fail(list_error);
+    out.via_rad = *first;
+    out.joints_rad = *to;
   }
-  if (joints.size() != 6) return fail(fmt::format("{} joints, a UR has 6", joints.size()));
-  out.joints_rad = Eigen::Map<const Eigen::VectorXd>(joints.data(), 6);
-  std::string_view rest = Trim(args.substr(close + 1));
+  std::string_view rest = args;
   while (!rest.empty()) {
     if (rest.front() != ',') return fail("expected ', a=…' or ', v=…' after the joint list");
     rest = Trim(rest.substr(1));

@@ -277,13 +277,20 @@ std::string MoveJ(const Eigen::VectorXd& joints_rad, double a_rad_s2, double v_r
 // forward kinematics gives those joints (the URScript manual: "pose can also be specified as
 // joint positions"), a in m/s², v in m/s.
 std::string MoveL(const Eigen::VectorXd& joints_rad, double a_m_s2, double v_m_s);
+// "movec([via…], [to…], a=A, v=V)\n": a circular move of the TCP through the pose of the
+// via joints (its position only) to the pose of the target joints (URScript's movec with
+// joint positions, r = 0 and mode 0: the orientation interpolated from start to target).
+std::string MoveC(const Eigen::VectorXd& via_rad, const Eigen::VectorXd& joints_rad, double a_m_s2,
+                  double v_m_s);
 struct MoveCommand {
-  bool linear = false;  // movel; else movej
+  bool linear = false;    // movel or movec (the TCP's path and speed); else movej
+  bool circular = false;  // movec: through `via_rad` to `joints_rad`
   Eigen::VectorXd joints_rad;
+  std::optional<Eigen::VectorXd> via_rad;
   // URScript's defaults: movej a = 1.4 rad/s², v = 1.05 rad/s; movel a = 1.2 m/s², v = 0.25 m/s.
   double a = 1.4, v = 1.05;
 };
-// One script line that is a movej or a movel with a joint list (a, v optional, in either
+// One script line that is a movej, movel or movec with joint lists (a, v optional, in either
 // order); nullopt with `why` for any other line.
 std::optional<MoveCommand> ParseMove(std::string_view line, std::string* why);
 

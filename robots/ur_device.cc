@@ -399,11 +399,17 @@ void UrController::Sweep(const std::vector<Eigen::VectorXd>& waypoints,
   Deadline deadline = Clock::now() + policy_.timeout +
                       std::chrono::duration_cast<Clock::duration>(
                           std::chrono::duration<double>(1.5 * duration + 10.0));
-  const auto line = [&](const Eigen::VectorXd& target) {
-    return motion.linear() ? ur::MoveL(target, motion.linear_acceleration_mm_s2 * 1e-3,
-                                       motion.linear_speed_mm_s * 1e-3)
-                           : ur::MoveJ(target, acceleration, speed);
+  // A circular sweep's waypoints come in pairs (via point, target): one movec each.
+  const size_t step = motion.circular ? 2 : 1;
+  if (motion.circular && (!motion.linear() || waypoints.size() % 2 != 0))
+    throw std::invalid_argument(fmt::format("{}: a circular sweep takes pairs of waypoints at a path "
+                                            "speed, not {}", name_, waypoints.size()));
+  const auto line = [&](size_t k) {
+    const double a = motion.linear_acceleration_mm_s2 * 1e-3, v = motion.linear_speed_mm_s * 1e-3;
+    if (motion.circular) return ur::MoveC(waypoints[k - 1], waypoints[k], a, v);
+    return motion.linear() ? ur::MoveL(waypoints[k], a, v) : ur::MoveJ(waypoints[k], acceleration, speed);
   };
+  next = step - 1;  // the first target
   try {
     Stream(deadline, "sweep", [&](const Sample& s) {
       CheckSample(s);
@@ -411,7 +417,7 @@ void UrController::Sweep(const std::vector<Eigen::VectorXd>& waypoints,
       const Eigen::VectorXd& target = waypoints[next];
       if (!sent) {
         from = s.q;
-        SendScript(line(target), deadline);
+        SendScript(line(next), deadline);
         ++stats_.moves;
         sent = true;
         sent_at.reset();
@@ -421,8 +427,8 @@ void UrController::Sweep(const std::vector<Eigen::VectorXd>& waypoints,
       if (!sent_at) sent_at = s.timestamp_s;
       const double off = (s.q - target).cwiseAbs().maxCoeff();
       if (off < options_.arrive_tolerance_rad) {
-        if (next + 1 < waypoints.size()) {
-          ++next;
+        if (next + step < waypoints.size()) {
+          next += step;
           sent = false;  // the next line goes out with the next package
           return false;
         }

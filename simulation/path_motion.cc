@@ -6,6 +6,8 @@
 #include <algorithm>
 #include <cmath>
 
+#include "calibration/iso9283_path.h"
+
 namespace armsig::simulation {
 
 namespace {
@@ -74,7 +76,15 @@ std::optional<std::vector<Eigen::VectorXd>> LinearPath(const programs::Controlle
                                                        const LinearPathRequest& r, std::string* why) {
   const Eigen::Isometry3d from = programs::TcpPose(controller, r.start_rad, r.tool);
   const Eigen::Vector3d delta = r.to_tcp.translation() - from.translation();
-  const double length = delta.norm();
+  std::optional<calibration::iso9283::CircleArc> arc;
+  if (r.via_mm) {
+    arc = calibration::iso9283::ArcThrough(from.translation(), *r.via_mm, r.to_tcp.translation());
+    if (!arc) {
+      if (why) *why = "the circular move's start, via point and target lie on one line";
+      return std::nullopt;
+    }
+  }
+  const double length = arc ? arc->length_mm() : delta.norm();
   const Eigen::Quaterniond q0(from.linear()), q1(r.to_tcp.linear());
   // The trapezoid on the path length (a triangle when the cruise speed is never reached).
   const double a = r.acceleration_mm_s2, v = r.speed_mm_s;
@@ -103,7 +113,7 @@ std::optional<std::vector<Eigen::VectorXd>> LinearPath(const programs::Controlle
     const double f = length > 0.0 ? std::clamp(s / length, 0.0, 1.0) : 1.0;
     Eigen::Isometry3d tcp = Eigen::Isometry3d::Identity();
     tcp.linear() = q0.slerp(f, q1).toRotationMatrix();
-    tcp.translation() = from.translation() + f * delta;
+    tcp.translation() = arc ? arc->At(f) : Eigen::Vector3d(from.translation() + f * delta);
     // From the sample before (a few millimetres back), as a controller's inverse follows a
     // path; its full search only when that does not settle.
     std::optional<Eigen::VectorXd> q = NearInverse(controller, r.tool, tcp, joints.back(), jacobian);

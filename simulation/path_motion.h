@@ -20,6 +20,9 @@ namespace armsig::simulation {
 struct LinearPathRequest {
   Eigen::VectorXd start_rad;  // where the arm stands
   Eigen::Isometry3d to_tcp = Eigen::Isometry3d::Identity();  // the target, controller's base
+  // A circular move instead (URScript movec): the TCP on the arc from where it stands
+  // through this point (its position only) to the target's; the speed along the arc.
+  std::optional<Eigen::Vector3d> via_mm;
   Eigen::Isometry3d tool = Eigen::Isometry3d::Identity();    // flange → TCP
   double speed_mm_s = 250.0, acceleration_mm_s2 = 1200.0;
   double dt_s = 0.004;
@@ -31,7 +34,8 @@ struct LinearPathRequest {
 };
 
 // The joints every dt_s from the start (the first the start, the last at the target);
-// nullopt with `why` when an intermediate pose has no solution near the one before.
+// nullopt with `why` when an intermediate pose has no solution near the one before, or a
+// circular move's three points lie on one line.
 std::optional<std::vector<Eigen::VectorXd>> LinearPath(const programs::ControllerModel& controller,
                                                        const LinearPathRequest& request,
                                                        std::string* why = nullptr);

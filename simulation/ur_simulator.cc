@@ -611,6 +611,10 @@ void UrSimulator::MoveLinear(const ConnectionPtr& c, const ur::MoveCommand& move
   planner_ = std::thread([this, c, move, kinematics, request]() mutable {
     const programs::ControllerModel controller = UrControllerModel(kinematics);
     request.to_tcp = programs::TcpPose(controller, move.joints_rad, Eigen::Isometry3d::Identity());
+    if (move.via_rad) {  // movec: through the via joints' flange position
+      request.via_mm =
+          programs::TcpPose(controller, *move.via_rad, Eigen::Isometry3d::Identity()).translation();
+    }
     std::string why;
     auto path = LinearPath(controller, request, &why);
     if (path && (path->back() - move.joints_rad).cwiseAbs().maxCoeff() > 1e-6) {
@@ -619,7 +623,7 @@ void UrSimulator::MoveLinear(const ConnectionPtr& c, const ur::MoveCommand& move
     }
     std::string refused;
     if (!path) {
-      refused = "movel: " + why;
+      refused = (move.circular ? "movec: " : "movel: ") + why;
     } else {
       path->back() = move.joints_rad;
       if (!arm_->MovePath(std::move(*path), kLinearStepS))
@@ -628,7 +632,7 @@ void UrSimulator::MoveLinear(const ConnectionPtr& c, const ur::MoveCommand& move
     if (refused.empty()) return;
     asio::post(io_, [this, c, refused] {
       Queue(c, primary::EncodeText(Microseconds(),
-                                   refused.rfind("movel", 0) == 0 ? primary::kRuntimeExceptionMessage
+                                   refused.rfind("move", 0) == 0 ? primary::kRuntimeExceptionMessage
                                                                   : primary::kTextMessage,
                                    refused));
     });

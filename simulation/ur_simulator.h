@@ -15,7 +15,8 @@
 //     each `movej([…], a=…, v=…)` moving the arm (simulation/joint_motion.h: a trapezoid on
 //     the leading joint, in physical time), each `movel([…], a=…, v=…)` moving the flange on
 //     a straight line to the pose of those joints (simulation/path_motion.h: the controller's
-//     inverse every 4 ms on a trapezoid of the path speed); any other line answered with a runtime exception
+//     inverse every 4 ms on a trapezoid of the path speed), each `movec([via…], [to…], …)`
+//     on the arc through the via joints' position; any other line answered with a runtime exception
 //     message; on an e-Series in local control a script is not run;
 //   - a whole program sent on either ("def name():" … its "end"; "sec name():" a secondary
 //     program, which may not move the arm), as the "Client Interface" document and the

@@ -451,5 +451,47 @@ TEST(Iso9283TestPaths, RectangleInTheDiagonalPlaneAndCirclesAtTheirRadii) {
   EXPECT_NEAR(round.at_mm, 0.0, 1e-9);
 }
 
+// A circular move's arc from its three points: a circle of radius 120 mm about a centre in a
+// tilted plane, from 10° through 100° to 250° (a 240° arc), and the half circle of the
+// standard's large circle; three points on a line have no arc.
+TEST(Iso9283Arc, ThroughThreePointsIsTheCircleTheyLieOn) {
+  const Eigen::Vector3d centre(400.0, -50.0, 700.0);
+  const Eigen::Matrix3d turn =
+      (Eigen::AngleAxisd(0.4, Eigen::Vector3d::UnitX()) * Eigen::AngleAxisd(-0.7, Eigen::Vector3d::UnitZ()))
+          .toRotationMatrix();
+  const auto at = [&](double degrees) {
+    const double a = degrees * kRadPerDeg;
+    return Eigen::Vector3d(centre + turn * Eigen::Vector3d(120.0 * std::cos(a), 120.0 * std::sin(a), 0.0));
+  };
+  const auto arc = ArcThrough(at(10), at(100), at(250));
+  ASSERT_TRUE(arc);
+  EXPECT_LT((arc->centre_mm - centre).norm(), 1e-9);
+  EXPECT_NEAR(arc->radius_mm, 120.0, 1e-9);
+  EXPECT_NEAR(arc->angle_rad, 240.0 * kRadPerDeg, 1e-12);
+  EXPECT_NEAR(arc->length_mm(), 120.0 * 240.0 * kRadPerDeg, 1e-9);
+  for (double f : {0.0, 0.25, 0.375, 0.5, 1.0})
+    EXPECT_LT((arc->At(f) - at(10 + 240 * f)).norm(), 1e-9) << f;
+  const auto chords = ArcPolyline(*arc, kRadPerDeg);
+  ASSERT_EQ(chords.size(), 240u);
+  EXPECT_LT((chords.front() - at(11)).norm(), 1e-9);
+  EXPECT_LT((chords.back() - at(250)).norm(), 1e-9);
+  // Backwards (through 100° from 250° to 10°): the other way round, the same 240°.
+  const auto back = ArcThrough(at(250), at(100), at(10));
+  ASSERT_TRUE(back);
+  EXPECT_NEAR(back->angle_rad, 240.0 * kRadPerDeg, 1e-12);
+  EXPECT_LT((back->At(0.5) - at(130)).norm(), 1e-9);
+  // The standard's large circle, halved as `iso9283 plan --path circle-large` moves it.
+  const TestPaths paths = BuildTestPaths({Eigen::Vector3d(500, 0, 600), 300.0});
+  const auto half = ArcThrough(paths.large_circle_mm[0], paths.large_circle_mm[90],
+                               paths.large_circle_mm[180]);
+  ASSERT_TRUE(half);
+  EXPECT_NEAR(half->angle_rad, kPi, 1e-12);
+  const auto half_chords = ArcPolyline(*half, kRadPerDeg);
+  for (size_t k = 0; k < half_chords.size(); ++k)
+    EXPECT_LT((half_chords[k] - paths.large_circle_mm[k + 1]).norm(), 1e-9) << k;
+  EXPECT_FALSE(ArcThrough(at(10), 0.5 * (at(10) + at(100)), at(100)));
+  EXPECT_FALSE(ArcThrough(at(10), at(10), at(100)));
+}
+
 }  // namespace
 }  // namespace armsig::calibration::iso9283

@@ -95,8 +95,8 @@ TEST(Iso9283Csv, MalformedRowsAreRefusedAtTheirLine) {
 // is the header and the rows only.
 TEST(Iso9283Csv, PlanRoundTripsWithViaPointsAndOpensWithItsHeader) {
   std::vector<iso9283::Iso9283PlanRow> rows = {
-      {"P1-01-x-via", "", 0, "", {700, 100, 700}, Eigen::VectorXd::LinSpaced(6, -1, 1), {}},
-      {"P1-01-x", "P1", 1, "x", {600, 100, 700}, Eigen::VectorXd::LinSpaced(6, -0.5, 0.5), {}}};
+      {"P1-01-x-via", "", 0, "", {700, 100, 700}, Eigen::VectorXd::LinSpaced(6, -1, 1), {}, ""},
+      {"P1-01-x", "P1", 1, "x", {600, 100, 700}, Eigen::VectorXd::LinSpaced(6, -0.5, 0.5), {}, ""}};
   testing::TempDir dir;
   const std::string text = FormatIso9283PlanCsv(rows);
   EXPECT_EQ(text.rfind("pose,point,cycle,approach,x_mm,y_mm,z_mm,q1_deg,", 0), 0u) << text;
@@ -120,8 +120,8 @@ TEST(Iso9283Csv, PlanRoundTripsWithViaPointsAndOpensWithItsHeader) {
 // linear moves it sweeps, and refuses a speed that is none and a first row that is linear.
 TEST(Iso9283Csv, APathPlanCarriesItsLinearSpeedsIntoTheCapturePlan) {
   std::vector<iso9283::Iso9283PlanRow> rows = {
-      {"line-01-v1", "", 0, "", {700, 100, 700}, Eigen::VectorXd::LinSpaced(6, -1, 1), {}},
-      {"line-01-v2", "", 0, "", {500, 300, 700}, Eigen::VectorXd::LinSpaced(6, -0.5, 0.5), 250.0}};
+      {"line-01-v1", "", 0, "", {700, 100, 700}, Eigen::VectorXd::LinSpaced(6, -1, 1), {}, ""},
+      {"line-01-v2", "", 0, "", {500, 300, 700}, Eigen::VectorXd::LinSpaced(6, -0.5, 0.5), 250.0, ""}};
   testing::TempDir dir;
   const std::string text = FormatIso9283PlanCsv(rows);
   EXPECT_NE(text.find(",q6_deg,speed_mm_s\n"), std::string::npos) << text;
@@ -171,6 +171,35 @@ TEST(Iso9283Csv, APathPlanCarriesItsLinearSpeedsIntoTheCapturePlan) {
   refused("a,0,0,90,0,30,0,\nb,0,0,80,0,30,0,0\n", "expected a speed above 0");
   refused("a,0,0,90,0,30,0,\nb,0,0,80,0,30,0,fast\n", "");
   refused("a,0,0,90,0,30,0,\nb,0,0,80,0,30,0,20000\n", "at most 10000");
+
+  // A circular move: a via row, then its target; both at the path's speed.
+  const std::string header = "pose,q1_deg,q2_deg,q3_deg,q4_deg,q5_deg,q6_deg,speed_mm_s,motion\n";
+  testing::WriteText(dir.File("circle.csv"), header +
+                                                 "s,0,0,90,0,30,0,,\n"
+                                                 "v,0,10,90,0,30,0,250,via\n"
+                                                 "t,0,20,80,0,30,0,250,circular\n"
+                                                 "l,0,20,70,0,30,0,250,linear\n");
+  const acquisition::Plan circle = acquisition::ReadPlanCsv(dir.File("circle.csv"), 6);
+  ASSERT_EQ(circle.size(), 4u);
+  EXPECT_TRUE(circle[1].via);
+  EXPECT_FALSE(circle[2].via);
+  EXPECT_FALSE(circle[3].via);
+  EXPECT_TRUE(acquisition::PlanFromJson(acquisition::PlanToJson(circle))[1].via);
+  const auto refused_motion = [&](const std::string& body, const char* what) {
+    testing::WriteText(dir.File("bad.csv"), header + body);
+    try {
+      (void)acquisition::ReadPlanCsv(dir.File("bad.csv"), 6);
+      ADD_FAILURE() << "accepted: " << body;
+    } catch (const InputError& e) {
+      EXPECT_NE(std::string(e.what()).find(what), std::string::npos) << e.what();
+    }
+  };
+  refused_motion("s,0,0,90,0,30,0,,\nt,0,20,80,0,30,0,250,circular\n", "follows its via point");
+  refused_motion("s,0,0,90,0,30,0,,\nv,0,10,90,0,30,0,250,via\n", "a via point with no target");
+  refused_motion("s,0,0,90,0,30,0,,\nv,0,10,90,0,30,0,250,via\nl,0,20,70,0,30,0,250,linear\n",
+                 "its circular move's target");
+  refused_motion("s,0,0,90,0,30,0,,\nv,0,10,90,0,30,0,,via\n", "needs its speed_mm_s");
+  refused_motion("s,0,0,90,0,30,0,,\nv,0,10,90,0,30,0,250,spline\n", "expected joint, linear");
 }
 
 }  // namespace

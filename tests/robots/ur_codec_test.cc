@@ -371,6 +371,16 @@ TEST(UrScript, MovejIsWrittenWithEveryDigitAMoveNeeds) {
   EXPECT_LT((linear->joints_rad - q).cwiseAbs().maxCoeff(), 1e-12);
   EXPECT_DOUBLE_EQ(linear->a, 1.2);
   EXPECT_DOUBLE_EQ(linear->v, 0.25);
+  // movec: the via point's joints, then the target's.
+  const Eigen::VectorXd via = q * 0.5;
+  const auto circular = ParseMove(MoveC(via, q, 1.2, 0.25), &why);
+  ASSERT_TRUE(circular) << why;
+  EXPECT_TRUE(circular->circular);
+  EXPECT_TRUE(circular->linear);
+  ASSERT_TRUE(circular->via_rad);
+  EXPECT_LT((*circular->via_rad - via).cwiseAbs().maxCoeff(), 1e-12);
+  EXPECT_LT((circular->joints_rad - q).cwiseAbs().maxCoeff(), 1e-12);
+  EXPECT_EQ(MoveC(via, q, 1.2, 0.25).rfind("movec([0.050000000000, ", 0), 0u);
 }
 
 struct ScriptVector {
@@ -394,7 +404,10 @@ TEST(UrScript, OnlyAMovejOrMovelWithSixJointsIsAMove) {
       {"movej([1,2,3,4,5,6], a=-1)", false, 0, 0, "a is no positive"},
       {"movej([1,2,3,4,5,6], t=2)", false, 0, 0, "unsupported argument t"},
       {"movel(p[0,0,0,0,0,0])", false, 0, 0, "movel's first argument is no joint list"},
-      {"movep([0,0,0,0,0,0])", false, 0, 0, "not a movej(...) or movel(...)"},
+      {"movep([0,0,0,0,0,0])", false, 0, 0, "not a movej(...), movel(...) or movec(...)"},
+      {"movec([1,2,3,4,5,6], [2,3,4,5,6,7], v=0.1)", true, 1.2, 0.1, "", true},
+      {"movec([1,2,3,4,5,6], v=0.1)", false, 0, 0, "movec's second argument is no joint list"},
+      {"movec([1,2,3,4,5,6], [2,3,4,5,6])", false, 0, 0, "5 joints"},
       {"movej(p[0,0,0,0,0,0])", false, 0, 0, "no joint list"},
       {"movej([1,2,3,4,5,6]", false, 0, 0, "no closing ')'"},
   };
