@@ -285,6 +285,21 @@ TEST(Iso9283Commands, APathPlanIsTheStandardsLineAndRectangleAsLinearMoves) {
     EXPECT_EQ(rows[i].speed_mm_s.has_value(), k > 0) << rows[i].pose;
     if (k > 0) EXPECT_DOUBLE_EQ(*rows[i].speed_mm_s, 200.0);
   }
+  // A circle: its start, then via its quarter points to its half and back (two circular
+  // moves), every vertex on the standard's circle about P1.
+  const auto circle = RunArmsig(db + "iso9283 plan --robot puma --cube 600,100,700,400 --path "
+                                     "circle-small --cycles 2 --out '" + dir.File("circle.csv") + "'");
+  ASSERT_EQ(circle.exit_code, 0) << circle.err;
+  EXPECT_NE(ReadText(dir.File("circle.csv")).find(",speed_mm_s,motion\n"), std::string::npos);
+  const auto circle_rows = iso9283::ReadIso9283PlanCsv(dir.File("circle.csv"), 6);
+  ASSERT_EQ(circle_rows.size(), 10u);
+  const char* motions[] = {"", "via", "circular", "via", "circular"};
+  for (size_t i = 0; i < circle_rows.size(); ++i) {
+    EXPECT_EQ(circle_rows[i].motion, motions[i % 5]) << circle_rows[i].pose;
+    EXPECT_LT((circle_rows[i].target_mm - paths.small_circle_mm[90 * (i % 5)]).norm(), 1e-5);
+    EXPECT_LT((kin.Position(Eigen::Isometry3d::Identity(), zero, circle_rows[i].joints_rad.data()) -
+               circle_rows[i].target_mm).norm(), 1e-4);
+  }
   for (const auto& [args, option] : std::vector<std::pair<std::string, std::string>>{
            {"--path circle", "--path"},
            {"--path line,line", "given twice"},
