@@ -211,7 +211,11 @@ Explanation ExplainDifference(const RobotModel& model, const Eigen::VectorXd& pa
   // unit columns, to a relative singular value of 1e-10).
   {
     Eigen::MatrixXd a = projected(Eigen::all, kept);
-    a = a * a.colwise().norm().cwiseInverse().asDiagonal();
+    // The norms first: a product with a diagonal is assigned coefficient by coefficient, so a
+    // diagonal taken from `a` itself was a column's norm recomputed at each entry, on a column
+    // partly rescaled already (columns bent out of their span, at rows² × causes operations).
+    const Eigen::RowVectorXd norms = a.colwise().norm();
+    a = a * norms.cwiseInverse().asDiagonal();
     const Eigen::BDCSVD<Eigen::MatrixXd> svd(a, Eigen::ComputeThinU);
     const Eigen::VectorXd& sv = svd.singularValues();
     double explained = 0.0;
@@ -269,12 +273,14 @@ Explanation ExplainDifference(const RobotModel& model, const Eigen::VectorXd& pa
   // data is named beside it (the name a lab uses first: a link's length before the offset
   // of the joint at its end).
   std::vector<int> listed;  // column of each listed cause
+  std::vector<Eigen::VectorXd> unit(all.size());  // each ranked cause's column normalised, once
+  for (int c : column_of) unit[c] = projected.col(c).normalized();
   for (int r : order) {
     const int column = column_of[r];
-    const Eigen::VectorXd u = projected.col(column).normalized();
+    const Eigen::VectorXd& u = unit[column];
     bool equivalent = false;
     for (size_t l = 0; l < listed.size(); ++l) {
-      const Eigen::VectorXd v = projected.col(listed[l]).normalized();
+      const Eigen::VectorXd& v = unit[listed[l]];
       ExplainedCause& shown = out.causes[l];
       // The same shape, or nearly the same and fitting the data no worse than the noise
       // can tell (a likelihood-ratio difference below χ²₁(95 %) = 3.84).

@@ -87,8 +87,12 @@ class MapFitter {
   void AddCurveRows(int t, const Eigen::Vector3d& y, Eigen::MatrixXd* normal,
                     Eigen::VectorXd& rhs) const;
   Eigen::Vector3d CurveCorrection(int t, const Eigen::VectorXd& x) const;
+  // `system`: a P × P buffer the penalised normal matrix is formed and factorised in.
   Eigen::VectorXd SolveCurves(const Eigen::MatrixXd& normal, const Eigen::VectorXd& rhs,
-                              double smoothing, const std::vector<int>& measured) const;
+                              double smoothing, const std::vector<int>& measured,
+                              Eigen::MatrixXd& system) const;
+  // At least `workers` P × P curve systems (and normal matrices), sized before the workers start.
+  void SizeCurveBuffers(int workers);
 
   const RobotModel& model_;
   const EstimationResult& fit_;
@@ -124,6 +128,13 @@ class MapFitter {
   Eigen::MatrixXd penalty_;  // P × P: the periodic second differences' DᵀD
   double penalty_scale_ = 0.0;
   std::vector<int> measured_;  // per coefficient: 1 when a training pose lies within 5° of it
+  // Per worker: a curve solve's P × P system, formed and factorised in place, and a fold's
+  // normal matrix. A fresh 9 MB matrix and the Cholesky's copy of it at every solve were
+  // 4,600 new pages to fault in, at the sanitizers' cost of each page and its shadow.
+  struct CurveBuffers {
+    Eigen::MatrixXd system, normal;
+  };
+  std::vector<CurveBuffers> curve_buffers_;
 };
 
 }  // namespace armsig::calibration::detail

@@ -48,13 +48,26 @@ Eigen::Vector3d MapFitter::CurveCorrection(int t, const Eigen::VectorXd& x) cons
 // arc of a joint never measured gets no correction, not the bridge between its ends. A
 // millionth keeps a constant the parametric model already took determined.
 Eigen::VectorXd MapFitter::SolveCurves(const Eigen::MatrixXd& normal, const Eigen::VectorXd& rhs,
-                                       double smoothing, const std::vector<int>& measured) const {
-  Eigen::MatrixXd a = normal + (smoothing * penalty_scale_) * penalty_;
+                                       double smoothing, const std::vector<int>& measured,
+                                       Eigen::MatrixXd& system) const {
+  Eigen::MatrixXd& a = system;
+  a.noalias() = normal + (smoothing * penalty_scale_) * penalty_;
   a.diagonal().array() += 1e-6 * penalty_scale_;
   for (size_t c = 0; c < measured.size(); ++c) {
     if (!measured[c]) a(c, c) += penalty_scale_;
   }
-  return a.llt().solve(rhs);  // symmetric positive definite: the blocked Cholesky
+  // Symmetric positive definite: the blocked Cholesky, in place (a holds the factor).
+  const Eigen::LLT<Eigen::Ref<Eigen::MatrixXd>> llt(a);
+  return llt.solve(rhs);
+}
+
+void MapFitter::SizeCurveBuffers(int workers) {
+  const Eigen::Index p = static_cast<Eigen::Index>(curve_joints_) * knots_;
+  if (static_cast<int>(curve_buffers_.size()) < workers) curve_buffers_.resize(workers);
+  for (auto& b : curve_buffers_) {
+    b.system.resize(p, p);
+    b.normal.resize(p, p);
+  }
 }
 
 // Stage 1: the joint curves, their smoothing chosen by the same folds as the kernel's
@@ -97,8 +110,11 @@ void MapFitter::FitCurves() {
   std::vector<Eigen::VectorXd> rhs(folds_, Eigen::VectorXd::Zero(p));
   Eigen::VectorXd unused = Eigen::VectorXd::Zero(p);
   for (int t = 0; t < mt_; ++t) AddCurveRows(t, Eigen::Vector3d::Zero(), &all, unused);
+  const int workers = std::max(1, std::min(options_.threads, folds_));
+  SizeCurveBuffers(workers);
+  Eigen::MatrixXd& in_fold = curve_buffers_[0].normal;
   for (int f = 0; f < folds_; ++f) {
-    Eigen::MatrixXd in_fold = Eigen::MatrixXd::Zero(p, p);
+    in_fold.setZero();
     for (int t : fold_rows_[f]) AddCurveRows(t, Eigen::Vector3d::Zero(), &in_fold, unused);
     train[f] = all - in_fold;
     for (int t : train_rows_[f]) AddCurveRows(t, -refit_[f].row(t).transpose(), nullptr, rhs[f]);
@@ -121,8 +137,8 @@ void MapFitter::FitCurves() {
     options_.stop.ThrowIfRequested();
     std::vector<Eigen::VectorXd> x(folds_);
     std::vector<double> sum(folds_, 0.0);
-    ParallelFor(folds_, options_.threads, [&](int f) {
-      x[f] = SolveCurves(train[f], rhs[f], grid[gi], measured_);
+    ParallelForWorkers(folds_, workers, [&](int f, int worker) {
+      x[f] = SolveCurves(train[f], rhs[f], grid[gi], measured_, curve_buffers_[worker].system);
       for (int t : fold_rows_[f])
         sum[f] += (refit_[f].row(t).transpose() + CurveCorrection(t, x[f])).norm();
     });

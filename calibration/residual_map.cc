@@ -682,7 +682,8 @@ void MapFitter::FitMap() {
     Eigen::MatrixXd normal = Eigen::MatrixXd::Zero(p, p);
     Eigen::VectorXd rhs = Eigen::VectorXd::Zero(p);
     for (int t = 0; t < mt_; ++t) AddCurveRows(t, y.row(t).transpose(), &normal, rhs);
-    const Eigen::VectorXd x = SolveCurves(normal, rhs, data.curves.smoothing, measured_);
+    SizeCurveBuffers(1);
+    const Eigen::VectorXd x = SolveCurves(normal, rhs, data.curves.smoothing, measured_, curve_buffers_[0].system);
     for (int t = 0; t < mt_; ++t) y.row(t) -= CurveCorrection(t, x).transpose();
     data.curves.values_rad.assign(curve_joints_, std::vector<double>(knots_));
     data.curves.measured.assign(curve_joints_, std::vector<int>(knots_));
@@ -735,7 +736,19 @@ void MapFitter::TransferCheck() {
   const double spacing = 2.0 * std::acos(-1.0) / std::max(knots_, 1);
   const int reach = static_cast<int>(std::floor(kCurveReachRad / spacing));
   std::vector<double> sum_p(nf, 0.0), sum_c(nf, 0.0), sum_m(nf, 0.0), distances(mt_, 0.0);
-  ParallelFor(nf, options_.threads, [&](int f) {
+  const int workers = std::max(1, std::min(options_.threads, nf));
+  if (curves) SizeCurveBuffers(workers);
+  size_t most_kept = 0, most_held = 0;
+  for (int f = 0; f < nf; ++f) {
+    most_kept = std::max(most_kept, kept[f].size());
+    most_held = std::max(most_held, held[f].size());
+  }
+  fold_buffers_.resize(workers);
+  for (auto& b : fold_buffers_) {
+    b.a.resize(most_kept, most_kept);
+    b.kft.resize(most_held, most_kept);
+  }
+  ParallelForWorkers(nf, workers, [&](int f, int worker) {
     const FlushDenormals flush;
     const Eigen::VectorXd r = cv.RefitWithout(f, all);
     Eigen::MatrixXd y(mt_, 3);  // model − measured, map frame
@@ -750,16 +763,21 @@ void MapFitter::TransferCheck() {
             measured[k * knots_ + ((nearest + d) % knots_ + knots_) % knots_] = 1;
         }
       }
-      Eigen::MatrixXd normal = Eigen::MatrixXd::Zero(p, p);
+      Eigen::MatrixXd& normal = curve_buffers_[worker].normal;
+      normal.setZero();
       Eigen::VectorXd rhs = Eigen::VectorXd::Zero(p);
       for (int t : kept[f]) AddCurveRows(t, -y.row(t).transpose(), &normal, rhs);
-      const Eigen::VectorXd x = SolveCurves(normal, rhs, map().curves.smoothing, measured);
+      const Eigen::VectorXd x =
+          SolveCurves(normal, rhs, map().curves.smoothing, measured, curve_buffers_[worker].system);
       for (int t = 0; t < mt_; ++t) y.row(t) += CurveCorrection(t, x).transpose();
     }
     for (int t : held[f]) sum_c[f] += y.row(t).norm();
     const auto& tr = kept[f];
     const auto& te = held[f];
-    Eigen::MatrixXf a(tr.size(), tr.size()), kft(te.size(), tr.size()), target(tr.size(), 3);
+    const Eigen::Index n = static_cast<Eigen::Index>(tr.size());
+    Eigen::Ref<Eigen::MatrixXf> a = fold_buffers_[worker].a.topLeftCorner(n, n);
+    auto kft = fold_buffers_[worker].kft.topLeftCorner(static_cast<Eigen::Index>(te.size()), n);
+    Eigen::MatrixXf target(tr.size(), 3);
     std::vector<char> supported(te.size(), 0);
     for (size_t c = 0; c < tr.size(); ++c) {
       for (size_t q = 0; q < tr.size(); ++q) {
@@ -774,7 +792,7 @@ void MapFitter::TransferCheck() {
       target.row(c) = (-y.row(tr[c])).cast<float>();
     }
     a.diagonal().array() += lambda;
-    const Eigen::LLT<Eigen::MatrixXf> llt(a);
+    const Eigen::LLT<Eigen::Ref<Eigen::MatrixXf>> llt(a);  // in place: a holds the factor
     const Eigen::MatrixXf predicted =
         llt.info() == Eigen::Success ? Eigen::MatrixXf(kft * llt.solve(target))
                                      : Eigen::MatrixXf::Zero(te.size(), 3);
@@ -792,6 +810,7 @@ void MapFitter::TransferCheck() {
   result_.transfer_mean_mm_curves = curves ? mc / mt_ : std::numeric_limits<double>::quiet_NaN();
   result_.transfer_mean_mm_with_map = mm / mt_;
   result_.transfer_distances_mm = std::move(distances);
+  fold_buffers_.clear();
 }
 
 // The map is used when its cross-validated error beats the parametric model's by the

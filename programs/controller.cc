@@ -25,6 +25,7 @@ struct Chain {
 
 Chain ChainAt(const calibration::RobotModel& model, const Eigen::VectorXd& q) {
   Chain c;
+  c.before.reserve(static_cast<std::size_t>(model.num_joints()));
   Eigen::Isometry3d t = model.base.value_or(Eigen::Isometry3d::Identity());
   for (int i = 0; i < model.num_joints(); ++i) {
     if (i > 0) t = t * model.links[static_cast<std::size_t>(i - 1)];
@@ -307,17 +308,21 @@ InverseSolution ControllerInverse(const ControllerModel& c, const InverseRequest
       add(q);
     }
   };
+  // A program that states no configuration (URScript) matches every variant: its arm
+  // configuration is not worked out for each of up to 3⁶ variants of every solution.
+  const bool stated = request.stated.kuka_status || request.stated.kuka_turn || request.stated.abb_cf;
+  Eigen::VectorXd candidate(n);  // one buffer for every variant compared
   auto pick = [&]() -> std::optional<Eigen::VectorXd> {
     std::optional<Eigen::VectorXd> best;
     double best_distance = INFINITY;
     for (const auto& base : found) {
       for_each_variant(base, [&](const Small& v) {
-        const Eigen::VectorXd q = v;
-        if (!Matches(request.stated, ConfigurationOf(c, q))) return;
-        const double d = request.near_rad ? (q - *request.near_rad).norm() : q.norm();
+        candidate = v;
+        if (stated && !Matches(request.stated, ConfigurationOf(c, candidate))) return;
+        const double d = request.near_rad ? (candidate - *request.near_rad).norm() : candidate.norm();
         if (d < best_distance) {
           best_distance = d;
-          best = q;
+          best = candidate;
         }
       });
     }

@@ -134,6 +134,10 @@ TEST(ExplainDifference, NamesTheInstrumentsScale) {
   ASSERT_FALSE(e.causes.empty());
   EXPECT_EQ(e.causes.front().cause.name, "instrument scale");
   EXPECT_NEAR(e.causes.front().size, 80e-6, 2e-6);
+  // The change is the scale's own column (each position from its group's centre): it lies
+  // in the span of the causes' columns, so all of it is explainable.
+  EXPECT_GT(e.sum_squares, 0.0);
+  EXPECT_NEAR(e.explainable_sum_squares, e.sum_squares, 1e-9 * e.sum_squares);
 }
 
 TEST(LocateChange, FindsTheRunThatReachesTheNewestAndCallsEarlierOnesOutliers) {

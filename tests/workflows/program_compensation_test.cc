@@ -240,6 +240,11 @@ std::string KinematicsYaml(const instruments::ControllerKinematics& k) {
 // The lab measures the arm each time it comes to rest at a new place (`standing` returns the
 // joints only while the arm stands, as the controller reports them) and checks after
 // measuring that it still stood there.
+// Between two polls of a controller that has nothing new: each poll is a request and its
+// answer parsed on both ends under the sanitizers, and polling without a pause kept both
+// cores busy for the whole program (the arm rests 1 s at each target, so 5 ms is no delay).
+void PollPause() { std::this_thread::sleep_for(std::chrono::milliseconds(5)); }
+
 class TrackerLab {
  public:
   TrackerLab(const DemoRobot& r, const Eigen::Isometry3d& tool) : model_(r.model) {
@@ -272,7 +277,10 @@ class TrackerLab {
     while (static_cast<int>(landed.size()) < targets && std::chrono::steady_clock::now() < give_up) {
       const std::optional<Eigen::VectorXd> at = standing();
       if (!at || (*at - start).cwiseAbs().maxCoeff() <= tol) {
-        if (!at || running()) continue;
+        if (!at || running()) {
+          PollPause();
+          continue;
+        }
         break;  // the program ended
       }
       // At rest: the same joints a moment later (a sample taken while the arm moves, which a
@@ -451,8 +459,7 @@ class KukaProgramLab {
       }
     };
     auto landed = lab_.Follow(targets, before, 1e-6, standing, [&] { return driver_->ProgramRunning(run, name); });
-    while (driver_->ProgramRunning(run, name)) {
-    }
+    while (driver_->ProgramRunning(run, name)) PollPause();
     return landed;
   }
   simulation::KukaSimulator& controller() { return *kuka_; }
@@ -576,8 +583,7 @@ class AbbProgramLab {
       return b;
     };
     auto landed = lab_.Follow(targets, before, 0.005, standing, [&] { return driver_->ProgramRunning(); });
-    while (driver_->ProgramRunning()) {
-    }
+    while (driver_->ProgramRunning()) PollPause();
     driver_->UnloadProgram(module);
     return landed;
   }
