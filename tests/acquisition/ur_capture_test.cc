@@ -586,7 +586,9 @@ TEST_F(UrCaptureFixture, AnIso9283PathIsSweptWithLinearMovesAndReportedAsTheTrue
     // controller's; the line's and the rectangle's stops are outside their steady parts.
     if (name != "circle-large")
       EXPECT_NEAR(figure(measured, "AV_percent"), truth.av_percent, 0.5) << name;
-    EXPECT_LT(figure(measured, "RT_mm"), 0.1) << name;  // the arm repeats exactly
+    // The arm repeats exactly: RT is the tracker's noise, l̄ + 3 S of three crossings (σ ≈
+    // 0.015 mm a coordinate), the largest over up to a thousand planes.
+    EXPECT_LT(figure(measured, "RT_mm"), 0.15) << name;
     if (name == "rectangle") {
       ASSERT_EQ(measured["corners"].size(), 4u);
       // CR is the smallest distance of the records from the corner: the arm stands at each
