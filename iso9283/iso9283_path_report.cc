@@ -11,7 +11,6 @@
 
 #include "acquisition/on_the_move.h"
 #include "calibration/iso9283_figures.h"
-#include "calibration/residual_map.h"
 #include "core/error.h"
 #include "core/units.h"
 #include "db/observations.h"
@@ -20,7 +19,7 @@
 #include "db/streams.h"
 #include "instruments/emscon_codec.h"
 #include "io/atomic_file.h"
-#include "io/lab_file.h"
+#include "iso9283/iso9283_report.h"
 #include "report/figures.h"
 #include "report/html.h"
 
@@ -130,7 +129,6 @@ std::vector<PlannedPath> PathsOfPlan(const acquisition::Plan& plan, int64_t sess
 Iso9283Frame PathFrameOf(db::Database& db, const db::SessionRow& row, int64_t session,
                          const calibration::RobotModel& model,
                          const workflows::ActiveSignature* signature) {
-  Iso9283Frame frame;
   const std::vector<MeasuredPose> poses = db::LoadSessionPoses(db, session);
   if (signature && poses.size() < 3) {
     // Its records are paired with the joints once the last segment is stored: a stopped test
@@ -142,36 +140,16 @@ Iso9283Frame PathFrameOf(db::Database& db, const db::SessionRow& row, int64_t se
                                  session, signature->signature.version, session));
   }
   if (signature) {
-    const size_t stride = std::max<size_t>(1, poses.size() / 2000);
-    std::vector<Eigen::VectorXd> joints;
-    std::vector<Eigen::Vector3d> measured;
-    for (size_t i = 0; i < poses.size(); i += stride) {
-      joints.push_back(poses[i].joints_rad);
-      measured.push_back(poses[i].target_in_world);
-    }
-    const auto predicted = calibration::PredictPositions(model, Eigen::Isometry3d::Identity(),
-                                                         signature->signature.params,
-                                                         signature->signature.map.get(), joints);
-    std::vector<Eigen::Vector3d> in_base;
-    for (const auto& p : predicted) in_base.push_back(p.position_mm);
-    if (const auto fit = iso::AlignRigidly(measured, in_base)) {
-      frame.method = "arm signature";
-      frame.commanded_from_attained = fit->commanded_from_attained;
-      frame.fit = fit;
-      frame.detail = fmt::format(
+    size_t used = 0;
+    if (auto frame = SignatureFrame(model, *signature, poses, 2000, &used)) {
+      frame->detail = fmt::format(
           "the robot's base located by arm signature version {} on {} of the session's {} "
           "paired configurations (rms {:.4f} mm of its positions against them)",
-          signature->signature.version, measured.size(), poses.size(), fit->rms_mm);
-      return frame;
+          signature->signature.version, used, poses.size(), frame->fit->rms_mm);
+      return *frame;
     }
   }
-  const auto settings = io::StoredLabSettings(row.lab_yaml, session, db.path());
-  if (settings && settings->robot_base) {
-    frame.method = "lab base";
-    frame.commanded_from_attained = settings->robot_base->inverse();
-    frame.detail = "the robot's base as the session's lab file gives it (robot: base:)";
-    return frame;
-  }
+  if (auto frame = LabBaseFrame(row.lab_yaml, session, db.path())) return *frame;
   throw InputError(
       {db.path(), 0, 0, "--session"},
       fmt::format("session {}: the robot's frame is not known (no arm signature located on paired "

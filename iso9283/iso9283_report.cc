@@ -29,6 +29,42 @@ namespace armsig::iso9283 {
 
 namespace iso = calibration::iso9283;
 
+std::optional<Iso9283Frame> SignatureFrame(const calibration::RobotModel& model,
+                                           const workflows::ActiveSignature& signature,
+                                           const std::vector<MeasuredPose>& poses, size_t most,
+                                           size_t* used) {
+  const size_t stride = std::max<size_t>(1, poses.size() / std::max<size_t>(1, most));
+  std::vector<Eigen::VectorXd> joints;
+  std::vector<Eigen::Vector3d> measured, predicted;
+  for (size_t i = 0; i < poses.size(); i += stride) {
+    joints.push_back(poses[i].joints_rad);
+    measured.push_back(poses[i].target_in_world);
+  }
+  if (used) *used = joints.size();
+  for (const auto& p : calibration::PredictPositions(model, Eigen::Isometry3d::Identity(),
+                                                     signature.signature.params,
+                                                     signature.signature.map.get(), joints))
+    predicted.push_back(p.position_mm);
+  const auto fit = iso::AlignRigidly(measured, predicted);
+  if (!fit) return std::nullopt;
+  Iso9283Frame frame;
+  frame.method = "arm signature";
+  frame.commanded_from_attained = fit->commanded_from_attained;
+  frame.fit = fit;
+  return frame;
+}
+
+std::optional<Iso9283Frame> LabBaseFrame(const std::string& lab_yaml, int64_t session,
+                                         const std::string& db_path) {
+  const auto settings = io::StoredLabSettings(lab_yaml, session, db_path);
+  if (!settings || !settings->robot_base) return std::nullopt;
+  Iso9283Frame frame;
+  frame.method = "lab base";
+  frame.commanded_from_attained = settings->robot_base->inverse();
+  frame.detail = "the robot's base as the session's lab file gives it (robot: base:)";
+  return frame;
+}
+
 std::optional<Iso9283Label> ParseIso9283Label(const std::string& label) {
   // P<digit>-<cycle>[-<approach>]
   if (label.size() < 4 || label[0] != 'P' || label[1] < '1' || label[1] > '9' || label[2] != '-')
@@ -181,43 +217,23 @@ SessionTest LoadTest(db::Database& db, int64_t session, const std::string& robot
 // else the lab file's base.
 Iso9283Frame FrameOf(const SessionTest& t, const calibration::RobotModel& model,
                      const workflows::ActiveSignature* signature, const std::string& db_path) {
-  Iso9283Frame frame;
   if (signature) {
-    std::vector<Eigen::VectorXd> joints;
-    std::vector<Eigen::Vector3d> measured, predicted;
-    for (const auto& p : t.poses) joints.push_back(p.joints_rad);
-    const auto positions = calibration::PredictPositions(model, Eigen::Isometry3d::Identity(),
-                                                         signature->signature.params,
-                                                         signature->signature.map.get(), joints);
-    for (size_t i = 0; i < t.poses.size(); ++i) {
-      measured.push_back(t.poses[i].target_in_world);
-      predicted.push_back(positions[i].position_mm);
-    }
-    const auto fit = iso::AlignRigidly(measured, predicted);
-    if (!fit) {
+    auto frame = SignatureFrame(model, *signature, t.poses);
+    if (!frame) {
       throw InputError(
           {db_path, 0, 0, "--session"},
           fmt::format("session {}: its measured configurations cannot locate the robot "
                       "(fewer than three, or on one line); use --align",
                       t.id));
     }
-    frame.method = "arm signature";
-    frame.commanded_from_attained = fit->commanded_from_attained;
-    frame.fit = fit;
-    frame.detail = fmt::format(
+    frame->detail = fmt::format(
         "the robot's base located by arm signature version {} on the session's {} measured "
         "configurations (rms {:.4f} mm of its positions against them), independently of the "
         "commanded positions",
-        signature->signature.version, t.poses.size(), fit->rms_mm);
-    return frame;
+        signature->signature.version, t.poses.size(), frame->fit->rms_mm);
+    return *frame;
   }
-  const auto settings = io::StoredLabSettings(t.row.lab_yaml, t.id, db_path);
-  if (settings && settings->robot_base) {
-    frame.method = "lab base";
-    frame.commanded_from_attained = settings->robot_base->inverse();
-    frame.detail = "the robot's base as the session's lab file gives it (robot: base:)";
-    return frame;
-  }
+  if (auto frame = LabBaseFrame(t.row.lab_yaml, t.id, db_path)) return *frame;
   throw InputError(
       {db_path, 0, 0, "--session"},
       fmt::format("session {}: the robot's frame is not known (the robot has no arm signature and "

@@ -5,10 +5,12 @@
 #pragma once
 
 #include <cstdint>
+#include <cstddef>
 #include <nlohmann/json.hpp>
 #include <optional>
 #include <string>
 
+#include "core/types.h"
 #include "db/database.h"
 #include "iso9283/iso9283.h"
 
@@ -50,6 +52,19 @@ struct Iso9283ReportResult {
 // together, when a session holds no ISO test poses, and when no frame is known (no
 // signature, no lab base and no --align).
 Iso9283ReportResult RunIso9283Report(db::Database& db, const Iso9283ReportOptions& options);
+
+// The robot's frame located by its arm signature: the signature's positions of the joints of
+// `poses` (at most `most` of them, evenly spread) fitted rigidly onto their measured points
+// (method "arm signature", the fit; the caller says on what in `detail`); nullopt when they
+// cannot locate it (fewer than three, or on one line). `used` is set to the poses fitted.
+std::optional<Iso9283Frame> SignatureFrame(const calibration::RobotModel& model,
+                                           const workflows::ActiveSignature& signature,
+                                           const std::vector<MeasuredPose>& poses,
+                                           size_t most = SIZE_MAX, size_t* used = nullptr);
+// The base of the lab file stored with a session (`robot: base:`, method "lab base");
+// nullopt when it gives none.
+std::optional<Iso9283Frame> LabBaseFrame(const std::string& lab_yaml, int64_t session,
+                                         const std::string& db_path);
 
 // "P3-07" → {P3, 7, ""}; "P3-07-y" → {P3, 7, "y"}; via points ("…-via") and other labels:
 // nullopt. The labels `iso9283 plan` writes.

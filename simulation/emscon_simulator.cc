@@ -467,6 +467,38 @@ std::vector<EmsconSimulator::Step> EmsconSimulator::Answer(const es::Request& re
 // The protocol's table: one branch per emScon command (an `if constexpr` per request type),
 // each a few lines, read side by side with the emScon TPI manual and
 // instruments/emscon_codec.h; the tracker's state under its lock.
+// Under the lock: the beam to a GoPosition in the set-up's units and coordinate system.
+void EmsconSimulator::PointBeam(const es::GoPosition& r) {
+  State& s = state_;
+  const double mm = *es::MillimetresPer(s.units.length);
+  const double rad = *es::RadiansPer(s.units.angle);
+  if (s.coordinate_system == es::coordinate_system::kRHR) {
+    s.go_position_mm = Eigen::Vector3d(r.val1, r.val2, r.val3) * mm;
+  } else {
+    s.go_position_mm = PointOf(r.val1 * rad, r.val2 * rad, r.val3 * mm, s.coordinate_system,
+                               options_.scc_convention);
+  }
+  if (s.go_position_mm->norm() > 0.0) s.beam = s.go_position_mm->normalized();
+  ++s.go_positions;
+}
+
+// Under the lock: FindReflector's search around the beam; false when the reflector is not
+// within the search radius (or a planted fault hides it).
+bool EmsconSimulator::SearchReflector(const FaultSpec& fault) {
+  State& s = state_;
+  ++s.searches;
+  const Eigen::Vector3d truth = TruePointInTracker();
+  const bool near =
+      options_.acquire_radius_mm <= 0.0 || MissOf(s.beam, truth) <= options_.search_radius_mm;
+  if (fault.fault == Fault::kReflectorNotFound || !near) {
+    ++s.not_found;
+    return false;
+  }
+  if (truth.norm() > 0.0) s.beam = truth.normalized();
+  ++s.found;
+  return true;
+}
+
 EmsconSimulator::TableAnswer EmsconSimulator::FromTable(const es::Request& request, int32_t id,
                                                         std::chrono::milliseconds latency,
                                                         const FaultSpec& fault) {
@@ -584,30 +616,11 @@ EmsconSimulator::TableAnswer EmsconSimulator::FromTable(const es::Request& reque
             reply_latency = Scaled(options_.motion_latency);
             change(s.face == 1 ? es::status_change::kIsFace1 : es::status_change::kIsFace2);
           } else if constexpr (std::is_same_v<T, es::GoPosition>) {
-            const double mm = *es::MillimetresPer(s.units.length);
-            const double rad = *es::RadiansPer(s.units.angle);
-            if (s.coordinate_system == es::coordinate_system::kRHR) {
-              s.go_position_mm = Eigen::Vector3d(r.val1, r.val2, r.val3) * mm;
-            } else {
-              s.go_position_mm = PointOf(r.val1 * rad, r.val2 * rad, r.val3 * mm,
-                                         s.coordinate_system, options_.scc_convention);
-            }
-            if (s.go_position_mm->norm() > 0.0) s.beam = s.go_position_mm->normalized();
-            ++s.go_positions;
+            PointBeam(r);
             reply_latency = Scaled(options_.motion_latency);
           } else if constexpr (std::is_same_v<T, es::FindReflector>) {
             reply_latency = Scaled(options_.motion_latency);
-            ++s.searches;
-            const Eigen::Vector3d truth = TruePointInTracker();
-            const bool near = options_.acquire_radius_mm <= 0.0 ||
-                              MissOf(s.beam, truth) <= options_.search_radius_mm;
-            if (fault.fault == Fault::kReflectorNotFound || !near) {
-              a.status = es::status::kMeasurementStatusNotReady;
-              ++s.not_found;
-            } else {
-              if (truth.norm() > 0.0) s.beam = truth.normalized();
-              ++s.found;
-            }
+            if (!SearchReflector(fault)) a.status = es::status::kMeasurementStatusNotReady;
           } else if constexpr (std::is_same_v<T, es::GetFace>) {
             a.data = es::Int32Value{s.face};
           } else if constexpr (std::is_same_v<T, es::GetLongSystemParameter>) {

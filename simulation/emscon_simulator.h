@@ -189,6 +189,8 @@ class EmsconSimulator : public Simulator {
                         bool wrong_id, std::vector<Step>& steps, std::vector<std::string>& after);
   static std::vector<Step> InterleaveStatus(std::vector<Step> steps);
   instruments::emscon::MeasResult MeasureNow(bool out_of_range);
+  void PointBeam(const instruments::emscon::GoPosition& request);
+  bool SearchReflector(const FaultSpec& fault);
   void ContinuousCommand(const instruments::emscon::Request& request,
                          instruments::emscon::CommandAnswer& answer, std::vector<std::string>& after);
   // Continuous measurement: the stream's next records up to now, sent each tick.
