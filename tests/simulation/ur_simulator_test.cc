@@ -389,17 +389,25 @@ TEST_F(UrFixture, AWholeProgramSentAsTextRunsItsMotionsInOrder) {
       "sleep(10.0)\nend\n",
       a(0), a(1), a(2), a(3), a(4), a(5), x.x(), x.y(), x.z(), r.x(), r.y(), r.z());
   SendProgram(sim_->ports().secondary, program, [](const auto&) { return true; });
-  std::vector<Eigen::VectorXd> stood;
-  Eigen::VectorXd last = home;
-  for (int reads = 0; stood.size() < 3 && reads < 5000; ++reads) {
+  // The stands in order. A reading "while the arm stands" may come from a move's first or last
+  // instants, below the driver's still speed (2e-4 rad/s: within (2e-4)²/2a ≈ 1.4e-8 rad of the
+  // stand), so readings within 1e-6 rad are one stand, and the last stand is read until two
+  // readings agree exactly (the program has ended; the arm stands).
+  std::vector<Eigen::VectorXd> stood{home};
+  for (int reads = 0; reads < 5000; ++reads) {
     const Eigen::VectorXd q = ur->ReadStampedJoints().joints_rad;
-    if ((q - last).cwiseAbs().maxCoeff() < 1e-9) continue;
-    stood.push_back(q);
-    last = q;
+    const double step = (q - stood.back()).cwiseAbs().maxCoeff();
+    if (step >= 1e-6) {
+      stood.push_back(q);
+      continue;
+    }
+    stood.back() = q;
+    if (stood.size() == 4 && step == 0.0) break;
   }
+  stood.erase(stood.begin());
   ASSERT_EQ(stood.size(), 3u);
-  EXPECT_LT((stood[0] - a).cwiseAbs().maxCoeff(), 1e-12);
-  EXPECT_LT((stood[1] - mid).cwiseAbs().maxCoeff(), 1e-12);
+  EXPECT_LT((stood[0] - a).cwiseAbs().maxCoeff(), 1e-7);
+  EXPECT_LT((stood[1] - mid).cwiseAbs().maxCoeff(), 1e-7);
   // The pose target's joints: the controller's model puts the flange on the pose there, on
   // the branch of b (the solution nearest where the arm stood).
   const Eigen::Isometry3d at = programs::FlangePose(c, stood[2]);
