@@ -21,15 +21,10 @@ jobs="$(nproc)"
 CXX=clang++ scripts/build.sh build-fuzz -DARMSIG_WERROR=ON -DARMSIG_FUZZ=ON \
   -DARMSIG_BUILD_TESTS=ON -DARMSIG_BUILD_BENCH=OFF
 phase build
-# ctest starts the longest tests first when it knows their times; a new tree gets the times
-# measured in this configuration (tests/ctest-costs.txt), so a long test does not start
-# last. Two tests per core: many of them wait on a pty, a socket, a server or a deadline
-# (860 tests on two cores: 321 s with three at a time, 278 s with four).
-costs=build-fuzz/Testing/Temporary/CTestCostData.txt
-if [[ ! -f "$costs" ]]; then
-  mkdir -p "$(dirname "$costs")"
-  cp tests/ctest-costs.txt "$costs"
-fi
+# ctest starts the longest entries first: each entry's COST is its tests' times measured in
+# this configuration (tests/ctest-costs.txt; tests/cmake/GroupTests.cmake), so a long test
+# does not start last. Two entries per core: many tests wait on a pty, a socket, a server or
+# a deadline (860 tests on two cores: 321 s with three at a time, 278 s with four).
 ASAN_OPTIONS=detect_leaks=1 UBSAN_OPTIONS=print_stacktrace=1 \
   ctest --test-dir build-fuzz --output-on-failure --parallel "$((jobs * 2))"
 phase tests
