@@ -277,7 +277,8 @@ std::vector<SessionSummary> ListSessions(Database& db, std::optional<int64_t> ro
           "(SELECT count(*) FROM poses p WHERE p.session_id = s.id AND p.status = 'skipped'), "
           "(SELECT count(*) FROM points t WHERE t.session_id = s.id AND t.x_mm IS NOT NULL), "
           "(SELECT count(*) FROM points t WHERE t.session_id = s.id AND t.x_mm IS NOT NULL AND "
-          "coalesce(t.flags, '') <> '')" +
+          "coalesce(t.flags, '') <> ''), "
+          "(SELECT count(DISTINCT j.segment) FROM stream_joints j WHERE j.session_id = s.id)" +
           kSessionsWithRobots + (robot_id ? "WHERE s.robot_id = ? " : "") + "ORDER BY s.id");
   if (robot_id) q->Bind(1, *robot_id);
   std::vector<SessionSummary> out;
@@ -288,6 +289,7 @@ std::vector<SessionSummary> ListSessions(Database& db, std::optional<int64_t> ro
     s.skipped = static_cast<int>(q->Int(kSessionColumnCount + 1));
     s.usable = static_cast<int>(q->Int(kSessionColumnCount + 2));
     s.flagged = static_cast<int>(q->Int(kSessionColumnCount + 3));
+    s.sweep_segments = static_cast<int>(q->Int(kSessionColumnCount + 4));
     out.push_back(std::move(s));
   }
   return out;

@@ -69,6 +69,9 @@ struct SessionSummary : SessionRow {
   int measured = 0, skipped = 0;  // configurations
   int usable = 0;                 // reduced points with coordinates
   int flagged = 0;                // of which carry a flag
+  // Measured on the move: the sweep's segments stored; its configurations are paired (and
+  // counted above) when the sweep completes.
+  int sweep_segments = 0;
 };
 // Every session (of one robot when given), oldest first.
 std::vector<SessionSummary> ListSessions(Database& db, std::optional<int64_t> robot_id);

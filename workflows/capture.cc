@@ -21,6 +21,8 @@
 #include "core/text_layout.h"
 #include "core/wording.h"
 #include "db/database.h"
+#include "db/sessions.h"
+#include "db/streams.h"
 #include "db/store.h"
 #include "workflows/hint.h"
 #include "workflows/signature.h"
@@ -67,6 +69,22 @@ std::optional<Eigen::VectorXd> ActiveParameters(db::Database& db, const io::LabC
 }  // namespace
 
 namespace {
+
+// What a session stopped by an error keeps, said beside its resume hint: after "the
+// transaction was rolled back, nothing of it was stored" (a full disk) the technician must not
+// think the session lost.
+std::string StoredSoFar(db::Database& db, int64_t session) {
+  try {
+    if (acquisition::IsOnTheMoveSession(db, session)) {
+      const auto segments = static_cast<int64_t>(db::StoredStreamSegments(db, session).size());
+      return Count(segments, "sweep segment") + " stored";
+    }
+    return Count(static_cast<int64_t>(db::StoredSeqs(db, session).size()), "configuration") +
+           " stored";
+  } catch (const std::exception& e) {
+    return std::string("what it stored could not be read now: ") + e.what();
+  }
+}
 
 // A session on opened devices; a failure leaves it paused (resumable, never running).
 acquisition::CaptureSummary CaptureWith(
@@ -322,7 +340,8 @@ CaptureOutcome RunCaptureSession(const CaptureRequest& request) {
   try {
     out.summary = CaptureWith(database, lab, session, devices, *controller, options);
   } catch (...) {
-    spdlog::info("capture: session {} paused; resume with: {}", session, out.resume_hint);
+    spdlog::info("capture: session {} paused ({}); resume with: {}", session,
+                 StoredSoFar(database, session), out.resume_hint);
     throw;
   }
   const auto& s = out.summary;

@@ -607,8 +607,12 @@ std::string FormatSessions(const std::vector<ListedSession>& sessions, bool json
     text += OneLineOrTwo(
         fmt::format("{:>4}  {:<14} {:<9} {:<11} {}", s.id, Printable(s.robot), Printable(s.shown_state),
                     db::ToString(s.kind), Printable(TimeToTheSecond(s.started_at))),
-        fmt::format("{} measured, {} skipped, {} usable, {} flagged", s.measured, s.skipped,
-                    s.usable, s.flagged),
+        fmt::format("{} measured, {} skipped, {} usable, {} flagged{}", s.measured, s.skipped,
+                    s.usable, s.flagged,
+                    s.sweep_segments > 0 && s.measured + s.skipped == 0
+                        ? fmt::format("; {} swept, paired when the sweep ends",
+                                      Count(s.sweep_segments, "segment"))
+                        : ""),
         6);
     if (!s.note.empty()) text += "      " + Printable(s.note) + "\n";
   }
@@ -681,7 +685,8 @@ nlohmann::json ToJson(const ListedSession& s) {
           {"measured", s.measured},
           {"skipped", s.skipped},
           {"usable_points", s.usable},
-          {"flagged_points", s.flagged}};
+          {"flagged_points", s.flagged},
+          {"sweep_segments", s.sweep_segments}};
 }
 
 nlohmann::json ToJson(const VersionInfo& v) {

@@ -424,6 +424,11 @@ TEST_F(UrCaptureFixture, OnTheMoveKeepsItsSegmentsThroughCtrlCAndNamesABeamBreak
   EXPECT_EQ(db::StoredStreamSegments(db, session), std::set<int>{0});
   EXPECT_EQ(db::LoadSession(db, session)->state, db::SessionState::kPaused);
   EXPECT_EQ(db.sql().execAndGet("SELECT count(*) FROM poses").getInt(), 0);  // not paired yet
+  // The session list says what it keeps: one segment swept, none of it paired yet.
+  const auto listed = db::ListSessions(db, std::nullopt);
+  ASSERT_EQ(listed.size(), 1u);
+  EXPECT_EQ(listed[0].sweep_segments, 1);
+  EXPECT_EQ(listed[0].measured, 0);
 
   // The beam breaks for a second, eight seconds into the resumed run (the segment sweeps for
   // about twenty; its set-up may take a moment of a loaded machine: 0.8 s of wall time here).

@@ -2,9 +2,13 @@
 // standard output, an output file and the database: each is named as "No space left on
 // device", with what was and was not done; the store stays as it was, and no temporary file
 // is left behind.
+#include <fmt/format.h>
 #include <gtest/gtest.h>
+#include <signal.h>
+#include <sys/wait.h>
 
 #include <filesystem>
+#include <nlohmann/json.hpp>
 #include <string>
 
 #include "support/lab_database.h"
@@ -88,6 +92,68 @@ TEST(FullDisk, ADatabaseWriteOnAFullDiskIsNamedAndStoresNothing) {
   const auto before = RunArmsig("--db " + Quoted(lab.path) + " db export observations");
   EXPECT_EQ(ReadText(dir.File("after.csv")), before.out);
   EXPECT_NE(ReadText(dir.File("info")).find("observations"), std::string::npos);
+}
+
+
+// A capture that fills the disk (a tmpfs of 500 kB under the database, the virtual PUMA lab
+// served beside it) stops at the failed write, names it, and says what the session keeps: the
+// configurations stored before it, each whole (a technician reading "nothing of it was
+// stored" must not think the session lost). With room again, the hint it printed completes
+// the session, and nothing is measured twice.
+TEST(FullDisk, ACaptureThatFillsTheDiskSaysWhatItKeptAndResumes) {
+  if (!PrivateMountsWork()) GTEST_SKIP() << "no private mount namespace here (unshare -rm)";
+  TempDir dir;
+  const std::string lab = dir.File("lab");
+  const pid_t served =
+      SpawnArmsig({"--db", dir.File("unused.db"), "demo", "--serve", lab, "--time-scale", "0",
+                   "--seconds", "300"},
+                  dir.File("serve.out"), dir.File("serve.err"), dir.path().string());
+  ASSERT_GT(served, 0);
+  int ended = 0;
+  WaitForChildOr(served, &ended, [&] {
+    return ReadText(dir.File("serve.out")).find("virtual lab ready") != std::string::npos;
+  });
+  ASSERT_NE(ReadText(dir.File("serve.out")).find("virtual lab ready"), std::string::npos)
+      << ReadText(dir.File("serve.err"));
+  const std::string full = dir.File("full"), at = dir.path().string() + "/";
+  std::filesystem::create_directories(full);
+  const std::string armsig = Quoted(ARMSIG_BINARY) + " --db " + Quoted(full + "/lab.db") + " ";
+  const std::string capture = armsig + "capture --lab " + Quoted(lab + "/lab.yaml");
+  RunPrivately(dir, "mount -t tmpfs -o size=500k tmpfs " + Quoted(full) + " && " + capture +
+                        " --plan auto:120 --robot puma > " + Quoted(at + "out") + " 2> " +
+                        Quoted(at + "err") + "; echo $? > " + Quoted(at + "rc") + "; cp " +
+                        Quoted(full + "/lab.db") + " " + Quoted(at + "full.db") + "; cp " +
+                        Quoted(full + "/lab.db-wal") + " " + Quoted(at + "full.db-wal") +
+                        "; mount -o remount,size=64m " + Quoted(full) + " && " + capture +
+                        " --resume 1 > " + Quoted(at + "resumed") + " 2>&1; echo $? >> " +
+                        Quoted(at + "rc") + "; " + armsig + "sessions --json > " +
+                        Quoted(at + "sessions") + " 2>&1");
+  ::kill(served, SIGINT);
+  ::waitpid(served, &ended, 0);
+  EXPECT_EQ(ReadText(dir.File("rc")), "1\n0\n") << ReadText(dir.File("err"))
+                                                 << ReadText(dir.File("resumed"));
+  const std::string err = ReadText(dir.File("err"));
+  EXPECT_NE(err.find("No space left on device"), std::string::npos) << err;
+  // What the full disk kept, as the capture said it: its configurations, each with its
+  // readings (the copy of the database as the failed capture left it).
+  const auto kept = RunArmsig("--db " + Quoted(dir.File("full.db")) + " sessions --json");
+  const auto kept_sessions = nlohmann::json::parse(kept.out);
+  ASSERT_EQ(kept_sessions.size(), 1u) << kept.err;
+  const int stored = kept_sessions[0]["measured"].get<int>();
+  EXPECT_GT(stored, 0);
+  EXPECT_LT(stored, 120);
+  EXPECT_NE(err.find(fmt::format("session 1 paused ({} configurations stored); resume with: ", stored)),
+            std::string::npos)
+      << err;
+  const std::string resumed = ReadText(dir.File("resumed"));
+  EXPECT_NE(resumed.find(fmt::format("120 of 120 configurations stored ({} now, {} before)",
+                                     120 - stored, stored)),
+            std::string::npos)
+      << resumed;
+  const auto sessions = nlohmann::json::parse(ReadText(dir.File("sessions")));
+  ASSERT_EQ(sessions.size(), 1u);
+  EXPECT_EQ(sessions[0]["state"], "completed");
+  EXPECT_EQ(sessions[0]["measured"], 120);
 }
 
 }  // namespace

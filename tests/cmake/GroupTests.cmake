@@ -8,7 +8,8 @@
 # Each entry's COST (the sum of its tests') lets ctest start the long ones first.
 #
 # In: BINARY, OUT (the ctest file to write), COSTS (name runs seconds per line), HEAVY, CHUNK,
-# TIMEOUT, PROPERTIES (more test properties, `|`-separated name|value pairs), WORKDIR.
+# TIMEOUT, LABEL (the program's name: `ctest -L io_test`), PROPERTIES (more test properties,
+# `|`-separated name|value pairs), WORKDIR.
 cmake_minimum_required(VERSION 3.25)
 
 execute_process(COMMAND "${BINARY}" --gtest_list_tests
@@ -57,7 +58,7 @@ function(emit name filter cost_ms)
   string(APPEND script
          "add_test([==[${name}]==] [==[${BINARY}]==] [==[--gtest_filter=${filter}]==])\n"
          "set_tests_properties([==[${name}]==] PROPERTIES WORKING_DIRECTORY [==[${WORKDIR}]==]"
-         " TIMEOUT ${TIMEOUT} COST ${cost} SKIP_REGULAR_EXPRESSION [==[\\[  SKIPPED \\]]==]${extra})\n")
+         " TIMEOUT ${TIMEOUT} COST ${cost} LABELS [==[${LABEL}]==] SKIP_REGULAR_EXPRESSION [==[\\[  SKIPPED \\]]==]${extra})\n")
   set(script "${script}" PARENT_SCOPE)
 endfunction()
 
