@@ -54,6 +54,13 @@ void SetupDemoCommand(CLI::App& parent, const GlobalOptions& global, Runner& run
                   "Plant a change in the virtual robot (repeatable), to rehearse the nightly "
                   "job: joint2_zero=0.02deg, link2_length=0.2mm, a parameter such as a3=-50um; "
                   "units mm, um, deg, mrad, urad, rad");
+  NumberOption(sub->add_option("--setup", o->setup,
+                               "Another day's set-up: the instruments set up anew at their N-th "
+                               "place (0: the first day's), so the robot's base lies elsewhere in "
+                               "their frame; the robot and its errors the same, the noise drawn "
+                               "anew; to use a set fitted on one day on another's"),
+               0, 1000)
+      ->capture_default_str();
   NumberOption(sub->add_option("--repeatability-mm", o->repeatability_mm,
                                "The virtual robot's own repeatability: every move lands N(0, "
                                "sigma^2) per axis off, apart from the instruments' noise"),

@@ -579,6 +579,7 @@ void DemoRun::BuildLab() {
   o.seed = seed_;
   o.time_scale = time_scale_;
   o.repeatability_mm = options_.repeatability_mm;
+  o.setup = options_.setup;
   o.planted = ParsePlantedChanges(model_, options_.changes);
   o.folder = folder_->path();
   // A UR and a tracker can always be measured on the move (a served lab too: `capture
@@ -624,7 +625,12 @@ void DemoRun::BuildLab() {
 
 void DemoRun::Introduce() {
   const std::string seed =
-      fmt::format("\n(seed {}: --seed {} repeats this run's noise and plan)\n\n", seed_, seed_);
+      options_.setup > 0
+          ? fmt::format("\n(set-up {}: the instruments stand elsewhere than on the first day; "
+                        "seed {}: --seed {} --setup {} repeats this run's noise and plan)\n\n",
+                        options_.setup, seed_, seed_, options_.setup)
+          : fmt::format("\n(seed {}: --seed {} repeats this run's noise and plan)\n\n", seed_,
+                        seed_);
   const std::string folder = lab_->folder().string();
   if (!use_tracker_) {
     Say("armsig demo: virtual lab with " + robot_->description +

@@ -58,6 +58,11 @@ struct DemoOptions {
   // Changes planted in the virtual robot's truth (`--change joint2_zero=0.02deg`,
   // ParsePlantedChanges), to rehearse what the nightly job does when a robot changes.
   std::vector<std::string> changes;
+  // Another day's set-up (`--setup N`): the instruments set up anew at their N-th place (0:
+  // the first day's), so the robot's base lies elsewhere in their frame (the lab's); the
+  // robot and its errors stay, the noise is drawn anew. To use a set fitted on one day's
+  // set-up on another's, as a lab does.
+  int setup = 0;
   // --on-the-move (ur10): the UR sweeps well-spread waypoints without stopping while the
   // tracker measures continuously on a clock `clock_offset_ms` and `clock_drift_ppm` off the
   // controller's (unset: drawn from the seed); the clock is estimated from the data, the

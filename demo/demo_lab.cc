@@ -56,7 +56,24 @@ simulation::VirtualRobot TruthOf(const DemoRobot& robot, const calibration::Robo
     truth = simulation::MakeVirtualRobot(robot.name, model, options.seed);
   }
   if (options.planted.size() == model.num_parameters()) truth.true_params += options.planted;
+  // Another day's set-up: the instruments (the lab frame: a tracker at its origin) stand
+  // elsewhere, so the base lies elsewhere in their frame: turned 0.45 rad a place about the
+  // frame's vertical (the robot seen from another side, a metre away for a tracker's robot)
+  // and shifted by up to 0.3 m; the robot and its errors are the same.
+  if (options.setup > 0) {
+    const double n = options.setup;
+    Eigen::Isometry3d moved = Eigen::Isometry3d::Identity();
+    moved.translate(Eigen::Vector3d(300.0 * std::cos(n), -250.0 * std::sin(n),
+                                    80.0 * (options.setup % 3 - 1.0)));
+    moved.rotate(Eigen::AngleAxisd(0.45 * n, Eigen::Vector3d::UnitZ()));
+    truth.world_from_base = moved * truth.world_from_base;
+  }
   return truth;
+}
+
+// The instruments' noise: drawn anew on another day's set-up.
+unsigned NoiseSeed(const DemoLabOptions& options) {
+  return options.seed + 7919u * static_cast<unsigned>(options.setup);
 }
 
 // A secret file as a lab keeps one: its owner's alone (mode 0600) before anything is in it.
@@ -77,7 +94,7 @@ DemoLab::DemoLab(const calibration::RobotModel& model, const DemoLabOptions& opt
       robot_(FindDemoRobot(options.robot)),
       truth_(TruthOf(robot_, model, options)),
       base_(truth_.world_from_base),
-      lab_(model, truth_.true_params, base_, options.seed) {
+      lab_(model, truth_.true_params, base_, NoiseSeed(options)) {
   using namespace std::chrono_literals;
   if (robot_.tracker_only) options_.tracker = true;
   lab_.SetJointErrors(truth_.joint_errors);
@@ -190,7 +207,7 @@ void DemoLab::AddTracker() {
   lab_.AddStation(station);
   simulation::EmsconSimulatorOptions o;
   o.time_scale = options_.time_scale;
-  o.seed = options_.seed;
+  o.seed = NoiseSeed(options_);
   // The reflector is found only near the beam: within 25 mm where it points, within
   // 150 mm by a search (FindReflector).
   o.acquire_radius_mm = 25.0;

@@ -36,6 +36,7 @@ struct DemoLabOptions {
   unsigned seed = 1985;      // the instruments' noise
   double time_scale = 0.25;  // multiplies every simulated instrument latency
   double repeatability_mm = 0.0;
+  int setup = 0;  // the tracker set up anew at its N-th place (DemoOptions::setup)
   Eigen::VectorXd planted;       // added to the paper's Table 3 (empty: nothing planted)
   std::filesystem::path folder;  // the devices' links and the lab files
   // Measuring on the move: the tracker measures continuously, following the arm on its own

@@ -9,6 +9,7 @@
 
 #include "core/error.h"
 #include "db/database.h"
+#include "demo/demo_lab.h"
 #include "io/builtin_models.h"
 #include "io/model_yaml.h"
 #include "test_support.h"
@@ -255,6 +256,33 @@ namespace {
 // demo --change: each planted change becomes its parameter's shift in the model's units; a
 // value a double cannot hold (1e-400, 1e400) or a joint number past an int is refused naming
 // --change and the text, never "stod" or "stoi".
+// Another day's set-up (`demo --serve --setup N`): the instruments stand elsewhere, so the
+// robot's base lies elsewhere in their frame (turned 0.45 rad about the frame's vertical a
+// place, and shifted); the robot itself, its errors, is the same one.
+TEST(DemoLab, AnotherDaysSetUpMovesTheBaseNotTheRobot) {
+  const calibration::RobotModel model = io::ParseRobotModel(io::kUr10Yaml, "built-in UR10");
+  testing::TempDir dir;
+  auto lab_at = [&](int setup) {
+    DemoLabOptions o;
+    o.robot = "ur10";
+    o.tracker = true;
+    o.time_scale = 0.05;
+    o.setup = setup;
+    o.folder = dir.File("setup" + std::to_string(setup));
+    std::filesystem::create_directories(o.folder);
+    return std::make_unique<DemoLab>(model, o);
+  };
+  const auto first = lab_at(0), third = lab_at(2);
+  const simulation::VirtualRobot& a = first->robot_truth();
+  const simulation::VirtualRobot& b = third->robot_truth();
+  EXPECT_EQ(a.true_params, b.true_params);
+  const Eigen::Isometry3d moved = b.world_from_base * a.world_from_base.inverse();
+  EXPECT_NEAR(Eigen::AngleAxisd(moved.linear()).angle(), 0.9, 1e-9);
+  EXPECT_NEAR(Eigen::AngleAxisd(moved.linear()).axis().z(), 1.0, 1e-9);
+  EXPECT_GT((b.world_from_base.translation() - a.world_from_base.translation()).norm(), 500.0);
+  EXPECT_NEAR(b.world_from_base.translation().norm(), a.world_from_base.translation().norm(), 400.0);
+}
+
 TEST(PlantedChanges, AreParsedInTheirUnitsAndAbsurdNumbersAreNamed) {
   const auto model = testing::Puma();
   const Eigen::VectorXd delta =
