@@ -624,13 +624,9 @@ void DemoRun::BuildLab() {
 }
 
 void DemoRun::Introduce() {
-  const std::string seed =
-      options_.setup > 0
-          ? fmt::format("\n(set-up {}: the instruments stand elsewhere than on the first day; "
-                        "seed {}: --seed {} --setup {} repeats this run's noise and plan)\n\n",
-                        options_.setup, seed_, seed_, options_.setup)
-          : fmt::format("\n(seed {}: --seed {} repeats this run's noise and plan)\n\n", seed_,
-                        seed_);
+  const std::string setup = options_.setup > 0 ? fmt::format(" --setup {}", options_.setup) : "";
+  const std::string seed = fmt::format(
+      "\n(seed {}: --seed {}{} repeats this run's noise and plan)\n\n", seed_, seed_, setup);
   const std::string folder = lab_->folder().string();
   if (!use_tracker_) {
     Say("armsig demo: virtual lab with " + robot_->description +
