@@ -72,17 +72,21 @@ namespace {
 
 // What a session stopped by an error keeps, said beside its resume hint: after "the
 // transaction was rolled back, nothing of it was stored" (a full disk) the technician must not
-// think the session lost.
-std::string StoredSoFar(db::Database& db, int64_t session) {
+// think the session lost. "paused (9 configurations stored)", or "interrupted (…)" when its
+// pause could not be written either (the same disk); both resume alike.
+std::string WhatTheStopKept(db::Database& db, int64_t session) {
   try {
-    if (acquisition::IsOnTheMoveSession(db, session)) {
-      const auto segments = static_cast<int64_t>(db::StoredStreamSegments(db, session).size());
-      return Count(segments, "sweep segment") + " stored";
-    }
-    return Count(static_cast<int64_t>(db::StoredSeqs(db, session).size()), "configuration") +
-           " stored";
+    const std::string stored =
+        acquisition::IsOnTheMoveSession(db, session)
+            ? Count(static_cast<int64_t>(db::StoredStreamSegments(db, session).size()),
+                    "sweep segment")
+            : Count(static_cast<int64_t>(db::StoredSeqs(db, session).size()), "configuration");
+    const auto row = db::LoadSession(db, session);
+    if (row && row->state == db::SessionState::kRunning)
+      return "interrupted (" + stored + " stored; its pause could not be written)";
+    return "paused (" + stored + " stored)";
   } catch (const std::exception& e) {
-    return std::string("what it stored could not be read now: ") + e.what();
+    return std::string("paused (what it stored could not be read now: ") + e.what() + ")";
   }
 }
 
@@ -340,8 +344,8 @@ CaptureOutcome RunCaptureSession(const CaptureRequest& request) {
   try {
     out.summary = CaptureWith(database, lab, session, devices, *controller, options);
   } catch (...) {
-    spdlog::info("capture: session {} paused ({}); resume with: {}", session,
-                 StoredSoFar(database, session), out.resume_hint);
+    spdlog::info("capture: session {} {}; resume with: {}", session,
+                 WhatTheStopKept(database, session), out.resume_hint);
     throw;
   }
   const auto& s = out.summary;
