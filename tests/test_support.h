@@ -3,6 +3,7 @@
 
 #include <fcntl.h>
 #include <gtest/gtest.h>
+#include <signal.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
@@ -227,5 +228,45 @@ bool WaitForChildOr(pid_t child, int* status, Predicate ready,
       limit);
   return happened && !ended;
 }
+
+// The virtual lab `armsig demo --serve DIR/folder --time-scale 0` keeps up (with `options`:
+// its robot, a planted --change, another day's --setup), its output in DIR/folder.out and
+// .err; ready once it says so. Stop() ends it by SIGINT as a technician's Ctrl-C and gives the
+// wait status; the destructor stops it too.
+class ServedLab {
+ public:
+  ServedLab(const TempDir& dir, const std::string& folder, std::vector<std::string> options = {})
+      : folder_(dir.File(folder)), out_(dir.File(folder + ".out")), err_(dir.File(folder + ".err")) {
+    std::vector<std::string> args = {"--db", dir.File("unused.db"), "demo", "--serve", folder_,
+                                     "--time-scale", "0", "--seconds", "900"};
+    args.insert(args.end(), options.begin(), options.end());
+    pid_ = SpawnArmsig(args, out_, err_, dir.path().string());
+    int status = 0;
+    ready_ = pid_ > 0 && WaitForChildOr(pid_, &status, [&] {
+               return ReadText(out_).find("virtual lab ready") != std::string::npos;
+             });
+    if (!ready_ && pid_ > 0 && ::waitpid(pid_, &status, WNOHANG) != 0) pid_ = -1;  // reaped
+  }
+  ServedLab(const ServedLab&) = delete;
+  ServedLab& operator=(const ServedLab&) = delete;
+  ~ServedLab() { Stop(); }
+  int Stop() {
+    int status = -1;
+    if (pid_ <= 0) return status;
+    ::kill(pid_, SIGINT);
+    ::waitpid(pid_, &status, 0);
+    pid_ = -1;
+    return status;
+  }
+  bool ready() const { return ready_; }
+  const std::string& folder() const { return folder_; }
+  std::string lab() const { return folder_ + "/lab.yaml"; }
+  std::string errors() const { return ReadText(err_); }
+
+ private:
+  std::string folder_, out_, err_;
+  pid_t pid_ = -1;
+  bool ready_ = false;
+};
 
 }  // namespace armsig::testing

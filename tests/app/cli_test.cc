@@ -596,18 +596,9 @@ TEST(Cli, DemoRefusesAnUnusableServerUriFirst) {
 TEST(Cli, ServedVirtualLabIsDrivenByAHandCapture) {
   for (const std::string instrument : {"tracker", "theodolites"}) {
     TempDir dir;
-    const std::string lab = dir.File("lab");
-    const pid_t served =
-        SpawnArmsig({"--db", dir.File("unused.db"), "demo", "--serve", lab, "--instrument",
-                     instrument, "--time-scale", "0", "--seconds", "120"},
-                    dir.File("serve.out"), dir.File("serve.err"), dir.path().string());
-    ASSERT_GT(served, 0);
-    int ended = 0;
-    WaitForChildOr(served, &ended, [&] {
-      return ReadText(dir.File("serve.out")).find("virtual lab ready") != std::string::npos;
-    });
-    ASSERT_NE(ReadText(dir.File("serve.out")).find("virtual lab ready"), std::string::npos)
-        << ReadText(dir.File("serve.err"));
+    ServedLab served(dir, "lab", {"--instrument", instrument});
+    ASSERT_TRUE(served.ready()) << served.errors();
+    const std::string lab = served.folder();
     EXPECT_TRUE(std::filesystem::exists(lab + "/stations.yaml"));
     const auto r = RunArmsig("--db '" + dir.File("hand.db") + "' capture --lab '" + lab +
                              "/lab.yaml' --plan auto:12 --robot puma");
@@ -616,11 +607,9 @@ TEST(Cli, ServedVirtualLabIsDrivenByAHandCapture) {
     if (instrument == "tracker") {
       EXPECT_NE(r.out.find("12 pointed at the predicted target"), std::string::npos) << r.out;
     }
-    ::kill(served, SIGINT);
-    int status = 0;
-    ::waitpid(served, &status, 0);
+    const int status = served.Stop();
     ASSERT_TRUE(WIFEXITED(status));
-    EXPECT_EQ(WEXITSTATUS(status), 130) << ReadText(dir.File("serve.err"));
+    EXPECT_EQ(WEXITSTATUS(status), 130) << served.errors();
     EXPECT_FALSE(std::filesystem::exists(dir.File("unused.db")));
   }
 }

@@ -4,8 +4,6 @@
 // is left behind.
 #include <fmt/format.h>
 #include <gtest/gtest.h>
-#include <signal.h>
-#include <sys/wait.h>
 
 #include <filesystem>
 #include <nlohmann/json.hpp>
@@ -103,18 +101,9 @@ TEST(FullDisk, ADatabaseWriteOnAFullDiskIsNamedAndStoresNothing) {
 TEST(FullDisk, ACaptureThatFillsTheDiskSaysWhatItKeptAndResumes) {
   if (!PrivateMountsWork()) GTEST_SKIP() << "no private mount namespace here (unshare -rm)";
   TempDir dir;
-  const std::string lab = dir.File("lab");
-  const pid_t served =
-      SpawnArmsig({"--db", dir.File("unused.db"), "demo", "--serve", lab, "--time-scale", "0",
-                   "--seconds", "300"},
-                  dir.File("serve.out"), dir.File("serve.err"), dir.path().string());
-  ASSERT_GT(served, 0);
-  int ended = 0;
-  WaitForChildOr(served, &ended, [&] {
-    return ReadText(dir.File("serve.out")).find("virtual lab ready") != std::string::npos;
-  });
-  ASSERT_NE(ReadText(dir.File("serve.out")).find("virtual lab ready"), std::string::npos)
-      << ReadText(dir.File("serve.err"));
+  const ServedLab served(dir, "lab");
+  ASSERT_TRUE(served.ready()) << served.errors();
+  const std::string lab = served.folder();
   const std::string full = dir.File("full"), at = dir.path().string() + "/";
   std::filesystem::create_directories(full);
   const std::string armsig = Quoted(ARMSIG_BINARY) + " --db " + Quoted(full + "/lab.db") + " ";
@@ -128,8 +117,6 @@ TEST(FullDisk, ACaptureThatFillsTheDiskSaysWhatItKeptAndResumes) {
                         " --resume 1 > " + Quoted(at + "resumed") + " 2>&1; echo $? >> " +
                         Quoted(at + "rc") + "; " + armsig + "sessions --json > " +
                         Quoted(at + "sessions") + " 2>&1");
-  ::kill(served, SIGINT);
-  ::waitpid(served, &ended, 0);
   EXPECT_EQ(ReadText(dir.File("rc")), "1\n0\n") << ReadText(dir.File("err"))
                                                  << ReadText(dir.File("resumed"));
   const std::string err = ReadText(dir.File("err"));

@@ -78,18 +78,9 @@ TEST(InstrumentCommand, ProbeNamesEachNetworkControllerOfTheServedLab) {
                        Case{"abb", "models/irb4600.yaml"}}) {
     SCOPED_TRACE(c.robot);
     TempDir dir;
-    const std::string lab = dir.File("lab");
-    const pid_t served =
-        SpawnArmsig({"--db", dir.File("unused.db"), "demo", "--serve", lab, "--robot", c.robot,
-                     "--seed", "7", "--time-scale", "0", "--seconds", "120"},
-                    dir.File("serve.out"), dir.File("serve.err"), dir.path().string());
-    ASSERT_GT(served, 0);
-    int ended = 0;
-    WaitForChildOr(served, &ended, [&] {
-      return ReadText(dir.File("serve.out")).find("virtual lab ready") != std::string::npos;
-    });
-    ASSERT_NE(ReadText(dir.File("serve.out")).find("virtual lab ready"), std::string::npos)
-        << ReadText(dir.File("serve.err"));
+    ServedLab served(dir, "lab", {"--robot", c.robot, "--seed", "7"});
+    ASSERT_TRUE(served.ready()) << served.errors();
+    const std::string lab = served.folder();
     const auto truth =
         simulation::MakeVirtualRobot(c.robot, io::LoadRobotModel(SourcePath(c.model_file)), 7)
             .identity;
@@ -130,9 +121,7 @@ TEST(InstrumentCommand, ProbeNamesEachNetworkControllerOfTheServedLab) {
     EXPECT_EQ(j["model"], truth.model);
     EXPECT_EQ(j["serial"], truth.serial);
     if (c.robot == "ur10") EXPECT_FALSE(j["kinematics_checksum"].get<std::string>().empty());
-    ::kill(served, SIGINT);
-    int status = 0;
-    ::waitpid(served, &status, 0);
+    served.Stop();
     EXPECT_FALSE(std::filesystem::exists(dir.File("unused.db")));
   }
 }

@@ -26,55 +26,6 @@ namespace armsig::testing {
 
 namespace {
 
-pid_t Spawn(const std::vector<std::string>& args, const std::string& out, const std::string& err) {
-  const pid_t child = ::fork();
-  if (child == 0) {
-    std::vector<std::string> copy = args;
-    std::vector<char*> argv;
-    for (auto& a : copy) argv.push_back(a.data());
-    argv.push_back(nullptr);
-    ::dup2(::open(out.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0600), 1);
-    ::dup2(::open(err.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0600), 2);
-    ::execv(ARMSIG_BINARY, argv.data());
-    ::_exit(127);
-  }
-  return child;
-}
-
-// A virtual lab served in `folder` until stopped (its robot changed by `change`, if any; its
-// instruments set up at their `setup`-th place, another day's).
-class ServedLab {
- public:
-  ServedLab(const TempDir& dir, const std::string& folder, const std::string& change = "",
-            int setup = 0) {
-    std::vector<std::string> args = {ARMSIG_BINARY, "--db", dir.File("unused.db"), "demo",
-                                     "--serve",     dir.File(folder), "--time-scale", "0",
-                                     "--seconds",   "900"};
-    if (!change.empty()) args.insert(args.end(), {"--change", change});
-    if (setup > 0) args.insert(args.end(), {"--setup", std::to_string(setup)});
-    out_ = dir.File(folder + ".out");
-    pid_ = Spawn(args, out_, dir.File(folder + ".err"));
-    int status = 0;
-    ready_ = WaitForChildOr(pid_, &status, [&] {
-      return ReadText(out_).find("virtual lab ready") != std::string::npos;
-    });
-    lab_ = dir.File(folder) + "/lab.yaml";
-  }
-  ~ServedLab() {
-    if (!ready_) return;
-    ::kill(pid_, SIGINT);
-    int status = 0;
-    ::waitpid(pid_, &status, 0);
-  }
-  bool ready() const { return ready_; }
-  const std::string& lab() const { return lab_; }
-
- private:
-  pid_t pid_ = -1;
-  bool ready_ = false;
-  std::string out_, lab_;
-};
-
 // The shipped unit's ExecStart, as systemd would run it for robot `robot` with the state
 // directory at `state` and the notification command `notify`.
 std::string UnitCommand(const std::string& state, const std::string& robot,
@@ -156,7 +107,7 @@ TEST(NightlyCommands, TheInstalledUnitFollowsARobotThatChangesAndMakesDriftVisib
   {
     // The third day's instruments set up elsewhere (the base turned and moved about a metre
     // in their frame): the same robot, no drift; its session fitted with the others.
-    ServedLab moved(dir, "moved", "", 1);
+    ServedLab moved(dir, "moved", {"--setup", "1"});
     ASSERT_TRUE(moved.ready());
     const auto r = night(moved, 60);
     EXPECT_EQ(r.exit_code, 0) << "night 3, another set-up\n" << r.out << r.err;
@@ -164,7 +115,7 @@ TEST(NightlyCommands, TheInstalledUnitFollowsARobotThatChangesAndMakesDriftVisib
     EXPECT_NE(r.err.find("no drift"), std::string::npos) << r.err;
   }
   EXPECT_FALSE(std::filesystem::exists(log));  // nothing for a person on quiet nights
-  ServedLab changed(dir, "changed", "joint2_zero=0.02deg");
+  ServedLab changed(dir, "changed", {"--change", "joint2_zero=0.02deg"});
   ASSERT_TRUE(changed.ready());
   const auto suspected = night(changed, 24);
   EXPECT_EQ(suspected.exit_code, 5) << suspected.out << suspected.err;
